@@ -1,0 +1,29 @@
+//! The `lightbooth` command line. Each subcommand lives in its own module
+//! under `cli/`; this file only parses arguments, sets up logging and maps
+//! errors to an exit status.
+
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    // Logs go to stderr, so `--json` output on stdout stays machine-readable.
+    // `LIGHTBOOTH_LOG=debug` (or any tracing filter) turns up the detail.
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_env("LIGHTBOOTH_LOG")
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .init();
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,180 @@
+//! The colorimetry command line as scripts call it: the real binary, real
+//! files, JSON parsed back.
+
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+fn lightbooth(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(args)
+        .output()
+        .expect("run lightbooth");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// D65 as an absolute radiance (0.01 W/(sr·m²·nm) per unit of the table) and
+/// two patches under it, written as a lab would.
+fn write_fixture(dir: &Path) -> std::path::PathBuf {
+    let d65 = lightbooth::reference_data::illuminant(lightbooth::reference_data::Illuminant::D65);
+    let cc = lightbooth::reference_data::reflectances(lightbooth::reference_data::ReflectanceSet::ColorChecker);
+    let white: Vec<f64> = d65.values().iter().map(|v| v * 0.01).collect();
+    let red: Vec<f64> = white.iter().zip(cc[14].1.values()).map(|(a, b)| a * b).collect();
+    let green: Vec<f64> = white.iter().zip(cc[13].1.values()).map(|(a, b)| a * b).collect();
+    let path = dir.join("booth.csv");
+    let file = std::fs::File::create(&path).unwrap();
+    lightbooth::spectrum::table::write_csv(file, d65.grid(), &[("white", &white), ("red", &red), ("green", &green)])
+        .unwrap();
+    path
+}
+
+#[test]
+fn color_json_has_every_field_and_the_d65_white_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write_fixture(dir.path());
+    let (ok, stdout, stderr) = lightbooth(&[
+        "color",
+        csv.to_str().unwrap(),
+        "--cmf",
+        "cie1931",
+        "--white",
+        "white",
+        "--reference",
+        "white",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let rows: Value = serde_json::from_str(&stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    let white = &rows[0];
+    for field in ["name", "X", "Y", "Z", "x", "y", "u", "v", "L", "a", "b", "dE76", "dE00"] {
+        assert!(white.get(field).is_some(), "missing {field} in {white}");
+    }
+    // CIE 15:2004: D65 white point (0.3127, 0.3290) with the 1931 observer.
+    assert!((white["x"].as_f64().unwrap() - 0.3127).abs() < 1e-4);
+    assert!((white["y"].as_f64().unwrap() - 0.3290).abs() < 1e-4);
+    assert!((white["L"].as_f64().unwrap() - 100.0).abs() < 1e-9);
+    assert_eq!(white["dE00"].as_f64().unwrap(), 0.0);
+    // Y is luminance: 683 · Σ 0.01·D65·ȳ·5.
+    let expected_y = 683.0 * 0.01 * 100.0 * 100.0 / lightbooth_y_normaliser();
+    assert!((white["Y"].as_f64().unwrap() - expected_y).abs() < 1e-6 * expected_y);
+    assert!(rows[1]["dE76"].as_f64().unwrap() > 10.0, "red differs from white");
+}
+
+/// 100 / Σ D65·ȳ·Δλ, the CIE relative normaliser, so the absolute Y of
+/// 0.01·D65 can be written from the relative one.
+fn lightbooth_y_normaliser() -> f64 {
+    use lightbooth::colorimetry::{Cmf, Observer};
+    let d65 = lightbooth::reference_data::illuminant(lightbooth::reference_data::Illuminant::D65);
+    let s = Cmf::of(Observer::Cie1931).integrate(d65.values(), d65.grid(), 5.0);
+    100.0 * 100.0 / s[1]
+}
+
+#[test]
+fn color_without_white_leaves_cielab_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write_fixture(dir.path());
+    let (ok, stdout, _) = lightbooth(&["color", csv.to_str().unwrap(), "--json"]);
+    assert!(ok);
+    let rows: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(rows[0].get("L").is_none() && rows[0].get("dE00").is_none());
+    assert!(rows[0].get("u").is_some());
+}
+
+#[test]
+fn malformed_csv_fails_with_file_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.csv");
+    std::fs::write(&path, "nm,patch\n380,0.1\n385,0,2\n").unwrap();
+    let (ok, _, stderr) = lightbooth(&["color", path.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(stderr.contains("bad.csv:3: 3 cells where the header has 2"), "{stderr}");
+    std::fs::write(&path, "nm,patch\n380,0.1\n385,oops\n").unwrap();
+    let (ok, _, stderr) = lightbooth(&["color", path.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("bad.csv:3: column 2 (patch): `oops` is not a number"),
+        "{stderr}"
+    );
+    let (ok, _, stderr) = lightbooth(&["color", path.to_str().unwrap().replace("bad", "missing").as_str()]);
+    assert!(!ok && stderr.contains("missing.csv: cannot read the file"), "{stderr}");
+}
+
+#[test]
+fn unknown_white_column_lists_the_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write_fixture(dir.path());
+    let (ok, _, stderr) = lightbooth(&["color", csv.to_str().unwrap(), "--white", "spectralon"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("no such column") && stderr.contains("white, red, green"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn nstep_error_json_shows_f11_falling_more_slowly_than_d65() {
+    let curve = |illuminant: &str| -> (Vec<u64>, Vec<f64>) {
+        let (ok, stdout, stderr) = lightbooth(&[
+            "analyze",
+            "nstep-error",
+            "--reflectances",
+            "colorchecker",
+            "--illuminant",
+            illuminant,
+            "--json",
+        ]);
+        assert!(ok, "{stderr}");
+        let v: Value = serde_json::from_str(&stdout).unwrap();
+        let n = v["n"].as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect();
+        let e = v["error"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        (n, e)
+    };
+    let (n, d65) = curve("D65");
+    let (_, f11) = curve("F11");
+    assert_eq!(n, (1..=81).collect::<Vec<u64>>());
+    assert_eq!(d65[0], 1.0);
+    assert_eq!(f11[0], 1.0);
+    // Summed over the useful range N = 2…27, F11's remaining error is larger.
+    let sum = |e: &[f64]| e[1..27].iter().sum::<f64>();
+    assert!(sum(&f11) > sum(&d65), "F11 {} vs D65 {}", sum(&f11), sum(&d65));
+}
+
+#[test]
+fn nstep_error_accepts_a_reflectance_file_and_rejects_a_short_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("paints.csv");
+    std::fs::write(&path, "nm,a,b\n380,0.1,0.8\n580,0.5,0.2\n780,0.9,0.1\n").unwrap();
+    let (ok, stdout, stderr) = lightbooth(&[
+        "analyze",
+        "nstep-error",
+        "--reflectances",
+        path.to_str().unwrap(),
+        "--illuminant",
+        "A",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    assert!(stdout.starts_with("{\"n\":[1,"));
+    std::fs::write(&path, "nm,a\n400,0.1\n700,0.5\n").unwrap();
+    let (ok, _, stderr) = lightbooth(&[
+        "analyze",
+        "nstep-error",
+        "--reflectances",
+        path.to_str().unwrap(),
+        "--illuminant",
+        "A",
+    ]);
+    assert!(!ok && stderr.contains("does not cover 380–780 nm"), "{stderr}");
+}
