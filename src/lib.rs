@@ -17,6 +17,9 @@
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 
 pub mod colorimetry;
+pub mod comparison;
+pub mod export;
 pub mod nstep;
 pub mod reference_data;
 pub mod spectrum;
+pub mod store;

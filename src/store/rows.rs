@@ -1,0 +1,312 @@
+//! The records the store reads and writes. Their serde names are what the
+//! REST API sends: valid MATLAB identifiers, numbers as numbers, spectra as
+//! plain numeric arrays.
+
+use serde::{Deserialize, Serialize};
+use sqlx::sqlite::SqliteRow;
+use sqlx::Row;
+use utoipa::ToSchema;
+
+use super::{MeasurementState, StoreError};
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct InstrumentRow {
+    pub id: i64,
+    pub model: String,
+    /// Empty when the instrument does not report one.
+    pub serial: String,
+    pub port: Option<String>,
+    pub first_seen: f64,
+    pub last_seen: f64,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct SessionRow {
+    pub id: i64,
+    pub operator: String,
+    pub notes: String,
+    pub started_at: f64,
+}
+
+/// What is needed to queue a measurement.
+#[derive(Clone, Debug)]
+pub struct NewMeasurement {
+    pub session_id: Option<i64>,
+    pub scene: Option<String>,
+    pub target: Option<String>,
+    pub samples: usize,
+    pub settings_json: serde_json::Value,
+    pub note: String,
+}
+
+/// One raw sample as the instrument gave it.
+#[derive(Clone, Debug)]
+pub struct NewSample {
+    pub index: usize,
+    pub taken_at: f64,
+    pub code: i64,
+    pub message: String,
+    /// False when the sample must never be averaged (stale buffer, error code).
+    pub usable: bool,
+    /// W/(sr·m²·nm) on the instrument's native grid; None when there is no valid spectrum.
+    pub radiance: Option<Vec<f64>>,
+    pub luminance_cd_m2: Option<f64>,
+}
+
+/// The average of a complete measurement.
+#[derive(Clone, Debug)]
+pub struct Average {
+    pub wavelength_nm: Vec<f64>,
+    pub radiance: Vec<f64>,
+    pub radiance_sd: Vec<f64>,
+    pub luminance_cd_m2: f64,
+    pub x: f64,
+    pub y: f64,
+    pub luminance_cv: f64,
+}
+
+/// A measurement without its spectra: what listings show.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct MeasurementSummary {
+    pub id: i64,
+    pub session_id: Option<i64>,
+    pub instrument_id: Option<i64>,
+    pub scene: Option<String>,
+    pub target: Option<String>,
+    pub samples_requested: i64,
+    pub samples_taken: i64,
+    pub state: MeasurementState,
+    pub error: Option<String>,
+    pub note: String,
+    /// POSIX seconds, UTC.
+    pub created_at: f64,
+    pub started_at: Option<f64>,
+    pub finished_at: Option<f64>,
+    /// Mean luminance, cd/m².
+    #[serde(rename = "Y")]
+    pub luminance_cd_m2: Option<f64>,
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    /// Coefficient of variation of the samples' luminance.
+    pub luminance_cv: Option<f64>,
+}
+
+/// One stored raw sample.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct SampleRow {
+    pub index: usize,
+    /// POSIX seconds, UTC.
+    pub time: f64,
+    /// The instrument's quality code (0 = OK).
+    pub code: i64,
+    pub message: String,
+    pub usable: bool,
+    /// W/(sr·m²·nm) on `wavelength_nm` of the measurement; null when the instrument gave none.
+    pub radiance: Option<Vec<f64>>,
+    #[serde(rename = "Y")]
+    pub luminance_cd_m2: Option<f64>,
+}
+
+/// A measurement with its average spectrum and every raw sample.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct MeasurementDetail {
+    #[serde(flatten)]
+    pub summary: MeasurementSummary,
+    /// The instrument's native grid, nm.
+    pub wavelength_nm: Option<Vec<f64>>,
+    /// Mean spectral radiance, W/(sr·m²·nm).
+    pub radiance: Option<Vec<f64>>,
+    /// Per-wavelength standard deviation of the usable samples, W/(sr·m²·nm).
+    pub radiance_sd: Option<Vec<f64>>,
+    pub samples: Vec<SampleRow>,
+}
+
+/// Filters and paging for listing measurements.
+#[derive(Clone, Debug, Default, Deserialize, ToSchema, utoipa::IntoParams)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementFilter {
+    pub scene: Option<String>,
+    pub target: Option<String>,
+    pub state: Option<MeasurementState>,
+    /// 1–1000, default 50.
+    pub limit: Option<i64>,
+    pub offset: Option<i64>,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct MeasurementPage {
+    pub total: i64,
+    pub limit: i64,
+    pub offset: i64,
+    pub items: Vec<MeasurementSummary>,
+}
+
+pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
+    (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
+    state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
+    wavelength_json, radiance_json, radiance_sd_json";
+
+pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, StoreError> {
+    let state: String = r.get("state");
+    Ok(MeasurementSummary {
+        id: r.get("id"),
+        session_id: r.get("session_id"),
+        instrument_id: r.get("instrument_id"),
+        scene: r.get("scene"),
+        target: r.get("target"),
+        samples_requested: r.get("samples_requested"),
+        samples_taken: r.get("samples_taken"),
+        state: state.parse().map_err(|e: String| StoreError::Corrupt {
+            what: "measurement state".into(),
+            err: e,
+        })?,
+        error: r.get("error"),
+        note: r.get("note"),
+        created_at: r.get("created_at"),
+        started_at: r.get("started_at"),
+        finished_at: r.get("finished_at"),
+        luminance_cd_m2: r.get("luminance_cd_m2"),
+        x: r.get("x"),
+        y: r.get("y"),
+        luminance_cv: r.get("luminance_cv"),
+    })
+}
+
+/// What is needed to record a render.
+#[derive(Clone, Debug)]
+pub struct NewRender {
+    pub scene: String,
+    pub scene_hash: String,
+    pub settings_json: serde_json::Value,
+    pub codings: Vec<String>,
+    pub seed: u64,
+}
+
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct RenderRow {
+    pub id: i64,
+    pub scene: String,
+    pub scene_hash: String,
+    #[schema(value_type = Object)]
+    pub settings: serde_json::Value,
+    pub codings: Vec<String>,
+    pub seed: i64,
+    pub state: String,
+    pub error: Option<String>,
+    pub created_at: f64,
+    pub finished_at: Option<f64>,
+    pub wall_seconds: Option<f64>,
+    /// The renderer's JSON result (per target and coding), once complete.
+    #[schema(value_type = Object)]
+    pub result: Option<serde_json::Value>,
+}
+
+pub(super) const RENDER_COLUMNS: &str = "id, scene, scene_hash, settings_json, codings, seed, state, error, \
+    created_at, finished_at, wall_seconds, result_json";
+
+pub(super) fn render_from_row(r: &SqliteRow) -> Result<RenderRow, StoreError> {
+    let parse = |col: &str| -> Result<Option<serde_json::Value>, StoreError> {
+        let text: Option<String> = r.get(col);
+        text.map(|t| {
+            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
+                what: format!("renders.{col}"),
+                err: e.to_string(),
+            })
+        })
+        .transpose()
+    };
+    let codings: String = r.get("codings");
+    Ok(RenderRow {
+        id: r.get("id"),
+        scene: r.get("scene"),
+        scene_hash: r.get("scene_hash"),
+        settings: parse("settings_json")?.unwrap_or(serde_json::Value::Null),
+        codings: codings
+            .split(',')
+            .filter(|s| !s.is_empty())
+            .map(str::to_string)
+            .collect(),
+        seed: r.get("seed"),
+        state: r.get("state"),
+        error: r.get("error"),
+        created_at: r.get("created_at"),
+        finished_at: r.get("finished_at"),
+        wall_seconds: r.get("wall_seconds"),
+        result: parse("result_json")?,
+    })
+}
+
+/// One comparison to store: XYZ triples on the measurement's scale (cd/m²).
+#[derive(Clone, Debug)]
+pub struct NewComparison {
+    pub measurement_id: i64,
+    pub render_id: i64,
+    pub scene: String,
+    pub target: String,
+    pub coding: String,
+    pub white_source: String,
+    pub white: [f64; 3],
+    pub measured: [f64; 3],
+    pub rendered: [f64; 3],
+    pub rendered_y_se: f64,
+    pub y_ratio: f64,
+    pub xy_distance: f64,
+    pub de76: f64,
+    pub de00: f64,
+}
+
+/// A stored comparison, as the API and the CSV/MAT downloads give it. Field
+/// names follow the colorimetric symbols (X, Y, Z) so MATLAB tables read well.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct ComparisonRow {
+    pub id: i64,
+    pub measurement_id: i64,
+    pub render_id: i64,
+    pub scene: String,
+    pub target: String,
+    pub coding: String,
+    pub white_source: String,
+    pub white_X: f64,
+    pub white_Y: f64,
+    pub white_Z: f64,
+    pub measured_X: f64,
+    pub measured_Y: f64,
+    pub measured_Z: f64,
+    pub rendered_X: f64,
+    pub rendered_Y: f64,
+    pub rendered_Z: f64,
+    pub rendered_Y_se: f64,
+    pub Y_ratio: f64,
+    pub xy_distance: f64,
+    pub dE76: f64,
+    pub dE00: f64,
+    pub created_at: f64,
+}
+
+pub(super) fn comparison_from_row(r: &SqliteRow) -> ComparisonRow {
+    ComparisonRow {
+        id: r.get("id"),
+        measurement_id: r.get("measurement_id"),
+        render_id: r.get("render_id"),
+        scene: r.get("scene"),
+        target: r.get("target"),
+        coding: r.get("coding"),
+        white_source: r.get("white_source"),
+        white_X: r.get("white_x"),
+        white_Y: r.get("white_y"),
+        white_Z: r.get("white_z"),
+        measured_X: r.get("measured_x"),
+        measured_Y: r.get("measured_y"),
+        measured_Z: r.get("measured_z"),
+        rendered_X: r.get("rendered_x"),
+        rendered_Y: r.get("rendered_y"),
+        rendered_Z: r.get("rendered_z"),
+        rendered_Y_se: r.get("rendered_y_se"),
+        Y_ratio: r.get("y_ratio"),
+        xy_distance: r.get("xy_distance"),
+        dE76: r.get("de76"),
+        dE00: r.get("de00"),
+        created_at: r.get("created_at"),
+    }
+}

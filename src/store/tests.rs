@@ -1,0 +1,163 @@
+//! The store against a real SQLite file.
+
+use super::*;
+
+async fn temp_store() -> (tempfile::TempDir, Store, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let url = format!("sqlite://{}", dir.path().join("t.sqlite").display());
+    let store = Store::open(&url).await.unwrap();
+    (dir, store, url)
+}
+
+fn new_measurement() -> NewMeasurement {
+    NewMeasurement {
+        session_id: None,
+        scene: Some("white".into()),
+        target: Some("patch".into()),
+        samples: 5,
+        settings_json: serde_json::json!({"port": "/dev/null"}),
+        note: String::new(),
+    }
+}
+
+fn sample(index: usize, usable: bool) -> NewSample {
+    NewSample {
+        index,
+        taken_at: now(),
+        code: if usable { 0 } else { 18 },
+        message: "ok".into(),
+        usable,
+        radiance: usable.then(|| vec![0.01, 0.02, 0.03]),
+        luminance_cd_m2: usable.then_some(34.0),
+    }
+}
+
+#[tokio::test]
+async fn a_measurement_keeps_every_sample_and_its_average() {
+    let (_dir, store, _) = temp_store().await;
+    let id = store.create_measurement(&new_measurement()).await.unwrap();
+    let inst = store
+        .upsert_instrument("PR-650", Some("60931502"), "/dev/pts/3")
+        .await
+        .unwrap();
+    assert_eq!(
+        store
+            .upsert_instrument("PR-650", Some("60931502"), "/dev/pts/4")
+            .await
+            .unwrap(),
+        inst
+    );
+    store.mark_running(id, Some(inst)).await.unwrap();
+    for i in 0..5 {
+        store.insert_sample(id, &sample(i, i != 2)).await.unwrap();
+    }
+    let avg = Average {
+        wavelength_nm: vec![380.0, 384.0, 388.0],
+        radiance: vec![0.01, 0.02, 0.03],
+        radiance_sd: vec![0.0, 0.001, 0.0],
+        luminance_cd_m2: 34.0,
+        x: 0.31,
+        y: 0.33,
+        luminance_cv: 0.002,
+    };
+    store.complete_measurement(id, &avg).await.unwrap();
+    let m = store.get_measurement(id).await.unwrap().unwrap();
+    assert_eq!(m.summary.state, MeasurementState::Complete);
+    assert_eq!(m.samples.len(), 5);
+    assert_eq!(m.summary.samples_taken, 5);
+    assert!(!m.samples[2].usable && m.samples[2].radiance.is_none());
+    assert_eq!(m.radiance.unwrap(), vec![0.01, 0.02, 0.03]);
+    // Completing twice is a conflict, not a silent overwrite.
+    assert!(store.complete_measurement(id, &avg).await.is_err());
+}
+
+#[tokio::test]
+async fn complete_without_an_average_is_refused_by_the_schema() {
+    let (_dir, store, _) = temp_store().await;
+    let id = store.create_measurement(&new_measurement()).await.unwrap();
+    let r = sqlx::query("UPDATE measurements SET state = 'complete' WHERE id = ?")
+        .bind(id)
+        .execute(store.pool())
+        .await;
+    assert!(r.is_err(), "a complete measurement must carry its average");
+}
+
+#[tokio::test]
+async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_samples() {
+    let (_dir, store, url) = temp_store().await;
+    let id = store.create_measurement(&new_measurement()).await.unwrap();
+    store.mark_running(id, None).await.unwrap();
+    store.insert_sample(id, &sample(0, true)).await.unwrap();
+    store.insert_sample(id, &sample(1, true)).await.unwrap();
+    let queued = store.create_measurement(&new_measurement()).await.unwrap();
+    store.pool().close().await;
+    let store = Store::open(&url).await.unwrap();
+    let m = store.get_measurement(id).await.unwrap().unwrap();
+    assert_eq!(m.summary.state, MeasurementState::Interrupted);
+    assert_eq!(m.samples.len(), 2);
+    assert!(m.radiance.is_none());
+    let q = store.get_measurement(queued).await.unwrap().unwrap();
+    assert_eq!(q.summary.state, MeasurementState::Interrupted);
+}
+
+#[tokio::test]
+async fn listing_filters_and_pages() {
+    let (_dir, store, _) = temp_store().await;
+    for i in 0..7 {
+        let mut m = new_measurement();
+        m.scene = Some(if i % 2 == 0 { "white" } else { "red" }.into());
+        store.create_measurement(&m).await.unwrap();
+    }
+    let page = store
+        .list_measurements(&MeasurementFilter {
+            scene: Some("white".into()),
+            limit: Some(2),
+            ..Default::default()
+        })
+        .await
+        .unwrap();
+    assert_eq!(page.total, 4);
+    assert_eq!(page.items.len(), 2);
+    assert!(page.items[0].id > page.items[1].id, "newest first");
+    let all = store.list_measurements(&MeasurementFilter::default()).await.unwrap();
+    assert_eq!(all.total, 7);
+}
+
+#[tokio::test]
+async fn comparisons_are_all_or_nothing() {
+    let (_dir, store, _) = temp_store().await;
+    let mid = store.create_measurement(&new_measurement()).await.unwrap();
+    let rid = store
+        .create_render(&NewRender {
+            scene: "white".into(),
+            scene_hash: "abc".into(),
+            settings_json: serde_json::json!({}),
+            codings: vec!["rgb".into(), "spectral".into()],
+            seed: 1,
+        })
+        .await
+        .unwrap();
+    let row = |coding: &str| NewComparison {
+        measurement_id: mid,
+        render_id: rid,
+        scene: "white".into(),
+        target: "patch".into(),
+        coding: coding.into(),
+        white_source: "D65".into(),
+        white: [95.0, 100.0, 108.9],
+        measured: [30.0, 32.0, 35.0],
+        rendered: [31.0, 33.0, 34.0],
+        rendered_y_se: 0.05,
+        y_ratio: 33.0 / 32.0,
+        xy_distance: 0.001,
+        de76: 1.2,
+        de00: 0.8,
+    };
+    // The second row duplicates the first: the whole batch must fail.
+    assert!(store.insert_comparisons(&[row("rgb"), row("rgb")]).await.is_err());
+    assert!(store.comparisons_for_measurement(mid).await.unwrap().is_empty());
+    store.insert_comparisons(&[row("rgb"), row("spectral")]).await.unwrap();
+    let latest = store.latest_comparisons("white").await.unwrap();
+    assert_eq!(latest.len(), 2);
+    assert_eq!(latest[0].coding, "rgb");
+}
