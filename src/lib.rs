@@ -16,10 +16,12 @@
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 
+pub mod charts;
 pub mod colorimetry;
 pub mod comparison;
 pub mod export;
 pub mod nstep;
 pub mod reference_data;
+pub mod service;
 pub mod spectrum;
 pub mod store;

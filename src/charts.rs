@@ -1,0 +1,431 @@
+//! The study's charts as SVG, drawn with `plotters` on the server.
+//!
+//! Why server-side SVG: the same chart serves the dashboard, downloads for
+//! papers and the `study --report` HTML, with no JavaScript build step and no
+//! charting code in the browser. Text is left to the viewer's fonts (SVG
+//! `<text>`), so no font files are needed here.
+//!
+//! Every function is pure: data in, SVG text out.
+
+use plotters::prelude::*;
+
+use crate::colorimetry::rgb::RgbSpace;
+use crate::colorimetry::{Cmf, Observer, Xyz};
+use crate::spectrum::Grid;
+
+/// Chart size in px; the dashboard scales the SVG to its box.
+const W: u32 = 720;
+const H: u32 = 440;
+
+/// Colours per series, chosen to stay distinguishable for common colour-vision deficiencies (Okabe–Ito).
+pub const PALETTE: [RGBColor; 8] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(213, 94, 0),
+    RGBColor(240, 228, 66),
+    RGBColor(0, 0, 0),
+];
+
+type ChartResult = Result<String, String>;
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("chart drawing failed: {e:?}")
+}
+
+fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 {
+        return (lo - 0.5 * lo.abs().max(1e-9), hi + 0.5 * hi.abs().max(1e-9));
+    }
+    let pad = 0.05 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+/// A measured spectrum: the mean with a ±1 SD band and each raw sample.
+pub fn spectrum_chart(
+    title: &str,
+    wavelength_nm: &[f64],
+    mean: Option<&[f64]>,
+    sd: Option<&[f64]>,
+    samples: &[Vec<f64>],
+) -> ChartResult {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let all = samples.iter().flatten().chain(mean.into_iter().flatten()).copied();
+        let (_, hi) = bounds(all.chain(std::iter::once(0.0)));
+        let (x0, x1) = (
+            wavelength_nm.first().copied().unwrap_or(380.0),
+            wavelength_nm.last().copied().unwrap_or(780.0),
+        );
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, 0.0..hi.max(1e-12))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("wavelength (nm)")
+            .y_desc("radiance W/(sr·m²·nm)")
+            .y_label_formatter(&|v| format!("{v:.2e}"))
+            .draw()
+            .map_err(err)?;
+        for (i, s) in samples.iter().enumerate() {
+            chart
+                .draw_series(LineSeries::new(
+                    wavelength_nm.iter().copied().zip(s.iter().copied()),
+                    PALETTE[4].mix(0.6).stroke_width(1),
+                ))
+                .map_err(err)?
+                .label(if i == 0 { "raw samples" } else { "" })
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[4]));
+        }
+        if let (Some(m), Some(sd)) = (mean, sd) {
+            let upper: Vec<(f64, f64)> = wavelength_nm
+                .iter()
+                .zip(m.iter().zip(sd))
+                .map(|(w, (m, s))| (*w, m + s))
+                .collect();
+            let lower: Vec<(f64, f64)> = wavelength_nm
+                .iter()
+                .zip(m.iter().zip(sd))
+                .map(|(w, (m, s))| (*w, m - s))
+                .rev()
+                .collect();
+            let band: Vec<(f64, f64)> = upper.into_iter().chain(lower).collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(band, PALETTE[1].mix(0.35).filled())))
+                .map_err(err)?
+                .label("±1 SD")
+                .legend(|(x, y)| Rectangle::new([(x, y - 4), (x + 16, y + 4)], PALETTE[1].mix(0.35).filled()));
+        }
+        if let Some(m) = mean {
+            chart
+                .draw_series(LineSeries::new(
+                    wavelength_nm.iter().copied().zip(m.iter().copied()),
+                    PALETTE[0].stroke_width(2),
+                ))
+                .map_err(err)?
+                .label("mean")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()
+            .map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// One named series of chromaticities (a coding's results, or the measurement).
+pub struct XySeries {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// Join the points with a line (profiles along the cylinder).
+    pub line: bool,
+}
+
+/// The CIE 1931 x,y diagram with the spectral locus and the two display
+/// gamuts, and each series. The view is zoomed to the data when `zoom`.
+pub fn chromaticity_chart(title: &str, series: &[XySeries], zoom: bool) -> ChartResult {
+    let cmf = Cmf::of(Observer::Cie1931);
+    let locus: Vec<(f64, f64)> = Grid::uniform(380.0, 5.0, 65)
+        .wavelengths()
+        .iter()
+        .map(|&nm| {
+            let b = cmf.at(nm);
+            let xy = Xyz::from_array(b).chromaticity();
+            (xy.x, xy.y)
+        })
+        .collect();
+    let ((x0, x1), (y0, y1)) = if zoom && series.iter().any(|s| !s.points.is_empty()) {
+        let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+        let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+        let half = ((xs.1 - xs.0).max(ys.1 - ys.0) / 2.0).max(0.01);
+        let (cx, cy) = ((xs.0 + xs.1) / 2.0, (ys.0 + ys.1) / 2.0);
+        ((cx - half, cx + half), (cy - half, cy + half))
+    } else {
+        ((0.0, 0.8), (0.0, 0.9))
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (H + 120, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        chart.configure_mesh().x_desc("x").y_desc("y").draw().map_err(err)?;
+        let mut closed = locus.clone();
+        closed.push(locus[0]);
+        chart
+            .draw_series(LineSeries::new(closed, BLACK.stroke_width(1)))
+            .map_err(err)?
+            .label("spectral locus")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
+        for (space, color) in [
+            (RgbSpace::SRGB, RGBColor(120, 120, 120)),
+            (RgbSpace::RADIANCE, RGBColor(170, 170, 170)),
+        ] {
+            let tri = vec![
+                (space.red.x, space.red.y),
+                (space.green.x, space.green.y),
+                (space.blue.x, space.blue.y),
+                (space.red.x, space.red.y),
+            ];
+            chart
+                .draw_series(LineSeries::new(tri, color.stroke_width(1)))
+                .map_err(err)?
+                .label(format!("{} gamut", space.name))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+        }
+        for (i, s) in series.iter().enumerate() {
+            let color = PALETTE[i % PALETTE.len()];
+            if s.line {
+                chart
+                    .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(1)))
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                .map_err(err)?
+                .label(s.name.clone())
+                .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .draw()
+            .map_err(err)?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// A y-against-x line chart of several named series with optional error bars.
+pub struct LineSeriesData {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// ±1 SD (or SE) per point, drawn as error bars when present.
+    pub errors: Option<Vec<f64>>,
+}
+
+/// Luminance profiles (cd/m² against height), Pareto charts and the like.
+pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesData], log_x: bool) -> ChartResult {
+    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = bounds(series.iter().flat_map(|s| {
+        s.points.iter().enumerate().flat_map(move |(i, p)| {
+            let e = s.errors.as_ref().map(|e| e[i]).unwrap_or(0.0);
+            [p.1 - e, p.1 + e]
+        })
+    }));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70);
+        if log_x {
+            let lo = xs.0.max(1e-9);
+            let mut chart = builder
+                .build_cartesian_2d((lo..xs.1.max(lo * 10.0)).log_scale(), ys.0..ys.1)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        } else {
+            let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+fn draw_lines<DB: DrawingBackend, X: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+    series: &[LineSeriesData],
+) -> Result<(), String> {
+    for (i, s) in series.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        chart
+            .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
+            .map_err(err)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+        chart
+            .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, color.filled())))
+            .map_err(err)?;
+        if let Some(errors) = &s.errors {
+            chart
+                .draw_series(
+                    s.points
+                        .iter()
+                        .zip(errors)
+                        .map(|(p, e)| ErrorBar::new_vertical(p.0, p.1 - e, p.1, p.1 + e, color, 6)),
+                )
+                .map_err(err)?;
+        }
+    }
+    Ok(())
+}
+
+/// One bar of a bar chart with its ±1 SD.
+pub struct Bar {
+    pub label: String,
+    pub value: f64,
+    pub sd: Option<f64>,
+}
+
+/// Bars with ±1 SD error bars (rms_rel and mean ΔE per coding).
+pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
+    let hi = bars
+        .iter()
+        .map(|b| b.value + b.sd.unwrap_or(0.0))
+        .fold(0.0, f64::max)
+        .max(1e-9)
+        * 1.1;
+    let n = bars.len().max(1);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((0..n).into_segmented(), 0.0..hi)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n)
+            .x_label_formatter(&|v| match v {
+                SegmentValue::CenterOf(i) | SegmentValue::Exact(i) => labels.get(*i).cloned().unwrap_or_default(),
+                SegmentValue::Last => String::new(),
+            })
+            .y_desc(y_desc)
+            .draw()
+            .map_err(err)?;
+        for (i, b) in bars.iter().enumerate() {
+            let color = PALETTE[i % PALETTE.len()];
+            let mut bar = Rectangle::new(
+                [(SegmentValue::Exact(i), 0.0), (SegmentValue::Exact(i + 1), b.value)],
+                color.mix(0.8).filled(),
+            );
+            bar.set_margin(0, 0, 12, 12);
+            chart.draw_series(std::iter::once(bar)).map_err(err)?;
+            if let Some(sd) = b.sd {
+                chart
+                    .draw_series(std::iter::once(ErrorBar::new_vertical(
+                        SegmentValue::CenterOf(i),
+                        b.value - sd,
+                        b.value,
+                        b.value + sd,
+                        BLACK,
+                        10,
+                    )))
+                    .map_err(err)?;
+            }
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn charts_are_svg_with_their_labels() {
+        let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+        let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+        let sd = vec![1e-5; wl.len()];
+        let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
+        let xy = chromaticity_chart(
+            "chromaticity",
+            &[XySeries {
+                name: "measured".into(),
+                points: vec![(0.31, 0.33)],
+                line: false,
+            }],
+            false,
+        )
+        .unwrap();
+        assert!(xy.contains("spectral locus") && xy.contains("srgb gamut"));
+        let bars = bar_chart(
+            "rms",
+            "rms_rel",
+            &[Bar {
+                label: "rgb".into(),
+                value: 0.1,
+                sd: Some(0.02),
+            }],
+        )
+        .unwrap();
+        assert!(bars.contains("rgb"));
+        let lines = line_chart(
+            "speed",
+            "s",
+            "dE",
+            &[LineSeriesData {
+                name: "pareto".into(),
+                points: vec![(0.1, 3.0), (1.0, 1.0)],
+                errors: Some(vec![0.1, 0.1]),
+            }],
+            true,
+        )
+        .unwrap();
+        assert!(lines.contains("pareto"));
+    }
+}

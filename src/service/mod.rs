@@ -1,0 +1,146 @@
+//! The HTTP side of the daemon: the REST API (for MATLAB scripts and the
+//! dashboard), server-sent events, and the dashboards in `web/`.
+//!
+//! [`app`] builds the router from an [`AppState`] and is what tests call with
+//! `tower::ServiceExt::oneshot`, without a socket; [`serve`] runs it on a
+//! listener until a shutdown future resolves.
+//!
+//! The service never touches the instrument itself: it queues
+//! [`MeasurementJob`]s for the task that owns the instrument and reads that
+//! task's live [`InstrumentStatus`]; everything that happens is broadcast as
+//! [`Event`]s.
+
+pub mod auth;
+pub mod error;
+pub mod events;
+pub mod input;
+mod openapi;
+mod routes;
+mod scene_charts;
+mod web;
+
+use std::future::Future;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use axum::extract::DefaultBodyLimit;
+use axum::Router;
+use serde::Serialize;
+use tokio::net::TcpListener;
+use tokio::sync::{broadcast, mpsc, watch};
+use utoipa::ToSchema;
+
+pub use events::Event;
+
+use crate::store::Store;
+
+/// Requests larger than this are refused with 413; no legitimate body
+/// (a measurement request, a render request) comes near it.
+pub const MAX_BODY_BYTES: usize = 64 * 1024;
+
+/// Settings the service needs, fixed at start-up.
+#[derive(Clone, Debug)]
+pub struct ServiceConfig {
+    /// The bearer token for writes (and for reads when not on loopback).
+    pub token: String,
+    /// True when the daemon listens on loopback only: reads need no token.
+    pub loopback_only: bool,
+    /// Where scene files live; nothing outside it is read on a request's behalf.
+    pub scenes_dir: PathBuf,
+    /// Colour codings rendered for comparisons.
+    pub codings: Vec<String>,
+    /// Samples per measurement when a request does not say.
+    pub default_samples: usize,
+}
+
+/// A measurement for the instrument task to take.
+#[derive(Clone, Debug)]
+pub struct MeasurementJob {
+    pub id: i64,
+    pub samples: usize,
+    pub scene: Option<String>,
+    pub target: Option<String>,
+}
+
+/// What the instrument is doing, as the dashboard shows it.
+#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[serde(tag = "state", rename_all = "snake_case")]
+pub enum InstrumentStatus {
+    /// No port open; `reason` says why and what the daemon is doing about it.
+    Disconnected { reason: String },
+    Idle {
+        model: String,
+        serial: Option<String>,
+        port: String,
+    },
+    Measuring {
+        measurement_id: i64,
+        sample: usize,
+        of: usize,
+    },
+    /// Last operation failed; the daemon will retry.
+    Error { message: String },
+}
+
+/// Shared state of every handler. Cheap to clone: everything is behind an
+/// `Arc` or is itself a handle.
+#[derive(Clone)]
+pub struct AppState {
+    pub store: Store,
+    pub config: Arc<ServiceConfig>,
+    /// Queue of measurements for the instrument task (bounded: a full queue
+    /// answers 409 rather than growing without limit).
+    pub jobs: mpsc::Sender<MeasurementJob>,
+    /// The instrument task's live status (written only by that task).
+    pub status: watch::Receiver<InstrumentStatus>,
+    /// Everything that happens, for `/api/events`. Lagging subscribers miss
+    /// events (and are told so) rather than slowing the daemon.
+    pub events: broadcast::Sender<Event>,
+    /// Renders requested through the API (run off the async runtime).
+    pub renders: Option<Arc<dyn RenderService>>,
+}
+
+/// The renderer as the service sees it; the daemon provides it.
+pub trait RenderService: Send + Sync {
+    /// Scene ids available under `scenes_dir`.
+    fn scenes(&self) -> Vec<SceneInfo>;
+    /// Starts a render of a scene; returns its render id at once.
+    fn start_render(&self, scene: &str, request: RenderRequest) -> Result<i64, error::ApiError>;
+}
+
+/// A scene as the API lists it.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct SceneInfo {
+    pub id: String,
+    pub title: String,
+    pub targets: Vec<String>,
+}
+
+/// Options of a render request.
+#[derive(Clone, Debug, Default, serde::Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RenderRequest {
+    /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
+    pub codings: Option<String>,
+    pub samples: Option<u32>,
+    pub bounces: Option<u32>,
+    pub seed: Option<u64>,
+}
+
+/// The whole HTTP application.
+pub fn app(state: AppState) -> Router {
+    let api = routes::api_router(state.clone())
+        .layer(axum::middleware::from_fn_with_state(state.clone(), auth::require_token))
+        .layer(DefaultBodyLimit::max(MAX_BODY_BYTES));
+    Router::new().nest("/api", api).merge(web::router()).with_state(state)
+}
+
+/// Serves `app(state)` on `listener` until `shutdown` resolves, then lets
+/// in-flight requests finish.
+pub async fn serve(
+    listener: TcpListener,
+    state: AppState,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    axum::serve(listener, app(state)).with_graceful_shutdown(shutdown).await
+}

@@ -1,0 +1,63 @@
+//! The dashboards in `web/`, compiled into the binary. Requests are matched
+//! against this fixed table, so no path from a request reaches the
+//! filesystem.
+
+use axum::extract::Path;
+use axum::http::{header, StatusCode};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+
+use super::AppState;
+
+const INDEX: &str = include_str!("../../web/index.html");
+const APP_JS: &str = include_str!("../../web/app.js");
+const STYLE: &str = include_str!("../../web/style.css");
+
+/// MATLAB examples, served under `/matlab/`.
+const MATLAB: [(&str, &str); 3] = [
+    (
+        "list_measurements.m",
+        include_str!("../../web/matlab/list_measurements.m"),
+    ),
+    (
+        "measure_and_poll.m",
+        include_str!("../../web/matlab/measure_and_poll.m"),
+    ),
+    (
+        "fetch_comparison.m",
+        include_str!("../../web/matlab/fetch_comparison.m"),
+    ),
+];
+
+pub fn router() -> Router<AppState> {
+    Router::new()
+        .route("/", get(|| async { Html(INDEX) }))
+        .route(
+            "/app.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }),
+        )
+        .route(
+            "/style.css",
+            get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }),
+        )
+        .route("/matlab/", get(matlab_index))
+        .route("/matlab/{file}", get(matlab_file))
+}
+
+async fn matlab_index() -> Html<String> {
+    let items: String = MATLAB
+        .iter()
+        .map(|(n, _)| format!("<li><a href=\"/matlab/{n}\">{n}</a></li>"))
+        .collect();
+    Html(format!(
+        "<!doctype html><title>MATLAB examples</title><h1>MATLAB examples</h1><ul>{items}</ul>"
+    ))
+}
+
+async fn matlab_file(Path(file): Path<String>) -> Response {
+    match MATLAB.iter().find(|(n, _)| *n == file) {
+        Some((_, text)) => ([(header::CONTENT_TYPE, "text/plain; charset=utf-8")], *text).into_response(),
+        None => (StatusCode::NOT_FOUND, "no such MATLAB example").into_response(),
+    }
+}

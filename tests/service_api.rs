@@ -1,0 +1,281 @@
+//! The REST API through `app(state)` with `oneshot`, no socket: statuses,
+//! error bodies, authorisation, both body encodings. The instrument side is
+//! the job queue and status channel the real instrument task uses; here the
+//! test plays that task.
+
+use std::sync::Arc;
+
+use axum::body::Body;
+use axum::http::{Request, StatusCode};
+use http_body_util::BodyExt;
+use lightbooth::service::{app, AppState, InstrumentStatus, MeasurementJob, ServiceConfig};
+use lightbooth::store::Store;
+use serde_json::Value;
+use tokio::sync::{broadcast, mpsc, watch};
+use tower::ServiceExt;
+
+const TOKEN: &str = "0123456789abcdef0123456789abcdef";
+
+struct Harness {
+    state: AppState,
+    jobs: mpsc::Receiver<MeasurementJob>,
+    status: watch::Sender<InstrumentStatus>,
+    _dir: tempfile::TempDir,
+}
+
+async fn harness(queue: usize) -> Harness {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(&format!("sqlite://{}", dir.path().join("api.sqlite").display()))
+        .await
+        .unwrap();
+    let (tx, rx) = mpsc::channel(queue);
+    let (status_tx, status_rx) = watch::channel(InstrumentStatus::Idle {
+        model: "PR-650".into(),
+        serial: Some("60931502".into()),
+        port: "/dev/pts/9".into(),
+    });
+    let (events, _) = broadcast::channel(64);
+    let state = AppState {
+        store,
+        config: Arc::new(ServiceConfig {
+            token: TOKEN.into(),
+            loopback_only: true,
+            scenes_dir: "scenes".into(),
+            codings: vec!["rgb".into(), "spectral".into()],
+            default_samples: 5,
+        }),
+        jobs: tx,
+        status: status_rx,
+        events,
+        renders: None,
+    };
+    Harness {
+        state,
+        jobs: rx,
+        status: status_tx,
+        _dir: dir,
+    }
+}
+
+async fn send(state: &AppState, req: Request<Body>) -> (StatusCode, Value) {
+    let response = app(state.clone()).oneshot(req).await.unwrap();
+    let status = response.status();
+    let bytes = response.into_body().collect().await.unwrap().to_bytes();
+    let json = serde_json::from_slice(&bytes).unwrap_or(Value::Null);
+    (status, json)
+}
+
+fn post(path: &str, content_type: &str, body: impl Into<Body>, token: Option<&str>) -> Request<Body> {
+    let mut b = Request::post(path).header("content-type", content_type);
+    if let Some(t) = token {
+        b = b.header("authorization", format!("Bearer {t}"));
+    }
+    b.body(body.into()).unwrap()
+}
+
+fn get(path: &str) -> Request<Body> {
+    Request::get(path).body(Body::empty()).unwrap()
+}
+
+fn error_message(v: &Value) -> &str {
+    v["error"]["message"]
+        .as_str()
+        .unwrap_or_else(|| panic!("not an error body: {v}"))
+}
+
+#[tokio::test]
+async fn health_and_openapi_answer_without_a_token() {
+    let h = harness(4).await;
+    let (status, body) = send(&h.state, get("/api/health")).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(body["status"], "ok");
+    assert_eq!(body["instrument"]["state"], "idle");
+    let (status, doc) = send(&h.state, get("/api/openapi.json")).await;
+    assert_eq!(status, StatusCode::OK);
+    for path in [
+        "/api/health",
+        "/api/measurements",
+        "/api/measurements/{id}",
+        "/api/events",
+        "/api/openapi.json",
+    ] {
+        if path != "/api/openapi.json" {
+            assert!(doc["paths"].get(path).is_some(), "OpenAPI lacks {path}");
+        }
+    }
+    assert!(doc["components"]["securitySchemes"]["bearer"].is_object());
+}
+
+#[tokio::test]
+async fn starting_a_measurement_needs_the_token() {
+    let h = harness(4).await;
+    let (status, body) = send(&h.state, post("/api/measurements", "application/json", "{}", None)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    assert_eq!(body["error"]["code"], "unauthorized");
+    assert!(error_message(&body).contains("Authorization: Bearer"));
+    let (status, body) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "{}", Some("not-the-token")),
+    )
+    .await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    assert_eq!(error_message(&body), "wrong token");
+}
+
+#[tokio::test]
+async fn a_measurement_is_queued_from_json_or_a_form_and_can_be_read_back() {
+    let mut h = harness(4).await;
+    let (status, body) = send(
+        &h.state,
+        post(
+            "/api/measurements",
+            "application/json",
+            r#"{"samples": 3, "note": "json"}"#,
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{body}");
+    let id = body["id"].as_i64().unwrap();
+    assert_eq!(body["state"], "queued");
+    let job = h.jobs.try_recv().unwrap();
+    assert_eq!((job.id, job.samples), (id, 3));
+
+    // MATLAB's webwrite(url, struct('samples', 5)) sends this.
+    let (status, body) = send(
+        &h.state,
+        post(
+            "/api/measurements",
+            "application/x-www-form-urlencoded",
+            "samples=5&note=form",
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{body}");
+    assert_eq!(h.jobs.try_recv().unwrap().samples, 5);
+
+    let (status, m) = send(&h.state, get(&format!("/api/measurements/{id}"))).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(m["note"], "json");
+    assert_eq!(m["samples_requested"], 3);
+    assert!(m["samples"].as_array().unwrap().is_empty());
+    let (_, list) = send(&h.state, get("/api/measurements?state=queued&limit=10")).await;
+    assert_eq!(list["total"], 2);
+}
+
+#[tokio::test]
+async fn bad_bodies_get_400_naming_the_field() {
+    let h = harness(4).await;
+    let cases = [
+        (
+            "application/json",
+            "{\"samples\": ",
+            "malformed JSON: EOF while parsing",
+        ),
+        ("application/json", r#"{"samples": "five"}"#, "field `samples`"),
+        ("application/json", r#"{"sample": 5}"#, "unknown field `sample`"),
+        (
+            "application/json",
+            r#"{"samples": 500}"#,
+            "field `samples`: 500 is outside 1–99",
+        ),
+        ("application/x-www-form-urlencoded", "samples=abc", "field `samples`"),
+        (
+            "application/json",
+            r#"{"target": "patch"}"#,
+            "field `target`: a target needs its `scene`",
+        ),
+    ];
+    for (ct, body, expected) in cases {
+        let (status, v) = send(&h.state, post("/api/measurements", ct, body, Some(TOKEN))).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{body}: {v}");
+        assert!(error_message(&v).contains(expected), "{body}: {v}");
+    }
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "text/plain", "samples=5", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::UNSUPPORTED_MEDIA_TYPE, "{v}");
+}
+
+#[tokio::test]
+async fn a_huge_body_gets_413() {
+    let h = harness(4).await;
+    let huge = format!(
+        "{{\"note\": \"{}\"}}",
+        "x".repeat(lightbooth::service::MAX_BODY_BYTES + 1)
+    );
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "application/json", huge, Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE, "{v}");
+    assert_eq!(v["error"]["code"], "payload_too_large");
+}
+
+#[tokio::test]
+async fn a_disconnected_instrument_gets_503_and_a_full_queue_409() {
+    let h = harness(1).await;
+    h.status
+        .send(InstrumentStatus::Disconnected {
+            reason: "port /dev/ttyUSB0 missing".into(),
+        })
+        .unwrap();
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{v}");
+    assert!(error_message(&v).contains("/dev/ttyUSB0"));
+
+    h.status
+        .send(InstrumentStatus::Idle {
+            model: "PR-650".into(),
+            serial: None,
+            port: "p".into(),
+        })
+        .unwrap();
+    let (status, _) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED);
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CONFLICT, "{v}");
+    assert!(error_message(&v).contains("busy"));
+}
+
+#[tokio::test]
+async fn unknown_resources_get_404_json() {
+    let h = harness(1).await;
+    let (status, v) = send(&h.state, get("/api/measurements/9999")).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    assert_eq!(error_message(&v), "no measurement 9999");
+    let (status, _) = send(&h.state, get("/matlab/../../Cargo.toml")).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+}
+
+#[tokio::test]
+async fn the_dashboard_and_matlab_examples_are_served() {
+    let h = harness(1).await;
+    let response = app(h.state.clone()).oneshot(get("/")).await.unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+    let html = response.into_body().collect().await.unwrap().to_bytes();
+    assert!(std::str::from_utf8(&html)
+        .unwrap()
+        .contains("<title>lightbooth</title>"));
+    let response = app(h.state.clone())
+        .oneshot(get("/matlab/measure_and_poll.m"))
+        .await
+        .unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+}

@@ -1,0 +1,262 @@
+// lightbooth dashboard: plain JavaScript, no build step. Charts are SVG drawn
+// by the daemon (plotters), so this file only fetches JSON, follows the
+// server-sent events and swaps <img> sources.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+
+// The write token: the daemon prints a URL with `#token=…`; keep it in
+// localStorage so reloading the page keeps working.
+(function takeTokenFromUrl() {
+  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
+  if (m) {
+    localStorage.setItem("lightbooth-token", m[1]);
+    history.replaceState(null, "", location.pathname + "#/live");
+  }
+})();
+
+function token() {
+  return localStorage.getItem("lightbooth-token") || "";
+}
+
+function notice(text) {
+  const n = $("notice");
+  n.textContent = text;
+  n.hidden = !text;
+}
+
+async function api(path, options = {}) {
+  const headers = Object.assign({ "Accept": "application/json" }, options.headers || {});
+  if (options.body !== undefined) headers["Content-Type"] = "application/json";
+  if (options.method && options.method !== "GET" && token()) headers["Authorization"] = "Bearer " + token();
+  const r = await fetch(path, Object.assign({}, options, { headers }));
+  const body = await r.json().catch(() => null);
+  if (!r.ok) {
+    const msg = body && body.error ? body.error.message : r.statusText;
+    throw new Error(msg);
+  }
+  return body;
+}
+
+const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v).toPrecision(digits));
+
+// --- views -----------------------------------------------------------------
+
+function showView() {
+  const [, view, arg] = (location.hash || "#/live").split("/");
+  for (const s of document.querySelectorAll(".view")) s.hidden = s.id !== "view-" + (view || "live");
+  for (const a of document.querySelectorAll("nav a")) a.classList.toggle("active", a.dataset.view === view);
+  if (view === "measurements") loadMeasurements(arg);
+  if (view === "scenes") loadScenes(arg);
+}
+window.addEventListener("hashchange", showView);
+
+// --- instrument status and events ------------------------------------------
+
+let current = null; // the measurement this page started and is following
+
+function setStatus(s) {
+  const b = $("instrument");
+  b.className = "badge " + s.state;
+  if (s.state === "idle") b.textContent = `${s.model} ${s.serial || ""} idle on ${s.port}`;
+  else if (s.state === "measuring") b.textContent = `measuring #${s.measurement_id}: sample ${s.sample} of ${s.of}`;
+  else if (s.state === "disconnected") b.textContent = "disconnected: " + s.reason;
+  else b.textContent = "error: " + s.message;
+}
+
+function follow() {
+  const es = new EventSource("/api/events");
+  es.addEventListener("instrument_status", (e) => setStatus(JSON.parse(e.data).status));
+  es.addEventListener("measurement_started", (e) => {
+    const d = JSON.parse(e.data);
+    if (d.measurement_id !== current) return;
+    $("progress").max = d.samples;
+    $("progress").value = 0;
+    $("progress-text").textContent = `measurement #${d.measurement_id}: starting`;
+  });
+  es.addEventListener("sample", (e) => {
+    const d = JSON.parse(e.data);
+    if (d.measurement_id !== current) return;
+    const done = Math.min(d.index + 1, d.of);
+    $("progress").max = d.of;
+    $("progress").value = done;
+    $("progress-text").textContent =
+      `measurement #${d.measurement_id}: sample ${done} of ${d.of} (code ${d.code}: ${d.message})`;
+    refreshLiveSpectrum();
+  });
+  es.addEventListener("measurement_finished", async (e) => {
+    const d = JSON.parse(e.data);
+    if (d.measurement_id === current) {
+      $("progress-text").textContent = `measurement #${d.measurement_id}: ${d.state}` + (d.error ? ` (${d.error})` : "");
+      refreshLiveSpectrum();
+      const m = await api(`/api/measurements/${d.measurement_id}`);
+      $("live-result").textContent = m.state === "complete"
+        ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, luminance CV = ${fmt(m.luminance_cv, 2)}`
+        : `${m.state}: ${m.error || ""}`;
+    }
+    if (scenesQueue.length && d.measurement_id === scenesQueue[0]) scenesQueue.shift();
+    updateSceneProgress();
+  });
+  es.addEventListener("comparison_ready", (e) => {
+    const d = JSON.parse(e.data);
+    if (openScene === d.scene) loadSceneDetail(d.scene);
+  });
+  es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
+}
+
+function refreshLiveSpectrum() {
+  const img = $("live-spectrum");
+  img.hidden = false;
+  img.src = `/api/measurements/${current}/spectrum.svg?t=${Date.now()}`;
+}
+
+// --- live: start a measurement ---------------------------------------------
+
+let sceneInfo = [];
+
+async function loadSceneChoices() {
+  try {
+    sceneInfo = await api("/api/scenes");
+  } catch (e) {
+    sceneInfo = [];
+  }
+  const sel = $("scene-select");
+  for (const s of sceneInfo) sel.add(new Option(`${s.id}: ${s.title}`, s.id));
+  sel.addEventListener("change", fillTargets);
+  fillTargets();
+}
+
+function fillTargets() {
+  const sel = $("target-select");
+  sel.innerHTML = "";
+  const s = sceneInfo.find((x) => x.id === $("scene-select").value);
+  for (const t of s ? s.targets : []) sel.add(new Option(t, t));
+  sel.disabled = !s;
+}
+
+async function startMeasurement(body) {
+  return api("/api/measurements", { method: "POST", body: JSON.stringify(body) });
+}
+
+$("measure-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  notice("");
+  const body = { samples: Number($("samples-input").value) };
+  if ($("scene-select").value) {
+    body.scene = $("scene-select").value;
+    body.target = $("target-select").value;
+  }
+  try {
+    const r = await startMeasurement(body);
+    current = r.id;
+    $("progress-box").hidden = false;
+    $("progress").value = 0;
+    $("progress").max = body.samples;
+    $("progress-text").textContent = `measurement #${r.id}: queued`;
+    $("live-result").textContent = "";
+  } catch (e) {
+    notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
+  }
+});
+
+// --- measurements ----------------------------------------------------------
+
+async function loadMeasurements(openId) {
+  const page = await api("/api/measurements?limit=100");
+  const tbody = document.querySelector("#measurement-table tbody");
+  tbody.innerHTML = "";
+  for (const m of page.items) {
+    const tr = tbody.insertRow();
+    for (const v of [m.id, m.scene || "", m.target || "", m.state, `${m.samples_taken}/${m.samples_requested}`,
+      fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2)]) tr.insertCell().textContent = v;
+    tr.addEventListener("click", () => (location.hash = `#/measurements/${m.id}`));
+  }
+  if (openId) showMeasurement(openId);
+}
+
+async function showMeasurement(id) {
+  const m = await api(`/api/measurements/${id}`);
+  $("measurement-detail").hidden = false;
+  $("detail-title").textContent = `Measurement ${m.id}` + (m.scene ? `: ${m.scene} / ${m.target}` : "");
+  $("detail-summary").textContent = m.state === "complete"
+    ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, CV = ${fmt(m.luminance_cv, 2)}`
+    : `${m.state}${m.error ? ": " + m.error : ""}`;
+  for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])
+    $(el).href = `/api/measurements/${id}/spectrum.${ext}`;
+  $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
+  const tbody = document.querySelector("#sample-table tbody");
+  tbody.innerHTML = "";
+  for (const s of m.samples) {
+    const tr = tbody.insertRow();
+    for (const v of [s.index, new Date(s.time * 1000).toLocaleTimeString(), s.code, s.message, s.usable ? "yes" : "no",
+      fmt(s.Y, 5)]) tr.insertCell().textContent = v;
+  }
+}
+
+// --- scenes ----------------------------------------------------------------
+
+let openScene = null;
+let scenesQueue = [];
+
+async function loadScenes(openId) {
+  const list = $("scene-list");
+  list.innerHTML = "";
+  for (const s of sceneInfo) {
+    const li = document.createElement("li");
+    const a = document.createElement("a");
+    a.href = `#/scenes/${s.id}`;
+    a.textContent = `${s.id}: ${s.title} (${s.targets.length} target${s.targets.length > 1 ? "s" : ""})`;
+    li.appendChild(a);
+    list.appendChild(li);
+  }
+  if (openId) loadSceneDetail(openId);
+}
+
+async function loadSceneDetail(id) {
+  openScene = id;
+  const s = sceneInfo.find((x) => x.id === id);
+  $("scene-detail").hidden = false;
+  $("scene-title").textContent = s ? `${s.id}: ${s.title}` : id;
+  $("scene-csv").href = `/api/scenes/${id}/comparisons.csv`;
+  $("scene-mat").href = `/api/scenes/${id}/comparisons.mat`;
+  const c = await api(`/api/scenes/${id}/comparisons`);
+  const tbody = document.querySelector("#coding-table tbody");
+  tbody.innerHTML = "";
+  for (const r of c.codings) {
+    const tr = tbody.insertRow();
+    for (const v of [r.coding, r.points, fmt(r.rms_rel), `${fmt(r.mean_dE76)} ± ${fmt(r.sd_dE76, 2)}`,
+      `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4)]) tr.insertCell().textContent = v;
+  }
+  const t = Date.now();
+  for (const chart of ["chromaticity", "profile", "rms", "de", "speed"]) {
+    const img = $("chart-" + chart);
+    img.hidden = c.rows.length === 0;
+    img.onerror = () => (img.hidden = true);
+    img.src = `/api/scenes/${id}/charts/${chart}.svg?t=${t}`;
+  }
+}
+
+$("measure-scene").addEventListener("click", async () => {
+  notice("");
+  const s = sceneInfo.find((x) => x.id === openScene);
+  if (!s) return;
+  try {
+    for (const target of s.targets) {
+      const r = await startMeasurement({ scene: s.id, target, samples: 5 });
+      scenesQueue.push(r.id);
+      current = r.id;
+    }
+  } catch (e) {
+    notice(e.message);
+  }
+  updateSceneProgress();
+});
+
+function updateSceneProgress() {
+  $("scene-progress").textContent = scenesQueue.length ? `${scenesQueue.length} measurement(s) to go` : "";
+}
+
+// --- start -----------------------------------------------------------------
+
+follow();
+loadSceneChoices().then(showView);
