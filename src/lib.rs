@@ -15,8 +15,10 @@
 //!   sets compiled into the binary.
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
+//! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
 
 pub mod colorimetry;
+pub mod instrument;
 pub mod nstep;
 pub mod reference_data;
 pub mod spectrum;
