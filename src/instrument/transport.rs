@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use serialport::{ClearBuffer, DataBits, FlowControl, Parity, SerialPort, StopBits};
 
-use super::pr650::protocol::{complete_lines, Terminator};
+use super::pr650::protocol::{complete_lines, split_lines, Terminator};
 use super::{CancelToken, InstrumentError, WaitPhase};
 
 /// Longest slice of a blocking read, so cancellation and deadlines are
@@ -233,6 +233,53 @@ impl SerialLink {
                 Err(e) => return Err(self.io_error(e)),
             }
         }
+    }
+
+    /// Reads until a complete line satisfies `is_answer` (other lines, such as
+    /// a late report, are skipped), or `timeout` passes.
+    pub fn read_until_line(
+        &mut self,
+        command: &str,
+        is_answer: &dyn Fn(&[u8]) -> bool,
+        timeout: Duration,
+        cancel: &CancelToken,
+    ) -> Result<(), InstrumentError> {
+        let start = Instant::now();
+        let mut pending: Vec<u8> = Vec::new();
+        let mut buf = [0u8; 512];
+        while start.elapsed() < timeout {
+            if cancel.is_cancelled() {
+                return Err(InstrumentError::Cancelled);
+            }
+            match self.port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => {
+                    pending.extend_from_slice(&buf[..n]);
+                    if let Some(end) = pending.iter().rposition(|b| *b == b'\r' || *b == b'\n') {
+                        let found = split_lines(&pending[..=end]).into_iter().any(is_answer);
+                        pending.drain(..=end);
+                        if found {
+                            return Ok(());
+                        }
+                    }
+                    if pending.len() > MAX_REPLY_BYTES {
+                        pending.clear();
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+        Err(InstrumentError::Timeout {
+            command: command.to_string(),
+            phase: WaitPhase::FirstByte,
+            waited_ms: start.elapsed().as_millis() as u64,
+        })
     }
 
     /// Reads and discards until the line has been quiet for `quiet`, or

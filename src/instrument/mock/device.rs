@@ -133,6 +133,11 @@ impl Device {
                     continue;
                 }
             };
+            // A power cycle requested while the read was blocked comes before these bytes.
+            let cycle = std::mem::take(&mut lock(&self.shared).power_cycle_requested);
+            if cycle {
+                self.power_on();
+            }
             let mut i = 0;
             while i < n {
                 match self.byte(buf[i]) {
@@ -234,9 +239,10 @@ impl Device {
                 let code = args.rsplit(',').next().unwrap_or("").parse::<u16>().unwrap_or(u16::MAX);
                 self.report(code);
             }
-            "F" => match (self.cfg.flicker_hz, self.cfg.unsyncable) {
-                (Some(hz), false) => self.write(format!("00,{hz:.2}\r\n").as_bytes()),
-                _ => self.write(b"20\r\n"),
+            // An "unsyncable" source still shows a frequency; measuring with sync then fails (07).
+            "F" => match self.cfg.flicker_hz {
+                Some(hz) => self.write(format!("00,{hz:.2}\r\n").as_bytes()),
+                None => self.write(b"20\r\n"),
             },
             "E" => {
                 tracing::warn!("simulated PR-650: echo mode on (a driver should never send E)");
@@ -298,9 +304,9 @@ impl Device {
         if self.fires(FaultKind::CablePull) {
             self.sleep_scaled(reading.duration_ms / 2.0);
             tracing::info!("simulated PR-650: cable pulled");
+            lock(&self.shared).unplugged = true;
             self.port = None;
             self.keepalive = None;
-            lock(&self.shared).unplugged = true;
             return false;
         }
         self.sleep_scaled(reading.duration_ms);

@@ -222,21 +222,25 @@ impl Pr650 {
     }
 
     /// After a fault or cancel: wait out whatever the unit is still sending
-    /// (a cancelled `M0` finishes and acknowledges), ping it, drain again.
+    /// (a late report, a cancelled `M0` that finishes and acknowledges), ping
+    /// it until a `000` comes back, then drain again.
     fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
         tracing::info!("PR-650: resynchronising");
         let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
         self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
-        // The unit may still be measuring: allow a whole measurement for the answer.
-        let reply = self.exchange(
-            &Command::Backlight(HANDSHAKE_BACKLIGHT),
-            self.settings.measure_timeout(),
-            cancel,
-        )?;
-        protocol::parse_ack(&reply).map_err(|e| self.protocol_error(&Command::Backlight(HANDSHAKE_BACKLIGHT), e))?;
-        // A queued ping's own `000` may follow a late `M0` ack.
+        self.link.flush_input()?;
+        let ping = Command::Backlight(HANDSHAKE_BACKLIGHT).text();
+        tracing::debug!(command = %ping, "→ PR-650 (resync)");
+        self.link.send(&ping)?;
+        // The unit may still be measuring or sending a late reply: allow a
+        // whole measurement, skipping lines until the ping's `000`.
+        let is_ack = |line: &[u8]| line.trim_ascii() == b"000";
+        self.link
+            .read_until_line(&ping, &is_ack, self.settings.measure_timeout(), cancel)?;
+        // The ping's own `000` may follow a late `M0` ack.
         self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
         self.needs_resync = false;
+        tracing::info!("PR-650: back in step");
         Ok(())
     }
 
