@@ -156,7 +156,8 @@ fn faults_once_are_retried_and_the_mean_stays_clean() {
 #[test]
 fn persistent_faults_give_typed_errors_and_leave_the_port_usable() {
     let settings = test_settings();
-    let cases: [(FaultKind, fn(&InstrumentError) -> bool); 4] = [
+    type IsExpected = fn(&InstrumentError) -> bool;
+    let cases: [(FaultKind, IsExpected); 4] = [
         (FaultKind::NoAnswer, |e| matches!(e, InstrumentError::Timeout { .. })),
         (FaultKind::Truncate, |e| matches!(e, InstrumentError::Truncated { .. })),
         (FaultKind::Garble, |e| matches!(e, InstrumentError::Protocol { .. })),

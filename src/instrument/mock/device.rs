@@ -30,22 +30,12 @@ struct Stored {
     xyz: [f64; 3],
 }
 
-/// The `S` settings the unit keeps.
-#[derive(Clone, Copy, Debug)]
+/// The `S` settings the unit keeps (power-on: adaptive, no sync, status 00).
+#[derive(Clone, Copy, Debug, Default)]
 struct Settings {
     integration_ms: u32,
     sync_on: bool,
     last_status: u8,
-}
-
-impl Default for Settings {
-    fn default() -> Settings {
-        Settings {
-            integration_ms: 0,
-            sync_on: false,
-            last_status: 0,
-        }
-    }
 }
 
 pub(super) struct Device {
