@@ -15,11 +15,13 @@
 //!   sets compiled into the binary.
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
+//! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
 
 pub mod charts;
 pub mod colorimetry;
 pub mod comparison;
 pub mod export;
+pub mod instrument;
 pub mod nstep;
 pub mod reference_data;
 pub mod service;

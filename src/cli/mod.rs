@@ -3,6 +3,8 @@
 
 mod analyze;
 mod color;
+mod measure;
+mod mock_pr650;
 
 use clap::{Parser, Subcommand};
 
@@ -24,12 +26,19 @@ enum Command {
     /// Analyses of spectra that do not need the instrument or the renderer.
     #[command(subcommand)]
     Analyze(analyze::AnalyzeCommand),
+    /// One averaged measurement from a PR-650 (real, or simulated by mock-pr650).
+    Measure(measure::MeasureArgs),
+    /// A simulated PR-650 on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-pr650")]
+    MockPr650(mock_pr650::MockPr650Args),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Color(args) => color::run(args),
         Command::Analyze(cmd) => analyze::run(cmd),
+        Command::Measure(args) => measure::run(args),
+        Command::MockPr650(args) => mock_pr650::run(args),
     }
 }
 

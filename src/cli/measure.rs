@@ -1,0 +1,151 @@
+//! `lightbooth measure`: one averaged measurement from a PR-650 (real or
+//! simulated), printed as a summary, JSON or CSV.
+
+use std::path::PathBuf;
+use std::time::UNIX_EPOCH;
+
+use clap::Args;
+use serde::Serialize;
+
+use lightbooth::instrument::{open_pr650, AveragedMeasurement, CancelToken, Pr650Settings};
+use lightbooth::spectrum::table::write_csv;
+
+#[derive(Args, Debug)]
+pub struct MeasureArgs {
+    /// Serial device of the PR-650 (e.g. /dev/ttyUSB0, or the path `mock-pr650` prints).
+    #[arg(long)]
+    port: Option<String>,
+    /// Instrument settings (see instruments/pr650.toml); defaults apply without it.
+    #[arg(long, value_name = "FILE.toml")]
+    config: Option<PathBuf>,
+    /// Samples to average.
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Extra attempts for samples lost to an instrument error or a link fault.
+    #[arg(long)]
+    retries: Option<usize>,
+    /// One JSON object: wavelength_nm, radiance, radiance_sd, samples, Y, x, y, luminance_cv, instrument.
+    #[arg(long, conflicts_with = "csv")]
+    json: bool,
+    /// CSV: nm, mean radiance, its SD, then every good sample.
+    #[arg(long)]
+    csv: bool,
+}
+
+#[derive(Serialize)]
+struct InstrumentJson {
+    model: String,
+    serial: Option<String>,
+}
+
+#[derive(Serialize)]
+struct SampleJson {
+    index: usize,
+    /// Seconds since the Unix epoch (UTC) when the sample was taken.
+    time: f64,
+    code: i32,
+    message: String,
+    /// W/(sr·m²·nm); null for a bad sample (its buffer is stale or untrustworthy).
+    radiance: Option<Vec<f64>>,
+    /// cd/m² as the instrument reported it; null for a bad sample.
+    luminance: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct MeasurementJson {
+    wavelength_nm: Vec<f64>,
+    radiance: Vec<f64>,
+    radiance_sd: Vec<f64>,
+    samples: Vec<SampleJson>,
+    #[serde(rename = "Y")]
+    luminance_cd_m2: f64,
+    x: f64,
+    y: f64,
+    luminance_cv: f64,
+    instrument: InstrumentJson,
+}
+
+impl From<&AveragedMeasurement> for MeasurementJson {
+    fn from(m: &AveragedMeasurement) -> MeasurementJson {
+        MeasurementJson {
+            wavelength_nm: m.mean.grid().wavelengths().to_vec(),
+            radiance: m.mean.values().to_vec(),
+            radiance_sd: m.sd.clone(),
+            samples: m
+                .samples
+                .iter()
+                .map(|s| SampleJson {
+                    index: s.index,
+                    time: s
+                        .time
+                        .duration_since(UNIX_EPOCH)
+                        .map(|d| d.as_secs_f64())
+                        .unwrap_or(0.0),
+                    code: s.code.code,
+                    message: s.code.message.clone(),
+                    radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
+                    luminance: s.luminance,
+                })
+                .collect(),
+            luminance_cd_m2: m.luminance_cd_m2,
+            x: m.x,
+            y: m.y,
+            luminance_cv: m.luminance_cv,
+            instrument: InstrumentJson {
+                model: m.info.model.clone(),
+                serial: m.info.serial.clone(),
+            },
+        }
+    }
+}
+
+pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
+    let mut settings = match &args.config {
+        Some(path) => Pr650Settings::from_toml_file(path)?,
+        None => Pr650Settings::default(),
+    };
+    if let Some(n) = args.samples {
+        settings.samples = n;
+    }
+    if let Some(r) = args.retries {
+        settings.retries = r;
+    }
+    settings.validate().map_err(|e| anyhow::anyhow!("bad settings: {e}"))?;
+    let port = args.port.clone().or_else(|| settings.port.clone()).ok_or_else(|| {
+        anyhow::anyhow!("no port: pass --port PATH (e.g. /dev/ttyUSB0) or set `port` in the --config file")
+    })?;
+    let mut pr650 = open_pr650(&port, &settings)?;
+    let cancel = CancelToken::new();
+    let m = pr650.measure_averaged(settings.samples, &cancel, &mut |s| {
+        tracing::info!(index = s.index, code = s.code.code, luminance_cd_m2 = ?s.luminance, "sample");
+    })?;
+    let out = std::io::stdout();
+    if args.json {
+        serde_json::to_writer(out.lock(), &MeasurementJson::from(&m))?;
+        println!();
+    } else if args.csv {
+        let good: Vec<(String, &[f64])> = m
+            .good_samples()
+            .filter_map(|s| s.radiance.as_ref().map(|r| (format!("sample_{}", s.index), r.values())))
+            .collect();
+        let mut columns: Vec<(&str, &[f64])> = vec![("radiance", m.mean.values()), ("radiance_sd", &m.sd)];
+        columns.extend(good.iter().map(|(n, v)| (n.as_str(), *v)));
+        write_csv(out.lock(), m.mean.grid(), &columns)?;
+    } else {
+        let good = m.good_samples().count();
+        println!(
+            "{} serial {}: {} of {} samples good",
+            m.info.model,
+            m.info.serial.as_deref().unwrap_or("unknown"),
+            good,
+            m.samples.len()
+        );
+        for s in m.samples.iter().filter(|s| !s.code.is_ok()) {
+            println!("  sample {} not averaged: {}", s.index, s.code);
+        }
+        println!("Y = {:.4} cd/m²  x = {:.4}  y = {:.4}", m.luminance_cd_m2, m.x, m.y);
+        println!("luminance CV = {:.3} %", m.luminance_cv * 100.0);
+        println!("spectrum: {} (use --json or --csv for the values)", m.mean.grid());
+    }
+    Ok(())
+}

@@ -1,0 +1,359 @@
+//! A simulated PR-650 on a real pseudo-terminal, for tests, for the daemon's
+//! `serve --mock`, and for `lightbooth mock-pr650`.
+//!
+//! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
+//! master end on its own thread, and hands back the path of the device end,
+//! which any serial client (lightbooth, PTB, PsychoPy) opens like a real port.
+//! The simulator follows the checklist of `shared/docs/pr650-protocol.md` §7:
+//! power-on window and local mode, CR/LF/CR LF framing, case-insensitive
+//! commands, `B`/`S`/`M`/`D`/`F`/`E`, the fixed-width reports 1/2/5 (with a
+//! bare-CR header switch), stale buffers on low light, realistic timing scaled
+//! by [`MockConfig::speed`], and injected faults ([`Fault`]).
+//!
+//! What it "sees" is a spectral radiance ([`MockHandle::set_truth`]); what it
+//! reports goes through the [`model::InstrumentModel`] (slit, noise, limits).
+
+mod device;
+pub mod model;
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+
+use serialport::SerialPort as _;
+
+use crate::spectrum::{Grid, Spectrum, SpectrumError};
+use model::{InstrumentModel, Reading};
+
+/// The kinds of injectable faults (`--fault KIND[:RATE]`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FaultKind {
+    /// A `D5` gets no reply at all.
+    NoAnswer,
+    /// A `D5` reply stops after about half the spectrum.
+    Truncate,
+    /// A `D5` reply has some characters replaced by line noise.
+    Garble,
+    /// Junk (a stale partial report) lands in the host's input buffer after
+    /// the `D2` reply, before the next command: tests the flush.
+    Stale,
+    /// A measurement ends with [`MockConfig::error_code`] (default 18, whose
+    /// spectral buffer stays stale) instead of its real code.
+    ErrorCode,
+    /// The port closes during a measurement: the cable pulled. The simulator stops.
+    CablePull,
+    /// A `D5` reply's first byte comes after [`MockConfig::slow_ms`].
+    Slow,
+}
+
+/// How often a fault fires at each point where it applies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FaultRate {
+    Always,
+    /// Independently each time, with this probability (seeded).
+    Probability(f64),
+    /// The next N times, then never.
+    Times(u32),
+}
+
+/// One injected fault: `KIND`, `KIND:0.25` (probability), `KIND:once`, `KIND:3x`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fault {
+    pub kind: FaultKind,
+    pub rate: FaultRate,
+}
+
+impl Fault {
+    pub fn always(kind: FaultKind) -> Fault {
+        Fault {
+            kind,
+            rate: FaultRate::Always,
+        }
+    }
+
+    pub fn times(kind: FaultKind, n: u32) -> Fault {
+        Fault {
+            kind,
+            rate: FaultRate::Times(n),
+        }
+    }
+}
+
+impl FromStr for FaultKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<FaultKind, String> {
+        Ok(match s {
+            "no-answer" => FaultKind::NoAnswer,
+            "truncate" => FaultKind::Truncate,
+            "garble" => FaultKind::Garble,
+            "stale" => FaultKind::Stale,
+            "error-code" => FaultKind::ErrorCode,
+            "cable-pull" => FaultKind::CablePull,
+            "slow" => FaultKind::Slow,
+            _ => {
+                return Err(format!(
+                    "unknown fault `{s}`: use no-answer, truncate, garble, stale, error-code, cable-pull or slow"
+                ))
+            }
+        })
+    }
+}
+
+impl FromStr for Fault {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Fault, String> {
+        let (kind, rate) = match s.split_once(':') {
+            Some((k, r)) => (k, Some(r)),
+            None => (s, None),
+        };
+        let kind: FaultKind = kind.parse()?;
+        let rate = match rate {
+            None => FaultRate::Always,
+            Some("once") => FaultRate::Times(1),
+            Some(r) if r.ends_with('x') => FaultRate::Times(
+                r[..r.len() - 1]
+                    .parse()
+                    .map_err(|_| format!("fault rate `{r}`: write e.g. 3x for the next three times"))?,
+            ),
+            Some(r) => {
+                let p: f64 = r
+                    .parse()
+                    .map_err(|_| format!("fault rate `{r}`: a probability 0–1, `once` or `Nx`"))?;
+                if !(0.0..=1.0).contains(&p) {
+                    return Err(format!("fault rate {p} is not a probability in 0–1"));
+                }
+                FaultRate::Probability(p)
+            }
+        };
+        Ok(Fault { kind, rate })
+    }
+}
+
+/// What `D5` answers before the first measurement ever (undocumented, §7.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BeforeFirstMeasurement {
+    /// A report of zeros with code 00.
+    StaleZeros,
+    /// Nothing.
+    NoReply,
+}
+
+/// What happens to bytes that arrive while measuring (undocumented, §7.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusyInput {
+    /// Processed after the measurement.
+    Queue,
+    /// Discarded.
+    Drop,
+}
+
+/// Everything about a simulated PR-650.
+#[derive(Clone, Debug)]
+pub struct MockConfig {
+    /// The radiance it is aimed at, W/(sr·m²·nm), any grid covering 380–780 nm.
+    pub truth: Spectrum,
+    /// Time scale: 1.0 = the real instrument's measurement and wire times, 0 = instant.
+    pub speed: f64,
+    /// Seed of the noise and fault-rate generator.
+    pub seed: u64,
+    /// The remote-mode window after power-on; `None` = never closes.
+    pub remote_window_ms: Option<u64>,
+    pub faults: Vec<Fault>,
+    /// Delay of a [`FaultKind::Slow`] reply, ms (not scaled by speed).
+    pub slow_ms: u64,
+    /// Code of a [`FaultKind::ErrorCode`] measurement.
+    pub error_code: u8,
+    /// What `D110` answers (8 characters).
+    pub serial: String,
+    /// End header line 1 of the spectral report in a bare CR.
+    pub header_bare_cr: bool,
+    /// Pace replies at 9600 baud (scaled by speed).
+    pub pace_output: bool,
+    pub before_first: BeforeFirstMeasurement,
+    pub busy_input: BusyInput,
+    /// The source's flicker frequency for `F`; `None` = steady (`F` answers 20).
+    pub flicker_hz: Option<f64>,
+    /// With sync on, every measurement fails with 07 (tests the sync-off path).
+    pub unsyncable: bool,
+    pub model: InstrumentModel,
+}
+
+impl MockConfig {
+    /// Defaults: real speed, a 5 s remote window, no faults, stale zeros
+    /// before the first measurement, queued input while busy.
+    pub fn new(truth: Spectrum) -> MockConfig {
+        MockConfig {
+            truth,
+            speed: 1.0,
+            seed: 1,
+            remote_window_ms: Some(5000),
+            faults: Vec::new(),
+            slow_ms: 0,
+            error_code: 18,
+            serial: "60954303".into(),
+            header_bare_cr: false,
+            pace_output: true,
+            before_first: BeforeFirstMeasurement::StaleZeros,
+            busy_input: BusyInput::Queue,
+            flicker_hz: None,
+            unsyncable: false,
+            model: InstrumentModel::default(),
+        }
+    }
+}
+
+/// State shared between a [`MockHandle`] and its simulator thread, behind one
+/// `Mutex`: the thread takes it briefly at each command, never while sleeping.
+#[derive(Debug)]
+struct Shared {
+    truth_1nm: Spectrum,
+    faults: Vec<Fault>,
+    power_cycle_requested: bool,
+    measurements: u64,
+    unplugged: bool,
+    integration_ms: u32,
+}
+
+/// A running simulated PR-650. Dropping it stops the simulator and closes the pty.
+pub struct MockHandle {
+    device_path: PathBuf,
+    shared: Arc<Mutex<Shared>>,
+    /// Set to stop the simulator thread; it polls between reads.
+    stop: Arc<AtomicBool>,
+    model: InstrumentModel,
+    thread: Option<JoinHandle<()>>,
+}
+
+fn lock(shared: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
+    // A panic in the simulator thread must not take the handle down with it.
+    shared.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn to_1nm(radiance: &Spectrum) -> Result<Spectrum, SpectrumError> {
+    radiance.to_per_nm().resample(&Grid::one_nm())
+}
+
+/// Opens a pty pair and runs a simulated PR-650 on it.
+pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
+    let truth_1nm = to_1nm(&config.truth).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))?;
+    let (master, slave) = serialport::TTYPort::pair().map_err(std::io::Error::from)?;
+    let device_path = PathBuf::from(
+        slave
+            .name()
+            .ok_or_else(|| std::io::Error::other("the pty has no device name"))?,
+    );
+    let shared = Arc::new(Mutex::new(Shared {
+        truth_1nm,
+        faults: config.faults.clone(),
+        power_cycle_requested: false,
+        measurements: 0,
+        unplugged: false,
+        integration_ms: 0,
+    }));
+    let stop = Arc::new(AtomicBool::new(false));
+    let model = config.model.clone();
+    let thread = {
+        let shared = Arc::clone(&shared);
+        let stop = Arc::clone(&stop);
+        std::thread::Builder::new()
+            .name("mock-pr650".into())
+            .spawn(move || device::Device::new(config, master, slave, shared, stop).run())?
+    };
+    tracing::info!(device = %device_path.display(), "simulated PR-650 powered on");
+    Ok(MockHandle {
+        device_path,
+        shared,
+        stop,
+        model,
+        thread: Some(thread),
+    })
+}
+
+impl MockHandle {
+    /// The device end: give this path to the driver.
+    pub fn device_path(&self) -> &Path {
+        &self.device_path
+    }
+
+    /// Re-aims the instrument at another target: a spectral radiance on any
+    /// grid covering 380–780 nm (resampled to 1 nm internally).
+    pub fn set_truth(&self, radiance: Spectrum) -> Result<(), SpectrumError> {
+        let one_nm = to_1nm(&radiance)?;
+        lock(&self.shared).truth_1nm = one_nm;
+        tracing::info!("simulated PR-650 re-aimed");
+        Ok(())
+    }
+
+    /// Replaces the injected faults.
+    pub fn set_faults(&self, faults: Vec<Fault>) {
+        lock(&self.shared).faults = faults;
+    }
+
+    /// Switches the simulated unit off and on: local state is lost and the
+    /// remote-mode window opens again.
+    pub fn power_cycle(&self) {
+        lock(&self.shared).power_cycle_requested = true;
+    }
+
+    /// Measurements taken so far.
+    pub fn measurements(&self) -> u64 {
+        lock(&self.shared).measurements
+    }
+
+    /// True once a cable-pull fault has closed the port.
+    pub fn is_unplugged(&self) -> bool {
+        lock(&self.shared).unplugged
+    }
+
+    /// What the model predicts for the current target and setup: the
+    /// noise-free reading, its per-sample σ, the code and the time. This is
+    /// the independent truth tests compare measurements with.
+    pub fn expected_reading(&self) -> Result<Reading, SpectrumError> {
+        let (truth, itime) = {
+            let s = lock(&self.shared);
+            (s.truth_1nm.clone(), s.integration_ms)
+        };
+        self.model.reading(&truth, itime)
+    }
+
+    /// Stops the simulator and closes the pty.
+    pub fn shutdown(mut self) {
+        self.stop_thread();
+    }
+
+    fn stop_thread(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for MockHandle {
+    fn drop(&mut self) {
+        self.stop_thread();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fault_specs_parse() {
+        assert_eq!("garble".parse::<Fault>().unwrap(), Fault::always(FaultKind::Garble));
+        assert_eq!(
+            "truncate:once".parse::<Fault>().unwrap(),
+            Fault::times(FaultKind::Truncate, 1)
+        );
+        assert_eq!("slow:3x".parse::<Fault>().unwrap(), Fault::times(FaultKind::Slow, 3));
+        assert_eq!(
+            "no-answer:0.25".parse::<Fault>().unwrap().rate,
+            FaultRate::Probability(0.25)
+        );
+        assert!("garble:2".parse::<Fault>().is_err());
+        assert!("smoke".parse::<Fault>().unwrap_err().contains("no-answer"));
+    }
+}

@@ -1,0 +1,390 @@
+//! Spectroradiometers, device-independent: what the daemon and the command
+//! line see of an instrument.
+//!
+//! An instrument is a [`Spectroradiometer`]: it says what it is
+//! ([`InstrumentInfo`], with its native wavelength grid) and takes an averaged
+//! measurement ([`Spectroradiometer::measure_averaged`]) that keeps every raw
+//! [`Sample`] with its time and quality code. Bad samples (an instrument error
+//! code, a stale spectral buffer) are reported to the caller but never enter
+//! the mean.
+//!
+//! Layers, each testable alone:
+//!
+//! - [`pr650::protocol`]: the PR-650's wire format, pure (no I/O).
+//! - [`transport`]: the serial port (settings, flushing, the two-phase read).
+//! - [`pr650::driver`]: the PR-650 session (remote mode, identify, measure).
+//! - [`mock`]: a simulated PR-650 on a real pseudo-terminal.
+//! - [`worker`]: one thread that owns an instrument, for async callers.
+//!
+//! A PR-655/PR-670 personality (USB, `PHOTO`, signed status codes, 2 nm grid)
+//! is a second implementation of [`Spectroradiometer`] with its own protocol
+//! module; [`QualityCode`] already carries signed codes and [`InstrumentInfo`]
+//! the native grid, so the daemon does not change.
+
+pub mod mock;
+pub mod pr650;
+pub mod transport;
+pub mod worker;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::SystemTime;
+
+use serde::Serialize;
+
+use crate::colorimetry::{xyz_from_radiance, Observer};
+use crate::spectrum::{Grid, Spectrum};
+
+pub use pr650::{open_pr650, Pr650Settings};
+
+/// What an instrument is, as far as it can tell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstrumentInfo {
+    /// "PR-650" (the PR-650 has no model query; later models answer `D111`).
+    pub model: String,
+    /// Serial number, when the instrument reports one.
+    pub serial: Option<String>,
+    /// The native wavelength grid of its spectra (PR-650: 380–780 nm at 4 nm).
+    pub grid: Grid,
+}
+
+/// Broad meaning of an instrument's quality code, shared by every model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum QualityKind {
+    /// The measurement is good.
+    Ok,
+    /// Too little light. The PR-650 then leaves its spectral buffer stale.
+    LowLight,
+    /// Too much light: the detector saturated.
+    Overload,
+    /// Could not synchronise to the source's flicker.
+    Sync,
+    /// A hardware, firmware or battery problem.
+    Hardware,
+    /// A documented code that fits none of the above (noisy signal, …).
+    Other,
+    /// A code the instrument's documentation does not list.
+    Unknown,
+}
+
+/// An instrument's measurement quality code with its documented meaning.
+/// Signed, because PR-655/PR-670 codes are negative numbers.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct QualityCode {
+    pub code: i32,
+    pub kind: QualityKind,
+    pub message: String,
+}
+
+impl QualityCode {
+    pub fn is_ok(&self) -> bool {
+        self.kind == QualityKind::Ok
+    }
+
+    /// True when the numbers sent with this code are not from this
+    /// measurement (PR-650 codes 10 and 18 leave the spectral buffer stale).
+    pub fn spectrum_is_stale(&self) -> bool {
+        self.kind == QualityKind::LowLight
+    }
+}
+
+impl std::fmt::Display for QualityCode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "code {:02} ({})", self.code, self.message)
+    }
+}
+
+/// One raw measurement of an averaged series, good or bad.
+#[derive(Clone, Debug)]
+pub struct Sample {
+    /// Position in the series, counting bad samples too (0-based).
+    pub index: usize,
+    /// When the instrument finished this measurement.
+    pub time: SystemTime,
+    /// The quality code from the instrument's report.
+    pub code: QualityCode,
+    /// The spectrum on the native grid; `None` unless the code is OK (a bad
+    /// code means a stale or untrustworthy buffer, which must not be kept as data).
+    pub radiance: Option<Spectrum>,
+    /// Luminance in cd/m² as the instrument reported it (`D2`), when good.
+    pub luminance: Option<f64>,
+}
+
+/// The result of [`Spectroradiometer::measure_averaged`]: every sample, and
+/// statistics over the good ones only.
+#[derive(Clone, Debug)]
+pub struct AveragedMeasurement {
+    pub info: InstrumentInfo,
+    /// Every sample taken, including the bad ones, in order.
+    pub samples: Vec<Sample>,
+    /// Mean of the good samples, on the instrument's native grid, per nm.
+    pub mean: Spectrum,
+    /// Per-wavelength sample standard deviation (n − 1) of the good samples,
+    /// same unit as `mean`; zeros for a single sample.
+    pub sd: Vec<f64>,
+    /// Luminance of the mean spectrum, cd/m² (CIE 1931 2°, Km = 683 lm/W, as the PR-650 computes it).
+    pub luminance_cd_m2: f64,
+    /// CIE 1931 chromaticity of the mean spectrum.
+    pub x: f64,
+    pub y: f64,
+    /// Standard deviation over mean of the good samples' luminances (dimensionless).
+    pub luminance_cv: f64,
+}
+
+impl AveragedMeasurement {
+    /// The good samples, those that entered the mean.
+    pub fn good_samples(&self) -> impl Iterator<Item = &Sample> {
+        self.samples.iter().filter(|s| s.code.is_ok() && s.radiance.is_some())
+    }
+}
+
+/// Where in a reply a wait ran out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WaitPhase {
+    /// Waiting for the first byte of the reply.
+    FirstByte,
+    /// Inside the reply: no byte arrived for the gap timeout.
+    MidReply,
+}
+
+impl std::fmt::Display for WaitPhase {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            WaitPhase::FirstByte => write!(f, "for the first byte of the reply"),
+            WaitPhase::MidReply => write!(f, "in the middle of the reply"),
+        }
+    }
+}
+
+/// Everything that can go wrong with an instrument, each with what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum InstrumentError {
+    #[error(
+        "cannot open serial port {port}: {reason}. Check the path (ls /dev/ttyUSB* /dev/ttyACM*) and that you \
+         may use it (be in the `dialout` group, then log in again)"
+    )]
+    Open { port: String, reason: String },
+    #[error(
+        "no reply to `{command}` after {waited_ms} ms: check that the instrument is on, the cable switch is on \
+         CTRLR and the port is the right one"
+    )]
+    NoReply { command: String, waited_ms: u64 },
+    #[error(
+        "the PR-650 did not answer in {attempts} attempts: it is probably in local mode because no command \
+         reached it within 5 s of power-on. Switch it off and on again, then run lightbooth within 5 s"
+    )]
+    NotInRemoteMode { attempts: u32 },
+    #[error(
+        "only {good} of {needed} good samples after the allowed retries; last instrument {code:02}: {message}. \
+         {hint}"
+    )]
+    Quality {
+        code: i32,
+        message: String,
+        good: usize,
+        needed: usize,
+        hint: &'static str,
+    },
+    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600)")]
+    Protocol { command: String, detail: String },
+    #[error(
+        "the reply to `{command}` stopped after {lines} of {expected} lines (nothing for {gap_ms} ms): \
+         a slow or disturbed link; the measurement was discarded"
+    )]
+    Truncated {
+        command: String,
+        lines: usize,
+        expected: usize,
+        gap_ms: u64,
+    },
+    #[error("timed out after {waited_ms} ms waiting {phase} to `{command}`; raise the timeout if the source is dim")]
+    Timeout {
+        command: String,
+        phase: WaitPhase,
+        waited_ms: u64,
+    },
+    #[error("the instrument refused setup field {field} (status {status:02}) in `{command}`: fix the setting")]
+    Setup { command: String, field: u8, status: u8 },
+    #[error("serial port {port} closed: the cable was pulled or the adapter unplugged. Reconnect it and start again")]
+    PortClosed { port: String },
+    #[error("measurement cancelled")]
+    Cancelled,
+    #[error("serial I/O on {port}: {source}")]
+    Io {
+        port: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("bad instrument settings: {0}")]
+    Settings(String),
+}
+
+impl InstrumentError {
+    /// A fault of the link or of one reply, after which a resynchronised port
+    /// can try again (as opposed to a closed port, a cancel or bad settings).
+    pub fn is_retryable_link_fault(&self) -> bool {
+        matches!(
+            self,
+            InstrumentError::NoReply { .. }
+                | InstrumentError::Protocol { .. }
+                | InstrumentError::Truncated { .. }
+                | InstrumentError::Timeout { .. }
+        )
+    }
+}
+
+/// A cheap-to-clone cancellation flag shared between the thread that runs a
+/// measurement and whoever may stop it. The `Arc<AtomicBool>` is the only
+/// shared state; `Relaxed` ordering is enough because the flag guards no
+/// other data, it is only polled between reads.
+#[derive(Clone, Debug, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    pub fn new() -> CancelToken {
+        CancelToken::default()
+    }
+
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// A spectroradiometer as the daemon drives it. Implementations run blocking
+/// I/O: call them from a dedicated thread (see [`worker`]).
+pub trait Spectroradiometer: Send {
+    fn info(&self) -> &InstrumentInfo;
+
+    /// Takes n samples. `on_sample` is called as each sample is taken (the
+    /// daemon stores it immediately, before the next sample), including samples
+    /// with bad codes. Returns Err if fewer than the required good samples
+    /// could be taken after the configured retries; never averages a bad sample.
+    fn measure_averaged(
+        &mut self,
+        n: usize,
+        cancel: &CancelToken,
+        on_sample: &mut dyn FnMut(&Sample),
+    ) -> Result<AveragedMeasurement, InstrumentError>;
+}
+
+/// Mean, per-wavelength SD, colorimetry and luminance CV of the good samples.
+/// Bad samples stay in `samples` for the record and are skipped here. Errors
+/// when there is no good sample or the good ones disagree on grid or unit.
+pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<AveragedMeasurement, String> {
+    let good: Vec<(&Spectrum, Option<f64>)> = samples
+        .iter()
+        .filter(|s| s.code.is_ok())
+        .filter_map(|s| s.radiance.as_ref().map(|r| (r, s.luminance)))
+        .collect();
+    let Some((first, _)) = good.first() else {
+        return Err("no good sample to average".into());
+    };
+    let k = good.len();
+    let len = first.values().len();
+    let mut sum = vec![0.0; len];
+    for (spectrum, _) in &good {
+        spectrum.require_same_grid(first).map_err(|e| e.to_string())?;
+        if spectrum.unit() != first.unit() {
+            return Err(format!(
+                "samples in different units: {} and {}",
+                spectrum.unit(),
+                first.unit()
+            ));
+        }
+        for (acc, v) in sum.iter_mut().zip(spectrum.values()) {
+            *acc += v;
+        }
+    }
+    let mean_values: Vec<f64> = sum.iter().map(|s| s / k as f64).collect();
+    let sd = if k < 2 {
+        vec![0.0; len]
+    } else {
+        (0..len)
+            .map(|i| {
+                let ss: f64 = good.iter().map(|(s, _)| (s.values()[i] - mean_values[i]).powi(2)).sum();
+                (ss / (k - 1) as f64).sqrt()
+            })
+            .collect()
+    };
+    let mean = Spectrum::new(first.grid().clone(), first.unit(), mean_values).map_err(|e| e.to_string())?;
+    let xyz = xyz_from_radiance(&mean, Observer::Cie1931).map_err(|e| e.to_string())?;
+    let xy = xyz.chromaticity();
+    // Per-sample luminance: the instrument's own Y where it sent one, else ours from its spectrum.
+    let lums: Vec<f64> = good
+        .iter()
+        .map(|(s, l)| l.unwrap_or_else(|| xyz_from_radiance(s, Observer::Cie1931).map(|x| x.y).unwrap_or(0.0)))
+        .collect();
+    let luminance_cv = coefficient_of_variation(&lums);
+    Ok(AveragedMeasurement {
+        info,
+        samples,
+        mean,
+        sd,
+        luminance_cd_m2: xyz.y,
+        x: xy.x,
+        y: xy.y,
+        luminance_cv,
+    })
+}
+
+/// SD (n − 1) over mean; 0 for fewer than two values or a zero mean.
+fn coefficient_of_variation(values: &[f64]) -> f64 {
+    let n = values.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    if mean == 0.0 {
+        return 0.0;
+    }
+    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    var.sqrt() / mean.abs()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectrum::SpectralUnit;
+
+    fn sample(index: usize, code: i32, value: f64) -> Sample {
+        let ok = code == 0;
+        Sample {
+            index,
+            time: SystemTime::now(),
+            code: pr650::protocol::quality_code(code as u8),
+            radiance: ok.then(|| Spectrum::constant(Grid::pr650(), SpectralUnit::SpectralRadiance, value).unwrap()),
+            luminance: None,
+        }
+    }
+
+    #[test]
+    fn bad_samples_are_kept_but_not_averaged() {
+        let info = InstrumentInfo {
+            model: "PR-650".into(),
+            serial: None,
+            grid: Grid::pr650(),
+        };
+        let samples = vec![sample(0, 0, 1.0), sample(1, 18, 99.0), sample(2, 0, 3.0)];
+        let m = average_samples(info, samples).unwrap();
+        assert_eq!(m.samples.len(), 3);
+        assert_eq!(m.good_samples().count(), 2);
+        assert!(m.mean.values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert!(m.sd.iter().all(|v| (v - 2f64.sqrt()).abs() < 1e-12));
+        assert!(m.luminance_cv > 0.0);
+    }
+
+    #[test]
+    fn no_good_sample_is_an_error() {
+        let info = InstrumentInfo {
+            model: "PR-650".into(),
+            serial: None,
+            grid: Grid::pr650(),
+        };
+        assert!(average_samples(info, vec![sample(0, 10, 1.0)]).is_err());
+    }
+}

@@ -1,0 +1,354 @@
+//! The serial link to an instrument: port settings, flushing, writes with a
+//! timeout, and the two-phase read that neither hangs nor cuts a slow reply
+//! short.
+//!
+//! Blocking I/O: a [`SerialLink`] belongs to one thread (see
+//! [`crate::instrument::worker`]), which serialises every command to it.
+//!
+//! The read (`shared/docs/pr650-protocol.md` §6.4): first wait up to a long
+//! timeout for the first byte (the instrument is silent while it measures),
+//! then read until the expected number of lines has arrived, giving up only
+//! when no byte comes for a gap timeout. A fixed short per-read timeout
+//! truncates spectra when the link pauses mid-reply (PsychoPy's bug).
+//! Reads poll in short slices so a [`CancelToken`] is honoured promptly.
+
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+use serialport::{ClearBuffer, DataBits, FlowControl, Parity, SerialPort, StopBits};
+
+use super::pr650::protocol::{complete_lines, split_lines, Terminator};
+use super::{CancelToken, InstrumentError, WaitPhase};
+
+/// Longest slice of a blocking read, so cancellation and deadlines are
+/// checked at least this often.
+const POLL_SLICE: Duration = Duration::from_millis(20);
+
+/// A reply longer than this is garbage, not a report (a `D5` is 1734 bytes).
+const MAX_REPLY_BYTES: usize = 16 * 1024;
+
+/// Serial settings. The PR-650 needs 9600 baud, 8N1, no flow control (§1, [confirmed]).
+#[derive(Clone, Debug)]
+pub struct LinkSettings {
+    pub baud: u32,
+    pub terminator: Terminator,
+    /// How long a write may block (a hung USB adapter must not hang us; PsychoPy #1698).
+    pub write_timeout_ms: u64,
+    /// Pause between the bytes of a command, for adapters or units that "get
+    /// upset if hurried" (PsychoPy). 0 = whole-command writes, which PTB and mgl use.
+    pub byte_delay_ms: u64,
+}
+
+impl Default for LinkSettings {
+    fn default() -> LinkSettings {
+        LinkSettings {
+            baud: 9600,
+            terminator: Terminator::Lf,
+            write_timeout_ms: 2000,
+            byte_delay_ms: 0,
+        }
+    }
+}
+
+/// An open serial port to one instrument.
+pub struct SerialLink {
+    port: Box<dyn SerialPort>,
+    path: String,
+    settings: LinkSettings,
+}
+
+impl SerialLink {
+    /// Opens `path` at the instrument's settings and asserts DTR and RTS.
+    /// Setting modem lines fails on a pty and on some USB adapters; that is
+    /// logged as a warning, not an error (a unit that needs DTR will then
+    /// simply not answer, which the caller reports).
+    pub fn open(path: &str, settings: &LinkSettings) -> Result<SerialLink, InstrumentError> {
+        let port = serialport::new(path, settings.baud)
+            .data_bits(DataBits::Eight)
+            .parity(Parity::None)
+            .stop_bits(StopBits::One)
+            .flow_control(FlowControl::None)
+            .timeout(POLL_SLICE)
+            .open()
+            .map_err(|e| InstrumentError::Open {
+                port: path.to_string(),
+                reason: e.to_string(),
+            })?;
+        let mut link = SerialLink {
+            port,
+            path: path.to_string(),
+            settings: settings.clone(),
+        };
+        // §1: keep DTR and RTS asserted; one client only got data with DTR up.
+        if let Err(e) = link.port.write_data_terminal_ready(true) {
+            tracing::warn!(port = path, error = %e, "cannot assert DTR (normal on a pty or some USB adapters); continuing");
+        }
+        if let Err(e) = link.port.write_request_to_send(true) {
+            tracing::warn!(port = path, error = %e, "cannot assert RTS (normal on a pty or some USB adapters); continuing");
+        }
+        tracing::info!(port = path, baud = settings.baud, "serial port open");
+        Ok(link)
+    }
+
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    fn io_error(&self, e: std::io::Error) -> InstrumentError {
+        use std::io::ErrorKind::*;
+        match e.kind() {
+            // POLLHUP (BrokenPipe) and EIO are what a pty or a USB adapter
+            // gives when the far end has gone.
+            BrokenPipe | UnexpectedEof | NotConnected | ConnectionReset => InstrumentError::PortClosed {
+                port: self.path.clone(),
+            },
+            _ if e.raw_os_error() == Some(5) || e.to_string().contains("Input/output error") => {
+                InstrumentError::PortClosed {
+                    port: self.path.clone(),
+                }
+            }
+            _ => InstrumentError::Io {
+                port: self.path.clone(),
+                source: e,
+            },
+        }
+    }
+
+    /// Throws away whatever is waiting in the input buffer (§6.3: before every
+    /// command). Returns how many bytes were discarded.
+    pub fn flush_input(&mut self) -> Result<usize, InstrumentError> {
+        let waiting = self.port.bytes_to_read().unwrap_or(0) as usize;
+        if let Err(e) = self.port.clear(ClearBuffer::Input) {
+            tracing::warn!(port = %self.path, error = %e, "cannot clear the input buffer; draining by reading");
+        }
+        // Some adapters ignore the clear: read out what is left without waiting.
+        let mut drained = 0;
+        let mut buf = [0u8; 256];
+        while self.port.bytes_to_read().unwrap_or(0) > 0 {
+            match self.port.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => drained += n,
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => break,
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+        let discarded = waiting.max(drained);
+        if discarded > 0 {
+            tracing::debug!(port = %self.path, bytes = discarded, "discarded stale input before a command");
+        }
+        Ok(discarded)
+    }
+
+    /// Writes one command (the text without terminator) and its terminator.
+    pub fn send(&mut self, command: &str) -> Result<(), InstrumentError> {
+        let mut bytes = command.as_bytes().to_vec();
+        bytes.extend_from_slice(self.settings.terminator.bytes());
+        self.port
+            .set_timeout(Duration::from_millis(self.settings.write_timeout_ms))
+            .map_err(|e| InstrumentError::Io {
+                port: self.path.clone(),
+                source: e.into(),
+            })?;
+        let result = if self.settings.byte_delay_ms == 0 {
+            self.port.write_all(&bytes).and_then(|_| self.port.flush())
+        } else {
+            bytes.iter().try_for_each(|b| {
+                self.port.write_all(std::slice::from_ref(b))?;
+                self.port.flush()?;
+                std::thread::sleep(Duration::from_millis(self.settings.byte_delay_ms));
+                Ok(())
+            })
+        };
+        let _ = self.port.set_timeout(POLL_SLICE);
+        match result {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Err(InstrumentError::Timeout {
+                command: command.to_string(),
+                phase: WaitPhase::FirstByte,
+                waited_ms: self.settings.write_timeout_ms,
+            }),
+            Err(e) => Err(self.io_error(e)),
+        }
+    }
+
+    /// The two-phase read of a reply of `expected_lines` non-empty lines.
+    /// Bytes after the last expected line (a chunk read past it) are dropped
+    /// with a log line; the next command flushes anyway.
+    pub fn read_reply(
+        &mut self,
+        command: &str,
+        expected_lines: usize,
+        first_byte_timeout: Duration,
+        gap_timeout: Duration,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>, InstrumentError> {
+        let mut reply = Vec::with_capacity(2048);
+        let mut buf = [0u8; 512];
+        let start = Instant::now();
+        let mut last_byte = start;
+        loop {
+            if cancel.is_cancelled() {
+                return Err(InstrumentError::Cancelled);
+            }
+            match self.port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => {
+                    reply.extend_from_slice(&buf[..n]);
+                    last_byte = Instant::now();
+                    if complete_lines(&reply) >= expected_lines {
+                        return Ok(trim_to_lines(reply, expected_lines));
+                    }
+                    if reply.len() > MAX_REPLY_BYTES {
+                        return Err(InstrumentError::Protocol {
+                            command: command.to_string(),
+                            detail: format!(
+                                "more than {MAX_REPLY_BYTES} bytes without the expected {expected_lines} lines"
+                            ),
+                        });
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+                    if reply.is_empty() {
+                        if start.elapsed() >= first_byte_timeout {
+                            return Err(InstrumentError::Timeout {
+                                command: command.to_string(),
+                                phase: WaitPhase::FirstByte,
+                                waited_ms: start.elapsed().as_millis() as u64,
+                            });
+                        }
+                    } else if last_byte.elapsed() >= gap_timeout {
+                        return Err(InstrumentError::Truncated {
+                            command: command.to_string(),
+                            lines: complete_lines(&reply),
+                            expected: expected_lines,
+                            gap_ms: gap_timeout.as_millis() as u64,
+                        });
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+    }
+
+    /// Reads until a complete line satisfies `is_answer` (other lines, such as
+    /// a late report, are skipped), or `timeout` passes.
+    pub fn read_until_line(
+        &mut self,
+        command: &str,
+        is_answer: &dyn Fn(&[u8]) -> bool,
+        timeout: Duration,
+        cancel: &CancelToken,
+    ) -> Result<(), InstrumentError> {
+        let start = Instant::now();
+        let mut pending: Vec<u8> = Vec::new();
+        let mut buf = [0u8; 512];
+        while start.elapsed() < timeout {
+            if cancel.is_cancelled() {
+                return Err(InstrumentError::Cancelled);
+            }
+            match self.port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => {
+                    pending.extend_from_slice(&buf[..n]);
+                    if let Some(end) = pending.iter().rposition(|b| *b == b'\r' || *b == b'\n') {
+                        let found = split_lines(&pending[..=end]).into_iter().any(is_answer);
+                        pending.drain(..=end);
+                        if found {
+                            return Ok(());
+                        }
+                    }
+                    if pending.len() > MAX_REPLY_BYTES {
+                        pending.clear();
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+        Err(InstrumentError::Timeout {
+            command: command.to_string(),
+            phase: WaitPhase::FirstByte,
+            waited_ms: start.elapsed().as_millis() as u64,
+        })
+    }
+
+    /// Reads and discards until the line has been quiet for `quiet`, or
+    /// `max` has passed: resynchronisation after garbage, a timeout or a
+    /// cancelled measurement whose late reply may still come.
+    pub fn drain_until_quiet(&mut self, quiet: Duration, max: Duration) -> Result<usize, InstrumentError> {
+        let start = Instant::now();
+        let mut last = Instant::now();
+        let mut total = 0;
+        let mut buf = [0u8; 512];
+        while last.elapsed() < quiet && start.elapsed() < max {
+            match self.port.read(&mut buf) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => {
+                    total += n;
+                    last = Instant::now();
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+        if total > 0 {
+            tracing::debug!(port = %self.path, bytes = total, "drained late or stray bytes");
+        }
+        Ok(total)
+    }
+}
+
+/// Cuts `reply` just after its `n`-th complete non-empty line.
+fn trim_to_lines(mut reply: Vec<u8>, n: usize) -> Vec<u8> {
+    let mut seen = 0;
+    let mut in_line = false;
+    for (i, b) in reply.iter().enumerate() {
+        if *b == b'\r' || *b == b'\n' {
+            if in_line {
+                seen += 1;
+                in_line = false;
+                if seen == n {
+                    let mut end = i + 1;
+                    if *b == b'\r' && reply.get(end) == Some(&b'\n') {
+                        end += 1;
+                    }
+                    if end < reply.len() {
+                        tracing::debug!(bytes = reply.len() - end, "bytes after the reply dropped");
+                    }
+                    reply.truncate(end);
+                    return reply;
+                }
+            }
+        } else if !b.is_ascii_whitespace() {
+            in_line = true;
+        }
+    }
+    reply
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn trims_after_the_expected_lines() {
+        assert_eq!(trim_to_lines(b"000\r\n00,0\r\n".to_vec(), 1), b"000\r\n");
+        assert_eq!(trim_to_lines(b"a\rb\r\nc".to_vec(), 2), b"a\rb\r\n");
+        assert_eq!(trim_to_lines(b"\r\n\r\na\n".to_vec(), 1), b"\r\n\r\na\n");
+    }
+}
