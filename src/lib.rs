@@ -15,8 +15,10 @@
 //!   sets compiled into the binary.
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
+//! - [`render`]: the built-in spectral renderer, every colour coding in one pass.
 
 pub mod colorimetry;
 pub mod nstep;
 pub mod reference_data;
+pub mod render;
 pub mod spectrum;

@@ -3,6 +3,7 @@
 
 mod analyze;
 mod color;
+mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -24,12 +25,15 @@ enum Command {
     /// Analyses of spectra that do not need the instrument or the renderer.
     #[command(subcommand)]
     Analyze(analyze::AnalyzeCommand),
+    /// Render a scene in every colour coding at once and measure its targets.
+    Render(render::RenderArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Color(args) => color::run(args),
         Command::Analyze(cmd) => analyze::run(cmd),
+        Command::Render(args) => render::run(args),
     }
 }
 
