@@ -16,6 +16,7 @@
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 //! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
+//! - [`render`]: the built-in spectral renderer, every colour coding in one pass.
 
 pub mod charts;
 pub mod colorimetry;
@@ -24,6 +25,7 @@ pub mod export;
 pub mod instrument;
 pub mod nstep;
 pub mod reference_data;
+pub mod render;
 pub mod service;
 pub mod spectrum;
 pub mod store;

@@ -5,6 +5,7 @@ mod analyze;
 mod color;
 mod measure;
 mod mock_pr650;
+mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -31,6 +32,8 @@ enum Command {
     /// A simulated PR-650 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr650")]
     MockPr650(mock_pr650::MockPr650Args),
+    /// Render a scene in every colour coding at once and measure its targets.
+    Render(render::RenderArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -39,6 +42,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Analyze(cmd) => analyze::run(cmd),
         Command::Measure(args) => measure::run(args),
         Command::MockPr650(args) => mock_pr650::run(args),
+        Command::Render(args) => render::run(args),
     }
 }
 

@@ -1,0 +1,159 @@
+//! `lightbooth render SCENE.toml`: the built-in renderer, every colour coding
+//! in one pass, measured at the scene's targets by the simulated radiometer.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+
+use lightbooth::render::integrator::Transport;
+use lightbooth::render::sensor::render_camera;
+use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings};
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene file (TOML).
+    scene: PathBuf,
+    /// Colour codings, comma-separated: rgb, srgb, nstepN (1 ≤ N ≤ 81), spectral.
+    #[arg(long, value_delimiter = ',', value_parser = parse_coding,
+          default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
+    codings: Vec<Coding>,
+    /// Radiometer paths per target.
+    #[arg(long, default_value_t = RenderSettings::default().samples)]
+    samples: u64,
+    /// Maximum indirect bounces (RADIANCE -ab).
+    #[arg(long, default_value_t = 5)]
+    bounces: u32,
+    /// Random seed: the same seed gives the same numbers on any number of threads.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Only these targets (comma-separated ids).
+    #[arg(long, value_delimiter = ',')]
+    targets: Option<Vec<String>>,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Unbiased Russian roulette from this bounce on (default: never).
+    #[arg(long)]
+    russian_roulette_from: Option<u32>,
+    /// Also render the scene's [camera] view: .pfm (linear HDR) or .png (tone-mapped sRGB).
+    #[arg(long)]
+    image: Option<PathBuf>,
+    /// Paths per pixel for --image.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// After the render, render each coding alone and report its wall time
+    /// (`coding_wall_seconds` in the JSON): the cost of each coding.
+    #[arg(long)]
+    time_each_coding: bool,
+    /// Print the results as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_coding(s: &str) -> Result<Coding, String> {
+    s.parse()
+}
+
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let settings = RenderSettings {
+        codings: args.codings.clone(),
+        samples: args.samples,
+        max_bounces: args.bounces,
+        seed: args.seed,
+        russian_roulette_from: args.russian_roulette_from,
+        targets: args.targets.clone(),
+        threads: args.threads,
+    };
+    let bar = if std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {percent}% paths, eta {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
+    let result = render(&scene, &settings, Some(&progress))?;
+    bar.finish_and_clear();
+
+    let mut coding_times = Vec::new();
+    if args.time_each_coding {
+        for c in &settings.codings {
+            let alone = RenderSettings {
+                codings: vec![*c],
+                ..settings.clone()
+            };
+            let r = render(&scene, &alone, None)?;
+            coding_times.push((c.to_string(), r.wall_seconds));
+        }
+    }
+    if let Some(path) = &args.image {
+        let camera = scene
+            .camera
+            .as_ref()
+            .with_context(|| format!("{} has no [camera] for --image", args.scene.display()))?;
+        let transport = Transport {
+            max_bounces: settings.max_bounces,
+            russian_roulette_from: settings.russian_roulette_from,
+        };
+        let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed)?;
+        img.write(path)?;
+    }
+
+    if args.json {
+        let mut v = serde_json::to_value(&result)?;
+        if !coding_times.is_empty() {
+            let m: serde_json::Map<String, serde_json::Value> = coding_times
+                .into_iter()
+                .map(|(k, t)| (k, serde_json::json!(t)))
+                .collect();
+            v["coding_wall_seconds"] = serde_json::Value::Object(m);
+        }
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        print_table(&result);
+        for (c, t) in coding_times {
+            println!("{c} alone: {t:.3} s");
+        }
+    }
+    Ok(())
+}
+
+fn print_table(r: &RenderResult) {
+    println!(
+        "{} ({}): {} paths in {:.3} s ({:.3e} paths/s, {:.3e} rays/s)",
+        r.scene, r.scene_file, r.paths, r.wall_seconds, r.paths_per_second, r.rays_per_second
+    );
+    println!(
+        "{:<10} {:<9} {:>12} {:>9} {:>8} {:>8}",
+        "target", "coding", "Y cd/m²", "SE %", "x", "y"
+    );
+    for t in &r.targets {
+        for (name, c) in &t.codings {
+            println!(
+                "{:<10} {:<9} {:>12.4} {:>9.3} {:>8.4} {:>8.4}",
+                t.id,
+                name,
+                c.luminance_cd_m2,
+                100.0 * c.luminance_se_cd_m2 / c.luminance_cd_m2.abs().max(f64::MIN_POSITIVE),
+                c.x,
+                c.y
+            );
+        }
+    }
+    for (name, d) in &r.deviation_from_spectral {
+        println!(
+            "{name} vs spectral: mean ΔY/Y {:+.2} %, rms {:.2} %",
+            100.0 * d.mean_rel,
+            100.0 * d.rms_rel
+        );
+    }
+}

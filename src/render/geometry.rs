@@ -1,0 +1,380 @@
+//! Primitives and their analytic ray intersections, in metres.
+//!
+//! Only what the booth scenes need: parallelogram quads (planes are quads
+//! bounded to the booth), discs, open finite cylinders (caps are discs),
+//! spheres, and boxes (six quads). There is no acceleration structure: the
+//! scenes hold a few dozen primitives and a linear scan is faster than a BVH
+//! traversal at that size.
+//!
+//! Surfaces are two-sided: the shading normal is flipped to face the ray, so
+//! a wall is lit from either side and the inside of a sphere is a room.
+
+use glam::DVec3;
+
+/// Smallest accepted hit distance in m: rays are spawned this far from their
+/// surface along the normal, so self-intersection is impossible and the 0.5 mm
+/// chart-patch offsets stay resolvable.
+pub const RAY_EPSILON_M: f64 = 1e-7;
+
+/// A ray: origin in m, unit direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: DVec3,
+    pub dir: DVec3,
+}
+
+/// An analytic surface.
+#[derive(Clone, Debug)]
+pub enum Shape {
+    /// The parallelogram corner + s·u + t·v, s, t ∈ [0, 1].
+    Quad {
+        corner: DVec3,
+        u: DVec3,
+        v: DVec3,
+    },
+    /// A flat disc.
+    Disc {
+        centre: DVec3,
+        normal: DVec3,
+        radius: f64,
+    },
+    /// The open side of a finite cylinder from `base` along the unit `axis`.
+    Cylinder {
+        base: DVec3,
+        axis: DVec3,
+        length: f64,
+        radius: f64,
+    },
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+}
+
+/// Where a ray meets a surface.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Distance along the ray, m.
+    pub t: f64,
+    /// Unit geometric normal (not yet flipped towards the ray).
+    pub normal: DVec3,
+}
+
+impl Shape {
+    /// The nearest hit with RAY_EPSILON_M < t < t_max.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray, t_max: f64) -> Option<Hit> {
+        match *self {
+            Shape::Quad { corner, u, v } => {
+                let n = u.cross(v);
+                let denom = n.dot(ray.dir);
+                if denom == 0.0 {
+                    return None;
+                }
+                let t = n.dot(corner - ray.origin) / denom;
+                if !(t > RAY_EPSILON_M && t < t_max) {
+                    return None;
+                }
+                // Barycentric-like coordinates of the planar hit (pbrt's quad test).
+                let p = ray.origin + ray.dir * t - corner;
+                let w = n / n.dot(n);
+                let s = w.dot(p.cross(v));
+                let tt = w.dot(u.cross(p));
+                if !(0.0..=1.0).contains(&s) || !(0.0..=1.0).contains(&tt) {
+                    return None;
+                }
+                Some(Hit {
+                    t,
+                    normal: n.normalize(),
+                })
+            }
+            Shape::Disc { centre, normal, radius } => {
+                let denom = normal.dot(ray.dir);
+                if denom == 0.0 {
+                    return None;
+                }
+                let t = normal.dot(centre - ray.origin) / denom;
+                if !(t > RAY_EPSILON_M && t < t_max) {
+                    return None;
+                }
+                let p = ray.origin + ray.dir * t;
+                if (p - centre).length_squared() > radius * radius {
+                    return None;
+                }
+                Some(Hit { t, normal })
+            }
+            Shape::Cylinder {
+                base,
+                axis,
+                length,
+                radius,
+            } => {
+                // Solve |(o + t d − base)⊥|² = r², ⊥ = perpendicular to the axis.
+                let oc = ray.origin - base;
+                let d_perp = ray.dir - axis * ray.dir.dot(axis);
+                let o_perp = oc - axis * oc.dot(axis);
+                let a = d_perp.length_squared();
+                if a == 0.0 {
+                    return None;
+                }
+                let b = 2.0 * d_perp.dot(o_perp);
+                let c = o_perp.length_squared() - radius * radius;
+                let disc = b * b - 4.0 * a * c;
+                if disc < 0.0 {
+                    return None;
+                }
+                let sq = disc.sqrt();
+                // Numerically stable roots.
+                let q = -0.5 * (b + b.signum() * sq);
+                let (mut t0, mut t1) = (q / a, c / q);
+                if t0 > t1 {
+                    std::mem::swap(&mut t0, &mut t1);
+                }
+                for t in [t0, t1] {
+                    if t > RAY_EPSILON_M && t < t_max {
+                        let h = (oc + ray.dir * t).dot(axis);
+                        if (0.0..=length).contains(&h) {
+                            let normal = ((oc + ray.dir * t) - axis * h).normalize();
+                            return Some(Hit { t, normal });
+                        }
+                    }
+                }
+                None
+            }
+            Shape::Sphere { centre, radius } => {
+                let oc = ray.origin - centre;
+                let b = oc.dot(ray.dir);
+                let c = oc.length_squared() - radius * radius;
+                let disc = b * b - c;
+                if disc < 0.0 {
+                    return None;
+                }
+                let sq = disc.sqrt();
+                for t in [-b - sq, -b + sq] {
+                    if t > RAY_EPSILON_M && t < t_max {
+                        let normal = (ray.origin + ray.dir * t - centre) / radius;
+                        return Some(Hit { t, normal });
+                    }
+                }
+                None
+            }
+        }
+    }
+
+    /// Distance from a point to this surface, m (for validating targets).
+    pub fn distance_to(&self, p: DVec3) -> f64 {
+        match *self {
+            Shape::Quad { corner, u, v } => {
+                // Closest point on the parallelogram: clamp the planar coordinates,
+                // then the distance to the four edges when outside.
+                let n = u.cross(v).normalize();
+                let d_plane = (p - corner).dot(n).abs();
+                let w = u.cross(v) / u.cross(v).length_squared();
+                let q = p - corner;
+                let s = w.dot(q.cross(v));
+                let t = w.dot(u.cross(q));
+                if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+                    return d_plane;
+                }
+                let edges = [(corner, u), (corner, v), (corner + u, v), (corner + v, u)];
+                edges
+                    .iter()
+                    .map(|&(a, e)| {
+                        let k = ((p - a).dot(e) / e.length_squared()).clamp(0.0, 1.0);
+                        (p - (a + e * k)).length()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            }
+            Shape::Disc { centre, normal, radius } => {
+                let q = p - centre;
+                let h = q.dot(normal);
+                let radial = (q - normal * h).length();
+                if radial <= radius {
+                    h.abs()
+                } else {
+                    (h * h + (radial - radius).powi(2)).sqrt()
+                }
+            }
+            Shape::Cylinder {
+                base,
+                axis,
+                length,
+                radius,
+            } => {
+                let q = p - base;
+                let h = q.dot(axis);
+                let radial = (q - axis * h).length();
+                let dh = if h < 0.0 {
+                    -h
+                } else if h > length {
+                    h - length
+                } else {
+                    0.0
+                };
+                ((radial - radius).powi(2) + dh * dh).sqrt()
+            }
+            Shape::Sphere { centre, radius } => ((p - centre).length() - radius).abs(),
+        }
+    }
+}
+
+/// A solid whose inside is "inside geometry": a light there is an error.
+#[derive(Clone, Debug)]
+pub enum Solid {
+    Box {
+        min: DVec3,
+        max: DVec3,
+    },
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
+    Cylinder {
+        base: DVec3,
+        axis: DVec3,
+        length: f64,
+        radius: f64,
+    },
+}
+
+impl Solid {
+    /// True when `p` is strictly inside (or on the surface within 1e-9 m).
+    pub fn contains(&self, p: DVec3) -> bool {
+        const EPS: f64 = 1e-9;
+        match *self {
+            Solid::Box { min, max } => p.cmpge(min - EPS).all() && p.cmple(max + EPS).all(),
+            Solid::Sphere { centre, radius } => (p - centre).length() <= radius + EPS,
+            Solid::Cylinder {
+                base,
+                axis,
+                length,
+                radius,
+            } => {
+                let q = p - base;
+                let h = q.dot(axis);
+                (-EPS..=length + EPS).contains(&h) && (q - axis * h).length() <= radius + EPS
+            }
+        }
+    }
+}
+
+/// The six faces of an axis-aligned box as quads.
+pub fn box_faces(min: DVec3, max: DVec3) -> [Shape; 6] {
+    let d = max - min;
+    let (x, y, z) = (DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z);
+    [
+        Shape::Quad {
+            corner: min,
+            u: y,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min + x,
+            u: y,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min,
+            u: x,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min + y,
+            u: x,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min,
+            u: x,
+            v: y,
+        },
+        Shape::Quad {
+            corner: min + z,
+            u: x,
+            v: y,
+        },
+    ]
+}
+
+/// An orthonormal basis (t, b, n) around the unit vector n (Duff et al. 2017,
+/// "Building an orthonormal basis, revisited").
+#[inline]
+pub fn basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        DVec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ray(o: [f64; 3], d: [f64; 3]) -> Ray {
+        Ray {
+            origin: DVec3::from(o),
+            dir: DVec3::from(d).normalize(),
+        }
+    }
+
+    #[test]
+    fn quad_hits_inside_and_misses_outside() {
+        let q = Shape::Quad {
+            corner: DVec3::new(-1.0, 0.0, -1.0),
+            u: DVec3::new(2.0, 0.0, 0.0),
+            v: DVec3::new(0.0, 0.0, 2.0),
+        };
+        let h = q
+            .intersect(&ray([0.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY)
+            .unwrap();
+        assert!((h.t - 2.0).abs() < 1e-12 && h.normal.y.abs() == 1.0);
+        assert!(q
+            .intersect(&ray([1.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY)
+            .is_none());
+        assert!(q.distance_to(DVec3::new(0.0, 0.0, 0.0)) < 1e-15);
+        assert!((q.distance_to(DVec3::new(2.0, 0.0, 0.0)) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cylinder_sphere_and_disc_hits_are_on_their_surfaces() {
+        let c = Shape::Cylinder {
+            base: DVec3::new(-0.2, 0.878, -0.4),
+            axis: DVec3::X,
+            length: 0.4,
+            radius: 0.1275,
+        };
+        let h = c
+            .intersect(&ray([0.0, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .unwrap();
+        assert!((h.t - (1.4 - 0.1275)).abs() < 1e-12);
+        assert!((h.normal - DVec3::Z).length() < 1e-12);
+        assert!(c
+            .intersect(&ray([0.3, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .is_none());
+        let s = Shape::Sphere {
+            centre: DVec3::ZERO,
+            radius: 2.0,
+        };
+        let h = s.intersect(&ray([0.0; 3], [0.3, 0.4, 0.5]), f64::INFINITY).unwrap();
+        assert!((h.t - 2.0).abs() < 1e-12);
+        let d = Shape::Disc {
+            centre: DVec3::ZERO,
+            normal: DVec3::X,
+            radius: 0.1,
+        };
+        assert!(d.intersect(&ray([1.0, 0.05, 0.05], [-1.0, 0.0, 0.0]), 10.0).is_some());
+        assert!(d.intersect(&ray([1.0, 0.08, 0.08], [-1.0, 0.0, 0.0]), 10.0).is_none());
+    }
+
+    #[test]
+    fn basis_is_orthonormal() {
+        for n in [DVec3::Z, -DVec3::Z, DVec3::new(0.3, -0.4, 0.5).normalize()] {
+            let (t, b) = basis(n);
+            assert!(t.dot(b).abs() < 1e-12 && t.dot(n).abs() < 1e-12 && (t.length() - 1.0).abs() < 1e-12);
+            assert!((t.cross(b) - n).length() < 1e-12);
+        }
+    }
+}

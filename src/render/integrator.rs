@@ -1,0 +1,386 @@
+//! Monte Carlo path tracing with next-event estimation, carrying every
+//! coding's channels at once.
+//!
+//! The estimator, for a path x₀ (first hit), x₁, … and Lambertian BRDFs
+//! f = ρ/π:
+//!
+//! - at each vertex xⱼ, the point lights are sampled exactly (next-event
+//!   estimation): a point light has no area, so its contribution is the
+//!   deterministic L = β ⊙ ρ/π ⊙ I(ω)·cos θᵢ / d², with I(ω) the luminaire's
+//!   spectral intensity in W/(sr·nm) toward xⱼ and an unoccluded shadow ray;
+//! - the next direction is sampled cosine-weighted, pdf = cos θ / π, so the
+//!   throughput update f·cos θ / pdf is exactly ρ (per channel);
+//! - paths stop after `max_bounces` indirect bounces (RADIANCE `-ab`), or
+//!   when they leave the scene (open sides return zero radiance); unbiased
+//!   Russian roulette (survival q = max channel of the throughput, at least
+//!   0.05, with β /= q) only from the bounce the settings ask for.
+//!
+//! The channel arithmetic works on contiguous `f32` slices whose length is a
+//! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+use super::coding::ChannelLayout;
+use super::geometry::{basis, Ray};
+use super::scene::{Light, Scene};
+
+/// Offset of spawned rays from their surface along the normal, m.
+const SPAWN_OFFSET_M: f64 = 1e-6;
+
+/// PCG32 (O'Neill 2014, `pcg32_random_r`): a small, fast, statistically
+/// good generator with 2⁶³ selectable streams. Each Monte Carlo sample gets
+/// its own stream, so results do not depend on how samples are split over
+/// threads.
+#[derive(Clone, Debug)]
+pub struct Pcg32 {
+    state: u64,
+    inc: u64,
+}
+
+impl Pcg32 {
+    pub fn new(seed: u64, stream: u64) -> Pcg32 {
+        let mut r = Pcg32 {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
+        r.next_u32();
+        r.state = r.state.wrapping_add(seed);
+        r.next_u32();
+        r
+    }
+
+    /// The generator of sample `sample` of target `target` under `seed`.
+    pub fn for_sample(seed: u64, target: u64, sample: u64) -> Pcg32 {
+        Pcg32::new(splitmix64(seed ^ splitmix64(target.wrapping_add(0x9e37_79b9))), sample)
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        xorshifted.rotate_right((old >> 59) as u32)
+    }
+
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn uniform(&mut self) -> f64 {
+        self.next_u32() as f64 * (1.0 / 4_294_967_296.0)
+    }
+}
+
+/// SplitMix64 finaliser (Steele et al. 2014): decorrelates nearby seeds.
+pub fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A direction around the unit `n` with pdf cos θ / π (Malley's method).
+#[inline]
+pub fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
+    let r = u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    let (t, b) = basis(n);
+    let z = (1.0 - u1).max(0.0).sqrt();
+    t * (r * phi.cos()) + b * (r * phi.sin()) + n * z
+}
+
+/// A direction uniform in solid angle within the cone of half-angle
+/// `half_angle_rad` around the unit `axis`.
+#[inline]
+pub fn cone_direction(axis: DVec3, half_angle_rad: f64, u1: f64, u2: f64) -> DVec3 {
+    let cos_max = half_angle_rad.cos();
+    let cos_t = 1.0 - u1 * (1.0 - cos_max);
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = 2.0 * PI * u2;
+    let (t, b) = basis(axis);
+    t * (sin_t * phi.cos()) + b * (sin_t * phi.sin()) + axis * cos_t
+}
+
+/// Transport settings shared by every sensor.
+#[derive(Clone, Copy, Debug)]
+pub struct Transport {
+    /// Maximum number of indirect bounces (RADIANCE `-ab`).
+    pub max_bounces: u32,
+    /// Russian roulette from this bounce on; `None` = never.
+    pub russian_roulette_from: Option<u32>,
+}
+
+/// The scene with every material and light converted to channels once.
+pub struct Prepared<'a> {
+    pub scene: &'a Scene,
+    pub layout: ChannelLayout,
+    /// `materials[m * len .. (m + 1) * len]`: reflectance channels.
+    material_channels: Vec<f32>,
+    /// Spectral intensity per cd of each light, as channels.
+    light_channels: Vec<f32>,
+}
+
+impl<'a> Prepared<'a> {
+    pub fn new(scene: &'a Scene, layout: ChannelLayout) -> Result<Prepared<'a>, String> {
+        let mut material_channels = Vec::new();
+        for m in &scene.materials {
+            material_channels.extend(
+                layout
+                    .reflectance_channels(&m.reflectance)
+                    .map_err(|e| format!("material `{}`: {e}", m.name))?,
+            );
+        }
+        let mut light_channels = Vec::new();
+        for l in &scene.lights {
+            light_channels.extend(
+                layout
+                    .light_channels(&l.spectrum_per_cd)
+                    .map_err(|e| format!("light `{}`: {e}", l.id))?,
+            );
+        }
+        Ok(Prepared {
+            scene,
+            layout,
+            material_channels,
+            light_channels,
+        })
+    }
+
+    #[inline]
+    fn material(&self, m: usize) -> &[f32] {
+        let n = self.layout.len();
+        &self.material_channels[m * n..(m + 1) * n]
+    }
+
+    #[inline]
+    fn light(&self, i: usize) -> &[f32] {
+        let n = self.layout.len();
+        &self.light_channels[i * n..(i + 1) * n]
+    }
+
+    /// The nearest surface along the ray: (hit, material).
+    #[inline]
+    fn nearest(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
+        let mut best = None;
+        let mut t_max = f64::INFINITY;
+        for p in &self.scene.primitives {
+            if let Some(h) = p.shape.intersect(ray, t_max) {
+                t_max = h.t;
+                best = Some((h, p.material));
+            }
+        }
+        best
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
+        self.scene
+            .primitives
+            .iter()
+            .any(|p| p.shape.intersect(ray, t_max).is_some())
+    }
+}
+
+/// Scratch vectors for one thread's paths, allocated once per batch.
+pub struct PathState {
+    /// Path throughput β per channel (dimensionless).
+    pub beta: Vec<f32>,
+    /// Radiance gathered by the path per channel (W/(sr·m²·nm), or RGB units).
+    pub radiance: Vec<f32>,
+    /// Rays traced (camera/radiometer, bounce and shadow rays).
+    pub rays: u64,
+}
+
+impl PathState {
+    pub fn new(layout: &ChannelLayout) -> PathState {
+        PathState {
+            beta: vec![0.0; layout.len()],
+            radiance: vec![0.0; layout.len()],
+            rays: 0,
+        }
+    }
+}
+
+/// Traces one path from `ray` and leaves its radiance estimate in `state.radiance`.
+pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mut Pcg32, state: &mut PathState) {
+    state.radiance.fill(0.0);
+    state.beta.fill(1.0);
+    let lights: &[Light] = &prep.scene.lights;
+    let mut depth = 0u32;
+    loop {
+        state.rays += 1;
+        let Some((hit, material)) = prep.nearest(&ray) else {
+            break; // left the booth: open sides return zero
+        };
+        let p = ray.origin + ray.dir * hit.t;
+        // Two-sided: the normal on the side the ray came from.
+        let n = if hit.normal.dot(ray.dir) < 0.0 {
+            hit.normal
+        } else {
+            -hit.normal
+        };
+        let origin = p + n * SPAWN_OFFSET_M;
+        // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
+        let rho = prep.material(material);
+        for (b, r) in state.beta.iter_mut().zip(rho) {
+            *b *= r;
+        }
+        for (li, light) in lights.iter().enumerate() {
+            let to_light = light.position - origin;
+            let d2 = to_light.length_squared();
+            let d = d2.sqrt();
+            let wi = to_light / d;
+            let cos_i = n.dot(wi);
+            if cos_i <= 0.0 {
+                continue;
+            }
+            let cd = light.candela_toward(-wi);
+            if cd <= 0.0 {
+                continue;
+            }
+            state.rays += 1;
+            if prep.occluded(&Ray { origin, dir: wi }, d) {
+                continue;
+            }
+            // L += β ⊙ (ρ/π) ⊙ I_cd·S(λ) · cos θᵢ / d²  (ρ already in β).
+            let s = (cd * cos_i / (PI * d2)) as f32;
+            let spd = prep.light(li);
+            for ((l, b), e) in state.radiance.iter_mut().zip(&state.beta).zip(spd) {
+                *l += s * b * e;
+            }
+        }
+        if depth >= transport.max_bounces {
+            break;
+        }
+        if let Some(from) = transport.russian_roulette_from {
+            if depth >= from {
+                let q = state.beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
+                if rng.uniform() >= q as f64 {
+                    break;
+                }
+                let inv = 1.0 / q;
+                state.beta.iter_mut().for_each(|b| *b *= inv);
+            }
+        }
+        let dir = cosine_direction(n, rng.uniform(), rng.uniform());
+        ray = Ray { origin, dir };
+        depth += 1;
+    }
+}
+
+/// Sums of one batch of radiometer samples: Σ radiance per channel, and per
+/// coding Σ Y and Σ Y² (for the standard error).
+#[derive(Clone, Debug)]
+pub struct BatchSums {
+    pub channels: Vec<f64>,
+    pub y: Vec<f64>,
+    pub y2: Vec<f64>,
+    pub paths: u64,
+    pub rays: u64,
+}
+
+impl BatchSums {
+    pub fn zero(layout: &ChannelLayout) -> BatchSums {
+        let k = layout.entries().len();
+        BatchSums {
+            channels: vec![0.0; layout.len()],
+            y: vec![0.0; k],
+            y2: vec![0.0; k],
+            paths: 0,
+            rays: 0,
+        }
+    }
+
+    pub fn add(&mut self, other: &BatchSums) {
+        for (a, b) in self.channels.iter_mut().zip(&other.channels) {
+            *a += b;
+        }
+        for k in 0..self.y.len() {
+            self.y[k] += other.y[k];
+            self.y2[k] += other.y2[k];
+        }
+        self.paths += other.paths;
+        self.rays += other.rays;
+    }
+
+    /// Folds one path's radiance in.
+    #[inline]
+    pub fn add_path(&mut self, layout: &ChannelLayout, radiance: &[f32]) {
+        for (a, &b) in self.channels.iter_mut().zip(radiance) {
+            *a += b as f64;
+        }
+        let w = layout.y_weights();
+        for (k, (_, range)) in layout.entries().iter().enumerate() {
+            let y: f32 = radiance[range.clone()]
+                .iter()
+                .zip(&w[range.clone()])
+                .map(|(a, b)| a * b)
+                .sum();
+            let y = y as f64;
+            self.y[k] += y;
+            self.y2[k] += y * y;
+        }
+        self.paths += 1;
+    }
+}
+
+/// Radiometer samples `samples` (a range of sample indices) of one target:
+/// each a path from the instrument through a direction uniform in solid
+/// angle within its circular field, so the mean is the field's mean radiance.
+pub fn radiometer_batch(
+    prep: &Prepared,
+    transport: &Transport,
+    target_index: usize,
+    seed: u64,
+    samples: std::ops::Range<u64>,
+) -> BatchSums {
+    let scene = prep.scene;
+    let position = scene.radiometer.position;
+    let axis = (scene.target_list[target_index].point - position).normalize();
+    let half_angle = scene.radiometer.field_deg.to_radians() / 2.0;
+    let mut state = PathState::new(&prep.layout);
+    let mut sums = BatchSums::zero(&prep.layout);
+    for i in samples {
+        let mut rng = Pcg32::for_sample(seed, target_index as u64, i);
+        let dir = cone_direction(axis, half_angle, rng.uniform(), rng.uniform());
+        trace_path(prep, transport, Ray { origin: position, dir }, &mut rng, &mut state);
+        sums.add_path(&prep.layout, &state.radiance);
+    }
+    sums.rays += state.rays;
+    sums
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pcg32_matches_the_reference_sequence() {
+        // pcg32-global-demo: pcg32_srandom(42, 54) → 0xa15c02b7 0x7b47f409 0xba1d3330.
+        let mut r = Pcg32::new(42, 54);
+        assert_eq!(
+            [r.next_u32(), r.next_u32(), r.next_u32()],
+            [0xa15c02b7, 0x7b47f409, 0xba1d3330]
+        );
+    }
+
+    #[test]
+    fn sampled_directions_are_unit_and_inside_their_domain() {
+        let mut r = Pcg32::new(1, 2);
+        let n = DVec3::new(0.0, 0.6, 0.8);
+        let mut mean_cos = 0.0;
+        for _ in 0..20_000 {
+            let d = cosine_direction(n, r.uniform(), r.uniform());
+            assert!((d.length() - 1.0).abs() < 1e-12 && d.dot(n) >= 0.0);
+            mean_cos += d.dot(n);
+            let c = cone_direction(n, 0.5f64.to_radians(), r.uniform(), r.uniform());
+            assert!(c.dot(n) >= 0.5f64.to_radians().cos() - 1e-12);
+        }
+        // E[cos θ] under pdf cos θ/π is 2/3; the sample mean's SE is about 0.0017.
+        assert!(
+            (mean_cos / 20_000.0 - 2.0 / 3.0).abs() < 4.0 * 0.0017,
+            "{}",
+            mean_cos / 20_000.0
+        );
+    }
+}

@@ -1,0 +1,462 @@
+//! The built-in spectral renderer: the booth scene, rendered once for every
+//! colour coding, measured by a simulated radiometer.
+//!
+//! - [`scene`]: the TOML scene format and its validation; [`ies`]: LM-63
+//!   luminaires; [`geometry`]: analytic primitives.
+//! - [`coding`]: the channel layout that carries rgb, srgb, nstepN and
+//!   spectral in one vector per path.
+//! - [`integrator`]: path tracing with next-event estimation.
+//! - [`sensor`]: the camera image for the dashboard.
+//!
+//! The public entry points:
+//!
+//! ```no_run
+//! use lightbooth::render::{load_scene, render, RenderSettings};
+//! let scene = load_scene("scenes/cylinder.toml".as_ref()).unwrap();
+//! let result = render(&scene, &RenderSettings::default(), None).unwrap();
+//! println!("{}", serde_json::to_string_pretty(&result).unwrap());
+//! ```
+//!
+//! Determinism: sample i of target t always uses the PCG32 stream
+//! (seed, t, i), samples are grouped in fixed batches of [`BATCH_SAMPLES`],
+//! and batch sums are added in batch order after the parallel part, so the
+//! result is bit-identical for any number of threads.
+
+pub mod coding;
+pub mod geometry;
+pub mod ies;
+pub mod integrator;
+pub mod scene;
+pub mod sensor;
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, OnceLock};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::ser::{SerializeMap, Serializer};
+use serde::Serialize;
+
+pub use coding::{ChannelLayout, Coding};
+pub use scene::{load_scene, Scene, SceneError};
+
+use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
+
+use crate::spectrum::table::{write_csv, SpectraTable};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+
+/// Samples per batch: the unit of parallel work and of deterministic summation.
+pub const BATCH_SAMPLES: u64 = 2048;
+
+/// Everything that can go wrong in a render.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RenderError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("preparing the scene's spectra: {0}")]
+    Prepare(String),
+    #[error("no target `{0}` in the scene (targets: {1})")]
+    UnknownTarget(String, String),
+    #[error("{0}")]
+    Settings(String),
+    #[error("{0}")]
+    Io(String),
+}
+
+/// What to render.
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderSettings {
+    #[serde(serialize_with = "codings_as_names")]
+    pub codings: Vec<Coding>,
+    /// Radiometer paths per target.
+    pub samples: u64,
+    /// Maximum indirect bounces (RADIANCE `-ab`; the study used 5).
+    pub max_bounces: u32,
+    pub seed: u64,
+    /// Russian roulette from this bounce on; `None` = never (the default).
+    pub russian_roulette_from: Option<u32>,
+    /// Only these targets (ids); `None` = all.
+    pub targets: Option<Vec<String>>,
+    /// Worker threads; `None` = rayon's default (one per core).
+    pub threads: Option<usize>,
+}
+
+fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(codings.iter().map(|c| c.to_string()))
+}
+
+impl Default for RenderSettings {
+    fn default() -> RenderSettings {
+        RenderSettings {
+            codings: Coding::ALL.to_vec(),
+            samples: 65_536,
+            max_bounces: 5,
+            seed: 1,
+            russian_roulette_from: None,
+            targets: None,
+            threads: None,
+        }
+    }
+}
+
+/// One coding's answer at one target.
+#[derive(Clone, Debug, Serialize)]
+pub struct CodingResult {
+    /// Luminance, cd/m².
+    #[serde(rename = "Y")]
+    pub luminance_cd_m2: f64,
+    /// Monte Carlo standard error of Y, cd/m².
+    #[serde(rename = "Y_se")]
+    pub luminance_se_cd_m2: f64,
+    /// Chromaticity x.
+    pub x: f64,
+    /// Chromaticity y.
+    pub y: f64,
+    #[serde(rename = "XYZ")]
+    pub xyz: [f64; 3],
+    /// Spectral radiance on the 81-sample 380–780 nm grid, W/(sr·m²·nm)
+    /// (piecewise-constant for N-step; absent for RGB codings).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<Vec<f64>>,
+    /// The coding's own channel means (RGB, band means, or 1 nm radiance).
+    pub bands: Vec<f64>,
+}
+
+/// Results at one target, codings in the order requested.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetResult {
+    pub id: String,
+    #[serde(serialize_with = "ordered_map")]
+    pub codings: Vec<(String, CodingResult)>,
+}
+
+impl TargetResult {
+    pub fn coding(&self, name: &str) -> Option<&CodingResult> {
+        self.codings.iter().find(|c| c.0 == name).map(|c| &c.1)
+    }
+}
+
+fn ordered_map<S: Serializer, V: Serialize>(entries: &[(String, V)], s: S) -> Result<S::Ok, S::Error> {
+    let mut m = s.serialize_map(Some(entries.len()))?;
+    for (k, v) in entries {
+        m.serialize_entry(k, v)?;
+    }
+    m.end()
+}
+
+/// How a coding's luminance departs from `spectral` along the targets.
+#[derive(Clone, Debug, Serialize)]
+pub struct Deviation {
+    /// Per target, Y_coding / Y_spectral − 1.
+    pub y_rel: Vec<f64>,
+    /// The study's figure of merit: sqrt(mean((1 − Y_coding/Y_spectral)²)).
+    pub rms_rel: f64,
+    pub mean_rel: f64,
+    /// Per target, the x,y distance from spectral.
+    pub xy_distance: Vec<f64>,
+}
+
+/// A render's results (the JSON of `lightbooth render --json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct RenderResult {
+    pub scene: String,
+    pub scene_file: String,
+    pub settings: RenderSettings,
+    pub wall_seconds: f64,
+    /// Radiometer paths traced, all targets.
+    pub paths: u64,
+    /// Rays traced: primary, bounce and shadow rays.
+    pub rays: u64,
+    pub paths_per_second: f64,
+    pub rays_per_second: f64,
+    pub targets: Vec<TargetResult>,
+    /// Every coding against `spectral` (when both were rendered).
+    #[serde(serialize_with = "ordered_map")]
+    pub deviation_from_spectral: Vec<(String, Deviation)>,
+}
+
+impl RenderResult {
+    pub fn target(&self, id: &str) -> Option<&TargetResult> {
+        self.targets.iter().find(|t| t.id == id)
+    }
+
+    /// The largest relative standard error of Y over targets and codings.
+    pub fn max_relative_se(&self) -> f64 {
+        self.targets
+            .iter()
+            .flat_map(|t| t.codings.iter())
+            .map(|(_, c)| c.luminance_se_cd_m2 / c.luminance_cd_m2.abs().max(f64::MIN_POSITIVE))
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Renders every (selected) target of the scene with the radiometer, all
+/// codings in one pass. `progress(done, total)` is called with samples done.
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+) -> Result<RenderResult, RenderError> {
+    match settings.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| RenderError::Settings(e.to_string()))?
+            .install(|| render_in_pool(scene, settings, progress)),
+        None => render_in_pool(scene, settings, progress),
+    }
+}
+
+fn render_in_pool(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+) -> Result<RenderResult, RenderError> {
+    let start = Instant::now();
+    if settings.codings.is_empty() || settings.samples < 2 {
+        return Err(RenderError::Settings("need at least one coding and two samples".into()));
+    }
+    let target_indices: Vec<usize> = match &settings.targets {
+        None => (0..scene.target_list.len()).collect(),
+        Some(ids) => ids
+            .iter()
+            .map(|id| {
+                scene
+                    .target_list
+                    .iter()
+                    .position(|t| &t.id == id)
+                    .ok_or_else(|| RenderError::UnknownTarget(id.clone(), scene.targets().join(", ")))
+            })
+            .collect::<Result<_, _>>()?,
+    };
+    let layout = ChannelLayout::new(&settings.codings);
+    let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
+    let transport = Transport {
+        max_bounces: settings.max_bounces,
+        russian_roulette_from: settings.russian_roulette_from,
+    };
+    let batches = settings.samples.div_ceil(BATCH_SAMPLES);
+    let tasks: Vec<(usize, u64)> = target_indices
+        .iter()
+        .flat_map(|&t| (0..batches).map(move |b| (t, b)))
+        .collect();
+    let total = settings.samples * target_indices.len() as u64;
+    let done = AtomicU64::new(0);
+    let partial: Vec<BatchSums> = tasks
+        .par_iter()
+        .map(|&(t, b)| {
+            let range = b * BATCH_SAMPLES..((b + 1) * BATCH_SAMPLES).min(settings.samples);
+            let n = range.end - range.start;
+            let sums = radiometer_batch(&prep, &transport, t, settings.seed, range);
+            let now = done.fetch_add(n, Ordering::Relaxed) + n;
+            if let Some(p) = progress {
+                p(now, total);
+            }
+            sums
+        })
+        .collect();
+    // Deterministic reduction: batches of each target in batch order.
+    let mut targets = Vec::new();
+    let (mut paths, mut rays) = (0, 0);
+    for (k, &t) in target_indices.iter().enumerate() {
+        let mut sums = BatchSums::zero(&prep.layout);
+        for s in &partial[k * batches as usize..(k + 1) * batches as usize] {
+            sums.add(s);
+        }
+        paths += sums.paths;
+        rays += sums.rays;
+        targets.push(target_result(&prep.layout, &scene.target_list[t].id, &sums));
+    }
+    let wall_seconds = start.elapsed().as_secs_f64();
+    let deviation_from_spectral = deviations(&settings.codings, &targets);
+    Ok(RenderResult {
+        scene: scene.name.clone(),
+        scene_file: scene.path.display().to_string(),
+        settings: settings.clone(),
+        wall_seconds,
+        paths,
+        rays,
+        paths_per_second: paths as f64 / wall_seconds,
+        rays_per_second: rays as f64 / wall_seconds,
+        targets,
+        deviation_from_spectral,
+    })
+}
+
+fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetResult {
+    let n = sums.paths as f64;
+    let mean: Vec<f64> = sums.channels.iter().map(|s| s / n).collect();
+    let codings = layout
+        .entries()
+        .iter()
+        .enumerate()
+        .map(|(k, (coding, range))| {
+            let d = layout.decode(k, &mean);
+            let mean_y = sums.y[k] / n;
+            let var = ((sums.y2[k] / n - mean_y * mean_y) * n / (n - 1.0)).max(0.0);
+            let xy = d.xyz.chromaticity();
+            (
+                coding.to_string(),
+                CodingResult {
+                    luminance_cd_m2: d.xyz.y,
+                    luminance_se_cd_m2: (var / n).sqrt(),
+                    x: xy.x,
+                    y: xy.y,
+                    xyz: d.xyz.to_array(),
+                    spectrum: d.spectrum_81,
+                    bands: mean[range.clone()].to_vec(),
+                },
+            )
+        })
+        .collect();
+    TargetResult {
+        id: id.to_string(),
+        codings,
+    }
+}
+
+fn deviations(codings: &[Coding], targets: &[TargetResult]) -> Vec<(String, Deviation)> {
+    if !codings.contains(&Coding::Spectral) {
+        return Vec::new();
+    }
+    codings
+        .iter()
+        .filter(|c| **c != Coding::Spectral)
+        .map(|c| {
+            let name = c.to_string();
+            let (mut y_rel, mut xy_distance) = (Vec::new(), Vec::new());
+            for t in targets {
+                let (a, s) = (
+                    t.coding(&name).expect("rendered"),
+                    t.coding("spectral").expect("rendered"),
+                );
+                y_rel.push(a.luminance_cd_m2 / s.luminance_cd_m2 - 1.0);
+                xy_distance.push((a.x - s.x).hypot(a.y - s.y));
+            }
+            let m = y_rel.len().max(1) as f64;
+            let rms_rel = (y_rel.iter().map(|r| r * r).sum::<f64>() / m).sqrt();
+            let mean_rel = y_rel.iter().sum::<f64>() / m;
+            (
+                name,
+                Deviation {
+                    y_rel,
+                    rms_rel,
+                    mean_rel,
+                    xy_distance,
+                },
+            )
+        })
+        .collect()
+}
+
+// ---- the converged spectrum for the simulated PR-650 -------------------------
+
+/// Relative standard error of Y at which [`converged_target_spectrum`] stops.
+pub const CONVERGED_RELATIVE_SE: f64 = 1e-3;
+
+/// A stable content hash (FNV-1a, 64 bit) of the scene file and every file it
+/// references (spectra CSVs, IES files), in load order, with the renderer's
+/// cache version: the key under which converged spectra are cached.
+pub fn scene_hash(scene: &Scene) -> Result<String, RenderError> {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut feed = |bytes: &[u8]| {
+        for b in bytes {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    feed(b"lightbooth-render-v1");
+    for f in &scene.files {
+        let bytes = std::fs::read(f).map_err(|e| RenderError::Io(format!("{}: {e}", f.display())))?;
+        feed(&(bytes.len() as u64).to_le_bytes());
+        feed(&bytes);
+    }
+    Ok(format!("{h:016x}"))
+}
+
+fn memory_cache() -> &'static Mutex<HashMap<(String, String), Spectrum>> {
+    static C: OnceLock<Mutex<HashMap<(String, String), Spectrum>>> = OnceLock::new();
+    C.get_or_init(|| Mutex::new(HashMap::new()))
+}
+
+/// Where the converged spectrum of `target_id` is cached in `cache_dir`.
+pub fn cache_file(cache_dir: &Path, hash: &str, target_id: &str) -> PathBuf {
+    let safe: String = target_id
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    cache_dir.join(format!("{hash}_{safe}.csv"))
+}
+
+/// The converged `spectral` radiance of a target, W/(sr·m²·nm) on
+/// [`Grid::one_nm`]: rendered until the standard error of Y is below
+/// [`CONVERGED_RELATIVE_SE`], and cached by [`scene_hash`] — as a CSV in
+/// `cache_dir`, or in memory for this process when `cache_dir` is `None` —
+/// so it is computed once per scene content.
+pub fn converged_target_spectrum(
+    scene_path: &Path,
+    target_id: &str,
+    cache_dir: Option<&Path>,
+) -> Result<Spectrum, RenderError> {
+    let scene = load_scene(scene_path)?;
+    if scene.target(target_id).is_none() {
+        return Err(RenderError::UnknownTarget(target_id.into(), scene.targets().join(", ")));
+    }
+    let hash = scene_hash(&scene)?;
+    let key = (hash.clone(), target_id.to_string());
+    if let Some(dir) = cache_dir {
+        let file = cache_file(dir, &hash, target_id);
+        if file.exists() {
+            let t = SpectraTable::read(&file).map_err(|e| RenderError::Io(e.to_string()))?;
+            return t
+                .spectrum("radiance", SpectralUnit::SpectralRadiance)
+                .map_err(|e| RenderError::Io(e.to_string()));
+        }
+    } else if let Some(s) = memory_cache().lock().expect("cache lock").get(&key) {
+        return Ok(s.clone());
+    }
+    let spectrum = converge(&scene, target_id)?;
+    match cache_dir {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).map_err(|e| RenderError::Io(format!("{}: {e}", dir.display())))?;
+            let file = cache_file(dir, &hash, target_id);
+            let out = std::fs::File::create(&file).map_err(|e| RenderError::Io(format!("{}: {e}", file.display())))?;
+            write_csv(out, spectrum.grid(), &[("radiance", spectrum.values())])
+                .map_err(|e| RenderError::Io(format!("{}: {e}", file.display())))?;
+        }
+        None => {
+            memory_cache().lock().expect("cache lock").insert(key, spectrum.clone());
+        }
+    }
+    Ok(spectrum)
+}
+
+fn converge(scene: &Scene, target_id: &str) -> Result<Spectrum, RenderError> {
+    let mut settings = RenderSettings {
+        codings: vec![Coding::Spectral],
+        samples: 8192,
+        targets: Some(vec![target_id.to_string()]),
+        ..RenderSettings::default()
+    };
+    const MAX_SAMPLES: u64 = 1 << 24;
+    loop {
+        let r = render(scene, &settings, None)?;
+        let c = r.targets[0].codings[0].1.clone();
+        let rel = c.luminance_se_cd_m2 / c.luminance_cd_m2.abs().max(f64::MIN_POSITIVE);
+        if rel <= CONVERGED_RELATIVE_SE || c.luminance_cd_m2 == 0.0 || settings.samples >= MAX_SAMPLES {
+            return Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, c.bands)
+                .map_err(|e| RenderError::Prepare(e.to_string()));
+        }
+        // SE ∝ 1/√n: the samples that reach the goal, with 20 % margin.
+        let need = (settings.samples as f64 * (rel / CONVERGED_RELATIVE_SE).powi(2) * 1.2).ceil() as u64;
+        settings.samples = need.clamp(settings.samples * 2, MAX_SAMPLES);
+    }
+}
