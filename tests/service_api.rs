@@ -48,6 +48,7 @@ async fn harness(queue: usize) -> Harness {
         status: status_rx,
         events,
         renders: None,
+        mock: None,
     };
     Harness {
         state,

@@ -6,6 +6,7 @@ mod color;
 mod measure;
 mod mock_pr650;
 mod render;
+mod serve;
 
 use clap::{Parser, Subcommand};
 
@@ -34,6 +35,8 @@ enum Command {
     MockPr650(mock_pr650::MockPr650Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
+    /// The lab daemon: instrument, store, renderer, REST API and dashboards.
+    Serve(serve::ServeArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -43,6 +46,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Measure(args) => measure::run(args),
         Command::MockPr650(args) => mock_pr650::run(args),
         Command::Render(args) => render::run(args),
+        Command::Serve(args) => serve::run(args),
     }
 }
 

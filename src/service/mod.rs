@@ -98,14 +98,25 @@ pub struct AppState {
     pub events: broadcast::Sender<Event>,
     /// Renders requested through the API (run off the async runtime).
     pub renders: Option<Arc<dyn RenderService>>,
+    /// The simulated PR-650, when the daemon runs one.
+    pub mock: Option<Arc<dyn MockControl>>,
 }
+
+/// A boxed future, for the async methods of the traits below.
+pub type BoxFuture<T> = std::pin::Pin<Box<dyn Future<Output = T> + Send>>;
 
 /// The renderer as the service sees it; the daemon provides it.
 pub trait RenderService: Send + Sync {
-    /// Scene ids available under `scenes_dir`.
+    /// The scenes available under `scenes_dir`, in the study's order.
     fn scenes(&self) -> Vec<SceneInfo>;
-    /// Starts a render of a scene; returns its render id at once.
-    fn start_render(&self, scene: &str, request: RenderRequest) -> Result<i64, error::ApiError>;
+    /// Records a render of a scene and starts it; resolves to its id at once.
+    fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+}
+
+/// Fault injection into the simulated PR-650 (`serve --mock` only).
+pub trait MockControl: Send + Sync {
+    /// `KIND[:RATE]`, comma-separated (see `lightbooth mock-pr650 --help`); empty clears.
+    fn set_faults(&self, spec: &str) -> Result<(), String>;
 }
 
 /// A scene as the API lists it.

@@ -37,6 +37,7 @@ use super::routes;
         routes::scene_comparisons_csv,
         routes::scene_comparisons_mat,
         routes::scene_chart,
+        routes::mock_faults,
         super::events::stream,
     ),
     components(schemas(super::events::Event, super::error::ErrorBody)),

@@ -2,6 +2,8 @@
 //! `/api/health`, `/api/openapi.json`, `/api/measurements`,
 //! `/api/measurements/{id}`, `/api/events`.
 
+use std::sync::Arc;
+
 use axum::extract::{Path, State};
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -44,6 +46,7 @@ pub fn api_router(state: AppState) -> Router<AppState> {
         .route("/scenes/{scene}/charts/{chart}", get(scene_chart))
         .route("/renders/{id}", get(get_render))
         .route("/events", get(events::stream))
+        .route("/mock/faults", axum::routing::post(mock_faults))
 }
 
 // --- health and instruments ------------------------------------------------
@@ -456,7 +459,7 @@ pub async fn start_render(
         .renders
         .as_ref()
         .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    let render_id = service.start_render(&scene, body)?;
+    let render_id = Arc::clone(service).start_render(scene, body).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(RenderAccepted {
@@ -671,4 +674,23 @@ pub async fn scene_chart(
     }
     .map_err(ApiError::Internal)?;
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+}
+
+// --- the simulated instrument ----------------------------------------------
+
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MockFaults {
+    /// `KIND[:RATE]`, comma-separated, e.g. `cable-pull:once`; empty clears all faults.
+    pub faults: String,
+}
+
+/// Injects faults into the simulated PR-650 (only when the daemon runs with `--mock`).
+#[utoipa::path(post, path = "/api/mock/faults", tag = "instruments", request_body = MockFaults,
+    responses((status = 204), (status = 400, body = super::error::ErrorBody), (status = 404, body = super::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn mock_faults(State(state): State<AppState>, Input(body): Input<MockFaults>) -> Result<StatusCode, ApiError> {
+    let mock = state.mock.as_ref().ok_or_else(|| ApiError::NotFound("no simulated PR-650: the daemon runs a real one".into()))?;
+    mock.set_faults(&body.faults).map_err(|e| ApiError::BadRequest(format!("field `faults`: {e}")))?;
+    Ok(StatusCode::NO_CONTENT)
 }

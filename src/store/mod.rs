@@ -441,6 +441,28 @@ impl Store {
         Ok(())
     }
 
+    /// The newest complete render of this scene content with these exact
+    /// settings: its id and JSON result.
+    pub async fn find_render_result(
+        &self,
+        scene_hash: &str,
+        settings: &serde_json::Value,
+    ) -> Result<Option<(i64, serde_json::Value)>, StoreError> {
+        let row = sqlx::query(
+            "SELECT id, result_json FROM renders WHERE scene_hash = ? AND settings_json = ? AND state = 'complete' \
+             ORDER BY id DESC LIMIT 1",
+        )
+        .bind(scene_hash)
+        .bind(settings.to_string())
+        .fetch_optional(&self.pool)
+        .await?;
+        let Some(row) = row else { return Ok(None) };
+        let text: String = row.get("result_json");
+        let json = serde_json::from_str(&text)
+            .map_err(|e| StoreError::Corrupt { what: "renders.result_json".into(), err: e.to_string() })?;
+        Ok(Some((row.get("id"), json)))
+    }
+
     pub async fn get_render(&self, id: i64) -> Result<Option<RenderRow>, StoreError> {
         let row = sqlx::query(&format!("SELECT {RENDER_COLUMNS} FROM renders WHERE id = ?"))
             .bind(id)

@@ -1,0 +1,99 @@
+//! `lightbooth serve`: the lab daemon (see `lightbooth::daemon`).
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use serde::Deserialize;
+
+use lightbooth::daemon::{self, DaemonOptions};
+use lightbooth::instrument::mock::Fault;
+use lightbooth::instrument::Pr650Settings;
+
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// Daemon settings (TOML); every key optional. Command-line flags override it.
+    #[arg(long, default_value = "lightbooth.toml")]
+    config: PathBuf,
+    /// Run a simulated PR-650 on a pseudo-terminal instead of opening the real port.
+    #[arg(long)]
+    mock: bool,
+    /// The database, e.g. sqlite://lightbooth.sqlite (created if missing).
+    #[arg(long)]
+    db: Option<String>,
+    /// Address to listen on. Loopback by default; elsewhere, reads need the token too.
+    #[arg(long)]
+    bind: Option<SocketAddr>,
+    /// File holding the write token (else LIGHTBOOTH_TOKEN, else one is generated).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// Instrument settings (port, timeouts, retries, samples).
+    #[arg(long)]
+    instrument: Option<PathBuf>,
+    /// Time scale of the simulated PR-650: 1 = the real instrument's timing, 0 = instant.
+    #[arg(long)]
+    mock_speed: Option<f64>,
+    /// Fault injected into the simulated PR-650, KIND[:RATE] (repeatable).
+    #[arg(long = "mock-fault")]
+    mock_faults: Vec<Fault>,
+}
+
+/// `lightbooth.toml`: the daemon's settings file.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ConfigFile {
+    db: Option<String>,
+    bind: Option<SocketAddr>,
+    token_file: Option<PathBuf>,
+    instrument: Option<PathBuf>,
+    scenes_dir: Option<PathBuf>,
+    cache_dir: Option<PathBuf>,
+    codings: Option<Vec<String>>,
+    render_samples: Option<u64>,
+    mock_speed: Option<f64>,
+}
+
+fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && !explicit => Ok(ConfigFile::default()),
+        Err(e) => Err(anyhow::anyhow!("cannot read {}: {e}", path.display())),
+    }
+}
+
+pub fn run(args: ServeArgs) -> anyhow::Result<()> {
+    let explicit = args.config != Path::new("lightbooth.toml");
+    let file = read_config(&args.config, explicit)?;
+    let instrument_path = args.instrument.or(file.instrument).unwrap_or_else(|| "instruments/pr650.toml".into());
+    let instrument = if instrument_path.exists() {
+        Pr650Settings::from_toml_file(&instrument_path)?
+    } else {
+        anyhow::ensure!(args.mock, "instrument settings {} not found", instrument_path.display());
+        Pr650Settings::default()
+    };
+    let options = DaemonOptions {
+        bind: args.bind.or(file.bind).unwrap_or_else(|| "127.0.0.1:8650".parse().expect("valid address")),
+        db_url: args.db.or(file.db).unwrap_or_else(|| "sqlite://lightbooth.sqlite".into()),
+        mock: args.mock,
+        mock_speed: args.mock_speed.or(file.mock_speed).unwrap_or(1.0),
+        mock_faults: args.mock_faults,
+        instrument,
+        scenes_dir: file.scenes_dir.unwrap_or_else(|| "scenes".into()),
+        cache_dir: file.cache_dir.unwrap_or_else(|| ".lightbooth-cache".into()),
+        token_file: args.token_file.or(file.token_file),
+        default_token_file: "lightbooth.token".into(),
+        codings: file.codings.unwrap_or_else(|| {
+            ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"].map(String::from).to_vec()
+        }),
+        render_samples: file.render_samples.unwrap_or(16_384),
+    };
+    anyhow::ensure!(options.mock_speed >= 0.0, "--mock-speed must be 0 or more");
+    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
+    runtime.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(options.bind)
+            .await
+            .with_context(|| format!("cannot listen on {}: is another daemon running?", options.bind))?;
+        daemon::run(listener, options, daemon::shutdown_signal()).await
+    })
+}

@@ -1,0 +1,412 @@
+//! The one task that owns the instrument. It runs on a dedicated thread (the
+//! driver does blocking serial I/O), takes queued measurements one at a
+//! time so commands never interleave on the wire, and:
+//!
+//! - writes each raw sample to the store *before* the next sample starts
+//!   (the thread blocks on the write), so a crash or a pulled cable keeps
+//!   every sample taken;
+//! - publishes its live [`InstrumentStatus`] and an [`Event`] per step;
+//! - reopens a lost port with exponential backoff (1 s doubling to 30 s),
+//!   saying so in the status and the log;
+//! - with `--mock`, runs the simulated PR-650 on a pty and re-aims it at each
+//!   measurement's scene target, as an operator re-aims the real one.
+//!
+//! Every log line of a measurement carries its `measurement_id`.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use tokio::runtime::Handle;
+use tokio::sync::{broadcast, mpsc, watch};
+
+use super::renders::Renderer;
+use crate::colorimetry::{xyz_from_radiance, Observer};
+use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
+use crate::instrument::{open_pr650, CancelToken, InstrumentError, Pr650Settings, Sample, Spectroradiometer};
+use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
+use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store};
+
+/// Settings of the simulated PR-650.
+#[derive(Clone, Debug)]
+pub struct MockSettings {
+    pub speed: f64,
+    pub faults: Vec<Fault>,
+    pub cache_dir: PathBuf,
+}
+
+pub struct TaskConfig {
+    pub store: Store,
+    pub jobs: mpsc::Receiver<MeasurementJob>,
+    pub status: watch::Sender<InstrumentStatus>,
+    pub events: broadcast::Sender<Event>,
+    pub renderer: Arc<Renderer>,
+    pub settings: Pr650Settings,
+    pub mock: Option<MockSettings>,
+    pub runtime: Handle,
+}
+
+/// The simulated PR-650, shared between the instrument thread (which re-aims
+/// and, after a pulled cable, replaces it) and the API (which injects faults).
+/// The mutex is held only for those short calls, never during a measurement.
+pub struct MockSlot {
+    handle: Mutex<Option<MockHandle>>,
+    settings: MockSettings,
+}
+
+impl MockSlot {
+    fn with<R>(&self, f: impl FnOnce(&MockHandle) -> R) -> Option<R> {
+        self.handle.lock().unwrap_or_else(|p| p.into_inner()).as_ref().map(f)
+    }
+
+    /// Powers a (new) simulated PR-650 on; returns its device path.
+    fn power_on(&self) -> std::io::Result<String> {
+        let mut config = MockConfig::new(default_truth());
+        config.speed = self.settings.speed;
+        config.faults = self.settings.faults.clone();
+        // The daemon talks to it at once, so the 5 s remote window is kept as the real one is.
+        let handle = spawn_mock(config)?;
+        let path = handle.device_path().display().to_string();
+        *self.handle.lock().unwrap_or_else(|p| p.into_inner()) = Some(handle);
+        Ok(path)
+    }
+
+    fn unplugged(&self) -> bool {
+        self.with(|h| h.is_unplugged()).unwrap_or(true)
+    }
+}
+
+impl MockControl for MockSlot {
+    fn set_faults(&self, spec: &str) -> Result<(), String> {
+        let faults = spec
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(str::parse::<Fault>)
+            .collect::<Result<Vec<_>, _>>()?;
+        tracing::warn!(faults = spec, "faults injected into the simulated PR-650");
+        self.with(|h| h.set_faults(faults)).ok_or_else(|| "the simulated PR-650 is not running".to_string())
+    }
+}
+
+/// What the simulated PR-650 sees before any scene is named: a flat
+/// 0.01 W/(sr·m²·nm), about 73 cd/m² (a bright grey card).
+fn default_truth() -> crate::spectrum::Spectrum {
+    crate::spectrum::Spectrum::constant(
+        crate::spectrum::Grid::one_nm(),
+        crate::spectrum::SpectralUnit::SpectralRadiance,
+        0.01,
+    )
+    .expect("a flat spectrum is valid")
+}
+
+/// Cancels the running measurement when the daemon shuts down.
+#[derive(Clone, Default)]
+pub struct Canceller {
+    current: Arc<Mutex<Option<CancelToken>>>,
+    shutting_down: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Canceller {
+    pub fn shutdown(&self) {
+        self.shutting_down.store(true, std::sync::atomic::Ordering::SeqCst);
+        if let Some(t) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            t.cancel();
+        }
+    }
+
+    fn is_shutting_down(&self) -> bool {
+        self.shutting_down.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
+
+/// The running instrument thread.
+pub struct InstrumentTask {
+    thread: std::thread::JoinHandle<()>,
+    canceller: Canceller,
+    mock: Option<Arc<MockSlot>>,
+}
+
+impl InstrumentTask {
+    pub fn canceller(&self) -> Canceller {
+        self.canceller.clone()
+    }
+
+    pub fn mock_control(&self) -> Option<Arc<dyn MockControl>> {
+        self.mock.clone().map(|m| m as Arc<dyn MockControl>)
+    }
+
+    /// Waits (without blocking the runtime) for the thread to finish.
+    pub async fn join(self) {
+        let _ = tokio::task::spawn_blocking(move || self.thread.join()).await;
+    }
+}
+
+pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
+    let canceller = Canceller::default();
+    let mock = config.mock.clone().map(|settings| Arc::new(MockSlot { handle: Mutex::new(None), settings }));
+    let worker = Worker { config, canceller: canceller.clone(), mock: mock.clone() };
+    let thread = std::thread::Builder::new().name("instrument".into()).spawn(move || worker.run())?;
+    Ok(InstrumentTask { thread, canceller, mock })
+}
+
+struct Worker {
+    config: TaskConfig,
+    canceller: Canceller,
+    mock: Option<Arc<MockSlot>>,
+}
+
+/// What ended the use of an open instrument.
+enum Disconnect {
+    /// The job queue closed: the daemon is shutting down.
+    Shutdown,
+    /// The port was lost; reopen it.
+    Lost(String),
+}
+
+impl Worker {
+    fn set_status(&self, status: InstrumentStatus) {
+        tracing::info!(?status, "instrument state");
+        self.config.status.send_replace(status.clone());
+        let _ = self.config.events.send(Event::InstrumentStatus { status });
+    }
+
+    fn block_on<F: std::future::Future>(&self, f: F) -> F::Output {
+        self.config.runtime.block_on(f)
+    }
+
+    fn run(mut self) {
+        let mut backoff = Duration::from_secs(1);
+        loop {
+            if self.canceller.is_shutting_down() {
+                return;
+            }
+            match self.connect() {
+                Ok((instrument, port)) => {
+                    backoff = Duration::from_secs(1);
+                    match self.serve_jobs(instrument, &port) {
+                        Disconnect::Shutdown => return,
+                        Disconnect::Lost(reason) => {
+                            self.set_status(InstrumentStatus::Disconnected {
+                                reason: format!("{reason}; reopening the port"),
+                            });
+                        }
+                    }
+                }
+                Err(reason) => {
+                    tracing::warn!(error = %reason, retry_in_s = backoff.as_secs(), "cannot open the instrument");
+                    self.set_status(InstrumentStatus::Disconnected {
+                        reason: format!("{reason} (retrying in {} s)", backoff.as_secs()),
+                    });
+                    if self.wait_or_shutdown(backoff) {
+                        return;
+                    }
+                    backoff = (backoff * 2).min(Duration::from_secs(30));
+                }
+            }
+        }
+    }
+
+    /// Sleeps `d` unless the daemon shuts down first (returns true then).
+    fn wait_or_shutdown(&mut self, d: Duration) -> bool {
+        let deadline = std::time::Instant::now() + d;
+        while std::time::Instant::now() < deadline {
+            if self.canceller.is_shutting_down() || self.config.jobs.is_closed() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        false
+    }
+
+    fn connect(&mut self) -> Result<(Box<dyn Spectroradiometer>, String), String> {
+        let port = match &self.mock {
+            Some(mock) => {
+                if mock.unplugged() {
+                    if mock.with(|_| ()).is_some() {
+                        tracing::warn!("the simulated PR-650's cable was pulled: plugging in a new one");
+                    }
+                    mock.power_on().map_err(|e| format!("cannot start the simulated PR-650: {e}"))?
+                } else {
+                    mock.with(|h| h.device_path().display().to_string()).unwrap_or_default()
+                }
+            }
+            None => self.config.settings.port.clone().ok_or_else(|| {
+                "no serial port configured: set `port` in instruments/pr650.toml or use --mock".to_string()
+            })?,
+        };
+        tracing::info!(port, "opening the instrument");
+        let instrument = open_pr650(&port, &self.config.settings).map_err(|e| e.to_string())?;
+        let info = instrument.info().clone();
+        let id = self
+            .block_on(self.config.store.upsert_instrument(&info.model, info.serial.as_deref(), &port))
+            .map_err(|e| format!("cannot record the instrument: {e}"))?;
+        tracing::info!(instrument_id = id, model = %info.model, serial = ?info.serial, port, "instrument ready");
+        self.set_status(InstrumentStatus::Idle { model: info.model.clone(), serial: info.serial.clone(), port: port.clone() });
+        Ok((instrument, port))
+    }
+
+    fn serve_jobs(&mut self, mut instrument: Box<dyn Spectroradiometer>, port: &str) -> Disconnect {
+        let info = instrument.info().clone();
+        let instrument_id = self.block_on(self.config.store.upsert_instrument(&info.model, info.serial.as_deref(), port)).ok();
+        loop {
+            let Some(job) = self.config.jobs.blocking_recv() else {
+                return Disconnect::Shutdown;
+            };
+            let outcome = self.measure(instrument.as_mut(), instrument_id, &job);
+            if let Some(reason) = outcome {
+                return Disconnect::Lost(reason);
+            }
+            if self.canceller.is_shutting_down() {
+                return Disconnect::Shutdown;
+            }
+            self.set_status(InstrumentStatus::Idle { model: info.model.clone(), serial: info.serial.clone(), port: port.into() });
+        }
+    }
+
+    /// Takes one measurement. Returns `Some(reason)` when the port was lost.
+    fn measure(&mut self, instrument: &mut dyn Spectroradiometer, instrument_id: Option<i64>, job: &MeasurementJob) -> Option<String> {
+        let id = job.id;
+        let span = tracing::info_span!("measurement", measurement_id = id);
+        let _enter = span.enter();
+        let store = self.config.store.clone();
+        if let Err(e) = self.block_on(store.mark_running(id, instrument_id)) {
+            tracing::warn!(error = %e, "measurement no longer queued; skipped");
+            return None;
+        }
+        let _ = self.config.events.send(Event::MeasurementStarted { measurement_id: id, samples: job.samples });
+        self.set_status(InstrumentStatus::Measuring { measurement_id: id, sample: 0, of: job.samples });
+
+        // Re-aim the simulated instrument at the scene target.
+        if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
+            match self.config.renderer.converged_spectrum(scene, target, &mock.settings.cache_dir) {
+                Ok(truth) => {
+                    if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
+                        return self.finish_failed(id, MeasurementState::Failed, &format!("cannot aim the simulated PR-650: {e}"));
+                    }
+                    tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
+                }
+                Err(e) => {
+                    return self.finish_failed(id, MeasurementState::Failed, &format!("cannot render {scene}/{target}: {e}"))
+                }
+            }
+        }
+
+        let cancel = CancelToken::new();
+        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = Some(cancel.clone());
+        let events = self.config.events.clone();
+        let status = self.config.status.clone();
+        let runtime = self.config.runtime.clone();
+        let of = job.samples;
+        let mut on_sample = |s: &Sample| {
+            let row = NewSample {
+                index: s.index,
+                taken_at: unix_seconds(s.time),
+                code: i64::from(s.code.code),
+                message: s.code.message.clone(),
+                usable: s.code.is_ok() && s.radiance.is_some(),
+                radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
+                luminance_cd_m2: s.luminance,
+            };
+            // Blocks this thread until the sample is on disk: the next sample waits.
+            if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
+                tracing::error!(error = %e, index = s.index, "cannot store a sample");
+            }
+            tracing::info!(index = s.index, code = s.code.code, usable = row.usable, "sample stored");
+            let done = (s.index + 1).min(of);
+            let st = InstrumentStatus::Measuring { measurement_id: id, sample: done, of };
+            status.send_replace(st.clone());
+            let _ = events.send(Event::InstrumentStatus { status: st });
+            let _ = events.send(Event::Sample {
+                measurement_id: id,
+                index: s.index,
+                of,
+                code: row.code,
+                message: row.message.clone(),
+                usable: row.usable,
+                luminance_cd_m2: row.luminance_cd_m2,
+                wavelength_nm: s.radiance.as_ref().map(|r| r.grid().wavelengths().to_vec()).unwrap_or_default(),
+                radiance: row.radiance.clone(),
+            });
+        };
+        let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
+        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = None;
+
+        match result {
+            Ok(avg) => {
+                // The comparison uses the study's observer on both sides; the
+                // stored x, y are the instrument's own (CIE 1931, as the PR-650 reports).
+                let average = Average {
+                    wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
+                    radiance: avg.mean.values().to_vec(),
+                    radiance_sd: avg.sd.clone(),
+                    luminance_cd_m2: avg.luminance_cd_m2,
+                    x: avg.x,
+                    y: avg.y,
+                    luminance_cv: avg.luminance_cv,
+                };
+                if let Err(e) = self.block_on(store.complete_measurement(id, &average)) {
+                    tracing::error!(error = %e, "cannot store the average");
+                    return self.finish_failed(id, MeasurementState::Failed, &format!("cannot store the average: {e}"));
+                }
+                tracing::info!(luminance_cd_m2 = avg.luminance_cd_m2, x = avg.x, y = avg.y, "measurement complete");
+                let _ = self.config.events.send(Event::MeasurementFinished {
+                    measurement_id: id,
+                    state: MeasurementState::Complete,
+                    error: None,
+                });
+                if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
+                    match xyz_from_radiance(&avg.mean, Observer::JuddVos) {
+                        Ok(xyz) => self.config.renderer.compare_later(id, scene.clone(), target.clone(), xyz),
+                        Err(e) => tracing::error!(error = %e, "cannot compute XYZ of the mean spectrum"),
+                    }
+                }
+                None
+            }
+            Err(e) => {
+                let (state, lost) = classify(&e, self.canceller.is_shutting_down());
+                let message = if self.canceller.is_shutting_down() {
+                    format!("the daemon shut down during the measurement ({e})")
+                } else {
+                    e.to_string()
+                };
+                tracing::warn!(error = %e, state = state.as_str(), "measurement did not complete");
+                self.finish_failed(id, state, &message);
+                lost.then_some(e.to_string())
+            }
+        }
+    }
+
+    fn finish_failed(&self, id: i64, state: MeasurementState, message: &str) -> Option<String> {
+        if let Err(e) = self.block_on(self.config.store.end_measurement(id, state, message)) {
+            tracing::error!(error = %e, measurement_id = id, "cannot record the end of a measurement");
+        }
+        let _ = self.config.events.send(Event::MeasurementFinished {
+            measurement_id: id,
+            state,
+            error: Some(message.to_string()),
+        });
+        None
+    }
+}
+
+/// The state a failed measurement ends in, and whether the port is lost.
+/// Link faults interrupt a measurement (its samples stay, it can be
+/// repeated); an instrument that cannot give enough good samples fails it.
+fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool) {
+    match e {
+        InstrumentError::Cancelled if shutting_down => (MeasurementState::Interrupted, false),
+        InstrumentError::Cancelled => (MeasurementState::Cancelled, false),
+        InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
+            (MeasurementState::Interrupted, true)
+        }
+        InstrumentError::NotInRemoteMode { .. } => (MeasurementState::Interrupted, true),
+        InstrumentError::NoReply { .. }
+        | InstrumentError::Timeout { .. }
+        | InstrumentError::Truncated { .. }
+        | InstrumentError::Protocol { .. } => (MeasurementState::Interrupted, false),
+        InstrumentError::Quality { .. } | InstrumentError::Setup { .. } | InstrumentError::Settings(_) => {
+            (MeasurementState::Failed, false)
+        }
+    }
+}

@@ -1,0 +1,170 @@
+//! `lightbooth serve`: the lab daemon. It wires the pieces together:
+//!
+//! - the [`store`](crate::store) (an SQLite file, migrated at start-up);
+//! - one [instrument task](instrument_task) that owns the PR-650 (real, or
+//!   simulated on a pty with `--mock`) and takes queued measurements one at
+//!   a time, writing each sample as it is taken;
+//! - the [renderer service](renders) that renders scenes on the rayon pool
+//!   and stores the comparison of each measurement with every coding;
+//! - the HTTP [service](crate::service) (REST API, events, dashboards).
+//!
+//! [`run`] takes a shutdown future, as mini-redis's server does, so tests
+//! start and stop a whole daemon in-process.
+
+pub mod instrument_task;
+pub mod renders;
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use anyhow::Context;
+use tokio::net::TcpListener;
+use tokio::sync::{broadcast, mpsc, watch};
+
+use crate::instrument::mock::Fault;
+use crate::instrument::Pr650Settings;
+use crate::service::{self, auth, AppState, InstrumentStatus, ServiceConfig};
+use crate::store::Store;
+
+/// How many measurements may wait for the instrument; more get 409. Enough
+/// for every target of every booth scene (1 + 1 + 1 + 1 + 21) at once.
+pub const QUEUE_CAPACITY: usize = 64;
+
+/// Everything `serve` needs, from the command line and the config file.
+#[derive(Clone, Debug)]
+pub struct DaemonOptions {
+    pub bind: SocketAddr,
+    /// `sqlite://path` (created if missing).
+    pub db_url: String,
+    /// Run a simulated PR-650 on a pty instead of opening a real port.
+    pub mock: bool,
+    /// Time scale of the simulated PR-650 (1 = the real instrument's timing).
+    pub mock_speed: f64,
+    /// Faults injected into the simulated PR-650 from the start.
+    pub mock_faults: Vec<Fault>,
+    pub instrument: Pr650Settings,
+    pub scenes_dir: PathBuf,
+    /// Converged scene spectra (for the simulated PR-650) are cached here.
+    pub cache_dir: PathBuf,
+    pub token_file: Option<PathBuf>,
+    /// Where a generated token is written when neither a token file nor
+    /// `LIGHTBOOTH_TOKEN` is given.
+    pub default_token_file: PathBuf,
+    /// Codings rendered for each comparison.
+    pub codings: Vec<String>,
+    /// Radiometer samples per target of a comparison render.
+    pub render_samples: u64,
+}
+
+/// Runs the daemon on an already-bound listener until `shutdown` resolves.
+/// The running measurement is cancelled and marked interrupted; queued ones
+/// are marked interrupted; nothing half-written is left.
+pub async fn run(
+    listener: TcpListener,
+    options: DaemonOptions,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> anyhow::Result<()> {
+    let store = Store::open(&options.db_url).await.with_context(|| format!("opening the database {}", options.db_url))?;
+    let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
+    let addr = listener.local_addr()?;
+    let loopback_only = addr.ip().is_loopback();
+    match &source {
+        auth::TokenSource::Generated(p) => {
+            println!("generated a write token in {} (readable only by you)", p.display())
+        }
+        auth::TokenSource::File(p) => println!("write token from {}", p.display()),
+        auth::TokenSource::Environment => println!("write token from LIGHTBOOTH_TOKEN"),
+    }
+    println!("lightbooth listening on http://{addr}/");
+    println!("dashboard (with the write token): http://{addr}/#token={token}");
+    if !loopback_only {
+        println!("not bound to loopback: reads need the token too");
+    }
+
+    let (jobs_tx, jobs_rx) = mpsc::channel(QUEUE_CAPACITY);
+    let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected { reason: "starting".into() });
+    let (events, _) = broadcast::channel(1024);
+    let renderer = Arc::new(renders::Renderer::new(
+        options.scenes_dir.clone(),
+        store.clone(),
+        events.clone(),
+        options.codings.clone(),
+        options.render_samples,
+    )?);
+    let instrument = instrument_task::spawn(instrument_task::TaskConfig {
+        store: store.clone(),
+        jobs: jobs_rx,
+        status: status_tx,
+        events: events.clone(),
+        renderer: Arc::clone(&renderer),
+        settings: options.instrument.clone(),
+        mock: options.mock.then(|| instrument_task::MockSettings {
+            speed: options.mock_speed,
+            faults: options.mock_faults.clone(),
+            cache_dir: options.cache_dir.clone(),
+        }),
+        runtime: tokio::runtime::Handle::current(),
+    })?;
+
+    let state = AppState {
+        store: store.clone(),
+        config: Arc::new(ServiceConfig {
+            token,
+            loopback_only,
+            scenes_dir: options.scenes_dir.clone(),
+            codings: options.codings.clone(),
+            default_samples: options.instrument.samples,
+        }),
+        jobs: jobs_tx,
+        status: status_rx,
+        events,
+        renders: Some(renderer as Arc<dyn service::RenderService>),
+        mock: instrument.mock_control(),
+    };
+    let cancel_running = instrument.canceller();
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(service::serve(listener, state, async move {
+        let _ = stop_rx.await;
+    }));
+    shutdown.await;
+    tracing::info!("shutting down: cancelling the running measurement and closing the HTTP server");
+    cancel_running.shutdown();
+    let _ = stop_tx.send(());
+    server.await.context("the HTTP server task")??;
+    // The server's state (and so the job sender) is gone: the instrument
+    // thread finishes its current job and stops.
+    instrument.join().await;
+    let n = store.interrupt_unfinished("the daemon shut down before this measurement ran").await?;
+    if n > 0 {
+        tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
+    }
+    store.pool().close().await;
+    Ok(())
+}
+
+/// Resolves on SIGINT (Ctrl-C) or SIGTERM.
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "cannot listen for SIGTERM");
+                std::future::pending::<()>().await
+            }
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => tracing::info!("SIGINT received"),
+        _ = term => tracing::info!("SIGTERM received"),
+    }
+}

@@ -1,0 +1,341 @@
+//! The renderer as the daemon runs it: scenes from `scenes/`, renders on the
+//! rayon pool (never on the async runtime or the instrument thread), one
+//! render per scene content and settings (reused from the store), and the
+//! comparison of each measurement with every coding.
+//!
+//! # The CIELAB reference white
+//!
+//! Both sides of a comparison go through CIELAB with the same white, stored
+//! with every comparison row (`white_source`):
+//!
+//! - a scene with one target (WHITE, RED, GREEN, BLUE) uses the WHITE scene's
+//!   Spectralon standard (`white/patch`): the same spotlight, the booth's white;
+//! - a scene with several targets (CYLINDER) uses its own last target (the top
+//!   of the cylinder, lit directly), so L* stays below 100 along its profile.
+//!
+//! The white is the newest complete *measurement* of that target; until one
+//! exists, the converged `spectral` rendering of it stands in, and the
+//! comparison says so.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use tokio::runtime::Handle;
+use tokio::sync::broadcast;
+
+use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
+use crate::comparison::compare_point;
+use crate::render::{self, Coding, RenderSettings, Scene};
+use crate::service::error::ApiError;
+use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::store::{NewComparison, NewRender, Store};
+
+/// A scene found in `scenes/`.
+struct SceneEntry {
+    id: String,
+    path: PathBuf,
+    title: String,
+    targets: Vec<String>,
+}
+
+pub struct Renderer {
+    scenes: Vec<SceneEntry>,
+    store: Store,
+    events: broadcast::Sender<Event>,
+    codings: Vec<Coding>,
+    samples: u64,
+    runtime: Handle,
+    /// One lock per scene, so concurrent comparisons of one scene wait for a
+    /// single render instead of each starting its own.
+    scene_locks: std::sync::Mutex<HashMap<String, Arc<tokio::sync::Mutex<()>>>>,
+}
+
+impl Renderer {
+    /// Loads every `*.toml` scene of `scenes_dir`; a scene that fails to load
+    /// is an error naming the file and key (a broken booth must be fixed, not
+    /// skipped).
+    pub fn new(
+        scenes_dir: PathBuf,
+        store: Store,
+        events: broadcast::Sender<Event>,
+        codings: Vec<String>,
+        samples: u64,
+    ) -> anyhow::Result<Renderer> {
+        let mut scenes = Vec::new();
+        let mut paths: Vec<PathBuf> = std::fs::read_dir(&scenes_dir)
+            .map_err(|e| anyhow::anyhow!("cannot read the scenes folder {}: {e}", scenes_dir.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+            .collect();
+        paths.sort();
+        for path in paths {
+            let scene = render::load_scene(&path)?;
+            let id = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
+            scenes.push(SceneEntry {
+                title: scene.name.clone(),
+                targets: scene.targets().into_iter().map(str::to_string).collect(),
+                id,
+                path,
+            });
+        }
+        // The study's order: the simple scenes, then CYLINDER.
+        let order = ["white", "red", "green", "blue", "cylinder"];
+        scenes.sort_by_key(|s| order.iter().position(|o| *o == s.id).unwrap_or(order.len()));
+        let codings = codings
+            .iter()
+            .map(|c| c.parse::<Coding>().map_err(|e| anyhow::anyhow!("coding `{c}`: {e}")))
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        Ok(Renderer {
+            scenes,
+            store,
+            events,
+            codings,
+            samples,
+            runtime: Handle::current(),
+            scene_locks: Default::default(),
+        })
+    }
+
+    fn entry(&self, id: &str) -> Option<&SceneEntry> {
+        self.scenes.iter().find(|s| s.id == id)
+    }
+
+    /// The converged spectral radiance of a scene target on 1 nm (for the
+    /// simulated PR-650), cached on disk by scene content.
+    pub fn converged_spectrum(&self, scene: &str, target: &str, cache_dir: &Path) -> Result<Spectrum, String> {
+        let entry = self.entry(scene).ok_or_else(|| format!("no scene `{scene}`"))?;
+        std::fs::create_dir_all(cache_dir).map_err(|e| format!("cache folder {}: {e}", cache_dir.display()))?;
+        render::converged_target_spectrum(&entry.path, target, Some(cache_dir)).map_err(|e| e.to_string())
+    }
+
+    /// After a measurement of a scene target completes: render (or reuse a
+    /// render of) the scene and store the comparison, in the background.
+    pub fn compare_later(self: &Arc<Self>, measurement_id: i64, scene: String, target: String, measured: Xyz) {
+        let this = Arc::clone(self);
+        self.runtime.spawn(async move {
+            if let Err(e) = this.compare(measurement_id, &scene, &target, measured).await {
+                tracing::error!(measurement_id, scene, target, error = %e, "comparison failed");
+            }
+        });
+    }
+
+    async fn compare(&self, measurement_id: i64, scene: &str, target: &str, measured: Xyz) -> anyhow::Result<()> {
+        let (render_id, result) = self.render_for_comparison(scene).await?;
+        let (white_scene, white_target) = self.white_for(scene);
+        let (white, white_source) = self.white_xyz(&white_scene, &white_target).await?;
+        let rendered = rendered_codings(&result, target)
+            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let rows: Vec<NewComparison> = rendered
+            .into_iter()
+            .map(|(coding, rendered, y_se)| {
+                let d = compare_point(measured, rendered, white);
+                NewComparison {
+                    measurement_id,
+                    render_id,
+                    scene: scene.to_string(),
+                    target: target.to_string(),
+                    coding,
+                    white_source: white_source.clone(),
+                    white: white.to_array(),
+                    measured: measured.to_array(),
+                    rendered: rendered.to_array(),
+                    rendered_y_se: y_se,
+                    y_ratio: d.y_ratio,
+                    xy_distance: d.xy_distance,
+                    de76: d.de76,
+                    de00: d.de00,
+                }
+            })
+            .collect();
+        self.store.insert_comparisons(&rows).await?;
+        tracing::info!(measurement_id, scene, target, codings = rows.len(), white = %white_source, "comparison stored");
+        let _ = self.events.send(Event::ComparisonReady {
+            measurement_id,
+            scene: scene.to_string(),
+            target: target.to_string(),
+        });
+        Ok(())
+    }
+
+    /// Which target serves as the CIELAB white of a scene (see the module doc).
+    fn white_for(&self, scene: &str) -> (String, String) {
+        match self.entry(scene) {
+            Some(e) if e.targets.len() > 1 => (scene.to_string(), e.targets.last().cloned().unwrap_or_default()),
+            _ if self.entry("white").is_some_and(|w| w.targets.iter().any(|t| t == "patch")) => {
+                ("white".into(), "patch".into())
+            }
+            Some(e) => (scene.to_string(), e.targets.first().cloned().unwrap_or_default()),
+            None => (scene.to_string(), String::new()),
+        }
+    }
+
+    async fn white_xyz(&self, scene: &str, target: &str) -> anyhow::Result<(Xyz, String)> {
+        if let Some(m) = self.store.latest_complete(scene, target).await? {
+            if let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) {
+                let s = Spectrum::new(Grid::from_wavelengths(wl)?, SpectralUnit::SpectralRadiance, radiance)?;
+                let xyz = xyz_from_radiance(&s, Observer::JuddVos)?;
+                return Ok((xyz, format!("measurement {} ({scene}/{target})", m.summary.id)));
+            }
+        }
+        let (render_id, result) = self.render_for_comparison(scene).await?;
+        let (_, xyz, _) = rendered_codings(&result, target)
+            .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
+            .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {scene}/{target}"))?;
+        Ok((xyz, format!("render {render_id} spectral ({scene}/{target}; not yet measured)")))
+    }
+
+    fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, String> {
+        let codings = match &request.codings {
+            Some(list) => list.split(',').map(|c| c.parse::<Coding>()).collect::<Result<Vec<_>, _>>()?,
+            None => {
+                let mut c = self.codings.clone();
+                // The comparison white may come from the spectral rendering.
+                if !c.contains(&Coding::Spectral) {
+                    c.push(Coding::Spectral);
+                }
+                c
+            }
+        };
+        let mut s = RenderSettings { codings, samples: self.samples, ..RenderSettings::default() };
+        if let Some(n) = request.samples {
+            s.samples = u64::from(n);
+        }
+        if let Some(b) = request.bounces {
+            s.max_bounces = b;
+        }
+        if let Some(seed) = request.seed {
+            s.seed = seed;
+        }
+        Ok(s)
+    }
+
+    /// The render comparisons use: reused when the store has one of the same
+    /// scene content and settings, rendered (once, even under concurrent
+    /// requests) otherwise. Returns the render id and its stored JSON result.
+    async fn render_for_comparison(&self, scene: &str) -> anyhow::Result<(i64, serde_json::Value)> {
+        let lock = {
+            let mut locks = self.scene_locks.lock().unwrap_or_else(|p| p.into_inner());
+            Arc::clone(locks.entry(scene.to_string()).or_default())
+        };
+        let _guard = lock.lock().await;
+        let settings = self.settings(&RenderRequest::default()).map_err(anyhow::Error::msg)?;
+        let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
+        let loaded = render::load_scene(&entry.path)?;
+        let hash = render::scene_hash(&loaded)?;
+        if let Some(found) = self.store.find_render_result(&hash, &serde_json::to_value(&settings)?).await? {
+            return Ok(found);
+        }
+        let id = self.record(scene, &settings, hash).await?;
+        self.execute(id, scene, loaded, settings).await?;
+        let row = self.store.get_render(id).await?.ok_or_else(|| anyhow::anyhow!("render {id} vanished"))?;
+        let result = row.result.ok_or_else(|| anyhow::anyhow!("render {id} failed: {}", row.error.unwrap_or_default()))?;
+        Ok((id, result))
+    }
+
+    /// Records a render about to run; returns its id.
+    async fn record(&self, scene_id: &str, settings: &RenderSettings, hash: String) -> anyhow::Result<i64> {
+        let id = self
+            .store
+            .create_render(&NewRender {
+                scene: scene_id.to_string(),
+                scene_hash: hash,
+                settings_json: serde_json::to_value(settings)?,
+                codings: settings.codings.iter().map(|c| c.to_string()).collect(),
+                seed: settings.seed,
+            })
+            .await?;
+        let _ = self.events.send(Event::RenderStarted { render_id: id, scene: scene_id.to_string() });
+        tracing::info!(render_id = id, scene = scene_id, "render started");
+        Ok(id)
+    }
+
+    /// Runs a recorded render on the rayon pool with progress events, then
+    /// times each coding alone (same settings) for the speed-against-accuracy
+    /// chart (`coding_seconds` in the stored result), and stores the outcome.
+    async fn execute(&self, id: i64, scene_id: &str, scene: Scene, settings: RenderSettings) -> anyhow::Result<()> {
+        let events = self.events.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        rayon::spawn(move || {
+            let last = std::sync::Mutex::new(Instant::now());
+            let progress = |done: u64, total: u64| {
+                let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+                if last.elapsed().as_millis() >= 200 || done == total {
+                    *last = Instant::now();
+                    let _ = events.send(Event::RenderProgress { render_id: id, done, total });
+                }
+            };
+            let result = render::render(&scene, &settings, Some(&progress)).map(|full| {
+                let mut coding_seconds = serde_json::Map::new();
+                for coding in &settings.codings {
+                    let alone = RenderSettings { codings: vec![*coding], ..settings.clone() };
+                    let t = Instant::now();
+                    if render::render(&scene, &alone, None).is_ok() {
+                        coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
+                    }
+                }
+                (full, coding_seconds)
+            });
+            let _ = tx.send(result);
+        });
+        let outcome = rx.await?;
+        let (ok, error) = match outcome {
+            Ok((result, coding_seconds)) => {
+                let mut json = serde_json::to_value(&result)?;
+                json["coding_seconds"] = serde_json::Value::Object(coding_seconds);
+                self.store.finish_render(id, Ok((&json, result.wall_seconds))).await?;
+                tracing::info!(render_id = id, wall_seconds = result.wall_seconds, "render complete");
+                (true, None)
+            }
+            Err(e) => {
+                self.store.finish_render(id, Err(&e.to_string())).await?;
+                tracing::error!(render_id = id, error = %e, "render failed");
+                (false, Some(e.to_string()))
+            }
+        };
+        let _ = self.events.send(Event::RenderFinished { render_id: id, scene: scene_id.into(), ok, error });
+        Ok(())
+    }
+}
+
+/// Every coding's XYZ and standard error of Y at `target` in a stored render result.
+fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
+    let t = result.get("targets")?.as_array()?.iter().find(|t| t.get("id").and_then(|i| i.as_str()) == Some(target))?;
+    let codings = t.get("codings")?.as_object()?;
+    codings
+        .iter()
+        .map(|(name, c)| {
+            let xyz: [f64; 3] = serde_json::from_value(c.get("XYZ")?.clone()).ok()?;
+            Some((name.clone(), Xyz::from_array(xyz), c.get("Y_se")?.as_f64()?))
+        })
+        .collect()
+}
+
+impl RenderService for Renderer {
+    fn scenes(&self) -> Vec<SceneInfo> {
+        self.scenes
+            .iter()
+            .map(|s| SceneInfo { id: s.id.clone(), title: s.title.clone(), targets: s.targets.clone() })
+            .collect()
+    }
+
+    fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, ApiError>> {
+        Box::pin(async move {
+            let path = self.entry(&scene).map(|e| e.path.clone()).ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
+            let settings =
+                self.settings(&request).map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
+            let loaded = render::load_scene(&path).map_err(|e| ApiError::Internal(e.to_string()))?;
+            let hash = render::scene_hash(&loaded).map_err(|e| ApiError::Internal(e.to_string()))?;
+            let id = self.record(&scene, &settings, hash).await.map_err(|e| ApiError::Internal(e.to_string()))?;
+            // Run in the background; the caller polls /api/renders/{id} or follows the events.
+            tokio::spawn(async move {
+                if let Err(e) = self.execute(id, &scene, loaded, settings).await {
+                    tracing::error!(render_id = id, error = %e, "render failed");
+                }
+            });
+            Ok(id)
+        })
+    }
+}
