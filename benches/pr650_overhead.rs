@@ -63,5 +63,8 @@ fn main() {
         reading.duration_ms,
         wire_bytes as f64 * BYTE_MS
     );
-    println!("  overhead added: {:.3} % (goal: under 1 %)", 100.0 * median / instrument_ms);
+    println!(
+        "  overhead added: {:.3} % (goal: under 1 %)",
+        100.0 * median / instrument_ms
+    );
 }

@@ -264,6 +264,9 @@ pub trait Spectroradiometer: Send {
     /// daemon stores it immediately, before the next sample), including samples
     /// with bad codes. Returns Err if fewer than the required good samples
     /// could be taken after the configured retries; never averages a bad sample.
+    /// An attempt lost to a link fault (no reply, a cut-off or garbled report)
+    /// yields no [`Sample`], since no quality code arrived; it is logged and
+    /// counts against the retries.
     fn measure_averaged(
         &mut self,
         n: usize,

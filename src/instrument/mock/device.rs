@@ -398,6 +398,10 @@ impl Device {
                 if self.fires(FaultKind::Garble) {
                     self.garble(&mut bytes);
                 }
+                if self.fires(FaultKind::DoubleCrlf) {
+                    let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+                    bytes.splice(header_end..header_end, *b"\r\n");
+                }
                 if self.fires(FaultKind::Truncate) {
                     bytes.truncate(bytes.len() / 2);
                 }
