@@ -163,8 +163,8 @@ impl Pr650 {
         if status != 0 {
             return Err(InstrumentError::Setup {
                 command: command.text(),
-                field: status,
                 status,
+                meaning: protocol::setup_status_meaning(status),
             });
         }
         Ok(())

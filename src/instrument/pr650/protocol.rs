@@ -239,6 +239,22 @@ pub fn parse_setup_status(bytes: &[u8]) -> Result<u8, ProtocolError> {
         .ok_or_else(|| malformed(1, first, "a two-digit setup status such as `00`"))
 }
 
+/// What a non-zero `S` status means (section 2): the number of the invalid
+/// field, or 50 for the accessory.
+pub fn setup_status_meaning(status: u8) -> &'static str {
+    match status {
+        0 => "setup accepted",
+        1 => "field 1, the primary accessory (01–12), is invalid",
+        2..=4 => "an add-on accessory field (02–12) is invalid",
+        5 => "field 5, sync (empty, 1, or 40–250 Hz), is invalid",
+        6 => "field 6, the integration time (0 = adaptive, or 10–6000 ms), is invalid",
+        7 => "field 7, the number of measurements averaged (01–99), is invalid",
+        8 => "field 8, units (0 English, 1 metric), is invalid",
+        50 => "no primary accessory, more than one, or the first accessory is not a primary",
+        _ => "an undocumented setup status",
+    }
+}
+
 /// The PR-650 quality codes of section 4 with their manual texts.
 pub fn quality_code(code: u8) -> QualityCode {
     use QualityKind::*;
@@ -698,6 +714,8 @@ mod tests {
         assert_eq!(parse_ack(b"000\r\n").unwrap(), 0);
         assert_eq!(parse_setup_status(b"00\r\n").unwrap(), 0);
         assert_eq!(parse_setup_status(b"06\r\n").unwrap(), 6);
+        assert!(setup_status_meaning(6).contains("integration time"));
+        assert!(setup_status_meaning(50).contains("primary"));
         assert_eq!(parse_sync_frequency(b"00,60.02\r\n").unwrap(), (0, Some(60.02)));
         assert_eq!(parse_sync_frequency(b"07\r\n").unwrap(), (7, None));
         let c = parse_spectral_config(b"0101,008.0,0380.,0780.,0004.\r\n").unwrap();
