@@ -264,8 +264,14 @@ impl Device {
         fired
     }
 
+    /// Sleeps `ms` of instrument time (scaled by speed), waking for a stop request.
     fn sleep_scaled(&self, ms: f64) {
-        let total = Duration::from_secs_f64((ms * self.cfg.speed).max(0.0) / 1000.0);
+        self.sleep_ms(ms * self.cfg.speed);
+    }
+
+    /// Sleeps `ms` of wall time, waking for a stop request.
+    fn sleep_ms(&self, ms: f64) {
+        let total = Duration::from_secs_f64(ms.max(0.0) / 1000.0);
         let end = Instant::now() + total;
         while !self.stop.load(Ordering::Relaxed) {
             let now = Instant::now();
@@ -393,7 +399,7 @@ impl Device {
                     return;
                 }
                 if self.fires(FaultKind::Slow) {
-                    std::thread::sleep(Duration::from_millis(self.cfg.slow_ms));
+                    self.sleep_ms(self.cfg.slow_ms as f64);
                 }
                 if self.fires(FaultKind::Garble) {
                     self.garble(&mut bytes);

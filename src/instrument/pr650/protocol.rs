@@ -863,6 +863,21 @@ mod tests {
         }
 
         #[test]
+        fn any_formatted_spectrum_parses_back_to_four_digits(
+            values in proptest::collection::vec(1e-9f64..1e3, 101),
+            code in 0u8..31,
+            bare_cr in any::<bool>(),
+        ) {
+            let bytes = format_spectral_report(code, 0, 1.0, &Grid::pr650(), &values, bare_cr);
+            prop_assert_eq!(complete_lines(&bytes), 103);
+            let r = parse_spectral_report(&bytes, &Grid::pr650()).unwrap();
+            prop_assert_eq!(r.code, code);
+            for (got, want) in r.values.iter().zip(&values) {
+                prop_assert!((got - want).abs() <= 5e-4 * want, "{} vs {}", got, want);
+            }
+        }
+
+        #[test]
         fn mangled_spectra_are_rejected_or_exact(
             ops in proptest::collection::vec((0usize..103, 0usize..103, 0u8..4), 1..6)
         ) {
