@@ -44,7 +44,10 @@ pub(super) struct Device {
     /// The device end kept open so the pty survives the host closing and
     /// reopening it (a real unit does not notice the host's port closing).
     keepalive: Option<TTYPort>,
+    /// Target, faults and counters shared with the [`super::MockHandle`];
+    /// locked briefly per command, never across a sleep or a write.
     shared: Arc<Mutex<Shared>>,
+    /// Set by the handle to stop this thread; checked between reads and during sleeps.
     stop: Arc<AtomicBool>,
     rng: Rng,
     powered_at: Instant,
