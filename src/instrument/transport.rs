@@ -27,7 +27,7 @@ const POLL_SLICE: Duration = Duration::from_millis(20);
 /// A reply longer than this is garbage, not a report (a `D5` is 1734 bytes).
 const MAX_REPLY_BYTES: usize = 16 * 1024;
 
-/// Serial settings. The PR-650 needs 9600 baud, 8N1, no flow control (§1, [confirmed]).
+/// Serial settings. The PR-650 needs 9600 baud, 8N1, no flow control (§1, \[confirmed\]).
 #[derive(Clone, Debug)]
 pub struct LinkSettings {
     pub baud: u32,

@@ -3,7 +3,7 @@
 //! parsers never panic, whatever the bytes (property-tested below).
 //!
 //! The reference is `shared/docs/pr650-protocol.md` (sections 1–4). Where it
-//! marks a point [uncertain], the choice made here is commented at the spot.
+//! marks a point \[uncertain\], the choice made here is commented at the spot.
 //!
 //! Replies are split into lines at CR, LF or CR LF, with empty lines skipped
 //! (section 3: header line 1 may end in a bare CR; a doubled CR LF is
@@ -15,7 +15,7 @@ use crate::instrument::{QualityCode, QualityKind};
 use crate::spectrum::Grid;
 
 /// How the host ends a command. The PR-650 accepts all three (section 1,
-/// [confirmed]); LF is what PTB, PsychoPy and mgl send.
+/// \[confirmed\]); LF is what PTB, PsychoPy and mgl send.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Terminator {
@@ -202,7 +202,7 @@ fn parse_digits(field: &[u8]) -> Option<u32> {
 }
 
 /// A PR-650 float: `d.dddEsdd` (upper-case E documented; the case is
-/// [uncertain], so either is accepted), or a plain decimal (`.3127`,
+/// \[uncertain\], so either is accepted), or a plain decimal (`.3127`,
 /// `60.02`, `0380.`). Only digits, one sign per mantissa/exponent, dot and E:
 /// no `inf`/`nan`, and the value must be finite.
 pub fn parse_number(field: &[u8]) -> Option<f64> {
@@ -438,7 +438,7 @@ pub fn parse_yxy_report(bytes: &[u8]) -> Result<YxyReport, ProtocolError> {
 }
 
 /// `qq,U,a,b,c` → [a, b, c, qq, U]. On a bad quality code the PR-650 may send
-/// fewer numbers [uncertain]; then the missing values are 0 (the caller
+/// fewer numbers \[uncertain\]; then the missing values are 0 (the caller
 /// discards them anyway, since the code is bad).
 fn parse_three_values(bytes: &[u8], expected: &'static str) -> Result<[f64; 5], ProtocolError> {
     let lines = split_lines(bytes);
@@ -465,7 +465,7 @@ fn parse_three_values(bytes: &[u8], expected: &'static str) -> Result<[f64; 5], 
 }
 
 /// `D110`: the serial number. PTB takes the first 8 characters, which "may
-/// contain trailing blanks"; no status prefix [uncertain]. A `qq,` prefix (as
+/// contain trailing blanks"; no status prefix \[uncertain\]. A `qq,` prefix (as
 /// later models send) is tolerated and dropped.
 pub fn parse_serial(bytes: &[u8]) -> Result<String, ProtocolError> {
     let lines = split_lines(bytes);
@@ -531,7 +531,7 @@ pub fn parse_spectral_config(bytes: &[u8]) -> Result<SpectralConfig, ProtocolErr
     })
 }
 
-/// `F`: `qq,<Hz>`; on failure maybe only `qq` [uncertain]. Returns the code
+/// `F`: `qq,<Hz>`; on failure maybe only `qq` \[uncertain\]. Returns the code
 /// and the frequency when the code is 0.
 pub fn parse_sync_frequency(bytes: &[u8]) -> Result<(u8, Option<f64>), ProtocolError> {
     let expected = "a sync reply `qq,<Hz>`";
