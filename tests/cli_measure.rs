@@ -8,6 +8,7 @@ use std::process::{Child, Command, Stdio};
 
 use serde_json::Value;
 
+use lightbooth::colorimetry::{Cmf, Observer, KM_LM_PER_W};
 use lightbooth::instrument::mock::model::InstrumentModel;
 use lightbooth::instrument::pr650::protocol::as_sent;
 use lightbooth::spectrum::table::SpectraTable;
@@ -159,8 +160,19 @@ fn measure_against_the_mock_gives_its_truth_within_the_noise_model() {
         assert_eq!(s["code"], 0);
         assert!(s["time"].as_f64().unwrap() > 1.6e9);
     }
+    // Luminance CV against the model's σ_Y = Km·Δλ·√Σ ȳ²σ² over Y (five samples: within a factor of 6).
+    let cmf = Cmf::of(Observer::Cie1931);
+    let var_y: f64 = nm
+        .iter()
+        .zip(&reading.sigma)
+        .map(|(w, s)| (cmf.at(*w)[1] * s).powi(2))
+        .sum();
+    let model_cv = KM_LM_PER_W * 4.0 * var_y.sqrt() / json["Y"].as_f64().unwrap();
     let cv = json["luminance_cv"].as_f64().unwrap();
-    assert!(cv > 0.0 && cv < 0.01, "CV {cv}");
+    assert!(
+        (1.0 / 6.0..6.0).contains(&(cv / model_cv)),
+        "CV {cv} vs model {model_cv}"
+    );
 }
 
 #[test]

@@ -116,8 +116,11 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     })?;
     let mut pr650 = open_pr650(&port, &settings)?;
     let cancel = CancelToken::new();
-    let m = pr650.measure_averaged(settings.samples, &cancel, &mut |s| {
-        tracing::info!(index = s.index, code = s.code.code, luminance_cd_m2 = ?s.luminance, "sample");
+    let samples = settings.samples;
+    // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
+    let m = pr650.measure_averaged(samples, &cancel, &mut |s| match s.luminance {
+        Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
+        _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
     })?;
     let out = std::io::stdout();
     if args.json {

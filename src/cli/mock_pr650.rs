@@ -25,7 +25,7 @@ pub struct MockPr650Args {
     /// Seed of the simulated noise (same seed, same samples).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Inject a fault: no-answer, truncate, garble, stale, error-code, cable-pull or slow,
+    /// Inject a fault: no-answer, truncate, garble, stale, error-code, cable-pull, slow or double-crlf,
     /// each optionally `:RATE` (a probability 0–1, `once` or `Nx`). Repeatable.
     #[arg(long = "fault", value_name = "KIND[:RATE]", value_parser = parse_fault)]
     faults: Vec<Fault>,

@@ -128,7 +128,8 @@ pub struct AveragedMeasurement {
     /// CIE 1931 chromaticity of the mean spectrum.
     pub x: f64,
     pub y: f64,
-    /// Standard deviation over mean of the good samples' luminances (dimensionless).
+    /// Standard deviation over mean of the good samples' luminances, each
+    /// computed from its spectrum like `luminance_cd_m2` (dimensionless).
     pub luminance_cv: f64,
 }
 
@@ -204,8 +205,12 @@ pub enum InstrumentError {
         phase: WaitPhase,
         waited_ms: u64,
     },
-    #[error("the instrument refused setup field {field} (status {status:02}) in `{command}`: fix the setting")]
-    Setup { command: String, field: u8, status: u8 },
+    #[error("the instrument refused `{command}` with status {status:02}: {meaning}. Fix that setting")]
+    Setup {
+        command: String,
+        status: u8,
+        meaning: &'static str,
+    },
     #[error("serial port {port} closed: the cable was pulled or the adapter unplugged. Reconnect it and start again")]
     PortClosed { port: String },
     #[error("measurement cancelled")]
@@ -264,6 +269,9 @@ pub trait Spectroradiometer: Send {
     /// daemon stores it immediately, before the next sample), including samples
     /// with bad codes. Returns Err if fewer than the required good samples
     /// could be taken after the configured retries; never averages a bad sample.
+    /// An attempt lost to a link fault (no reply, a cut-off or garbled report)
+    /// yields no [`Sample`], since no quality code arrived; it is logged and
+    /// counts against the retries.
     fn measure_averaged(
         &mut self,
         n: usize,
@@ -276,18 +284,18 @@ pub trait Spectroradiometer: Send {
 /// Bad samples stay in `samples` for the record and are skipped here. Errors
 /// when there is no good sample or the good ones disagree on grid or unit.
 pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<AveragedMeasurement, String> {
-    let good: Vec<(&Spectrum, Option<f64>)> = samples
+    let good: Vec<&Spectrum> = samples
         .iter()
         .filter(|s| s.code.is_ok())
-        .filter_map(|s| s.radiance.as_ref().map(|r| (r, s.luminance)))
+        .filter_map(|s| s.radiance.as_ref())
         .collect();
-    let Some((first, _)) = good.first() else {
+    let Some(first) = good.first() else {
         return Err("no good sample to average".into());
     };
     let k = good.len();
     let len = first.values().len();
     let mut sum = vec![0.0; len];
-    for (spectrum, _) in &good {
+    for spectrum in &good {
         spectrum.require_same_grid(first).map_err(|e| e.to_string())?;
         if spectrum.unit() != first.unit() {
             return Err(format!(
@@ -306,7 +314,7 @@ pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<Ave
     } else {
         (0..len)
             .map(|i| {
-                let ss: f64 = good.iter().map(|(s, _)| (s.values()[i] - mean_values[i]).powi(2)).sum();
+                let ss: f64 = good.iter().map(|s| (s.values()[i] - mean_values[i]).powi(2)).sum();
                 (ss / (k - 1) as f64).sqrt()
             })
             .collect()
@@ -314,11 +322,13 @@ pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<Ave
     let mean = Spectrum::new(first.grid().clone(), first.unit(), mean_values).map_err(|e| e.to_string())?;
     let xyz = xyz_from_radiance(&mean, Observer::Cie1931).map_err(|e| e.to_string())?;
     let xy = xyz.chromaticity();
-    // Per-sample luminance: the instrument's own Y where it sent one, else ours from its spectrum.
+    // Per-sample luminance from each spectrum, not the instrument's own Y: that
+    // has four significant digits (`1.009E+02`), too coarse for a CV of 0.1 %.
     let lums: Vec<f64> = good
         .iter()
-        .map(|(s, l)| l.unwrap_or_else(|| xyz_from_radiance(s, Observer::Cie1931).map(|x| x.y).unwrap_or(0.0)))
-        .collect();
+        .map(|s| xyz_from_radiance(s, Observer::Cie1931).map(|x| x.y))
+        .collect::<Result<_, _>>()
+        .map_err(|e| e.to_string())?;
     let luminance_cv = coefficient_of_variation(&lums);
     Ok(AveragedMeasurement {
         info,

@@ -27,7 +27,7 @@ const POLL_SLICE: Duration = Duration::from_millis(20);
 /// A reply longer than this is garbage, not a report (a `D5` is 1734 bytes).
 const MAX_REPLY_BYTES: usize = 16 * 1024;
 
-/// Serial settings. The PR-650 needs 9600 baud, 8N1, no flow control (§1, [confirmed]).
+/// Serial settings. The PR-650 needs 9600 baud, 8N1, no flow control (§1, \[confirmed\]).
 #[derive(Clone, Debug)]
 pub struct LinkSettings {
     pub baud: u32,
@@ -94,19 +94,27 @@ impl SerialLink {
         &self.path
     }
 
-    fn io_error(&self, e: std::io::Error) -> InstrumentError {
-        use std::io::ErrorKind::*;
-        match e.kind() {
-            // POLLHUP (BrokenPipe) and EIO are what a pty or a USB adapter
-            // gives when the far end has gone.
-            BrokenPipe | UnexpectedEof | NotConnected | ConnectionReset => InstrumentError::PortClosed {
+    /// Names an I/O error: a vanished far end (POLLHUP, EIO, EOF: the cable
+    /// pulled, the adapter unplugged) is [`InstrumentError::PortClosed`].
+    /// Some calls (tcdrain behind `flush`) report a hang-up only as a generic
+    /// failure, so an unclear error is followed by a short probe read, which
+    /// on a hung-up line fails the same clear way.
+    fn io_error(&mut self, e: std::io::Error) -> InstrumentError {
+        if is_hangup(&e) {
+            return InstrumentError::PortClosed {
+                port: self.path.clone(),
+            };
+        }
+        let _ = self.port.set_timeout(Duration::from_millis(1));
+        let probe = self.port.read(&mut [0u8; 1]);
+        let _ = self.port.set_timeout(POLL_SLICE);
+        match probe {
+            Ok(0) => InstrumentError::PortClosed {
                 port: self.path.clone(),
             },
-            _ if e.raw_os_error() == Some(5) || e.to_string().contains("Input/output error") => {
-                InstrumentError::PortClosed {
-                    port: self.path.clone(),
-                }
-            }
+            Err(p) if is_hangup(&p) => InstrumentError::PortClosed {
+                port: self.path.clone(),
+            },
             _ => InstrumentError::Io {
                 port: self.path.clone(),
                 source: e,
@@ -311,6 +319,14 @@ impl SerialLink {
         }
         Ok(total)
     }
+}
+
+/// The far end has gone: POLLHUP (reported as a broken pipe), EIO, EOF.
+fn is_hangup(e: &std::io::Error) -> bool {
+    use std::io::ErrorKind::*;
+    matches!(e.kind(), BrokenPipe | UnexpectedEof | NotConnected | ConnectionReset)
+        || e.raw_os_error() == Some(5)
+        || e.to_string().contains("Input/output error")
 }
 
 /// Cuts `reply` just after its `n`-th complete non-empty line.

@@ -44,7 +44,10 @@ pub(super) struct Device {
     /// The device end kept open so the pty survives the host closing and
     /// reopening it (a real unit does not notice the host's port closing).
     keepalive: Option<TTYPort>,
+    /// Target, faults and counters shared with the [`super::MockHandle`];
+    /// locked briefly per command, never across a sleep or a write.
     shared: Arc<Mutex<Shared>>,
+    /// Set by the handle to stop this thread; checked between reads and during sleeps.
     stop: Arc<AtomicBool>,
     rng: Rng,
     powered_at: Instant,
@@ -264,8 +267,14 @@ impl Device {
         fired
     }
 
+    /// Sleeps `ms` of instrument time (scaled by speed), waking for a stop request.
     fn sleep_scaled(&self, ms: f64) {
-        let total = Duration::from_secs_f64((ms * self.cfg.speed).max(0.0) / 1000.0);
+        self.sleep_ms(ms * self.cfg.speed);
+    }
+
+    /// Sleeps `ms` of wall time, waking for a stop request.
+    fn sleep_ms(&self, ms: f64) {
+        let total = Duration::from_secs_f64(ms.max(0.0) / 1000.0);
         let end = Instant::now() + total;
         while !self.stop.load(Ordering::Relaxed) {
             let now = Instant::now();
@@ -393,10 +402,14 @@ impl Device {
                     return;
                 }
                 if self.fires(FaultKind::Slow) {
-                    std::thread::sleep(Duration::from_millis(self.cfg.slow_ms));
+                    self.sleep_ms(self.cfg.slow_ms as f64);
                 }
                 if self.fires(FaultKind::Garble) {
                     self.garble(&mut bytes);
+                }
+                if self.fires(FaultKind::DoubleCrlf) {
+                    let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+                    bytes.splice(header_end..header_end, *b"\r\n");
                 }
                 if self.fires(FaultKind::Truncate) {
                     bytes.truncate(bytes.len() / 2);

@@ -46,6 +46,9 @@ pub enum FaultKind {
     CablePull,
     /// A `D5` reply's first byte comes after [`MockConfig::slow_ms`].
     Slow,
+    /// A `D5` reply carries an extra, empty CR LF after its header (harmless
+    /// to a correct parser).
+    DoubleCrlf,
 }
 
 /// How often a fault fires at each point where it applies.
@@ -92,9 +95,11 @@ impl FromStr for FaultKind {
             "error-code" => FaultKind::ErrorCode,
             "cable-pull" => FaultKind::CablePull,
             "slow" => FaultKind::Slow,
+            "double-crlf" => FaultKind::DoubleCrlf,
             _ => {
                 return Err(format!(
-                    "unknown fault `{s}`: use no-answer, truncate, garble, stale, error-code, cable-pull or slow"
+                    "unknown fault `{s}`: use no-answer, truncate, garble, stale, error-code, cable-pull, slow \
+                     or double-crlf"
                 ))
             }
         })

@@ -4,7 +4,7 @@
 //!
 //! - **Sampling**: 101 points, 380–780 nm at 4 nm.
 //! - **Bandwidth**: a triangular slit of 8 nm FWHM (the `D120` example's
-//!   bandwidth [uncertain]) centred on each sample, applied to the 1 nm truth;
+//!   bandwidth \[uncertain\]) centred on each sample, applied to the 1 nm truth;
 //!   near 380/780 nm the part of the slit outside the truth is dropped and the
 //!   weights renormalised.
 //! - **Detector**: counts C = k·E·t for the slit-averaged radiance E over the

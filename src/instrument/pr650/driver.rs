@@ -18,7 +18,7 @@ use std::time::{Duration, SystemTime};
 use crate::instrument::transport::SerialLink;
 use crate::instrument::{
     average_samples, AveragedMeasurement, CancelToken, InstrumentError, InstrumentInfo, QualityCode, QualityKind,
-    Sample, Spectroradiometer,
+    Sample, Spectroradiometer, WaitPhase,
 };
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -95,6 +95,16 @@ impl Pr650 {
             self.link
                 .read_reply(&text, lines, first_byte_timeout, self.settings.gap_timeout(), cancel)
         })();
+        // Silence to an ordinary command means nobody is listening (off, local
+        // mode, wrong port); silence after `M0` may just be a long measurement.
+        let result = match result {
+            Err(InstrumentError::Timeout {
+                command,
+                phase: WaitPhase::FirstByte,
+                waited_ms,
+            }) if command != "M0" => Err(InstrumentError::NoReply { command, waited_ms }),
+            other => other,
+        };
         match &result {
             Ok(reply) => tracing::debug!(command = %text, bytes = reply.len(), "← PR-650"),
             Err(e) => {
@@ -153,8 +163,8 @@ impl Pr650 {
         if status != 0 {
             return Err(InstrumentError::Setup {
                 command: command.text(),
-                field: status,
                 status,
+                meaning: protocol::setup_status_meaning(status),
             });
         }
         Ok(())

@@ -3,7 +3,7 @@
 //! parsers never panic, whatever the bytes (property-tested below).
 //!
 //! The reference is `shared/docs/pr650-protocol.md` (sections 1–4). Where it
-//! marks a point [uncertain], the choice made here is commented at the spot.
+//! marks a point \[uncertain\], the choice made here is commented at the spot.
 //!
 //! Replies are split into lines at CR, LF or CR LF, with empty lines skipped
 //! (section 3: header line 1 may end in a bare CR; a doubled CR LF is
@@ -15,7 +15,7 @@ use crate::instrument::{QualityCode, QualityKind};
 use crate::spectrum::Grid;
 
 /// How the host ends a command. The PR-650 accepts all three (section 1,
-/// [confirmed]); LF is what PTB, PsychoPy and mgl send.
+/// \[confirmed\]); LF is what PTB, PsychoPy and mgl send.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Terminator {
@@ -202,7 +202,7 @@ fn parse_digits(field: &[u8]) -> Option<u32> {
 }
 
 /// A PR-650 float: `d.dddEsdd` (upper-case E documented; the case is
-/// [uncertain], so either is accepted), or a plain decimal (`.3127`,
+/// \[uncertain\], so either is accepted), or a plain decimal (`.3127`,
 /// `60.02`, `0380.`). Only digits, one sign per mantissa/exponent, dot and E:
 /// no `inf`/`nan`, and the value must be finite.
 pub fn parse_number(field: &[u8]) -> Option<f64> {
@@ -237,6 +237,22 @@ pub fn parse_setup_status(bytes: &[u8]) -> Result<u8, ProtocolError> {
     parse_digits(trim(first))
         .and_then(|v| u8::try_from(v).ok())
         .ok_or_else(|| malformed(1, first, "a two-digit setup status such as `00`"))
+}
+
+/// What a non-zero `S` status means (section 2): the number of the invalid
+/// field, or 50 for the accessory.
+pub fn setup_status_meaning(status: u8) -> &'static str {
+    match status {
+        0 => "setup accepted",
+        1 => "field 1, the primary accessory (01–12), is invalid",
+        2..=4 => "an add-on accessory field (02–12) is invalid",
+        5 => "field 5, sync (empty, 1, or 40–250 Hz), is invalid",
+        6 => "field 6, the integration time (0 = adaptive, or 10–6000 ms), is invalid",
+        7 => "field 7, the number of measurements averaged (01–99), is invalid",
+        8 => "field 8, units (0 English, 1 metric), is invalid",
+        50 => "no primary accessory, more than one, or the first accessory is not a primary",
+        _ => "an undocumented setup status",
+    }
 }
 
 /// The PR-650 quality codes of section 4 with their manual texts.
@@ -422,7 +438,7 @@ pub fn parse_yxy_report(bytes: &[u8]) -> Result<YxyReport, ProtocolError> {
 }
 
 /// `qq,U,a,b,c` → [a, b, c, qq, U]. On a bad quality code the PR-650 may send
-/// fewer numbers [uncertain]; then the missing values are 0 (the caller
+/// fewer numbers \[uncertain\]; then the missing values are 0 (the caller
 /// discards them anyway, since the code is bad).
 fn parse_three_values(bytes: &[u8], expected: &'static str) -> Result<[f64; 5], ProtocolError> {
     let lines = split_lines(bytes);
@@ -449,7 +465,7 @@ fn parse_three_values(bytes: &[u8], expected: &'static str) -> Result<[f64; 5], 
 }
 
 /// `D110`: the serial number. PTB takes the first 8 characters, which "may
-/// contain trailing blanks"; no status prefix [uncertain]. A `qq,` prefix (as
+/// contain trailing blanks"; no status prefix \[uncertain\]. A `qq,` prefix (as
 /// later models send) is tolerated and dropped.
 pub fn parse_serial(bytes: &[u8]) -> Result<String, ProtocolError> {
     let lines = split_lines(bytes);
@@ -515,7 +531,7 @@ pub fn parse_spectral_config(bytes: &[u8]) -> Result<SpectralConfig, ProtocolErr
     })
 }
 
-/// `F`: `qq,<Hz>`; on failure maybe only `qq` [uncertain]. Returns the code
+/// `F`: `qq,<Hz>`; on failure maybe only `qq` \[uncertain\]. Returns the code
 /// and the frequency when the code is 0.
 pub fn parse_sync_frequency(bytes: &[u8]) -> Result<(u8, Option<f64>), ProtocolError> {
     let expected = "a sync reply `qq,<Hz>`";
@@ -698,6 +714,8 @@ mod tests {
         assert_eq!(parse_ack(b"000\r\n").unwrap(), 0);
         assert_eq!(parse_setup_status(b"00\r\n").unwrap(), 0);
         assert_eq!(parse_setup_status(b"06\r\n").unwrap(), 6);
+        assert!(setup_status_meaning(6).contains("integration time"));
+        assert!(setup_status_meaning(50).contains("primary"));
         assert_eq!(parse_sync_frequency(b"00,60.02\r\n").unwrap(), (0, Some(60.02)));
         assert_eq!(parse_sync_frequency(b"07\r\n").unwrap(), (7, None));
         let c = parse_spectral_config(b"0101,008.0,0380.,0780.,0004.\r\n").unwrap();
@@ -842,6 +860,21 @@ mod tests {
             let _ = parse_spectral_config(&bytes);
             let _ = parse_sync_frequency(&bytes);
             let _ = complete_lines(&bytes);
+        }
+
+        #[test]
+        fn any_formatted_spectrum_parses_back_to_four_digits(
+            values in proptest::collection::vec(1e-9f64..1e3, 101),
+            code in 0u8..31,
+            bare_cr in any::<bool>(),
+        ) {
+            let bytes = format_spectral_report(code, 0, 1.0, &Grid::pr650(), &values, bare_cr);
+            prop_assert_eq!(complete_lines(&bytes), 103);
+            let r = parse_spectral_report(&bytes, &Grid::pr650()).unwrap();
+            prop_assert_eq!(r.code, code);
+            for (got, want) in r.values.iter().zip(&values) {
+                prop_assert!((got - want).abs() <= 5e-4 * want, "{} vs {}", got, want);
+            }
         }
 
         #[test]
