@@ -21,6 +21,7 @@
 pub mod charts;
 pub mod colorimetry;
 pub mod comparison;
+pub mod daemon;
 pub mod export;
 pub mod instrument;
 pub mod nstep;
@@ -29,4 +30,3 @@ pub mod render;
 pub mod service;
 pub mod spectrum;
 pub mod store;
-pub mod daemon;

@@ -20,6 +20,7 @@ struct Harness {
     state: AppState,
     jobs: mpsc::Receiver<MeasurementJob>,
     status: watch::Sender<InstrumentStatus>,
+    _shutdown: watch::Sender<bool>,
     _dir: tempfile::TempDir,
 }
 
@@ -35,6 +36,7 @@ async fn harness(queue: usize) -> Harness {
         port: "/dev/pts/9".into(),
     });
     let (events, _) = broadcast::channel(64);
+    let (shutdown_tx, shutdown_rx) = watch::channel(false);
     let state = AppState {
         store,
         config: Arc::new(ServiceConfig {
@@ -49,11 +51,13 @@ async fn harness(queue: usize) -> Harness {
         events,
         renders: None,
         mock: None,
+        shutting_down: shutdown_rx,
     };
     Harness {
         state,
         jobs: rx,
         status: status_tx,
+        _shutdown: shutdown_tx,
         _dir: dir,
     }
 }

@@ -65,7 +65,10 @@ fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
 pub fn run(args: ServeArgs) -> anyhow::Result<()> {
     let explicit = args.config != Path::new("lightbooth.toml");
     let file = read_config(&args.config, explicit)?;
-    let instrument_path = args.instrument.or(file.instrument).unwrap_or_else(|| "instruments/pr650.toml".into());
+    let instrument_path = args
+        .instrument
+        .or(file.instrument)
+        .unwrap_or_else(|| "instruments/pr650.toml".into());
     let instrument = if instrument_path.exists() {
         Pr650Settings::from_toml_file(&instrument_path)?
     } else {
@@ -73,8 +76,14 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         Pr650Settings::default()
     };
     let options = DaemonOptions {
-        bind: args.bind.or(file.bind).unwrap_or_else(|| "127.0.0.1:8650".parse().expect("valid address")),
-        db_url: args.db.or(file.db).unwrap_or_else(|| "sqlite://lightbooth.sqlite".into()),
+        bind: args
+            .bind
+            .or(file.bind)
+            .unwrap_or_else(|| "127.0.0.1:8650".parse().expect("valid address")),
+        db_url: args
+            .db
+            .or(file.db)
+            .unwrap_or_else(|| "sqlite://lightbooth.sqlite".into()),
         mock: args.mock,
         mock_speed: args.mock_speed.or(file.mock_speed).unwrap_or(1.0),
         mock_faults: args.mock_faults,
@@ -84,7 +93,9 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         token_file: args.token_file.or(file.token_file),
         default_token_file: "lightbooth.token".into(),
         codings: file.codings.unwrap_or_else(|| {
-            ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"].map(String::from).to_vec()
+            ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
+                .map(String::from)
+                .to_vec()
         }),
         render_samples: file.render_samples.unwrap_or(16_384),
     };

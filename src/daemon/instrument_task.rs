@@ -85,7 +85,8 @@ impl MockControl for MockSlot {
             .map(str::parse::<Fault>)
             .collect::<Result<Vec<_>, _>>()?;
         tracing::warn!(faults = spec, "faults injected into the simulated PR-650");
-        self.with(|h| h.set_faults(faults)).ok_or_else(|| "the simulated PR-650 is not running".to_string())
+        self.with(|h| h.set_faults(faults))
+            .ok_or_else(|| "the simulated PR-650 is not running".to_string())
     }
 }
 
@@ -144,10 +145,25 @@ impl InstrumentTask {
 
 pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
     let canceller = Canceller::default();
-    let mock = config.mock.clone().map(|settings| Arc::new(MockSlot { handle: Mutex::new(None), settings }));
-    let worker = Worker { config, canceller: canceller.clone(), mock: mock.clone() };
-    let thread = std::thread::Builder::new().name("instrument".into()).spawn(move || worker.run())?;
-    Ok(InstrumentTask { thread, canceller, mock })
+    let mock = config.mock.clone().map(|settings| {
+        Arc::new(MockSlot {
+            handle: Mutex::new(None),
+            settings,
+        })
+    });
+    let worker = Worker {
+        config,
+        canceller: canceller.clone(),
+        mock: mock.clone(),
+    };
+    let thread = std::thread::Builder::new()
+        .name("instrument".into())
+        .spawn(move || worker.run())?;
+    Ok(InstrumentTask {
+        thread,
+        canceller,
+        mock,
+    })
 }
 
 struct Worker {
@@ -226,7 +242,8 @@ impl Worker {
                     if mock.with(|_| ()).is_some() {
                         tracing::warn!("the simulated PR-650's cable was pulled: plugging in a new one");
                     }
-                    mock.power_on().map_err(|e| format!("cannot start the simulated PR-650: {e}"))?
+                    mock.power_on()
+                        .map_err(|e| format!("cannot start the simulated PR-650: {e}"))?
                 } else {
                     mock.with(|h| h.device_path().display().to_string()).unwrap_or_default()
                 }
@@ -239,16 +256,30 @@ impl Worker {
         let instrument = open_pr650(&port, &self.config.settings).map_err(|e| e.to_string())?;
         let info = instrument.info().clone();
         let id = self
-            .block_on(self.config.store.upsert_instrument(&info.model, info.serial.as_deref(), &port))
+            .block_on(
+                self.config
+                    .store
+                    .upsert_instrument(&info.model, info.serial.as_deref(), &port),
+            )
             .map_err(|e| format!("cannot record the instrument: {e}"))?;
         tracing::info!(instrument_id = id, model = %info.model, serial = ?info.serial, port, "instrument ready");
-        self.set_status(InstrumentStatus::Idle { model: info.model.clone(), serial: info.serial.clone(), port: port.clone() });
+        self.set_status(InstrumentStatus::Idle {
+            model: info.model.clone(),
+            serial: info.serial.clone(),
+            port: port.clone(),
+        });
         Ok((instrument, port))
     }
 
     fn serve_jobs(&mut self, mut instrument: Box<dyn Spectroradiometer>, port: &str) -> Disconnect {
         let info = instrument.info().clone();
-        let instrument_id = self.block_on(self.config.store.upsert_instrument(&info.model, info.serial.as_deref(), port)).ok();
+        let instrument_id = self
+            .block_on(
+                self.config
+                    .store
+                    .upsert_instrument(&info.model, info.serial.as_deref(), port),
+            )
+            .ok();
         loop {
             let Some(job) = self.config.jobs.blocking_recv() else {
                 return Disconnect::Shutdown;
@@ -260,12 +291,21 @@ impl Worker {
             if self.canceller.is_shutting_down() {
                 return Disconnect::Shutdown;
             }
-            self.set_status(InstrumentStatus::Idle { model: info.model.clone(), serial: info.serial.clone(), port: port.into() });
+            self.set_status(InstrumentStatus::Idle {
+                model: info.model.clone(),
+                serial: info.serial.clone(),
+                port: port.into(),
+            });
         }
     }
 
     /// Takes one measurement. Returns `Some(reason)` when the port was lost.
-    fn measure(&mut self, instrument: &mut dyn Spectroradiometer, instrument_id: Option<i64>, job: &MeasurementJob) -> Option<String> {
+    fn measure(
+        &mut self,
+        instrument: &mut dyn Spectroradiometer,
+        instrument_id: Option<i64>,
+        job: &MeasurementJob,
+    ) -> Option<String> {
         let id = job.id;
         let span = tracing::info_span!("measurement", measurement_id = id);
         let _enter = span.enter();
@@ -274,20 +314,39 @@ impl Worker {
             tracing::warn!(error = %e, "measurement no longer queued; skipped");
             return None;
         }
-        let _ = self.config.events.send(Event::MeasurementStarted { measurement_id: id, samples: job.samples });
-        self.set_status(InstrumentStatus::Measuring { measurement_id: id, sample: 0, of: job.samples });
+        let _ = self.config.events.send(Event::MeasurementStarted {
+            measurement_id: id,
+            samples: job.samples,
+        });
+        self.set_status(InstrumentStatus::Measuring {
+            measurement_id: id,
+            sample: 0,
+            of: job.samples,
+        });
 
         // Re-aim the simulated instrument at the scene target.
         if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
-            match self.config.renderer.converged_spectrum(scene, target, &mock.settings.cache_dir) {
+            match self
+                .config
+                .renderer
+                .converged_spectrum(scene, target, &mock.settings.cache_dir)
+            {
                 Ok(truth) => {
                     if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
-                        return self.finish_failed(id, MeasurementState::Failed, &format!("cannot aim the simulated PR-650: {e}"));
+                        return self.finish_failed(
+                            id,
+                            MeasurementState::Failed,
+                            &format!("cannot aim the simulated PR-650: {e}"),
+                        );
                     }
                     tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
                 }
                 Err(e) => {
-                    return self.finish_failed(id, MeasurementState::Failed, &format!("cannot render {scene}/{target}: {e}"))
+                    return self.finish_failed(
+                        id,
+                        MeasurementState::Failed,
+                        &format!("cannot render {scene}/{target}: {e}"),
+                    )
                 }
             }
         }
@@ -312,9 +371,18 @@ impl Worker {
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
                 tracing::error!(error = %e, index = s.index, "cannot store a sample");
             }
-            tracing::info!(index = s.index, code = s.code.code, usable = row.usable, "sample stored");
+            tracing::info!(
+                index = s.index,
+                code = s.code.code,
+                usable = row.usable,
+                "sample stored"
+            );
             let done = (s.index + 1).min(of);
-            let st = InstrumentStatus::Measuring { measurement_id: id, sample: done, of };
+            let st = InstrumentStatus::Measuring {
+                measurement_id: id,
+                sample: done,
+                of,
+            };
             status.send_replace(st.clone());
             let _ = events.send(Event::InstrumentStatus { status: st });
             let _ = events.send(Event::Sample {
@@ -325,7 +393,11 @@ impl Worker {
                 message: row.message.clone(),
                 usable: row.usable,
                 luminance_cd_m2: row.luminance_cd_m2,
-                wavelength_nm: s.radiance.as_ref().map(|r| r.grid().wavelengths().to_vec()).unwrap_or_default(),
+                wavelength_nm: s
+                    .radiance
+                    .as_ref()
+                    .map(|r| r.grid().wavelengths().to_vec())
+                    .unwrap_or_default(),
                 radiance: row.radiance.clone(),
             });
         };
@@ -349,7 +421,12 @@ impl Worker {
                     tracing::error!(error = %e, "cannot store the average");
                     return self.finish_failed(id, MeasurementState::Failed, &format!("cannot store the average: {e}"));
                 }
-                tracing::info!(luminance_cd_m2 = avg.luminance_cd_m2, x = avg.x, y = avg.y, "measurement complete");
+                tracing::info!(
+                    luminance_cd_m2 = avg.luminance_cd_m2,
+                    x = avg.x,
+                    y = avg.y,
+                    "measurement complete"
+                );
                 let _ = self.config.events.send(Event::MeasurementFinished {
                     measurement_id: id,
                     state: MeasurementState::Complete,
@@ -357,7 +434,10 @@ impl Worker {
                 });
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
                     match xyz_from_radiance(&avg.mean, Observer::JuddVos) {
-                        Ok(xyz) => self.config.renderer.compare_later(id, scene.clone(), target.clone(), xyz),
+                        Ok(xyz) => self
+                            .config
+                            .renderer
+                            .compare_later(id, scene.clone(), target.clone(), xyz),
                         Err(e) => tracing::error!(error = %e, "cannot compute XYZ of the mean spectrum"),
                     }
                 }

@@ -66,7 +66,9 @@ pub async fn run(
     options: DaemonOptions,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
-    let store = Store::open(&options.db_url).await.with_context(|| format!("opening the database {}", options.db_url))?;
+    let store = Store::open(&options.db_url)
+        .await
+        .with_context(|| format!("opening the database {}", options.db_url))?;
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
@@ -84,7 +86,9 @@ pub async fn run(
     }
 
     let (jobs_tx, jobs_rx) = mpsc::channel(QUEUE_CAPACITY);
-    let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected { reason: "starting".into() });
+    let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
+        reason: "starting".into(),
+    });
     let (events, _) = broadcast::channel(1024);
     let renderer = Arc::new(renders::Renderer::new(
         options.scenes_dir.clone(),
@@ -108,6 +112,7 @@ pub async fn run(
         runtime: tokio::runtime::Handle::current(),
     })?;
 
+    let (shutting_down_tx, shutting_down) = watch::channel(false);
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
@@ -122,6 +127,7 @@ pub async fn run(
         events,
         renders: Some(renderer as Arc<dyn service::RenderService>),
         mock: instrument.mock_control(),
+        shutting_down,
     };
     let cancel_running = instrument.canceller();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -131,12 +137,15 @@ pub async fn run(
     shutdown.await;
     tracing::info!("shutting down: cancelling the running measurement and closing the HTTP server");
     cancel_running.shutdown();
+    let _ = shutting_down_tx.send(true);
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;
     // The server's state (and so the job sender) is gone: the instrument
     // thread finishes its current job and stops.
     instrument.join().await;
-    let n = store.interrupt_unfinished("the daemon shut down before this measurement ran").await?;
+    let n = store
+        .interrupt_unfinished("the daemon shut down before this measurement ran")
+        .await?;
     if n > 0 {
         tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
     }

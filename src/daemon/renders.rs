@@ -73,7 +73,11 @@ impl Renderer {
         paths.sort();
         for path in paths {
             let scene = render::load_scene(&path)?;
-            let id = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
+            let id = path
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or_default()
+                .to_string();
             scenes.push(SceneEntry {
                 title: scene.name.clone(),
                 targets: scene.targets().into_iter().map(str::to_string).collect(),
@@ -164,7 +168,10 @@ impl Renderer {
     fn white_for(&self, scene: &str) -> (String, String) {
         match self.entry(scene) {
             Some(e) if e.targets.len() > 1 => (scene.to_string(), e.targets.last().cloned().unwrap_or_default()),
-            _ if self.entry("white").is_some_and(|w| w.targets.iter().any(|t| t == "patch")) => {
+            _ if self
+                .entry("white")
+                .is_some_and(|w| w.targets.iter().any(|t| t == "patch")) =>
+            {
                 ("white".into(), "patch".into())
             }
             Some(e) => (scene.to_string(), e.targets.first().cloned().unwrap_or_default()),
@@ -184,12 +191,18 @@ impl Renderer {
         let (_, xyz, _) = rendered_codings(&result, target)
             .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
             .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {scene}/{target}"))?;
-        Ok((xyz, format!("render {render_id} spectral ({scene}/{target}; not yet measured)")))
+        Ok((
+            xyz,
+            format!("render {render_id} spectral ({scene}/{target}; not yet measured)"),
+        ))
     }
 
     fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, String> {
         let codings = match &request.codings {
-            Some(list) => list.split(',').map(|c| c.parse::<Coding>()).collect::<Result<Vec<_>, _>>()?,
+            Some(list) => list
+                .split(',')
+                .map(|c| c.parse::<Coding>())
+                .collect::<Result<Vec<_>, _>>()?,
             None => {
                 let mut c = self.codings.clone();
                 // The comparison white may come from the spectral rendering.
@@ -199,7 +212,11 @@ impl Renderer {
                 c
             }
         };
-        let mut s = RenderSettings { codings, samples: self.samples, ..RenderSettings::default() };
+        let mut s = RenderSettings {
+            codings,
+            samples: self.samples,
+            ..RenderSettings::default()
+        };
         if let Some(n) = request.samples {
             s.samples = u64::from(n);
         }
@@ -225,13 +242,23 @@ impl Renderer {
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
         let loaded = render::load_scene(&entry.path)?;
         let hash = render::scene_hash(&loaded)?;
-        if let Some(found) = self.store.find_render_result(&hash, &serde_json::to_value(&settings)?).await? {
+        if let Some(found) = self
+            .store
+            .find_render_result(&hash, &serde_json::to_value(&settings)?)
+            .await?
+        {
             return Ok(found);
         }
         let id = self.record(scene, &settings, hash).await?;
         self.execute(id, scene, loaded, settings).await?;
-        let row = self.store.get_render(id).await?.ok_or_else(|| anyhow::anyhow!("render {id} vanished"))?;
-        let result = row.result.ok_or_else(|| anyhow::anyhow!("render {id} failed: {}", row.error.unwrap_or_default()))?;
+        let row = self
+            .store
+            .get_render(id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("render {id} vanished"))?;
+        let result = row
+            .result
+            .ok_or_else(|| anyhow::anyhow!("render {id} failed: {}", row.error.unwrap_or_default()))?;
         Ok((id, result))
     }
 
@@ -247,7 +274,10 @@ impl Renderer {
                 seed: settings.seed,
             })
             .await?;
-        let _ = self.events.send(Event::RenderStarted { render_id: id, scene: scene_id.to_string() });
+        let _ = self.events.send(Event::RenderStarted {
+            render_id: id,
+            scene: scene_id.to_string(),
+        });
         tracing::info!(render_id = id, scene = scene_id, "render started");
         Ok(id)
     }
@@ -264,13 +294,20 @@ impl Renderer {
                 let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
                 if last.elapsed().as_millis() >= 200 || done == total {
                     *last = Instant::now();
-                    let _ = events.send(Event::RenderProgress { render_id: id, done, total });
+                    let _ = events.send(Event::RenderProgress {
+                        render_id: id,
+                        done,
+                        total,
+                    });
                 }
             };
             let result = render::render(&scene, &settings, Some(&progress)).map(|full| {
                 let mut coding_seconds = serde_json::Map::new();
                 for coding in &settings.codings {
-                    let alone = RenderSettings { codings: vec![*coding], ..settings.clone() };
+                    let alone = RenderSettings {
+                        codings: vec![*coding],
+                        ..settings.clone()
+                    };
                     let t = Instant::now();
                     if render::render(&scene, &alone, None).is_ok() {
                         coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
@@ -295,14 +332,23 @@ impl Renderer {
                 (false, Some(e.to_string()))
             }
         };
-        let _ = self.events.send(Event::RenderFinished { render_id: id, scene: scene_id.into(), ok, error });
+        let _ = self.events.send(Event::RenderFinished {
+            render_id: id,
+            scene: scene_id.into(),
+            ok,
+            error,
+        });
         Ok(())
     }
 }
 
 /// Every coding's XYZ and standard error of Y at `target` in a stored render result.
 fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
-    let t = result.get("targets")?.as_array()?.iter().find(|t| t.get("id").and_then(|i| i.as_str()) == Some(target))?;
+    let t = result
+        .get("targets")?
+        .as_array()?
+        .iter()
+        .find(|t| t.get("id").and_then(|i| i.as_str()) == Some(target))?;
     let codings = t.get("codings")?.as_object()?;
     codings
         .iter()
@@ -317,18 +363,29 @@ impl RenderService for Renderer {
     fn scenes(&self) -> Vec<SceneInfo> {
         self.scenes
             .iter()
-            .map(|s| SceneInfo { id: s.id.clone(), title: s.title.clone(), targets: s.targets.clone() })
+            .map(|s| SceneInfo {
+                id: s.id.clone(),
+                title: s.title.clone(),
+                targets: s.targets.clone(),
+            })
             .collect()
     }
 
     fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, ApiError>> {
         Box::pin(async move {
-            let path = self.entry(&scene).map(|e| e.path.clone()).ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
-            let settings =
-                self.settings(&request).map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
+            let path = self
+                .entry(&scene)
+                .map(|e| e.path.clone())
+                .ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
+            let settings = self
+                .settings(&request)
+                .map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
             let loaded = render::load_scene(&path).map_err(|e| ApiError::Internal(e.to_string()))?;
             let hash = render::scene_hash(&loaded).map_err(|e| ApiError::Internal(e.to_string()))?;
-            let id = self.record(&scene, &settings, hash).await.map_err(|e| ApiError::Internal(e.to_string()))?;
+            let id = self
+                .record(&scene, &settings, hash)
+                .await
+                .map_err(|e| ApiError::Internal(e.to_string()))?;
             // Run in the background; the caller polls /api/renders/{id} or follows the events.
             tokio::spawn(async move {
                 if let Err(e) = self.execute(id, &scene, loaded, settings).await {

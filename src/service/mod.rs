@@ -100,6 +100,9 @@ pub struct AppState {
     pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
+    /// Turns true when the daemon shuts down: endless responses (the event
+    /// stream) end then, so graceful shutdown does not wait on them forever.
+    pub shutting_down: watch::Receiver<bool>,
 }
 
 /// A boxed future, for the async methods of the traits below.

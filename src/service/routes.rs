@@ -689,8 +689,15 @@ pub struct MockFaults {
 #[utoipa::path(post, path = "/api/mock/faults", tag = "instruments", request_body = MockFaults,
     responses((status = 204), (status = 400, body = super::error::ErrorBody), (status = 404, body = super::error::ErrorBody)),
     security(("bearer" = [])))]
-pub async fn mock_faults(State(state): State<AppState>, Input(body): Input<MockFaults>) -> Result<StatusCode, ApiError> {
-    let mock = state.mock.as_ref().ok_or_else(|| ApiError::NotFound("no simulated PR-650: the daemon runs a real one".into()))?;
-    mock.set_faults(&body.faults).map_err(|e| ApiError::BadRequest(format!("field `faults`: {e}")))?;
+pub async fn mock_faults(
+    State(state): State<AppState>,
+    Input(body): Input<MockFaults>,
+) -> Result<StatusCode, ApiError> {
+    let mock = state
+        .mock
+        .as_ref()
+        .ok_or_else(|| ApiError::NotFound("no simulated PR-650: the daemon runs a real one".into()))?;
+    mock.set_faults(&body.faults)
+        .map_err(|e| ApiError::BadRequest(format!("field `faults`: {e}")))?;
     Ok(StatusCode::NO_CONTENT)
 }

@@ -458,8 +458,10 @@ impl Store {
         .await?;
         let Some(row) = row else { return Ok(None) };
         let text: String = row.get("result_json");
-        let json = serde_json::from_str(&text)
-            .map_err(|e| StoreError::Corrupt { what: "renders.result_json".into(), err: e.to_string() })?;
+        let json = serde_json::from_str(&text).map_err(|e| StoreError::Corrupt {
+            what: "renders.result_json".into(),
+            err: e.to_string(),
+        })?;
         Ok(Some((row.get("id"), json)))
     }
 

@@ -1,0 +1,135 @@
+//! A minimal HTTP/1.1 client over a real loopback socket, for tests that
+//! talk to a running daemon exactly as MATLAB or a browser would.
+
+#![allow(dead_code)]
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use serde_json::Value;
+use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+use tokio::sync::mpsc;
+
+/// One request with `Connection: close`; returns the status and the body.
+pub async fn request(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    json: Option<&str>,
+) -> (u16, Vec<u8>) {
+    let mut stream = TcpStream::connect(addr).await.expect("connect to the daemon");
+    let mut head = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+    if let Some(t) = token {
+        head.push_str(&format!("Authorization: Bearer {t}\r\n"));
+    }
+    let body = json.unwrap_or("");
+    if json.is_some() {
+        head.push_str(&format!(
+            "Content-Type: application/json\r\nContent-Length: {}\r\n",
+            body.len()
+        ));
+    }
+    head.push_str("\r\n");
+    stream.write_all(head.as_bytes()).await.unwrap();
+    stream.write_all(body.as_bytes()).await.unwrap();
+    let mut raw = Vec::new();
+    stream.read_to_end(&mut raw).await.unwrap();
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a complete response");
+    let head = String::from_utf8_lossy(&raw[..split]).to_string();
+    let status: u16 = head.split_whitespace().nth(1).unwrap().parse().unwrap();
+    let mut body = raw[split + 4..].to_vec();
+    if head.to_ascii_lowercase().contains("transfer-encoding: chunked") {
+        body = dechunk(&body);
+    }
+    (status, body)
+}
+
+fn dechunk(mut data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        let Some(eol) = data.windows(2).position(|w| w == b"\r\n") else {
+            break;
+        };
+        let size = usize::from_str_radix(std::str::from_utf8(&data[..eol]).unwrap().trim(), 16).unwrap_or(0);
+        if size == 0 {
+            break;
+        }
+        out.extend_from_slice(&data[eol + 2..eol + 2 + size]);
+        data = &data[eol + 2 + size + 2..];
+    }
+    out
+}
+
+pub async fn get_json(addr: SocketAddr, path: &str) -> (u16, Value) {
+    let (status, body) = request(addr, "GET", path, None, None).await;
+    (status, serde_json::from_slice(&body).unwrap_or(Value::Null))
+}
+
+pub async fn post_json(addr: SocketAddr, path: &str, token: &str, json: &str) -> (u16, Value) {
+    let (status, body) = request(addr, "POST", path, Some(token), Some(json)).await;
+    (status, serde_json::from_slice(&body).unwrap_or(Value::Null))
+}
+
+/// Follows `/api/events`; yields (event name, data) pairs.
+pub async fn events(addr: SocketAddr) -> mpsc::UnboundedReceiver<(String, Value)> {
+    let mut stream = TcpStream::connect(addr).await.unwrap();
+    let req = format!("GET /api/events HTTP/1.1\r\nHost: {addr}\r\nAccept: text/event-stream\r\n\r\n");
+    stream.write_all(req.as_bytes()).await.unwrap();
+    let (tx, rx) = mpsc::unbounded_channel();
+    tokio::spawn(async move {
+        let mut lines = BufReader::new(stream).lines();
+        let mut name = String::new();
+        while let Ok(Some(line)) = lines.next_line().await {
+            if let Some(n) = line.strip_prefix("event: ") {
+                name = n.trim().to_string();
+            } else if let Some(d) = line.strip_prefix("data: ") {
+                if let Ok(v) = serde_json::from_str(d) {
+                    if tx.send((name.clone(), v)).is_err() {
+                        return;
+                    }
+                }
+            }
+        }
+    });
+    rx
+}
+
+/// Waits (bounded) for the first event matching `pred`.
+pub async fn wait_for(
+    rx: &mut mpsc::UnboundedReceiver<(String, Value)>,
+    what: &str,
+    limit: Duration,
+    mut pred: impl FnMut(&str, &Value) -> bool,
+) -> Value {
+    let deadline = tokio::time::Instant::now() + limit;
+    loop {
+        let left = deadline.saturating_duration_since(tokio::time::Instant::now());
+        match tokio::time::timeout(left, rx.recv()).await {
+            Ok(Some((name, v))) if pred(&name, &v) => return v,
+            Ok(Some(_)) => continue,
+            Ok(None) => panic!("the event stream ended while waiting for {what}"),
+            Err(_) => panic!("no {what} within {limit:?}"),
+        }
+    }
+}
+
+/// Polls `path` until `pred` holds (bounded).
+pub async fn poll_until(addr: SocketAddr, path: &str, limit: Duration, mut pred: impl FnMut(&Value) -> bool) -> Value {
+    let deadline = tokio::time::Instant::now() + limit;
+    loop {
+        let (_, v) = get_json(addr, path).await;
+        if pred(&v) {
+            return v;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{path} never reached the expected state: {v}"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}

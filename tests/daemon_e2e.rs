@@ -1,0 +1,295 @@
+//! The whole daemon on loopback: a real SQLite file, the simulated PR-650 on
+//! a real pty through the real driver, the renderer, the HTTP server. The
+//! test plays a MATLAB script and a dashboard: it starts measurements,
+//! follows the server-sent events, and reads results back.
+
+mod common;
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use common::{events, get_json, poll_until, post_json, wait_for};
+use lightbooth::daemon::{self, DaemonOptions};
+use lightbooth::instrument::Pr650Settings;
+use serde_json::Value;
+
+const TOKEN: &str = "e2e-token-0123456789abcdef";
+
+struct Daemon {
+    addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<anyhow::Result<()>>,
+    _dir: tempfile::TempDir,
+}
+
+impl Daemon {
+    async fn start(mock_speed: f64) -> Daemon {
+        let dir = tempfile::tempdir().unwrap();
+        let token_file = dir.path().join("token");
+        std::fs::write(&token_file, TOKEN).unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let settings = Pr650Settings {
+            // Short timeouts: a fault must end a measurement quickly, never hang.
+            command_timeout_ms: 2_000,
+            measure_timeout_ms: 5_000,
+            gap_timeout_ms: 500,
+            ..Pr650Settings::default()
+        };
+        let options = DaemonOptions {
+            bind: addr,
+            db_url: format!("sqlite://{}", dir.path().join("lab.sqlite").display()),
+            mock: true,
+            mock_speed,
+            mock_faults: Vec::new(),
+            instrument: settings,
+            scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
+            // Shared across tests: converged spectra are keyed by scene content.
+            cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
+            token_file: Some(token_file),
+            default_token_file: dir.path().join("unused-token"),
+            codings: ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
+                .map(String::from)
+                .to_vec(),
+            render_samples: 2048,
+        };
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let task = tokio::spawn(daemon::run(listener, options, async move {
+            let _ = stopped.await;
+        }));
+        // Wait until the instrument is up.
+        poll_until(addr, "/api/health", Duration::from_secs(20), |v| {
+            v["instrument"]["state"] == "idle"
+        })
+        .await;
+        Daemon {
+            addr,
+            stop: Some(stop),
+            task,
+            _dir: dir,
+        }
+    }
+
+    async fn stop(mut self) {
+        let _ = self.stop.take().unwrap().send(());
+        tokio::time::timeout(Duration::from_secs(30), self.task)
+            .await
+            .expect("shutdown in time")
+            .unwrap()
+            .unwrap();
+    }
+}
+
+fn is_final(v: &Value) -> bool {
+    !matches!(v["state"].as_str(), Some("queued") | Some("running") | None)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
+    let d = Daemon::start(0.0).await;
+    let mut ev = events(d.addr).await;
+    // Unknown scenes and targets are refused with the field named and the choices listed.
+    let (status, v) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"kitchen","target":"patch"}"#,
+    )
+    .await;
+    assert_eq!(status, 400);
+    assert!(
+        v["error"]["message"]
+            .as_str()
+            .unwrap()
+            .contains("field `scene`: no scene `kitchen`; available: white, red"),
+        "{v}"
+    );
+    let (status, v) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"cylinder","target":"h99"}"#,
+    )
+    .await;
+    assert_eq!(status, 400);
+    assert!(v["error"]["message"].as_str().unwrap().contains("h01, h02"), "{v}");
+    let (status, _) = get_json(d.addr, "/api/scenes/kitchen").await;
+    assert_eq!(status, 404);
+    let (status, scenes) = get_json(d.addr, "/api/scenes").await;
+    assert_eq!(status, 200);
+    assert_eq!(scenes.as_array().unwrap().len(), 5);
+    let (status, accepted) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"white","target":"patch","samples":5}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{accepted}");
+    let id = accepted["id"].as_i64().unwrap();
+
+    let mut sample_events = 0;
+    wait_for(
+        &mut ev,
+        "the measurement to finish",
+        Duration::from_secs(120),
+        |name, v| {
+            if name == "sample" && v["measurement_id"] == id {
+                sample_events += 1;
+                assert_eq!(
+                    v["radiance"].as_array().map(Vec::len),
+                    Some(101),
+                    "each sample carries its spectrum"
+                );
+            }
+            name == "measurement_finished" && v["measurement_id"] == id
+        },
+    )
+    .await;
+    assert_eq!(sample_events, 5);
+
+    let (status, m) = get_json(d.addr, &format!("/api/measurements/{id}")).await;
+    assert_eq!(status, 200);
+    assert_eq!(m["state"], "complete", "{m}");
+    assert_eq!(m["samples"].as_array().unwrap().len(), 5);
+    assert_eq!(m["wavelength_nm"].as_array().unwrap().len(), 101);
+    // The WHITE scene's Spectralon under the 110 cd spotlight reads about 34 cd/m² (booth-scenes.md).
+    let y = m["Y"].as_f64().unwrap();
+    assert!((25.0..45.0).contains(&y), "Y = {y}");
+
+    wait_for(&mut ev, "the comparison", Duration::from_secs(300), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == id
+    })
+    .await;
+    let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    let codings: Vec<&str> = c["codings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["coding"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        codings,
+        ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
+    );
+    assert_eq!(c["rows"][0]["white_source"], format!("measurement {id} (white/patch)"));
+    // The spectral rendering agrees with the (simulated) measurement of its own converged spectrum.
+    let spectral = c["codings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["coding"] == "spectral")
+        .unwrap();
+    assert!(spectral["mean_dE00"].as_f64().unwrap() < 2.0, "{spectral}");
+
+    for chart in ["chromaticity", "profile", "rms", "de", "speed"] {
+        let (status, body) = common::request(
+            d.addr,
+            "GET",
+            &format!("/api/scenes/white/charts/{chart}.svg"),
+            None,
+            None,
+        )
+        .await;
+        assert_eq!(status, 200, "{chart}: {}", String::from_utf8_lossy(&body));
+        assert!(body.starts_with(b"<svg"));
+    }
+    let (status, mat) = common::request(
+        d.addr,
+        "GET",
+        &format!("/api/measurements/{id}/spectrum.mat"),
+        None,
+        None,
+    )
+    .await;
+    assert_eq!(status, 200);
+    let parsed = matfile::MatFile::parse(mat.as_slice()).expect("a MAT-file MATLAB can load");
+    assert_eq!(parsed.find_by_name("samples").unwrap().size(), &vec![101, 5]);
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cable_pulled_mid_measurement_leaves_it_interrupted_with_its_samples_and_the_next_one_works() {
+    // Slow enough (about 0.25 s a sample) to inject the fault between samples.
+    let d = Daemon::start(0.05).await;
+    let mut ev = events(d.addr).await;
+    let (status, first) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":5}"#).await;
+    assert_eq!(status, 202);
+    let id = first["id"].as_i64().unwrap();
+    wait_for(&mut ev, "two samples", Duration::from_secs(60), |name, v| {
+        name == "sample" && v["measurement_id"] == id && v["index"] == 1
+    })
+    .await;
+    let (status, _) = post_json(d.addr, "/api/mock/faults", TOKEN, r#"{"faults":"cable-pull:once"}"#).await;
+    assert_eq!(status, 204);
+    let m = poll_until(
+        d.addr,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(60),
+        is_final,
+    )
+    .await;
+    assert_eq!(m["state"], "interrupted", "{m}");
+    let kept = m["samples"].as_array().unwrap().len();
+    assert!(
+        (2..5).contains(&kept),
+        "the samples taken before the cable was pulled are kept: {kept}"
+    );
+    assert!(m["radiance"].is_null(), "an interrupted measurement has no average");
+    assert!(m["error"].as_str().unwrap().contains("closed"), "{m}");
+
+    // The daemon reopens the (re-plugged) instrument and the next measurement completes.
+    poll_until(d.addr, "/api/health", Duration::from_secs(30), |v| {
+        v["instrument"]["state"] == "idle"
+    })
+    .await;
+    let (status, second) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":3}"#).await;
+    assert_eq!(status, 202, "{second}");
+    let m2 = poll_until(
+        d.addr,
+        second["url"].as_str().unwrap(),
+        Duration::from_secs(60),
+        is_final,
+    )
+    .await;
+    assert_eq!(m2["state"], "complete", "{m2}");
+    assert_eq!(m2["samples"].as_array().unwrap().len(), 3);
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_interrupts_the_running_measurement_and_the_queue() {
+    let d = Daemon::start(0.2).await;
+    let mut ev = events(d.addr).await;
+    let (_, running) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":5}"#).await;
+    let (_, queued) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":5}"#).await;
+    let id = running["id"].as_i64().unwrap();
+    wait_for(&mut ev, "a first sample", Duration::from_secs(60), |name, v| {
+        name == "sample" && v["measurement_id"] == id
+    })
+    .await;
+    let addr = d.addr;
+    let db = d._dir.path().join("lab.sqlite");
+    // Keep the folder alive past stop() to read the database afterwards.
+    let Daemon { stop, task, _dir, .. } = d;
+    let _ = stop.unwrap().send(());
+    tokio::time::timeout(Duration::from_secs(30), task)
+        .await
+        .expect("shutdown in time")
+        .unwrap()
+        .unwrap();
+    let store = lightbooth::store::Store::open(&format!("sqlite://{}", db.display()))
+        .await
+        .unwrap();
+    let m = store.get_measurement(id).await.unwrap().unwrap();
+    assert_eq!(m.summary.state, lightbooth::store::MeasurementState::Interrupted);
+    assert!(!m.samples.is_empty());
+    let q = store
+        .get_measurement(queued["id"].as_i64().unwrap())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(q.summary.state, lightbooth::store::MeasurementState::Interrupted);
+    let _ = addr;
+}
