@@ -1,0 +1,80 @@
+// Drives the lightbooth dashboard in Debian's headless Chromium, as a
+// scientist would: open the printed URL (with the token), start a
+// measurement of the WHITE scene, watch its progress, see the spectrum, the
+// comparison table and the charts. Fails on any console error.
+//
+// Usage: node dashboard.mjs BASE_URL TOKEN SCREENSHOT_DIR
+import { chromium } from "playwright-core";
+
+const [base, token, shots] = process.argv.slice(2);
+if (!base || !token) {
+  console.error("usage: node dashboard.mjs BASE_URL TOKEN [SCREENSHOT_DIR]");
+  process.exit(2);
+}
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  headless: true,
+  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync"],
+});
+const failures = [];
+try {
+  const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
+  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
+  page.on("pageerror", (e) => failures.push("page error: " + e.message));
+  // A chart <img> whose source is replaced while loading is aborted on purpose; anything else is a failure.
+  page.on("requestfailed", (r) => {
+    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
+  });
+  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+
+  await page.goto(`${base}/#token=${token}`);
+  await page.waitForFunction(() => document.getElementById("instrument").textContent.includes("idle"), null, { timeout: 30000 });
+
+  // Start a measurement of the WHITE scene's patch.
+  await page.waitForFunction(() => document.querySelectorAll("#scene-select option").length > 1);
+  await page.selectOption("#scene-select", "white");
+  await page.selectOption("#target-select", "patch");
+  await page.fill("#samples-input", "5");
+  await page.click("#measure-button");
+
+  // Progress: sample k of 5, a progress bar, then the result.
+  await page.waitForFunction(() => /sample \d of 5/.test(document.getElementById("progress-text").textContent), null, { timeout: 60000 });
+  await page.waitForFunction(() => document.getElementById("live-result").textContent.includes("cd/m²"), null, { timeout: 60000 });
+  const progress = await page.$eval("#progress", (p) => [p.value, p.max]);
+  if (progress[0] !== 5 || progress[1] !== 5) failures.push(`progress bar at ${progress}`);
+  await page.waitForFunction(() => {
+    const img = document.getElementById("live-spectrum");
+    return img.complete && img.naturalWidth > 0;
+  });
+  if (shots) await page.screenshot({ path: `${shots}/live.png`, fullPage: true });
+
+  // The measurement list and its detail.
+  await page.goto(`${base}/#/measurements`);
+  await page.waitForSelector("#measurement-table tbody tr");
+  await page.click("#measurement-table tbody tr");
+  await page.waitForFunction(() => document.querySelectorAll("#sample-table tbody tr").length === 5);
+
+  // The scene comparison: every coding, every chart.
+  await page.goto(`${base}/#/scenes/white`);
+  await page.waitForFunction(() => document.querySelectorAll("#coding-table tbody tr").length === 7, null, { timeout: 120000 });
+  for (const chart of ["chromaticity", "profile", "rms", "de", "speed"]) {
+    await page.waitForFunction((id) => {
+      const img = document.getElementById("chart-" + id);
+      return img.complete && img.naturalWidth > 0;
+    }, chart, { timeout: 30000 });
+  }
+  const codings = await page.$$eval("#coding-table tbody tr td:first-child", (tds) => tds.map((t) => t.textContent));
+  if (codings.join(",") !== "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral") failures.push("codings: " + codings);
+  if (shots) await page.screenshot({ path: `${shots}/scene.png`, fullPage: true });
+} catch (e) {
+  failures.push(String(e));
+} finally {
+  await browser.close();
+}
+if (failures.length) {
+  console.error(failures.join("\n"));
+  process.exit(1);
+}
+console.log("dashboard ok");
