@@ -309,7 +309,9 @@ impl Store {
 
     /// One measurement with all its samples.
     pub async fn get_measurement(&self, id: i64) -> Result<Option<MeasurementDetail>, StoreError> {
-        let Some(row) = sqlx::query(&format!("SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id = ?"))
+        let Some(row) = sqlx::query(&format!(
+            "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = ?"
+        ))
             .bind(id)
             .fetch_optional(&self.pool)
             .await?
@@ -352,22 +354,29 @@ impl Store {
 
     /// A page of measurements, newest first, with optional filters.
     pub async fn list_measurements(&self, f: &MeasurementFilter) -> Result<MeasurementPage, StoreError> {
-        let mut where_sql = String::from(" WHERE 1 = 1");
+        let mut conditions = Vec::new();
         if f.scene.is_some() {
-            where_sql.push_str(" AND scene = ?");
+            conditions.push("scene = ?");
         }
         if f.target.is_some() {
-            where_sql.push_str(" AND target = ?");
+            conditions.push("target = ?");
         }
         if f.state.is_some() {
-            where_sql.push_str(" AND state = ?");
+            conditions.push("state = ?");
         }
+        // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
+        let where_sql =
+            if conditions.is_empty() { String::new() } else { format!(" WHERE {}", conditions.join(" AND ")) };
         let count_sql = format!("SELECT COUNT(*) FROM measurements{where_sql}");
         let total: i64 = bind_filters(&count_sql, f).fetch_one(&self.pool).await?.get(0);
         let limit = f.limit.unwrap_or(50).clamp(1, 1000);
-        let offset = f.offset.unwrap_or(0);
+        let offset = f.offset.unwrap_or(0).max(0);
+        // The page's ids come from the primary key alone; only those rows'
+        // columns (and sample counts) are computed. With the columns in the
+        // paging query itself, SQLite evaluates them for every skipped row.
         let list_sql = format!(
-            "SELECT {MEASUREMENT_COLUMNS} FROM measurements{where_sql} ORDER BY id DESC LIMIT {limit} OFFSET {offset}"
+            "SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id IN (\
+             SELECT id FROM measurements{where_sql} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
         );
         let rows = bind_filters(&list_sql, f).fetch_all(&self.pool).await?;
         let items = rows.iter().map(measurement_from_row).collect::<Result<Vec<_>, _>>()?;

@@ -141,10 +141,10 @@ pub struct MeasurementPage {
     pub items: Vec<MeasurementSummary>,
 }
 
+/// The summary columns (no spectra: listings stay small and fast).
 pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
-    state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
-    wavelength_json, radiance_json, radiance_sd_json";
+    state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv";
 
 pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, StoreError> {
     let state: String = r.get("state");
