@@ -9,7 +9,7 @@ use clap::Args;
 
 use lightbooth::render::integrator::Transport;
 use lightbooth::render::sensor::render_camera;
-use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings};
+use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -47,6 +47,9 @@ pub struct RenderArgs {
     /// (`coding_wall_seconds` in the JSON): the cost of each coding.
     #[arg(long)]
     time_each_coding: bool,
+    /// Random numbers: sobol (scrambled, stratified; SE from batch means) or independent.
+    #[arg(long, default_value = "sobol", value_parser = parse_sampler)]
+    sampler: SamplerKind,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
@@ -54,6 +57,14 @@ pub struct RenderArgs {
 
 fn parse_coding(s: &str) -> Result<Coding, String> {
     s.parse()
+}
+
+fn parse_sampler(s: &str) -> Result<SamplerKind, String> {
+    match s {
+        "sobol" => Ok(SamplerKind::Sobol),
+        "independent" => Ok(SamplerKind::Independent),
+        _ => Err(format!("unknown sampler `{s}`: sobol or independent")),
+    }
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -66,6 +77,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         russian_roulette_from: args.russian_roulette_from,
         targets: args.targets.clone(),
         threads: args.threads,
+        sampler: args.sampler,
     };
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);

@@ -79,6 +79,115 @@ pub fn splitmix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// How a path draws its random numbers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SamplerKind {
+    /// Randomised quasi-Monte Carlo: each 2D decision of a path (field
+    /// direction, bounce 1, bounce 2, …) takes one point of a shuffled,
+    /// Owen-scrambled Sobol (0,2)-sequence, padded (independently scrambled)
+    /// per decision (Burley 2020, "Practical hash-based Owen scrambling",
+    /// JCGT 9(4)). Each batch of [`BATCH_SAMPLES`] is one independent
+    /// randomisation, so the batch means are i.i.d. and the standard error
+    /// comes from them.
+    #[default]
+    Sobol,
+    /// Independent PCG32 numbers; the standard error comes from the paths.
+    Independent,
+}
+
+/// Samples per batch: one Sobol randomisation, the unit of parallel work and
+/// of deterministic summation. A power of two, so a batch is a (0, m, 2)-net.
+pub const BATCH_SAMPLES: u64 = 1024;
+
+/// 2D decisions per path drawn from the Sobol sequence; later ones use PCG32.
+const SOBOL_PAIRS: u32 = 8;
+
+/// The random numbers of one path.
+pub struct PathSampler {
+    kind: SamplerKind,
+    pcg: Pcg32,
+    /// Index of this path within its batch.
+    index: u32,
+    /// Seed of the batch's randomisation.
+    batch_seed: u32,
+    pair: u32,
+}
+
+impl PathSampler {
+    /// The sampler of sample `sample` of stream `stream` (a target or a pixel).
+    pub fn new(kind: SamplerKind, seed: u64, stream: u64, sample: u64) -> PathSampler {
+        let batch = sample / BATCH_SAMPLES;
+        PathSampler {
+            kind,
+            pcg: Pcg32::for_sample(seed, stream, sample),
+            index: (sample % BATCH_SAMPLES) as u32,
+            batch_seed: splitmix64(splitmix64(seed ^ splitmix64(stream)) ^ batch) as u32,
+            pair: 0,
+        }
+    }
+
+    /// A uniform number in [0, 1).
+    #[inline]
+    pub fn next_1d(&mut self) -> f64 {
+        self.pcg.uniform()
+    }
+
+    /// A uniform point in [0, 1)².
+    #[inline]
+    pub fn next_2d(&mut self) -> (f64, f64) {
+        if self.kind == SamplerKind::Independent || self.pair >= SOBOL_PAIRS {
+            return (self.pcg.uniform(), self.pcg.uniform());
+        }
+        let seed = hash_u32(self.batch_seed ^ self.pair.wrapping_mul(0x9e37_79b9));
+        self.pair += 1;
+        let i = nested_uniform_scramble(self.index, seed);
+        let x = nested_uniform_scramble(i.reverse_bits(), hash_u32(seed ^ 0x68bc_21eb));
+        let y = nested_uniform_scramble(sobol_dim1(i), hash_u32(seed ^ 0x02e5_be93));
+        const SCALE: f64 = 1.0 / 4_294_967_296.0;
+        (x as f64 * SCALE, y as f64 * SCALE)
+    }
+}
+
+/// The second dimension of the Sobol sequence (direction numbers
+/// vₖ = vₖ₋₁ ⊕ (vₖ₋₁ >> 1)), as a 32-bit fraction.
+#[inline]
+fn sobol_dim1(mut i: u32) -> u32 {
+    let mut v = 1u32 << 31;
+    let mut r = 0;
+    while i != 0 {
+        if i & 1 != 0 {
+            r ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    r
+}
+
+/// Laine–Karras permutation with Burley's constants: bit k of the result
+/// depends only on bits ≤ k of the input.
+#[inline]
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Owen scrambling of a 32-bit binary fraction (most significant digit first).
+#[inline]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+#[inline]
+fn hash_u32(x: u32) -> u32 {
+    splitmix64(x as u64) as u32
+}
+
 /// A direction around the unit `n` with pdf cos θ / π (Malley's method).
 #[inline]
 pub fn cosine_direction(n: DVec3, u1: f64, u2: f64) -> DVec3 {
@@ -199,7 +308,7 @@ impl PathState {
 }
 
 /// Traces one path from `ray` and leaves its radiance estimate in `state.radiance`.
-pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mut Pcg32, state: &mut PathState) {
+pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mut PathSampler, state: &mut PathState) {
     state.radiance.fill(0.0);
     state.beta.fill(1.0);
     let lights: &[Light] = &prep.scene.lights;
@@ -248,14 +357,15 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         if let Some(from) = transport.russian_roulette_from {
             if depth >= from {
                 let q = state.beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
-                if rng.uniform() >= q as f64 {
+                if rng.next_1d() >= q as f64 {
                     break;
                 }
                 let inv = 1.0 / q;
                 state.beta.iter_mut().for_each(|b| *b *= inv);
             }
         }
-        let dir = cosine_direction(n, rng.uniform(), rng.uniform());
+        let (u1, u2) = rng.next_2d();
+        let dir = cosine_direction(n, u1, u2);
         ray = Ray { origin, dir };
         depth += 1;
     }
@@ -268,6 +378,11 @@ pub struct BatchSums {
     pub channels: Vec<f64>,
     pub y: Vec<f64>,
     pub y2: Vec<f64>,
+    /// Per coding Σ over batches of (batch mean Y) and its square: the
+    /// standard error of randomised QMC comes from these.
+    pub batch_y: Vec<f64>,
+    pub batch_y2: Vec<f64>,
+    pub batches: u64,
     pub paths: u64,
     pub rays: u64,
 }
@@ -279,6 +394,9 @@ impl BatchSums {
             channels: vec![0.0; layout.len()],
             y: vec![0.0; k],
             y2: vec![0.0; k],
+            batch_y: vec![0.0; k],
+            batch_y2: vec![0.0; k],
+            batches: 0,
             paths: 0,
             rays: 0,
         }
@@ -291,7 +409,10 @@ impl BatchSums {
         for k in 0..self.y.len() {
             self.y[k] += other.y[k];
             self.y2[k] += other.y2[k];
+            self.batch_y[k] += other.batch_y[k];
+            self.batch_y2[k] += other.batch_y2[k];
         }
+        self.batches += other.batches;
         self.paths += other.paths;
         self.rays += other.rays;
     }
@@ -319,6 +440,7 @@ impl BatchSums {
 pub fn radiometer_batch(
     prep: &Prepared,
     transport: &Transport,
+    sampler: SamplerKind,
     target_index: usize,
     seed: u64,
     samples: std::ops::Range<u64>,
@@ -330,12 +452,20 @@ pub fn radiometer_batch(
     let mut state = PathState::new(&prep.layout);
     let mut sums = BatchSums::zero(&prep.layout);
     for i in samples {
-        let mut rng = Pcg32::for_sample(seed, target_index as u64, i);
-        let dir = cone_direction(axis, half_angle, rng.uniform(), rng.uniform());
+        let mut rng = PathSampler::new(sampler, seed, target_index as u64, i);
+        let (u1, u2) = rng.next_2d();
+        let dir = cone_direction(axis, half_angle, u1, u2);
         trace_path(prep, transport, Ray { origin: position, dir }, &mut rng, &mut state);
         sums.add_path(&prep.layout, &state.radiance);
     }
     sums.rays += state.rays;
+    let n = sums.paths as f64;
+    for k in 0..sums.y.len() {
+        let m = sums.y[k] / n;
+        sums.batch_y[k] = m;
+        sums.batch_y2[k] = m * m;
+    }
+    sums.batches = 1;
     sums
 }
 
@@ -348,6 +478,25 @@ mod tests {
         // pcg32-global-demo: pcg32_srandom(42, 54) → 0xa15c02b7 0x7b47f409 0xba1d3330.
         let mut r = Pcg32::new(42, 54);
         assert_eq!([r.next_u32(), r.next_u32(), r.next_u32()], [0xa15c02b7, 0x7b47f409, 0xba1d3330]);
+    }
+
+    /// Every batch of the scrambled Sobol points is a (0, m, 2)-net: each of
+    /// the 32 × 32 elementary cells of a 1024-point batch holds exactly one point.
+    #[test]
+    fn sobol_batches_are_stratified() {
+        for pair in 0..3 {
+            let mut seen = vec![false; 1024];
+            for i in 0..1024 {
+                let mut s = PathSampler::new(SamplerKind::Sobol, 7, 3, 1024 * 5 + i);
+                for _ in 0..pair {
+                    s.next_2d();
+                }
+                let (x, y) = s.next_2d();
+                let cell = (x * 32.0) as usize * 32 + (y * 32.0) as usize;
+                assert!(!seen[cell], "pair {pair}: two points in cell {cell}");
+                seen[cell] = true;
+            }
+        }
     }
 
     #[test]

@@ -47,8 +47,7 @@ use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
 use crate::spectrum::table::{write_csv, SpectraTable};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
-/// Samples per batch: the unit of parallel work and of deterministic summation.
-pub const BATCH_SAMPLES: u64 = 2048;
+pub use integrator::{SamplerKind, BATCH_SAMPLES};
 
 /// Everything that can go wrong in a render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -70,7 +69,7 @@ pub enum RenderError {
 pub struct RenderSettings {
     #[serde(serialize_with = "codings_as_names")]
     pub codings: Vec<Coding>,
-    /// Radiometer paths per target.
+    /// Radiometer paths per target, rounded up to whole batches of [`BATCH_SAMPLES`].
     pub samples: u64,
     /// Maximum indirect bounces (RADIANCE `-ab`; the study used 5).
     pub max_bounces: u32,
@@ -81,6 +80,8 @@ pub struct RenderSettings {
     pub targets: Option<Vec<String>>,
     /// Worker threads; `None` = rayon's default (one per core).
     pub threads: Option<usize>,
+    /// Random numbers: scrambled Sobol (default) or independent.
+    pub sampler: SamplerKind,
 }
 
 fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
@@ -97,6 +98,7 @@ impl Default for RenderSettings {
             russian_roulette_from: None,
             targets: None,
             threads: None,
+            sampler: SamplerKind::Sobol,
         }
     }
 }
@@ -237,19 +239,21 @@ fn render_in_pool(
         max_bounces: settings.max_bounces,
         russian_roulette_from: settings.russian_roulette_from,
     };
+    // Whole batches only, so every batch mean has the same weight.
     let batches = settings.samples.div_ceil(BATCH_SAMPLES);
+    let samples = batches * BATCH_SAMPLES;
     let tasks: Vec<(usize, u64)> = target_indices
         .iter()
         .flat_map(|&t| (0..batches).map(move |b| (t, b)))
         .collect();
-    let total = settings.samples * target_indices.len() as u64;
+    let total = samples * target_indices.len() as u64;
     let done = AtomicU64::new(0);
     let partial: Vec<BatchSums> = tasks
         .par_iter()
         .map(|&(t, b)| {
-            let range = b * BATCH_SAMPLES..((b + 1) * BATCH_SAMPLES).min(settings.samples);
+            let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
             let n = range.end - range.start;
-            let sums = radiometer_batch(&prep, &transport, t, settings.seed, range);
+            let sums = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
             let now = done.fetch_add(n, Ordering::Relaxed) + n;
             if let Some(p) = progress {
                 p(now, total);
@@ -267,7 +271,7 @@ fn render_in_pool(
         }
         paths += sums.paths;
         rays += sums.rays;
-        targets.push(target_result(&prep.layout, &scene.target_list[t].id, &sums));
+        targets.push(target_result(&prep.layout, settings.sampler, &scene.target_list[t].id, &sums));
     }
     let wall_seconds = start.elapsed().as_secs_f64();
     let deviation_from_spectral = deviations(&settings.codings, &targets);
@@ -285,7 +289,7 @@ fn render_in_pool(
     })
 }
 
-fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetResult {
+fn target_result(layout: &ChannelLayout, sampler: SamplerKind, id: &str, sums: &BatchSums) -> TargetResult {
     let n = sums.paths as f64;
     let mean: Vec<f64> = sums.channels.iter().map(|s| s / n).collect();
     let codings = layout
@@ -294,14 +298,24 @@ fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetRe
         .enumerate()
         .map(|(k, (coding, range))| {
             let d = layout.decode(k, &mean);
-            let mean_y = sums.y[k] / n;
-            let var = ((sums.y2[k] / n - mean_y * mean_y) * n / (n - 1.0)).max(0.0);
+            // SE of the mean: from the paths (independent sampling) or from
+            // the batch means, each an independent randomisation (Sobol).
+            let (sum, sum2, count) = match sampler {
+                SamplerKind::Independent => (sums.y[k], sums.y2[k], n),
+                SamplerKind::Sobol => (sums.batch_y[k], sums.batch_y2[k], sums.batches as f64),
+            };
+            let mean_y = sum / count;
+            let var = if count > 1.0 {
+                ((sum2 / count - mean_y * mean_y) * count / (count - 1.0)).max(0.0)
+            } else {
+                f64::INFINITY
+            };
             let xy = d.xyz.chromaticity();
             (
                 coding.to_string(),
                 CodingResult {
                     luminance_cd_m2: d.xyz.y,
-                    luminance_se_cd_m2: (var / n).sqrt(),
+                    luminance_se_cd_m2: (var / count).sqrt(),
                     x: xy.x,
                     y: xy.y,
                     xyz: d.xyz.to_array(),
