@@ -22,7 +22,11 @@ fn gaussian_cd(i0: f64, theta_deg: f64) -> f64 {
 fn write_common(dir: &Path) {
     let v: Vec<f64> = (0..=45).map(|i| 2.0 * i as f64).collect();
     let cd: Vec<f64> = v.iter().map(|&t| gaussian_cd(100.0, t)).collect();
-    std::fs::write(dir.join("spot.ies"), write_symmetric_lm63(&[("TEST", "gaussian")], &v, &cd)).unwrap();
+    std::fs::write(
+        dir.join("spot.ies"),
+        write_symmetric_lm63(&[("TEST", "gaussian")], &v, &cd),
+    )
+    .unwrap();
     let iso_v = [0.0, 90.0, 180.0];
     std::fs::write(
         dir.join("iso.ies"),
@@ -221,9 +225,17 @@ fn with_flat_spectra_every_coding_gives_the_same_colour() {
     for t in &r.targets {
         let spectral = t.coding("spectral").unwrap();
         for (name, c) in &t.codings {
-            let tol = if name.starts_with("nstep") { grid_rel + 1e-5 } else { 1e-5 };
+            let tol = if name.starts_with("nstep") {
+                grid_rel + 1e-5
+            } else {
+                1e-5
+            };
             let dy = c.luminance_cd_m2 / spectral.luminance_cd_m2 - 1.0;
-            assert!(dy.abs() <= tol, "{}: {name} Y differs by {dy:e} (allowed {tol:e})", t.id);
+            assert!(
+                dy.abs() <= tol,
+                "{}: {name} Y differs by {dy:e} (allowed {tol:e})",
+                t.id
+            );
             assert!(
                 (c.x - spectral.x).abs() < 1e-4 && (c.y - spectral.y).abs() < 1e-4,
                 "{}: {name} xy ({}, {}) vs spectral ({}, {})",
@@ -255,7 +267,12 @@ fn nstep81_is_spectral_at_the_5nm_samples() {
         let sp = &t.coding("spectral").unwrap().bands;
         for (i, v) in n81.iter().enumerate() {
             let w = sp[5 * i];
-            assert!((v - w).abs() <= 1e-9 * w.abs().max(1e-12), "{} at {} nm: {v} vs {w}", t.id, 380 + 5 * i);
+            assert!(
+                (v - w).abs() <= 1e-9 * w.abs().max(1e-12),
+                "{} at {} nm: {v} vs {w}",
+                t.id,
+                380 + 5 * i
+            );
         }
     }
 }

@@ -123,8 +123,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.json {
         let mut v = serde_json::to_value(&result)?;
         if !coding_times.is_empty() {
-            let m: serde_json::Map<String, serde_json::Value> =
-                coding_times.into_iter().map(|(k, t)| (k, serde_json::json!(t))).collect();
+            let m: serde_json::Map<String, serde_json::Value> = coding_times
+                .into_iter()
+                .map(|(k, t)| (k, serde_json::json!(t)))
+                .collect();
             v["coding_wall_seconds"] = serde_json::Value::Object(m);
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
@@ -142,7 +144,10 @@ fn print_table(r: &RenderResult) {
         "{} ({}): {} paths in {:.3} s ({:.3e} paths/s, {:.3e} rays/s)",
         r.scene, r.scene_file, r.paths, r.wall_seconds, r.paths_per_second, r.rays_per_second
     );
-    println!("{:<10} {:<9} {:>12} {:>9} {:>8} {:>8}", "target", "coding", "Y cd/m²", "SE %", "x", "y");
+    println!(
+        "{:<10} {:<9} {:>12} {:>9} {:>8} {:>8}",
+        "target", "coding", "Y cd/m²", "SE %", "x", "y"
+    );
     for t in &r.targets {
         for (name, c) in &t.codings {
             println!(

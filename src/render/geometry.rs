@@ -27,9 +27,17 @@ pub struct Ray {
 #[derive(Clone, Debug)]
 pub enum Shape {
     /// The parallelogram corner + s·u + t·v, s, t ∈ [0, 1].
-    Quad { corner: DVec3, u: DVec3, v: DVec3 },
+    Quad {
+        corner: DVec3,
+        u: DVec3,
+        v: DVec3,
+    },
     /// A flat disc.
-    Disc { centre: DVec3, normal: DVec3, radius: f64 },
+    Disc {
+        centre: DVec3,
+        normal: DVec3,
+        radius: f64,
+    },
     /// The open side of a finite cylinder from `base` along the unit `axis`.
     Cylinder {
         base: DVec3,
@@ -37,7 +45,10 @@ pub enum Shape {
         length: f64,
         radius: f64,
     },
-    Sphere { centre: DVec3, radius: f64 },
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
 }
 
 /// Where a ray meets a surface.
@@ -72,7 +83,10 @@ impl Shape {
                 if !(0.0..=1.0).contains(&s) || !(0.0..=1.0).contains(&tt) {
                     return None;
                 }
-                Some(Hit { t, normal: n.normalize() })
+                Some(Hit {
+                    t,
+                    normal: n.normalize(),
+                })
             }
             Shape::Disc { centre, normal, radius } => {
                 let denom = normal.dot(ray.dir);
@@ -207,8 +221,14 @@ impl Shape {
 /// A solid whose inside is "inside geometry": a light there is an error.
 #[derive(Clone, Debug)]
 pub enum Solid {
-    Box { min: DVec3, max: DVec3 },
-    Sphere { centre: DVec3, radius: f64 },
+    Box {
+        min: DVec3,
+        max: DVec3,
+    },
+    Sphere {
+        centre: DVec3,
+        radius: f64,
+    },
     Cylinder {
         base: DVec3,
         axis: DVec3,
@@ -243,12 +263,36 @@ pub fn box_faces(min: DVec3, max: DVec3) -> [Shape; 6] {
     let d = max - min;
     let (x, y, z) = (DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z);
     [
-        Shape::Quad { corner: min, u: y, v: z },
-        Shape::Quad { corner: min + x, u: y, v: z },
-        Shape::Quad { corner: min, u: x, v: z },
-        Shape::Quad { corner: min + y, u: x, v: z },
-        Shape::Quad { corner: min, u: x, v: y },
-        Shape::Quad { corner: min + z, u: x, v: y },
+        Shape::Quad {
+            corner: min,
+            u: y,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min + x,
+            u: y,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min,
+            u: x,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min + y,
+            u: x,
+            v: z,
+        },
+        Shape::Quad {
+            corner: min,
+            u: x,
+            v: y,
+        },
+        Shape::Quad {
+            corner: min + z,
+            u: x,
+            v: y,
+        },
     ]
 }
 
@@ -283,9 +327,13 @@ mod tests {
             u: DVec3::new(2.0, 0.0, 0.0),
             v: DVec3::new(0.0, 0.0, 2.0),
         };
-        let h = q.intersect(&ray([0.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY).unwrap();
+        let h = q
+            .intersect(&ray([0.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY)
+            .unwrap();
         assert!((h.t - 2.0).abs() < 1e-12 && h.normal.y.abs() == 1.0);
-        assert!(q.intersect(&ray([1.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY).is_none());
+        assert!(q
+            .intersect(&ray([1.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY)
+            .is_none());
         assert!(q.distance_to(DVec3::new(0.0, 0.0, 0.0)) < 1e-15);
         assert!((q.distance_to(DVec3::new(2.0, 0.0, 0.0)) - 1.0).abs() < 1e-12);
     }
@@ -298,10 +346,14 @@ mod tests {
             length: 0.4,
             radius: 0.1275,
         };
-        let h = c.intersect(&ray([0.0, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY).unwrap();
+        let h = c
+            .intersect(&ray([0.0, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .unwrap();
         assert!((h.t - (1.4 - 0.1275)).abs() < 1e-12);
         assert!((h.normal - DVec3::Z).length() < 1e-12);
-        assert!(c.intersect(&ray([0.3, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY).is_none());
+        assert!(c
+            .intersect(&ray([0.3, 0.878, 1.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .is_none());
         let s = Shape::Sphere {
             centre: DVec3::ZERO,
             radius: 2.0,

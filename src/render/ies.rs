@@ -74,7 +74,10 @@ impl IesDistribution {
         // Every number after TILT, with the line it came from.
         let mut numbers: Vec<(f64, usize)> = Vec::new();
         for (i, l) in lines.iter().enumerate().skip(tilt + 1) {
-            for tok in l.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
+            for tok in l
+                .split(|c: char| c.is_whitespace() || c == ',')
+                .filter(|t| !t.is_empty())
+            {
                 let v: f64 = tok
                     .parse()
                     .map_err(|_| err(Some(i + 1), format!("`{tok}` is not a number")))?;
@@ -115,9 +118,8 @@ impl IesDistribution {
         };
         let nv = count(n_vert, l_nv, "vertical")?;
         let nh = count(n_horiz, l_nh, "horizontal")?;
-        let mut take = |n: usize, what: &str| -> Result<Vec<(f64, usize)>, IesError> {
-            (0..n).map(|_| next(what)).collect()
-        };
+        let mut take =
+            |n: usize, what: &str| -> Result<Vec<(f64, usize)>, IesError> { (0..n).map(|_| next(what)).collect() };
         let vertical = take(nv, "all vertical angles")?;
         let horizontal = take(nh, "all horizontal angles")?;
         let scale = multiplier * ballast * ballast_lamp;
@@ -134,7 +136,10 @@ impl IesDistribution {
         let increasing = |a: &[(f64, usize)], what: &str| -> Result<Vec<f64>, IesError> {
             for w in a.windows(2) {
                 if w[1].0 <= w[0].0 {
-                    return Err(err(Some(w[1].1), format!("{what} angles must increase: {} after {}", w[1].0, w[0].0)));
+                    return Err(err(
+                        Some(w[1].1),
+                        format!("{what} angles must increase: {} after {}", w[1].0, w[0].0),
+                    ));
                 }
             }
             Ok(a.iter().map(|x| x.0).collect())
@@ -148,9 +153,7 @@ impl IesDistribution {
         if h0 != 0.0 || !(nh == 1 || [90.0, 180.0, 360.0].contains(&hl)) {
             return Err(err(
                 Some(horizontal[0].1),
-                format!(
-                    "horizontal angles {h0}–{hl}°: type C needs 0 (symmetric), 0–90, 0–180 or 0–360"
-                ),
+                format!("horizontal angles {h0}–{hl}°: type C needs 0 (symmetric), 0–90, 0–180 or 0–360"),
             ));
         }
         Ok(IesDistribution {
@@ -258,10 +261,14 @@ mod tests {
 
     #[test]
     fn errors_name_the_file_and_line() {
-        let e = IesDistribution::parse("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n", "b.ies").unwrap_err();
+        let e =
+            IesDistribution::parse("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n1 1 0\n", "b.ies").unwrap_err();
         assert!(e.to_string().starts_with("b.ies:3: photometric type 3"), "{e}");
-        let e = IesDistribution::parse("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 x\n", "c.ies")
-            .unwrap_err();
+        let e = IesDistribution::parse(
+            "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 x\n",
+            "c.ies",
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "c.ies:5: `x` is not a number");
         let e = IesDistribution::parse("IESNA:LM-63-2002\nTILT=INCLUDE\n", "d.ies").unwrap_err();
         assert!(e.to_string().contains("d.ies:2"), "{e}");

@@ -283,7 +283,10 @@ impl<'a> Prepared<'a> {
 
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
-        self.scene.primitives.iter().any(|p| p.shape.intersect(ray, t_max).is_some())
+        self.scene
+            .primitives
+            .iter()
+            .any(|p| p.shape.intersect(ray, t_max).is_some())
     }
 }
 
@@ -320,7 +323,11 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         };
         let p = ray.origin + ray.dir * hit.t;
         // Two-sided: the normal on the side the ray came from.
-        let n = if hit.normal.dot(ray.dir) < 0.0 { hit.normal } else { -hit.normal };
+        let n = if hit.normal.dot(ray.dir) < 0.0 {
+            hit.normal
+        } else {
+            -hit.normal
+        };
         let origin = p + n * SPAWN_OFFSET_M;
         // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
         let rho = prep.material(material);
@@ -425,7 +432,11 @@ impl BatchSums {
         }
         let w = layout.y_weights();
         for (k, (_, range)) in layout.entries().iter().enumerate() {
-            let y: f32 = radiance[range.clone()].iter().zip(&w[range.clone()]).map(|(a, b)| a * b).sum();
+            let y: f32 = radiance[range.clone()]
+                .iter()
+                .zip(&w[range.clone()])
+                .map(|(a, b)| a * b)
+                .sum();
             let y = y as f64;
             self.y[k] += y;
             self.y2[k] += y * y;
@@ -477,7 +488,10 @@ mod tests {
     fn pcg32_matches_the_reference_sequence() {
         // pcg32-global-demo: pcg32_srandom(42, 54) → 0xa15c02b7 0x7b47f409 0xba1d3330.
         let mut r = Pcg32::new(42, 54);
-        assert_eq!([r.next_u32(), r.next_u32(), r.next_u32()], [0xa15c02b7, 0x7b47f409, 0xba1d3330]);
+        assert_eq!(
+            [r.next_u32(), r.next_u32(), r.next_u32()],
+            [0xa15c02b7, 0x7b47f409, 0xba1d3330]
+        );
     }
 
     /// Every batch of the scrambled Sobol points is a (0, m, 2)-net: each of
@@ -512,6 +526,10 @@ mod tests {
             assert!(c.dot(n) >= 0.5f64.to_radians().cos() - 1e-12);
         }
         // E[cos θ] under pdf cos θ/π is 2/3; the sample mean's SE is about 0.0017.
-        assert!((mean_cos / 20_000.0 - 2.0 / 3.0).abs() < 4.0 * 0.0017, "{}", mean_cos / 20_000.0);
+        assert!(
+            (mean_cos / 20_000.0 - 2.0 / 3.0).abs() < 4.0 * 0.0017,
+            "{}",
+            mean_cos / 20_000.0
+        );
     }
 }

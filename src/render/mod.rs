@@ -271,7 +271,12 @@ fn render_in_pool(
         }
         paths += sums.paths;
         rays += sums.rays;
-        targets.push(target_result(&prep.layout, settings.sampler, &scene.target_list[t].id, &sums));
+        targets.push(target_result(
+            &prep.layout,
+            settings.sampler,
+            &scene.target_list[t].id,
+            &sums,
+        ));
     }
     let wall_seconds = start.elapsed().as_secs_f64();
     let deviation_from_spectral = deviations(&settings.codings, &targets);
@@ -342,7 +347,10 @@ fn deviations(codings: &[Coding], targets: &[TargetResult]) -> Vec<(String, Devi
             let name = c.to_string();
             let (mut y_rel, mut xy_distance) = (Vec::new(), Vec::new());
             for t in targets {
-                let (a, s) = (t.coding(&name).expect("rendered"), t.coding("spectral").expect("rendered"));
+                let (a, s) = (
+                    t.coding(&name).expect("rendered"),
+                    t.coding("spectral").expect("rendered"),
+                );
                 y_rel.push(a.luminance_cd_m2 / s.luminance_cd_m2 - 1.0);
                 xy_distance.push((a.x - s.x).hypot(a.y - s.y));
             }
@@ -396,7 +404,13 @@ fn memory_cache() -> &'static Mutex<HashMap<(String, String), Spectrum>> {
 pub fn cache_file(cache_dir: &Path, hash: &str, target_id: &str) -> PathBuf {
     let safe: String = target_id
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     cache_dir.join(format!("{hash}_{safe}.csv"))
 }

@@ -419,7 +419,10 @@ impl Loader {
             }
         };
         if !s.grid().covers(380.0, 780.0) {
-            return Err(self.err(key, format!("the spectrum's grid {} does not cover 380–780 nm", s.grid())));
+            return Err(self.err(
+                key,
+                format!("the spectrum's grid {} does not cover 380–780 nm", s.grid()),
+            ));
         }
         Ok(s)
     }
@@ -695,7 +698,11 @@ fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneEr
                 .collect()
         }
         (None, Some(spec)) => {
-            let s = l.spectrum(&SpectrumRef::File(spec.clone()), SpectralUnit::RelativePower, &key("spd"))?;
+            let s = l.spectrum(
+                &SpectrumRef::File(spec.clone()),
+                SpectralUnit::RelativePower,
+                &key("spd"),
+            )?;
             s.resample(&grid)
                 .map_err(|e| l.err(key("spd"), e.to_string()))?
                 .into_values()
@@ -712,15 +719,11 @@ fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneEr
     // Normalise to 1 cd: 683 · Σ S(λ) ȳ(λ) Δλ = 1, Δλ = 1 nm, Judd–Vos ȳ.
     let ybar = &Cmf::of(super::coding::OBSERVER).on_grid(&grid)[1];
     let lum: f64 = KM_LM_PER_W * spd.iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>();
-    if !(lum > 0.0) {
+    if lum.is_nan() || lum <= 0.0 {
         return Err(l.err(key("spd"), "the spectrum has no luminous power"));
     }
-    let spectrum_per_cd = Spectrum::new(
-        grid,
-        SpectralUnit::RelativePower,
-        spd.iter().map(|s| s / lum).collect(),
-    )
-    .map_err(|e| l.err(key("spd"), e.to_string()))?;
+    let spectrum_per_cd = Spectrum::new(grid, SpectralUnit::RelativePower, spd.iter().map(|s| s / lum).collect())
+        .map_err(|e| l.err(key("spd"), e.to_string()))?;
     Ok(Light {
         id: lf.id.clone(),
         position: DVec3::from(lf.position),
@@ -744,7 +747,11 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
     }
     let up = n.cross(right);
     let table_key = key("reflectances");
-    let columns: Vec<String> = l.table(&c.reflectances, &table_key)?.names().map(String::from).collect();
+    let columns: Vec<String> = l
+        .table(&c.reflectances, &table_key)?
+        .names()
+        .map(String::from)
+        .collect();
     if columns.len() != 24 {
         return Err(l.err(table_key, format!("{} columns; a ColorChecker has 24", columns.len())));
     }
@@ -766,9 +773,13 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
         material: card_index,
     });
     for patch in 1..=24 {
-        let (shape, material) = if patch == c.measured_patch && c.replace_measured.is_some() {
-            let r = c.replace_measured.as_ref().expect("checked");
-            let s = l.spectrum(&r.reflectance, SpectralUnit::Reflectance, &key("replace_measured.reflectance"))?;
+        let replacement = c.replace_measured.as_ref().filter(|_| patch == c.measured_patch);
+        let (shape, material) = if let Some(r) = replacement {
+            let s = l.spectrum(
+                &r.reflectance,
+                SpectralUnit::Reflectance,
+                &key("replace_measured.reflectance"),
+            )?;
             let m = l.add_material(&format!("chart{i}.standard"), s);
             (quad(centre + offset(patch), r.size, r.size), m)
         } else {

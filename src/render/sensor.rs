@@ -95,7 +95,11 @@ impl Image {
     /// Writes PFM or PNG by the extension of `path`.
     pub fn write(&self, path: &Path) -> Result<(), RenderError> {
         let io = |e: std::io::Error| RenderError::Io(format!("{}: {e}", path.display()));
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
         let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
         match ext.as_str() {
             "pfm" => {
@@ -132,7 +136,13 @@ impl Image {
     pub fn tone_mapped_srgb8(&self) -> Vec<u8> {
         let luminance = |p: &[f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
         let n = self.rgb.len().max(1) as f64;
-        let log_avg = (self.rgb.iter().map(|p| (1e-4 + luminance(p).max(0.0)).ln()).sum::<f64>() / n).exp();
+        let log_avg = (self
+            .rgb
+            .iter()
+            .map(|p| (1e-4 + luminance(p).max(0.0)).ln())
+            .sum::<f64>()
+            / n)
+            .exp();
         let k = 0.18 / log_avg;
         let mut out = Vec::with_capacity(self.rgb.len() * 3);
         for p in &self.rgb {
