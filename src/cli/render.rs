@@ -50,6 +50,13 @@ pub struct RenderArgs {
     /// Random numbers: sobol (scrambled, stratified; SE from batch means) or independent.
     #[arg(long, default_value = "sobol", value_parser = parse_sampler)]
     sampler: SamplerKind,
+    /// Keep sampling each target until the standard error of Y is below this
+    /// fraction of Y in every coding (e.g. 0.003), up to --max-samples.
+    #[arg(long)]
+    target_se: Option<f64>,
+    /// Cap on paths per target with --target-se.
+    #[arg(long, default_value_t = RenderSettings::default().max_samples)]
+    max_samples: u64,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
@@ -78,6 +85,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         targets: args.targets.clone(),
         threads: args.threads,
         sampler: args.sampler,
+        target_relative_se: args.target_se,
+        max_samples: args.max_samples,
     };
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);

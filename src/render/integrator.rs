@@ -87,18 +87,23 @@ pub enum SamplerKind {
     /// direction, bounce 1, bounce 2, …) takes one point of a shuffled,
     /// Owen-scrambled Sobol (0,2)-sequence, padded (independently scrambled)
     /// per decision (Burley 2020, "Practical hash-based Owen scrambling",
-    /// JCGT 9(4)). Each batch of [`BATCH_SAMPLES`] is one independent
-    /// randomisation, so the batch means are i.i.d. and the standard error
-    /// comes from them.
+    /// JCGT 9(4)). Sample i belongs to replicate i mod [`REPLICATES`], and
+    /// each replicate is an independent randomisation of the whole sequence,
+    /// so the replicate means are i.i.d. and the standard error comes from
+    /// them (R = 16 replicates: 15 degrees of freedom).
     #[default]
     Sobol,
     /// Independent PCG32 numbers; the standard error comes from the paths.
     Independent,
 }
 
-/// Samples per batch: one Sobol randomisation, the unit of parallel work and
-/// of deterministic summation. A power of two, so a batch is a (0, m, 2)-net.
+/// Samples per batch: the unit of parallel work and of deterministic
+/// summation; a multiple of [`REPLICATES`], so each batch adds the same
+/// number of points to every replicate.
 pub const BATCH_SAMPLES: u64 = 1024;
+
+/// Independent randomisations of the Sobol sequence per target.
+pub const REPLICATES: usize = 16;
 
 /// 2D decisions per path drawn from the Sobol sequence; later ones use PCG32.
 const SOBOL_PAIRS: u32 = 8;
@@ -107,9 +112,9 @@ const SOBOL_PAIRS: u32 = 8;
 pub struct PathSampler {
     kind: SamplerKind,
     pcg: Pcg32,
-    /// Index of this path within its batch.
+    /// Index of this path within its replicate.
     index: u32,
-    /// Seed of the batch's randomisation.
+    /// Seed of the replicate's randomisation.
     batch_seed: u32,
     pair: u32,
 }
@@ -117,12 +122,12 @@ pub struct PathSampler {
 impl PathSampler {
     /// The sampler of sample `sample` of stream `stream` (a target or a pixel).
     pub fn new(kind: SamplerKind, seed: u64, stream: u64, sample: u64) -> PathSampler {
-        let batch = sample / BATCH_SAMPLES;
+        let replicate = sample % REPLICATES as u64;
         PathSampler {
             kind,
             pcg: Pcg32::for_sample(seed, stream, sample),
-            index: (sample % BATCH_SAMPLES) as u32,
-            batch_seed: splitmix64(splitmix64(seed ^ splitmix64(stream)) ^ batch) as u32,
+            index: (sample / REPLICATES as u64) as u32,
+            batch_seed: splitmix64(splitmix64(seed ^ splitmix64(stream)) ^ replicate) as u32,
             pair: 0,
         }
     }
@@ -385,11 +390,9 @@ pub struct BatchSums {
     pub channels: Vec<f64>,
     pub y: Vec<f64>,
     pub y2: Vec<f64>,
-    /// Per coding Σ over batches of (batch mean Y) and its square: the
-    /// standard error of randomised QMC comes from these.
-    pub batch_y: Vec<f64>,
-    pub batch_y2: Vec<f64>,
-    pub batches: u64,
+    /// Σ Y per replicate and coding (`[replicate * codings + k]`): the
+    /// standard error of randomised QMC comes from the replicate means.
+    pub replicate_y: Vec<f64>,
     pub paths: u64,
     pub rays: u64,
 }
@@ -401,9 +404,7 @@ impl BatchSums {
             channels: vec![0.0; layout.len()],
             y: vec![0.0; k],
             y2: vec![0.0; k],
-            batch_y: vec![0.0; k],
-            batch_y2: vec![0.0; k],
-            batches: 0,
+            replicate_y: vec![0.0; k * REPLICATES],
             paths: 0,
             rays: 0,
         }
@@ -416,17 +417,18 @@ impl BatchSums {
         for k in 0..self.y.len() {
             self.y[k] += other.y[k];
             self.y2[k] += other.y2[k];
-            self.batch_y[k] += other.batch_y[k];
-            self.batch_y2[k] += other.batch_y2[k];
         }
-        self.batches += other.batches;
+        for (a, b) in self.replicate_y.iter_mut().zip(&other.replicate_y) {
+            *a += b;
+        }
         self.paths += other.paths;
         self.rays += other.rays;
     }
 
     /// Folds one path's radiance in.
     #[inline]
-    pub fn add_path(&mut self, layout: &ChannelLayout, radiance: &[f32]) {
+    pub fn add_path(&mut self, layout: &ChannelLayout, radiance: &[f32], replicate: usize) {
+        let codings = self.y.len();
         for (a, &b) in self.channels.iter_mut().zip(radiance) {
             *a += b as f64;
         }
@@ -440,6 +442,7 @@ impl BatchSums {
             let y = y as f64;
             self.y[k] += y;
             self.y2[k] += y * y;
+            self.replicate_y[replicate * codings + k] += y;
         }
         self.paths += 1;
     }
@@ -467,16 +470,9 @@ pub fn radiometer_batch(
         let (u1, u2) = rng.next_2d();
         let dir = cone_direction(axis, half_angle, u1, u2);
         trace_path(prep, transport, Ray { origin: position, dir }, &mut rng, &mut state);
-        sums.add_path(&prep.layout, &state.radiance);
+        sums.add_path(&prep.layout, &state.radiance, (i % REPLICATES as u64) as usize);
     }
     sums.rays += state.rays;
-    let n = sums.paths as f64;
-    for k in 0..sums.y.len() {
-        let m = sums.y[k] / n;
-        sums.batch_y[k] = m;
-        sums.batch_y2[k] = m * m;
-    }
-    sums.batches = 1;
     sums
 }
 
@@ -494,14 +490,16 @@ mod tests {
         );
     }
 
-    /// Every batch of the scrambled Sobol points is a (0, m, 2)-net: each of
-    /// the 32 × 32 elementary cells of a 1024-point batch holds exactly one point.
+    /// The first 1024 points of a replicate of the scrambled Sobol sequence
+    /// are a (0, 10, 2)-net: each of the 32 × 32 elementary cells holds
+    /// exactly one point.
     #[test]
-    fn sobol_batches_are_stratified() {
+    fn sobol_replicates_are_stratified() {
         for pair in 0..3 {
             let mut seen = vec![false; 1024];
-            for i in 0..1024 {
-                let mut s = PathSampler::new(SamplerKind::Sobol, 7, 3, 1024 * 5 + i);
+            for j in 0..1024 {
+                let i = 5 + REPLICATES as u64 * j;
+                let mut s = PathSampler::new(SamplerKind::Sobol, 7, 3, i);
                 for _ in 0..pair {
                     s.next_2d();
                 }

@@ -47,7 +47,7 @@ use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
 use crate::spectrum::table::{write_csv, SpectraTable};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
-pub use integrator::{SamplerKind, BATCH_SAMPLES};
+pub use integrator::{SamplerKind, BATCH_SAMPLES, REPLICATES};
 
 /// Everything that can go wrong in a render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -82,6 +82,11 @@ pub struct RenderSettings {
     pub threads: Option<usize>,
     /// Random numbers: scrambled Sobol (default) or independent.
     pub sampler: SamplerKind,
+    /// Keep sampling each target until the relative standard error of Y is
+    /// below this in every coding (or `max_samples` is reached).
+    pub target_relative_se: Option<f64>,
+    /// Cap on paths per target when `target_relative_se` is set.
+    pub max_samples: u64,
 }
 
 fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
@@ -99,6 +104,8 @@ impl Default for RenderSettings {
             targets: None,
             threads: None,
             sampler: SamplerKind::Sobol,
+            target_relative_se: None,
+            max_samples: 1 << 22,
         }
     }
 }
@@ -239,43 +246,65 @@ fn render_in_pool(
         max_bounces: settings.max_bounces,
         russian_roulette_from: settings.russian_roulette_from,
     };
-    // Whole batches only, so every batch mean has the same weight.
-    let batches = settings.samples.div_ceil(BATCH_SAMPLES);
-    let samples = batches * BATCH_SAMPLES;
-    let tasks: Vec<(usize, u64)> = target_indices
-        .iter()
-        .flat_map(|&t| (0..batches).map(move |b| (t, b)))
-        .collect();
-    let total = samples * target_indices.len() as u64;
+    // Whole batches only, so every replicate has the same number of paths.
+    let first = settings.samples.div_ceil(BATCH_SAMPLES);
+    let max_batches = settings.max_samples.div_ceil(BATCH_SAMPLES).max(first);
+    let nt = target_indices.len();
+    let mut sums: Vec<BatchSums> = (0..nt).map(|_| BatchSums::zero(&prep.layout)).collect();
+    let mut done_batches = vec![0u64; nt];
+    let mut want_batches = vec![first; nt];
     let done = AtomicU64::new(0);
-    let partial: Vec<BatchSums> = tasks
-        .par_iter()
-        .map(|&(t, b)| {
-            let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
-            let n = range.end - range.start;
-            let sums = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
-            let now = done.fetch_add(n, Ordering::Relaxed) + n;
-            if let Some(p) = progress {
-                p(now, total);
+    // Rounds: all targets get `samples`; with a relative-SE goal, targets
+    // above it get the batches their SE says they need (SE ∝ 1/√n, +20 %),
+    // up to `max_samples`. Every decision depends only on results, so the
+    // outcome is the same on any number of threads.
+    for _round in 0..6 {
+        let tasks: Vec<(usize, u64)> = (0..nt)
+            .flat_map(|k| (done_batches[k]..want_batches[k]).map(move |b| (k, b)))
+            .collect();
+        if tasks.is_empty() {
+            break;
+        }
+        let total: u64 = want_batches.iter().sum::<u64>() * BATCH_SAMPLES;
+        let partial: Vec<BatchSums> = tasks
+            .par_iter()
+            .map(|&(k, b)| {
+                let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
+                let t = target_indices[k];
+                let out = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
+                let now = done.fetch_add(BATCH_SAMPLES, Ordering::Relaxed) + BATCH_SAMPLES;
+                if let Some(p) = progress {
+                    p(now, total);
+                }
+                out
+            })
+            .collect();
+        // Deterministic reduction: each target's batches in batch order.
+        for ((k, _), part) in tasks.iter().zip(&partial) {
+            sums[*k].add(part);
+        }
+        done_batches.clone_from(&want_batches);
+        let Some(goal) = settings.target_relative_se else {
+            break;
+        };
+        for k in 0..nt {
+            let rel = relative_se(&prep.layout, settings.sampler, &sums[k]);
+            if rel > goal {
+                let need = (done_batches[k] as f64 * (rel / goal).powi(2) * 1.2).ceil() as u64;
+                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches.max(done_batches[k]));
             }
-            sums
-        })
-        .collect();
-    // Deterministic reduction: batches of each target in batch order.
+        }
+    }
     let mut targets = Vec::new();
     let (mut paths, mut rays) = (0, 0);
     for (k, &t) in target_indices.iter().enumerate() {
-        let mut sums = BatchSums::zero(&prep.layout);
-        for s in &partial[k * batches as usize..(k + 1) * batches as usize] {
-            sums.add(s);
-        }
-        paths += sums.paths;
-        rays += sums.rays;
+        paths += sums[k].paths;
+        rays += sums[k].rays;
         targets.push(target_result(
             &prep.layout,
             settings.sampler,
             &scene.target_list[t].id,
-            &sums,
+            &sums[k],
         ));
     }
     let wall_seconds = start.elapsed().as_secs_f64();
@@ -294,6 +323,39 @@ fn render_in_pool(
     })
 }
 
+/// The standard error of Y for coding entry `k` of these sums: from the
+/// paths (independent sampling) or from the batch means, each an independent
+/// randomisation (Sobol).
+fn luminance_se(sampler: SamplerKind, sums: &BatchSums, k: usize) -> f64 {
+    let (sum, sum2, count) = match sampler {
+        SamplerKind::Independent => (sums.y[k], sums.y2[k], sums.paths as f64),
+        SamplerKind::Sobol => {
+            // Replicate means (every replicate has paths / R paths).
+            let codings = sums.y.len();
+            let per = sums.paths as f64 / REPLICATES as f64;
+            let means = (0..REPLICATES).map(|r| sums.replicate_y[r * codings + k] / per);
+            let (s, s2) = means.fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
+            (s, s2, REPLICATES as f64)
+        }
+    };
+    if count < 2.0 {
+        return f64::INFINITY;
+    }
+    let mean = sum / count;
+    let var = ((sum2 / count - mean * mean) * count / (count - 1.0)).max(0.0);
+    (var / count).sqrt()
+}
+
+/// The largest relative SE of Y over the codings.
+fn relative_se(layout: &ChannelLayout, sampler: SamplerKind, sums: &BatchSums) -> f64 {
+    (0..layout.entries().len())
+        .map(|k| {
+            let y = sums.y[k] / sums.paths as f64;
+            luminance_se(sampler, sums, k) / y.abs().max(f64::MIN_POSITIVE)
+        })
+        .fold(0.0, f64::max)
+}
+
 fn target_result(layout: &ChannelLayout, sampler: SamplerKind, id: &str, sums: &BatchSums) -> TargetResult {
     let n = sums.paths as f64;
     let mean: Vec<f64> = sums.channels.iter().map(|s| s / n).collect();
@@ -303,24 +365,12 @@ fn target_result(layout: &ChannelLayout, sampler: SamplerKind, id: &str, sums: &
         .enumerate()
         .map(|(k, (coding, range))| {
             let d = layout.decode(k, &mean);
-            // SE of the mean: from the paths (independent sampling) or from
-            // the batch means, each an independent randomisation (Sobol).
-            let (sum, sum2, count) = match sampler {
-                SamplerKind::Independent => (sums.y[k], sums.y2[k], n),
-                SamplerKind::Sobol => (sums.batch_y[k], sums.batch_y2[k], sums.batches as f64),
-            };
-            let mean_y = sum / count;
-            let var = if count > 1.0 {
-                ((sum2 / count - mean_y * mean_y) * count / (count - 1.0)).max(0.0)
-            } else {
-                f64::INFINITY
-            };
             let xy = d.xyz.chromaticity();
             (
                 coding.to_string(),
                 CodingResult {
                     luminance_cd_m2: d.xyz.y,
-                    luminance_se_cd_m2: (var / count).sqrt(),
+                    luminance_se_cd_m2: luminance_se(sampler, sums, k),
                     x: xy.x,
                     y: xy.y,
                     xyz: d.xyz.to_array(),
