@@ -503,11 +503,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             return Err(l.err(format!("quad[{i}].edge_v"), "the edges are parallel or zero"));
         }
         primitives.push(Primitive {
-            shape: Shape::Quad {
-                corner: DVec3::from(q.corner),
-                u,
-                v,
-            },
+            shape: Shape::quad(DVec3::from(q.corner), u, v),
             material,
         });
     }
@@ -760,11 +756,8 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
         right * ((col as f64 - 2.5) * c.pitch) + up * ((1.5 - row as f64) * c.pitch)
     };
     let centre = DVec3::from(c.measured_point) - offset(c.measured_patch);
-    let quad = |middle: DVec3, w: f64, h: f64| Shape::Quad {
-        corner: middle - right * (w / 2.0) - up * (h / 2.0),
-        u: right * w,
-        v: up * h,
-    };
+    let quad =
+        |middle: DVec3, w: f64, h: f64| Shape::quad(middle - right * (w / 2.0) - up * (h / 2.0), right * w, up * h);
     let card_material = format!("chart{i}.card");
     let card = l.spectrum(&c.card_reflectance, SpectralUnit::Reflectance, &key("card_reflectance"))?;
     let card_index = l.add_material(&card_material, card);
