@@ -144,28 +144,81 @@ impl PathSampler {
         if self.kind == SamplerKind::Independent || self.pair >= SOBOL_PAIRS {
             return (self.pcg.uniform(), self.pcg.uniform());
         }
-        let seed = hash_u32(self.batch_seed ^ self.pair.wrapping_mul(0x9e37_79b9));
+        // Decisions 0 and 1 (the field direction and the first bounce) are
+        // dimensions 0–3 of one 4D Sobol point, so their interaction is
+        // stratified too; later decisions are padded 2D points.
+        let (group, dims) = if self.pair < 2 {
+            (0, [2 * self.pair as usize, 2 * self.pair as usize + 1])
+        } else {
+            (self.pair, [0, 1])
+        };
+        let seed = hash_u32(self.batch_seed ^ group.wrapping_mul(0x9e37_79b9));
+        let dim_seed = hash_u32(seed ^ self.pair.wrapping_mul(0x68bc_21eb));
         self.pair += 1;
         let i = nested_uniform_scramble(self.index, seed);
-        let x = nested_uniform_scramble(i.reverse_bits(), hash_u32(seed ^ 0x68bc_21eb));
-        let y = nested_uniform_scramble(sobol_dim1(i), hash_u32(seed ^ 0x02e5_be93));
+        let x = nested_uniform_scramble(sobol(i, dims[0]), hash_u32(dim_seed ^ 0x02e5_be93));
+        let y = nested_uniform_scramble(sobol(i, dims[1]), hash_u32(dim_seed ^ 0x9670_c4f7));
         const SCALE: f64 = 1.0 / 4_294_967_296.0;
         (x as f64 * SCALE, y as f64 * SCALE)
     }
 }
 
-/// The second dimension of the Sobol sequence (direction numbers
-/// vₖ = vₖ₋₁ ⊕ (vₖ₋₁ >> 1)), as a 32-bit fraction.
+/// Direction numbers of the first four Sobol dimensions (Joe & Kuo 2008,
+/// `new-joe-kuo-6.21201`: dimension 2 has s = 1, a = 0, m = 1; dimension 3
+/// s = 2, a = 1, m = 1 3; dimension 4 s = 3, a = 1, m = 1 3 1; the first is
+/// the van der Corput sequence), as 32-bit fractions vₖ = mₖ·2³²⁻ᵏ.
+const SOBOL_V: [[u32; 32]; 4] = sobol_directions();
+
+const fn sobol_directions() -> [[u32; 32]; 4] {
+    // (s, a, initial m) per dimension after the first.
+    let params: [(usize, u32, [u32; 3]); 3] = [(1, 0, [1, 0, 0]), (2, 1, [1, 3, 0]), (3, 1, [1, 3, 1])];
+    let mut v = [[0u32; 32]; 4];
+    let mut k = 0;
+    while k < 32 {
+        v[0][k] = 1 << (31 - k);
+        k += 1;
+    }
+    let mut d = 0;
+    while d < 3 {
+        let (s, a, m0) = params[d];
+        let mut m = [0u32; 32];
+        let mut k = 0;
+        while k < 32 {
+            if k < s {
+                m[k] = m0[k];
+            } else {
+                // mₖ = 2a₁mₖ₋₁ ⊕ 2²a₂mₖ₋₂ ⊕ … ⊕ 2ˢmₖ₋ₛ ⊕ mₖ₋ₛ (Bratley & Fox 1988).
+                let mut x = (m[k - s] << s) ^ m[k - s];
+                let mut j = 1;
+                while j < s {
+                    let a_j = (a >> (s - 1 - j)) & 1;
+                    if a_j == 1 {
+                        x ^= m[k - j] << j;
+                    }
+                    j += 1;
+                }
+                m[k] = x;
+            }
+            v[d + 1][k] = m[k] << (31 - k);
+            k += 1;
+        }
+        d += 1;
+    }
+    v
+}
+
+/// Dimension `dim` (0–3) of Sobol point `i`, as a 32-bit fraction.
 #[inline]
-fn sobol_dim1(mut i: u32) -> u32 {
-    let mut v = 1u32 << 31;
+fn sobol(mut i: u32, dim: usize) -> u32 {
+    let v = &SOBOL_V[dim];
     let mut r = 0;
+    let mut k = 0;
     while i != 0 {
         if i & 1 != 0 {
-            r ^= v;
+            r ^= v[k];
         }
         i >>= 1;
-        v ^= v >> 1;
+        k += 1;
     }
     r
 }
@@ -555,13 +608,16 @@ mod tests {
         );
     }
 
-    /// The first 1024 points of a replicate of the scrambled Sobol sequence
-    /// are a (0, 10, 2)-net: each of the 32 × 32 elementary cells holds
-    /// exactly one point.
+    /// The first 1024 points of a replicate of the scrambled Sobol sequence:
+    /// dimensions 0–1 (the field) and padded later pairs are (0, 10, 2)-nets
+    /// (each of the 32 × 32 elementary cells holds one point); dimensions
+    /// 2–3 (the first bounce) are not (t > 0 there), but each coordinate is
+    /// stratified into 1024 intervals.
     #[test]
     fn sobol_replicates_are_stratified() {
         for pair in 0..3 {
             let mut seen = vec![false; 1024];
+            let mut seen_y = vec![false; 1024];
             for j in 0..1024 {
                 let i = 5 + REPLICATES as u64 * j;
                 let mut s = PathSampler::new(SamplerKind::Sobol, 7, 3, i);
@@ -569,9 +625,39 @@ mod tests {
                     s.next_2d();
                 }
                 let (x, y) = s.next_2d();
+                if pair == 1 {
+                    let (bx, by) = ((x * 1024.0) as usize, (y * 1024.0) as usize);
+                    assert!(!seen[bx] && !seen_y[by], "pair 1: bin {bx} or {by} twice");
+                    seen[bx] = true;
+                    seen_y[by] = true;
+                    continue;
+                }
                 let cell = (x * 32.0) as usize * 32 + (y * 32.0) as usize;
                 assert!(!seen[cell], "pair {pair}: two points in cell {cell}");
                 seen[cell] = true;
+            }
+        }
+    }
+
+    /// The direction numbers reproduce the known sequences: dimension 2's
+    /// vₖ = vₖ₋₁ ⊕ (vₖ₋₁ >> 1), and dimension 3's first points in natural
+    /// (not Gray-code) order, from v = 1/2, 3/4, 3/8.
+    #[test]
+    fn sobol_direction_numbers_match_the_tables() {
+        let mut v = 1u32 << 31;
+        for k in 0..32 {
+            assert_eq!(SOBOL_V[1][k], v);
+            v ^= v >> 1;
+        }
+        let pts: Vec<f64> = (0..8).map(|i| sobol(i, 2) as f64 / 4_294_967_296.0).collect();
+        assert_eq!(pts, vec![0.0, 0.5, 0.75, 0.25, 0.375, 0.875, 0.625, 0.125]);
+        // Every 1D projection of 1024 points is stratified into 1024 bins.
+        for d in 0..4 {
+            let mut seen = vec![false; 1024];
+            for i in 0..1024 {
+                let b = (sobol(i, d) >> 22) as usize;
+                assert!(!seen[b], "dim {d}");
+                seen[b] = true;
             }
         }
     }

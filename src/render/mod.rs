@@ -255,10 +255,9 @@ fn render_in_pool(
     let mut want_batches = vec![first; nt];
     let done = AtomicU64::new(0);
     // Rounds: all targets get `samples`; with a relative-SE goal, targets
-    // above it get the batches their SE says they need (SE ∝ 1/√n, +20 %),
-    // up to `max_samples`. Every decision depends only on results, so the
+    // above it get the batches their SE says they need, up to `max_samples`. Every decision depends only on results, so the
     // outcome is the same on any number of threads.
-    for _round in 0..6 {
+    for _round in 0..16 {
         let tasks: Vec<(usize, u64)> = (0..nt)
             .flat_map(|k| (done_batches[k]..want_batches[k]).map(move |b| (k, b)))
             .collect();
@@ -290,7 +289,10 @@ fn render_in_pool(
         for k in 0..nt {
             let rel = relative_se(&prep.layout, settings.sampler, &sums[k]);
             if rel > goal {
-                let need = (done_batches[k] as f64 * (rel / goal).powi(2) * 1.2).ceil() as u64;
+                // SE ∝ 1/√n for plain Monte Carlo; randomised QMC converges
+                // faster, so that estimate overshoots: grow at most 2× a round.
+                let need = (done_batches[k] as f64 * (rel / goal).powi(2)).ceil() as u64;
+                let need = need.min(2 * done_batches[k]);
                 want_batches[k] = need.clamp(done_batches[k] + 1, max_batches.max(done_batches[k]));
             }
         }
