@@ -645,8 +645,8 @@ mod tests {
     #[test]
     fn sobol_direction_numbers_match_the_tables() {
         let mut v = 1u32 << 31;
-        for k in 0..32 {
-            assert_eq!(SOBOL_V[1][k], v);
+        for vk in SOBOL_V[1] {
+            assert_eq!(vk, v);
             v ^= v >> 1;
         }
         let pts: Vec<f64> = (0..8).map(|i| sobol(i, 2) as f64 / 4_294_967_296.0).collect();
