@@ -29,6 +29,7 @@ fn cylinder(c: &mut Criterion) {
         let settings = RenderSettings {
             codings,
             samples: SAMPLES,
+            target_relative_se: None,
             ..RenderSettings::default()
         };
         group.bench_with_input(BenchmarkId::new("codings", name), &settings, |b, s| {

@@ -51,6 +51,7 @@ fn settings(codings: &[Coding], samples: u64) -> RenderSettings {
     RenderSettings {
         codings: codings.to_vec(),
         samples,
+        target_relative_se: None,
         ..RenderSettings::default()
     }
 }

@@ -45,6 +45,7 @@ fn the_white_standard_reads_what_the_sheet_says() {
         &RenderSettings {
             codings: vec![Coding::Spectral],
             samples: 2048,
+            target_relative_se: None,
             ..RenderSettings::default()
         },
         None,
@@ -68,6 +69,7 @@ fn cylinder_profile_rises_dips_and_rises_and_nstep9_tracks_spectral() {
         &s,
         &RenderSettings {
             samples: 8192,
+            target_relative_se: None,
             ..RenderSettings::default()
         },
         None,

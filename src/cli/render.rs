@@ -19,7 +19,7 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_coding,
           default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
     codings: Vec<Coding>,
-    /// Radiometer paths per target.
+    /// Radiometer paths per target (the first round with --target-se).
     #[arg(long, default_value_t = RenderSettings::default().samples)]
     samples: u64,
     /// Maximum indirect bounces (RADIANCE -ab).
@@ -51,9 +51,9 @@ pub struct RenderArgs {
     #[arg(long, default_value = "sobol", value_parser = parse_sampler)]
     sampler: SamplerKind,
     /// Keep sampling each target until the standard error of Y is below this
-    /// fraction of Y in every coding (e.g. 0.003), up to --max-samples.
-    #[arg(long)]
-    target_se: Option<f64>,
+    /// fraction of Y in every coding, up to --max-samples; 0: exactly --samples.
+    #[arg(long, default_value_t = 0.003)]
+    target_se: f64,
     /// Cap on paths per target with --target-se.
     #[arg(long, default_value_t = RenderSettings::default().max_samples)]
     max_samples: u64,
@@ -85,7 +85,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         targets: args.targets.clone(),
         threads: args.threads,
         sampler: args.sampler,
-        target_relative_se: args.target_se,
+        target_relative_se: (args.target_se > 0.0).then_some(args.target_se),
         max_samples: args.max_samples,
     };
     let bar = if std::io::stderr().is_terminal() {

@@ -69,7 +69,9 @@ pub enum RenderError {
 pub struct RenderSettings {
     #[serde(serialize_with = "codings_as_names")]
     pub codings: Vec<Coding>,
-    /// Radiometer paths per target, rounded up to whole batches of [`BATCH_SAMPLES`].
+    /// Radiometer paths per target (the first round when
+    /// `target_relative_se` is set), rounded up to whole batches of
+    /// [`BATCH_SAMPLES`].
     pub samples: u64,
     /// Maximum indirect bounces (RADIANCE `-ab`; the study used 5).
     pub max_bounces: u32,
@@ -83,7 +85,8 @@ pub struct RenderSettings {
     /// Random numbers: scrambled Sobol (default) or independent.
     pub sampler: SamplerKind,
     /// Keep sampling each target until the relative standard error of Y is
-    /// below this in every coding (or `max_samples` is reached).
+    /// below this in every coding (or `max_samples` is reached); the default
+    /// is the study's goal, 0.3 %. `None`: exactly `samples` paths.
     pub target_relative_se: Option<f64>,
     /// Cap on paths per target when `target_relative_se` is set.
     pub max_samples: u64,
@@ -97,14 +100,14 @@ impl Default for RenderSettings {
     fn default() -> RenderSettings {
         RenderSettings {
             codings: Coding::ALL.to_vec(),
-            samples: 65_536,
+            samples: 4096,
             max_bounces: 5,
             seed: 1,
             russian_roulette_from: None,
             targets: None,
             threads: None,
             sampler: SamplerKind::Sobol,
-            target_relative_se: None,
+            target_relative_se: Some(0.003),
             max_samples: 1 << 22,
         }
     }
@@ -137,6 +140,8 @@ pub struct CodingResult {
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetResult {
     pub id: String,
+    /// Paths traced for this target.
+    pub paths: u64,
     #[serde(serialize_with = "ordered_map")]
     pub codings: Vec<(String, CodingResult)>,
 }
@@ -384,6 +389,7 @@ fn target_result(layout: &ChannelLayout, sampler: SamplerKind, id: &str, sums: &
         .collect();
     TargetResult {
         id: id.to_string(),
+        paths: sums.paths,
         codings,
     }
 }
@@ -511,23 +517,15 @@ pub fn converged_target_spectrum(
 }
 
 fn converge(scene: &Scene, target_id: &str) -> Result<Spectrum, RenderError> {
-    let mut settings = RenderSettings {
+    let settings = RenderSettings {
         codings: vec![Coding::Spectral],
-        samples: 8192,
         targets: Some(vec![target_id.to_string()]),
+        target_relative_se: Some(CONVERGED_RELATIVE_SE),
+        max_samples: 1 << 24,
         ..RenderSettings::default()
     };
-    const MAX_SAMPLES: u64 = 1 << 24;
-    loop {
-        let r = render(scene, &settings, None)?;
-        let c = r.targets[0].codings[0].1.clone();
-        let rel = c.luminance_se_cd_m2 / c.luminance_cd_m2.abs().max(f64::MIN_POSITIVE);
-        if rel <= CONVERGED_RELATIVE_SE || c.luminance_cd_m2 == 0.0 || settings.samples >= MAX_SAMPLES {
-            return Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, c.bands)
-                .map_err(|e| RenderError::Prepare(e.to_string()));
-        }
-        // SE ∝ 1/√n: the samples that reach the goal, with 20 % margin.
-        let need = (settings.samples as f64 * (rel / CONVERGED_RELATIVE_SE).powi(2) * 1.2).ceil() as u64;
-        settings.samples = need.clamp(settings.samples * 2, MAX_SAMPLES);
-    }
+    let r = render(scene, &settings, None)?;
+    let bands = r.targets[0].codings[0].1.bands.clone();
+    Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, bands)
+        .map_err(|e| RenderError::Prepare(e.to_string()))
 }
