@@ -43,7 +43,8 @@ pub struct RenderArgs {
     /// Paths per pixel for --image.
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// After the render, render each coding alone and report its wall time
+    /// After the render, render all codings and then each coding alone with
+    /// exactly --samples paths per target, and report the wall times
     /// (`coding_wall_seconds` in the JSON): the cost of each coding.
     #[arg(long)]
     time_each_coding: bool,
@@ -105,12 +106,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let result = render(&scene, &settings, Some(&progress))?;
     bar.finish_and_clear();
 
+    // The cost of each coding: every coding rendered alone, and all together,
+    // with the same fixed path count (`--samples` per target, no adaptive
+    // rounds), so the times compare like with like.
     let mut coding_times = Vec::new();
     if args.time_each_coding {
+        let fixed = RenderSettings {
+            target_relative_se: None,
+            ..settings.clone()
+        };
+        let all = render(&scene, &fixed, None)?;
+        coding_times.push(("all".to_string(), all.wall_seconds));
         for c in &settings.codings {
             let alone = RenderSettings {
                 codings: vec![*c],
-                ..settings.clone()
+                ..fixed.clone()
             };
             let r = render(&scene, &alone, None)?;
             coding_times.push((c.to_string(), r.wall_seconds));
