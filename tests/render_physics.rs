@@ -138,6 +138,12 @@ centre = [0.0, 0.0, 0.0]
 radius = 2.0
 interior = "room"
 material = "wall"
+[camera]
+position = [0.3, -0.2, 0.1]
+look_at = [1.0, 0.5, -1.0]
+fov_deg = 60.0
+width = 8
+height = 6
 "#
     );
     write_scene(dir, "sphere.toml", &text)
@@ -191,6 +197,30 @@ fn interreflection_in_a_closed_sphere_matches_the_geometric_series() {
             c.luminance_se_cd_m2
         );
     }
+}
+
+/// The camera inside the same sphere (flat spectra, k = 2 bounces): every
+/// pixel sees the wall, whose luminance is the same everywhere,
+/// L = ρ/π · I/R² · (1 + ρ + ρ²); each pixel's Y (Rec. 709 weights of its
+/// linear sRGB) must match it, and the PFM and PNG files must be written.
+#[test]
+fn the_camera_sees_the_uniform_sphere_wall() {
+    use lightbooth::render::integrator::Transport;
+    use lightbooth::render::sensor::render_camera;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(&sphere_scene(dir.path(), 0.5)).unwrap();
+    let transport = Transport {
+        max_bounces: 2,
+        russian_roulette_from: None,
+    };
+    let img = render_camera(&scene, scene.camera.as_ref().unwrap(), Coding::Srgb, 2, &transport, 1).unwrap();
+    let truth = 0.5 / PI * 100.0 / 4.0 * (1.0 + 0.5 + 0.25);
+    for p in &img.rgb {
+        let y = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
+        assert!((y / truth - 1.0).abs() < 1e-4, "{y} vs {truth}");
+    }
+    img.write(&dir.path().join("s.pfm")).unwrap();
+    img.write(&dir.path().join("s.png")).unwrap();
 }
 
 /// The booth's CYLINDER geometry with every spectrum flat (reflectances and
