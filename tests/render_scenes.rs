@@ -239,3 +239,22 @@ fn converged_spectrum_is_cached_by_scene_content() {
     assert_eq!(converged_target_spectrum(&edited, "centre", None).unwrap(), fresh);
     assert!(converged_target_spectrum(&edited, "nowhere", None).is_err());
 }
+
+/// Settings round-trip through JSON (the daemon receives them that way).
+#[test]
+fn render_settings_round_trip_through_json() {
+    let s = RenderSettings {
+        codings: vec![Coding::Rgb, Coding::NStep(9), Coding::Spectral],
+        samples: 2048,
+        ..RenderSettings::default()
+    };
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(json.contains(r#""codings":["rgb","nstep9","spectral"]"#), "{json}");
+    let back: RenderSettings = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.codings, s.codings);
+    assert_eq!(back.samples, 2048);
+    let partial: RenderSettings = serde_json::from_str(r#"{"codings":["nstep27"]}"#).unwrap();
+    assert_eq!(partial.max_bounces, 5);
+    assert!(serde_json::from_str::<RenderSettings>(r#"{"codings":["cmyk"]}"#).is_err());
+    assert!(serde_json::from_str::<RenderSettings>(r#"{"colour":1}"#).is_err());
+}

@@ -80,7 +80,7 @@ pub fn splitmix64(mut z: u64) -> u64 {
 }
 
 /// How a path draws its random numbers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SamplerKind {
     /// Randomised quasi-Monte Carlo: each 2D decision of a path (field

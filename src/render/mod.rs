@@ -37,7 +37,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::ser::{SerializeMap, Serializer};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use coding::{ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
@@ -64,10 +64,12 @@ pub enum RenderError {
     Io(String),
 }
 
-/// What to render.
-#[derive(Clone, Debug, Serialize)]
+/// What to render. Serialises to (and reads from) JSON with codings as
+/// names (`["rgb", "nstep9", …]`); missing fields take the defaults.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderSettings {
-    #[serde(serialize_with = "codings_as_names")]
+    #[serde(serialize_with = "codings_as_names", deserialize_with = "codings_from_names")]
     pub codings: Vec<Coding>,
     /// Radiometer paths per target (the first round when
     /// `target_relative_se` is set), rounded up to whole batches of
@@ -94,6 +96,14 @@ pub struct RenderSettings {
 
 fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
     s.collect_seq(codings.iter().map(|c| c.to_string()))
+}
+
+fn codings_from_names<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Coding>, D::Error> {
+    let names: Vec<String> = Deserialize::deserialize(d)?;
+    names
+        .iter()
+        .map(|n| n.parse().map_err(serde::de::Error::custom))
+        .collect()
 }
 
 impl Default for RenderSettings {
