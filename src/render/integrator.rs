@@ -83,11 +83,12 @@ pub fn splitmix64(mut z: u64) -> u64 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SamplerKind {
-    /// Randomised quasi-Monte Carlo: each 2D decision of a path (field
-    /// direction, bounce 1, bounce 2, …) takes one point of a shuffled,
-    /// Owen-scrambled Sobol (0,2)-sequence, padded (independently scrambled)
-    /// per decision (Burley 2020, "Practical hash-based Owen scrambling",
-    /// JCGT 9(4)). Sample i belongs to replicate i mod [`REPLICATES`], and
+    /// Randomised quasi-Monte Carlo with shuffled, Owen-scrambled Sobol
+    /// points (Burley 2020, "Practical hash-based Owen scrambling", JCGT
+    /// 9(4)): the field direction and the first bounce are dimensions 0–3 of
+    /// one 4D point (their interaction decides the lower CYLINDER points);
+    /// later bounces take padded (independently scrambled) 2D points, and
+    /// after 8 decisions PCG32. Sample i belongs to replicate i mod [`REPLICATES`], and
     /// each replicate is an independent randomisation of the whole sequence,
     /// so the replicate means are i.i.d. and the standard error comes from
     /// them (R = 16 replicates: 15 degrees of freedom).

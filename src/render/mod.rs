@@ -17,10 +17,21 @@
 //! println!("{}", serde_json::to_string_pretty(&result).unwrap());
 //! ```
 //!
-//! Determinism: sample i of target t always uses the PCG32 stream
-//! (seed, t, i), samples are grouped in fixed batches of [`BATCH_SAMPLES`],
-//! and batch sums are added in batch order after the parallel part, so the
-//! result is bit-identical for any number of threads.
+//! Sampling and its error: sample i of target t draws its numbers from a
+//! fixed source — an Owen-scrambled Sobol point of replicate i mod 16, or the
+//! PCG32 stream (seed, t, i) — so it is the same path wherever it runs. The
+//! standard error of Y is estimated from the 16 independent replicate means
+//! (randomised QMC; with `SamplerKind::Independent`, from the paths). With a
+//! `target_relative_se` goal, targets above it get more batches in rounds.
+//!
+//! Determinism: samples are grouped in fixed batches of [`BATCH_SAMPLES`],
+//! batch sums are added in (target, batch) order after the parallel part, and
+//! the adaptive decisions depend only on those sums, so the result is
+//! bit-identical for any number of threads.
+//!
+//! Cost per coding: one pass serves every coding, so [`RenderResult`] reports
+//! the total wall time only; the cost of a coding is measured by rendering it
+//! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
 
 pub mod coding;
 pub mod geometry;
@@ -88,7 +99,7 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// Keep sampling each target until the relative standard error of Y is
     /// below this in every coding (or `max_samples` is reached); the default
-    /// is the study's goal, 0.3 %. `None`: exactly `samples` paths.
+    /// is the performance goal, 0.3 %. `None`: exactly `samples` paths.
     pub target_relative_se: Option<f64>,
     /// Cap on paths per target when `target_relative_se` is set.
     pub max_samples: u64,
