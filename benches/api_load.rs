@@ -60,10 +60,16 @@ async fn fill(store: &Store) {
 async fn get(addr: SocketAddr, path: &str) -> Duration {
     let start = Instant::now();
     let mut s = TcpStream::connect(addr).await.unwrap();
-    s.write_all(format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes()).await.unwrap();
+    s.write_all(format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n").as_bytes())
+        .await
+        .unwrap();
     let mut buf = Vec::new();
     s.read_to_end(&mut buf).await.unwrap();
-    assert!(buf.starts_with(b"HTTP/1.1 200"), "{}", String::from_utf8_lossy(&buf[..buf.len().min(200)]));
+    assert!(
+        buf.starts_with(b"HTTP/1.1 200"),
+        "{}",
+        String::from_utf8_lossy(&buf[..buf.len().min(200)])
+    );
     start.elapsed()
 }
 
@@ -94,15 +100,27 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let rate: f64 = args.first().and_then(|a| a.parse().ok()).unwrap_or(200.0);
     let seconds: f64 = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(10.0);
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     rt.block_on(async move {
         let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&format!("sqlite://{}", dir.path().join("load.sqlite").display())).await.unwrap();
+        let store = Store::open(&format!("sqlite://{}", dir.path().join("load.sqlite").display()))
+            .await
+            .unwrap();
         let t = Instant::now();
         fill(&store).await;
-        eprintln!("stored {MEASUREMENTS} measurements × 5 samples in {:.1} s", t.elapsed().as_secs_f64());
+        eprintln!(
+            "stored {MEASUREMENTS} measurements × 5 samples in {:.1} s",
+            t.elapsed().as_secs_f64()
+        );
         let (jobs, _jobs_rx) = mpsc::channel(64);
-        let (_status_tx, status) = watch::channel(InstrumentStatus::Idle { model: "PR-650".into(), serial: None, port: "-".into() });
+        let (_status_tx, status) = watch::channel(InstrumentStatus::Idle {
+            model: "PR-650".into(),
+            serial: None,
+            port: "-".into(),
+        });
         let (_down_tx, shutting_down) = watch::channel(false);
         let state = AppState {
             store,
@@ -127,7 +145,10 @@ fn main() {
         for i in 1..=200 {
             get(addr, &format!("/api/measurements/{i}")).await;
         }
-        let fetch = run(addr, rate, seconds, |i| format!("/api/measurements/{}", 1 + (i * 7919) % MEASUREMENTS as u64)).await;
+        let fetch = run(addr, rate, seconds, |i| {
+            format!("/api/measurements/{}", 1 + (i * 7919) % MEASUREMENTS as u64)
+        })
+        .await;
         println!(
             "fetch one measurement (5 samples): {} requests at {rate}/s: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
             fetch.len(),
@@ -135,7 +156,10 @@ fn main() {
             percentile(&fetch, 0.99),
             percentile(&fetch, 1.0)
         );
-        let list = run(addr, rate, seconds, |i| format!("/api/measurements?limit=50&offset={}", (i * 50) % 9000)).await;
+        let list = run(addr, rate, seconds, |i| {
+            format!("/api/measurements?limit=50&offset={}", (i * 50) % 9000)
+        })
+        .await;
         println!(
             "list 50 measurements: {} requests at {rate}/s: p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
             list.len(),

@@ -9,7 +9,7 @@ use clap::Args;
 
 use lightbooth::render::integrator::Transport;
 use lightbooth::render::sensor::render_camera;
-use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings};
+use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -19,7 +19,7 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_coding,
           default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
     codings: Vec<Coding>,
-    /// Radiometer paths per target.
+    /// Radiometer paths per target (the first round with --target-se).
     #[arg(long, default_value_t = RenderSettings::default().samples)]
     samples: u64,
     /// Maximum indirect bounces (RADIANCE -ab).
@@ -43,10 +43,21 @@ pub struct RenderArgs {
     /// Paths per pixel for --image.
     #[arg(long, default_value_t = 16)]
     spp: u32,
-    /// After the render, render each coding alone and report its wall time
+    /// After the render, render all codings and then each coding alone with
+    /// exactly --samples paths per target, and report the wall times
     /// (`coding_wall_seconds` in the JSON): the cost of each coding.
     #[arg(long)]
     time_each_coding: bool,
+    /// Random numbers: sobol (scrambled, stratified; SE from batch means) or independent.
+    #[arg(long, default_value = "sobol", value_parser = parse_sampler)]
+    sampler: SamplerKind,
+    /// Keep sampling each target until the standard error of Y is below this
+    /// fraction of Y in every coding, up to --max-samples; 0: exactly --samples.
+    #[arg(long, default_value_t = 0.003)]
+    target_se: f64,
+    /// Cap on paths per target with --target-se.
+    #[arg(long, default_value_t = RenderSettings::default().max_samples)]
+    max_samples: u64,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
@@ -54,6 +65,14 @@ pub struct RenderArgs {
 
 fn parse_coding(s: &str) -> Result<Coding, String> {
     s.parse()
+}
+
+fn parse_sampler(s: &str) -> Result<SamplerKind, String> {
+    match s {
+        "sobol" => Ok(SamplerKind::Sobol),
+        "independent" => Ok(SamplerKind::Independent),
+        _ => Err(format!("unknown sampler `{s}`: sobol or independent")),
+    }
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
@@ -66,6 +85,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         russian_roulette_from: args.russian_roulette_from,
         targets: args.targets.clone(),
         threads: args.threads,
+        sampler: args.sampler,
+        target_relative_se: (args.target_se > 0.0).then_some(args.target_se),
+        max_samples: args.max_samples,
     };
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);
@@ -84,12 +106,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let result = render(&scene, &settings, Some(&progress))?;
     bar.finish_and_clear();
 
+    // The cost of each coding: every coding rendered alone, and all together,
+    // with the same fixed path count (`--samples` per target, no adaptive
+    // rounds), so the times compare like with like.
     let mut coding_times = Vec::new();
     if args.time_each_coding {
+        let fixed = RenderSettings {
+            target_relative_se: None,
+            ..settings.clone()
+        };
+        let all = render(&scene, &fixed, None)?;
+        coding_times.push(("all".to_string(), all.wall_seconds));
         for c in &settings.codings {
             let alone = RenderSettings {
                 codings: vec![*c],
-                ..settings.clone()
+                ..fixed.clone()
             };
             let r = render(&scene, &alone, None)?;
             coding_times.push((c.to_string(), r.wall_seconds));

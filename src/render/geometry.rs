@@ -26,11 +26,16 @@ pub struct Ray {
 /// An analytic surface.
 #[derive(Clone, Debug)]
 pub enum Shape {
-    /// The parallelogram corner + s·u + t·v, s, t ∈ [0, 1].
+    /// The parallelogram corner + s·u + t·v, s, t ∈ [0, 1]; build it with
+    /// [`Shape::quad`], which precomputes n = u × v, w = n/|n|² (for the
+    /// planar coordinates) and the unit normal.
     Quad {
         corner: DVec3,
         u: DVec3,
         v: DVec3,
+        n: DVec3,
+        w: DVec3,
+        unit_normal: DVec3,
     },
     /// A flat disc.
     Disc {
@@ -61,12 +66,31 @@ pub struct Hit {
 }
 
 impl Shape {
+    /// The parallelogram corner + s·u + t·v.
+    pub fn quad(corner: DVec3, u: DVec3, v: DVec3) -> Shape {
+        let n = u.cross(v);
+        Shape::Quad {
+            corner,
+            u,
+            v,
+            n,
+            w: n / n.length_squared(),
+            unit_normal: n.normalize(),
+        }
+    }
+
     /// The nearest hit with RAY_EPSILON_M < t < t_max.
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f64) -> Option<Hit> {
         match *self {
-            Shape::Quad { corner, u, v } => {
-                let n = u.cross(v);
+            Shape::Quad {
+                corner,
+                u,
+                v,
+                n,
+                w,
+                unit_normal,
+            } => {
                 let denom = n.dot(ray.dir);
                 if denom == 0.0 {
                     return None;
@@ -77,16 +101,12 @@ impl Shape {
                 }
                 // Barycentric-like coordinates of the planar hit (pbrt's quad test).
                 let p = ray.origin + ray.dir * t - corner;
-                let w = n / n.dot(n);
                 let s = w.dot(p.cross(v));
                 let tt = w.dot(u.cross(p));
                 if !(0.0..=1.0).contains(&s) || !(0.0..=1.0).contains(&tt) {
                     return None;
                 }
-                Some(Hit {
-                    t,
-                    normal: n.normalize(),
-                })
+                Some(Hit { t, normal: unit_normal })
             }
             Shape::Disc { centre, normal, radius } => {
                 let denom = normal.dot(ray.dir);
@@ -164,7 +184,7 @@ impl Shape {
     /// Distance from a point to this surface, m (for validating targets).
     pub fn distance_to(&self, p: DVec3) -> f64 {
         match *self {
-            Shape::Quad { corner, u, v } => {
+            Shape::Quad { corner, u, v, .. } => {
                 // Closest point on the parallelogram: clamp the planar coordinates,
                 // then the distance to the four edges when outside.
                 let n = u.cross(v).normalize();
@@ -263,36 +283,12 @@ pub fn box_faces(min: DVec3, max: DVec3) -> [Shape; 6] {
     let d = max - min;
     let (x, y, z) = (DVec3::X * d.x, DVec3::Y * d.y, DVec3::Z * d.z);
     [
-        Shape::Quad {
-            corner: min,
-            u: y,
-            v: z,
-        },
-        Shape::Quad {
-            corner: min + x,
-            u: y,
-            v: z,
-        },
-        Shape::Quad {
-            corner: min,
-            u: x,
-            v: z,
-        },
-        Shape::Quad {
-            corner: min + y,
-            u: x,
-            v: z,
-        },
-        Shape::Quad {
-            corner: min,
-            u: x,
-            v: y,
-        },
-        Shape::Quad {
-            corner: min + z,
-            u: x,
-            v: y,
-        },
+        Shape::quad(min, y, z),
+        Shape::quad(min + x, y, z),
+        Shape::quad(min, x, z),
+        Shape::quad(min + y, x, z),
+        Shape::quad(min, x, y),
+        Shape::quad(min + z, x, y),
     ]
 }
 
@@ -322,11 +318,11 @@ mod tests {
 
     #[test]
     fn quad_hits_inside_and_misses_outside() {
-        let q = Shape::Quad {
-            corner: DVec3::new(-1.0, 0.0, -1.0),
-            u: DVec3::new(2.0, 0.0, 0.0),
-            v: DVec3::new(0.0, 0.0, 2.0),
-        };
+        let q = Shape::quad(
+            DVec3::new(-1.0, 0.0, -1.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, 2.0),
+        );
         let h = q
             .intersect(&ray([0.5, 2.0, 0.5], [0.0, -1.0, 0.0]), f64::INFINITY)
             .unwrap();

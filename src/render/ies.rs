@@ -30,6 +30,9 @@ pub struct IesDistribution {
     horizontal_deg: Vec<f64>,
     /// `candela_cd[h][v]`, scaled by the file's multipliers.
     candela_cd: Vec<Vec<f64>>,
+    /// The vertical step when the vertical angles are uniform (the usual
+    /// goniophotometer table): the bin is then found by division.
+    vertical_step_deg: Option<f64>,
 }
 
 /// A problem in an IES file, with the file and (when known) the line.
@@ -156,10 +159,17 @@ impl IesDistribution {
                 format!("horizontal angles {h0}–{hl}°: type C needs 0 (symmetric), 0–90, 0–180 or 0–360"),
             ));
         }
+        let step = (vertical_deg[nv - 1] - vertical_deg[0]) / (nv.max(2) - 1) as f64;
+        let uniform = nv >= 2
+            && vertical_deg
+                .iter()
+                .enumerate()
+                .all(|(i, v)| (v - (vertical_deg[0] + step * i as f64)).abs() < 1e-9);
         Ok(IesDistribution {
             vertical_deg,
             horizontal_deg,
             candela_cd,
+            vertical_step_deg: uniform.then_some(step),
         })
     }
 
@@ -172,6 +182,14 @@ impl IesDistribution {
         }
         let h = &self.horizontal_deg;
         if h.len() == 1 {
+            if let Some(step) = self.vertical_step_deg {
+                // The same linear interpolation, with the bin found by division.
+                let x = (gamma_deg - v[0]) / step;
+                let i = (x as usize).min(v.len() - 2);
+                let f = x - i as f64;
+                let row = &self.candela_cd[0];
+                return row[i] + f * (row[i + 1] - row[i]);
+            }
             return interpolate(v, &self.candela_cd[0], gamma_deg);
         }
         // Fold C into the tabulated range by the file's symmetry.
@@ -261,7 +279,8 @@ mod tests {
 
     #[test]
     fn errors_name_the_file_and_line() {
-        let e = IesDistribution::parse("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n", "b.ies").unwrap_err();
+        let e =
+            IesDistribution::parse("IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n1 1 0\n", "b.ies").unwrap_err();
         assert!(e.to_string().starts_with("b.ies:3: photometric type 3"), "{e}");
         let e = IesDistribution::parse(
             "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 x\n",

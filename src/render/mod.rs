@@ -17,10 +17,21 @@
 //! println!("{}", serde_json::to_string_pretty(&result).unwrap());
 //! ```
 //!
-//! Determinism: sample i of target t always uses the PCG32 stream
-//! (seed, t, i), samples are grouped in fixed batches of [`BATCH_SAMPLES`],
-//! and batch sums are added in batch order after the parallel part, so the
-//! result is bit-identical for any number of threads.
+//! Sampling and its error: sample i of target t draws its numbers from a
+//! fixed source — an Owen-scrambled Sobol point of replicate i mod 16, or the
+//! PCG32 stream (seed, t, i) — so it is the same path wherever it runs. The
+//! standard error of Y is estimated from the 16 independent replicate means
+//! (randomised QMC; with `SamplerKind::Independent`, from the paths). With a
+//! `target_relative_se` goal, targets above it get more batches in rounds.
+//!
+//! Determinism: samples are grouped in fixed batches of [`BATCH_SAMPLES`],
+//! batch sums are added in (target, batch) order after the parallel part, and
+//! the adaptive decisions depend only on those sums, so the result is
+//! bit-identical for any number of threads.
+//!
+//! Cost per coding: one pass serves every coding, so [`RenderResult`] reports
+//! the total wall time only; the cost of a coding is measured by rendering it
+//! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
 
 pub mod coding;
 pub mod geometry;
@@ -37,7 +48,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::ser::{SerializeMap, Serializer};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 pub use coding::{ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
@@ -47,8 +58,7 @@ use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
 use crate::spectrum::table::{write_csv, SpectraTable};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
-/// Samples per batch: the unit of parallel work and of deterministic summation.
-pub const BATCH_SAMPLES: u64 = 2048;
+pub use integrator::{SamplerKind, BATCH_SAMPLES, REPLICATES};
 
 /// Everything that can go wrong in a render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -65,12 +75,16 @@ pub enum RenderError {
     Io(String),
 }
 
-/// What to render.
-#[derive(Clone, Debug, Serialize)]
+/// What to render. Serialises to (and reads from) JSON with codings as
+/// names (`["rgb", "nstep9", …]`); missing fields take the defaults.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderSettings {
-    #[serde(serialize_with = "codings_as_names")]
+    #[serde(serialize_with = "codings_as_names", deserialize_with = "codings_from_names")]
     pub codings: Vec<Coding>,
-    /// Radiometer paths per target.
+    /// Radiometer paths per target (the first round when
+    /// `target_relative_se` is set), rounded up to whole batches of
+    /// [`BATCH_SAMPLES`].
     pub samples: u64,
     /// Maximum indirect bounces (RADIANCE `-ab`; the study used 5).
     pub max_bounces: u32,
@@ -81,22 +95,41 @@ pub struct RenderSettings {
     pub targets: Option<Vec<String>>,
     /// Worker threads; `None` = rayon's default (one per core).
     pub threads: Option<usize>,
+    /// Random numbers: scrambled Sobol (default) or independent.
+    pub sampler: SamplerKind,
+    /// Keep sampling each target until the relative standard error of Y is
+    /// below this in every coding (or `max_samples` is reached); the default
+    /// is the performance goal, 0.3 %. `None`: exactly `samples` paths.
+    pub target_relative_se: Option<f64>,
+    /// Cap on paths per target when `target_relative_se` is set.
+    pub max_samples: u64,
 }
 
 fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
     s.collect_seq(codings.iter().map(|c| c.to_string()))
 }
 
+fn codings_from_names<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Coding>, D::Error> {
+    let names: Vec<String> = Deserialize::deserialize(d)?;
+    names
+        .iter()
+        .map(|n| n.parse().map_err(serde::de::Error::custom))
+        .collect()
+}
+
 impl Default for RenderSettings {
     fn default() -> RenderSettings {
         RenderSettings {
             codings: Coding::ALL.to_vec(),
-            samples: 65_536,
+            samples: 4096,
             max_bounces: 5,
             seed: 1,
             russian_roulette_from: None,
             targets: None,
             threads: None,
+            sampler: SamplerKind::Sobol,
+            target_relative_se: Some(0.003),
+            max_samples: 1 << 22,
         }
     }
 }
@@ -128,6 +161,8 @@ pub struct CodingResult {
 #[derive(Clone, Debug, Serialize)]
 pub struct TargetResult {
     pub id: String,
+    /// Paths traced for this target.
+    pub paths: u64,
     #[serde(serialize_with = "ordered_map")]
     pub codings: Vec<(String, CodingResult)>,
 }
@@ -237,37 +272,68 @@ fn render_in_pool(
         max_bounces: settings.max_bounces,
         russian_roulette_from: settings.russian_roulette_from,
     };
-    let batches = settings.samples.div_ceil(BATCH_SAMPLES);
-    let tasks: Vec<(usize, u64)> = target_indices
-        .iter()
-        .flat_map(|&t| (0..batches).map(move |b| (t, b)))
-        .collect();
-    let total = settings.samples * target_indices.len() as u64;
+    // Whole batches only, so every replicate has the same number of paths.
+    let first = settings.samples.div_ceil(BATCH_SAMPLES);
+    let max_batches = settings.max_samples.div_ceil(BATCH_SAMPLES).max(first);
+    let nt = target_indices.len();
+    let mut sums: Vec<BatchSums> = (0..nt).map(|_| BatchSums::zero(&prep.layout)).collect();
+    let mut done_batches = vec![0u64; nt];
+    let mut want_batches = vec![first; nt];
     let done = AtomicU64::new(0);
-    let partial: Vec<BatchSums> = tasks
-        .par_iter()
-        .map(|&(t, b)| {
-            let range = b * BATCH_SAMPLES..((b + 1) * BATCH_SAMPLES).min(settings.samples);
-            let n = range.end - range.start;
-            let sums = radiometer_batch(&prep, &transport, t, settings.seed, range);
-            let now = done.fetch_add(n, Ordering::Relaxed) + n;
-            if let Some(p) = progress {
-                p(now, total);
+    // Rounds: all targets get `samples`; with a relative-SE goal, targets
+    // above it get the batches their SE says they need, up to `max_samples`. Every decision depends only on results, so the
+    // outcome is the same on any number of threads.
+    for _round in 0..16 {
+        let tasks: Vec<(usize, u64)> = (0..nt)
+            .flat_map(|k| (done_batches[k]..want_batches[k]).map(move |b| (k, b)))
+            .collect();
+        if tasks.is_empty() {
+            break;
+        }
+        let total: u64 = want_batches.iter().sum::<u64>() * BATCH_SAMPLES;
+        let partial: Vec<BatchSums> = tasks
+            .par_iter()
+            .map(|&(k, b)| {
+                let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
+                let t = target_indices[k];
+                let out = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
+                let now = done.fetch_add(BATCH_SAMPLES, Ordering::Relaxed) + BATCH_SAMPLES;
+                if let Some(p) = progress {
+                    p(now, total);
+                }
+                out
+            })
+            .collect();
+        // Deterministic reduction: each target's batches in batch order.
+        for ((k, _), part) in tasks.iter().zip(&partial) {
+            sums[*k].add(part);
+        }
+        done_batches.clone_from(&want_batches);
+        let Some(goal) = settings.target_relative_se else {
+            break;
+        };
+        for k in 0..nt {
+            let rel = relative_se(&prep.layout, settings.sampler, &sums[k]);
+            if rel > goal {
+                // SE ∝ 1/√n for plain Monte Carlo; randomised QMC converges
+                // faster, so that estimate overshoots: grow at most 2× a round.
+                let need = (done_batches[k] as f64 * (rel / goal).powi(2)).ceil() as u64;
+                let need = need.min(2 * done_batches[k]);
+                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches.max(done_batches[k]));
             }
-            sums
-        })
-        .collect();
-    // Deterministic reduction: batches of each target in batch order.
+        }
+    }
     let mut targets = Vec::new();
     let (mut paths, mut rays) = (0, 0);
     for (k, &t) in target_indices.iter().enumerate() {
-        let mut sums = BatchSums::zero(&prep.layout);
-        for s in &partial[k * batches as usize..(k + 1) * batches as usize] {
-            sums.add(s);
-        }
-        paths += sums.paths;
-        rays += sums.rays;
-        targets.push(target_result(&prep.layout, &scene.target_list[t].id, &sums));
+        paths += sums[k].paths;
+        rays += sums[k].rays;
+        targets.push(target_result(
+            &prep.layout,
+            settings.sampler,
+            &scene.target_list[t].id,
+            &sums[k],
+        ));
     }
     let wall_seconds = start.elapsed().as_secs_f64();
     let deviation_from_spectral = deviations(&settings.codings, &targets);
@@ -285,7 +351,40 @@ fn render_in_pool(
     })
 }
 
-fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetResult {
+/// The standard error of Y for coding entry `k` of these sums: from the
+/// paths (independent sampling) or from the batch means, each an independent
+/// randomisation (Sobol).
+fn luminance_se(sampler: SamplerKind, sums: &BatchSums, k: usize) -> f64 {
+    let (sum, sum2, count) = match sampler {
+        SamplerKind::Independent => (sums.y[k], sums.y2[k], sums.paths as f64),
+        SamplerKind::Sobol => {
+            // Replicate means (every replicate has paths / R paths).
+            let codings = sums.y.len();
+            let per = sums.paths as f64 / REPLICATES as f64;
+            let means = (0..REPLICATES).map(|r| sums.replicate_y[r * codings + k] / per);
+            let (s, s2) = means.fold((0.0, 0.0), |(s, s2), m| (s + m, s2 + m * m));
+            (s, s2, REPLICATES as f64)
+        }
+    };
+    if count < 2.0 {
+        return f64::INFINITY;
+    }
+    let mean = sum / count;
+    let var = ((sum2 / count - mean * mean) * count / (count - 1.0)).max(0.0);
+    (var / count).sqrt()
+}
+
+/// The largest relative SE of Y over the codings.
+fn relative_se(layout: &ChannelLayout, sampler: SamplerKind, sums: &BatchSums) -> f64 {
+    (0..layout.entries().len())
+        .map(|k| {
+            let y = sums.y[k] / sums.paths as f64;
+            luminance_se(sampler, sums, k) / y.abs().max(f64::MIN_POSITIVE)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn target_result(layout: &ChannelLayout, sampler: SamplerKind, id: &str, sums: &BatchSums) -> TargetResult {
     let n = sums.paths as f64;
     let mean: Vec<f64> = sums.channels.iter().map(|s| s / n).collect();
     let codings = layout
@@ -294,14 +393,12 @@ fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetRe
         .enumerate()
         .map(|(k, (coding, range))| {
             let d = layout.decode(k, &mean);
-            let mean_y = sums.y[k] / n;
-            let var = ((sums.y2[k] / n - mean_y * mean_y) * n / (n - 1.0)).max(0.0);
             let xy = d.xyz.chromaticity();
             (
                 coding.to_string(),
                 CodingResult {
                     luminance_cd_m2: d.xyz.y,
-                    luminance_se_cd_m2: (var / n).sqrt(),
+                    luminance_se_cd_m2: luminance_se(sampler, sums, k),
                     x: xy.x,
                     y: xy.y,
                     xyz: d.xyz.to_array(),
@@ -313,6 +410,7 @@ fn target_result(layout: &ChannelLayout, id: &str, sums: &BatchSums) -> TargetRe
         .collect();
     TargetResult {
         id: id.to_string(),
+        paths: sums.paths,
         codings,
     }
 }
@@ -440,23 +538,15 @@ pub fn converged_target_spectrum(
 }
 
 fn converge(scene: &Scene, target_id: &str) -> Result<Spectrum, RenderError> {
-    let mut settings = RenderSettings {
+    let settings = RenderSettings {
         codings: vec![Coding::Spectral],
-        samples: 8192,
         targets: Some(vec![target_id.to_string()]),
+        target_relative_se: Some(CONVERGED_RELATIVE_SE),
+        max_samples: 1 << 24,
         ..RenderSettings::default()
     };
-    const MAX_SAMPLES: u64 = 1 << 24;
-    loop {
-        let r = render(scene, &settings, None)?;
-        let c = r.targets[0].codings[0].1.clone();
-        let rel = c.luminance_se_cd_m2 / c.luminance_cd_m2.abs().max(f64::MIN_POSITIVE);
-        if rel <= CONVERGED_RELATIVE_SE || c.luminance_cd_m2 == 0.0 || settings.samples >= MAX_SAMPLES {
-            return Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, c.bands)
-                .map_err(|e| RenderError::Prepare(e.to_string()));
-        }
-        // SE ∝ 1/√n: the samples that reach the goal, with 20 % margin.
-        let need = (settings.samples as f64 * (rel / CONVERGED_RELATIVE_SE).powi(2) * 1.2).ceil() as u64;
-        settings.samples = need.clamp(settings.samples * 2, MAX_SAMPLES);
-    }
+    let r = render(scene, &settings, None)?;
+    let bands = r.targets[0].codings[0].1.bands.clone();
+    Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, bands)
+        .map_err(|e| RenderError::Prepare(e.to_string()))
 }

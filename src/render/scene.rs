@@ -503,11 +503,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             return Err(l.err(format!("quad[{i}].edge_v"), "the edges are parallel or zero"));
         }
         primitives.push(Primitive {
-            shape: Shape::Quad {
-                corner: DVec3::from(q.corner),
-                u,
-                v,
-            },
+            shape: Shape::quad(DVec3::from(q.corner), u, v),
             material,
         });
     }
@@ -719,7 +715,7 @@ fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneEr
     // Normalise to 1 cd: 683 · Σ S(λ) ȳ(λ) Δλ = 1, Δλ = 1 nm, Judd–Vos ȳ.
     let ybar = &Cmf::of(super::coding::OBSERVER).on_grid(&grid)[1];
     let lum: f64 = KM_LM_PER_W * spd.iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>();
-    if !(lum > 0.0) {
+    if lum.is_nan() || lum <= 0.0 {
         return Err(l.err(key("spd"), "the spectrum has no luminous power"));
     }
     let spectrum_per_cd = Spectrum::new(grid, SpectralUnit::RelativePower, spd.iter().map(|s| s / lum).collect())
@@ -760,11 +756,8 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
         right * ((col as f64 - 2.5) * c.pitch) + up * ((1.5 - row as f64) * c.pitch)
     };
     let centre = DVec3::from(c.measured_point) - offset(c.measured_patch);
-    let quad = |middle: DVec3, w: f64, h: f64| Shape::Quad {
-        corner: middle - right * (w / 2.0) - up * (h / 2.0),
-        u: right * w,
-        v: up * h,
-    };
+    let quad =
+        |middle: DVec3, w: f64, h: f64| Shape::quad(middle - right * (w / 2.0) - up * (h / 2.0), right * w, up * h);
     let card_material = format!("chart{i}.card");
     let card = l.spectrum(&c.card_reflectance, SpectralUnit::Reflectance, &key("card_reflectance"))?;
     let card_index = l.add_material(&card_material, card);
@@ -773,8 +766,8 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
         material: card_index,
     });
     for patch in 1..=24 {
-        let (shape, material) = if patch == c.measured_patch && c.replace_measured.is_some() {
-            let r = c.replace_measured.as_ref().expect("checked");
+        let replacement = c.replace_measured.as_ref().filter(|_| patch == c.measured_patch);
+        let (shape, material) = if let Some(r) = replacement {
             let s = l.spectrum(
                 &r.reflectance,
                 SpectralUnit::Reflectance,

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use super::coding::{ChannelLayout, Coding};
 use super::geometry::Ray;
-use super::integrator::{trace_path, PathState, Pcg32, Prepared, Transport};
+use super::integrator::{trace_path, PathSampler, PathState, Prepared, SamplerKind, Transport};
 use super::scene::{Camera, Scene};
 use super::RenderError;
 use crate::colorimetry::rgb::{apply, srgb_encode, RgbSpace};
@@ -58,9 +58,10 @@ pub fn render_camera(
                 mean.fill(0.0);
                 for s in 0..spp {
                     let pixel = (y * w + x) as u64;
-                    let mut rng = Pcg32::for_sample(seed, u64::MAX - pixel, s as u64);
-                    let px = (2.0 * (x as f64 + rng.uniform()) / w as f64 - 1.0) * tan_half * aspect;
-                    let py = (1.0 - 2.0 * (y as f64 + rng.uniform()) / h as f64) * tan_half;
+                    let mut rng = PathSampler::new(SamplerKind::Sobol, seed, u64::MAX - pixel, s as u64);
+                    let (jx, jy) = rng.next_2d();
+                    let px = (2.0 * (x as f64 + jx) / w as f64 - 1.0) * tan_half * aspect;
+                    let py = (1.0 - 2.0 * (y as f64 + jy) / h as f64) * tan_half;
                     let dir: DVec3 = (forward + right * px + up * py).normalize();
                     trace_path(
                         &prep,

@@ -365,8 +365,11 @@ impl Store {
             conditions.push("state = ?");
         }
         // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
-        let where_sql =
-            if conditions.is_empty() { String::new() } else { format!(" WHERE {}", conditions.join(" AND ")) };
+        let where_sql = if conditions.is_empty() {
+            String::new()
+        } else {
+            format!(" WHERE {}", conditions.join(" AND "))
+        };
         let count_sql = format!("SELECT COUNT(*) FROM measurements{where_sql}");
         let total: i64 = bind_filters(&count_sql, f).fetch_one(&self.pool).await?.get(0);
         let limit = f.limit.unwrap_or(50).clamp(1, 1000);

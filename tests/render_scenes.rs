@@ -1,0 +1,260 @@
+//! The shipped booth scenes, scene validation, and the converged spectrum
+//! cache for the simulated PR-650.
+
+use std::path::{Path, PathBuf};
+
+use lightbooth::render::{
+    cache_file, converged_target_spectrum, load_scene, render, scene_hash, Coding, RenderSettings,
+};
+use lightbooth::spectrum::{Grid, SpectralUnit};
+
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+#[test]
+fn the_five_booth_scenes_load_with_their_targets() {
+    for name in ["white", "red", "green", "blue"] {
+        let s = load_scene(&scenes().join(format!("{name}.toml"))).unwrap();
+        assert_eq!(s.targets(), vec!["patch"], "{name}");
+        assert_eq!(s.lights.len(), 1);
+        assert!(s.camera.is_some());
+    }
+    let c = load_scene(&scenes().join("cylinder.toml")).unwrap();
+    let ids: Vec<String> = (1..=21).map(|i| format!("h{i:02}")).collect();
+    assert_eq!(c.targets(), ids.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(c.lights.len(), 2);
+    // Sheet: y = 0.7505 + h, z = −0.40 + √(r² − (h − r)²), r = 0.1275.
+    let r = 0.1275;
+    for (i, t) in c.target_list.iter().enumerate() {
+        let h = (i + 1) as f64 / 100.0;
+        assert!((t.point.y - (0.7505 + h)).abs() < 1e-9);
+        assert!((t.point.z - (-0.40 + (r * r - (h - r) * (h - r)).sqrt())).abs() < 1e-9);
+    }
+}
+
+/// The WHITE scene: the standard (ρ = 0.99) is lit along its normal from
+/// 1 m by I0 = 110 cd, so its direct luminance is ρ·I0/(π·1 m²) = 34.66 cd/m²
+/// (the sheet's "about 34"); the black booth adds little, and the 1° field
+/// sees slightly off-axis intensity, within 1 %.
+#[test]
+fn the_white_standard_reads_what_the_sheet_says() {
+    let s = load_scene(&scenes().join("white.toml")).unwrap();
+    let r = render(
+        &s,
+        &RenderSettings {
+            codings: vec![Coding::Spectral],
+            samples: 2048,
+            target_relative_se: None,
+            ..RenderSettings::default()
+        },
+        None,
+    )
+    .unwrap();
+    let y = r.targets[0].codings[0].1.luminance_cd_m2;
+    let truth = 0.99 * 110.0 / std::f64::consts::PI;
+    assert!((y / truth - 1.0).abs() < 0.01, "{y} vs {truth}");
+}
+
+/// The study's qualitative result in CYLINDER: along the 21 points the
+/// luminance rises (mutual illumination from the card), dips, and rises
+/// again (direct light); N-step with N ≥ 9 agrees with spectral within a few
+/// percent (asserted: 5 %; N = 81 samples the same spectra at 5 nm instead
+/// of 1 nm: 1 %). The RGB and 3-step deviations are reported in the JSON
+/// (`deviation_from_spectral`), not asserted: they depend on the spectra.
+#[test]
+fn cylinder_profile_rises_dips_and_rises_and_nstep9_tracks_spectral() {
+    let s = load_scene(&scenes().join("cylinder.toml")).unwrap();
+    let r = render(
+        &s,
+        &RenderSettings {
+            samples: 8192,
+            target_relative_se: None,
+            ..RenderSettings::default()
+        },
+        None,
+    )
+    .unwrap();
+    let y: Vec<(f64, f64)> = r
+        .targets
+        .iter()
+        .map(|t| {
+            let c = t.coding("spectral").unwrap();
+            (c.luminance_cd_m2, c.luminance_se_cd_m2)
+        })
+        .collect();
+    let argmax = |range: std::ops::Range<usize>| range.max_by(|&a, &b| y[a].0.total_cmp(&y[b].0)).unwrap();
+    let argmin = |range: std::ops::Range<usize>| range.min_by(|&a, &b| y[a].0.total_cmp(&y[b].0)).unwrap();
+    let separated = |hi: usize, lo: usize| y[hi].0 - y[lo].0 > 4.0 * (y[hi].1 + y[lo].1);
+    let peak = argmax(2..9); // h03–h09: the mutual-illumination bump
+    let dip = argmin(peak + 1..16);
+    assert!(separated(peak, 0), "rises from the contact line: {y:?}");
+    assert!(separated(peak, dip), "dips after the bump: {y:?}");
+    assert!(separated(20, peak), "rises again towards the top: {y:?}");
+    for t in &r.targets {
+        let sp = t.coding("spectral").unwrap();
+        for (name, tol) in [("nstep9", 0.05), ("nstep27", 0.05), ("nstep81", 0.01)] {
+            let c = t.coding(name).unwrap();
+            let dy = c.luminance_cd_m2 / sp.luminance_cd_m2 - 1.0;
+            let noise = 4.0 * (c.luminance_se_cd_m2 + sp.luminance_se_cd_m2) / sp.luminance_cd_m2;
+            assert!(dy.abs() < tol + noise, "{} {name}: {:+.2} %", t.id, 100.0 * dy);
+        }
+    }
+    for name in ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81"] {
+        let d = &r.deviation_from_spectral.iter().find(|d| d.0 == name).unwrap().1;
+        assert_eq!(d.y_rel.len(), 21);
+    }
+}
+
+/// Writes a minimal valid scene, with `edit` applied to its text.
+fn scene_with(dir: &Path, edit: impl Fn(String) -> String) -> PathBuf {
+    std::fs::copy(scenes().join("luminaires/mr16_ctb.ies"), dir.join("spot.ies")).unwrap();
+    std::fs::write(dir.join("refl.csv"), "nm,grey,shiny\n380,0.5,0.9\n780,0.5,1.2\n").unwrap();
+    let text = r#"name = "probe"
+[radiometer]
+position = [0.0, 1.0, 1.0]
+[[target]]
+id = "centre"
+point = [0.0, 0.0, 0.0]
+[materials]
+grey = { reflectance = "refl.csv:grey" }
+[[light]]
+id = "spot"
+position = [0.0, 1.0, 0.0]
+aim = [0.0, -1.0, 0.0]
+ies = "spot.ies"
+blackbody_k = 3200
+[[quad]]
+corner = [-1.0, 0.0, -1.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, 2.0]
+material = "grey"
+"#;
+    let p = dir.join("probe.toml");
+    std::fs::write(&p, edit(text.to_string())).unwrap();
+    p
+}
+
+#[test]
+fn scene_errors_name_the_file_and_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let ok = scene_with(dir.path(), |t| t);
+    assert!(load_scene(&ok).is_ok(), "{:?}", load_scene(&ok).err());
+    type Edit = Box<dyn Fn(String) -> String>;
+    let cases: Vec<(&str, Edit, &str)> = vec![
+        (
+            "unknown key",
+            Box::new(|t| t.replace("blackbody_k = 3200", "blackbody_k = 3200\ncolour = 1")),
+            "colour",
+        ),
+        (
+            "missing spectrum file",
+            Box::new(|t| t.replace("refl.csv:grey", "nothere.csv:grey")),
+            "materials.grey.reflectance",
+        ),
+        (
+            "missing column",
+            Box::new(|t| t.replace("refl.csv:grey", "refl.csv:gray")),
+            "materials.grey.reflectance",
+        ),
+        (
+            "reflectance above 1",
+            Box::new(|t| t.replace("refl.csv:grey", "refl.csv:shiny")),
+            "materials.grey.reflectance",
+        ),
+        (
+            "target off every surface",
+            Box::new(|t| t.replace("point = [0.0, 0.0, 0.0]", "point = [0.0, 0.2, 0.0]")),
+            "target[0] (centre).point",
+        ),
+        (
+            "light inside geometry",
+            Box::new(|t| t + "[[box]]\nmin = [-0.1, 0.9, -0.1]\nmax = [0.1, 1.1, 0.1]\nmaterial = \"grey\"\n"),
+            "light[0].position",
+        ),
+        (
+            "missing IES file",
+            Box::new(|t| t.replace("spot.ies", "none.ies")),
+            "light[0].ies",
+        ),
+        (
+            "unknown material",
+            Box::new(|t| t.replace("material = \"grey\"", "material = \"gold\"")),
+            "quad[0].material",
+        ),
+    ];
+    for (what, edit, key) in cases {
+        let p = scene_with(dir.path(), edit);
+        let e = load_scene(&p).expect_err(what).to_string();
+        assert!(e.contains("probe.toml"), "{what}: {e}");
+        assert!(e.contains(key), "{what}: `{e}` should name `{key}`");
+    }
+}
+
+/// The converged spectrum for the simulated PR-650: on the 1 nm grid, in
+/// W/(sr·m²·nm); cached by content hash so the second call reads the cache,
+/// and an edited scene gets a new hash.
+#[test]
+fn converged_spectrum_is_cached_by_scene_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let scene_path = scene_with(dir.path(), |t| t);
+    let s = converged_target_spectrum(&scene_path, "centre", Some(&cache)).unwrap();
+    assert!(s.grid().same_as(&Grid::one_nm()));
+    assert_eq!(s.unit(), SpectralUnit::SpectralRadiance);
+    // Direct light only reaches the eye here (a lone plane): L = ρ I0 / (π d²)
+    // on the axis, I0 = 100 cd, d = 1 m, ρ = 0.5; the Y of the spectrum must agree.
+    let y = lightbooth::colorimetry::xyz_from_radiance(&s, lightbooth::colorimetry::Observer::JuddVos)
+        .unwrap()
+        .y;
+    let truth = 0.5 * 100.0 / std::f64::consts::PI;
+    assert!((y / truth - 1.0).abs() < 0.005, "{y} vs {truth}");
+
+    let scene = load_scene(&scene_path).unwrap();
+    let hash = scene_hash(&scene).unwrap();
+    let file = cache_file(&cache, &hash, "centre");
+    assert!(file.exists());
+    // Overwrite the cached values: the second call must return them.
+    let mut text = String::from("nm,radiance\n");
+    for nm in 380..=780 {
+        text.push_str(&format!("{nm},0.125\n"));
+    }
+    std::fs::write(&file, text).unwrap();
+    let again = converged_target_spectrum(&scene_path, "centre", Some(&cache)).unwrap();
+    assert!(
+        again.values().iter().all(|&v| v == 0.125),
+        "the second call reads the cache"
+    );
+
+    // Editing the scene (or a file it references) changes the hash.
+    let edited = scene_with(dir.path(), |t| t.replace("blackbody_k = 3200", "blackbody_k = 3000"));
+    let hash2 = scene_hash(&load_scene(&edited).unwrap()).unwrap();
+    assert_ne!(hash, hash2);
+    std::fs::write(dir.path().join("refl.csv"), "nm,grey,shiny\n380,0.4,0.9\n780,0.4,1.0\n").unwrap();
+    let hash3 = scene_hash(&load_scene(&edited).unwrap()).unwrap();
+    assert_ne!(hash2, hash3, "a referenced CSV is part of the hash");
+    let fresh = converged_target_spectrum(&edited, "centre", None).unwrap();
+    assert!(fresh.values().iter().all(|&v| v != 0.125));
+    // The in-memory cache returns the identical spectrum.
+    assert_eq!(converged_target_spectrum(&edited, "centre", None).unwrap(), fresh);
+    assert!(converged_target_spectrum(&edited, "nowhere", None).is_err());
+}
+
+/// Settings round-trip through JSON (the daemon receives them that way).
+#[test]
+fn render_settings_round_trip_through_json() {
+    let s = RenderSettings {
+        codings: vec![Coding::Rgb, Coding::NStep(9), Coding::Spectral],
+        samples: 2048,
+        ..RenderSettings::default()
+    };
+    let json = serde_json::to_string(&s).unwrap();
+    assert!(json.contains(r#""codings":["rgb","nstep9","spectral"]"#), "{json}");
+    let back: RenderSettings = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.codings, s.codings);
+    assert_eq!(back.samples, 2048);
+    let partial: RenderSettings = serde_json::from_str(r#"{"codings":["nstep27"]}"#).unwrap();
+    assert_eq!(partial.max_bounces, 5);
+    assert!(serde_json::from_str::<RenderSettings>(r#"{"codings":["cmyk"]}"#).is_err());
+    assert!(serde_json::from_str::<RenderSettings>(r#"{"colour":1}"#).is_err());
+}
