@@ -195,6 +195,22 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         assert_eq!(status, 200, "{chart}: {}", String::from_utf8_lossy(&body));
         assert!(body.starts_with(b"<svg"));
     }
+    let (_, renders) = get_json(d.addr, "/api/scenes/white/renders").await;
+    let render_id = renders[0]["id"].as_i64().unwrap();
+    assert!(
+        renders[0]["result"]["coding_seconds"]["spectral"].as_f64().unwrap() > 0.0,
+        "per-coding timings"
+    );
+    let (status, png) = common::request(
+        d.addr,
+        "GET",
+        &format!("/api/renders/{render_id}/preview.png"),
+        None,
+        None,
+    )
+    .await;
+    assert_eq!(status, 200);
+    assert!(png.starts_with(b"\x89PNG"), "a PNG preview of the scene");
     let (status, mat) = common::request(
         d.addr,
         "GET",

@@ -227,12 +227,20 @@ async function loadSceneDetail(id) {
     for (const v of [r.coding, r.points, fmt(r.rms_rel), `${fmt(r.mean_dE76)} ± ${fmt(r.sd_dE76, 2)}`,
       `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4)]) tr.insertCell().textContent = v;
   }
+  const renders = await api(`/api/scenes/${id}/renders`);
+  const done = renders.find((r) => r.state === "complete");
+  const preview = $("scene-preview");
+  preview.hidden = !done;
+  if (done) {
+    preview.src = `/api/renders/${done.id}/preview.png`;
+    $("preview-caption").textContent =
+      `render ${done.id}: ${done.codings.join(", ")}; ${fmt(done.wall_seconds, 3)} s`;
+  }
   const t = Date.now();
   for (const chart of ["chromaticity", "profile", "rms", "de", "speed"]) {
     const img = $("chart-" + chart);
     img.hidden = c.rows.length === 0;
-    img.onerror = () => (img.hidden = true);
-    img.src = `/api/scenes/${id}/charts/${chart}.svg?t=${t}`;
+    if (c.rows.length) img.src = `/api/scenes/${id}/charts/${chart}.svg?t=${t}`;
   }
 }
 

@@ -313,15 +313,30 @@ impl Renderer {
                         coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
                     }
                 }
-                (full, coding_seconds)
+                // The camera view for the dashboard: the sRGB coding, few paths per
+                // pixel (a preview, not a measurement).
+                let preview = scene.camera.as_ref().and_then(|camera| {
+                    let transport = render::integrator::Transport {
+                        max_bounces: settings.max_bounces,
+                        russian_roulette_from: settings.russian_roulette_from,
+                    };
+                    render::sensor::render_camera(&scene, camera, Coding::Srgb, 16, &transport, settings.seed)
+                        .and_then(|img| img.png())
+                        .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
+                        .ok()
+                });
+                (full, coding_seconds, preview)
             });
             let _ = tx.send(result);
         });
         let outcome = rx.await?;
         let (ok, error) = match outcome {
-            Ok((result, coding_seconds)) => {
+            Ok((result, coding_seconds, preview)) => {
                 let mut json = serde_json::to_value(&result)?;
                 json["coding_seconds"] = serde_json::Value::Object(coding_seconds);
+                if let Some(png) = preview {
+                    self.store.set_render_preview(id, &png).await?;
+                }
                 self.store.finish_render(id, Ok((&json, result.wall_seconds))).await?;
                 tracing::info!(render_id = id, wall_seconds = result.wall_seconds, "render complete");
                 (true, None)

@@ -113,23 +113,25 @@ impl Image {
                 }
                 Ok(())
             }
-            "png" => {
-                let bytes = self.tone_mapped_srgb8();
-                let mut enc = png::Encoder::new(out, self.width, self.height);
-                enc.set_color(png::ColorType::Rgb);
-                enc.set_depth(png::BitDepth::Eight);
-                let mut writer = enc
-                    .write_header()
-                    .map_err(|e| RenderError::Io(format!("{}: {e}", path.display())))?;
-                writer
-                    .write_image_data(&bytes)
-                    .map_err(|e| RenderError::Io(format!("{}: {e}", path.display())))
-            }
+            "png" => out.write_all(&self.png()?).map_err(io),
             other => Err(RenderError::Io(format!(
                 "{}: unknown image type `.{other}`: use .pfm (linear HDR) or .png (tone-mapped)",
                 path.display()
             ))),
         }
+    }
+
+    /// The tone-mapped image as PNG file bytes.
+    pub fn png(&self) -> Result<Vec<u8>, RenderError> {
+        let png_err = |e: png::EncodingError| RenderError::Io(format!("PNG encoding: {e}"));
+        let mut bytes = Vec::new();
+        let mut enc = png::Encoder::new(&mut bytes, self.width, self.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header().map_err(png_err)?;
+        writer.write_image_data(&self.tone_mapped_srgb8()).map_err(png_err)?;
+        writer.finish().map_err(png_err)?;
+        Ok(bytes)
     }
 
     /// 8-bit sRGB after the global Reinhard operator.

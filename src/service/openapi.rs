@@ -33,6 +33,7 @@ use super::routes;
         routes::scene_renders,
         routes::start_render,
         routes::get_render,
+        routes::render_preview,
         routes::scene_comparisons,
         routes::scene_comparisons_csv,
         routes::scene_comparisons_mat,

@@ -45,6 +45,7 @@ pub fn api_router(state: AppState) -> Router<AppState> {
         .route("/scenes/{scene}/comparisons.mat", get(scene_comparisons_mat))
         .route("/scenes/{scene}/charts/{chart}", get(scene_chart))
         .route("/renders/{id}", get(get_render))
+        .route("/renders/{id}/preview.png", get(render_preview))
         .route("/events", get(events::stream))
         .route("/mock/faults", axum::routing::post(mock_faults))
 }
@@ -181,6 +182,13 @@ pub async fn start_measurement(
             return Err(ApiError::Unavailable(format!("the instrument is in error: {message}")))
         }
         _ => {}
+    }
+    if let Some(session) = body.session_id {
+        if !state.store.list_sessions().await?.iter().any(|s| s.id == session) {
+            return Err(ApiError::BadRequest(format!(
+                "field `session_id`: no session {session}; create one with POST /api/sessions"
+            )));
+        }
     }
     if state.jobs.capacity() == 0 {
         return Err(ApiError::Conflict(format!(
@@ -480,6 +488,18 @@ pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> R
         .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))
 }
 
+/// The scene's camera view of a render (tone-mapped sRGB), once the render is complete.
+#[utoipa::path(get, path = "/api/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = super::error::ErrorBody)))]
+pub async fn render_preview(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let png = state.store.render_preview(id).await?.ok_or_else(|| {
+        ApiError::NotFound(format!(
+            "render {id} has no preview (not finished, or no [camera] in its scene)"
+        ))
+    })?;
+    Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}
+
 // --- comparisons -----------------------------------------------------------
 
 /// A coding's figures of merit over a scene's targets.
@@ -660,6 +680,11 @@ pub async fn scene_chart(
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
     let info = find_scene(&state, &scene)?;
+    if c.rows.is_empty() {
+        return Err(ApiError::NotFound(format!(
+            "scene `{scene}` has no comparisons yet: measure its targets first"
+        )));
+    }
     let svg = match chart.as_str() {
         "chromaticity.svg" => super::scene_charts::chromaticity(&c, &info),
         "profile.svg" => super::scene_charts::profile(&c, &info),

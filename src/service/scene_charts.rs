@@ -128,8 +128,8 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
 }
 
 /// Render time per coding against its mean ΔE*ab: the chart the study never
-/// drew. Time is each coding's own render time where renders of single
-/// codings exist for the scene, and is read from `result.coding_seconds`.
+/// drew. Time is each coding's own render time (the same settings with that
+/// coding alone), read from the newest render's `result.coding_seconds`.
 pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
     let renders = state
         .store

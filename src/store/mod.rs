@@ -477,6 +477,27 @@ impl Store {
         Ok(Some((row.get("id"), json)))
     }
 
+    /// Stores a render's preview image (PNG bytes).
+    pub async fn set_render_preview(&self, id: i64, png: &[u8]) -> Result<(), StoreError> {
+        sqlx::query("UPDATE renders SET preview_png = ? WHERE id = ?")
+            .bind(png)
+            .bind(id)
+            .execute(&self.pool)
+            .await?;
+        Ok(())
+    }
+
+    /// A render's preview PNG, if it has one.
+    pub async fn render_preview(&self, id: i64) -> Result<Option<Vec<u8>>, StoreError> {
+        Ok(
+            sqlx::query_scalar::<_, Option<Vec<u8>>>("SELECT preview_png FROM renders WHERE id = ?")
+                .bind(id)
+                .fetch_optional(&self.pool)
+                .await?
+                .flatten(),
+        )
+    }
+
     pub async fn get_render(&self, id: i64) -> Result<Option<RenderRow>, StoreError> {
         let row = sqlx::query(&format!("SELECT {RENDER_COLUMNS} FROM renders WHERE id = ?"))
             .bind(id)

@@ -65,6 +65,10 @@ try {
       return img.complete && img.naturalWidth > 0;
     }, chart, { timeout: 30000 });
   }
+  await page.waitForFunction(() => {
+    const img = document.getElementById("scene-preview");
+    return !img.hidden && img.complete && img.naturalWidth > 0;
+  }, null, { timeout: 30000 });
   const codings = await page.$$eval("#coding-table tbody tr td:first-child", (tds) => tds.map((t) => t.textContent));
   if (codings.join(",") !== "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral") failures.push("codings: " + codings);
   if (shots) await page.screenshot({ path: `${shots}/scene.png`, fullPage: true });
