@@ -30,3 +30,4 @@ pub mod render;
 pub mod service;
 pub mod spectrum;
 pub mod store;
+pub mod study;
