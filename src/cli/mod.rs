@@ -7,6 +7,7 @@ mod measure;
 mod mock_pr650;
 mod render;
 mod serve;
+mod study;
 
 use clap::{Parser, Subcommand};
 
@@ -37,6 +38,8 @@ enum Command {
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
     Serve(serve::ServeArgs),
+    /// Every coding of every scene against measurements or a converged reference, over seeds.
+    Study(study::StudyArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -47,6 +50,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr650(args) => mock_pr650::run(args),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
+        Command::Study(args) => study::run(args),
     }
 }
 

@@ -23,7 +23,9 @@ use tokio::sync::{broadcast, mpsc, watch};
 use super::renders::Renderer;
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{open_pr650, CancelToken, InstrumentError, Pr650Settings, Sample, Spectroradiometer};
+use crate::instrument::{
+    open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, Sample, Spectroradiometer,
+};
 use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
 use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store};
 
@@ -358,15 +360,7 @@ impl Worker {
         let runtime = self.config.runtime.clone();
         let of = job.samples;
         let mut on_sample = |s: &Sample| {
-            let row = NewSample {
-                index: s.index,
-                taken_at: unix_seconds(s.time),
-                code: i64::from(s.code.code),
-                message: s.code.message.clone(),
-                usable: s.code.is_ok() && s.radiance.is_some(),
-                radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
-                luminance_cd_m2: s.luminance,
-            };
+            let row = sample_row(s);
             // Blocks this thread until the sample is on disk: the next sample waits.
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
                 tracing::error!(error = %e, index = s.index, "cannot store a sample");
@@ -408,15 +402,7 @@ impl Worker {
             Ok(avg) => {
                 // The comparison uses the study's observer on both sides; the
                 // stored x, y are the instrument's own (CIE 1931, as the PR-650 reports).
-                let average = Average {
-                    wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
-                    radiance: avg.mean.values().to_vec(),
-                    radiance_sd: avg.sd.clone(),
-                    luminance_cd_m2: avg.luminance_cd_m2,
-                    x: avg.x,
-                    y: avg.y,
-                    luminance_cv: avg.luminance_cv,
-                };
+                let average = average_row(&avg);
                 if let Err(e) = self.block_on(store.complete_measurement(id, &average)) {
                     tracing::error!(error = %e, "cannot store the average");
                     return self.finish_failed(id, MeasurementState::Failed, &format!("cannot store the average: {e}"));
@@ -467,6 +453,32 @@ impl Worker {
             error: Some(message.to_string()),
         });
         None
+    }
+}
+
+/// A raw sample as the store keeps it.
+pub fn sample_row(s: &Sample) -> NewSample {
+    NewSample {
+        index: s.index,
+        taken_at: unix_seconds(s.time),
+        code: i64::from(s.code.code),
+        message: s.code.message.clone(),
+        usable: s.code.is_ok() && s.radiance.is_some(),
+        radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
+        luminance_cd_m2: s.luminance,
+    }
+}
+
+/// The average of a measurement as the store keeps it.
+pub fn average_row(avg: &AveragedMeasurement) -> Average {
+    Average {
+        wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
+        radiance: avg.mean.values().to_vec(),
+        radiance_sd: avg.sd.clone(),
+        luminance_cd_m2: avg.luminance_cd_m2,
+        x: avg.x,
+        y: avg.y,
+        luminance_cv: avg.luminance_cv,
     }
 }
 

@@ -527,6 +527,41 @@ impl Store {
         rows.iter().map(render_from_row).collect()
     }
 
+    // --- studies ----------------------------------------------------------
+
+    pub async fn insert_study(&self, result: &serde_json::Value, wall_seconds: f64) -> Result<i64, StoreError> {
+        let row =
+            sqlx::query("INSERT INTO studies (created_at, wall_seconds, result_json) VALUES (?, ?, ?) RETURNING id")
+                .bind(now())
+                .bind(wall_seconds)
+                .bind(result.to_string())
+                .fetch_one(&self.pool)
+                .await?;
+        Ok(row.get(0))
+    }
+
+    /// Ids, times and wall seconds of the stored studies, newest first.
+    pub async fn list_studies(&self) -> Result<Vec<(i64, f64, f64)>, StoreError> {
+        let rows = sqlx::query("SELECT id, created_at, wall_seconds FROM studies ORDER BY id DESC")
+            .fetch_all(&self.pool)
+            .await?;
+        Ok(rows.iter().map(|r| (r.get(0), r.get(1), r.get(2))).collect())
+    }
+
+    pub async fn get_study(&self, id: i64) -> Result<Option<serde_json::Value>, StoreError> {
+        let text: Option<String> = sqlx::query_scalar("SELECT result_json FROM studies WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&self.pool)
+            .await?;
+        text.map(|t| {
+            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
+                what: "studies.result_json".into(),
+                err: e.to_string(),
+            })
+        })
+        .transpose()
+    }
+
     // --- comparisons ------------------------------------------------------
 
     /// Stores the comparisons of one measurement against one render, all

@@ -1,3 +1,12 @@
 //! The study: how accurate each colour coding is, what it costs, where it
 //! fails, and the cheapest settings that meet a tolerance — for the booth
 //! scenes of Ruppertsberg & Bloj (2006) and for any scene a lab brings.
+//!
+//! - [`run`]: a study run — every coding against measurements or a converged
+//!   reference, spread over seeds, settings sweeps for speed against accuracy.
+//! - [`report`]: the study's charts and the self-contained HTML/CSV report.
+//! - [`measure`]: measurements of every target with the simulated PR-650.
+
+pub mod measure;
+pub mod report;
+pub mod run;

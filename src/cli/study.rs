@@ -1,0 +1,139 @@
+//! `lightbooth study`: the study's question for any scenes — how far each
+//! coding is from the truth, at what cost, with the spread over seeds.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+
+use lightbooth::render::Coding;
+use lightbooth::store::Store;
+use lightbooth::study::measure::measure_with_simulator;
+use lightbooth::study::report::write_report;
+use lightbooth::study::run::{run_study, Against, StudyOptions};
+
+#[derive(Args, Debug)]
+pub struct StudyArgs {
+    /// Scene files (the scene id is the file name without .toml).
+    #[arg(required = true)]
+    scenes: Vec<PathBuf>,
+    /// The truth: stored measurements, or a converged spectral rendering.
+    #[arg(long, value_enum, default_value_t = AgainstArg::Measurements)]
+    against: AgainstArg,
+    /// Codings to compare (comma-separated).
+    #[arg(
+        long,
+        default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral",
+        value_delimiter = ','
+    )]
+    codings: Vec<Coding>,
+    /// Seeds: each renders every coding once; figures are given as mean ± SD over seeds.
+    #[arg(long, default_value_t = 8)]
+    seeds: u32,
+    /// First-round paths per target (rendering continues to a 0.3 % SE of Y).
+    #[arg(long, default_value_t = 4096)]
+    samples: u64,
+    /// Maximum bounces (the study's -ab 5).
+    #[arg(long, default_value_t = 5)]
+    bounces: u32,
+    /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
+    #[arg(long)]
+    sweeps: bool,
+    /// The database with the measurements (and where the study is stored).
+    #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
+    db: String,
+    /// First measure every target with the simulated PR-650 (reproducible, no booth needed).
+    #[arg(long)]
+    measure_simulated: bool,
+    /// Where converged spectra of scene targets are cached.
+    #[arg(long, default_value = ".lightbooth-cache")]
+    cache_dir: PathBuf,
+    /// Write a self-contained report (HTML with SVG charts, CSV of every number) here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Print the whole result as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum AgainstArg {
+    Measurements,
+    Reference,
+}
+
+pub fn run(args: StudyArgs) -> anyhow::Result<()> {
+    let options = StudyOptions {
+        codings: args.codings.clone(),
+        seeds: args.seeds,
+        samples: args.samples,
+        max_bounces: args.bounces,
+        against: match args.against {
+            AgainstArg::Measurements => Against::Measurements,
+            AgainstArg::Reference => Against::Reference,
+        },
+        sweeps: args.sweeps,
+        ..StudyOptions::default()
+    };
+    anyhow::ensure!(options.seeds >= 1, "--seeds must be at least 1");
+    let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
+    runtime.block_on(async move {
+        let needs_store = matches!(options.against, Against::Measurements) || args.measure_simulated;
+        let store = if needs_store {
+            Some(
+                Store::open(&args.db)
+                    .await
+                    .with_context(|| format!("opening {}", args.db))?,
+            )
+        } else {
+            None
+        };
+        let progress = |msg: &str| eprintln!("{msg}");
+        if args.measure_simulated {
+            let store = store.as_ref().expect("opened above");
+            let ids = measure_with_simulator(&args.scenes, store, &args.cache_dir, 1, &progress).await?;
+            eprintln!("stored {} simulated measurements", ids.len());
+        }
+        let result = run_study(&args.scenes, &options, store.as_ref(), &progress).await?;
+        if let Some(store) = &store {
+            let id = store
+                .insert_study(&serde_json::to_value(&result)?, result.wall_seconds)
+                .await?;
+            eprintln!("study stored as {id}");
+        }
+        if let Some(dir) = &args.report {
+            write_report(&result, dir).with_context(|| format!("writing the report to {}", dir.display()))?;
+            eprintln!("report: {}", dir.join("index.html").display());
+        }
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&result)?);
+        } else {
+            println!(
+                "{:<10} {:<9} {:>16} {:>16} {:>16} {:>12}",
+                "scene", "coding", "rms_rel", "mean dE*ab", "mean dE00", "sig. targets"
+            );
+            for s in &result.scenes {
+                for c in &s.codings {
+                    println!(
+                        "{:<10} {:<9} {:>8.4} ±{:>6.4} {:>8.3} ±{:>6.3} {:>8.3} ±{:>6.3} {:>6} of {:<3}",
+                        s.scene,
+                        c.coding,
+                        c.rms_rel.mean,
+                        c.rms_rel.sd,
+                        c.mean_dE76.mean,
+                        c.mean_dE76.sd,
+                        c.mean_dE00.mean,
+                        c.mean_dE00.sd,
+                        c.significant_targets,
+                        s.targets.len()
+                    );
+                }
+            }
+            println!(
+                "wall time {:.2} s (± are SD over {} seeds)",
+                result.wall_seconds, options.seeds
+            );
+        }
+        Ok(())
+    })
+}

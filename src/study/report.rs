@@ -1,0 +1,294 @@
+//! The study's charts and a self-contained report (`--report DIR`): an HTML
+//! page with every chart as inline SVG, the SVG files themselves, and CSV
+//! files of every number, for a scientist to attach to a paper.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::run::{SceneStudy, StudyResult, SweepPoint};
+use crate::charts::{self, Bar, LineSeriesData, XySeries};
+
+/// Luminance along the targets per coding (mean over seeds ± 1 SD over
+/// seeds) and the truth (± its SE).
+pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
+    let mut series = vec![LineSeriesData {
+        name: format!("truth ({})", s.truth.first().map(|t| t.source.as_str()).unwrap_or("")),
+        points: s
+            .truth
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (i as f64 + 1.0, t.XYZ[1]))
+            .collect(),
+        errors: Some(s.truth.iter().map(|t| t.Y_se).collect()),
+    }];
+    for c in &s.codings {
+        series.push(LineSeriesData {
+            name: c.coding.clone(),
+            points: c
+                .profile
+                .iter()
+                .enumerate()
+                .map(|(i, p)| (i as f64 + 1.0, p.Y.mean))
+                .collect(),
+            errors: Some(c.profile.iter().map(|p| p.Y.sd).collect()),
+        });
+    }
+    charts::line_chart(
+        &format!("{}: luminance along the targets (±1 SD over seeds)", s.title),
+        "target (1 = first in the scene; CYLINDER: height in cm)",
+        "luminance (cd/m²)",
+        &series,
+        false,
+    )
+}
+
+/// Chromaticities of the truth and of every coding (profiles as lines).
+pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
+    let line = s.targets.len() > 1;
+    let mut series = vec![XySeries {
+        name: "truth".into(),
+        points: s.truth.iter().map(|t| (t.x, t.y)).collect(),
+        line,
+    }];
+    for c in &s.codings {
+        series.push(XySeries {
+            name: c.coding.clone(),
+            points: c.profile.iter().map(|p| (p.x.mean, p.y.mean)).collect(),
+            line,
+        });
+    }
+    charts::chromaticity_chart(&format!("{}: chromaticity (CIE 1931)", s.title), &series, true)
+}
+
+/// rms_rel per coding, ±1 SD over seeds.
+pub fn rms_chart(s: &SceneStudy) -> Result<String, String> {
+    let bars: Vec<Bar> = s
+        .codings
+        .iter()
+        .map(|c| Bar {
+            label: c.coding.clone(),
+            value: c.rms_rel.mean,
+            sd: Some(c.rms_rel.sd),
+        })
+        .collect();
+    charts::bar_chart(&format!("{}: rms_rel (±1 SD over seeds)", s.title), "rms_rel", &bars)
+}
+
+/// Mean ΔE*ab per coding, ±1 SD over targets (the study's error bars).
+pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
+    let bars: Vec<Bar> = s
+        .codings
+        .iter()
+        .map(|c| Bar {
+            label: c.coding.clone(),
+            value: c.mean_dE76.mean,
+            sd: Some(c.sd_dE76_over_targets),
+        })
+        .collect();
+    charts::bar_chart(&format!("{}: mean ΔE*ab (±1 SD over targets)", s.title), "ΔE*ab", &bars)
+}
+
+/// Wall time against mean ΔE00 for every sweep point, one series per sweep,
+/// the Pareto front as its own series and the study's choices named.
+pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
+    let mut series = Vec::new();
+    for sweep in ["coding", "samples", "bounces", "n"] {
+        let mut pts: Vec<(f64, f64)> = s
+            .sweeps
+            .iter()
+            .filter(|p| p.sweep == sweep)
+            .map(|p| (p.wall_seconds, p.mean_dE00))
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if !pts.is_empty() {
+            series.push(LineSeriesData {
+                name: format!("sweep: {sweep}"),
+                points: pts,
+                errors: None,
+            });
+        }
+    }
+    let front = pareto_front(&s.sweeps);
+    series.push(LineSeriesData {
+        name: "Pareto front".into(),
+        points: front
+            .iter()
+            .map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00))
+            .collect(),
+        errors: None,
+    });
+    let choices: Vec<(f64, f64)> = s
+        .sweeps
+        .iter()
+        .filter(|p| p.study_choice)
+        .map(|p| (p.wall_seconds, p.mean_dE00))
+        .collect();
+    series.push(LineSeriesData {
+        name: "the study's choices".into(),
+        points: choices,
+        errors: None,
+    });
+    charts::line_chart(
+        &format!("{}: speed against accuracy", s.title),
+        "render time (s)",
+        "mean ΔE00",
+        &series,
+        true,
+    )
+}
+
+/// Indices of the sweep points no other point beats in both time and error,
+/// sorted by time.
+pub fn pareto_front(points: &[SweepPoint]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..points.len()).collect();
+    idx.sort_by(|&a, &b| points[a].wall_seconds.total_cmp(&points[b].wall_seconds));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in idx {
+        if points[i].mean_dE00 < best {
+            best = points[i].mean_dE00;
+            front.push(i);
+        }
+    }
+    front
+}
+
+/// Writes `index.html`, one SVG per chart and CSVs of every number into `dir`.
+pub fn write_report(result: &StudyResult, dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let mut html = String::from(
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>lightbooth study</title>\
+         <style>body{font-family:system-ui,sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}\
+         td,th{border-bottom:1px solid #ddd;padding:.2em .6em;text-align:right}td:first-child,th:first-child{text-align:left}\
+         .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(480px,1fr));gap:1em}svg{max-width:100%;height:auto}</style>\
+         </head><body><h1>lightbooth study</h1>",
+    );
+    let o = &result.options;
+    let _ = write!(
+        html,
+        "<p>Against {:?}; {} seeds; codings {}; first round {} paths per target, adaptive to a relative SE of Y of {}; \
+         {} bounces. Wall time {:.1} s. Figures: rms_rel = sqrt(mean (1 − S/M)²) over a scene's targets; ΔE with the \
+         CIELAB white stated per scene; ± values are SD over seeds unless marked.</p>",
+        o.against,
+        o.seeds,
+        o.codings.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "),
+        o.samples,
+        o.target_relative_se.map(|v| format!("{:.2} %", v * 100.0)).unwrap_or_else(|| "none".into()),
+        o.max_bounces,
+        result.wall_seconds
+    );
+    let mut figures_csv = String::from("scene,coding,seed,rms_rel,mean_dE76,sd_dE76,mean_dE00,sd_dE00\n");
+    let mut profile_csv = String::from("scene,target,coding,Y_mean,Y_sd_seeds,Y_se,x_mean,y_mean,truth_Y,truth_x,truth_y,truth_source,Y_differs_significantly\n");
+    let mut sweeps_csv =
+        String::from("scene,sweep,coding,samples,bounces,wall_seconds,rms_rel,mean_dE00,study_choice,pareto\n");
+    for s in &result.scenes {
+        let _ = write!(
+            html,
+            "<h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
+             <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets differing beyond noise</th></tr>",
+            s.title, s.scene, s.white_source, s.render_seconds
+        );
+        for c in &s.codings {
+            let _ = write!(
+                html,
+                "<tr><td>{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                c.coding,
+                c.rms_rel.mean,
+                c.rms_rel.sd,
+                c.mean_dE76.mean,
+                c.mean_dE76.sd,
+                c.sd_dE76_over_targets,
+                c.mean_dE00.mean,
+                c.mean_dE00.sd,
+                c.significant_targets,
+                s.targets.len()
+            );
+            for (seed, f) in c.per_seed.iter().enumerate() {
+                let _ = writeln!(
+                    figures_csv,
+                    "{},{},{},{},{},{},{},{}",
+                    s.scene,
+                    c.coding,
+                    seed + 1,
+                    f.rms_rel,
+                    f.mean_dE76,
+                    f.sd_dE76,
+                    f.mean_dE00,
+                    f.sd_dE00
+                );
+            }
+            for (p, t) in c.profile.iter().zip(&s.truth) {
+                let _ = writeln!(
+                    profile_csv,
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    s.scene,
+                    p.target,
+                    c.coding,
+                    p.Y.mean,
+                    p.Y.sd,
+                    p.Y_se,
+                    p.x.mean,
+                    p.y.mean,
+                    t.XYZ[1],
+                    t.x,
+                    t.y,
+                    t.source,
+                    p.Y_differs_significantly
+                );
+            }
+        }
+        html.push_str("</table><div class=\"charts\">");
+        let mut charts: Vec<(&str, Result<String, String>)> = vec![
+            ("chromaticity", chromaticity_chart(s)),
+            ("profile", profile_chart(s)),
+            ("rms", rms_chart(s)),
+            ("de", delta_e_chart(s)),
+        ];
+        if !s.sweeps.is_empty() {
+            charts.push(("speed", speed_chart(s)));
+            let front = pareto_front(&s.sweeps);
+            for (i, p) in s.sweeps.iter().enumerate() {
+                let _ = writeln!(
+                    sweeps_csv,
+                    "{},{},{},{},{},{},{},{},{},{}",
+                    s.scene,
+                    p.sweep,
+                    p.coding,
+                    p.samples,
+                    p.bounces,
+                    p.wall_seconds,
+                    p.rms_rel,
+                    p.mean_dE00,
+                    p.study_choice,
+                    front.contains(&i)
+                );
+            }
+        }
+        for (name, svg) in charts {
+            match svg {
+                Ok(svg) => {
+                    std::fs::write(dir.join(format!("{}_{name}.svg", s.scene)), &svg)?;
+                    let _ = write!(
+                        html,
+                        "<figure>{}</figure>",
+                        svg.trim_start_matches("<?xml version=\"1.0\" encoding=\"UTF-8\"?>")
+                    );
+                }
+                Err(e) => {
+                    let _ = write!(html, "<p>chart {name} failed: {e}</p>");
+                }
+            }
+        }
+        html.push_str("</div>");
+    }
+    html.push_str("<p>Numbers: <a href=\"figures.csv\">figures.csv</a> (per scene, coding and seed), <a href=\"profiles.csv\">profiles.csv</a> (per target), <a href=\"sweeps.csv\">sweeps.csv</a>, <a href=\"study.json\">study.json</a> (everything).</p></body></html>");
+    std::fs::write(dir.join("index.html"), html)?;
+    std::fs::write(dir.join("figures.csv"), figures_csv)?;
+    std::fs::write(dir.join("profiles.csv"), profile_csv)?;
+    std::fs::write(dir.join("sweeps.csv"), sweeps_csv)?;
+    std::fs::write(
+        dir.join("study.json"),
+        serde_json::to_string_pretty(result).map_err(std::io::Error::other)?,
+    )?;
+    Ok(())
+}

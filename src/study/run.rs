@@ -1,0 +1,545 @@
+//! A study run: every coding of every scene against the truth, with the
+//! Monte Carlo spread over seeds, and (optionally) settings sweeps for the
+//! speed-against-accuracy chart.
+//!
+//! # What is compared
+//!
+//! - The truth is either the measurements (the newest complete measurement
+//!   of each target, from the store) or, with `--against reference`, a
+//!   converged `spectral` rendering: relative standard error of Y below
+//!   [`REFERENCE_RELATIVE_SE`] and [`REFERENCE_BOUNCES`] bounces, so neither
+//!   noise nor the bounce limit of the renderings under test is in it.
+//! - Each seed renders all codings in one pass (same paths for every coding,
+//!   so differences between codings are not noise); the figures of merit
+//!   (rms_rel, mean ± SD of ΔE*ab and ΔE00 over the targets) are computed per
+//!   seed and then summarised as mean ± SD over seeds.
+//! - CIELAB white: see [`cielab_white`]; the same white for truth and renderings.
+//! - Significance against the instrument: a rendered luminance differs
+//!   significantly from a measured one only when the difference exceeds
+//!   twice the combined standard error: the seed mean's (the larger of the
+//!   renders' own SE estimate and their observed spread over seeds, over
+//!   √seeds) and the measurement's (its five-sample SD/√n).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
+use crate::comparison::{compare_point, mean_sd, summarize, PointDifference};
+use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::store::Store;
+
+/// Relative standard error of Y of the reference rendering.
+pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
+/// Bounces of the reference rendering: beyond the study's 5, so the bounce
+/// limit of the renderings under test shows up as error.
+pub const REFERENCE_BOUNCES: u32 = 10;
+
+/// What the renderings are compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Against {
+    Measurements,
+    Reference,
+}
+
+/// Settings of a study run.
+#[derive(Clone, Debug, Serialize)]
+pub struct StudyOptions {
+    #[serde(serialize_with = "coding_names")]
+    pub codings: Vec<Coding>,
+    pub seeds: u32,
+    /// First-round paths per target; rendering continues until the relative
+    /// SE of Y is below `target_relative_se` (the renderer's adaptive mode).
+    pub samples: u64,
+    pub target_relative_se: Option<f64>,
+    pub max_bounces: u32,
+    pub against: Against,
+    /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
+    pub sweeps: bool,
+    /// Fixed paths per target of every sweep render (timings on equal work).
+    pub sweep_samples: u64,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        StudyOptions {
+            codings: Coding::ALL.to_vec(),
+            seeds: 8,
+            samples: 4096,
+            target_relative_se: Some(0.003),
+            max_bounces: 5,
+            against: Against::Reference,
+            sweeps: false,
+            sweep_samples: 4096,
+        }
+    }
+}
+
+fn coding_names<S: serde::Serializer>(c: &[Coding], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(c.iter().map(|c| c.to_string()))
+}
+
+/// The study's figures of merit for one coding in one render.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[allow(non_snake_case)]
+pub struct Figures {
+    pub rms_rel: f64,
+    pub mean_dE76: f64,
+    /// SD over the targets (n − 1); 0 with one target.
+    pub sd_dE76: f64,
+    pub mean_dE00: f64,
+    pub sd_dE00: f64,
+}
+
+/// Mean and SD over seeds of a figure.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Spread {
+    pub mean: f64,
+    pub sd: f64,
+}
+
+impl Spread {
+    fn of(values: &[f64]) -> Spread {
+        let (mean, sd) = mean_sd(values.iter().copied());
+        Spread {
+            mean,
+            sd: sd.unwrap_or(0.0),
+        }
+    }
+}
+
+/// One target of one coding: the rendering (mean ± SD over seeds) and its
+/// difference from the truth.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct TargetProfile {
+    pub target: String,
+    pub Y: Spread,
+    pub x: Spread,
+    pub y: Spread,
+    /// Mean Monte Carlo standard error of Y reported by the renders.
+    pub Y_se: f64,
+    /// |rendered − truth| in Y exceeds twice the combined standard error.
+    pub Y_differs_significantly: bool,
+}
+
+/// One coding in one scene.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct CodingStudy {
+    pub coding: String,
+    pub per_seed: Vec<Figures>,
+    pub rms_rel: Spread,
+    pub mean_dE76: Spread,
+    pub mean_dE00: Spread,
+    /// Mean over seeds of the SD over targets (the study's ±1 SD).
+    pub sd_dE76_over_targets: f64,
+    pub sd_dE00_over_targets: f64,
+    pub profile: Vec<TargetProfile>,
+    /// Targets whose luminance differs from the truth by more than the noise.
+    pub significant_targets: usize,
+}
+
+/// The truth at one target.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct Truth {
+    pub target: String,
+    pub XYZ: [f64; 3],
+    pub x: f64,
+    pub y: f64,
+    /// Standard error of Y: the measurement's (SD/√n of its samples) or the
+    /// reference rendering's.
+    pub Y_se: f64,
+    /// Where it comes from: `measurement 12` or `reference render`.
+    pub source: String,
+}
+
+/// One point of the speed-against-accuracy chart.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct SweepPoint {
+    /// `coding`, `samples`, `bounces` or `n`: what this sweep varies.
+    pub sweep: String,
+    pub coding: String,
+    pub samples: u64,
+    pub bounces: u32,
+    pub wall_seconds: f64,
+    pub rms_rel: f64,
+    pub mean_dE00: f64,
+    /// One of the study's own choices (RGB, sRGB, N = 3/9/27/81, 5 bounces).
+    pub study_choice: bool,
+}
+
+/// One scene of a study.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct SceneStudy {
+    pub scene: String,
+    pub title: String,
+    pub targets: Vec<String>,
+    pub white_source: String,
+    pub white_XYZ: [f64; 3],
+    pub truth: Vec<Truth>,
+    pub codings: Vec<CodingStudy>,
+    /// Wall time of all seeds' renders of this scene.
+    pub render_seconds: f64,
+    pub sweeps: Vec<SweepPoint>,
+}
+
+/// A whole study run.
+#[derive(Clone, Debug, Serialize)]
+pub struct StudyResult {
+    pub options: StudyOptions,
+    pub scenes: Vec<SceneStudy>,
+    pub wall_seconds: f64,
+}
+
+/// Where a scene's CIELAB white comes from (the same rule everywhere,
+/// daemon included): a scene with several targets (CYLINDER) uses its own
+/// last target (the top of the cylinder, lit directly); a scene with one
+/// target uses the WHITE scene's Spectralon (`white.toml`, target `patch`,
+/// next to it) when there is one, else its own target.
+pub fn cielab_white(scene_path: &Path, targets: &[String]) -> (PathBuf, String) {
+    if targets.len() > 1 {
+        return (scene_path.to_path_buf(), targets.last().cloned().unwrap_or_default());
+    }
+    let white = scene_path.with_file_name("white.toml");
+    if white.exists() {
+        if let Ok(s) = render::load_scene(&white) {
+            if s.target("patch").is_some() {
+                return (white, "patch".into());
+            }
+        }
+    }
+    (scene_path.to_path_buf(), targets.first().cloned().unwrap_or_default())
+}
+
+/// Errors of a study run.
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error(transparent)]
+    Render(#[from] render::RenderError),
+    #[error(transparent)]
+    Scene(#[from] render::SceneError),
+    #[error("{0}")]
+    Truth(String),
+    #[error(transparent)]
+    Store(#[from] crate::store::StoreError),
+}
+
+/// The converged reference rendering of a scene (all its targets, `spectral`
+/// only), cached in memory for the run.
+struct References {
+    cache: HashMap<PathBuf, RenderResult>,
+}
+
+impl References {
+    fn get(&mut self, path: &Path) -> Result<&RenderResult, StudyError> {
+        if !self.cache.contains_key(path) {
+            let scene = render::load_scene(path)?;
+            let settings = RenderSettings {
+                codings: vec![Coding::Spectral],
+                max_bounces: REFERENCE_BOUNCES,
+                target_relative_se: Some(REFERENCE_RELATIVE_SE),
+                max_samples: 1 << 24,
+                seed: 0xC0FFEE,
+                ..RenderSettings::default()
+            };
+            let result = render::render(&scene, &settings, None)?;
+            self.cache.insert(path.to_path_buf(), result);
+        }
+        Ok(&self.cache[path])
+    }
+
+    fn xyz(&mut self, path: &Path, target: &str) -> Result<(Xyz, f64), StudyError> {
+        let r = self.get(path)?;
+        let c = r
+            .target(target)
+            .and_then(|t| t.coding("spectral"))
+            .ok_or_else(|| StudyError::Truth(format!("{}: no target {target}", path.display())))?;
+        Ok((Xyz::from_array(c.xyz), c.luminance_se_cd_m2))
+    }
+}
+
+/// The truth for one target from the store: the newest complete measurement.
+async fn measured(store: &Store, scene_id: &str, target: &str) -> Result<Option<(Xyz, f64, String)>, StudyError> {
+    let Some(m) = store.latest_complete(scene_id, target).await? else {
+        return Ok(None);
+    };
+    let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) else {
+        return Ok(None);
+    };
+    let grid = Grid::from_wavelengths(wl).map_err(|e| StudyError::Truth(e.to_string()))?;
+    let s =
+        Spectrum::new(grid, SpectralUnit::SpectralRadiance, radiance).map_err(|e| StudyError::Truth(e.to_string()))?;
+    let xyz = xyz_from_radiance(&s, Observer::JuddVos).map_err(|e| StudyError::Truth(e.to_string()))?;
+    let good = m.samples.iter().filter(|s| s.usable).count().max(1) as f64;
+    let y_se = m.summary.luminance_cv.unwrap_or(0.0) * xyz.y / good.sqrt();
+    Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))
+}
+
+/// Runs the study over `scenes` (paths of scene files; the scene id is the
+/// file stem, as in the daemon). `store` is needed with `Against::Measurements`.
+pub async fn run_study(
+    scenes: &[PathBuf],
+    options: &StudyOptions,
+    store: Option<&Store>,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<StudyResult, StudyError> {
+    let start = Instant::now();
+    let mut references = References { cache: HashMap::new() };
+    let mut out = Vec::new();
+    for path in scenes {
+        let scene = render::load_scene(path)?;
+        let scene_id = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or_default()
+            .to_string();
+        let targets: Vec<String> = scene.targets().into_iter().map(str::to_string).collect();
+        progress(&format!("{scene_id}: truth ({:?})", options.against));
+
+        // The truth per target, and the CIELAB white.
+        let mut truth = Vec::new();
+        for t in &targets {
+            let (xyz, y_se, source) = match options.against {
+                Against::Reference => {
+                    let (xyz, se) = references.xyz(path, t)?;
+                    (xyz, se, "reference render".to_string())
+                }
+                Against::Measurements => {
+                    let store = store
+                        .ok_or_else(|| StudyError::Truth("comparing with measurements needs the database".into()))?;
+                    measured(store, &scene_id, t).await?.ok_or_else(|| {
+                        StudyError::Truth(format!(
+                            "no complete measurement of {scene_id}/{t}: measure it first (or use --against reference)"
+                        ))
+                    })?
+                }
+            };
+            let xy = xyz.chromaticity();
+            truth.push(Truth {
+                target: t.clone(),
+                XYZ: xyz.to_array(),
+                x: xy.x,
+                y: xy.y,
+                Y_se: y_se,
+                source,
+            });
+        }
+        let (white_path, white_target) = cielab_white(path, &targets);
+        let white_scene_id = white_path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or_default()
+            .to_string();
+        let (white, white_source) = match options.against {
+            Against::Measurements => match store {
+                Some(store) => match measured(store, &white_scene_id, &white_target).await? {
+                    Some((xyz, _, source)) => (xyz, format!("{source} ({white_scene_id}/{white_target})")),
+                    None => {
+                        let (xyz, _) = references.xyz(&white_path, &white_target)?;
+                        (
+                            xyz,
+                            format!("reference render ({white_scene_id}/{white_target}; not measured)"),
+                        )
+                    }
+                },
+                None => unreachable!("checked above"),
+            },
+            Against::Reference => {
+                let (xyz, _) = references.xyz(&white_path, &white_target)?;
+                (xyz, format!("reference render ({white_scene_id}/{white_target})"))
+            }
+        };
+
+        // Every seed renders every coding in one pass.
+        let render_start = Instant::now();
+        let mut per_seed: Vec<RenderResult> = Vec::new();
+        for seed in 1..=u64::from(options.seeds) {
+            progress(&format!("{scene_id}: seed {seed} of {}", options.seeds));
+            let settings = RenderSettings {
+                codings: options.codings.clone(),
+                samples: options.samples,
+                max_bounces: options.max_bounces,
+                seed,
+                target_relative_se: options.target_relative_se,
+                ..RenderSettings::default()
+            };
+            per_seed.push(render::render(&scene, &settings, None)?);
+        }
+        let render_seconds = render_start.elapsed().as_secs_f64();
+        let codings = options
+            .codings
+            .iter()
+            .map(|c| coding_study(&c.to_string(), &per_seed, &truth, white))
+            .collect();
+
+        let sweeps = if options.sweeps {
+            progress(&format!("{scene_id}: sweeps"));
+            sweeps(&scene, options, &truth, white)?
+        } else {
+            Vec::new()
+        };
+        out.push(SceneStudy {
+            scene: scene_id,
+            title: scene.name.clone(),
+            targets,
+            white_source,
+            white_XYZ: white.to_array(),
+            truth,
+            codings,
+            render_seconds,
+            sweeps,
+        });
+    }
+    Ok(StudyResult {
+        options: options.clone(),
+        scenes: out,
+        wall_seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The rendered XYZ and SE of Y of `coding` at each truth target.
+fn rendered(result: &RenderResult, coding: &str, truth: &[Truth]) -> Vec<(Xyz, f64)> {
+    truth
+        .iter()
+        .map(|t| {
+            let c = result
+                .target(&t.target)
+                .and_then(|r| r.coding(coding))
+                .expect("every target is rendered in every coding");
+            (Xyz::from_array(c.xyz), c.luminance_se_cd_m2)
+        })
+        .collect()
+}
+
+fn figures(points: &[PointDifference]) -> Figures {
+    let s = summarize(points);
+    Figures {
+        rms_rel: s.rms_rel,
+        mean_dE76: s.mean_de76,
+        sd_dE76: s.sd_de76.unwrap_or(0.0),
+        mean_dE00: s.mean_de00,
+        sd_dE00: s.sd_de00.unwrap_or(0.0),
+    }
+}
+
+fn differences(rendered: &[(Xyz, f64)], truth: &[Truth], white: Xyz) -> Vec<PointDifference> {
+    rendered
+        .iter()
+        .zip(truth)
+        .map(|((r, _), t)| compare_point(Xyz::from_array(t.XYZ), *r, white))
+        .collect()
+}
+
+fn coding_study(coding: &str, per_seed: &[RenderResult], truth: &[Truth], white: Xyz) -> CodingStudy {
+    let renders: Vec<Vec<(Xyz, f64)>> = per_seed.iter().map(|r| rendered(r, coding, truth)).collect();
+    let figs: Vec<Figures> = renders.iter().map(|r| figures(&differences(r, truth, white))).collect();
+    let pick = |f: fn(&Figures) -> f64| Spread::of(&figs.iter().map(f).collect::<Vec<_>>());
+    let profile: Vec<TargetProfile> = truth
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let ys: Vec<f64> = renders.iter().map(|r| r[i].0.y).collect();
+            let xs: Vec<f64> = renders.iter().map(|r| r[i].0.chromaticity().x).collect();
+            let yys: Vec<f64> = renders.iter().map(|r| r[i].0.chromaticity().y).collect();
+            let se = renders.iter().map(|r| r[i].1).sum::<f64>() / renders.len() as f64;
+            let y = Spread::of(&ys);
+            // The seed mean's SE: the per-render spread (the larger of the
+            // renders' own SE estimate and the observed SD over seeds) over
+            // √seeds; the truth has its own SE.
+            let per_render = se.max(y.sd);
+            let combined = ((per_render * per_render) / renders.len() as f64 + t.Y_se * t.Y_se).sqrt();
+            TargetProfile {
+                target: t.target.clone(),
+                Y: y,
+                x: Spread::of(&xs),
+                y: Spread::of(&yys),
+                Y_se: se,
+                Y_differs_significantly: (y.mean - t.XYZ[1]).abs() > 2.0 * combined,
+            }
+        })
+        .collect();
+    CodingStudy {
+        coding: coding.to_string(),
+        rms_rel: pick(|f| f.rms_rel),
+        mean_dE76: pick(|f| f.mean_dE76),
+        mean_dE00: pick(|f| f.mean_dE00),
+        sd_dE76_over_targets: figs.iter().map(|f| f.sd_dE76).sum::<f64>() / figs.len().max(1) as f64,
+        sd_dE00_over_targets: figs.iter().map(|f| f.sd_dE00).sum::<f64>() / figs.len().max(1) as f64,
+        significant_targets: profile.iter().filter(|p| p.Y_differs_significantly).count(),
+        profile,
+        per_seed: figs,
+    }
+}
+
+/// The sweeps of the speed-against-accuracy chart, each a render with a
+/// fixed number of paths (so wall times compare equal work): every coding
+/// alone at the study's settings; `spectral` at 256…16384 paths per target;
+/// `spectral` with 0…8 bounces; and nstepN for N = 1…81.
+fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) -> Result<Vec<SweepPoint>, StudyError> {
+    let base = RenderSettings {
+        samples: options.sweep_samples,
+        max_bounces: options.max_bounces,
+        seed: 1,
+        target_relative_se: None,
+        ..RenderSettings::default()
+    };
+    let mut points = Vec::new();
+    let mut run =
+        |sweep: &str, coding: Coding, samples: u64, bounces: u32, study_choice: bool| -> Result<(), StudyError> {
+            let settings = RenderSettings {
+                codings: vec![coding],
+                samples,
+                max_bounces: bounces,
+                ..base.clone()
+            };
+            let t = Instant::now();
+            let r = render::render(scene, &settings, None)?;
+            let wall = t.elapsed().as_secs_f64();
+            let f = figures(&differences(&rendered(&r, &coding.to_string(), truth), truth, white));
+            points.push(SweepPoint {
+                sweep: sweep.into(),
+                coding: coding.to_string(),
+                samples,
+                bounces,
+                wall_seconds: wall,
+                rms_rel: f.rms_rel,
+                mean_dE00: f.mean_dE00,
+                study_choice,
+            });
+            Ok(())
+        };
+    for c in &options.codings {
+        let study = matches!(c, Coding::Rgb | Coding::Srgb) || matches!(c, Coding::NStep(3 | 9 | 27 | 81));
+        run("coding", *c, options.sweep_samples, options.max_bounces, study)?;
+    }
+    for samples in [256, 1024, 4096, 16384] {
+        run("samples", Coding::Spectral, samples, options.max_bounces, false)?;
+    }
+    for bounces in 0..=8 {
+        run(
+            "bounces",
+            Coding::Spectral,
+            options.sweep_samples,
+            bounces,
+            bounces == 5,
+        )?;
+    }
+    for n in [1, 2, 3, 5, 7, 9, 15, 20, 27, 40, 54, 81] {
+        run(
+            "n",
+            Coding::NStep(n),
+            options.sweep_samples,
+            options.max_bounces,
+            matches!(n, 3 | 9 | 27 | 81),
+        )?;
+    }
+    Ok(points)
+}
