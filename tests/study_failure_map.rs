@@ -14,8 +14,8 @@ use std::sync::OnceLock;
 
 use lightbooth::render::Coding;
 use lightbooth::study::failure_map::{
-    failure_map, illuminant_patch_map, interreflection_map, IlluminantPatchMap, InterreflectionMap,
-    InterreflectionSettings, DELTA_E_THRESHOLD, ILLUMINANTS,
+    failure_map, illuminant_patch_map, interreflection_map, FailureMapSettings, IlluminantPatchMap, InterreflectionMap,
+    DELTA_E_THRESHOLD, ILLUMINANTS,
 };
 
 fn cylinder() -> PathBuf {
@@ -119,7 +119,7 @@ fn spiky_light_breaks_nstep9_on_more_patches() {
 }
 
 fn sweep(seeds: Vec<u64>) -> InterreflectionMap {
-    let mut s = InterreflectionSettings::cylinder(&cylinder());
+    let mut s = FailureMapSettings::cylinder(&cylinder());
     s.scales = vec![0.25, 1.0];
     s.seeds = seeds;
     s.samples = 1024;
@@ -179,7 +179,7 @@ fn results_are_stable_across_seeds() {
 
 #[test]
 fn the_sweep_is_deterministic_and_exports_every_number() {
-    let mut s = InterreflectionSettings::cylinder(&cylinder());
+    let mut s = FailureMapSettings::cylinder(&cylinder());
     s.scales = vec![0.5, 1.0];
     s.seeds = vec![7, 8];
     s.samples = 256;

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 use lightbooth::nstep::nstep_error;
 use lightbooth::reference_data::{reflectances, ReflectanceSet};
 use lightbooth::spectrum::{table::SpectraTable, Grid, SpectralUnit, Spectrum};
-use lightbooth::study::failure_map::{failure_map, Crossing, FailureMap, InterreflectionSettings};
+use lightbooth::study::failure_map::{failure_map, Crossing, FailureMap, FailureMapSettings};
 
 #[derive(Subcommand, Debug)]
 pub enum AnalyzeCommand {
@@ -108,7 +108,7 @@ fn failure_map_cmd(args: FailureMapArgs) -> anyhow::Result<()> {
             PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cylinder.toml")
         }
     });
-    let mut settings = InterreflectionSettings::cylinder(&scene);
+    let mut settings = FailureMapSettings::cylinder(&scene);
     settings.seeds = (1..=args.seeds).collect();
     settings.samples = args.samples;
     let start = Instant::now();

@@ -286,9 +286,9 @@ pub fn illuminant_patch_map(
 
 // ---- 2. interreflection ----------------------------------------------------
 
-/// What to sweep for the interreflection map.
+/// What to sweep: the interreflection scene and its sweep, and the codings of both maps.
 #[derive(Clone, Debug, Serialize)]
-pub struct InterreflectionSettings {
+pub struct FailureMapSettings {
     /// The scene (CYLINDER).
     pub scene: PathBuf,
     /// The material whose reflectance is scaled (`green_card`).
@@ -310,11 +310,11 @@ fn coding_names<S: serde::Serializer>(codings: &[Coding], s: S) -> Result<S::Ok,
     s.collect_seq(codings.iter().map(|c| c.to_string()))
 }
 
-impl InterreflectionSettings {
+impl FailureMapSettings {
     /// The CYLINDER sweep of the study with the scene at `scene`: 4 seeds,
     /// 4096 paths per target, 5 bounces, all seven codings.
-    pub fn cylinder(scene: &Path) -> InterreflectionSettings {
-        InterreflectionSettings {
+    pub fn cylinder(scene: &Path) -> FailureMapSettings {
+        FailureMapSettings {
             scene: scene.to_path_buf(),
             card_material: "green_card".into(),
             scales: CARD_SCALES.to_vec(),
@@ -424,7 +424,7 @@ impl CodingSweep {
 /// The interreflection sweep's results.
 #[derive(Clone, Debug, Serialize)]
 pub struct InterreflectionMap {
-    pub settings: InterreflectionSettings,
+    pub settings: FailureMapSettings,
     pub threshold_rms_rel: f64,
     #[serde(rename = "threshold_dE76")]
     pub threshold_de: f64,
@@ -439,7 +439,7 @@ impl InterreflectionMap {
 
 /// Renders the scene once per (scale, seed) with all codings in one pass and
 /// measures every coding against `spectral` of the same render.
-pub fn interreflection_map(settings: &InterreflectionSettings) -> Result<InterreflectionMap, FailureMapError> {
+pub fn interreflection_map(settings: &FailureMapSettings) -> Result<InterreflectionMap, FailureMapError> {
     if settings.seeds.len() < 2 {
         return Err(FailureMapError::Settings(
             "the interreflection map needs at least two seeds: its spread over seeds is part of the result".into(),
@@ -566,7 +566,7 @@ pub struct FailureMap {
 
 /// Both sweeps: the illuminant × patch map for [`ILLUMINANTS`] and the
 /// interreflection map, with the same codings.
-pub fn failure_map(settings: &InterreflectionSettings) -> Result<FailureMap, FailureMapError> {
+pub fn failure_map(settings: &FailureMapSettings) -> Result<FailureMap, FailureMapError> {
     Ok(FailureMap {
         illuminant_patch: illuminant_patch_map(&settings.codings, &ILLUMINANTS)?,
         interreflection: interreflection_map(settings)?,
@@ -815,7 +815,7 @@ mod tests {
 
     #[test]
     fn interreflection_refuses_one_seed_and_bad_scales() {
-        let mut s = InterreflectionSettings::cylinder(Path::new("scenes/cylinder.toml"));
+        let mut s = FailureMapSettings::cylinder(Path::new("scenes/cylinder.toml"));
         s.seeds = vec![1];
         assert!(matches!(interreflection_map(&s), Err(FailureMapError::Settings(_))));
         s.seeds = vec![1, 2];
