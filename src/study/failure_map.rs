@@ -25,7 +25,9 @@
 //!    published at 5 nm only and are **linearly resampled to 1 nm** here — an
 //!    approximation of the true 1 nm lamp spectrum (the mercury lines are
 //!    narrower than 5 nm), so `spectral` under F2/F11 is the reference *for
-//!    that interpolated spectrum*. Each light is normalised to 1 cd (Judd–Vos
+//!    that interpolated spectrum* (and `nstep81`, which samples it at the
+//!    5 nm table's own wavelengths, differs from it only by the integration
+//!    rule). Each light is normalised to 1 cd (Judd–Vos
 //!    ȳ, as the scene loader does); the scale cancels in CIELAB.
 //!
 //! 2. **Interreflection strength** ([`interreflection_map`]): the CYLINDER
@@ -585,7 +587,8 @@ impl FailureMap {
     /// Every number in long ("tidy") form, one per line:
     /// `map,illuminant,patch,patch_name,coding,scale,seed,quantity,value`
     /// (fields that do not apply are empty; seed `mean`/`sd` rows are the
-    /// summaries over seeds).
+    /// summaries over seeds; `NaN` where there is no value: no failing patch,
+    /// a threshold never crossed).
     pub fn to_csv(&self) -> String {
         let mut out = String::from("map,illuminant,patch,patch_name,coding,scale,seed,quantity,value\n");
         let mut row =
