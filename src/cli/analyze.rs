@@ -1,16 +1,46 @@
 //! `lightbooth analyze …`: analyses of spectra alone.
 
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
 use clap::{Args, Subcommand};
 
 use lightbooth::nstep::nstep_error;
 use lightbooth::reference_data::{reflectances, ReflectanceSet};
 use lightbooth::spectrum::{table::SpectraTable, Grid, SpectralUnit, Spectrum};
+use lightbooth::study::failure_map::{failure_map, Crossing, FailureMap, FailureMapSettings};
 
 #[derive(Subcommand, Debug)]
 pub enum AnalyzeCommand {
     /// The study's Fig. 7: N-step reconstruction error of colour signals for N = 1…81,
     /// normalised so N = 1 is 1.0.
     NstepError(NstepErrorArgs),
+    /// Where each coding crosses ΔE*ab = 2 and rms_rel = 5 %: ColorChecker × {A, D65, F2, F11}
+    /// (exact, direct light) and CYLINDER with its card's reflectance scaled 0.25–1 (rendered per seed).
+    FailureMap(FailureMapArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct FailureMapArgs {
+    /// The CYLINDER scene (default: scenes/cylinder.toml here, else in the source tree).
+    #[arg(long)]
+    scene: Option<PathBuf>,
+    /// Monte Carlo seeds 1…N for the interreflection sweep (at least 2).
+    #[arg(long, default_value_t = 4)]
+    seeds: u64,
+    /// Radiometer paths per target per render.
+    #[arg(long, default_value_t = 4096)]
+    samples: u64,
+    /// Print the whole map as JSON instead of the summary tables.
+    #[arg(long)]
+    json: bool,
+    /// Write every number to this CSV file (long form).
+    #[arg(long)]
+    csv: Option<PathBuf>,
+    /// Write the charts (SVG) into this directory.
+    #[arg(long)]
+    svg_dir: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -29,6 +59,7 @@ pub struct NstepErrorArgs {
 pub fn run(cmd: AnalyzeCommand) -> anyhow::Result<()> {
     match cmd {
         AnalyzeCommand::NstepError(args) => nstep_error_cmd(args),
+        AnalyzeCommand::FailureMap(args) => failure_map_cmd(args),
     }
 }
 
@@ -66,4 +97,106 @@ fn nstep_error_cmd(args: NstepErrorArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+fn failure_map_cmd(args: FailureMapArgs) -> anyhow::Result<()> {
+    let scene = args.scene.unwrap_or_else(|| {
+        let here = PathBuf::from("scenes/cylinder.toml");
+        if here.exists() {
+            here
+        } else {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cylinder.toml")
+        }
+    });
+    let mut settings = FailureMapSettings::cylinder(&scene);
+    settings.seeds = (1..=args.seeds).collect();
+    settings.samples = args.samples;
+    let start = Instant::now();
+    let map = failure_map(&settings)?;
+    eprintln!("failure map: {:.2} s", start.elapsed().as_secs_f64());
+    if let Some(path) = &args.csv {
+        std::fs::write(path, map.to_csv()).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(dir) = &args.svg_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        for (name, svg) in map.svgs().map_err(anyhow::Error::msg)? {
+            let path = dir.join(name);
+            std::fs::write(&path, svg).with_context(|| format!("writing {}", path.display()))?;
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string(&map)?);
+    } else {
+        print_failure_map(&map);
+    }
+    Ok(())
+}
+
+fn print_failure_map(map: &FailureMap) {
+    let ip = &map.illuminant_patch;
+    println!(
+        "Patches failing ΔE*ab > {} against spectral (of 24), direct light, exact:",
+        ip.threshold_de
+    );
+    print!("{:<10}", "coding");
+    for m in &ip.illuminants {
+        print!("{:>6}", m.illuminant);
+    }
+    println!("   least saturated failing patch per illuminant");
+    for (ci, coding) in ip.codings.iter().enumerate() {
+        print!("{coding:<10}");
+        for m in &ip.illuminants {
+            print!("{:>6}", m.summary[ci].failing);
+        }
+        let least: Vec<String> = ip
+            .illuminants
+            .iter()
+            .map(|m| {
+                m.summary[ci]
+                    .least_saturated_failing
+                    .clone()
+                    .unwrap_or_else(|| "-".into())
+            })
+            .collect();
+        println!("   {}", least.join(" | "));
+    }
+    let ir = &map.interreflection;
+    let seeds = ir.settings.seeds.len();
+    println!(
+        "\nInterreflection ({}, card scaled; mean ± SD over {seeds} seeds, {} paths/target):",
+        ir.settings.scene.display(),
+        ir.settings.samples
+    );
+    print!("{:<10}", "coding");
+    for s in &ir.settings.scales {
+        print!("{:>22}", format!("rms_rel % s={s}"));
+    }
+    println!("{:>16}{:>16}", "crosses 5 % at", "crosses ΔE 2 at");
+    for c in &ir.codings {
+        print!("{:<10}", c.coding);
+        for p in &c.points {
+            print!(
+                "{:>22}",
+                format!("{:.3} ± {:.3}", 100.0 * p.rms_rel.mean, 100.0 * p.rms_rel.sd)
+            );
+        }
+        let show = |x: Crossing| match x {
+            Crossing::Never => "never".to_string(),
+            Crossing::AtOrBelow { scale } => format!("≤ {scale}"),
+            Crossing::At { scale } => format!("{scale:.3}"),
+        };
+        println!("{:>16}{:>16}", show(c.rms_rel_crossing), show(c.de_crossing));
+    }
+    print!("{:<10}", "coding");
+    for s in &ir.settings.scales {
+        print!("{:>22}", format!("mean ΔE*ab s={s}"));
+    }
+    println!();
+    for c in &ir.codings {
+        print!("{:<10}", c.coding);
+        for p in &c.points {
+            print!("{:>22}", format!("{:.3} ± {:.3}", p.mean_de76.mean, p.mean_de76.sd));
+        }
+        println!();
+    }
 }

@@ -6,7 +6,9 @@
 //!   reference, spread over seeds, settings sweeps for speed against accuracy.
 //! - [`report`]: the study's charts and the self-contained HTML/CSV report.
 //! - [`measure`]: measurements of every target with the simulated PR-650.
+//! - [`failure_map`]: where each coding crosses ΔE = 2 and rms_rel = 5 %.
 
+pub mod failure_map;
 pub mod measure;
 pub mod report;
 pub mod run;
