@@ -39,6 +39,9 @@ pub struct StudyArgs {
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     #[arg(long)]
     sweeps: bool,
+    /// Also compute the failure maps (illuminant × patch; CYLINDER interreflection).
+    #[arg(long)]
+    failure_map: bool,
     /// The database with the measurements (and where the study is stored).
     #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
     db: String,
@@ -73,6 +76,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             AgainstArg::Reference => Against::Reference,
         },
         sweeps: args.sweeps,
+        failure_map: args.failure_map,
         ..StudyOptions::default()
     };
     anyhow::ensure!(options.seeds >= 1, "--seeds must be at least 1");
@@ -94,11 +98,23 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             let ids = measure_with_simulator(&args.scenes, store, &args.cache_dir, 1, &progress).await?;
             eprintln!("stored {} simulated measurements", ids.len());
         }
-        let result = run_study(&args.scenes, &options, store.as_ref(), &progress).await?;
-        if let Some(store) = &store {
-            let id = store
-                .insert_study(&serde_json::to_value(&result)?, result.wall_seconds)
-                .await?;
+        let request = serde_json::json!({ "scenes": &args.scenes, "options": &options, "command_line": true });
+        let study_id = match &store {
+            Some(store) => Some(store.create_study(&request).await?),
+            None => None,
+        };
+        let result = match run_study(&args.scenes, &options, store.as_ref(), &progress).await {
+            Ok(r) => r,
+            Err(e) => {
+                if let (Some(store), Some(id)) = (&store, study_id) {
+                    store.fail_study(id, &e.to_string()).await?;
+                }
+                return Err(e.into());
+            }
+        };
+        if let (Some(store), Some(id)) = (&store, study_id) {
+            let files = lightbooth::study::report::report_files(&result)?;
+            store.complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files).await?;
             eprintln!("study stored as {id}");
         }
         if let Some(dir) = &args.report {

@@ -6,7 +6,8 @@
 //! # The CIELAB reference white
 //!
 //! Both sides of a comparison go through CIELAB with the same white, stored
-//! with every comparison row (`white_source`):
+//! with every comparison row (`white_source`), chosen by
+//! [`cielab_white`](crate::study::run::cielab_white) as in the study:
 //!
 //! - a scene with one target (WHITE, RED, GREEN, BLUE) uses the WHITE scene's
 //!   Spectralon standard (`white/patch`): the same spotlight, the booth's white;
@@ -29,7 +30,9 @@ use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
 use crate::render::{self, Coding, RenderSettings, Scene};
 use crate::service::error::ApiError;
-use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo};
+use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
+use crate::study::report::report_files;
+use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{NewComparison, NewRender, Store};
 
@@ -167,14 +170,10 @@ impl Renderer {
     /// Which target serves as the CIELAB white of a scene (see the module doc).
     fn white_for(&self, scene: &str) -> (String, String) {
         match self.entry(scene) {
-            Some(e) if e.targets.len() > 1 => (scene.to_string(), e.targets.last().cloned().unwrap_or_default()),
-            _ if self
-                .entry("white")
-                .is_some_and(|w| w.targets.iter().any(|t| t == "patch")) =>
-            {
-                ("white".into(), "patch".into())
+            Some(e) => {
+                let (path, target) = cielab_white(&e.path, &e.targets);
+                (path.file_stem().and_then(|s| s.to_str()).unwrap_or(scene).to_string(), target)
             }
-            Some(e) => (scene.to_string(), e.targets.first().cloned().unwrap_or_default()),
             None => (scene.to_string(), String::new()),
         }
     }
@@ -374,6 +373,55 @@ fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(Str
         .collect()
 }
 
+impl Renderer {
+    /// The study options of an API request, checked field by field.
+    fn study_plan(&self, request: &StudyRequest) -> Result<(Vec<PathBuf>, StudyOptions), ApiError> {
+        let paths = match &request.scenes {
+            None => self.scenes.iter().map(|s| s.path.clone()).collect(),
+            Some(list) => list
+                .split(',')
+                .map(str::trim)
+                .filter(|s| !s.is_empty())
+                .map(|id| {
+                    self.entry(id).map(|e| e.path.clone()).ok_or_else(|| {
+                        let names: Vec<&str> = self.scenes.iter().map(|s| s.id.as_str()).collect();
+                        ApiError::BadRequest(format!("field `scenes`: no scene `{id}`; available: {}", names.join(", ")))
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        };
+        if paths.is_empty() {
+            return Err(ApiError::BadRequest("field `scenes`: name at least one scene".into()));
+        }
+        let against = match request.against.as_deref().unwrap_or("measurements") {
+            "measurements" => Against::Measurements,
+            "reference" => Against::Reference,
+            other => {
+                return Err(ApiError::BadRequest(format!(
+                    "field `against`: `{other}` is neither `measurements` nor `reference`"
+                )))
+            }
+        };
+        let seeds = request.seeds.unwrap_or(8);
+        if !(1..=64).contains(&seeds) {
+            return Err(ApiError::BadRequest(format!("field `seeds`: {seeds} is outside 1–64")));
+        }
+        let failure_map = request.failure_map.unwrap_or(false);
+        if failure_map && !paths.iter().any(|p| p.file_stem().is_some_and(|s| s == "cylinder")) {
+            return Err(ApiError::BadRequest("field `failure_map`: the failure maps need the `cylinder` scene".into()));
+        }
+        let options = StudyOptions {
+            codings: self.codings.clone(),
+            seeds,
+            against,
+            sweeps: request.sweeps.unwrap_or(false),
+            failure_map,
+            ..StudyOptions::default()
+        };
+        Ok((paths, options))
+    }
+}
+
 impl RenderService for Renderer {
     fn scenes(&self) -> Vec<SceneInfo> {
         self.scenes
@@ -406,6 +454,50 @@ impl RenderService for Renderer {
                 if let Err(e) = self.execute(id, &scene, loaded, settings).await {
                     tracing::error!(render_id = id, error = %e, "render failed");
                 }
+            });
+            Ok(id)
+        })
+    }
+
+    fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, ApiError>> {
+        Box::pin(async move {
+            let (paths, options) = self.study_plan(&request)?;
+            let id = self
+                .store
+                .create_study(&serde_json::to_value(&request).unwrap_or_default())
+                .await
+                .map_err(|e| ApiError::Internal(e.to_string()))?;
+            tracing::info!(study_id = id, scenes = paths.len(), "study started");
+            let this = Arc::clone(&self);
+            // Rendering is CPU-bound: run the study on a blocking thread (its
+            // renders use the rayon pool), never on the async workers.
+            tokio::task::spawn_blocking(move || {
+                let runtime = this.runtime.clone();
+                runtime.block_on(async {
+                    let events = this.events.clone();
+                    let progress = move |message: &str| {
+                        let _ = events.send(Event::StudyProgress { study_id: id, message: message.to_string() });
+                    };
+                    let outcome = match run_study(&paths, &options, Some(&this.store), &progress).await {
+                        Ok(result) => match (report_files(&result), serde_json::to_value(&result)) {
+                            (Ok(files), Ok(json)) => this
+                                .store
+                                .complete_study(id, &json, result.wall_seconds, &files)
+                                .await
+                                .map_err(|e| e.to_string()),
+                            (Err(e), _) => Err(e.to_string()),
+                            (_, Err(e)) => Err(e.to_string()),
+                        },
+                        Err(e) => Err(e.to_string()),
+                    };
+                    if let Err(e) = &outcome {
+                        tracing::error!(study_id = id, error = %e, "study failed");
+                        let _ = this.store.fail_study(id, e).await;
+                    } else {
+                        tracing::info!(study_id = id, "study complete");
+                    }
+                    let _ = this.events.send(Event::StudyFinished { study_id: id, ok: outcome.is_ok(), error: outcome.err() });
+                });
             });
             Ok(id)
         })

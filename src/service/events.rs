@@ -66,6 +66,15 @@ pub enum Event {
         scene: String,
         target: String,
     },
+    StudyProgress {
+        study_id: i64,
+        message: String,
+    },
+    StudyFinished {
+        study_id: i64,
+        ok: bool,
+        error: Option<String>,
+    },
 }
 
 impl Event {
@@ -80,6 +89,8 @@ impl Event {
             Event::RenderProgress { .. } => "render_progress",
             Event::RenderFinished { .. } => "render_finished",
             Event::ComparisonReady { .. } => "comparison_ready",
+            Event::StudyProgress { .. } => "study_progress",
+            Event::StudyFinished { .. } => "study_finished",
         }
     }
 }

@@ -114,6 +114,24 @@ pub trait RenderService: Send + Sync {
     fn scenes(&self) -> Vec<SceneInfo>;
     /// Records a render of a scene and starts it; resolves to its id at once.
     fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+    /// Records a study and starts it in the background; resolves to its id at once.
+    fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+}
+
+/// Options of a study started through the API (see `lightbooth study`).
+#[derive(Clone, Debug, Default, serde::Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StudyRequest {
+    /// Comma-separated scene ids; default: every scene.
+    pub scenes: Option<String>,
+    /// `measurements` (default) or `reference` (a converged spectral rendering).
+    pub against: Option<String>,
+    /// Seeds, 1–64 (default 8).
+    pub seeds: Option<u32>,
+    /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
+    pub sweeps: Option<bool>,
+    /// Also compute the failure maps.
+    pub failure_map: Option<bool>,
 }
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).

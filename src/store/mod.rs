@@ -529,37 +529,85 @@ impl Store {
 
     // --- studies ----------------------------------------------------------
 
-    pub async fn insert_study(&self, result: &serde_json::Value, wall_seconds: f64) -> Result<i64, StoreError> {
-        let row =
-            sqlx::query("INSERT INTO studies (created_at, wall_seconds, result_json) VALUES (?, ?, ?) RETURNING id")
-                .bind(now())
-                .bind(wall_seconds)
-                .bind(result.to_string())
-                .fetch_one(&self.pool)
-                .await?;
+    /// Records a study about to run.
+    pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
+        let row = sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'running', ?) RETURNING id")
+            .bind(request.to_string())
+            .bind(now())
+            .fetch_one(&self.pool)
+            .await?;
         Ok(row.get(0))
     }
 
-    /// Ids, times and wall seconds of the stored studies, newest first.
-    pub async fn list_studies(&self) -> Result<Vec<(i64, f64, f64)>, StoreError> {
-        let rows = sqlx::query("SELECT id, created_at, wall_seconds FROM studies ORDER BY id DESC")
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows.iter().map(|r| (r.get(0), r.get(1), r.get(2))).collect())
+    /// Stores a finished study with its report files, in one transaction.
+    pub async fn complete_study(
+        &self,
+        id: i64,
+        result: &serde_json::Value,
+        wall_seconds: f64,
+        files: &[(String, Vec<u8>)],
+    ) -> Result<(), StoreError> {
+        let mut tx = self.pool.begin().await?;
+        for (name, content) in files {
+            sqlx::query("INSERT INTO study_files (study_id, name, content) VALUES (?, ?, ?)")
+                .bind(id)
+                .bind(name)
+                .bind(content)
+                .execute(&mut *tx)
+                .await?;
+        }
+        sqlx::query(
+            "UPDATE studies SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? WHERE id = ?",
+        )
+        .bind(result.to_string())
+        .bind(wall_seconds)
+        .bind(now())
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(())
     }
 
-    pub async fn get_study(&self, id: i64) -> Result<Option<serde_json::Value>, StoreError> {
-        let text: Option<String> = sqlx::query_scalar("SELECT result_json FROM studies WHERE id = ?")
+    pub async fn fail_study(&self, id: i64, error: &str) -> Result<(), StoreError> {
+        sqlx::query("UPDATE studies SET state = 'failed', error = ?, finished_at = ? WHERE id = ? AND state = 'running'")
+            .bind(error)
+            .bind(now())
             .bind(id)
-            .fetch_optional(&self.pool)
+            .execute(&self.pool)
             .await?;
-        text.map(|t| {
-            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
-                what: "studies.result_json".into(),
-                err: e.to_string(),
-            })
-        })
-        .transpose()
+        Ok(())
+    }
+
+    /// The stored studies, newest first, without their results.
+    pub async fn list_studies(&self) -> Result<Vec<StudyRow>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT id, request_json, state, error, created_at, finished_at, wall_seconds FROM studies ORDER BY id DESC",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(|r| study_from_row(r, false)).collect()
+    }
+
+    /// One study with its result and the names of its report files.
+    pub async fn get_study(&self, id: i64) -> Result<Option<StudyRow>, StoreError> {
+        let Some(row) = sqlx::query("SELECT * FROM studies WHERE id = ?").bind(id).fetch_optional(&self.pool).await? else {
+            return Ok(None);
+        };
+        let mut study = study_from_row(&row, true)?;
+        study.files = sqlx::query_scalar("SELECT name FROM study_files WHERE study_id = ? ORDER BY name")
+            .bind(id)
+            .fetch_all(&self.pool)
+            .await?;
+        Ok(Some(study))
+    }
+
+    pub async fn study_file(&self, id: i64, name: &str) -> Result<Option<Vec<u8>>, StoreError> {
+        Ok(sqlx::query_scalar("SELECT content FROM study_files WHERE study_id = ? AND name = ?")
+            .bind(id)
+            .bind(name)
+            .fetch_optional(&self.pool)
+            .await?)
     }
 
     // --- comparisons ------------------------------------------------------

@@ -310,3 +310,40 @@ pub(super) fn comparison_from_row(r: &SqliteRow) -> ComparisonRow {
         created_at: r.get("created_at"),
     }
 }
+
+/// A study run as the API lists it.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct StudyRow {
+    pub id: i64,
+    #[schema(value_type = Object)]
+    pub request: serde_json::Value,
+    pub state: String,
+    pub error: Option<String>,
+    pub created_at: f64,
+    pub finished_at: Option<f64>,
+    pub wall_seconds: Option<f64>,
+    /// Every figure (only in the detail).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(value_type = Object)]
+    pub result: Option<serde_json::Value>,
+    /// The report's files, served at `/api/studies/{id}/files/{name}`.
+    pub files: Vec<String>,
+}
+
+pub(super) fn study_from_row(r: &SqliteRow, with_result: bool) -> Result<StudyRow, StoreError> {
+    let parse = |text: Option<String>, what: &str| -> Result<Option<serde_json::Value>, StoreError> {
+        text.map(|t| serde_json::from_str(&t).map_err(|e| StoreError::Corrupt { what: what.into(), err: e.to_string() }))
+            .transpose()
+    };
+    Ok(StudyRow {
+        id: r.get("id"),
+        request: parse(r.get("request_json"), "studies.request_json")?.unwrap_or_default(),
+        state: r.get("state"),
+        error: r.get("error"),
+        created_at: r.get("created_at"),
+        finished_at: r.get("finished_at"),
+        wall_seconds: r.get("wall_seconds"),
+        result: if with_result { parse(r.get("result_json"), "studies.result_json")? } else { None },
+        files: Vec::new(),
+    })
+}

@@ -153,9 +153,20 @@ pub fn pareto_front(points: &[SweepPoint]) -> Vec<usize> {
     front
 }
 
-/// Writes `index.html`, one SVG per chart and CSVs of every number into `dir`.
+/// Writes the report's files (see [`report_files`]) into `dir`.
 pub fn write_report(result: &StudyResult, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
+    for (name, bytes) in report_files(result)? {
+        std::fs::write(dir.join(name), bytes)?;
+    }
+    Ok(())
+}
+
+/// The report as (file name, contents): `index.html` with every chart
+/// inline, one SVG per chart (`SCENE_CHART.svg`, `failure_map_*.svg`), CSVs
+/// of every number and `study.json`.
+pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8>)>> {
+    let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let mut html = String::from(
         "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>lightbooth study</title>\
          <style>body{font-family:system-ui,sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}\
@@ -267,12 +278,8 @@ pub fn write_report(result: &StudyResult, dir: &Path) -> std::io::Result<()> {
         for (name, svg) in charts {
             match svg {
                 Ok(svg) => {
-                    std::fs::write(dir.join(format!("{}_{name}.svg", s.scene)), &svg)?;
-                    let _ = write!(
-                        html,
-                        "<figure>{}</figure>",
-                        svg.trim_start_matches("<?xml version=\"1.0\" encoding=\"UTF-8\"?>")
-                    );
+                    let _ = write!(html, "<figure>{svg}</figure>");
+                    files.push((format!("{}_{name}.svg", s.scene), svg.into_bytes()));
                 }
                 Err(e) => {
                     let _ = write!(html, "<p>chart {name} failed: {e}</p>");
@@ -281,14 +288,25 @@ pub fn write_report(result: &StudyResult, dir: &Path) -> std::io::Result<()> {
         }
         html.push_str("</div>");
     }
+    if let Some(map) = &result.failure_map {
+        html.push_str(
+            "<h2>Where codings fail</h2><p>Illuminant × ColorChecker patch (direct light, exact) and the CYLINDER's \
+             card reflectance scaled 0.25–1 (mean ± SD over seeds); thresholds ΔE*ab = 2 and rms_rel = 5 %. Every \
+             number: <a href=\"failure_map.csv\">failure_map.csv</a>.</p><div class=\"charts\">",
+        );
+        let svgs = map.svgs().map_err(std::io::Error::other)?;
+        for (name, svg) in svgs {
+            let _ = write!(html, "<figure>{svg}</figure>");
+            files.push((name, svg.into_bytes()));
+        }
+        html.push_str("</div>");
+        files.push(("failure_map.csv".into(), map.to_csv().into_bytes()));
+    }
     html.push_str("<p>Numbers: <a href=\"figures.csv\">figures.csv</a> (per scene, coding and seed), <a href=\"profiles.csv\">profiles.csv</a> (per target), <a href=\"sweeps.csv\">sweeps.csv</a>, <a href=\"study.json\">study.json</a> (everything).</p></body></html>");
-    std::fs::write(dir.join("index.html"), html)?;
-    std::fs::write(dir.join("figures.csv"), figures_csv)?;
-    std::fs::write(dir.join("profiles.csv"), profile_csv)?;
-    std::fs::write(dir.join("sweeps.csv"), sweeps_csv)?;
-    std::fs::write(
-        dir.join("study.json"),
-        serde_json::to_string_pretty(result).map_err(std::io::Error::other)?,
-    )?;
-    Ok(())
+    files.push(("index.html".into(), html.into_bytes()));
+    files.push(("figures.csv".into(), figures_csv.into_bytes()));
+    files.push(("profiles.csv".into(), profile_csv.into_bytes()));
+    files.push(("sweeps.csv".into(), sweeps_csv.into_bytes()));
+    files.push(("study.json".into(), serde_json::to_vec_pretty(result).map_err(std::io::Error::other)?));
+    Ok(files)
 }

@@ -32,6 +32,8 @@ use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::Store;
 
+use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
+
 /// Relative standard error of Y of the reference rendering.
 pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
 /// Bounces of the reference rendering: beyond the study's 5, so the bounce
@@ -62,6 +64,8 @@ pub struct StudyOptions {
     pub sweeps: bool,
     /// Fixed paths per target of every sweep render (timings on equal work).
     pub sweep_samples: u64,
+    /// Also compute the failure maps (needs the CYLINDER among the scenes).
+    pub failure_map: bool,
 }
 
 impl Default for StudyOptions {
@@ -75,6 +79,7 @@ impl Default for StudyOptions {
             against: Against::Reference,
             sweeps: false,
             sweep_samples: 4096,
+            failure_map: false,
         }
     }
 }
@@ -196,6 +201,8 @@ pub struct SceneStudy {
 pub struct StudyResult {
     pub options: StudyOptions,
     pub scenes: Vec<SceneStudy>,
+    /// Where each coding fails (illuminant × patch, interreflection strength).
+    pub failure_map: Option<FailureMap>,
     pub wall_seconds: f64,
 }
 
@@ -398,11 +405,18 @@ pub async fn run_study(
             sweeps,
         });
     }
-    Ok(StudyResult {
-        options: options.clone(),
-        scenes: out,
-        wall_seconds: start.elapsed().as_secs_f64(),
-    })
+    let failure_map = if options.failure_map {
+        let cylinder = scenes.iter().find(|p| p.file_stem().is_some_and(|s| s == "cylinder")).ok_or_else(|| {
+            StudyError::Truth("the failure maps need the CYLINDER scene (cylinder.toml) among the scenes".into())
+        })?;
+        progress("failure maps");
+        let mut settings = FailureMapSettings::cylinder(cylinder);
+        settings.codings = options.codings.clone();
+        Some(failure_map(&settings).map_err(|e| StudyError::Truth(format!("failure maps: {e}")))?)
+    } else {
+        None
+    };
+    Ok(StudyResult { options: options.clone(), scenes: out, failure_map, wall_seconds: start.elapsed().as_secs_f64() })
 }
 
 /// The rendered XYZ and SE of Y of `coding` at each truth target.
