@@ -429,3 +429,75 @@ mod tests {
         assert!(lines.contains("pareto"));
     }
 }
+
+/// A named set of points for [`scatter_chart`], joined by a line or not.
+pub struct ScatterSeries {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// Join the points in order (a front, a threshold) instead of markers only.
+    pub connect: bool,
+}
+
+/// Points against x (seconds, cost …), optionally log x: speed/accuracy
+/// charts with their Pareto front. Markers are drawn for every series.
+pub fn scatter_chart(title: &str, x_desc: &str, y_desc: &str, series: &[ScatterSeries], log_x: bool) -> ChartResult {
+    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70);
+        if log_x {
+            let lo = xs.0.max(1e-9);
+            let mut chart = builder
+                .build_cartesian_2d((lo..xs.1.max(lo * 10.0)).log_scale(), ys.0..ys.1)
+                .map_err(err)?;
+            chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(err)?;
+            draw_scatter(&mut chart, series)?;
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        } else {
+            let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
+            chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(err)?;
+            draw_scatter(&mut chart, series)?;
+            chart
+                .configure_series_labels()
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+    series: &[ScatterSeries],
+) -> Result<(), String> {
+    for (i, s) in series.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        if s.connect {
+            chart
+                .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
+                .map_err(err)?;
+        }
+        chart
+            .draw_series(s.points.iter().map(|p| Circle::new(*p, 4, color.filled())))
+            .map_err(err)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+    }
+    Ok(())
+}
