@@ -458,7 +458,12 @@ pub fn scatter_chart(title: &str, x_desc: &str, y_desc: &str, series: &[ScatterS
             let mut chart = builder
                 .build_cartesian_2d((lo..xs.1.max(lo * 10.0)).log_scale(), ys.0..ys.1)
                 .map_err(err)?;
-            chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(err)?;
             draw_scatter(&mut chart, series)?;
             chart
                 .configure_series_labels()
@@ -468,7 +473,12 @@ pub fn scatter_chart(title: &str, x_desc: &str, y_desc: &str, series: &[ScatterS
                 .map_err(err)?;
         } else {
             let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
-            chart.configure_mesh().x_desc(x_desc).y_desc(y_desc).draw().map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(err)?;
             draw_scatter(&mut chart, series)?;
             chart
                 .configure_series_labels()

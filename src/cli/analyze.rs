@@ -121,11 +121,18 @@ fn auto_cmd(args: AutoArgs) -> anyhow::Result<()> {
             v.wall_seconds,
             v.reference_wall_seconds,
             100.0 * v.noise_rms_rel,
-            if v.meets { "meets the tolerance" } else { "DOES NOT meet the tolerance" }
+            if v.meets {
+                "meets the tolerance"
+            } else {
+                "DOES NOT meet the tolerance"
+            }
         );
     }
     if let (Some(set), Some(path)) = (&candidates, &args.svg) {
-        println!("{:<22} {:>9} {:>9} {:>8} {:>7}  front", "candidate", "seconds", "rms_rel%", "maxΔE00", "error");
+        println!(
+            "{:<22} {:>9} {:>9} {:>8} {:>7}  front",
+            "candidate", "seconds", "rms_rel%", "maxΔE00", "error"
+        );
         for c in &set.candidates {
             println!(
                 "{:<22} {:>9.3} {:>9.3} {:>8.3} {:>7.3}  {}",

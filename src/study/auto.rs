@@ -16,25 +16,29 @@
 //!   them, not only divisors of 81; uneven bands are allowed, as in
 //!   [`crate::nstep::Bands`]) whose worst case meets [`SPECTRAL_SHARE`] of the
 //!   tolerance is chosen; when none does, `spectral` is needed.
-//!   ΔE00 is taken with two whites and the larger kept: the light's perfect
-//!   white (ρ = 1 under S) and the signal as its own white. The second is the
-//!   white-independent worst case (CIELAB differences scale with (Y/Yₙ)^⅓, so
-//!   a sample as bright as its white shows the largest ΔE); it covers the
-//!   verification's white, the brightest target. Approximations: second-order
+//!   ΔE00 is taken with the light's perfect white (ρ = 1 under S); for the
+//!   direct signals also with the signal as its own white, and the larger
+//!   kept: the verification's white is the brightest target, which can be
+//!   the target itself (CIELAB differences grow as (Y/Yₙ)^⅓, so a sample as
+//!   bright as its white shows the largest ΔE). Approximations: second-order
 //!   terms are tested unweighted (as if a bounce carried all the light, which
 //!   over-states their share — the safety margin for interreflection); third
 //!   and later products are not enumerated, their share is bounded by the
 //!   bounce analysis.
 //! - **Bounces** by rendering (cheap: the chosen coding alone, a pilot of
-//!   [`PILOT_SAMPLES`] paths per target, fixed seed so every render traces the
-//!   same paths and the difference of two renders is the added bounce, not
-//!   noise) with max_bounces k = 0, 1, 2, …: the luminance bounce k adds at
-//!   target t is aₜₖ = Yₜ(k) − Yₜ(k−1). Stopping after b bounces leaves the
-//!   tail Σ_{j>b} aₜⱼ, estimated as geometric, aₜ,b+1 / (1 − r) with r the
-//!   observed ratio aₜ,b+1 / aₜ,b (for b = 0, where there is no ratio yet,
-//!   the scene's largest reflectance, an upper bound on the energy a Lambertian
-//!   bounce passes on). b is the smallest with tail / Yₜ ≤ [`BOUNCE_SHARE`] ·
-//!   rms_rel at every target.
+//!   [`PILOT_SAMPLES`] paths per target, fixed seed: the path tracer draws
+//!   the same random numbers whatever max_bounces is, so every render traces
+//!   the same paths and the difference of two renders is exactly the added
+//!   bounce on those paths) with max_bounces k = 0, 1, 2, …: bounce k adds
+//!   aₜₖ = Yₜ(k) − Yₜ(k−1) at target t (aₜ₀ the direct light). Stopping
+//!   after b bounces leaves Σ_{j>b} aₜⱼ, estimated as geometric with period
+//!   two: (aₜ,b+1 + aₜ,b+2) / (1 − q), q = max(aₜ,b+1/aₜ,b−1, aₜ,b+2/aₜ,b).
+//!   Period two because light trapped in a wedge (the CYLINDER touching its
+//!   card) alternates between the lit card and the unlit underside, so odd
+//!   bounces add far more than even ones and a one-step ratio would stop too
+//!   early; for plain geometric decay r, q = r² and the estimate is exact. b
+//!   is the smallest with tail / Y ≤ [`BOUNCE_SHARE`] · rms_rel at every
+//!   target (Y of the render b + 2, a lower bound on the converged Y).
 //! - **Samples** from the standard error: the pilot at b bounces has relative
 //!   SE s₀ of Y (the worst target); SE ∝ 1/√n (plain Monte Carlo; the
 //!   renderer's randomised QMC converges at least as fast, so this
@@ -76,11 +80,9 @@ pub const BOUNCE_SHARE: f64 = 0.25;
 pub const NOISE_SHARE: f64 = 0.25;
 /// Paths per target of the pilot renders (bounces, SE).
 pub const PILOT_SAMPLES: u64 = 2 * BATCH_SAMPLES;
-/// The bounce search gives up here (a scene whose light does not die out).
-pub const MAX_BOUNCES_SEARCHED: u32 = 16;
-/// Bounces of the converged reference (the bounce analysis must have stopped
-/// well before; [`reference_render`] uses at least the choice + 3).
-pub const REFERENCE_MIN_BOUNCES: u32 = 8;
+/// The bounce search gives up after testing this many bounces (a scene
+/// whose light does not die out).
+pub const MAX_BOUNCES_SEARCHED: u32 = 24;
 
 /// Everything that can go wrong choosing or checking settings.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -153,7 +155,9 @@ impl FromStr for Tolerance {
             rms = Some(number(parts[1])?);
         } else {
             for p in parts {
-                let (k, v) = p.split_once('=').ok_or_else(|| bad(&format!("`{p}`: expected key=value")))?;
+                let (k, v) = p
+                    .split_once('=')
+                    .ok_or_else(|| bad(&format!("`{p}`: expected key=value")))?;
                 match k.trim().to_ascii_lowercase().as_str() {
                     "de00" | "de" => de00 = Some(number(v)?),
                     "rms" | "rms_rel" => rms = Some(number(v)?),
@@ -181,7 +185,7 @@ pub struct NCandidate {
     pub meets: bool,
 }
 
-/// One step of the bounce search.
+/// One render of the bounce search.
 #[derive(Clone, Debug, Serialize)]
 pub struct BounceStep {
     /// max_bounces of this render.
@@ -189,12 +193,90 @@ pub struct BounceStep {
     pub wall_seconds: f64,
     /// Per target, Y at this bounce count, cd/m².
     pub luminance: Vec<f64>,
-    /// Per target, the luminance this bounce added over the previous render (k ≥ 1).
-    pub added: Option<Vec<f64>>,
-    /// Per target, the estimated remaining tail / Y if one stopped one bounce
-    /// earlier (at `bounces − 1`), and the ratio r used for it.
-    pub tail_fraction_before: Option<Vec<f64>>,
-    pub ratio: Option<Vec<f64>>,
+    /// Per target, what this bounce added over the render before (for 0, the
+    /// direct light), cd/m².
+    pub added: Vec<f64>,
+}
+
+/// Whether stopping after `stop_at` bounces leaves little enough.
+#[derive(Clone, Debug, Serialize)]
+pub struct BounceTest {
+    pub stop_at: u32,
+    /// Per target, q = max(a_{b+1}/a_{b−1}, a_{b+2}/a_b): the decay over two
+    /// bounces (the pooled ratio of all targets where the target's own is
+    /// undefined or ≥ 1; infinite when that is too).
+    pub ratio: Vec<f64>,
+    /// Per target, (a_{b+1} + a_{b+2}) / (1 − q) / Y_{b+2}: the estimated
+    /// luminance left out, relative (Y of the latest render is a lower bound
+    /// on the converged one, so this is not under-stated).
+    pub tail_fraction: Vec<f64>,
+    /// BOUNCE_SHARE · rms_rel.
+    pub threshold: f64,
+    pub accepted: bool,
+}
+
+fn argmax(v: &[f64]) -> (usize, f64) {
+    v.iter()
+        .copied()
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a })
+}
+
+fn ratio(num: f64, den: f64) -> f64 {
+    if num <= 0.0 {
+        0.0
+    } else if den <= 0.0 {
+        f64::INFINITY
+    } else {
+        num / den
+    }
+}
+
+/// The test of stopping after `b` bounces, from the renders 0 … b + 2.
+/// Where a target's own ratio is undefined or ≥ 1 (its earlier bounce
+/// added nothing in the pilot's paths, or a few late paths make it noise),
+/// the ratio of the sums over all targets stands in: the decay is a property
+/// of the scene's transport, and the numerator a_{b+1} + a_{b+2}, the
+/// target's own, still has to be small.
+pub fn bounce_test(steps: &[BounceStep], b: u32, threshold: f64) -> BounceTest {
+    let b = b as usize;
+    let last = &steps[b + 2];
+    let sum = |k: usize| steps[k].added.iter().sum::<f64>();
+    let q_of = |a: &dyn Fn(usize) -> f64| {
+        let mut q = ratio(a(b + 2), a(b));
+        if b >= 1 {
+            q = q.max(ratio(a(b + 1), a(b - 1)));
+        }
+        q
+    };
+    let pooled = q_of(&sum);
+    let mut q = Vec::new();
+    let mut tail = Vec::new();
+    for t in 0..last.luminance.len() {
+        let a = |k: usize| steps[k].added[t];
+        let mut qt = q_of(&a);
+        if qt >= 1.0 {
+            qt = pooled;
+        }
+        let left = a(b + 1) + a(b + 2);
+        let y = last.luminance[t];
+        tail.push(if left <= 0.0 {
+            0.0
+        } else if qt < 1.0 && y > 0.0 {
+            left / (1.0 - qt) / y
+        } else {
+            f64::INFINITY
+        });
+        q.push(qt);
+    }
+    let accepted = tail.iter().all(|f| *f <= threshold);
+    BounceTest {
+        stop_at: b as u32,
+        ratio: q,
+        tail_fraction: tail,
+        threshold,
+        accepted,
+    }
 }
 
 /// The sample count and the pilot it was extrapolated from.
@@ -249,6 +331,10 @@ pub struct AutoChoice {
     /// Every N = 1…81 with its worst case.
     pub n_analysis: Vec<NCandidate>,
     pub bounce_steps: Vec<BounceStep>,
+    /// Each stopping point tested, the last one accepted.
+    pub bounce_tests: Vec<BounceTest>,
+    /// Bounces of the converged reference ([`reference_render`]).
+    pub reference_bounces: u32,
     pub sample_choice: SampleChoice,
     /// Wall time of the pilot renders (the cost of choosing).
     pub choosing_seconds: f64,
@@ -317,6 +403,8 @@ struct Signal {
     /// The factors on the 81-sample grid (light first), multiplied per band.
     factors_81: Vec<Vec<f64>>,
     white_exact: Xyz,
+    /// A target material directly lit: it can be the verification's white.
+    direct: bool,
 }
 
 /// The N analysis: every N in 1…81 against the scene's colour signals.
@@ -352,6 +440,7 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
                 exact: direct.clone(),
                 factors_81: vec![s81.clone(), rt81.clone()],
                 white_exact,
+                direct: true,
             });
             for (m, (rm1, rm81)) in refl.iter().enumerate() {
                 signals.push(Signal {
@@ -359,6 +448,7 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
                     exact: direct.iter().zip(rm1).map(|(d, r)| d * r).collect(),
                     factors_81: vec![s81.clone(), rt81.clone(), rm81.clone()],
                     white_exact,
+                    direct: false,
                 });
             }
         }
@@ -380,9 +470,10 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
                 }
             }
             let approx = obs.xyz_from_radiance(&product);
-            let de = compare_point(*xyz, approx, sig.white_exact)
-                .de00
-                .max(compare_point(*xyz, approx, *xyz).de00);
+            let mut de = compare_point(*xyz, approx, sig.white_exact).de00;
+            if sig.direct {
+                de = de.max(compare_point(*xyz, approx, *xyz).de00);
+            }
             let rel_y = (approx.y / xyz.y - 1.0).abs();
             if de > worst_de00 {
                 worst_de00 = de;
@@ -460,12 +551,6 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
 
     // ---- bounces
     let threshold = BOUNCE_SHARE * tol.rms_rel;
-    let rho_max = scene
-        .materials
-        .iter()
-        .flat_map(|m| m.reflectance.values().iter().copied())
-        .fold(0.0f64, f64::max)
-        .min(1.0);
     let pilot = |k: u32| -> Result<RenderResult, AutoError> {
         Ok(render(
             scene,
@@ -481,89 +566,74 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
         )?)
     };
     let ids: Vec<String> = scene.target_list.iter().map(|t| t.id.clone()).collect();
-    let mut renders = vec![pilot(0)?];
-    let mut steps = vec![BounceStep {
-        bounces: 0,
-        wall_seconds: renders[0].wall_seconds,
-        luminance: luminances(&renders[0]),
-        added: None,
-        tail_fraction_before: None,
-        ratio: None,
-    }];
+    let mut renders: Vec<RenderResult> = Vec::new();
+    let mut steps: Vec<BounceStep> = Vec::new();
+    let mut tests: Vec<BounceTest> = Vec::new();
     let bounces = loop {
         let k = renders.len() as u32;
-        if k > MAX_BOUNCES_SEARCHED {
-            let last = steps.last().expect("steps");
-            let (i, f) = last
-                .tail_fraction_before
-                .as_ref()
-                .map(|v| v.iter().copied().enumerate().fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a }))
-                .unwrap_or((0, f64::NAN));
+        if k > MAX_BOUNCES_SEARCHED + 2 {
+            let last = tests.last().expect("tests");
+            let (i, f) = argmax(&last.tail_fraction);
             return Err(AutoError::Bounces(f, ids[i].clone()));
         }
         let r = pilot(k)?;
         let y = luminances(&r);
-        let prev = &steps[k as usize - 1];
-        let added: Vec<f64> = y.iter().zip(&prev.luminance).map(|(a, b)| (a - b).max(0.0)).collect();
-        let ratio: Vec<f64> = match &prev.added {
-            None => vec![rho_max; y.len()],
-            Some(before) => added
-                .iter()
-                .zip(before)
-                .map(|(a, b)| if *b > 0.0 { a / b } else { 0.0 })
-                .collect(),
+        // a_0 is the direct light, a_k (k ≥ 1) what bounce k adds.
+        let added: Vec<f64> = match steps.last() {
+            None => y.clone(),
+            Some(prev) => y.iter().zip(&prev.luminance).map(|(a, b)| (a - b).max(0.0)).collect(),
         };
-        let tail: Vec<f64> = added
-            .iter()
-            .zip(&ratio)
-            .zip(&prev.luminance)
-            .map(|((a, r), y)| if *r < 1.0 { a / (1.0 - r) / y } else { f64::INFINITY })
-            .collect();
-        let done = tail.iter().all(|t| *t <= threshold);
         steps.push(BounceStep {
             bounces: k,
             wall_seconds: r.wall_seconds,
             luminance: y,
-            added: Some(added),
-            tail_fraction_before: Some(tail),
-            ratio: Some(ratio),
+            added,
         });
         renders.push(r);
-        if done {
-            break k - 1;
+        if k < 2 {
+            continue;
+        }
+        let test = bounce_test(&steps, k - 2, threshold);
+        let accepted = test.accepted;
+        tests.push(test);
+        if accepted {
+            break k - 2;
         }
     };
-    let decisive = &steps[bounces as usize + 1];
-    let tail = decisive.tail_fraction_before.as_ref().expect("tail");
-    let (worst_t, worst_tail) = tail
-        .iter()
-        .copied()
-        .enumerate()
-        .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-    let ratio_note = if bounces == 0 {
-        format!("r = the largest reflectance in the scene, {rho_max:.3}, as no ratio is observed yet")
+    let test = tests.last().expect("the accepted test");
+    let (worst_t, worst_tail) = argmax(&test.tail_fraction);
+    let q_max = test.ratio.iter().copied().fold(0.0, f64::max);
+    // Reference: the tail shrinks by q per two bounces; 2m more bounces make it 8× smaller.
+    let m = if q_max <= 0.0 {
+        1
     } else {
-        format!(
-            "r = the observed ratio of successive bounces, {:.3} there",
-            decisive.ratio.as_ref().expect("ratio")[worst_t]
-        )
+        ((8.0f64).ln() / (1.0 / q_max).ln()).ceil().clamp(1.0, 20.0) as u32
     };
-    let refused = if bounces > 0 {
-        let t = steps[bounces as usize].tail_fraction_before.as_ref().expect("tail");
-        format!(
-            "; stopping at {} would leave {:.3} %",
-            bounces - 1,
-            100.0 * t.iter().copied().fold(0.0, f64::max)
-        )
-    } else {
-        String::new()
+    let reference_bounces = bounces + 2 * m;
+    let refused = match tests.len() {
+        1 => String::new(),
+        n => {
+            let t = &tests[n - 2];
+            let (i, f) = argmax(&t.tail_fraction);
+            format!(
+                "; stopping at {} would leave {:.3} % at {}",
+                t.stop_at,
+                100.0 * f,
+                ids[i]
+            )
+        }
     };
     reasons.push(format!(
-        "{bounces} bounces: bounce {} adds at most {:.4} % of the luminance (target {}), and the geometric tail \
-         a/(1 − r) with {ratio_note} leaves {:.4} % ≤ {:.3} % ({:.0} % of rms_rel){refused}",
+        "{bounces} bounces: bounces {} and {} add {:.4} % and {:.4} % of the luminance at target {} (the worst), \
+         and with q = {:.3}, the largest ratio of a bounce to the one two before (period two covers light \
+         that alternates between a lit and an unlit surface), the tail (a₁ + a₂)/(1 − q) leaves {:.4} % ≤ \
+         {:.3} % ({:.0} % of rms_rel){refused}; the reference traces {reference_bounces} (tail ÷ 8)",
         bounces + 1,
-        100.0 * decisive.added.as_ref().expect("added")[worst_t] / steps[bounces as usize].luminance[worst_t],
+        bounces + 2,
+        100.0 * steps[bounces as usize + 1].added[worst_t] / steps[bounces as usize + 2].luminance[worst_t],
+        100.0 * steps[bounces as usize + 2].added[worst_t] / steps[bounces as usize + 2].luminance[worst_t],
         ids[worst_t],
+        test.ratio[worst_t],
         100.0 * worst_tail,
         100.0 * threshold,
         100.0 * BOUNCE_SHARE
@@ -616,6 +686,8 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
         target_materials: targets.iter().map(|&t| scene.materials[t].name.clone()).collect(),
         n_analysis: table,
         bounce_steps: steps,
+        bounce_tests: tests,
+        reference_bounces,
         sample_choice: SampleChoice {
             pilot_samples: n0,
             pilot_relative_se: s0,
@@ -629,7 +701,8 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
 }
 
 /// The converged `spectral` answer to verify against: the `spectral` coding
-/// alone, at least [`REFERENCE_MIN_BOUNCES`] (and the choice + 3) bounces, a
+/// alone, `choice.reference_bounces` bounces (the bounce tail 8× below the
+/// choice's), a
 /// different seed from the choice (independent noise), and a relative SE goal
 /// of a quarter of the choice's, so the reference's own noise adds ≤ 3 % to
 /// the comparison's in quadrature.
@@ -640,7 +713,7 @@ pub fn reference_render(scene: &Scene, choice: &AutoChoice) -> Result<RenderResu
         &RenderSettings {
             codings: vec![Coding::Spectral],
             samples: PILOT_SAMPLES,
-            max_bounces: REFERENCE_MIN_BOUNCES.max(choice.bounces + 3),
+            max_bounces: choice.reference_bounces,
             seed: choice.seed.wrapping_add(1_000_003),
             target_relative_se: Some(goal),
             max_samples: 1 << 24,
@@ -742,7 +815,12 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
                     .any(|q| ok(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1))
         })
         .collect();
-    front.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));
+    front.sort_by(|&a, &b| {
+        points[a]
+            .0
+            .total_cmp(&points[b].0)
+            .then(points[a].1.total_cmp(&points[b].1))
+    });
     front
 }
 
@@ -941,7 +1019,14 @@ mod tests {
         assert_eq!("rms=2%, de=1".parse::<Tolerance>().unwrap(), Tolerance::default());
         assert_eq!("1,2%".parse::<Tolerance>().unwrap(), Tolerance::default());
         assert_eq!("0.5,0.01".parse::<Tolerance>().unwrap().de00, 0.5);
-        for bad in ["", "de00=1", "de00=1,rms=x", "de00=-1,rms=0.02", "de00=1,foo=2", "1,2,3"] {
+        for bad in [
+            "",
+            "de00=1",
+            "de00=1,rms=x",
+            "de00=-1,rms=0.02",
+            "de00=1,foo=2",
+            "1,2,3",
+        ] {
             assert!(bad.parse::<Tolerance>().is_err(), "{bad}");
         }
         let t = Tolerance::default();
@@ -952,7 +1037,14 @@ mod tests {
     fn pareto_front_keeps_the_non_dominated() {
         // (1, 5) and (3, 1) and (2, 2) are the front; (2, 6) is dominated by
         // (1, 5), (4, 1) by (3, 1) (equal error, slower); NaN never counts.
-        let p = [(2.0, 6.0), (3.0, 1.0), (1.0, 5.0), (4.0, 1.0), (2.0, 2.0), (f64::NAN, 0.0)];
+        let p = [
+            (2.0, 6.0),
+            (3.0, 1.0),
+            (1.0, 5.0),
+            (4.0, 1.0),
+            (2.0, 2.0),
+            (f64::NAN, 0.0),
+        ];
         assert_eq!(pareto_front(&p), vec![2, 4, 1]);
         assert!(pareto_front(&[]).is_empty());
         assert_eq!(pareto_front(&[(1.0, 1.0)]), vec![0]);
