@@ -381,55 +381,6 @@ pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
     Ok(svg)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn charts_are_svg_with_their_labels() {
-        let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
-        let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
-        let sd = vec![1e-5; wl.len()];
-        let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
-        assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
-        let xy = chromaticity_chart(
-            "chromaticity",
-            &[XySeries {
-                name: "measured".into(),
-                points: vec![(0.31, 0.33)],
-                line: false,
-            }],
-            false,
-        )
-        .unwrap();
-        assert!(xy.contains("spectral locus") && xy.contains("srgb gamut"));
-        let bars = bar_chart(
-            "rms",
-            "rms_rel",
-            &[Bar {
-                label: "rgb".into(),
-                value: 0.1,
-                sd: Some(0.02),
-            }],
-        )
-        .unwrap();
-        assert!(bars.contains("rgb"));
-        let lines = line_chart(
-            "speed",
-            "s",
-            "dE",
-            &[LineSeriesData {
-                name: "pareto".into(),
-                points: vec![(0.1, 3.0), (1.0, 1.0)],
-                errors: Some(vec![0.1, 0.1]),
-            }],
-            true,
-        )
-        .unwrap();
-        assert!(lines.contains("pareto"));
-    }
-}
-
 /// A named set of points for [`scatter_chart`], joined by a line or not.
 pub struct ScatterSeries {
     pub name: String,
@@ -510,4 +461,73 @@ fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>>(
             .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn charts_are_svg_with_their_labels() {
+        let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+        let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+        let sd = vec![1e-5; wl.len()];
+        let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
+        let xy = chromaticity_chart(
+            "chromaticity",
+            &[XySeries {
+                name: "measured".into(),
+                points: vec![(0.31, 0.33)],
+                line: false,
+            }],
+            false,
+        )
+        .unwrap();
+        assert!(xy.contains("spectral locus") && xy.contains("srgb gamut"));
+        let bars = bar_chart(
+            "rms",
+            "rms_rel",
+            &[Bar {
+                label: "rgb".into(),
+                value: 0.1,
+                sd: Some(0.02),
+            }],
+        )
+        .unwrap();
+        assert!(bars.contains("rgb"));
+        let lines = line_chart(
+            "speed",
+            "s",
+            "dE",
+            &[LineSeriesData {
+                name: "pareto".into(),
+                points: vec![(0.1, 3.0), (1.0, 1.0)],
+                errors: Some(vec![0.1, 0.1]),
+            }],
+            true,
+        )
+        .unwrap();
+        assert!(lines.contains("pareto"));
+    }
+
+    #[test]
+    fn scatter_chart_draws_every_series_name() {
+        let series = [
+            ScatterSeries {
+                name: "candidates".into(),
+                points: vec![(0.1, 2.0), (1.0, 0.5)],
+                connect: false,
+            },
+            ScatterSeries {
+                name: "front".into(),
+                points: vec![(0.1, 2.0), (1.0, 0.5)],
+                connect: true,
+            },
+        ];
+        for log_x in [true, false] {
+            let svg = scatter_chart("t", "s", "e", &series, log_x).unwrap();
+            assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
+        }
+    }
 }
