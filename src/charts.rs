@@ -389,11 +389,32 @@ pub struct ScatterSeries {
     pub connect: bool,
 }
 
-/// Points against x (seconds, cost …), optionally log x: speed/accuracy
-/// charts with their Pareto front. Markers are drawn for every series.
-pub fn scatter_chart(title: &str, x_desc: &str, y_desc: &str, series: &[ScatterSeries], log_x: bool) -> ChartResult {
+/// Points against x (seconds, cost …), each axis linear or logarithmic
+/// (`log: (x, y)`; a log axis needs positive values): speed/accuracy charts
+/// with their Pareto front. Markers are drawn for every series.
+pub fn scatter_chart(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[ScatterSeries],
+    log: (bool, bool),
+) -> ChartResult {
     let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
     let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    // A log axis from the positive values, one decade at least.
+    let positive = |r: (f64, f64), pick: fn(&(f64, f64)) -> f64| {
+        let vals = series
+            .iter()
+            .flat_map(|s| s.points.iter().map(pick))
+            .filter(|v| *v > 0.0);
+        let (lo, hi) = vals.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
+        if lo.is_finite() {
+            (lo / 1.2, (hi * 1.2).max(lo * 10.0))
+        } else {
+            (r.0.max(1e-9), r.1.max(1e-8))
+        }
+    };
+    let (lx, ly) = (positive(xs, |p| p.0), positive(ys, |p| p.1));
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
@@ -404,47 +425,37 @@ pub fn scatter_chart(title: &str, x_desc: &str, y_desc: &str, series: &[ScatterS
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70);
-        if log_x {
-            let lo = xs.0.max(1e-9);
-            let mut chart = builder
-                .build_cartesian_2d((lo..xs.1.max(lo * 10.0)).log_scale(), ys.0..ys.1)
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .draw()
-                .map_err(err)?;
-            draw_scatter(&mut chart, series)?;
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
-        } else {
-            let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .draw()
-                .map_err(err)?;
-            draw_scatter(&mut chart, series)?;
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
+        macro_rules! draw {
+            ($x:expr, $y:expr) => {{
+                let mut chart = builder.build_cartesian_2d($x, $y).map_err(err)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(y_desc)
+                    .draw()
+                    .map_err(err)?;
+                draw_scatter(&mut chart, series)?;
+                chart
+                    .configure_series_labels()
+                    .border_style(BLACK)
+                    .background_style(WHITE.mix(0.8))
+                    .draw()
+                    .map_err(err)?;
+            }};
+        }
+        match log {
+            (true, true) => draw!((lx.0..lx.1).log_scale(), (ly.0..ly.1).log_scale()),
+            (true, false) => draw!((lx.0..lx.1).log_scale(), ys.0..ys.1),
+            (false, true) => draw!(xs.0..xs.1, (ly.0..ly.1).log_scale()),
+            (false, false) => draw!(xs.0..xs.1, ys.0..ys.1),
         }
         root.present().map_err(err)?;
     }
     Ok(svg)
 }
 
-fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
     series: &[ScatterSeries],
 ) -> Result<(), String> {
     for (i, s) in series.iter().enumerate() {
@@ -525,8 +536,8 @@ mod tests {
                 connect: true,
             },
         ];
-        for log_x in [true, false] {
-            let svg = scatter_chart("t", "s", "e", &series, log_x).unwrap();
+        for log in [(true, true), (true, false), (false, true), (false, false)] {
+            let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
             assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
         }
     }

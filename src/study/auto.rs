@@ -1001,9 +1001,9 @@ pub fn speed_accuracy_svg(
     scatter_chart(
         &format!("{scene}: speed and accuracy"),
         "wall time (s)",
-        "error / tolerance",
+        "error / tolerance (log)",
         &series,
-        true,
+        (true, true),
     )
     .map_err(AutoError::Chart)
 }
