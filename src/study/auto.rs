@@ -330,6 +330,10 @@ pub struct AutoChoice {
     pub target_materials: Vec<String>,
     /// Every N = 1…81 with its worst case.
     pub n_analysis: Vec<NCandidate>,
+    /// Per light (id), the study's Fig. 7 curve for the scene's materials:
+    /// mean RMS N-step reconstruction error of the colour signals for
+    /// N = 1…81, relative to N = 1 ([`crate::nstep::nstep_error`]).
+    pub fig7_error: Vec<(String, Vec<f64>)>,
     pub bounce_steps: Vec<BounceStep>,
     /// Each stopping point tested, the last one accepted.
     pub bounce_tests: Vec<BounceTest>,
@@ -492,6 +496,30 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
     Ok((table, targets))
 }
 
+/// The study's Fig. 7 curve per light for all the scene's materials on the
+/// 81-sample analysis grid.
+pub fn fig7_curves(scene: &Scene) -> Result<Vec<(String, Vec<f64>)>, AutoError> {
+    let g81 = Grid::analysis();
+    let refl: Vec<crate::spectrum::Spectrum> = scene
+        .materials
+        .iter()
+        .map(|m| m.reflectance.resample(&g81))
+        .collect::<Result<_, _>>()
+        .map_err(|e| AutoError::Spectra(e.to_string()))?;
+    scene
+        .lights
+        .iter()
+        .map(|l| {
+            let s = l
+                .spectrum_per_cd
+                .resample(&g81)
+                .map_err(|e| AutoError::Spectra(e.to_string()))?;
+            let curve = crate::nstep::nstep_error(&refl, &s).map_err(AutoError::Spectra)?;
+            Ok((l.id.clone(), curve.error))
+        })
+        .collect()
+}
+
 fn luminances(r: &RenderResult) -> Vec<f64> {
     r.targets.iter().map(|t| t.codings[0].1.luminance_cd_m2).collect()
 }
@@ -508,6 +536,12 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
         None => (table.len(), true, Coding::Spectral),
     };
     let at_n = &table[n - 1];
+    let fig7 = fig7_curves(scene)?;
+    let fig7_at_n = fig7
+        .iter()
+        .map(|(light, curve)| format!("{light} {:.4}", curve[n - 1]))
+        .collect::<Vec<_>>()
+        .join(", ");
     let signals = scene.lights.len() * targets.len() * (1 + scene.materials.len());
     reasons.push(if needs_spectral {
         format!(
@@ -546,6 +580,9 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
             SPECTRAL_SHARE * tol.de00,
             100.0 * at_n.worst_rel_y,
             100.0 * SPECTRAL_SHARE * tol.rms_rel
+        ) + &format!(
+            " (the study's Fig. 7 reconstruction error of the scene's reflectances at this N, relative to N = 1: \
+             {fig7_at_n})"
         )
     });
 
@@ -685,6 +722,7 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
         predicted,
         target_materials: targets.iter().map(|&t| scene.materials[t].name.clone()).collect(),
         n_analysis: table,
+        fig7_error: fig7,
         bounce_steps: steps,
         bounce_tests: tests,
         reference_bounces,
