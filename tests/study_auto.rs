@@ -249,3 +249,32 @@ fn the_auto_point_lies_on_the_pareto_front() {
     assert_eq!(pareto_front(&pts), set.front);
     assert!(set.svg.starts_with("<svg") && set.svg.contains("Pareto front") && set.svg.contains("auto"));
 }
+
+/// The variant lives in `scenes/variants/`, so the daemon's scene list
+/// (files `scenes/*.toml`, not subfolders) is still the five booth scenes;
+/// the variant loads, with F11 as both lights' spectrum and nothing else
+/// changed from CYLINDER.
+#[test]
+fn the_f11_variant_loads_and_stays_out_of_the_daemon_list() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut listed: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x == "toml"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    listed.sort();
+    assert_eq!(listed, ["blue", "cylinder", "green", "red", "white"]);
+    let (c, f) = (scene("cylinder.toml"), scene("variants/cylinder_f11.toml"));
+    assert_eq!(c.targets(), f.targets());
+    assert_eq!(c.materials.len(), f.materials.len());
+    assert_eq!(f.lights.len(), 2);
+    // F11's spikes: the 545 nm line is many times its neighbourhood.
+    let s = &f.lights[0].spectrum_per_cd;
+    let at = |nm: f64| s.value_at(nm).unwrap();
+    assert!(at(545.0) > 5.0 * at(525.0), "{} vs {}", at(545.0), at(525.0));
+    assert!(
+        c.lights[0].spectrum_per_cd.value_at(545.0).unwrap()
+            < 2.0 * c.lights[0].spectrum_per_cd.value_at(525.0).unwrap()
+    );
+}
