@@ -51,6 +51,13 @@
 //! the luminance errors of the other two move L* by ≈ 116/3 · δY/Y ≤ 0.2 at
 //! rms_rel = 2 %, which the remaining half of the ΔE00 budget holds.
 //!
+//! Not considered: `rgb` and `srgb` (the choice is among nstepN and
+//! `spectral`; at loose ΔE00 tolerances `rgb` can be as good and as fast),
+//! and the measured cost of channels (the choice minimises N; tracing, not
+//! the channel count, dominates the time, so nstep27 often costs about what
+//! the chosen N does). The worst case over N is not monotone for bands that do
+//! not divide 81 evenly, so the smallest passing N can sit next to failing ones.
+//!
 //! [`verify`] renders the choice and compares it with a converged `spectral`
 //! reference ([`reference_render`]); [`candidate_set`] renders the
 //! alternatives of the study's speed/accuracy chart and marks the
