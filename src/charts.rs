@@ -490,6 +490,99 @@ pub fn grid_chart(
     Ok(svg)
 }
 
+/// A named set of points for [`scatter_chart`], joined by a line or not.
+pub struct ScatterSeries {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// Join the points in order (a front, a threshold) instead of markers only.
+    pub connect: bool,
+}
+
+/// Points against x (seconds, cost …), each axis linear or logarithmic
+/// (`log: (x, y)`; a log axis needs positive values): speed/accuracy charts
+/// with their Pareto front. Markers are drawn for every series.
+pub fn scatter_chart(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[ScatterSeries],
+    log: (bool, bool),
+) -> ChartResult {
+    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+    // A log axis from the positive values, one decade at least.
+    let positive = |r: (f64, f64), pick: fn(&(f64, f64)) -> f64| {
+        let vals = series
+            .iter()
+            .flat_map(|s| s.points.iter().map(pick))
+            .filter(|v| *v > 0.0);
+        let (lo, hi) = vals.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
+        if lo.is_finite() {
+            (lo / 1.2, (hi * 1.2).max(lo * 10.0))
+        } else {
+            (r.0.max(1e-9), r.1.max(1e-8))
+        }
+    };
+    let (lx, ly) = (positive(xs, |p| p.0), positive(ys, |p| p.1));
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70);
+        macro_rules! draw {
+            ($x:expr, $y:expr) => {{
+                let mut chart = builder.build_cartesian_2d($x, $y).map_err(err)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(y_desc)
+                    .draw()
+                    .map_err(err)?;
+                draw_scatter(&mut chart, series)?;
+                chart
+                    .configure_series_labels()
+                    .border_style(BLACK)
+                    .background_style(WHITE.mix(0.8))
+                    .draw()
+                    .map_err(err)?;
+            }};
+        }
+        match log {
+            (true, true) => draw!((lx.0..lx.1).log_scale(), (ly.0..ly.1).log_scale()),
+            (true, false) => draw!((lx.0..lx.1).log_scale(), ys.0..ys.1),
+            (false, true) => draw!(xs.0..xs.1, (ly.0..ly.1).log_scale()),
+            (false, false) => draw!(xs.0..xs.1, ys.0..ys.1),
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    series: &[ScatterSeries],
+) -> Result<(), String> {
+    for (i, s) in series.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        if s.connect {
+            chart
+                .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
+                .map_err(err)?;
+        }
+        chart
+            .draw_series(s.points.iter().map(|p| Circle::new(*p, 4, color.filled())))
+            .map_err(err)?
+            .label(s.name.clone())
+            .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -546,5 +639,25 @@ mod tests {
         .unwrap();
         assert!(grid.starts_with("<svg") && grid.contains("A rgb") && grid.contains("5.0"));
         assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
+    }
+
+    #[test]
+    fn scatter_chart_draws_every_series_name() {
+        let series = [
+            ScatterSeries {
+                name: "candidates".into(),
+                points: vec![(0.1, 2.0), (1.0, 0.5)],
+                connect: false,
+            },
+            ScatterSeries {
+                name: "front".into(),
+                points: vec![(0.1, 2.0), (1.0, 0.5)],
+                connect: true,
+            },
+        ];
+        for log in [(true, true), (true, false), (false, true), (false, false)] {
+            let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
+            assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
+        }
     }
 }

@@ -1,4 +1,5 @@
-//! `lightbooth analyze …`: analyses of spectra alone.
+//! `lightbooth analyze …`: analyses of spectra alone, and the automatic
+//! choice of render settings for a scene (`analyze auto`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,6 +20,29 @@ pub enum AnalyzeCommand {
     /// Where each coding crosses ΔE*ab = 2 and rms_rel = 5 %: ColorChecker × {A, D65, F2, F11}
     /// (exact, direct light) and CYLINDER with its card's reflectance scaled 0.25–1 (rendered per seed).
     FailureMap(FailureMapArgs),
+    /// The cheapest settings (nstepN, bounces, samples) that meet a tolerance against the
+    /// converged spectral answer for this scene, why, and a render that checks it.
+    Auto(AutoArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct AutoArgs {
+    /// The scene file.
+    scene: std::path::PathBuf,
+    /// `de00=1,rms=0.02` (rms also as `2%`), or the short form `1,2%` (ΔE00, rms_rel).
+    #[arg(long, default_value = "de00=1,rms=0.02")]
+    tolerance: String,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Skip the verification render against the converged spectral reference.
+    #[arg(long)]
+    no_verify: bool,
+    /// Also render the speed/accuracy candidates and write the chart (SVG) here.
+    #[arg(long)]
+    svg: Option<std::path::PathBuf>,
+    /// The whole choice (and verification, candidates) as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args, Debug)]
@@ -60,7 +84,105 @@ pub fn run(cmd: AnalyzeCommand) -> anyhow::Result<()> {
     match cmd {
         AnalyzeCommand::NstepError(args) => nstep_error_cmd(args),
         AnalyzeCommand::FailureMap(args) => failure_map_cmd(args),
+        AnalyzeCommand::Auto(args) => auto_cmd(args),
     }
+}
+
+fn auto_cmd(args: AutoArgs) -> anyhow::Result<()> {
+    use lightbooth::study::auto::{candidate_set, choose_settings, reference_render, verify, Tolerance};
+    let tol: Tolerance = args.tolerance.parse()?;
+    let scene = lightbooth::render::load_scene(&args.scene)?;
+    let choice = choose_settings(&scene, &tol, args.seed)?;
+    let reference = if args.no_verify && args.svg.is_none() {
+        None
+    } else {
+        Some(reference_render(&scene, &choice)?)
+    };
+    let verification = match &reference {
+        Some(r) if !args.no_verify => Some(verify(&scene, &choice, r)?),
+        _ => None,
+    };
+    let candidates = match (&args.svg, &reference) {
+        (Some(path), Some(r)) => {
+            let bounces: Vec<u32> = [0, choice.bounces, choice.bounces + 2]
+                .into_iter()
+                .collect::<std::collections::BTreeSet<_>>()
+                .into_iter()
+                .collect();
+            let set = candidate_set(&scene, &choice, r, &bounces, 2)?;
+            std::fs::write(path, &set.svg)?;
+            Some(set)
+        }
+        _ => None,
+    };
+    if args.json {
+        let out = serde_json::json!({
+            "choice": choice,
+            "verification": verification,
+            "candidates": candidates,
+        });
+        println!("{}", serde_json::to_string_pretty(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{}: {} with {} bounces and {} samples per target (tolerance {tol})",
+        choice.scene, choice.coding, choice.bounces, choice.samples
+    );
+    for r in &choice.reasons {
+        println!("  - {r}");
+    }
+    println!(
+        "  predicted: spectral ΔE00 ≤ {:.3}, rms_rel ≤ {:.3} % (spectral {:.3} % + bounces {:.3} % + noise {:.3} %); \
+         choosing took {:.2} s",
+        choice.predicted.spectral_de00,
+        100.0 * choice.predicted.rms_rel_bound,
+        100.0 * choice.predicted.spectral_rel_y,
+        100.0 * choice.predicted.bounce_tail_rel,
+        100.0 * choice.predicted.relative_se,
+        choice.choosing_seconds
+    );
+    if let Some(v) = &verification {
+        println!(
+            "verification against spectral (white: target {}): rms_rel {:.3} %, ΔE00 mean {:.3} max {:.3}, \
+             {:.2} s (reference {:.2} s), noise alone {:.3} % → {}",
+            v.white_target,
+            100.0 * v.rms_rel,
+            v.mean_de00,
+            v.max_de00,
+            v.wall_seconds,
+            v.reference_wall_seconds,
+            100.0 * v.noise_rms_rel,
+            if v.meets {
+                "meets the tolerance"
+            } else {
+                "DOES NOT meet the tolerance"
+            }
+        );
+    }
+    if let (Some(set), Some(path)) = (&candidates, &args.svg) {
+        println!(
+            "{:<22} {:>9} {:>9} {:>8} {:>7}  front",
+            "candidate", "seconds", "rms_rel%", "maxΔE00", "error"
+        );
+        for c in &set.candidates {
+            println!(
+                "{:<22} {:>9.3} {:>9.3} {:>8.3} {:>7.3}  {}",
+                c.label,
+                c.wall_seconds,
+                100.0 * c.rms_rel,
+                c.max_de00,
+                c.error,
+                if c.on_front { "*" } else { "" }
+            );
+        }
+        println!(
+            "auto on the Pareto front (within timing noise {:.3} s and error noise): {}; chart: {}",
+            set.timing_noise_seconds,
+            set.auto_on_front_within_noise,
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 fn nstep_error_cmd(args: NstepErrorArgs) -> anyhow::Result<()> {

@@ -114,7 +114,9 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         };
         if let (Some(store), Some(id)) = (&store, study_id) {
             let files = lightbooth::study::report::report_files(&result)?;
-            store.complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files).await?;
+            store
+                .complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files)
+                .await?;
             eprintln!("study stored as {id}");
         }
         if let Some(dir) = &args.report {

@@ -31,10 +31,10 @@ use crate::comparison::compare_point;
 use crate::render::{self, Coding, RenderSettings, Scene};
 use crate::service::error::ApiError;
 use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
-use crate::study::report::report_files;
-use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{NewComparison, NewRender, Store};
+use crate::study::report::report_files;
+use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
 
 /// A scene found in `scenes/`.
 struct SceneEntry {
@@ -172,7 +172,10 @@ impl Renderer {
         match self.entry(scene) {
             Some(e) => {
                 let (path, target) = cielab_white(&e.path, &e.targets);
-                (path.file_stem().and_then(|s| s.to_str()).unwrap_or(scene).to_string(), target)
+                (
+                    path.file_stem().and_then(|s| s.to_str()).unwrap_or(scene).to_string(),
+                    target,
+                )
             }
             None => (scene.to_string(), String::new()),
         }
@@ -385,7 +388,10 @@ impl Renderer {
                 .map(|id| {
                     self.entry(id).map(|e| e.path.clone()).ok_or_else(|| {
                         let names: Vec<&str> = self.scenes.iter().map(|s| s.id.as_str()).collect();
-                        ApiError::BadRequest(format!("field `scenes`: no scene `{id}`; available: {}", names.join(", ")))
+                        ApiError::BadRequest(format!(
+                            "field `scenes`: no scene `{id}`; available: {}",
+                            names.join(", ")
+                        ))
                     })
                 })
                 .collect::<Result<Vec<_>, _>>()?,
@@ -408,7 +414,9 @@ impl Renderer {
         }
         let failure_map = request.failure_map.unwrap_or(false);
         if failure_map && !paths.iter().any(|p| p.file_stem().is_some_and(|s| s == "cylinder")) {
-            return Err(ApiError::BadRequest("field `failure_map`: the failure maps need the `cylinder` scene".into()));
+            return Err(ApiError::BadRequest(
+                "field `failure_map`: the failure maps need the `cylinder` scene".into(),
+            ));
         }
         let options = StudyOptions {
             codings: self.codings.clone(),
@@ -476,7 +484,10 @@ impl RenderService for Renderer {
                 runtime.block_on(async {
                     let events = this.events.clone();
                     let progress = move |message: &str| {
-                        let _ = events.send(Event::StudyProgress { study_id: id, message: message.to_string() });
+                        let _ = events.send(Event::StudyProgress {
+                            study_id: id,
+                            message: message.to_string(),
+                        });
                     };
                     let outcome = match run_study(&paths, &options, Some(&this.store), &progress).await {
                         Ok(result) => match (report_files(&result), serde_json::to_value(&result)) {
@@ -496,7 +507,11 @@ impl RenderService for Renderer {
                     } else {
                         tracing::info!(study_id = id, "study complete");
                     }
-                    let _ = this.events.send(Event::StudyFinished { study_id: id, ok: outcome.is_ok(), error: outcome.err() });
+                    let _ = this.events.send(Event::StudyFinished {
+                        study_id: id,
+                        ok: outcome.is_ok(),
+                        error: outcome.err(),
+                    });
                 });
             });
             Ok(id)

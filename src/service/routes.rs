@@ -752,15 +752,29 @@ pub async fn start_study(
     State(state): State<AppState>,
     Input(body): Input<StudyRequest>,
 ) -> Result<(StatusCode, Json<StudyAccepted>), ApiError> {
-    let service = state.renders.as_ref().ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
     let id = Arc::clone(service).start_study(body).await?;
-    Ok((StatusCode::ACCEPTED, Json(StudyAccepted { id, url: format!("/api/studies/{id}") })))
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(StudyAccepted {
+            id,
+            url: format!("/api/studies/{id}"),
+        }),
+    ))
 }
 
 #[utoipa::path(get, path = "/api/studies/{id}", tag = "studies", params(("id" = i64, Path)),
     responses((status = 200, body = StudyRow), (status = 404, body = super::error::ErrorBody)))]
 pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<StudyRow>, ApiError> {
-    state.store.get_study(id).await?.map(Json).ok_or_else(|| ApiError::NotFound(format!("no study {id}")))
+    state
+        .store
+        .get_study(id)
+        .await?
+        .map(Json)
+        .ok_or_else(|| ApiError::NotFound(format!("no study {id}")))
 }
 
 /// A file of a study's report: `index.html` (the whole report), a chart

@@ -531,11 +531,12 @@ impl Store {
 
     /// Records a study about to run.
     pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
-        let row = sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'running', ?) RETURNING id")
-            .bind(request.to_string())
-            .bind(now())
-            .fetch_one(&self.pool)
-            .await?;
+        let row =
+            sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'running', ?) RETURNING id")
+                .bind(request.to_string())
+                .bind(now())
+                .fetch_one(&self.pool)
+                .await?;
         Ok(row.get(0))
     }
 
@@ -570,12 +571,14 @@ impl Store {
     }
 
     pub async fn fail_study(&self, id: i64, error: &str) -> Result<(), StoreError> {
-        sqlx::query("UPDATE studies SET state = 'failed', error = ?, finished_at = ? WHERE id = ? AND state = 'running'")
-            .bind(error)
-            .bind(now())
-            .bind(id)
-            .execute(&self.pool)
-            .await?;
+        sqlx::query(
+            "UPDATE studies SET state = 'failed', error = ?, finished_at = ? WHERE id = ? AND state = 'running'",
+        )
+        .bind(error)
+        .bind(now())
+        .bind(id)
+        .execute(&self.pool)
+        .await?;
         Ok(())
     }
 
@@ -591,7 +594,11 @@ impl Store {
 
     /// One study with its result and the names of its report files.
     pub async fn get_study(&self, id: i64) -> Result<Option<StudyRow>, StoreError> {
-        let Some(row) = sqlx::query("SELECT * FROM studies WHERE id = ?").bind(id).fetch_optional(&self.pool).await? else {
+        let Some(row) = sqlx::query("SELECT * FROM studies WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&self.pool)
+            .await?
+        else {
             return Ok(None);
         };
         let mut study = study_from_row(&row, true)?;
@@ -603,11 +610,13 @@ impl Store {
     }
 
     pub async fn study_file(&self, id: i64, name: &str) -> Result<Option<Vec<u8>>, StoreError> {
-        Ok(sqlx::query_scalar("SELECT content FROM study_files WHERE study_id = ? AND name = ?")
-            .bind(id)
-            .bind(name)
-            .fetch_optional(&self.pool)
-            .await?)
+        Ok(
+            sqlx::query_scalar("SELECT content FROM study_files WHERE study_id = ? AND name = ?")
+                .bind(id)
+                .bind(name)
+                .fetch_optional(&self.pool)
+                .await?,
+        )
     }
 
     // --- comparisons ------------------------------------------------------

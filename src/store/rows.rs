@@ -332,8 +332,13 @@ pub struct StudyRow {
 
 pub(super) fn study_from_row(r: &SqliteRow, with_result: bool) -> Result<StudyRow, StoreError> {
     let parse = |text: Option<String>, what: &str| -> Result<Option<serde_json::Value>, StoreError> {
-        text.map(|t| serde_json::from_str(&t).map_err(|e| StoreError::Corrupt { what: what.into(), err: e.to_string() }))
-            .transpose()
+        text.map(|t| {
+            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
+                what: what.into(),
+                err: e.to_string(),
+            })
+        })
+        .transpose()
     };
     Ok(StudyRow {
         id: r.get("id"),
@@ -343,7 +348,11 @@ pub(super) fn study_from_row(r: &SqliteRow, with_result: bool) -> Result<StudyRo
         created_at: r.get("created_at"),
         finished_at: r.get("finished_at"),
         wall_seconds: r.get("wall_seconds"),
-        result: if with_result { parse(r.get("result_json"), "studies.result_json")? } else { None },
+        result: if with_result {
+            parse(r.get("result_json"), "studies.result_json")?
+        } else {
+            None
+        },
         files: Vec::new(),
     })
 }

@@ -7,7 +7,9 @@
 //! - [`report`]: the study's charts and the self-contained HTML/CSV report.
 //! - [`measure`]: measurements of every target with the simulated PR-650.
 //! - [`failure_map`]: where each coding crosses ΔE = 2 and rms_rel = 5 %.
+//! - [`auto`]: the cheapest settings that meet a tolerance, and why.
 
+pub mod auto;
 pub mod failure_map;
 pub mod measure;
 pub mod report;

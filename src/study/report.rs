@@ -307,6 +307,9 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     files.push(("figures.csv".into(), figures_csv.into_bytes()));
     files.push(("profiles.csv".into(), profile_csv.into_bytes()));
     files.push(("sweeps.csv".into(), sweeps_csv.into_bytes()));
-    files.push(("study.json".into(), serde_json::to_vec_pretty(result).map_err(std::io::Error::other)?));
+    files.push((
+        "study.json".into(),
+        serde_json::to_vec_pretty(result).map_err(std::io::Error::other)?,
+    ));
     Ok(files)
 }

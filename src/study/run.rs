@@ -406,9 +406,12 @@ pub async fn run_study(
         });
     }
     let failure_map = if options.failure_map {
-        let cylinder = scenes.iter().find(|p| p.file_stem().is_some_and(|s| s == "cylinder")).ok_or_else(|| {
-            StudyError::Truth("the failure maps need the CYLINDER scene (cylinder.toml) among the scenes".into())
-        })?;
+        let cylinder = scenes
+            .iter()
+            .find(|p| p.file_stem().is_some_and(|s| s == "cylinder"))
+            .ok_or_else(|| {
+                StudyError::Truth("the failure maps need the CYLINDER scene (cylinder.toml) among the scenes".into())
+            })?;
         progress("failure maps");
         let mut settings = FailureMapSettings::cylinder(cylinder);
         settings.codings = options.codings.clone();
@@ -416,7 +419,12 @@ pub async fn run_study(
     } else {
         None
     };
-    Ok(StudyResult { options: options.clone(), scenes: out, failure_map, wall_seconds: start.elapsed().as_secs_f64() })
+    Ok(StudyResult {
+        options: options.clone(),
+        scenes: out,
+        failure_map,
+        wall_seconds: start.elapsed().as_secs_f64(),
+    })
 }
 
 /// The rendered XYZ and SE of Y of `coding` at each truth target.
