@@ -48,6 +48,7 @@ function showView() {
   for (const a of document.querySelectorAll("nav a")) a.classList.toggle("active", a.dataset.view === view);
   if (view === "measurements") loadMeasurements(arg);
   if (view === "scenes") loadScenes(arg);
+  if (view === "study") loadStudies(arg);
 }
 window.addEventListener("hashchange", showView);
 
@@ -100,6 +101,15 @@ function follow() {
   es.addEventListener("comparison_ready", (e) => {
     const d = JSON.parse(e.data);
     if (openScene === d.scene) loadSceneDetail(d.scene);
+  });
+  es.addEventListener("study_progress", (e) => {
+    const d = JSON.parse(e.data);
+    $("study-progress").textContent = `study ${d.study_id}: ${d.message}`;
+  });
+  es.addEventListener("study_finished", (e) => {
+    const d = JSON.parse(e.data);
+    $("study-progress").textContent = `study ${d.study_id}: ${d.ok ? "complete" : "failed: " + d.error}`;
+    if (location.hash.startsWith("#/study")) loadStudies(String(d.study_id));
   });
   es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
 }
@@ -264,7 +274,98 @@ function updateSceneProgress() {
   $("scene-progress").textContent = scenesQueue.length ? `${scenesQueue.length} measurement(s) to go` : "";
 }
 
+// --- study -----------------------------------------------------------------
+
+function fillStudyScenes() {
+  const box = $("study-scenes");
+  for (const s of sceneInfo) {
+    const label = document.createElement("label");
+    label.innerHTML = `<input type="checkbox" value="${s.id}" checked> ${s.id}`;
+    box.appendChild(label);
+  }
+}
+
+$("study-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  notice("");
+  const scenes = [...document.querySelectorAll("#study-scenes input:checked")].map((i) => i.value);
+  const body = {
+    scenes: scenes.join(","),
+    against: $("study-against").value,
+    seeds: Number($("study-seeds").value),
+    sweeps: $("study-sweeps").checked,
+    failure_map: $("study-failure").checked,
+  };
+  if ($("study-auto").value.trim()) body.auto = $("study-auto").value.trim();
+  try {
+    const r = await api("/api/studies", { method: "POST", body: JSON.stringify(body) });
+    $("study-progress").textContent = `study ${r.id}: started`;
+    loadStudies();
+  } catch (e) {
+    notice(e.message);
+  }
+});
+
+async function loadStudies(openId) {
+  const list = await api("/api/studies");
+  const tbody = document.querySelector("#study-table tbody");
+  tbody.innerHTML = "";
+  for (const st of list) {
+    const tr = tbody.insertRow();
+    for (const v of [st.id, st.state + (st.error ? ": " + st.error : ""), new Date(st.created_at * 1000).toLocaleString(),
+      fmt(st.wall_seconds, 3), JSON.stringify(st.request)]) tr.insertCell().textContent = v;
+    tr.addEventListener("click", () => (location.hash = `#/study/${st.id}`));
+  }
+  if (openId) showStudy(openId);
+}
+
+async function showStudy(id) {
+  const st = await api(`/api/studies/${id}`);
+  $("study-detail").hidden = false;
+  $("study-title").textContent = `Study ${st.id}: ${st.state}`;
+  $("study-report").href = `/api/studies/${id}/files/index.html`;
+  $("study-figures").href = `/api/studies/${id}/files/figures.csv`;
+  const summary = $("study-summary");
+  summary.innerHTML = "";
+  for (const s of st.result ? st.result.scenes : []) {
+    const h = document.createElement("h4");
+    h.textContent = `${s.title}: CIELAB white ${s.white_source}`;
+    summary.appendChild(h);
+    const t = document.createElement("table");
+    t.className = "study-scene";
+    t.innerHTML = "<thead><tr><th>coding</th><th>rms_rel ± SD (seeds)</th><th>mean ΔE*ab ± SD (seeds)</th><th>SD over targets</th><th>mean ΔE00</th><th>beyond noise</th></tr></thead>";
+    const body = t.createTBody();
+    for (const c of s.codings) {
+      const tr = body.insertRow();
+      for (const v of [c.coding, `${fmt(c.rms_rel.mean)} ± ${fmt(c.rms_rel.sd, 2)}`,
+        `${fmt(c.mean_dE76.mean)} ± ${fmt(c.mean_dE76.sd, 2)}`, fmt(c.sd_dE76_over_targets),
+        fmt(c.mean_dE00.mean), `${c.significant_targets} of ${s.targets.length}`]) tr.insertCell().textContent = v;
+    }
+    summary.appendChild(t);
+    if (s.auto) {
+      const p = document.createElement("p");
+      const c = s.auto.choice, v = s.auto.verification;
+      p.textContent = `Automatic: ${c.coding}, ${c.bounces} bounces, ${c.samples} paths per target — rms_rel ${fmt(v.rms_rel)}, ` +
+        `mean ΔE00 ${fmt(v.mean_de00)} (${v.meets ? "meets" : "misses"} the tolerance). ` + c.reasons.join(" ");
+      summary.appendChild(p);
+    }
+  }
+  const charts = $("study-charts");
+  charts.innerHTML = "";
+  for (const f of st.files.filter((f) => f.endsWith(".svg"))) {
+    const fig = document.createElement("figure");
+    const img = document.createElement("img");
+    img.alt = f;
+    img.src = `/api/studies/${id}/files/${f}`;
+    fig.appendChild(img);
+    charts.appendChild(fig);
+  }
+}
+
 // --- start -----------------------------------------------------------------
 
 follow();
-loadSceneChoices().then(showView);
+loadSceneChoices().then(() => {
+  fillStudyScenes();
+  showView();
+});

@@ -39,6 +39,9 @@ pub struct StudyArgs {
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     #[arg(long)]
     sweeps: bool,
+    /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
+    #[arg(long)]
+    auto: Option<lightbooth::study::auto::Tolerance>,
     /// Also compute the failure maps (illuminant × patch; CYLINDER interreflection).
     #[arg(long)]
     failure_map: bool,
@@ -77,6 +80,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         },
         sweeps: args.sweeps,
         failure_map: args.failure_map,
+        auto: args.auto,
         ..StudyOptions::default()
     };
     anyhow::ensure!(options.seeds >= 1, "--seeds must be at least 1");

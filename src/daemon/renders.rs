@@ -418,7 +418,15 @@ impl Renderer {
                 "field `failure_map`: the failure maps need the `cylinder` scene".into(),
             ));
         }
+        let auto = request
+            .auto
+            .as_deref()
+            .filter(|t| !t.trim().is_empty())
+            .map(|t| t.parse::<crate::study::auto::Tolerance>())
+            .transpose()
+            .map_err(|e| ApiError::BadRequest(format!("field `auto`: {e}")))?;
         let options = StudyOptions {
+            auto,
             codings: self.codings.clone(),
             seeds,
             against,

@@ -132,6 +132,8 @@ pub struct StudyRequest {
     pub sweeps: Option<bool>,
     /// Also compute the failure maps.
     pub failure_map: Option<bool>,
+    /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
+    pub auto: Option<String>,
 }
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).

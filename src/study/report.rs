@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::run::{SceneStudy, StudyResult, SweepPoint};
-use crate::charts::{self, Bar, LineSeriesData, XySeries};
+use crate::charts::{self, Bar, LineSeriesData, ScatterSeries, XySeries};
 
 /// Luminance along the targets per coding (mean over seeds ± 1 SD over
 /// seeds) and the truth (± its SE).
@@ -93,64 +93,36 @@ pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
 pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
     let mut series = Vec::new();
     for sweep in ["coding", "samples", "bounces", "n"] {
-        let mut pts: Vec<(f64, f64)> = s
-            .sweeps
-            .iter()
-            .filter(|p| p.sweep == sweep)
-            .map(|p| (p.wall_seconds, p.mean_dE00))
-            .collect();
-        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        if !pts.is_empty() {
-            series.push(LineSeriesData {
-                name: format!("sweep: {sweep}"),
-                points: pts,
-                errors: None,
-            });
+        let points: Vec<(f64, f64)> =
+            s.sweeps.iter().filter(|p| p.sweep == sweep).map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect();
+        if !points.is_empty() {
+            series.push(ScatterSeries { name: format!("sweep: {sweep}"), points, connect: false });
         }
     }
     let front = pareto_front(&s.sweeps);
-    series.push(LineSeriesData {
+    series.push(ScatterSeries {
         name: "Pareto front".into(),
-        points: front
-            .iter()
-            .map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00))
-            .collect(),
-        errors: None,
+        points: front.iter().map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00.max(1e-4))).collect(),
+        connect: true,
     });
-    let choices: Vec<(f64, f64)> = s
-        .sweeps
-        .iter()
-        .filter(|p| p.study_choice)
-        .map(|p| (p.wall_seconds, p.mean_dE00))
-        .collect();
-    series.push(LineSeriesData {
-        name: "the study's choices".into(),
-        points: choices,
-        errors: None,
+    series.push(ScatterSeries {
+        name: "the study's choices (RGB, sRGB, N = 3/9/27/81, 5 bounces)".into(),
+        points: s.sweeps.iter().filter(|p| p.study_choice).map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect(),
+        connect: false,
     });
-    charts::line_chart(
+    charts::scatter_chart(
         &format!("{}: speed against accuracy", s.title),
         "render time (s)",
-        "mean ΔE00",
+        "mean ΔE00 (floor 1e-4)",
         &series,
-        true,
+        (true, true),
     )
 }
 
 /// Indices of the sweep points no other point beats in both time and error,
-/// sorted by time.
+/// fastest first.
 pub fn pareto_front(points: &[SweepPoint]) -> Vec<usize> {
-    let mut idx: Vec<usize> = (0..points.len()).collect();
-    idx.sort_by(|&a, &b| points[a].wall_seconds.total_cmp(&points[b].wall_seconds));
-    let mut front = Vec::new();
-    let mut best = f64::INFINITY;
-    for i in idx {
-        if points[i].mean_dE00 < best {
-            best = points[i].mean_dE00;
-            front.push(i);
-        }
-    }
-    front
+    super::auto::pareto_front(&points.iter().map(|p| (p.wall_seconds, p.mean_dE00)).collect::<Vec<_>>())
 }
 
 /// Writes the report's files (see [`report_files`]) into `dir`.
@@ -255,6 +227,31 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             ("rms", rms_chart(s)),
             ("de", delta_e_chart(s)),
         ];
+        if let Some(auto) = &s.auto {
+            let c = &auto.choice;
+            let v = &auto.verification;
+            let _ = write!(
+                html,
+                "<h3>Automatic settings</h3><p>{} with {} bounces and {} paths per target; verified against the \
+                 converged spectral answer: rms_rel {:.4}, mean ΔE00 {:.3} (max {:.3}), {:.2} s — {}. On the Pareto \
+                 front of the alternatives (within timing noise): {}.</p><ul>{}</ul>",
+                c.coding,
+                c.bounces,
+                c.samples,
+                v.rms_rel,
+                v.mean_de00,
+                v.max_de00,
+                v.wall_seconds,
+                if v.meets {
+                    "meets the tolerance"
+                } else {
+                    "does NOT meet the tolerance"
+                },
+                auto.candidates.auto_on_front_within_noise,
+                c.reasons.iter().map(|r| format!("<li>{r}</li>")).collect::<String>()
+            );
+            charts.push(("auto", Ok(auto.svg.clone())));
+        }
         if !s.sweeps.is_empty() {
             charts.push(("speed", speed_chart(s)));
             let front = pareto_front(&s.sweeps);

@@ -32,6 +32,9 @@ use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::Store;
 
+use super::auto::{
+    candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
+};
 use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
 
 /// Relative standard error of Y of the reference rendering.
@@ -66,6 +69,10 @@ pub struct StudyOptions {
     pub sweep_samples: u64,
     /// Also compute the failure maps (needs the CYLINDER among the scenes).
     pub failure_map: bool,
+    /// Also choose, per scene, the cheapest settings that meet this tolerance
+    /// against the converged spectral answer, verify them, and place them
+    /// among the alternatives on the speed-against-accuracy chart.
+    pub auto: Option<Tolerance>,
 }
 
 impl Default for StudyOptions {
@@ -80,6 +87,7 @@ impl Default for StudyOptions {
             sweeps: false,
             sweep_samples: 4096,
             failure_map: false,
+            auto: None,
         }
     }
 }
@@ -194,6 +202,20 @@ pub struct SceneStudy {
     /// Wall time of all seeds' renders of this scene.
     pub render_seconds: f64,
     pub sweeps: Vec<SweepPoint>,
+    /// The automatic choice for this scene (with `auto`).
+    pub auto: Option<AutoStudy>,
+}
+
+/// The automatic choice for a scene, its check against the converged
+/// spectral reference, and the alternatives it is charted among.
+#[derive(Clone, Debug, Serialize)]
+pub struct AutoStudy {
+    pub choice: AutoChoice,
+    pub verification: Verification,
+    pub candidates: CandidateSet,
+    /// The speed-against-accuracy chart with the Pareto front and the choice.
+    #[serde(skip)]
+    pub svg: String,
 }
 
 /// A whole study run.
@@ -393,6 +415,13 @@ pub async fn run_study(
         } else {
             Vec::new()
         };
+        let auto = match &options.auto {
+            Some(tol) => {
+                progress(&format!("{scene_id}: automatic settings for {tol}"));
+                Some(auto_study(&scene, tol)?)
+            }
+            None => None,
+        };
         out.push(SceneStudy {
             scene: scene_id,
             title: scene.name.clone(),
@@ -403,6 +432,7 @@ pub async fn run_study(
             codings,
             render_seconds,
             sweeps,
+            auto,
         });
     }
     let failure_map = if options.failure_map {
@@ -424,6 +454,22 @@ pub async fn run_study(
         scenes: out,
         failure_map,
         wall_seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Chooses, verifies and charts the automatic settings of one scene.
+fn auto_study(scene: &Scene, tol: &Tolerance) -> Result<AutoStudy, StudyError> {
+    let err = |e: super::auto::AutoError| StudyError::Truth(format!("automatic settings: {e}"));
+    let choice = choose_settings(scene, tol, 1).map_err(err)?;
+    let reference = reference_render(scene, &choice).map_err(err)?;
+    let verification = verify(scene, &choice, &reference).map_err(err)?;
+    let candidates = candidate_set(scene, &choice, &reference, &[choice.bounces], 2).map_err(err)?;
+    let svg = candidates.svg.clone();
+    Ok(AutoStudy {
+        choice,
+        verification,
+        candidates,
+        svg,
     })
 }
 

@@ -72,6 +72,23 @@ try {
   const codings = await page.$$eval("#coding-table tbody tr td:first-child", (tds) => tds.map((t) => t.textContent));
   if (codings.join(",") !== "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral") failures.push("codings: " + codings);
   if (shots) await page.screenshot({ path: `${shots}/scene.png`, fullPage: true });
+
+  // A study of the WHITE scene against the measurement just taken, with sweeps.
+  await page.goto(`${base}/#/study`);
+  await page.waitForSelector("#study-scenes input[value=white]");
+  for (const box of await page.$$("#study-scenes input")) {
+    if ((await box.getAttribute("value")) !== "white") await box.uncheck();
+  }
+  await page.fill("#study-seeds", "2");
+  await page.click("#study-button");
+  await page.waitForFunction(() => /complete|failed/.test(document.getElementById("study-progress").textContent), null, { timeout: 180000 });
+  const progressText = await page.textContent("#study-progress");
+  if (!progressText.includes("complete")) failures.push("study: " + progressText);
+  await page.waitForSelector("#study-table tbody tr");
+  await page.click("#study-table tbody tr");
+  await page.waitForFunction(() => document.querySelectorAll("#study-charts img").length >= 5, null, { timeout: 30000 });
+  await page.waitForFunction(() => [...document.querySelectorAll("#study-charts img")].every((i) => i.complete && i.naturalWidth > 0), null, { timeout: 30000 });
+  if (shots) await page.screenshot({ path: `${shots}/study.png`, fullPage: true });
 } catch (e) {
   failures.push(String(e));
 } finally {
