@@ -5,81 +5,10 @@
 
 mod common;
 
-use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::time::Duration;
 
-use common::{events, get_json, poll_until, post_json, wait_for};
-use lightbooth::daemon::{self, DaemonOptions};
-use lightbooth::instrument::Pr650Settings;
+use common::{events, get_json, poll_until, post_json, wait_for, Daemon, TOKEN};
 use serde_json::Value;
-
-const TOKEN: &str = "e2e-token-0123456789abcdef";
-
-struct Daemon {
-    addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: tokio::task::JoinHandle<anyhow::Result<()>>,
-    _dir: tempfile::TempDir,
-}
-
-impl Daemon {
-    async fn start(mock_speed: f64) -> Daemon {
-        let dir = tempfile::tempdir().unwrap();
-        let token_file = dir.path().join("token");
-        std::fs::write(&token_file, TOKEN).unwrap();
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let addr = listener.local_addr().unwrap();
-        let settings = Pr650Settings {
-            // Short timeouts: a fault must end a measurement quickly, never hang.
-            command_timeout_ms: 2_000,
-            measure_timeout_ms: 5_000,
-            gap_timeout_ms: 500,
-            ..Pr650Settings::default()
-        };
-        let options = DaemonOptions {
-            bind: addr,
-            db_url: format!("sqlite://{}", dir.path().join("lab.sqlite").display()),
-            mock: true,
-            mock_speed,
-            mock_faults: Vec::new(),
-            instrument: settings,
-            scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
-            // Shared across tests: converged spectra are keyed by scene content.
-            cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
-            token_file: Some(token_file),
-            default_token_file: dir.path().join("unused-token"),
-            codings: ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
-                .map(String::from)
-                .to_vec(),
-            render_samples: 2048,
-        };
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let task = tokio::spawn(daemon::run(listener, options, async move {
-            let _ = stopped.await;
-        }));
-        // Wait until the instrument is up.
-        poll_until(addr, "/api/health", Duration::from_secs(20), |v| {
-            v["instrument"]["state"] == "idle"
-        })
-        .await;
-        Daemon {
-            addr,
-            stop: Some(stop),
-            task,
-            _dir: dir,
-        }
-    }
-
-    async fn stop(mut self) {
-        let _ = self.stop.take().unwrap().send(());
-        tokio::time::timeout(Duration::from_secs(30), self.task)
-            .await
-            .expect("shutdown in time")
-            .unwrap()
-            .unwrap();
-    }
-}
 
 fn is_final(v: &Value) -> bool {
     !matches!(v["state"].as_str(), Some("queued") | Some("running") | None)
@@ -285,16 +214,8 @@ async fn shutdown_interrupts_the_running_measurement_and_the_queue() {
         name == "sample" && v["measurement_id"] == id
     })
     .await;
-    let addr = d.addr;
-    let db = d._dir.path().join("lab.sqlite");
-    // Keep the folder alive past stop() to read the database afterwards.
-    let Daemon { stop, task, _dir, .. } = d;
-    let _ = stop.unwrap().send(());
-    tokio::time::timeout(Duration::from_secs(30), task)
-        .await
-        .expect("shutdown in time")
-        .unwrap()
-        .unwrap();
+    let dir = d.stop_keeping_files().await;
+    let db = dir.path().join("lab.sqlite");
     let store = lightbooth::store::Store::open(&format!("sqlite://{}", db.display()))
         .await
         .unwrap();
@@ -307,5 +228,4 @@ async fn shutdown_interrupts_the_running_measurement_and_the_queue() {
         .unwrap()
         .unwrap();
     assert_eq!(q.summary.state, lightbooth::store::MeasurementState::Interrupted);
-    let _ = addr;
 }

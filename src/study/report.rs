@@ -93,21 +93,37 @@ pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
 pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
     let mut series = Vec::new();
     for sweep in ["coding", "samples", "bounces", "n"] {
-        let points: Vec<(f64, f64)> =
-            s.sweeps.iter().filter(|p| p.sweep == sweep).map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect();
+        let points: Vec<(f64, f64)> = s
+            .sweeps
+            .iter()
+            .filter(|p| p.sweep == sweep)
+            .map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4)))
+            .collect();
         if !points.is_empty() {
-            series.push(ScatterSeries { name: format!("sweep: {sweep}"), points, connect: false });
+            series.push(ScatterSeries {
+                name: format!("sweep: {sweep}"),
+                points,
+                connect: false,
+            });
         }
     }
     let front = pareto_front(&s.sweeps);
     series.push(ScatterSeries {
         name: "Pareto front".into(),
-        points: front.iter().map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00.max(1e-4))).collect(),
+        points: front
+            .iter()
+            .map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00.max(1e-4)))
+            .collect(),
         connect: true,
     });
     series.push(ScatterSeries {
         name: "the study's choices (RGB, sRGB, N = 3/9/27/81, 5 bounces)".into(),
-        points: s.sweeps.iter().filter(|p| p.study_choice).map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect(),
+        points: s
+            .sweeps
+            .iter()
+            .filter(|p| p.study_choice)
+            .map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4)))
+            .collect(),
         connect: false,
     });
     charts::scatter_chart(

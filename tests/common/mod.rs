@@ -4,8 +4,11 @@
 #![allow(dead_code)]
 
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::time::Duration;
 
+use lightbooth::daemon::{self, DaemonOptions};
+use lightbooth::instrument::Pr650Settings;
 use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, AsyncReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
@@ -128,5 +131,89 @@ pub async fn poll_until(addr: SocketAddr, path: &str, limit: Duration, mut pred:
             "{path} never reached the expected state: {v}"
         );
         tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+/// The write token of [`Daemon`].
+pub const TOKEN: &str = "test-token-0123456789abcdef";
+
+/// A whole daemon in-process on loopback with the simulated PR-650, a
+/// fresh SQLite file and the write token [`TOKEN`].
+pub struct Daemon {
+    pub addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<anyhow::Result<()>>,
+    pub dir: tempfile::TempDir,
+}
+
+impl Daemon {
+    /// Starts it; returns once the instrument is idle.
+    pub async fn start(mock_speed: f64) -> Daemon {
+        let dir = tempfile::tempdir().unwrap();
+        let token_file = dir.path().join("token");
+        std::fs::write(&token_file, TOKEN).unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let settings = Pr650Settings {
+            // Short timeouts: a fault must end a measurement quickly, never hang.
+            command_timeout_ms: 2_000,
+            measure_timeout_ms: 5_000,
+            gap_timeout_ms: 500,
+            ..Pr650Settings::default()
+        };
+        let options = DaemonOptions {
+            bind: addr,
+            db_url: format!("sqlite://{}", dir.path().join("lab.sqlite").display()),
+            mock: true,
+            mock_speed,
+            mock_faults: Vec::new(),
+            instrument: settings,
+            scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
+            // Shared across tests: converged spectra are keyed by scene content.
+            cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
+            token_file: Some(token_file),
+            default_token_file: dir.path().join("unused-token"),
+            codings: ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
+                .map(String::from)
+                .to_vec(),
+            render_samples: 2048,
+        };
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        let task = tokio::spawn(daemon::run(listener, options, async move {
+            let _ = stopped.await;
+        }));
+        // Wait until the instrument is up.
+        poll_until(addr, "/api/health", Duration::from_secs(20), |v| {
+            v["instrument"]["state"] == "idle"
+        })
+        .await;
+        Daemon {
+            addr,
+            stop: Some(stop),
+            task,
+            dir,
+        }
+    }
+
+    /// Stops it gracefully (bounded) and hands back its folder (database
+    /// included) for inspection.
+    pub async fn stop_keeping_files(mut self) -> tempfile::TempDir {
+        let _ = self.stop.take().unwrap().send(());
+        tokio::time::timeout(Duration::from_secs(30), &mut self.task)
+            .await
+            .expect("shutdown in time")
+            .unwrap()
+            .unwrap();
+        self.dir
+    }
+
+    /// Stops it gracefully (bounded).
+    pub async fn stop(mut self) {
+        let _ = self.stop.take().unwrap().send(());
+        tokio::time::timeout(Duration::from_secs(30), self.task)
+            .await
+            .expect("shutdown in time")
+            .unwrap()
+            .unwrap();
     }
 }
