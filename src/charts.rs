@@ -35,6 +35,13 @@ fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("chart drawing failed: {e:?}")
 }
 
+/// The series legend every chart draws, in one style.
+fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), String> {
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).draw().map_err(err)
+}
+
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
@@ -122,12 +129,7 @@ pub fn spectrum_chart(
                 .label("mean")
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(2)));
         }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
@@ -211,12 +213,7 @@ pub fn chromaticity_chart(title: &str, series: &[XySeries], zoom: bool) -> Chart
                 .label(s.name.clone())
                 .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
         }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .draw()
-            .map_err(err)?;
+        draw_legend(&mut chart)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
@@ -261,12 +258,7 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .draw()
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
+            draw_legend(&mut chart)?;
         } else {
             let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
             chart
@@ -276,12 +268,7 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .draw()
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
-            chart
-                .configure_series_labels()
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
+            draw_legend(&mut chart)?;
         }
         root.present().map_err(err)?;
     }
@@ -544,12 +531,7 @@ pub fn scatter_chart(
                     .draw()
                     .map_err(err)?;
                 draw_scatter(&mut chart, series)?;
-                chart
-                    .configure_series_labels()
-                    .border_style(BLACK)
-                    .background_style(WHITE.mix(0.8))
-                    .draw()
-                    .map_err(err)?;
+                draw_legend(&mut chart)?;
             }};
         }
         match log {
