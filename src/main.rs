@@ -9,16 +9,18 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    let args = cli::Cli::parse();
     // Logs go to stderr, so `--json` output on stdout stays machine-readable.
-    // `LIGHTBOOTH_LOG=debug` (or any tracing filter) turns up the detail.
+    // The daemon logs every instrument command, state change and job (info);
+    // one-shot commands only warnings. `LIGHTBOOTH_LOG=debug` (or any tracing
+    // filter) overrides both.
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("LIGHTBOOTH_LOG")
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if args.is_daemon() { "info" } else { "warn" })),
         )
         .init();
-    let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

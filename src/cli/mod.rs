@@ -42,6 +42,13 @@ enum Command {
     Study(study::StudyArgs),
 }
 
+impl Cli {
+    /// True for `serve`, whose logs are the lab's record of a run.
+    pub fn is_daemon(&self) -> bool {
+        matches!(self.command, Command::Serve(_))
+    }
+}
+
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Color(args) => color::run(args),
