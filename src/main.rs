@@ -8,6 +8,10 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+/// The daemon's default log filter: state changes and jobs at info, and every
+/// command sent to the instrument and its reply (the driver logs those at debug).
+const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug";
+
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
     // Logs go to stderr, so `--json` output on stdout stays machine-readable.
@@ -17,8 +21,9 @@ fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_env("LIGHTBOOTH_LOG")
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(if args.is_daemon() { "info" } else { "warn" })),
+            tracing_subscriber::EnvFilter::try_from_env("LIGHTBOOTH_LOG").unwrap_or_else(|_| {
+                tracing_subscriber::EnvFilter::new(if args.is_daemon() { DAEMON_LOG } else { "warn" })
+            }),
         )
         .init();
     match cli::run(args) {
