@@ -163,7 +163,7 @@ pub struct RenderRequest {
 
 /// The whole HTTP application.
 pub fn app(state: AppState) -> Router {
-    let api = routes::api_router(state.clone())
+    let api = routes::api_router()
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth::require_token))
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES));
     Router::new().nest("/api", api).merge(web::router()).with_state(state)

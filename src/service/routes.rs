@@ -23,8 +23,7 @@ use crate::store::{
     NewMeasurement, RenderRow, SessionRow, StudyRow,
 };
 
-pub fn api_router(state: AppState) -> Router<AppState> {
-    let _ = state;
+pub fn api_router() -> Router<AppState> {
     Router::new()
         .route("/health", get(health))
         .route("/openapi.json", get(super::openapi::document))
