@@ -140,17 +140,11 @@ pub fn spectrum_chart(
     Ok(svg)
 }
 
-/// One named series of chromaticities (a coding's results, or the measurement).
-pub struct XySeries {
-    pub name: String,
-    pub points: Vec<(f64, f64)>,
-    /// Join the points with a line (profiles along the cylinder).
-    pub line: bool,
-}
-
 /// The CIE 1931 x,y diagram with the spectral locus and the two display
 /// gamuts, and each series. The view is zoomed to the data when `zoom`.
-pub fn chromaticity_chart(title: &str, series: &[XySeries], zoom: bool) -> ChartResult {
+/// Series are [`ScatterSeries`]: a coding's results, or the measurement;
+/// `connect` joins a profile's points (the cylinder's heights).
+pub fn chromaticity_chart(title: &str, series: &[ScatterSeries], zoom: bool) -> ChartResult {
     let cmf = Cmf::of(Observer::Cie1931);
     let locus: Vec<(f64, f64)> = Grid::uniform(380.0, 5.0, 65)
         .wavelengths()
@@ -205,19 +199,7 @@ pub fn chromaticity_chart(title: &str, series: &[XySeries], zoom: bool) -> Chart
                 .label(format!("{} gamut", space.name))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
         }
-        for (i, s) in series.iter().enumerate() {
-            let color = PALETTE[i % PALETTE.len()];
-            if s.line {
-                chart
-                    .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(1)))
-                    .map_err(err)?;
-            }
-            chart
-                .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, color.filled())))
-                .map_err(err)?
-                .label(s.name.clone())
-                .legend(move |(x, y)| Circle::new((x + 8, y), 3, color.filled()));
-        }
+        draw_scatter(&mut chart, series)?;
         draw_legend(&mut chart)?;
         root.present().map_err(err)?;
     }
@@ -583,10 +565,10 @@ mod tests {
         assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
         let xy = chromaticity_chart(
             "chromaticity",
-            &[XySeries {
+            &[ScatterSeries {
                 name: "measured".into(),
                 points: vec![(0.31, 0.33)],
-                line: false,
+                connect: false,
             }],
             false,
         )

@@ -3,7 +3,7 @@
 
 use super::routes::{coding_order, SceneComparison};
 use super::{AppState, SceneInfo};
-use crate::charts::{self, Bar, LineSeriesData, XySeries};
+use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 use crate::colorimetry::Xyz;
 
 /// Targets in the scene's own order (the cylinder's 21 heights bottom to top).
@@ -28,10 +28,10 @@ pub fn chromaticity(c: &SceneComparison, info: &SceneInfo) -> Result<String, Str
         }
     }
     measured.sort_by_key(|(i, _)| *i);
-    series.push(XySeries {
+    series.push(ScatterSeries {
         name: "measured".into(),
         points: measured.into_iter().map(|(_, p)| p).collect(),
-        line: profile,
+        connect: profile,
     });
     for coding in codings(c) {
         let points = rows
@@ -42,10 +42,10 @@ pub fn chromaticity(c: &SceneComparison, info: &SceneInfo) -> Result<String, Str
                 (xy.x, xy.y)
             })
             .collect();
-        series.push(XySeries {
+        series.push(ScatterSeries {
             name: coding,
             points,
-            line: profile,
+            connect: profile,
         });
     }
     charts::chromaticity_chart(&format!("{}: chromaticity (CIE 1931)", c.scene), &series, true)

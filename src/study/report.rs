@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::run::{SceneStudy, StudyResult, SweepPoint};
-use crate::charts::{self, Bar, LineSeriesData, ScatterSeries, XySeries};
+use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 
 /// Luminance along the targets per coding (mean over seeds ± 1 SD over
 /// seeds) and the truth (± its SE).
@@ -45,16 +45,16 @@ pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
 /// Chromaticities of the truth and of every coding (profiles as lines).
 pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
     let line = s.targets.len() > 1;
-    let mut series = vec![XySeries {
+    let mut series = vec![ScatterSeries {
         name: "truth".into(),
         points: s.truth.iter().map(|t| (t.x, t.y)).collect(),
-        line,
+        connect: line,
     }];
     for c in &s.codings {
-        series.push(XySeries {
+        series.push(ScatterSeries {
             name: c.coding.clone(),
             points: c.profile.iter().map(|p| (p.x.mean, p.y.mean)).collect(),
-            line,
+            connect: line,
         });
     }
     charts::chromaticity_chart(&format!("{}: chromaticity (CIE 1931)", s.title), &series, true)
