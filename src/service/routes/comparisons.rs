@@ -1,0 +1,215 @@
+//! `/api/scenes/{scene}/comparisons[.csv|.mat]` and the scene's charts:
+//! every coding against the measurements, summarised per coding.
+
+use axum::extract::{Path, State};
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::Serialize;
+use utoipa::ToSchema;
+
+use super::{download, find_scene};
+use crate::comparison::{mean_sd, SceneSummary};
+use crate::export::mat::MatFile;
+use crate::service::error::ApiError;
+use crate::service::AppState;
+use crate::store::ComparisonRow;
+
+/// A coding's figures of merit over a scene's targets.
+#[allow(non_snake_case)]
+#[derive(Serialize, ToSchema)]
+pub struct CodingSummary {
+    pub coding: String,
+    #[serde(flatten)]
+    #[schema(inline)]
+    pub summary: SceneSummaryDto,
+    /// Mean Y ratio rendered/measured.
+    pub mean_Y_ratio: f64,
+}
+
+/// [`SceneSummary`] as the API gives it (MATLAB-friendly field names).
+#[allow(non_snake_case)]
+#[derive(Serialize, ToSchema)]
+pub struct SceneSummaryDto {
+    pub points: usize,
+    pub rms_rel: f64,
+    pub mean_dE76: f64,
+    pub sd_dE76: Option<f64>,
+    pub mean_dE00: f64,
+    pub sd_dE00: Option<f64>,
+}
+
+impl From<SceneSummary> for SceneSummaryDto {
+    fn from(s: SceneSummary) -> Self {
+        SceneSummaryDto {
+            points: s.points,
+            rms_rel: s.rms_rel,
+            mean_dE76: s.mean_de76,
+            sd_dE76: s.sd_de76,
+            mean_dE00: s.mean_de00,
+            sd_dE00: s.sd_de00,
+        }
+    }
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct SceneComparison {
+    pub scene: String,
+    /// One row per coding: rms_rel and mean ± SD of ΔE over the scene's targets.
+    pub codings: Vec<CodingSummary>,
+    /// The newest comparison of every (target, coding).
+    pub rows: Vec<ComparisonRow>,
+}
+
+async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparison, ApiError> {
+    find_scene(state, scene)?;
+    let rows = state.store.latest_comparisons(scene).await?;
+    let mut codings: Vec<String> = rows.iter().map(|r| r.coding.clone()).collect();
+    codings.sort_by_key(|c| coding_order(c));
+    codings.dedup();
+    let summaries = codings
+        .into_iter()
+        .map(|coding| {
+            let points: Vec<crate::comparison::PointDifference> = rows
+                .iter()
+                .filter(|r| r.coding == coding)
+                .map(|r| crate::comparison::PointDifference {
+                    measured: crate::colorimetry::Xyz::new(r.measured_X, r.measured_Y, r.measured_Z),
+                    rendered: crate::colorimetry::Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z),
+                    y_ratio: r.Y_ratio,
+                    xy_distance: r.xy_distance,
+                    de76: r.dE76,
+                    de00: r.dE00,
+                })
+                .collect();
+            let (mean_ratio, _) = mean_sd(points.iter().map(|p| p.y_ratio));
+            CodingSummary {
+                coding,
+                summary: crate::comparison::summarize(&points).into(),
+                mean_Y_ratio: mean_ratio,
+            }
+        })
+        .collect();
+    Ok(SceneComparison {
+        scene: scene.to_string(),
+        codings: summaries,
+        rows,
+    })
+}
+
+/// Sorts codings as the study lists them: rgb, srgb, nstepN by N, spectral.
+pub fn coding_order(c: &str) -> (u32, u32) {
+    match c {
+        "rgb" => (0, 0),
+        "srgb" => (1, 0),
+        "spectral" => (3, 0),
+        other => (
+            2,
+            other
+                .strip_prefix("nstep")
+                .and_then(|n| n.parse().ok())
+                .unwrap_or(u32::MAX),
+        ),
+    }
+}
+
+#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 200, body = SceneComparison), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn scene_comparisons(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+) -> Result<Json<SceneComparison>, ApiError> {
+    Ok(Json(scene_comparison(&state, &scene).await?))
+}
+
+#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 200, content_type = "text/csv")))]
+pub async fn scene_comparisons_csv(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+) -> Result<Response, ApiError> {
+    let c = scene_comparison(&state, &scene).await?;
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for row in &c.rows {
+        w.serialize(row).map_err(|e| ApiError::Internal(e.to_string()))?;
+    }
+    let bytes = w.into_inner().map_err(|e| ApiError::Internal(e.to_string()))?;
+    Ok(download("text/csv", &format!("comparisons_{scene}.csv"), bytes))
+}
+
+/// `load('comparisons_cylinder.mat')`: one column vector per numeric field
+/// and char matrices `target` and `coding` (one row each), so
+/// `table(cellstr(target), cellstr(coding), dE00, ...)` rebuilds the table.
+#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons.mat", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 200, content_type = "application/x-matlab-data")))]
+pub async fn scene_comparisons_mat(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+) -> Result<Response, ApiError> {
+    let c = scene_comparison(&state, &scene).await?;
+    let mut mat = MatFile::new();
+    let internal = |e: String| ApiError::Internal(e);
+    let col = |f: fn(&ComparisonRow) -> f64| c.rows.iter().map(f).collect::<Vec<f64>>();
+    mat.text_rows("target", &c.rows.iter().map(|r| r.target.clone()).collect::<Vec<_>>())
+        .map_err(internal)?;
+    mat.text_rows("coding", &c.rows.iter().map(|r| r.coding.clone()).collect::<Vec<_>>())
+        .map_err(internal)?;
+    type Field = (&'static str, fn(&ComparisonRow) -> f64);
+    let fields: [Field; 14] = [
+        ("measurement_id", |r| r.measurement_id as f64),
+        ("render_id", |r| r.render_id as f64),
+        ("measured_X", |r| r.measured_X),
+        ("measured_Y", |r| r.measured_Y),
+        ("measured_Z", |r| r.measured_Z),
+        ("rendered_X", |r| r.rendered_X),
+        ("rendered_Y", |r| r.rendered_Y),
+        ("rendered_Z", |r| r.rendered_Z),
+        ("rendered_Y_se", |r| r.rendered_Y_se),
+        ("Y_ratio", |r| r.Y_ratio),
+        ("xy_distance", |r| r.xy_distance),
+        ("dE76", |r| r.dE76),
+        ("dE00", |r| r.dE00),
+        ("white_Y", |r| r.white_Y),
+    ];
+    for (name, f) in fields {
+        mat.column(name, &col(f)).map_err(internal)?;
+    }
+    Ok(download(
+        "application/x-matlab-data",
+        &format!("comparisons_{scene}.mat"),
+        mat.into_bytes(),
+    ))
+}
+
+/// The study's figures for a scene: `chromaticity.svg`, `profile.svg`
+/// (luminance along the targets), `errors.svg` (rms_rel and mean ΔE per
+/// coding with ±1 SD), `speed.svg` (render time against ΔE per coding).
+#[utoipa::path(get, path = "/api/scenes/{scene}/charts/{chart}", tag = "comparisons",
+    params(("scene" = String, Path), ("chart" = String, Path, description = "chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg")),
+    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn scene_chart(
+    State(state): State<AppState>,
+    Path((scene, chart)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    let c = scene_comparison(&state, &scene).await?;
+    let info = find_scene(&state, &scene)?;
+    if c.rows.is_empty() {
+        return Err(ApiError::NotFound(format!(
+            "scene `{scene}` has no comparisons yet: measure its targets first"
+        )));
+    }
+    let svg = match chart.as_str() {
+        "chromaticity.svg" => crate::service::scene_charts::chromaticity(&c, &info),
+        "profile.svg" => crate::service::scene_charts::profile(&c, &info),
+        "rms.svg" => crate::service::scene_charts::rms(&c),
+        "de.svg" => crate::service::scene_charts::delta_e(&c),
+        "speed.svg" => crate::service::scene_charts::speed(&state, &c).await,
+        other => {
+            return Err(ApiError::NotFound(format!(
+                "no chart `{other}`: choose chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg"
+            )))
+        }
+    }
+    .map_err(ApiError::Internal)?;
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+}

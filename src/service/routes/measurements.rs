@@ -1,0 +1,289 @@
+//! `/api/measurements`: start a measurement, list and fetch them, their spectra
+//! as CSV/MAT/SVG, and their comparisons with the renderings.
+
+use axum::extract::{Path, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::charts;
+use crate::export::mat::MatFile;
+use crate::service::error::ApiError;
+use crate::service::input::{Input, Query};
+use crate::service::{AppState, Event, InstrumentStatus, MeasurementJob};
+use crate::store::{
+    ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, NewMeasurement,
+};
+
+#[derive(Deserialize, ToSchema, Default)]
+#[serde(deny_unknown_fields)]
+pub struct StartMeasurement {
+    /// Scene id (see `/api/scenes`); the daemon renders and compares when given with `target`.
+    pub scene: Option<String>,
+    pub target: Option<String>,
+    /// Samples to average, 1–99 (default 5).
+    pub samples: Option<usize>,
+    pub session_id: Option<i64>,
+    pub note: Option<String>,
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct Accepted {
+    pub id: i64,
+    pub state: MeasurementState,
+    /// Poll this URL (or follow `/api/events`) until `state` is final.
+    pub url: String,
+}
+
+#[utoipa::path(post, path = "/api/measurements", tag = "measurements", request_body = StartMeasurement,
+    responses((status = 202, body = Accepted), (status = 400, body = crate::service::error::ErrorBody),
+              (status = 401, body = crate::service::error::ErrorBody), (status = 409, body = crate::service::error::ErrorBody),
+              (status = 503, body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn start_measurement(
+    State(state): State<AppState>,
+    Input(body): Input<StartMeasurement>,
+) -> Result<(StatusCode, Json<Accepted>), ApiError> {
+    let samples = body.samples.unwrap_or(state.config.default_samples);
+    if !(1..=99).contains(&samples) {
+        return Err(ApiError::BadRequest(format!(
+            "field `samples`: {samples} is outside 1–99"
+        )));
+    }
+    match (&body.scene, &body.target) {
+        (Some(scene), target) => check_scene_target(&state, scene, target.as_deref())?,
+        (None, Some(_)) => {
+            return Err(ApiError::BadRequest(
+                "field `target`: a target needs its `scene`".into(),
+            ))
+        }
+        (None, None) => {}
+    }
+    match &*state.status.borrow() {
+        InstrumentStatus::Disconnected { reason } => {
+            return Err(ApiError::Unavailable(format!(
+                "the instrument is unavailable: {reason}"
+            )))
+        }
+        InstrumentStatus::Error { message } => {
+            return Err(ApiError::Unavailable(format!("the instrument is in error: {message}")))
+        }
+        _ => {}
+    }
+    if let Some(session) = body.session_id {
+        if !state.store.list_sessions().await?.iter().any(|s| s.id == session) {
+            return Err(ApiError::BadRequest(format!(
+                "field `session_id`: no session {session}; create one with POST /api/sessions"
+            )));
+        }
+    }
+    if state.jobs.capacity() == 0 {
+        return Err(ApiError::Conflict(format!(
+            "the instrument is busy: {} measurements are already queued; try again when one finishes",
+            state.jobs.max_capacity()
+        )));
+    }
+    let id = state
+        .store
+        .create_measurement(&NewMeasurement {
+            session_id: body.session_id,
+            scene: body.scene.clone(),
+            target: body.target.clone(),
+            samples,
+            settings_json: serde_json::json!({ "samples": samples }),
+            note: body.note.unwrap_or_default(),
+        })
+        .await?;
+    let job = MeasurementJob {
+        id,
+        samples,
+        scene: body.scene,
+        target: body.target,
+    };
+    if let Err(e) = state.jobs.try_send(job) {
+        state
+            .store
+            .end_measurement(id, MeasurementState::Cancelled, "the instrument queue was full")
+            .await?;
+        return Err(ApiError::Conflict(format!("the instrument is busy: {e}")));
+    }
+    tracing::info!(measurement_id = id, samples, "measurement queued");
+    let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(Accepted {
+            id,
+            state: MeasurementState::Queued,
+            url: format!("/api/measurements/{id}"),
+        }),
+    ))
+}
+
+pub(super) fn check_scene_target(state: &AppState, scene: &str, target: Option<&str>) -> Result<(), ApiError> {
+    let scenes = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
+    let Some(info) = scenes.iter().find(|s| s.id == scene) else {
+        let names: Vec<&str> = scenes.iter().map(|s| s.id.as_str()).collect();
+        return Err(ApiError::BadRequest(format!(
+            "field `scene`: no scene `{scene}`; available: {}",
+            names.join(", ")
+        )));
+    };
+    match target {
+        None => Err(ApiError::BadRequest(format!(
+            "field `target`: measuring scene `{scene}` needs a target; available: {}",
+            info.targets.join(", ")
+        ))),
+        Some(t) if !info.targets.iter().any(|x| x == t) => Err(ApiError::BadRequest(format!(
+            "field `target`: scene `{scene}` has no target `{t}`; available: {}",
+            info.targets.join(", ")
+        ))),
+        Some(_) => Ok(()),
+    }
+}
+
+#[utoipa::path(get, path = "/api/measurements", tag = "measurements", params(MeasurementFilter),
+    responses((status = 200, body = MeasurementPage)))]
+pub async fn list_measurements(
+    State(state): State<AppState>,
+    Query(filter): Query<MeasurementFilter>,
+) -> Result<Json<MeasurementPage>, ApiError> {
+    Ok(Json(state.store.list_measurements(&filter).await?))
+}
+
+pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<MeasurementDetail, ApiError> {
+    state
+        .store
+        .get_measurement(id)
+        .await?
+        .ok_or_else(|| ApiError::NotFound(format!("no measurement {id}")))
+}
+
+#[utoipa::path(get, path = "/api/measurements/{id}", tag = "measurements",
+    params(("id" = i64, Path, description = "measurement id")),
+    responses((status = 200, body = MeasurementDetail), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn get_measurement(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<MeasurementDetail>, ApiError> {
+    Ok(Json(load_measurement(&state, id).await?))
+}
+
+/// Wavelength, mean, SD and every sample as columns (values as the instrument gave them, per nm).
+#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.csv", tag = "measurements",
+    params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv")))]
+pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let m = load_measurement(&state, id).await?;
+    let wl = sample_grid(&m)?;
+    let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
+    if let (Some(mean), Some(sd)) = (&m.radiance, &m.radiance_sd) {
+        columns.push(("radiance".into(), mean.clone()));
+        columns.push(("radiance_sd".into(), sd.clone()));
+    }
+    for s in &m.samples {
+        if let Some(r) = &s.radiance {
+            columns.push((format!("sample_{}_code_{}", s.index, s.code), r.clone()));
+        }
+    }
+    let grid = crate::spectrum::Grid::from_wavelengths(wl).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let refs: Vec<(&str, &[f64])> = columns.iter().map(|(n, v)| (n.as_str(), v.as_slice())).collect();
+    let mut out = Vec::new();
+    crate::spectrum::table::write_csv(&mut out, &grid, &refs).map_err(|e| ApiError::Internal(e.to_string()))?;
+    Ok(download("text/csv", &format!("measurement_{id}.csv"), out))
+}
+
+/// `load('measurement_7.mat')` gives wavelength_nm, radiance, radiance_sd,
+/// samples (one column per sample; NaN where a sample had no valid
+/// spectrum), sample_code, sample_usable, Y, x, y.
+#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.mat", tag = "measurements",
+    params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data")))]
+pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let m = load_measurement(&state, id).await?;
+    let wl = sample_grid(&m)?;
+    let mut mat = MatFile::new();
+    let internal = |e: String| ApiError::Internal(e);
+    mat.column("wavelength_nm", &wl).map_err(internal)?;
+    if let (Some(mean), Some(sd)) = (&m.radiance, &m.radiance_sd) {
+        mat.column("radiance", mean).map_err(internal)?;
+        mat.column("radiance_sd", sd).map_err(internal)?;
+    }
+    let mut samples = Vec::with_capacity(wl.len() * m.samples.len());
+    for s in &m.samples {
+        match &s.radiance {
+            Some(r) => samples.extend_from_slice(r),
+            None => samples.extend(std::iter::repeat_n(f64::NAN, wl.len())),
+        }
+    }
+    mat.matrix("samples", wl.len(), m.samples.len(), &samples)
+        .map_err(internal)?;
+    let codes: Vec<f64> = m.samples.iter().map(|s| s.code as f64).collect();
+    let usable: Vec<f64> = m.samples.iter().map(|s| if s.usable { 1.0 } else { 0.0 }).collect();
+    mat.matrix("sample_code", 1, codes.len(), &codes).map_err(internal)?;
+    mat.matrix("sample_usable", 1, usable.len(), &usable)
+        .map_err(internal)?;
+    for (name, v) in [("Y", m.summary.luminance_cd_m2), ("x", m.summary.x), ("y", m.summary.y)] {
+        mat.scalar(name, v.unwrap_or(f64::NAN)).map_err(internal)?;
+    }
+    mat.text("state", m.summary.state.as_str()).map_err(internal)?;
+    Ok(download(
+        "application/x-matlab-data",
+        &format!("measurement_{id}.mat"),
+        mat.into_bytes(),
+    ))
+}
+
+#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.svg", tag = "measurements",
+    params(("id" = i64, Path)), responses((status = 200, content_type = "image/svg+xml")))]
+pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let m = load_measurement(&state, id).await?;
+    let wl = sample_grid(&m).unwrap_or_default();
+    let samples: Vec<Vec<f64>> = m.samples.iter().filter_map(|s| s.radiance.clone()).collect();
+    let title = match (&m.summary.scene, &m.summary.target) {
+        (Some(s), Some(t)) => format!("measurement {id}: {s} / {t}"),
+        _ => format!("measurement {id}"),
+    };
+    let svg = charts::spectrum_chart(&title, &wl, m.radiance.as_deref(), m.radiance_sd.as_deref(), &samples)
+        .map_err(ApiError::Internal)?;
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+}
+
+/// The grid of a measurement: stored with the average, or the PR-650's for
+/// a measurement that never completed.
+pub(super) fn sample_grid(m: &MeasurementDetail) -> Result<Vec<f64>, ApiError> {
+    if let Some(wl) = &m.wavelength_nm {
+        return Ok(wl.clone());
+    }
+    let n = m.samples.iter().find_map(|s| s.radiance.as_ref().map(Vec::len));
+    match n {
+        Some(101) | None => Ok(crate::spectrum::Grid::pr650().wavelengths().to_vec()),
+        Some(other) => Err(ApiError::Internal(format!(
+            "measurement {} has {other}-point samples and no grid",
+            m.summary.id
+        ))),
+    }
+}
+
+pub(super) fn download(content_type: &'static str, filename: &str, body: Vec<u8>) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, content_type.to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"{filename}\""),
+            ),
+        ],
+        body,
+    )
+        .into_response()
+}
+
+#[utoipa::path(get, path = "/api/measurements/{id}/comparisons", tag = "comparisons",
+    params(("id" = i64, Path)), responses((status = 200, body = Vec<ComparisonRow>)))]
+pub async fn measurement_comparisons(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<ComparisonRow>>, ApiError> {
+    load_measurement(&state, id).await?;
+    Ok(Json(state.store.comparisons_for_measurement(id).await?))
+}

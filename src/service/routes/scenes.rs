@@ -1,0 +1,115 @@
+//! `/api/scenes` and `/api/renders`: the scenes the daemon knows, their
+//! targets, and renders of them (with a preview image).
+
+use std::sync::Arc;
+
+use axum::extract::{Path, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::Serialize;
+use utoipa::ToSchema;
+
+use crate::service::error::ApiError;
+use crate::service::input::Input;
+use crate::service::{AppState, RenderRequest, SceneInfo};
+use crate::store::RenderRow;
+
+pub(super) fn scenes(state: &AppState) -> Result<Vec<SceneInfo>, ApiError> {
+    Ok(state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("this daemon runs without the renderer".into()))?
+        .scenes())
+}
+
+pub(super) fn find_scene(state: &AppState, id: &str) -> Result<SceneInfo, ApiError> {
+    let all = scenes(state)?;
+    all.iter().find(|s| s.id == id).cloned().ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|s| s.id.as_str()).collect();
+        ApiError::NotFound(format!("no scene `{id}`; available: {}", names.join(", ")))
+    })
+}
+
+#[utoipa::path(get, path = "/api/scenes", tag = "scenes", responses((status = 200, body = Vec<SceneInfo>)))]
+pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<SceneInfo>>, ApiError> {
+    Ok(Json(scenes(&state)?))
+}
+
+#[utoipa::path(get, path = "/api/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),
+    responses((status = 200, body = SceneInfo), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn get_scene(State(state): State<AppState>, Path(scene): Path<String>) -> Result<Json<SceneInfo>, ApiError> {
+    Ok(Json(find_scene(&state, &scene)?))
+}
+
+#[utoipa::path(get, path = "/api/scenes/{scene}/targets", tag = "scenes", params(("scene" = String, Path)),
+    responses((status = 200, body = Vec<String>)))]
+pub async fn scene_targets(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+) -> Result<Json<Vec<String>>, ApiError> {
+    Ok(Json(find_scene(&state, &scene)?.targets))
+}
+
+#[utoipa::path(get, path = "/api/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
+    responses((status = 200, body = Vec<RenderRow>)))]
+pub async fn scene_renders(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+) -> Result<Json<Vec<RenderRow>>, ApiError> {
+    find_scene(&state, &scene)?;
+    Ok(Json(state.store.list_renders(Some(&scene)).await?))
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct RenderAccepted {
+    pub render_id: i64,
+    pub url: String,
+}
+
+#[utoipa::path(post, path = "/api/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
+    request_body = RenderRequest,
+    responses((status = 202, body = RenderAccepted), (status = 404, body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn start_render(
+    State(state): State<AppState>,
+    Path(scene): Path<String>,
+    Input(body): Input<RenderRequest>,
+) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
+    find_scene(&state, &scene)?;
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    let render_id = Arc::clone(service).start_render(scene, body).await?;
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(RenderAccepted {
+            render_id,
+            url: format!("/api/renders/{render_id}"),
+        }),
+    ))
+}
+
+#[utoipa::path(get, path = "/api/renders/{id}", tag = "renders", params(("id" = i64, Path)),
+    responses((status = 200, body = RenderRow), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<RenderRow>, ApiError> {
+    state
+        .store
+        .get_render(id)
+        .await?
+        .map(Json)
+        .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))
+}
+
+/// The scene's camera view of a render (tone-mapped sRGB), once the render is complete.
+#[utoipa::path(get, path = "/api/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = crate::service::error::ErrorBody)))]
+pub async fn render_preview(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let png = state.store.render_preview(id).await?.ok_or_else(|| {
+        ApiError::NotFound(format!(
+            "render {id} has no preview (not finished, or no [camera] in its scene)"
+        ))
+    })?;
+    Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}

@@ -1,0 +1,44 @@
+//! `/api/sessions`: who measured, and their notes.
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::Json;
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use crate::service::error::ApiError;
+use crate::service::input::Input;
+use crate::service::AppState;
+use crate::store::SessionRow;
+
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewSession {
+    pub operator: String,
+    #[serde(default)]
+    pub notes: String,
+}
+
+#[utoipa::path(get, path = "/api/sessions", tag = "sessions", responses((status = 200, body = Vec<SessionRow>)))]
+pub async fn list_sessions(State(state): State<AppState>) -> Result<Json<Vec<SessionRow>>, ApiError> {
+    Ok(Json(state.store.list_sessions().await?))
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct Created {
+    pub id: i64,
+}
+
+#[utoipa::path(post, path = "/api/sessions", tag = "sessions", request_body = NewSession,
+    responses((status = 201, body = Created), (status = 400, body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn create_session(
+    State(state): State<AppState>,
+    Input(body): Input<NewSession>,
+) -> Result<(StatusCode, Json<Created>), ApiError> {
+    if body.operator.trim().is_empty() {
+        return Err(ApiError::BadRequest("field `operator`: must not be empty".into()));
+    }
+    let id = state.store.create_session(body.operator.trim(), &body.notes).await?;
+    Ok((StatusCode::CREATED, Json(Created { id })))
+}
