@@ -130,6 +130,7 @@ fn main() {
                 scenes_dir: "scenes".into(),
                 codings: vec![],
                 default_samples: 5,
+                observer: lightbooth::colorimetry::Observer::JuddVos,
             }),
             jobs,
             status,

@@ -45,6 +45,7 @@ async fn harness(queue: usize) -> Harness {
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
             default_samples: 5,
+            observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
         jobs: tx,
         status: status_rx,

@@ -7,6 +7,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Deserialize;
 
+use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::mock::Fault;
 use lightbooth::instrument::Pr650Settings;
@@ -37,6 +38,10 @@ pub struct ServeArgs {
     /// Fault injected into the simulated PR-650, KIND[:RATE] (repeatable).
     #[arg(long = "mock-fault")]
     mock_faults: Vec<Fault>,
+    /// The observer of every x,y, XYZ, CIELAB and ΔE the daemon computes and
+    /// charts: judd-vos (Judd–Vos 1978, the study's; default) or cie1931.
+    #[arg(long)]
+    observer: Option<Observer>,
 }
 
 /// `lightbooth.toml`: the daemon's settings file.
@@ -52,6 +57,7 @@ struct ConfigFile {
     codings: Option<Vec<String>>,
     render_samples: Option<u64>,
     mock_speed: Option<f64>,
+    observer: Option<String>,
 }
 
 fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
@@ -98,6 +104,13 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
                 .to_vec()
         }),
         render_samples: file.render_samples.unwrap_or(16_384),
+        observer: match (args.observer, file.observer) {
+            (Some(o), _) => o,
+            (None, Some(name)) => name
+                .parse()
+                .map_err(|e| anyhow::anyhow!("{}: key `observer`: {e}", args.config.display()))?,
+            (None, None) => Observer::JuddVos,
+        },
     };
     anyhow::ensure!(options.mock_speed >= 0.0, "--mock-speed must be 0 or more");
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;

@@ -23,6 +23,7 @@ use anyhow::Context;
 use tokio::net::TcpListener;
 use tokio::sync::{broadcast, mpsc, watch};
 
+use crate::colorimetry::Observer;
 use crate::instrument::mock::Fault;
 use crate::instrument::Pr650Settings;
 use crate::service::{self, auth, AppState, InstrumentStatus, ServiceConfig};
@@ -56,6 +57,9 @@ pub struct DaemonOptions {
     pub codings: Vec<String>,
     /// Radiometer samples per target of a comparison render.
     pub render_samples: u64,
+    /// The one colorimetric observer of every x,y, XYZ, CIELAB and ΔE this
+    /// daemon computes (comparisons, charts); the study's Judd–Vos by default.
+    pub observer: Observer,
 }
 
 /// Runs the daemon on an already-bound listener until `shutdown` resolves.
@@ -121,6 +125,7 @@ pub async fn run(
             scenes_dir: options.scenes_dir.clone(),
             codings: options.codings.clone(),
             default_samples: options.instrument.samples,
+            observer: options.observer,
         }),
         jobs: jobs_tx,
         status: status_rx,

@@ -51,6 +51,9 @@ pub struct ServiceConfig {
     pub codings: Vec<String>,
     /// Samples per measurement when a request does not say.
     pub default_samples: usize,
+    /// The observer of every x,y, XYZ, CIELAB and ΔE the service computes or
+    /// charts (`serve --observer`; Judd–Vos 1978 by default, the study's).
+    pub observer: crate::colorimetry::Observer,
 }
 
 /// A measurement for the instrument task to take.

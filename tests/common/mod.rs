@@ -177,6 +177,7 @@ impl Daemon {
                 .map(String::from)
                 .to_vec(),
             render_samples: 2048,
+            observer: lightbooth::colorimetry::Observer::JuddVos,
         };
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(daemon::run(listener, options, async move {
