@@ -52,6 +52,7 @@ async fn harness(queue: usize) -> Harness {
         events,
         renders: None,
         mock: None,
+        measurement_cancel: None,
         shutting_down: shutdown_rx,
     };
     Harness {

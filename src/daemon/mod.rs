@@ -132,6 +132,7 @@ pub async fn run(
         events,
         renders: Some(renderer as Arc<dyn service::RenderService>),
         mock: instrument.mock_control(),
+        measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

@@ -103,6 +103,8 @@ pub struct AppState {
     pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
+    /// Stops the running measurement (the instrument task's; None without one).
+    pub measurement_cancel: Option<Arc<dyn CancelMeasurement>>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
     pub shutting_down: watch::Receiver<bool>,
@@ -137,6 +139,15 @@ pub struct StudyRequest {
     pub failure_map: Option<bool>,
     /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
     pub auto: Option<String>,
+}
+
+/// Stopping a running measurement; the instrument task provides it.
+pub trait CancelMeasurement: Send + Sync {
+    /// Asks measurement `id` to stop at once: between instrument commands, or
+    /// within a poll slice of a reply being read, so at most the sample in
+    /// progress is lost. False when `id` is not the measurement the
+    /// instrument has taken (it is still queued, or already finished).
+    fn cancel(&self, id: i64) -> bool;
 }
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).
