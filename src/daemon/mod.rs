@@ -13,6 +13,7 @@
 
 pub mod instrument_task;
 pub mod renders;
+pub mod study_measurements;
 
 use std::future::Future;
 use std::net::SocketAddr;
