@@ -26,6 +26,7 @@ use std::time::Instant;
 use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
+use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
 use crate::render::{self, Coding, RenderSettings, Scene};
@@ -35,7 +36,6 @@ use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{NewComparison, NewRender, Store};
 use crate::study::report::report_files;
 use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
-use super::study_measurements::wait_for_measurements;
 
 /// A scene found in `scenes/`.
 struct SceneEntry {

@@ -18,11 +18,7 @@ const POLL: Duration = Duration::from_millis(250);
 
 /// Waits until every measurement of `ids` is final. Ok when all are
 /// complete; otherwise an error naming the ones that are not, and why.
-pub async fn wait_for_measurements(
-    store: &Store,
-    ids: &[i64],
-    progress: &(dyn Fn(&str) + Sync),
-) -> Result<(), String> {
+pub async fn wait_for_measurements(store: &Store, ids: &[i64], progress: &(dyn Fn(&str) + Sync)) -> Result<(), String> {
     let n = ids.len();
     progress(&format!(
         "measuring the {n} missing target{} first",

@@ -37,7 +37,12 @@ impl Store {
             let mut samples = Vec::with_capacity(rows.len());
             for r in &rows {
                 let values = parse_opt_array(r.get("radiance_json"), "sample radiance")?.unwrap_or_default();
-                samples.push((r.get::<i64, _>("idx"), r.get::<f64, _>("taken_at"), values, r.get("luminance_cd_m2")));
+                samples.push((
+                    r.get::<i64, _>("idx"),
+                    r.get::<f64, _>("taken_at"),
+                    values,
+                    r.get("luminance_cd_m2"),
+                ));
             }
             match partial_average(samples) {
                 Ok(avg) => {

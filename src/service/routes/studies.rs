@@ -9,9 +9,9 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use super::measurements::enqueue_measurement;
 use crate::service::error::ApiError;
 use crate::service::input::Input;
-use super::measurements::enqueue_measurement;
 use crate::service::{AppState, InstrumentStatus, StudyRequest};
 use crate::store::{NewMeasurement, StudyRow};
 
