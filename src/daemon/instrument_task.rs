@@ -486,15 +486,16 @@ fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
     if taken == 0 {
         return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
     }
-    let plural = if taken == 1 { "" } else { "s" };
+    let (plural, kept) = if taken == 1 {
+        ("", "kept it".to_string())
+    } else {
+        ("s", format!("kept all {taken}"))
+    };
     let averaged = match usable {
         0 => "none usable, so no average".to_string(),
         n => format!("{n} usable, averaged as a partial result"),
     };
-    format!(
-        "cancelled by the operator after {taken} sample{plural} of the {requested} requested; \
-         kept all {taken} ({averaged})"
-    )
+    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
 }
 
 /// A raw sample as the store keeps it.
