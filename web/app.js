@@ -195,8 +195,8 @@ const localTime = (t) => (t === null || t === undefined ? "" : new Date(t * 1000
 async function cancelMeasurement(id) {
   notice("");
   try {
-    const m = await api(`/api/measurements/${id}/cancel`, { method: "POST", body: "{}" });
-    if (m.state === "cancelled") notice(`measurement #${id} cancelled: ${m.error}`);
+    // The answer (and the measurement_finished event) updates the table and the live progress.
+    await api(`/api/measurements/${id}/cancel`, { method: "POST", body: "{}" });
   } catch (e) {
     notice(e.message);
   }
