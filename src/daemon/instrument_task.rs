@@ -103,23 +103,41 @@ fn default_truth() -> crate::spectrum::Spectrum {
     .expect("a flat spectrum is valid")
 }
 
-/// Cancels the running measurement when the daemon shuts down.
+/// Cancels the running measurement when the daemon shuts down, or when the
+/// operator cancels it (`POST /api/measurements/{id}/cancel`).
 #[derive(Clone, Default)]
 pub struct Canceller {
-    current: Arc<Mutex<Option<CancelToken>>>,
+    /// The measurement the instrument has taken, with its token.
+    current: Arc<Mutex<Option<(i64, CancelToken)>>>,
     shutting_down: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Canceller {
     pub fn shutdown(&self) {
         self.shutting_down.store(true, std::sync::atomic::Ordering::SeqCst);
-        if let Some(t) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+        if let Some((_, t)) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             t.cancel();
         }
     }
 
+    fn set_current(&self, current: Option<(i64, CancelToken)>) {
+        *self.current.lock().unwrap_or_else(|p| p.into_inner()) = current;
+    }
+
     fn is_shutting_down(&self) -> bool {
         self.shutting_down.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
+
+impl crate::service::CancelMeasurement for Canceller {
+    fn cancel(&self, id: i64) -> bool {
+        match self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            Some((running, t)) if *running == id => {
+                t.cancel();
+                true
+            }
+            _ => false,
+        }
     }
 }
 
@@ -287,6 +305,7 @@ impl Worker {
                 return Disconnect::Shutdown;
             };
             let outcome = self.measure(instrument.as_mut(), instrument_id, &job);
+            self.canceller.set_current(None);
             if let Some(reason) = outcome {
                 return Disconnect::Lost(reason);
             }
@@ -312,6 +331,10 @@ impl Worker {
         let span = tracing::info_span!("measurement", measurement_id = id);
         let _enter = span.enter();
         let store = self.config.store.clone();
+        // Registered before the store says `running`, so a cancel request that
+        // finds the measurement no longer queued always finds its token.
+        let cancel = CancelToken::new();
+        self.canceller.set_current(Some((id, cancel.clone())));
         if let Err(e) = self.block_on(store.mark_running(id, instrument_id)) {
             tracing::warn!(error = %e, "measurement no longer queued; skipped");
             return None;
@@ -353,14 +376,15 @@ impl Worker {
             }
         }
 
-        let cancel = CancelToken::new();
-        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = Some(cancel.clone());
         let events = self.config.events.clone();
         let status = self.config.status.clone();
         let runtime = self.config.runtime.clone();
         let of = job.samples;
+        let (mut taken, mut usable) = (0usize, 0usize);
         let mut on_sample = |s: &Sample| {
             let row = sample_row(s);
+            taken += 1;
+            usable += usize::from(row.usable);
             // Blocks this thread until the sample is on disk: the next sample waits.
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
                 tracing::error!(error = %e, index = s.index, "cannot store a sample");
@@ -396,7 +420,6 @@ impl Worker {
             });
         };
         let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
-        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = None;
 
         match result {
             Ok(avg) => {
@@ -433,6 +456,8 @@ impl Worker {
                 let (state, lost) = classify(&e, self.canceller.is_shutting_down());
                 let message = if self.canceller.is_shutting_down() {
                     format!("the daemon shut down during the measurement ({e})")
+                } else if state == MeasurementState::Cancelled {
+                    cancelled_message(taken, usable, of)
                 } else {
                     e.to_string()
                 };
@@ -454,6 +479,23 @@ impl Worker {
         });
         None
     }
+}
+
+/// What a measurement cancelled by the operator says: how many samples it kept.
+fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
+    if taken == 0 {
+        return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
+    }
+    let (plural, kept) = if taken == 1 {
+        ("", "kept it".to_string())
+    } else {
+        ("s", format!("kept all {taken}"))
+    };
+    let averaged = match usable {
+        0 => "none usable, so no average".to_string(),
+        n => format!("{n} usable, averaged as a partial result"),
+    };
+    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
 }
 
 /// A raw sample as the store keeps it.

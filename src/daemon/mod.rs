@@ -13,6 +13,7 @@
 
 pub mod instrument_task;
 pub mod renders;
+pub mod study_measurements;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -132,6 +133,7 @@ pub async fn run(
         events,
         renders: Some(renderer as Arc<dyn service::RenderService>),
         mock: instrument.mock_control(),
+        measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

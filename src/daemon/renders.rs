@@ -26,6 +26,7 @@ use std::time::Instant;
 use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
+use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
 use crate::render::{self, Coding, RenderSettings, Scene};
@@ -475,6 +476,10 @@ impl RenderService for Renderer {
         })
     }
 
+    fn check_study(&self, request: &StudyRequest) -> Result<(), ApiError> {
+        self.study_plan(request).map(|_| ())
+    }
+
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, ApiError>> {
         Box::pin(async move {
             let (paths, options) = self.study_plan(&request)?;
@@ -497,17 +502,25 @@ impl RenderService for Renderer {
                             message: message.to_string(),
                         });
                     };
-                    let outcome = match run_study(&paths, &options, Some(&this.store), &progress).await {
-                        Ok(result) => match (report_files(&result), serde_json::to_value(&result)) {
-                            (Ok(files), Ok(json)) => this
-                                .store
-                                .complete_study(id, &json, result.wall_seconds, &files)
-                                .await
-                                .map_err(|e| e.to_string()),
-                            (Err(e), _) => Err(e.to_string()),
-                            (_, Err(e)) => Err(e.to_string()),
+                    // `measure_missing`: the measurements queued for it come first.
+                    let measured_first = match request.measured_first.as_slice() {
+                        [] => Ok(()),
+                        ids => wait_for_measurements(&this.store, ids, &progress).await,
+                    };
+                    let outcome = match measured_first {
+                        Err(e) => Err(e),
+                        Ok(()) => match run_study(&paths, &options, Some(&this.store), &progress).await {
+                            Ok(result) => match (report_files(&result), serde_json::to_value(&result)) {
+                                (Ok(files), Ok(json)) => this
+                                    .store
+                                    .complete_study(id, &json, result.wall_seconds, &files)
+                                    .await
+                                    .map_err(|e| e.to_string()),
+                                (Err(e), _) => Err(e.to_string()),
+                                (_, Err(e)) => Err(e.to_string()),
+                            },
+                            Err(e) => Err(e.to_string()),
                         },
-                        Err(e) => Err(e.to_string()),
                     };
                     if let Err(e) = &outcome {
                         tracing::error!(study_id = id, error = %e, "study failed");

@@ -103,6 +103,8 @@ pub struct AppState {
     pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
+    /// Stops the running measurement (the instrument task's; None without one).
+    pub measurement_cancel: Option<Arc<dyn CancelMeasurement>>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
     pub shutting_down: watch::Receiver<bool>,
@@ -117,6 +119,8 @@ pub trait RenderService: Send + Sync {
     fn scenes(&self) -> Vec<SceneInfo>;
     /// Records a render of a scene and starts it; resolves to its id at once.
     fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+    /// Checks a study request field by field without starting anything.
+    fn check_study(&self, request: &StudyRequest) -> Result<(), error::ApiError>;
     /// Records a study and starts it in the background; resolves to its id at once.
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, error::ApiError>>;
 }
@@ -137,6 +141,24 @@ pub struct StudyRequest {
     pub failure_map: Option<bool>,
     /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
     pub auto: Option<String>,
+    /// Against measurements: first measure, through the instrument queue,
+    /// every target of the chosen scenes that has no complete measurement;
+    /// the study waits for them (reporting progress), then runs. Without it,
+    /// a study missing measurements is refused with 409 naming them.
+    pub measure_missing: Option<bool>,
+    /// The measurements queued for this study by `measure_missing` (set by the daemon).
+    #[serde(skip_deserializing, default, skip_serializing_if = "Vec::is_empty")]
+    #[schema(read_only)]
+    pub measured_first: Vec<i64>,
+}
+
+/// Stopping a running measurement; the instrument task provides it.
+pub trait CancelMeasurement: Send + Sync {
+    /// Asks measurement `id` to stop at once: between instrument commands, or
+    /// within a poll slice of a reply being read, so at most the sample in
+    /// progress is lost. False when `id` is not the measurement the
+    /// instrument has taken (it is still queued, or already finished).
+    fn cancel(&self, id: i64) -> bool;
 }
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).
