@@ -141,7 +141,7 @@ pub struct StudyRequest {
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).
 pub trait MockControl: Send + Sync {
-    /// `KIND[:RATE]`, comma-separated (see `lightbooth mock-pr650 --help`); empty clears.
+    /// `KIND[@DELAY][:RATE]`, comma-separated (see `lightbooth serve --help`); empty clears.
     fn set_faults(&self, spec: &str) -> Result<(), String>;
 }
 
