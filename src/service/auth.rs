@@ -230,7 +230,7 @@ pub fn token_matches(presented: &str, expected: &str) -> bool {
 
 /// The token of an `Authorization` value with the `Bearer` scheme, in any case.
 fn bearer_token(value: &str) -> Option<&str> {
-    let (scheme, token) = value.trim().split_once(|c: char| c == ' ' || c == '\t')?;
+    let (scheme, token) = value.trim().split_once([' ', '\t'])?;
     let token = token.trim();
     (scheme.eq_ignore_ascii_case("bearer") && !token.is_empty()).then_some(token)
 }
