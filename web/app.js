@@ -19,6 +19,15 @@ function token() {
   return localStorage.getItem("lightbooth-token") || "";
 }
 
+// Bound off loopback, reads need the token too. fetch() sends it in the
+// Authorization header (below); chart <img>s, download links and the event
+// stream (EventSource) cannot set headers, so the token also goes in a
+// SameSite=Strict cookie for /api, which the daemon accepts for reads only
+// (writes need the header; see src/service/auth.rs for why this is safe).
+(function tokenCookie() {
+  if (token()) document.cookie = `lightbooth_token=${token()}; path=/api; SameSite=Strict`;
+})();
+
 function notice(text) {
   const n = $("notice");
   n.textContent = text;
@@ -28,7 +37,7 @@ function notice(text) {
 async function api(path, options = {}) {
   const headers = Object.assign({ "Accept": "application/json" }, options.headers || {});
   if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (options.method && options.method !== "GET" && token()) headers["Authorization"] = "Bearer " + token();
+  if (token()) headers["Authorization"] = "Bearer " + token();
   const r = await fetch(path, Object.assign({}, options, { headers }));
   const body = await r.json().catch(() => null);
   if (!r.ok) {

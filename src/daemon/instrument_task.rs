@@ -534,7 +534,9 @@ fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool
         InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
             (MeasurementState::Interrupted, true)
         }
-        InstrumentError::NotInRemoteMode { .. } => (MeasurementState::Interrupted, true),
+        InstrumentError::NotInRemoteMode { .. } | InstrumentError::Unresponsive { .. } => {
+            (MeasurementState::Interrupted, true)
+        }
         InstrumentError::NoReply { .. }
         | InstrumentError::Timeout { .. }
         | InstrumentError::Truncated { .. }

@@ -77,13 +77,7 @@ pub async fn run(
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
-    match &source {
-        auth::TokenSource::Generated(p) => {
-            println!("generated a write token in {} (readable only by you)", p.display())
-        }
-        auth::TokenSource::File(p) => println!("write token from {}", p.display()),
-        auth::TokenSource::Environment => println!("write token from LIGHTBOOTH_TOKEN"),
-    }
+    println!("{}", source.describe());
     println!("lightbooth listening on http://{addr}/");
     println!("dashboard (with the write token): http://{addr}/#token={token}");
     if !loopback_only {

@@ -3,7 +3,8 @@
 //!
 //! [`app`] builds the router from an [`AppState`] and is what tests call with
 //! `tower::ServiceExt::oneshot`, without a socket; [`serve`] runs it on a
-//! listener until a shutdown future resolves.
+//! listener until a shutdown future resolves, within [`ServeLimits`] (a
+//! bounded number of connections, deadlines on request heads and bodies).
 //!
 //! The service never touches the instrument itself: it queues
 //! [`MeasurementJob`]s for the task that owns the instrument and reads that
@@ -14,6 +15,7 @@ pub mod auth;
 pub mod error;
 pub mod events;
 pub mod input;
+pub mod limits;
 mod openapi;
 mod routes;
 mod scene_charts;
@@ -31,6 +33,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 use utoipa::ToSchema;
 
 pub use events::Event;
+pub use limits::ServeLimits;
 
 use crate::store::Store;
 
@@ -163,7 +166,7 @@ pub trait CancelMeasurement: Send + Sync {
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).
 pub trait MockControl: Send + Sync {
-    /// `KIND[:RATE]`, comma-separated (see `lightbooth mock-pr650 --help`); empty clears.
+    /// `KIND[@DELAY][:RATE]`, comma-separated (see `lightbooth serve --help`); empty clears.
     fn set_faults(&self, spec: &str) -> Result<(), String>;
 }
 
@@ -194,12 +197,22 @@ pub fn app(state: AppState) -> Router {
     Router::new().nest("/api", api).merge(web::router()).with_state(state)
 }
 
-/// Serves `app(state)` on `listener` until `shutdown` resolves, then lets
-/// in-flight requests finish.
+/// Serves `app(state)` on `listener` with the default [`ServeLimits`] until
+/// `shutdown` resolves, then lets in-flight requests finish.
 pub async fn serve(
     listener: TcpListener,
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, app(state)).with_graceful_shutdown(shutdown).await
+    serve_with_limits(listener, state, ServeLimits::default(), shutdown).await
+}
+
+/// [`serve`] with explicit limits on connections and on slow clients (see [`limits`]).
+pub async fn serve_with_limits(
+    listener: TcpListener,
+    state: AppState,
+    limits: ServeLimits,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    limits::serve_with_limits(listener, app(state), limits, shutdown).await
 }
