@@ -56,6 +56,7 @@ async fn harness(loopback_only: bool) -> Harness {
         events,
         renders: None,
         mock: None,
+        measurement_cancel: None,
         shutting_down: shutdown_rx,
     };
     Harness {
