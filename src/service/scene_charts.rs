@@ -192,3 +192,22 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
 fn codings(c: &SceneComparison) -> Vec<String> {
     c.codings.iter().map(|s| s.coding.clone()).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The profile put the first target at x = 0 under an axis reading
+    /// "height 1–21 cm": target numbers start at 1, where the axis prints
+    /// the first target's id.
+    #[test]
+    fn profile_ticks_are_not_shifted_by_one() {
+        let info = SceneInfo {
+            id: "cylinder".into(),
+            title: "CYLINDER".into(),
+            targets: (1..=21).map(|h| format!("h{h:02}")).collect(),
+        };
+        assert_eq!(target_number(&info, "h01"), 1.0);
+        assert_eq!(target_number(&info, "h21"), 21.0);
+    }
+}

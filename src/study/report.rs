@@ -172,9 +172,12 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>lightbooth study</title>\
          <style>body{font-family:system-ui,sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}\
          td,th{border-bottom:1px solid #ddd;padding:.2em .6em;text-align:right}td:first-child,th:first-child{text-align:left}\
-         .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(480px,1fr));gap:1em}svg{max-width:100%;height:auto}</style>\
-         </head><body><h1>lightbooth study</h1>",
+         .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(560px,1fr));gap:1em}figure{margin:0}\
+         figure.wide{grid-column:1/-1}svg{max-width:100%;height:auto}section.scene{border-top:2px solid #1d3557;margin-top:2em}",
     );
+    // The codings' colours, the same table the charts use.
+    html.push_str(&charts::coding_css());
+    html.push_str("</style></head><body><h1>lightbooth study</h1>");
     let o = &result.options;
     let _ = write!(
         html,
@@ -196,14 +199,15 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     for s in &result.scenes {
         let _ = write!(
             html,
-            "<h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
+            "<section class=\"scene\"><h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
              <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets differing beyond noise</th></tr>",
             s.title, s.scene, s.white_source, s.render_seconds
         );
         for c in &s.codings {
             let _ = write!(
                 html,
-                "<tr><td>{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                "<tr><td class=\"coding-{}\">{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                c.coding,
                 c.coding,
                 c.rms_rel.mean,
                 c.rms_rel.sd,
@@ -304,7 +308,8 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         for (name, svg) in charts {
             match svg {
                 Ok(svg) => {
-                    let _ = write!(html, "<figure>{svg}</figure>");
+                    let class = if name == "chromaticity" { " class=\"wide\"" } else { "" };
+                    let _ = write!(html, "<figure{class}>{svg}</figure>");
                     files.push((format!("{}_{name}.svg", s.scene), svg.into_bytes()));
                 }
                 Err(e) => {
@@ -312,7 +317,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
                 }
             }
         }
-        html.push_str("</div>");
+        html.push_str("</div></section>");
     }
     if let Some(map) = &result.failure_map {
         html.push_str(
