@@ -714,6 +714,7 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .build_cartesian_2d((lo..hi).log_scale(), ys.0..ys.1)
                 .map_err(err)?;
             mesh!(chart, x_desc, y_desc)
+                .x_labels(6)
                 .x_label_formatter(&|v| log_tick_label(*v))
                 .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
                 .draw()
@@ -1047,7 +1048,10 @@ pub fn scatter_chart_labelled(
         macro_rules! draw {
             ($x:expr, $y:expr, $xf:expr, $yf:expr) => {{
                 let mut chart = builder(&plot).build_cartesian_2d($x, $y).map_err(err)?;
+                // Few labels: a log axis otherwise labels every light tick, overlapping.
                 mesh!(chart, x_desc, y_desc)
+                    .x_labels(6)
+                    .y_labels(6)
                     .x_label_formatter(&$xf)
                     .y_label_formatter(&$yf)
                     .draw()

@@ -129,7 +129,10 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
         connect: true,
     });
     charts::scatter_chart_labelled(
-        &format!("{}: speed against accuracy", s.title),
+        &format!(
+            "{}: speed against accuracy (p = paths per target, b = bounces)",
+            s.title
+        ),
         "render time (s)",
         "mean ΔE00 (CIEDE2000 units, floor 1e-4)",
         &series,
@@ -138,12 +141,12 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
     )
 }
 
-/// A sweep point's label: what its sweep varied (the coding itself for the
-/// coding and N sweeps).
+/// A sweep point's label: what its sweep varied — paths per target ("4096 p"),
+/// bounces ("3 b"), or the coding itself for the coding and N sweeps.
 fn sweep_label(p: &SweepPoint) -> String {
     match p.sweep.as_str() {
-        "samples" => format!("{} {} paths", p.coding, p.samples),
-        "bounces" => format!("{} {} bounces", p.coding, p.bounces),
+        "samples" => format!("{} p", p.samples),
+        "bounces" => format!("{} b", p.bounces),
         _ => p.coding.clone(),
     }
 }
