@@ -5,46 +5,358 @@
 //! charting code in the browser. Text is left to the viewer's fonts (SVG
 //! `<text>`), so no font files are needed here.
 //!
+//! One visual language for every chart, page and report:
+//! - each coding has one colour and one marker ([`CODING_STYLES`], Okabe–Ito
+//!   colours, safe for the common colour-vision deficiencies; the dashboard
+//!   and the report read the same table through [`coding_css`]);
+//! - the measurement (or the study's truth) is black, an open circle larger
+//!   than any coding's marker, drawn last so nothing hides it;
+//! - legends sit in their own column right of the plot, never over data;
+//! - tick labels are formatted from the axis span (no float noise), every
+//!   axis names its unit, fonts are sized for a chart scaled to ~600 px.
+//!
 //! Every function is pure: data in, SVG text out.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::colorimetry::rgb::RgbSpace;
 use crate::colorimetry::{Cmf, Observer, Xyz};
-use crate::spectrum::Grid;
 
 /// Chart size in px; the dashboard scales the SVG to its box.
-const W: u32 = 720;
-const H: u32 = 440;
+const W: u32 = 780;
+const H: u32 = 460;
+/// The legend column right of the plot.
+const LEGEND_W: u32 = 190;
+const CAPTION_PX: u32 = 20;
+const DESC_PX: u32 = 16;
+const TICK_PX: u32 = 14;
+const LEGEND_PX: u32 = 14;
+/// A coding's marker radius; the measurement's is larger.
+const MARKER_PX: i32 = 5;
+const MEASUREMENT_PX: i32 = 8;
 
-/// Colours per series, chosen to stay distinguishable for common colour-vision deficiencies (Okabe–Ito).
-pub const PALETTE: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(230, 159, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(204, 121, 167),
-    RGBColor(86, 180, 233),
-    RGBColor(213, 94, 0),
-    RGBColor(240, 228, 66),
-    RGBColor(0, 0, 0),
+/// The shape drawn at a data point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Marker {
+    Circle,
+    OpenCircle,
+    Square,
+    Diamond,
+    TriangleUp,
+    TriangleDown,
+    Cross,
+    Plus,
+}
+
+/// How one series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Style {
+    pub colour: RGBColor,
+    pub marker: Marker,
+    /// Marker radius in px.
+    pub size: i32,
+}
+
+/// One colour and marker per coding, the same in every chart, page and
+/// report (Okabe & Ito 2008 colours; black is kept for the measurement).
+pub const CODING_STYLES: [(&str, RGBColor, Marker); 7] = [
+    ("rgb", RGBColor(213, 94, 0), Marker::Square),
+    ("srgb", RGBColor(230, 159, 0), Marker::Diamond),
+    ("nstep3", RGBColor(204, 121, 167), Marker::TriangleUp),
+    ("nstep9", RGBColor(86, 180, 233), Marker::TriangleDown),
+    ("nstep27", RGBColor(0, 114, 178), Marker::Circle),
+    ("nstep81", RGBColor(0, 158, 115), Marker::Cross),
+    ("spectral", RGBColor(90, 90, 90), Marker::Plus),
 ];
 
+/// The measurement (or the study's truth): black, open, larger, drawn last.
+pub const MEASUREMENT: Style = Style {
+    colour: RGBColor(0, 0, 0),
+    marker: Marker::OpenCircle,
+    size: MEASUREMENT_PX,
+};
+
+/// Series that are neither a coding nor the measurement (a Pareto front,
+/// a sweep, a threshold): greys and the one Okabe–Ito colour no coding uses.
+const OTHER_COLOURS: [RGBColor; 3] = [RGBColor(110, 110, 110), RGBColor(240, 200, 40), RGBColor(170, 170, 170)];
+
+/// A coding's style, if `name` is a coding (`nstepN` for an N not in the
+/// table gets the nearest tabulated N's colour and marker).
+pub fn coding_style(name: &str) -> Option<Style> {
+    let name = name.trim().to_ascii_lowercase();
+    let style = |(_, colour, marker): (&str, RGBColor, Marker)| Style {
+        colour,
+        marker,
+        size: MARKER_PX,
+    };
+    if let Some(row) = CODING_STYLES.iter().find(|(c, _, _)| *c == name) {
+        return Some(style(*row));
+    }
+    let n: f64 = name.strip_prefix("nstep")?.parse().ok()?;
+    CODING_STYLES
+        .iter()
+        .filter_map(|row| Some((row.0.strip_prefix("nstep")?.parse::<f64>().ok()?, *row)))
+        .min_by(|a, b| (a.0.ln() - n.ln()).abs().total_cmp(&(b.0.ln() - n.ln()).abs()))
+        .map(|(_, row)| style(row))
+}
+
+/// Whether a series is the measurement (or the study's truth).
+fn is_measurement(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    n.starts_with("measured") || n.starts_with("measurement") || n.starts_with("truth")
+}
+
+/// The style of a named series: its coding's, the measurement's, or the
+/// `other`-th of the neutral styles.
+fn series_style(name: &str, other: &mut usize) -> Style {
+    if is_measurement(name) {
+        return MEASUREMENT;
+    }
+    coding_style(name).unwrap_or_else(|| {
+        let colour = OTHER_COLOURS[*other % OTHER_COLOURS.len()];
+        let marker = [Marker::Square, Marker::Diamond, Marker::Circle][*other % 3];
+        *other += 1;
+        Style {
+            colour,
+            marker,
+            size: MARKER_PX,
+        }
+    })
+}
+
+/// The coding table as CSS custom properties and classes, for the dashboard
+/// and the report (`--coding-nstep3: #cc79a7` …, `.coding-nstep3 { color }`).
+pub fn coding_css() -> String {
+    let mut css = String::from(":root{");
+    for (c, RGBColor(r, g, b), _) in CODING_STYLES {
+        css.push_str(&format!("--coding-{c}:#{r:02x}{g:02x}{b:02x};"));
+    }
+    css.push_str("--coding-measured:#000000}");
+    for (c, _, _) in CODING_STYLES {
+        css.push_str(&format!(".coding-{c}{{color:var(--coding-{c});font-weight:600}}"));
+    }
+    css
+}
+
+/// The observer's name as charts print it.
+pub fn observer_name(observer: Observer) -> &'static str {
+    match observer {
+        Observer::JuddVos => "Judd–Vos 1978 2°",
+        Observer::Cie1931 => "CIE 1931 2°",
+    }
+}
+
 type ChartResult = Result<String, String>;
+type Area<DB> = DrawingArea<DB, Shift>;
 
 fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("chart drawing failed: {e:?}")
 }
 
-/// The series legend every chart draws, in one style.
-fn draw_legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
-    chart: &mut ChartContext<'a, DB, CT>,
+/// Runs `$body` with `$mk` bound to a closure that builds the marker of
+/// `$style` at a point (data or pixel coordinates). A macro because each
+/// marker shape is its own element type (and plotters' boxed `DynElement`
+/// needs a `'static` backend).
+macro_rules! with_marker {
+    ($style:expr, |$mk:ident| $body:expr) => {{
+        let st: Style = $style;
+        let (s, c) = (st.size, st.colour);
+        let tri = (s as f64 * 0.9) as i32;
+        match st.marker {
+            Marker::Circle => {
+                let $mk = |at| EmptyElement::at(at) + Circle::new((0, 0), s, c.filled());
+                $body
+            }
+            Marker::OpenCircle => {
+                let $mk = |at| EmptyElement::at(at) + Circle::new((0, 0), s, c.stroke_width(2));
+                $body
+            }
+            Marker::Square => {
+                let $mk = |at| EmptyElement::at(at) + Rectangle::new([(1 - s, 1 - s), (s - 1, s - 1)], c.filled());
+                $body
+            }
+            Marker::Diamond => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + Polygon::new(vec![(0, -s - 1), (s + 1, 0), (0, s + 1), (-s - 1, 0)], c.filled())
+                };
+                $body
+            }
+            Marker::TriangleUp => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(0, -s - 1), (s + 1, tri), (-s - 1, tri)], c.filled())
+                };
+                $body
+            }
+            Marker::TriangleDown => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(0, s + 1), (s + 1, -tri), (-s - 1, -tri)], c.filled())
+                };
+                $body
+            }
+            Marker::Cross => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(-s, -s), (s, s)], c.stroke_width(3))
+                        + PathElement::new(vec![(-s, s), (s, -s)], c.stroke_width(3))
+                };
+                $body
+            }
+            Marker::Plus => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(-s - 1, 0), (s + 1, 0)], c.stroke_width(3))
+                        + PathElement::new(vec![(0, -s - 1), (0, s + 1)], c.stroke_width(3))
+                };
+                $body
+            }
+        }
+    }};
+}
+
+/// Draws `points` as markers of `style` into a chart.
+fn draw_markers<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    points: &[(f64, f64)],
+    style: Style,
 ) -> Result<(), String> {
+    with_marker!(style, |mk| chart
+        .draw_series(points.iter().map(|p| mk(*p)))
+        .map(|_| ())
+        .map_err(err))
+}
+
+/// Vertical error bars (x, low, high) with caps `cap` px wide each side;
+/// unlike plotters' `ErrorBar`, no circle at the centre (which would hide
+/// or fake a marker).
+fn draw_error_bars<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    bars: &[(f64, f64, f64)],
+    colour: RGBColor,
+    cap: i32,
+) -> Result<(), String> {
+    let style = colour.stroke_width(2);
     chart
-        .configure_series_labels()
-        .border_style(BLACK)
-        .background_style(WHITE.mix(0.8))
-        .draw()
-        .map_err(err)
+        .draw_series(
+            bars.iter()
+                .map(|&(x, lo, hi)| PathElement::new(vec![(x, lo), (x, hi)], style)),
+        )
+        .map_err(err)?;
+    chart
+        .draw_series(
+            bars.iter()
+                .flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)])
+                .map(|p| EmptyElement::at(p) + PathElement::new(vec![(-cap, 0), (cap, 0)], style)),
+        )
+        .map_err(err)?;
+    Ok(())
+}
+
+/// What a legend entry shows beside its name.
+#[derive(Clone, Copy)]
+enum Glyph {
+    Line(RGBColor, u32),
+    Dashed(RGBColor),
+    Marker(Style),
+    LineMarker(Style),
+    Band(RGBColor),
+}
+
+struct LegendEntry {
+    name: String,
+    glyph: Glyph,
+}
+
+/// Splits `name` into lines of at most `width` characters at spaces.
+fn wrap(name: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in name.split_whitespace() {
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
+/// The legend in its own column (`area`, beside the plot): entries with an
+/// empty name are skipped, so no legend shows a nameless swatch.
+fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, entries: &[LegendEntry]) -> Result<(), String> {
+    let font = ("sans-serif", LEGEND_PX).into_font();
+    let mut y = 40;
+    for e in entries.iter().filter(|e| !e.name.trim().is_empty()) {
+        let (x0, x1, ym) = (8, 34, y + LEGEND_PX as i32 / 2);
+        match e.glyph {
+            Glyph::Line(c, w) => area.draw(&PathElement::new(vec![(x0, ym), (x1, ym)], c.stroke_width(w))),
+            Glyph::Dashed(c) => {
+                for k in 0..3 {
+                    area.draw(&PathElement::new(
+                        vec![(x0 + 10 * k, ym), (x0 + 10 * k + 6, ym)],
+                        c.stroke_width(2),
+                    ))
+                    .map_err(err)?;
+                }
+                Ok(())
+            }
+            Glyph::Marker(s) => with_marker!(s, |mk| area.draw(&mk(((x0 + x1) / 2, ym)))),
+            Glyph::LineMarker(s) => {
+                area.draw(&PathElement::new(vec![(x0, ym), (x1, ym)], s.colour.stroke_width(2)))
+                    .map_err(err)?;
+                with_marker!(s, |mk| area.draw(&mk(((x0 + x1) / 2, ym))))
+            }
+            Glyph::Band(c) => area.draw(&Rectangle::new([(x0, ym - 6), (x1, ym + 6)], c.filled())),
+        }
+        .map_err(err)?;
+        for line in wrap(&e.name, 18) {
+            area.draw(&Text::new(line, (x1 + 8, y), font.clone())).map_err(err)?;
+            y += LEGEND_PX as i32 + 3;
+        }
+        y += 6;
+    }
+    Ok(())
+}
+
+/// A tick label for `v` on a linear axis spanning `span`: as many decimals
+/// as the tick spacing needs, no more (never 0.30000000000000004), and
+/// scientific notation for very small or large values.
+pub fn tick_label(v: f64, span: f64) -> String {
+    let span = span.abs();
+    let mag = v.abs().max(span);
+    if mag != 0.0 && !(1e-3..1e5).contains(&mag) {
+        let digits = ((mag / span.max(mag * 1e-6)).log10().ceil().max(0.0) as usize).min(4);
+        return format!("{v:.digits$e}");
+    }
+    // Plotters puts ~10 ticks on an axis; one more decimal than the spacing.
+    let step = (span / 10.0).max(1e-12);
+    let decimals = (-step.log10().floor()).max(0.0) as usize;
+    let s = format!("{v:.decimals$}");
+    // No "-0.00".
+    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
+/// A tick label on a logarithmic axis: three significant digits at most.
+pub fn log_tick_label(v: f64) -> String {
+    if v <= 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    if !(1e-3..1e5).contains(&v) {
+        return format!("{v:.0e}");
+    }
+    let decimals = (2 - v.log10().floor() as i32).clamp(0, 6) as usize;
+    let s = format!("{v:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -57,10 +369,80 @@ fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
         return (0.0, 1.0);
     }
     if hi - lo < 1e-12 {
-        return (lo - 0.5 * lo.abs().max(1e-9), hi + 0.5 * hi.abs().max(1e-9));
+        let half = (0.1 * lo.abs()).max(1e-3);
+        return (lo - half, hi + half);
     }
     let pad = 0.05 * (hi - lo);
     (lo - pad, hi + pad)
+}
+
+/// The white page with the caption; returns (plot area, legend column).
+fn page<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, title: &str) -> Result<(Area<DB>, Area<DB>), String> {
+    root.fill(&WHITE).map_err(err)?;
+    let body = root.titled(title, ("sans-serif", CAPTION_PX)).map_err(err)?;
+    let width = body.dim_in_pixel().0;
+    Ok(body.split_horizontally(width.saturating_sub(LEGEND_W)))
+}
+
+/// The chart's axes: descriptions and tick fonts in one style.
+fn builder<'a, 'b, DB: DrawingBackend>(area: &'a DrawingArea<DB, Shift>) -> ChartBuilder<'a, 'b, DB> {
+    let mut b = ChartBuilder::on(area);
+    b.margin(12).x_label_area_size(50).y_label_area_size(80);
+    b
+}
+
+macro_rules! mesh {
+    ($chart:expr, $x_desc:expr, $y_desc:expr) => {
+        $chart
+            .configure_mesh()
+            .x_desc($x_desc)
+            .y_desc($y_desc)
+            .label_style(("sans-serif", TICK_PX))
+            .axis_desc_style(("sans-serif", DESC_PX))
+            .light_line_style(RGBColor(244, 244, 244))
+            .bold_line_style(RGBColor(215, 215, 215))
+    };
+}
+
+/// An axis of numbered slots (targets, bars): linear over `range` with
+/// ticks exactly at `keys`, whatever the axis length (plotters' own f64 axis
+/// picks "nice" ticks, which for 1 slot are fractions and for 21 skip some).
+struct Slots {
+    inner: plotters::coord::types::RangedCoordf64,
+    keys: Vec<f64>,
+}
+
+impl Slots {
+    fn new(range: std::ops::Range<f64>, keys: Vec<f64>) -> Slots {
+        Slots {
+            inner: range.into(),
+            keys,
+        }
+    }
+}
+
+impl Ranged for Slots {
+    type FormatOption = plotters::coord::ranged1d::NoDefaultFormatting;
+    type ValueType = f64;
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.inner.map(value, limit)
+    }
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            Vec::new()
+        } else {
+            self.keys.clone()
+        }
+    }
+    fn range(&self) -> std::ops::Range<f64> {
+        self.inner.range()
+    }
+}
+
+impl plotters::coord::ranged1d::ValueFormatter<f64> for Slots {
+    fn format(value: &f64) -> String {
+        format!("{value}")
+    }
 }
 
 /// A measured spectrum: the mean with a ±1 SD band and each raw sample.
@@ -74,133 +456,221 @@ pub fn spectrum_chart(
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
+        let (plot, legend_area) = page(&root, title)?;
         let all = samples.iter().flatten().chain(mean.into_iter().flatten()).copied();
         let (_, hi) = bounds(all.chain(std::iter::once(0.0)));
+        let hi = hi.max(1e-12);
         let (x0, x1) = (
             wavelength_nm.first().copied().unwrap_or(380.0),
             wavelength_nm.last().copied().unwrap_or(780.0),
         );
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, 0.0..hi.max(1e-12))
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("wavelength (nm)")
-            .y_desc("radiance W/(sr·m²·nm)")
-            .y_label_formatter(&|v| format!("{v:.2e}"))
+        let mut chart = builder(&plot).build_cartesian_2d(x0..x1, 0.0..hi).map_err(err)?;
+        mesh!(chart, "wavelength (nm)", "spectral radiance (W·sr⁻¹·m⁻²·nm⁻¹)")
+            .x_label_formatter(&|v| tick_label(*v, x1 - x0))
+            .y_label_formatter(&|v| tick_label(*v, hi))
             .draw()
             .map_err(err)?;
-        for (i, s) in samples.iter().enumerate() {
+        let mut legend = Vec::new();
+        let raw = RGBColor(86, 180, 233);
+        for s in samples {
             chart
                 .draw_series(LineSeries::new(
                     wavelength_nm.iter().copied().zip(s.iter().copied()),
-                    PALETTE[4].mix(0.6).stroke_width(1),
+                    raw.mix(0.7).stroke_width(1),
                 ))
-                .map_err(err)?
-                .label(if i == 0 { "raw samples" } else { "" })
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[4]));
+                .map_err(err)?;
+        }
+        if !samples.is_empty() {
+            legend.push(LegendEntry {
+                name: format!("raw samples ({})", samples.len()),
+                glyph: Glyph::Line(raw, 1),
+            });
         }
         if let (Some(m), Some(sd)) = (mean, sd) {
-            let upper: Vec<(f64, f64)> = wavelength_nm
+            let upper = wavelength_nm
                 .iter()
                 .zip(m.iter().zip(sd))
-                .map(|(w, (m, s))| (*w, m + s))
-                .collect();
-            let lower: Vec<(f64, f64)> = wavelength_nm
+                .map(|(w, (m, s))| (*w, m + s));
+            let lower = wavelength_nm
                 .iter()
                 .zip(m.iter().zip(sd))
                 .map(|(w, (m, s))| (*w, m - s))
-                .rev()
-                .collect();
-            let band: Vec<(f64, f64)> = upper.into_iter().chain(lower).collect();
+                .rev();
+            let band: Vec<(f64, f64)> = upper.chain(lower).collect();
+            let band_colour = RGBColor(205, 205, 205);
             chart
-                .draw_series(std::iter::once(Polygon::new(band, PALETTE[1].mix(0.35).filled())))
-                .map_err(err)?
-                .label("±1 SD")
-                .legend(|(x, y)| Rectangle::new([(x, y - 4), (x + 16, y + 4)], PALETTE[1].mix(0.35).filled()));
+                .draw_series(std::iter::once(Polygon::new(band, band_colour.filled())))
+                .map_err(err)?;
+            legend.push(LegendEntry {
+                name: "±1 SD".into(),
+                glyph: Glyph::Band(band_colour),
+            });
         }
         if let Some(m) = mean {
             chart
                 .draw_series(LineSeries::new(
                     wavelength_nm.iter().copied().zip(m.iter().copied()),
-                    PALETTE[0].stroke_width(2),
+                    BLACK.stroke_width(2),
                 ))
-                .map_err(err)?
-                .label("mean")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(2)));
+                .map_err(err)?;
+            legend.push(LegendEntry {
+                name: "mean".into(),
+                glyph: Glyph::Line(BLACK, 2),
+            });
         }
-        draw_legend(&mut chart)?;
+        draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
 }
 
-/// The CIE 1931 x,y diagram with the spectral locus and the two display
-/// gamuts, and each series. The view is zoomed to the data when `zoom`.
-/// Series are [`ScatterSeries`]: a coding's results, or the measurement;
-/// `connect` joins a profile's points (the cylinder's heights).
-pub fn chromaticity_chart(title: &str, series: &[ScatterSeries], zoom: bool) -> ChartResult {
-    let cmf = Cmf::of(Observer::Cie1931);
-    let locus: Vec<(f64, f64)> = Grid::uniform(380.0, 5.0, 65)
+/// The spectral locus of `observer` (x,y of each tabulated wavelength).
+fn spectral_locus(observer: Observer) -> Vec<(f64, (f64, f64))> {
+    let cmf = Cmf::of(observer);
+    cmf.grid()
         .wavelengths()
         .iter()
-        .map(|&nm| {
+        .filter(|&&nm| (380.0..=700.0).contains(&nm))
+        .filter_map(|&nm| {
             let b = cmf.at(nm);
-            let xy = Xyz::from_array(b).chromaticity();
-            (xy.x, xy.y)
+            (b.iter().sum::<f64>() > 1e-9).then(|| {
+                let xy = Xyz::from_array(b).chromaticity();
+                (nm, (xy.x, xy.y))
+            })
         })
-        .collect();
-    let ((x0, x1), (y0, y1)) = if zoom && series.iter().any(|s| !s.points.is_empty()) {
+        .collect()
+}
+
+/// The x,y chromaticity diagram for `observer`: on the left the whole
+/// spectral locus (380–700 nm, closed by the purple line) with the sRGB and
+/// RADIANCE RGB gamuts and the data, on the right the same zoomed on the
+/// data; the legend beside both. Series are [`ScatterSeries`]: a coding's
+/// results, or the measurement (drawn last); `connect` joins a profile's
+/// points (the cylinder's heights).
+///
+/// Approximation: the gamuts' primaries are their published CIE 1931 x,y;
+/// on a Judd–Vos diagram they are drawn at the same x,y (the primaries'
+/// spectra, which a Judd–Vos x,y would need, are not defined by the standards).
+pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeries]) -> ChartResult {
+    let locus = spectral_locus(observer);
+    let has_data = series.iter().any(|s| !s.points.is_empty());
+    let (zx, zy) = {
         let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
         let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
-        let half = ((xs.1 - xs.0).max(ys.1 - ys.0) / 2.0).max(0.01);
+        let half = ((xs.1 - xs.0).max(ys.1 - ys.0) / 2.0).max(0.005);
         let (cx, cy) = ((xs.0 + xs.1) / 2.0, (ys.0 + ys.1) / 2.0);
         ((cx - half, cx + half), (cy - half, cy + half))
-    } else {
-        ((0.0, 0.8), (0.0, 0.9))
     };
+    let gamuts = [
+        (RgbSpace::SRGB, "sRGB gamut", false),
+        (RgbSpace::RADIANCE, "RADIANCE RGB gamut", true),
+    ];
+    let grey = RGBColor(100, 100, 100);
+    let (panel, legend_w) = (440u32, LEGEND_W);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (H + 120, H)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (2 * panel + legend_w, panel + 40)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(x0..x1, y0..y1)
+        let body = root
+            .titled(
+                &format!("{title} — {} observer", observer_name(observer)),
+                ("sans-serif", CAPTION_PX),
+            )
             .map_err(err)?;
-        chart.configure_mesh().x_desc("x").y_desc("y").draw().map_err(err)?;
-        let mut closed = locus.clone();
-        closed.push(locus[0]);
-        chart
-            .draw_series(LineSeries::new(closed, BLACK.stroke_width(1)))
-            .map_err(err)?
-            .label("spectral locus")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
-        for (space, color) in [
-            (RgbSpace::SRGB, RGBColor(120, 120, 120)),
-            (RgbSpace::RADIANCE, RGBColor(170, 170, 170)),
-        ] {
-            let tri = vec![
-                (space.red.x, space.red.y),
-                (space.green.x, space.green.y),
-                (space.blue.x, space.blue.y),
-                (space.red.x, space.red.y),
-            ];
+        let (panels, legend_area) = body.split_horizontally(2 * panel);
+        let (left, right) = panels.split_horizontally(panel);
+        let views = [
+            (&left, (0.0, 0.8), (0.0, 0.9), "whole diagram"),
+            (&right, zx, zy, "zoomed on the data"),
+        ];
+        for (k, (area, (x0, x1), (y0, y1), caption)) in views.into_iter().enumerate() {
+            if k == 1 && !has_data {
+                continue;
+            }
+            let mut chart = ChartBuilder::on(area)
+                .caption(caption, ("sans-serif", DESC_PX))
+                .margin(10)
+                .x_label_area_size(45)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(err)?;
+            mesh!(chart, "x (chromaticity, unitless)", "y (chromaticity, unitless)")
+                .x_labels(6)
+                .y_labels(6)
+                .x_label_formatter(&|v| tick_label(*v, x1 - x0))
+                .y_label_formatter(&|v| tick_label(*v, y1 - y0))
+                .draw()
+                .map_err(err)?;
+            let mut closed: Vec<(f64, f64)> = locus.iter().map(|l| l.1).collect();
+            closed.push(locus[0].1);
             chart
-                .draw_series(LineSeries::new(tri, color.stroke_width(1)))
-                .map_err(err)?
-                .label(format!("{} gamut", space.name))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+                .draw_series(LineSeries::new(closed, BLACK.stroke_width(1)))
+                .map_err(err)?;
+            if k == 0 {
+                for &(nm, p) in locus
+                    .iter()
+                    .filter(|(nm, _)| [460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(nm))
+                {
+                    let dx = if nm < 510.0 { -34 } else { 6 };
+                    chart
+                        .draw_series(std::iter::once(
+                            EmptyElement::at(p)
+                                + Circle::new((0, 0), 2, BLACK.filled())
+                                + Text::new(format!("{nm:.0}"), (dx, -6), ("sans-serif", 12).into_font()),
+                        ))
+                        .map_err(err)?;
+                }
+            }
+            for (space, _, dashed) in gamuts {
+                let tri = vec![
+                    (space.red.x, space.red.y),
+                    (space.green.x, space.green.y),
+                    (space.blue.x, space.blue.y),
+                    (space.red.x, space.red.y),
+                ];
+                if dashed {
+                    chart
+                        .draw_series(DashedLineSeries::new(tri, 6, 5, grey.stroke_width(2)))
+                        .map_err(err)?;
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(tri, grey.stroke_width(1)))
+                        .map_err(err)?;
+                }
+            }
+            if k == 0 && has_data {
+                // Where the right panel looks.
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(zx.0, zy.0), (zx.1, zy.1)],
+                        RGBColor(200, 0, 0).stroke_width(1),
+                    )))
+                    .map_err(err)?;
+            }
+            draw_scatter(&mut chart, series, None, k == 1)?;
         }
-        draw_scatter(&mut chart, series)?;
-        draw_legend(&mut chart)?;
+        let mut legend = vec![LegendEntry {
+            name: format!("spectral locus ({})", observer_name(observer)),
+            glyph: Glyph::Line(BLACK, 1),
+        }];
+        for (_, name, dashed) in gamuts {
+            legend.push(LegendEntry {
+                name: name.into(),
+                glyph: if dashed {
+                    Glyph::Dashed(grey)
+                } else {
+                    Glyph::Line(grey, 1)
+                },
+            });
+        }
+        if has_data {
+            legend.push(LegendEntry {
+                name: "zoomed region".into(),
+                glyph: Glyph::Line(RGBColor(200, 0, 0), 1),
+            });
+        }
+        legend.extend(scatter_legend(series));
+        draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
@@ -214,78 +684,143 @@ pub struct LineSeriesData {
     pub errors: Option<Vec<f64>>,
 }
 
-/// Luminance profiles (cd/m² against height), Pareto charts and the like.
-pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesData], log_x: bool) -> ChartResult {
-    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-    let ys = bounds(series.iter().flat_map(|s| {
+fn line_y_bounds(series: &[LineSeriesData]) -> (f64, f64) {
+    bounds(series.iter().flat_map(|s| {
         s.points.iter().enumerate().flat_map(move |(i, p)| {
-            let e = s.errors.as_ref().map(|e| e[i]).unwrap_or(0.0);
+            let e = s.errors.as_ref().and_then(|e| e.get(i).copied()).unwrap_or(0.0);
             [p.1 - e, p.1 + e]
         })
-    }));
+    }))
+}
+
+/// Pareto charts, interreflection curves and the like: y against x, x linear
+/// or logarithmic.
+pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesData], log_x: bool) -> ChartResult {
+    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = line_y_bounds(series);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let mut builder = ChartBuilder::on(&root);
-        builder
-            .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70);
+        let (plot, legend_area) = page(&root, title)?;
         if log_x {
-            let lo = xs.0.max(1e-9);
-            let mut chart = builder
-                .build_cartesian_2d((lo..xs.1.max(lo * 10.0)).log_scale(), ys.0..ys.1)
+            let lo = series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.0))
+                .filter(|v| *v > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            let lo = if lo.is_finite() { lo / 1.5 } else { 1e-3 };
+            let hi = (xs.1 * 1.5).max(lo * 10.0);
+            let mut chart = builder(&plot)
+                .build_cartesian_2d((lo..hi).log_scale(), ys.0..ys.1)
                 .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
+            mesh!(chart, x_desc, y_desc)
+                .x_labels(6)
+                .x_label_formatter(&|v| log_tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
                 .draw()
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
-            draw_legend(&mut chart)?;
         } else {
-            let mut chart = builder.build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
+            let mut chart = builder(&plot).build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
+            mesh!(chart, x_desc, y_desc)
+                .x_label_formatter(&|v| tick_label(*v, xs.1 - xs.0))
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
                 .draw()
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
-            draw_legend(&mut chart)?;
         }
+        draw_legend(&legend_area, &line_legend(series))?;
         root.present().map_err(err)?;
     }
     Ok(svg)
 }
 
-fn draw_lines<DB: DrawingBackend, X: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+/// A profile along a scene's targets: series' x are target numbers
+/// 1…n (the scene's order), labelled with the targets' ids on the x axis
+/// (every k-th when there are many).
+pub fn profile_chart(
+    title: &str,
+    targets: &[String],
+    x_desc: &str,
+    y_desc: &str,
+    series: &[LineSeriesData],
+) -> ChartResult {
+    let n = targets.len().max(1);
+    let every = n.div_ceil(11);
+    let keys: Vec<f64> = (1..=n).step_by(every).map(|i| i as f64).collect();
+    let ys = line_y_bounds(series);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let (plot, legend_area) = page(&root, title)?;
+        let mut chart = builder(&plot)
+            .build_cartesian_2d(Slots::new(0.5..n as f64 + 0.5, keys), ys.0..ys.1)
+            .map_err(err)?;
+        mesh!(chart, x_desc, y_desc)
+            .x_label_formatter(&|v| {
+                let i = v.round() as usize;
+                if (v - v.round()).abs() < 1e-6 && (1..=targets.len()).contains(&i) {
+                    targets[i - 1].clone()
+                } else {
+                    String::new()
+                }
+            })
+            .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
+            .draw()
+            .map_err(err)?;
+        draw_lines(&mut chart, series)?;
+        draw_legend(&legend_area, &line_legend(series))?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// Series in drawing order: others first, the measurement last.
+fn measurement_last<T>(series: &[T], name: impl Fn(&T) -> &str) -> Vec<(usize, &T)> {
+    let mut order: Vec<(usize, &T)> = series.iter().enumerate().collect();
+    order.sort_by_key(|(_, s)| is_measurement(name(s)));
+    order
+}
+
+/// Styles for series by name, in the series' own order.
+fn styles<T>(series: &[T], name: impl Fn(&T) -> &str) -> Vec<Style> {
+    let mut other = 0;
+    series.iter().map(|s| series_style(name(s), &mut other)).collect()
+}
+
+fn line_legend(series: &[LineSeriesData]) -> Vec<LegendEntry> {
+    let st = styles(series, |s| s.name.as_str());
+    series
+        .iter()
+        .zip(st)
+        .map(|(s, style)| LegendEntry {
+            name: s.name.clone(),
+            glyph: Glyph::LineMarker(style),
+        })
+        .collect()
+}
+
+fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
     series: &[LineSeriesData],
 ) -> Result<(), String> {
-    for (i, s) in series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
+    let st = styles(series, |s| s.name.as_str());
+    for (i, s) in measurement_last(series, |s| s.name.as_str()) {
+        let style = st[i];
+        let width = if is_measurement(&s.name) { 3 } else { 2 };
         chart
-            .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
-            .map_err(err)?
-            .label(s.name.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
-        chart
-            .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, color.filled())))
+            .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
             .map_err(err)?;
         if let Some(errors) = &s.errors {
-            chart
-                .draw_series(
-                    s.points
-                        .iter()
-                        .zip(errors)
-                        .map(|(p, e)| ErrorBar::new_vertical(p.0, p.1 - e, p.1, p.1 + e, color, 6)),
-                )
-                .map_err(err)?;
+            let bars: Vec<(f64, f64, f64)> = s
+                .points
+                .iter()
+                .zip(errors)
+                .map(|(p, e)| (p.0, p.1 - e, p.1 + e))
+                .collect();
+            draw_error_bars(chart, &bars, style.colour, 4)?;
         }
+        draw_markers(chart, &s.points, style)?;
     }
     Ok(())
 }
@@ -297,7 +832,8 @@ pub struct Bar {
     pub sd: Option<f64>,
 }
 
-/// Bars with ±1 SD error bars (rms_rel and mean ΔE per coding).
+/// Bars with ±1 SD error bars (rms_rel and mean ΔE per coding), one slot
+/// per bar and none after the last; a coding's bar has its coding's colour.
 pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
     let hi = bars
         .iter()
@@ -306,48 +842,39 @@ pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
         .max(1e-9)
         * 1.1;
     let n = bars.len().max(1);
+    let keys: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let st = styles(bars, |b| b.label.as_str());
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d((0..n).into_segmented(), 0.0..hi)
+        let body = root.titled(title, ("sans-serif", CAPTION_PX)).map_err(err)?;
+        let mut chart = builder(&body)
+            .build_cartesian_2d(Slots::new(-0.5..n as f64 - 0.5, keys), 0.0..hi)
             .map_err(err)?;
-        chart
-            .configure_mesh()
+        mesh!(chart, "coding", y_desc)
             .disable_x_mesh()
-            .x_labels(n)
-            .x_label_formatter(&|v| match v {
-                SegmentValue::CenterOf(i) | SegmentValue::Exact(i) => labels.get(*i).cloned().unwrap_or_default(),
-                SegmentValue::Last => String::new(),
+            .x_label_formatter(&|v| {
+                let i = v.round();
+                if (v - i).abs() < 1e-6 && i >= 0.0 {
+                    bars.get(i as usize).map(|b| b.label.clone()).unwrap_or_default()
+                } else {
+                    String::new()
+                }
             })
-            .y_desc(y_desc)
+            .y_label_formatter(&|v| tick_label(*v, hi))
             .draw()
             .map_err(err)?;
         for (i, b) in bars.iter().enumerate() {
-            let color = PALETTE[i % PALETTE.len()];
-            let mut bar = Rectangle::new(
-                [(SegmentValue::Exact(i), 0.0), (SegmentValue::Exact(i + 1), b.value)],
-                color.mix(0.8).filled(),
-            );
-            bar.set_margin(0, 0, 12, 12);
-            chart.draw_series(std::iter::once(bar)).map_err(err)?;
+            let x = i as f64;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x - 0.35, 0.0), (x + 0.35, b.value)],
+                    st[i].colour.filled(),
+                )))
+                .map_err(err)?;
             if let Some(sd) = b.sd {
-                chart
-                    .draw_series(std::iter::once(ErrorBar::new_vertical(
-                        SegmentValue::CenterOf(i),
-                        b.value - sd,
-                        b.value,
-                        b.value + sd,
-                        BLACK,
-                        10,
-                    )))
-                    .map_err(err)?;
+                draw_error_bars(&mut chart, &[(x, b.value - sd, b.value + sd)], BLACK, 8)?;
             }
         }
         root.present().map_err(err)?;
@@ -395,7 +922,7 @@ pub fn grid_chart(
             values.len()
         ));
     }
-    let (cell_w, cell_h) = (30i32, 20i32);
+    let (cell_w, cell_h) = (36i32, 22i32);
     let label_w = 8 * row_labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as i32 + 12;
     let head_h = 8 * col_labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as i32 + 50;
     let (x0, y0) = (label_w, head_h);
@@ -405,9 +932,9 @@ pub fn grid_chart(
     {
         let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        root.draw(&Text::new(title.to_string(), (10, 8), ("sans-serif", 16).into_font()))
+        root.draw(&Text::new(title.to_string(), (10, 8), ("sans-serif", 18).into_font()))
             .map_err(err)?;
-        let col_style = ("sans-serif", 11).into_font().transform(FontTransform::Rotate270);
+        let col_style = ("sans-serif", 12).into_font().transform(FontTransform::Rotate270);
         for (c, label) in col_labels.iter().enumerate() {
             let x = x0 + cell_w * c as i32 + cell_w / 2 - 6;
             root.draw(&Text::new(label.clone(), (x, y0 - 6), col_style.clone()))
@@ -431,7 +958,7 @@ pub fn grid_chart(
                 root.draw(&Text::new(
                     text,
                     (x + 4, y + 5),
-                    ("sans-serif", 9).into_font().color(&colour),
+                    ("sans-serif", 11).into_font().color(&colour),
                 ))
                 .map_err(err)?;
             }
@@ -482,6 +1009,19 @@ pub fn scatter_chart(
     series: &[ScatterSeries],
     log: (bool, bool),
 ) -> ChartResult {
+    scatter_chart_labelled(title, x_desc, y_desc, series, &[], log)
+}
+
+/// [`scatter_chart`] with a text label beside points: `labels[i][j]` for
+/// point j of series i (missing or empty: no label).
+pub fn scatter_chart_labelled(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[ScatterSeries],
+    labels: &[Vec<String>],
+    log: (bool, bool),
+) -> ChartResult {
     let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
     let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
     // A log axis from the positive values, one decade at least.
@@ -492,7 +1032,10 @@ pub fn scatter_chart(
             .filter(|v| *v > 0.0);
         let (lo, hi) = vals.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
         if lo.is_finite() {
-            (lo / 1.2, (hi * 1.2).max(lo * 10.0))
+            let (lo, hi) = (lo / 1.3, hi * 1.3);
+            // At least a factor 4, so the axis has ticks to read.
+            let widen = (4.0 * lo / hi).max(1.0).sqrt();
+            (lo / widen, hi * widen)
         } else {
             (r.0.max(1e-9), r.1.max(1e-8))
         }
@@ -501,53 +1044,82 @@ pub fn scatter_chart(
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
-        root.fill(&WHITE).map_err(err)?;
-        let mut builder = ChartBuilder::on(&root);
-        builder
-            .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70);
+        let (plot, legend_area) = page(&root, title)?;
         macro_rules! draw {
-            ($x:expr, $y:expr) => {{
-                let mut chart = builder.build_cartesian_2d($x, $y).map_err(err)?;
-                chart
-                    .configure_mesh()
-                    .x_desc(x_desc)
-                    .y_desc(y_desc)
+            ($x:expr, $y:expr, $xf:expr, $yf:expr) => {{
+                let mut chart = builder(&plot).build_cartesian_2d($x, $y).map_err(err)?;
+                // Few labels: a log axis otherwise labels every light tick, overlapping.
+                mesh!(chart, x_desc, y_desc)
+                    .x_labels(6)
+                    .y_labels(6)
+                    .x_label_formatter(&$xf)
+                    .y_label_formatter(&$yf)
                     .draw()
                     .map_err(err)?;
-                draw_scatter(&mut chart, series)?;
-                draw_legend(&mut chart)?;
+                draw_scatter(&mut chart, series, Some(labels), true)?;
             }};
         }
+        let lin_x = |v: &f64| tick_label(*v, xs.1 - xs.0);
+        let lin_y = |v: &f64| tick_label(*v, ys.1 - ys.0);
+        let log_l = |v: &f64| log_tick_label(*v);
         match log {
-            (true, true) => draw!((lx.0..lx.1).log_scale(), (ly.0..ly.1).log_scale()),
-            (true, false) => draw!((lx.0..lx.1).log_scale(), ys.0..ys.1),
-            (false, true) => draw!(xs.0..xs.1, (ly.0..ly.1).log_scale()),
-            (false, false) => draw!(xs.0..xs.1, ys.0..ys.1),
+            (true, true) => draw!((lx.0..lx.1).log_scale(), (ly.0..ly.1).log_scale(), log_l, log_l),
+            (true, false) => draw!((lx.0..lx.1).log_scale(), ys.0..ys.1, log_l, lin_y),
+            (false, true) => draw!(xs.0..xs.1, (ly.0..ly.1).log_scale(), lin_x, log_l),
+            (false, false) => draw!(xs.0..xs.1, ys.0..ys.1, lin_x, lin_y),
         }
+        draw_legend(&legend_area, &scatter_legend(series))?;
         root.present().map_err(err)?;
     }
     Ok(svg)
 }
 
-fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+fn scatter_legend(series: &[ScatterSeries]) -> Vec<LegendEntry> {
+    let st = styles(series, |s| s.name.as_str());
+    series
+        .iter()
+        .zip(st)
+        .map(|(s, style)| LegendEntry {
+            name: s.name.clone(),
+            glyph: if s.connect {
+                Glyph::LineMarker(style)
+            } else {
+                Glyph::Marker(style)
+            },
+        })
+        .collect()
+}
+
+/// Every series' markers (and lines when `connect`), the measurement last;
+/// `labels` beside points; `full_size: false` draws smaller markers (an
+/// overview panel where the data are a cluster).
+fn draw_scatter<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     series: &[ScatterSeries],
+    labels: Option<&[Vec<String>]>,
+    full_size: bool,
 ) -> Result<(), String> {
-    for (i, s) in series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
+    let st = styles(series, |s| s.name.as_str());
+    for (i, s) in measurement_last(series, |s| s.name.as_str()) {
+        let mut style = st[i];
+        if !full_size {
+            style.size = (style.size / 2).max(2);
+        }
         if s.connect {
+            let width = if is_measurement(&s.name) { 2 } else { 1 };
             chart
-                .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
+                .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
                 .map_err(err)?;
         }
-        chart
-            .draw_series(s.points.iter().map(|p| Circle::new(*p, 4, color.filled())))
-            .map_err(err)?
-            .label(s.name.clone())
-            .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+        draw_markers(chart, &s.points, style)?;
+        if let Some(names) = labels.and_then(|l| l.get(i)) {
+            let font = ("sans-serif", 13).into_font().color(&RGBColor(40, 40, 40));
+            chart
+                .draw_series(s.points.iter().zip(names).filter(|(_, n)| !n.is_empty()).map(|(p, n)| {
+                    EmptyElement::at(*p) + Text::new(n.clone(), (style.size + 4, -style.size - 12), font.clone())
+                }))
+                .map_err(err)?;
+        }
     }
     Ok(())
 }
@@ -555,6 +1127,62 @@ fn draw_scatter<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueT
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::spectrum::Grid;
+
+    /// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
+    fn elements(svg: &str, tag: &str) -> Vec<(String, String)> {
+        let open = format!("<{tag} ");
+        let mut out = Vec::new();
+        let mut rest = svg;
+        while let Some(i) = rest.find(&open) {
+            rest = &rest[i + open.len()..];
+            let end = rest.find('>').unwrap();
+            let attrs = rest[..end].to_string();
+            let content = if attrs.ends_with('/') {
+                String::new()
+            } else {
+                let close = format!("</{tag}>");
+                let c = rest.find(&close).unwrap();
+                rest[end + 1..c].trim().to_string()
+            };
+            out.push((attrs, content));
+        }
+        out
+    }
+
+    fn attr(attrs: &str, name: &str) -> Option<String> {
+        let key = format!(" {name}=\"");
+        let i = format!(" {attrs}").find(&key)? + key.len() - 1;
+        let v = &attrs[i..];
+        Some(v[..v.find('"')?].to_string())
+    }
+
+    fn num(attrs: &str, name: &str) -> f64 {
+        attr(attrs, name).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
+    }
+
+    fn texts(svg: &str) -> Vec<(f64, f64, String)> {
+        elements(svg, "text")
+            .into_iter()
+            .map(|(a, c)| (num(&a, "x"), num(&a, "y"), c))
+            .collect()
+    }
+
+    fn series(name: &str, points: &[(f64, f64)]) -> LineSeriesData {
+        LineSeriesData {
+            name: name.into(),
+            points: points.to_vec(),
+            errors: None,
+        }
+    }
+
+    fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
+        ScatterSeries {
+            name: name.into(),
+            points: points.to_vec(),
+            connect: false,
+        }
+    }
 
     #[test]
     fn charts_are_svg_with_their_labels() {
@@ -565,15 +1193,11 @@ mod tests {
         assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
         let xy = chromaticity_chart(
             "chromaticity",
-            &[ScatterSeries {
-                name: "measured".into(),
-                points: vec![(0.31, 0.33)],
-                connect: false,
-            }],
-            false,
+            Observer::JuddVos,
+            &[scatter("measured", &[(0.31, 0.33)])],
         )
         .unwrap();
-        assert!(xy.contains("spectral locus") && xy.contains("srgb gamut"));
+        assert!(xy.contains("spectral locus") && xy.contains("sRGB gamut") && xy.contains("RADIANCE RGB gamut"));
         let bars = bar_chart(
             "rms",
             "rms_rel",
@@ -585,18 +1209,9 @@ mod tests {
         )
         .unwrap();
         assert!(bars.contains("rgb"));
-        let lines = line_chart(
-            "speed",
-            "s",
-            "dE",
-            &[LineSeriesData {
-                name: "pareto".into(),
-                points: vec![(0.1, 3.0), (1.0, 1.0)],
-                errors: Some(vec![0.1, 0.1]),
-            }],
-            true,
-        )
-        .unwrap();
+        let mut pareto = series("pareto", &[(0.1, 3.0), (1.0, 1.0)]);
+        pareto.errors = Some(vec![0.1, 0.1]);
+        let lines = line_chart("speed", "s", "dE", &[pareto], true).unwrap();
         assert!(lines.contains("pareto"));
         let grid = grid_chart(
             "map",
@@ -613,11 +1228,7 @@ mod tests {
     #[test]
     fn scatter_chart_draws_every_series_name() {
         let series = [
-            ScatterSeries {
-                name: "candidates".into(),
-                points: vec![(0.1, 2.0), (1.0, 0.5)],
-                connect: false,
-            },
+            scatter("candidates", &[(0.1, 2.0), (1.0, 0.5)]),
             ScatterSeries {
                 name: "front".into(),
                 points: vec![(0.1, 2.0), (1.0, 0.5)],
@@ -628,5 +1239,297 @@ mod tests {
             let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
             assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
         }
+    }
+
+    /// The CYLINDER profile plotted target k at x = k − 1 under an axis that
+    /// said 1–21: the first point must sit on the first target's tick.
+    #[test]
+    fn profile_ticks_are_not_shifted_by_one() {
+        let targets: Vec<String> = ["h01", "h02", "h03"].map(String::from).to_vec();
+        let svg = profile_chart(
+            "profile",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("measured", &[(1.0, 1.0), (2.0, 4.0), (3.0, 9.0)])],
+        )
+        .unwrap();
+        let t = texts(&svg);
+        let tick = |id: &str| {
+            t.iter()
+                .find(|(_, _, c)| c == id)
+                .unwrap_or_else(|| panic!("no tick {id}"))
+                .0
+        };
+        // The measurement's markers: black open circles, in x order.
+        let marks: Vec<f64> = elements(&svg, "circle")
+            .iter()
+            .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000") && num(a, "r") == MEASUREMENT_PX as f64)
+            .map(|(a, _)| num(a, "cx"))
+            .filter(|x| *x < (W - LEGEND_W) as f64)
+            .collect();
+        assert_eq!(marks.len(), 3, "{svg}");
+        for (id, x) in ["h01", "h02", "h03"].iter().zip(&marks) {
+            assert!(
+                (tick(id) - x).abs() <= 1.0,
+                "{id} tick at {} but its point at {x}",
+                tick(id)
+            );
+        }
+    }
+
+    /// One target (WHITE's patch) made a zero-width x range whose ticks all read "0.0".
+    #[test]
+    fn single_target_scene_ticks_are_not_all_zero() {
+        let targets = vec!["patch".to_string()];
+        let svg = profile_chart(
+            "white",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("measured", &[(1.0, 34.48)]), series("rgb", &[(1.0, 34.55)])],
+        )
+        .unwrap();
+        let t = texts(&svg);
+        assert!(
+            t.iter().any(|(_, _, c)| c == "patch"),
+            "the target is named on its tick"
+        );
+        let numbers: Vec<&String> = t
+            .iter()
+            .map(|(_, _, c)| c)
+            .filter(|c| c.parse::<f64>().is_ok())
+            .collect();
+        let distinct: std::collections::BTreeSet<&String> = numbers.iter().copied().collect();
+        assert!(distinct.len() >= 3, "y ticks {numbers:?}");
+        assert!(!numbers.iter().any(|c| c.as_str() == "0.0"), "{numbers:?}");
+        // A line chart of one point: distinct ticks on both axes too.
+        let one = line_chart("one", "x (s)", "y (cd/m²)", &[series("rgb", &[(0.0, 0.0)])], false).unwrap();
+        let numbers: std::collections::BTreeSet<String> = texts(&one)
+            .into_iter()
+            .map(|t| t.2)
+            .filter(|c| c.parse::<f64>().is_ok())
+            .collect();
+        assert!(numbers.len() >= 3, "{numbers:?}");
+    }
+
+    /// A tick read 0.30000000000000004 (plotters' default f64 formatting).
+    #[test]
+    fn tick_labels_have_no_float_noise() {
+        assert_eq!(tick_label(0.30000000000000004, 0.5), "0.30");
+        assert_eq!(tick_label(0.1 + 0.2, 0.05), "0.300");
+        assert_eq!(tick_label(-1e-17, 0.5), "0.00");
+        assert_eq!(log_tick_label(0.30000000000000004), "0.3");
+        assert_eq!(log_tick_label(20.000000000000004), "20");
+        let data = [
+            scatter("measured", &[(0.3, 0.3), (0.33, 0.36)]),
+            scatter("rgb", &[(0.31, 0.34)]),
+        ];
+        let charts = [
+            chromaticity_chart("xy", Observer::JuddVos, &data).unwrap(),
+            scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+            scatter_chart("s", "t (s)", "ΔE", &data, (true, true)).unwrap(),
+            line_chart(
+                "l",
+                "x",
+                "y",
+                &[series("rgb", &[(0.1, 0.3), (0.2, 0.30000000000000004)])],
+                false,
+            )
+            .unwrap(),
+        ];
+        for svg in &charts {
+            for (_, _, c) in texts(svg) {
+                if let Some((_, decimals)) = c.split_once('.') {
+                    if c.parse::<f64>().is_ok() {
+                        assert!(decimals.len() <= 4, "tick `{c}`");
+                    }
+                }
+            }
+        }
+    }
+
+    fn colour_hex(c: RGBColor) -> String {
+        format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+    }
+
+    /// nstep3 was pink in one chart and green in the next: colours went by
+    /// series position.
+    #[test]
+    fn nstep3_has_the_same_colour_in_every_chart() {
+        let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+        let rgb = colour_hex(coding_style("rgb").unwrap().colour);
+        let alone = [scatter("measured", &[(0.31, 0.33)]), scatter("nstep3", &[(0.32, 0.34)])];
+        let behind = [
+            scatter("measured", &[(0.31, 0.33)]),
+            scatter("srgb", &[(0.30, 0.33)]),
+            scatter("nstep9", &[(0.31, 0.32)]),
+            scatter("nstep3", &[(0.32, 0.34)]),
+        ];
+        let bars = |names: &[&str]| -> Vec<Bar> {
+            names
+                .iter()
+                .map(|n| Bar {
+                    label: n.to_string(),
+                    value: 1.0,
+                    sd: None,
+                })
+                .collect()
+        };
+        let charts = [
+            chromaticity_chart("a", Observer::JuddVos, &alone).unwrap(),
+            chromaticity_chart("b", Observer::Cie1931, &behind).unwrap(),
+            scatter_chart("c", "t (s)", "ΔE", &alone, (true, true)).unwrap(),
+            scatter_chart("d", "t (s)", "ΔE", &behind, (false, false)).unwrap(),
+            bar_chart("e", "ΔE", &bars(&["nstep3"])).unwrap(),
+            bar_chart("f", "ΔE", &bars(&["srgb", "nstep81", "nstep3"])).unwrap(),
+            profile_chart("g", &["patch".into()], "t", "Y", &[series("nstep3", &[(1.0, 1.0)])]).unwrap(),
+            line_chart(
+                "h",
+                "s",
+                "y",
+                &[series("spectral", &[(0.0, 1.0)]), series("nstep3", &[(1.0, 2.0)])],
+                false,
+            )
+            .unwrap(),
+        ];
+        for (i, svg) in charts.iter().enumerate() {
+            assert!(svg.contains(&pink), "chart {i} draws nstep3 without {pink}");
+            // No chart here has rgb: its colour must not be handed to another series.
+            assert!(!svg.contains(&rgb), "chart {i} uses rgb's {rgb} for another series");
+        }
+        // The dashboard's and the report's CSS read the same table.
+        assert!(coding_css().contains(&format!("--coding-nstep3:{}", pink.to_ascii_lowercase())));
+        // An N not in the table takes the nearest tabulated N's style.
+        assert_eq!(coding_style("nstep4"), coding_style("nstep3"));
+        assert_eq!(coding_style("cie"), None);
+    }
+
+    /// The measurement is drawn after every coding, larger and in black.
+    #[test]
+    fn measurement_is_drawn_last_and_largest() {
+        let data = [
+            scatter("measured", &[(0.31, 0.33)]),
+            scatter("nstep27", &[(0.311, 0.331)]),
+            scatter("spectral", &[(0.312, 0.332)]),
+        ];
+        let svg = scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap();
+        let plot_right = (W - LEGEND_W) as f64;
+        let circles: Vec<(String, String)> = elements(&svg, "circle")
+            .into_iter()
+            .filter(|(a, _)| num(a, "cx") < plot_right)
+            .collect();
+        let last = circles.last().expect("markers");
+        assert_eq!(attr(&last.0, "stroke").as_deref(), Some("#000000"));
+        assert!(circles.iter().all(|(a, _)| num(a, "r") <= num(&last.0, "r")));
+        assert!(num(&last.0, "r") > MARKER_PX as f64);
+    }
+
+    /// Legends were drawn inside the plot, over the data.
+    #[test]
+    fn legend_is_outside_the_plot_area() {
+        let data = [
+            scatter("measured", &[(0.31, 0.33), (0.40, 0.45)]),
+            scatter("nstep3", &[(0.32, 0.34), (0.41, 0.44)]),
+        ];
+        for svg in [
+            scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+            line_chart("l", "x", "y", &[series("nstep3", &[(0.0, 1.0), (1.0, 2.0)])], false).unwrap(),
+        ] {
+            let plot_right = (W - LEGEND_W) as f64;
+            let legend = texts(&svg).into_iter().find(|t| t.2 == "nstep3").expect("legend entry");
+            assert!(legend.0 > plot_right, "legend text at x = {}", legend.0);
+            // Every grid line (the plot area) ends left of the legend column.
+            for (a, _) in elements(&svg, "line") {
+                assert!(
+                    num(&a, "x2").max(num(&a, "x1")) <= plot_right,
+                    "grid line into the legend: {a}"
+                );
+            }
+        }
+        let xy = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+        let width = num(&elements(&xy, "svg")[0].0, "width");
+        let legend = texts(&xy).into_iter().find(|t| t.2 == "nstep3").unwrap();
+        assert!(legend.0 > width - LEGEND_W as f64);
+    }
+
+    /// The spectrum chart added one legend entry per raw sample, all but the
+    /// first with an empty name.
+    #[test]
+    fn no_empty_legend_entries() {
+        let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+        let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+        let sd = vec![1e-5; wl.len()];
+        let samples = vec![mean.clone(), mean.clone(), mean.clone()];
+        let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), &samples).unwrap();
+        let t = texts(&svg);
+        assert!(t.iter().all(|(_, _, c)| !c.is_empty()), "an empty text element");
+        assert_eq!(t.iter().filter(|(_, _, c)| c.starts_with("raw samples")).count(), 1);
+        // The legend column holds exactly the three entries' swatches.
+        let swatches = elements(&svg, "polyline")
+            .iter()
+            .chain(elements(&svg, "rect").iter())
+            .filter(|(a, _)| {
+                num(a, "x") > (W - LEGEND_W) as f64
+                    || attr(a, "points").is_some_and(|p| {
+                        p.split(',')
+                            .next()
+                            .and_then(|x| x.parse::<f64>().ok())
+                            .is_some_and(|x| x > (W - LEGEND_W) as f64)
+                    })
+            })
+            .count();
+        assert_eq!(swatches, 3, "{svg}");
+    }
+
+    /// Bar charts had an empty slot after the last bar.
+    #[test]
+    fn bar_chart_has_no_trailing_empty_slot() {
+        let bars: Vec<Bar> = ["rgb", "srgb", "nstep3"]
+            .iter()
+            .map(|n| Bar {
+                label: n.to_string(),
+                value: 1.0,
+                sd: Some(0.1),
+            })
+            .collect();
+        let svg = bar_chart("b", "ΔE*ab (CIELAB units)", &bars).unwrap();
+        let rects: Vec<(f64, f64)> = elements(&svg, "rect")
+            .iter()
+            .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+            .map(|(a, _)| (num(a, "x"), num(a, "x") + num(a, "width")))
+            .collect();
+        assert_eq!(rects.len(), 3);
+        let lines = elements(&svg, "line");
+        let left = lines.iter().map(|(a, _)| num(a, "x1")).fold(f64::INFINITY, f64::min);
+        let right = lines.iter().map(|(a, _)| num(a, "x2")).fold(0.0, f64::max);
+        let (gap_left, gap_right) = (rects[0].0 - left, right - rects[2].1);
+        assert!(
+            (gap_left - gap_right).abs() <= 3.0,
+            "margins {gap_left} and {gap_right} px"
+        );
+    }
+
+    /// The x,y diagram drew Judd–Vos points on the CIE 1931 locus under a
+    /// "CIE 1931" title: the locus and the title follow the observer.
+    #[test]
+    fn chromaticity_locus_and_title_follow_the_observer() {
+        let data = [scatter("measured", &[(0.33, 0.48)])];
+        let jv = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+        let c31 = chromaticity_chart("xy", Observer::Cie1931, &data).unwrap();
+        assert!(jv.contains("Judd–Vos 1978 2°") && !jv.contains("CIE 1931 2°"));
+        assert!(c31.contains("CIE 1931 2°") && !c31.contains("Judd–Vos"));
+        let locus_jv = spectral_locus(Observer::JuddVos);
+        let locus_31 = spectral_locus(Observer::Cie1931);
+        // The whole locus, 380 (or the table's first row) to 700 nm.
+        for l in [&locus_jv, &locus_31] {
+            assert!(l.first().unwrap().0 <= 385.0 && l.last().unwrap().0 >= 695.0);
+        }
+        // The observers differ most in the blue (Judd's correction below 460 nm).
+        let at = |l: &[(f64, (f64, f64))], nm: f64| l.iter().find(|p| p.0 == nm).unwrap().1;
+        let (a, b) = (at(&locus_jv, 420.0), at(&locus_31, 420.0));
+        assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() > 1e-3, "{a:?} vs {b:?}");
+        // Both gamuts are drawn and named, distinctly (one dashed).
+        assert!(jv.contains("sRGB gamut") && jv.contains("RADIANCE RGB gamut"));
     }
 }

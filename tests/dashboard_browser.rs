@@ -1,7 +1,9 @@
 //! The dashboard in a real headless browser (Debian `chromium`, driven by
 //! `playwright-core` from npm) against the whole daemon on loopback: open
 //! the printed URL, start a measurement, see its progress and the charts,
-//! run a study, no console errors. `tests/setup.sh` installs the browser and
+//! every scene's page, run a study and see it scene by scene, a failed study
+//! without report links; no console errors, failed requests or HTTP errors.
+//! Screenshots of every page go to `target/screenshots/` (path printed). `tests/setup.sh` installs the browser and
 //! the npm package.
 
 mod common;
@@ -21,8 +23,13 @@ async fn the_dashboard_runs_a_measurement_and_shows_the_study_charts() {
     // Slow enough that the page sees the progress sample by sample.
     let d = Daemon::start(0.02).await;
     let addr = d.addr;
-    let shots = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("dashboard-screenshots");
+    // target/screenshots/: an artefact a reviewer can look at.
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .map(|t| t.join("screenshots"))
+        .unwrap_or_else(|| PathBuf::from("target/screenshots"));
     std::fs::create_dir_all(&shots).unwrap();
+    eprintln!("dashboard screenshots: {}", shots.display());
     let out = tokio::task::spawn_blocking(move || {
         Command::new("node")
             .current_dir(&browser_dir)

@@ -331,9 +331,15 @@ async function loadSceneDetail(id) {
   const preview = $("scene-preview");
   preview.hidden = !done;
   if (done) {
+    // Paths per pixel as the daemon chooses them (src/render/sensor.rs,
+    // preview_spp): a 20 million path budget over the pixels, 16 to 1024.
+    preview.onload = () => {
+      const spp = Math.min(1024, Math.max(16, Math.floor(20e6 / (preview.naturalWidth * preview.naturalHeight))));
+      $("preview-caption").textContent =
+        `Camera view of render ${done.id} (sRGB coding, ${spp} paths per pixel, not denoised). ` +
+        `Render: ${done.codings.join(", ")}; ${fmt(done.wall_seconds, 3)} s`;
+    };
     preview.src = `/api/renders/${done.id}/preview.png`;
-    $("preview-caption").textContent =
-      `render ${done.id}: ${done.codings.join(", ")}; ${fmt(done.wall_seconds, 3)} s`;
   }
   const t = Date.now();
   for (const chart of ["chromaticity", "profile", "rms", "de", "speed"]) {
@@ -403,26 +409,59 @@ async function loadStudies(openId) {
   for (const st of list) {
     const tr = tbody.insertRow();
     for (const v of [st.id, st.state + (st.error ? ": " + st.error : ""), new Date(st.created_at * 1000).toLocaleString(),
-      fmt(st.wall_seconds, 3), JSON.stringify(st.request)]) tr.insertCell().textContent = v;
+      fmt(st.wall_seconds, 3)]) tr.insertCell().textContent = v;
+    // The request folded away: a summary line, the JSON on demand.
+    const details = document.createElement("details");
+    const summary = document.createElement("summary");
+    const r = st.request || {};
+    summary.textContent = [r.scenes, r.against, r.seeds ? `${r.seeds} seeds` : ""].filter(Boolean).join(" · ") || "request";
+    const pre = document.createElement("pre");
+    pre.textContent = JSON.stringify(st.request, null, 2);
+    details.append(summary, pre);
+    details.addEventListener("click", (e) => e.stopPropagation());
+    tr.insertCell().appendChild(details);
     tr.addEventListener("click", () => (location.hash = `#/study/${st.id}`));
   }
   if (openId) showStudy(openId);
 }
 
+function chartFigure(src, alt) {
+  const fig = document.createElement("figure");
+  // The x,y diagram has two panels: give it the whole row.
+  if (/chromaticity/.test(src)) fig.className = "wide";
+  const img = document.createElement("img");
+  img.alt = alt;
+  img.src = src;
+  fig.appendChild(img);
+  return fig;
+}
+
 async function showStudy(id) {
   const st = await api(`/api/studies/${id}`);
   $("study-detail").hidden = false;
-  $("study-title").textContent = `Study ${st.id}: ${st.state}`;
+  $("study-title").textContent = `Study ${st.id}: ${st.state}` + (st.error ? ` (${st.error})` : "");
+  // Only a finished study has a report: no links that lead nowhere.
+  const files = st.files || [];
+  const links = $("study-links");
+  links.hidden = !files.includes("index.html");
   $("study-report").href = `/api/studies/${id}/files/index.html`;
   $("study-figures").href = `/api/studies/${id}/files/figures.csv`;
   const summary = $("study-summary");
   summary.innerHTML = "";
+  const charts = $("study-charts");
+  charts.innerHTML = "";
+  const svgs = files.filter((f) => f.endsWith(".svg"));
+  const shown = new Set();
   for (const s of st.result ? st.result.scenes : []) {
+    // One section per scene: heading, table, its charts.
+    const section = document.createElement("section");
+    section.className = "study-scene";
     const h = document.createElement("h4");
-    h.textContent = `${s.title}: CIELAB white ${s.white_source}`;
-    summary.appendChild(h);
+    h.textContent = `${s.title} (${s.scene})`;
+    const white = document.createElement("p");
+    white.textContent = `CIELAB white: ${s.white_source}.`;
+    section.append(h, white);
     const t = document.createElement("table");
-    t.className = "study-scene";
     t.innerHTML = "<thead><tr><th>coding</th><th>rms_rel ± SD (seeds)</th><th>mean ΔE*ab ± SD (seeds)</th><th>SD over targets</th><th>mean ΔE00</th><th>beyond noise</th></tr></thead>";
     const body = t.createTBody();
     for (const c of s.codings) {
@@ -431,24 +470,32 @@ async function showStudy(id) {
         `${fmt(c.mean_dE76.mean)} ± ${fmt(c.mean_dE76.sd, 2)}`, fmt(c.sd_dE76_over_targets),
         fmt(c.mean_dE00.mean), `${c.significant_targets} of ${s.targets.length}`]) tr.insertCell().textContent = v;
     }
-    summary.appendChild(t);
+    section.appendChild(t);
     if (s.auto) {
       const p = document.createElement("p");
       const c = s.auto.choice, v = s.auto.verification;
       p.textContent = `Automatic: ${c.coding}, ${c.bounces} bounces, ${c.samples} paths per target — rms_rel ${fmt(v.rms_rel)}, ` +
         `mean ΔE00 ${fmt(v.mean_de00)} (${v.meets ? "meets" : "misses"} the tolerance). ` + c.reasons.join(" ");
-      summary.appendChild(p);
+      section.appendChild(p);
     }
+    const grid = document.createElement("div");
+    grid.className = "charts";
+    for (const f of svgs.filter((f) => f.startsWith(s.scene + "_"))) {
+      grid.appendChild(chartFigure(`/api/studies/${id}/files/${f}`, `${s.title}: ${f}`));
+      shown.add(f);
+    }
+    section.appendChild(grid);
+    summary.appendChild(section);
   }
-  const charts = $("study-charts");
-  charts.innerHTML = "";
-  for (const f of st.files.filter((f) => f.endsWith(".svg"))) {
-    const fig = document.createElement("figure");
-    const img = document.createElement("img");
-    img.alt = f;
-    img.src = `/api/studies/${id}/files/${f}`;
-    fig.appendChild(img);
-    charts.appendChild(fig);
+  const rest = svgs.filter((f) => !shown.has(f));
+  if (rest.length) {
+    const h = document.createElement("h4");
+    h.textContent = "Where codings fail";
+    charts.appendChild(h);
+    const grid = document.createElement("div");
+    grid.className = "charts";
+    for (const f of rest) grid.appendChild(chartFigure(`/api/studies/${id}/files/${f}`, f));
+    charts.appendChild(grid);
   }
 }
 

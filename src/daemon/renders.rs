@@ -316,17 +316,24 @@ impl Renderer {
                         coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
                     }
                 }
-                // The camera view for the dashboard: the sRGB coding, few paths per
-                // pixel (a preview, not a measurement).
+                // The camera view for the dashboard: the sRGB coding, paths per
+                // pixel from a fixed budget (a preview, not a measurement).
                 let preview = scene.camera.as_ref().and_then(|camera| {
                     let transport = render::integrator::Transport {
                         max_bounces: settings.max_bounces,
                         russian_roulette_from: settings.russian_roulette_from,
                     };
-                    render::sensor::render_camera(&scene, camera, Coding::Srgb, 16, &transport, settings.seed)
-                        .and_then(|img| img.png())
-                        .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
-                        .ok()
+                    render::sensor::render_camera(
+                        &scene,
+                        camera,
+                        Coding::Srgb,
+                        render::sensor::preview_spp(camera),
+                        &transport,
+                        settings.seed,
+                    )
+                    .and_then(|img| img.png())
+                    .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
+                    .ok()
                 });
                 (full, coding_seconds, preview)
             });

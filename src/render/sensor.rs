@@ -22,6 +22,20 @@ use super::scene::{Camera, Scene};
 use super::RenderError;
 use crate::colorimetry::rgb::{apply, srgb_encode, RgbSpace};
 
+/// Camera paths a dashboard preview may trace in all: bounds its cost
+/// whatever the camera's size (about 30 s for CYLINDER's 320 × 240 on two
+/// busy cores).
+pub const PREVIEW_PATH_BUDGET: u64 = 20_000_000;
+
+/// Paths per pixel of a dashboard preview: [`PREVIEW_PATH_BUDGET`] spread
+/// over the camera's pixels, 16 to 1024. At CYLINDER's 320 × 240 that is 260,
+/// where the dark walls show no speckle at the dashboard's scale (16 paths,
+/// the earlier preview, left them peppered with fireflies). No denoising.
+pub fn preview_spp(camera: &Camera) -> u32 {
+    let pixels = (camera.width as u64 * camera.height as u64).max(1);
+    (PREVIEW_PATH_BUDGET / pixels).clamp(16, 1024) as u32
+}
+
 /// A linear image, pixels in linear sRGB with Y in cd/m², rows top to bottom.
 #[derive(Clone, Debug)]
 pub struct Image {

@@ -1,19 +1,32 @@
 //! The study's charts for one scene, from its stored comparisons: data
-//! selection here, drawing in [`crate::charts`].
+//! selection here, drawing (one palette and marker per coding, the
+//! measurement black and last) in [`crate::charts`].
 
 use super::routes::{coding_order, SceneComparison};
 use super::{AppState, SceneInfo};
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
-use crate::colorimetry::Xyz;
+use crate::colorimetry::{Observer, Xyz};
 
 /// Targets in the scene's own order (the cylinder's 21 heights bottom to top).
 fn target_index(info: &SceneInfo, target: &str) -> usize {
     info.targets.iter().position(|t| t == target).unwrap_or(usize::MAX)
 }
 
-/// Measured points and each coding's results in the x,y diagram; profiles
-/// (more than one target) are drawn as lines, zoomed to the data.
-pub fn chromaticity(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> {
+/// A target's number on a profile's x axis: 1 for the scene's first target,
+/// where the axis prints the first target's id.
+fn target_number(info: &SceneInfo, target: &str) -> f64 {
+    target_index(info, target) as f64 + 1.0
+}
+
+/// The cost on the speed chart's x axis: the key of the stored render
+/// result holding it per coding, and the axis title. Rays traced do not
+/// jitter with machine load; once renders store them per coding, point this
+/// at that key (e.g. `("coding_rays", "rays traced")`).
+const SPEED_COST: (&str, &str) = ("coding_seconds", "render time, each coding alone (s)");
+
+/// Measured points and each coding's results in the x,y diagram of the
+/// daemon's `observer`; profiles (more than one target) are drawn as lines.
+pub fn chromaticity(c: &SceneComparison, info: &SceneInfo, observer: Observer) -> Result<String, String> {
     let mut rows = c.rows.clone();
     rows.sort_by_key(|r| (coding_order(&r.coding), target_index(info, &r.target)));
     let profile = info.targets.len() > 1;
@@ -48,7 +61,7 @@ pub fn chromaticity(c: &SceneComparison, info: &SceneInfo) -> Result<String, Str
             connect: profile,
         });
     }
-    charts::chromaticity_chart(&format!("{}: chromaticity (CIE 1931)", c.scene), &series, true)
+    charts::chromaticity_chart(&format!("{}: chromaticity", c.scene), observer, &series)
 }
 
 /// Luminance at each target (in the scene's target order), measured and per coding.
@@ -56,7 +69,7 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
     let mut series = Vec::new();
     let mut measured: Vec<(f64, f64)> = Vec::new();
     for r in &c.rows {
-        let i = target_index(info, &r.target) as f64;
+        let i = target_number(info, &r.target);
         if !measured.iter().any(|(j, _)| *j == i) {
             measured.push((i, r.measured_Y));
         }
@@ -72,7 +85,7 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
             .rows
             .iter()
             .filter(|r| r.coding == coding)
-            .map(|r| (target_index(info, &r.target) as f64, r.rendered_Y))
+            .map(|r| (target_number(info, &r.target), r.rendered_Y))
             .collect();
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         let errors = Some(
@@ -90,12 +103,12 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
             errors,
         });
     }
-    charts::line_chart(
-        &format!("{}: luminance along the targets", c.scene),
-        "target (scene order; CYLINDER: height 1–21 cm above the card)",
-        "luminance (cd/m²)",
+    charts::profile_chart(
+        &format!("{}: luminance along the targets (±1 SE of the render)", c.scene),
+        &info.targets,
+        "target (scene order; CYLINDER hNN: NN cm above the card)",
+        "luminance Y (cd/m²)",
         &series,
-        false,
     )
 }
 
@@ -110,7 +123,11 @@ pub fn rms(c: &SceneComparison) -> Result<String, String> {
             sd: None,
         })
         .collect();
-    charts::bar_chart(&format!("{}: relative RMS luminance error", c.scene), "rms_rel", &bars)
+    charts::bar_chart(
+        &format!("{}: relative RMS luminance error", c.scene),
+        "rms_rel (relative, 0.01 = 1 %)",
+        &bars,
+    )
 }
 
 /// Mean ΔE*ab per coding with ±1 SD over the targets.
@@ -124,43 +141,73 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
             sd: s.summary.sd_dE76,
         })
         .collect();
-    charts::bar_chart(&format!("{}: mean ΔE*ab ± 1 SD", c.scene), "ΔE*ab", &bars)
+    charts::bar_chart(
+        &format!("{}: mean ΔE*ab ± 1 SD over targets", c.scene),
+        "mean ΔE*ab (CIELAB units)",
+        &bars,
+    )
 }
 
-/// Render time per coding against its mean ΔE*ab: the chart the study never
-/// drew. Time is each coding's own render time (the same settings with that
-/// coding alone), read from the newest render's `result.coding_seconds`.
+/// Cost per coding (see [`SPEED_COST`]: render time of each coding alone,
+/// the same settings) against its mean ΔE*ab ± 1 SD over targets, each
+/// point labelled with its coding; read from the newest render that has it.
 pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
     let renders = state
         .store
         .list_renders(Some(&c.scene))
         .await
         .map_err(|e| e.to_string())?;
-    let mut points = Vec::new();
+    let (key, x_desc) = SPEED_COST;
+    let mut series = Vec::new();
+    let mut labels = Vec::new();
     for s in &c.codings {
-        let seconds = renders
+        let cost = renders
             .iter()
-            .find_map(|r| r.result.as_ref()?.get("coding_seconds")?.get(&s.coding)?.as_f64());
-        if let Some(t) = seconds {
-            points.push(LineSeriesData {
+            .find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding)?.as_f64());
+        if let Some(x) = cost {
+            series.push(ScatterSeries {
                 name: s.coding.clone(),
-                points: vec![(t, s.summary.mean_dE76)],
-                errors: s.summary.sd_dE76.map(|v| vec![v]),
+                points: vec![(x, s.summary.mean_dE76.max(1e-4))],
+                connect: false,
             });
+            labels.push(vec![s.coding.clone()]);
         }
     }
-    if points.is_empty() {
-        return Err(format!("no render of scene {} has per-coding timings yet", c.scene));
+    if series.is_empty() {
+        return Err(format!(
+            "no render of scene {} has per-coding costs (`{key}`) yet",
+            c.scene
+        ));
     }
-    charts::line_chart(
+    charts::scatter_chart_labelled(
         &format!("{}: speed against accuracy", c.scene),
-        "render time (s)",
-        "mean ΔE*ab",
-        &points,
-        true,
+        x_desc,
+        "mean ΔE*ab (CIELAB units, log)",
+        &series,
+        &labels,
+        (true, true),
     )
 }
 
 fn codings(c: &SceneComparison) -> Vec<String> {
     c.codings.iter().map(|s| s.coding.clone()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The profile put the first target at x = 0 under an axis reading
+    /// "height 1–21 cm": target numbers start at 1, where the axis prints
+    /// the first target's id.
+    #[test]
+    fn profile_ticks_are_not_shifted_by_one() {
+        let info = SceneInfo {
+            id: "cylinder".into(),
+            title: "CYLINDER".into(),
+            targets: (1..=21).map(|h| format!("h{h:02}")).collect(),
+        };
+        assert_eq!(target_number(&info, "h01"), 1.0);
+        assert_eq!(target_number(&info, "h21"), 21.0);
+    }
 }

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::run::{SceneStudy, StudyResult, SweepPoint};
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
+use crate::render::coding::OBSERVER;
 
 /// Luminance along the targets per coding (mean over seeds ± 1 SD over
 /// seeds) and the truth (± its SE).
@@ -33,16 +34,17 @@ pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
             errors: Some(c.profile.iter().map(|p| p.Y.sd).collect()),
         });
     }
-    charts::line_chart(
+    charts::profile_chart(
         &format!("{}: luminance along the targets (±1 SD over seeds)", s.title),
-        "target (1 = first in the scene; CYLINDER: height in cm)",
-        "luminance (cd/m²)",
+        &s.targets,
+        "target (scene order; CYLINDER hNN: NN cm above the card)",
+        "luminance Y (cd/m²)",
         &series,
-        false,
     )
 }
 
-/// Chromaticities of the truth and of every coding (profiles as lines).
+/// Chromaticities of the truth and of every coding (profiles as lines), in
+/// the study's observer (the renderer's, [`OBSERVER`]).
 pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
     let line = s.targets.len() > 1;
     let mut series = vec![ScatterSeries {
@@ -57,7 +59,7 @@ pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
             connect: line,
         });
     }
-    charts::chromaticity_chart(&format!("{}: chromaticity (CIE 1931)", s.title), &series, true)
+    charts::chromaticity_chart(&format!("{}: chromaticity", s.title), OBSERVER, &series)
 }
 
 /// rms_rel per coding, ±1 SD over seeds.
@@ -71,7 +73,11 @@ pub fn rms_chart(s: &SceneStudy) -> Result<String, String> {
             sd: Some(c.rms_rel.sd),
         })
         .collect();
-    charts::bar_chart(&format!("{}: rms_rel (±1 SD over seeds)", s.title), "rms_rel", &bars)
+    charts::bar_chart(
+        &format!("{}: rms_rel (±1 SD over seeds)", s.title),
+        "rms_rel (relative, 0.01 = 1 %)",
+        &bars,
+    )
 }
 
 /// Mean ΔE*ab per coding, ±1 SD over targets (the study's error bars).
@@ -85,27 +91,33 @@ pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
             sd: Some(c.sd_dE76_over_targets),
         })
         .collect();
-    charts::bar_chart(&format!("{}: mean ΔE*ab (±1 SD over targets)", s.title), "ΔE*ab", &bars)
+    charts::bar_chart(
+        &format!("{}: mean ΔE*ab (±1 SD over targets)", s.title),
+        "mean ΔE*ab (CIELAB units)",
+        &bars,
+    )
 }
 
-/// Wall time against mean ΔE00 for every sweep point, one series per sweep,
-/// the Pareto front as its own series and the study's choices named.
+/// Wall time against mean ΔE00 for every sweep point, one series per
+/// coding (its colour and marker), each point labelled with what its sweep
+/// varied, and the Pareto front as its own series.
 pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
     let mut series = Vec::new();
-    for sweep in ["coding", "samples", "bounces", "n"] {
-        let points: Vec<(f64, f64)> = s
-            .sweeps
-            .iter()
-            .filter(|p| p.sweep == sweep)
-            .map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4)))
-            .collect();
-        if !points.is_empty() {
-            series.push(ScatterSeries {
-                name: format!("sweep: {sweep}"),
-                points,
-                connect: false,
-            });
+    let mut labels = Vec::new();
+    let mut codings: Vec<&str> = Vec::new();
+    for p in &s.sweeps {
+        if !codings.contains(&p.coding.as_str()) {
+            codings.push(&p.coding);
         }
+    }
+    for coding in codings {
+        let points: Vec<&SweepPoint> = s.sweeps.iter().filter(|p| p.coding == coding).collect();
+        series.push(ScatterSeries {
+            name: coding.to_string(),
+            points: points.iter().map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect(),
+            connect: false,
+        });
+        labels.push(points.iter().map(|p| sweep_label(p)).collect());
     }
     let front = pareto_front(&s.sweeps);
     series.push(ScatterSeries {
@@ -116,23 +128,27 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             .collect(),
         connect: true,
     });
-    series.push(ScatterSeries {
-        name: "the study's choices (RGB, sRGB, N = 3/9/27/81, 5 bounces)".into(),
-        points: s
-            .sweeps
-            .iter()
-            .filter(|p| p.study_choice)
-            .map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4)))
-            .collect(),
-        connect: false,
-    });
-    charts::scatter_chart(
-        &format!("{}: speed against accuracy", s.title),
+    charts::scatter_chart_labelled(
+        &format!(
+            "{}: speed against accuracy (p = paths per target, b = bounces)",
+            s.title
+        ),
         "render time (s)",
-        "mean ΔE00 (floor 1e-4)",
+        "mean ΔE00 (CIEDE2000 units, floor 1e-4)",
         &series,
+        &labels,
         (true, true),
     )
+}
+
+/// A sweep point's label: what its sweep varied — paths per target ("4096 p"),
+/// bounces ("3 b"), or the coding itself for the coding and N sweeps.
+fn sweep_label(p: &SweepPoint) -> String {
+    match p.sweep.as_str() {
+        "samples" => format!("{} p", p.samples),
+        "bounces" => format!("{} b", p.bounces),
+        _ => p.coding.clone(),
+    }
 }
 
 /// Indices of the sweep points no other point beats in both time and error,
@@ -159,9 +175,12 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>lightbooth study</title>\
          <style>body{font-family:system-ui,sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}\
          td,th{border-bottom:1px solid #ddd;padding:.2em .6em;text-align:right}td:first-child,th:first-child{text-align:left}\
-         .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(480px,1fr));gap:1em}svg{max-width:100%;height:auto}</style>\
-         </head><body><h1>lightbooth study</h1>",
+         .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(560px,1fr));gap:1em}figure{margin:0}\
+         figure.wide{grid-column:1/-1}svg{max-width:100%;height:auto}section.scene{border-top:2px solid #1d3557;margin-top:2em}",
     );
+    // The codings' colours, the same table the charts use.
+    html.push_str(&charts::coding_css());
+    html.push_str("</style></head><body><h1>lightbooth study</h1>");
     let o = &result.options;
     let _ = write!(
         html,
@@ -183,14 +202,15 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     for s in &result.scenes {
         let _ = write!(
             html,
-            "<h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
+            "<section class=\"scene\"><h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
              <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets differing beyond noise</th></tr>",
             s.title, s.scene, s.white_source, s.render_seconds
         );
         for c in &s.codings {
             let _ = write!(
                 html,
-                "<tr><td>{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                "<tr><td class=\"coding-{}\">{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                c.coding,
                 c.coding,
                 c.rms_rel.mean,
                 c.rms_rel.sd,
@@ -291,7 +311,8 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         for (name, svg) in charts {
             match svg {
                 Ok(svg) => {
-                    let _ = write!(html, "<figure>{svg}</figure>");
+                    let class = if name == "chromaticity" { " class=\"wide\"" } else { "" };
+                    let _ = write!(html, "<figure{class}>{svg}</figure>");
                     files.push((format!("{}_{name}.svg", s.scene), svg.into_bytes()));
                 }
                 Err(e) => {
@@ -299,7 +320,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
                 }
             }
         }
-        html.push_str("</div>");
+        html.push_str("</div></section>");
     }
     if let Some(map) = &result.failure_map {
         html.push_str(

@@ -1,7 +1,11 @@
 // Drives the lightbooth dashboard in Debian's headless Chromium, as a
 // scientist would: open the printed URL (with the token), start a
 // measurement of the WHITE scene, watch its progress, see the spectrum, the
-// comparison table and the charts. Fails on any console error.
+// comparison table and the charts, every scene's page, a finished study
+// (one section per scene, the request folded away, a report link that
+// answers) and a failed one (no report link). Fails on any console error,
+// failed request or HTTP error; saves a screenshot of every page into
+// SCREENSHOT_DIR for a reviewer.
 //
 // Usage: node dashboard.mjs BASE_URL TOKEN SCREENSHOT_DIR
 import { chromium } from "playwright-core";
@@ -53,8 +57,14 @@ try {
   // The measurement list and its detail.
   await page.goto(`${base}/#/measurements`);
   await page.waitForSelector("#measurement-table tbody tr");
+  if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });
   await page.click("#measurement-table tbody tr");
   await page.waitForFunction(() => document.querySelectorAll("#sample-table tbody tr").length === 5);
+  await page.waitForFunction(() => {
+    const img = document.getElementById("detail-spectrum");
+    return img.complete && img.naturalWidth > 0;
+  });
+  if (shots) await page.screenshot({ path: `${shots}/measurement-detail.png`, fullPage: true });
 
   // Cancel a long measurement from the live page: it keeps its samples, says
   // so, and the table lists it with its notes, its date and its partial average.
@@ -93,7 +103,18 @@ try {
   }, null, { timeout: 30000 });
   const codings = await page.$$eval("#coding-table tbody tr td:first-child", (tds) => tds.map((t) => t.textContent));
   if (codings.join(",") !== "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral") failures.push("codings: " + codings);
-  if (shots) await page.screenshot({ path: `${shots}/scene.png`, fullPage: true });
+  const caption = await page.textContent("#preview-caption");
+  if (!/paths per pixel/.test(caption)) failures.push("preview caption does not say its paths per pixel: " + caption);
+  if (shots) await page.screenshot({ path: `${shots}/scene-white.png`, fullPage: true });
+
+  // Every other scene's page (no measurements yet: the page still loads cleanly).
+  const sceneIds = await page.$$eval("#scene-list a", (as) => as.map((a) => a.getAttribute("href").split("/").pop()));
+  for (const id of sceneIds.filter((id) => id !== "white")) {
+    await page.goto(`${base}/#/scenes/${id}`);
+    await page.waitForFunction((id) => document.getElementById("scene-title").textContent.startsWith(id), id);
+    await page.waitForLoadState("networkidle");
+    if (shots) await page.screenshot({ path: `${shots}/scene-${id}.png`, fullPage: true });
+  }
 
   // A study of the WHITE scene against the measurement just taken, with sweeps.
   await page.goto(`${base}/#/study`);
@@ -107,10 +128,36 @@ try {
   const progressText = await page.textContent("#study-progress");
   if (!progressText.includes("complete")) failures.push("study: " + progressText);
   await page.waitForSelector("#study-table tbody tr");
-  await page.click("#study-table tbody tr");
-  await page.waitForFunction(() => document.querySelectorAll("#study-charts img").length >= 5, null, { timeout: 30000 });
-  await page.waitForFunction(() => [...document.querySelectorAll("#study-charts img")].every((i) => i.complete && i.naturalWidth > 0), null, { timeout: 30000 });
+  await page.click("#study-table tbody tr td");
+  const images = "#study-detail img";
+  await page.waitForFunction((sel) => document.querySelectorAll(sel).length >= 5, images, { timeout: 30000 });
+  await page.waitForFunction((sel) => [...document.querySelectorAll(sel)].every((i) => i.complete && i.naturalWidth > 0), images, { timeout: 30000 });
+  // One section per scene, with its heading and its own charts.
+  const sections = await page.$$eval("#study-summary section.study-scene", (ss) =>
+    ss.map((s) => [s.querySelector("h4")?.textContent || "", s.querySelectorAll("img").length]));
+  if (!sections.length || sections.some(([h, n]) => !h || n < 4)) failures.push("study sections: " + JSON.stringify(sections));
+  // The request is folded away, not printed raw in the table.
+  if (!(await page.$("#study-table tbody tr details"))) failures.push("the study request is not folded in <details>");
+  // The report link is shown for a finished study and answers.
+  if (!(await page.isVisible("#study-report"))) failures.push("no report link for a finished study");
+  const report = await page.request.get(await page.getAttribute("#study-report", "href").then((h) => new URL(h, base).href));
+  if (report.status() !== 200) failures.push(`report link answers ${report.status()}`);
   if (shots) await page.screenshot({ path: `${shots}/study.png`, fullPage: true });
+
+  // A study that fails (BLUE was never measured): no dead report links.
+  const failed = await page.request.post(`${base}/api/studies`, {
+    headers: { Authorization: `Bearer ${token}` },
+    data: { scenes: "blue", against: "measurements", seeds: 1, sweeps: false },
+  });
+  const failedId = (await failed.json()).id;
+  await page.waitForFunction(async (id) => {
+    const r = await fetch(`/api/studies/${id}`);
+    return (await r.json()).state === "failed";
+  }, failedId, { timeout: 30000 });
+  await page.goto(`${base}/#/study/${failedId}`);
+  await page.waitForFunction((id) => document.getElementById("study-title").textContent.includes(`Study ${id}: failed`), failedId);
+  if (await page.isVisible("#study-report")) failures.push("a failed study shows a report link");
+  if (shots) await page.screenshot({ path: `${shots}/study-failed.png`, fullPage: true });
 } catch (e) {
   failures.push(String(e));
 } finally {

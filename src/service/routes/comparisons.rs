@@ -199,7 +199,7 @@ pub async fn scene_chart(
         )));
     }
     let svg = match chart.as_str() {
-        "chromaticity.svg" => crate::service::scene_charts::chromaticity(&c, &info),
+        "chromaticity.svg" => crate::service::scene_charts::chromaticity(&c, &info, state.config.observer),
         "profile.svg" => crate::service::scene_charts::profile(&c, &info),
         "rms.svg" => crate::service::scene_charts::rms(&c),
         "de.svg" => crate::service::scene_charts::delta_e(&c),
