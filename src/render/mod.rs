@@ -73,6 +73,9 @@ pub enum RenderError {
     Settings(String),
     #[error("{0}")]
     Io(String),
+    /// Its job's [`CancelFlag`](integrator::CancelFlag) was set.
+    #[error("the render was cancelled")]
+    Cancelled,
 }
 
 /// What to render. Serialises to (and reads from) JSON with codings as
@@ -234,13 +237,15 @@ pub fn render(
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
 ) -> Result<RenderResult, RenderError> {
+    // The flag belongs to the calling thread; the batches run on the pool's.
+    let cancel = integrator::current_cancel();
     match settings.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .map_err(|e| RenderError::Settings(e.to_string()))?
-            .install(|| render_in_pool(scene, settings, progress)),
-        None => render_in_pool(scene, settings, progress),
+            .install(|| render_in_pool(scene, settings, progress, cancel.as_ref())),
+        None => render_in_pool(scene, settings, progress, cancel.as_ref()),
     }
 }
 
@@ -248,7 +253,12 @@ fn render_in_pool(
     scene: &Scene,
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+    cancel: Option<&integrator::CancelFlag>,
 ) -> Result<RenderResult, RenderError> {
+    let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
+    if cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     let start = Instant::now();
     if settings.codings.is_empty() || settings.samples < 2 {
         return Err(RenderError::Settings("need at least one coding and two samples".into()));
@@ -294,6 +304,10 @@ fn render_in_pool(
         let partial: Vec<BatchSums> = tasks
             .par_iter()
             .map(|&(k, b)| {
+                if cancelled() {
+                    // Skipped; the whole render is refused below.
+                    return BatchSums::zero(&prep.layout);
+                }
                 let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
                 let t = target_indices[k];
                 let out = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
@@ -304,6 +318,9 @@ fn render_in_pool(
                 out
             })
             .collect();
+        if cancelled() {
+            return Err(RenderError::Cancelled);
+        }
         // Deterministic reduction: each target's batches in batch order.
         for ((k, _), part) in tasks.iter().zip(&partial) {
             sums[*k].add(part);
