@@ -3,11 +3,13 @@
 //! raw sample**, renders, and comparisons.
 //!
 //! - Migrations (`migrations/`) are embedded in the binary and applied when
-//!   the store opens; the database runs in WAL mode with foreign keys on.
+//!   the store opens; the database runs in WAL mode with foreign keys on
+//!   and `synchronous = FULL` (a committed sample survives power loss).
 //! - A sample is written when it is taken, so a crash or a pulled cable keeps
 //!   the samples taken; a measurement is `complete` only with its average
 //!   (the schema enforces it), and measurements left `running` or `queued` by
-//!   a crash are marked `interrupted` when the store next opens.
+//!   a crash are marked `interrupted` when the store next opens, as are
+//!   renders and studies left `queued` or `running`.
 //! - Times are POSIX seconds (f64, UTC); spectra are JSON arrays of numbers.
 //!
 //! ```no_run
@@ -153,13 +155,24 @@ impl Store {
     /// Opens (creating if needed) the database at `url` (`sqlite://path` or
     /// `sqlite::memory:`), applies migrations, and marks measurements a crash
     /// left unfinished as interrupted.
+    ///
+    /// Durability: `synchronous = FULL`, so every committed write — each raw
+    /// sample, each finished measurement — is on disk (WAL fsynced) before
+    /// the call returns, and survives an OS crash or power loss, not only a
+    /// crash of the daemon (NORMAL's promise in WAL mode, which can lose the
+    /// last transactions on power loss). The cost is one fsync per commit;
+    /// `cargo bench --bench sample_durability` measures it (see the README).
     pub async fn open(url: &str) -> Result<Store, StoreError> {
+        Store::open_with_synchronous(url, SqliteSynchronous::Full).await
+    }
+
+    /// [`Store::open`] with another `synchronous` mode (the benchmark compares
+    /// FULL with NORMAL).
+    pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
         let options = SqliteConnectOptions::from_str(url)?
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
-            // NORMAL is durable across application crashes in WAL mode; only
-            // an OS crash or power loss can lose the last transactions.
-            .synchronous(SqliteSynchronous::Normal)
+            .synchronous(synchronous)
             .foreign_keys(true)
             .busy_timeout(Duration::from_secs(5));
         // An in-memory database lives per connection: keep exactly one.
