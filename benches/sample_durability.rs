@@ -71,7 +71,10 @@ async fn main() {
         );
     } else {
         println!("per-sample write, {SAMPLES} samples each (ms: 25 % / median / 75 %)");
-        println!("  synchronous=NORMAL  {:.3} / {:.3} / {:.3}", normal[0], normal[1], normal[2]);
+        println!(
+            "  synchronous=NORMAL  {:.3} / {:.3} / {:.3}",
+            normal[0], normal[1], normal[2]
+        );
         println!("  synchronous=FULL    {:.3} / {:.3} / {:.3}", full[0], full[1], full[2]);
     }
 }

@@ -54,7 +54,10 @@ fn target_ids_a_dot_b_and_a_underscore_b_get_their_own_cache_files() {
     assert!(dot.values()[300] > 1.5 * underscore.values()[300]);
     // Read back from the cache, each is its own.
     assert_eq!(converged_target_spectrum(&scene, "a.b", Some(&cache)).unwrap(), dot);
-    assert_eq!(converged_target_spectrum(&scene, "a_b", Some(&cache)).unwrap(), underscore);
+    assert_eq!(
+        converged_target_spectrum(&scene, "a_b", Some(&cache)).unwrap(),
+        underscore
+    );
 }
 
 #[test]
@@ -79,5 +82,8 @@ fn a_torn_cache_file_is_recomputed_not_an_error() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert!(names.iter().all(|n| n.ends_with(".csv") && !n.contains(".tmp")), "{names:?}");
+    assert!(
+        names.iter().all(|n| n.ends_with(".csv") && !n.contains(".tmp")),
+        "{names:?}"
+    );
 }

@@ -197,18 +197,12 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_at_start_up
             .unwrap();
         assert_eq!(heavy_row["state"], "interrupted", "{heavy_row}");
         assert!(heavy_row["error"].as_str().unwrap().contains("retry"), "{heavy_row}");
-        let study_row = studies
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|j| j["id"] == s["id"])
-            .unwrap();
+        let study_row = studies.as_array().unwrap().iter().find(|j| j["id"] == s["id"]).unwrap();
         assert_eq!(study_row["state"], "interrupted", "{study_row}");
 
         if round == 0 {
             // A retried study is a new job with the same request, and it runs.
-            let (status, again) =
-                post_json(addr, &format!("/api/studies/{}/retry", s["id"]), TOKEN, "{}").await;
+            let (status, again) = post_json(addr, &format!("/api/studies/{}/retry", s["id"]), TOKEN, "{}").await;
             assert_eq!(status, 202, "{again}");
             assert_ne!(again["id"], s["id"]);
             let url = again["url"].as_str().unwrap().to_string();
@@ -216,8 +210,7 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_at_start_up
             assert_eq!(row["request"]["scenes"], "white");
             assert!(row["state"] == "queued" || row["state"] == "running", "{row}");
             // A retried render too.
-            let (status, again) =
-                post_json(addr, &format!("/api/renders/{}/retry", r["render_id"]), TOKEN, "{}").await;
+            let (status, again) = post_json(addr, &format!("/api/renders/{}/retry", r["render_id"]), TOKEN, "{}").await;
             assert_eq!(status, 202, "{again}");
             let (_, row) = get_json(addr, again["url"].as_str().unwrap()).await;
             assert_eq!(row["settings"]["samples"], 4194304, "{row}");
@@ -255,7 +248,13 @@ async fn a_panic_in_a_render_fails_that_job_and_the_daemon_and_instrument_surviv
     assert!(failed["error"].as_str().unwrap().contains("panicked"), "{failed}");
 
     // The same panic on the instrument thread (aiming the simulated PR-650 at red).
-    let (status, m) = post_json(addr, "/api/measurements", TOKEN, r#"{"scene":"red","target":"patch","samples":2}"#).await;
+    let (status, m) = post_json(
+        addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"red","target":"patch","samples":2}"#,
+    )
+    .await;
     assert_eq!(status, 202, "{m}");
     let m = poll_until(addr, m["url"].as_str().unwrap(), Duration::from_secs(60), |v| {
         v["state"] != "queued" && v["state"] != "running"
@@ -278,10 +277,16 @@ async fn a_panic_in_a_render_fails_that_job_and_the_daemon_and_instrument_surviv
     // The daemon is alive and the next measurement and render work.
     let (status, m) = post_json(addr, "/api/measurements", TOKEN, r#"{"samples":2}"#).await;
     assert_eq!(status, 202, "{m}");
-    poll_until(addr, m["url"].as_str().unwrap(), Duration::from_secs(60), |v| v["state"] == "complete").await;
+    poll_until(addr, m["url"].as_str().unwrap(), Duration::from_secs(60), |v| {
+        v["state"] == "complete"
+    })
+    .await;
     let (status, r) = post_json(addr, "/api/scenes/white/renders", TOKEN, r#"{"codings":"rgb"}"#).await;
     assert_eq!(status, 202, "{r}");
-    poll_until(addr, r["url"].as_str().unwrap(), Duration::from_secs(120), |v| v["state"] == "complete").await;
+    poll_until(addr, r["url"].as_str().unwrap(), Duration::from_secs(120), |v| {
+        v["state"] == "complete"
+    })
+    .await;
     assert!(child.try_wait().unwrap().is_none(), "the daemon is still running");
     child.kill().unwrap();
     child.wait().unwrap();

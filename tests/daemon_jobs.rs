@@ -35,7 +35,11 @@ async fn render_request_of_4e9_samples_or_bounces_is_refused_naming_the_field_an
     }
     let (status, e) = post_json(d.addr, "/api/scenes/white/renders", TOKEN, r#"{"codings":"rgb,rgb"}"#).await;
     assert_eq!(status, 400, "{e}");
-    assert_eq!(count(d.addr, "/api/scenes/white/renders").await, 0, "a refused request records nothing");
+    assert_eq!(
+        count(d.addr, "/api/scenes/white/renders").await,
+        0,
+        "a refused request records nothing"
+    );
     d.stop().await;
 }
 
@@ -49,9 +53,12 @@ async fn render_queue_full_refuses_with_409_leaves_no_row_and_cancel_ends_every_
         assert_eq!(status, 202, "{r}");
         ids.push(r["render_id"].as_i64().unwrap());
     }
-    poll_until(d.addr, &format!("/api/renders/{}", ids[0]), Duration::from_secs(30), |v| {
-        v["state"] == "running"
-    })
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{}", ids[0]),
+        Duration::from_secs(30),
+        |v| v["state"] == "running",
+    )
     .await;
     let before = count(d.addr, "/api/scenes/cylinder/renders").await;
     let studies_before = count(d.addr, "/api/studies").await;
@@ -62,8 +69,16 @@ async fn render_queue_full_refuses_with_409_leaves_no_row_and_cancel_ends_every_
         let (status, e) = post_json(d.addr, "/api/studies", TOKEN, r#"{"scenes":"white","seeds":1}"#).await;
         assert_eq!(status, 409, "{e}");
     }
-    assert_eq!(count(d.addr, "/api/scenes/cylinder/renders").await, before, "refusals leave no render row");
-    assert_eq!(count(d.addr, "/api/studies").await, studies_before, "refusals leave no study row");
+    assert_eq!(
+        count(d.addr, "/api/scenes/cylinder/renders").await,
+        before,
+        "refusals leave no render row"
+    );
+    assert_eq!(
+        count(d.addr, "/api/studies").await,
+        studies_before,
+        "refusals leave no study row"
+    );
 
     // Cancel a waiting one: it ends at once; then the running one: it stops.
     let (status, r) = post_json(d.addr, &format!("/api/renders/{}/cancel", ids[3]), TOKEN, "{}").await;
@@ -91,24 +106,42 @@ async fn render_queue_full_refuses_with_409_leaves_no_row_and_cancel_ends_every_
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn cancelled_render_and_study_can_be_retried_as_new_jobs() {
     let d = Daemon::start(0.0).await;
-    let (_, r) = post_json(d.addr, "/api/scenes/white/renders", TOKEN, r#"{"samples":4096,"codings":"rgb"}"#).await;
+    let (_, r) = post_json(
+        d.addr,
+        "/api/scenes/white/renders",
+        TOKEN,
+        r#"{"samples":4096,"codings":"rgb"}"#,
+    )
+    .await;
     let first = r["render_id"].as_i64().unwrap();
     let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
     let heavy = r["render_id"].as_i64().unwrap();
-    let (_, s) = post_json(d.addr, "/api/studies", TOKEN, r#"{"scenes":"white","seeds":1,"against":"reference"}"#).await;
+    let (_, s) = post_json(
+        d.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"white","seeds":1,"against":"reference"}"#,
+    )
+    .await;
     let study = s["id"].as_i64().unwrap();
     // The heavy render waits behind the first, the study behind both: cancel them.
     let (status, r) = post_json(d.addr, &format!("/api/studies/{study}/cancel"), TOKEN, "{}").await;
     assert_eq!(status, 202, "{r}");
     assert_eq!(r["state"], "cancelled", "{r}");
-    poll_until(d.addr, &format!("/api/renders/{heavy}"), Duration::from_secs(120), |v| {
-        v["state"] == "running"
-    })
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{heavy}"),
+        Duration::from_secs(120),
+        |v| v["state"] == "running",
+    )
     .await;
     post_json(d.addr, &format!("/api/renders/{heavy}/cancel"), TOKEN, "{}").await;
-    let done = poll_until(d.addr, &format!("/api/renders/{first}"), Duration::from_secs(120), |v| {
-        v["state"] == "complete"
-    })
+    let done = poll_until(
+        d.addr,
+        &format!("/api/renders/{first}"),
+        Duration::from_secs(120),
+        |v| v["state"] == "complete",
+    )
     .await;
     assert!(done["result"].is_object());
     let (status, e) = post_json(d.addr, &format!("/api/renders/{first}/retry"), TOKEN, "{}").await;
@@ -119,9 +152,12 @@ async fn cancelled_render_and_study_can_be_retried_as_new_jobs() {
     assert_eq!(status, 202, "{s}");
     let again = s["id"].as_i64().unwrap();
     assert_ne!(again, study);
-    let st = poll_until(d.addr, &format!("/api/studies/{again}"), Duration::from_secs(300), |v| {
-        v["state"] != "queued" && v["state"] != "running"
-    })
+    let st = poll_until(
+        d.addr,
+        &format!("/api/studies/{again}"),
+        Duration::from_secs(300),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
     .await;
     assert_eq!(st["state"], "complete", "{st}");
     assert_eq!(st["request"]["scenes"], "white");
@@ -137,9 +173,12 @@ async fn shutdown_cancels_a_running_render_and_marks_it_interrupted() {
     let running = r["render_id"].as_i64().unwrap();
     let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
     let queued = r["render_id"].as_i64().unwrap();
-    poll_until(d.addr, &format!("/api/renders/{running}"), Duration::from_secs(30), |v| {
-        v["state"] == "running"
-    })
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{running}"),
+        Duration::from_secs(30),
+        |v| v["state"] == "running",
+    )
     .await;
     // Daemon::stop bounds the shutdown (30 s); a render of minutes must not hold it.
     let dir = d.stop_keeping_files().await;
@@ -179,7 +218,10 @@ async fn a_long_render_does_not_starve_the_instrument() {
     .await;
     assert_eq!(done["state"], "complete", "{done}");
     let (_, r) = get_json(d.addr, &format!("/api/renders/{heavy}")).await;
-    assert_eq!(r["state"], "running", "the render was still going: the test measured what it meant to");
+    assert_eq!(
+        r["state"], "running",
+        "the render was still going: the test measured what it meant to"
+    );
     d.stop().await;
 }
 
@@ -195,7 +237,9 @@ async fn queue_full_409_leaves_no_cancelled_measurement_row() {
     let mut tasks = Vec::new();
     for _ in 0..(QUEUE_CAPACITY + 40) {
         let addr = d.addr;
-        tasks.push(tokio::spawn(async move { post_json(addr, "/api/measurements", TOKEN, body).await }));
+        tasks.push(tokio::spawn(async move {
+            post_json(addr, "/api/measurements", TOKEN, body).await
+        }));
     }
     for t in tasks {
         match t.await.unwrap() {
@@ -204,7 +248,10 @@ async fn queue_full_409_leaves_no_cancelled_measurement_row() {
             (status, v) => panic!("unexpected {status}: {v}"),
         }
     }
-    assert!(refused >= 30, "the queue filled: {admitted} admitted, {refused} refused");
+    assert!(
+        refused >= 30,
+        "the queue filled: {admitted} admitted, {refused} refused"
+    );
     let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
     let total = page["total"].as_i64().unwrap();
     total_before.get_or_insert(total);
@@ -247,8 +294,15 @@ async fn a_sample_write_that_fails_leaves_the_measurement_failed_not_complete() 
     let error = done["error"].as_str().unwrap();
     assert!(error.contains("sample 1 could not be written"), "{error}");
     assert!(done["radiance"].is_null(), "no average without every sample");
-    assert_eq!(done["samples"].as_array().unwrap().len(), 1, "the sample written is kept");
-    sqlx::query("DROP TRIGGER refuse_second_sample").execute(&pool).await.unwrap();
+    assert_eq!(
+        done["samples"].as_array().unwrap().len(),
+        1,
+        "the sample written is kept"
+    );
+    sqlx::query("DROP TRIGGER refuse_second_sample")
+        .execute(&pool)
+        .await
+        .unwrap();
     pool.close().await;
     // The instrument goes on.
     let (_, m) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":2}"#).await;

@@ -68,7 +68,11 @@ pub fn acquire(url: &str) -> anyhow::Result<Option<DbLock>> {
             );
         }
         Err(TryLockError::Error(e)) => {
-            anyhow::bail!("cannot lock {} (for the database {}): {e}", path.display(), database.display())
+            anyhow::bail!(
+                "cannot lock {} (for the database {}): {e}",
+                path.display(),
+                database.display()
+            )
         }
     }
     // Ours now: record who holds it.
@@ -91,7 +95,10 @@ mod tests {
             Some(PathBuf::from("/tmp/x/lab.sqlite"))
         );
         assert_eq!(database_path("sqlite::memory:"), None);
-        assert_eq!(lock_path(Path::new("/a/lab.sqlite")), PathBuf::from("/a/lab.sqlite.lock"));
+        assert_eq!(
+            lock_path(Path::new("/a/lab.sqlite")),
+            PathBuf::from("/a/lab.sqlite.lock")
+        );
     }
 
     #[test]

@@ -368,7 +368,12 @@ impl Worker {
     }
 
     /// Takes a measurement already marked running (see [`Worker::measure`]).
-    fn take_running(&mut self, instrument: &mut dyn Spectroradiometer, id: i64, job: &MeasurementJob) -> Option<String> {
+    fn take_running(
+        &mut self,
+        instrument: &mut dyn Spectroradiometer,
+        id: i64,
+        job: &MeasurementJob,
+    ) -> Option<String> {
         let store = self.config.store.clone();
         let _ = self.config.events.send(Event::MeasurementStarted {
             measurement_id: id,
@@ -421,7 +426,8 @@ impl Worker {
             // Blocks this thread until the sample is on disk: the next sample waits.
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
                 tracing::error!(error = %e, index = s.index, "cannot store a sample; stopping the measurement");
-                write_failed.get_or_insert_with(|| format!("sample {} could not be written to the database: {e}", s.index));
+                write_failed
+                    .get_or_insert_with(|| format!("sample {} could not be written to the database: {e}", s.index));
                 stop.cancel();
                 return;
             }

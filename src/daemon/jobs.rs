@@ -211,7 +211,10 @@ impl<W: Send + 'static> JobQueue<W> {
         match (cancelled, error) {
             (true, _) if self.is_shutting_down() => (
                 JobEnd::Interrupted,
-                format!("the daemon shut down during this {noun}; retry it with POST /api/{}/{{id}}/retry", job.table()),
+                format!(
+                    "the daemon shut down during this {noun}; retry it with POST /api/{}/{{id}}/retry",
+                    job.table()
+                ),
             ),
             (true, _) => (JobEnd::Cancelled, "cancelled by a client".into()),
             (false, Some(e)) => (JobEnd::Failed, e),

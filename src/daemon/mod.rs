@@ -167,7 +167,11 @@ pub async fn run(
         store
             .interrupt_unfinished_jobs(
                 job,
-                &format!("the daemon shut down during this {}; retry it with POST /api/{}/{{id}}/retry", job.noun(), job.table()),
+                &format!(
+                    "the daemon shut down during this {}; retry it with POST /api/{}/{{id}}/retry",
+                    job.noun(),
+                    job.table()
+                ),
             )
             .await?;
     }

@@ -30,8 +30,8 @@ use std::time::Instant;
 use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
-use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
+use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
@@ -467,7 +467,11 @@ impl Renderer {
 }
 
 /// What a render job stores: the result, each coding's time alone, and the preview PNG.
-type RenderOutput = (render::RenderResult, serde_json::Map<String, serde_json::Value>, Option<Vec<u8>>);
+type RenderOutput = (
+    render::RenderResult,
+    serde_json::Map<String, serde_json::Value>,
+    Option<Vec<u8>>,
+);
 
 /// A render with progress events, then each coding timed alone (same
 /// settings) and the camera preview. Runs on the rayon pool.
@@ -477,44 +481,44 @@ fn render_with_timings(
     settings: &RenderSettings,
     events: &broadcast::Sender<Event>,
 ) -> Result<RenderOutput, RenderError> {
-        let last = std::sync::Mutex::new(Instant::now());
-        let progress = |done: u64, total: u64| {
-            let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
-            if last.elapsed().as_millis() >= 200 || done == total {
-                *last = Instant::now();
-                let _ = events.send(Event::RenderProgress {
-                    render_id: id,
-                    done,
-                    total,
-                });
-            }
-        };
-        render::render(scene, settings, Some(&progress)).map(|full| {
-            let mut coding_seconds = serde_json::Map::new();
-            for coding in &settings.codings {
-                let alone = RenderSettings {
-                    codings: vec![*coding],
-                    ..settings.clone()
-                };
-                let t = Instant::now();
-                if render::render(scene, &alone, None).is_ok() {
-                    coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
-                }
-            }
-            // The camera view for the dashboard: the sRGB coding, few paths per
-            // pixel (a preview, not a measurement).
-            let preview = scene.camera.as_ref().and_then(|camera| {
-                let transport = render::integrator::Transport {
-                    max_bounces: settings.max_bounces,
-                    russian_roulette_from: settings.russian_roulette_from,
-                };
-                render::sensor::render_camera(scene, camera, Coding::Srgb, 16, &transport, settings.seed)
-                    .and_then(|img| img.png())
-                    .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
-                    .ok()
+    let last = std::sync::Mutex::new(Instant::now());
+    let progress = |done: u64, total: u64| {
+        let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+        if last.elapsed().as_millis() >= 200 || done == total {
+            *last = Instant::now();
+            let _ = events.send(Event::RenderProgress {
+                render_id: id,
+                done,
+                total,
             });
-            (full, coding_seconds, preview)
-        })
+        }
+    };
+    render::render(scene, settings, Some(&progress)).map(|full| {
+        let mut coding_seconds = serde_json::Map::new();
+        for coding in &settings.codings {
+            let alone = RenderSettings {
+                codings: vec![*coding],
+                ..settings.clone()
+            };
+            let t = Instant::now();
+            if render::render(scene, &alone, None).is_ok() {
+                coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
+            }
+        }
+        // The camera view for the dashboard: the sRGB coding, few paths per
+        // pixel (a preview, not a measurement).
+        let preview = scene.camera.as_ref().and_then(|camera| {
+            let transport = render::integrator::Transport {
+                max_bounces: settings.max_bounces,
+                russian_roulette_from: settings.russian_roulette_from,
+            };
+            render::sensor::render_camera(scene, camera, Coding::Srgb, 16, &transport, settings.seed)
+                .and_then(|img| img.png())
+                .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
+                .ok()
+        });
+        (full, coding_seconds, preview)
+    })
 }
 
 /// Every coding's XYZ and standard error of Y at `target` in a stored render result.
@@ -631,7 +635,8 @@ impl Renderer {
                             message: message.to_string(),
                         });
                     };
-                    this.runtime.block_on(run_study(&paths, &options, Some(&this.store), &progress))
+                    this.runtime
+                        .block_on(run_study(&paths, &options, Some(&this.store), &progress))
                         .map_err(|e| e.to_string())
                         .and_then(|result| {
                             let files = report_files(&result).map_err(|e| e.to_string())?;

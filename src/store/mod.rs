@@ -204,7 +204,11 @@ impl Store {
                 )
                 .await?;
             if n > 0 {
-                tracing::warn!(count = n, "marked {} left unfinished by the last run as interrupted", job.table());
+                tracing::warn!(
+                    count = n,
+                    "marked {} left unfinished by the last run as interrupted",
+                    job.table()
+                );
             }
         }
         Ok(store)
@@ -575,11 +579,11 @@ impl Store {
                     "UPDATE renders SET state = 'failed', error = ?, finished_at = ? \
                      WHERE id = ? AND state IN ('queued', 'running')",
                 )
-                    .bind(e)
-                    .bind(now())
-                    .bind(id)
-                    .execute(&self.pool)
-                    .await?
+                .bind(e)
+                .bind(now())
+                .bind(id)
+                .execute(&self.pool)
+                .await?
             }
         };
         Ok(())

@@ -184,7 +184,10 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
         .finish_render(done, Ok((&serde_json::json!({"targets": []}), 1.0)))
         .await
         .unwrap();
-    let study = store.create_study(&serde_json::json!({"scenes": "white"})).await.unwrap();
+    let study = store
+        .create_study(&serde_json::json!({"scenes": "white"}))
+        .await
+        .unwrap();
     assert!(store.start_job(Job::Study, study).await.unwrap());
     store.pool().close().await;
 
@@ -206,15 +209,30 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
 async fn job_states_move_only_forward() {
     let (_dir, store, _) = temp_store().await;
     let id = store.create_render(&new_render()).await.unwrap();
-    assert_eq!(store.job_state(Job::Render, id).await.unwrap().as_deref(), Some("queued"));
-    assert!(store.end_job(Job::Render, id, JobEnd::Cancelled, "by a test").await.unwrap());
-    assert!(!store.start_job(Job::Render, id).await.unwrap(), "a cancelled render never runs");
+    assert_eq!(
+        store.job_state(Job::Render, id).await.unwrap().as_deref(),
+        Some("queued")
+    );
+    assert!(store
+        .end_job(Job::Render, id, JobEnd::Cancelled, "by a test")
+        .await
+        .unwrap());
+    assert!(
+        !store.start_job(Job::Render, id).await.unwrap(),
+        "a cancelled render never runs"
+    );
     assert!(!store.end_job(Job::Render, id, JobEnd::Failed, "late").await.unwrap());
-    assert_eq!(store.job_state(Job::Render, id).await.unwrap().as_deref(), Some("cancelled"));
+    assert_eq!(
+        store.job_state(Job::Render, id).await.unwrap().as_deref(),
+        Some("cancelled")
+    );
     // A cancelled study keeps no report even if its run finishes afterwards.
     let study = store.create_study(&serde_json::json!({})).await.unwrap();
     store.start_job(Job::Study, study).await.unwrap();
-    store.end_job(Job::Study, study, JobEnd::Cancelled, "by a test").await.unwrap();
+    store
+        .end_job(Job::Study, study, JobEnd::Cancelled, "by a test")
+        .await
+        .unwrap();
     let files = vec![("index.html".to_string(), b"<html>".to_vec())];
     assert!(store
         .complete_study(study, &serde_json::json!({}), 1.0, &files)
@@ -246,7 +264,12 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
             .create_if_missing(true)
             .foreign_keys(true);
         let pool = SqlitePool::connect_with(options).await.unwrap();
-        sqlx::migrate::Migrator::new(old.as_path()).await.unwrap().run(&pool).await.unwrap();
+        sqlx::migrate::Migrator::new(old.as_path())
+            .await
+            .unwrap()
+            .run(&pool)
+            .await
+            .unwrap();
         for sql in [
             "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at) \
              VALUES (1, 5, '{}', 'failed', 0)",
@@ -273,7 +296,13 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
     assert_eq!(store.comparisons_for_measurement(1).await.unwrap().len(), 1);
     let study = store.get_study(3).await.unwrap().unwrap();
     assert_eq!(study.files, vec!["index.html".to_string()]);
-    assert_eq!(store.study_file(3, "index.html").await.unwrap().unwrap(), b"<html>".to_vec());
-    let violations = sqlx::query("PRAGMA foreign_key_check").fetch_all(store.pool()).await.unwrap();
+    assert_eq!(
+        store.study_file(3, "index.html").await.unwrap().unwrap(),
+        b"<html>".to_vec()
+    );
+    let violations = sqlx::query("PRAGMA foreign_key_check")
+        .fetch_all(store.pool())
+        .await
+        .unwrap();
     assert!(violations.is_empty(), "no dangling references after the rebuild");
 }

@@ -86,9 +86,9 @@ pub async fn start_measurement(
             "the instrument is busy: {} measurements are already queued; try again when one finishes",
             state.jobs.max_capacity()
         )),
-        tokio::sync::mpsc::error::TrySendError::Closed(()) => ApiError::Unavailable(
-            "the instrument task has stopped; no measurement can run (see /api/health)".into(),
-        ),
+        tokio::sync::mpsc::error::TrySendError::Closed(()) => {
+            ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
+        }
     })?;
     let id = state
         .store
