@@ -232,7 +232,6 @@ async fn queue_full_409_leaves_no_cancelled_measurement_row() {
     let body = r#"{"samples":99}"#;
     let mut admitted = 0;
     let mut refused = 0;
-    let mut total_before = None;
     // Race admissions against each other: all at once, more than fit.
     let mut tasks = Vec::new();
     for _ in 0..(QUEUE_CAPACITY + 40) {
@@ -254,11 +253,19 @@ async fn queue_full_409_leaves_no_cancelled_measurement_row() {
     );
     let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
     let total = page["total"].as_i64().unwrap();
-    total_before.get_or_insert(total);
     assert_eq!(total, admitted as i64, "every row belongs to an admitted request");
     let (_, cancelled) = get_json(d.addr, "/api/measurements?state=cancelled&limit=1").await;
     assert_eq!(cancelled["total"], 0, "no refused request left a cancelled row");
-    // And once more, sequentially, with the queue known to be full.
+    // And once more, sequentially: with the instrument busy on its first
+    // measurement (99 samples at real speed take minutes), top the queue
+    // up until it refuses; every refusal after that leaves the count alone.
+    poll_until(d.addr, "/api/health", Duration::from_secs(30), |v| {
+        v["instrument"]["state"] == "measuring"
+    })
+    .await;
+    while post_json(d.addr, "/api/measurements", TOKEN, body).await.0 == 202 {}
+    let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
+    let total_before = page["total"].as_i64();
     for _ in 0..10 {
         let (status, _) = post_json(d.addr, "/api/measurements", TOKEN, body).await;
         assert_eq!(status, 409);
