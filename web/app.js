@@ -348,14 +348,16 @@ async function loadStudies(openId) {
   tbody.innerHTML = "";
   for (const st of list) {
     const tr = tbody.insertRow();
-    for (const v of [st.id, st.state + (st.error ? ": " + st.error : ""), new Date(st.created_at * 1000).toLocaleString(),
-      fmt(st.wall_seconds, 3), JSON.stringify(st.request)]) tr.insertCell().textContent = v;
+    for (const v of [st.id, st.state + (st.error ? ": " + st.error : "")]) tr.insertCell().textContent = v;
+    // Cancel a study still queued or running; retry one that did not complete.
     const actions = tr.insertCell();
     if (st.state === "queued" || st.state === "running") {
       actions.appendChild(jobButton("Cancel", `/api/studies/${st.id}/cancel`, () => loadStudies()));
     } else if (st.state !== "complete") {
       actions.appendChild(jobButton("Retry", `/api/studies/${st.id}/retry`, () => loadStudies()));
     }
+    for (const v of [new Date(st.created_at * 1000).toLocaleString(), fmt(st.wall_seconds, 3), JSON.stringify(st.request)])
+      tr.insertCell().textContent = v;
     tr.addEventListener("click", () => (location.hash = `#/study/${st.id}`));
   }
   if (openId) showStudy(openId);
