@@ -137,6 +137,7 @@ fn main() {
             events: broadcast::channel(16).0,
             renders: None,
             mock: None,
+            measurement_cancel: None,
             shutting_down,
         };
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

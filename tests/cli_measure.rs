@@ -232,3 +232,41 @@ fn instrument_and_port_errors_exit_non_zero_with_a_clear_message() {
     assert!(!ok && stdout.is_empty());
     assert!(stderr.contains("garbled reply to `D5`"), "{stderr}");
 }
+
+/// User + system CPU time of a process so far, from `/proc/PID/stat`, in seconds.
+fn cpu_seconds(pid: u32) -> f64 {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).expect("read /proc/PID/stat");
+    // Fields after the command name (which may hold spaces) start after the last ')'.
+    let fields: Vec<&str> = stat[stat.rfind(')').unwrap() + 2..].split_whitespace().collect();
+    // utime and stime are fields 14 and 15 of the whole line, 12 and 13 here.
+    let ticks: f64 = fields[11].parse::<f64>().unwrap() + fields[12].parse::<f64>().unwrap();
+    // Clock ticks per second (100 on Linux), as `getconf CLK_TCK` reports it.
+    let hz: f64 = Command::new("getconf")
+        .arg("CLK_TCK")
+        .output()
+        .ok()
+        .and_then(|o| String::from_utf8_lossy(&o.stdout).trim().parse().ok())
+        .unwrap_or(100.0);
+    ticks / hz
+}
+
+/// Regression: with standard input closed (`</dev/null`, `nohup`, CI) the
+/// simulator's power-switch loop polled a disconnected channel, which returns
+/// at once: one core at 100 %. An idle simulator must sleep.
+#[test]
+fn mock_pr650_with_stdin_closed_does_not_spin() {
+    let mock = spawn_mock(&["--speed", "0", "--remote-window-s", "0"]); // stdin is /dev/null
+    let pid = mock.child.id();
+    std::thread::sleep(std::time::Duration::from_millis(300)); // start-up work is not idling
+    let before = cpu_seconds(pid);
+    let wall = std::time::Duration::from_secs(2);
+    std::thread::sleep(wall);
+    let used = cpu_seconds(pid) - before;
+    // Idle, it wakes 5 times a second (power switch) and 100 times a second
+    // (the device's read slice): well under 1 % of a core. A spinning loop
+    // takes a whole core, or on a loaded 2-core machine still a large share.
+    assert!(
+        used < 0.1 * wall.as_secs_f64(),
+        "the idle simulator used {used:.2} s of CPU in {wall:?} with stdin closed"
+    );
+}

@@ -162,7 +162,13 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_at_start_up
         let heavy = r#"{"samples":4194304,"codings":"rgb,spectral"}"#;
         let (status, r) = post_json(addr, "/api/scenes/cylinder/renders", TOKEN, heavy).await;
         assert_eq!(status, 202, "{r}");
-        let (status, s) = post_json(addr, "/api/studies", TOKEN, r#"{"scenes":"white","seeds":1}"#).await;
+        let (status, s) = post_json(
+            addr,
+            "/api/studies",
+            TOKEN,
+            r#"{"scenes":"white","seeds":1,"against":"reference"}"#,
+        )
+        .await;
         assert_eq!(status, 202, "{s}");
         let (status, _) = post_json(addr, "/api/scenes/white/renders", TOKEN, r#"{"codings":"rgb"}"#).await;
         assert_eq!(status, 202);
@@ -238,7 +244,13 @@ async fn a_panic_in_a_render_fails_that_job_and_the_daemon_and_instrument_surviv
     .await;
     assert_eq!(failed["state"], "failed", "{failed}");
     assert!(failed["error"].as_str().unwrap().contains("panicked"), "{failed}");
-    let (status, s) = post_json(addr, "/api/studies", TOKEN, r#"{"scenes":"red","seeds":1}"#).await;
+    let (status, s) = post_json(
+        addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"red","seeds":1,"against":"reference"}"#,
+    )
+    .await;
     assert_eq!(status, 202, "{s}");
     let failed = poll_until(addr, s["url"].as_str().unwrap(), Duration::from_secs(60), |v| {
         v["state"] != "queued" && v["state"] != "running"

@@ -66,7 +66,13 @@ async fn render_queue_full_refuses_with_409_leaves_no_row_and_cancel_ends_every_
         let (status, e) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
         assert_eq!(status, 409, "{e}");
         assert!(e["error"]["message"].as_str().unwrap().contains("queue is full"), "{e}");
-        let (status, e) = post_json(d.addr, "/api/studies", TOKEN, r#"{"scenes":"white","seeds":1}"#).await;
+        let (status, e) = post_json(
+            d.addr,
+            "/api/studies",
+            TOKEN,
+            r#"{"scenes":"white","seeds":1,"against":"reference"}"#,
+        )
+        .await;
         assert_eq!(status, 409, "{e}");
     }
     assert_eq!(

@@ -4,12 +4,12 @@
 //! bounded by the short timeouts below), never a bad sample in the mean, and
 //! the port usable afterwards.
 
-use std::time::Duration;
+use std::path::Path;
+use std::time::{Duration, Instant};
 
 use lightbooth::colorimetry::{xyz_from_radiance, Cmf, Observer, KM_LM_PER_W};
 use lightbooth::instrument::mock::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::pr650::protocol::{as_sent, Terminator};
-use lightbooth::instrument::worker::InstrumentWorker;
 use lightbooth::instrument::{
     open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, QualityKind, Sample,
     Spectroradiometer,
@@ -31,8 +31,10 @@ fn fast_mock(faults: Vec<Fault>) -> MockHandle {
     cfg.remote_window_ms = None;
     cfg.faults = faults;
     cfg.seed = 42;
-    // A slow reply arrives after twice the test's command timeout.
-    cfg.slow_ms = 2 * test_settings().command_timeout_ms;
+    // A slow reply arrives after one and a half times the test's command
+    // timeout: late for its command, and early in the resynchronisation
+    // ping's wait (one command timeout of silence), which then finds the unit alive.
+    cfg.slow_ms = 3 * test_settings().command_timeout_ms / 2;
     spawn_mock(cfg).unwrap()
 }
 
@@ -412,24 +414,6 @@ fn low_light_and_overload_come_from_the_model_limits() {
 }
 
 #[test]
-fn the_worker_thread_serves_async_callers() {
-    let mock = fast_mock(vec![]);
-    let worker = InstrumentWorker::spawn(open(&mock, &test_settings())).unwrap();
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
-    let m = rt.block_on(worker.measure(3, CancelToken::new(), tx)).unwrap();
-    let mut streamed = 0;
-    while rx.try_recv().is_ok() {
-        streamed += 1;
-    }
-    assert_eq!(streamed, 3);
-    assert_sound(&m, &mock, 3);
-}
-
-#[test]
 fn paced_replies_at_a_low_speed_arrive_whole() {
     let mut cfg = MockConfig::new(d65_radiance());
     cfg.speed = 0.02; // 9600-baud pacing and measurement times at 1/50
@@ -438,4 +422,49 @@ fn paced_replies_at_a_low_speed_arrive_whole() {
     let mut pr650 = open(&mock, &test_settings());
     let (m, _) = measure(pr650.as_mut(), 2);
     assert_sound(&m.unwrap(), &mock, 2);
+}
+
+/// Regression: a link that died mid-reply (the unit silent after a cut `D5`,
+/// the port still open) took more than 60 s to report, because every
+/// resynchronisation ping waited a whole measurement's timeout. With the
+/// shipped settings (`instruments/pr650.toml`), a dead instrument is
+/// reported within 10 s of the last byte it sent, and a pulled cable at once.
+#[test]
+fn a_link_that_dies_mid_reply_is_reported_within_10_s_of_its_last_byte() {
+    let shipped =
+        Pr650Settings::from_toml_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join("instruments/pr650.toml")).unwrap();
+    for kind in [FaultKind::LinkDies, FaultKind::CablePull] {
+        let mock = fast_mock(vec![]);
+        let mut pr650 = open(&mock, &shipped);
+        // Two good samples first, then the link dies in the third.
+        let (m, _) = measure(pr650.as_mut(), 2);
+        assert_sound(&m.unwrap(), &mock, 2);
+        mock.set_faults(vec![Fault::times(kind, 1)]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let result = pr650.measure_averaged(5, &CancelToken::new(), &mut |_| {});
+            let _ = tx.send((result.map(|_| ()), Instant::now()));
+        });
+        // Bounded: a driver that still waits minutes fails here, not by hanging.
+        let (result, reported_at) = rx
+            .recv_timeout(Duration::from_secs(30))
+            .unwrap_or_else(|_| panic!("{kind:?}: no error within 30 s of the link dying"));
+        let err = result.expect_err("a dead link cannot give a measurement");
+        let last_byte = mock.last_byte_at().expect("the unit sent bytes before dying");
+        let silent_for = reported_at.duration_since(last_byte);
+        eprintln!("{kind:?}: reported {silent_for:?} after the last byte");
+        // The requirement is 10 s; 1 s of margin for a loaded test machine.
+        assert!(
+            silent_for < Duration::from_secs(11),
+            "{kind:?}: reported {silent_for:?} after the last byte: {err}"
+        );
+        match kind {
+            FaultKind::LinkDies => {
+                assert!(mock.is_link_dead());
+                assert!(matches!(err, InstrumentError::Unresponsive { .. }), "{kind:?}: {err:?}");
+                assert!(err.to_string().contains("cable"), "{err}");
+            }
+            _ => assert!(matches!(err, InstrumentError::PortClosed { .. }), "{kind:?}: {err:?}"),
+        }
+    }
 }

@@ -52,6 +52,7 @@ async fn harness(queue: usize) -> Harness {
         events,
         renders: None,
         mock: None,
+        measurement_cancel: None,
         shutting_down: shutdown_rx,
     };
     Harness {
@@ -102,6 +103,7 @@ async fn health_and_openapi_answer_without_a_token() {
         "/api/health",
         "/api/measurements",
         "/api/measurements/{id}",
+        "/api/measurements/{id}/cancel",
         "/api/events",
         "/api/openapi.json",
     ] {
@@ -320,4 +322,178 @@ async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it
     )
     .await;
     assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{body}");
+}
+
+#[tokio::test]
+async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() {
+    use lightbooth::store::{MeasurementState, NewMeasurement, NewSample};
+    let h = harness(4).await;
+    let store = &h.state.store;
+    let new = |scene: Option<&str>| NewMeasurement {
+        session_id: None,
+        scene: scene.map(String::from),
+        target: scene.map(|_| "patch".to_string()),
+        samples: 5,
+        settings_json: serde_json::json!({}),
+        note: String::new(),
+    };
+    for i in 0..130 {
+        store
+            .create_measurement(&new(if i % 13 == 0 { Some("white") } else { None }))
+            .await
+            .unwrap();
+    }
+    // Notes given when it is started are kept and listed (`notes` or `note`).
+    let (status, body) = send(
+        &h.state,
+        post(
+            "/api/measurements",
+            "application/json",
+            r#"{"samples": 5, "notes": "lamp warmed up 20 min"}"#,
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{body}");
+    let noted = body["id"].as_i64().unwrap();
+
+    // An interrupted measurement with three good samples and a bad one: a
+    // flat spectrum at 0.009, 0.010, 0.011 W/(sr·m²·nm) on the PR-650's 101 points.
+    let interrupted = store.create_measurement(&new(Some("white"))).await.unwrap();
+    store.mark_running(interrupted, None).await.unwrap();
+    for (i, level) in [0.009, 0.010, 0.011].into_iter().enumerate() {
+        let s = NewSample {
+            index: i,
+            taken_at: 1.7e9 + i as f64,
+            code: 0,
+            message: "OK".into(),
+            usable: true,
+            radiance: Some(vec![level; 101]),
+            luminance_cd_m2: Some(73.0),
+        };
+        store.insert_sample(interrupted, &s).await.unwrap();
+    }
+    let bad = NewSample {
+        index: 3,
+        taken_at: 1.7e9 + 3.0,
+        code: 18,
+        message: "light source too dim".into(),
+        usable: false,
+        radiance: None,
+        luminance_cd_m2: None,
+    };
+    store.insert_sample(interrupted, &bad).await.unwrap();
+    store
+        .end_measurement(interrupted, MeasurementState::Interrupted, "the cable was pulled")
+        .await
+        .unwrap();
+    let total = 132;
+
+    // Paging beyond 100 rows, newest first, with the total.
+    let (status, first) = send(&h.state, get("/api/measurements?limit=100")).await;
+    assert_eq!(status, StatusCode::OK, "{first}");
+    assert_eq!(first["total"], total);
+    assert_eq!(first["items"].as_array().unwrap().len(), 100);
+    let (_, second) = send(&h.state, get("/api/measurements?limit=100&offset=100")).await;
+    let second_items = second["items"].as_array().unwrap();
+    assert_eq!(second_items.len(), total - 100);
+    assert_eq!(
+        first["items"][99]["id"].as_i64().unwrap() - 1,
+        second_items[0]["id"].as_i64().unwrap(),
+        "the second page starts where the first ended"
+    );
+    // Filters by scene and state, and bad ones name the field.
+    let (_, white) = send(&h.state, get("/api/measurements?scene=white")).await;
+    assert_eq!(white["total"], 11, "{white}");
+    let (_, both) = send(&h.state, get("/api/measurements?scene=white&state=interrupted")).await;
+    assert_eq!(both["total"], 1, "{both}");
+    for (query, field) in [
+        ("state=finished", "state"),
+        ("limit=0", "limit"),
+        ("limit=5000", "limit"),
+        ("offset=-1", "offset"),
+    ] {
+        let (status, body) = send(&h.state, get(&format!("/api/measurements?{query}"))).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{query}: {body}");
+        assert!(
+            error_message(&body).contains(&format!("field `{field}`")),
+            "{query}: {body}"
+        );
+    }
+
+    let listed = |page: &Value, id: i64| {
+        page["items"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|i| i["id"] == id)
+            .cloned()
+            .unwrap()
+    };
+    let (_, newest) = send(&h.state, get("/api/measurements?limit=5")).await;
+    assert_eq!(listed(&newest, noted)["note"], "lamp warmed up 20 min");
+    let queued = listed(&newest, noted);
+    assert_eq!(
+        (queued["partial"].clone(), queued["good_samples"].clone()),
+        (Value::Bool(false), 0.into())
+    );
+    assert!(queued["Y"].is_null());
+
+    // The interrupted one: the average of its three good samples, marked partial.
+    let m = listed(&newest, interrupted);
+    assert_eq!(m["state"], "interrupted");
+    assert_eq!(m["partial"], true, "{m}");
+    assert_eq!(m["good_samples"], 3);
+    assert_eq!(m["samples_taken"], 4);
+    // Equal-energy white: x = y = 1/3; Y = Km·∫ȳ dλ·L = 683 lm/W × 106.86 nm × 0.010 W/(sr·m²·nm) = 729.8 cd/m².
+    let y = m["Y"].as_f64().unwrap();
+    assert!((y / 729.8 - 1.0).abs() < 0.01, "partial Y = {y}");
+    assert!((m["x"].as_f64().unwrap() - 1.0 / 3.0).abs() < 0.003, "{m}");
+    assert!((m["y"].as_f64().unwrap() - 1.0 / 3.0).abs() < 0.003, "{m}");
+    // The detail says the same, and still has no (complete) average spectrum.
+    let (_, detail) = send(&h.state, get(&format!("/api/measurements/{interrupted}"))).await;
+    assert_eq!(detail["partial"], true);
+    assert_eq!(detail["Y"], m["Y"]);
+    assert!(detail["radiance"].is_null());
+}
+
+#[tokio::test]
+async fn a_queued_measurement_could_not_be_cancelled() {
+    let mut h = harness(4).await;
+    let (_, body) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    let id = body["id"].as_i64().unwrap();
+    let mut events = h.state.events.subscribe();
+    let cancel = format!("/api/measurements/{id}/cancel");
+    let (status, body) = send(&h.state, post(&cancel, "application/json", "{}", None)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED, "{body}");
+    let (status, body) = send(&h.state, post(&cancel, "application/json", "{}", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::OK, "{body}");
+    assert_eq!(body["state"], "cancelled");
+    match events.try_recv().unwrap() {
+        lightbooth::service::Event::MeasurementFinished {
+            measurement_id, state, ..
+        } => {
+            assert_eq!(
+                (measurement_id, state),
+                (id, lightbooth::store::MeasurementState::Cancelled)
+            )
+        }
+        other => panic!("unexpected event {other:?}"),
+    }
+    // The instrument task then finds it no longer queued and skips it.
+    let job = h.jobs.try_recv().unwrap();
+    assert!(h.state.store.mark_running(job.id, None).await.is_err());
+    let (status, body) = send(&h.state, post(&cancel, "application/json", "{}", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{body}");
+    assert!(error_message(&body).contains("already cancelled"), "{body}");
+    let (status, _) = send(
+        &h.state,
+        post("/api/measurements/4242/cancel", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
 }

@@ -19,6 +19,15 @@ function token() {
   return localStorage.getItem("lightbooth-token") || "";
 }
 
+// Bound off loopback, reads need the token too. fetch() sends it in the
+// Authorization header (below); chart <img>s, download links and the event
+// stream (EventSource) cannot set headers, so the token also goes in a
+// SameSite=Strict cookie for /api, which the daemon accepts for reads only
+// (writes need the header; see src/service/auth.rs for why this is safe).
+(function tokenCookie() {
+  if (token()) document.cookie = `lightbooth_token=${token()}; path=/api; SameSite=Strict`;
+})();
+
 function notice(text) {
   const n = $("notice");
   n.textContent = text;
@@ -28,7 +37,7 @@ function notice(text) {
 async function api(path, options = {}) {
   const headers = Object.assign({ "Accept": "application/json" }, options.headers || {});
   if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (options.method && options.method !== "GET" && token()) headers["Authorization"] = "Bearer " + token();
+  if (token()) headers["Authorization"] = "Bearer " + token();
   const r = await fetch(path, Object.assign({}, options, { headers }));
   const body = await r.json().catch(() => null);
   if (!r.ok) {
@@ -68,8 +77,12 @@ function setStatus(s) {
 function follow() {
   const es = new EventSource("/api/events");
   es.addEventListener("instrument_status", (e) => setStatus(JSON.parse(e.data).status));
+  es.addEventListener("measurement_queued", () => {
+    if (location.hash.startsWith("#/measurements")) loadMeasurements();
+  });
   es.addEventListener("measurement_started", (e) => {
     const d = JSON.parse(e.data);
+    if (location.hash.startsWith("#/measurements")) loadMeasurements();
     if (d.measurement_id !== current) return;
     $("progress").max = d.samples;
     $("progress").value = 0;
@@ -77,6 +90,7 @@ function follow() {
   });
   es.addEventListener("sample", (e) => {
     const d = JSON.parse(e.data);
+    if (location.hash.startsWith("#/measurements")) loadMeasurements();
     if (d.measurement_id !== current) return;
     const done = Math.min(d.index + 1, d.of);
     $("progress").max = d.of;
@@ -88,13 +102,16 @@ function follow() {
   es.addEventListener("measurement_finished", async (e) => {
     const d = JSON.parse(e.data);
     if (d.measurement_id === current) {
+      $("cancel-current").hidden = true;
       $("progress-text").textContent = `measurement #${d.measurement_id}: ${d.state}` + (d.error ? ` (${d.error})` : "");
       refreshLiveSpectrum();
       const m = await api(`/api/measurements/${d.measurement_id}`);
       $("live-result").textContent = m.state === "complete"
         ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, luminance CV = ${fmt(m.luminance_cv, 2)}`
-        : `${m.state}: ${m.error || ""}`;
+        : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
     }
+    // The measurement table follows every state change (queued, cancelled, finished).
+    if (location.hash.startsWith("#/measurements")) loadMeasurements();
     if (scenesQueue.length && d.measurement_id === scenesQueue[0]) scenesQueue.shift();
     updateSceneProgress();
   });
@@ -158,6 +175,7 @@ $("measure-form").addEventListener("submit", async (ev) => {
   ev.preventDefault();
   notice("");
   const body = { samples: Number($("samples-input").value) };
+  if ($("notes-input").value.trim()) body.notes = $("notes-input").value.trim();
   if ($("scene-select").value) {
     body.scene = $("scene-select").value;
     body.target = $("target-select").value;
@@ -169,6 +187,7 @@ $("measure-form").addEventListener("submit", async (ev) => {
     $("progress").value = 0;
     $("progress").max = body.samples;
     $("progress-text").textContent = `measurement #${r.id}: queued`;
+    $("cancel-current").hidden = false;
     $("live-result").textContent = "";
   } catch (e) {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
@@ -177,26 +196,94 @@ $("measure-form").addEventListener("submit", async (ev) => {
 
 // --- measurements ----------------------------------------------------------
 
+const PAGE = 100;
+let measurementOffset = 0;
+
+// "partial (3 of 5)" for an unfinished measurement averaged over its good samples.
+function stateText(m) {
+  return m.partial ? `${m.state}, partial (${m.good_samples} of ${m.samples_requested})` : m.state;
+}
+
+// Local date and time of a POSIX-seconds timestamp (the API keeps seconds, UTC).
+const localTime = (t) => (t === null || t === undefined ? "" : new Date(t * 1000).toLocaleString());
+
+async function cancelMeasurement(id) {
+  notice("");
+  try {
+    // The answer (and the measurement_finished event) updates the table and the live progress.
+    await api(`/api/measurements/${id}/cancel`, { method: "POST", body: "{}" });
+  } catch (e) {
+    notice(e.message);
+  }
+  if (location.hash.startsWith("#/measurements")) loadMeasurements();
+}
+
+function measurementQuery() {
+  const q = new URLSearchParams({ limit: PAGE, offset: measurementOffset });
+  if ($("filter-scene").value) q.set("scene", $("filter-scene").value);
+  if ($("filter-state").value) q.set("state", $("filter-state").value);
+  return q.toString();
+}
+
 async function loadMeasurements(openId) {
-  const page = await api("/api/measurements?limit=100");
+  const page = await api(`/api/measurements?${measurementQuery()}`);
   const tbody = document.querySelector("#measurement-table tbody");
   tbody.innerHTML = "";
   for (const m of page.items) {
     const tr = tbody.insertRow();
-    for (const v of [m.id, m.scene || "", m.target || "", m.state, `${m.samples_taken}/${m.samples_requested}`,
-      fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2)]) tr.insertCell().textContent = v;
+    tr.dataset.id = m.id;
+    for (const v of [m.id, localTime(m.created_at), m.scene || "", m.target || "", stateText(m),
+      `${m.samples_taken}/${m.samples_requested}`, fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2),
+      m.note]) tr.insertCell().textContent = v;
+    const action = tr.insertCell();
+    if (m.state === "queued" || m.state === "running") {
+      const b = document.createElement("button");
+      b.textContent = "Cancel";
+      b.className = "cancel";
+      b.addEventListener("click", (ev) => {
+        ev.stopPropagation();
+        cancelMeasurement(m.id);
+      });
+      action.appendChild(b);
+    }
     tr.addEventListener("click", () => (location.hash = `#/measurements/${m.id}`));
   }
+  const first = page.total ? page.offset + 1 : 0;
+  $("page-info").textContent = `${first}–${page.offset + page.items.length} of ${page.total}`;
+  $("page-prev").disabled = page.offset === 0;
+  $("page-next").disabled = page.offset + page.items.length >= page.total;
   if (openId) showMeasurement(openId);
 }
+
+function fillMeasurementFilter() {
+  const sel = $("filter-scene");
+  for (const s of sceneInfo) sel.add(new Option(s.id, s.id));
+}
+
+for (const id of ["filter-scene", "filter-state"]) {
+  $(id).addEventListener("change", () => {
+    measurementOffset = 0;
+    loadMeasurements();
+  });
+}
+$("page-prev").addEventListener("click", () => {
+  measurementOffset = Math.max(0, measurementOffset - PAGE);
+  loadMeasurements();
+});
+$("page-next").addEventListener("click", () => {
+  measurementOffset += PAGE;
+  loadMeasurements();
+});
 
 async function showMeasurement(id) {
   const m = await api(`/api/measurements/${id}`);
   $("measurement-detail").hidden = false;
   $("detail-title").textContent = `Measurement ${m.id}` + (m.scene ? `: ${m.scene} / ${m.target}` : "");
-  $("detail-summary").textContent = m.state === "complete"
-    ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, CV = ${fmt(m.luminance_cv, 2)}`
-    : `${m.state}${m.error ? ": " + m.error : ""}`;
+  const average = `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, CV = ${fmt(m.luminance_cv, 2)}`;
+  $("detail-summary").textContent = (m.state === "complete" ? average
+    : `${m.state}${m.error ? ": " + m.error : ""}` +
+      (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +
+    ` · ${localTime(m.created_at)}` + (m.note ? ` · notes: ${m.note}` : "");
   for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])
     $(el).href = `/api/measurements/${id}/spectrum.${ext}`;
   $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
@@ -208,6 +295,8 @@ async function showMeasurement(id) {
       fmt(s.Y, 5)]) tr.insertCell().textContent = v;
   }
 }
+
+$("cancel-current").addEventListener("click", () => current && cancelMeasurement(current));
 
 // --- scenes ----------------------------------------------------------------
 
@@ -333,6 +422,7 @@ $("study-form").addEventListener("submit", async (ev) => {
     failure_map: $("study-failure").checked,
   };
   if ($("study-auto").value.trim()) body.auto = $("study-auto").value.trim();
+  if (body.against === "measurements" && $("study-measure-missing").checked) body.measure_missing = true;
   try {
     const r = await api("/api/studies", { method: "POST", body: JSON.stringify(body) });
     $("study-progress").textContent = `study ${r.id}: queued`;
@@ -411,5 +501,6 @@ async function showStudy(id) {
 follow();
 loadSceneChoices().then(() => {
   fillStudyScenes();
+  fillMeasurementFilter();
   showView();
 });

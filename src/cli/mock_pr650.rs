@@ -25,11 +25,12 @@ pub struct MockPr650Args {
     /// Seed of the simulated noise (same seed, same samples).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Inject a fault: no-answer, truncate, garble, stale, error-code, cable-pull, slow or double-crlf,
-    /// each optionally `:RATE` (a probability 0–1, `once` or `Nx`). Repeatable.
-    #[arg(long = "fault", value_name = "KIND[:RATE]", value_parser = parse_fault)]
+    /// Inject a fault: no-answer, truncate, garble, stale, error-code, cable-pull, slow, double-crlf
+    /// or link-dies, each optionally `:RATE` (a probability 0–1, `once` or `Nx`); `slow` may name
+    /// its delay, e.g. slow@2500ms:once or slow@2.5s. Repeatable.
+    #[arg(long = "fault", value_name = "KIND[@DELAY][:RATE]", value_parser = parse_fault)]
     faults: Vec<Fault>,
-    /// Delay before a `slow` reply, ms (the driver's default command timeout is 10 000 ms).
+    /// Delay before a `slow` reply that names none, ms (the driver's default command timeout is 3000 ms).
     #[arg(long, default_value_t = 12_000)]
     slow_ms: u64,
     /// Quality code of an `error-code` fault (18 leaves the spectral buffer stale).
@@ -141,7 +142,9 @@ pub fn run(args: MockPr650Args) -> anyhow::Result<()> {
              it. Ctrl-C stops it."
         ),
     }
-    // Enter on stdin = power switch. On EOF (no terminal) the unit simply stays on.
+    // Enter on stdin = power switch. At EOF (`</dev/null`, `nohup`, CI) the
+    // reader thread ends and the unit simply stays on: stop listening then,
+    // rather than polling a closed channel, which returns at once (a busy loop).
     let (tx, rx) = std::sync::mpsc::channel::<()>();
     std::thread::spawn(move || {
         for line in std::io::stdin().lock().lines() {
@@ -150,13 +153,19 @@ pub fn run(args: MockPr650Args) -> anyhow::Result<()> {
             }
         }
     });
+    let mut stdin_open = true;
     loop {
-        match rx.recv_timeout(Duration::from_millis(200)) {
-            Ok(()) => {
-                mock.power_cycle();
-                eprintln!("power-cycled: the remote-mode window is open again");
+        if stdin_open {
+            match rx.recv_timeout(Duration::from_millis(200)) {
+                Ok(()) => {
+                    mock.power_cycle();
+                    eprintln!("power-cycled: the remote-mode window is open again");
+                }
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => stdin_open = false,
             }
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {}
+        } else {
+            std::thread::sleep(Duration::from_millis(200));
         }
         if mock.is_unplugged() {
             anyhow::bail!("the simulated cable was pulled (fault cable-pull); the simulator has stopped");

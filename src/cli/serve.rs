@@ -35,8 +35,11 @@ pub struct ServeArgs {
     /// Time scale of the simulated PR-650: 1 = the real instrument's timing, 0 = instant.
     #[arg(long)]
     mock_speed: Option<f64>,
-    /// Fault injected into the simulated PR-650, KIND[:RATE] (repeatable).
-    #[arg(long = "mock-fault")]
+    /// Fault injected into the simulated PR-650, KIND[@DELAY][:RATE] (repeatable): KIND one of
+    /// no-answer, truncate, garble, stale, error-code, cable-pull, slow, double-crlf, link-dies;
+    /// RATE a probability 0–1, `once` or `Nx`; `slow` takes its delay, e.g. slow@2500ms:once
+    /// (default 12 s). Also settable while running: POST /api/mock/faults.
+    #[arg(long = "mock-fault", value_name = "KIND[@DELAY][:RATE]")]
     mock_faults: Vec<Fault>,
     /// The observer of every x,y, XYZ, CIELAB and ΔE the daemon computes and
     /// charts: judd-vos (Judd–Vos 1978, the study's; default) or cie1931.

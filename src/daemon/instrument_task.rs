@@ -109,23 +109,41 @@ fn default_truth() -> crate::spectrum::Spectrum {
     .expect("a flat spectrum is valid")
 }
 
-/// Cancels the running measurement when the daemon shuts down.
+/// Cancels the running measurement when the daemon shuts down, or when the
+/// operator cancels it (`POST /api/measurements/{id}/cancel`).
 #[derive(Clone, Default)]
 pub struct Canceller {
-    current: Arc<Mutex<Option<CancelToken>>>,
+    /// The measurement the instrument has taken, with its token.
+    current: Arc<Mutex<Option<(i64, CancelToken)>>>,
     shutting_down: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl Canceller {
     pub fn shutdown(&self) {
         self.shutting_down.store(true, std::sync::atomic::Ordering::SeqCst);
-        if let Some(t) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+        if let Some((_, t)) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             t.cancel();
         }
     }
 
+    fn set_current(&self, current: Option<(i64, CancelToken)>) {
+        *self.current.lock().unwrap_or_else(|p| p.into_inner()) = current;
+    }
+
     fn is_shutting_down(&self) -> bool {
         self.shutting_down.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
+
+impl crate::service::CancelMeasurement for Canceller {
+    fn cancel(&self, id: i64) -> bool {
+        match self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
+            Some((running, t)) if *running == id => {
+                t.cancel();
+                true
+            }
+            _ => false,
+        }
     }
 }
 
@@ -195,7 +213,7 @@ fn supervise(mut worker: Worker) {
         };
         let message = super::jobs::panic_message(&*panic);
         tracing::error!(panic = %message, restart_in_s = backoff.as_secs(), "the instrument task panicked");
-        *worker.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = None;
+        worker.canceller.set_current(None);
         if let Some(id) = worker.current.take() {
             worker.finish_failed(
                 id,
@@ -332,6 +350,7 @@ impl Worker {
                 return Disconnect::Shutdown;
             };
             let outcome = self.measure(instrument.as_mut(), instrument_id, &job);
+            self.canceller.set_current(None);
             if let Some(reason) = outcome {
                 return Disconnect::Lost(reason);
             }
@@ -357,12 +376,16 @@ impl Worker {
         let span = tracing::info_span!("measurement", measurement_id = id);
         let _enter = span.enter();
         let store = self.config.store.clone();
+        // Registered before the store says `running`, so a cancel request that
+        // finds the measurement no longer queued always finds its token.
+        let cancel = CancelToken::new();
+        self.canceller.set_current(Some((id, cancel.clone())));
         if let Err(e) = self.block_on(store.mark_running(id, instrument_id)) {
             tracing::warn!(error = %e, "measurement no longer queued; skipped");
             return None;
         }
         self.current = Some(id);
-        let outcome = self.take_running(instrument, id, job);
+        let outcome = self.take_running(instrument, id, job, cancel);
         self.current = None;
         outcome
     }
@@ -373,6 +396,7 @@ impl Worker {
         instrument: &mut dyn Spectroradiometer,
         id: i64,
         job: &MeasurementJob,
+        cancel: CancelToken,
     ) -> Option<String> {
         let store = self.config.store.clone();
         let _ = self.config.events.send(Event::MeasurementStarted {
@@ -412,17 +436,18 @@ impl Worker {
             }
         }
 
-        let cancel = CancelToken::new();
-        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = Some(cancel.clone());
         let events = self.config.events.clone();
         let status = self.config.status.clone();
         let runtime = self.config.runtime.clone();
         let of = job.samples;
+        let (mut taken, mut usable) = (0usize, 0usize);
         // The first sample that could not be written: the measurement stops there.
         let mut write_failed: Option<String> = None;
         let stop = cancel.clone();
         let mut on_sample = |s: &Sample| {
             let row = sample_row(s);
+            taken += 1;
+            usable += usize::from(row.usable);
             // Blocks this thread until the sample is on disk: the next sample waits.
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
                 tracing::error!(error = %e, index = s.index, "cannot store a sample; stopping the measurement");
@@ -462,7 +487,6 @@ impl Worker {
             });
         };
         let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
-        *self.canceller.current.lock().unwrap_or_else(|p| p.into_inner()) = None;
         if let Some(why) = write_failed {
             // Not every sample is on disk: never `complete`, whatever the instrument said.
             tracing::error!(error = %why, "measurement failed: a sample was not stored");
@@ -508,6 +532,8 @@ impl Worker {
                 let (state, lost) = classify(&e, self.canceller.is_shutting_down());
                 let message = if self.canceller.is_shutting_down() {
                     format!("the daemon shut down during the measurement ({e})")
+                } else if state == MeasurementState::Cancelled {
+                    cancelled_message(taken, usable, of)
                 } else {
                     e.to_string()
                 };
@@ -529,6 +555,23 @@ impl Worker {
         });
         None
     }
+}
+
+/// What a measurement cancelled by the operator says: how many samples it kept.
+fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
+    if taken == 0 {
+        return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
+    }
+    let (plural, kept) = if taken == 1 {
+        ("", "kept it".to_string())
+    } else {
+        ("s", format!("kept all {taken}"))
+    };
+    let averaged = match usable {
+        0 => "none usable, so no average".to_string(),
+        n => format!("{n} usable, averaged as a partial result"),
+    };
+    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
 }
 
 /// A raw sample as the store keeps it.
@@ -567,7 +610,9 @@ fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool
         InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
             (MeasurementState::Interrupted, true)
         }
-        InstrumentError::NotInRemoteMode { .. } => (MeasurementState::Interrupted, true),
+        InstrumentError::NotInRemoteMode { .. } | InstrumentError::Unresponsive { .. } => {
+            (MeasurementState::Interrupted, true)
+        }
         InstrumentError::NoReply { .. }
         | InstrumentError::Timeout { .. }
         | InstrumentError::Truncated { .. }

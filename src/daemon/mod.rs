@@ -17,6 +17,7 @@ pub mod db_lock;
 pub mod instrument_task;
 pub mod jobs;
 pub mod renders;
+pub mod study_measurements;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -84,13 +85,7 @@ pub async fn run(
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
-    match &source {
-        auth::TokenSource::Generated(p) => {
-            println!("generated a write token in {} (readable only by you)", p.display())
-        }
-        auth::TokenSource::File(p) => println!("write token from {}", p.display()),
-        auth::TokenSource::Environment => println!("write token from LIGHTBOOTH_TOKEN"),
-    }
+    println!("{}", source.describe());
     println!("lightbooth listening on http://{addr}/");
     println!("dashboard (with the write token): http://{addr}/#token={token}");
     if !loopback_only {
@@ -141,6 +136,7 @@ pub async fn run(
         events,
         renders: Some(Arc::clone(&renderer) as Arc<dyn service::RenderService>),
         mock: instrument.mock_control(),
+        measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

@@ -31,6 +31,7 @@ use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
 use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
+use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
 use crate::render::integrator::{with_cancel, CancelFlag};
@@ -80,6 +81,8 @@ pub enum Work {
     Study {
         paths: Vec<PathBuf>,
         options: Box<StudyOptions>,
+        /// Measurements queued for it (`measure_missing`), awaited first.
+        measured_first: Vec<i64>,
     },
 }
 
@@ -181,7 +184,11 @@ impl Renderer {
                 scene,
                 settings,
             } => self.execute(id, &scene_id, *scene, settings, cancel).await,
-            Work::Study { paths, options } => self.run_study_job(id, paths, *options, cancel).await,
+            Work::Study {
+                paths,
+                options,
+                measured_first,
+            } => self.run_study_job(id, paths, *options, measured_first, cancel).await,
         }
     }
 
@@ -609,6 +616,7 @@ impl Renderer {
         id: i64,
         paths: Vec<PathBuf>,
         options: StudyOptions,
+        measured_first: Vec<i64>,
         cancel: CancelFlag,
     ) -> anyhow::Result<()> {
         if !self.store.start_job(Job::Study, id).await? {
@@ -616,6 +624,26 @@ impl Renderer {
             return Ok(());
         }
         tracing::info!(study_id = id, scenes = paths.len(), "study started");
+        // `measure_missing`: the measurements queued for it come first.
+        if !measured_first.is_empty() {
+            let events = self.events.clone();
+            let progress = move |message: &str| {
+                let _ = events.send(Event::StudyProgress {
+                    study_id: id,
+                    message: message.to_string(),
+                });
+            };
+            if let Err(e) = wait_for_measurements(&self.store, &measured_first, &progress).await {
+                self.store.end_job(Job::Study, id, JobEnd::Failed, &e).await?;
+                tracing::warn!(study_id = id, error = %e, "study did not complete");
+                let _ = self.events.send(Event::StudyFinished {
+                    study_id: id,
+                    ok: false,
+                    error: Some(e),
+                });
+                return Ok(());
+            }
+        }
         let this = Arc::clone(self);
         let flag = cancel.clone();
         let outcome = tokio::task::spawn_blocking(move || {
@@ -721,6 +749,7 @@ impl Renderer {
         let work = Work::Study {
             paths,
             options: Box::new(options),
+            measured_first: request.measured_first.clone(),
         };
         let id = self.jobs.enqueue(Job::Study, create, work).await?;
         tracing::info!(study_id = id, "study queued");
@@ -782,6 +811,10 @@ impl RenderService for Renderer {
             let settings = self.settings(&request)?;
             self.queue_render(scene, settings).await
         })
+    }
+
+    fn check_study(&self, request: &StudyRequest) -> Result<(), ApiError> {
+        self.study_plan(request).map(|_| ())
     }
 
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, ApiError>> {

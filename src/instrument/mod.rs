@@ -14,7 +14,10 @@
 //! - [`transport`]: the serial port (settings, flushing, the two-phase read).
 //! - [`pr650::driver`]: the PR-650 session (remote mode, identify, measure).
 //! - [`mock`]: a simulated PR-650 on a real pseudo-terminal.
-//! - [`worker`]: one thread that owns an instrument, for async callers.
+//!
+//! The one loop that owns an instrument for async callers (a dedicated
+//! thread, measurements one at a time, each sample stored as it is taken) is
+//! the daemon's [instrument task](crate::daemon::instrument_task).
 //!
 //! A PR-655/PR-670 personality (USB, `PHOTO`, signed status codes, 2 nm grid)
 //! is a second implementation of [`Spectroradiometer`] with its own protocol
@@ -24,7 +27,6 @@
 pub mod mock;
 pub mod pr650;
 pub mod transport;
-pub mod worker;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -213,6 +215,20 @@ pub enum InstrumentError {
     },
     #[error("serial port {port} closed: the cable was pulled or the adapter unplugged. Reconnect it and start again")]
     PortClosed { port: String },
+    #[error(
+        "the instrument stopped answering: no reply to `{command}` for {waited_ms} ms after `{after}` failed \
+         ({reason}). The cable may be cut or loose behind the adapter, or the unit switched off: check the cable \
+         and the power, then power-cycle the unit"
+    )]
+    Unresponsive {
+        /// The command whose reply failed first (e.g. a cut-off `D5`).
+        after: String,
+        /// Why that reply failed.
+        reason: String,
+        /// The ping that then got no reply at all.
+        command: String,
+        waited_ms: u64,
+    },
     #[error("measurement cancelled")]
     Cancelled,
     #[error("serial I/O on {port}: {source}")]
@@ -261,7 +277,7 @@ impl CancelToken {
 }
 
 /// A spectroradiometer as the daemon drives it. Implementations run blocking
-/// I/O: call them from a dedicated thread (see [`worker`]).
+/// I/O: call them from a dedicated thread (see [`crate::daemon::instrument_task`]).
 pub trait Spectroradiometer: Send {
     fn info(&self) -> &InstrumentInfo;
 

@@ -2,8 +2,8 @@
 //! timeout, and the two-phase read that neither hangs nor cuts a slow reply
 //! short.
 //!
-//! Blocking I/O: a [`SerialLink`] belongs to one thread (see
-//! [`crate::instrument::worker`]), which serialises every command to it.
+//! Blocking I/O: a [`SerialLink`] belongs to one thread (the daemon's
+//! instrument task, or `lightbooth measure`), which serialises every command to it.
 //!
 //! The read (`shared/docs/pr650-protocol.md` §6.4): first wait up to a long
 //! timeout for the first byte (the instrument is silent while it measures),
@@ -244,18 +244,23 @@ impl SerialLink {
     }
 
     /// Reads until a complete line satisfies `is_answer` (other lines, such as
-    /// a late report, are skipped), or `timeout` passes.
+    /// a late report, are skipped). Gives up when the line has been silent for
+    /// `silence` (since the call, or since the last byte) or after `overall`.
+    /// The error is a [`WaitPhase::FirstByte`] timeout when not one byte came,
+    /// else a [`WaitPhase::MidReply`] one.
     pub fn read_until_line(
         &mut self,
         command: &str,
         is_answer: &dyn Fn(&[u8]) -> bool,
-        timeout: Duration,
+        silence: Duration,
+        overall: Duration,
         cancel: &CancelToken,
     ) -> Result<(), InstrumentError> {
         let start = Instant::now();
+        let mut last_byte: Option<Instant> = None;
         let mut pending: Vec<u8> = Vec::new();
         let mut buf = [0u8; 512];
-        while start.elapsed() < timeout {
+        while start.elapsed() < overall && last_byte.unwrap_or(start).elapsed() < silence {
             if cancel.is_cancelled() {
                 return Err(InstrumentError::Cancelled);
             }
@@ -266,6 +271,7 @@ impl SerialLink {
                     })
                 }
                 Ok(n) => {
+                    last_byte = Some(Instant::now());
                     pending.extend_from_slice(&buf[..n]);
                     if let Some(end) = pending.iter().rposition(|b| *b == b'\r' || *b == b'\n') {
                         let found = split_lines(&pending[..=end]).into_iter().any(is_answer);
@@ -285,7 +291,11 @@ impl SerialLink {
         }
         Err(InstrumentError::Timeout {
             command: command.to_string(),
-            phase: WaitPhase::FirstByte,
+            phase: if last_byte.is_some() {
+                WaitPhase::MidReply
+            } else {
+                WaitPhase::FirstByte
+            },
             waited_ms: start.elapsed().as_millis() as u64,
         })
     }

@@ -2,15 +2,40 @@
 //!
 //! The token comes from `--token-file PATH` or the `LIGHTBOOTH_TOKEN`
 //! environment variable; without either, one is generated on first start
-//! into a file readable only by its owner (mode 0600), and its path is
-//! printed. Reading needs no token while the daemon listens on loopback
-//! only. Tokens are compared in constant time.
+//! into `lightbooth.token`, and its path is printed. Reading needs no token
+//! while the daemon listens on loopback only. Tokens are compared in
+//! constant time.
+//!
+//! Token files are kept private: a token file that is a symbolic link is
+//! refused (the daemon would otherwise read, chmod or replace whatever it
+//! points to); one that group or others may read is tightened to mode 0600
+//! and the operator is told the token may have been copied; a generated
+//! token is written to a new file created with mode 0600 and renamed into
+//! place, never through an existing file. What is printed is what was found
+//! and done.
+//!
+//! The scheme of `Authorization: Bearer <token>` is case-insensitive (RFC 7235 §2.1).
+//!
+//! The dashboard, bound off loopback, must authorise its reads too. Its
+//! `fetch` calls send the header, but `<img>` charts, download links and
+//! `EventSource` (the event stream) cannot set headers, so the dashboard also
+//! keeps the token in the cookie [`TOKEN_COOKIE`] (`SameSite=Strict`,
+//! `Path=/api`), and that cookie is accepted for **reads only** (GET, HEAD).
+//! Why that is safe: a page of another site cannot make the browser send the
+//! cookie (`SameSite=Strict`), and could not read the answer anyway (no CORS
+//! headers are sent); writes need the header, which only script that knows
+//! the token can set, so the cookie opens no cross-site request forgery. A
+//! token in the query string is not accepted: it would be copied into
+//! server and proxy logs, the browser history and `Referer` headers. Off
+//! loopback the token crosses the network in clear over plain HTTP, header
+//! or cookie alike: put the daemon behind TLS (a reverse proxy or an SSH
+//! tunnel) when the network is not trusted.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use axum::extract::{Request, State};
-use axum::http::{header::AUTHORIZATION, Method};
+use axum::http::{header::AUTHORIZATION, header::COOKIE, HeaderMap, Method};
 use axum::middleware::Next;
 use axum::response::Response;
 use subtle::ConstantTimeEq;
@@ -18,16 +43,51 @@ use subtle::ConstantTimeEq;
 use super::error::ApiError;
 use super::AppState;
 
+/// The cookie in which the dashboard keeps the token for its reads.
+pub const TOKEN_COOKIE: &str = "lightbooth_token";
+
 /// Where the token came from, to tell the operator.
 #[derive(Clone, Debug)]
 pub enum TokenSource {
     Environment,
-    File(PathBuf),
+    /// An existing file. `tightened_from` is its mode when it was readable by
+    /// group or others and has been set to 0600.
+    File {
+        path: PathBuf,
+        tightened_from: Option<u32>,
+    },
+    /// A new token written to a new file with mode 0600.
     Generated(PathBuf),
 }
 
+impl TokenSource {
+    /// What the daemon prints about its token at start-up.
+    pub fn describe(&self) -> String {
+        match self {
+            TokenSource::Environment => "write token from LIGHTBOOTH_TOKEN".into(),
+            TokenSource::Generated(p) => format!(
+                "generated a write token in {} (mode 0600: readable only by you)",
+                p.display()
+            ),
+            TokenSource::File {
+                path,
+                tightened_from: None,
+            } => format!("write token from {} (mode 0600: readable only by you)", path.display()),
+            TokenSource::File {
+                path,
+                tightened_from: Some(mode),
+            } => format!(
+                "write token from {p}: the file was mode {mode:04o}, readable by other users, and is now 0600. \
+                 Others may have copied the token: delete {p} and restart to generate a new one (or write a new \
+                 token into it)",
+                p = path.display()
+            ),
+        }
+    }
+}
+
 /// Loads the token: `LIGHTBOOTH_TOKEN`, else `token_file` if given (must
-/// exist), else `default_file` (generated if missing).
+/// exist), else `default_file` (generated if missing or too short).
 pub fn load_token(token_file: Option<&Path>, default_file: &Path) -> anyhow::Result<(String, TokenSource)> {
     if let Ok(t) = std::env::var("LIGHTBOOTH_TOKEN") {
         let t = t.trim().to_string();
@@ -38,25 +98,91 @@ pub fn load_token(token_file: Option<&Path>, default_file: &Path) -> anyhow::Res
         return Ok((t, TokenSource::Environment));
     }
     if let Some(path) = token_file {
-        let t = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("cannot read the token file {}: {e}", path.display()))?;
-        let t = t.trim().to_string();
+        let (t, tightened_from) = read_private(path)?
+            .ok_or_else(|| anyhow::anyhow!("cannot read the token file {}: not found", path.display()))?;
         anyhow::ensure!(
             t.len() >= 16,
             "the token in {} is too short: use at least 16 characters",
             path.display()
         );
-        return Ok((t, TokenSource::File(path.to_path_buf())));
+        return Ok((
+            t,
+            TokenSource::File {
+                path: path.to_path_buf(),
+                tightened_from,
+            },
+        ));
     }
-    if let Ok(t) = std::fs::read_to_string(default_file) {
-        let t = t.trim().to_string();
+    if let Some((t, tightened_from)) = read_private(default_file)? {
         if t.len() >= 16 {
-            return Ok((t, TokenSource::File(default_file.to_path_buf())));
+            return Ok((
+                t,
+                TokenSource::File {
+                    path: default_file.to_path_buf(),
+                    tightened_from,
+                },
+            ));
         }
+        tracing::warn!(path = %default_file.display(), "the token file holds no usable token; generating a new one");
     }
     let token = generate_token()?;
     write_private(default_file, &token)?;
     Ok((token, TokenSource::Generated(default_file.to_path_buf())))
+}
+
+/// Reads a token file that must be a regular file, not a symbolic link,
+/// and makes it private (0600) if group or others could read or write it.
+/// Returns the trimmed text and the mode it had if it was tightened; `None`
+/// if the file does not exist.
+fn read_private(path: &Path) -> anyhow::Result<Option<(String, Option<u32>)>> {
+    let link = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => anyhow::bail!("cannot read the token file {}: {e}", path.display()),
+    };
+    anyhow::ensure!(
+        !link.file_type().is_symlink(),
+        "the token file {} is a symbolic link: lightbooth does not follow links for its token (it would read and \
+         chmod whatever the link points to). Use the real file's path, or replace the link with the file",
+        path.display()
+    );
+    anyhow::ensure!(
+        link.is_file(),
+        "the token file {} is not a regular file",
+        path.display()
+    );
+    let mut file =
+        std::fs::File::open(path).map_err(|e| anyhow::anyhow!("cannot read the token file {}: {e}", path.display()))?;
+    let mut tightened_from = None;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        let opened = file.metadata()?;
+        // The path was not swapped for something else between the check and the open.
+        anyhow::ensure!(
+            opened.dev() == link.dev() && opened.ino() == link.ino(),
+            "the token file {} changed while it was being opened",
+            path.display()
+        );
+        let mode = opened.mode() & 0o7777;
+        if mode & 0o077 != 0 {
+            // fchmod on the open file: nothing else is touched.
+            file.set_permissions(std::fs::Permissions::from_mode(0o600))
+                .map_err(|e| {
+                    anyhow::anyhow!(
+                        "the token file {} is mode {mode:04o}, readable by other users, and cannot be made private \
+                     ({e}): chmod 600 it, or use a file you own",
+                        path.display()
+                    )
+                })?;
+            tracing::warn!(path = %path.display(), was = format!("{mode:04o}"), "token file made private (0600)");
+            tightened_from = Some(mode);
+        }
+    }
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut file, &mut text)
+        .map_err(|e| anyhow::anyhow!("cannot read the token file {}: {e}", path.display()))?;
+    Ok(Some((text.trim().to_string(), tightened_from)))
 }
 
 /// 32 random bytes from the operating system, as hex.
@@ -67,22 +193,33 @@ fn generate_token() -> anyhow::Result<String> {
     Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
 }
 
-/// Writes `text` to a new file only its owner can read.
+/// Writes `text` to `path` as a new file only its owner can read: created
+/// (never opened through an existing file or link) next to `path` with mode
+/// 0600, then renamed over it, which replaces a link rather than following it.
 fn write_private(path: &Path, text: &str) -> anyhow::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir)?;
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("token");
+    let temp = dir.join(format!(".{name}.{}.new", std::process::id()));
     let mut options = std::fs::OpenOptions::new();
-    options.write(true).create(true).truncate(true);
+    options.write(true).create_new(true);
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt;
         options.mode(0o600);
     }
-    let mut f = options
-        .open(path)
-        .map_err(|e| anyhow::anyhow!("cannot write the token to {}: {e}", path.display()))?;
-    f.write_all(text.as_bytes())?;
+    let written = options.open(&temp).and_then(|mut f| {
+        f.write_all(text.as_bytes())?;
+        f.sync_all()
+    });
+    let result = written.and_then(|()| std::fs::rename(&temp, path));
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&temp);
+        anyhow::bail!("cannot write the token to {}: {e}", path.display());
+    }
     Ok(())
 }
 
@@ -91,18 +228,36 @@ pub fn token_matches(presented: &str, expected: &str) -> bool {
     presented.len() == expected.len() && bool::from(presented.as_bytes().ct_eq(expected.as_bytes()))
 }
 
-/// Middleware: writes need the token; reads need it unless bound to loopback.
+/// The token of an `Authorization` value with the `Bearer` scheme, in any case.
+fn bearer_token(value: &str) -> Option<&str> {
+    let (scheme, token) = value.trim().split_once([' ', '\t'])?;
+    let token = token.trim();
+    (scheme.eq_ignore_ascii_case("bearer") && !token.is_empty()).then_some(token)
+}
+
+/// The token in the dashboard's cookie, if any.
+fn cookie_token(headers: &HeaderMap) -> Option<&str> {
+    headers
+        .get_all(COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .flat_map(|v| v.split(';'))
+        .find_map(|pair| pair.trim().strip_prefix(TOKEN_COOKIE)?.strip_prefix('='))
+}
+
+/// Middleware: writes need the token in the `Authorization` header; reads
+/// need it unless bound to loopback, in the header or the dashboard's cookie.
 pub async fn require_token(State(state): State<AppState>, req: Request, next: Next) -> Result<Response, ApiError> {
     let is_read = matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS);
     if is_read && state.config.loopback_only {
         return Ok(next.run(req).await);
     }
-    let presented = req
-        .headers()
-        .get(AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer ").or_else(|| v.strip_prefix("bearer ")))
-        .map(str::trim);
+    let headers = req.headers();
+    let presented = match headers.get(AUTHORIZATION) {
+        Some(v) => v.to_str().ok().and_then(bearer_token),
+        None if is_read => cookie_token(headers),
+        None => None,
+    };
     match presented {
         None => Err(ApiError::Unauthorized(
             "this request needs the daemon's token: send `Authorization: Bearer <token>` (the token file's path \
@@ -143,6 +298,109 @@ mod tests {
         // Second start reuses it.
         let (again, source) = load_token(None, &path).unwrap();
         assert_eq!(again, t);
-        assert!(matches!(source, TokenSource::File(_)));
+        assert!(matches!(
+            source,
+            TokenSource::File {
+                tightened_from: None,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn the_bearer_scheme_is_case_insensitive() {
+        for v in ["Bearer abc", "bearer abc", "BEARER abc", "Bearer\tabc", " Bearer  abc "] {
+            assert_eq!(bearer_token(v), Some("abc"), "{v:?}");
+        }
+        for v in ["Basic abc", "Bearer", "Bearer ", "Bearerabc", ""] {
+            assert_eq!(bearer_token(v), None, "{v:?}");
+        }
+    }
+
+    /// Regression: an existing 0644 token file was rewritten and left 0644
+    /// while the daemon printed "readable only by you".
+    #[cfg(unix)]
+    #[test]
+    fn a_world_readable_token_file_is_made_private_and_said_so() {
+        use std::os::unix::fs::PermissionsExt;
+        if std::env::var("LIGHTBOOTH_TOKEN").is_ok() {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        // A usable token in a 0644 file: kept, the file made 0600, and the message says what happened.
+        let path = dir.path().join("token");
+        std::fs::write(&path, "0123456789abcdef0123").unwrap();
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let (t, source) = load_token(None, &path).unwrap();
+        assert_eq!(t, "0123456789abcdef0123");
+        assert_eq!(mode(&path), 0o600);
+        assert!(
+            matches!(
+                source,
+                TokenSource::File {
+                    tightened_from: Some(0o644),
+                    ..
+                }
+            ),
+            "{source:?}"
+        );
+        let said = source.describe();
+        assert!(
+            said.contains("0644") && said.contains("now 0600") && !said.contains("only by you"),
+            "{said}"
+        );
+        // The same for an explicit --token-file.
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
+        let (_, source) = load_token(Some(&path), &dir.path().join("unused")).unwrap();
+        assert!(
+            matches!(
+                source,
+                TokenSource::File {
+                    tightened_from: Some(0o640),
+                    ..
+                }
+            ),
+            "{source:?}"
+        );
+        assert_eq!(mode(&path), 0o600);
+        // A 0644 file without a usable token is replaced by a new 0600 file.
+        let short = dir.path().join("short");
+        std::fs::write(&short, "abc").unwrap();
+        std::fs::set_permissions(&short, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let (t, source) = load_token(None, &short).unwrap();
+        assert_eq!(t.len(), 64);
+        assert!(matches!(source, TokenSource::Generated(_)));
+        assert!(source.describe().contains("0600"));
+        assert_eq!(mode(&short), 0o600);
+        assert_eq!(std::fs::read_to_string(&short).unwrap(), t);
+    }
+
+    /// Regression: token files behind symbolic links were followed (read, and
+    /// rewritten through the link).
+    #[cfg(unix)]
+    #[test]
+    fn a_symlinked_token_file_is_refused_and_its_target_untouched() {
+        use std::os::unix::fs::PermissionsExt;
+        if std::env::var("LIGHTBOOTH_TOKEN").is_ok() {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("elsewhere");
+        std::fs::write(&target, "x").unwrap();
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let link = dir.path().join("token");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        for explicit in [false, true] {
+            let e = if explicit {
+                load_token(Some(&link), &dir.path().join("unused")).unwrap_err()
+            } else {
+                load_token(None, &link).unwrap_err()
+            };
+            assert!(e.to_string().contains("symbolic link"), "{e}");
+        }
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "x");
+        assert_eq!(std::fs::metadata(&target).unwrap().permissions().mode() & 0o777, 0o644);
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
     }
 }

@@ -3,7 +3,8 @@
 //!
 //! [`app`] builds the router from an [`AppState`] and is what tests call with
 //! `tower::ServiceExt::oneshot`, without a socket; [`serve`] runs it on a
-//! listener until a shutdown future resolves.
+//! listener until a shutdown future resolves, within [`ServeLimits`] (a
+//! bounded number of connections, deadlines on request heads and bodies).
 //!
 //! The service never touches the instrument itself: it queues
 //! [`MeasurementJob`]s for the task that owns the instrument and reads that
@@ -14,6 +15,7 @@ pub mod auth;
 pub mod error;
 pub mod events;
 pub mod input;
+pub mod limits;
 mod openapi;
 mod routes;
 mod scene_charts;
@@ -31,6 +33,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 use utoipa::ToSchema;
 
 pub use events::Event;
+pub use limits::ServeLimits;
 
 use crate::store::Store;
 
@@ -103,6 +106,8 @@ pub struct AppState {
     pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
+    /// Stops the running measurement (the instrument task's; None without one).
+    pub measurement_cancel: Option<Arc<dyn CancelMeasurement>>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
     pub shutting_down: watch::Receiver<bool>,
@@ -117,6 +122,8 @@ pub trait RenderService: Send + Sync {
     fn scenes(&self) -> Vec<SceneInfo>;
     /// Records a render of a scene and starts it; resolves to its id at once.
     fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+    /// Checks a study request field by field without starting anything.
+    fn check_study(&self, request: &StudyRequest) -> Result<(), error::ApiError>;
     /// Records a study and starts it in the background; resolves to its id at once.
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, error::ApiError>>;
     /// Cancels a queued or running render or study (409 once it has ended).
@@ -142,11 +149,29 @@ pub struct StudyRequest {
     pub failure_map: Option<bool>,
     /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
     pub auto: Option<String>,
+    /// Against measurements: first measure, through the instrument queue,
+    /// every target of the chosen scenes that has no complete measurement;
+    /// the study waits for them (reporting progress), then runs. Without it,
+    /// a study missing measurements is refused with 409 naming them.
+    pub measure_missing: Option<bool>,
+    /// The measurements queued for this study by `measure_missing` (set by the daemon).
+    #[serde(skip_deserializing, default, skip_serializing_if = "Vec::is_empty")]
+    #[schema(read_only)]
+    pub measured_first: Vec<i64>,
+}
+
+/// Stopping a running measurement; the instrument task provides it.
+pub trait CancelMeasurement: Send + Sync {
+    /// Asks measurement `id` to stop at once: between instrument commands, or
+    /// within a poll slice of a reply being read, so at most the sample in
+    /// progress is lost. False when `id` is not the measurement the
+    /// instrument has taken (it is still queued, or already finished).
+    fn cancel(&self, id: i64) -> bool;
 }
 
 /// Fault injection into the simulated PR-650 (`serve --mock` only).
 pub trait MockControl: Send + Sync {
-    /// `KIND[:RATE]`, comma-separated (see `lightbooth mock-pr650 --help`); empty clears.
+    /// `KIND[@DELAY][:RATE]`, comma-separated (see `lightbooth serve --help`); empty clears.
     fn set_faults(&self, spec: &str) -> Result<(), String>;
 }
 
@@ -177,12 +202,22 @@ pub fn app(state: AppState) -> Router {
     Router::new().nest("/api", api).merge(web::router()).with_state(state)
 }
 
-/// Serves `app(state)` on `listener` until `shutdown` resolves, then lets
-/// in-flight requests finish.
+/// Serves `app(state)` on `listener` with the default [`ServeLimits`] until
+/// `shutdown` resolves, then lets in-flight requests finish.
 pub async fn serve(
     listener: TcpListener,
     state: AppState,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, app(state)).with_graceful_shutdown(shutdown).await
+    serve_with_limits(listener, state, ServeLimits::default(), shutdown).await
+}
+
+/// [`serve`] with explicit limits on connections and on slow clients (see [`limits`]).
+pub async fn serve_with_limits(
+    listener: TcpListener,
+    state: AppState,
+    limits: ServeLimits,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    limits::serve_with_limits(listener, app(state), limits, shutdown).await
 }

@@ -23,6 +23,7 @@ use super::routes;
         routes::list_measurements,
         routes::start_measurement,
         routes::get_measurement,
+        routes::cancel_measurement,
         routes::measurement_csv,
         routes::measurement_mat,
         routes::measurement_svg,

@@ -19,6 +19,7 @@
 //! # Ok(()) }
 //! ```
 
+mod partial;
 mod rows;
 
 use std::str::FromStr;
@@ -439,6 +440,31 @@ impl Store {
         Ok(())
     }
 
+    /// `queued → cancelled`, only while it is still queued (so a measurement
+    /// the instrument has started is never ended here). True when it was.
+    pub async fn cancel_queued(&self, id: i64, message: &str) -> Result<bool, StoreError> {
+        let r = sqlx::query(
+            "UPDATE measurements SET state = 'cancelled', error = ?, finished_at = ? WHERE id = ? AND state = 'queued'",
+        )
+        .bind(message)
+        .bind(now())
+        .bind(id)
+        .execute(&self.pool)
+        .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    /// Every (scene, target) with at least one complete measurement.
+    pub async fn measured_targets(&self) -> Result<Vec<(String, String)>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT DISTINCT scene, target FROM measurements \
+             WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL",
+        )
+        .fetch_all(&self.pool)
+        .await?;
+        Ok(rows.iter().map(|r| (r.get("scene"), r.get("target"))).collect())
+    }
+
     /// One measurement with all its samples.
     pub async fn get_measurement(&self, id: i64) -> Result<Option<MeasurementDetail>, StoreError> {
         let Some(row) = sqlx::query(&format!(
@@ -450,7 +476,8 @@ impl Store {
         else {
             return Ok(None);
         };
-        let summary = measurement_from_row(&row)?;
+        let mut summary = measurement_from_row(&row)?;
+        self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
         let sample_rows = sqlx::query(
             "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2 FROM samples \
              WHERE measurement_id = ? ORDER BY idx",
@@ -514,7 +541,8 @@ impl Store {
              SELECT id FROM measurements{where_sql} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
         );
         let rows = bind_filters(&list_sql, f).fetch_all(&self.pool).await?;
-        let items = rows.iter().map(measurement_from_row).collect::<Result<Vec<_>, _>>()?;
+        let mut items = rows.iter().map(measurement_from_row).collect::<Result<Vec<_>, _>>()?;
+        self.fill_partial_averages(&mut items).await?;
         Ok(MeasurementPage {
             total,
             limit,

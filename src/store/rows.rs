@@ -89,6 +89,12 @@ pub struct MeasurementSummary {
     pub y: Option<f64>,
     /// Coefficient of variation of the samples' luminance.
     pub luminance_cv: Option<f64>,
+    /// Samples good enough to average (quality code OK, a valid spectrum).
+    pub good_samples: i64,
+    /// True when `Y`, `x`, `y` and `luminance_cv` are the average of the good
+    /// samples of a measurement that did not complete (interrupted or
+    /// cancelled): a partial result, never a complete measurement.
+    pub partial: bool,
 }
 
 /// One stored raw sample.
@@ -144,6 +150,7 @@ pub struct MeasurementPage {
 /// The summary columns (no spectra: listings stay small and fast).
 pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
+    (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = 1) AS good_samples, \
     state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv";
 
 pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, StoreError> {
@@ -169,6 +176,8 @@ pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, 
         x: r.get("x"),
         y: r.get("y"),
         luminance_cv: r.get("luminance_cv"),
+        good_samples: r.get("good_samples"),
+        partial: false,
     })
 }
 

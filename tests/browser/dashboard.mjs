@@ -56,6 +56,28 @@ try {
   await page.click("#measurement-table tbody tr");
   await page.waitForFunction(() => document.querySelectorAll("#sample-table tbody tr").length === 5);
 
+  // Cancel a long measurement from the live page: it keeps its samples, says
+  // so, and the table lists it with its notes, its date and its partial average.
+  await page.goto(`${base}/#/live`);
+  await page.selectOption("#scene-select", "");
+  await page.fill("#samples-input", "99");
+  await page.fill("#notes-input", "cancelled from the dashboard");
+  await page.click("#measure-button");
+  await page.waitForFunction(() => {
+    const m = document.getElementById("progress-text").textContent.match(/sample (\d+) of 99/);
+    return m && Number(m[1]) >= 2;
+  }, null, { timeout: 60000 });
+  await page.click("#cancel-current");
+  await page.waitForFunction(() => /: cancelled \(cancelled by the operator after \d+ samples/.test(
+    document.getElementById("progress-text").textContent), null, { timeout: 30000 });
+  await page.goto(`${base}/#/measurements`);
+  await page.waitForFunction(() => [...document.querySelectorAll("#measurement-table tbody tr")].some((tr) =>
+    /cancelled, partial \(\d+ of 99\)/.test(tr.textContent) && tr.textContent.includes("cancelled from the dashboard")
+    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent)), null, { timeout: 30000 });
+  const pageInfo = await page.textContent("#page-info");
+  if (!/^1–2 of 2$/.test(pageInfo)) failures.push("page info: " + pageInfo);
+  if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });
+
   // The scene comparison: every coding, every chart.
   await page.goto(`${base}/#/scenes/white`);
   await page.waitForFunction(() => document.querySelectorAll("#coding-table tbody tr").length === 7, null, { timeout: 120000 });

@@ -149,11 +149,18 @@ pub struct Daemon {
 impl Daemon {
     /// Starts it; returns once the instrument is idle.
     pub async fn start(mock_speed: f64) -> Daemon {
+        Daemon::start_bound(mock_speed, "127.0.0.1:0").await
+    }
+
+    /// Starts it listening on `bind` (e.g. `0.0.0.0:0`, so reads need the
+    /// token); `addr` is then the loopback address of the same port.
+    pub async fn start_bound(mock_speed: f64, bind: &str) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
         std::fs::write(&token_file, TOKEN).unwrap();
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let addr = listener.local_addr().unwrap();
+        let listener = tokio::net::TcpListener::bind(bind).await.unwrap();
+        let bound = listener.local_addr().unwrap();
+        let addr = SocketAddr::from(([127, 0, 0, 1], bound.port()));
         let settings = Pr650Settings {
             // Short timeouts: a fault must end a measurement quickly, never hang.
             command_timeout_ms: 2_000,
@@ -162,7 +169,7 @@ impl Daemon {
             ..Pr650Settings::default()
         };
         let options = DaemonOptions {
-            bind: addr,
+            bind: bound,
             db_url: format!("sqlite://{}", dir.path().join("lab.sqlite").display()),
             mock: true,
             mock_speed,
@@ -183,11 +190,20 @@ impl Daemon {
         let task = tokio::spawn(daemon::run(listener, options, async move {
             let _ = stopped.await;
         }));
-        // Wait until the instrument is up.
-        poll_until(addr, "/api/health", Duration::from_secs(20), |v| {
-            v["instrument"]["state"] == "idle"
-        })
-        .await;
+        // Wait until the instrument is up (health answers without a token
+        // only on loopback; bound elsewhere, wait for the port to answer at all).
+        if bound.ip().is_loopback() {
+            poll_until(addr, "/api/health", Duration::from_secs(20), |v| {
+                v["instrument"]["state"] == "idle"
+            })
+            .await;
+        } else {
+            let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+            while request(addr, "GET", "/api/health", Some(TOKEN), None).await.0 != 200 {
+                assert!(tokio::time::Instant::now() < deadline, "the daemon never answered");
+                tokio::time::sleep(Duration::from_millis(100)).await;
+            }
+        }
         Daemon {
             addr,
             stop: Some(stop),

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 use super::model::Rng;
-use super::{lock, BeforeFirstMeasurement, BusyInput, FaultKind, FaultRate, MockConfig, Shared};
+use super::{lock, BeforeFirstMeasurement, BusyInput, Fault, FaultKind, FaultRate, MockConfig, Shared};
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::pr650::protocol as wire;
 use crate::spectrum::{SpectralUnit, Spectrum};
@@ -105,7 +105,9 @@ impl Device {
         self.line.clear();
         self.settings = Settings::default();
         self.stored = None;
-        lock(&self.shared).integration_ms = 0;
+        let mut shared = lock(&self.shared);
+        shared.integration_ms = 0;
+        shared.link_dead = false;
     }
 
     pub(super) fn run(mut self) {
@@ -164,7 +166,7 @@ impl Device {
                 }
             }
         }
-        if self.local {
+        if self.local || lock(&self.shared).link_dead {
             return Next::Continue; // ignores the port until power-cycled
         }
         if self.echo {
@@ -248,10 +250,16 @@ impl Device {
 
     /// Whether a fault of `kind` fires now (and counts it down).
     fn fires(&mut self, kind: FaultKind) -> bool {
+        self.fired(kind).is_some()
+    }
+
+    /// The fault of `kind` that fires now, if any (every matching fault is
+    /// counted down; the first that fires is returned).
+    fn fired(&mut self, kind: FaultKind) -> Option<Fault> {
         let mut shared = lock(&self.shared);
-        let mut fired = false;
+        let mut first = None;
         for fault in shared.faults.iter_mut().filter(|f| f.kind == kind) {
-            fired |= match &mut fault.rate {
+            let fires = match &mut fault.rate {
                 FaultRate::Always => true,
                 FaultRate::Probability(p) => self.rng.uniform() < *p,
                 FaultRate::Times(n) if *n > 0 => {
@@ -260,11 +268,14 @@ impl Device {
                 }
                 FaultRate::Times(_) => false,
             };
+            if fires && first.is_none() {
+                first = Some(*fault);
+            }
         }
-        if fired {
+        if first.is_some() {
             tracing::info!(?kind, "simulated PR-650: injecting fault");
         }
-        fired
+        first
     }
 
     /// Sleeps `ms` of instrument time (scaled by speed), waking for a stop request.
@@ -401,8 +412,8 @@ impl Device {
                 if self.fires(FaultKind::NoAnswer) {
                     return;
                 }
-                if self.fires(FaultKind::Slow) {
-                    self.sleep_ms(self.cfg.slow_ms as f64);
+                if let Some(slow) = self.fired(FaultKind::Slow) {
+                    self.sleep_ms(slow.delay_ms.unwrap_or(self.cfg.slow_ms) as f64);
                 }
                 if self.fires(FaultKind::Garble) {
                     self.garble(&mut bytes);
@@ -413,6 +424,13 @@ impl Device {
                 }
                 if self.fires(FaultKind::Truncate) {
                     bytes.truncate(bytes.len() / 2);
+                }
+                if self.fires(FaultKind::LinkDies) {
+                    bytes.truncate(bytes.len() / 2);
+                    self.write(&bytes);
+                    tracing::info!("simulated PR-650: the link died mid-reply; silent until power-cycled");
+                    lock(&self.shared).link_dead = true;
+                    return;
                 }
                 self.write(&bytes);
             }
@@ -455,6 +473,7 @@ impl Device {
                 tracing::debug!(error = %e, "simulated PR-650: host not reading; reply dropped");
                 return;
             }
+            lock(&self.shared).last_byte_at = Some(Instant::now());
             if pace {
                 self.sleep_scaled(chunk.len() as f64 * BYTE_TIME_MS);
             }

@@ -44,11 +44,16 @@ pub enum FaultKind {
     ErrorCode,
     /// The port closes during a measurement: the cable pulled. The simulator stops.
     CablePull,
-    /// A `D5` reply's first byte comes after [`MockConfig::slow_ms`].
+    /// A `D5` reply's first byte comes late: after the fault's own delay
+    /// (`slow@2500ms`), else after [`MockConfig::slow_ms`].
     Slow,
     /// A `D5` reply carries an extra, empty CR LF after its header (harmless
     /// to a correct parser).
     DoubleCrlf,
+    /// A `D5` reply stops after about half the spectrum and the unit then
+    /// answers nothing until power-cycled: a cable cut behind a USB adapter
+    /// (the port stays open, the line goes quiet, nothing signals a hang-up).
+    LinkDies,
 }
 
 /// How often a fault fires at each point where it applies.
@@ -61,11 +66,15 @@ pub enum FaultRate {
     Times(u32),
 }
 
-/// One injected fault: `KIND`, `KIND:0.25` (probability), `KIND:once`, `KIND:3x`.
+/// One injected fault: `KIND`, `KIND:0.25` (probability), `KIND:once`,
+/// `KIND:3x`; a `slow` fault may carry its delay, `slow@2500ms:once`
+/// (also `slow@2.5s`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Fault {
     pub kind: FaultKind,
     pub rate: FaultRate,
+    /// The delay of a [`FaultKind::Slow`] reply, ms; `None` uses [`MockConfig::slow_ms`].
+    pub delay_ms: Option<u64>,
 }
 
 impl Fault {
@@ -73,6 +82,7 @@ impl Fault {
         Fault {
             kind,
             rate: FaultRate::Always,
+            delay_ms: None,
         }
     }
 
@@ -80,8 +90,46 @@ impl Fault {
         Fault {
             kind,
             rate: FaultRate::Times(n),
+            delay_ms: None,
         }
     }
+
+    /// A [`FaultKind::Slow`] fault whose replies come `delay_ms` late.
+    pub fn slow(delay_ms: u64, rate: FaultRate) -> Fault {
+        Fault {
+            kind: FaultKind::Slow,
+            rate,
+            delay_ms: Some(delay_ms),
+        }
+    }
+}
+
+/// The fault kinds and the rate syntax, for error messages and `--help`.
+pub const FAULT_SYNTAX: &str = "KIND[:RATE] with KIND one of no-answer, truncate, garble, stale, error-code, \
+     cable-pull, slow, double-crlf, link-dies, and RATE a probability 0–1, `once` or `Nx`; `slow` takes its delay \
+     as slow@MS ms or slow@S s, e.g. slow@2500ms:once";
+
+/// The longest `slow` delay accepted: ten minutes, far past any timeout.
+const MAX_SLOW_MS: u64 = 600_000;
+
+/// `2500ms`, `2.5s`: a delay with its unit.
+fn parse_delay(s: &str) -> Result<u64, String> {
+    let bad = || format!("delay `{s}`: write it with its unit, e.g. 2500ms or 2.5s");
+    let ms = if let Some(v) = s.strip_suffix("ms") {
+        v.trim().parse::<u64>().map_err(|_| bad())?
+    } else if let Some(v) = s.strip_suffix('s') {
+        let secs: f64 = v.trim().parse().map_err(|_| bad())?;
+        if !(secs.is_finite() && secs >= 0.0) {
+            return Err(bad());
+        }
+        (secs * 1000.0).round().min(u64::MAX as f64) as u64
+    } else {
+        return Err(bad());
+    };
+    if ms > MAX_SLOW_MS {
+        return Err(format!("delay `{s}` is over the limit of {} s", MAX_SLOW_MS / 1000));
+    }
+    Ok(ms)
 }
 
 impl FromStr for FaultKind {
@@ -96,10 +144,11 @@ impl FromStr for FaultKind {
             "cable-pull" => FaultKind::CablePull,
             "slow" => FaultKind::Slow,
             "double-crlf" => FaultKind::DoubleCrlf,
+            "link-dies" => FaultKind::LinkDies,
             _ => {
                 return Err(format!(
-                    "unknown fault `{s}`: use no-answer, truncate, garble, stale, error-code, cable-pull, slow \
-                     or double-crlf"
+                    "unknown fault `{s}`: use no-answer, truncate, garble, stale, error-code, cable-pull, slow, \
+                     double-crlf or link-dies"
                 ))
             }
         })
@@ -113,7 +162,16 @@ impl FromStr for Fault {
             Some((k, r)) => (k, Some(r)),
             None => (s, None),
         };
+        let (kind, delay) = match kind.split_once('@') {
+            Some((k, d)) => (k, Some(d)),
+            None => (kind, None),
+        };
         let kind: FaultKind = kind.parse()?;
+        let delay_ms = match delay {
+            None => None,
+            Some(d) if kind == FaultKind::Slow => Some(parse_delay(d)?),
+            Some(_) => return Err(format!("only `slow` takes a delay (`@…`), not `{s}`")),
+        };
         let rate = match rate {
             None => FaultRate::Always,
             Some("once") => FaultRate::Times(1),
@@ -132,7 +190,7 @@ impl FromStr for Fault {
                 FaultRate::Probability(p)
             }
         };
-        Ok(Fault { kind, rate })
+        Ok(Fault { kind, rate, delay_ms })
     }
 }
 
@@ -166,7 +224,7 @@ pub struct MockConfig {
     /// The remote-mode window after power-on; `None` = never closes.
     pub remote_window_ms: Option<u64>,
     pub faults: Vec<Fault>,
-    /// Delay of a [`FaultKind::Slow`] reply, ms (not scaled by speed).
+    /// Delay of a [`FaultKind::Slow`] reply that names none, ms (not scaled by speed).
     pub slow_ms: u64,
     /// Code of a [`FaultKind::ErrorCode`] measurement.
     pub error_code: u8,
@@ -187,7 +245,8 @@ pub struct MockConfig {
 
 impl MockConfig {
     /// Defaults: real speed, a 5 s remote window, no faults, stale zeros
-    /// before the first measurement, queued input while busy.
+    /// before the first measurement, queued input while busy, and `slow`
+    /// replies 12 s late (past the driver's default timeouts).
     pub fn new(truth: Spectrum) -> MockConfig {
         MockConfig {
             truth,
@@ -195,7 +254,7 @@ impl MockConfig {
             seed: 1,
             remote_window_ms: Some(5000),
             faults: Vec::new(),
-            slow_ms: 0,
+            slow_ms: 12_000,
             error_code: 18,
             serial: "60954303".into(),
             header_bare_cr: false,
@@ -218,6 +277,10 @@ struct Shared {
     power_cycle_requested: bool,
     measurements: u64,
     unplugged: bool,
+    /// Set by a [`FaultKind::LinkDies`] fault: the unit answers nothing until power-cycled.
+    link_dead: bool,
+    /// When the last byte of a reply went out.
+    last_byte_at: Option<std::time::Instant>,
     integration_ms: u32,
 }
 
@@ -255,6 +318,8 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
         power_cycle_requested: false,
         measurements: 0,
         unplugged: false,
+        link_dead: false,
+        last_byte_at: None,
         integration_ms: 0,
     }));
     let stop = Arc::new(AtomicBool::new(false));
@@ -312,6 +377,16 @@ impl MockHandle {
         lock(&self.shared).unplugged
     }
 
+    /// True once a link-dies fault has silenced the unit (until a power cycle).
+    pub fn is_link_dead(&self) -> bool {
+        lock(&self.shared).link_dead
+    }
+
+    /// When the simulator last wrote a byte to the host (`None` before any reply).
+    pub fn last_byte_at(&self) -> Option<std::time::Instant> {
+        lock(&self.shared).last_byte_at
+    }
+
     /// What the model predicts for the current target and setup: the
     /// noise-free reading, its per-sample σ, the code and the time. This is
     /// the independent truth tests compare measurements with.
@@ -354,6 +429,21 @@ mod tests {
             Fault::times(FaultKind::Truncate, 1)
         );
         assert_eq!("slow:3x".parse::<Fault>().unwrap(), Fault::times(FaultKind::Slow, 3));
+        assert_eq!(
+            "slow@2500ms:once".parse::<Fault>().unwrap(),
+            Fault::slow(2500, FaultRate::Times(1))
+        );
+        assert_eq!(
+            "slow@1.5s".parse::<Fault>().unwrap(),
+            Fault::slow(1500, FaultRate::Always)
+        );
+        assert!("slow@2500".parse::<Fault>().unwrap_err().contains("2500ms"));
+        assert!("slow@1e9s".parse::<Fault>().unwrap_err().contains("limit"));
+        assert!("garble@10ms".parse::<Fault>().unwrap_err().contains("only `slow`"));
+        assert_eq!(
+            "link-dies:once".parse::<Fault>().unwrap(),
+            Fault::times(FaultKind::LinkDies, 1)
+        );
         assert_eq!(
             "no-answer:0.25".parse::<Fault>().unwrap().rate,
             FaultRate::Probability(0.25)

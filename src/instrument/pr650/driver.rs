@@ -11,7 +11,14 @@
 //!   without a spectrum and never averaged;
 //! - values stay per nm on the 4 nm grid (no multiplying by the step);
 //! - after a link fault or a cancel the port is resynchronised (drain, ping,
-//!   drain) before the next command, so the session stays usable.
+//!   drain) before the next command, so the session stays usable;
+//! - only `M0` waits for a whole measurement (`measure_timeout_ms`); the
+//!   handshake, the reports and the resynchronisation ping wait
+//!   `command_timeout_ms`, so a unit that falls silent mid-reply (a cable cut
+//!   behind the adapter) is reported [`InstrumentError::Unresponsive`] within
+//!   `gap_timeout_ms + resync_quiet_ms + command_timeout_ms` of its last byte
+//!   (5.2 s with the shipped settings). The ping waits a whole measurement
+//!   only after a cancelled `M0`, when the unit may still be measuring.
 
 use std::time::{Duration, SystemTime};
 
@@ -41,6 +48,12 @@ pub struct Pr650 {
     /// Set after a link fault or a cancel: the unit may still be measuring or
     /// sending, so the next command must resynchronise first.
     needs_resync: bool,
+    /// Set when an `M0` was cancelled: the unit may go on measuring for up to
+    /// a whole measurement, so the resynchronisation ping may wait that long.
+    may_be_measuring: bool,
+    /// The command and error of the exchange that last failed, for the report
+    /// if the unit then stops answering.
+    last_fault: Option<(String, String)>,
 }
 
 /// Why one sample could not be taken (the last reason is reported if the
@@ -68,6 +81,8 @@ impl Pr650 {
                 ..Setup::default()
             },
             needs_resync: false,
+            may_be_measuring: false,
+            last_fault: None,
         };
         pr650.enter_remote_mode()?;
         pr650.send_setup(&CancelToken::new())?;
@@ -111,6 +126,10 @@ impl Pr650 {
                 tracing::debug!(command = %text, error = %e, "PR-650 exchange failed");
                 if e.is_retryable_link_fault() || matches!(e, InstrumentError::Cancelled) {
                     self.needs_resync = true;
+                    self.last_fault = Some((text.clone(), e.to_string()));
+                }
+                if matches!(command, Command::MeasureAndHold) && matches!(e, InstrumentError::Cancelled) {
+                    self.may_be_measuring = true;
                 }
             }
         }
@@ -119,10 +138,12 @@ impl Pr650 {
 
     fn protocol_error(&mut self, command: &Command, e: ProtocolError) -> InstrumentError {
         self.needs_resync = true;
-        InstrumentError::Protocol {
+        let e = InstrumentError::Protocol {
             command: command.text(),
             detail: e.to_string(),
-        }
+        };
+        self.last_fault = Some((command.text(), e.to_string()));
+        e
     }
 
     /// §1: the unit answers only if a command arrives within ~5 s of power-on.
@@ -233,7 +254,9 @@ impl Pr650 {
 
     /// After a fault or cancel: wait out whatever the unit is still sending
     /// (a late report, a cancelled `M0` that finishes and acknowledges), ping
-    /// it until a `000` comes back, then drain again.
+    /// it until a `000` comes back, then drain again. A ping met by silence
+    /// for `command_timeout_ms` (a whole measurement after a cancelled `M0`)
+    /// means the unit has stopped answering: [`InstrumentError::Unresponsive`].
     fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
         tracing::info!("PR-650: resynchronising");
         let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
@@ -242,14 +265,49 @@ impl Pr650 {
         let ping = Command::Backlight(HANDSHAKE_BACKLIGHT).text();
         tracing::debug!(command = %ping, "→ PR-650 (resync)");
         self.link.send(&ping)?;
-        // The unit may still be measuring or sending a late reply: allow a
-        // whole measurement, skipping lines until the ping's `000`.
+        // Skip lines (a late report, a late `M0` ack) until the ping's `000`,
+        // for up to a whole measurement while bytes keep coming; silence ends
+        // the wait sooner unless the unit may still be measuring.
+        let silence = if self.may_be_measuring {
+            self.settings.measure_timeout()
+        } else {
+            self.settings.command_timeout()
+        };
         let is_ack = |line: &[u8]| line.trim_ascii() == b"000";
-        self.link
-            .read_until_line(&ping, &is_ack, self.settings.measure_timeout(), cancel)?;
+        match self
+            .link
+            .read_until_line(&ping, &is_ack, silence, self.settings.measure_timeout(), cancel)
+        {
+            Ok(()) => {}
+            Err(InstrumentError::Timeout {
+                command,
+                phase: WaitPhase::FirstByte,
+                waited_ms,
+            }) => {
+                let (after, reason) = self
+                    .last_fault
+                    .clone()
+                    .unwrap_or_else(|| ("?".into(), "an earlier fault".into()));
+                tracing::warn!(
+                    after,
+                    reason,
+                    waited_ms,
+                    "PR-650: no reply to the resynchronisation ping"
+                );
+                return Err(InstrumentError::Unresponsive {
+                    after,
+                    reason,
+                    command,
+                    waited_ms,
+                });
+            }
+            Err(e) => return Err(e),
+        }
         // The ping's own `000` may follow a late `M0` ack.
         self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
         self.needs_resync = false;
+        self.may_be_measuring = false;
+        self.last_fault = None;
         tracing::info!("PR-650: back in step");
         Ok(())
     }

@@ -26,7 +26,9 @@ pub struct Pr650Settings {
     /// Extra attempts allowed, over the whole series, for samples lost to a
     /// bad quality code or a link fault.
     pub retries: usize,
-    /// First byte of a reply to an ordinary command (PTB: 10 s for `b3`).
+    /// First byte of a reply to an ordinary command (`B1`, `S`, `D5`, `D2`)
+    /// and of the resynchronisation ping. A live PR-650 answers these at once;
+    /// this bounds how long a dead one goes unnoticed (see [`driver`]).
     pub command_timeout_ms: u64,
     /// First byte after `M0`: the whole measurement (PTB, PsychoPy: 30 s; dim
     /// sources in adaptive mode can take that long).
@@ -54,7 +56,7 @@ impl Default for Pr650Settings {
             port: None,
             samples: 5,
             retries: 2,
-            command_timeout_ms: 10_000,
+            command_timeout_ms: 3_000,
             measure_timeout_ms: 30_000,
             gap_timeout_ms: 2_000,
             remote_mode_attempts: 5,
@@ -138,6 +140,11 @@ mod tests {
         let s = Pr650Settings::from_toml_file(&path).unwrap();
         assert_eq!(s.samples, 5);
         assert_eq!(s.measure_timeout_ms, 30_000);
+        let defaults = Pr650Settings {
+            port: Some("/dev/ttyUSB0".into()),
+            ..Pr650Settings::default()
+        };
+        assert_eq!(s, defaults, "the file states the defaults");
     }
 
     #[test]

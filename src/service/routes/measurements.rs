@@ -14,7 +14,8 @@ use crate::service::error::ApiError;
 use crate::service::input::{Input, Query};
 use crate::service::{AppState, Event, InstrumentStatus, MeasurementJob};
 use crate::store::{
-    ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, NewMeasurement,
+    ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, MeasurementSummary,
+    NewMeasurement,
 };
 
 #[derive(Deserialize, ToSchema, Default)]
@@ -26,6 +27,8 @@ pub struct StartMeasurement {
     /// Samples to average, 1–99 (default 5).
     pub samples: Option<usize>,
     pub session_id: Option<i64>,
+    /// Free text kept with the measurement and shown in the table (`notes` is accepted too).
+    #[serde(alias = "notes")]
     pub note: Option<String>,
 }
 
@@ -147,7 +150,118 @@ pub async fn list_measurements(
     State(state): State<AppState>,
     Query(filter): Query<MeasurementFilter>,
 ) -> Result<Json<MeasurementPage>, ApiError> {
+    if let Some(limit) = filter.limit {
+        if !(1..=1000).contains(&limit) {
+            return Err(ApiError::BadRequest(format!(
+                "field `limit`: {limit} is outside 1–1000; page with `offset` for more"
+            )));
+        }
+    }
+    if let Some(offset) = filter.offset.filter(|o| *o < 0) {
+        return Err(ApiError::BadRequest(format!("field `offset`: {offset} is negative")));
+    }
     Ok(Json(state.store.list_measurements(&filter).await?))
+}
+
+/// How long a cancel request waits for a running measurement to stop before
+/// answering 202 (it stops within one poll slice of the instrument's reply).
+const CANCEL_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// Cancels a queued or running measurement. A queued one never starts; a
+/// running one stops at once (between instrument commands, or while a reply
+/// is read), keeping every sample already taken; its `error` says how many,
+/// and the average of its good samples is listed as `partial`. Answers 200
+/// with the cancelled measurement, or 202 while it is still stopping
+/// (follow `/api/events`: `measurement_finished` with state `cancelled`).
+#[utoipa::path(post, path = "/api/measurements/{id}/cancel", tag = "measurements",
+    params(("id" = i64, Path, description = "measurement id")),
+    responses((status = 200, body = MeasurementSummary, description = "cancelled"),
+              (status = 202, body = MeasurementSummary, description = "stopping"),
+              (status = 401, body = crate::service::error::ErrorBody),
+              (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, body = crate::service::error::ErrorBody, description = "already finished")),
+    security(("bearer" = [])))]
+pub async fn cancel_measurement(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<MeasurementSummary>), ApiError> {
+    let m = load_measurement(&state, id).await?;
+    let already = |m: &MeasurementSummary| {
+        ApiError::Conflict(format!(
+            "measurement {id} is already {}{}; only a queued or running measurement can be cancelled",
+            m.state.as_str(),
+            m.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
+        ))
+    };
+    if m.summary.state.is_final() {
+        return Err(already(&m.summary));
+    }
+    let queued_message = format!(
+        "cancelled by the operator before it started; no sample taken ({} requested)",
+        m.summary.samples_requested
+    );
+    if state.store.cancel_queued(id, &queued_message).await? {
+        tracing::info!(measurement_id = id, "queued measurement cancelled");
+        let _ = state.events.send(Event::MeasurementFinished {
+            measurement_id: id,
+            state: MeasurementState::Cancelled,
+            error: Some(queued_message),
+        });
+        return Ok((StatusCode::OK, Json(load_measurement(&state, id).await?.summary)));
+    }
+    // The instrument has taken it: stop it there.
+    let signalled = state.measurement_cancel.as_ref().is_some_and(|c| c.cancel(id));
+    if signalled {
+        tracing::info!(measurement_id = id, "cancel requested for the running measurement");
+    }
+    let deadline = tokio::time::Instant::now() + CANCEL_WAIT;
+    loop {
+        let now = load_measurement(&state, id).await?.summary;
+        match now.state {
+            MeasurementState::Cancelled => return Ok((StatusCode::OK, Json(now))),
+            s if s.is_final() => {
+                return Err(ApiError::Conflict(format!(
+                    "measurement {id} ended {} before it could be cancelled{}",
+                    s.as_str(),
+                    now.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
+                )))
+            }
+            _ if !signalled && state.measurement_cancel.is_none() => {
+                return Err(ApiError::Unavailable(format!(
+                    "measurement {id} is {} and no instrument task runs here to stop it",
+                    now.state.as_str()
+                )))
+            }
+            _ if tokio::time::Instant::now() >= deadline => return Ok((StatusCode::ACCEPTED, Json(now))),
+            _ => tokio::time::sleep(std::time::Duration::from_millis(50)).await,
+        }
+    }
+}
+
+/// Records and queues one measurement of a scene target for the instrument
+/// (as `POST /api/measurements` does); a full queue is 409 and leaves the
+/// record cancelled, saying so.
+pub(super) async fn enqueue_measurement(state: &AppState, new: NewMeasurement) -> Result<i64, ApiError> {
+    let job_scene = new.scene.clone();
+    let job_target = new.target.clone();
+    let samples = new.samples;
+    let id = state.store.create_measurement(&new).await?;
+    let job = MeasurementJob {
+        id,
+        samples,
+        scene: job_scene,
+        target: job_target,
+    };
+    if let Err(e) = state.jobs.try_send(job) {
+        state
+            .store
+            .end_measurement(id, MeasurementState::Cancelled, "the instrument queue was full")
+            .await?;
+        return Err(ApiError::Conflict(format!("the instrument is busy: {e}")));
+    }
+    tracing::info!(measurement_id = id, samples, "measurement queued");
+    let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
+    Ok(id)
 }
 
 pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<MeasurementDetail, ApiError> {

@@ -12,7 +12,8 @@ use crate::service::AppState;
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MockFaults {
-    /// `KIND[:RATE]`, comma-separated, e.g. `cable-pull:once`; empty clears all faults.
+    /// `KIND[@DELAY][:RATE]`, comma-separated, e.g. `cable-pull:once` or `slow@2500ms:once`
+    /// (see `lightbooth serve --help`); empty clears all faults.
     pub faults: String,
 }
 

@@ -35,6 +35,7 @@ pub fn api_router() -> Router<AppState> {
         .route("/sessions", get(list_sessions).post(create_session))
         .route("/measurements", get(list_measurements).post(start_measurement))
         .route("/measurements/{id}", get(get_measurement))
+        .route("/measurements/{id}/cancel", axum::routing::post(cancel_measurement))
         .route("/measurements/{id}/spectrum.csv", get(measurement_csv))
         .route("/measurements/{id}/spectrum.mat", get(measurement_mat))
         .route("/measurements/{id}/spectrum.svg", get(measurement_svg))

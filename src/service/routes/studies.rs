@@ -9,10 +9,11 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use super::measurements::enqueue_measurement;
 use crate::service::error::ApiError;
 use crate::service::input::Input;
-use crate::service::{AppState, StudyRequest};
-use crate::store::{Job, StudyRow};
+use crate::service::{AppState, InstrumentStatus, StudyRequest};
+use crate::store::{Job, NewMeasurement, StudyRow};
 
 #[utoipa::path(get, path = "/api/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
@@ -27,20 +28,42 @@ pub struct StudyAccepted {
 
 /// Starts a study (every coding of the chosen scenes against the truth, over
 /// seeds); poll the URL or follow `/api/events` until `state` is final.
+/// Against measurements, every target of the chosen scenes needs a complete
+/// measurement: with `"measure_missing": true` the missing ones are queued
+/// for the instrument first (listed in the study's request as
+/// `measured_first`, progress in `study_progress` events); without it a
+/// study missing measurements is refused with 409 naming them.
 #[utoipa::path(post, path = "/api/studies", tag = "studies", request_body = StudyRequest,
     responses((status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody),
               (status = 401, body = crate::service::error::ErrorBody),
-              (status = 409, description = "the render queue is full", body = crate::service::error::ErrorBody),
-              (status = 503, body = crate::service::error::ErrorBody)),
+              (status = 409, body = crate::service::error::ErrorBody,
+               description = "measurements are missing, the instrument queue cannot take them, or the render queue is full"),
+              (status = 503, body = crate::service::error::ErrorBody, description = "measurements are missing and the instrument is unavailable")),
     security(("bearer" = [])))]
 pub async fn start_study(
     State(state): State<AppState>,
-    Input(body): Input<StudyRequest>,
+    Input(mut body): Input<StudyRequest>,
 ) -> Result<(StatusCode, Json<StudyAccepted>), ApiError> {
     let service = state
         .renders
         .as_ref()
         .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    service.check_study(&body)?;
+    if body.against.as_deref().unwrap_or("measurements") == "measurements" {
+        let missing = missing_targets(&state, body.scenes.as_deref()).await?;
+        if !missing.is_empty() {
+            if body.measure_missing != Some(true) {
+                return Err(ApiError::Conflict(format!(
+                    "no complete measurement of {}: measure {} first (POST /api/measurements, or the scene's \
+                     \"Measure every target\" button), start the study with \"measure_missing\": true to have \
+                     it measure them first, or compare against \"reference\"",
+                    describe(&missing),
+                    if missing.len() == 1 { "it" } else { "them" }
+                )));
+            }
+            body.measured_first = measure_first(&state, &missing).await?;
+        }
+    }
     let id = Arc::clone(service).start_study(body).await?;
     Ok((
         StatusCode::ACCEPTED,
@@ -134,4 +157,86 @@ pub async fn study_file(
         _ => "application/octet-stream",
     };
     Ok(([(header::CONTENT_TYPE, content_type)], content).into_response())
+}
+
+/// The (scene, target) pairs of the study's scenes (all when `scenes` is
+/// None) with no complete measurement, in the study's order.
+async fn missing_targets(state: &AppState, scenes: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
+    let chosen: Option<Vec<&str>> =
+        scenes.map(|list| list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect());
+    let measured = state.store.measured_targets().await?;
+    let all = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
+    Ok(all
+        .iter()
+        .filter(|s| chosen.as_ref().is_none_or(|c| c.contains(&s.id.as_str())))
+        .flat_map(|s| s.targets.iter().map(move |t| (s.id.clone(), t.clone())))
+        .filter(|pair| !measured.contains(pair))
+        .collect())
+}
+
+/// `cylinder (h00, h01, h02), red/patch`, in plain words.
+fn describe(missing: &[(String, String)]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < missing.len() {
+        let scene = &missing[i].0;
+        let targets: Vec<&str> = missing[i..]
+            .iter()
+            .take_while(|(s, _)| s == scene)
+            .map(|(_, t)| t.as_str())
+            .collect();
+        i += targets.len();
+        parts.push(match targets.as_slice() {
+            [one] => format!("{scene}/{one}"),
+            many => format!("{scene} ({})", many.join(", ")),
+        });
+    }
+    parts.join(", ")
+}
+
+/// Queues one measurement (default samples) per missing target. The
+/// instrument must be available and the queue must have room for every one
+/// before the first is queued; should a concurrent request fill the queue
+/// meanwhile, the study is refused and the ones already queued stay ordinary
+/// measurements.
+async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result<Vec<i64>, ApiError> {
+    match &*state.status.borrow() {
+        InstrumentStatus::Disconnected { reason } => {
+            return Err(ApiError::Unavailable(format!(
+                "no complete measurement of {}, and the instrument is unavailable to take them: {reason}",
+                describe(missing)
+            )))
+        }
+        InstrumentStatus::Error { message } => {
+            return Err(ApiError::Unavailable(format!(
+                "no complete measurement of {}, and the instrument is in error: {message}",
+                describe(missing)
+            )))
+        }
+        _ => {}
+    }
+    if state.jobs.capacity() < missing.len() {
+        return Err(ApiError::Conflict(format!(
+            "measuring the {} missing targets needs {} places in the instrument queue and {} are free; \
+             try again when the queued measurements have finished",
+            missing.len(),
+            missing.len(),
+            state.jobs.capacity()
+        )));
+    }
+    let samples = state.config.default_samples;
+    let mut ids = Vec::with_capacity(missing.len());
+    for (scene, target) in missing {
+        let new = NewMeasurement {
+            session_id: None,
+            scene: Some(scene.clone()),
+            target: Some(target.clone()),
+            samples,
+            settings_json: serde_json::json!({ "samples": samples }),
+            note: "measured first for a study (measure_missing)".into(),
+        };
+        ids.push(enqueue_measurement(state, new).await?);
+    }
+    tracing::info!(count = ids.len(), "missing targets queued for a study");
+    Ok(ids)
 }

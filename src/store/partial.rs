@@ -1,0 +1,101 @@
+//! What an unfinished measurement still says: the average of the good
+//! samples of an interrupted or cancelled measurement, computed when it is
+//! read (so measurements interrupted by a crash or a pulled cable get one
+//! too) and always marked `partial`. It is never written as the
+//! measurement's average: only a complete measurement has one, and only a
+//! complete measurement is ever compared or used by a study.
+//!
+//! The average is the one a complete measurement gets
+//! ([`average_samples`](crate::instrument::average_samples)): the mean
+//! spectrum of the usable samples, its CIE 1931 Y, x, y, and the luminance
+//! CV over those samples.
+
+use std::time::{Duration, UNIX_EPOCH};
+
+use sqlx::Row;
+
+use super::{parse_opt_array, MeasurementState, MeasurementSummary, Store, StoreError};
+use crate::instrument::{average_samples, InstrumentInfo, QualityCode, QualityKind, Sample};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+
+impl Store {
+    /// Fills `Y`, `x`, `y`, `luminance_cv` and `partial` of every interrupted
+    /// or cancelled measurement in `items` that has good samples.
+    pub(super) async fn fill_partial_averages(&self, items: &mut [MeasurementSummary]) -> Result<(), StoreError> {
+        for m in items.iter_mut() {
+            let unfinished = matches!(m.state, MeasurementState::Interrupted | MeasurementState::Cancelled);
+            if !unfinished || m.good_samples == 0 || m.luminance_cd_m2.is_some() {
+                continue;
+            }
+            let rows = sqlx::query(
+                "SELECT idx, taken_at, radiance_json, luminance_cd_m2 FROM samples \
+                 WHERE measurement_id = ? AND usable = 1 AND radiance_json IS NOT NULL ORDER BY idx",
+            )
+            .bind(m.id)
+            .fetch_all(&self.pool)
+            .await?;
+            let mut samples = Vec::with_capacity(rows.len());
+            for r in &rows {
+                let values = parse_opt_array(r.get("radiance_json"), "sample radiance")?.unwrap_or_default();
+                samples.push((
+                    r.get::<i64, _>("idx"),
+                    r.get::<f64, _>("taken_at"),
+                    values,
+                    r.get("luminance_cd_m2"),
+                ));
+            }
+            match partial_average(samples) {
+                Ok(avg) => {
+                    m.luminance_cd_m2 = Some(avg.luminance_cd_m2);
+                    m.x = Some(avg.x);
+                    m.y = Some(avg.y);
+                    m.luminance_cv = Some(avg.luminance_cv);
+                    m.partial = true;
+                }
+                Err(e) => tracing::warn!(measurement_id = m.id, error = %e, "no partial average"),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The average of stored good samples `(index, time, radiance, Y)`. The
+/// store keeps sample spectra on the instrument's native grid without the
+/// grid itself; the PR-650's (380–780 nm at 4 nm, 101 points) is the only
+/// one lightbooth drives, so another length is an error, not a guess.
+fn partial_average(
+    samples: Vec<(i64, f64, Vec<f64>, Option<f64>)>,
+) -> Result<crate::instrument::AveragedMeasurement, String> {
+    let grid = Grid::pr650();
+    let samples = samples
+        .into_iter()
+        .map(|(index, time, values, luminance)| {
+            if values.len() != grid.len() {
+                return Err(format!(
+                    "sample {index} has {} spectral values, not the PR-650's {}",
+                    values.len(),
+                    grid.len()
+                ));
+            }
+            Ok(Sample {
+                index: index as usize,
+                time: UNIX_EPOCH + Duration::from_secs_f64(time.max(0.0)),
+                code: QualityCode {
+                    code: 0,
+                    kind: QualityKind::Ok,
+                    message: "stored as usable".into(),
+                },
+                radiance: Some(
+                    Spectrum::new(grid.clone(), SpectralUnit::SpectralRadiance, values).map_err(|e| e.to_string())?,
+                ),
+                luminance,
+            })
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    let info = InstrumentInfo {
+        model: "PR-650".into(),
+        serial: None,
+        grid,
+    };
+    average_samples(info, samples)
+}

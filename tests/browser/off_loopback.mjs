@@ -1,0 +1,57 @@
+// The dashboard of a daemon bound off loopback, where every read needs the
+// token: opened with the printed URL (#token=…), it must show the live
+// instrument state (event stream), list the scenes (fetch), take a
+// measurement (POST) and show its spectrum chart (<img>), with no request
+// refused. Fails on any HTTP error or console error.
+//
+// Usage: node off_loopback.mjs BASE_URL TOKEN [SCREENSHOT_DIR]
+import { chromium } from "playwright-core";
+
+const [base, token, shots] = process.argv.slice(2);
+if (!base || !token) {
+  console.error("usage: node off_loopback.mjs BASE_URL TOKEN [SCREENSHOT_DIR]");
+  process.exit(2);
+}
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  headless: true,
+  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync"],
+});
+const failures = [];
+try {
+  const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
+  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
+  page.on("pageerror", (e) => failures.push("page error: " + e.message));
+  page.on("requestfailed", (r) => {
+    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
+  });
+  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+
+  await page.goto(`${base}/#token=${token}`);
+  // The instrument state arrives over the event stream (EventSource: the cookie).
+  await page.waitForFunction(() => document.getElementById("instrument").textContent.includes("idle"), null, { timeout: 30000 });
+  // The scene list is a fetch (the Authorization header).
+  await page.waitForFunction(() => document.querySelectorAll("#scene-select option").length > 1, null, { timeout: 30000 });
+  await page.selectOption("#scene-select", "white");
+  await page.selectOption("#target-select", "patch");
+  await page.fill("#samples-input", "2");
+  await page.click("#measure-button");
+  await page.waitForFunction(() => document.getElementById("live-result").textContent.includes("cd/m²"), null, { timeout: 120000 });
+  // The spectrum chart is an <img> (the cookie).
+  await page.waitForFunction(() => {
+    const img = document.getElementById("live-spectrum");
+    return img.complete && img.naturalWidth > 0;
+  }, null, { timeout: 30000 });
+  if (shots) await page.screenshot({ path: `${shots}/off-loopback.png`, fullPage: true });
+} catch (e) {
+  failures.push(String(e));
+} finally {
+  await browser.close();
+}
+if (failures.length) {
+  console.error(failures.join("\n"));
+  process.exit(1);
+}
+console.log("dashboard off loopback ok");
