@@ -289,6 +289,42 @@ async fn the_dashboard_and_matlab_examples_are_served() {
 }
 
 #[tokio::test]
+async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it_is_gone() {
+    let h = harness(4).await;
+    h.status.send_replace(InstrumentStatus::Error {
+        message: "the instrument task panicked (test); restarting it in 1 s".into(),
+    });
+    let (status, body) = send(&h.state, get("/api/health")).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(body["status"], "degraded");
+    assert_eq!(body["instrument_task"], "restarting");
+    // The task holds the queue's receiving end: without it nothing can run.
+    let Harness {
+        state,
+        jobs,
+        status: status_tx,
+        _shutdown,
+        _dir,
+    } = h;
+    status_tx.send_replace(InstrumentStatus::Idle {
+        model: "PR-650".into(),
+        serial: None,
+        port: "/dev/pts/9".into(),
+    });
+    drop(jobs);
+    let (status, body) = send(&state, get("/api/health")).await;
+    assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{body}");
+    assert_eq!(body["status"], "down");
+    assert_eq!(body["instrument_task"], "stopped");
+    let (status, body) = send(
+        &state,
+        post("/api/measurements", "application/json", r#"{"samples":2}"#, Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{body}");
+}
+
+#[tokio::test]
 async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() {
     use lightbooth::store::{MeasurementState, NewMeasurement, NewSample};
     let h = harness(4).await;

@@ -115,6 +115,12 @@ function follow() {
     if (scenesQueue.length && d.measurement_id === scenesQueue[0]) scenesQueue.shift();
     updateSceneProgress();
   });
+  for (const name of ["render_started", "render_finished"]) {
+    es.addEventListener(name, (e) => {
+      const d = JSON.parse(e.data);
+      if (openScene === d.scene) loadSceneDetail(d.scene);
+    });
+  }
   es.addEventListener("comparison_ready", (e) => {
     const d = JSON.parse(e.data);
     if (openScene === d.scene) loadSceneDetail(d.scene);
@@ -125,7 +131,7 @@ function follow() {
   });
   es.addEventListener("study_finished", (e) => {
     const d = JSON.parse(e.data);
-    $("study-progress").textContent = `study ${d.study_id}: ${d.ok ? "complete" : "failed: " + d.error}`;
+    $("study-progress").textContent = `study ${d.study_id}: ${d.ok ? "complete" : "did not complete: " + d.error}`;
     if (location.hash.startsWith("#/study")) loadStudies(String(d.study_id));
   });
   es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
@@ -327,6 +333,7 @@ async function loadSceneDetail(id) {
       `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4)]) tr.insertCell().textContent = v;
   }
   const renders = await api(`/api/scenes/${id}/renders`);
+  showRenderJobs(renders);
   const done = renders.find((r) => r.state === "complete");
   const preview = $("scene-preview");
   preview.hidden = !done;
@@ -346,6 +353,35 @@ async function loadSceneDetail(id) {
     const img = $("chart-" + chart);
     img.hidden = c.rows.length === 0;
     if (c.rows.length) img.src = `/api/scenes/${id}/charts/${chart}.svg?t=${t}`;
+  }
+}
+
+// A button that POSTs to a job's action (cancel, retry) and then refreshes.
+function jobButton(label, path, then) {
+  const b = document.createElement("button");
+  b.textContent = label;
+  b.addEventListener("click", async (ev) => {
+    ev.stopPropagation();
+    notice("");
+    try {
+      await api(path, { method: "POST", body: "{}" });
+    } catch (e) {
+      notice(e.message);
+    }
+    then();
+  });
+  return b;
+}
+
+// The scene's renders still queued or running, each with a Cancel button.
+function showRenderJobs(renders) {
+  const list = $("scene-jobs");
+  list.innerHTML = "";
+  for (const r of renders.filter((r) => r.state === "queued" || r.state === "running")) {
+    const li = document.createElement("li");
+    li.textContent = `render ${r.id} (${r.codings.join(", ")}): ${r.state} `;
+    li.appendChild(jobButton("Cancel", `/api/renders/${r.id}/cancel`, () => loadSceneDetail(r.scene)));
+    list.appendChild(li);
   }
 }
 
@@ -395,7 +431,7 @@ $("study-form").addEventListener("submit", async (ev) => {
   if (body.against === "measurements" && $("study-measure-missing").checked) body.measure_missing = true;
   try {
     const r = await api("/api/studies", { method: "POST", body: JSON.stringify(body) });
-    $("study-progress").textContent = `study ${r.id}: started`;
+    $("study-progress").textContent = `study ${r.id}: queued`;
     loadStudies();
   } catch (e) {
     notice(e.message);
@@ -408,8 +444,16 @@ async function loadStudies(openId) {
   tbody.innerHTML = "";
   for (const st of list) {
     const tr = tbody.insertRow();
-    for (const v of [st.id, st.state + (st.error ? ": " + st.error : ""), new Date(st.created_at * 1000).toLocaleString(),
-      fmt(st.wall_seconds, 3)]) tr.insertCell().textContent = v;
+    for (const v of [st.id, st.state + (st.error ? ": " + st.error : "")]) tr.insertCell().textContent = v;
+    // Cancel a study still queued or running; retry one that did not complete.
+    const actions = tr.insertCell();
+    if (st.state === "queued" || st.state === "running") {
+      actions.appendChild(jobButton("Cancel", `/api/studies/${st.id}/cancel`, () => loadStudies()));
+    } else if (st.state !== "complete") {
+      actions.appendChild(jobButton("Retry", `/api/studies/${st.id}/retry`, () => loadStudies()));
+    }
+    for (const v of [new Date(st.created_at * 1000).toLocaleString(), fmt(st.wall_seconds, 3)])
+      tr.insertCell().textContent = v;
     // The request folded away: a summary line, the JSON on demand.
     const details = document.createElement("details");
     const summary = document.createElement("summary");

@@ -9,13 +9,19 @@
 //! - reopens a lost port with exponential backoff (1 s doubling to 30 s),
 //!   saying so in the status and the log;
 //! - with `--mock`, runs the simulated PR-650 on a pty and re-aims it at each
-//!   measurement's scene target, as an operator re-aims the real one.
+//!   measurement's scene target, as an operator re-aims the real one;
+//! - is supervised: a panic fails the measurement it was taking (with the
+//!   panic's message), the status says `error` while the task waits (1 s
+//!   doubling to 30 s), and the task starts again with the same queue;
+//! - never records a measurement `complete` unless every one of its samples
+//!   was written: a failed sample write stops it, `failed`, with the error.
 //!
 //! Every log line of a measurement carries its `measurement_id`.
 
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
@@ -175,10 +181,11 @@ pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
         config,
         canceller: canceller.clone(),
         mock: mock.clone(),
+        current: None,
     };
     let thread = std::thread::Builder::new()
         .name("instrument".into())
-        .spawn(move || worker.run())?;
+        .spawn(move || supervise(worker))?;
     Ok(InstrumentTask {
         thread,
         canceller,
@@ -190,6 +197,44 @@ struct Worker {
     config: TaskConfig,
     canceller: Canceller,
     mock: Option<Arc<MockSlot>>,
+    /// The measurement being taken (to fail it if the task panics).
+    current: Option<i64>,
+}
+
+/// Runs the worker, restarting it after a panic (see the module doc). The
+/// job queue lives in the worker, so queued measurements survive a restart;
+/// the thread ends only at shutdown.
+fn supervise(mut worker: Worker) {
+    let mut backoff = Duration::from_secs(1);
+    loop {
+        let started = Instant::now();
+        let Err(panic) = catch_unwind(AssertUnwindSafe(|| worker.run())) else {
+            return;
+        };
+        let message = super::jobs::panic_message(&*panic);
+        tracing::error!(panic = %message, restart_in_s = backoff.as_secs(), "the instrument task panicked");
+        worker.canceller.set_current(None);
+        if let Some(id) = worker.current.take() {
+            worker.finish_failed(
+                id,
+                MeasurementState::Failed,
+                &format!("the instrument task panicked during this measurement: {message}"),
+            );
+        }
+        if started.elapsed() > Duration::from_secs(60) {
+            backoff = Duration::from_secs(1);
+        }
+        worker.set_status(InstrumentStatus::Error {
+            message: format!(
+                "the instrument task panicked ({message}); restarting it in {} s",
+                backoff.as_secs()
+            ),
+        });
+        if worker.wait_or_shutdown(backoff) {
+            return;
+        }
+        backoff = (backoff * 2).min(Duration::from_secs(30));
+    }
 }
 
 /// What ended the use of an open instrument.
@@ -211,7 +256,7 @@ impl Worker {
         self.config.runtime.block_on(f)
     }
 
-    fn run(mut self) {
+    fn run(&mut self) {
         let mut backoff = Duration::from_secs(1);
         loop {
             if self.canceller.is_shutting_down() {
@@ -339,6 +384,21 @@ impl Worker {
             tracing::warn!(error = %e, "measurement no longer queued; skipped");
             return None;
         }
+        self.current = Some(id);
+        let outcome = self.take_running(instrument, id, job, cancel);
+        self.current = None;
+        outcome
+    }
+
+    /// Takes a measurement already marked running (see [`Worker::measure`]).
+    fn take_running(
+        &mut self,
+        instrument: &mut dyn Spectroradiometer,
+        id: i64,
+        job: &MeasurementJob,
+        cancel: CancelToken,
+    ) -> Option<String> {
+        let store = self.config.store.clone();
         let _ = self.config.events.send(Event::MeasurementStarted {
             measurement_id: id,
             samples: job.samples,
@@ -381,13 +441,20 @@ impl Worker {
         let runtime = self.config.runtime.clone();
         let of = job.samples;
         let (mut taken, mut usable) = (0usize, 0usize);
+        // The first sample that could not be written: the measurement stops there.
+        let mut write_failed: Option<String> = None;
+        let stop = cancel.clone();
         let mut on_sample = |s: &Sample| {
             let row = sample_row(s);
             taken += 1;
             usable += usize::from(row.usable);
             // Blocks this thread until the sample is on disk: the next sample waits.
             if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
-                tracing::error!(error = %e, index = s.index, "cannot store a sample");
+                tracing::error!(error = %e, index = s.index, "cannot store a sample; stopping the measurement");
+                write_failed
+                    .get_or_insert_with(|| format!("sample {} could not be written to the database: {e}", s.index));
+                stop.cancel();
+                return;
             }
             tracing::info!(
                 index = s.index,
@@ -420,6 +487,15 @@ impl Worker {
             });
         };
         let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
+        if let Some(why) = write_failed {
+            // Not every sample is on disk: never `complete`, whatever the instrument said.
+            tracing::error!(error = %why, "measurement failed: a sample was not stored");
+            return self.finish_failed(
+                id,
+                MeasurementState::Failed,
+                &format!("{why}; a measurement without all its samples on disk is not complete"),
+            );
+        }
 
         match result {
             Ok(avg) => {

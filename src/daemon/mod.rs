@@ -5,13 +5,17 @@
 //!   simulated on a pty with `--mock`) and takes queued measurements one at
 //!   a time, writing each sample as it is taken;
 //! - the [renderer service](renders) that renders scenes on the rayon pool
-//!   and stores the comparison of each measurement with every coding;
+//!   and stores the comparison of each measurement with every coding, and
+//!   runs the API's renders and studies as bounded, cancellable [jobs];
+//! - a [lock](db_lock) on the database file, so one daemon owns it;
 //! - the HTTP [service](crate::service) (REST API, events, dashboards).
 //!
 //! [`run`] takes a shutdown future, as mini-redis's server does, so tests
 //! start and stop a whole daemon in-process.
 
+pub mod db_lock;
 pub mod instrument_task;
+pub mod jobs;
 pub mod renders;
 pub mod study_measurements;
 
@@ -19,6 +23,7 @@ use std::future::Future;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::Context;
 use tokio::net::TcpListener;
@@ -64,13 +69,16 @@ pub struct DaemonOptions {
 }
 
 /// Runs the daemon on an already-bound listener until `shutdown` resolves.
-/// The running measurement is cancelled and marked interrupted; queued ones
-/// are marked interrupted; nothing half-written is left.
+/// The running measurement, render and study are cancelled and marked
+/// interrupted; queued ones are marked interrupted; nothing half-written is
+/// left. Refuses to start on a database another daemon holds.
 pub async fn run(
     listener: TcpListener,
     options: DaemonOptions,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> anyhow::Result<()> {
+    // Before the store opens: opening marks unfinished work interrupted.
+    let _lock = db_lock::acquire(&options.db_url)?;
     let store = Store::open(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?;
@@ -96,6 +104,7 @@ pub async fn run(
         options.codings.clone(),
         options.render_samples,
     )?);
+    let job_worker = renderer.run_jobs();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {
         store: store.clone(),
         jobs: jobs_rx,
@@ -125,7 +134,7 @@ pub async fn run(
         jobs: jobs_tx,
         status: status_rx,
         events,
-        renders: Some(renderer as Arc<dyn service::RenderService>),
+        renders: Some(Arc::clone(&renderer) as Arc<dyn service::RenderService>),
         mock: instrument.mock_control(),
         measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
@@ -136,14 +145,32 @@ pub async fn run(
         let _ = stop_rx.await;
     }));
     shutdown.await;
-    tracing::info!("shutting down: cancelling the running measurement and closing the HTTP server");
+    tracing::info!("shutting down: cancelling the running measurement, render and study; closing the HTTP server");
     cancel_running.shutdown();
+    renderer.shutdown();
     let _ = shutting_down_tx.send(true);
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;
     // The server's state (and so the job sender) is gone: the instrument
     // thread finishes its current job and stops.
     instrument.join().await;
+    // The job worker marks the cancelled and queued jobs interrupted; a
+    // render stops within one batch of paths per thread.
+    if tokio::time::timeout(Duration::from_secs(30), job_worker).await.is_err() {
+        tracing::warn!("the render job did not stop within 30 s");
+    }
+    for job in [crate::store::Job::Render, crate::store::Job::Study] {
+        store
+            .interrupt_unfinished_jobs(
+                job,
+                &format!(
+                    "the daemon shut down during this {}; retry it with POST /api/{}/{{id}}/retry",
+                    job.noun(),
+                    job.table()
+                ),
+            )
+            .await?;
+    }
     let n = store
         .interrupt_unfinished("the daemon shut down before this measurement ran")
         .await?;

@@ -3,6 +3,9 @@
 //! render per scene content and settings (reused from the store), and the
 //! comparison of each measurement with every coding.
 //!
+//! Renders and studies requested through the API are [jobs](super::jobs):
+//! bounded in size and number, cancellable, and a panic fails only its job.
+//!
 //! # The CIELAB reference white
 //!
 //! Both sides of a comparison go through CIELAB with the same white, stored
@@ -19,6 +22,7 @@
 //! comparison says so.
 
 use std::collections::HashMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -26,14 +30,16 @@ use std::time::Instant;
 use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
+use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::comparison::compare_point;
-use crate::render::{self, Coding, RenderSettings, Scene};
+use crate::render::integrator::{with_cancel, CancelFlag};
+use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
 use crate::service::error::ApiError;
 use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
-use crate::store::{NewComparison, NewRender, Store};
+use crate::store::{Job, JobEnd, NewComparison, NewRender, Store};
 use crate::study::report::report_files;
 use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
 
@@ -55,6 +61,29 @@ pub struct Renderer {
     /// One lock per scene, so concurrent comparisons of one scene wait for a
     /// single render instead of each starting its own.
     scene_locks: std::sync::Mutex<HashMap<String, Arc<tokio::sync::Mutex<()>>>>,
+    /// Renders and studies requested through the API.
+    jobs: JobQueue<Work>,
+    /// The simulated PR-650's converged spectra are rendered here, not on
+    /// the global pool the jobs use: a job's batches fill the global pool's
+    /// queues, and the instrument thread would wait behind all of them.
+    converge_pool: rayon::ThreadPool,
+    /// Set at shutdown: stops the comparison renders (jobs have their own flags).
+    shutdown: CancelFlag,
+}
+
+/// A job's work, as the queue carries it.
+pub enum Work {
+    Render {
+        scene_id: String,
+        scene: Box<Scene>,
+        settings: RenderSettings,
+    },
+    Study {
+        paths: Vec<PathBuf>,
+        options: Box<StudyOptions>,
+        /// Measurements queued for it (`measure_missing`), awaited first.
+        measured_first: Vec<i64>,
+    },
 }
 
 impl Renderer {
@@ -96,7 +125,12 @@ impl Renderer {
             .iter()
             .map(|c| c.parse::<Coding>().map_err(|e| anyhow::anyhow!("coding `{c}`: {e}")))
             .collect::<anyhow::Result<Vec<_>>>()?;
+        let converge_pool = rayon::ThreadPoolBuilder::new()
+            .thread_name(|i| format!("converge-{i}"))
+            .build()
+            .map_err(|e| anyhow::anyhow!("cannot start the renderer's threads: {e}"))?;
         Ok(Renderer {
+            jobs: JobQueue::new(store.clone()),
             scenes,
             store,
             events,
@@ -104,7 +138,58 @@ impl Renderer {
             samples,
             runtime: Handle::current(),
             scene_locks: Default::default(),
+            converge_pool,
+            shutdown: CancelFlag::default(),
         })
+    }
+
+    /// Starts the one worker that runs queued renders and studies in turn;
+    /// it ends after [`Renderer::shutdown`], once the queue is drained.
+    pub fn run_jobs(self: &Arc<Self>) -> tokio::task::JoinHandle<()> {
+        let this = Arc::clone(self);
+        let receiver = self.jobs.take_receiver();
+        tokio::spawn(async move {
+            let Some(mut receiver) = receiver else { return };
+            while let Some(queued) = receiver.recv().await {
+                let (job, id) = (queued.job, queued.id);
+                if let Err(e) = this.run_job(queued).await {
+                    tracing::error!(job = job.noun(), id, error = %e, "cannot record the end of a job");
+                }
+                this.jobs.finished(job, id);
+            }
+        })
+    }
+
+    /// Refuses new jobs, stops the running one and the comparison renders;
+    /// everything unfinished ends `interrupted`.
+    pub fn shutdown(&self) {
+        self.shutdown.cancel();
+        self.jobs.shutdown();
+    }
+
+    async fn run_job(self: &Arc<Self>, queued: Queued<Work>) -> anyhow::Result<()> {
+        let Queued { job, id, work, cancel } = queued;
+        if self.jobs.is_shutting_down() {
+            let why = format!(
+                "the daemon shut down before this {} ran; retry it with POST /api/{}/{{id}}/retry",
+                job.noun(),
+                job.table()
+            );
+            self.store.end_job(job, id, JobEnd::Interrupted, &why).await?;
+            return Ok(());
+        }
+        match work {
+            Work::Render {
+                scene_id,
+                scene,
+                settings,
+            } => self.execute(id, &scene_id, *scene, settings, cancel).await,
+            Work::Study {
+                paths,
+                options,
+                measured_first,
+            } => self.run_study_job(id, paths, *options, measured_first, cancel).await,
+        }
     }
 
     fn entry(&self, id: &str) -> Option<&SceneEntry> {
@@ -116,7 +201,12 @@ impl Renderer {
     pub fn converged_spectrum(&self, scene: &str, target: &str, cache_dir: &Path) -> Result<Spectrum, String> {
         let entry = self.entry(scene).ok_or_else(|| format!("no scene `{scene}`"))?;
         std::fs::create_dir_all(cache_dir).map_err(|e| format!("cache folder {}: {e}", cache_dir.display()))?;
-        render::converged_target_spectrum(&entry.path, target, Some(cache_dir)).map_err(|e| e.to_string())
+        self.converge_pool.install(|| {
+            if jobs::test_panic_requested(scene) {
+                jobs::panic_on_the_pool(scene);
+            }
+            render::converged_target_spectrum(&entry.path, target, Some(cache_dir)).map_err(|e| e.to_string())
+        })
     }
 
     /// After a measurement of a scene target completes: render (or reuse a
@@ -200,12 +290,23 @@ impl Renderer {
         ))
     }
 
-    fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, String> {
+    /// The settings of a render request, each field checked against its
+    /// limit (400 naming the field and the limit).
+    fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, ApiError> {
         let codings = match &request.codings {
-            Some(list) => list
-                .split(',')
-                .map(|c| c.parse::<Coding>())
-                .collect::<Result<Vec<_>, _>>()?,
+            Some(list) => {
+                let codings = list
+                    .split(',')
+                    .map(|c| c.parse::<Coding>())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
+                for (i, c) in codings.iter().enumerate() {
+                    if codings[..i].contains(c) {
+                        return Err(ApiError::BadRequest(format!("field `codings`: `{c}` is named twice")));
+                    }
+                }
+                codings
+            }
             None => {
                 let mut c = self.codings.clone();
                 // The comparison white may come from the spectral rendering.
@@ -221,9 +322,19 @@ impl Renderer {
             ..RenderSettings::default()
         };
         if let Some(n) = request.samples {
+            if !(2..=MAX_RENDER_SAMPLES).contains(&n) {
+                return Err(ApiError::BadRequest(format!(
+                    "field `samples`: {n} is outside 2–{MAX_RENDER_SAMPLES} (paths per target)"
+                )));
+            }
             s.samples = u64::from(n);
         }
         if let Some(b) = request.bounces {
+            if b > MAX_RENDER_BOUNCES {
+                return Err(ApiError::BadRequest(format!(
+                    "field `bounces`: {b} is above the limit {MAX_RENDER_BOUNCES}"
+                )));
+            }
             s.max_bounces = b;
         }
         if let Some(seed) = request.seed {
@@ -241,7 +352,7 @@ impl Renderer {
             Arc::clone(locks.entry(scene.to_string()).or_default())
         };
         let _guard = lock.lock().await;
-        let settings = self.settings(&RenderRequest::default()).map_err(anyhow::Error::msg)?;
+        let settings = self.settings(&RenderRequest::default())?;
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
         let loaded = render::load_scene(&entry.path)?;
         let hash = render::scene_hash(&loaded)?;
@@ -253,7 +364,7 @@ impl Renderer {
             return Ok(found);
         }
         let id = self.record(scene, &settings, hash).await?;
-        self.execute(id, scene, loaded, settings).await?;
+        self.execute(id, scene, loaded, settings, self.shutdown.clone()).await?;
         let row = self
             .store
             .get_render(id)
@@ -265,7 +376,7 @@ impl Renderer {
         Ok((id, result))
     }
 
-    /// Records a render about to run; returns its id.
+    /// Records a render as queued; returns its id.
     async fn record(&self, scene_id: &str, settings: &RenderSettings, hash: String) -> anyhow::Result<i64> {
         let id = self
             .store
@@ -277,69 +388,63 @@ impl Renderer {
                 seed: settings.seed,
             })
             .await?;
-        let _ = self.events.send(Event::RenderStarted {
-            render_id: id,
-            scene: scene_id.to_string(),
-        });
-        tracing::info!(render_id = id, scene = scene_id, "render started");
+        tracing::info!(render_id = id, scene = scene_id, "render queued");
         Ok(id)
     }
 
     /// Runs a recorded render on the rayon pool with progress events, then
     /// times each coding alone (same settings) for the speed-against-accuracy
     /// chart (`coding_seconds` in the stored result), and stores the outcome.
-    async fn execute(&self, id: i64, scene_id: &str, scene: Scene, settings: RenderSettings) -> anyhow::Result<()> {
+    /// `cancel` stops it between batches of paths; a panic fails it with
+    /// the panic's message (a panic on a `rayon::spawn` job would abort the
+    /// whole daemon).
+    async fn execute(
+        &self,
+        id: i64,
+        scene_id: &str,
+        scene: Scene,
+        settings: RenderSettings,
+        cancel: CancelFlag,
+    ) -> anyhow::Result<()> {
+        if !self.store.start_job(Job::Render, id).await? {
+            tracing::info!(render_id = id, "render no longer queued (cancelled); not run");
+            return Ok(());
+        }
+        let _ = self.events.send(Event::RenderStarted {
+            render_id: id,
+            scene: scene_id.to_string(),
+        });
+        tracing::info!(render_id = id, scene = scene_id, "render started");
         let events = self.events.clone();
         let (tx, rx) = tokio::sync::oneshot::channel();
+        let flag = cancel.clone();
+        let panic_scene = jobs::test_panic_requested(scene_id).then(|| scene_id.to_string());
         rayon::spawn(move || {
-            let last = std::sync::Mutex::new(Instant::now());
-            let progress = |done: u64, total: u64| {
-                let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
-                if last.elapsed().as_millis() >= 200 || done == total {
-                    *last = Instant::now();
-                    let _ = events.send(Event::RenderProgress {
-                        render_id: id,
-                        done,
-                        total,
-                    });
-                }
-            };
-            let result = render::render(&scene, &settings, Some(&progress)).map(|full| {
-                let mut coding_seconds = serde_json::Map::new();
-                for coding in &settings.codings {
-                    let alone = RenderSettings {
-                        codings: vec![*coding],
-                        ..settings.clone()
-                    };
-                    let t = Instant::now();
-                    if render::render(&scene, &alone, None).is_ok() {
-                        coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
+            let caught = catch_unwind(AssertUnwindSafe(|| {
+                with_cancel(&flag, || {
+                    if let Some(scene) = &panic_scene {
+                        jobs::panic_on_the_pool(scene);
                     }
-                }
-                // The camera view for the dashboard: the sRGB coding, paths per
-                // pixel from a fixed budget (a preview, not a measurement).
-                let preview = scene.camera.as_ref().and_then(|camera| {
-                    let transport = render::integrator::Transport {
-                        max_bounces: settings.max_bounces,
-                        russian_roulette_from: settings.russian_roulette_from,
-                    };
-                    render::sensor::render_camera(
-                        &scene,
-                        camera,
-                        Coding::Srgb,
-                        render::sensor::preview_spp(camera),
-                        &transport,
-                        settings.seed,
-                    )
-                    .and_then(|img| img.png())
-                    .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
-                    .ok()
-                });
-                (full, coding_seconds, preview)
-            });
-            let _ = tx.send(result);
+                    render_with_timings(id, &scene, &settings, &events).and_then(|done| {
+                        // Cancelled while the codings were timed: the timings are incomplete.
+                        if flag.is_cancelled() {
+                            Err(RenderError::Cancelled)
+                        } else {
+                            Ok(done)
+                        }
+                    })
+                })
+            }))
+            .map_err(|panic| format!("the renderer panicked: {}", jobs::panic_message(&*panic)));
+            let _ = tx.send(caught);
         });
-        let outcome = rx.await?;
+        let outcome = match rx.await? {
+            Ok(outcome) => outcome.map_err(|e| match e {
+                RenderError::Cancelled => None,
+                other => Some(other.to_string()),
+            }),
+            Err(panic) => Err(Some(panic)),
+        };
         let (ok, error) = match outcome {
             Ok((result, coding_seconds, preview)) => {
                 let mut json = serde_json::to_value(&result)?;
@@ -351,10 +456,11 @@ impl Renderer {
                 tracing::info!(render_id = id, wall_seconds = result.wall_seconds, "render complete");
                 (true, None)
             }
-            Err(e) => {
-                self.store.finish_render(id, Err(&e.to_string())).await?;
-                tracing::error!(render_id = id, error = %e, "render failed");
-                (false, Some(e.to_string()))
+            Err(error) => {
+                let (end, message) = self.jobs.end_of(Job::Render, error.is_none(), error);
+                self.store.end_job(Job::Render, id, end, &message).await?;
+                tracing::warn!(render_id = id, state = end.as_str(), error = %message, "render did not complete");
+                (false, Some(message))
             }
         };
         let _ = self.events.send(Event::RenderFinished {
@@ -365,6 +471,68 @@ impl Renderer {
         });
         Ok(())
     }
+}
+
+/// What a render job stores: the result, each coding's time alone, and the preview PNG.
+type RenderOutput = (
+    render::RenderResult,
+    serde_json::Map<String, serde_json::Value>,
+    Option<Vec<u8>>,
+);
+
+/// A render with progress events, then each coding timed alone (same
+/// settings) and the camera preview. Runs on the rayon pool.
+fn render_with_timings(
+    id: i64,
+    scene: &Scene,
+    settings: &RenderSettings,
+    events: &broadcast::Sender<Event>,
+) -> Result<RenderOutput, RenderError> {
+    let last = std::sync::Mutex::new(Instant::now());
+    let progress = |done: u64, total: u64| {
+        let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
+        if last.elapsed().as_millis() >= 200 || done == total {
+            *last = Instant::now();
+            let _ = events.send(Event::RenderProgress {
+                render_id: id,
+                done,
+                total,
+            });
+        }
+    };
+    render::render(scene, settings, Some(&progress)).map(|full| {
+        let mut coding_seconds = serde_json::Map::new();
+        for coding in &settings.codings {
+            let alone = RenderSettings {
+                codings: vec![*coding],
+                ..settings.clone()
+            };
+            let t = Instant::now();
+            if render::render(scene, &alone, None).is_ok() {
+                coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
+            }
+        }
+        // The camera view for the dashboard: the sRGB coding, few paths per
+        // pixel from a fixed budget (a preview, not a measurement).
+        let preview = scene.camera.as_ref().and_then(|camera| {
+            let transport = render::integrator::Transport {
+                max_bounces: settings.max_bounces,
+                russian_roulette_from: settings.russian_roulette_from,
+            };
+            render::sensor::render_camera(
+                scene,
+                camera,
+                Coding::Srgb,
+                render::sensor::preview_spp(camera),
+                &transport,
+                settings.seed,
+            )
+            .and_then(|img| img.png())
+            .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
+            .ok()
+        });
+        (full, coding_seconds, preview)
+    })
 }
 
 /// Every coding's XYZ and standard error of Y at `target` in a stored render result.
@@ -446,6 +614,190 @@ impl Renderer {
     }
 }
 
+impl Renderer {
+    /// Runs a queued study on a blocking thread (its renders use the rayon
+    /// pool; never the async workers) under its cancellation flag, with
+    /// panics caught, and records how it ended.
+    async fn run_study_job(
+        self: &Arc<Self>,
+        id: i64,
+        paths: Vec<PathBuf>,
+        options: StudyOptions,
+        measured_first: Vec<i64>,
+        cancel: CancelFlag,
+    ) -> anyhow::Result<()> {
+        if !self.store.start_job(Job::Study, id).await? {
+            tracing::info!(study_id = id, "study no longer queued (cancelled); not run");
+            return Ok(());
+        }
+        tracing::info!(study_id = id, scenes = paths.len(), "study started");
+        // `measure_missing`: the measurements queued for it come first.
+        if !measured_first.is_empty() {
+            let events = self.events.clone();
+            let progress = move |message: &str| {
+                let _ = events.send(Event::StudyProgress {
+                    study_id: id,
+                    message: message.to_string(),
+                });
+            };
+            if let Err(e) = wait_for_measurements(&self.store, &measured_first, &progress).await {
+                self.store.end_job(Job::Study, id, JobEnd::Failed, &e).await?;
+                tracing::warn!(study_id = id, error = %e, "study did not complete");
+                let _ = self.events.send(Event::StudyFinished {
+                    study_id: id,
+                    ok: false,
+                    error: Some(e),
+                });
+                return Ok(());
+            }
+        }
+        let this = Arc::clone(self);
+        let flag = cancel.clone();
+        let outcome = tokio::task::spawn_blocking(move || {
+            catch_unwind(AssertUnwindSafe(|| {
+                with_cancel(&flag, || {
+                    for p in &paths {
+                        if let Some(scene) = p.file_stem().and_then(|s| s.to_str()) {
+                            if jobs::test_panic_requested(scene) {
+                                jobs::panic_on_the_pool(scene);
+                            }
+                        }
+                    }
+                    let events = this.events.clone();
+                    let progress = move |message: &str| {
+                        let _ = events.send(Event::StudyProgress {
+                            study_id: id,
+                            message: message.to_string(),
+                        });
+                    };
+                    this.runtime
+                        .block_on(run_study(&paths, &options, Some(&this.store), &progress))
+                        .map_err(|e| e.to_string())
+                        .and_then(|result| {
+                            let files = report_files(&result).map_err(|e| e.to_string())?;
+                            let json = serde_json::to_value(&result).map_err(|e| e.to_string())?;
+                            Ok((json, result.wall_seconds, files))
+                        })
+                })
+            }))
+            .map_err(|panic| format!("the study panicked: {}", jobs::panic_message(&*panic)))
+        })
+        .await?;
+        let outcome = match outcome {
+            Ok(Ok((json, wall_seconds, files))) if !cancel.is_cancelled() => {
+                match self.store.complete_study(id, &json, wall_seconds, &files).await {
+                    Ok(()) => Ok(()),
+                    Err(e) => Err(Some(e.to_string())),
+                }
+            }
+            Ok(Ok(_)) => Err(None),
+            // A render stopped by the flag fails the study with its error.
+            Ok(Err(_)) if cancel.is_cancelled() => Err(None),
+            Ok(Err(e)) | Err(e) => Err(Some(e)),
+        };
+        let error = match outcome {
+            Ok(()) => {
+                tracing::info!(study_id = id, "study complete");
+                None
+            }
+            Err(error) => {
+                let (end, message) = self.jobs.end_of(Job::Study, error.is_none(), error);
+                self.store.end_job(Job::Study, id, end, &message).await?;
+                tracing::warn!(study_id = id, state = end.as_str(), error = %message, "study did not complete");
+                Some(message)
+            }
+        };
+        let _ = self.events.send(Event::StudyFinished {
+            study_id: id,
+            ok: error.is_none(),
+            error,
+        });
+        Ok(())
+    }
+
+    /// Queues a render of a scene (validated settings, the scene file read
+    /// off the async workers).
+    async fn queue_render(&self, scene: String, settings: RenderSettings) -> Result<i64, ApiError> {
+        let path = self
+            .entry(&scene)
+            .map(|e| e.path.clone())
+            .ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
+        let (loaded, hash) = tokio::task::spawn_blocking(move || {
+            let loaded = render::load_scene(&path)?;
+            let hash = render::scene_hash(&loaded)?;
+            Ok::<_, RenderError>((loaded, hash))
+        })
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))?
+        .map_err(|e| ApiError::Internal(e.to_string()))?;
+        let create = async {
+            self.record(&scene, &settings, hash)
+                .await
+                .map_err(|e| ApiError::Internal(e.to_string()))
+        };
+        let work = Work::Render {
+            scene_id: scene.clone(),
+            scene: Box::new(loaded),
+            settings: settings.clone(),
+        };
+        // The caller polls /api/renders/{id} or follows the events.
+        self.jobs.enqueue(Job::Render, create, work).await
+    }
+
+    /// Queues a study (its request checked field by field).
+    async fn queue_study(&self, request: StudyRequest) -> Result<i64, ApiError> {
+        let (paths, options) = self.study_plan(&request)?;
+        let create = async {
+            self.store
+                .create_study(&serde_json::to_value(&request).unwrap_or_default())
+                .await
+                .map_err(ApiError::from)
+        };
+        let work = Work::Study {
+            paths,
+            options: Box::new(options),
+            measured_first: request.measured_first.clone(),
+        };
+        let id = self.jobs.enqueue(Job::Study, create, work).await?;
+        tracing::info!(study_id = id, "study queued");
+        Ok(id)
+    }
+
+    /// A new job with the request of an ended one (see the [jobs](super::jobs) doc).
+    async fn retry_job(&self, job: Job, id: i64) -> Result<i64, ApiError> {
+        let noun = job.noun();
+        let not_found = || ApiError::NotFound(format!("no {noun} {id}"));
+        let retryable = |state: &str| -> Result<(), ApiError> {
+            match state {
+                "interrupted" | "failed" | "cancelled" => Ok(()),
+                other => Err(ApiError::Conflict(format!(
+                    "{noun} {id} is {other}; only an interrupted, failed or cancelled {noun} can be retried"
+                ))),
+            }
+        };
+        match job {
+            Job::Render => {
+                let row = self.store.get_render(id).await?.ok_or_else(not_found)?;
+                retryable(&row.state)?;
+                let settings: RenderSettings = serde_json::from_value(row.settings.clone())
+                    .map_err(|e| ApiError::Internal(format!("render {id}'s stored settings: {e}")))?;
+                let new = self.queue_render(row.scene.clone(), settings).await?;
+                tracing::info!(render_id = new, retry_of = id, "render retried");
+                Ok(new)
+            }
+            Job::Study => {
+                let row = self.store.get_study(id).await?.ok_or_else(not_found)?;
+                retryable(&row.state)?;
+                let request: StudyRequest = serde_json::from_value(row.request.clone())
+                    .map_err(|e| ApiError::Internal(format!("study {id}'s stored request: {e}")))?;
+                let new = self.queue_study(request).await?;
+                tracing::info!(study_id = new, retry_of = id, "study retried");
+                Ok(new)
+            }
+        }
+    }
+}
+
 impl RenderService for Renderer {
     fn scenes(&self) -> Vec<SceneInfo> {
         self.scenes
@@ -460,26 +812,11 @@ impl RenderService for Renderer {
 
     fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, ApiError>> {
         Box::pin(async move {
-            let path = self
-                .entry(&scene)
-                .map(|e| e.path.clone())
-                .ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
-            let settings = self
-                .settings(&request)
-                .map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
-            let loaded = render::load_scene(&path).map_err(|e| ApiError::Internal(e.to_string()))?;
-            let hash = render::scene_hash(&loaded).map_err(|e| ApiError::Internal(e.to_string()))?;
-            let id = self
-                .record(&scene, &settings, hash)
-                .await
-                .map_err(|e| ApiError::Internal(e.to_string()))?;
-            // Run in the background; the caller polls /api/renders/{id} or follows the events.
-            tokio::spawn(async move {
-                if let Err(e) = self.execute(id, &scene, loaded, settings).await {
-                    tracing::error!(render_id = id, error = %e, "render failed");
-                }
-            });
-            Ok(id)
+            if self.entry(&scene).is_none() {
+                return Err(ApiError::NotFound(format!("no scene `{scene}`")));
+            }
+            let settings = self.settings(&request)?;
+            self.queue_render(scene, settings).await
         })
     }
 
@@ -488,61 +825,14 @@ impl RenderService for Renderer {
     }
 
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, ApiError>> {
-        Box::pin(async move {
-            let (paths, options) = self.study_plan(&request)?;
-            let id = self
-                .store
-                .create_study(&serde_json::to_value(&request).unwrap_or_default())
-                .await
-                .map_err(|e| ApiError::Internal(e.to_string()))?;
-            tracing::info!(study_id = id, scenes = paths.len(), "study started");
-            let this = Arc::clone(&self);
-            // Rendering is CPU-bound: run the study on a blocking thread (its
-            // renders use the rayon pool), never on the async workers.
-            tokio::task::spawn_blocking(move || {
-                let runtime = this.runtime.clone();
-                runtime.block_on(async {
-                    let events = this.events.clone();
-                    let progress = move |message: &str| {
-                        let _ = events.send(Event::StudyProgress {
-                            study_id: id,
-                            message: message.to_string(),
-                        });
-                    };
-                    // `measure_missing`: the measurements queued for it come first.
-                    let measured_first = match request.measured_first.as_slice() {
-                        [] => Ok(()),
-                        ids => wait_for_measurements(&this.store, ids, &progress).await,
-                    };
-                    let outcome = match measured_first {
-                        Err(e) => Err(e),
-                        Ok(()) => match run_study(&paths, &options, Some(&this.store), &progress).await {
-                            Ok(result) => match (report_files(&result), serde_json::to_value(&result)) {
-                                (Ok(files), Ok(json)) => this
-                                    .store
-                                    .complete_study(id, &json, result.wall_seconds, &files)
-                                    .await
-                                    .map_err(|e| e.to_string()),
-                                (Err(e), _) => Err(e.to_string()),
-                                (_, Err(e)) => Err(e.to_string()),
-                            },
-                            Err(e) => Err(e.to_string()),
-                        },
-                    };
-                    if let Err(e) = &outcome {
-                        tracing::error!(study_id = id, error = %e, "study failed");
-                        let _ = this.store.fail_study(id, e).await;
-                    } else {
-                        tracing::info!(study_id = id, "study complete");
-                    }
-                    let _ = this.events.send(Event::StudyFinished {
-                        study_id: id,
-                        ok: outcome.is_ok(),
-                        error: outcome.err(),
-                    });
-                });
-            });
-            Ok(id)
-        })
+        Box::pin(async move { self.queue_study(request).await })
+    }
+
+    fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), ApiError>> {
+        Box::pin(async move { self.jobs.cancel(job, id).await })
+    }
+
+    fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, ApiError>> {
+        Box::pin(async move { self.retry_job(job, id).await })
     }
 }

@@ -17,14 +17,61 @@
 //!
 //! The channel arithmetic works on contiguous `f32` slices whose length is a
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
+//!
+//! A render can be stopped between batches of paths: [`with_cancel`] gives
+//! every render started on the calling thread a [`CancelFlag`] (the daemon's
+//! jobs do; the command line's renders have none and always finish).
 
+use std::cell::RefCell;
 use std::f64::consts::PI;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use glam::DVec3;
 
 use super::coding::ChannelLayout;
 use super::geometry::{basis, Ray};
 use super::scene::{Light, Scene};
+
+/// Asks the renders of one job to stop: checked before each batch of
+/// [`BATCH_SAMPLES`] paths, so a cancelled render stops within one batch per
+/// worker thread.
+#[derive(Clone, Debug, Default)]
+pub struct CancelFlag(Arc<AtomicBool>);
+
+impl CancelFlag {
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+thread_local! {
+    static CANCEL: RefCell<Option<CancelFlag>> = const { RefCell::new(None) };
+}
+
+/// Runs `f` with `flag` as the cancellation of every render `f` starts on
+/// this thread (a thread-local, so the study's many renders need no extra
+/// argument each); the previous flag is restored afterwards, even on panic.
+pub fn with_cancel<R>(flag: &CancelFlag, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<CancelFlag>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let previous = self.0.take();
+            CANCEL.with(|c| *c.borrow_mut() = previous);
+        }
+    }
+    let _restore = Restore(CANCEL.with(|c| c.borrow_mut().replace(flag.clone())));
+    f()
+}
+
+/// The cancellation flag of renders started on this thread, if any.
+pub fn current_cancel() -> Option<CancelFlag> {
+    CANCEL.with(|c| c.borrow().clone())
+}
 
 /// Offset of spawned rays from their surface along the normal, m.
 const SPAWN_OFFSET_M: f64 = 1e-6;

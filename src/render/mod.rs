@@ -73,6 +73,9 @@ pub enum RenderError {
     Settings(String),
     #[error("{0}")]
     Io(String),
+    /// Its job's [`CancelFlag`](integrator::CancelFlag) was set.
+    #[error("the render was cancelled")]
+    Cancelled,
 }
 
 /// What to render. Serialises to (and reads from) JSON with codings as
@@ -234,13 +237,15 @@ pub fn render(
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
 ) -> Result<RenderResult, RenderError> {
+    // The flag belongs to the calling thread; the batches run on the pool's.
+    let cancel = integrator::current_cancel();
     match settings.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .map_err(|e| RenderError::Settings(e.to_string()))?
-            .install(|| render_in_pool(scene, settings, progress)),
-        None => render_in_pool(scene, settings, progress),
+            .install(|| render_in_pool(scene, settings, progress, cancel.as_ref())),
+        None => render_in_pool(scene, settings, progress, cancel.as_ref()),
     }
 }
 
@@ -248,7 +253,12 @@ fn render_in_pool(
     scene: &Scene,
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+    cancel: Option<&integrator::CancelFlag>,
 ) -> Result<RenderResult, RenderError> {
+    let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
+    if cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     let start = Instant::now();
     if settings.codings.is_empty() || settings.samples < 2 {
         return Err(RenderError::Settings("need at least one coding and two samples".into()));
@@ -294,6 +304,10 @@ fn render_in_pool(
         let partial: Vec<BatchSums> = tasks
             .par_iter()
             .map(|&(k, b)| {
+                if cancelled() {
+                    // Skipped; the whole render is refused below.
+                    return BatchSums::zero(&prep.layout);
+                }
                 let range = b * BATCH_SAMPLES..(b + 1) * BATCH_SAMPLES;
                 let t = target_indices[k];
                 let out = radiometer_batch(&prep, &transport, settings.sampler, t, settings.seed, range);
@@ -304,6 +318,9 @@ fn render_in_pool(
                 out
             })
             .collect();
+        if cancelled() {
+            return Err(RenderError::Cancelled);
+        }
         // Deterministic reduction: each target's batches in batch order.
         for ((k, _), part) in tasks.iter().zip(&partial) {
             sums[*k].add(part);
@@ -479,19 +496,69 @@ fn memory_cache() -> &'static Mutex<HashMap<(String, String), Spectrum>> {
     C.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
-/// Where the converged spectrum of `target_id` is cached in `cache_dir`.
+/// Where the converged spectrum of `target_id` is cached in `cache_dir`:
+/// the scene hash and the target id's UTF-8 bytes in hex, so two ids never
+/// share a file (`a.b` and `a_b` did when unsafe characters became `_`).
 pub fn cache_file(cache_dir: &Path, hash: &str, target_id: &str) -> PathBuf {
-    let safe: String = target_id
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
+    let hex: String = target_id.bytes().map(|b| format!("{b:02x}")).collect();
+    cache_dir.join(format!("{hash}-{hex}.csv"))
+}
+
+/// A cached converged spectrum, or `None` (with the reason logged) when the
+/// file is missing or unreadable: a torn or corrupt file is a cache miss,
+/// recomputed and replaced, never an error.
+fn read_cached(file: &Path) -> Option<Spectrum> {
+    if !file.exists() {
+        return None;
+    }
+    let read = SpectraTable::read(file)
+        .map_err(|e| e.to_string())
+        .and_then(|t| {
+            t.spectrum("radiance", SpectralUnit::SpectralRadiance)
+                .map_err(|e| e.to_string())
         })
-        .collect();
-    cache_dir.join(format!("{hash}_{safe}.csv"))
+        .and_then(|s| {
+            if !s.grid().same_as(&Grid::one_nm()) {
+                Err("not on the 1 nm grid".to_string())
+            } else if !s.values().iter().all(|v| v.is_finite()) {
+                Err("a value is not a finite number".to_string())
+            } else {
+                Ok(s)
+            }
+        });
+    match read {
+        Ok(s) => Some(s),
+        Err(e) => {
+            tracing::warn!(file = %file.display(), error = %e, "unreadable converged-spectrum cache file; recomputing it");
+            None
+        }
+    }
+}
+
+/// Writes `spectrum` to `file` atomically: a temporary file in the same
+/// folder, flushed to disk, then renamed over `file`, so a reader sees the
+/// old file or the whole new one, never a torn one.
+fn write_cached(file: &Path, spectrum: &Spectrum) -> Result<(), RenderError> {
+    use std::sync::atomic::AtomicUsize;
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let io = |e: &dyn std::fmt::Display| RenderError::Io(format!("{}: {e}", file.display()));
+    let mut tmp_name = file.as_os_str().to_os_string();
+    tmp_name.push(format!(
+        ".{}.{}.tmp",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let tmp = PathBuf::from(tmp_name);
+    let written = (|| {
+        let out = std::fs::File::create(&tmp).map_err(|e| io(&e))?;
+        write_csv(&out, spectrum.grid(), &[("radiance", spectrum.values())]).map_err(|e| io(&e))?;
+        out.sync_all().map_err(|e| io(&e))?;
+        std::fs::rename(&tmp, file).map_err(|e| io(&e))
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }
 
 /// The converged `spectral` radiance of a target, W/(sr·m²·nm) on
@@ -511,12 +578,8 @@ pub fn converged_target_spectrum(
     let hash = scene_hash(&scene)?;
     let key = (hash.clone(), target_id.to_string());
     if let Some(dir) = cache_dir {
-        let file = cache_file(dir, &hash, target_id);
-        if file.exists() {
-            let t = SpectraTable::read(&file).map_err(|e| RenderError::Io(e.to_string()))?;
-            return t
-                .spectrum("radiance", SpectralUnit::SpectralRadiance)
-                .map_err(|e| RenderError::Io(e.to_string()));
+        if let Some(s) = read_cached(&cache_file(dir, &hash, target_id)) {
+            return Ok(s);
         }
     } else if let Some(s) = memory_cache().lock().expect("cache lock").get(&key) {
         return Ok(s.clone());
@@ -525,10 +588,7 @@ pub fn converged_target_spectrum(
     match cache_dir {
         Some(dir) => {
             std::fs::create_dir_all(dir).map_err(|e| RenderError::Io(format!("{}: {e}", dir.display())))?;
-            let file = cache_file(dir, &hash, target_id);
-            let out = std::fs::File::create(&file).map_err(|e| RenderError::Io(format!("{}: {e}", file.display())))?;
-            write_csv(out, spectrum.grid(), &[("radiance", spectrum.values())])
-                .map_err(|e| RenderError::Io(format!("{}: {e}", file.display())))?;
+            write_cached(&cache_file(dir, &hash, target_id), &spectrum)?;
         }
         None => {
             memory_cache().lock().expect("cache lock").insert(key, spectrum.clone());

@@ -126,6 +126,11 @@ pub trait RenderService: Send + Sync {
     fn check_study(&self, request: &StudyRequest) -> Result<(), error::ApiError>;
     /// Records a study and starts it in the background; resolves to its id at once.
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, error::ApiError>>;
+    /// Cancels a queued or running render or study (409 once it has ended).
+    fn cancel(self: Arc<Self>, job: crate::store::Job, id: i64) -> BoxFuture<Result<(), error::ApiError>>;
+    /// Queues a new render or study with the request of an interrupted,
+    /// failed or cancelled one; resolves to the new id.
+    fn retry(self: Arc<Self>, job: crate::store::Job, id: i64) -> BoxFuture<Result<i64, error::ApiError>>;
 }
 
 /// Options of a study started through the API (see `lightbooth study`).

@@ -3,11 +3,13 @@
 //! raw sample**, renders, and comparisons.
 //!
 //! - Migrations (`migrations/`) are embedded in the binary and applied when
-//!   the store opens; the database runs in WAL mode with foreign keys on.
+//!   the store opens; the database runs in WAL mode with foreign keys on
+//!   and `synchronous = FULL` (a committed sample survives power loss).
 //! - A sample is written when it is taken, so a crash or a pulled cable keeps
 //!   the samples taken; a measurement is `complete` only with its average
 //!   (the schema enforces it), and measurements left `running` or `queued` by
-//!   a crash are marked `interrupted` when the store next opens.
+//!   a crash are marked `interrupted` when the store next opens, as are
+//!   renders and studies left `queued` or `running`.
 //! - Times are POSIX seconds (f64, UTC); spectra are JSON arrays of numbers.
 //!
 //! ```no_run
@@ -97,6 +99,53 @@ impl FromStr for MeasurementState {
     }
 }
 
+/// The two kinds of background job besides measurements: renders and
+/// studies share the lifecycle `queued → running → complete | failed |
+/// interrupted | cancelled`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Job {
+    Render,
+    Study,
+}
+
+impl Job {
+    /// The table (and API collection) name.
+    pub fn table(self) -> &'static str {
+        match self {
+            Job::Render => "renders",
+            Job::Study => "studies",
+        }
+    }
+
+    pub fn noun(self) -> &'static str {
+        match self {
+            Job::Render => "render",
+            Job::Study => "study",
+        }
+    }
+}
+
+/// How an unfinished render or study ends when it does not complete.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobEnd {
+    /// Its own error (a bad scene, a panic in the renderer).
+    Failed,
+    /// The daemon stopped under it; it can be retried.
+    Interrupted,
+    /// A client cancelled it.
+    Cancelled,
+}
+
+impl JobEnd {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobEnd::Failed => "failed",
+            JobEnd::Interrupted => "interrupted",
+            JobEnd::Cancelled => "cancelled",
+        }
+    }
+}
+
 /// A handle on the database; cheap to clone (a connection pool).
 #[derive(Clone, Debug)]
 pub struct Store {
@@ -107,13 +156,24 @@ impl Store {
     /// Opens (creating if needed) the database at `url` (`sqlite://path` or
     /// `sqlite::memory:`), applies migrations, and marks measurements a crash
     /// left unfinished as interrupted.
+    ///
+    /// Durability: `synchronous = FULL`, so every committed write — each raw
+    /// sample, each finished measurement — is on disk (WAL fsynced) before
+    /// the call returns, and survives an OS crash or power loss, not only a
+    /// crash of the daemon (NORMAL's promise in WAL mode, which can lose the
+    /// last transactions on power loss). The cost is one fsync per commit;
+    /// `cargo bench --bench sample_durability` measures it (see the README).
     pub async fn open(url: &str) -> Result<Store, StoreError> {
+        Store::open_with_synchronous(url, SqliteSynchronous::Full).await
+    }
+
+    /// [`Store::open`] with another `synchronous` mode (the benchmark compares
+    /// FULL with NORMAL).
+    pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
         let options = SqliteConnectOptions::from_str(url)?
             .create_if_missing(true)
             .journal_mode(SqliteJournalMode::Wal)
-            // NORMAL is durable across application crashes in WAL mode; only
-            // an OS crash or power loss can lose the last transactions.
-            .synchronous(SqliteSynchronous::Normal)
+            .synchronous(synchronous)
             .foreign_keys(true)
             .busy_timeout(Duration::from_secs(5));
         // An in-memory database lives per connection: keep exactly one.
@@ -133,6 +193,25 @@ impl Store {
                 "marked measurements left unfinished by the last run as interrupted"
             );
         }
+        for job in [Job::Render, Job::Study] {
+            let n = store
+                .interrupt_unfinished_jobs(
+                    job,
+                    &format!(
+                        "the daemon stopped before this {} finished; retry it with POST /api/{}/{{id}}/retry",
+                        job.noun(),
+                        job.table()
+                    ),
+                )
+                .await?;
+            if n > 0 {
+                tracing::warn!(
+                    count = n,
+                    "marked {} left unfinished by the last run as interrupted",
+                    job.table()
+                );
+            }
+        }
         Ok(store)
     }
 
@@ -151,6 +230,59 @@ impl Store {
         .execute(&self.pool)
         .await?;
         Ok(r.rows_affected())
+    }
+
+    /// Marks every queued or running render (or study) interrupted, with
+    /// `why` as its error: at start-up after a crash, and at shutdown.
+    pub async fn interrupt_unfinished_jobs(&self, job: Job, why: &str) -> Result<u64, StoreError> {
+        let r = sqlx::query(&format!(
+            "UPDATE {} SET state = 'interrupted', error = ?, finished_at = ? WHERE state IN ('queued', 'running')",
+            job.table()
+        ))
+        .bind(why)
+        .bind(now())
+        .execute(&self.pool)
+        .await?;
+        Ok(r.rows_affected())
+    }
+
+    /// `queued → running` for a render or study. False when it is no longer
+    /// queued (cancelled while it waited): it must not run.
+    pub async fn start_job(&self, job: Job, id: i64) -> Result<bool, StoreError> {
+        let r = sqlx::query(&format!(
+            "UPDATE {} SET state = 'running' WHERE id = ? AND state = 'queued'",
+            job.table()
+        ))
+        .bind(id)
+        .execute(&self.pool)
+        .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    /// Ends an unfinished render or study as failed, interrupted or
+    /// cancelled; false when it had already ended.
+    pub async fn end_job(&self, job: Job, id: i64, state: JobEnd, error: &str) -> Result<bool, StoreError> {
+        let r = sqlx::query(&format!(
+            "UPDATE {} SET state = ?, error = ?, finished_at = ? WHERE id = ? AND state IN ('queued', 'running')",
+            job.table()
+        ))
+        .bind(state.as_str())
+        .bind(error)
+        .bind(now())
+        .bind(id)
+        .execute(&self.pool)
+        .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    /// The state of a render or study (`None`: no such id).
+    pub async fn job_state(&self, job: Job, id: i64) -> Result<Option<String>, StoreError> {
+        Ok(
+            sqlx::query_scalar(&format!("SELECT state FROM {} WHERE id = ?", job.table()))
+                .bind(id)
+                .fetch_optional(&self.pool)
+                .await?,
+        )
     }
 
     // --- instruments and sessions ---------------------------------------
@@ -439,7 +571,7 @@ impl Store {
     pub async fn create_render(&self, r: &NewRender) -> Result<i64, StoreError> {
         let row = sqlx::query(
             "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at) \
-             VALUES (?, ?, ?, ?, ?, 'running', ?) RETURNING id",
+             VALUES (?, ?, ?, ?, ?, 'queued', ?) RETURNING id",
         )
         .bind(&r.scene)
         .bind(&r.scene_hash)
@@ -460,7 +592,8 @@ impl Store {
         match result {
             Ok((json, wall)) => {
                 sqlx::query(
-                    "UPDATE renders SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? WHERE id = ?",
+                    "UPDATE renders SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? \
+                     WHERE id = ? AND state = 'running'",
                 )
                 .bind(json.to_string())
                 .bind(wall)
@@ -470,12 +603,15 @@ impl Store {
                 .await?
             }
             Err(e) => {
-                sqlx::query("UPDATE renders SET state = 'failed', error = ?, finished_at = ? WHERE id = ?")
-                    .bind(e)
-                    .bind(now())
-                    .bind(id)
-                    .execute(&self.pool)
-                    .await?
+                sqlx::query(
+                    "UPDATE renders SET state = 'failed', error = ?, finished_at = ? \
+                     WHERE id = ? AND state IN ('queued', 'running')",
+                )
+                .bind(e)
+                .bind(now())
+                .bind(id)
+                .execute(&self.pool)
+                .await?
             }
         };
         Ok(())
@@ -557,10 +693,10 @@ impl Store {
 
     // --- studies ----------------------------------------------------------
 
-    /// Records a study about to run.
+    /// Records a study as `queued`.
     pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
         let row =
-            sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'running', ?) RETURNING id")
+            sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'queued', ?) RETURNING id")
                 .bind(request.to_string())
                 .bind(now())
                 .fetch_one(&self.pool)
@@ -585,8 +721,9 @@ impl Store {
                 .execute(&mut *tx)
                 .await?;
         }
-        sqlx::query(
-            "UPDATE studies SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? WHERE id = ?",
+        let r = sqlx::query(
+            "UPDATE studies SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? \
+             WHERE id = ? AND state = 'running'",
         )
         .bind(result.to_string())
         .bind(wall_seconds)
@@ -594,6 +731,10 @@ impl Store {
         .bind(id)
         .execute(&mut *tx)
         .await?;
+        if r.rows_affected() != 1 {
+            // Cancelled or interrupted meanwhile: keep nothing (the transaction rolls back).
+            return Err(StoreError::Conflict(format!("study {id} is not running")));
+        }
         tx.commit().await?;
         Ok(())
     }

@@ -161,3 +161,148 @@ async fn comparisons_are_all_or_nothing() {
     assert_eq!(latest.len(), 2);
     assert_eq!(latest[0].coding, "rgb");
 }
+
+fn new_render() -> NewRender {
+    NewRender {
+        scene: "white".into(),
+        scene_hash: "0123456789abcdef".into(),
+        settings_json: serde_json::json!({"samples": 2048}),
+        codings: vec!["rgb".into()],
+        seed: 1,
+    }
+}
+
+#[tokio::test]
+async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens() {
+    let (_dir, store, url) = temp_store().await;
+    let running = store.create_render(&new_render()).await.unwrap();
+    assert!(store.start_job(Job::Render, running).await.unwrap());
+    let queued = store.create_render(&new_render()).await.unwrap();
+    let done = store.create_render(&new_render()).await.unwrap();
+    store.start_job(Job::Render, done).await.unwrap();
+    store
+        .finish_render(done, Ok((&serde_json::json!({"targets": []}), 1.0)))
+        .await
+        .unwrap();
+    let study = store
+        .create_study(&serde_json::json!({"scenes": "white"}))
+        .await
+        .unwrap();
+    assert!(store.start_job(Job::Study, study).await.unwrap());
+    store.pool().close().await;
+
+    let store = Store::open(&url).await.unwrap();
+    for id in [running, queued] {
+        let r = store.get_render(id).await.unwrap().unwrap();
+        assert_eq!(r.state, "interrupted");
+        assert!(r.error.unwrap().contains("retry it with POST /api/renders/{id}/retry"));
+    }
+    assert_eq!(store.get_render(done).await.unwrap().unwrap().state, "complete");
+    let s = store.get_study(study).await.unwrap().unwrap();
+    assert_eq!(s.state, "interrupted");
+    assert!(s.error.unwrap().contains("/api/studies/{id}/retry"));
+    // An ended job does not start again.
+    assert!(!store.start_job(Job::Render, running).await.unwrap());
+}
+
+#[tokio::test]
+async fn job_states_move_only_forward() {
+    let (_dir, store, _) = temp_store().await;
+    let id = store.create_render(&new_render()).await.unwrap();
+    assert_eq!(
+        store.job_state(Job::Render, id).await.unwrap().as_deref(),
+        Some("queued")
+    );
+    assert!(store
+        .end_job(Job::Render, id, JobEnd::Cancelled, "by a test")
+        .await
+        .unwrap());
+    assert!(
+        !store.start_job(Job::Render, id).await.unwrap(),
+        "a cancelled render never runs"
+    );
+    assert!(!store.end_job(Job::Render, id, JobEnd::Failed, "late").await.unwrap());
+    assert_eq!(
+        store.job_state(Job::Render, id).await.unwrap().as_deref(),
+        Some("cancelled")
+    );
+    // A cancelled study keeps no report even if its run finishes afterwards.
+    let study = store.create_study(&serde_json::json!({})).await.unwrap();
+    store.start_job(Job::Study, study).await.unwrap();
+    store
+        .end_job(Job::Study, study, JobEnd::Cancelled, "by a test")
+        .await
+        .unwrap();
+    let files = vec![("index.html".to_string(), b"<html>".to_vec())];
+    assert!(store
+        .complete_study(study, &serde_json::json!({}), 1.0, &files)
+        .await
+        .is_err());
+    assert!(store.get_study(study).await.unwrap().unwrap().files.is_empty());
+}
+
+/// Migration 0005 rebuilds `renders` and `studies` (wider state checks):
+/// every row, the comparisons that reference renders, and every study file
+/// must survive it.
+#[tokio::test]
+async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = dir.path().join("migrations");
+    std::fs::create_dir(&old).unwrap();
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+    for entry in std::fs::read_dir(&all).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        if name.as_str() < "0005" {
+            std::fs::copy(&path, old.join(&name)).unwrap();
+        }
+    }
+    let url = format!("sqlite://{}", dir.path().join("old.sqlite").display());
+    {
+        let options = SqliteConnectOptions::from_str(&url)
+            .unwrap()
+            .create_if_missing(true)
+            .foreign_keys(true);
+        let pool = SqlitePool::connect_with(options).await.unwrap();
+        sqlx::migrate::Migrator::new(old.as_path())
+            .await
+            .unwrap()
+            .run(&pool)
+            .await
+            .unwrap();
+        for sql in [
+            "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at) \
+             VALUES (1, 5, '{}', 'failed', 0)",
+            "INSERT INTO renders (id, scene, scene_hash, settings_json, codings, seed, state, created_at, result_json, preview_png) \
+             VALUES (7, 'white', 'h', '{}', 'rgb', 1, 'complete', 0, '{}', x'89504e47')",
+            "INSERT INTO renders (id, scene, scene_hash, settings_json, codings, seed, state, created_at) \
+             VALUES (8, 'white', 'h', '{}', 'rgb', 1, 'running', 0)",
+            "INSERT INTO comparisons (measurement_id, render_id, scene, target, coding, white_source, white_x, white_y, \
+             white_z, measured_x, measured_y, measured_z, rendered_x, rendered_y, rendered_z, rendered_y_se, y_ratio, \
+             xy_distance, de76, de00, created_at) VALUES (1, 7, 'white', 'patch', 'rgb', 'w', 1, 1, 1, 1, 1, 1, 1, 1, 1, \
+             0, 1, 0, 0, 0, 0)",
+            "INSERT INTO studies (id, request_json, state, created_at, result_json) VALUES (3, '{}', 'complete', 0, '{}')",
+            "INSERT INTO study_files (study_id, name, content) VALUES (3, 'index.html', x'3c68746d6c3e')",
+        ] {
+            sqlx::query(sql).execute(&pool).await.unwrap();
+        }
+        pool.close().await;
+    }
+    let store = Store::open(&url).await.unwrap();
+    let kept = store.get_render(7).await.unwrap().unwrap();
+    assert_eq!(kept.state, "complete");
+    assert_eq!(store.render_preview(7).await.unwrap().unwrap(), b"\x89PNG".to_vec());
+    assert_eq!(store.get_render(8).await.unwrap().unwrap().state, "interrupted");
+    assert_eq!(store.comparisons_for_measurement(1).await.unwrap().len(), 1);
+    let study = store.get_study(3).await.unwrap().unwrap();
+    assert_eq!(study.files, vec!["index.html".to_string()]);
+    assert_eq!(
+        store.study_file(3, "index.html").await.unwrap().unwrap(),
+        b"<html>".to_vec()
+    );
+    let violations = sqlx::query("PRAGMA foreign_key_check")
+        .fetch_all(store.pool())
+        .await
+        .unwrap();
+    assert!(violations.is_empty(), "no dangling references after the rebuild");
+}

@@ -1,6 +1,7 @@
 //! `/api/health` and `/api/instruments`: is the daemon alive, and what is the instrument doing.
 
 use axum::extract::State;
+use axum::http::StatusCode;
 use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
@@ -11,25 +12,46 @@ use crate::store::InstrumentRow;
 
 #[derive(Serialize, ToSchema)]
 pub struct Health {
-    /// "ok" when the database answers.
+    /// `ok`; `degraded` while the instrument task restarts after a panic
+    /// (measurements are refused meanwhile); `down` (with 503) when the
+    /// instrument task has stopped and no measurement can run.
     pub status: String,
     pub version: String,
     pub instrument: InstrumentStatus,
+    /// The thread that owns the instrument: `running`, `restarting` or `stopped`.
+    pub instrument_task: String,
     pub queued_measurements: usize,
 }
 
-#[utoipa::path(get, path = "/api/health", tag = "service", responses((status = 200, body = Health)))]
-pub async fn health(State(state): State<AppState>) -> Result<Json<Health>, ApiError> {
+/// Is the daemon alive: the database answers and the instrument task runs.
+/// 503 (with the same body) when the instrument task is gone.
+#[utoipa::path(get, path = "/api/health", tag = "service",
+    responses((status = 200, body = Health),
+              (status = 503, description = "the instrument task has stopped", body = Health)))]
+pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<Health>), ApiError> {
     sqlx::query("SELECT 1")
         .execute(state.store.pool())
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))?;
-    Ok(Json(Health {
-        status: "ok".into(),
-        version: env!("CARGO_PKG_VERSION").into(),
-        instrument: state.status.borrow().clone(),
-        queued_measurements: state.jobs.max_capacity() - state.jobs.capacity(),
-    }))
+    let instrument = state.status.borrow().clone();
+    // The task holds the receiving end of the queue for as long as it runs.
+    let (code, status, task) = if state.jobs.is_closed() {
+        (StatusCode::SERVICE_UNAVAILABLE, "down", "stopped")
+    } else if matches!(instrument, InstrumentStatus::Error { .. }) {
+        (StatusCode::OK, "degraded", "restarting")
+    } else {
+        (StatusCode::OK, "ok", "running")
+    };
+    Ok((
+        code,
+        Json(Health {
+            status: status.into(),
+            version: env!("CARGO_PKG_VERSION").into(),
+            instrument,
+            instrument_task: task.into(),
+            queued_measurements: state.jobs.max_capacity() - state.jobs.capacity(),
+        }),
+    ))
 }
 
 #[derive(Serialize, ToSchema)]

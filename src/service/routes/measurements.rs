@@ -82,12 +82,17 @@ pub async fn start_measurement(
             )));
         }
     }
-    if state.jobs.capacity() == 0 {
-        return Err(ApiError::Conflict(format!(
+    // Hold a slot in the queue before the row exists: a refused request
+    // leaves nothing behind, and an admitted one cannot find the queue full.
+    let permit = state.jobs.try_reserve().map_err(|e| match e {
+        tokio::sync::mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
             "the instrument is busy: {} measurements are already queued; try again when one finishes",
             state.jobs.max_capacity()
-        )));
-    }
+        )),
+        tokio::sync::mpsc::error::TrySendError::Closed(()) => {
+            ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
+        }
+    })?;
     let id = state
         .store
         .create_measurement(&NewMeasurement {
@@ -99,19 +104,12 @@ pub async fn start_measurement(
             note: body.note.unwrap_or_default(),
         })
         .await?;
-    let job = MeasurementJob {
+    permit.send(MeasurementJob {
         id,
         samples,
         scene: body.scene,
         target: body.target,
-    };
-    if let Err(e) = state.jobs.try_send(job) {
-        state
-            .store
-            .end_measurement(id, MeasurementState::Cancelled, "the instrument queue was full")
-            .await?;
-        return Err(ApiError::Conflict(format!("the instrument is busy: {e}")));
-    }
+    });
     tracing::info!(measurement_id = id, samples, "measurement queued");
     let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
     Ok((

@@ -14,7 +14,7 @@ mod scenes;
 mod sessions;
 mod studies;
 
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::Router;
 
 pub use comparisons::*;
@@ -51,7 +51,11 @@ pub fn api_router() -> Router<AppState> {
         .route("/studies", get(list_studies).post(start_study))
         .route("/studies/{id}", get(get_study))
         .route("/studies/{id}/files/{name}", get(study_file))
+        .route("/studies/{id}/cancel", post(cancel_study))
+        .route("/studies/{id}/retry", post(retry_study))
         .route("/renders/{id}", get(get_render))
+        .route("/renders/{id}/cancel", post(cancel_render))
+        .route("/renders/{id}/retry", post(retry_render))
         .route("/renders/{id}/preview.png", get(render_preview))
         .route("/events", get(events::stream))
         .route("/mock/faults", axum::routing::post(mock_faults))

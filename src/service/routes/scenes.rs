@@ -13,7 +13,7 @@ use utoipa::ToSchema;
 use crate::service::error::ApiError;
 use crate::service::input::Input;
 use crate::service::{AppState, RenderRequest, SceneInfo};
-use crate::store::RenderRow;
+use crate::store::{Job, RenderRow};
 
 pub(super) fn scenes(state: &AppState) -> Result<Vec<SceneInfo>, ApiError> {
     Ok(state
@@ -69,7 +69,10 @@ pub struct RenderAccepted {
 
 #[utoipa::path(post, path = "/api/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
     request_body = RenderRequest,
-    responses((status = 202, body = RenderAccepted), (status = 404, body = crate::service::error::ErrorBody)),
+    responses((status = 202, body = RenderAccepted), (status = 400, body = crate::service::error::ErrorBody),
+              (status = 401, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, description = "the render queue is full", body = crate::service::error::ErrorBody),
+              (status = 503, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_render(
     State(state): State<AppState>,
@@ -100,6 +103,56 @@ pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> R
         .await?
         .map(Json)
         .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))
+}
+
+/// Cancels a queued render at once, or stops a running one within a batch
+/// of paths (it then ends `cancelled`); answers with the render as it is now.
+#[utoipa::path(post, path = "/api/renders/{id}/cancel", tag = "renders", params(("id" = i64, Path)),
+    responses((status = 202, body = RenderRow), (status = 401, body = crate::service::error::ErrorBody),
+              (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, description = "the render has already ended", body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn cancel_render(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<RenderRow>), ApiError> {
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    Arc::clone(service).cancel(Job::Render, id).await?;
+    let row = state
+        .store
+        .get_render(id)
+        .await?
+        .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))?;
+    Ok((StatusCode::ACCEPTED, Json(row)))
+}
+
+/// Queues a new render (a new id) with the scene and settings of an
+/// interrupted, failed or cancelled one; the old render stays as it ended.
+#[utoipa::path(post, path = "/api/renders/{id}/retry", tag = "renders", params(("id" = i64, Path)),
+    responses((status = 202, body = RenderAccepted), (status = 401, body = crate::service::error::ErrorBody),
+              (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, description = "the render is not retryable, or the queue is full",
+               body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn retry_render(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    let render_id = Arc::clone(service).retry(Job::Render, id).await?;
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(RenderAccepted {
+            render_id,
+            url: format!("/api/renders/{render_id}"),
+        }),
+    ))
 }
 
 /// The scene's camera view of a render (tone-mapped sRGB), once the render is complete.

@@ -13,7 +13,7 @@ use super::measurements::enqueue_measurement;
 use crate::service::error::ApiError;
 use crate::service::input::Input;
 use crate::service::{AppState, InstrumentStatus, StudyRequest};
-use crate::store::{NewMeasurement, StudyRow};
+use crate::store::{Job, NewMeasurement, StudyRow};
 
 #[utoipa::path(get, path = "/api/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
@@ -35,7 +35,9 @@ pub struct StudyAccepted {
 /// study missing measurements is refused with 409 naming them.
 #[utoipa::path(post, path = "/api/studies", tag = "studies", request_body = StudyRequest,
     responses((status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody),
-              (status = 409, body = crate::service::error::ErrorBody, description = "measurements are missing, or the instrument queue cannot take them"),
+              (status = 401, body = crate::service::error::ErrorBody),
+              (status = 409, body = crate::service::error::ErrorBody,
+               description = "measurements are missing, the instrument queue cannot take them, or the render queue is full"),
               (status = 503, body = crate::service::error::ErrorBody, description = "measurements are missing and the instrument is unavailable")),
     security(("bearer" = [])))]
 pub async fn start_study(
@@ -81,6 +83,56 @@ pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Re
         .await?
         .map(Json)
         .ok_or_else(|| ApiError::NotFound(format!("no study {id}")))
+}
+
+/// Cancels a queued study at once, or stops a running one at its next
+/// batch of paths (it then ends `cancelled`); answers with the study as it is now.
+#[utoipa::path(post, path = "/api/studies/{id}/cancel", tag = "studies", params(("id" = i64, Path)),
+    responses((status = 202, body = StudyRow), (status = 401, body = crate::service::error::ErrorBody),
+              (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, description = "the study has already ended", body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn cancel_study(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<StudyRow>), ApiError> {
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    Arc::clone(service).cancel(Job::Study, id).await?;
+    let row = state
+        .store
+        .get_study(id)
+        .await?
+        .ok_or_else(|| ApiError::NotFound(format!("no study {id}")))?;
+    Ok((StatusCode::ACCEPTED, Json(row)))
+}
+
+/// Queues a new study (a new id) with the request of an interrupted,
+/// failed or cancelled one; the old study stays as it ended.
+#[utoipa::path(post, path = "/api/studies/{id}/retry", tag = "studies", params(("id" = i64, Path)),
+    responses((status = 202, body = StudyAccepted), (status = 401, body = crate::service::error::ErrorBody),
+              (status = 404, body = crate::service::error::ErrorBody),
+              (status = 409, description = "the study is not retryable, or the queue is full",
+               body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn retry_study(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<StudyAccepted>), ApiError> {
+    let service = state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    let new = Arc::clone(service).retry(Job::Study, id).await?;
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(StudyAccepted {
+            id: new,
+            url: format!("/api/studies/{new}"),
+        }),
+    ))
 }
 
 /// A file of a study's report: `index.html` (the whole report), a chart

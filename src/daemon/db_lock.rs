@@ -1,0 +1,115 @@
+//! One daemon per database file. At start-up the daemon marks every
+//! measurement, render and study left unfinished as interrupted; a second
+//! daemon on the same file would do that to the first one's running work.
+//! So the daemon holds an exclusive lock on `<database>.lock` (an advisory
+//! `flock` through [`std::fs::File::try_lock`]) for as long as it runs; the
+//! operating system releases it when the process ends, even on `kill -9`.
+//! The file also holds the holder's pid, for the message a second daemon
+//! prints.
+
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// The held lock; released when dropped.
+#[derive(Debug)]
+pub struct DbLock {
+    _file: File,
+    pub path: PathBuf,
+}
+
+/// The database file of an `sqlite:` URL; `None` for an in-memory database.
+pub fn database_path(url: &str) -> Option<PathBuf> {
+    let rest = url.strip_prefix("sqlite://").or_else(|| url.strip_prefix("sqlite:"))?;
+    let path = rest.split('?').next().unwrap_or_default();
+    if path.is_empty() || path.contains(":memory:") || url.contains("mode=memory") {
+        return None;
+    }
+    Some(PathBuf::from(path))
+}
+
+/// The lock file next to a database file: `lab.sqlite` → `lab.sqlite.lock`.
+pub fn lock_path(database: &Path) -> PathBuf {
+    let mut name = database.as_os_str().to_os_string();
+    name.push(".lock");
+    PathBuf::from(name)
+}
+
+/// Takes the lock of the database at `url` or says who holds it.
+pub fn acquire(url: &str) -> anyhow::Result<Option<DbLock>> {
+    let Some(database) = database_path(url) else {
+        return Ok(None);
+    };
+    let path = lock_path(&database);
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("cannot create the folder {}: {e}", dir.display()))?;
+    }
+    let mut file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(|e| anyhow::anyhow!("cannot open the lock file {}: {e}", path.display()))?;
+    match file.try_lock() {
+        Ok(()) => {}
+        Err(TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = file.read_to_string(&mut holder);
+            let pid = match holder.trim().parse::<u32>() {
+                Ok(pid) => format!("pid {pid}"),
+                Err(_) => "pid unknown".into(),
+            };
+            anyhow::bail!(
+                "the database {} is in use by another lightbooth daemon ({pid}; lock file {}): \
+                 stop that daemon first, or give this one another --db",
+                database.display(),
+                path.display()
+            );
+        }
+        Err(TryLockError::Error(e)) => {
+            anyhow::bail!(
+                "cannot lock {} (for the database {}): {e}",
+                path.display(),
+                database.display()
+            )
+        }
+    }
+    // Ours now: record who holds it.
+    file.set_len(0)?;
+    file.seek(SeekFrom::Start(0))?;
+    writeln!(file, "{}", std::process::id())?;
+    file.flush()?;
+    Ok(Some(DbLock { _file: file, path }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn database_urls_name_their_file() {
+        assert_eq!(database_path("sqlite://lab.sqlite"), Some(PathBuf::from("lab.sqlite")));
+        assert_eq!(
+            database_path("sqlite:///tmp/x/lab.sqlite?mode=rwc"),
+            Some(PathBuf::from("/tmp/x/lab.sqlite"))
+        );
+        assert_eq!(database_path("sqlite::memory:"), None);
+        assert_eq!(
+            lock_path(Path::new("/a/lab.sqlite")),
+            PathBuf::from("/a/lab.sqlite.lock")
+        );
+    }
+
+    #[test]
+    fn a_second_lock_on_one_database_is_refused_naming_the_file_and_the_pid() {
+        let dir = tempfile::tempdir().unwrap();
+        let url = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+        let first = acquire(&url).unwrap().expect("a file database is locked");
+        let err = acquire(&url).unwrap_err().to_string();
+        assert!(err.contains("lab.sqlite"), "{err}");
+        assert!(err.contains(&format!("pid {}", std::process::id())), "{err}");
+        drop(first);
+        assert!(acquire(&url).unwrap().is_some(), "released when dropped");
+    }
+}

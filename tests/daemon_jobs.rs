@@ -1,0 +1,327 @@
+//! Renders and studies as bounded, cancellable jobs, and what a refused or
+//! broken request leaves behind, against a whole daemon in-process (real
+//! SQLite file, real HTTP on loopback, the simulated PR-650 on a pty).
+
+mod common;
+
+use std::time::Duration;
+
+use common::{get_json, poll_until, post_json, request, Daemon, TOKEN};
+use lightbooth::daemon::jobs::{JOB_QUEUE_CAPACITY, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
+use lightbooth::daemon::QUEUE_CAPACITY;
+use lightbooth::store::Store;
+
+/// A render of CYLINDER (21 targets) big enough to run for minutes.
+const HEAVY: &str = r#"{"samples":4194304,"bounces":64,"codings":"rgb,spectral"}"#;
+
+async fn count(addr: std::net::SocketAddr, path: &str) -> usize {
+    let (status, v) = get_json(addr, path).await;
+    assert_eq!(status, 200, "{path}: {v}");
+    v.as_array().map(Vec::len).unwrap_or(0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn render_request_of_4e9_samples_or_bounces_is_refused_naming_the_field_and_limit() {
+    let d = Daemon::start(0.0).await;
+    for (body, field, limit) in [
+        (r#"{"samples":4000000000}"#, "samples", MAX_RENDER_SAMPLES),
+        (r#"{"bounces":4000000000}"#, "bounces", MAX_RENDER_BOUNCES),
+    ] {
+        let (status, e) = post_json(d.addr, "/api/scenes/white/renders", TOKEN, body).await;
+        assert_eq!(status, 400, "{body}: {e}");
+        let message = e["error"]["message"].as_str().unwrap();
+        assert!(message.contains(&format!("`{field}`")), "{message}");
+        assert!(message.contains(&limit.to_string()), "{message}");
+    }
+    let (status, e) = post_json(d.addr, "/api/scenes/white/renders", TOKEN, r#"{"codings":"rgb,rgb"}"#).await;
+    assert_eq!(status, 400, "{e}");
+    assert_eq!(
+        count(d.addr, "/api/scenes/white/renders").await,
+        0,
+        "a refused request records nothing"
+    );
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn render_queue_full_refuses_with_409_leaves_no_row_and_cancel_ends_every_job() {
+    let d = Daemon::start(0.0).await;
+    let mut ids = Vec::new();
+    // One running and JOB_QUEUE_CAPACITY waiting.
+    for _ in 0..=JOB_QUEUE_CAPACITY {
+        let (status, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+        assert_eq!(status, 202, "{r}");
+        ids.push(r["render_id"].as_i64().unwrap());
+    }
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{}", ids[0]),
+        Duration::from_secs(30),
+        |v| v["state"] == "running",
+    )
+    .await;
+    let before = count(d.addr, "/api/scenes/cylinder/renders").await;
+    let studies_before = count(d.addr, "/api/studies").await;
+    for _ in 0..5 {
+        let (status, e) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+        assert_eq!(status, 409, "{e}");
+        assert!(e["error"]["message"].as_str().unwrap().contains("queue is full"), "{e}");
+        let (status, e) = post_json(
+            d.addr,
+            "/api/studies",
+            TOKEN,
+            r#"{"scenes":"white","seeds":1,"against":"reference"}"#,
+        )
+        .await;
+        assert_eq!(status, 409, "{e}");
+    }
+    assert_eq!(
+        count(d.addr, "/api/scenes/cylinder/renders").await,
+        before,
+        "refusals leave no render row"
+    );
+    assert_eq!(
+        count(d.addr, "/api/studies").await,
+        studies_before,
+        "refusals leave no study row"
+    );
+
+    // Cancel a waiting one: it ends at once; then the running one: it stops.
+    let (status, r) = post_json(d.addr, &format!("/api/renders/{}/cancel", ids[3]), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{r}");
+    assert_eq!(r["state"], "cancelled", "{r}");
+    let (status, _) = post_json(d.addr, &format!("/api/renders/{}/cancel", ids[3]), TOKEN, "{}").await;
+    assert_eq!(status, 409, "an ended render cannot be cancelled again");
+    for id in ids.iter().filter(|&&i| i != ids[3]) {
+        let (status, r) = post_json(d.addr, &format!("/api/renders/{id}/cancel"), TOKEN, "{}").await;
+        assert_eq!(status, 202, "{r}");
+    }
+    for id in &ids {
+        let r = poll_until(d.addr, &format!("/api/renders/{id}"), Duration::from_secs(30), |v| {
+            v["state"] != "running" && v["state"] != "queued"
+        })
+        .await;
+        assert_eq!(r["state"], "cancelled", "{r}");
+        assert!(r["result"].is_null());
+    }
+    let (status, _) = post_json(d.addr, "/api/renders/999999/cancel", TOKEN, "{}").await;
+    assert_eq!(status, 404);
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancelled_render_and_study_can_be_retried_as_new_jobs() {
+    let d = Daemon::start(0.0).await;
+    let (_, r) = post_json(
+        d.addr,
+        "/api/scenes/white/renders",
+        TOKEN,
+        r#"{"samples":4096,"codings":"rgb"}"#,
+    )
+    .await;
+    let first = r["render_id"].as_i64().unwrap();
+    let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+    let heavy = r["render_id"].as_i64().unwrap();
+    let (_, s) = post_json(
+        d.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"white","seeds":1,"against":"reference"}"#,
+    )
+    .await;
+    let study = s["id"].as_i64().unwrap();
+    // The heavy render waits behind the first, the study behind both: cancel them.
+    let (status, r) = post_json(d.addr, &format!("/api/studies/{study}/cancel"), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{r}");
+    assert_eq!(r["state"], "cancelled", "{r}");
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{heavy}"),
+        Duration::from_secs(120),
+        |v| v["state"] == "running",
+    )
+    .await;
+    post_json(d.addr, &format!("/api/renders/{heavy}/cancel"), TOKEN, "{}").await;
+    let done = poll_until(
+        d.addr,
+        &format!("/api/renders/{first}"),
+        Duration::from_secs(120),
+        |v| v["state"] == "complete",
+    )
+    .await;
+    assert!(done["result"].is_object());
+    let (status, e) = post_json(d.addr, &format!("/api/renders/{first}/retry"), TOKEN, "{}").await;
+    assert_eq!(status, 409, "a complete render is not retried: {e}");
+
+    // Retry the cancelled study: a new id with the same request, which completes.
+    let (status, s) = post_json(d.addr, &format!("/api/studies/{study}/retry"), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{s}");
+    let again = s["id"].as_i64().unwrap();
+    assert_ne!(again, study);
+    let st = poll_until(
+        d.addr,
+        &format!("/api/studies/{again}"),
+        Duration::from_secs(300),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
+    .await;
+    assert_eq!(st["state"], "complete", "{st}");
+    assert_eq!(st["request"]["scenes"], "white");
+    let (_, old) = get_json(d.addr, &format!("/api/studies/{study}")).await;
+    assert_eq!(old["state"], "cancelled", "the old row stays as it ended");
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_cancels_a_running_render_and_marks_it_interrupted() {
+    let d = Daemon::start(0.0).await;
+    let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+    let running = r["render_id"].as_i64().unwrap();
+    let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+    let queued = r["render_id"].as_i64().unwrap();
+    poll_until(
+        d.addr,
+        &format!("/api/renders/{running}"),
+        Duration::from_secs(30),
+        |v| v["state"] == "running",
+    )
+    .await;
+    // Daemon::stop bounds the shutdown (30 s); a render of minutes must not hold it.
+    let dir = d.stop_keeping_files().await;
+    let store = Store::open(&format!("sqlite://{}", dir.path().join("lab.sqlite").display()))
+        .await
+        .unwrap();
+    for id in [running, queued] {
+        let row = store.get_render(id).await.unwrap().unwrap();
+        assert_eq!(row.state, "interrupted", "{row:?}");
+        assert!(row.error.unwrap().contains("shut down"));
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_long_render_does_not_starve_the_instrument() {
+    let d = Daemon::start(0.0).await;
+    let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+    let heavy = r["render_id"].as_i64().unwrap();
+    poll_until(d.addr, &format!("/api/renders/{heavy}"), Duration::from_secs(30), |v| {
+        v["state"] == "running"
+    })
+    .await;
+    // The simulated PR-650 needs the converged spectrum of its target
+    // (rendered on the instrument's own pool) while the render fills rayon's.
+    let (status, m) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"green","target":"patch","samples":2}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let url = m["url"].as_str().unwrap().to_string();
+    let done = poll_until(d.addr, &url, Duration::from_secs(240), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    let (_, r) = get_json(d.addr, &format!("/api/renders/{heavy}")).await;
+    assert_eq!(
+        r["state"], "running",
+        "the render was still going: the test measured what it meant to"
+    );
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn queue_full_409_leaves_no_cancelled_measurement_row() {
+    // Real timing: each sample takes the instrument's seconds, so the queue stays full.
+    let d = Daemon::start(1.0).await;
+    let body = r#"{"samples":99}"#;
+    let mut admitted = 0;
+    let mut refused = 0;
+    // Race admissions against each other: all at once, more than fit.
+    let mut tasks = Vec::new();
+    for _ in 0..(QUEUE_CAPACITY + 40) {
+        let addr = d.addr;
+        tasks.push(tokio::spawn(async move {
+            post_json(addr, "/api/measurements", TOKEN, body).await
+        }));
+    }
+    for t in tasks {
+        match t.await.unwrap() {
+            (202, _) => admitted += 1,
+            (409, _) => refused += 1,
+            (status, v) => panic!("unexpected {status}: {v}"),
+        }
+    }
+    assert!(
+        refused >= 30,
+        "the queue filled: {admitted} admitted, {refused} refused"
+    );
+    let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
+    let total = page["total"].as_i64().unwrap();
+    assert_eq!(total, admitted as i64, "every row belongs to an admitted request");
+    let (_, cancelled) = get_json(d.addr, "/api/measurements?state=cancelled&limit=1").await;
+    assert_eq!(cancelled["total"], 0, "no refused request left a cancelled row");
+    // And once more, sequentially: with the instrument busy on its first
+    // measurement (99 samples at real speed take minutes), top the queue
+    // up until it refuses; every refusal after that leaves the count alone.
+    poll_until(d.addr, "/api/health", Duration::from_secs(30), |v| {
+        v["instrument"]["state"] == "measuring"
+    })
+    .await;
+    while post_json(d.addr, "/api/measurements", TOKEN, body).await.0 == 202 {}
+    let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
+    let total_before = page["total"].as_i64();
+    for _ in 0..10 {
+        let (status, _) = post_json(d.addr, "/api/measurements", TOKEN, body).await;
+        assert_eq!(status, 409);
+    }
+    let (_, page) = get_json(d.addr, "/api/measurements?limit=1").await;
+    assert_eq!(page["total"].as_i64(), total_before);
+    d.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_sample_write_that_fails_leaves_the_measurement_failed_not_complete() {
+    let d = Daemon::start(0.0).await;
+    // A real SQLite failure on the daemon's own file: a trigger (added by a
+    // second connection, as a full disk or a broken file would) refuses
+    // the second sample of any measurement.
+    let url = format!("sqlite://{}", d.dir.path().join("lab.sqlite").display());
+    let pool = sqlx::SqlitePool::connect(&url).await.unwrap();
+    sqlx::query(
+        "CREATE TRIGGER refuse_second_sample BEFORE INSERT ON samples WHEN NEW.idx = 1 \
+         BEGIN SELECT RAISE(ABORT, 'disk I/O error (test trigger)'); END",
+    )
+    .execute(&pool)
+    .await
+    .unwrap();
+    let (status, m) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":3}"#).await;
+    assert_eq!(status, 202, "{m}");
+    let url = m["url"].as_str().unwrap().to_string();
+    let done = poll_until(d.addr, &url, Duration::from_secs(60), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(done["state"], "failed", "{done}");
+    let error = done["error"].as_str().unwrap();
+    assert!(error.contains("sample 1 could not be written"), "{error}");
+    assert!(done["radiance"].is_null(), "no average without every sample");
+    assert_eq!(
+        done["samples"].as_array().unwrap().len(),
+        1,
+        "the sample written is kept"
+    );
+    sqlx::query("DROP TRIGGER refuse_second_sample")
+        .execute(&pool)
+        .await
+        .unwrap();
+    pool.close().await;
+    // The instrument goes on.
+    let (_, m) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":2}"#).await;
+    let url = m["url"].as_str().unwrap().to_string();
+    poll_until(d.addr, &url, Duration::from_secs(60), |v| v["state"] == "complete").await;
+    let (status, _) = request(d.addr, "GET", "/api/health", None, None).await;
+    assert_eq!(status, 200);
+    d.stop().await;
+}
