@@ -59,9 +59,19 @@ async fn a_measurement_keeps_every_sample_and_its_average() {
         x: 0.31,
         y: 0.33,
         luminance_cv: 0.002,
+        xyz: Some([30.0, 34.0, 20.0]),
+        observer: Some(crate::colorimetry::Observer::JuddVos),
     };
     store.complete_measurement(id, &avg).await.unwrap();
     let m = store.get_measurement(id).await.unwrap().unwrap();
+    // The instrument's CIE 1931 x,y and lightbooth's own (with its observer)
+    // are separate, named fields.
+    assert_eq!(
+        (m.summary.instrument_x, m.summary.instrument_y),
+        (Some(0.31), Some(0.33))
+    );
+    assert_eq!(m.summary.observer, Some(crate::colorimetry::Observer::JuddVos));
+    assert!((m.summary.x.unwrap() - 30.0 / 84.0).abs() < 1e-12);
     assert_eq!(m.summary.state, MeasurementState::Complete);
     assert_eq!(m.samples.len(), 5);
     assert_eq!(m.summary.samples_taken, 5);
