@@ -44,7 +44,7 @@ fn every_scene_declares_its_cielab_white() {
     let w = load_scene(&scenes().join("white.toml")).unwrap();
     let l = w.light_on_perfect_diffuser(
         glam::DVec3::new(0.0, 1.0, -0.6),
-        glam::DVec3::new(0.0, 0.7071067812, 0.7071067812),
+        glam::DVec3::new(0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
     );
     let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::JuddVos)
         .unwrap()
