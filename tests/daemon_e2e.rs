@@ -86,6 +86,19 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
     // The WHITE scene's Spectralon under the 110 cd spotlight reads about 34 cd/m² (booth-scenes.md).
     let y = m["Y"].as_f64().unwrap();
     assert!((25.0..45.0).contains(&y), "Y = {y}");
+    // measurement_list_xy_is_labelled_as_instruments: the instrument's own
+    // CIE 1931 x,y are `instrument_x`, `instrument_y`; `x`, `y` are
+    // lightbooth's with the daemon's observer, named.
+    assert_eq!(m["observer"], "judd-vos-1978", "{m}");
+    let (ix, x) = (m["instrument_x"].as_f64().unwrap(), m["x"].as_f64().unwrap());
+    assert!(
+        ix > 0.3 && x > 0.3 && (ix - x).abs() > 1e-4,
+        "instrument {ix} vs Judd–Vos {x}"
+    );
+    let (_, list) = get_json(d.addr, "/api/measurements").await;
+    let listed = &list["items"][0];
+    assert_eq!(listed["observer"], "judd-vos-1978", "{listed}");
+    assert_eq!(listed["instrument_x"], m["instrument_x"]);
 
     wait_for(&mut ev, "the comparison", Duration::from_secs(300), |name, v| {
         name == "comparison_ready" && v["measurement_id"] == id
@@ -103,6 +116,10 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"]
     );
     assert_eq!(c["rows"][0]["white_source"], format!("measurement {id} (white/patch)"));
+    // Every comparison names its observer (rows, summaries, the scene).
+    assert_eq!(c["observer"], "judd-vos-1978");
+    assert_eq!(c["rows"][0]["observer"], "judd-vos-1978");
+    assert_eq!(c["codings"][0]["observer"], "judd-vos-1978");
     // The spectral rendering agrees with the (simulated) measurement of its own converged spectrum.
     let spectral = c["codings"]
         .as_array()
@@ -130,6 +147,21 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         renders[0]["result"]["coding_seconds"]["spectral"].as_f64().unwrap() > 0.0,
         "per-coding timings"
     );
+    // speed_is_compared_at_fixed_paths: every coding alone at the same fixed
+    // paths per target, with rays traced beside the wall time.
+    let cost = &renders[0]["result"]["coding_cost"];
+    let paths: Vec<i64> = cost
+        .as_object()
+        .unwrap()
+        .values()
+        .map(|c| c["paths_per_target"].as_i64().unwrap())
+        .collect();
+    assert!(paths.len() == 7 && paths.iter().all(|p| *p == paths[0]), "{cost}");
+    assert!(cost["spectral"]["rays"].as_i64().unwrap() > cost["spectral"]["paths"].as_i64().unwrap());
+    assert!(renders[0]["result"]["cost_definition"]
+        .as_str()
+        .unwrap()
+        .starts_with("fixed paths per target"));
     let (status, png) = common::request(
         d.addr,
         "GET",
@@ -228,4 +260,64 @@ async fn shutdown_interrupts_the_running_measurement_and_the_queue() {
         .unwrap()
         .unwrap();
     assert_eq!(q.summary.state, lightbooth::store::MeasurementState::Interrupted);
+}
+
+/// CYLINDER's CIELAB white depended on measurement order (140 of 147 rows
+/// one white, 7 another) and old rows were never recomputed. Now the scene
+/// declares its white (`h21`); measuring other targets first uses the
+/// rendering of h21 as a stand-in, and measuring h21 recomputes every row,
+/// so all rows of the scene use the same, measured white.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cylinder_rows_all_use_the_white_the_scene_declares() {
+    let d = Daemon::start(0.0).await;
+    let mut ev = events(d.addr).await;
+    let mut ids = Vec::new();
+    for target in ["h01", "h10", "h21"] {
+        let (status, accepted) = post_json(
+            d.addr,
+            "/api/measurements",
+            TOKEN,
+            &format!(r#"{{"scene":"cylinder","target":"{target}","samples":3}}"#),
+        )
+        .await;
+        assert_eq!(status, 202, "{accepted}");
+        let id = accepted["id"].as_i64().unwrap();
+        wait_for(&mut ev, "a comparison", Duration::from_secs(600), |name, v| {
+            name == "comparison_ready" && v["measurement_id"] == id
+        })
+        .await;
+        ids.push(id);
+        let (_, c) = get_json(d.addr, "/api/scenes/cylinder/comparisons").await;
+        let whites: std::collections::BTreeSet<String> = c["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| format!("{} {}", r["white_source"], r["white_Y"]))
+            .collect();
+        assert_eq!(whites.len(), 1, "one white for every row: {whites:?}");
+        let white = whites.into_iter().next().unwrap();
+        if target == "h21" {
+            assert!(white.contains(&format!("measurement {id} (cylinder/h21)")), "{white}");
+        } else {
+            assert!(
+                white.contains("not yet measured") && white.contains("cylinder/h21"),
+                "{white}"
+            );
+        }
+    }
+    // Every row of the scene, not only the newest per target and coding.
+    let (_, c) = get_json(d.addr, "/api/scenes/cylinder/comparisons").await;
+    let rows = c["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3 * 7);
+    for r in rows {
+        assert_eq!(
+            r["white_source"],
+            format!("measurement {} (cylinder/h21)", ids[2]),
+            "{r}"
+        );
+        // ΔE was recomputed with that white: L* of the white itself is 100,
+        // so the measured h21 against its own white has ΔE from the rendering only.
+        assert!(r["dE76"].as_f64().unwrap().is_finite());
+    }
+    d.stop().await;
 }

@@ -4,12 +4,52 @@
 use std::path::{Path, PathBuf};
 
 use lightbooth::render::{
-    cache_file, converged_target_spectrum, load_scene, render, scene_hash, Coding, RenderSettings,
+    cache_file, converged_target_spectrum, load_scene, render, scene_hash, truth_hash, truth_settings, Coding,
+    RenderSettings,
 };
 use lightbooth::spectrum::{Grid, SpectralUnit};
 
 fn scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+/// Every shipped scene declares its CIELAB white: the simple scenes the
+/// WHITE scene's Spectralon, CYLINDER (and its F11 variant) the top target.
+#[test]
+fn every_scene_declares_its_cielab_white() {
+    use lightbooth::render::scene::CielabWhite;
+    let white_patch = CielabWhite::Target {
+        scene: Some("white".into()),
+        target: "patch".into(),
+    };
+    for name in ["red", "green", "blue"] {
+        let s = load_scene(&scenes().join(format!("{name}.toml"))).unwrap();
+        assert_eq!(s.cielab_white, Some(white_patch.clone()), "{name}");
+    }
+    let own = |t: &str| {
+        Some(CielabWhite::Target {
+            scene: None,
+            target: t.into(),
+        })
+    };
+    assert_eq!(
+        load_scene(&scenes().join("white.toml")).unwrap().cielab_white,
+        own("patch")
+    );
+    for f in ["cylinder.toml", "variants/cylinder_f11.toml", "truth/cylinder.toml"] {
+        assert_eq!(load_scene(&scenes().join(f)).unwrap().cielab_white, own("h21"), "{f}");
+    }
+    // A diffuser white is computed from the scene: the WHITE spotlight
+    // (110 cd along the normal from 1 m) on ρ = 1 gives 110/π cd/m².
+    let w = load_scene(&scenes().join("white.toml")).unwrap();
+    let l = w.light_on_perfect_diffuser(
+        glam::DVec3::new(0.0, 1.0, -0.6),
+        glam::DVec3::new(0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
+    );
+    let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::JuddVos)
+        .unwrap()
+        .y;
+    assert!((y / (110.0 / std::f64::consts::PI) - 1.0).abs() < 1e-3, "{y}");
 }
 
 #[test]
@@ -148,6 +188,26 @@ fn scene_errors_name_the_file_and_the_key() {
             "colour",
         ),
         (
+            "unknown cielab_white key",
+            Box::new(|t| format!("{t}[cielab_white]\ntarget = \"centre\"\nsource = \"x\"\n")),
+            "source",
+        ),
+        (
+            "cielab_white with two kinds",
+            Box::new(|t| format!("{t}[cielab_white]\ntarget = \"centre\"\nxyz = [1.0, 1.0, 1.0]\n")),
+            "cielab_white",
+        ),
+        (
+            "cielab_white naming no target",
+            Box::new(|t| format!("{t}[cielab_white]\ntarget = \"top\"\n")),
+            "cielab_white.target",
+        ),
+        (
+            "cielab_white diffuser without a normal",
+            Box::new(|t| format!("{t}[cielab_white]\nlight_on_perfect_diffuser = true\npoint = [0.0, 0.0, 0.0]\n")),
+            "cielab_white.normal",
+        ),
+        (
             "missing spectrum file",
             Box::new(|t| t.replace("refl.csv:grey", "nothere.csv:grey")),
             "materials.grey.reflectance",
@@ -212,7 +272,11 @@ fn converged_spectrum_is_cached_by_scene_content() {
 
     let scene = load_scene(&scene_path).unwrap();
     let hash = scene_hash(&scene).unwrap();
-    let file = cache_file(&cache, &hash, "centre");
+    let file = cache_file(
+        &cache,
+        &truth_hash(&scene, &truth_settings("centre")).unwrap(),
+        "centre",
+    );
     assert!(file.exists());
     // Overwrite the cached values: the second call must return them.
     let mut text = String::from("nm,radiance\n");
@@ -257,4 +321,92 @@ fn render_settings_round_trip_through_json() {
     assert_eq!(partial.max_bounces, 5);
     assert!(serde_json::from_str::<RenderSettings>(r#"{"codings":["cmyk"]}"#).is_err());
     assert!(serde_json::from_str::<RenderSettings>(r#"{"colour":1}"#).is_err());
+}
+
+/// The simulated PR-650 read a render with seed 1 and 5 bounces: the
+/// comparison render's own first paths, with its bounce cap. The truth now
+/// has its own seed, no bounce cap (Russian roulette) and 1 nm, and these
+/// settings are in its cache key. Checked against an analytic answer that a
+/// 5-bounce render cannot give: inside a closed sphere (R = 1 m, ρ = 0.8)
+/// with an isotropic 100 cd point source at its centre, the wall's
+/// irradiance is E_d = I/R² = 100 lx direct plus, from all interreflections,
+/// E_ind = ρΦ/(4πR²(1 − ρ)) = 400 lx (Φ = 4πI), so L = ρ(E_d + E_ind)/π =
+/// 127.3 cd/m²; five bounces keep only (1 − ρ⁵) of E_ind: 93.9 cd/m².
+#[test]
+fn simulated_truth_is_not_the_comparison_render() {
+    let s = truth_settings("wall");
+    let comparison = RenderSettings::default();
+    assert_ne!(s.seed, comparison.seed);
+    assert!((1..=64).all(|study_seed| s.seed != study_seed));
+    assert_eq!(s.max_bounces, u32::MAX);
+    assert!(s.russian_roulette_from.is_some());
+    assert_eq!(s.codings, vec![Coding::Spectral]);
+
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("iso.ies"),
+        "IESNA:LM-63-2002\n[TEST] isotropic 100 cd\nTILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 0\n0 90 180\n0\n100 100 100\n",
+    )
+    .unwrap();
+    let text = r#"name = "integrating sphere"
+[radiometer]
+position = [0.0, 0.3, 0.5]
+[[target]]
+id = "wall"
+point = [0.0, 0.0, -1.0]
+[materials]
+white = { reflectance = 0.8 }
+[[light]]
+id = "bulb"
+position = [0.0, 0.0, 0.0]
+aim = [0.0, -1.0, 0.0]
+ies = "iso.ies"
+blackbody_k = 3200
+[[sphere]]
+centre = [0.0, 0.0, 0.0]
+radius = 1.0
+interior = "room"
+material = "white"
+[cielab_white]
+target = "wall"
+"#;
+    let path = dir.path().join("sphere.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = load_scene(&path).unwrap();
+    // The cache key changes with the truth's settings, not only the scene.
+    let other = RenderSettings {
+        seed: 1,
+        ..truth_settings("wall")
+    };
+    assert_ne!(truth_hash(&scene, &s).unwrap(), truth_hash(&scene, &other).unwrap());
+
+    let truth = lightbooth::colorimetry::xyz_from_radiance(
+        &converged_target_spectrum(&path, "wall", None).unwrap(),
+        lightbooth::colorimetry::Observer::JuddVos,
+    )
+    .unwrap()
+    .y;
+    let five = render(
+        &scene,
+        &RenderSettings {
+            codings: vec![Coding::Spectral],
+            max_bounces: 5,
+            target_relative_se: Some(1e-3),
+            ..RenderSettings::default()
+        },
+        None,
+    )
+    .unwrap()
+    .targets[0]
+        .codings[0]
+        .1
+        .luminance_cd_m2;
+    let (rho, pi) = (0.8f64, std::f64::consts::PI);
+    let analytic = rho * (100.0 + rho * 100.0 / (1.0 - rho)) / pi;
+    let analytic_five = rho * (100.0 + rho * 100.0 * (1.0 - rho.powi(5)) / (1.0 - rho)) / pi;
+    assert!((truth / analytic - 1.0).abs() < 0.01, "truth {truth} vs {analytic}");
+    assert!(
+        (five / analytic_five - 1.0).abs() < 0.01,
+        "5 bounces {five} vs {analytic_five}"
+    );
 }

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use lightbooth::colorimetry::Observer;
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
 use lightbooth::study::measure::measure_with_simulator;
@@ -33,6 +34,7 @@ async fn against_the_reference_spectral_agrees_and_three_steps_do_not() {
         .unwrap();
     let s = &result.scenes[0];
     assert_eq!(s.white_source, "reference render (white/patch)");
+    assert_eq!(result.observer, Observer::JuddVos);
     let get = |c: &str| s.codings.iter().find(|x| x.coding == c).unwrap();
     let (spectral, nstep3, nstep81) = (get("spectral"), get("nstep3"), get("nstep81"));
     assert_eq!(spectral.per_seed.len(), 3);
@@ -80,7 +82,7 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
         .await
         .unwrap();
     let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
-    let ids = measure_with_simulator(&[scene("white")], &store, &cache, 1, &|_| {})
+    let ids = measure_with_simulator(&[scene("white")], &store, &cache, 1, Observer::JuddVos, None, &|_| {})
         .await
         .unwrap();
     assert_eq!(ids.len(), 1);
@@ -106,5 +108,82 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
     assert!(
         err.to_string().contains("no complete measurement of red/patch"),
         "{err}"
+    );
+}
+
+/// Every figure of a study names its observer, and the observer is really
+/// used: the same scene under CIE 1931 gives other XYZ than under Judd–Vos
+/// (renderings and truth alike), and the JSON says `cie-1931`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn study_json_names_the_observer_it_computed_with() {
+    let jv = run_study(&[scene("blue")], &quick(Against::Reference), None, &|_| {})
+        .await
+        .unwrap();
+    let options = StudyOptions {
+        observer: Observer::Cie1931,
+        ..quick(Against::Reference)
+    };
+    let c31 = run_study(&[scene("blue")], &options, None, &|_| {}).await.unwrap();
+    let json = serde_json::to_value(&c31).unwrap();
+    assert_eq!(json["observer"], "cie-1931");
+    assert_eq!(json["options"]["observer"], "cie-1931");
+    assert_eq!(json["scenes"][0]["observer"], "cie-1931");
+    assert_eq!(serde_json::to_value(&jv).unwrap()["observer"], "judd-vos-1978");
+    let (a, b) = (&jv.scenes[0].truth[0], &c31.scenes[0].truth[0]);
+    // Judd–Vos raised the 1931 ȳ below 460 nm: a blue patch moves most.
+    let d = (a.x - b.x).hypot(a.y - b.y);
+    assert!(d > 1e-3, "Judd–Vos ({}, {}) vs CIE 1931 ({}, {})", a.x, a.y, b.x, b.y);
+    // Within one observer, spectral still agrees with the truth.
+    let spectral = c31.scenes[0].codings.iter().find(|c| c.coding == "spectral").unwrap();
+    assert_eq!(spectral.significant_targets, 0, "{:?}", spectral.profile);
+}
+
+/// The truth was the first paths of the comparison render (same seed, same
+/// bounce cap), so `spectral` agreed by construction and a modelling error
+/// could not show. With a truth scene the booth differs from the model (here
+/// the WHITE scene's lamp 3150 K instead of 3200 K): `spectral` now differs
+/// from the truth beyond noise and by about the ΔE the lamp change makes,
+/// while against the model's own truth it does not.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn simulated_truth_is_independent_of_the_compared_render() {
+    let model = scene("white");
+    let scenes_dir = model.parent().unwrap().display().to_string();
+    let text = std::fs::read_to_string(&model)
+        .unwrap()
+        .replace("blackbody_k = 3200", "blackbody_k = 3150")
+        .replace("\"luminaires/", &format!("\"{scenes_dir}/luminaires/"))
+        .replace("\"spectra/", &format!("\"{scenes_dir}/spectra/"));
+    let truth_dir = tempfile::tempdir().unwrap();
+    std::fs::write(truth_dir.path().join("white.toml"), text).unwrap();
+    let perfect = run_study(std::slice::from_ref(&model), &quick(Against::Reference), None, &|_| {})
+        .await
+        .unwrap();
+    let options = StudyOptions {
+        truth_scene: Some(truth_dir.path().to_path_buf()),
+        ..quick(Against::Reference)
+    };
+    let perturbed = run_study(&[model], &options, None, &|_| {}).await.unwrap();
+    assert_eq!(
+        perturbed.scenes[0].truth[0].scene_file,
+        truth_dir.path().join("white.toml").display().to_string()
+    );
+    let spectral = |r: &lightbooth::study::run::StudyResult| {
+        r.scenes[0]
+            .codings
+            .iter()
+            .find(|c| c.coding == "spectral")
+            .unwrap()
+            .clone()
+    };
+    let (p, q) = (spectral(&perfect), spectral(&perturbed));
+    assert_eq!(p.significant_targets, 0, "{:?}", p.profile);
+    // 50 K cooler at ~3200 K moves the white patch's chromaticity: ΔE*ab of
+    // order 1, far above the perfect model's ~0.1 noise floor.
+    assert!(q.mean_dE76.mean > 0.5, "{:?}", q.mean_dE76);
+    assert!(
+        q.mean_dE76.mean > 5.0 * p.mean_dE76.mean,
+        "{:?} vs {:?}",
+        q.mean_dE76,
+        p.mean_dE76
     );
 }

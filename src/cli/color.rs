@@ -19,8 +19,8 @@ pub struct ColorArgs {
     /// Column every other column is compared with (adds ΔE*ab and ΔE00; needs --white).
     #[arg(long)]
     reference: Option<String>,
-    /// Colour-matching functions.
-    #[arg(long, default_value = "judd-vos", value_parser = parse_observer)]
+    /// Colour-matching functions (the observer): judd-vos-1978 or cie-1931.
+    #[arg(long, visible_alias = "observer", default_value = "judd-vos-1978", value_parser = parse_observer)]
     cmf: Observer,
     /// What the columns hold: absolute spectral radiance W/(sr·m²·nm) (Y in cd/m²),
     /// spectral irradiance W/(m²·nm) (Y in lux), or reflectance (relative XYZ, white Y = 100).
@@ -49,6 +49,8 @@ fn parse_observer(s: &str) -> Result<Observer, String> {
 #[derive(Serialize)]
 struct Row {
     name: String,
+    /// The observer of X, Y, Z, x, y, u′, v′, L*a*b* and ΔE.
+    observer: Observer,
     #[serde(rename = "X")]
     x_cap: f64,
     #[serde(rename = "Y")]
@@ -129,6 +131,7 @@ pub fn run(args: ColorArgs) -> anyhow::Result<()> {
             let ref_lab = reference.zip(white).map(|(r, w)| Lab::from_xyz(r, w));
             Row {
                 name: name.clone(),
+                observer: args.cmf,
                 x_cap: xyz.x,
                 y_cap: xyz.y,
                 z_cap: xyz.z,
@@ -159,6 +162,7 @@ pub fn run(args: ColorArgs) -> anyhow::Result<()> {
     if reference.is_some() {
         header.push_str(&format!(" {:>8} {:>8}", "dE*ab", "dE00"));
     }
+    println!("observer: {}", args.cmf);
     println!("{header}");
     for r in rows {
         let mut line = format!(

@@ -59,6 +59,8 @@ struct MeasurementJson {
     samples: Vec<SampleJson>,
     #[serde(rename = "Y")]
     luminance_cd_m2: f64,
+    /// The observer of Y, x, y: CIE 1931 2°, as the PR-650 itself reports.
+    observer: lightbooth::colorimetry::Observer,
     x: f64,
     y: f64,
     luminance_cv: f64,
@@ -88,6 +90,7 @@ impl From<&AveragedMeasurement> for MeasurementJson {
                 })
                 .collect(),
             luminance_cd_m2: m.luminance_cd_m2,
+            observer: lightbooth::colorimetry::Observer::Cie1931,
             x: m.x,
             y: m.y,
             luminance_cv: m.luminance_cv,
@@ -146,7 +149,10 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
         for s in m.samples.iter().filter(|s| !s.code.is_ok()) {
             println!("  sample {} not averaged: {}", s.index, s.code);
         }
-        println!("Y = {:.4} cd/m²  x = {:.4}  y = {:.4}", m.luminance_cd_m2, m.x, m.y);
+        println!(
+            "Y = {:.4} cd/m²  x = {:.4}  y = {:.4}  (observer cie-1931, as the PR-650 reports)",
+            m.luminance_cd_m2, m.x, m.y
+        );
         println!("luminance CV = {:.3} %", m.luminance_cv * 100.0);
         println!("spectrum: {} (use --json or --csv for the values)", m.mean.grid());
     }

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
+use lightbooth::colorimetry::Observer;
 use lightbooth::render::integrator::Transport;
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
@@ -58,6 +59,9 @@ pub struct RenderArgs {
     /// Cap on paths per target with --target-se.
     #[arg(long, default_value_t = RenderSettings::default().max_samples)]
     max_samples: u64,
+    /// The observer of every XYZ, x,y and Y: judd-vos-1978 (the study's) or cie-1931.
+    #[arg(long, default_value = "judd-vos-1978")]
+    observer: Observer,
     /// Print the results as JSON.
     #[arg(long)]
     json: bool,
@@ -88,6 +92,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         sampler: args.sampler,
         target_relative_se: (args.target_se > 0.0).then_some(args.target_se),
         max_samples: args.max_samples,
+        observer: args.observer,
     };
     let bar = if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);
@@ -109,21 +114,21 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // The cost of each coding: every coding rendered alone, and all together,
     // with the same fixed path count (`--samples` per target, no adaptive
     // rounds), so the times compare like with like.
-    let mut coding_times = Vec::new();
+    let mut coding_times: Vec<(String, f64, u64, u64)> = Vec::new();
     if args.time_each_coding {
         let fixed = RenderSettings {
             target_relative_se: None,
             ..settings.clone()
         };
         let all = render(&scene, &fixed, None)?;
-        coding_times.push(("all".to_string(), all.wall_seconds));
+        coding_times.push(("all".to_string(), all.wall_seconds, all.paths, all.rays));
         for c in &settings.codings {
             let alone = RenderSettings {
                 codings: vec![*c],
                 ..fixed.clone()
             };
             let r = render(&scene, &alone, None)?;
-            coding_times.push((c.to_string(), r.wall_seconds));
+            coding_times.push((c.to_string(), r.wall_seconds, r.paths, r.rays));
         }
     }
     if let Some(path) = &args.image {
@@ -143,16 +148,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let mut v = serde_json::to_value(&result)?;
         if !coding_times.is_empty() {
             let m: serde_json::Map<String, serde_json::Value> = coding_times
-                .into_iter()
-                .map(|(k, t)| (k, serde_json::json!(t)))
+                .iter()
+                .map(|(k, t, _, _)| (k.clone(), serde_json::json!(t)))
                 .collect();
             v["coding_wall_seconds"] = serde_json::Value::Object(m);
+            let cost: serde_json::Map<String, serde_json::Value> = coding_times
+                .iter()
+                .map(|(k, t, paths, rays)| {
+                    (
+                        k.clone(),
+                        serde_json::json!({ "paths": paths, "rays": rays, "wall_seconds": t }),
+                    )
+                })
+                .collect();
+            v["coding_cost"] = serde_json::Value::Object(cost);
+            v["cost_definition"] = lightbooth::study::run::COST_DEFINITION.into();
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print_table(&result);
-        for (c, t) in coding_times {
-            println!("{c} alone: {t:.3} s");
+        for (c, t, paths, rays) in coding_times {
+            println!("{c} alone: {rays} rays, {paths} paths, {t:.3} s");
         }
     }
     Ok(())
@@ -160,8 +176,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
 fn print_table(r: &RenderResult) {
     println!(
-        "{} ({}): {} paths in {:.3} s ({:.3e} paths/s, {:.3e} rays/s)",
-        r.scene, r.scene_file, r.paths, r.wall_seconds, r.paths_per_second, r.rays_per_second
+        "{} ({}): {} paths in {:.3} s ({:.3e} paths/s, {:.3e} rays/s); observer {}",
+        r.scene, r.scene_file, r.paths, r.wall_seconds, r.paths_per_second, r.rays_per_second, r.observer
     );
     println!(
         "{:<10} {:<9} {:>12} {:>9} {:>8} {:>8}",

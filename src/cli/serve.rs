@@ -42,9 +42,14 @@ pub struct ServeArgs {
     #[arg(long = "mock-fault", value_name = "KIND[@DELAY][:RATE]")]
     mock_faults: Vec<Fault>,
     /// The observer of every x,y, XYZ, CIELAB and ΔE the daemon computes and
-    /// charts: judd-vos (Judd–Vos 1978, the study's; default) or cie1931.
+    /// charts: judd-vos-1978 (the study's; default) or cie-1931.
     #[arg(long)]
     observer: Option<Observer>,
+    /// With --mock: a folder of scene files with the same ids as the scenes
+    /// that the simulated PR-650 measures instead of the model (the booth as
+    /// it is, e.g. scenes/truth).
+    #[arg(long, requires = "mock")]
+    mock_world: Option<PathBuf>,
 }
 
 /// `lightbooth.toml`: the daemon's settings file.
@@ -61,6 +66,7 @@ struct ConfigFile {
     render_samples: Option<u64>,
     mock_speed: Option<f64>,
     observer: Option<String>,
+    mock_world: Option<PathBuf>,
 }
 
 fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
@@ -114,7 +120,15 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
                 .map_err(|e| anyhow::anyhow!("{}: key `observer`: {e}", args.config.display()))?,
             (None, None) => Observer::JuddVos,
         },
+        mock_world: args.mock_world.or(file.mock_world),
     };
+    if let Some(world) = &options.mock_world {
+        anyhow::ensure!(
+            options.mock,
+            "--mock-world needs --mock (a real booth is its own world)"
+        );
+        anyhow::ensure!(world.is_dir(), "--mock-world {}: not a folder", world.display());
+    }
     anyhow::ensure!(options.mock_speed >= 0.0, "--mock-speed must be 0 or more");
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
     runtime.block_on(async move {

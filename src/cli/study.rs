@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
+use lightbooth::colorimetry::Observer;
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
 use lightbooth::study::measure::measure_with_simulator;
@@ -57,6 +58,16 @@ pub struct StudyArgs {
     /// Write a self-contained report (HTML with SVG charts, CSV of every number) here.
     #[arg(long)]
     report: Option<PathBuf>,
+    /// The observer of every XYZ, x,y, CIELAB and ΔE: judd-vos-1978 (the
+    /// study's) or cie-1931.
+    #[arg(long, default_value = "judd-vos-1978")]
+    observer: Observer,
+    /// The booth as it is, when it differs from the model: a scene file (for
+    /// the scene with the same file name) or a folder of them. The reference
+    /// truth and the simulated measurements come from it; the codings render
+    /// the model scenes.
+    #[arg(long)]
+    truth_scene: Option<PathBuf>,
     /// Print the whole result as JSON.
     #[arg(long)]
     json: bool,
@@ -81,8 +92,19 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         sweeps: args.sweeps,
         failure_map: args.failure_map,
         auto: args.auto,
+        observer: args.observer,
+        truth_scene: args.truth_scene.clone(),
         ..StudyOptions::default()
     };
+    if let Some(t) = &options.truth_scene {
+        anyhow::ensure!(t.exists(), "--truth-scene {}: no such file or folder", t.display());
+        let used = args.scenes.iter().any(|s| options.truth_path(s) != *s);
+        anyhow::ensure!(
+            used,
+            "--truth-scene {}: matches none of the scenes (a truth scene is used for the scene with its file name)",
+            t.display()
+        );
+    }
     anyhow::ensure!(options.seeds >= 1, "--seeds must be at least 1");
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
     runtime.block_on(async move {
@@ -99,7 +121,16 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         let progress = |msg: &str| eprintln!("{msg}");
         if args.measure_simulated {
             let store = store.as_ref().expect("opened above");
-            let ids = measure_with_simulator(&args.scenes, store, &args.cache_dir, 1, &progress).await?;
+            let ids = measure_with_simulator(
+                &args.scenes,
+                store,
+                &args.cache_dir,
+                1,
+                options.observer,
+                options.truth_scene.as_deref(),
+                &progress,
+            )
+            .await?;
             eprintln!("stored {} simulated measurements", ids.len());
         }
         let request = serde_json::json!({ "scenes": &args.scenes, "options": &options, "command_line": true });
@@ -152,8 +183,8 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
                 }
             }
             println!(
-                "wall time {:.2} s (± are SD over {} seeds)",
-                result.wall_seconds, options.seeds
+                "wall time {:.2} s (± are SD over {} seeds); observer {}; sig. targets: |ΔY| > {} × combined SE",
+                result.wall_seconds, options.seeds, result.observer, result.beyond_noise_k
             );
         }
         Ok(())

@@ -52,8 +52,11 @@ pub use cielab::{ciede2000, delta_e76, Lab};
 pub const KM_LM_PER_W: f64 = 683.0;
 
 /// The standard observer whose matching functions turn spectra into XYZ.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
+///
+/// Serialised (JSON, CSV/MAT headers, store columns) as `"judd-vos-1978"` or
+/// `"cie-1931"`; parsing also accepts the older spellings `judd-vos`,
+/// `juddvos`, `cie1931` and `1931`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Observer {
     /// CIE 1931 2° modified by Judd (1951) and Vos (1978): the study's observer.
     #[default]
@@ -68,17 +71,37 @@ impl FromStr for Observer {
         match s.to_ascii_lowercase().as_str() {
             "judd-vos" | "juddvos" | "judd-vos-1978" => Ok(Observer::JuddVos),
             "cie1931" | "cie-1931" | "1931" => Ok(Observer::Cie1931),
-            _ => Err(format!("unknown observer `{s}`: choose judd-vos or cie1931")),
+            _ => Err(format!("unknown observer `{s}`: choose judd-vos-1978 or cie-1931")),
+        }
+    }
+}
+
+impl Observer {
+    /// The name every output uses: `judd-vos-1978` or `cie-1931`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Observer::JuddVos => "judd-vos-1978",
+            Observer::Cie1931 => "cie-1931",
         }
     }
 }
 
 impl fmt::Display for Observer {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Observer::JuddVos => "judd-vos",
-            Observer::Cie1931 => "cie1931",
-        })
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for Observer {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Observer {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
     }
 }
 
@@ -364,6 +387,24 @@ mod tests {
             assert!((mid[c] - (a[c] + 0.8 * (b[c] - a[c]))).abs() < 1e-15);
         }
         assert_eq!(cmf.at(379.0), [0.0; 3]);
+    }
+
+    #[test]
+    fn observer_is_named_with_its_year_and_reads_old_spellings() {
+        assert_eq!(Observer::JuddVos.to_string(), "judd-vos-1978");
+        assert_eq!(Observer::Cie1931.to_string(), "cie-1931");
+        assert_eq!(serde_json::to_string(&Observer::Cie1931).unwrap(), "\"cie-1931\"");
+        for (old, o) in [
+            ("judd-vos", Observer::JuddVos),
+            ("juddvos", Observer::JuddVos),
+            ("judd-vos-1978", Observer::JuddVos),
+            ("cie1931", Observer::Cie1931),
+            ("cie-1931", Observer::Cie1931),
+        ] {
+            assert_eq!(old.parse::<Observer>().unwrap(), o);
+            assert_eq!(serde_json::from_str::<Observer>(&format!("\"{old}\"")).unwrap(), o);
+        }
+        assert!("cie1964".parse::<Observer>().is_err());
     }
 
     #[test]

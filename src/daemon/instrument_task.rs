@@ -499,9 +499,11 @@ impl Worker {
 
         match result {
             Ok(avg) => {
-                // The comparison uses the study's observer on both sides; the
-                // stored x, y are the instrument's own (CIE 1931, as the PR-650 reports).
-                let average = average_row(&avg);
+                // The comparison uses the daemon's observer on both sides; the
+                // stored instrument_x, instrument_y are the instrument's own
+                // (CIE 1931, as the PR-650 reports), never compared or charted.
+                let observer = self.config.renderer.observer();
+                let average = average_row(&avg, observer);
                 if let Err(e) = self.block_on(store.complete_measurement(id, &average)) {
                     tracing::error!(error = %e, "cannot store the average");
                     return self.finish_failed(id, MeasurementState::Failed, &format!("cannot store the average: {e}"));
@@ -518,11 +520,18 @@ impl Worker {
                     error: None,
                 });
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    match xyz_from_radiance(&avg.mean, Observer::JuddVos) {
-                        Ok(xyz) => self
-                            .config
-                            .renderer
-                            .compare_later(id, scene.clone(), target.clone(), xyz),
+                    match xyz_from_radiance(&avg.mean, observer) {
+                        Ok(xyz) => {
+                            let good = avg
+                                .samples
+                                .iter()
+                                .filter(|s| s.code.is_ok() && s.radiance.is_some())
+                                .count();
+                            let y_se = avg.luminance_cv * xyz.y / (good.max(1) as f64).sqrt();
+                            self.config
+                                .renderer
+                                .compare_later(id, scene.clone(), target.clone(), xyz, y_se)
+                        }
                         Err(e) => tracing::error!(error = %e, "cannot compute XYZ of the mean spectrum"),
                     }
                 }
@@ -587,9 +596,13 @@ pub fn sample_row(s: &Sample) -> NewSample {
     }
 }
 
-/// The average of a measurement as the store keeps it.
-pub fn average_row(avg: &AveragedMeasurement) -> Average {
+/// The average of a measurement as the store keeps it, with lightbooth's
+/// XYZ of the mean spectrum for `observer`.
+pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
+    let xyz = xyz_from_radiance(&avg.mean, observer).ok().map(|x| x.to_array());
     Average {
+        xyz,
+        observer: xyz.is_some().then_some(observer),
         wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
         radiance: avg.mean.values().to_vec(),
         radiance_sd: avg.sd.clone(),

@@ -66,6 +66,10 @@ pub struct DaemonOptions {
     /// The one colorimetric observer of every x,y, XYZ, CIELAB and ΔE this
     /// daemon computes (comparisons, charts); the study's Judd–Vos by default.
     pub observer: Observer,
+    /// With `mock`: a folder of scene files (same ids as `scenes_dir`) that
+    /// the simulated PR-650 measures instead of the model scenes — the booth
+    /// as it is, when it differs from the model (`serve --mock-world DIR`).
+    pub mock_world: Option<PathBuf>,
 }
 
 /// Runs the daemon on an already-bound listener until `shutdown` resolves.
@@ -103,6 +107,8 @@ pub async fn run(
         events.clone(),
         options.codings.clone(),
         options.render_samples,
+        options.observer,
+        options.mock_world.clone(),
     )?);
     let job_worker = renderer.run_jobs();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {

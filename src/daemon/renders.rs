@@ -6,20 +6,44 @@
 //! Renders and studies requested through the API are [jobs](super::jobs):
 //! bounded in size and number, cancellable, and a panic fails only its job.
 //!
+//! # The observer
+//!
+//! Every XYZ, x,y, CIELAB and ΔE the daemon computes uses its one configured
+//! observer (`serve --observer`): the renders' settings, the measured XYZ
+//! and the white; every comparison row names it.
+//!
 //! # The CIELAB reference white
 //!
-//! Both sides of a comparison go through CIELAB with the same white, stored
-//! with every comparison row (`white_source`), chosen by
-//! [`cielab_white`](crate::study::run::cielab_white) as in the study:
+//! Both sides of a comparison go through CIELAB with the same white: the one
+//! the scene declares in its file (`[cielab_white]`, resolved by
+//! [`scene_white`]). WHITE, RED, GREEN and BLUE declare the WHITE scene's
+//! Spectralon (`white/patch`), CYLINDER its top target (`h21`). A target
+//! white is the newest complete *measurement* of that target; until one
+//! exists, the `spectral` rendering of it stands in, and the row says so
+//! (`white_source`, with the white's XYZ).
 //!
-//! - a scene with one target (WHITE, RED, GREEN, BLUE) uses the WHITE scene's
-//!   Spectralon standard (`white/patch`): the same spotlight, the booth's white;
-//! - a scene with several targets (CYLINDER) uses its own last target (the top
-//!   of the cylinder, lit directly), so L* stays below 100 along its profile.
+//! When a white's source changes — its target is measured for the first time
+//! or again — every comparison of every scene using it is recomputed with the
+//! new white (ΔE from the stored XYZ; the measured and rendered XYZ do not
+//! depend on the white), so no scene mixes whites. Comparisons and these
+//! updates are serialised by one lock, so a comparison finishing late cannot
+//! write an old white after the update.
 //!
-//! The white is the newest complete *measurement* of that target; until one
-//! exists, the converged `spectral` rendering of it stands in, and the
-//! comparison says so.
+//! # The simulated booth
+//!
+//! With `--mock` the simulated PR-650 reads the converged truth of the scene
+//! ([`render::converged_target_spectrum`]: its own seed, no bounce cap,
+//! 1 nm), never the comparison render. With `--mock-world DIR` it reads the
+//! scene of the same id in DIR instead (the booth as it is, when it differs
+//! from the model the codings render).
+//!
+//! # Cost per coding
+//!
+//! After a render, each coding is rendered alone with a *fixed* number of
+//! paths per target (the render's `samples`, no adaptive stop, as the CLI's
+//! `--time-each-coding` and the study's sweeps): `coding_cost` in the stored
+//! result gives its paths, rays traced (the cost that does not jitter with
+//! machine load) and wall time; `coding_seconds` keeps the wall time alone.
 
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -32,8 +56,8 @@ use tokio::sync::broadcast;
 
 use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use super::study_measurements::wait_for_measurements;
-use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
-use crate::comparison::compare_point;
+use crate::colorimetry::{xyz_from_radiance, Lab, Observer, Xyz};
+use crate::comparison::{compare_point, delta_e_pair};
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
 use crate::service::error::ApiError;
@@ -41,7 +65,8 @@ use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, 
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{Job, JobEnd, NewComparison, NewRender, Store};
 use crate::study::report::report_files;
-use crate::study::run::{cielab_white, run_study, Against, StudyOptions};
+use crate::study::run::{run_study, Against, StudyOptions, COST_DEFINITION};
+use crate::study::white::{scene_white, SceneWhite};
 
 /// A scene found in `scenes/`.
 struct SceneEntry {
@@ -58,6 +83,13 @@ pub struct Renderer {
     codings: Vec<Coding>,
     samples: u64,
     runtime: Handle,
+    /// The observer of every XYZ, x,y, CIELAB and ΔE (`serve --observer`).
+    observer: Observer,
+    /// Scene files the simulated PR-650 measures instead of the model
+    /// (`serve --mock-world DIR`), by scene id.
+    mock_world: Option<PathBuf>,
+    /// Serialises "resolve the white, store comparisons, refresh whites".
+    compare_lock: tokio::sync::Mutex<()>,
     /// One lock per scene, so concurrent comparisons of one scene wait for a
     /// single render instead of each starting its own.
     scene_locks: std::sync::Mutex<HashMap<String, Arc<tokio::sync::Mutex<()>>>>,
@@ -96,6 +128,8 @@ impl Renderer {
         events: broadcast::Sender<Event>,
         codings: Vec<String>,
         samples: u64,
+        observer: Observer,
+        mock_world: Option<PathBuf>,
     ) -> anyhow::Result<Renderer> {
         let mut scenes = Vec::new();
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&scenes_dir)
@@ -104,8 +138,11 @@ impl Renderer {
             .filter(|p| p.extension().is_some_and(|x| x == "toml"))
             .collect();
         paths.sort();
-        for path in paths {
-            let scene = render::load_scene(&path)?;
+        for path in &paths {
+            let scene = render::load_scene(path)?;
+            // A scene must declare its CIELAB white: refuse it at start, not
+            // at the first comparison.
+            scene_white(path, &scene, observer).map_err(anyhow::Error::msg)?;
             let id = path
                 .file_stem()
                 .and_then(|s| s.to_str())
@@ -115,7 +152,7 @@ impl Renderer {
                 title: scene.name.clone(),
                 targets: scene.targets().into_iter().map(str::to_string).collect(),
                 id,
-                path,
+                path: path.clone(),
             });
         }
         // The study's order: the simple scenes, then CYLINDER.
@@ -125,12 +162,29 @@ impl Renderer {
             .iter()
             .map(|c| c.parse::<Coding>().map_err(|e| anyhow::anyhow!("coding `{c}`: {e}")))
             .collect::<anyhow::Result<Vec<_>>>()?;
+        if let Some(world) = &mock_world {
+            for s in &scenes {
+                let p = world.join(format!("{}.toml", s.id));
+                if p.exists() {
+                    render::load_scene(&p)?;
+                    tracing::info!(scene = s.id, world = %p.display(), "the simulated PR-650 measures the mock world's scene");
+                } else {
+                    tracing::info!(
+                        scene = s.id,
+                        "no scene in the mock world: the simulated PR-650 measures the model"
+                    );
+                }
+            }
+        }
         let converge_pool = rayon::ThreadPoolBuilder::new()
             .thread_name(|i| format!("converge-{i}"))
             .build()
             .map_err(|e| anyhow::anyhow!("cannot start the renderer's threads: {e}"))?;
         Ok(Renderer {
             jobs: JobQueue::new(store.clone()),
+            observer,
+            mock_world,
+            compare_lock: tokio::sync::Mutex::new(()),
             scenes,
             store,
             events,
@@ -196,8 +250,20 @@ impl Renderer {
         self.scenes.iter().find(|s| s.id == id)
     }
 
+    /// The observer of every XYZ, x,y, CIELAB and ΔE the daemon computes.
+    pub fn observer(&self) -> Observer {
+        self.observer
+    }
+
+    /// The scene file the simulated PR-650 measures for `scene`: the mock
+    /// world's of the same id when there is one, else the model.
+    fn world_path(&self, entry: &SceneEntry) -> PathBuf {
+        crate::study::run::truth_path(self.mock_world.as_deref(), &entry.path)
+    }
+
     /// The converged spectral radiance of a scene target on 1 nm (for the
-    /// simulated PR-650), cached on disk by scene content.
+    /// simulated PR-650: the booth's own solution, see the module doc),
+    /// cached on disk by scene content and truth settings.
     pub fn converged_spectrum(&self, scene: &str, target: &str, cache_dir: &Path) -> Result<Spectrum, String> {
         let entry = self.entry(scene).ok_or_else(|| format!("no scene `{scene}`"))?;
         std::fs::create_dir_all(cache_dir).map_err(|e| format!("cache folder {}: {e}", cache_dir.display()))?;
@@ -205,40 +271,63 @@ impl Renderer {
             if jobs::test_panic_requested(scene) {
                 jobs::panic_on_the_pool(scene);
             }
-            render::converged_target_spectrum(&entry.path, target, Some(cache_dir)).map_err(|e| e.to_string())
+            render::converged_target_spectrum(&self.world_path(entry), target, Some(cache_dir))
+                .map_err(|e| e.to_string())
         })
     }
 
     /// After a measurement of a scene target completes: render (or reuse a
     /// render of) the scene and store the comparison, in the background.
-    pub fn compare_later(self: &Arc<Self>, measurement_id: i64, scene: String, target: String, measured: Xyz) {
+    /// `measured` is XYZ with the daemon's observer, `measured_y_se` the
+    /// standard error of its Y.
+    pub fn compare_later(
+        self: &Arc<Self>,
+        measurement_id: i64,
+        scene: String,
+        target: String,
+        measured: Xyz,
+        measured_y_se: f64,
+    ) {
         let this = Arc::clone(self);
         self.runtime.spawn(async move {
-            if let Err(e) = this.compare(measurement_id, &scene, &target, measured).await {
+            if let Err(e) = this
+                .compare(measurement_id, &scene, &target, measured, measured_y_se)
+                .await
+            {
                 tracing::error!(measurement_id, scene, target, error = %e, "comparison failed");
             }
         });
     }
 
-    async fn compare(&self, measurement_id: i64, scene: &str, target: &str, measured: Xyz) -> anyhow::Result<()> {
+    async fn compare(
+        &self,
+        measurement_id: i64,
+        scene: &str,
+        target: &str,
+        measured: Xyz,
+        measured_y_se: f64,
+    ) -> anyhow::Result<()> {
         let (render_id, result) = self.render_for_comparison(scene).await?;
-        let (white_scene, white_target) = self.white_for(scene);
-        let (white, white_source) = self.white_xyz(&white_scene, &white_target).await?;
         let rendered = rendered_codings(&result, target)
             .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let _serial = self.compare_lock.lock().await;
+        let (white, white_source) = self.white_xyz(scene).await?;
+        let observer = self.observer;
         let rows: Vec<NewComparison> = rendered
             .into_iter()
             .map(|(coding, rendered, y_se)| {
-                let d = compare_point(measured, rendered, white);
+                let d = compare_point(measured, rendered, white, observer);
                 NewComparison {
                     measurement_id,
                     render_id,
                     scene: scene.to_string(),
                     target: target.to_string(),
                     coding,
+                    observer,
                     white_source: white_source.clone(),
                     white: white.to_array(),
                     measured: measured.to_array(),
+                    measured_y_se,
                     rendered: rendered.to_array(),
                     rendered_y_se: y_se,
                     y_ratio: d.y_ratio,
@@ -250,6 +339,23 @@ impl Renderer {
             .collect();
         self.store.insert_comparisons(&rows).await?;
         tracing::info!(measurement_id, scene, target, codings = rows.len(), white = %white_source, "comparison stored");
+        // This measurement may be the white of this and other scenes: bring
+        // every comparison of those scenes to the current white.
+        let dependent: Vec<String> = self
+            .scenes
+            .iter()
+            .filter(|e| {
+                e.id == scene
+                    || render::load_scene(&e.path)
+                        .ok()
+                        .and_then(|s| scene_white(&e.path, &s, observer).ok())
+                        .is_some_and(|w| w.is_target(scene, target))
+            })
+            .map(|e| e.id.clone())
+            .collect();
+        for other in dependent {
+            self.refresh_white(&other).await?;
+        }
         let _ = self.events.send(Event::ComparisonReady {
             measurement_id,
             scene: scene.to_string(),
@@ -258,35 +364,56 @@ impl Renderer {
         Ok(())
     }
 
-    /// Which target serves as the CIELAB white of a scene (see the module doc).
-    fn white_for(&self, scene: &str) -> (String, String) {
-        match self.entry(scene) {
-            Some(e) => {
-                let (path, target) = cielab_white(&e.path, &e.targets);
-                (
-                    path.file_stem().and_then(|s| s.to_str()).unwrap_or(scene).to_string(),
-                    target,
-                )
-            }
-            None => (scene.to_string(), String::new()),
+    /// Recomputes every comparison of `scene` (of the daemon's observer)
+    /// whose white is not the scene's current one: ΔE from the stored XYZ
+    /// with the current white. The caller holds `compare_lock`.
+    async fn refresh_white(&self, scene: &str) -> anyhow::Result<()> {
+        let (white, source) = self.white_xyz(scene).await?;
+        let updates: Vec<(i64, String, [f64; 3], f64, f64)> = self
+            .store
+            .comparisons_of_scene(scene)
+            .await?
+            .into_iter()
+            .filter(|r| r.observer == self.observer)
+            .filter(|r| r.white_source != source || [r.white_X, r.white_Y, r.white_Z] != white.to_array())
+            .map(|r| {
+                let m = Lab::from_xyz(Xyz::new(r.measured_X, r.measured_Y, r.measured_Z), white);
+                let q = Lab::from_xyz(Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z), white);
+                let (de76, de00) = delta_e_pair(m, q);
+                (r.id, source.clone(), white.to_array(), de76, de00)
+            })
+            .collect();
+        if !updates.is_empty() {
+            self.store.update_comparison_whites(&updates).await?;
+            tracing::info!(scene, rows = updates.len(), white = %source, "comparisons recomputed with the scene's current white");
         }
+        Ok(())
     }
 
-    async fn white_xyz(&self, scene: &str, target: &str) -> anyhow::Result<(Xyz, String)> {
-        if let Some(m) = self.store.latest_complete(scene, target).await? {
+    /// The CIELAB white of `scene` now, and where it came from (see the
+    /// module doc).
+    async fn white_xyz(&self, scene: &str) -> anyhow::Result<(Xyz, String)> {
+        let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
+        let loaded = render::load_scene(&entry.path)?;
+        let (white_scene, target) =
+            match scene_white(&entry.path, &loaded, self.observer).map_err(anyhow::Error::msg)? {
+                SceneWhite::Fixed { xyz, source } => return Ok((xyz, source)),
+                SceneWhite::Target { scene_id, target, .. } => (scene_id, target),
+            };
+        if let Some(m) = self.store.latest_complete(&white_scene, &target).await? {
             if let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) {
                 let s = Spectrum::new(Grid::from_wavelengths(wl)?, SpectralUnit::SpectralRadiance, radiance)?;
-                let xyz = xyz_from_radiance(&s, Observer::JuddVos)?;
-                return Ok((xyz, format!("measurement {} ({scene}/{target})", m.summary.id)));
+                let xyz = xyz_from_radiance(&s, self.observer)?;
+                return Ok((xyz, format!("measurement {} ({white_scene}/{target})", m.summary.id)));
             }
         }
-        let (render_id, result) = self.render_for_comparison(scene).await?;
-        let (_, xyz, _) = rendered_codings(&result, target)
+        let (render_id, result) = self.render_for_comparison(&white_scene).await?;
+        let (_, xyz, _) = rendered_codings(&result, &target)
             .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
-            .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {scene}/{target}"))?;
+            .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {white_scene}/{target}"))?;
         Ok((
             xyz,
-            format!("render {render_id} spectral ({scene}/{target}; not yet measured)"),
+            format!("render {render_id} spectral ({white_scene}/{target}; not yet measured)"),
         ))
     }
 
@@ -319,6 +446,7 @@ impl Renderer {
         let mut s = RenderSettings {
             codings,
             samples: self.samples,
+            observer: self.observer,
             ..RenderSettings::default()
         };
         if let Some(n) = request.samples {
@@ -446,9 +574,11 @@ impl Renderer {
             Err(panic) => Err(Some(panic)),
         };
         let (ok, error) = match outcome {
-            Ok((result, coding_seconds, preview)) => {
+            Ok((result, (coding_seconds, coding_cost), preview)) => {
                 let mut json = serde_json::to_value(&result)?;
                 json["coding_seconds"] = serde_json::Value::Object(coding_seconds);
+                json["coding_cost"] = serde_json::Value::Object(coding_cost);
+                json["cost_definition"] = COST_DEFINITION.into();
                 if let Some(png) = preview {
                     self.store.set_render_preview(id, &png).await?;
                 }
@@ -476,7 +606,10 @@ impl Renderer {
 /// What a render job stores: the result, each coding's time alone, and the preview PNG.
 type RenderOutput = (
     render::RenderResult,
-    serde_json::Map<String, serde_json::Value>,
+    (
+        serde_json::Map<String, serde_json::Value>,
+        serde_json::Map<String, serde_json::Value>,
+    ),
     Option<Vec<u8>>,
 );
 
@@ -501,15 +634,29 @@ fn render_with_timings(
         }
     };
     render::render(scene, settings, Some(&progress)).map(|full| {
+        // Every coding alone at a fixed number of paths per target
+        // (no adaptive stop): equal work, comparable costs.
         let mut coding_seconds = serde_json::Map::new();
+        let mut coding_cost = serde_json::Map::new();
         for coding in &settings.codings {
             let alone = RenderSettings {
                 codings: vec![*coding],
+                target_relative_se: None,
                 ..settings.clone()
             };
             let t = Instant::now();
-            if render::render(scene, &alone, None).is_ok() {
-                coding_seconds.insert(coding.to_string(), t.elapsed().as_secs_f64().into());
+            if let Ok(r) = render::render(scene, &alone, None) {
+                let wall = t.elapsed().as_secs_f64();
+                coding_seconds.insert(coding.to_string(), wall.into());
+                coding_cost.insert(
+                    coding.to_string(),
+                    serde_json::json!({
+                        "paths": r.paths,
+                        "paths_per_target": r.paths / r.targets.len().max(1) as u64,
+                        "rays": r.rays,
+                        "wall_seconds": wall,
+                    }),
+                );
             }
         }
         // The camera view for the dashboard: the sRGB coding, few paths per
@@ -531,7 +678,7 @@ fn render_with_timings(
             .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
             .ok()
         });
-        (full, coding_seconds, preview)
+        (full, (coding_seconds, coding_cost), preview)
     })
 }
 
@@ -608,6 +755,8 @@ impl Renderer {
             against,
             sweeps: request.sweeps.unwrap_or(false),
             failure_map,
+            observer: self.observer,
+            truth_scene: self.mock_world.clone(),
             ..StudyOptions::default()
         };
         Ok((paths, options))

@@ -7,7 +7,8 @@
 //! paths and differences between codings are not sampling noise.
 //!
 //! How each coding turns the scene's spectra into channels, and channels
-//! back into XYZ (observer: Judd–Vos, the study's):
+//! back into XYZ (observer: Judd–Vos, the study's, unless the render settings
+//! name another — [`ChannelLayout::with_observer`]):
 //!
 //! - `spectral` — the reference: every spectrum linearly resampled to 1 nm
 //!   (380–780 nm, 401 channels); channels are spectral radiance in
@@ -133,11 +134,20 @@ pub struct ChannelLayout {
     /// in cd/m² (for the per-path variance of Y).
     y_weights: Vec<f32>,
     nstep_observers: Vec<Option<NStepObserver>>,
+    /// The observer of every XYZ this layout converts to or from.
+    observer: Observer,
 }
 
 impl ChannelLayout {
-    /// The layout for these codings (duplicates removed, order kept).
+    /// The layout for these codings (duplicates removed, order kept), with
+    /// the renderer's default observer [`OBSERVER`].
     pub fn new(codings: &[Coding]) -> ChannelLayout {
+        ChannelLayout::with_observer(codings, OBSERVER)
+    }
+
+    /// The layout for these codings with `observer`'s matching functions for
+    /// every spectrum ↔ XYZ conversion (RGB inputs, N-step and spectral XYZ).
+    pub fn with_observer(codings: &[Coding], observer: Observer) -> ChannelLayout {
         let mut entries: Vec<(Coding, Range<usize>)> = Vec::new();
         let mut start = 0;
         for &c in codings {
@@ -155,13 +165,13 @@ impl ChannelLayout {
             let mut obs = None;
             match c {
                 Coding::Spectral => {
-                    let ybar = &Cmf::of(OBSERVER).on_grid(&Grid::one_nm())[1];
+                    let ybar = &Cmf::of(observer).on_grid(&Grid::one_nm())[1];
                     for (wi, y) in w.iter_mut().zip(ybar) {
                         *wi = (KM_LM_PER_W * y) as f32; // Δλ = 1 nm
                     }
                 }
                 Coding::NStep(n) => {
-                    let o = NStepObserver::new(OBSERVER, &Grid::analysis(), *n).expect("validated N");
+                    let o = NStepObserver::new(observer, &Grid::analysis(), *n).expect("validated N");
                     for (b, wi) in w.iter_mut().enumerate() {
                         let len = o.bands().range(b).len() as f64;
                         *wi = (KM_LM_PER_W * o.bars()[1][b] * len * o.step_nm()) as f32;
@@ -182,7 +192,13 @@ impl ChannelLayout {
             padded,
             y_weights,
             nstep_observers,
+            observer,
         }
+    }
+
+    /// The observer of this layout's XYZ.
+    pub fn observer(&self) -> Observer {
+        self.observer
     }
 
     pub fn codings(&self) -> impl Iterator<Item = Coding> + '_ {
@@ -224,8 +240,8 @@ impl ChannelLayout {
                     let to_rgb = space.xyz_to_rgb();
                     let perfect = Spectrum::constant(Grid::analysis(), SpectralUnit::Reflectance, 1.0)
                         .map_err(|e| e.to_string())?;
-                    let xyz = xyz_relative(&on81, &illum, OBSERVER).map_err(|e| e.to_string())?;
-                    let white = xyz_relative(&perfect, &illum, OBSERVER).map_err(|e| e.to_string())?;
+                    let xyz = xyz_relative(&on81, &illum, self.observer).map_err(|e| e.to_string())?;
+                    let white = xyz_relative(&perfect, &illum, self.observer).map_err(|e| e.to_string())?;
                     let rgb = apply(&to_rgb, xyz.to_array());
                     let rgb_white = apply(&to_rgb, white.to_array());
                     let v: Vec<f64> = (0..3).map(|k| rgb[k] / rgb_white[k]).collect();
@@ -253,7 +269,7 @@ impl ChannelLayout {
                     let as_radiance =
                         Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, s1.values().to_vec())
                             .map_err(|e| e.to_string())?;
-                    let xyz = xyz_from_radiance(&as_radiance, OBSERVER).map_err(|e| e.to_string())?;
+                    let xyz = xyz_from_radiance(&as_radiance, self.observer).map_err(|e| e.to_string())?;
                     let space = c.rgb_space().expect("rgb").0;
                     fill(dst, &apply(&space.xyz_to_rgb(), xyz.to_array()));
                 }
@@ -271,7 +287,7 @@ impl ChannelLayout {
             Coding::Spectral => {
                 let s = Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, v.to_vec())
                     .expect("finite radiance on the 1 nm grid");
-                let xyz = xyz_from_radiance(&s, OBSERVER).expect("spectral radiance");
+                let xyz = xyz_from_radiance(&s, self.observer).expect("spectral radiance");
                 Decoded {
                     xyz,
                     spectrum_81: Some(v.iter().step_by(5).copied().collect()),

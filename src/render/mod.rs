@@ -55,6 +55,7 @@ pub use scene::{load_scene, Scene, SceneError};
 
 use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
 
+use crate::colorimetry::Observer;
 use crate::spectrum::table::{write_csv, SpectraTable};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -106,6 +107,9 @@ pub struct RenderSettings {
     pub target_relative_se: Option<f64>,
     /// Cap on paths per target when `target_relative_se` is set.
     pub max_samples: u64,
+    /// The observer of every XYZ, x,y and Y of the result (`judd-vos-1978`,
+    /// the study's, by default; `cie-1931`).
+    pub observer: Observer,
 }
 
 fn codings_as_names<S: Serializer>(codings: &[Coding], s: S) -> Result<S::Ok, S::Error> {
@@ -133,6 +137,7 @@ impl Default for RenderSettings {
             sampler: SamplerKind::Sobol,
             target_relative_se: Some(0.003),
             max_samples: 1 << 22,
+            observer: Observer::JuddVos,
         }
     }
 }
@@ -199,6 +204,8 @@ pub struct Deviation {
 /// A render's results (the JSON of `lightbooth render --json`).
 #[derive(Clone, Debug, Serialize)]
 pub struct RenderResult {
+    /// The observer of every XYZ, x,y and Y below (as in `settings`).
+    pub observer: Observer,
     pub scene: String,
     pub scene_file: String,
     pub settings: RenderSettings,
@@ -276,7 +283,7 @@ fn render_in_pool(
             })
             .collect::<Result<_, _>>()?,
     };
-    let layout = ChannelLayout::new(&settings.codings);
+    let layout = ChannelLayout::with_observer(&settings.codings, settings.observer);
     let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
     let transport = Transport {
         max_bounces: settings.max_bounces,
@@ -355,6 +362,7 @@ fn render_in_pool(
     let wall_seconds = start.elapsed().as_secs_f64();
     let deviation_from_spectral = deviations(&settings.codings, &targets);
     Ok(RenderResult {
+        observer: settings.observer,
         scene: scene.name.clone(),
         scene_file: scene.path.display().to_string(),
         settings: settings.clone(),
@@ -467,9 +475,40 @@ fn deviations(codings: &[Coding], targets: &[TargetResult]) -> Vec<(String, Devi
 }
 
 // ---- the converged spectrum for the simulated PR-650 -------------------------
+//
+// The simulated booth's truth is its own converged solution, independent of
+// every render it is compared with: its own seed (no comparison, study or
+// reference render uses it), no bounce cap (Russian roulette ends the paths,
+// unbiased), the 1 nm `spectral` coding, and a relative standard error of Y
+// below 0.1 %. These settings are part of the cache key.
 
 /// Relative standard error of Y at which [`converged_target_spectrum`] stops.
 pub const CONVERGED_RELATIVE_SE: f64 = 1e-3;
+
+/// The seed of the simulated booth's truth: "truth-v1" in ASCII, used by no
+/// comparison render (seed 1), study seed (1…64) or reference (0xC0FFEE).
+pub const TRUTH_SEED: u64 = 0x7472_7574_682d_7631;
+
+/// Russian roulette starts at this bounce in the truth; before it every path
+/// continues. With no bounce cap the estimate has no truncation bias.
+pub const TRUTH_ROULETTE_FROM: u32 = 3;
+
+/// The render settings of the simulated booth's truth for one target:
+/// `spectral` (1 nm), [`TRUTH_SEED`], unbounded bounces with Russian roulette
+/// from [`TRUTH_ROULETTE_FROM`], rendered until the relative SE of Y is
+/// below [`CONVERGED_RELATIVE_SE`] (at most 2²⁴ paths).
+pub fn truth_settings(target_id: &str) -> RenderSettings {
+    RenderSettings {
+        codings: vec![Coding::Spectral],
+        targets: Some(vec![target_id.to_string()]),
+        target_relative_se: Some(CONVERGED_RELATIVE_SE),
+        max_samples: 1 << 24,
+        seed: TRUTH_SEED,
+        max_bounces: u32::MAX,
+        russian_roulette_from: Some(TRUTH_ROULETTE_FROM),
+        ..RenderSettings::default()
+    }
+}
 
 /// A stable content hash (FNV-1a, 64 bit) of the scene file and every file it
 /// references (spectra CSVs, IES files), in load order, with the renderer's
@@ -575,7 +614,8 @@ pub fn converged_target_spectrum(
     if scene.target(target_id).is_none() {
         return Err(RenderError::UnknownTarget(target_id.into(), scene.targets().join(", ")));
     }
-    let hash = scene_hash(&scene)?;
+    let settings = truth_settings(target_id);
+    let hash = truth_hash(&scene, &settings)?;
     let key = (hash.clone(), target_id.to_string());
     if let Some(dir) = cache_dir {
         if let Some(s) = read_cached(&cache_file(dir, &hash, target_id)) {
@@ -584,7 +624,7 @@ pub fn converged_target_spectrum(
     } else if let Some(s) = memory_cache().lock().expect("cache lock").get(&key) {
         return Ok(s.clone());
     }
-    let spectrum = converge(&scene, target_id)?;
+    let spectrum = converge(&scene, &settings)?;
     match cache_dir {
         Some(dir) => {
             std::fs::create_dir_all(dir).map_err(|e| RenderError::Io(format!("{}: {e}", dir.display())))?;
@@ -597,15 +637,21 @@ pub fn converged_target_spectrum(
     Ok(spectrum)
 }
 
-fn converge(scene: &Scene, target_id: &str) -> Result<Spectrum, RenderError> {
-    let settings = RenderSettings {
-        codings: vec![Coding::Spectral],
-        targets: Some(vec![target_id.to_string()]),
-        target_relative_se: Some(CONVERGED_RELATIVE_SE),
-        max_samples: 1 << 24,
-        ..RenderSettings::default()
-    };
-    let r = render(scene, &settings, None)?;
+/// The cache key of a truth spectrum: the scene's content hash and the
+/// truth's render settings (seed, bounces, roulette, goal), so a change of
+/// either is never served an old spectrum.
+pub fn truth_hash(scene: &Scene, settings: &RenderSettings) -> Result<String, RenderError> {
+    let settings_json = serde_json::to_string(settings).map_err(|e| RenderError::Settings(e.to_string()))?;
+    let mut h: u64 = u64::from_str_radix(&scene_hash(scene)?, 16).expect("hex hash");
+    for b in b"truth-settings:".iter().chain(settings_json.as_bytes()) {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    Ok(format!("{h:016x}"))
+}
+
+fn converge(scene: &Scene, settings: &RenderSettings) -> Result<Spectrum, RenderError> {
+    let r = render(scene, settings, None)?;
     let bands = r.targets[0].codings[0].1.bands.clone();
     Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, bands)
         .map_err(|e| RenderError::Prepare(e.to_string()))

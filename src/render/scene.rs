@@ -32,6 +32,30 @@
 //! material = "grey"
 //! ```
 //!
+//! # The CIELAB reference white: `[cielab_white]`
+//!
+//! Every comparison of the scene goes through CIELAB with this white. Exactly
+//! one of:
+//!
+//! ```toml
+//! [cielab_white]
+//! target = "patch"                  # a target of this scene …
+//! # scene = "white"                 # … or of another scene in the same folder
+//!
+//! # light_on_perfect_diffuser = true   # the scene's lights on a perfect
+//! # point = [0.0, 1.0, -0.6]           # (ρ = 1) Lambertian diffuser at point,
+//! # normal = [0.0, 0.7071, 0.7071]     # facing normal: direct light, no occlusion
+//!
+//! # xyz = [32.5, 34.2, 12.0]           # an explicit absolute XYZ, cd/m²
+//! ```
+//!
+//! A target white is the newest complete measurement of that target (until
+//! there is one, its converged `spectral` rendering stands in, and the
+//! comparison says so). The diffuser white is L(λ) = Σ_lights I(λ, toward
+//! the point)·cos θ / (π d²), computed from the scene without shadows or
+//! interreflections. A scene without the key has no declared white, and the
+//! study refuses it.
+//!
 //! Other primitives: `[[disc]]` (centre, normal, radius), `[[cylinder]]`
 //! (from, to, radius, caps), `[[sphere]]` (centre, radius, interior =
 //! "solid" | "room"), `[[box]]` (min, max) and `[[chart]]`, a ColorChecker
@@ -160,6 +184,21 @@ pub struct Scene {
     pub camera: Option<Camera>,
     /// The scene file and every file it references, for content hashing.
     pub files: Vec<PathBuf>,
+    /// The CIELAB reference white the scene declares (`[cielab_white]`).
+    pub cielab_white: Option<CielabWhite>,
+}
+
+/// A scene's CIELAB reference white, as its file declares it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CielabWhite {
+    /// A target of this scene (`scene` = `None`) or of the scene file
+    /// `scene`.toml in the same folder.
+    Target { scene: Option<String>, target: String },
+    /// The scene's lights on a perfect Lambertian diffuser at `point` facing
+    /// `normal` (direct light only, no occlusion).
+    LightOnPerfectDiffuser { point: DVec3, normal: DVec3 },
+    /// An explicit absolute XYZ (cd/m²).
+    Xyz([f64; 3]),
 }
 
 impl Scene {
@@ -204,6 +243,19 @@ struct SceneFile {
     #[serde(default, rename = "chart")]
     charts: Vec<ChartFile>,
     camera: Option<CameraFile>,
+    cielab_white: Option<CielabWhiteFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CielabWhiteFile {
+    target: Option<String>,
+    scene: Option<String>,
+    #[serde(default)]
+    light_on_perfect_diffuser: bool,
+    point: Option<V3>,
+    normal: Option<V3>,
+    xyz: Option<V3>,
 }
 
 #[derive(Deserialize)]
@@ -646,7 +698,14 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         }),
     };
 
+    let cielab_white = raw
+        .cielab_white
+        .as_ref()
+        .map(|w| cielab_white(w, &l, &target_list))
+        .transpose()?;
+
     Ok(Scene {
+        cielab_white,
         name: raw.name,
         path: path.to_path_buf(),
         materials: l.materials,
@@ -658,6 +717,86 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         camera,
         files: l.files,
     })
+}
+
+/// Checks `[cielab_white]`: exactly one kind, its keys complete and no key
+/// of another kind.
+fn cielab_white(w: &CielabWhiteFile, l: &Loader, targets: &[Target]) -> Result<CielabWhite, SceneError> {
+    let kinds = [w.target.is_some(), w.light_on_perfect_diffuser, w.xyz.is_some()];
+    if kinds.iter().filter(|k| **k).count() != 1 {
+        return Err(l.err(
+            "cielab_white",
+            "give exactly one of `target` (with optional `scene`), `light_on_perfect_diffuser = true` \
+             (with `point` and `normal`) or `xyz`",
+        ));
+    }
+    let stray = |key: &str, present: bool, kind: &str| {
+        if present {
+            Err(l.err(format!("cielab_white.{key}"), format!("only used with {kind}")))
+        } else {
+            Ok(())
+        }
+    };
+    if let Some(target) = &w.target {
+        stray("point", w.point.is_some(), "light_on_perfect_diffuser")?;
+        stray("normal", w.normal.is_some(), "light_on_perfect_diffuser")?;
+        if w.scene.is_none() && !targets.iter().any(|t| &t.id == target) {
+            let ids: Vec<&str> = targets.iter().map(|t| t.id.as_str()).collect();
+            return Err(l.err(
+                "cielab_white.target",
+                format!("no target `{target}` in this scene (targets: {})", ids.join(", ")),
+            ));
+        }
+        return Ok(CielabWhite::Target {
+            scene: w.scene.clone(),
+            target: target.clone(),
+        });
+    }
+    stray("scene", w.scene.is_some(), "target")?;
+    if w.light_on_perfect_diffuser {
+        let point = w
+            .point
+            .ok_or_else(|| l.err("cielab_white.point", "light_on_perfect_diffuser needs a point"))?;
+        let normal = w
+            .normal
+            .ok_or_else(|| l.err("cielab_white.normal", "light_on_perfect_diffuser needs a normal"))?;
+        return Ok(CielabWhite::LightOnPerfectDiffuser {
+            point: DVec3::from(point),
+            normal: unit(normal, l, "cielab_white.normal")?,
+        });
+    }
+    stray("point", w.point.is_some(), "light_on_perfect_diffuser")?;
+    stray("normal", w.normal.is_some(), "light_on_perfect_diffuser")?;
+    let xyz = w.xyz.expect("checked above");
+    if !xyz.iter().all(|v| v.is_finite() && *v >= 0.0) || xyz[1] <= 0.0 {
+        return Err(l.err("cielab_white.xyz", "must be finite, non-negative, with Y > 0"));
+    }
+    Ok(CielabWhite::Xyz(xyz))
+}
+
+impl Scene {
+    /// The spectral radiance of a perfect (ρ = 1) Lambertian diffuser at
+    /// `point` facing `normal` under the scene's lights, W/(sr·m²·nm) on the
+    /// 1 nm grid: L(λ) = Σ I_cd(toward the point)·S(λ)·cos θ / (π d²). Direct
+    /// light only: no shadows, no interreflections (an approximation the
+    /// scene's author accepts by choosing this white).
+    pub fn light_on_perfect_diffuser(&self, point: DVec3, normal: DVec3) -> Spectrum {
+        let mut values = vec![0.0; Grid::one_nm().len()];
+        for light in &self.lights {
+            let to_point = point - light.position;
+            let d2 = to_point.length_squared();
+            let dir = to_point / d2.sqrt();
+            let cos = (-dir).dot(normal);
+            if cos <= 0.0 || d2 <= 0.0 {
+                continue;
+            }
+            let k = light.candela_toward(dir) * cos / (std::f64::consts::PI * d2);
+            for (v, s) in values.iter_mut().zip(light.spectrum_per_cd.values()) {
+                *v += k * s;
+            }
+        }
+        Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
+    }
 }
 
 fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneError> {

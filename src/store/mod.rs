@@ -406,7 +406,8 @@ impl Store {
     pub async fn complete_measurement(&self, id: i64, a: &Average) -> Result<(), StoreError> {
         let r = sqlx::query(
             "UPDATE measurements SET state = 'complete', finished_at = ?, wavelength_json = ?, radiance_json = ?, \
-             radiance_sd_json = ?, luminance_cd_m2 = ?, x = ?, y = ?, luminance_cv = ? WHERE id = ? AND state = 'running'",
+             radiance_sd_json = ?, luminance_cd_m2 = ?, x = ?, y = ?, luminance_cv = ?, observer = ?, xyz_x = ?, \
+             xyz_y = ?, xyz_z = ? WHERE id = ? AND state = 'running'",
         )
         .bind(now())
         .bind(json_array(&a.wavelength_nm))
@@ -416,6 +417,10 @@ impl Store {
         .bind(a.x)
         .bind(a.y)
         .bind(a.luminance_cv)
+        .bind(a.observer.map(|o| o.name()))
+        .bind(a.xyz.map(|v| v[0]))
+        .bind(a.xyz.map(|v| v[1]))
+        .bind(a.xyz.map(|v| v[2]))
         .bind(id)
         .execute(&self.pool)
         .await?;
@@ -798,8 +803,8 @@ impl Store {
             sqlx::query(
                 "INSERT INTO comparisons (measurement_id, render_id, scene, target, coding, white_source, \
                  white_x, white_y, white_z, measured_x, measured_y, measured_z, rendered_x, rendered_y, rendered_z, \
-                 rendered_y_se, y_ratio, xy_distance, de76, de00, created_at) \
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                 rendered_y_se, y_ratio, xy_distance, de76, de00, created_at, observer, measured_y_se) \
+                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             )
             .bind(c.measurement_id)
             .bind(c.render_id)
@@ -822,6 +827,8 @@ impl Store {
             .bind(c.de76)
             .bind(c.de00)
             .bind(now())
+            .bind(c.observer.name())
+            .bind(c.measured_y_se)
             .execute(&mut *tx)
             .await?;
         }
@@ -840,6 +847,41 @@ impl Store {
         .fetch_all(&self.pool)
         .await?;
         Ok(rows.iter().map(comparison_from_row).collect())
+    }
+
+    /// Every comparison of a scene, oldest first.
+    pub async fn comparisons_of_scene(&self, scene: &str) -> Result<Vec<ComparisonRow>, StoreError> {
+        let rows = sqlx::query("SELECT * FROM comparisons WHERE scene = ? ORDER BY id")
+            .bind(scene)
+            .fetch_all(&self.pool)
+            .await?;
+        Ok(rows.iter().map(comparison_from_row).collect())
+    }
+
+    /// Rewrites the CIELAB white of comparisons and the ΔE computed with it
+    /// (`(id, white_source, white XYZ, ΔE*ab, ΔE00)`), all in one transaction.
+    pub async fn update_comparison_whites(
+        &self,
+        updates: &[(i64, String, [f64; 3], f64, f64)],
+    ) -> Result<(), StoreError> {
+        let mut tx = self.pool.begin().await?;
+        for (id, source, white, de76, de00) in updates {
+            sqlx::query(
+                "UPDATE comparisons SET white_source = ?, white_x = ?, white_y = ?, white_z = ?, de76 = ?, de00 = ? \
+                 WHERE id = ?",
+            )
+            .bind(source)
+            .bind(white[0])
+            .bind(white[1])
+            .bind(white[2])
+            .bind(de76)
+            .bind(de00)
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        }
+        tx.commit().await?;
+        Ok(())
     }
 
     pub async fn comparisons_for_measurement(&self, measurement_id: i64) -> Result<Vec<ComparisonRow>, StoreError> {

@@ -8,6 +8,7 @@ use sqlx::Row;
 use utoipa::ToSchema;
 
 use super::{MeasurementState, StoreError};
+use crate::colorimetry::{Observer, Xyz};
 
 #[derive(Clone, Debug, Serialize, ToSchema)]
 pub struct InstrumentRow {
@@ -60,9 +61,14 @@ pub struct Average {
     pub radiance: Vec<f64>,
     pub radiance_sd: Vec<f64>,
     pub luminance_cd_m2: f64,
+    /// CIE 1931 x, y of the mean spectrum: what the PR-650 itself reports.
     pub x: f64,
     pub y: f64,
     pub luminance_cv: f64,
+    /// XYZ of the mean spectrum computed by lightbooth with `observer` (the
+    /// daemon's or the study's), cd/m² scale.
+    pub xyz: Option<[f64; 3]>,
+    pub observer: Option<Observer>,
 }
 
 /// A measurement without its spectra: what listings show.
@@ -82,11 +88,26 @@ pub struct MeasurementSummary {
     pub created_at: f64,
     pub started_at: Option<f64>,
     pub finished_at: Option<f64>,
-    /// Mean luminance, cd/m².
+    /// Mean luminance, cd/m² (V(λ), the CIE 1931 ȳ).
     #[serde(rename = "Y")]
     pub luminance_cd_m2: Option<f64>,
+    /// The instrument's own chromaticity: CIE 1931 2° x of the mean
+    /// spectrum, as the PR-650 reports it. Never charted next to lightbooth's
+    /// values (those are `x`, `y` with `observer`).
+    pub instrument_x: Option<f64>,
+    /// The instrument's own CIE 1931 2° y (see `instrument_x`).
+    pub instrument_y: Option<f64>,
+    /// The observer of `x`, `y` and `XYZ`: `judd-vos-1978` or `cie-1931`
+    /// (the daemon's `--observer` when the measurement completed).
+    #[schema(value_type = Option<String>)]
+    pub observer: Option<Observer>,
+    /// x of the mean spectrum computed by lightbooth with `observer`.
     pub x: Option<f64>,
+    /// y of the mean spectrum computed by lightbooth with `observer`.
     pub y: Option<f64>,
+    /// X, Y, Z (cd/m² scale) of the mean spectrum with `observer`.
+    #[serde(rename = "XYZ")]
+    pub xyz: Option<[f64; 3]>,
     /// Coefficient of variation of the samples' luminance.
     pub luminance_cv: Option<f64>,
     /// Samples good enough to average (quality code OK, a valid spectrum).
@@ -151,10 +172,31 @@ pub struct MeasurementPage {
 pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = 1) AS good_samples, \
-    state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv";
+    state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
+    observer, xyz_x, xyz_y, xyz_z";
+
+/// An observer name stored in a column (NULL → `None`).
+fn observer_column(r: &SqliteRow, column: &str) -> Result<Option<Observer>, StoreError> {
+    let name: Option<String> = r.get(column);
+    name.map(|n| {
+        n.parse().map_err(|e: String| StoreError::Corrupt {
+            what: format!("{column} column"),
+            err: e,
+        })
+    })
+    .transpose()
+}
 
 pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, StoreError> {
     let state: String = r.get("state");
+    let xyz = match (
+        r.get::<Option<f64>, _>("xyz_x"),
+        r.get::<Option<f64>, _>("xyz_y"),
+        r.get::<Option<f64>, _>("xyz_z"),
+    ) {
+        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+        _ => None,
+    };
     Ok(MeasurementSummary {
         id: r.get("id"),
         session_id: r.get("session_id"),
@@ -173,8 +215,12 @@ pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, 
         started_at: r.get("started_at"),
         finished_at: r.get("finished_at"),
         luminance_cd_m2: r.get("luminance_cd_m2"),
-        x: r.get("x"),
-        y: r.get("y"),
+        instrument_x: r.get("x"),
+        instrument_y: r.get("y"),
+        observer: observer_column(r, "observer")?,
+        x: xyz.map(|v| Xyz::from_array(v).chromaticity().x),
+        y: xyz.map(|v| Xyz::from_array(v).chromaticity().y),
+        xyz,
         luminance_cv: r.get("luminance_cv"),
         good_samples: r.get("good_samples"),
         partial: false,
@@ -253,9 +299,13 @@ pub struct NewComparison {
     pub scene: String,
     pub target: String,
     pub coding: String,
+    /// The observer of every XYZ of the row (and so of its ΔE).
+    pub observer: Observer,
     pub white_source: String,
     pub white: [f64; 3],
     pub measured: [f64; 3],
+    /// Standard error of the measured Y, cd/m².
+    pub measured_y_se: f64,
     pub rendered: [f64; 3],
     pub rendered_y_se: f64,
     pub y_ratio: f64,
@@ -275,6 +325,12 @@ pub struct ComparisonRow {
     pub scene: String,
     pub target: String,
     pub coding: String,
+    /// The observer of every XYZ, x,y and ΔE of the row.
+    #[schema(value_type = String)]
+    pub observer: Observer,
+    /// The CIELAB reference white the scene declares (`[cielab_white]` in
+    /// its file) and where its value came from (a measurement, the rendering
+    /// standing in until it is measured, or the scene file).
     pub white_source: String,
     pub white_X: f64,
     pub white_Y: f64,
@@ -286,6 +342,12 @@ pub struct ComparisonRow {
     pub rendered_Y: f64,
     pub rendered_Z: f64,
     pub rendered_Y_se: f64,
+    /// Standard error of the measured Y (samples' SD/√n); null on rows
+    /// stored before it was recorded.
+    pub measured_Y_se: Option<f64>,
+    /// |rendered Y − measured Y| > k·√(rendered_Y_se² + measured_Y_se²),
+    /// k = 3 ([`crate::comparison::BEYOND_NOISE_K`]); null without measured_Y_se.
+    pub Y_beyond_noise: Option<bool>,
     pub Y_ratio: f64,
     pub xy_distance: f64,
     pub dE76: f64,
@@ -294,7 +356,16 @@ pub struct ComparisonRow {
 }
 
 pub(super) fn comparison_from_row(r: &SqliteRow) -> ComparisonRow {
+    let measured_y_se: Option<f64> = r.get("measured_y_se");
+    let (measured_y, rendered_y, rendered_y_se): (f64, f64, f64) =
+        (r.get("measured_y"), r.get("rendered_y"), r.get("rendered_y_se"));
     ComparisonRow {
+        // Rows are written by this program; an unknown name would be a bug,
+        // shown as the default rather than failing every listing.
+        observer: r.get::<String, _>("observer").parse().unwrap_or_default(),
+        measured_Y_se: measured_y_se,
+        Y_beyond_noise: measured_y_se
+            .map(|m| crate::comparison::beyond_noise(rendered_y - measured_y, rendered_y_se, m)),
         id: r.get("id"),
         measurement_id: r.get("measurement_id"),
         render_id: r.get("render_id"),

@@ -59,9 +59,19 @@ async fn a_measurement_keeps_every_sample_and_its_average() {
         x: 0.31,
         y: 0.33,
         luminance_cv: 0.002,
+        xyz: Some([30.0, 34.0, 20.0]),
+        observer: Some(crate::colorimetry::Observer::JuddVos),
     };
     store.complete_measurement(id, &avg).await.unwrap();
     let m = store.get_measurement(id).await.unwrap().unwrap();
+    // The instrument's CIE 1931 x,y and lightbooth's own (with its observer)
+    // are separate, named fields.
+    assert_eq!(
+        (m.summary.instrument_x, m.summary.instrument_y),
+        (Some(0.31), Some(0.33))
+    );
+    assert_eq!(m.summary.observer, Some(crate::colorimetry::Observer::JuddVos));
+    assert!((m.summary.x.unwrap() - 30.0 / 84.0).abs() < 1e-12);
     assert_eq!(m.summary.state, MeasurementState::Complete);
     assert_eq!(m.samples.len(), 5);
     assert_eq!(m.summary.samples_taken, 5);
@@ -143,9 +153,11 @@ async fn comparisons_are_all_or_nothing() {
         scene: "white".into(),
         target: "patch".into(),
         coding: coding.into(),
+        observer: crate::colorimetry::Observer::Cie1931,
         white_source: "D65".into(),
         white: [95.0, 100.0, 108.9],
         measured: [30.0, 32.0, 35.0],
+        measured_y_se: 0.04,
         rendered: [31.0, 33.0, 34.0],
         rendered_y_se: 0.05,
         y_ratio: 33.0 / 32.0,
@@ -160,6 +172,26 @@ async fn comparisons_are_all_or_nothing() {
     let latest = store.latest_comparisons("white").await.unwrap();
     assert_eq!(latest.len(), 2);
     assert_eq!(latest[0].coding, "rgb");
+    // Each row names its observer; |33 − 32| = 1 cd/m² is 16 combined SEs
+    // (√(0.05² + 0.04²) = 0.064): beyond noise.
+    assert_eq!(latest[0].observer, crate::colorimetry::Observer::Cie1931);
+    assert_eq!(latest[0].measured_Y_se, Some(0.04));
+    assert_eq!(latest[0].Y_beyond_noise, Some(true));
+    let json = serde_json::to_value(&latest[0]).unwrap();
+    assert_eq!(json["observer"], "cie-1931");
+    // A white update rewrites the white and ΔE of exactly the named rows.
+    store
+        .update_comparison_whites(&[(latest[0].id, "measurement 9".into(), [30.0, 32.0, 35.0], 2.5, 1.5)])
+        .await
+        .unwrap();
+    let rows = store.comparisons_of_scene("white").await.unwrap();
+    let changed = rows.iter().find(|r| r.id == latest[0].id).unwrap();
+    assert_eq!(
+        (changed.white_source.as_str(), changed.white_Y, changed.dE76),
+        ("measurement 9", 32.0, 2.5)
+    );
+    let other = rows.iter().find(|r| r.id == latest[1].id).unwrap();
+    assert_eq!(other.white_source, "D65");
 }
 
 fn new_render() -> NewRender {

@@ -481,9 +481,9 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
                 }
             }
             let approx = obs.xyz_from_radiance(&product);
-            let mut de = compare_point(*xyz, approx, sig.white_exact).de00;
+            let mut de = compare_point(*xyz, approx, sig.white_exact, OBSERVER).de00;
             if sig.direct {
-                de = de.max(compare_point(*xyz, approx, *xyz).de00);
+                de = de.max(compare_point(*xyz, approx, *xyz, OBSERVER).de00);
             }
             let rel_y = (approx.y / xyz.y - 1.0).abs();
             if de > worst_de00 {
@@ -814,7 +814,12 @@ fn compare_with_reference(
             .target(&t.id)
             .ok_or_else(|| AutoError::Scene(format!("target `{}` missing from the reference", t.id)))?;
         let (rc, c) = (spectral(r)?, &t.codings[0].1);
-        points.push(compare_point(Xyz::from_array(rc.xyz), Xyz::from_array(c.xyz), white.1));
+        points.push(compare_point(
+            Xyz::from_array(rc.xyz),
+            Xyz::from_array(c.xyz),
+            white.1,
+            OBSERVER,
+        ));
         noise2 += (c.luminance_se_cd_m2.powi(2) + rc.luminance_se_cd_m2.powi(2)) / rc.luminance_cd_m2.powi(2);
     }
     if points.is_empty() {

@@ -507,7 +507,7 @@ pub fn interreflection_map(settings: &FailureMapSettings) -> Result<Interreflect
                     .map(|t| {
                         let reference = Xyz::from_array(t.coding("spectral").expect("rendered").xyz);
                         let coded = Xyz::from_array(t.coding(name).expect("rendered").xyz);
-                        compare_point(reference, coded, white_xyz)
+                        compare_point(reference, coded, white_xyz, OBSERVER)
                     })
                     .collect();
                 let s = summarize(&points);

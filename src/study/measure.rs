@@ -1,24 +1,35 @@
 //! Measurements for a reproducible study without a booth: every target of
 //! every scene measured with the simulated PR-650 (on a pty, through the
-//! real driver), aimed at the target's converged spectral rendering, and
-//! stored like any measurement. The simulator's instrument model (slit,
-//! noise) is what makes these "measurements" differ from the renderings.
+//! real driver), aimed at the simulated booth's truth for the target — the
+//! converged solution of the scene ([`render::converged_target_spectrum`]:
+//! its own seed, no bounce cap, 1 nm), or of the *truth scene* when the booth
+//! differs from the model — and stored like any measurement. Bounce
+//! truncation and sampling of the renderings under test, the instrument
+//! model (slit, noise) and any truth-scene perturbation are what make these
+//! "measurements" differ from the renderings.
 
 use std::path::{Path, PathBuf};
 
+use crate::colorimetry::Observer;
 use crate::daemon::instrument_task::{average_row, sample_row};
 use crate::instrument::mock::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
 use crate::render;
 use crate::store::{MeasurementState, NewMeasurement, Store};
+use crate::study::run::truth_path;
 
 /// Measures every target of `scenes` (five samples each) and stores the
-/// measurements; returns their ids. `seed` fixes the simulator's noise.
+/// measurements; returns their ids. `seed` fixes the simulator's noise;
+/// `truth_scene` (a scene file or folder, see
+/// [`super::run::StudyOptions::truth_scene`]) is the booth as it is;
+/// `observer` names the XYZ stored with each measurement.
 pub async fn measure_with_simulator(
     scenes: &[PathBuf],
     store: &Store,
     cache_dir: &Path,
     seed: u64,
+    observer: Observer,
+    truth_scene: Option<&Path>,
     progress: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Vec<i64>> {
     std::fs::create_dir_all(cache_dir)?;
@@ -45,16 +56,22 @@ pub async fn measure_with_simulator(
             .unwrap_or_default()
             .to_string();
         let scene = render::load_scene(path)?;
+        let truth = truth_path(truth_scene, path);
         for target in scene.targets() {
             progress(&format!("measuring {scene_id}/{target} with the simulated PR-650"));
-            mock.set_truth(render::converged_target_spectrum(path, target, Some(cache_dir))?)?;
+            mock.set_truth(render::converged_target_spectrum(&truth, target, Some(cache_dir))?)?;
             let id = store
                 .create_measurement(&NewMeasurement {
                     session_id: None,
                     scene: Some(scene_id.clone()),
                     target: Some(target.to_string()),
                     samples: settings.samples,
-                    settings_json: serde_json::json!({ "samples": settings.samples, "simulated": true, "seed": seed }),
+                    settings_json: serde_json::json!({
+                        "samples": settings.samples,
+                        "simulated": true,
+                        "seed": seed,
+                        "truth_scene": truth.display().to_string(),
+                    }),
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;
@@ -67,7 +84,7 @@ pub async fn measure_with_simulator(
                 store.insert_sample(id, row).await?;
             }
             match result {
-                Ok(avg) => store.complete_measurement(id, &average_row(&avg)).await?,
+                Ok(avg) => store.complete_measurement(id, &average_row(&avg, observer)).await?,
                 Err(e) => {
                     store
                         .end_measurement(id, MeasurementState::Failed, &e.to_string())

@@ -7,7 +7,6 @@ use std::path::Path;
 
 use super::run::{SceneStudy, StudyResult, SweepPoint};
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
-use crate::render::coding::OBSERVER;
 
 /// Luminance along the targets per coding (mean over seeds ± 1 SD over
 /// seeds) and the truth (± its SE).
@@ -44,7 +43,7 @@ pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
 }
 
 /// Chromaticities of the truth and of every coding (profiles as lines), in
-/// the study's observer (the renderer's, [`OBSERVER`]).
+/// the study's observer (the one its options name).
 pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
     let line = s.targets.len() > 1;
     let mut series = vec![ScatterSeries {
@@ -59,7 +58,7 @@ pub fn chromaticity_chart(s: &SceneStudy) -> Result<String, String> {
             connect: line,
         });
     }
-    charts::chromaticity_chart(&format!("{}: chromaticity", s.title), OBSERVER, &series)
+    charts::chromaticity_chart(&format!("{}: chromaticity", s.title), s.observer, &series)
 }
 
 /// rms_rel per coding, ±1 SD over seeds.
@@ -186,24 +185,28 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         html,
         "<p>Against {:?}; {} seeds; codings {}; first round {} paths per target, adaptive to a relative SE of Y of {}; \
          {} bounces. Wall time {:.1} s. Figures: rms_rel = sqrt(mean (1 − S/M)²) over a scene's targets; ΔE with the \
-         CIELAB white stated per scene; ± values are SD over seeds unless marked.</p>",
+         CIELAB white the scene file declares, stated per scene; observer {}; a target differs beyond noise when \
+         |Ȳ_render − Y_truth| &gt; {}·√(SE_render² + SE_truth²); ± values are SD over seeds unless marked.</p>",
         o.against,
         o.seeds,
         o.codings.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "),
         o.samples,
         o.target_relative_se.map(|v| format!("{:.2} %", v * 100.0)).unwrap_or_else(|| "none".into()),
         o.max_bounces,
-        result.wall_seconds
+        result.wall_seconds,
+        result.observer,
+        result.beyond_noise_k
     );
-    let mut figures_csv = String::from("scene,coding,seed,rms_rel,mean_dE76,sd_dE76,mean_dE00,sd_dE00\n");
-    let mut profile_csv = String::from("scene,target,coding,Y_mean,Y_sd_seeds,Y_se,x_mean,y_mean,truth_Y,truth_x,truth_y,truth_source,Y_differs_significantly\n");
-    let mut sweeps_csv =
-        String::from("scene,sweep,coding,samples,bounces,wall_seconds,rms_rel,mean_dE00,study_choice,pareto\n");
+    let mut figures_csv = String::from("scene,observer,coding,seed,rms_rel,mean_dE76,sd_dE76,mean_dE00,sd_dE00\n");
+    let mut profile_csv = String::from("scene,observer,target,coding,Y_mean,Y_sd_seeds,Y_se,x_mean,y_mean,truth_Y,truth_x,truth_y,truth_source,Y_differs_significantly\n");
+    let mut sweeps_csv = String::from(
+        "scene,observer,sweep,coding,samples,bounces,wall_seconds,rays,rms_rel,mean_dE00,study_choice,pareto\n",
+    );
     for s in &result.scenes {
         let _ = write!(
             html,
             "<section class=\"scene\"><h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
-             <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets differing beyond noise</th></tr>",
+             <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets beyond noise (|ΔY| &gt; 3·SE)</th></tr>",
             s.title, s.scene, s.white_source, s.render_seconds
         );
         for c in &s.codings {
@@ -225,8 +228,9 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             for (seed, f) in c.per_seed.iter().enumerate() {
                 let _ = writeln!(
                     figures_csv,
-                    "{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{}",
                     s.scene,
+                    s.observer,
                     c.coding,
                     seed + 1,
                     f.rms_rel,
@@ -239,8 +243,9 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             for (p, t) in c.profile.iter().zip(&s.truth) {
                 let _ = writeln!(
                     profile_csv,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     s.scene,
+                    s.observer,
                     p.target,
                     c.coding,
                     p.Y.mean,
@@ -294,13 +299,15 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             for (i, p) in s.sweeps.iter().enumerate() {
                 let _ = writeln!(
                     sweeps_csv,
-                    "{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{}",
                     s.scene,
+                    s.observer,
                     p.sweep,
                     p.coding,
                     p.samples,
                     p.bounces,
                     p.wall_seconds,
+                    p.rays,
                     p.rms_rel,
                     p.mean_dE00,
                     p.study_choice,

@@ -5,20 +5,30 @@
 //! # What is compared
 //!
 //! - The truth is either the measurements (the newest complete measurement
-//!   of each target, from the store) or, with `--against reference`, a
-//!   converged `spectral` rendering: relative standard error of Y below
-//!   [`REFERENCE_RELATIVE_SE`] and [`REFERENCE_BOUNCES`] bounces, so neither
-//!   noise nor the bounce limit of the renderings under test is in it.
+//!   of each target, from the store) or, with `--against reference`, the
+//!   simulated booth's converged `spectral` solution: its own seed
+//!   ([`render::TRUTH_SEED`], no rendering under test uses it), no bounce cap
+//!   (Russian roulette from bounce [`render::TRUTH_ROULETTE_FROM`], unbiased),
+//!   relative standard error of Y below [`REFERENCE_RELATIVE_SE`], so neither
+//!   the noise nor the bounce limit of the renderings under test is in it.
+//! - The truth may come from a *truth scene* distinct from the model scene
+//!   ([`StudyOptions::truth_scene`]): the booth as it is (a lamp at 3150 K, a
+//!   reflectance 2 % low, a target 5 mm off) while the codings render the
+//!   model. Without one the truth is the model scene's own converged solution.
 //! - Each seed renders all codings in one pass (same paths for every coding,
 //!   so differences between codings are not noise); the figures of merit
 //!   (rms_rel, mean ± SD of ΔE*ab and ΔE00 over the targets) are computed per
 //!   seed and then summarised as mean ± SD over seeds.
-//! - CIELAB white: see [`cielab_white`]; the same white for truth and renderings.
-//! - Significance against the instrument: a rendered luminance differs
-//!   significantly from a measured one only when the difference exceeds
-//!   twice the combined standard error: the seed mean's (the larger of the
-//!   renders' own SE estimate and their observed spread over seeds, over
-//!   √seeds) and the measurement's (its five-sample SD/√n).
+//! - CIELAB white: the one each scene declares (`[cielab_white]`, see
+//!   [`super::white`]); the same white for truth and renderings.
+//! - Observer: [`StudyOptions::observer`] for every XYZ, x,y, CIELAB and ΔE
+//!   (renders and measurements alike); the result names it.
+//! - "Beyond noise": a rendered luminance differs from the truth beyond
+//!   noise only when |Ȳ_render − Y_truth| > k·√(SE_render² + SE_truth²) with
+//!   k = [`BEYOND_NOISE_K`] ([`beyond_noise`]): SE_render is the seed mean's
+//!   (the larger of the renders' own SE estimate and their observed spread
+//!   over seeds, over √seeds), SE_truth the measurement's (its samples'
+//!   SD/√n) or the reference rendering's.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -27,7 +37,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
-use crate::comparison::{compare_point, mean_sd, summarize, PointDifference};
+use crate::comparison::{beyond_noise, compare_point, mean_sd, summarize, PointDifference, BEYOND_NOISE_K};
 use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::Store;
@@ -36,12 +46,10 @@ use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
 };
 use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
+use super::white::{scene_id, scene_white, SceneWhite};
 
 /// Relative standard error of Y of the reference rendering.
 pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
-/// Bounces of the reference rendering: beyond the study's 5, so the bounce
-/// limit of the renderings under test shows up as error.
-pub const REFERENCE_BOUNCES: u32 = 10;
 
 /// What the renderings are compared with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -73,6 +81,40 @@ pub struct StudyOptions {
     /// against the converged spectral answer, verify them, and place them
     /// among the alternatives on the speed-against-accuracy chart.
     pub auto: Option<Tolerance>,
+    /// The observer of every XYZ, x,y, CIELAB and ΔE (`judd-vos-1978`, the
+    /// study's, by default).
+    pub observer: Observer,
+    /// The booth as it is, when it differs from the model: a scene file
+    /// (used for the scene whose id is its file stem) or a folder of scene
+    /// files named like the model scenes. The reference truth and the
+    /// simulated measurements come from it; the codings render the model.
+    pub truth_scene: Option<PathBuf>,
+}
+
+impl StudyOptions {
+    /// The scene file the truth of `model` comes from: the truth scene of the
+    /// same id when there is one, else the model itself.
+    pub fn truth_path(&self, model: &Path) -> PathBuf {
+        truth_path(self.truth_scene.as_deref(), model)
+    }
+}
+
+/// The truth scene of `model` in `truth` (a file with the model's file
+/// stem, or a folder holding one), else `model` itself.
+pub fn truth_path(truth: Option<&Path>, model: &Path) -> PathBuf {
+    let id = scene_id(model);
+    match truth {
+        Some(t) if t.is_dir() => {
+            let p = t.join(format!("{id}.toml"));
+            if p.exists() {
+                p
+            } else {
+                model.to_path_buf()
+            }
+        }
+        Some(t) if scene_id(t) == id => t.to_path_buf(),
+        _ => model.to_path_buf(),
+    }
 }
 
 impl Default for StudyOptions {
@@ -88,6 +130,8 @@ impl Default for StudyOptions {
             sweep_samples: 4096,
             failure_map: false,
             auto: None,
+            observer: Observer::JuddVos,
+            truth_scene: None,
         }
     }
 }
@@ -136,7 +180,12 @@ pub struct TargetProfile {
     pub y: Spread,
     /// Mean Monte Carlo standard error of Y reported by the renders.
     pub Y_se: f64,
-    /// |rendered − truth| in Y exceeds twice the combined standard error.
+    /// The truth's luminance, cd/m².
+    pub truth_Y: f64,
+    /// The combined standard error √(SE_render² + SE_truth²) of the
+    /// difference, cd/m².
+    pub combined_se: f64,
+    /// |Ȳ_render − Y_truth| > k · combined_se with k = [`BEYOND_NOISE_K`].
     pub Y_differs_significantly: bool,
 }
 
@@ -170,6 +219,8 @@ pub struct Truth {
     pub Y_se: f64,
     /// Where it comes from: `measurement 12` or `reference render`.
     pub source: String,
+    /// The scene file the truth was computed from (the model, or a truth scene).
+    pub scene_file: String,
 }
 
 /// One point of the speed-against-accuracy chart.
@@ -182,6 +233,11 @@ pub struct SweepPoint {
     pub samples: u64,
     pub bounces: u32,
     pub wall_seconds: f64,
+    /// Rays traced (primary, bounce and shadow): the cost that does not
+    /// jitter with machine load; `wall_seconds` beside it.
+    pub rays: u64,
+    /// Paths traced, all targets (fixed: `samples` per target).
+    pub paths: u64,
     pub rms_rel: f64,
     pub mean_dE00: f64,
     /// One of the study's own choices (RGB, sRGB, N = 3/9/27/81, 5 bounces).
@@ -194,7 +250,11 @@ pub struct SweepPoint {
 pub struct SceneStudy {
     pub scene: String,
     pub title: String,
+    /// The observer of every XYZ, x,y, CIELAB and ΔE of this scene.
+    pub observer: Observer,
     pub targets: Vec<String>,
+    /// The scene's CIELAB white (`[cielab_white]` in its file) and where its
+    /// value came from.
     pub white_source: String,
     pub white_XYZ: [f64; 3],
     pub truth: Vec<Truth>,
@@ -221,31 +281,17 @@ pub struct AutoStudy {
 /// A whole study run.
 #[derive(Clone, Debug, Serialize)]
 pub struct StudyResult {
+    /// The observer of every XYZ, x,y, CIELAB and ΔE of the study.
+    pub observer: Observer,
+    /// The "beyond noise" test: k of |difference| > k·combined SE.
+    pub beyond_noise_k: f64,
+    /// How the sweeps' cost is defined.
+    pub cost_definition: &'static str,
     pub options: StudyOptions,
     pub scenes: Vec<SceneStudy>,
     /// Where each coding fails (illuminant × patch, interreflection strength).
     pub failure_map: Option<FailureMap>,
     pub wall_seconds: f64,
-}
-
-/// Where a scene's CIELAB white comes from (the same rule everywhere,
-/// daemon included): a scene with several targets (CYLINDER) uses its own
-/// last target (the top of the cylinder, lit directly); a scene with one
-/// target uses the WHITE scene's Spectralon (`white.toml`, target `patch`,
-/// next to it) when there is one, else its own target.
-pub fn cielab_white(scene_path: &Path, targets: &[String]) -> (PathBuf, String) {
-    if targets.len() > 1 {
-        return (scene_path.to_path_buf(), targets.last().cloned().unwrap_or_default());
-    }
-    let white = scene_path.with_file_name("white.toml");
-    if white.exists() {
-        if let Ok(s) = render::load_scene(&white) {
-            if s.target("patch").is_some() {
-                return (white, "patch".into());
-            }
-        }
-    }
-    (scene_path.to_path_buf(), targets.first().cloned().unwrap_or_default())
 }
 
 /// Errors of a study run.
@@ -265,19 +311,21 @@ pub enum StudyError {
 /// only), cached in memory for the run.
 struct References {
     cache: HashMap<PathBuf, RenderResult>,
+    observer: Observer,
 }
 
 impl References {
+    /// The converged truth of the scene file `path` (a model or a truth
+    /// scene): the simulated booth's settings ([`render::truth_settings`])
+    /// for every target.
     fn get(&mut self, path: &Path) -> Result<&RenderResult, StudyError> {
         if !self.cache.contains_key(path) {
             let scene = render::load_scene(path)?;
             let settings = RenderSettings {
-                codings: vec![Coding::Spectral],
-                max_bounces: REFERENCE_BOUNCES,
+                targets: None,
                 target_relative_se: Some(REFERENCE_RELATIVE_SE),
-                max_samples: 1 << 24,
-                seed: 0xC0FFEE,
-                ..RenderSettings::default()
+                observer: self.observer,
+                ..render::truth_settings("")
             };
             let result = render::render(&scene, &settings, None)?;
             self.cache.insert(path.to_path_buf(), result);
@@ -296,7 +344,12 @@ impl References {
 }
 
 /// The truth for one target from the store: the newest complete measurement.
-async fn measured(store: &Store, scene_id: &str, target: &str) -> Result<Option<(Xyz, f64, String)>, StudyError> {
+async fn measured(
+    store: &Store,
+    scene_id: &str,
+    target: &str,
+    observer: Observer,
+) -> Result<Option<(Xyz, f64, String)>, StudyError> {
     let Some(m) = store.latest_complete(scene_id, target).await? else {
         return Ok(None);
     };
@@ -306,7 +359,7 @@ async fn measured(store: &Store, scene_id: &str, target: &str) -> Result<Option<
     let grid = Grid::from_wavelengths(wl).map_err(|e| StudyError::Truth(e.to_string()))?;
     let s =
         Spectrum::new(grid, SpectralUnit::SpectralRadiance, radiance).map_err(|e| StudyError::Truth(e.to_string()))?;
-    let xyz = xyz_from_radiance(&s, Observer::JuddVos).map_err(|e| StudyError::Truth(e.to_string()))?;
+    let xyz = xyz_from_radiance(&s, observer).map_err(|e| StudyError::Truth(e.to_string()))?;
     let good = m.samples.iter().filter(|s| s.usable).count().max(1) as f64;
     let y_se = m.summary.luminance_cv.unwrap_or(0.0) * xyz.y / good.sqrt();
     Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))
@@ -321,7 +374,10 @@ pub async fn run_study(
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<StudyResult, StudyError> {
     let start = Instant::now();
-    let mut references = References { cache: HashMap::new() };
+    let mut references = References {
+        cache: HashMap::new(),
+        observer: options.observer,
+    };
     let mut out = Vec::new();
     for path in scenes {
         let scene = render::load_scene(path)?;
@@ -331,6 +387,8 @@ pub async fn run_study(
             .unwrap_or_default()
             .to_string();
         let targets: Vec<String> = scene.targets().into_iter().map(str::to_string).collect();
+        let white_spec = scene_white(path, &scene, options.observer).map_err(StudyError::Truth)?;
+        let truth_file = options.truth_path(path);
         progress(&format!("{scene_id}: truth ({:?})", options.against));
 
         // The truth per target, and the CIELAB white.
@@ -338,13 +396,13 @@ pub async fn run_study(
         for t in &targets {
             let (xyz, y_se, source) = match options.against {
                 Against::Reference => {
-                    let (xyz, se) = references.xyz(path, t)?;
+                    let (xyz, se) = references.xyz(&truth_file, t)?;
                     (xyz, se, "reference render".to_string())
                 }
                 Against::Measurements => {
                     let store = store
                         .ok_or_else(|| StudyError::Truth("comparing with measurements needs the database".into()))?;
-                    measured(store, &scene_id, t).await?.ok_or_else(|| {
+                    measured(store, &scene_id, t, options.observer).await?.ok_or_else(|| {
                         StudyError::Truth(format!(
                             "no complete measurement of {scene_id}/{t}: measure it first (or use --against reference)"
                         ))
@@ -359,31 +417,35 @@ pub async fn run_study(
                 y: xy.y,
                 Y_se: y_se,
                 source,
+                scene_file: truth_file.display().to_string(),
             });
         }
-        let (white_path, white_target) = cielab_white(path, &targets);
-        let white_scene_id = white_path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or_default()
-            .to_string();
-        let (white, white_source) = match options.against {
-            Against::Measurements => match store {
-                Some(store) => match measured(store, &white_scene_id, &white_target).await? {
-                    Some((xyz, _, source)) => (xyz, format!("{source} ({white_scene_id}/{white_target})")),
-                    None => {
-                        let (xyz, _) = references.xyz(&white_path, &white_target)?;
-                        (
-                            xyz,
-                            format!("reference render ({white_scene_id}/{white_target}; not measured)"),
-                        )
+        let (white, white_source) = match &white_spec {
+            SceneWhite::Fixed { xyz, source } => (*xyz, source.clone()),
+            SceneWhite::Target {
+                scene_id: white_scene_id,
+                scene_path: white_path,
+                target: white_target,
+            } => {
+                let white_truth = options.truth_path(white_path);
+                match (options.against, store) {
+                    (Against::Measurements, Some(store)) => {
+                        match measured(store, white_scene_id, white_target, options.observer).await? {
+                            Some((xyz, _, source)) => (xyz, format!("{source} ({white_scene_id}/{white_target})")),
+                            None => {
+                                let (xyz, _) = references.xyz(&white_truth, white_target)?;
+                                (
+                                    xyz,
+                                    format!("reference render ({white_scene_id}/{white_target}; not measured)"),
+                                )
+                            }
+                        }
                     }
-                },
-                None => unreachable!("checked above"),
-            },
-            Against::Reference => {
-                let (xyz, _) = references.xyz(&white_path, &white_target)?;
-                (xyz, format!("reference render ({white_scene_id}/{white_target})"))
+                    _ => {
+                        let (xyz, _) = references.xyz(&white_truth, white_target)?;
+                        (xyz, format!("reference render ({white_scene_id}/{white_target})"))
+                    }
+                }
             }
         };
 
@@ -398,6 +460,7 @@ pub async fn run_study(
                 max_bounces: options.max_bounces,
                 seed,
                 target_relative_se: options.target_relative_se,
+                observer: options.observer,
                 ..RenderSettings::default()
             };
             per_seed.push(render::render(&scene, &settings, None)?);
@@ -406,7 +469,7 @@ pub async fn run_study(
         let codings = options
             .codings
             .iter()
-            .map(|c| coding_study(&c.to_string(), &per_seed, &truth, white))
+            .map(|c| coding_study(&c.to_string(), &per_seed, &truth, white, options.observer))
             .collect();
 
         let sweeps = if options.sweeps {
@@ -425,6 +488,7 @@ pub async fn run_study(
         out.push(SceneStudy {
             scene: scene_id,
             title: scene.name.clone(),
+            observer: options.observer,
             targets,
             white_source,
             white_XYZ: white.to_array(),
@@ -450,6 +514,9 @@ pub async fn run_study(
         None
     };
     Ok(StudyResult {
+        observer: options.observer,
+        beyond_noise_k: BEYOND_NOISE_K,
+        cost_definition: COST_DEFINITION,
         options: options.clone(),
         scenes: out,
         failure_map,
@@ -498,17 +565,26 @@ fn figures(points: &[PointDifference]) -> Figures {
     }
 }
 
-fn differences(rendered: &[(Xyz, f64)], truth: &[Truth], white: Xyz) -> Vec<PointDifference> {
+fn differences(rendered: &[(Xyz, f64)], truth: &[Truth], white: Xyz, observer: Observer) -> Vec<PointDifference> {
     rendered
         .iter()
         .zip(truth)
-        .map(|((r, _), t)| compare_point(Xyz::from_array(t.XYZ), *r, white))
+        .map(|((r, _), t)| compare_point(Xyz::from_array(t.XYZ), *r, white, observer))
         .collect()
 }
 
-fn coding_study(coding: &str, per_seed: &[RenderResult], truth: &[Truth], white: Xyz) -> CodingStudy {
+fn coding_study(
+    coding: &str,
+    per_seed: &[RenderResult],
+    truth: &[Truth],
+    white: Xyz,
+    observer: Observer,
+) -> CodingStudy {
     let renders: Vec<Vec<(Xyz, f64)>> = per_seed.iter().map(|r| rendered(r, coding, truth)).collect();
-    let figs: Vec<Figures> = renders.iter().map(|r| figures(&differences(r, truth, white))).collect();
+    let figs: Vec<Figures> = renders
+        .iter()
+        .map(|r| figures(&differences(r, truth, white, observer)))
+        .collect();
     let pick = |f: fn(&Figures) -> f64| Spread::of(&figs.iter().map(f).collect::<Vec<_>>());
     let profile: Vec<TargetProfile> = truth
         .iter()
@@ -523,14 +599,16 @@ fn coding_study(coding: &str, per_seed: &[RenderResult], truth: &[Truth], white:
             // renders' own SE estimate and the observed SD over seeds) over
             // √seeds; the truth has its own SE.
             let per_render = se.max(y.sd);
-            let combined = ((per_render * per_render) / renders.len() as f64 + t.Y_se * t.Y_se).sqrt();
+            let mean_se = per_render / (renders.len() as f64).sqrt();
             TargetProfile {
                 target: t.target.clone(),
                 Y: y,
                 x: Spread::of(&xs),
                 y: Spread::of(&yys),
                 Y_se: se,
-                Y_differs_significantly: (y.mean - t.XYZ[1]).abs() > 2.0 * combined,
+                truth_Y: t.XYZ[1],
+                combined_se: mean_se.hypot(t.Y_se),
+                Y_differs_significantly: beyond_noise(y.mean - t.XYZ[1], mean_se, t.Y_se),
             }
         })
         .collect();
@@ -547,6 +625,12 @@ fn coding_study(coding: &str, per_seed: &[RenderResult], truth: &[Truth], white:
     }
 }
 
+/// How the cost of a coding is measured everywhere (study sweeps, daemon
+/// renders): a fixed number of paths per target, the same for every coding,
+/// with rays traced as the load-independent cost and wall time beside it.
+pub const COST_DEFINITION: &str =
+    "fixed paths per target (no adaptive stop), every coding rendered alone; cost = rays traced, wall time beside it";
+
 /// The sweeps of the speed-against-accuracy chart, each a render with a
 /// fixed number of paths (so wall times compare equal work): every coding
 /// alone at the study's settings; `spectral` at 256…16384 paths per target;
@@ -557,6 +641,7 @@ fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) ->
         max_bounces: options.max_bounces,
         seed: 1,
         target_relative_se: None,
+        observer: options.observer,
         ..RenderSettings::default()
     };
     let mut points = Vec::new();
@@ -571,13 +656,20 @@ fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) ->
             let t = Instant::now();
             let r = render::render(scene, &settings, None)?;
             let wall = t.elapsed().as_secs_f64();
-            let f = figures(&differences(&rendered(&r, &coding.to_string(), truth), truth, white));
+            let f = figures(&differences(
+                &rendered(&r, &coding.to_string(), truth),
+                truth,
+                white,
+                options.observer,
+            ));
             points.push(SweepPoint {
                 sweep: sweep.into(),
                 coding: coding.to_string(),
                 samples,
                 bounces,
                 wall_seconds: wall,
+                rays: r.rays,
+                paths: r.paths,
                 rms_rel: f.rms_rel,
                 mean_dE00: f.mean_dE00,
                 study_choice,

@@ -185,6 +185,7 @@ impl Daemon {
                 .to_vec(),
             render_samples: 2048,
             observer: lightbooth::colorimetry::Observer::JuddVos,
+            mock_world: None,
         };
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(daemon::run(listener, options, async move {

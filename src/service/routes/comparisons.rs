@@ -31,6 +31,9 @@ pub struct CodingSummary {
 #[allow(non_snake_case)]
 #[derive(Serialize, ToSchema)]
 pub struct SceneSummaryDto {
+    /// The observer of the XYZ, x,y and ΔE summarised.
+    #[schema(value_type = String)]
+    pub observer: crate::colorimetry::Observer,
     pub points: usize,
     pub rms_rel: f64,
     pub mean_dE76: f64,
@@ -42,6 +45,7 @@ pub struct SceneSummaryDto {
 impl From<SceneSummary> for SceneSummaryDto {
     fn from(s: SceneSummary) -> Self {
         SceneSummaryDto {
+            observer: s.observer,
             points: s.points,
             rms_rel: s.rms_rel,
             mean_dE76: s.mean_de76,
@@ -55,6 +59,10 @@ impl From<SceneSummary> for SceneSummaryDto {
 #[derive(Serialize, ToSchema)]
 pub struct SceneComparison {
     pub scene: String,
+    /// The daemon's observer (`serve --observer`): the observer of every
+    /// summary and chart; each row names its own.
+    #[schema(value_type = String)]
+    pub observer: crate::colorimetry::Observer,
     /// One row per coding: rms_rel and mean ± SD of ΔE over the scene's targets.
     pub codings: Vec<CodingSummary>,
     /// The newest comparison of every (target, coding).
@@ -63,7 +71,16 @@ pub struct SceneComparison {
 
 async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparison, ApiError> {
     find_scene(state, scene)?;
-    let rows = state.store.latest_comparisons(scene).await?;
+    let observer = state.config.observer;
+    // Only the daemon's observer: rows of another (from a run with another
+    // `--observer`) are never summarised or charted with these.
+    let rows: Vec<ComparisonRow> = state
+        .store
+        .latest_comparisons(scene)
+        .await?
+        .into_iter()
+        .filter(|r| r.observer == observer)
+        .collect();
     let mut codings: Vec<String> = rows.iter().map(|r| r.coding.clone()).collect();
     codings.sort_by_key(|c| coding_order(c));
     codings.dedup();
@@ -74,6 +91,7 @@ async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparis
                 .iter()
                 .filter(|r| r.coding == coding)
                 .map(|r| crate::comparison::PointDifference {
+                    observer: r.observer,
                     measured: crate::colorimetry::Xyz::new(r.measured_X, r.measured_Y, r.measured_Z),
                     rendered: crate::colorimetry::Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z),
                     y_ratio: r.Y_ratio,
@@ -92,6 +110,7 @@ async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparis
         .collect();
     Ok(SceneComparison {
         scene: scene.to_string(),
+        observer,
         codings: summaries,
         rows,
     })
@@ -129,6 +148,7 @@ pub async fn scene_comparisons_csv(
     Path(scene): Path<String>,
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
+    // Every row names its observer (the `observer` column).
     let mut w = csv::Writer::from_writer(Vec::new());
     for row in &c.rows {
         w.serialize(row).map_err(|e| ApiError::Internal(e.to_string()))?;
@@ -154,6 +174,8 @@ pub async fn scene_comparisons_mat(
         .map_err(internal)?;
     mat.text_rows("coding", &c.rows.iter().map(|r| r.coding.clone()).collect::<Vec<_>>())
         .map_err(internal)?;
+    // The observer of every XYZ and ΔE in the file.
+    mat.text_rows("observer", &[c.observer.to_string()]).map_err(internal)?;
     type Field = (&'static str, fn(&ComparisonRow) -> f64);
     let fields: [Field; 14] = [
         ("measurement_id", |r| r.measurement_id as f64),
