@@ -166,10 +166,17 @@ pub struct RenderRequest {
 
 /// The whole HTTP application.
 pub fn app(state: AppState) -> Router {
-    let api = routes::api_router()
+    let api = Router::from(routes::api_router())
+        .method_not_allowed_fallback(error::method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth::require_token))
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES));
-    Router::new().nest("/api", api).merge(web::router()).with_state(state)
+    Router::new()
+        .nest("/api", api)
+        .merge(web::router())
+        .fallback(error::no_route)
+        .layer(axum::middleware::map_response(error::json_error_bodies))
+        .layer(axum::middleware::from_fn(error::refuse_oversized_head))
+        .with_state(state)
 }
 
 /// Serves `app(state)` on `listener` until `shutdown` resolves, then lets

@@ -18,7 +18,7 @@ pub struct Health {
     pub queued_measurements: usize,
 }
 
-#[utoipa::path(get, path = "/api/health", tag = "service", responses((status = 200, body = Health)))]
+#[utoipa::path(get, path = "/health", tag = "service", responses((status = 200, body = Health)))]
 pub async fn health(State(state): State<AppState>) -> Result<Json<Health>, ApiError> {
     sqlx::query("SELECT 1")
         .execute(state.store.pool())
@@ -40,7 +40,7 @@ pub struct Instruments {
     pub known: Vec<InstrumentRow>,
 }
 
-#[utoipa::path(get, path = "/api/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
+#[utoipa::path(get, path = "/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
 pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instruments>, ApiError> {
     let status = state.status.borrow().clone();
     Ok(Json(Instruments {

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -10,11 +10,11 @@ use serde::Serialize;
 use utoipa::ToSchema;
 
 use crate::service::error::ApiError;
-use crate::service::input::Input;
+use crate::service::input::{Input, Path};
 use crate::service::{AppState, StudyRequest};
 use crate::store::StudyRow;
 
-#[utoipa::path(get, path = "/api/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
+#[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
     Ok(Json(state.store.list_studies().await?))
 }
@@ -27,8 +27,8 @@ pub struct StudyAccepted {
 
 /// Starts a study (every coding of the chosen scenes against the truth, over
 /// seeds); poll the URL or follow `/api/events` until `state` is final.
-#[utoipa::path(post, path = "/api/studies", tag = "studies", request_body = StudyRequest,
-    responses((status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody)),
+#[utoipa::path(post, path = "/studies", tag = "studies", request_body = StudyRequest,
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_study(
     State(state): State<AppState>,
@@ -48,7 +48,7 @@ pub async fn start_study(
     ))
 }
 
-#[utoipa::path(get, path = "/api/studies/{id}", tag = "studies", params(("id" = i64, Path)),
+#[utoipa::path(get, path = "/studies/{id}", tag = "studies", params(("id" = i64, Path)),
     responses((status = 200, body = StudyRow), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<StudyRow>, ApiError> {
     state
@@ -61,7 +61,7 @@ pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 
 /// A file of a study's report: `index.html` (the whole report), a chart
 /// (`.svg`), a table (`.csv`) or `study.json`.
-#[utoipa::path(get, path = "/api/studies/{id}/files/{name}", tag = "studies",
+#[utoipa::path(get, path = "/studies/{id}/files/{name}", tag = "studies",
     params(("id" = i64, Path), ("name" = String, Path)),
     responses((status = 200, description = "the file"), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn study_file(
