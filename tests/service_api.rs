@@ -515,3 +515,16 @@ async fn openapi_states_the_real_ranges_and_every_error_status() {
         );
     }
 }
+
+#[tokio::test]
+async fn openapi_states_render_and_study_limits() {
+    let h = harness(1).await;
+    let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
+    let render = &doc["components"]["schemas"]["RenderRequest"]["properties"];
+    assert_eq!(render["samples"]["maximum"], 16_777_216, "{render}");
+    assert_eq!(render["bounces"]["maximum"], 64, "{render}");
+    assert_eq!(
+        doc["components"]["schemas"]["StudyRequest"]["properties"]["seeds"]["maximum"],
+        64
+    );
+}

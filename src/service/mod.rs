@@ -130,6 +130,7 @@ pub struct StudyRequest {
     /// `measurements` (default) or `reference` (a converged spectral rendering).
     pub against: Option<String>,
     /// Seeds, 1–64 (default 8).
+    #[schema(minimum = 1, maximum = 64)]
     pub seeds: Option<u32>,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     pub sweeps: Option<bool>,
@@ -159,7 +160,11 @@ pub struct SceneInfo {
 pub struct RenderRequest {
     /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
     pub codings: Option<String>,
+    /// Radiometer paths per target, 1–16777216 (`render::scene::MAX_SAMPLES_PER_TARGET`).
+    #[schema(minimum = 1, maximum = 16_777_216)]
     pub samples: Option<u32>,
+    /// Indirect bounces, 0–64 (`render::scene::MAX_BOUNCES`).
+    #[schema(minimum = 0, maximum = 64)]
     pub bounces: Option<u32>,
     pub seed: Option<u64>,
 }

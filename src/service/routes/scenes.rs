@@ -77,6 +77,7 @@ pub async fn start_render(
     Input(body): Input<RenderRequest>,
 ) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
     find_scene(&state, &scene)?;
+    check_render_bounds(&body)?;
     let service = state
         .renders
         .as_ref()
@@ -89,6 +90,25 @@ pub async fn start_render(
             url: format!("/api/renders/{render_id}"),
         }),
     ))
+}
+
+/// Refuses work beyond the documented limits (see `render::scene`).
+fn check_render_bounds(body: &RenderRequest) -> Result<(), ApiError> {
+    use crate::render::scene::{MAX_BOUNCES, MAX_SAMPLES_PER_TARGET};
+    if let Some(n) = body
+        .samples
+        .filter(|n| !(1..=MAX_SAMPLES_PER_TARGET).contains(&u64::from(*n)))
+    {
+        return Err(ApiError::BadRequest(format!(
+            "field `samples`: {n} is outside 1–{MAX_SAMPLES_PER_TARGET}"
+        )));
+    }
+    if let Some(b) = body.bounces.filter(|b| *b > MAX_BOUNCES) {
+        return Err(ApiError::BadRequest(format!(
+            "field `bounces`: {b} is outside 0–{MAX_BOUNCES}"
+        )));
+    }
+    Ok(())
 }
 
 #[utoipa::path(get, path = "/renders/{id}", tag = "renders", params(("id" = i64, Path)),
