@@ -38,7 +38,7 @@ pub struct Accepted {
     pub url: String,
 }
 
-#[utoipa::path(post, path = "/measurements", tag = "measurements", request_body = StartMeasurement,
+#[utoipa::path(post, path = "/measurements", tag = "measurements", request_body = Option<StartMeasurement>,
     responses((status = 202, body = Accepted), (status = 400, body = crate::service::error::ErrorBody),
               (status = 401, body = crate::service::error::ErrorBody), (status = 409, body = crate::service::error::ErrorBody),
               (status = 503, body = crate::service::error::ErrorBody)),

@@ -68,7 +68,7 @@ pub struct RenderAccepted {
 }
 
 #[utoipa::path(post, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
-    request_body = RenderRequest,
+    request_body = Option<RenderRequest>,
     responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = RenderAccepted), (status = 404, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_render(

@@ -14,6 +14,8 @@ use crate::store::SessionRow;
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewSession {
+    /// Who measures; not blank.
+    #[schema(min_length = 1, pattern = "\\S")]
     pub operator: String,
     #[serde(default)]
     pub notes: String,

@@ -27,7 +27,7 @@ pub struct StudyAccepted {
 
 /// Starts a study (every coding of the chosen scenes against the truth, over
 /// seeds); poll the URL or follow `/api/events` until `state` is final.
-#[utoipa::path(post, path = "/studies", tag = "studies", request_body = StudyRequest,
+#[utoipa::path(post, path = "/studies", tag = "studies", request_body = Option<StudyRequest>,
     responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_study(
