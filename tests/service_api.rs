@@ -534,13 +534,23 @@ async fn openapi_states_render_and_study_limits() {
 /// so the document says it must hold a non-blank character.
 #[tokio::test]
 async fn openapi_marks_default_bodies_optional_and_operator_non_blank() {
-    let h = harness(1).await;
+    let h = harness(2).await;
     let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
-    for (path, method) in [("/api/measurements", "post"), ("/api/studies", "post"), ("/api/scenes/{scene}/renders", "post")] {
+    for (path, method) in [
+        ("/api/measurements", "post"),
+        ("/api/studies", "post"),
+        ("/api/scenes/{scene}/renders", "post"),
+    ] {
         let body = &doc["paths"][path][method]["requestBody"];
         assert_ne!(body["required"], true, "{method} {path}: {body}");
     }
     let (status, v) = send(&h.state, post("/api/measurements", "", "", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{v}");
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "null", Some(TOKEN)),
+    )
+    .await;
     assert_eq!(status, StatusCode::ACCEPTED, "{v}");
     let operator = &doc["components"]["schemas"]["NewSession"]["properties"]["operator"];
     assert_eq!(operator["minLength"], 1, "{operator}");

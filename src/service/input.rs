@@ -44,7 +44,9 @@ where
             .map_err(|r| from_rejection(r.status(), format!("cannot read the request body: {}", r.body_text())))?;
         match content_type.as_str() {
             "application/json" => {
-                let mut de = serde_json::Deserializer::from_slice(&bytes);
+                // `null` is "no body" (the document marks default-able bodies optional): all defaults.
+                let bytes: &[u8] = if bytes.trim_ascii() == b"null" { b"{}" } else { &bytes };
+                let mut de = serde_json::Deserializer::from_slice(bytes);
                 let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
                     if e.inner().is_syntax() || e.inner().is_eof() {
                         ApiError::BadRequest(format!("malformed JSON: {}", e.inner()))
