@@ -179,8 +179,11 @@ fn nstep_error_accepts_a_reflectance_file_and_rejects_a_short_grid() {
     assert!(!ok && stderr.contains("does not cover 380–780 nm"), "{stderr}");
 }
 
-/// Writes a CSV of `columns` (name, value at nm) on `nm` and returns its path.
-fn write_csv(dir: &Path, file: &str, nm: impl Iterator<Item = u32>, columns: &[(&str, fn(u32) -> f64)]) -> String {
+/// A CSV column: its header and its value at each wavelength (nm).
+type Column<'a> = (&'a str, fn(u32) -> f64);
+
+/// Writes a CSV of `columns` on `nm` and returns its path.
+fn write_csv(dir: &Path, file: &str, nm: impl Iterator<Item = u32>, columns: &[Column]) -> String {
     let mut text = String::from("nm");
     for (name, _) in columns {
         text.push_str(&format!(",{name}"));
