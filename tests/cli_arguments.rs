@@ -73,7 +73,7 @@ fn render_study_and_analyze_work_bounds_are_clear_errors() {
     ] {
         refused(&["study", scene, &format!("{flag}={value}")], flag);
     }
-    for (flag, value) in [("--seeds", "1"), ("--samples", HUGE)] {
+    for (flag, value) in [("--seeds", "65"), ("--samples", HUGE)] {
         refused(&["analyze", "failure-map", &format!("{flag}={value}")], flag);
     }
 }
