@@ -178,3 +178,86 @@ fn nstep_error_accepts_a_reflectance_file_and_rejects_a_short_grid() {
     ]);
     assert!(!ok && stderr.contains("does not cover 380–780 nm"), "{stderr}");
 }
+
+/// A CSV column: its header and its value at each wavelength (nm).
+type Column<'a> = (&'a str, fn(u32) -> f64);
+
+/// Writes a CSV of `columns` on `nm` and returns its path.
+fn write_csv(dir: &Path, file: &str, nm: impl Iterator<Item = u32>, columns: &[Column]) -> String {
+    let mut text = String::from("nm");
+    for (name, _) in columns {
+        text.push_str(&format!(",{name}"));
+    }
+    text.push('\n');
+    for w in nm {
+        text.push_str(&w.to_string());
+        for (_, f) in columns {
+            text.push_str(&format!(",{:e}", f(w)));
+        }
+        text.push('\n');
+    }
+    let p = dir.join(file);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+/// Only 380 and 780 nm, or 400–695 nm, used to give a plausible-looking but
+/// wrong XYZ (a silent sum over what was there); now it is an error naming
+/// the file, the grid found and the range needed.
+#[test]
+fn color_grid_not_covering_the_integration_range_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let two = write_csv(dir.path(), "two.csv", [380, 780].into_iter(), &[("white", |_| 0.9)]);
+    let short = write_csv(dir.path(), "short.csv", (400..=695).step_by(5), &[("white", |_| 0.9)]);
+    for (file, found) in [(&two, "380–780 nm at 400 nm"), (&short, "400–695 nm")] {
+        for unit in ["radiance", "reflectance"] {
+            let (ok, stdout, stderr) = lightbooth(&["color", file, "--unit", unit, "--json"]);
+            assert!(!ok, "{file} --unit {unit} was accepted: {stdout}");
+            assert!(stderr.contains(file.as_str()), "{stderr}");
+            assert!(stderr.contains(found), "should give the grid found ({found}): {stderr}");
+            assert!(stderr.contains("380–780 nm at a step of at most 10 nm"), "{stderr}");
+        }
+    }
+    // The same white on a covering 5 nm grid is fine.
+    let full = write_csv(dir.path(), "full.csv", (380..=780).step_by(5), &[("white", |_| 0.9)]);
+    let (ok, stdout, stderr) = lightbooth(&["color", &full, "--unit", "reflectance", "--json"]);
+    assert!(ok, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert!((v[0]["Y"].as_f64().unwrap() - 90.0).abs() < 1e-9, "{v}");
+}
+
+/// 1e308 radiances used to give `"X": null` with exit 0.
+#[test]
+fn color_overflowing_values_are_an_error_not_inf_or_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = write_csv(dir.path(), "big.csv", (380..=780).step_by(5), &[("big", |_| 1e308)]);
+    let (ok, stdout, stderr) = lightbooth(&["color", &big, "--json"]);
+    assert!(!ok, "accepted: {stdout}");
+    assert!(!stdout.contains("null"), "{stdout}");
+    assert!(stderr.contains("big.csv") && stderr.contains("overflows"), "{stderr}");
+}
+
+/// A radiance CSV read as a reflectance is named as light, not only as "a
+/// value outside [0, 1]".
+#[test]
+fn radiance_csv_used_as_reflectance_is_named_as_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let by_header = write_csv(
+        dir.path(),
+        "lamp.csv",
+        (380..=780).step_by(5),
+        &[("radiance_W_sr_m2_nm", |nm| 0.5 + f64::from(nm) / 400.0)],
+    );
+    let by_size = write_csv(dir.path(), "booth.csv", (380..=780).step_by(5), &[("patch", |_| 120.0)]);
+    for file in [&by_header, &by_size] {
+        let (ok, _, stderr) = lightbooth(&["color", file, "--unit", "reflectance"]);
+        assert!(!ok);
+        assert!(
+            stderr.contains(file.as_str()) && stderr.contains("looks like a radiance"),
+            "{stderr}"
+        );
+        assert!(stderr.contains("--unit radiance"), "{stderr}");
+    }
+    // The same files are fine as radiance.
+    assert!(lightbooth(&["color", &by_size, "--unit", "radiance"]).0);
+}

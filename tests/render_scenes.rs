@@ -410,3 +410,108 @@ target = "wall"
         "5 bounces {five} vs {analytic_five}"
     );
 }
+
+/// A NaN light position used to panic the renderer or print `"Y": null`; a
+/// NaN wall corner was silently dropped. Every non-finite number is now an
+/// error naming the file and the key.
+#[test]
+fn nan_or_inf_anywhere_in_a_scene_is_an_error_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    type Edit = Box<dyn Fn(String) -> String>;
+    let cases: Vec<(Edit, &str)> = vec![
+        (
+            Box::new(|t| t.replace("position = [0.0, 1.0, 0.0]", "position = [0.0, nan, 0.0]")),
+            "light[0].position[1]",
+        ),
+        (
+            Box::new(|t| t.replace("corner = [-1.0, 0.0, -1.0]", "corner = [nan, 0.0, -1.0]")),
+            "quad[0].corner[0]",
+        ),
+        (
+            Box::new(|t| t.replace("position = [0.0, 1.0, 1.0]", "position = [0.0, 1.0, inf]")),
+            "radiometer.position[2]",
+        ),
+        (
+            Box::new(|t| t.replace("[radiometer]", "[radiometer]\nfield_deg = -inf")),
+            "radiometer.field_deg",
+        ),
+        (
+            Box::new(|t| t.replace("\"refl.csv:grey\"", "nan")),
+            "materials.grey.reflectance",
+        ),
+        (
+            Box::new(|t| t.replace("blackbody_k = 3200", "blackbody_k = 3200\nintensity_scale = inf")),
+            "light[0].intensity_scale",
+        ),
+        (
+            Box::new(|t| {
+                t + "[camera]\nposition = [0.0, 1.0, 2.0]\nlook_at = [0.0, 0.0, nan]\nfov_deg = 40.0\nwidth = 8\nheight = 8\n"
+            }),
+            "camera.look_at[2]",
+        ),
+    ];
+    for (edit, key) in cases {
+        let p = scene_with(dir.path(), edit);
+        let e = load_scene(&p).expect_err(key).to_string();
+        assert!(e.contains("probe.toml"), "{key}: {e}");
+        assert!(e.contains(&format!(": {key}: ")), "`{e}` should name `{key}`");
+        assert!(e.contains("not a finite number"), "{e}");
+    }
+    // A NaN in a spectrum CSV is refused too, naming the file's line.
+    std::fs::write(dir.path().join("nan.csv"), "nm,grey\n380,0.5\n580,NaN\n780,0.5\n").unwrap();
+    let p = dir.path().join("nan_probe.toml");
+    let text = std::fs::read_to_string(scene_with(dir.path(), |t| t.replace("refl.csv:grey", "nan.csv:grey"))).unwrap();
+    std::fs::write(&p, text).unwrap();
+    let e = load_scene(&p).expect_err("NaN in a CSV").to_string();
+    assert!(e.contains("materials.grey.reflectance") && e.contains("nan.csv"), "{e}");
+}
+
+/// A camera looking nowhere, with `up` along its view, or with no field of
+/// view rendered a black image; an image side of 0 was silently made 1.
+#[test]
+fn degenerate_camera_and_oversized_image_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let camera = |position: &str, look_at: &str, up: &str, fov: &str, width: u32| {
+        format!(
+            "[camera]\nposition = {position}\nlook_at = {look_at}\nup = {up}\nfov_deg = {fov}\nwidth = {width}\nheight = 8\n"
+        )
+    };
+    let good = camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "40.0", 8);
+    let ok = scene_with(dir.path(), |t| t + &good);
+    assert!(load_scene(&ok).unwrap().camera.is_some());
+    let cases = [
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 1.0, 2.0]", "[0.0, 1.0, 0.0]", "40.0", 8),
+            "camera.look_at",
+        ),
+        (
+            camera("[0.0, 2.0, 0.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "40.0", 8),
+            "camera.up",
+        ),
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 0.0, 0.0]", "40.0", 8),
+            "camera.up",
+        ),
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "0.0", 8),
+            "camera.fov_deg",
+        ),
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "180.0", 8),
+            "camera.fov_deg",
+        ),
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "40.0", 0),
+            "camera.width",
+        ),
+        (
+            camera("[0.0, 1.0, 2.0]", "[0.0, 0.0, 0.0]", "[0.0, 1.0, 0.0]", "40.0", 100_000),
+            "camera.width",
+        ),
+    ];
+    for (block, key) in cases {
+        let p = scene_with(dir.path(), |t| t + &block);
+        let e = load_scene(&p).expect_err(key).to_string();
+        assert!(e.contains(&format!("probe.toml: {key}: ")), "`{e}` should name `{key}`");
+    }
+}

@@ -497,3 +497,274 @@ async fn a_queued_measurement_could_not_be_cancelled() {
     .await;
     assert_eq!(status, StatusCode::NOT_FOUND);
 }
+
+fn request(method: &str, path: &str, token: Option<&str>) -> Request<Body> {
+    let mut b = Request::builder().method(method).uri(path);
+    if let Some(t) = token {
+        b = b.header("authorization", format!("Bearer {t}"));
+    }
+    b.body(Body::empty()).unwrap()
+}
+
+/// Status, content type and JSON body (Null when not JSON).
+async fn send_typed(state: &AppState, req: Request<Body>) -> (StatusCode, String, Value) {
+    let response = app(state.clone()).oneshot(req).await.unwrap();
+    let status = response.status();
+    let content_type = response
+        .headers()
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    let bytes = response.into_body().collect().await.unwrap().to_bytes();
+    (
+        status,
+        content_type,
+        serde_json::from_slice(&bytes).unwrap_or(Value::Null),
+    )
+}
+
+#[tokio::test]
+async fn json_body_with_trailing_bytes_is_refused_and_starts_nothing() {
+    let mut h = harness(4).await;
+    for body in [r#"{"samples":3}xx"#, r#"{"samples":3} {}"#, "{}]"] {
+        let (status, v) = send(
+            &h.state,
+            post("/api/measurements", "application/json", body, Some(TOKEN)),
+        )
+        .await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{body}: {v}");
+        assert!(error_message(&v).contains("after the JSON value"), "{v}");
+    }
+    let (status, v) = send(
+        &h.state,
+        post(
+            "/api/sessions",
+            "application/json",
+            r#"{"operator":"ana"}garbage"#,
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert!(h.jobs.try_recv().is_err(), "a measurement was queued");
+    let (_, page) = send(&h.state, get("/api/measurements")).await;
+    assert_eq!(page["total"], 0, "{page}");
+    // Trailing whitespace is still one JSON document.
+    let (status, v) = send(
+        &h.state,
+        post(
+            "/api/measurements",
+            "application/json",
+            "{\"samples\":3}\n ",
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{v}");
+}
+
+#[tokio::test]
+async fn non_numeric_and_out_of_range_path_ids_answer_json_naming_the_parameter() {
+    let h = harness(1).await;
+    for path in [
+        "/api/measurements/abc",
+        "/api/measurements/99999999999999999999",
+        "/api/measurements/1.5/spectrum.csv",
+        "/api/renders/-x",
+        "/api/studies/abc/files/index.html",
+    ] {
+        let (status, content_type, v) = send_typed(&h.state, get(path)).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{path}: {v}");
+        assert_eq!(content_type, "application/json", "{path}");
+        assert_eq!(v["error"]["code"], "bad_request", "{path}: {v}");
+        assert!(error_message(&v).contains("path parameter `id`"), "{path}: {v}");
+    }
+}
+
+#[tokio::test]
+async fn unknown_paths_and_wrong_methods_answer_json_not_empty_bodies() {
+    let h = harness(1).await;
+    for path in ["/api/nope", "/api/measurements/1/nope", "/nope", "/matlab/nope.m"] {
+        let (status, content_type, v) = send_typed(&h.state, get(path)).await;
+        assert_eq!(status, StatusCode::NOT_FOUND, "{path}");
+        assert_eq!(content_type, "application/json", "{path}");
+        assert_eq!(v["error"]["code"], "not_found", "{path}: {v}");
+    }
+    for (method, path) in [
+        ("DELETE", "/api/measurements"),
+        ("PUT", "/api/measurements/1"),
+        ("POST", "/api/health"),
+        ("POST", "/"),
+    ] {
+        let response = app(h.state.clone())
+            .oneshot(request(method, path, Some(TOKEN)))
+            .await
+            .unwrap();
+        assert_eq!(response.status(), StatusCode::METHOD_NOT_ALLOWED, "{method} {path}");
+        assert!(response.headers().get("allow").is_some(), "{method} {path}: no Allow");
+        let bytes = response.into_body().collect().await.unwrap().to_bytes();
+        let v: Value = serde_json::from_slice(&bytes).unwrap_or_else(|_| panic!("{method} {path}: {bytes:?}"));
+        assert_eq!(v["error"]["code"], "method_not_allowed", "{v}");
+    }
+}
+
+#[tokio::test]
+async fn oversized_request_target_and_headers_answer_json_414_and_431() {
+    let h = harness(1).await;
+    let long = format!("/api/measurements?scene={}", "a".repeat(10_000));
+    let (status, content_type, v) = send_typed(&h.state, get(&long)).await;
+    assert_eq!(status, StatusCode::URI_TOO_LONG, "{v}");
+    assert_eq!(content_type, "application/json");
+    assert_eq!(v["error"]["code"], "uri_too_long");
+    let req = Request::get("/api/health")
+        .header("x-padding", "b".repeat(40_000))
+        .body(Body::empty())
+        .unwrap();
+    let (status, _, v) = send_typed(&h.state, req).await;
+    assert_eq!(status, StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE, "{v}");
+    assert_eq!(v["error"]["code"], "headers_too_large");
+}
+
+#[tokio::test]
+async fn negative_limit_and_offset_are_refused_not_clamped() {
+    let h = harness(1).await;
+    for (query, parameter) in [
+        ("limit=-5", "limit"),
+        ("limit=0", "limit"),
+        ("limit=1001", "limit"),
+        ("offset=-1", "offset"),
+        ("limit=abc", "limit"),
+    ] {
+        let (status, v) = send(&h.state, get(&format!("/api/measurements?{query}"))).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{query}: {v}");
+        assert!(error_message(&v).contains(&format!("`{parameter}`")), "{query}: {v}");
+    }
+    let (status, v) = send(&h.state, get("/api/measurements?limit=1000&offset=0")).await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+}
+
+/// Fills `{param}` placeholders with values that parse.
+fn concrete(path: &str) -> String {
+    path.replace("{id}", "1")
+        .replace("{scene}", "white")
+        .replace("{chart}", "de.svg")
+        .replace("{name}", "index.html")
+}
+
+#[tokio::test]
+async fn openapi_document_and_router_list_the_same_paths_and_methods() {
+    let h = harness(1).await;
+    let (status, doc) = send(&h.state, get("/api/openapi.json")).await;
+    assert_eq!(status, StatusCode::OK);
+    let paths = doc["paths"].as_object().unwrap();
+    assert!(paths.contains_key("/api/openapi.json"));
+    assert!(paths.len() >= 25, "{} paths", paths.len());
+    for (path, item) in paths {
+        assert!(path.starts_with("/api/"), "{path}");
+        for method in ["get", "post", "put", "delete", "patch"] {
+            let documented = item.get(method).is_some();
+            if path == "/api/events" && documented {
+                continue; // an endless stream: it is routed (see `/api/events` tests)
+            }
+            let response = app(h.state.clone())
+                .oneshot(request(&method.to_uppercase(), &concrete(path), Some(TOKEN)))
+                .await
+                .unwrap();
+            let status = response.status();
+            let bytes = response.into_body().collect().await.unwrap().to_bytes();
+            let body = String::from_utf8_lossy(&bytes);
+            if documented {
+                assert_ne!(
+                    status,
+                    StatusCode::METHOD_NOT_ALLOWED,
+                    "{method} {path} is documented, not routed"
+                );
+                assert!(
+                    !body.contains("no resource at"),
+                    "{method} {path} is documented, not routed: {body}"
+                );
+                let declared = item[method]["responses"].as_object().unwrap();
+                assert!(
+                    declared.contains_key(status.as_str()),
+                    "{method} {path} answered {status}, not in the document ({:?})",
+                    declared.keys().collect::<Vec<_>>()
+                );
+            } else {
+                assert_eq!(
+                    status,
+                    StatusCode::METHOD_NOT_ALLOWED,
+                    "{method} {path} is routed, not documented"
+                );
+            }
+        }
+    }
+}
+
+#[tokio::test]
+async fn openapi_states_the_real_ranges_and_every_error_status() {
+    let h = harness(1).await;
+    let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
+    let samples = &doc["components"]["schemas"]["StartMeasurement"]["properties"]["samples"];
+    assert_eq!(samples["minimum"], 1, "{samples}");
+    assert_eq!(samples["maximum"], 99, "{samples}");
+    let params = doc["paths"]["/api/measurements"]["get"]["parameters"]
+        .as_array()
+        .unwrap();
+    let limit = params.iter().find(|p| p["name"] == "limit").unwrap();
+    assert_eq!(limit["schema"]["minimum"], 1, "{limit}");
+    assert_eq!(limit["schema"]["maximum"], 1000, "{limit}");
+    let offset = params.iter().find(|p| p["name"] == "offset").unwrap();
+    assert_eq!(offset["schema"]["minimum"], 0, "{offset}");
+    let post = &doc["paths"]["/api/measurements"]["post"]["responses"];
+    for status in ["202", "400", "401", "409", "413", "415", "500", "503"] {
+        assert!(post.get(status).is_some(), "POST /api/measurements lacks {status}");
+    }
+    let get_one = &doc["paths"]["/api/measurements/{id}"]["get"]["responses"];
+    for status in ["200", "400", "401", "404", "500"] {
+        assert!(
+            get_one.get(status).is_some(),
+            "GET /api/measurements/{{id}} lacks {status}"
+        );
+    }
+}
+
+#[tokio::test]
+async fn openapi_states_render_and_study_limits() {
+    let h = harness(1).await;
+    let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
+    let render = &doc["components"]["schemas"]["RenderRequest"]["properties"];
+    assert_eq!(render["samples"]["maximum"], 16_777_216, "{render}");
+    assert_eq!(render["bounces"]["maximum"], 64, "{render}");
+    assert_eq!(
+        doc["components"]["schemas"]["StudyRequest"]["properties"]["seeds"]["maximum"],
+        64
+    );
+}
+
+/// An empty POST means "all defaults" (MATLAB `webwrite(url)`), so the
+/// document must not call those bodies required; a blank operator is refused,
+/// so the document says it must hold a non-blank character.
+#[tokio::test]
+async fn openapi_marks_default_bodies_optional_and_operator_non_blank() {
+    let h = harness(2).await;
+    let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
+    for (path, method) in [
+        ("/api/measurements", "post"),
+        ("/api/studies", "post"),
+        ("/api/scenes/{scene}/renders", "post"),
+    ] {
+        let body = &doc["paths"][path][method]["requestBody"];
+        assert_ne!(body["required"], true, "{method} {path}: {body}");
+    }
+    let (status, v) = send(&h.state, post("/api/measurements", "", "", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{v}");
+    let (status, v) = send(
+        &h.state,
+        post("/api/measurements", "application/json", "null", Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::ACCEPTED, "{v}");
+    let operator = &doc["components"]["schemas"]["NewSession"]["properties"]["operator"];
+    assert_eq!(operator["minLength"], 1, "{operator}");
+    assert_eq!(operator["pattern"], "\\S", "{operator}");
+}

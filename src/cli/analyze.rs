@@ -50,11 +50,12 @@ pub struct FailureMapArgs {
     /// The CYLINDER scene (default: scenes/cylinder.toml here, else in the source tree).
     #[arg(long)]
     scene: Option<PathBuf>,
-    /// Monte Carlo seeds 1…N for the interreflection sweep (at least 2).
-    #[arg(long, default_value_t = 4)]
+    /// Monte Carlo seeds 1…N for the interreflection sweep, 2–64.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(..=64))]
     seeds: u64,
     /// Radiometer paths per target per render.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096,
+          value_parser = clap::value_parser!(u64).range(1..=lightbooth::render::scene::MAX_SAMPLES_PER_TARGET))]
     samples: u64,
     /// Print the whole map as JSON instead of the summary tables.
     #[arg(long)]

@@ -18,11 +18,11 @@ pub struct MeasureArgs {
     /// Instrument settings (see instruments/pr650.toml); defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
-    /// Samples to average.
-    #[arg(long)]
+    /// Samples to average, 1–99.
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=99))]
     samples: Option<usize>,
-    /// Extra attempts for samples lost to an instrument error or a link fault.
-    #[arg(long)]
+    /// Extra attempts for samples lost to an instrument error or a link fault, 0–99.
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=99))]
     retries: Option<usize>,
     /// One JSON object: wavelength_nm, radiance, radiance_sd, samples, Y, x, y, luminance_cv, instrument.
     #[arg(long, conflicts_with = "csv")]

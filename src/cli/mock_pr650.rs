@@ -20,7 +20,7 @@ pub struct MockPr650Args {
     #[arg(long, value_name = "FILE.csv[:COLUMN]")]
     spectrum: Option<String>,
     /// Time scale: 1 = the real instrument's measurement and 9600-baud wire times, 0 = instant.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::time_scale)]
     speed: f64,
     /// Seed of the simulated noise (same seed, same samples).
     #[arg(long, default_value_t = 1)]
@@ -31,14 +31,14 @@ pub struct MockPr650Args {
     #[arg(long = "fault", value_name = "KIND[@DELAY][:RATE]", value_parser = parse_fault)]
     faults: Vec<Fault>,
     /// Delay before a `slow` reply that names none, ms (the driver's default command timeout is 3000 ms).
-    #[arg(long, default_value_t = 12_000)]
+    #[arg(long, default_value_t = 12_000, value_parser = clap::value_parser!(u64).range(0..=600_000))]
     slow_ms: u64,
     /// Quality code of an `error-code` fault (18 leaves the spectral buffer stale).
-    #[arg(long, default_value_t = 18)]
+    #[arg(long, default_value_t = 18, value_parser = clap::value_parser!(u8).range(0..=99))]
     error_code: u8,
     /// The power-on window for entering remote mode, seconds; 0 = never closes.
     /// Press Enter in this terminal to power-cycle the simulated unit.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = super::seconds)]
     remote_window_s: f64,
     /// Serial number reported by `D110`.
     #[arg(long, default_value = "60954303")]
@@ -50,7 +50,7 @@ pub struct MockPr650Args {
     #[arg(long)]
     no_pace: bool,
     /// The source flickers at this frequency (what `F` reports); default: steady.
-    #[arg(long)]
+    #[arg(long, value_parser = super::frequency)]
     flicker_hz: Option<f64>,
     /// With sync on, measurements fail with code 07.
     #[arg(long)]

@@ -61,6 +61,58 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+// ---- parsers of numeric flags: out-of-range values are clap errors --------
+
+/// Largest time scale of the simulated PR-650 (`--speed`, `--mock-speed`).
+const MAX_TIME_SCALE: f64 = 1000.0;
+
+fn finite_in(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{v} is outside {lo}–{hi} ({what})"))
+    }
+}
+
+/// A time scale, 0 (instant) to 1000.
+fn time_scale(s: &str) -> Result<f64, String> {
+    finite_in(s, 0.0, MAX_TIME_SCALE, "1 = real time, 0 = instant")
+}
+
+/// A duration in seconds, 0 to one day.
+fn seconds(s: &str) -> Result<f64, String> {
+    finite_in(s, 0.0, 86_400.0, "seconds")
+}
+
+/// A frequency, above 0 and at most 10 kHz.
+fn frequency(s: &str) -> Result<f64, String> {
+    let v = finite_in(s, 0.0, 10_000.0, "Hz")?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err("must be above 0 Hz".into())
+    }
+}
+
+/// A fraction, 0 to below 1.
+fn fraction(s: &str) -> Result<f64, String> {
+    let v = finite_in(s, 0.0, 1.0, "a fraction")?;
+    if v < 1.0 {
+        Ok(v)
+    } else {
+        Err("must be below 1".into())
+    }
+}
+
+/// Worker threads, 1–1024.
+fn threads(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n) if (1..=1024).contains(&n) => Ok(n),
+        _ => Err(format!("`{s}` is not 1–1024")),
+    }
+}
+
 /// An illuminant named on the command line: a CIE name (A, D65, F2, F11, E)
 /// or `FILE.csv[:COLUMN]` (the column may be left out when the file has one).
 fn load_illuminant(spec: &str) -> anyhow::Result<lightbooth::spectrum::Spectrum> {

@@ -9,6 +9,7 @@ use clap::Args;
 
 use lightbooth::colorimetry::Observer;
 use lightbooth::render::integrator::Transport;
+use lightbooth::render::scene::{MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET};
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
 
@@ -20,11 +21,12 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_coding,
           default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
     codings: Vec<Coding>,
-    /// Radiometer paths per target (the first round with --target-se).
-    #[arg(long, default_value_t = RenderSettings::default().samples)]
+    /// Radiometer paths per target (the first round with --target-se), 1–16777216.
+    #[arg(long, default_value_t = RenderSettings::default().samples,
+          value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     samples: u64,
-    /// Maximum indirect bounces (RADIANCE -ab).
-    #[arg(long, default_value_t = 5)]
+    /// Maximum indirect bounces (RADIANCE -ab), 0–64.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
     bounces: u32,
     /// Random seed: the same seed gives the same numbers on any number of threads.
     #[arg(long, default_value_t = 1)]
@@ -32,17 +34,17 @@ pub struct RenderArgs {
     /// Only these targets (comma-separated ids).
     #[arg(long, value_delimiter = ',')]
     targets: Option<Vec<String>>,
-    /// Worker threads (default: one per core).
-    #[arg(long)]
+    /// Worker threads, 1–1024 (default: one per core).
+    #[arg(long, value_parser = super::threads)]
     threads: Option<usize>,
-    /// Unbiased Russian roulette from this bounce on (default: never).
-    #[arg(long)]
+    /// Unbiased Russian roulette from this bounce on, 0–64 (default: never).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
     russian_roulette_from: Option<u32>,
     /// Also render the scene's [camera] view: .pfm (linear HDR) or .png (tone-mapped sRGB).
     #[arg(long)]
     image: Option<PathBuf>,
-    /// Paths per pixel for --image.
-    #[arg(long, default_value_t = 16)]
+    /// Paths per pixel for --image, 1–65536.
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     spp: u32,
     /// After the render, render all codings and then each coding alone with
     /// exactly --samples paths per target, and report the wall times
@@ -54,10 +56,11 @@ pub struct RenderArgs {
     sampler: SamplerKind,
     /// Keep sampling each target until the standard error of Y is below this
     /// fraction of Y in every coding, up to --max-samples; 0: exactly --samples.
-    #[arg(long, default_value_t = 0.003)]
+    #[arg(long, default_value_t = 0.003, value_parser = super::fraction)]
     target_se: f64,
-    /// Cap on paths per target with --target-se.
-    #[arg(long, default_value_t = RenderSettings::default().max_samples)]
+    /// Cap on paths per target with --target-se, 1–16777216.
+    #[arg(long, default_value_t = RenderSettings::default().max_samples,
+          value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     max_samples: u64,
     /// The observer of every XYZ, x,y and Y: judd-vos-1978 (the study's) or cie-1931.
     #[arg(long, default_value = "judd-vos-1978")]

@@ -33,7 +33,7 @@ pub struct ServeArgs {
     #[arg(long)]
     instrument: Option<PathBuf>,
     /// Time scale of the simulated PR-650: 1 = the real instrument's timing, 0 = instant.
-    #[arg(long)]
+    #[arg(long, value_parser = super::time_scale)]
     mock_speed: Option<f64>,
     /// Fault injected into the simulated PR-650, KIND[@DELAY][:RATE] (repeatable): KIND one of
     /// no-answer, truncate, garble, stale, error-code, cable-pull, slow, double-crlf, link-dies;
@@ -129,7 +129,12 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         );
         anyhow::ensure!(world.is_dir(), "--mock-world {}: not a folder", world.display());
     }
-    anyhow::ensure!(options.mock_speed >= 0.0, "--mock-speed must be 0 or more");
+    anyhow::ensure!(
+        options.mock_speed.is_finite() && (0.0..=super::MAX_TIME_SCALE).contains(&options.mock_speed),
+        "mock_speed {} must be 0–{}",
+        options.mock_speed,
+        super::MAX_TIME_SCALE
+    );
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
     runtime.block_on(async move {
         let listener = tokio::net::TcpListener::bind(options.bind)

@@ -29,13 +29,15 @@ pub struct StudyArgs {
     )]
     codings: Vec<Coding>,
     /// Seeds: each renders every coding once; figures are given as mean ± SD over seeds.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=64))]
     seeds: u32,
     /// First-round paths per target (rendering continues to a 0.3 % SE of Y).
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = 4096,
+          value_parser = clap::value_parser!(u64).range(1..=lightbooth::render::scene::MAX_SAMPLES_PER_TARGET))]
     samples: u64,
     /// Maximum bounces (the study's -ab 5).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(lightbooth::render::scene::MAX_BOUNCES)))]
     bounces: u32,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     #[arg(long)]

@@ -17,6 +17,13 @@
 //!   PR-650's 384 nm under the 5 nm Judd–Vos table). Outside the table
 //!   (380–780 nm for both shipped observers) the matching functions are zero.
 //! - No trapezoid end weights, no ASTM E308 weighting tables.
+//! - The grid must cover what the sum needs: all of 380–780 nm
+//!   ([`INTEGRATION_RANGE_NM`]) at a step of at most
+//!   [`MAX_INTEGRATION_STEP_NM`]. Anything else is an error naming the grid
+//!   found and the one needed ([`ColorError::Coverage`]) — there is no
+//!   extrapolation: a 400–700 nm table is extended (or resampled) by the
+//!   user, who then says how. A sum that overflows (values near `f64::MAX`)
+//!   is an error too, never an infinite or NaN XYZ.
 //! - Absolute: k = Km = 683 lm/W and S a spectral radiance in W/(sr·m²·nm),
 //!   so Y is luminance in cd/m².
 //! - Relative: k = 100 / Σ E(λᵢ)·ȳ(λᵢ)·Δλ for the illuminant E on the same
@@ -270,6 +277,14 @@ impl Chromaticity {
     }
 }
 
+/// The wavelengths a tristimulus sum needs: the matching functions' table.
+pub const INTEGRATION_RANGE_NM: (f64, f64) = (380.0, 780.0);
+
+/// The coarsest grid step the plain sum is used with, nm. CIE 15 tabulates at
+/// 5 nm; at 10 nm the sum still follows the matching functions' peaks, at
+/// 20 nm and above it does not.
+pub const MAX_INTEGRATION_STEP_NM: f64 = 10.0;
+
 /// Errors of colorimetric computations.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ColorError {
@@ -277,6 +292,39 @@ pub enum ColorError {
     Spectrum(#[from] SpectrumError),
     #[error("{0}")]
     Unit(String),
+    #[error(
+        "the grid {found} does not cover what the XYZ integration needs: {}–{} nm at a step of at most {} nm \
+         (no extrapolation: extend or resample the data first)",
+        INTEGRATION_RANGE_NM.0,
+        INTEGRATION_RANGE_NM.1,
+        MAX_INTEGRATION_STEP_NM
+    )]
+    Coverage { found: Grid },
+    #[error("the XYZ sum overflows: the spectrum's values are too large to integrate (up to {max:e})")]
+    Overflow { max: f64 },
+}
+
+/// Errors unless `grid` covers [`INTEGRATION_RANGE_NM`] at a step of at most
+/// [`MAX_INTEGRATION_STEP_NM`] (no gap between neighbouring wavelengths wider).
+pub fn require_integration_grid(grid: &Grid) -> Result<(), ColorError> {
+    let (lo, hi) = INTEGRATION_RANGE_NM;
+    let w = grid.wavelengths();
+    let widest_gap = w.windows(2).map(|p| p[1] - p[0]).fold(0.0, f64::max);
+    if !grid.covers(lo, hi) || widest_gap > MAX_INTEGRATION_STEP_NM + 1e-9 {
+        return Err(ColorError::Coverage { found: grid.clone() });
+    }
+    Ok(())
+}
+
+/// The sums as XYZ, or [`ColorError::Overflow`] if any is not finite.
+fn finite_xyz(sums: [f64; 3], values: &[f64]) -> Result<Xyz, ColorError> {
+    if sums.iter().all(|v| v.is_finite()) {
+        Ok(Xyz::from_array(sums))
+    } else {
+        Err(ColorError::Overflow {
+            max: values.iter().fold(0.0, |m, v| m.max(v.abs())),
+        })
+    }
 }
 
 /// Absolute XYZ of a spectral radiance (W/(sr·m²·nm); per-band radiance is
@@ -293,9 +341,10 @@ pub fn xyz_from_radiance(spectrum: &Spectrum, observer: Observer) -> Result<Xyz,
             )))
         }
     }
+    require_integration_grid(per_nm.grid())?;
     let step = per_nm.uniform_step("XYZ")?;
     let s = Cmf::of(observer).integrate(per_nm.values(), per_nm.grid(), step);
-    Ok(Xyz::from_array(s.map(|v| v * KM_LM_PER_W)))
+    finite_xyz(s.map(|v| v * KM_LM_PER_W), per_nm.values())
 }
 
 /// Relative XYZ (perfect white Y = 100) of a reflectance under an
@@ -316,15 +365,20 @@ pub fn xyz_of_signal(signal: &Spectrum, illuminant: &Spectrum, observer: Observe
             illuminant.unit()
         )));
     }
+    require_integration_grid(signal.grid())?;
     let step = signal.uniform_step("XYZ")?;
     let cmf = Cmf::of(observer);
-    let white = cmf.integrate(illuminant.values(), illuminant.grid(), step);
+    let white = finite_xyz(
+        cmf.integrate(illuminant.values(), illuminant.grid(), step),
+        illuminant.values(),
+    )?;
+    let white = white.to_array();
     if white[1] <= 0.0 {
         return Err(ColorError::Unit("the illuminant has no luminance on this grid".into()));
     }
     let k = 100.0 / white[1];
     let s = cmf.integrate(signal.values(), signal.grid(), step);
-    Ok(Xyz::from_array(s.map(|v| v * k)))
+    finite_xyz(s.map(|v| v * k), signal.values())
 }
 
 #[cfg(test)]

@@ -62,6 +62,17 @@
 //! laid out from its measured patch (see [`ChartFile`]). An optional
 //! `[camera]` gives the dashboard view.
 //!
+//! Every number must be finite: `nan` or `inf` anywhere in the file is an
+//! error naming its key (`light[0].position[1]`). A camera must look
+//! somewhere (`look_at` ≠ `position`), with `up` not along the view
+//! direction and 0 < `fov_deg` < 180.
+//!
+//! Limits (errors, not clamps): a camera image is at most
+//! [`MAX_IMAGE_SIDE_PX`] pixels a side; a render traces at most
+//! [`MAX_SAMPLES_PER_TARGET`] paths per target, [`MAX_PIXEL_SAMPLES`] paths
+//! per pixel and [`MAX_BOUNCES`] bounces (`lightbooth render`, `study` and
+//! the API refuse more).
+//!
 //! Light spectra: the SPD (a blackbody by Planck's law, or a CSV column, times
 //! an optional filter transmittance) is resampled to 1 nm and scaled so that
 //! 683 lm/W · Σ S(λ)·ȳ(λ)·1 nm = 1 cd, with the Judd–Vos ȳ (the renderer's
@@ -82,6 +93,17 @@ use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
 /// Targets farther than this from every surface are an error, m.
 pub const TARGET_TOLERANCE_M: f64 = 1e-4;
+
+/// Largest camera image side, pixels (`[camera] width`, `height`).
+pub const MAX_IMAGE_SIDE_PX: u32 = 4096;
+/// Most radiometer paths per target a render may trace (`--samples`,
+/// `--max-samples`, the API's `samples`): 2²⁴, what the converged reference uses.
+pub const MAX_SAMPLES_PER_TARGET: u64 = 1 << 24;
+/// Most paths per pixel of a camera image (`--spp`).
+pub const MAX_PIXEL_SAMPLES: u32 = 65_536;
+/// Most indirect bounces (`--bounces`, the API's `bounces`); the study's
+/// convergence checks go to 10.
+pub const MAX_BOUNCES: u32 = 64;
 
 /// Second radiation constant c₂ = hc/k in m·K (CODATA 2018, as CIE 15:2018).
 const C2_M_K: f64 = 1.438_776_877e-2;
@@ -526,11 +548,20 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         key: "(file)".into(),
         message: format!("cannot read: {e}"),
     })?;
-    let raw: SceneFile = toml::from_str(&text).map_err(|e| SceneError {
+    let syntax = |e: toml::de::Error| SceneError {
         file: file.clone(),
         key: "(syntax)".into(),
         message: e.to_string().trim_end().replace('\n', "\n  "),
-    })?;
+    };
+    let tree: toml::Table = toml::from_str(&text).map_err(syntax)?;
+    if let Some((key, v)) = first_non_finite(&toml::Value::Table(tree), String::new()) {
+        return Err(SceneError {
+            file: file.clone(),
+            key,
+            message: format!("{v} is not a finite number"),
+        });
+    }
+    let raw: SceneFile = toml::from_str(&text).map_err(syntax)?;
     let mut l = Loader {
         file,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
@@ -688,14 +719,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 
     let camera = match &raw.camera {
         None => None,
-        Some(c) => Some(Camera {
-            position: DVec3::from(c.position),
-            look_at: DVec3::from(c.look_at),
-            up: unit(c.up, &l, "camera.up")?,
-            fov_deg: positive(c.fov_deg, &l, "camera.fov_deg")?,
-            width: c.width.max(1),
-            height: c.height.max(1),
-        }),
+        Some(c) => Some(load_camera(&l, c)?),
     };
 
     let cielab_white = raw
@@ -797,6 +821,59 @@ impl Scene {
         }
         Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
     }
+}
+
+/// The first NaN or infinity in a parsed TOML tree, with its key path.
+fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
+        toml::Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, item)| first_non_finite(item, format!("{key}[{i}]"))),
+        toml::Value::Table(t) => t.iter().find_map(|(k, item)| {
+            let key = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            first_non_finite(item, key)
+        }),
+        _ => None,
+    }
+}
+
+/// A camera that can form an image: it looks somewhere, `up` is not along
+/// the view, the field of view is open, the image is 1–[`MAX_IMAGE_SIDE_PX`] a side.
+fn load_camera(l: &Loader, c: &CameraFile) -> Result<Camera, SceneError> {
+    let (position, look_at) = (DVec3::from(c.position), DVec3::from(c.look_at));
+    let view = unit((look_at - position).to_array(), l, "camera.look_at").map_err(|_| {
+        l.err(
+            "camera.look_at",
+            "must differ from camera.position (the camera looks nowhere)",
+        )
+    })?;
+    let up = unit(c.up, l, "camera.up")?;
+    if view.cross(up).length() < 1e-6 {
+        return Err(l.err("camera.up", "is along the view direction: the image has no vertical"));
+    }
+    let fov_deg = positive(c.fov_deg, l, "camera.fov_deg")?;
+    if fov_deg >= 180.0 {
+        return Err(l.err("camera.fov_deg", format!("must be below 180, is {fov_deg}")));
+    }
+    for (key, side) in [("camera.width", c.width), ("camera.height", c.height)] {
+        if !(1..=MAX_IMAGE_SIDE_PX).contains(&side) {
+            return Err(l.err(key, format!("must be 1–{MAX_IMAGE_SIDE_PX} pixels, is {side}")));
+        }
+    }
+    Ok(Camera {
+        position,
+        look_at,
+        up,
+        fov_deg,
+        width: c.width,
+        height: c.height,
+    })
 }
 
 fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneError> {

@@ -1,8 +1,22 @@
 //! One error type for the whole REST API, mapped to HTTP statuses in one
 //! place. Every error leaves as JSON `{"error": {"code": …, "message": …}}`,
 //! which MATLAB's `webread` surfaces in its exception text.
+//!
+//! Errors the handlers never see get the same shape here: the router's
+//! fallback ([`no_route`]), wrong methods ([`method_not_allowed`]), request
+//! lines and headers over this service's limits ([`refuse_oversized_head`]),
+//! and, as a last net, any error response some layer produced with a
+//! non-JSON body ([`json_error_bodies`]).
+//!
+//! Limitation: hyper answers by itself, with an empty body, before any of
+//! this code runs, when a request has more than 100 header fields, a head
+//! over about 400 KiB, or a request target over 65,534 bytes. Requests under
+//! those hard limits but over [`MAX_URI_BYTES`] / [`MAX_HEAD_BYTES`] get the
+//! JSON 414 / 431 from [`refuse_oversized_head`].
 
-use axum::http::StatusCode;
+use axum::extract::Request;
+use axum::http::{header, HeaderValue, StatusCode, Uri};
+use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde::Serialize;
@@ -21,9 +35,15 @@ pub enum ApiError {
     NotFound(String),
     /// The instrument's queue is full, or the resource is in the wrong state.
     #[error("{0}")]
+    MethodNotAllowed(String),
+    #[error("{0}")]
     Conflict(String),
     #[error("{0}")]
     PayloadTooLarge(String),
+    #[error("{0}")]
+    UriTooLong(String),
+    #[error("{0}")]
+    HeadersTooLarge(String),
     #[error("{0}")]
     UnsupportedMediaType(String),
     /// The instrument is disconnected or in error.
@@ -41,8 +61,9 @@ pub struct ErrorBody {
 
 #[derive(Serialize, ToSchema)]
 pub struct ErrorDetail {
-    /// Stable, machine-readable: bad_request, unauthorized, not_found, conflict,
-    /// payload_too_large, unsupported_media_type, unavailable, internal.
+    /// Stable, machine-readable: bad_request, unauthorized, not_found,
+    /// method_not_allowed, conflict, payload_too_large, uri_too_long,
+    /// headers_too_large, unsupported_media_type, unavailable, internal.
     pub code: &'static str,
     pub message: String,
 }
@@ -53,8 +74,11 @@ impl ApiError {
             ApiError::BadRequest(_) => StatusCode::BAD_REQUEST,
             ApiError::Unauthorized(_) => StatusCode::UNAUTHORIZED,
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
+            ApiError::MethodNotAllowed(_) => StatusCode::METHOD_NOT_ALLOWED,
             ApiError::Conflict(_) => StatusCode::CONFLICT,
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            ApiError::UriTooLong(_) => StatusCode::URI_TOO_LONG,
+            ApiError::HeadersTooLarge(_) => StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
             ApiError::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             ApiError::Unavailable(_) => StatusCode::SERVICE_UNAVAILABLE,
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
@@ -66,8 +90,11 @@ impl ApiError {
             ApiError::BadRequest(_) => "bad_request",
             ApiError::Unauthorized(_) => "unauthorized",
             ApiError::NotFound(_) => "not_found",
+            ApiError::MethodNotAllowed(_) => "method_not_allowed",
             ApiError::Conflict(_) => "conflict",
             ApiError::PayloadTooLarge(_) => "payload_too_large",
+            ApiError::UriTooLong(_) => "uri_too_long",
+            ApiError::HeadersTooLarge(_) => "headers_too_large",
             ApiError::UnsupportedMediaType(_) => "unsupported_media_type",
             ApiError::Unavailable(_) => "unavailable",
             ApiError::Internal(_) => "internal",
@@ -108,13 +135,101 @@ impl From<StoreError> for ApiError {
     }
 }
 
-/// Turns axum's own rejections (path, query) into the JSON error shape.
+/// Turns a status some other layer chose (axum's rejections, a method
+/// router's 405) into the error with that status.
 pub fn from_rejection(status: StatusCode, message: String) -> ApiError {
     match status {
-        StatusCode::PAYLOAD_TOO_LARGE => ApiError::PayloadTooLarge(message),
-        StatusCode::UNSUPPORTED_MEDIA_TYPE => ApiError::UnsupportedMediaType(message),
+        StatusCode::UNAUTHORIZED => ApiError::Unauthorized(message),
         StatusCode::NOT_FOUND => ApiError::NotFound(message),
+        StatusCode::METHOD_NOT_ALLOWED => ApiError::MethodNotAllowed(message),
+        StatusCode::CONFLICT => ApiError::Conflict(message),
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::PayloadTooLarge(message),
+        StatusCode::URI_TOO_LONG => ApiError::UriTooLong(message),
+        StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE => ApiError::HeadersTooLarge(message),
+        StatusCode::UNSUPPORTED_MEDIA_TYPE => ApiError::UnsupportedMediaType(message),
+        StatusCode::SERVICE_UNAVAILABLE => ApiError::Unavailable(message),
         s if s.is_server_error() => ApiError::Internal(message),
         _ => ApiError::BadRequest(message),
     }
+}
+
+/// The router's fallback: no route has this path.
+pub async fn no_route(uri: Uri) -> ApiError {
+    ApiError::NotFound(format!(
+        "no resource at `{}`; the API is listed at /api/openapi.json",
+        uri.path()
+    ))
+}
+
+/// Every method router's fallback: the path exists, the method does not.
+/// (axum adds the `Allow` header itself.)
+pub async fn method_not_allowed(method: axum::http::Method, uri: Uri) -> ApiError {
+    ApiError::MethodNotAllowed(format!("`{method}` is not allowed on `{}`", uri.path()))
+}
+
+/// Longest request target (path and query) the service reads: no API path
+/// or query comes near it.
+pub const MAX_URI_BYTES: usize = 8 * 1024;
+/// Most bytes of header fields (names and values) the service reads.
+pub const MAX_HEAD_BYTES: usize = 32 * 1024;
+
+/// Refuses a request whose target or headers exceed the service's limits
+/// with 414 or 431 in the JSON shape (hyper's own, larger limits answer
+/// with an empty body: see the module doc).
+pub async fn refuse_oversized_head(request: Request, next: Next) -> Response {
+    let uri_len = request.uri().to_string().len();
+    if uri_len > MAX_URI_BYTES {
+        return ApiError::UriTooLong(format!(
+            "the request target is {uri_len} bytes; the limit is {MAX_URI_BYTES}"
+        ))
+        .into_response();
+    }
+    let head: usize = request
+        .headers()
+        .iter()
+        .map(|(name, value)| name.as_str().len() + value.len())
+        .sum();
+    if head > MAX_HEAD_BYTES {
+        return ApiError::HeadersTooLarge(format!(
+            "the header fields are {head} bytes; the limit is {MAX_HEAD_BYTES}"
+        ))
+        .into_response();
+    }
+    next.run(request).await
+}
+
+/// The last net: an error response with a body that is not JSON (or no
+/// body) leaves in the JSON error shape, with the same status and headers
+/// (`Allow`, `WWW-Authenticate`) and its text as the message.
+pub async fn json_error_bodies(response: Response) -> Response {
+    let status = response.status();
+    let is_json = response
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"application/json"));
+    if !(status.is_client_error() || status.is_server_error()) || is_json {
+        return response;
+    }
+    let (mut parts, body) = response.into_parts();
+    let text = axum::body::to_bytes(body, 64 * 1024)
+        .await
+        .map(|b| String::from_utf8_lossy(&b).trim().to_string())
+        .unwrap_or_default();
+    let message = if text.is_empty() {
+        status.canonical_reason().unwrap_or("error").to_ascii_lowercase()
+    } else {
+        text
+    };
+    let fresh = from_rejection(status, message).into_response();
+    let (fresh_parts, fresh_body) = fresh.into_parts();
+    parts.headers.remove(header::CONTENT_LENGTH);
+    parts.headers.insert(
+        header::CONTENT_TYPE,
+        fresh_parts
+            .headers
+            .get(header::CONTENT_TYPE)
+            .cloned()
+            .unwrap_or(HeaderValue::from_static("application/json")),
+    );
+    Response::from_parts(parts, fresh_body)
 }

@@ -96,7 +96,7 @@ impl Event {
 }
 
 /// `GET /api/events`: the current instrument status first, then every event.
-#[utoipa::path(get, path = "/api/events", tag = "events",
+#[utoipa::path(get, path = "/events", tag = "events",
     responses((status = 200, description = "text/event-stream of Event objects; the SSE event name is the `type` field")))]
 pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Result<sse::Event, Infallible>>> {
     let first = Event::InstrumentStatus {

@@ -4,10 +4,14 @@
 //! unless told otherwise, and scripts also send JSON: [`Input`] accepts both
 //! for simple POSTs. Unknown fields are rejected (the body types use
 //! `deny_unknown_fields`), and errors say which field was wrong, via
-//! `serde_path_to_error`.
+//! `serde_path_to_error`. A JSON body is one value and nothing after it
+//! (trailing bytes are refused, not ignored). [`Path`] names the path
+//! parameter that does not parse, in the same JSON error shape.
 
 use axum::body::Bytes;
-use axum::extract::{FromRequest, FromRequestParts, Request};
+use axum::extract::path::ErrorKind;
+use axum::extract::rejection::PathRejection;
+use axum::extract::{FromRequest, FromRequestParts, RawPathParams, Request};
 use axum::http::header::CONTENT_TYPE;
 use axum::http::request::Parts;
 use serde::de::DeserializeOwned;
@@ -40,14 +44,20 @@ where
             .map_err(|r| from_rejection(r.status(), format!("cannot read the request body: {}", r.body_text())))?;
         match content_type.as_str() {
             "application/json" => {
-                let mut de = serde_json::Deserializer::from_slice(&bytes);
-                serde_path_to_error::deserialize(&mut de).map(Input).map_err(|e| {
+                // `null` is "no body" (the document marks default-able bodies optional): all defaults.
+                let bytes: &[u8] = if bytes.trim_ascii() == b"null" { b"{}" } else { &bytes };
+                let mut de = serde_json::Deserializer::from_slice(bytes);
+                let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
                     if e.inner().is_syntax() || e.inner().is_eof() {
                         ApiError::BadRequest(format!("malformed JSON: {}", e.inner()))
                     } else {
                         field_error(&e)
                     }
-                })
+                })?;
+                // `{"samples":3}xx` is not a JSON document: refuse what follows the value.
+                de.end()
+                    .map_err(|e| ApiError::BadRequest(format!("malformed JSON: bytes after the JSON value ({e})")))?;
+                Ok(Input(value))
             }
             "application/x-www-form-urlencoded" => {
                 let de = serde_urlencoded::Deserializer::new(form_urlencoded::parse(&bytes));
@@ -86,6 +96,72 @@ where
             .map(Query)
             .map_err(|e| field_error(&e))
     }
+}
+
+/// Path parameters deserialised into `T`; a value that does not parse is a
+/// 400 naming the parameter, e.g. ``path parameter `id`: `abc` is not a valid i64``.
+pub struct Path<T>(pub T);
+
+impl<S, T> FromRequestParts<S> for Path<T>
+where
+    T: DeserializeOwned + Send,
+    S: Send + Sync,
+{
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, ApiError> {
+        let rejection = match axum::extract::Path::<T>::from_request_parts(parts, state).await {
+            Ok(axum::extract::Path(value)) => return Ok(Path(value)),
+            Err(r) => r,
+        };
+        let PathRejection::FailedToDeserializePathParams(e) = &rejection else {
+            return Err(from_rejection(rejection.status(), rejection.body_text()));
+        };
+        let names: Vec<String> = RawPathParams::from_request_parts(parts, state)
+            .await
+            .map(|p| p.iter().map(|(k, _)| k.to_string()).collect())
+            .unwrap_or_default();
+        let named = |index: usize| names.get(index).map(String::as_str).unwrap_or("?").to_string();
+        let message = match e.kind() {
+            ErrorKind::ParseErrorAtKey {
+                key,
+                value,
+                expected_type,
+            } => format!("path parameter `{key}`: `{value}` is not a valid {expected_type}"),
+            ErrorKind::ParseErrorAtIndex {
+                index,
+                value,
+                expected_type,
+            } => format!(
+                "path parameter `{}`: `{value}` is not a valid {expected_type}",
+                named(*index)
+            ),
+            ErrorKind::ParseError { value, expected_type } => {
+                format!(
+                    "path parameter `{}`: `{value}` is not a valid {expected_type}",
+                    named(0)
+                )
+            }
+            _ => format!("path parameters: {}", e.body_text()),
+        };
+        Err(from_rejection(e.status(), message))
+    }
+}
+
+/// Refuses paging outside its range rather than clamping it silently:
+/// `limit` 1–1000, `offset` ≥ 0.
+pub fn check_paging(limit: Option<i64>, offset: Option<i64>) -> Result<(), ApiError> {
+    if let Some(limit) = limit.filter(|l| !(1..=1000).contains(l)) {
+        return Err(ApiError::BadRequest(format!(
+            "parameter `limit`: {limit} is outside 1–1000"
+        )));
+    }
+    if let Some(offset) = offset.filter(|o| *o < 0) {
+        return Err(ApiError::BadRequest(format!(
+            "parameter `offset`: {offset} is negative"
+        )));
+    }
+    Ok(())
 }
 
 fn field_error<E: std::fmt::Display>(e: &serde_path_to_error::Error<E>) -> ApiError {

@@ -142,6 +142,7 @@ pub struct StudyRequest {
     /// `measurements` (default) or `reference` (a converged spectral rendering).
     pub against: Option<String>,
     /// Seeds, 1–64 (default 8).
+    #[schema(minimum = 1, maximum = 64)]
     pub seeds: Option<u32>,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     pub sweeps: Option<bool>,
@@ -189,17 +190,28 @@ pub struct SceneInfo {
 pub struct RenderRequest {
     /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
     pub codings: Option<String>,
+    /// Radiometer paths per target, 1–16777216 (`render::scene::MAX_SAMPLES_PER_TARGET`).
+    #[schema(minimum = 1, maximum = 16_777_216)]
     pub samples: Option<u32>,
+    /// Indirect bounces, 0–64 (`render::scene::MAX_BOUNCES`).
+    #[schema(minimum = 0, maximum = 64)]
     pub bounces: Option<u32>,
     pub seed: Option<u64>,
 }
 
 /// The whole HTTP application.
 pub fn app(state: AppState) -> Router {
-    let api = routes::api_router()
+    let api = Router::from(routes::api_router())
+        .method_not_allowed_fallback(error::method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth::require_token))
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES));
-    Router::new().nest("/api", api).merge(web::router()).with_state(state)
+    Router::new()
+        .nest("/api", api)
+        .merge(web::router())
+        .fallback(error::no_route)
+        .layer(axum::middleware::map_response(error::json_error_bodies))
+        .layer(axum::middleware::from_fn(error::refuse_oversized_head))
+        .with_state(state)
 }
 
 /// Serves `app(state)` on `listener` with the default [`ServeLimits`] until

@@ -5,6 +5,11 @@
 //! carries no unit, so reading gives a [`SpectraTable`] of plain numbers and
 //! the caller says what a column means with [`SpectraTable::spectrum`].
 //!
+//! A column of light (a radiance or SPD: values far above 1, or a header such
+//! as `radiance` or `W/(sr·m²·nm)`) read as a reflectance or transmittance
+//! is named as such ([`TableErrorKind::LooksLikeLight`]), not just as a value
+//! out of [0, 1].
+//!
 //! Every error names the file, the line and the column, so an operator can
 //! open the file and fix it:
 //!
@@ -85,6 +90,45 @@ pub enum TableErrorKind {
     NoSuchColumn(String, String),
     #[error("{0}")]
     Spectrum(Box<SpectrumError>),
+    #[error(
+        "read as a {unit} (0–1), but its values reach {max} and {why}: it looks like a radiance or \
+         SPD; use it as light (e.g. `lightbooth color --unit radiance`), not as a {unit}"
+    )]
+    LooksLikeLight {
+        unit: SpectralUnit,
+        max: f64,
+        why: &'static str,
+    },
+}
+
+/// Words of a header that names light, not a reflectance.
+const LIGHT_HEADER_WORDS: [&str; 8] = [
+    "radiance",
+    "irradiance",
+    "w/",
+    "watt",
+    "cd/m",
+    "spd",
+    "power",
+    "luminance",
+];
+
+/// Why a column of a factor unit (reflectance, transmittance) looks like
+/// light: values far above 1 (more than twice a perfect white), or above 1
+/// under a header that names light. `None` for plausible factors.
+fn looks_like_light(header: &str, values: &[f64]) -> Option<(f64, &'static str)> {
+    let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if max <= 1.0 {
+        return None;
+    }
+    let header = header.to_ascii_lowercase();
+    if LIGHT_HEADER_WORDS.iter().any(|w| header.contains(w)) {
+        Some((max, "the header names light"))
+    } else if max > 2.0 {
+        Some((max, "no reflectance exceeds 2"))
+    } else {
+        None
+    }
 }
 
 impl SpectraTable {
@@ -264,6 +308,16 @@ impl SpectraTable {
 
     fn spectrum_at(&self, idx: usize, unit: SpectralUnit) -> Result<Spectrum, TableError> {
         let (name, values) = &self.columns[idx];
+        if matches!(unit, SpectralUnit::Reflectance | SpectralUnit::Transmittance) {
+            if let Some((max, why)) = looks_like_light(name, values) {
+                return Err(TableError {
+                    source_name: self.source.clone(),
+                    line: None,
+                    column: Some((idx + 2, name.clone())),
+                    kind: TableErrorKind::LooksLikeLight { unit, max, why },
+                });
+            }
+        }
         Spectrum::new(self.grid.clone(), unit, values.clone()).map_err(|e| {
             // Point at the offending row where the error names a wavelength.
             let line = match &e {

@@ -156,7 +156,9 @@ pub struct MeasurementFilter {
     pub target: Option<String>,
     pub state: Option<MeasurementState>,
     /// 1–1000, default 50.
+    #[param(minimum = 1, maximum = 1000)]
     pub limit: Option<i64>,
+    #[param(minimum = 0)]
     pub offset: Option<i64>,
 }
 

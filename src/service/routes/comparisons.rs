@@ -1,7 +1,7 @@
 //! `/api/scenes/{scene}/comparisons[.csv|.mat]` and the scene's charts:
 //! every coding against the measurements, summarised per coding.
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -12,6 +12,7 @@ use super::{download, find_scene};
 use crate::comparison::{mean_sd, SceneSummary};
 use crate::export::mat::MatFile;
 use crate::service::error::ApiError;
+use crate::service::input::Path;
 use crate::service::AppState;
 use crate::store::ComparisonRow;
 
@@ -132,8 +133,8 @@ pub fn coding_order(c: &str) -> (u32, u32) {
     }
 }
 
-#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 200, body = SceneComparison), (status = 404, body = crate::service::error::ErrorBody)))]
+#[utoipa::path(get, path = "/scenes/{scene}/comparisons", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = SceneComparison), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn scene_comparisons(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -141,8 +142,8 @@ pub async fn scene_comparisons(
     Ok(Json(scene_comparison(&state, &scene).await?))
 }
 
-#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 200, content_type = "text/csv")))]
+#[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "text/csv")))]
 pub async fn scene_comparisons_csv(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -160,8 +161,8 @@ pub async fn scene_comparisons_csv(
 /// `load('comparisons_cylinder.mat')`: one column vector per numeric field
 /// and char matrices `target` and `coding` (one row each), so
 /// `table(cellstr(target), cellstr(coding), dE00, ...)` rebuilds the table.
-#[utoipa::path(get, path = "/api/scenes/{scene}/comparisons.mat", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 200, content_type = "application/x-matlab-data")))]
+#[utoipa::path(get, path = "/scenes/{scene}/comparisons.mat", tag = "comparisons", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "application/x-matlab-data")))]
 pub async fn scene_comparisons_mat(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -206,9 +207,9 @@ pub async fn scene_comparisons_mat(
 /// The study's figures for a scene: `chromaticity.svg`, `profile.svg`
 /// (luminance along the targets), `errors.svg` (rms_rel and mean ΔE per
 /// coding with ±1 SD), `speed.svg` (render time against ΔE per coding).
-#[utoipa::path(get, path = "/api/scenes/{scene}/charts/{chart}", tag = "comparisons",
+#[utoipa::path(get, path = "/scenes/{scene}/charts/{chart}", tag = "comparisons",
     params(("scene" = String, Path), ("chart" = String, Path, description = "chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg")),
-    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "image/svg+xml"), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn scene_chart(
     State(state): State<AppState>,
     Path((scene, chart)): Path<(String, String)>,

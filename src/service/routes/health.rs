@@ -25,7 +25,7 @@ pub struct Health {
 
 /// Is the daemon alive: the database answers and the instrument task runs.
 /// 503 (with the same body) when the instrument task is gone.
-#[utoipa::path(get, path = "/api/health", tag = "service",
+#[utoipa::path(get, path = "/health", tag = "service",
     responses((status = 200, body = Health),
               (status = 503, description = "the instrument task has stopped", body = Health)))]
 pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<Health>), ApiError> {
@@ -62,7 +62,7 @@ pub struct Instruments {
     pub known: Vec<InstrumentRow>,
 }
 
-#[utoipa::path(get, path = "/api/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
+#[utoipa::path(get, path = "/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
 pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instruments>, ApiError> {
     let status = state.status.borrow().clone();
     Ok(Json(Instruments {

@@ -1,7 +1,7 @@
 //! `/api/measurements`: start a measurement, list and fetch them, their spectra
 //! as CSV/MAT/SVG, and their comparisons with the renderings.
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 use crate::charts;
 use crate::export::mat::MatFile;
 use crate::service::error::ApiError;
-use crate::service::input::{Input, Query};
+use crate::service::input::{check_paging, Input, Path, Query};
 use crate::service::{AppState, Event, InstrumentStatus, MeasurementJob};
 use crate::store::{
     ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, MeasurementSummary,
@@ -24,7 +24,8 @@ pub struct StartMeasurement {
     /// Scene id (see `/api/scenes`); the daemon renders and compares when given with `target`.
     pub scene: Option<String>,
     pub target: Option<String>,
-    /// Samples to average, 1–99 (default 5).
+    /// Samples to average, 1–99 (default: the daemon's, 5 unless configured).
+    #[schema(minimum = 1, maximum = 99)]
     pub samples: Option<usize>,
     pub session_id: Option<i64>,
     /// Free text kept with the measurement and shown in the table (`notes` is accepted too).
@@ -40,7 +41,7 @@ pub struct Accepted {
     pub url: String,
 }
 
-#[utoipa::path(post, path = "/api/measurements", tag = "measurements", request_body = StartMeasurement,
+#[utoipa::path(post, path = "/measurements", tag = "measurements", request_body = Option<StartMeasurement>,
     responses((status = 202, body = Accepted), (status = 400, body = crate::service::error::ErrorBody),
               (status = 401, body = crate::service::error::ErrorBody), (status = 409, body = crate::service::error::ErrorBody),
               (status = 503, body = crate::service::error::ErrorBody)),
@@ -144,22 +145,13 @@ pub(super) fn check_scene_target(state: &AppState, scene: &str, target: Option<&
     }
 }
 
-#[utoipa::path(get, path = "/api/measurements", tag = "measurements", params(MeasurementFilter),
+#[utoipa::path(get, path = "/measurements", tag = "measurements", params(MeasurementFilter),
     responses((status = 200, body = MeasurementPage)))]
 pub async fn list_measurements(
     State(state): State<AppState>,
     Query(filter): Query<MeasurementFilter>,
 ) -> Result<Json<MeasurementPage>, ApiError> {
-    if let Some(limit) = filter.limit {
-        if !(1..=1000).contains(&limit) {
-            return Err(ApiError::BadRequest(format!(
-                "field `limit`: {limit} is outside 1–1000; page with `offset` for more"
-            )));
-        }
-    }
-    if let Some(offset) = filter.offset.filter(|o| *o < 0) {
-        return Err(ApiError::BadRequest(format!("field `offset`: {offset} is negative")));
-    }
+    check_paging(filter.limit, filter.offset)?;
     Ok(Json(state.store.list_measurements(&filter).await?))
 }
 
@@ -173,7 +165,7 @@ const CANCEL_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
 /// and the average of its good samples is listed as `partial`. Answers 200
 /// with the cancelled measurement, or 202 while it is still stopping
 /// (follow `/api/events`: `measurement_finished` with state `cancelled`).
-#[utoipa::path(post, path = "/api/measurements/{id}/cancel", tag = "measurements",
+#[utoipa::path(post, path = "/measurements/{id}/cancel", tag = "measurements",
     params(("id" = i64, Path, description = "measurement id")),
     responses((status = 200, body = MeasurementSummary, description = "cancelled"),
               (status = 202, body = MeasurementSummary, description = "stopping"),
@@ -272,7 +264,7 @@ pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<Measur
         .ok_or_else(|| ApiError::NotFound(format!("no measurement {id}")))
 }
 
-#[utoipa::path(get, path = "/api/measurements/{id}", tag = "measurements",
+#[utoipa::path(get, path = "/measurements/{id}", tag = "measurements",
     params(("id" = i64, Path, description = "measurement id")),
     responses((status = 200, body = MeasurementDetail), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn get_measurement(
@@ -283,7 +275,7 @@ pub async fn get_measurement(
 }
 
 /// Wavelength, mean, SD and every sample as columns (values as the instrument gave them, per nm).
-#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.csv", tag = "measurements",
+#[utoipa::path(get, path = "/measurements/{id}/spectrum.csv", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv")))]
 pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
@@ -308,7 +300,7 @@ pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>)
 /// `load('measurement_7.mat')` gives wavelength_nm, radiance, radiance_sd,
 /// samples (one column per sample; NaN where a sample had no valid
 /// spectrum), sample_code, sample_usable, Y, x, y.
-#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.mat", tag = "measurements",
+#[utoipa::path(get, path = "/measurements/{id}/spectrum.mat", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data")))]
 pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
@@ -345,7 +337,7 @@ pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>)
     ))
 }
 
-#[utoipa::path(get, path = "/api/measurements/{id}/spectrum.svg", tag = "measurements",
+#[utoipa::path(get, path = "/measurements/{id}/spectrum.svg", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "image/svg+xml")))]
 pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
@@ -390,7 +382,7 @@ pub(super) fn download(content_type: &'static str, filename: &str, body: Vec<u8>
         .into_response()
 }
 
-#[utoipa::path(get, path = "/api/measurements/{id}/comparisons", tag = "comparisons",
+#[utoipa::path(get, path = "/measurements/{id}/comparisons", tag = "comparisons",
     params(("id" = i64, Path)), responses((status = 200, body = Vec<ComparisonRow>)))]
 pub async fn measurement_comparisons(
     State(state): State<AppState>,

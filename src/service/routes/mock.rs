@@ -18,7 +18,7 @@ pub struct MockFaults {
 }
 
 /// Injects faults into the simulated PR-650 (only when the daemon runs with `--mock`).
-#[utoipa::path(post, path = "/api/mock/faults", tag = "instruments", request_body = MockFaults,
+#[utoipa::path(post, path = "/mock/faults", tag = "instruments", request_body = MockFaults,
     responses((status = 204), (status = 400, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn mock_faults(

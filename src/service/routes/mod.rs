@@ -4,7 +4,8 @@
 //! `/api/measurements/{id}`, `/api/events`.
 //!
 //! [`api_router`] is the whole table of paths; each handler documents itself
-//! for the OpenAPI document with `#[utoipa::path]`.
+//! for the OpenAPI document with `#[utoipa::path]`, and that annotation's
+//! path and method are also what the router serves (`utoipa_axum::routes!`).
 
 mod comparisons;
 mod health;
@@ -14,8 +15,8 @@ mod scenes;
 mod sessions;
 mod studies;
 
-use axum::routing::{get, post};
-use axum::Router;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
 
 pub use comparisons::*;
 pub use health::*;
@@ -25,38 +26,42 @@ pub use scenes::*;
 pub use sessions::*;
 pub use studies::*;
 
-use super::{events, AppState};
+use super::{events, openapi, AppState};
 
-pub fn api_router() -> Router<AppState> {
-    Router::new()
-        .route("/health", get(health))
-        .route("/openapi.json", get(super::openapi::document))
-        .route("/instruments", get(instruments))
-        .route("/sessions", get(list_sessions).post(create_session))
-        .route("/measurements", get(list_measurements).post(start_measurement))
-        .route("/measurements/{id}", get(get_measurement))
-        .route("/measurements/{id}/cancel", axum::routing::post(cancel_measurement))
-        .route("/measurements/{id}/spectrum.csv", get(measurement_csv))
-        .route("/measurements/{id}/spectrum.mat", get(measurement_mat))
-        .route("/measurements/{id}/spectrum.svg", get(measurement_svg))
-        .route("/measurements/{id}/comparisons", get(measurement_comparisons))
-        .route("/scenes", get(list_scenes))
-        .route("/scenes/{scene}", get(get_scene))
-        .route("/scenes/{scene}/targets", get(scene_targets))
-        .route("/scenes/{scene}/renders", get(scene_renders).post(start_render))
-        .route("/scenes/{scene}/comparisons", get(scene_comparisons))
-        .route("/scenes/{scene}/comparisons.csv", get(scene_comparisons_csv))
-        .route("/scenes/{scene}/comparisons.mat", get(scene_comparisons_mat))
-        .route("/scenes/{scene}/charts/{chart}", get(scene_chart))
-        .route("/studies", get(list_studies).post(start_study))
-        .route("/studies/{id}", get(get_study))
-        .route("/studies/{id}/files/{name}", get(study_file))
-        .route("/studies/{id}/cancel", post(cancel_study))
-        .route("/studies/{id}/retry", post(retry_study))
-        .route("/renders/{id}", get(get_render))
-        .route("/renders/{id}/cancel", post(cancel_render))
-        .route("/renders/{id}/retry", post(retry_render))
-        .route("/renders/{id}/preview.png", get(render_preview))
-        .route("/events", get(events::stream))
-        .route("/mock/faults", axum::routing::post(mock_faults))
+/// Every path of the API (relative to `/api`) with its handlers. Each
+/// `routes!` entry takes its path and methods from the handlers'
+/// `#[utoipa::path]`, so the router and the OpenAPI document are one table
+/// and cannot drift apart.
+pub fn api_router() -> OpenApiRouter<AppState> {
+    OpenApiRouter::default()
+        .routes(routes!(health))
+        .routes(routes!(openapi::document))
+        .routes(routes!(instruments))
+        .routes(routes!(list_sessions, create_session))
+        .routes(routes!(list_measurements, start_measurement))
+        .routes(routes!(get_measurement))
+        .routes(routes!(cancel_measurement))
+        .routes(routes!(measurement_csv))
+        .routes(routes!(measurement_mat))
+        .routes(routes!(measurement_svg))
+        .routes(routes!(measurement_comparisons))
+        .routes(routes!(list_scenes))
+        .routes(routes!(get_scene))
+        .routes(routes!(scene_targets))
+        .routes(routes!(scene_renders, start_render))
+        .routes(routes!(scene_comparisons))
+        .routes(routes!(scene_comparisons_csv))
+        .routes(routes!(scene_comparisons_mat))
+        .routes(routes!(scene_chart))
+        .routes(routes!(list_studies, start_study))
+        .routes(routes!(get_study))
+        .routes(routes!(study_file))
+        .routes(routes!(cancel_study))
+        .routes(routes!(retry_study))
+        .routes(routes!(get_render))
+        .routes(routes!(cancel_render))
+        .routes(routes!(retry_render))
+        .routes(routes!(render_preview))
+        .routes(routes!(events::stream))
+        .routes(routes!(mock_faults))
 }

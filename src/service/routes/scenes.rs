@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -11,7 +11,7 @@ use serde::Serialize;
 use utoipa::ToSchema;
 
 use crate::service::error::ApiError;
-use crate::service::input::Input;
+use crate::service::input::{Input, Path};
 use crate::service::{AppState, RenderRequest, SceneInfo};
 use crate::store::{Job, RenderRow};
 
@@ -31,19 +31,19 @@ pub(super) fn find_scene(state: &AppState, id: &str) -> Result<SceneInfo, ApiErr
     })
 }
 
-#[utoipa::path(get, path = "/api/scenes", tag = "scenes", responses((status = 200, body = Vec<SceneInfo>)))]
+#[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
 pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<SceneInfo>>, ApiError> {
     Ok(Json(scenes(&state)?))
 }
 
-#[utoipa::path(get, path = "/api/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),
-    responses((status = 200, body = SceneInfo), (status = 404, body = crate::service::error::ErrorBody)))]
+#[utoipa::path(get, path = "/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = SceneInfo), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn get_scene(State(state): State<AppState>, Path(scene): Path<String>) -> Result<Json<SceneInfo>, ApiError> {
     Ok(Json(find_scene(&state, &scene)?))
 }
 
-#[utoipa::path(get, path = "/api/scenes/{scene}/targets", tag = "scenes", params(("scene" = String, Path)),
-    responses((status = 200, body = Vec<String>)))]
+#[utoipa::path(get, path = "/scenes/{scene}/targets", tag = "scenes", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<String>)))]
 pub async fn scene_targets(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -51,8 +51,8 @@ pub async fn scene_targets(
     Ok(Json(find_scene(&state, &scene)?.targets))
 }
 
-#[utoipa::path(get, path = "/api/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
-    responses((status = 200, body = Vec<RenderRow>)))]
+#[utoipa::path(get, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<RenderRow>)))]
 pub async fn scene_renders(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -67,8 +67,8 @@ pub struct RenderAccepted {
     pub url: String,
 }
 
-#[utoipa::path(post, path = "/api/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
-    request_body = RenderRequest,
+#[utoipa::path(post, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
+    request_body = Option<RenderRequest>,
     responses((status = 202, body = RenderAccepted), (status = 400, body = crate::service::error::ErrorBody),
               (status = 401, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the render queue is full", body = crate::service::error::ErrorBody),
@@ -80,6 +80,7 @@ pub async fn start_render(
     Input(body): Input<RenderRequest>,
 ) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
     find_scene(&state, &scene)?;
+    check_render_bounds(&body)?;
     let service = state
         .renders
         .as_ref()
@@ -94,7 +95,26 @@ pub async fn start_render(
     ))
 }
 
-#[utoipa::path(get, path = "/api/renders/{id}", tag = "renders", params(("id" = i64, Path)),
+/// Refuses work beyond the documented limits (see `render::scene`).
+fn check_render_bounds(body: &RenderRequest) -> Result<(), ApiError> {
+    use crate::render::scene::{MAX_BOUNCES, MAX_SAMPLES_PER_TARGET};
+    if let Some(n) = body
+        .samples
+        .filter(|n| !(1..=MAX_SAMPLES_PER_TARGET).contains(&u64::from(*n)))
+    {
+        return Err(ApiError::BadRequest(format!(
+            "field `samples`: {n} is outside 1–{MAX_SAMPLES_PER_TARGET}"
+        )));
+    }
+    if let Some(b) = body.bounces.filter(|b| *b > MAX_BOUNCES) {
+        return Err(ApiError::BadRequest(format!(
+            "field `bounces`: {b} is outside 0–{MAX_BOUNCES}"
+        )));
+    }
+    Ok(())
+}
+
+#[utoipa::path(get, path = "/renders/{id}", tag = "renders", params(("id" = i64, Path)),
     responses((status = 200, body = RenderRow), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<RenderRow>, ApiError> {
     state
@@ -107,7 +127,7 @@ pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> R
 
 /// Cancels a queued render at once, or stops a running one within a batch
 /// of paths (it then ends `cancelled`); answers with the render as it is now.
-#[utoipa::path(post, path = "/api/renders/{id}/cancel", tag = "renders", params(("id" = i64, Path)),
+#[utoipa::path(post, path = "/renders/{id}/cancel", tag = "renders", params(("id" = i64, Path)),
     responses((status = 202, body = RenderRow), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the render has already ended", body = crate::service::error::ErrorBody)),
@@ -131,7 +151,7 @@ pub async fn cancel_render(
 
 /// Queues a new render (a new id) with the scene and settings of an
 /// interrupted, failed or cancelled one; the old render stays as it ended.
-#[utoipa::path(post, path = "/api/renders/{id}/retry", tag = "renders", params(("id" = i64, Path)),
+#[utoipa::path(post, path = "/renders/{id}/retry", tag = "renders", params(("id" = i64, Path)),
     responses((status = 202, body = RenderAccepted), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the render is not retryable, or the queue is full",
@@ -156,7 +176,7 @@ pub async fn retry_render(
 }
 
 /// The scene's camera view of a render (tone-mapped sRGB), once the render is complete.
-#[utoipa::path(get, path = "/api/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
+#[utoipa::path(get, path = "/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn render_preview(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let png = state.store.render_preview(id).await?.ok_or_else(|| {

@@ -14,12 +14,14 @@ use crate::store::SessionRow;
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NewSession {
+    /// Who measures; not blank.
+    #[schema(min_length = 1, pattern = "\\S")]
     pub operator: String,
     #[serde(default)]
     pub notes: String,
 }
 
-#[utoipa::path(get, path = "/api/sessions", tag = "sessions", responses((status = 200, body = Vec<SessionRow>)))]
+#[utoipa::path(get, path = "/sessions", tag = "sessions", responses((status = 200, body = Vec<SessionRow>)))]
 pub async fn list_sessions(State(state): State<AppState>) -> Result<Json<Vec<SessionRow>>, ApiError> {
     Ok(Json(state.store.list_sessions().await?))
 }
@@ -29,7 +31,7 @@ pub struct Created {
     pub id: i64,
 }
 
-#[utoipa::path(post, path = "/api/sessions", tag = "sessions", request_body = NewSession,
+#[utoipa::path(post, path = "/sessions", tag = "sessions", request_body = NewSession,
     responses((status = 201, body = Created), (status = 400, body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn create_session(

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use axum::extract::{Path, State};
+use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
@@ -11,11 +11,11 @@ use utoipa::ToSchema;
 
 use super::measurements::enqueue_measurement;
 use crate::service::error::ApiError;
-use crate::service::input::Input;
+use crate::service::input::{Input, Path};
 use crate::service::{AppState, InstrumentStatus, StudyRequest};
 use crate::store::{Job, NewMeasurement, StudyRow};
 
-#[utoipa::path(get, path = "/api/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
+#[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
     Ok(Json(state.store.list_studies().await?))
 }
@@ -33,7 +33,7 @@ pub struct StudyAccepted {
 /// for the instrument first (listed in the study's request as
 /// `measured_first`, progress in `study_progress` events); without it a
 /// study missing measurements is refused with 409 naming them.
-#[utoipa::path(post, path = "/api/studies", tag = "studies", request_body = StudyRequest,
+#[utoipa::path(post, path = "/studies", tag = "studies", request_body = Option<StudyRequest>,
     responses((status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody),
               (status = 401, body = crate::service::error::ErrorBody),
               (status = 409, body = crate::service::error::ErrorBody,
@@ -74,7 +74,7 @@ pub async fn start_study(
     ))
 }
 
-#[utoipa::path(get, path = "/api/studies/{id}", tag = "studies", params(("id" = i64, Path)),
+#[utoipa::path(get, path = "/studies/{id}", tag = "studies", params(("id" = i64, Path)),
     responses((status = 200, body = StudyRow), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<StudyRow>, ApiError> {
     state
@@ -87,7 +87,7 @@ pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 
 /// Cancels a queued study at once, or stops a running one at its next
 /// batch of paths (it then ends `cancelled`); answers with the study as it is now.
-#[utoipa::path(post, path = "/api/studies/{id}/cancel", tag = "studies", params(("id" = i64, Path)),
+#[utoipa::path(post, path = "/studies/{id}/cancel", tag = "studies", params(("id" = i64, Path)),
     responses((status = 202, body = StudyRow), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the study has already ended", body = crate::service::error::ErrorBody)),
@@ -111,7 +111,7 @@ pub async fn cancel_study(
 
 /// Queues a new study (a new id) with the request of an interrupted,
 /// failed or cancelled one; the old study stays as it ended.
-#[utoipa::path(post, path = "/api/studies/{id}/retry", tag = "studies", params(("id" = i64, Path)),
+#[utoipa::path(post, path = "/studies/{id}/retry", tag = "studies", params(("id" = i64, Path)),
     responses((status = 202, body = StudyAccepted), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the study is not retryable, or the queue is full",
@@ -137,7 +137,7 @@ pub async fn retry_study(
 
 /// A file of a study's report: `index.html` (the whole report), a chart
 /// (`.svg`), a table (`.csv`) or `study.json`.
-#[utoipa::path(get, path = "/api/studies/{id}/files/{name}", tag = "studies",
+#[utoipa::path(get, path = "/studies/{id}/files/{name}", tag = "studies",
     params(("id" = i64, Path), ("name" = String, Path)),
     responses((status = 200, description = "the file"), (status = 404, body = crate::service::error::ErrorBody)))]
 pub async fn study_file(

@@ -1,0 +1,79 @@
+//! Numeric flags out of range are clap errors (exit 2, the flag named), never
+//! a panic, a hang or a huge allocation: `measure --samples
+//! 18446744073709551615` used to try to allocate for that many samples, and
+//! `serve --mock-speed inf` was accepted. The real binary is run, as scripts
+//! run it; every case fails in argument parsing, before any port, file or
+//! database is opened.
+
+use std::process::Command;
+
+fn refused(args: &[&str], flag: &str) {
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(args)
+        .output()
+        .expect("run lightbooth");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?} should be a usage error: {stderr}");
+    assert!(stderr.contains("error:") && stderr.contains(flag), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+}
+
+const HUGE: &str = "18446744073709551615";
+
+#[test]
+fn measure_samples_and_retries_out_of_range_are_clear_errors() {
+    for samples in [HUGE, "1000000000", "100", "0", "-1"] {
+        refused(
+            &["measure", "--port", "/nonexistent", &format!("--samples={samples}")],
+            "--samples",
+        );
+    }
+    for retries in [HUGE, "100", "-1"] {
+        refused(
+            &["measure", "--port", "/nonexistent", &format!("--retries={retries}")],
+            "--retries",
+        );
+    }
+}
+
+#[test]
+fn mock_speed_inf_nan_or_negative_is_a_clear_error() {
+    for speed in ["inf", "NaN", "-1", "1e9", "fast"] {
+        refused(&["serve", "--mock", &format!("--mock-speed={speed}")], "--mock-speed");
+        refused(&["mock-pr650", &format!("--speed={speed}")], "--speed");
+    }
+    refused(&["mock-pr650", "--remote-window-s", "inf"], "--remote-window-s");
+    refused(&["mock-pr650", "--flicker-hz", "0"], "--flicker-hz");
+    refused(&["mock-pr650", "--slow-ms", HUGE], "--slow-ms");
+}
+
+#[test]
+fn render_study_and_analyze_work_bounds_are_clear_errors() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/white.toml");
+    for (flag, value) in [
+        ("--samples", HUGE),
+        ("--samples", "0"),
+        ("--max-samples", "4294967296"),
+        ("--bounces", "4000000000"),
+        ("--bounces", "65"),
+        ("--spp", "0"),
+        ("--spp", "1000000"),
+        ("--threads", "0"),
+        ("--target-se", "nan"),
+        ("--target-se", "-0.1"),
+        ("--russian-roulette-from", "1000"),
+    ] {
+        refused(&["render", scene, &format!("{flag}={value}")], flag);
+    }
+    for (flag, value) in [
+        ("--seeds", "0"),
+        ("--seeds", "65"),
+        ("--samples", HUGE),
+        ("--bounces", "4000000000"),
+    ] {
+        refused(&["study", scene, &format!("{flag}={value}")], flag);
+    }
+    for (flag, value) in [("--seeds", "65"), ("--samples", HUGE)] {
+        refused(&["analyze", "failure-map", &format!("{flag}={value}")], flag);
+    }
+}
