@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use lightbooth::render::{cache_file, converged_target_spectrum, load_scene, scene_hash};
+use lightbooth::render::{cache_file, converged_target_spectrum, load_scene, truth_hash, truth_settings};
 
 /// A lone grey plane under a spotlight with two targets whose ids differ
 /// only in `.` against `_`, at different points (so different spectra).
@@ -46,7 +46,8 @@ fn target_ids_a_dot_b_and_a_underscore_b_get_their_own_cache_files() {
     let dir = tempfile::tempdir().unwrap();
     let cache = dir.path().join("cache");
     let scene = two_target_scene(dir.path());
-    let hash = scene_hash(&load_scene(&scene).unwrap()).unwrap();
+    let loaded = load_scene(&scene).unwrap();
+    let hash = truth_hash(&loaded, &truth_settings("a.b")).unwrap();
     assert_ne!(cache_file(&cache, &hash, "a.b"), cache_file(&cache, &hash, "a_b"));
     let dot = converged_target_spectrum(&scene, "a.b", Some(&cache)).unwrap();
     let underscore = converged_target_spectrum(&scene, "a_b", Some(&cache)).unwrap();
@@ -66,7 +67,8 @@ fn a_torn_cache_file_is_recomputed_not_an_error() {
     let cache = dir.path().join("cache");
     let scene = two_target_scene(dir.path());
     let first = converged_target_spectrum(&scene, "a.b", Some(&cache)).unwrap();
-    let hash = scene_hash(&load_scene(&scene).unwrap()).unwrap();
+    // The truth's cache key: the scene's content and the truth's settings.
+    let hash = truth_hash(&load_scene(&scene).unwrap(), &truth_settings("a.b")).unwrap();
     let file = cache_file(&cache, &hash, "a.b");
     let whole = std::fs::read(&file).unwrap();
     // As a crash in the middle of the write would leave it (in place).

@@ -107,7 +107,7 @@ function follow() {
       refreshLiveSpectrum();
       const m = await api(`/api/measurements/${d.measurement_id}`);
       $("live-result").textContent = m.state === "complete"
-        ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, luminance CV = ${fmt(m.luminance_cv, 2)}`
+        ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), luminance CV = ${fmt(m.luminance_cv, 2)}`
         : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
     }
     // The measurement table follows every state change (queued, cancelled, finished).
@@ -225,8 +225,18 @@ function measurementQuery() {
   return q.toString();
 }
 
+// The observer of lightbooth's x, y as a person reads it.
+function observerName(o) {
+  return { "judd-vos-1978": "Judd–Vos 1978 2°", "cie-1931": "CIE 1931 2°" }[o] || "observer not recorded";
+}
+
 async function loadMeasurements(openId) {
   const page = await api(`/api/measurements?${measurementQuery()}`);
+  const named = page.items.find((m) => m.observer);
+  $("observer-note").textContent = named
+    ? `x, y: computed by lightbooth from each spectrum with the ${observerName(named.observer)} observer ` +
+      "(the daemon's --observer); the PR-650's own CIE 1931 x, y are on each measurement's page."
+    : "";
   const tbody = document.querySelector("#measurement-table tbody");
   tbody.innerHTML = "";
   for (const m of page.items) {
@@ -279,7 +289,8 @@ async function showMeasurement(id) {
   const m = await api(`/api/measurements/${id}`);
   $("measurement-detail").hidden = false;
   $("detail-title").textContent = `Measurement ${m.id}` + (m.scene ? `: ${m.scene} / ${m.target}` : "");
-  const average = `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)}, CV = ${fmt(m.luminance_cv, 2)}`;
+  const average = `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), CV = ${fmt(m.luminance_cv, 2)}` +
+    (m.instrument_x != null ? `; the PR-650's own CIE 1931 x = ${fmt(m.instrument_x, 4)}, y = ${fmt(m.instrument_y, 4)}` : "");
   $("detail-summary").textContent = (m.state === "complete" ? average
     : `${m.state}${m.error ? ": " + m.error : ""}` +
       (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +

@@ -602,7 +602,8 @@ fn write_cached(file: &Path, spectrum: &Spectrum) -> Result<(), RenderError> {
 
 /// The converged `spectral` radiance of a target, W/(sr·m²·nm) on
 /// [`Grid::one_nm`]: rendered until the standard error of Y is below
-/// [`CONVERGED_RELATIVE_SE`], and cached by [`scene_hash`] — as a CSV in
+/// [`CONVERGED_RELATIVE_SE`], and cached by [`truth_hash`] (the scene's
+/// content and the truth's settings) and the target id — as a CSV in
 /// `cache_dir`, or in memory for this process when `cache_dir` is `None` —
 /// so it is computed once per scene content.
 pub fn converged_target_spectrum(

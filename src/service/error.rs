@@ -62,7 +62,8 @@ pub struct ErrorBody {
 #[derive(Serialize, ToSchema)]
 pub struct ErrorDetail {
     /// Stable, machine-readable: bad_request, unauthorized, not_found,
-    /// method_not_allowed, conflict, payload_too_large, uri_too_long,
+    /// method_not_allowed, request_timeout (408, from the body timeout in
+    /// `limits`), conflict, payload_too_large, uri_too_long,
     /// headers_too_large, unsupported_media_type, unavailable, internal.
     pub code: &'static str,
     pub message: String,

@@ -97,6 +97,11 @@ impl Modify for CommonResponses {
                 if has_body {
                     Self::add(operation, "413", "the body is larger than 64 KiB");
                     Self::add(operation, "415", "the body is neither JSON nor form-encoded");
+                    Self::add(
+                        operation,
+                        "408",
+                        "the body did not arrive within the body timeout (10 s); code `request_timeout`",
+                    );
                 }
                 Self::add(
                     operation,

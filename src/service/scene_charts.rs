@@ -18,11 +18,16 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
     target_index(info, target) as f64 + 1.0
 }
 
-/// The cost on the speed chart's x axis: the key of the stored render
-/// result holding it per coding, and the axis title. Rays traced do not
-/// jitter with machine load; once renders store them per coding, point this
-/// at that key (e.g. `("coding_rays", "rays traced")`).
-const SPEED_COST: (&str, &str) = ("coding_seconds", "render time, each coding alone (s)");
+/// The cost on the speed chart's x axis: rays traced by each coding rendered
+/// alone at the same fixed number of paths per target (`coding_cost.CODING.rays`
+/// of a stored render, see `daemon::renders`), and the axis title. Rays do
+/// not jitter with machine load as wall time does; the wall time stays in
+/// the render's JSON beside them (`coding_cost.CODING.wall_seconds`).
+const SPEED_COST: (&str, &str, &str) = (
+    "coding_cost",
+    "rays",
+    "rays traced, each coding alone at the same paths per target",
+);
 
 /// Measured points and each coding's results in the x,y diagram of the
 /// daemon's `observer`; profiles (more than one target) are drawn as lines.
@@ -148,8 +153,8 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
     )
 }
 
-/// Cost per coding (see [`SPEED_COST`]: render time of each coding alone,
-/// the same settings) against its mean ΔE*ab ± 1 SD over targets, each
+/// Cost per coding (see [`SPEED_COST`]: rays traced by each coding alone at
+/// the same fixed paths per target) against its mean ΔE*ab ± 1 SD over targets, each
 /// point labelled with its coding; read from the newest render that has it.
 pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
     let renders = state
@@ -157,13 +162,13 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
         .list_renders(Some(&c.scene))
         .await
         .map_err(|e| e.to_string())?;
-    let (key, x_desc) = SPEED_COST;
+    let (key, field, x_desc) = SPEED_COST;
     let mut series = Vec::new();
     let mut labels = Vec::new();
     for s in &c.codings {
         let cost = renders
             .iter()
-            .find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding)?.as_f64());
+            .find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding)?.get(field)?.as_f64());
         if let Some(x) = cost {
             series.push(ScatterSeries {
                 name: s.coding.clone(),
