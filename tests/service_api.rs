@@ -415,10 +415,7 @@ async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() 
     ] {
         let (status, body) = send(&h.state, get(&format!("/api/measurements?{query}"))).await;
         assert_eq!(status, StatusCode::BAD_REQUEST, "{query}: {body}");
-        assert!(
-            error_message(&body).contains(&format!("field `{field}`")),
-            "{query}: {body}"
-        );
+        assert!(error_message(&body).contains(&format!("`{field}`")), "{query}: {body}");
     }
 
     let listed = |page: &Value, id: i64| {
@@ -733,7 +730,16 @@ async fn openapi_states_render_and_study_limits() {
     let h = harness(1).await;
     let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
     let render = &doc["components"]["schemas"]["RenderRequest"]["properties"];
-    assert_eq!(render["samples"]["maximum"], 16_777_216, "{render}");
+    assert_eq!(
+        render["samples"]["maximum"],
+        lightbooth::daemon::jobs::MAX_RENDER_SAMPLES,
+        "{render}"
+    );
+    assert_eq!(
+        render["bounces"]["maximum"],
+        lightbooth::daemon::jobs::MAX_RENDER_BOUNCES,
+        "{render}"
+    );
     assert_eq!(render["bounces"]["maximum"], 64, "{render}");
     assert_eq!(
         doc["components"]["schemas"]["StudyRequest"]["properties"]["seeds"]["maximum"],

@@ -341,18 +341,23 @@ impl Renderer {
         tracing::info!(measurement_id, scene, target, codings = rows.len(), white = %white_source, "comparison stored");
         // This measurement may be the white of this and other scenes: bring
         // every comparison of those scenes to the current white.
-        let dependent: Vec<String> = self
-            .scenes
-            .iter()
-            .filter(|e| {
-                e.id == scene
-                    || render::load_scene(&e.path)
-                        .ok()
-                        .and_then(|s| scene_white(&e.path, &s, observer).ok())
-                        .is_some_and(|w| w.is_target(scene, target))
-            })
-            .map(|e| e.id.clone())
-            .collect();
+        // (Scene files are read on the blocking pool, not the runtime's workers.)
+        let candidates: Vec<(String, PathBuf)> = self.scenes.iter().map(|e| (e.id.clone(), e.path.clone())).collect();
+        let (this_scene, this_target) = (scene.to_string(), target.to_string());
+        let dependent: Vec<String> = tokio::task::spawn_blocking(move || {
+            candidates
+                .into_iter()
+                .filter(|(id, path)| {
+                    *id == this_scene
+                        || render::load_scene(path)
+                            .ok()
+                            .and_then(|s| scene_white(path, &s, observer).ok())
+                            .is_some_and(|w| w.is_target(&this_scene, &this_target))
+                })
+                .map(|(id, _)| id)
+                .collect()
+        })
+        .await?;
         for other in dependent {
             self.refresh_white(&other).await?;
         }
@@ -394,7 +399,7 @@ impl Renderer {
     /// module doc).
     async fn white_xyz(&self, scene: &str) -> anyhow::Result<(Xyz, String)> {
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
-        let loaded = render::load_scene(&entry.path)?;
+        let (loaded, _) = load_scene_blocking(entry.path.clone()).await?;
         let (white_scene, target) =
             match scene_white(&entry.path, &loaded, self.observer).map_err(anyhow::Error::msg)? {
                 SceneWhite::Fixed { xyz, source } => return Ok((xyz, source)),
@@ -482,8 +487,7 @@ impl Renderer {
         let _guard = lock.lock().await;
         let settings = self.settings(&RenderRequest::default())?;
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
-        let loaded = render::load_scene(&entry.path)?;
-        let hash = render::scene_hash(&loaded)?;
+        let (loaded, hash) = load_scene_blocking(entry.path.clone()).await?;
         if let Some(found) = self
             .store
             .find_render_result(&hash, &serde_json::to_value(&settings)?)
@@ -871,14 +875,9 @@ impl Renderer {
             .entry(&scene)
             .map(|e| e.path.clone())
             .ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
-        let (loaded, hash) = tokio::task::spawn_blocking(move || {
-            let loaded = render::load_scene(&path)?;
-            let hash = render::scene_hash(&loaded)?;
-            Ok::<_, RenderError>((loaded, hash))
-        })
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))?
-        .map_err(|e| ApiError::Internal(e.to_string()))?;
+        let (loaded, hash) = load_scene_blocking(path)
+            .await
+            .map_err(|e| ApiError::Internal(e.to_string()))?;
         let create = async {
             self.record(&scene, &settings, hash)
                 .await
@@ -984,4 +983,16 @@ impl RenderService for Renderer {
     fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, ApiError>> {
         Box::pin(async move { self.retry_job(job, id).await })
     }
+}
+
+/// Loads a scene file and hashes its content on the blocking pool, so file
+/// reads never hold up the async runtime's workers.
+async fn load_scene_blocking(path: PathBuf) -> Result<(Scene, String), RenderError> {
+    tokio::task::spawn_blocking(move || {
+        let loaded = render::load_scene(&path)?;
+        let hash = render::scene_hash(&loaded)?;
+        Ok((loaded, hash))
+    })
+    .await
+    .map_err(|e| RenderError::Io(format!("loading a scene: {e}")))?
 }

@@ -190,10 +190,12 @@ pub struct SceneInfo {
 pub struct RenderRequest {
     /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
     pub codings: Option<String>,
-    /// Radiometer paths per target, 1–16777216 (`render::scene::MAX_SAMPLES_PER_TARGET`).
-    #[schema(minimum = 1, maximum = 16_777_216)]
+    /// Radiometer paths per target, 2–4194304 (`daemon::jobs::MAX_RENDER_SAMPLES`:
+    /// two paths at least for a standard error; the renderer's own cap on
+    /// adaptive sampling at most).
+    #[schema(minimum = 2, maximum = 4_194_304)]
     pub samples: Option<u32>,
-    /// Indirect bounces, 0–64 (`render::scene::MAX_BOUNCES`).
+    /// Indirect bounces, 0–64 (`daemon::jobs::MAX_RENDER_BOUNCES`).
     #[schema(minimum = 0, maximum = 64)]
     pub bounces: Option<u32>,
     pub seed: Option<u64>,

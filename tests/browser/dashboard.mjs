@@ -144,19 +144,22 @@ try {
   if (report.status() !== 200) failures.push(`report link answers ${report.status()}`);
   if (shots) await page.screenshot({ path: `${shots}/study.png`, fullPage: true });
 
-  // A study that fails (BLUE was never measured): no dead report links.
-  const failed = await page.request.post(`${base}/api/studies`, {
+  // A study that ends without a report (one cancelled while it runs; a
+  // study missing measurements is refused up front): no dead report links.
+  const started = await page.request.post(`${base}/api/studies`, {
     headers: { Authorization: `Bearer ${token}` },
-    data: { scenes: "blue", against: "measurements", seeds: 1, sweeps: false },
+    data: { scenes: "blue", against: "reference", seeds: 64, sweeps: true },
   });
-  const failedId = (await failed.json()).id;
+  if (started.status() !== 202) failures.push(`starting the study to cancel answered ${started.status()}`);
+  const failedId = (await started.json()).id;
+  await page.request.post(`${base}/api/studies/${failedId}/cancel`, { headers: { Authorization: `Bearer ${token}` } });
   await page.waitForFunction(async (id) => {
     const r = await fetch(`/api/studies/${id}`);
-    return (await r.json()).state === "failed";
+    return (await r.json()).state === "cancelled";
   }, failedId, { timeout: 30000 });
   await page.goto(`${base}/#/study/${failedId}`);
-  await page.waitForFunction((id) => document.getElementById("study-title").textContent.includes(`Study ${id}: failed`), failedId);
-  if (await page.isVisible("#study-report")) failures.push("a failed study shows a report link");
+  await page.waitForFunction((id) => document.getElementById("study-title").textContent.includes(`Study ${id}: cancelled`), failedId);
+  if (await page.isVisible("#study-report")) failures.push("a study that did not complete shows a report link");
   if (shots) await page.screenshot({ path: `${shots}/study-failed.png`, fullPage: true });
 } catch (e) {
   failures.push(String(e));

@@ -80,7 +80,6 @@ pub async fn start_render(
     Input(body): Input<RenderRequest>,
 ) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
     find_scene(&state, &scene)?;
-    check_render_bounds(&body)?;
     let service = state
         .renders
         .as_ref()
@@ -93,25 +92,6 @@ pub async fn start_render(
             url: format!("/api/renders/{render_id}"),
         }),
     ))
-}
-
-/// Refuses work beyond the documented limits (see `render::scene`).
-fn check_render_bounds(body: &RenderRequest) -> Result<(), ApiError> {
-    use crate::render::scene::{MAX_BOUNCES, MAX_SAMPLES_PER_TARGET};
-    if let Some(n) = body
-        .samples
-        .filter(|n| !(1..=MAX_SAMPLES_PER_TARGET).contains(&u64::from(*n)))
-    {
-        return Err(ApiError::BadRequest(format!(
-            "field `samples`: {n} is outside 1–{MAX_SAMPLES_PER_TARGET}"
-        )));
-    }
-    if let Some(b) = body.bounces.filter(|b| *b > MAX_BOUNCES) {
-        return Err(ApiError::BadRequest(format!(
-            "field `bounces`: {b} is outside 0–{MAX_BOUNCES}"
-        )));
-    }
-    Ok(())
 }
 
 #[utoipa::path(get, path = "/renders/{id}", tag = "renders", params(("id" = i64, Path)),
@@ -128,7 +108,7 @@ pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> R
 /// Cancels a queued render at once, or stops a running one within a batch
 /// of paths (it then ends `cancelled`); answers with the render as it is now.
 #[utoipa::path(post, path = "/renders/{id}/cancel", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 202, body = RenderRow), (status = 401, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = RenderRow), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the render has already ended", body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
@@ -152,7 +132,7 @@ pub async fn cancel_render(
 /// Queues a new render (a new id) with the scene and settings of an
 /// interrupted, failed or cancelled one; the old render stays as it ended.
 #[utoipa::path(post, path = "/renders/{id}/retry", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 202, body = RenderAccepted), (status = 401, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = RenderAccepted), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the render is not retryable, or the queue is full",
                body = crate::service::error::ErrorBody)),

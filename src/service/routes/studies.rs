@@ -88,7 +88,7 @@ pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 /// Cancels a queued study at once, or stops a running one at its next
 /// batch of paths (it then ends `cancelled`); answers with the study as it is now.
 #[utoipa::path(post, path = "/studies/{id}/cancel", tag = "studies", params(("id" = i64, Path)),
-    responses((status = 202, body = StudyRow), (status = 401, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyRow), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the study has already ended", body = crate::service::error::ErrorBody)),
     security(("bearer" = [])))]
@@ -112,7 +112,7 @@ pub async fn cancel_study(
 /// Queues a new study (a new id) with the request of an interrupted,
 /// failed or cancelled one; the old study stays as it ended.
 #[utoipa::path(post, path = "/studies/{id}/retry", tag = "studies", params(("id" = i64, Path)),
-    responses((status = 202, body = StudyAccepted), (status = 401, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyAccepted), (status = 401, body = crate::service::error::ErrorBody),
               (status = 404, body = crate::service::error::ErrorBody),
               (status = 409, description = "the study is not retryable, or the queue is full",
                body = crate::service::error::ErrorBody)),
