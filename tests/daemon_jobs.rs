@@ -325,3 +325,39 @@ async fn a_sample_write_that_fails_leaves_the_measurement_failed_not_complete() 
     assert_eq!(status, 200);
     d.stop().await;
 }
+
+/// Found by Schemathesis on the merged daemon: a study that queued its
+/// missing measurements first stores `measured_first` in its request, and
+/// retrying it answered 500 ("unknown field `measured_first`").
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_that_measured_missing_targets_first_can_be_retried() {
+    let d = Daemon::start(0.0).await;
+    let (status, s) = post_json(
+        d.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"white","seeds":1,"measure_missing":true}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{s}");
+    let study = s["id"].as_i64().unwrap();
+    let (_, row) = get_json(d.addr, &format!("/api/studies/{study}")).await;
+    assert!(
+        row["request"]["measured_first"]
+            .as_array()
+            .is_some_and(|m| !m.is_empty()),
+        "{row}"
+    );
+    post_json(d.addr, &format!("/api/studies/{study}/cancel"), TOKEN, "{}").await;
+    poll_until(
+        d.addr,
+        &format!("/api/studies/{study}"),
+        Duration::from_secs(120),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
+    .await;
+    let (status, again) = post_json(d.addr, &format!("/api/studies/{study}/retry"), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{again}");
+    assert_ne!(again["id"].as_i64().unwrap(), study);
+    d.stop().await;
+}

@@ -936,7 +936,14 @@ impl Renderer {
             Job::Study => {
                 let row = self.store.get_study(id).await?.ok_or_else(not_found)?;
                 retryable(&row.state)?;
-                let request: StudyRequest = serde_json::from_value(row.request.clone())
+                // `measured_first` records what the first run queued for the
+                // instrument; it is not part of a request (a retry uses the
+                // measurements stored now).
+                let mut stored = row.request.clone();
+                if let Some(fields) = stored.as_object_mut() {
+                    fields.remove("measured_first");
+                }
+                let request: StudyRequest = serde_json::from_value(stored)
                     .map_err(|e| ApiError::Internal(format!("study {id}'s stored request: {e}")))?;
                 let new = self.queue_study(request).await?;
                 tracing::info!(study_id = new, retry_of = id, "study retried");

@@ -253,8 +253,9 @@ pub struct RenderRow {
     pub created_at: f64,
     pub finished_at: Option<f64>,
     pub wall_seconds: Option<f64>,
-    /// The renderer's JSON result (per target and coding), once complete.
-    #[schema(value_type = Object)]
+    /// The renderer's JSON result (per target and coding), once complete;
+    /// null before.
+    #[schema(value_type = Option<Object>)]
     pub result: Option<serde_json::Value>,
 }
 
