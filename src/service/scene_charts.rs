@@ -18,15 +18,17 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
     target_index(info, target) as f64 + 1.0
 }
 
-/// The cost on the speed chart's x axis: rays traced by each coding rendered
-/// alone at the same fixed number of paths per target (`coding_cost.CODING.rays`
-/// of a stored render, see `daemon::renders`), and the axis title. Rays do
-/// not jitter with machine load as wall time does; the wall time stays in
-/// the render's JSON beside them (`coding_cost.CODING.wall_seconds`).
+/// The cost on the speed chart's x axis: the wall time of each coding
+/// rendered alone at the same fixed number of paths per target
+/// (`coding_cost.CODING.wall_seconds` of a stored render, see
+/// `daemon::renders`), and the axis title. The rays traced are stored beside
+/// it (`coding_cost.CODING.rays`) but do not separate the codings: the same
+/// paths trace the same rays in every coding, which differ only in the
+/// arithmetic per ray (channels), so rays cannot be this chart's axis.
 const SPEED_COST: (&str, &str, &str) = (
     "coding_cost",
-    "rays",
-    "rays traced, each coding alone at the same paths per target",
+    "wall_seconds",
+    "render time, each coding alone at the same paths per target (s)",
 );
 
 /// Measured points and each coding's results in the x,y diagram of the
@@ -153,7 +155,7 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
     )
 }
 
-/// Cost per coding (see [`SPEED_COST`]: rays traced by each coding alone at
+/// Cost per coding (see [`SPEED_COST`]: render time of each coding alone at
 /// the same fixed paths per target) against its mean ΔE*ab ± 1 SD over targets, each
 /// point labelled with its coding; read from the newest render that has it.
 pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
