@@ -348,6 +348,8 @@ async function loadSceneDetail(id) {
   const done = renders.find((r) => r.state === "complete");
   const preview = $("scene-preview");
   preview.hidden = !done;
+  // Never leave the previous scene's caption under this one.
+  $("preview-caption").textContent = done ? "" : "No complete render of this scene yet: no camera view.";
   if (done) {
     // Paths per pixel as the daemon chooses them (src/render/sensor.rs,
     // preview_spp): a 20 million path budget over the pixels, 16 to 1024.

@@ -113,6 +113,10 @@ try {
     await page.goto(`${base}/#/scenes/${id}`);
     await page.waitForFunction((id) => document.getElementById("scene-title").textContent.startsWith(id), id);
     await page.waitForLoadState("networkidle");
+    // Regression: the WHITE scene's preview caption stayed under scenes never rendered.
+    const staleCaption = await page.textContent("#preview-caption");
+    if (/Camera view of render/.test(staleCaption) && !(await page.isVisible("#scene-preview")))
+      failures.push(`scene ${id} shows another scene's preview caption: ${staleCaption}`);
     if (shots) await page.screenshot({ path: `${shots}/scene-${id}.png`, fullPage: true });
   }
 
