@@ -83,36 +83,18 @@ pub async fn start_measurement(
             )));
         }
     }
-    // Hold a slot in the queue before the row exists: a refused request
-    // leaves nothing behind, and an admitted one cannot find the queue full.
-    let permit = state.jobs.try_reserve().map_err(|e| match e {
-        tokio::sync::mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
-            "the instrument is busy: {} measurements are already queued; try again when one finishes",
-            state.jobs.max_capacity()
-        )),
-        tokio::sync::mpsc::error::TrySendError::Closed(()) => {
-            ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
-        }
-    })?;
-    let id = state
-        .store
-        .create_measurement(&NewMeasurement {
+    let id = enqueue_measurement(
+        &state,
+        NewMeasurement {
             session_id: body.session_id,
-            scene: body.scene.clone(),
-            target: body.target.clone(),
+            scene: body.scene,
+            target: body.target,
             samples,
             settings_json: serde_json::json!({ "samples": samples }),
             note: body.note.unwrap_or_default(),
-        })
-        .await?;
-    permit.send(MeasurementJob {
-        id,
-        samples,
-        scene: body.scene,
-        target: body.target,
-    });
-    tracing::info!(measurement_id = id, samples, "measurement queued");
-    let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
+        },
+    )
+    .await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(Accepted {
@@ -230,27 +212,29 @@ pub async fn cancel_measurement(
     }
 }
 
-/// Records and queues one measurement of a scene target for the instrument
-/// (as `POST /api/measurements` does); a full queue is 409 and leaves the
-/// record cancelled, saying so.
+/// Records and queues one measurement for the instrument (`POST
+/// /api/measurements`, and the targets a study measures first). A slot in
+/// the queue is held before the row exists: a refused request (409 full,
+/// 503 instrument task gone) leaves nothing behind, and an admitted one
+/// cannot find the queue full.
 pub(super) async fn enqueue_measurement(state: &AppState, new: NewMeasurement) -> Result<i64, ApiError> {
-    let job_scene = new.scene.clone();
-    let job_target = new.target.clone();
-    let samples = new.samples;
+    let permit = state.jobs.try_reserve().map_err(|e| match e {
+        tokio::sync::mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
+            "the instrument is busy: {} measurements are already queued; try again when one finishes",
+            state.jobs.max_capacity()
+        )),
+        tokio::sync::mpsc::error::TrySendError::Closed(()) => {
+            ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
+        }
+    })?;
+    let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
     let id = state.store.create_measurement(&new).await?;
-    let job = MeasurementJob {
+    permit.send(MeasurementJob {
         id,
         samples,
-        scene: job_scene,
-        target: job_target,
-    };
-    if let Err(e) = state.jobs.try_send(job) {
-        state
-            .store
-            .end_measurement(id, MeasurementState::Cancelled, "the instrument queue was full")
-            .await?;
-        return Err(ApiError::Conflict(format!("the instrument is busy: {e}")));
-    }
+        scene,
+        target,
+    });
     tracing::info!(measurement_id = id, samples, "measurement queued");
     let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
     Ok(id)
