@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use super::coding::{ChannelLayout, Coding};
 use super::geometry::Ray;
-use super::integrator::{trace_path, PathSampler, PathState, Prepared, SamplerKind, Transport};
+use super::integrator::{current_cancel, trace_path, PathSampler, PathState, Prepared, SamplerKind, Transport};
 use super::scene::{Camera, Scene};
 use super::RenderError;
 use crate::colorimetry::rgb::{apply, srgb_encode, RgbSpace};
@@ -62,9 +62,16 @@ pub fn render_camera(
     let aspect = camera.width as f64 / camera.height as f64;
     let to_srgb = RgbSpace::SRGB.xyz_to_rgb();
     let (w, h) = (camera.width as usize, camera.height as usize);
+    // The caller's cancellation (a daemon job), checked once per row: the
+    // rows run on rayon workers, which do not see the caller's thread-local.
+    let cancel = current_cancel();
+    let cancelled = || cancel.as_ref().is_some_and(|c| c.is_cancelled());
     let rows: Vec<Vec<[f32; 3]>> = (0..h)
         .into_par_iter()
         .map(|y| {
+            if cancelled() {
+                return Vec::new();
+            }
             let mut state = PathState::new(&prep.layout);
             let mut row = Vec::with_capacity(w);
             let mut mean = vec![0.0f64; prep.layout.len()];
@@ -98,6 +105,9 @@ pub fn render_camera(
             row
         })
         .collect();
+    if cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     Ok(Image {
         width: camera.width,
         height: camera.height,
