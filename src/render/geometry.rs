@@ -54,6 +54,16 @@ pub enum Shape {
         centre: DVec3,
         radius: f64,
     },
+    /// The triangle p0, p1, p2, intersected watertight (Woop, Benthin & Wald
+    /// 2013): rays through a shared edge or vertex hit one of its triangles.
+    /// Build it with [`Shape::triangle`]; `normal` is the unit geometric
+    /// normal (p1 − p0) × (p2 − p0), so the vertex order gives the front side.
+    Triangle {
+        p0: DVec3,
+        p1: DVec3,
+        p2: DVec3,
+        normal: DVec3,
+    },
 }
 
 /// Where a ray meets a surface.
@@ -77,6 +87,21 @@ impl Shape {
             w: n / n.length_squared(),
             unit_normal: n.normalize(),
         }
+    }
+
+    /// The triangle p0, p1, p2; `None` when it is degenerate (zero area).
+    pub fn triangle(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<Shape> {
+        let n = (p1 - p0).cross(p2 - p0);
+        let len = n.length();
+        if !(len > 0.0) || !len.is_finite() {
+            return None;
+        }
+        Some(Shape::Triangle {
+            p0,
+            p1,
+            p2,
+            normal: n / len,
+        })
     }
 
     /// The nearest hit with RAY_EPSILON_M < t < t_max.
@@ -178,6 +203,10 @@ impl Shape {
                 }
                 None
             }
+            Shape::Triangle { p0, p1, p2, normal } => {
+                let t = intersect_triangle_watertight(ray, p0, p1, p2, t_max)?;
+                Some(Hit { t, normal })
+            }
         }
     }
 
@@ -234,8 +263,102 @@ impl Shape {
                 ((radial - radius).powi(2) + dh * dh).sqrt()
             }
             Shape::Sphere { centre, radius } => ((p - centre).length() - radius).abs(),
+            Shape::Triangle { p0, p1, p2, .. } => (p - closest_point_on_triangle(p, p0, p1, p2)).length(),
         }
     }
+}
+
+/// The watertight ray–triangle test of Woop, Benthin & Wald (2013),
+/// "Watertight Ray/Triangle Intersection", JCGT 2(1): the vertices are
+/// translated to the ray origin and sheared so the ray runs along +z, and
+/// the 2D edge functions U, V, W decide the hit. Along a shared edge both
+/// triangles evaluate the same edge function with opposite sign, so a ray
+/// there hits at least one of them (no cracks). Everything here is f64; the
+/// paper's fallback to double precision for U, V or W = 0 is therefore not
+/// needed. Returns t with RAY_EPSILON_M < t < t_max.
+#[inline]
+pub fn intersect_triangle_watertight(ray: &Ray, p0: DVec3, p1: DVec3, p2: DVec3, t_max: f64) -> Option<f64> {
+    let d = ray.dir;
+    let ad = d.abs();
+    // kz: the dimension where the direction is largest; kx, ky the others,
+    // swapped when d[kz] < 0 to keep the winding.
+    let kz = if ad.x > ad.y {
+        if ad.x > ad.z {
+            0
+        } else {
+            2
+        }
+    } else if ad.y > ad.z {
+        1
+    } else {
+        2
+    };
+    let mut kx = (kz + 1) % 3;
+    let mut ky = (kx + 1) % 3;
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let sz = 1.0 / d[kz];
+    let sx = d[kx] * sz;
+    let sy = d[ky] * sz;
+    let a = p0 - ray.origin;
+    let b = p1 - ray.origin;
+    let c = p2 - ray.origin;
+    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return None;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return None;
+    }
+    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+    let t_scaled = u * az + v * bz + w * cz;
+    let t = t_scaled / det;
+    if t > RAY_EPSILON_M && t < t_max {
+        Some(t)
+    } else {
+        None
+    }
+}
+
+/// The point of triangle (a, b, c) closest to p (Ericson, "Real-Time
+/// Collision Detection", 2005, §5.1.5).
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
 }
 
 /// A solid whose inside is "inside geometry": a light there is an error.

@@ -126,11 +126,43 @@ pub struct Material {
     pub reflectance: Spectrum,
 }
 
-/// A surface with its material index.
+/// A surface with its material index and, for an area light, its emitter.
 #[derive(Clone, Debug)]
 pub struct Primitive {
     pub shape: Shape,
     pub material: usize,
+    /// Index into [`Scene::emitters`] when this surface emits light (only
+    /// triangles do: `[[polygon]]` and `[[mesh]]` with `emission`).
+    pub emitter: Option<usize>,
+}
+
+/// The emission of an area light: every primitive with this emitter emits
+/// the same spectral radiance, uniformly in direction (a Lambertian emitter).
+#[derive(Clone, Debug)]
+pub struct Emitter {
+    /// Where it was declared (`polygon[0]`, `mesh[1]`), for messages.
+    pub name: String,
+    /// Spectral radiance of the emitting side, W/(sr·m²·nm), 1 nm grid 380–780 nm.
+    pub radiance: Spectrum,
+    /// False: emits only on the front side, along the triangle's geometric
+    /// normal (the vertex order); true: both sides.
+    pub two_sided: bool,
+}
+
+/// How a point luminaire's intensity depends on direction.
+#[derive(Clone, Debug)]
+pub enum LightDistribution {
+    /// An IES LM-63 table (candela), times `Light::intensity_scale`.
+    Ies(IesDistribution),
+    /// `intensity_cd` in every direction within `cone_deg` of the aim (all
+    /// directions when `cone_deg` is 180), falling smoothly to zero over the
+    /// outer `falloff_deg` of the cone (a smoothstep in cos γ, as pbrt-v4's
+    /// spotlight): I = intensity_cd · smoothstep(cos cone, cos(cone − falloff), cos γ).
+    Cone {
+        intensity_cd: f64,
+        cone_deg: f64,
+        falloff_deg: f64,
+    },
 }
 
 /// A point luminaire.
@@ -142,8 +174,8 @@ pub struct Light {
     pub aim: DVec3,
     /// Unit direction of C = 0, perpendicular to the aim.
     pub c0: DVec3,
-    pub distribution: IesDistribution,
-    /// Multiplies the file's candela.
+    pub distribution: LightDistribution,
+    /// Multiplies the distribution's candela.
     pub intensity_scale: f64,
     /// Spectral intensity per candela on the 1 nm grid, W/(sr·nm) per cd.
     pub spectrum_per_cd: Spectrum,
@@ -154,14 +186,38 @@ impl Light {
     #[inline]
     pub fn candela_toward(&self, dir: DVec3) -> f64 {
         let cos_g = dir.dot(self.aim).clamp(-1.0, 1.0);
-        let gamma = cos_g.acos().to_degrees();
-        let c = if self.distribution.is_rotationally_symmetric() {
-            0.0
-        } else {
-            let b = self.aim.cross(self.c0);
-            dir.dot(b).atan2(dir.dot(self.c0)).to_degrees()
-        };
-        self.distribution.candela(gamma, c) * self.intensity_scale
+        match &self.distribution {
+            LightDistribution::Ies(table) => {
+                let gamma = cos_g.acos().to_degrees();
+                let c = if table.is_rotationally_symmetric() {
+                    0.0
+                } else {
+                    let b = self.aim.cross(self.c0);
+                    dir.dot(b).atan2(dir.dot(self.c0)).to_degrees()
+                };
+                table.candela(gamma, c) * self.intensity_scale
+            }
+            LightDistribution::Cone {
+                intensity_cd,
+                cone_deg,
+                falloff_deg,
+            } => {
+                if *cone_deg >= 180.0 {
+                    return intensity_cd * self.intensity_scale;
+                }
+                let cos_outer = cone_deg.to_radians().cos();
+                let cos_inner = (cone_deg - falloff_deg).max(0.0).to_radians().cos();
+                let f = if cos_g >= cos_inner {
+                    1.0
+                } else if cos_g <= cos_outer {
+                    0.0
+                } else {
+                    let x = (cos_g - cos_outer) / (cos_inner - cos_outer);
+                    x * x * (3.0 - 2.0 * x)
+                };
+                intensity_cd * f * self.intensity_scale
+            }
+        }
     }
 }
 
@@ -200,7 +256,10 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub primitives: Vec<Primitive>,
     pub solids: Vec<Solid>,
+    /// Point luminaires.
     pub lights: Vec<Light>,
+    /// Area lights' emission, referenced by [`Primitive::emitter`].
+    pub emitters: Vec<Emitter>,
     pub radiometer: Radiometer,
     pub target_list: Vec<Target>,
     pub camera: Option<Camera>,
@@ -588,6 +647,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         primitives.push(Primitive {
             shape: Shape::quad(DVec3::from(q.corner), u, v),
             material,
+            emitter: None,
         });
     }
     for (i, d) in raw.discs.iter().enumerate() {
@@ -599,6 +659,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
                 radius: positive(d.radius, &l, &format!("disc[{i}].radius"))?,
             },
             material,
+            emitter: None,
         });
     }
     for (i, c) in raw.cylinders.iter().enumerate() {
@@ -615,12 +676,14 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
                 radius,
             },
             material,
+            emitter: None,
         });
         if c.caps {
             for (centre, normal) in [(from, -axis), (to, axis)] {
                 primitives.push(Primitive {
                     shape: Shape::Disc { centre, normal, radius },
                     material,
+                    emitter: None,
                 });
             }
             solids.push(Solid::Cylinder {
@@ -638,6 +701,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         primitives.push(Primitive {
             shape: Shape::Sphere { centre, radius },
             material,
+            emitter: None,
         });
         match s.interior.as_str() {
             "solid" => solids.push(Solid::Sphere { centre, radius }),
@@ -657,7 +721,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             return Err(l.err(format!("box[{i}].max"), "must exceed min on every axis"));
         }
         for shape in box_faces(min, max) {
-            primitives.push(Primitive { shape, material });
+            primitives.push(Primitive { shape, material, emitter: None });
         }
         solids.push(Solid::Box { min, max });
     }
@@ -736,6 +800,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         primitives,
         solids,
         lights,
+        emitters: Vec::new(),
         radiometer,
         target_list,
         camera,
@@ -941,7 +1006,7 @@ fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneEr
         position: DVec3::from(lf.position),
         aim,
         c0,
-        distribution,
+        distribution: LightDistribution::Ies(distribution),
         intensity_scale: positive(lf.intensity_scale, l, &key("intensity_scale"))?,
         spectrum_per_cd,
     })
@@ -980,6 +1045,7 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
     primitives.push(Primitive {
         shape: quad(centre - n * 0.0005, c.card_size[0], c.card_size[1]),
         material: card_index,
+        emitter: None,
     });
     for patch in 1..=24 {
         let replacement = c.replace_measured.as_ref().filter(|_| patch == c.measured_patch);
@@ -1000,7 +1066,7 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
             let m = l.add_material(&format!("chart{i}.{}", columns[patch - 1]), s);
             (quad(centre + offset(patch), c.patch_size, c.patch_size), m)
         };
-        primitives.push(Primitive { shape, material });
+        primitives.push(Primitive { shape, material, emitter: None });
     }
     Ok(())
 }
