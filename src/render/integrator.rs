@@ -8,6 +8,14 @@
 //!   estimation): a point light has no area, so its contribution is the
 //!   deterministic L = β ⊙ ρ/π ⊙ I(ω)·cos θᵢ / d², with I(ω) the luminaire's
 //!   spectral intensity in W/(sr·nm) toward xⱼ and an unoccluded shadow ray;
+//! - area lights (emitting triangles) are reached by two strategies, combined
+//!   by multiple importance sampling (Veach & Guibas 1995, power heuristic):
+//!   at each vertex one point y is chosen on the lights ([`super::area_light`],
+//!   density p_light in solid angle) and adds β ⊙ ρ/π ⊙ Le·cos θᵢ / p_light ·
+//!   w_light; a bounce direction that hits an emitter adds β ⊙ Le · w_bsdf,
+//!   with w = p²/(p_light² + p_bsdf²). The sensor's own ray has no BSDF
+//!   density, so an emitter it sees directly counts fully; at the last
+//!   vertex (no bounce follows) the light sample counts fully;
 //! - the next direction is sampled cosine-weighted, pdf = cos θ / π, so the
 //!   throughput update f·cos θ / pdf is exactly ρ (per channel);
 //! - paths stop after `max_bounces` indirect bounces (RADIANCE `-ab`), or
@@ -29,6 +37,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use super::area_light::{power_heuristic, AreaLights};
 use super::coding::ChannelLayout;
 use super::geometry::{basis, Ray};
 use super::scene::{Light, Scene};
@@ -374,6 +383,13 @@ pub struct Prepared<'a> {
     material_channels: Vec<f32>,
     /// Spectral intensity per cd of each light, as channels.
     light_channels: Vec<f32>,
+    /// Spectral radiance of each area light's emitter, as channels.
+    emitter_channels: Vec<f32>,
+    /// Per material: true when it reflects nothing in any channel (a path
+    /// that reaches it ends there).
+    material_black: Vec<bool>,
+    /// The emitting triangles, for next-event estimation.
+    area_lights: AreaLights,
 }
 
 impl<'a> Prepared<'a> {
@@ -394,12 +410,33 @@ impl<'a> Prepared<'a> {
                     .map_err(|e| format!("light `{}`: {e}", l.id))?,
             );
         }
+        let mut emitter_channels = Vec::new();
+        for e in &scene.emitters {
+            // The same conversion as a point light's spectrum (spectral: the
+            // values; RGB: M⁻¹ · absolute XYZ), applied to radiance.
+            emitter_channels.extend(
+                layout
+                    .light_channels(&e.radiance)
+                    .map_err(|err| format!("emitter `{}`: {err}", e.name))?,
+            );
+        }
+        let n = layout.len();
+        let material_black = material_channels.chunks(n.max(1)).map(|m| m.iter().all(|&r| r == 0.0)).collect();
         Ok(Prepared {
             scene,
             layout,
             material_channels,
             light_channels,
+            emitter_channels,
+            material_black,
+            area_lights: AreaLights::new(scene)?,
         })
+    }
+
+    #[inline]
+    fn emitter(&self, e: usize) -> &[f32] {
+        let n = self.layout.len();
+        &self.emitter_channels[e * n..(e + 1) * n]
     }
 
     #[inline]
@@ -414,15 +451,15 @@ impl<'a> Prepared<'a> {
         &self.light_channels[i * n..(i + 1) * n]
     }
 
-    /// The nearest surface along the ray: (hit, material).
+    /// The nearest surface along the ray: (hit, primitive index).
     #[inline]
     fn nearest(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
         let mut best = None;
         let mut t_max = f64::INFINITY;
-        for p in &self.scene.primitives {
+        for (i, p) in self.scene.primitives.iter().enumerate() {
             if let Some(h) = p.shape.intersect(ray, t_max) {
                 t_max = h.t;
-                best = Some((h, p.material));
+                best = Some((h, i));
             }
         }
         best
@@ -470,21 +507,43 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
     state.beta.fill(1.0);
     let lights: &[Light] = &prep.scene.lights;
     let mut depth = 0u32;
+    // Solid-angle density of the direction that led here (for MIS); `None`
+    // for the sensor's ray, which no light sample could have produced.
+    let mut bsdf_pdf: Option<f64> = None;
     loop {
         state.rays += 1;
-        let Some((hit, material)) = prep.nearest(&ray) else {
+        let Some((hit, primitive)) = prep.nearest(&ray) else {
             break; // left the booth: open sides return zero
         };
+        let prim = &prep.scene.primitives[primitive];
+        let front = hit.normal.dot(ray.dir) < 0.0;
+        if let Some(e) = prim.emitter {
+            if front || prep.scene.emitters[e].two_sided {
+                // Le reached by the bounce direction, weighted against the
+                // light strategy's density of the same point.
+                let w = match bsdf_pdf {
+                    None => 1.0,
+                    Some(p_bsdf) => {
+                        let cos_l = hit.normal.dot(ray.dir).abs();
+                        let p_light = prep.area_lights.pdf_area_of_primitive(primitive) * hit.t * hit.t / cos_l;
+                        power_heuristic(p_bsdf, p_light)
+                    }
+                } as f32;
+                state.lit = true;
+                for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(e)) {
+                    *l += w * b * le;
+                }
+            }
+        }
+        if prep.material_black[prim.material] {
+            break; // reflects nothing: the path ends
+        }
         let p = ray.origin + ray.dir * hit.t;
         // Two-sided: the normal on the side the ray came from.
-        let n = if hit.normal.dot(ray.dir) < 0.0 {
-            hit.normal
-        } else {
-            -hit.normal
-        };
+        let n = if front { hit.normal } else { -hit.normal };
         let origin = p + n * SPAWN_OFFSET_M;
         // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
-        let rho = prep.material(material);
+        let rho = prep.material(prim.material);
         for (b, r) in state.beta.iter_mut().zip(rho) {
             *b *= r;
         }
@@ -513,7 +572,37 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
                 *l += s * b * e;
             }
         }
-        if depth >= transport.max_bounces {
+        let last_vertex = depth >= transport.max_bounces;
+        if !prep.area_lights.is_empty() {
+            let (u1, u2) = rng.next_2d();
+            let s = prep.area_lights.sample(u1, u2);
+            let to_light = s.point - origin;
+            let d2 = to_light.length_squared();
+            let d = d2.sqrt();
+            let wi = to_light / d;
+            let cos_i = n.dot(wi);
+            let cos_l_signed = -wi.dot(s.normal);
+            let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
+            if cos_i > 0.0 && cos_l > 0.0 {
+                state.rays += 1;
+                // Stop just short of the light's own surface.
+                if !prep.occluded(&Ray { origin, dir: wi }, d * (1.0 - 1e-9) - 1e-9) {
+                    let p_light = s.pdf_area * d2 / cos_l;
+                    let w = if last_vertex {
+                        1.0
+                    } else {
+                        power_heuristic(p_light, cos_i / PI)
+                    };
+                    // L += β ⊙ (ρ/π) ⊙ Le · cos θᵢ / p_light · w  (ρ already in β).
+                    let k = (cos_i / (PI * p_light) * w) as f32;
+                    state.lit = true;
+                    for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(s.emitter)) {
+                        *l += k * b * le;
+                    }
+                }
+            }
+        }
+        if last_vertex {
             break;
         }
         if let Some(from) = transport.russian_roulette_from {
@@ -528,6 +617,7 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         }
         let (u1, u2) = rng.next_2d();
         let dir = cosine_direction(n, u1, u2);
+        bsdf_pdf = Some(n.dot(dir).max(0.0) / PI);
         ray = Ray { origin, dir };
         depth += 1;
     }

@@ -33,6 +33,7 @@
 //! the total wall time only; the cost of a coding is measured by rendering it
 //! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
 
+pub mod area_light;
 pub mod coding;
 pub mod geometry;
 pub mod ies;
