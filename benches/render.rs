@@ -2,6 +2,14 @@
 //! all seven codings in one pass, and each coding alone (the cost of a
 //! coding). Paths per second = 21 × samples / the reported median time.
 //!
+//! `cornell_box/goal`: the Cornell box's nine targets in the codings
+//! `rgb,srgb,nstep9,nstep81,spectral`, rendered until the standard error of
+//! Y is at most 0.3 % at every target in every coding (the default
+//! settings: 5 bounces) — the performance goal of issue 11 is a median of
+//! ≤ 1.5 s on a 2-core machine. The same with the command line:
+//! `lightbooth render scenes/cornell_box.toml --codings rgb,srgb,nstep9,nstep81,spectral --json`
+//! (`wall_seconds`).
+//!
 //! `cargo bench --bench render` (release profile). Measurement time is kept
 //! short: the machine is shared.
 
@@ -39,5 +47,33 @@ fn cylinder(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, cylinder);
+fn cornell_box(c: &mut Criterion) {
+    let scene = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml")).unwrap();
+    let mut group = c.benchmark_group("cornell_box");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(10));
+    let settings = RenderSettings {
+        codings: vec![
+            Coding::Rgb,
+            Coding::Srgb,
+            Coding::NStep(9),
+            Coding::NStep(81),
+            Coding::Spectral,
+        ],
+        target_relative_se: Some(0.003),
+        ..RenderSettings::default()
+    };
+    group.bench_function("goal", |b| {
+        b.iter(|| {
+            let r = render(&scene, &settings, None).unwrap();
+            assert!(r.max_relative_se() <= 0.003);
+            r
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, cylinder, cornell_box);
 criterion_main!(benches);
