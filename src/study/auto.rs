@@ -418,10 +418,23 @@ struct Signal {
     direct: bool,
 }
 
+/// Every light of the scene with its spectrum: the point luminaires'
+/// spectral intensity per cd and the area lights' spectral radiance (only
+/// the spectrum's shape matters to the N analysis).
+fn light_spectra(scene: &Scene) -> Vec<(String, &crate::spectrum::Spectrum)> {
+    scene
+        .lights
+        .iter()
+        .map(|l| (l.id.clone(), &l.spectrum_per_cd))
+        .chain(scene.emitters.iter().map(|e| (e.name.clone(), &e.radiance)))
+        .collect()
+}
+
 /// The N analysis: every N in 1…81 against the scene's colour signals.
 pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Vec<usize>), AutoError> {
     let spectra = |e: crate::spectrum::SpectrumError| AutoError::Spectra(e.to_string());
-    if scene.lights.is_empty() {
+    let lights = light_spectra(scene);
+    if lights.is_empty() {
         return Err(AutoError::Scene("no lights".into()));
     }
     let targets = target_materials(scene)?;
@@ -438,16 +451,16 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
         })
         .collect::<Result<_, AutoError>>()?;
     let mut signals = Vec::new();
-    for light in &scene.lights {
-        let s1 = light.spectrum_per_cd.resample(&g1).map_err(spectra)?.into_values();
-        let s81 = light.spectrum_per_cd.resample(&g1).map_err(spectra)?;
+    for (light_id, light) in &lights {
+        let s1 = light.resample(&g1).map_err(spectra)?.into_values();
+        let s81 = light.resample(&g1).map_err(spectra)?;
         let s81 = s81.resample(&g81).map_err(spectra)?.into_values();
         let white_exact = xyz_1nm(&s1, &cmf);
         for &t in &targets {
             let (rt1, rt81) = &refl[t];
             let direct: Vec<f64> = s1.iter().zip(rt1).map(|(s, r)| s * r).collect();
             signals.push(Signal {
-                name: format!("{}: {}", light.id, scene.materials[t].name),
+                name: format!("{light_id}: {}", scene.materials[t].name),
                 exact: direct.clone(),
                 factors_81: vec![s81.clone(), rt81.clone()],
                 white_exact,
@@ -455,7 +468,7 @@ pub fn n_analysis(scene: &Scene, tol: &Tolerance) -> Result<(Vec<NCandidate>, Ve
             });
             for (m, (rm1, rm81)) in refl.iter().enumerate() {
                 signals.push(Signal {
-                    name: format!("{}: {}×{}", light.id, scene.materials[t].name, scene.materials[m].name),
+                    name: format!("{light_id}: {}×{}", scene.materials[t].name, scene.materials[m].name),
                     exact: direct.iter().zip(rm1).map(|(d, r)| d * r).collect(),
                     factors_81: vec![s81.clone(), rt81.clone(), rm81.clone()],
                     white_exact,
@@ -513,16 +526,12 @@ pub fn fig7_curves(scene: &Scene) -> Result<Vec<(String, Vec<f64>)>, AutoError> 
         .map(|m| m.reflectance.resample(&g81))
         .collect::<Result<_, _>>()
         .map_err(|e| AutoError::Spectra(e.to_string()))?;
-    scene
-        .lights
-        .iter()
-        .map(|l| {
-            let s = l
-                .spectrum_per_cd
-                .resample(&g81)
-                .map_err(|e| AutoError::Spectra(e.to_string()))?;
+    light_spectra(scene)
+        .into_iter()
+        .map(|(id, l)| {
+            let s = l.resample(&g81).map_err(|e| AutoError::Spectra(e.to_string()))?;
             let curve = crate::nstep::nstep_error(&refl, &s).map_err(AutoError::Spectra)?;
-            Ok((l.id.clone(), curve.error))
+            Ok((id, curve.error))
         })
         .collect()
 }
@@ -549,7 +558,7 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
         .map(|(light, curve)| format!("{light} {:.4}", curve[n - 1]))
         .collect::<Vec<_>>()
         .join(", ");
-    let signals = scene.lights.len() * targets.len() * (1 + scene.materials.len());
+    let signals = light_spectra(scene).len() * targets.len() * (1 + scene.materials.len());
     reasons.push(if needs_spectral {
         format!(
             "coding spectral: even nstep81 leaves ΔE00 {:.3} (budget {:.3}) or a luminance error {:.2} % \
