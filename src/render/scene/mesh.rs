@@ -397,7 +397,8 @@ fn read_ply(path: &Path, shown: &str) -> Result<Vec<FaceGroup>, String> {
                         "{shown}: the face element has no `vertex_indices` (or `vertex_index`) list"
                     ));
                 }
-                let first_line = reader.line() + 1;
+                // The reader stands on the line after the previous element.
+                let first_line = reader.line();
                 let f = Parser::<PlyFace>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(fail)?;

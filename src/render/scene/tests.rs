@@ -533,3 +533,244 @@ fn plain_luminaire_errors_name_the_file_and_the_key() {
         &["positive"],
     );
 }
+
+/// A unit box's floor (a quad face) and one triangle, in two usemtl groups.
+const BOX_OBJ: &str = "# fixture
+o box
+v 0 0 0
+v 1 0 0
+v 1 0 1
+v 0 0 1
+v 0 1 0
+usemtl grey
+f 1 2 3 4
+usemtl shiny
+f 1 2 5
+l 1 2 3
+";
+
+const SHINY: &str = "[materials.shiny]\nreflectance = \"refl.csv:shiny\"\n";
+
+/// Loads the base scene plus `extra` with `meshes/box.obj` = `obj`.
+fn with_obj(obj: &str, extra: &str) -> Result<Scene, SceneError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::write(dir.path().join("meshes/box.obj"), obj).unwrap();
+    load_scene(&scene(dir.path(), extra))
+}
+
+fn mesh_refused(obj: &str, extra: &str, key: &str, words: &[&str]) {
+    let e = with_obj(obj, extra).expect_err(key);
+    assert!(e.file.ends_with("probe.toml"), "{e}");
+    assert_eq!(e.key, key, "{e}");
+    for w in words {
+        assert!(e.to_string().contains(w), "`{e}` should say `{w}`");
+    }
+}
+
+#[test]
+fn an_obj_mesh_is_placed_triangulated_and_takes_its_usemtl_materials() {
+    let s = with_obj(
+        BOX_OBJ,
+        &format!("{SHINY}[[mesh]]\nfile = \"meshes/box.obj\"\nscale = 0.5\nrotate_deg = [0.0, 90.0, 0.0]\ntranslate = [0.0, 0.2, 0.0]\n"),
+    )
+    .unwrap();
+    // The quad face is two fan triangles; the `l` polyline adds none.
+    let mesh = &s.primitives[1..];
+    assert_eq!(mesh.len(), 3);
+    let name = |p: &Primitive| s.materials[p.material].name.clone();
+    assert_eq!([name(&mesh[0]), name(&mesh[1]), name(&mesh[2])], ["grey", "grey", "shiny"]);
+    // p ↦ Ry(90°)(0.5 p) + (0, 0.2, 0): (1, 0, 0) → (0, 0.2, −0.5), (0, 0, 1) → (0.5, 0.2, 0).
+    let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-15;
+    let [a, b, c] = triangle(&mesh[0]);
+    assert!(close(a, DVec3::new(0.0, 0.2, 0.0)), "{a}");
+    assert!(close(b, DVec3::new(0.0, 0.2, -0.5)), "{b}");
+    assert!(close(c, DVec3::new(0.5, 0.2, -0.5)), "{c}");
+    let [_, _, top] = triangle(&mesh[2]);
+    assert!(close(top, DVec3::new(0.0, 0.7, 0.0)), "{top}");
+    assert!(close(triangle(&mesh[1])[2], DVec3::new(0.5, 0.2, 0.0)));
+    // The mesh file is part of the scene's content.
+    assert!(s.files.iter().any(|f| f.ends_with("meshes/box.obj")));
+    assert!(mesh.iter().all(|p| p.emitter.is_none()));
+}
+
+#[test]
+fn a_mirroring_scale_keeps_each_triangles_front_side() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
+    let normal = |scale: &str| {
+        let s = with_obj(obj, &format!("[[mesh]]\nfile = \"meshes/box.obj\"\nmaterial = \"grey\"\nscale = {scale}\ntranslate = [0.0, 0.5, 0.0]\n")).unwrap();
+        match s.primitives[1].shape {
+            Shape::Triangle { normal, .. } => normal,
+            _ => unreachable!(),
+        }
+    };
+    // (1, 0, 0) × (0, 0, 1) = −y; mirrored in x the surface still faces −y.
+    assert_eq!(normal("1.0"), -DVec3::Y);
+    assert_eq!(normal("[-1.0, 1.0, 1.0]"), -DVec3::Y);
+}
+
+#[test]
+fn an_emitting_mesh_without_material_is_black() {
+    let s = with_obj(
+        "v 0 0.5 0\nv 1 0.5 0\nv 1 0.5 1\nf 1 3 2\n",
+        &format!("[[mesh]]\nfile = \"meshes/box.obj\"\n{CORNELL_LIGHT}\ntwo_sided = true\n"),
+    )
+    .unwrap();
+    assert_eq!(s.emitters.len(), 1);
+    assert!(s.emitters[0].two_sided && s.emitters[0].name == "mesh[0]");
+    let p = &s.primitives[1];
+    assert_eq!(p.emitter, Some(0));
+    assert!(s.materials[p.material].reflectance.values().iter().all(|r| *r == 0.0));
+}
+
+#[test]
+fn mesh_errors_name_the_mesh_file_and_line() {
+    let mesh = "[[mesh]]\nfile = \"meshes/box.obj\"\nmaterial = \"grey\"\n";
+    let by_usemtl = format!("{SHINY}[[mesh]]\nfile = \"meshes/box.obj\"\n");
+    mesh_refused(
+        BOX_OBJ,
+        "[[mesh]]\nfile = \"meshes/none.obj\"\nmaterial = \"grey\"\n",
+        "mesh[0].file",
+        &["meshes/none.obj"],
+    );
+    mesh_refused(BOX_OBJ, &format!("{mesh}colour = 1\n"), "mesh[0].colour", &["unknown field"]);
+    mesh_refused(
+        "v 0 0 0\nv 1 0 0\nv 1 0 x\nf 1 2 3\n",
+        mesh,
+        "mesh[0].file",
+        &["meshes/box.obj line 3", "`v 1 0 x`", "position parse error"],
+    );
+    mesh_refused(
+        "v 0 0 0\nv 1 0 0\nv 1 0 nan\nf 1 2 3\n",
+        mesh,
+        "mesh[0].file",
+        &["meshes/box.obj line 3", "not a finite number"],
+    );
+    mesh_refused(
+        &BOX_OBJ.replace("usemtl shiny", "usemtl gold"),
+        &by_usemtl,
+        "mesh[0].file",
+        &["meshes/box.obj line 10", "usemtl `gold`", "grey, shiny"],
+    );
+    // tobj notices a bad index only when the object ends; the line is found again.
+    mesh_refused(
+        "v 0 0 0\nv 1 0 0\nv 1 0 1\nf 1 2 3\nf 1 2 9\nv 0 1 0\n",
+        mesh,
+        "mesh[0].file",
+        &["meshes/box.obj line 5", "`f 1 2 9`", "out of bounds"],
+    );
+    mesh_refused(
+        "v 0 0 0\nv 1 0 0\nf 1 2\n",
+        mesh,
+        "mesh[0].file",
+        &["meshes/box.obj", "2 vertices"],
+    );
+    mesh_refused(
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+        mesh,
+        "mesh[0].file",
+        &["meshes/box.obj", "face 1", "zero area"],
+    );
+    // Faces before any usemtl, and no `material`.
+    mesh_refused(
+        &BOX_OBJ.replace("usemtl grey\n", ""),
+        &by_usemtl,
+        "mesh[0].material",
+        &["no material", "`box`"],
+    );
+    // Every face has its usemtl: `material` is unused.
+    mesh_refused(BOX_OBJ, &format!("{SHINY}{mesh}"), "mesh[0].material", &["unused"]);
+    mesh_refused(BOX_OBJ, &format!("{mesh}scale = [1.0, 0.0, 1.0]\n"), "mesh[0].scale", &["non-zero"]);
+    mesh_refused("# nothing\n", mesh, "mesh[0].file", &["no faces"]);
+    mesh_refused(
+        BOX_OBJ,
+        "[[mesh]]\nfile = \"meshes/box.stl\"\nmaterial = \"grey\"\n",
+        "mesh[0].file",
+        &[".obj or .ply"],
+    );
+}
+
+const SQUARE_PLY: &str = "ply
+format ascii 1.0
+comment a unit square at y = 0.5
+element vertex 4
+property float x
+property float y
+property float z
+element face 1
+property list uchar int vertex_indices
+end_header
+0 0.5 0
+1 0.5 0
+1 0.5 1
+0 0.5 1
+4 0 1 2 3
+";
+
+fn with_ply(ply: &[u8], extra: &str) -> Result<Scene, SceneError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("square.ply"), ply).unwrap();
+    load_scene(&scene(dir.path(), extra))
+}
+
+#[test]
+fn a_ply_mesh_ascii_or_binary_is_read_and_its_errors_name_the_line() {
+    let mesh = "[[mesh]]\nfile = \"square.ply\"\nmaterial = \"grey\"\n";
+    let s = with_ply(SQUARE_PLY.as_bytes(), mesh).unwrap();
+    let v = |x: f64, z: f64| DVec3::new(x, 0.5, z);
+    let tris: Vec<[DVec3; 3]> = s.primitives[1..].iter().map(triangle).collect();
+    assert_eq!(tris, vec![[v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)], [v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]]);
+    // The same square, binary little-endian, with doubles.
+    let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
+    for (x, z) in [(0.0f64, 0.0f64), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+        for c in [x, 0.5, z] {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    bin.push(4);
+    for i in 0u32..4 {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let b = with_ply(&bin, mesh).unwrap();
+    let tris_b: Vec<[DVec3; 3]> = b.primitives[1..].iter().map(triangle).collect();
+    assert_eq!(tris, tris_b);
+
+    let e = with_ply(SQUARE_PLY.replace("4 0 1 2 3", "4 0 1 2 7").as_bytes(), mesh).unwrap_err();
+    assert_eq!(e.key, "mesh[0].file");
+    assert!(e.message.contains("square.ply line 15") && e.message.contains("vertex index 7"), "{e}");
+    let e = with_ply(SQUARE_PLY.replace("1 0.5 1", "1 0.5 q").as_bytes(), mesh).unwrap_err();
+    assert!(e.message.contains("square.ply") && e.message.contains("Line 13"), "{e}");
+    // PLY has no materials: the mesh must name one.
+    let e = with_ply(SQUARE_PLY.as_bytes(), "[[mesh]]\nfile = \"square.ply\"\n").unwrap_err();
+    assert_eq!(e.key, "mesh[0].material", "{e}");
+}
+
+/// Loads a 1 M-triangle OBJ (a 500 × 1000 grid of quads): a measurement,
+/// not a timed assertion. `cargo test --release --lib million -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn a_million_triangle_obj_loads() {
+    use std::fmt::Write;
+    let (nx, nz) = (501usize, 1001usize);
+    let mut obj = String::with_capacity(60_000_000);
+    for j in 0..nz {
+        for i in 0..nx {
+            writeln!(obj, "v {} 0.5 {}", i as f64 / 500.0, j as f64 / 1000.0).unwrap();
+        }
+    }
+    for j in 0..nz - 1 {
+        for i in 0..nx - 1 {
+            let a = j * nx + i + 1;
+            writeln!(obj, "f {} {} {} {}", a, a + 1, a + nx + 1, a + nx).unwrap();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::write(dir.path().join("meshes/box.obj"), obj).unwrap();
+    let extra = "[[target]]\nid = \"on_mesh\"\npoint = [0.25, 0.5, 0.25]\n[[target]]\nid = \"corner\"\npoint = [0.999, 0.5, 0.999]\n\
+                 [[mesh]]\nfile = \"meshes/box.obj\"\nmaterial = \"grey\"\n";
+    let t = std::time::Instant::now();
+    let s = load_scene(&scene(dir.path(), extra)).unwrap();
+    eprintln!("1 M-triangle OBJ + 3 targets: loaded in {:.2} s", t.elapsed().as_secs_f64());
+    assert_eq!(s.primitives.len(), 1 + 2 * 500 * 1000);
+}
