@@ -1,6 +1,6 @@
 //! The scene file as written: serde structs of the TOML, one per table,
 //! every one refusing unknown keys. Numbers are still in the file's
-//! `units`; [`SceneFile::to_metres`] converts every length once, before
+//! `units`; [`SceneFile::convert_to_metres`] converts every length once, before
 //! anything else reads them.
 
 use std::collections::BTreeMap;
@@ -338,7 +338,7 @@ impl SceneFile {
     /// unit). Directions, angles, spectra and photometric quantities stay.
     /// Mesh vertices are converted where the mesh is read, after its own
     /// `scale` and rotation (`translate` is converted here).
-    pub fn to_metres(&mut self, k: f64) {
+    pub fn convert_to_metres(&mut self, k: f64) {
         if k == 1.0 {
             return;
         }

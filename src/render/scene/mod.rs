@@ -519,7 +519,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             ),
         )
     })?;
-    raw.to_metres(units);
+    raw.convert_to_metres(units);
 
     for (name, m) in &raw.materials {
         let key = format!("materials.{name}.reflectance");

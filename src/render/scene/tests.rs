@@ -579,7 +579,10 @@ fn an_obj_mesh_is_placed_triangulated_and_takes_its_usemtl_materials() {
     let mesh = &s.primitives[1..];
     assert_eq!(mesh.len(), 3);
     let name = |p: &Primitive| s.materials[p.material].name.clone();
-    assert_eq!([name(&mesh[0]), name(&mesh[1]), name(&mesh[2])], ["grey", "grey", "shiny"]);
+    assert_eq!(
+        [name(&mesh[0]), name(&mesh[1]), name(&mesh[2])],
+        ["grey", "grey", "shiny"]
+    );
     // p ↦ Ry(90°)(0.5 p) + (0, 0.2, 0): (1, 0, 0) → (0, 0.2, −0.5), (0, 0, 1) → (0.5, 0.2, 0).
     let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-15;
     let [a, b, c] = triangle(&mesh[0]);
@@ -633,7 +636,12 @@ fn mesh_errors_name_the_mesh_file_and_line() {
         "mesh[0].file",
         &["meshes/none.obj"],
     );
-    mesh_refused(BOX_OBJ, &format!("{mesh}colour = 1\n"), "mesh[0].colour", &["unknown field"]);
+    mesh_refused(
+        BOX_OBJ,
+        &format!("{mesh}colour = 1\n"),
+        "mesh[0].colour",
+        &["unknown field"],
+    );
     mesh_refused(
         "v 0 0 0\nv 1 0 0\nv 1 0 x\nf 1 2 3\n",
         mesh,
@@ -680,7 +688,12 @@ fn mesh_errors_name_the_mesh_file_and_line() {
     );
     // Every face has its usemtl: `material` is unused.
     mesh_refused(BOX_OBJ, &format!("{SHINY}{mesh}"), "mesh[0].material", &["unused"]);
-    mesh_refused(BOX_OBJ, &format!("{mesh}scale = [1.0, 0.0, 1.0]\n"), "mesh[0].scale", &["non-zero"]);
+    mesh_refused(
+        BOX_OBJ,
+        &format!("{mesh}scale = [1.0, 0.0, 1.0]\n"),
+        "mesh[0].scale",
+        &["non-zero"],
+    );
     mesh_refused("# nothing\n", mesh, "mesh[0].file", &["no faces"]);
     mesh_refused(
         BOX_OBJ,
@@ -719,7 +732,13 @@ fn a_ply_mesh_ascii_or_binary_is_read_and_its_errors_name_the_line() {
     let s = with_ply(SQUARE_PLY.as_bytes(), mesh).unwrap();
     let v = |x: f64, z: f64| DVec3::new(x, 0.5, z);
     let tris: Vec<[DVec3; 3]> = s.primitives[1..].iter().map(triangle).collect();
-    assert_eq!(tris, vec![[v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)], [v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]]);
+    assert_eq!(
+        tris,
+        vec![
+            [v(0.0, 0.0), v(1.0, 0.0), v(1.0, 1.0)],
+            [v(0.0, 0.0), v(1.0, 1.0), v(0.0, 1.0)]
+        ]
+    );
     // The same square, binary little-endian, with doubles.
     let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\nproperty double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n".to_vec();
     for (x, z) in [(0.0f64, 0.0f64), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
@@ -737,7 +756,10 @@ fn a_ply_mesh_ascii_or_binary_is_read_and_its_errors_name_the_line() {
 
     let e = with_ply(SQUARE_PLY.replace("4 0 1 2 3", "4 0 1 2 7").as_bytes(), mesh).unwrap_err();
     assert_eq!(e.key, "mesh[0].file");
-    assert!(e.message.contains("square.ply line 15") && e.message.contains("vertex index 7"), "{e}");
+    assert!(
+        e.message.contains("square.ply line 15") && e.message.contains("vertex index 7"),
+        "{e}"
+    );
     let e = with_ply(SQUARE_PLY.replace("1 0.5 1", "1 0.5 q").as_bytes(), mesh).unwrap_err();
     assert!(e.message.contains("square.ply") && e.message.contains("Line 13"), "{e}");
     // PLY has no materials: the mesh must name one.
@@ -771,6 +793,9 @@ fn a_million_triangle_obj_loads() {
                  [[mesh]]\nfile = \"meshes/box.obj\"\nmaterial = \"grey\"\n";
     let t = std::time::Instant::now();
     let s = load_scene(&scene(dir.path(), extra)).unwrap();
-    eprintln!("1 M-triangle OBJ + 3 targets: loaded in {:.2} s", t.elapsed().as_secs_f64());
+    eprintln!(
+        "1 M-triangle OBJ + 3 targets: loaded in {:.2} s",
+        t.elapsed().as_secs_f64()
+    );
     assert_eq!(s.primitives.len(), 1 + 2 * 500 * 1000);
 }
