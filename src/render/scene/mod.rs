@@ -1,22 +1,27 @@
 //! The scene format: human-edited TOML, spectra from CSV files, luminaires
-//! from IES LM-63 files, all paths relative to the scene file.
+//! from IES LM-63 files, triangle meshes from OBJ and PLY files, all paths
+//! relative to the scene file.
 //!
 //! Loading validates everything a render would otherwise get silently wrong,
 //! pbrt-style: an unused (unknown) key is an error, and so are a missing file
-//! or column, a reflectance outside [0, 1], a target not on a surface and a
-//! light inside a solid. Each error names the file and the key.
+//! or column, a reflectance outside [0, 1], a spectrum that stops short of
+//! 380–780 nm without a rule for the rest, a target not on a surface and a
+//! light inside a solid. Each error names the file and the key (and, for a
+//! mesh file, the mesh file and its line where the format has lines).
 //!
 //! ```toml
 //! name = "example"
+//! units = "m"                   # or "cm", "mm": every coordinate and length below
 //! [radiometer]
-//! position = [0.0, 1.0, 1.0]   # m
+//! position = [0.0, 1.0, 1.0]
 //! field_deg = 1.0               # full angle of the circular field
 //! [[target]]
 //! id = "centre"
 //! point = [0.0, 0.0, 0.0]
 //! [materials]
 //! grey = { reflectance = 0.2 }                              # flat
-//! green = { reflectance = "spectra/cc.csv:p14_green" }      # CSV column
+//! green = { reflectance = "spectra/cc.csv:p14_green" }      # CSV column, 380–780 nm
+//! white = { reflectance = { csv = "spectra/box.csv:white", outside = "hold" } }  # 400–700 nm
 //! [[light]]
 //! id = "spot"
 //! position = [0.0, 1.0, 0.0]
@@ -31,6 +36,83 @@
 //! edge_v = [0.0, 0.0, 2.0]
 //! material = "grey"
 //! ```
+//!
+//! # Units: `units`
+//!
+//! `units = "m"` (default), `"cm"` or `"mm"` is the unit of every coordinate
+//! and length in the file: positions, points, corners, edges, radii, sizes,
+//! the chart's pitch, polygon vertices, mesh vertices (after the mesh's own
+//! `scale`) and `translate`, the camera's `position` and `look_at`, the
+//! CIELAB white's `point`. It is converted to metres once, at load; the
+//! renderer works in metres. Radiance does not depend on it; the irradiance
+//! from a point luminaire does (candela over the squared distance in metres).
+//!
+//! # Spectra
+//!
+//! Everywhere a spectrum is referenced (a reflectance, a light's `spd` or
+//! `filter`, an emission, a chart's card or patches) it is a number (flat),
+//! `"FILE.csv:COLUMN"`, which must cover 380–780 nm, or
+//!
+//! ```toml
+//! reflectance = { csv = "spectra/box.csv:white", outside = "hold" }  # or "zero"
+//! ```
+//!
+//! for a spectrum measured over less: `hold` continues the first sample's
+//! value below it and the last sample's value above it, `zero` is 0 outside;
+//! inside, values are linearly interpolated. A chart's table takes the same
+//! form with the file alone: `reflectances = { csv = "cc.csv", outside = "hold" }`.
+//! A short spectrum without `outside` is an error naming its range.
+//!
+//! # Polygons, meshes and area lights
+//!
+//! ```toml
+//! [[polygon]]                        # fan-triangulated: (v0, v1, v2), (v0, v2, v3), …
+//! name = "light"
+//! vertices = [[343.0, 548.7, 227.0], [343.0, 548.7, 332.0],
+//!             [213.0, 548.7, 332.0], [213.0, 548.7, 227.0]]
+//! emission = { radiance = { csv = "spectra/light.csv:radiance", outside = "hold" } }
+//! # two_sided = false                # default: emits along (v1 − v0) × (v2 − v0) only
+//! # material = "white"               # optional when it emits (default: black)
+//!
+//! [[mesh]]
+//! file = "meshes/bunny.obj"          # Wavefront OBJ or PLY
+//! material = "grey"                  # faces without an OBJ `usemtl`
+//! scale = 0.001                      # or [x, y, z]
+//! rotate_deg = [0.0, 90.0, 0.0]      # about x, then y, then z
+//! translate = [0.2, 0.0, 0.3]        # in `units`
+//! # emission = { luminance_cd_m2 = 1000.0, blackbody_k = 6500 }
+//! ```
+//!
+//! A `[[polygon]]` has `vertices` (at least 3; a degenerate fan triangle is
+//! an error naming the vertex), an optional `name`, and `material`, required
+//! unless the polygon emits. A `[[mesh]]` reads `file` (see [`mesh`] for what
+//! of OBJ and PLY is read); its vertices are placed by p ↦ R_z R_y R_x
+//! (scale ∘ p) + translate. OBJ `usemtl` may name materials of `[materials]`
+//! (an unknown name is an error naming the line); faces without one take
+//! the mesh's `material`, which is then required (and unused is an error).
+//! A mirroring scale (negative determinant) reverses the winding, so each
+//! triangle's front side stays the same side of the surface. Mesh files
+//! count in the scene's content hash.
+//!
+//! Any polygon or mesh may emit: `emission = { radiance = SPECTRUM }`, the
+//! spectral radiance of its emitting side in W/(sr·m²·nm), or
+//! `emission = { luminance_cd_m2 = L, spd = SPECTRUM }` (or `blackbody_k = T`
+//! for the shape), scaled so that 683 lm/W · Σ L(λ)·ȳ(λ)·1 nm = L with the
+//! renderer's observer. The emitter is Lambertian (the same radiance in
+//! every direction) on its front side, the side the vertex order's normal
+//! points to, or on both with `two_sided = true`. Without a `material` an
+//! emitting surface reflects nothing.
+//!
+//! # Point luminaires: `[[light]]`
+//!
+//! Exactly one of `ies = "FILE.ies"` (candela from an IES LM-63 file, ×
+//! optional `intensity_scale`; `aim`, and `c0` for tables that are not
+//! rotationally symmetric) and `intensity_cd = I`, a plain luminaire:
+//! `I` candela in every direction, or, with `cone_deg` (the half-angle at
+//! which the intensity reaches 0, ≤ 180) and `aim`, within a cone whose
+//! outer `falloff_deg` (default 0, ≤ `cone_deg`) falls smoothly to 0 (see
+//! [`LightDistribution::Cone`]). An isotropic light (no `cone_deg`) takes
+//! no `aim` and no `falloff_deg`; `c0` and `intensity_scale` belong to `ies`.
 //!
 //! # The CIELAB reference white: `[cielab_white]`
 //!
@@ -52,15 +134,17 @@
 //! A target white is the newest complete measurement of that target (until
 //! there is one, its converged `spectral` rendering stands in, and the
 //! comparison says so). The diffuser white is L(λ) = Σ_lights I(λ, toward
-//! the point)·cos θ / (π d²), computed from the scene without shadows or
-//! interreflections. A scene without the key has no declared white, and the
-//! study refuses it.
+//! the point)·cos θ / (π d²), computed from the scene's point luminaires
+//! without shadows or interreflections; a scene with area lights cannot use
+//! it (use a `target`). A scene without the key has no declared white, and
+//! the study refuses it.
 //!
 //! Other primitives: `[[disc]]` (centre, normal, radius), `[[cylinder]]`
 //! (from, to, radius, caps), `[[sphere]]` (centre, radius, interior =
 //! "solid" | "room"), `[[box]]` (min, max) and `[[chart]]`, a ColorChecker
-//! laid out from its measured patch (see [`ChartFile`]). An optional
-//! `[camera]` gives the dashboard view.
+//! laid out from its measured patch. An optional `[camera]` gives the
+//! dashboard view. Only boxes, capped cylinders and solid spheres are solids
+//! for the light-inside-geometry check; meshes are not.
 //!
 //! Every number must be finite: `nan` or `inf` anywhere in the file is an
 //! error naming its key (`light[0].position[1]`). A camera must look
@@ -78,16 +162,28 @@
 //! 683 lm/W · Σ S(λ)·ȳ(λ)·1 nm = 1 cd, with the Judd–Vos ȳ (the renderer's
 //! observer). The luminaire's intensity in W/(sr·nm) toward a direction is
 //! then I_cd(direction) · S(λ), so the IES file's candela hold on the axis.
+//!
+//! The module: [`file`] (the TOML as serde structs), [`spectra`] (spectrum
+//! references), [`lights`] (luminaires and emission), [`analytic`] (quads …
+//! charts), [`triangles`] and [`mesh`] (polygons, OBJ and PLY meshes).
 
-use std::collections::{BTreeMap, HashMap};
+mod analytic;
+mod file;
+mod lights;
+mod mesh;
+mod spectra;
+#[cfg(test)]
+mod tests;
+mod triangles;
+
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use serde::Deserialize;
 
-use super::geometry::{box_faces, Shape, Solid};
+use self::file::{CameraFile, CielabWhiteFile, SceneFile, V3};
+use super::geometry::{Shape, Solid};
 use super::ies::IesDistribution;
-use crate::colorimetry::{Cmf, KM_LM_PER_W};
 use crate::spectrum::table::SpectraTable;
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -105,10 +201,6 @@ pub const MAX_PIXEL_SAMPLES: u32 = 65_536;
 /// convergence checks go to 10.
 pub const MAX_BOUNCES: u32 = 64;
 
-/// Second radiation constant c₂ = hc/k in m·K (CODATA 2018, as CIE 15:2018).
-const C2_M_K: f64 = 1.438_776_877e-2;
-
-/// A problem in a scene, naming the file and the key.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}: {key}: {message}")]
 pub struct SceneError {
@@ -293,220 +385,10 @@ impl Scene {
     }
 }
 
-// ---- the file format -------------------------------------------------------
-
-type V3 = [f64; 3];
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SceneFile {
-    name: String,
-    #[serde(default)]
-    #[allow(dead_code)]
-    description: Option<String>,
-    radiometer: RadiometerFile,
-    #[serde(default, rename = "target")]
-    targets: Vec<TargetFile>,
-    #[serde(default)]
-    materials: BTreeMap<String, MaterialFile>,
-    #[serde(default, rename = "light")]
-    lights: Vec<LightFile>,
-    #[serde(default, rename = "quad")]
-    quads: Vec<QuadFile>,
-    #[serde(default, rename = "disc")]
-    discs: Vec<DiscFile>,
-    #[serde(default, rename = "cylinder")]
-    cylinders: Vec<CylinderFile>,
-    #[serde(default, rename = "sphere")]
-    spheres: Vec<SphereFile>,
-    #[serde(default, rename = "box")]
-    boxes: Vec<BoxFile>,
-    #[serde(default, rename = "chart")]
-    charts: Vec<ChartFile>,
-    camera: Option<CameraFile>,
-    cielab_white: Option<CielabWhiteFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CielabWhiteFile {
-    target: Option<String>,
-    scene: Option<String>,
-    #[serde(default)]
-    light_on_perfect_diffuser: bool,
-    point: Option<V3>,
-    normal: Option<V3>,
-    xyz: Option<V3>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RadiometerFile {
-    position: V3,
-    #[serde(default = "one_degree")]
-    field_deg: f64,
-}
-
-fn one_degree() -> f64 {
-    1.0
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TargetFile {
-    id: String,
-    point: V3,
-}
-
-/// A spectrum: a flat number or `FILE.csv:COLUMN` relative to the scene.
-#[derive(Deserialize, Clone)]
-#[serde(untagged)]
-enum SpectrumRef {
-    Flat(f64),
-    File(String),
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MaterialFile {
-    reflectance: SpectrumRef,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct LightFile {
-    id: String,
-    position: V3,
-    aim: V3,
-    /// Direction of the C = 0 half-plane; only needed for tables that are
-    /// not rotationally symmetric.
-    c0: Option<V3>,
-    ies: String,
-    #[serde(default = "unit_scale")]
-    intensity_scale: f64,
-    blackbody_k: Option<f64>,
-    spd: Option<String>,
-    filter: Option<SpectrumRef>,
-}
-
-fn unit_scale() -> f64 {
-    1.0
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct QuadFile {
-    #[allow(dead_code)]
-    name: Option<String>,
-    corner: V3,
-    edge_u: V3,
-    edge_v: V3,
-    material: String,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct DiscFile {
-    #[allow(dead_code)]
-    name: Option<String>,
-    centre: V3,
-    normal: V3,
-    radius: f64,
-    material: String,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CylinderFile {
-    #[allow(dead_code)]
-    name: Option<String>,
-    from: V3,
-    to: V3,
-    radius: f64,
-    /// Close both ends with discs of the same material (then it is a solid).
-    #[serde(default)]
-    caps: bool,
-    material: String,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SphereFile {
-    #[allow(dead_code)]
-    name: Option<String>,
-    centre: V3,
-    radius: f64,
-    /// "solid" (default: a light inside is an error) or "room" (an
-    /// enclosure lit from inside, like an integrating sphere).
-    #[serde(default = "solid")]
-    interior: String,
-    material: String,
-}
-
-fn solid() -> String {
-    "solid".into()
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct BoxFile {
-    #[allow(dead_code)]
-    name: Option<String>,
-    min: V3,
-    max: V3,
-    material: String,
-}
-
-/// A ColorChecker Classic: 4 rows × 6 columns of square patches in chart
-/// order (row 1: patches 1–6 … row 4: 19–24), laid out so that the centre of
-/// `measured_patch` is at `measured_point`. Patches lie in the plane of the
-/// measured point; the card behind them is 0.5 mm further back along
-/// −normal so the two never coincide.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ChartFile {
-    /// A CSV with the 24 patch reflectances as columns 1–24, in chart order.
-    reflectances: String,
-    measured_patch: usize,
-    measured_point: V3,
-    /// Unit normal of the chart's face.
-    normal: V3,
-    /// Direction of the rows (left to right as seen from the front).
-    right: V3,
-    /// Card width × height, m.
-    card_size: [f64; 2],
-    card_reflectance: SpectrumRef,
-    patch_size: f64,
-    pitch: f64,
-    /// Put a square standard of this size and reflectance in place of the measured patch.
-    replace_measured: Option<ReplacementFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct ReplacementFile {
-    size: f64,
-    reflectance: SpectrumRef,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CameraFile {
-    position: V3,
-    look_at: V3,
-    #[serde(default = "y_up")]
-    up: V3,
-    fov_deg: f64,
-    width: u32,
-    height: u32,
-}
-
-fn y_up() -> V3 {
-    [0.0, 1.0, 0.0]
-}
-
 // ---- loading ---------------------------------------------------------------
 
+/// What loading accumulates: the materials, the spectra tables read and
+/// every file the scene depends on.
 struct Loader {
     file: String,
     dir: PathBuf,
@@ -514,6 +396,8 @@ struct Loader {
     tables: HashMap<PathBuf, SpectraTable>,
     materials: Vec<Material>,
     material_index: HashMap<String, usize>,
+    /// The black material of emitting surfaces without one, once added.
+    black: Option<usize>,
 }
 
 impl Loader {
@@ -523,41 +407,6 @@ impl Loader {
             key: key.into(),
             message: message.into(),
         }
-    }
-
-    fn table(&mut self, rel: &str, key: &str) -> Result<&SpectraTable, SceneError> {
-        let path = self.dir.join(rel);
-        if !self.tables.contains_key(&path) {
-            let t = SpectraTable::read(&path).map_err(|e| self.err(key, e.to_string()))?;
-            self.files.push(path.clone());
-            self.tables.insert(path.clone(), t);
-        }
-        Ok(&self.tables[&path])
-    }
-
-    /// A spectrum reference in `unit`, checked to cover 380–780 nm.
-    fn spectrum(&mut self, r: &SpectrumRef, unit: SpectralUnit, key: &str) -> Result<Spectrum, SceneError> {
-        let s = match r {
-            SpectrumRef::Flat(v) => {
-                Spectrum::constant(Grid::analysis(), unit, *v).map_err(|e| self.err(key, e.to_string()))?
-            }
-            SpectrumRef::File(spec) => {
-                let (file, column) = spec
-                    .rsplit_once(':')
-                    .ok_or_else(|| self.err(key, format!("`{spec}`: expected FILE.csv:COLUMN or a number")))?;
-                let (file, column) = (file.to_string(), column.to_string());
-                let t = self.table(&file, key)?;
-                let s = t.spectrum(&column, unit);
-                s.map_err(|e| self.err(key, e.to_string()))?
-            }
-        };
-        if !s.grid().covers(380.0, 780.0) {
-            return Err(self.err(
-                key,
-                format!("the spectrum's grid {} does not cover 380–780 nm", s.grid()),
-            ));
-        }
-        Ok(s)
     }
 
     fn add_material(&mut self, name: &str, reflectance: Spectrum) -> usize {
@@ -581,6 +430,20 @@ impl Loader {
             )
         })
     }
+
+    /// The material of an emitting surface that names none: reflectance 0.
+    fn black(&mut self) -> usize {
+        if let Some(i) = self.black {
+            return i;
+        }
+        let zero = Spectrum::constant(Grid::analysis(), SpectralUnit::Reflectance, 0.0).expect("0 is a reflectance");
+        self.materials.push(Material {
+            name: "(black emitter)".into(),
+            reflectance: zero,
+        });
+        self.black = Some(self.materials.len() - 1);
+        self.materials.len() - 1
+    }
 }
 
 fn unit(v: V3, loader: &Loader, key: &str) -> Result<DVec3, SceneError> {
@@ -596,6 +459,16 @@ fn positive(v: f64, loader: &Loader, key: &str) -> Result<f64, SceneError> {
         Ok(v)
     } else {
         Err(loader.err(key, format!("must be positive, is {v}")))
+    }
+}
+
+/// Metres per unit of `units`.
+fn metres_per_unit(units: Option<&str>) -> Option<f64> {
+    match units.unwrap_or("m") {
+        "m" => Some(1.0),
+        "cm" => Some(0.01),
+        "mm" => Some(0.001),
+        _ => None,
     }
 }
 
@@ -620,7 +493,14 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             message: format!("{v} is not a finite number"),
         });
     }
-    let raw: SceneFile = toml::from_str(&text).map_err(syntax)?;
+    let de = toml::Deserializer::parse(&text).map_err(syntax)?;
+    let mut raw: SceneFile = serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = e.path().to_string();
+        SceneError {
+            key: if key == "." { "(syntax)".into() } else { key },
+            ..syntax(e.into_inner())
+        }
+    })?;
     let mut l = Loader {
         file,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
@@ -628,110 +508,41 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         tables: HashMap::new(),
         materials: Vec::new(),
         material_index: HashMap::new(),
+        black: None,
     };
+    let units = metres_per_unit(raw.units.as_deref()).ok_or_else(|| {
+        l.err(
+            "units",
+            format!(
+                "`{}`: expected \"m\", \"cm\" or \"mm\"",
+                raw.units.as_deref().unwrap_or_default()
+            ),
+        )
+    })?;
+    raw.convert_to_metres(units);
 
     for (name, m) in &raw.materials {
         let key = format!("materials.{name}.reflectance");
         let r = l.spectrum(&m.reflectance, SpectralUnit::Reflectance, &key)?;
         l.add_material(name, r);
     }
+    // The names OBJ `usemtl` may use: [materials] only.
+    let declared = l.material_index.clone();
 
     let mut primitives = Vec::new();
     let mut solids = Vec::new();
-    for (i, q) in raw.quads.iter().enumerate() {
-        let material = l.material(&q.material, &format!("quad[{i}].material"))?;
-        let (u, v) = (DVec3::from(q.edge_u), DVec3::from(q.edge_v));
-        if u.cross(v).length() < 1e-12 {
-            return Err(l.err(format!("quad[{i}].edge_v"), "the edges are parallel or zero"));
-        }
-        primitives.push(Primitive {
-            shape: Shape::quad(DVec3::from(q.corner), u, v),
-            material,
-            emitter: None,
-        });
+    let mut emitters = Vec::new();
+    analytic::add_analytic(&mut l, &raw, &mut primitives, &mut solids)?;
+    for (i, p) in raw.polygons.iter().enumerate() {
+        triangles::add_polygon(&mut l, p, i, &mut primitives, &mut emitters)?;
     }
-    for (i, d) in raw.discs.iter().enumerate() {
-        let material = l.material(&d.material, &format!("disc[{i}].material"))?;
-        primitives.push(Primitive {
-            shape: Shape::Disc {
-                centre: DVec3::from(d.centre),
-                normal: unit(d.normal, &l, &format!("disc[{i}].normal"))?,
-                radius: positive(d.radius, &l, &format!("disc[{i}].radius"))?,
-            },
-            material,
-            emitter: None,
-        });
-    }
-    for (i, c) in raw.cylinders.iter().enumerate() {
-        let material = l.material(&c.material, &format!("cylinder[{i}].material"))?;
-        let (from, to) = (DVec3::from(c.from), DVec3::from(c.to));
-        let axis = unit((to - from).to_array(), &l, &format!("cylinder[{i}].to"))?;
-        let length = (to - from).length();
-        let radius = positive(c.radius, &l, &format!("cylinder[{i}].radius"))?;
-        primitives.push(Primitive {
-            shape: Shape::Cylinder {
-                base: from,
-                axis,
-                length,
-                radius,
-            },
-            material,
-            emitter: None,
-        });
-        if c.caps {
-            for (centre, normal) in [(from, -axis), (to, axis)] {
-                primitives.push(Primitive {
-                    shape: Shape::Disc { centre, normal, radius },
-                    material,
-                    emitter: None,
-                });
-            }
-            solids.push(Solid::Cylinder {
-                base: from,
-                axis,
-                length,
-                radius,
-            });
-        }
-    }
-    for (i, s) in raw.spheres.iter().enumerate() {
-        let material = l.material(&s.material, &format!("sphere[{i}].material"))?;
-        let centre = DVec3::from(s.centre);
-        let radius = positive(s.radius, &l, &format!("sphere[{i}].radius"))?;
-        primitives.push(Primitive {
-            shape: Shape::Sphere { centre, radius },
-            material,
-            emitter: None,
-        });
-        match s.interior.as_str() {
-            "solid" => solids.push(Solid::Sphere { centre, radius }),
-            "room" => {}
-            other => {
-                return Err(l.err(
-                    format!("sphere[{i}].interior"),
-                    format!("`{other}`: expected \"solid\" or \"room\""),
-                ))
-            }
-        }
-    }
-    for (i, b) in raw.boxes.iter().enumerate() {
-        let material = l.material(&b.material, &format!("box[{i}].material"))?;
-        let (min, max) = (DVec3::from(b.min), DVec3::from(b.max));
-        if !(max.cmpgt(min).all()) {
-            return Err(l.err(format!("box[{i}].max"), "must exceed min on every axis"));
-        }
-        for shape in box_faces(min, max) {
-            primitives.push(Primitive { shape, material, emitter: None });
-        }
-        solids.push(Solid::Box { min, max });
-    }
-    for (i, c) in raw.charts.iter().enumerate() {
-        add_chart(&mut l, &mut primitives, c, i)?;
+    for (i, m) in raw.meshes.iter().enumerate() {
+        triangles::add_mesh(&mut l, m, i, units, &declared, &mut primitives, &mut emitters)?;
     }
 
     let mut lights = Vec::new();
     for (i, lf) in raw.lights.iter().enumerate() {
-        lights.push(load_light(&mut l, lf, i)?);
+        lights.push(lights::load_light(&mut l, lf, i)?);
     }
     for (i, light) in lights.iter().enumerate() {
         if let Some(s) = solids.iter().find(|s| s.contains(light.position)) {
@@ -789,7 +600,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let cielab_white = raw
         .cielab_white
         .as_ref()
-        .map(|w| cielab_white(w, &l, &target_list))
+        .map(|w| cielab_white(w, &l, &target_list, &emitters))
         .transpose()?;
 
     Ok(Scene {
@@ -800,7 +611,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         primitives,
         solids,
         lights,
-        emitters: Vec::new(),
+        emitters,
         radiometer,
         target_list,
         camera,
@@ -810,7 +621,12 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 
 /// Checks `[cielab_white]`: exactly one kind, its keys complete and no key
 /// of another kind.
-fn cielab_white(w: &CielabWhiteFile, l: &Loader, targets: &[Target]) -> Result<CielabWhite, SceneError> {
+fn cielab_white(
+    w: &CielabWhiteFile,
+    l: &Loader,
+    targets: &[Target],
+    emitters: &[Emitter],
+) -> Result<CielabWhite, SceneError> {
     let kinds = [w.target.is_some(), w.light_on_perfect_diffuser, w.xyz.is_some()];
     if kinds.iter().filter(|k| **k).count() != 1 {
         return Err(l.err(
@@ -843,6 +659,16 @@ fn cielab_white(w: &CielabWhiteFile, l: &Loader, targets: &[Target]) -> Result<C
     }
     stray("scene", w.scene.is_some(), "target")?;
     if w.light_on_perfect_diffuser {
+        if let Some(e) = emitters.first() {
+            return Err(l.err(
+                "cielab_white.light_on_perfect_diffuser",
+                format!(
+                    "knows only point luminaires, and this scene has area lights ({}): \
+                     use `target = \"…\"` (a white target of the scene) instead",
+                    e.name
+                ),
+            ));
+        }
         let point = w
             .point
             .ok_or_else(|| l.err("cielab_white.point", "light_on_perfect_diffuser needs a point"))?;
@@ -939,134 +765,4 @@ fn load_camera(l: &Loader, c: &CameraFile) -> Result<Camera, SceneError> {
         width: c.width,
         height: c.height,
     })
-}
-
-fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneError> {
-    let key = |k: &str| format!("light[{i}].{k}");
-    let aim = unit(lf.aim, l, &key("aim"))?;
-    let c0 = match lf.c0 {
-        Some(c) => {
-            let c = DVec3::from(c);
-            let perp = c - aim * c.dot(aim);
-            unit(perp.to_array(), l, &key("c0"))?
-        }
-        None => super::geometry::basis(aim).0,
-    };
-    let ies_path = l.dir.join(&lf.ies);
-    let distribution = IesDistribution::read(&ies_path).map_err(|e| l.err(key("ies"), e.to_string()))?;
-    l.files.push(ies_path);
-    if !distribution.is_rotationally_symmetric() && lf.c0.is_none() {
-        return Err(l.err(
-            key("c0"),
-            "the IES table is not rotationally symmetric: give the C = 0 direction",
-        ));
-    }
-    let grid = Grid::one_nm();
-    let mut spd: Vec<f64> = match (lf.blackbody_k, &lf.spd) {
-        (Some(t), None) => {
-            let t = positive(t, l, &key("blackbody_k"))?;
-            // Planck's law, relative: λ⁻⁵ / (exp(c₂/(λT)) − 1).
-            grid.wavelengths()
-                .iter()
-                .map(|nm| {
-                    let m = nm * 1e-9;
-                    m.powi(-5) / ((C2_M_K / (m * t)).exp() - 1.0)
-                })
-                .collect()
-        }
-        (None, Some(spec)) => {
-            let s = l.spectrum(
-                &SpectrumRef::File(spec.clone()),
-                SpectralUnit::RelativePower,
-                &key("spd"),
-            )?;
-            s.resample(&grid)
-                .map_err(|e| l.err(key("spd"), e.to_string()))?
-                .into_values()
-        }
-        _ => return Err(l.err(key("spd"), "give exactly one of `blackbody_k` and `spd`")),
-    };
-    if let Some(f) = &lf.filter {
-        let t = l.spectrum(f, SpectralUnit::Transmittance, &key("filter"))?;
-        let t = t.resample(&grid).map_err(|e| l.err(key("filter"), e.to_string()))?;
-        for (s, f) in spd.iter_mut().zip(t.values()) {
-            *s *= f;
-        }
-    }
-    // Normalise to 1 cd: 683 · Σ S(λ) ȳ(λ) Δλ = 1, Δλ = 1 nm, Judd–Vos ȳ.
-    let ybar = &Cmf::of(super::coding::OBSERVER).on_grid(&grid)[1];
-    let lum: f64 = KM_LM_PER_W * spd.iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>();
-    if lum.is_nan() || lum <= 0.0 {
-        return Err(l.err(key("spd"), "the spectrum has no luminous power"));
-    }
-    let spectrum_per_cd = Spectrum::new(grid, SpectralUnit::RelativePower, spd.iter().map(|s| s / lum).collect())
-        .map_err(|e| l.err(key("spd"), e.to_string()))?;
-    Ok(Light {
-        id: lf.id.clone(),
-        position: DVec3::from(lf.position),
-        aim,
-        c0,
-        distribution: LightDistribution::Ies(distribution),
-        intensity_scale: positive(lf.intensity_scale, l, &key("intensity_scale"))?,
-        spectrum_per_cd,
-    })
-}
-
-fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: usize) -> Result<(), SceneError> {
-    let key = |k: &str| format!("chart[{i}].{k}");
-    if !(1..=24).contains(&c.measured_patch) {
-        return Err(l.err(key("measured_patch"), "must be 1–24"));
-    }
-    let n = unit(c.normal, l, &key("normal"))?;
-    let right = unit(c.right, l, &key("right"))?;
-    if right.dot(n).abs() > 1e-6 {
-        return Err(l.err(key("right"), "must be perpendicular to the normal"));
-    }
-    let up = n.cross(right);
-    let table_key = key("reflectances");
-    let columns: Vec<String> = l
-        .table(&c.reflectances, &table_key)?
-        .names()
-        .map(String::from)
-        .collect();
-    if columns.len() != 24 {
-        return Err(l.err(table_key, format!("{} columns; a ColorChecker has 24", columns.len())));
-    }
-    let offset = |patch: usize| {
-        let (row, col) = ((patch - 1) / 6, (patch - 1) % 6);
-        right * ((col as f64 - 2.5) * c.pitch) + up * ((1.5 - row as f64) * c.pitch)
-    };
-    let centre = DVec3::from(c.measured_point) - offset(c.measured_patch);
-    let quad =
-        |middle: DVec3, w: f64, h: f64| Shape::quad(middle - right * (w / 2.0) - up * (h / 2.0), right * w, up * h);
-    let card_material = format!("chart{i}.card");
-    let card = l.spectrum(&c.card_reflectance, SpectralUnit::Reflectance, &key("card_reflectance"))?;
-    let card_index = l.add_material(&card_material, card);
-    primitives.push(Primitive {
-        shape: quad(centre - n * 0.0005, c.card_size[0], c.card_size[1]),
-        material: card_index,
-        emitter: None,
-    });
-    for patch in 1..=24 {
-        let replacement = c.replace_measured.as_ref().filter(|_| patch == c.measured_patch);
-        let (shape, material) = if let Some(r) = replacement {
-            let s = l.spectrum(
-                &r.reflectance,
-                SpectralUnit::Reflectance,
-                &key("replace_measured.reflectance"),
-            )?;
-            let m = l.add_material(&format!("chart{i}.standard"), s);
-            (quad(centre + offset(patch), r.size, r.size), m)
-        } else {
-            let s = l.spectrum(
-                &SpectrumRef::File(format!("{}:{}", c.reflectances, columns[patch - 1])),
-                SpectralUnit::Reflectance,
-                &table_key,
-            )?;
-            let m = l.add_material(&format!("chart{i}.{}", columns[patch - 1]), s);
-            (quad(centre + offset(patch), c.patch_size, c.patch_size), m)
-        };
-        primitives.push(Primitive { shape, material, emitter: None });
-    }
-    Ok(())
 }
