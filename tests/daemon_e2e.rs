@@ -47,7 +47,7 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
     assert_eq!(status, 404);
     let (status, scenes) = get_json(d.addr, "/api/scenes").await;
     assert_eq!(status, 200);
-    assert_eq!(scenes.as_array().unwrap().len(), 5);
+    assert_eq!(scenes.as_array().unwrap().len(), 6, "the five booth scenes and the Cornell box");
     let (status, accepted) = post_json(
         d.addr,
         "/api/measurements",
@@ -319,5 +319,39 @@ async fn cylinder_rows_all_use_the_white_the_scene_declares() {
         // so the measured h21 against its own white has ΔE from the rendering only.
         assert!(r["dE76"].as_f64().unwrap().is_finite());
     }
+    d.stop().await;
+}
+
+/// The Cornell box is the daemon's sixth scene, with the sheet's nine
+/// targets, and the simulated PR-650 measures it: the green wall reads green
+/// and is compared with every coding. The back wall, the red wall, the short
+/// block's top (their spectral radiance peaks above 0.2 W/(sr·m²·nm) at 700
+/// nm) and the light (900 000 cd/m²) overload the simulated instrument, as
+/// they would a real PR-650 without a neutral-density filter.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_cornell_box_is_listed_and_measurable_with_the_simulated_pr650() {
+    let d = Daemon::start(0.0).await;
+    let mut ev = events(d.addr).await;
+    let (status, scene) = get_json(d.addr, "/api/scenes/cornell_box").await;
+    assert_eq!(status, 200, "{scene}");
+    assert_eq!(scene["targets"].as_array().map(Vec::len), Some(9), "{scene}");
+    let (status, accepted) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"cornell_box","target":"green_wall","samples":3}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{accepted}");
+    let id = accepted["id"].as_i64().unwrap();
+    wait_for(&mut ev, "a comparison", Duration::from_secs(600), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == id
+    })
+    .await;
+    let (_, m) = get_json(d.addr, &format!("/api/measurements/{id}")).await;
+    assert_eq!(m["state"], "complete", "{m}");
+    assert!(m["y"].as_f64().unwrap() > 0.5, "the green wall reads green: {m}");
+    let (_, c) = get_json(d.addr, "/api/scenes/cornell_box/comparisons").await;
+    assert_eq!(c["rows"].as_array().map(Vec::len), Some(7), "{c}");
     d.stop().await;
 }
