@@ -151,8 +151,9 @@ impl<R: BufRead> BufRead for ObjLines<'_, R> {
     fn read_line(&mut self, buf: &mut String) -> io::Result<usize> {
         if !self.started {
             self.started = true;
-            buf.push_str("mtllib lightbooth:scene-materials\n");
-            return Ok(buf.len());
+            const LIBRARY: &str = "mtllib lightbooth:scene-materials\n";
+            buf.push_str(LIBRARY);
+            return Ok(LIBRARY.len());
         }
         self.line += 1;
         self.text.clear();

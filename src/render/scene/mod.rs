@@ -85,8 +85,8 @@
 //!
 //! A `[[polygon]]` has `vertices` (at least 3; a degenerate fan triangle is
 //! an error naming the vertex), an optional `name`, and `material`, required
-//! unless the polygon emits. A `[[mesh]]` reads `file` (see [`mesh`] for what
-//! of OBJ and PLY is read); its vertices are placed by p ↦ R_z R_y R_x
+//! unless the polygon emits. A `[[mesh]]` reads `file` (the submodule `mesh`
+//! says what of OBJ and PLY is read); its vertices are placed by p ↦ R_z R_y R_x
 //! (scale ∘ p) + translate. OBJ `usemtl` may name materials of `[materials]`
 //! (an unknown name is an error naming the line); faces without one take
 //! the mesh's `material`, which is then required (and unused is an error).
@@ -163,9 +163,9 @@
 //! observer). The luminaire's intensity in W/(sr·nm) toward a direction is
 //! then I_cd(direction) · S(λ), so the IES file's candela hold on the axis.
 //!
-//! The module: [`file`] (the TOML as serde structs), [`spectra`] (spectrum
-//! references), [`lights`] (luminaires and emission), [`analytic`] (quads …
-//! charts), [`triangles`] and [`mesh`] (polygons, OBJ and PLY meshes).
+//! The submodules: `file` (the TOML as serde structs), `spectra` (spectrum
+//! references), `lights` (luminaires and emission), `analytic` (quads …
+//! charts), `triangles` and `mesh` (polygons, OBJ and PLY meshes).
 
 mod analytic;
 mod file;

@@ -534,8 +534,10 @@ fn plain_luminaire_errors_name_the_file_and_the_key() {
     );
 }
 
-/// A unit box's floor (a quad face) and one triangle, in two usemtl groups.
+/// A unit box's floor (a quad face) and one triangle, in two usemtl groups
+/// (its `mtllib` file does not exist: materials come from the scene).
 const BOX_OBJ: &str = "# fixture
+mtllib box.mtl
 o box
 v 0 0 0
 v 1 0 0
@@ -658,7 +660,7 @@ fn mesh_errors_name_the_mesh_file_and_line() {
         &BOX_OBJ.replace("usemtl shiny", "usemtl gold"),
         &by_usemtl,
         "mesh[0].file",
-        &["meshes/box.obj line 10", "usemtl `gold`", "grey, shiny"],
+        &["meshes/box.obj line 11", "usemtl `gold`", "grey, shiny"],
     );
     // tobj notices a bad index only when the object ends; the line is found again.
     mesh_refused(
@@ -798,4 +800,38 @@ fn a_million_triangle_obj_loads() {
         t.elapsed().as_secs_f64()
     );
     assert_eq!(s.primitives.len(), 1 + 2 * 500 * 1000);
+}
+
+#[test]
+fn a_chart_table_takes_the_outside_rule_for_all_its_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("nm");
+    for k in 1..=24 {
+        csv.push_str(&format!(",p{k:02}"));
+    }
+    for nm in [400, 500, 600, 700] {
+        csv.push_str(&format!("\n{nm}"));
+        for k in 1..=24 {
+            csv.push_str(&format!(",{}", 0.01 * k as f64 + 0.0001 * f64::from(nm - 400)));
+        }
+    }
+    std::fs::write(dir.path().join("chart.csv"), csv + "\n").unwrap();
+    let chart = |reflectances: &str| {
+        format!(
+            "[[chart]]\nreflectances = {reflectances}\nmeasured_patch = 1\nmeasured_point = [0.0, 0.3, 0.0]\n\
+             normal = [0.0, 0.0, 1.0]\nright = [1.0, 0.0, 0.0]\ncard_size = [0.3, 0.2]\ncard_reflectance = 0.1\n\
+             patch_size = 0.04\npitch = 0.045\n"
+        )
+    };
+    let e = load_scene(&scene(dir.path(), &chart("\"chart.csv\""))).unwrap_err();
+    assert_eq!(e.key, "chart[0].reflectances");
+    assert!(e.message.contains("400–700 nm") && e.message.contains("outside"), "{e}");
+    let s = load_scene(&scene(
+        dir.path(),
+        &chart("{ csv = \"chart.csv\", outside = \"hold\" }"),
+    ))
+    .unwrap();
+    let p24 = &s.materials.iter().find(|m| m.name == "chart0.p24").unwrap().reflectance;
+    assert!((p24.value_at(390.0).unwrap() - 0.24).abs() < 1e-12);
+    assert!((p24.value_at(750.0).unwrap() - 0.27).abs() < 1e-12);
 }
