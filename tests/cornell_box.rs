@@ -87,7 +87,10 @@ fn the_light_target_is_the_published_emission_exactly() {
             "{coding}: {} vs {truth}",
             c.luminance_cd_m2
         );
-        assert_eq!(c.luminance_se_cd_m2, 0.0, "{coding}: the light's own radiance has no noise");
+        assert_eq!(
+            c.luminance_se_cd_m2, 0.0,
+            "{coding}: the light's own radiance has no noise"
+        );
     }
 }
 
@@ -100,7 +103,15 @@ fn the_light_target_is_the_published_emission_exactly() {
 #[test]
 fn the_ceiling_is_lit_by_interreflection_only() {
     let scene = cornell();
-    let direct = render(&scene, &RenderSettings { max_bounces: 0, ..settings(&[Coding::Spectral], 4096) }, None).unwrap();
+    let direct = render(
+        &scene,
+        &RenderSettings {
+            max_bounces: 0,
+            ..settings(&[Coding::Spectral], 4096)
+        },
+        None,
+    )
+    .unwrap();
     for t in &direct.targets {
         let y = t.codings[0].1.luminance_cd_m2;
         if t.id == "ceiling" || t.id == "short_front" {
@@ -136,14 +147,34 @@ fn every_coding_renders_every_target_bit_identically_on_one_and_two_threads() {
         Coding::Spectral,
     ];
     let base = settings(&codings, 2048);
-    let one = render(&scene, &RenderSettings { threads: Some(1), ..base.clone() }, None).unwrap();
-    let two = render(&scene, &RenderSettings { threads: Some(2), ..base }, None).unwrap();
+    let one = render(
+        &scene,
+        &RenderSettings {
+            threads: Some(1),
+            ..base.clone()
+        },
+        None,
+    )
+    .unwrap();
+    let two = render(
+        &scene,
+        &RenderSettings {
+            threads: Some(2),
+            ..base
+        },
+        None,
+    )
+    .unwrap();
     let json = |r: &RenderResult| serde_json::to_string(&r.targets).unwrap();
     assert_eq!(json(&one), json(&two));
     for t in &one.targets {
         assert_eq!(t.codings.len(), codings.len());
         for (coding, c) in &t.codings {
-            assert!(c.luminance_cd_m2.is_finite() && c.luminance_cd_m2 > 0.0, "{} {coding}", t.id);
+            assert!(
+                c.luminance_cd_m2.is_finite() && c.luminance_cd_m2 > 0.0,
+                "{} {coding}",
+                t.id
+            );
         }
     }
 }
@@ -155,7 +186,11 @@ fn every_coding_renders_every_target_bit_identically_on_one_and_two_threads() {
 #[test]
 fn cornell_box_standard_errors_are_honest() {
     let scene = cornell();
-    let targets: Vec<String> = TARGETS.iter().filter(|t| **t != "light").map(|t| t.to_string()).collect();
+    let targets: Vec<String> = TARGETS
+        .iter()
+        .filter(|t| **t != "light")
+        .map(|t| t.to_string())
+        .collect();
     let base = RenderSettings {
         targets: Some(targets.clone()),
         ..settings(&[Coding::Spectral], 1024)
@@ -172,10 +207,21 @@ fn cornell_box_standard_errors_are_honest() {
     .unwrap();
     let mut z = Vec::new();
     for seed in 0..24u64 {
-        let r = render(&scene, &RenderSettings { seed: 1000 + seed, ..base.clone() }, None).unwrap();
+        let r = render(
+            &scene,
+            &RenderSettings {
+                seed: 1000 + seed,
+                ..base.clone()
+            },
+            None,
+        )
+        .unwrap();
         for (t, rt) in r.targets.iter().zip(&reference.targets) {
             let (c, cr) = (&t.codings[0].1, &rt.codings[0].1);
-            z.push((c.luminance_cd_m2 - cr.luminance_cd_m2) / (c.luminance_se_cd_m2.powi(2) + cr.luminance_se_cd_m2.powi(2)).sqrt());
+            z.push(
+                (c.luminance_cd_m2 - cr.luminance_cd_m2)
+                    / (c.luminance_se_cd_m2.powi(2) + cr.luminance_se_cd_m2.powi(2)).sqrt(),
+            );
         }
     }
     let n = z.len() as f64;

@@ -47,7 +47,11 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
     assert_eq!(status, 404);
     let (status, scenes) = get_json(d.addr, "/api/scenes").await;
     assert_eq!(status, 200);
-    assert_eq!(scenes.as_array().unwrap().len(), 6, "the five booth scenes and the Cornell box");
+    assert_eq!(
+        scenes.as_array().unwrap().len(),
+        6,
+        "the five booth scenes and the Cornell box"
+    );
     let (status, accepted) = post_json(
         d.addr,
         "/api/measurements",

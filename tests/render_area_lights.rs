@@ -152,7 +152,11 @@ fn irradiance_from_a_parallel_rectangle_matches_the_configuration_factor() {
                 c.luminance_cd_m2,
                 c.luminance_se_cd_m2
             );
-            assert!(c.luminance_se_cd_m2 < 0.002 * truth, "{coding}: SE {}", c.luminance_se_cd_m2);
+            assert!(
+                c.luminance_se_cd_m2 < 0.002 * truth,
+                "{coding}: SE {}",
+                c.luminance_se_cd_m2
+            );
         }
     }
 }
@@ -186,7 +190,10 @@ fn irradiance_from_a_perpendicular_rectangle_matches_the_configuration_factor() 
     let r = (x * x + y * y).sqrt();
     let f = 2.0 * ((1.0 / y).atan() - y / r * (1.0 / r).atan()) / (2.0 * PI);
     let by_contour = contour_form_factor(DVec3::ZERO, DVec3::Z, &rect);
-    assert!((by_contour / f - 1.0).abs() < 1e-9, "contour {by_contour} vs Howell {f}");
+    assert!(
+        (by_contour / f - 1.0).abs() < 1e-9,
+        "contour {by_contour} vs Howell {f}"
+    );
     let s = scene(rect, radiance, rho, DVec3::Z);
     let truth = rho * f * luminance_of_flat(radiance);
     for bounces in [0, 2] {

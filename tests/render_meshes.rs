@@ -65,7 +65,11 @@ fn icosphere(r: f64, levels: u32) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
         for [a, b, c] in f {
             let mut m = |i: usize, j: usize| {
                 *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    let p = unit([(v[i][0] + v[j][0]) / 2.0, (v[i][1] + v[j][1]) / 2.0, (v[i][2] + v[j][2]) / 2.0]);
+                    let p = unit([
+                        (v[i][0] + v[j][0]) / 2.0,
+                        (v[i][1] + v[j][1]) / 2.0,
+                        (v[i][2] + v[j][2]) / 2.0,
+                    ]);
                     v.push(p);
                     v.len() - 1
                 })
@@ -194,14 +198,24 @@ fn the_same_scene_in_metres_and_millimetres_gives_the_same_radiance() {
     let y = |path: PathBuf| {
         let scene = load_scene(&path).unwrap();
         let r = render(&scene, &s, None).unwrap();
-        r.targets[0].codings.iter().map(|c| c.1.luminance_cd_m2).collect::<Vec<_>>()
+        r.targets[0]
+            .codings
+            .iter()
+            .map(|c| c.1.luminance_cd_m2)
+            .collect::<Vec<_>>()
     };
     let metres = y(mesh_sphere_scene(dir.path(), "m", 1.0, 0.5, 100.0));
     let millimetres = y(mesh_sphere_scene(dir.path(), "mm", 1000.0, 0.5, 100.0));
     let small = y(mesh_sphere_scene(dir.path(), "mm", 1.0, 0.5, 100.0));
     for i in 0..metres.len() {
-        assert!((millimetres[i] / metres[i] - 1.0).abs() < 1e-6, "{millimetres:?} vs {metres:?}");
-        assert!((small[i] / metres[i] / 1e6 - 1.0).abs() < 1e-6, "{small:?} vs {metres:?} × 1e6");
+        assert!(
+            (millimetres[i] / metres[i] - 1.0).abs() < 1e-6,
+            "{millimetres:?} vs {metres:?}"
+        );
+        assert!(
+            (small[i] / metres[i] / 1e6 - 1.0).abs() < 1e-6,
+            "{small:?} vs {metres:?} × 1e6"
+        );
     }
 }
 

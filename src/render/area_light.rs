@@ -96,7 +96,7 @@ impl AreaLights {
                 return Err(format!("primitive {i} emits light but is not a triangle"));
             };
             let emitter = &scene.emitters[e];
-            if !(luminance[e] > 0.0) {
+            if luminance[e].is_nan() || luminance[e] <= 0.0 {
                 return Err(format!("emitter `{}` has no luminous power", emitter.name));
             }
             let (e1, e2) = (p1 - p0, p2 - p0);

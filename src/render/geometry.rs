@@ -93,7 +93,7 @@ impl Shape {
     pub fn triangle(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<Shape> {
         let n = (p1 - p0).cross(p2 - p0);
         let len = n.length();
-        if !(len > 0.0) || !len.is_finite() {
+        if !len.is_finite() || len <= 0.0 {
             return None;
         }
         Some(Shape::Triangle {

@@ -424,7 +424,10 @@ impl<'a> Prepared<'a> {
             );
         }
         let n = layout.len();
-        let material_black = material_channels.chunks(n.max(1)).map(|m| m.iter().all(|&r| r == 0.0)).collect();
+        let material_black = material_channels
+            .chunks(n.max(1))
+            .map(|m| m.iter().all(|&r| r == 0.0))
+            .collect();
         Ok(Prepared {
             scene,
             layout,
