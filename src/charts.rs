@@ -737,7 +737,9 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
 
 /// A profile along a scene's targets: series' x are target numbers
 /// 1…n (the scene's order), labelled with the targets' ids on the x axis
-/// (every k-th when there are many).
+/// (every k-th when there are many). When the positive values span more
+/// than two decades (the Cornell box's light beside its walls) the y axis
+/// is logarithmic, and the axis description says so.
 pub fn profile_chart(
     title: &str,
     targets: &[String],
@@ -749,26 +751,49 @@ pub fn profile_chart(
     let every = n.div_ceil(11);
     let keys: Vec<f64> = (1..=n).step_by(every).map(|i| i as f64).collect();
     let ys = line_y_bounds(series);
+    let x_label = |v: &f64| {
+        let i = v.round() as usize;
+        if (v - v.round()).abs() < 1e-6 && (1..=targets.len()).contains(&i) {
+            targets[i - 1].clone()
+        } else {
+            String::new()
+        }
+    };
+    let positive = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (lo, hi) = positive.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
+        if y > 0.0 {
+            (lo.min(y), hi.max(y))
+        } else {
+            (lo, hi)
+        }
+    });
+    let all_positive = series.iter().all(|s| s.points.iter().all(|p| p.1 > 0.0));
+    let log_y = all_positive && lo.is_finite() && hi / lo > 100.0;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
         let (plot, legend_area) = page(&root, title)?;
-        let mut chart = builder(&plot)
-            .build_cartesian_2d(Slots::new(0.5..n as f64 + 0.5, keys), ys.0..ys.1)
-            .map_err(err)?;
-        mesh!(chart, x_desc, y_desc)
-            .x_label_formatter(&|v| {
-                let i = v.round() as usize;
-                if (v - v.round()).abs() < 1e-6 && (1..=targets.len()).contains(&i) {
-                    targets[i - 1].clone()
-                } else {
-                    String::new()
-                }
-            })
-            .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
-            .draw()
-            .map_err(err)?;
-        draw_lines(&mut chart, series)?;
+        let x = Slots::new(0.5..n as f64 + 0.5, keys);
+        if log_y {
+            let y_desc = format!("{y_desc} (log scale)");
+            let mut chart = builder(&plot)
+                .build_cartesian_2d(x, (lo / 1.5..hi * 1.5).log_scale())
+                .map_err(err)?;
+            mesh!(chart, x_desc, y_desc.as_str())
+                .x_label_formatter(&x_label)
+                .y_label_formatter(&|v| log_tick_label(*v))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        } else {
+            let mut chart = builder(&plot).build_cartesian_2d(x, ys.0..ys.1).map_err(err)?;
+            mesh!(chart, x_desc, y_desc)
+                .x_label_formatter(&x_label)
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        }
         draw_legend(&legend_area, &line_legend(series))?;
         root.present().map_err(err)?;
     }
@@ -800,8 +825,8 @@ fn line_legend(series: &[LineSeriesData]) -> Vec<LegendEntry> {
         .collect()
 }
 
-fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<X, plotters::coord::types::RangedCoordf64>>,
+fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     series: &[LineSeriesData],
 ) -> Result<(), String> {
     let st = styles(series, |s| s.name.as_str());
@@ -1351,6 +1376,32 @@ mod tests {
 
     fn colour_hex(c: RGBColor) -> String {
         format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+    }
+
+    /// The Cornell box's light (9e5 cd/m²) flattened its walls (2e3–2e4)
+    /// to a line at zero on a linear axis: beyond two decades the profile's
+    /// y axis is logarithmic, and says so.
+    #[test]
+    fn cornell_light_beside_its_walls_gets_a_log_axis() {
+        let targets: Vec<String> = ["wall", "ceiling", "light"].map(String::from).to_vec();
+        let wide = profile_chart(
+            "p",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e5)])],
+        )
+        .unwrap();
+        assert!(wide.contains("Y (cd/m²) (log scale)"), "{wide}");
+        let narrow = profile_chart(
+            "p",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e3)])],
+        )
+        .unwrap();
+        assert!(!narrow.contains("log scale"));
     }
 
     /// nstep3 was pink in one chart and green in the next: colours went by
