@@ -36,7 +36,11 @@ pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
     charts::profile_chart(
         &format!("{}: luminance along the targets (±1 SD over seeds)", s.title),
         &s.targets,
-        "target (scene order; CYLINDER hNN: NN cm above the card)",
+        if s.scene == "cylinder" {
+            "target (scene order; hNN: NN cm above the card)"
+        } else {
+            "target (scene order)"
+        },
         "luminance Y (cd/m²)",
         &series,
     )
