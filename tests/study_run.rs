@@ -187,3 +187,31 @@ async fn simulated_truth_is_independent_of_the_compared_render() {
         p.mean_dE76
     );
 }
+
+/// The Cornell box goes through the study like a booth scene: every target
+/// is compared with the converged reference in every coding, its CIELAB
+/// white is the back wall its file declares, and the light target — pure
+/// emission, no transport — agrees exactly in the codings that reproduce a
+/// light (spectral, rgb).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_cornell_box_runs_through_the_study() {
+    let options = StudyOptions {
+        seeds: 2,
+        ..quick(Against::Reference)
+    };
+    let result = run_study(&[scene("cornell_box")], &options, None, &|_| {})
+        .await
+        .unwrap();
+    let s = &result.scenes[0];
+    assert_eq!(s.targets.len(), 9);
+    assert_eq!(s.white_source, "reference render (cornell_box/back_wall)");
+    let light = s.targets.iter().position(|t| t == "light").unwrap();
+    let truth_y = s.truth[light].XYZ[1];
+    for c in &s.codings {
+        assert_eq!(c.profile.len(), 9, "{}", c.coding);
+        let y = c.profile[light].Y.mean;
+        if c.coding == "spectral" || c.coding == "rgb" {
+            assert!((y / truth_y - 1.0).abs() < 1e-5, "{}: {y} vs {truth_y}", c.coding);
+        }
+    }
+}
