@@ -29,6 +29,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use super::bvh::{Bvh, LINEAR_SCAN_BELOW};
 use super::coding::ChannelLayout;
 use super::geometry::{basis, Ray};
 use super::scene::{Light, Scene};
@@ -374,6 +375,9 @@ pub struct Prepared<'a> {
     material_channels: Vec<f32>,
     /// Spectral intensity per cd of each light, as channels.
     light_channels: Vec<f32>,
+    /// The BVH over `scene.primitives`; `None` below
+    /// [`LINEAR_SCAN_BELOW`] primitives, where a linear scan is faster.
+    bvh: Option<Arc<Bvh>>,
 }
 
 impl<'a> Prepared<'a> {
@@ -394,11 +398,13 @@ impl<'a> Prepared<'a> {
                     .map_err(|e| format!("light `{}`: {e}", l.id))?,
             );
         }
+        let bvh = (scene.primitives.len() >= LINEAR_SCAN_BELOW).then(|| scene.bvh.get_or_build(&scene.primitives[..]));
         Ok(Prepared {
             scene,
             layout,
             material_channels,
             light_channels,
+            bvh,
         })
     }
 
@@ -417,23 +423,37 @@ impl<'a> Prepared<'a> {
     /// The nearest surface along the ray: (hit, material).
     #[inline]
     fn nearest(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
+        self.nearest_primitive(ray)
+            .map(|(h, i)| (h, self.scene.primitives[i].material))
+    }
+
+    /// The nearest surface along the ray: (hit, index into
+    /// `scene.primitives`); of equal distances, the smallest index.
+    #[inline]
+    pub fn nearest_primitive(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
+        let primitives = &self.scene.primitives[..];
+        if let Some(bvh) = &self.bvh {
+            return bvh.nearest(primitives, ray, f64::INFINITY);
+        }
         let mut best = None;
         let mut t_max = f64::INFINITY;
-        for p in &self.scene.primitives {
+        for (i, p) in primitives.iter().enumerate() {
             if let Some(h) = p.shape.intersect(ray, t_max) {
                 t_max = h.t;
-                best = Some((h, p.material));
+                best = Some((h, i));
             }
         }
         best
     }
 
+    /// True when a surface lies on the ray with RAY_EPSILON_M < t < t_max.
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
-        self.scene
-            .primitives
-            .iter()
-            .any(|p| p.shape.intersect(ray, t_max).is_some())
+        let primitives = &self.scene.primitives[..];
+        if let Some(bvh) = &self.bvh {
+            return bvh.occluded(primitives, ray, t_max);
+        }
+        primitives.iter().any(|p| p.shape.intersect(ray, t_max).is_some())
     }
 }
 

@@ -267,6 +267,10 @@ pub struct Scene {
     pub files: Vec<PathBuf>,
     /// The CIELAB reference white the scene declares (`[cielab_white]`).
     pub cielab_white: Option<CielabWhite>,
+    /// The bounding volume hierarchy over `primitives`, built by the first
+    /// render that needs one and shared by later renders and clones (rebuilt
+    /// if the primitives change; see [`super::bvh::BvhCache`]).
+    pub bvh: super::bvh::BvhCache,
 }
 
 /// A scene's CIELAB reference white, as its file declares it.
@@ -721,7 +725,11 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             return Err(l.err(format!("box[{i}].max"), "must exceed min on every axis"));
         }
         for shape in box_faces(min, max) {
-            primitives.push(Primitive { shape, material, emitter: None });
+            primitives.push(Primitive {
+                shape,
+                material,
+                emitter: None,
+            });
         }
         solids.push(Solid::Box { min, max });
     }
@@ -805,6 +813,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         target_list,
         camera,
         files: l.files,
+        bvh: Default::default(),
     })
 }
 
@@ -1066,7 +1075,11 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
             let m = l.add_material(&format!("chart{i}.{}", columns[patch - 1]), s);
             (quad(centre + offset(patch), c.patch_size, c.patch_size), m)
         };
-        primitives.push(Primitive { shape, material, emitter: None });
+        primitives.push(Primitive {
+            shape,
+            material,
+            emitter: None,
+        });
     }
     Ok(())
 }
