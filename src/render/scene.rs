@@ -725,11 +725,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
             return Err(l.err(format!("box[{i}].max"), "must exceed min on every axis"));
         }
         for shape in box_faces(min, max) {
-            primitives.push(Primitive {
-                shape,
-                material,
-                emitter: None,
-            });
+            primitives.push(Primitive { shape, material, emitter: None });
         }
         solids.push(Solid::Box { min, max });
     }
@@ -1075,11 +1071,7 @@ fn add_chart(l: &mut Loader, primitives: &mut Vec<Primitive>, c: &ChartFile, i: 
             let m = l.add_material(&format!("chart{i}.{}", columns[patch - 1]), s);
             (quad(centre + offset(patch), c.patch_size, c.patch_size), m)
         };
-        primitives.push(Primitive {
-            shape,
-            material,
-            emitter: None,
-        });
+        primitives.push(Primitive { shape, material, emitter: None });
     }
     Ok(())
 }
