@@ -370,52 +370,88 @@ fn disc_bounds(centre: DVec3, normal: DVec3, radius: f64) -> Aabb {
 /// needed. Returns t with RAY_EPSILON_M < t < t_max.
 #[inline]
 pub fn intersect_triangle_watertight(ray: &Ray, p0: DVec3, p1: DVec3, p2: DVec3, t_max: f64) -> Option<f64> {
-    let d = ray.dir;
-    let ad = d.abs();
-    // kz: the dimension where the direction is largest; kx, ky the others,
-    // swapped when d[kz] < 0 to keep the winding.
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
+    ShearedRay::new(ray).intersect_triangle(p0, p1, p2, t_max)
+}
+
+/// The per-ray part of [`intersect_triangle_watertight`]: the axis
+/// permutation and shear, computed once for a ray that meets many triangles
+/// (the BVH). The results are those of `intersect_triangle_watertight`,
+/// bit for bit: it is this same code.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearedRay {
+    origin: DVec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f64,
+    sy: f64,
+    sz: f64,
+}
+
+impl ShearedRay {
+    #[inline]
+    pub fn new(ray: &Ray) -> ShearedRay {
+        let d = ray.dir;
+        let ad = d.abs();
+        // kz: the dimension where the direction is largest; kx, ky the others,
+        // swapped when d[kz] < 0 to keep the winding.
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
         } else {
             2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
         }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+        let sz = 1.0 / d[kz];
+        ShearedRay {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
+            sz,
+        }
     }
-    let sz = 1.0 / d[kz];
-    let sx = d[kx] * sz;
-    let sy = d[ky] * sz;
-    let a = p0 - ray.origin;
-    let b = p1 - ray.origin;
-    let c = p2 - ray.origin;
-    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return None;
-    }
-    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
-    let t_scaled = u * az + v * bz + w * cz;
-    let t = t_scaled / det;
-    if t > RAY_EPSILON_M && t < t_max {
-        Some(t)
-    } else {
-        None
+
+    /// The watertight test of the triangle p0, p1, p2: t with
+    /// RAY_EPSILON_M < t < t_max.
+    #[inline]
+    pub fn intersect_triangle(&self, p0: DVec3, p1: DVec3, p2: DVec3, t_max: f64) -> Option<f64> {
+        let (kx, ky, kz, sx, sy, sz) = (self.kx, self.ky, self.kz, self.sx, self.sy, self.sz);
+        let a = (p0 - self.origin).to_array();
+        let b = (p1 - self.origin).to_array();
+        let c = (p2 - self.origin).to_array();
+        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let t_scaled = u * az + v * bz + w * cz;
+        let t = t_scaled / det;
+        if t > RAY_EPSILON_M && t < t_max {
+            Some(t)
+        } else {
+            None
+        }
     }
 }
 
