@@ -423,8 +423,20 @@ impl<'a> Prepared<'a> {
     /// The nearest surface along the ray: (hit, material).
     #[inline]
     fn nearest(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
-        self.nearest_primitive(ray)
-            .map(|(h, i)| (h, self.scene.primitives[i].material))
+        if let Some(bvh) = &self.bvh {
+            return bvh
+                .nearest(&self.scene.primitives[..], ray, f64::INFINITY)
+                .map(|(h, i)| (h, self.scene.primitives[i].material));
+        }
+        let mut best = None;
+        let mut t_max = f64::INFINITY;
+        for p in &self.scene.primitives {
+            if let Some(h) = p.shape.intersect(ray, t_max) {
+                t_max = h.t;
+                best = Some((h, p.material));
+            }
+        }
+        best
     }
 
     /// The nearest surface along the ray: (hit, index into
