@@ -47,7 +47,11 @@ fn torus(nu: usize) -> Vec<Shape> {
         let u = (i % nv) as f64 / nv as f64 * std::f64::consts::TAU;
         let v = (j % nu) as f64 / nu as f64 * std::f64::consts::TAU;
         let r = TUBE_M * (1.0 + 0.2 * (9.0 * u + 3.0 * v).sin() * (7.0 * v).cos());
-        DVec3::new((MAJOR_M + r * v.cos()) * u.cos(), r * v.sin(), (MAJOR_M + r * v.cos()) * u.sin())
+        DVec3::new(
+            (MAJOR_M + r * v.cos()) * u.cos(),
+            r * v.sin(),
+            (MAJOR_M + r * v.cos()) * u.sin(),
+        )
     };
     let mut tris = Vec::with_capacity(2 * nu * nv);
     for i in 0..nv {
@@ -142,7 +146,11 @@ fn booth_rays(n: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Pcg32::new(seed, 9);
     (0..n)
         .map(|_| Ray {
-            origin: DVec3::new(rng.uniform() - 0.5, 0.8 + 0.6 * rng.uniform(), 0.4 - 1.2 * rng.uniform()),
+            origin: DVec3::new(
+                rng.uniform() - 0.5,
+                0.8 + 0.6 * rng.uniform(),
+                0.4 - 1.2 * rng.uniform(),
+            ),
             dir: unit_vector(&mut rng),
         })
         .collect()
@@ -226,8 +234,11 @@ mod with_obvhs {
     }
 
     pub fn build_cwbvh(tris: &[Triangle]) -> (obvhs::cwbvh::CwBvh, Vec<Triangle>) {
-        let bvh =
-            obvhs::cwbvh::builder::build_cwbvh_from_tris(tris, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+            tris,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         // Triangles in the BVH's order, as obvhs's own examples do.
         let ordered = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
         (bvh, ordered)
@@ -238,7 +249,9 @@ mod with_obvhs {
         rays.iter()
             .map(|&r| {
                 let mut hit = RayHit::none();
-                if bvh.ray_traverse(r, &mut hit, |ray, id| tris[bvh.primitive_indices[id] as usize].intersect(ray)) {
+                if bvh.ray_traverse(r, &mut hit, |ray, id| {
+                    tris[bvh.primitive_indices[id] as usize].intersect(ray)
+                }) {
                     bvh.primitive_indices[hit.primitive_id as usize]
                 } else {
                     u32::MAX
@@ -287,7 +300,10 @@ fn json_summary() {
             // Which primitive the f64 BVH finds, to count agreements.
             let reference: Vec<u32> = rays
                 .iter()
-                .map(|r| bvh.nearest(&shapes[..], r, f64::INFINITY).map_or(u32::MAX, |h| h.1 as u32))
+                .map(|r| {
+                    bvh.nearest(&shapes[..], r, f64::INFINITY)
+                        .map_or(u32::MAX, |h| h.1 as u32)
+                })
                 .collect();
             let agree = |got: &[u32]| got.iter().zip(&reference).filter(|(a, b)| a == b).count() as f64 / RAYS as f64;
             let mut b2 = None;
@@ -376,7 +392,9 @@ fn criterion_benches(c: &mut Criterion) {
     for (name, nu) in MESHES {
         let shapes = torus(nu);
         let bvh = Bvh::build(&shapes[..]);
-        nearest.bench_function(BenchmarkId::new("lightbooth", name), |b| b.iter(|| trace(&bvh, &shapes, &rays)));
+        nearest.bench_function(BenchmarkId::new("lightbooth", name), |b| {
+            b.iter(|| trace(&bvh, &shapes, &rays))
+        });
         #[cfg(feature = "bench-obvhs")]
         {
             let tris = with_obvhs::triangles(&shapes);

@@ -31,24 +31,46 @@
 //!   primitive, which dwarfs the rounding of the slab test (~1e-16·t), so no
 //!   box rejects a hit its primitive's own test would report, and shared
 //!   triangle edges stay watertight through the tree.
-//! - Layout: nodes in depth-first order, the first child right after its
-//!   parent; a leaf's primitives are a contiguous range of slots. Triangles
-//!   are copied into a compact vertex array in slot order (72 bytes each
-//!   instead of a 176-byte `Primitive`), so a leaf's triangles share cache
-//!   lines; analytic shapes are tested through the scene's list of record.
-//! - Traversal: the inverse direction is computed once per ray; at an
+//! - Layout: a node is 32 bytes (its box in f32, rounded outward so it
+//!   still holds the padded f64 box, and two u32); the two children of a
+//!   node sit side by side in one 64-byte-aligned pair, so a visit that
+//!   tests both boxes reads one cache line. Pairs are in depth-first order.
+//!   A leaf's primitives are a contiguous range of 80-byte slots holding the
+//!   primitive index and, for a triangle, a copy of its f64 vertices (not
+//!   the 176-byte `Primitive`), so a leaf's triangles are read in sequence;
+//!   analytic shapes are tested through the scene's list of record.
+//!   Memory for 1 M triangles: ~110 MB (35 MB nodes, 80 MB slots) besides
+//!   the scene's own primitives.
+//! - Traversal: the inverse direction and the watertight test's shear
+//!   ([`ShearedRay`]) are computed once per ray; at an
 //!   interior node both children's boxes are tested, the nearer is visited
 //!   first and the farther is pushed with its entry distance, and popped
 //!   nodes entered beyond the current nearest hit are skipped. Shadow rays
 //!   stop at the first hit.
 //!
-//! Crate or own: the guide prefers a maintained crate. `obvhs` 0.4 is f32
-//! only (scenes with 0.1 mm features a metre from the origin are at the
-//! limit of f32's 24-bit mantissa, and the renderer's watertight f64
-//! triangle test would see f32-rounded boxes) and needs glam ≥ 0.33 (the
-//! renderer uses 0.30); `bvh` pulls in nalgebra. Measured with
-//! `cargo bench --bench bvh --features bench-obvhs` (see `benches/bvh.rs`):
-//! MEASUREMENTS.
+//! Crate or own — own, for exactness, not for speed. Measured with
+//! `cargo bench --bench bvh --features bench-obvhs -- --json` (one thread
+//! tracing, medians of 5; the 2-core machine shared with two builds, so
+//! absolute numbers are ±30 %; all rows of one run):
+//!
+//! | triangles | own f64: build s, rays/s | obvhs BVH2 f32 | obvhs CWBVH f32 |
+//! |---|---|---|---|
+//! | 1 k   | 0.0004, 1.22 M | 0.0005, 2.21 M | 0.0004, 2.47 M |
+//! | 100 k | 0.059, 0.41 M  | 0.066, 0.57 M  | 0.076, 0.76 M  |
+//! | 1 M   | 1.21, 0.21 M   | 1.03, 0.29 M   | 0.82, 0.58 M   |
+//!
+//! `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
+//! faster. It is not used because (1) it is f32 only: its boxes are rounded
+//! to nearest, not outward, and its traversal culls by f32 distances, so it
+//! cannot promise the f64 linear scan's answer (on the 1 M mesh its nearest
+//! triangle differed for 0.004 % of the rays), nor the tie rule the
+//! renderer's determinism relies on; (2) it needs glam ≥ 0.33 while the
+//! renderer uses glam 0.30 (a second glam, or an upgrade of every module);
+//! (3) analytic shapes would go through its closure API with f32 t. `bvh`
+//! pulls in nalgebra. The gap is the node width: an f64 four- or eight-wide
+//! BVH (collapsing this binary tree) is the next step if rays/s on big
+//! meshes matter more than they do for the booth (one mesh, a few thousand
+//! triangles in the Cornell box).
 
 use std::fmt;
 use std::sync::{Arc, OnceLock};
@@ -377,7 +399,11 @@ impl Bvh {
                     let prim = tagged & !TRIANGLE_BIT;
                     // Once there is a hit, t = best_t passes too (next_up), so
                     // an equal t can win on its smaller index.
-                    let limit = if best_prim == u32::MAX { best_t } else { best_t.next_up() };
+                    let limit = if best_prim == u32::MAX {
+                        best_t
+                    } else {
+                        best_t.next_up()
+                    };
                     let hit = if tagged & TRIANGLE_BIT != 0 {
                         let [p0, p1, p2] = vertices;
                         sheared.intersect_triangle(p0, p1, p2, limit).map(|t| (t, DVec3::ZERO))
@@ -503,7 +529,12 @@ impl Bvh {
 enum Split {
     Leaf,
     /// Centroid bin (of [`BINS`] over `[lo, lo + BINS/scale)`) on `axis` ≤ `bin` goes left.
-    Bin { axis: usize, lo: f64, scale: f64, bin: usize },
+    Bin {
+        axis: usize,
+        lo: f64,
+        scale: f64,
+        bin: usize,
+    },
     /// The first half by position (all centroids equal, or too deep).
     Middle,
 }
@@ -710,9 +741,7 @@ impl BvhCache {
     /// (cached when nothing is yet).
     pub fn get_or_build<S: ShapeList + ?Sized>(&self, shapes: &S) -> Arc<Bvh> {
         let fp = fingerprint(shapes);
-        let cached = self
-            .0
-            .get_or_init(|| Arc::new(Bvh::build_with_fingerprint(shapes, fp)));
+        let cached = self.0.get_or_init(|| Arc::new(Bvh::build_with_fingerprint(shapes, fp)));
         if cached.fingerprint == fp {
             Arc::clone(cached)
         } else {

@@ -150,7 +150,7 @@ impl Shape {
     pub fn triangle(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<Shape> {
         let n = (p1 - p0).cross(p2 - p0);
         let len = n.length();
-        if !(len > 0.0) || !len.is_finite() {
+        if len <= 0.0 || !len.is_finite() {
             return None;
         }
         Some(Shape::Triangle {
