@@ -896,6 +896,49 @@ mod tests {
     }
 
     #[test]
+    fn a_scene_traced_through_the_bvh_renders_bit_identically_to_the_linear_scan() {
+        use crate::render::scene::Primitive;
+        use crate::render::{load_scene, render, Coding, RenderSettings};
+        // CYLINDER (9 primitives: the linear scan) and the same scene with
+        // 40 triangles under its floor, where no path can reach them (every
+        // path starts inside the booth): over LINEAR_SCAN_BELOW, so it is
+        // traced through the BVH, and every nearest hit must be the same.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cylinder.toml");
+        let scene = load_scene(&path).unwrap();
+        assert!(scene.primitives.len() < LINEAR_SCAN_BELOW);
+        let mut with_mesh = scene.clone();
+        for i in 0..40 {
+            let x = -1.0 + 0.05 * i as f64;
+            let tri = Shape::triangle(
+                DVec3::new(x, -0.5, -1.0),
+                DVec3::new(x + 0.04, -0.5, -1.0),
+                DVec3::new(x, -0.5, 1.0),
+            )
+            .unwrap();
+            with_mesh.primitives.push(Primitive {
+                shape: tri,
+                ..scene.primitives[0].clone()
+            });
+        }
+        assert!(with_mesh.primitives.len() >= LINEAR_SCAN_BELOW);
+        let settings = |threads| RenderSettings {
+            codings: vec![Coding::Rgb, Coding::NStep(9), Coding::Spectral],
+            samples: 2048,
+            targets: Some(vec!["h01".into(), "h11".into(), "h21".into()]),
+            threads: Some(threads),
+            target_relative_se: None,
+            seed: 7,
+            ..RenderSettings::default()
+        };
+        let json = |r: &crate::render::RenderResult| serde_json::to_string(&r.targets).unwrap();
+        let linear = json(&render(&scene, &settings(2), None).unwrap());
+        for threads in [1, 2] {
+            let bvh = json(&render(&with_mesh, &settings(threads), None).unwrap());
+            assert_eq!(bvh, linear, "{threads} threads");
+        }
+    }
+
+    #[test]
     fn bvh_of_nothing_finds_nothing() {
         let bvh = Bvh::build(&[][..] as &[Shape]);
         let ray = Ray {
