@@ -105,6 +105,7 @@ fn scene(rect: [DVec3; 4], radiance: f64, rho: f64, receiver_normal: DVec3) -> S
         camera: None,
         files: vec![],
         cielab_white: None,
+        bvh: Default::default(),
     }
 }
 

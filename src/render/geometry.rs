@@ -2,9 +2,9 @@
 //!
 //! Only what the booth scenes need: parallelogram quads (planes are quads
 //! bounded to the booth), discs, open finite cylinders (caps are discs),
-//! spheres, and boxes (six quads). There is no acceleration structure: the
-//! scenes hold a few dozen primitives and a linear scan is faster than a BVH
-//! traversal at that size.
+//! spheres, boxes (six quads) and triangles (meshes and polygons). Every
+//! shape has an axis-aligned bounding box ([`Shape::bounds`]) for the
+//! bounding volume hierarchy of [`super::bvh`].
 //!
 //! Surfaces are two-sided: the shading normal is flipped to face the ray, so
 //! a wall is lit from either side and the inside of a sphere is a room.
@@ -66,6 +66,63 @@ pub enum Shape {
     },
 }
 
+/// An axis-aligned box, m: the points p with min ≤ p ≤ max per axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    /// The empty box (the identity of [`Aabb::union`]).
+    pub const EMPTY: Aabb = Aabb {
+        min: DVec3::INFINITY,
+        max: DVec3::NEG_INFINITY,
+    };
+
+    /// The smallest box holding every point.
+    pub fn from_points(points: &[DVec3]) -> Aabb {
+        points.iter().fold(Aabb::EMPTY, |b, &p| b.union_point(p))
+    }
+
+    #[inline]
+    pub fn union(self, other: Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    #[inline]
+    pub fn union_point(self, p: DVec3) -> Aabb {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    #[inline]
+    pub fn centroid(&self) -> DVec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Half the surface area, m² (0 for an empty box): the SAH only needs
+    /// areas up to a common factor.
+    #[inline]
+    pub fn half_area(&self) -> f64 {
+        let d = self.max - self.min;
+        if d.x < 0.0 || d.y < 0.0 || d.z < 0.0 {
+            return 0.0;
+        }
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// True when `p` lies in the box (boundary included).
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+}
+
 /// Where a ray meets a surface.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
@@ -102,6 +159,30 @@ impl Shape {
             p2,
             normal: n / len,
         })
+    }
+
+    /// The axis-aligned bounding box. Up to rounding (a few ulps for the
+    /// curved shapes, whose extents involve a square root): users that need
+    /// a conservative box, such as the BVH, pad it.
+    pub fn bounds(&self) -> Aabb {
+        match *self {
+            Shape::Quad { corner, u, v, .. } => Aabb::from_points(&[corner, corner + u, corner + v, corner + u + v]),
+            Shape::Disc { centre, normal, radius } => disc_bounds(centre, normal, radius),
+            Shape::Cylinder {
+                base,
+                axis,
+                length,
+                radius,
+            } => {
+                // The convex hull of the two rim circles: the union of the end discs' boxes.
+                disc_bounds(base, axis, radius).union(disc_bounds(base + axis * length, axis, radius))
+            }
+            Shape::Sphere { centre, radius } => Aabb {
+                min: centre - DVec3::splat(radius),
+                max: centre + DVec3::splat(radius),
+            },
+            Shape::Triangle { p0, p1, p2, .. } => Aabb::from_points(&[p0, p1, p2]),
+        }
     }
 
     /// The nearest hit with RAY_EPSILON_M < t < t_max.
@@ -268,6 +349,17 @@ impl Shape {
     }
 }
 
+/// The box of a circle of `radius` around `centre` in the plane with unit
+/// normal `normal`: along axis i the circle reaches r·√(1 − nᵢ²).
+fn disc_bounds(centre: DVec3, normal: DVec3, radius: f64) -> Aabb {
+    let e = (DVec3::ONE - normal * normal).max(DVec3::ZERO);
+    let half = DVec3::new(e.x.sqrt(), e.y.sqrt(), e.z.sqrt()) * radius;
+    Aabb {
+        min: centre - half,
+        max: centre + half,
+    }
+}
+
 /// The watertight ray–triangle test of Woop, Benthin & Wald (2013),
 /// "Watertight Ray/Triangle Intersection", JCGT 2(1): the vertices are
 /// translated to the ray origin and sheared so the ray runs along +z, and
@@ -278,52 +370,88 @@ impl Shape {
 /// needed. Returns t with RAY_EPSILON_M < t < t_max.
 #[inline]
 pub fn intersect_triangle_watertight(ray: &Ray, p0: DVec3, p1: DVec3, p2: DVec3, t_max: f64) -> Option<f64> {
-    let d = ray.dir;
-    let ad = d.abs();
-    // kz: the dimension where the direction is largest; kx, ky the others,
-    // swapped when d[kz] < 0 to keep the winding.
-    let kz = if ad.x > ad.y {
-        if ad.x > ad.z {
-            0
+    ShearedRay::new(ray).intersect_triangle(p0, p1, p2, t_max)
+}
+
+/// The per-ray part of [`intersect_triangle_watertight`]: the axis
+/// permutation and shear, computed once for a ray that meets many triangles
+/// (the BVH). The results are those of `intersect_triangle_watertight`,
+/// bit for bit: it is this same code.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearedRay {
+    origin: DVec3,
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f64,
+    sy: f64,
+    sz: f64,
+}
+
+impl ShearedRay {
+    #[inline]
+    pub fn new(ray: &Ray) -> ShearedRay {
+        let d = ray.dir;
+        let ad = d.abs();
+        // kz: the dimension where the direction is largest; kx, ky the others,
+        // swapped when d[kz] < 0 to keep the winding.
+        let kz = if ad.x > ad.y {
+            if ad.x > ad.z {
+                0
+            } else {
+                2
+            }
+        } else if ad.y > ad.z {
+            1
         } else {
             2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
         }
-    } else if ad.y > ad.z {
-        1
-    } else {
-        2
-    };
-    let mut kx = (kz + 1) % 3;
-    let mut ky = (kx + 1) % 3;
-    if d[kz] < 0.0 {
-        std::mem::swap(&mut kx, &mut ky);
+        let sz = 1.0 / d[kz];
+        ShearedRay {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
+            sz,
+        }
     }
-    let sz = 1.0 / d[kz];
-    let sx = d[kx] * sz;
-    let sy = d[ky] * sz;
-    let a = p0 - ray.origin;
-    let b = p1 - ray.origin;
-    let c = p2 - ray.origin;
-    let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
-    let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
-    let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
-    let u = cx * by - cy * bx;
-    let v = ax * cy - ay * cx;
-    let w = bx * ay - by * ax;
-    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
-        return None;
-    }
-    let det = u + v + w;
-    if det == 0.0 {
-        return None;
-    }
-    let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
-    let t_scaled = u * az + v * bz + w * cz;
-    let t = t_scaled / det;
-    if t > RAY_EPSILON_M && t < t_max {
-        Some(t)
-    } else {
-        None
+
+    /// The watertight test of the triangle p0, p1, p2: t with
+    /// RAY_EPSILON_M < t < t_max.
+    #[inline]
+    pub fn intersect_triangle(&self, p0: DVec3, p1: DVec3, p2: DVec3, t_max: f64) -> Option<f64> {
+        let (kx, ky, kz, sx, sy, sz) = (self.kx, self.ky, self.kz, self.sx, self.sy, self.sz);
+        let a = (p0 - self.origin).to_array();
+        let b = (p1 - self.origin).to_array();
+        let c = (p2 - self.origin).to_array();
+        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let (az, bz, cz) = (sz * a[kz], sz * b[kz], sz * c[kz]);
+        let t_scaled = u * az + v * bz + w * cz;
+        let t = t_scaled / det;
+        if t > RAY_EPSILON_M && t < t_max {
+            Some(t)
+        } else {
+            None
+        }
     }
 }
 
@@ -486,6 +614,111 @@ mod tests {
         };
         assert!(d.intersect(&ray([1.0, 0.05, 0.05], [-1.0, 0.0, 0.0]), 10.0).is_some());
         assert!(d.intersect(&ray([1.0, 0.08, 0.08], [-1.0, 0.0, 0.0]), 10.0).is_none());
+    }
+
+    #[test]
+    fn triangle_distance_and_intersection_agree_with_a_hand_computed_case() {
+        // The right triangle (0,0,0), (2,0,0), (0,2,0) in the plane z = 0,
+        // front side +z ((p1 − p0) × (p2 − p0) = (0, 0, 4)).
+        let tri = Shape::triangle(DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 2.0, 0.0)).unwrap();
+        // Straight down onto (0.5, 0.5, 0) from 3 m above: t = 3, normal +z.
+        let h = tri
+            .intersect(&ray([0.5, 0.5, 3.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .unwrap();
+        assert_eq!(h.t, 3.0);
+        assert_eq!(h.normal, DVec3::Z);
+        assert_eq!(tri.distance_to(DVec3::new(0.5, 0.5, 3.0)), 3.0);
+        // From (1, 1, 1) along −(1, 1, 1)/√3 to the origin vertex: t = √3.
+        let h = tri
+            .intersect(&ray([1.0, 1.0, 1.0], [-1.0, -1.0, -1.0]), f64::INFINITY)
+            .unwrap();
+        assert!((h.t - 3f64.sqrt()).abs() < 1e-15, "{}", h.t);
+        // Beyond the hypotenuse x + y = 2: a miss; the nearest point of
+        // (2, 2, 0) is (1, 1, 0), at √2; of (−1, −1, 1) the vertex, at √3.
+        assert!(tri
+            .intersect(&ray([1.5, 1.5, 3.0], [0.0, 0.0, -1.0]), f64::INFINITY)
+            .is_none());
+        assert!((tri.distance_to(DVec3::new(2.0, 2.0, 0.0)) - 2f64.sqrt()).abs() < 1e-15);
+        assert!((tri.distance_to(DVec3::new(-1.0, -1.0, 1.0)) - 3f64.sqrt()).abs() < 1e-15);
+        // Hit from behind: same t, the same (unflipped) geometric normal.
+        let h = tri
+            .intersect(&ray([0.5, 0.5, -2.0], [0.0, 0.0, 1.0]), f64::INFINITY)
+            .unwrap();
+        assert_eq!((h.t, h.normal), (2.0, DVec3::Z));
+        // Not before RAY_EPSILON_M, not at or beyond t_max.
+        assert!(tri.intersect(&ray([0.5, 0.5, 3.0], [0.0, 0.0, -1.0]), 3.0).is_none());
+        assert!(tri.intersect(&ray([0.5, 0.5, 1e-8], [0.0, 0.0, -1.0]), 1.0).is_none());
+        assert!(Shape::triangle(DVec3::ZERO, DVec3::X, DVec3::X * 2.0).is_none());
+    }
+
+    #[test]
+    fn bounds_hold_every_shape() {
+        // Points on each surface lie in its box (hand-checked extents too).
+        let d = Shape::Disc {
+            centre: DVec3::new(1.0, 2.0, 3.0),
+            normal: DVec3::new(0.0, 0.6, 0.8),
+            radius: 0.5,
+        };
+        let b = d.bounds();
+        // Along x the disc reaches r; along y r·√(1 − 0.36) = 0.4, along z 0.3.
+        assert!((b.max - DVec3::new(1.5, 2.4, 3.3)).abs().max_element() < 1e-15, "{b:?}");
+        assert!((b.min - DVec3::new(0.5, 1.6, 2.7)).abs().max_element() < 1e-15, "{b:?}");
+        let c = Shape::Cylinder {
+            base: DVec3::ZERO,
+            axis: DVec3::Y,
+            length: 2.0,
+            radius: 0.5,
+        };
+        assert_eq!(
+            c.bounds(),
+            Aabb {
+                min: DVec3::new(-0.5, 0.0, -0.5),
+                max: DVec3::new(0.5, 2.0, 0.5)
+            }
+        );
+        let q = Shape::quad(DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0), DVec3::new(-1.0, 0.0, 1.0));
+        assert_eq!(
+            q.bounds(),
+            Aabb {
+                min: DVec3::new(-1.0, 0.0, 0.0),
+                max: DVec3::new(1.0, 1.0, 1.0)
+            }
+        );
+        let s = Shape::Sphere {
+            centre: DVec3::ONE,
+            radius: 2.0,
+        };
+        assert_eq!(s.bounds().min, DVec3::splat(-1.0));
+        // Random rays' hits on a tilted cylinder and disc lie in their boxes.
+        let tilted = Shape::Cylinder {
+            base: DVec3::new(0.1, 0.2, 0.3),
+            axis: DVec3::new(1.0, 2.0, 2.0) / 3.0,
+            length: 0.7,
+            radius: 0.2,
+        };
+        for shape in [tilted, d] {
+            let b = shape.bounds();
+            let mut hits = 0;
+            for i in 0..2000 {
+                let a = i as f64 * 0.618_034;
+                let dir = DVec3::new(a.sin() * (3.0 * a).cos(), a.cos(), a.sin() * (3.0 * a).sin());
+                let origin = b.centroid() - dir * 5.0 + DVec3::new((7.0 * a).sin(), (5.0 * a).cos(), 0.0) * 0.3;
+                if let Some(h) = shape.intersect(&Ray { origin, dir }, f64::INFINITY) {
+                    let p = origin + dir * h.t;
+                    let pad = DVec3::splat(1e-12);
+                    assert!(
+                        Aabb {
+                            min: b.min - pad,
+                            max: b.max + pad
+                        }
+                        .contains(p),
+                        "{p} outside {b:?}"
+                    );
+                    hits += 1;
+                }
+            }
+            assert!(hits > 100, "{hits}");
+        }
     }
 
     #[test]

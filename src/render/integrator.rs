@@ -38,6 +38,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use super::area_light::{power_heuristic, AreaLights};
+use super::bvh::{Bvh, LINEAR_SCAN_BELOW};
 use super::coding::ChannelLayout;
 use super::geometry::{basis, Ray};
 use super::scene::{Light, Scene};
@@ -393,6 +394,9 @@ pub struct Prepared<'a> {
     material_black: Vec<bool>,
     /// The emitting triangles, for next-event estimation.
     area_lights: AreaLights,
+    /// The BVH over `scene.primitives`; `None` below
+    /// [`LINEAR_SCAN_BELOW`] primitives, where a linear scan is faster.
+    bvh: Option<Arc<Bvh>>,
 }
 
 impl<'a> Prepared<'a> {
@@ -428,6 +432,7 @@ impl<'a> Prepared<'a> {
             .chunks(n.max(1))
             .map(|m| m.iter().all(|&r| r == 0.0))
             .collect();
+        let bvh = (scene.primitives.len() >= LINEAR_SCAN_BELOW).then(|| scene.bvh.get_or_build(&scene.primitives[..]));
         Ok(Prepared {
             scene,
             layout,
@@ -436,6 +441,7 @@ impl<'a> Prepared<'a> {
             emitter_channels,
             material_black,
             area_lights: AreaLights::new(scene)?,
+            bvh,
         })
     }
 
@@ -457,12 +463,17 @@ impl<'a> Prepared<'a> {
         &self.light_channels[i * n..(i + 1) * n]
     }
 
-    /// The nearest surface along the ray: (hit, primitive index).
+    /// The nearest surface along the ray: (hit, index into
+    /// `scene.primitives`); of equal distances, the smallest index.
     #[inline]
-    fn nearest(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
+    pub fn nearest_primitive(&self, ray: &Ray) -> Option<(super::geometry::Hit, usize)> {
+        let primitives = &self.scene.primitives[..];
+        if let Some(bvh) = &self.bvh {
+            return bvh.nearest(primitives, ray, f64::INFINITY);
+        }
         let mut best = None;
         let mut t_max = f64::INFINITY;
-        for (i, p) in self.scene.primitives.iter().enumerate() {
+        for (i, p) in primitives.iter().enumerate() {
             if let Some(h) = p.shape.intersect(ray, t_max) {
                 t_max = h.t;
                 best = Some((h, i));
@@ -471,12 +482,14 @@ impl<'a> Prepared<'a> {
         best
     }
 
+    /// True when a surface lies on the ray with RAY_EPSILON_M < t < t_max.
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f64) -> bool {
-        self.scene
-            .primitives
-            .iter()
-            .any(|p| p.shape.intersect(ray, t_max).is_some())
+        let primitives = &self.scene.primitives[..];
+        if let Some(bvh) = &self.bvh {
+            return bvh.occluded(primitives, ray, t_max);
+        }
+        primitives.iter().any(|p| p.shape.intersect(ray, t_max).is_some())
     }
 }
 
@@ -518,7 +531,7 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
     let mut bsdf_pdf: Option<f64> = None;
     loop {
         state.rays += 1;
-        let Some((hit, primitive)) = prep.nearest(&ray) else {
+        let Some((hit, primitive)) = prep.nearest_primitive(&ray) else {
             break; // left the booth: open sides return zero
         };
         let prim = &prep.scene.primitives[primitive];

@@ -2,7 +2,8 @@
 //! colour coding, measured by a simulated radiometer.
 //!
 //! - [`scene`]: the TOML scene format and its validation; [`ies`]: LM-63
-//!   luminaires; [`geometry`]: analytic primitives.
+//!   luminaires; [`geometry`]: analytic primitives; [`bvh`]: the bounding
+//!   volume hierarchy that finds a ray's nearest primitive.
 //! - [`coding`]: the channel layout that carries rgb, srgb, nstepN and
 //!   spectral in one vector per path.
 //! - [`integrator`]: path tracing with next-event estimation.
@@ -34,6 +35,7 @@
 //! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
 
 pub mod area_light;
+pub mod bvh;
 pub mod coding;
 pub mod geometry;
 pub mod ies;

@@ -359,6 +359,10 @@ pub struct Scene {
     pub files: Vec<PathBuf>,
     /// The CIELAB reference white the scene declares (`[cielab_white]`).
     pub cielab_white: Option<CielabWhite>,
+    /// The bounding volume hierarchy over `primitives`, built by the first
+    /// render that needs one and shared by later renders and clones (rebuilt
+    /// if the primitives change; see [`super::bvh::BvhCache`]).
+    pub bvh: super::bvh::BvhCache,
 }
 
 /// A scene's CIELAB reference white, as its file declares it.
@@ -616,6 +620,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         target_list,
         camera,
         files: l.files,
+        bvh: Default::default(),
     })
 }
 

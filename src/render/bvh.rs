@@ -1,0 +1,1261 @@
+//! The bounding volume hierarchy: which primitive a ray meets first, without
+//! testing every primitive.
+//!
+//! What: a binary tree of axis-aligned boxes over every primitive of a scene
+//! (analytic shapes and triangles together), in f64 like the rest of the
+//! renderer (scenes are in metres with 0.1 mm features). [`Bvh::nearest`]
+//! returns exactly what a linear scan of the primitives in file order
+//! returns — the hit with the smallest t, and of equal t the primitive with
+//! the smallest index — and [`Bvh::occluded`] whether anything lies on a
+//! shadow ray.
+//!
+//! Why: a mesh scene holds up to a million triangles, and a linear scan costs
+//! O(n) per ray. The booth scenes hold a dozen primitives, where the scan is
+//! faster than any traversal: scenes below [`LINEAR_SCAN_BELOW`] primitives
+//! keep it (see `Prepared::new` in the integrator).
+//!
+//! How:
+//! - Build: top-down with the surface area heuristic (SAH; MacDonald & Booth
+//!   1990), binned as in Wald 2007, "On fast construction of SAH-based
+//!   bounding volume hierarchies" (IEEE Symp. on Interactive Ray Tracing):
+//!   per node the primitives' centroids fall into [`BINS`] equal bins along
+//!   each axis, and the split between bins minimising
+//!   C_trav + C_isect·(A_L·N_L + A_R·N_R)/A is taken unless a leaf
+//!   (C_isect·N) is cheaper. Subtrees of more than [`PARALLEL_BUILD_MIN`]
+//!   primitives are built on two threads (`rayon::join`); the node order is
+//!   that of the sequential depth-first build, so the tree is the same on
+//!   any number of threads (and so is every render).
+//! - Conservative boxes: every primitive's box ([`Shape::bounds`]) is padded
+//!   by [`PAD_RELATIVE`]·(1 m + its largest coordinate magnitude), ~1 nm in a
+//!   booth. A ray then crosses at least that padding before reaching the
+//!   primitive, which dwarfs the rounding of the slab test (~1e-16·t), so no
+//!   box rejects a hit its primitive's own test would report, and shared
+//!   triangle edges stay watertight through the tree.
+//! - Layout: a node is 32 bytes (its box in f32, rounded outward so it
+//!   still holds the padded f64 box, and two u32); the two children of a
+//!   node sit side by side in one 64-byte-aligned pair, so a visit that
+//!   tests both boxes reads one cache line. Pairs are in depth-first order.
+//!   A leaf's primitives are a contiguous range of 80-byte slots holding the
+//!   primitive index and, for a triangle, a copy of its f64 vertices (not
+//!   the 176-byte `Primitive`), so a leaf's triangles are read in sequence;
+//!   analytic shapes are tested through the scene's list of record.
+//!   Memory for 1 M triangles: 87 MB (11 MB nodes, 76 MB slots) besides
+//!   the scene's own primitives (176 MB).
+//! - Traversal: the inverse direction and the watertight test's shear
+//!   ([`ShearedRay`]) are computed once per ray; at an
+//!   interior node both children's boxes are tested, the nearer is visited
+//!   first and the farther is pushed with its entry distance, and popped
+//!   nodes entered beyond the current nearest hit are skipped. Shadow rays
+//!   stop at the first hit.
+//!
+//! Crate or own — own, for exactness, not for speed. Measured with
+//! `cargo bench --bench bvh --features bench-obvhs -- --json` (one thread
+//! tracing, medians of 5; the 2-core machine shared with two builds, so
+//! absolute numbers are ±30 %; all rows of one run):
+//!
+//! | triangles | own f64: build s, rays/s | obvhs BVH2 f32 | obvhs CWBVH f32 |
+//! |---|---|---|---|
+//! | 1 k   | 0.0004, 1.22 M | 0.0005, 2.21 M | 0.0004, 2.47 M |
+//! | 100 k | 0.059, 0.41 M  | 0.066, 0.57 M  | 0.076, 0.76 M  |
+//! | 1 M   | 1.21, 0.21 M   | 1.03, 0.29 M   | 0.82, 0.58 M   |
+//!
+//! `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
+//! faster. It is not used because (1) it is f32 only: its boxes are rounded
+//! to nearest, not outward, and its traversal culls by f32 distances, so it
+//! cannot promise the f64 linear scan's answer (on the 1 M mesh its nearest
+//! triangle differed for 0.004 % of the rays), nor the tie rule the
+//! renderer's determinism relies on; (2) it needs glam ≥ 0.33 while the
+//! renderer uses glam 0.30 (a second glam, or an upgrade of every module);
+//! (3) analytic shapes would go through its closure API with f32 t. `bvh`
+//! pulls in nalgebra. The gap is the node width: an f64 four- or eight-wide
+//! BVH (collapsing this binary tree) is the next step if rays/s on big
+//! meshes matter more than they do for the booth (one mesh, a few thousand
+//! triangles in the Cornell box).
+
+use std::fmt;
+use std::sync::{Arc, OnceLock};
+
+use glam::DVec3;
+
+use super::geometry::{Aabb, Hit, Ray, Shape, ShearedRay};
+use super::scene::Primitive;
+
+/// Scenes with fewer primitives are traced by a linear scan: below this the
+/// scan is faster than a traversal. Measured: in `benches/bvh.rs`
+/// (`crossover`, a booth of walls and small mixed shapes) the two are equal
+/// at 16–24 primitives and the BVH is ~1.9× faster at 32; the booth scenes
+/// with a 24-patch chart (29 primitives) rendered 10 % slower with the BVH
+/// (`lightbooth render scenes/red.toml`, 1 thread, median of 7), so they
+/// keep the scan.
+pub const LINEAR_SCAN_BELOW: usize = 32;
+
+/// Centroid bins per axis of the binned SAH (Wald 2007 uses 16–32).
+pub const BINS: usize = 16;
+
+/// Leaves hold at most this many primitives (unless they are all alike).
+pub const MAX_LEAF: usize = 8;
+
+/// Cost of one node visit relative to one primitive test (the SAH's
+/// C_trav / C_isect). Measured, not guessed: on the 1 M-triangle torus of
+/// `benches/bvh.rs` a node visit is mostly a cache miss, and 4 (leaves of
+/// ~4 triangles, contiguous in memory) traced 1.5–1.7× faster than 1
+/// (leaves of ~2), at the same speed for 1 k triangles.
+const TRAVERSAL_COST: f64 = 4.0;
+
+/// Below this depth splits follow the SAH; deeper (a pathological scene),
+/// they halve the primitives, so the tree depth stays below [`STACK`].
+const MAX_SAH_DEPTH: usize = 64;
+
+/// Traversal stack entries: ≥ MAX_SAH_DEPTH + log₂ of any primitive count.
+const STACK: usize = 128;
+
+/// Subtrees with more primitives are built in parallel.
+pub const PARALLEL_BUILD_MIN: usize = 32 * 1024;
+
+/// Relative padding of every primitive's box (see the module doc).
+pub const PAD_RELATIVE: f64 = 1e-9;
+
+/// Marks a slot holding a triangle (its vertices are in the slot).
+const TRIANGLE_BIT: u32 = 1 << 31;
+
+/// An indexable list of shapes: the scene's primitives, or bare shapes.
+pub trait ShapeList {
+    fn len(&self) -> usize;
+    fn shape(&self, i: usize) -> &Shape;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl ShapeList for [Shape] {
+    #[inline]
+    fn len(&self) -> usize {
+        <[Shape]>::len(self)
+    }
+    #[inline]
+    fn shape(&self, i: usize) -> &Shape {
+        &self[i]
+    }
+}
+
+impl ShapeList for [Primitive] {
+    #[inline]
+    fn len(&self) -> usize {
+        <[Primitive]>::len(self)
+    }
+    #[inline]
+    fn shape(&self, i: usize) -> &Shape {
+        &self[i].shape
+    }
+}
+
+/// A node: its box, stored in f32 rounded outward (so it still contains the
+/// padded f64 box; 32 bytes, two siblings per 64-byte cache line).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+struct Node {
+    min: [f32; 3],
+    max: [f32; 3],
+    /// Leaf: first slot; interior: the pair holding its two children.
+    index: u32,
+    /// Leaf: number of slots (≥ 1); interior: 0.
+    count: u32,
+}
+
+/// Two siblings, aligned to a cache line: a visit tests both boxes at once.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+struct Pair([Node; 2]);
+
+/// The largest f32 ≤ x.
+fn f32_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f as f64 > x {
+        f.next_down()
+    } else {
+        f
+    }
+}
+
+/// The smallest f32 ≥ x.
+fn f32_up(x: f64) -> f32 {
+    let f = x as f32;
+    if (f as f64) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+impl Node {
+    fn new(b: &Aabb, index: u32, count: u32) -> Node {
+        Node {
+            min: b.min.to_array().map(f32_down),
+            max: b.max.to_array().map(f32_up),
+            index,
+            count,
+        }
+    }
+
+    /// The distance at which the ray enters this box, if it does before
+    /// `t_max` (slab test in f64; `inv` = 1/direction, ±∞ for zero
+    /// components; `f64::min`/`max` drop the NaN of 0·∞).
+    #[inline(always)]
+    fn entry(&self, o: DVec3, inv: DVec3, t_max: f64) -> Option<f64> {
+        let (min, max) = (self.min, self.max);
+        let (ax, bx) = ((min[0] as f64 - o.x) * inv.x, (max[0] as f64 - o.x) * inv.x);
+        let (ay, by) = ((min[1] as f64 - o.y) * inv.y, (max[1] as f64 - o.y) * inv.y);
+        let (az, bz) = ((min[2] as f64 - o.z) * inv.z, (max[2] as f64 - o.z) * inv.z);
+        let near = ax.min(bx).max(ay.min(by)).max(az.min(bz)).max(0.0);
+        let far = ax.max(bx).min(ay.max(by)).min(az.max(bz)).min(t_max);
+        if near <= far {
+            Some(near)
+        } else {
+            None
+        }
+    }
+}
+
+/// A leaf entry: the primitive index ([`TRIANGLE_BIT`] marks a triangle)
+/// and a triangle's vertices (zero for analytic shapes), 80 bytes.
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct Slot {
+    vertices: [DVec3; 3],
+    tagged: u32,
+}
+
+/// A primitive during the build: its padded box and index.
+#[derive(Clone, Copy, Debug)]
+struct BuildRef {
+    bounds: Aabb,
+    prim: u32,
+}
+
+/// A bounding volume hierarchy over a list of shapes (see the module doc).
+pub struct Bvh {
+    root: Node,
+    /// Children of the interior nodes, in depth-first order.
+    pairs: Vec<Pair>,
+    /// The leaves' primitives, each leaf a contiguous range.
+    slots: Vec<Slot>,
+    /// Of the boxes and triangles it was built from (see [`fingerprint`]).
+    fingerprint: u64,
+}
+
+impl fmt::Debug for Bvh {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Bvh")
+            .field("primitives", &self.slots.len())
+            .field("nodes", &self.node_count())
+            .finish()
+    }
+}
+
+/// The box of a shape as the BVH uses it: padded (see the module doc).
+fn padded_bounds(shape: &Shape) -> Aabb {
+    let b = shape.bounds();
+    let magnitude = b.min.abs().max(b.max.abs()).max_element();
+    let pad = DVec3::splat(PAD_RELATIVE * (1.0 + magnitude));
+    Aabb {
+        min: b.min - pad,
+        max: b.max + pad,
+    }
+}
+
+/// A hash of what a BVH depends on: every shape's box and every triangle's
+/// vertices (analytic shapes are tested through the list itself, so only
+/// their boxes matter). A cached BVH is reused only when this matches.
+pub fn fingerprint<S: ShapeList + ?Sized>(shapes: &S) -> u64 {
+    // FxHash's word mix (rustc's hasher): fast and plenty for change detection.
+    let mut h = shapes.len() as u64;
+    let mut mix = |x: f64| h = (h.rotate_left(5) ^ x.to_bits()).wrapping_mul(0x517c_c1b7_2722_0a95);
+    for i in 0..shapes.len() {
+        match *shapes.shape(i) {
+            Shape::Triangle { p0, p1, p2, .. } => {
+                for v in [p0, p1, p2] {
+                    v.to_array().into_iter().for_each(&mut mix);
+                }
+            }
+            ref s => {
+                let b = s.bounds();
+                b.min.to_array().into_iter().for_each(&mut mix);
+                b.max.to_array().into_iter().for_each(&mut mix);
+            }
+        }
+    }
+    h
+}
+
+impl Bvh {
+    /// Builds the hierarchy over `shapes` (deterministic: the same tree on
+    /// any number of threads).
+    ///
+    /// # Panics
+    /// With 2³¹ or more shapes (about 350 GB of primitives).
+    pub fn build<S: ShapeList + ?Sized>(shapes: &S) -> Bvh {
+        Self::build_with_fingerprint(shapes, fingerprint(shapes))
+    }
+
+    fn build_with_fingerprint<S: ShapeList + ?Sized>(shapes: &S, fingerprint: u64) -> Bvh {
+        let n = shapes.len();
+        assert!(n < TRIANGLE_BIT as usize, "a BVH holds fewer than 2^31 primitives");
+        let mut refs: Vec<BuildRef> = (0..n)
+            .map(|i| BuildRef {
+                bounds: padded_bounds(shapes.shape(i)),
+                prim: i as u32,
+            })
+            .collect();
+        let mut pairs = Vec::with_capacity(n / 2);
+        let root = if n == 0 {
+            Node::new(&Aabb::EMPTY, 0, 0)
+        } else {
+            build_subtree(&mut refs, 0, 0, &mut pairs)
+        };
+        pairs.shrink_to_fit();
+        let slots = refs
+            .iter()
+            .map(|r| match *shapes.shape(r.prim as usize) {
+                Shape::Triangle { p0, p1, p2, .. } => Slot {
+                    vertices: [p0, p1, p2],
+                    tagged: r.prim | TRIANGLE_BIT,
+                },
+                _ => Slot {
+                    vertices: [DVec3::ZERO; 3],
+                    tagged: r.prim,
+                },
+            })
+            .collect();
+        Bvh {
+            root,
+            pairs,
+            slots,
+            fingerprint,
+        }
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Number of nodes (interior and leaves).
+    pub fn node_count(&self) -> usize {
+        if self.slots.is_empty() {
+            0
+        } else {
+            1 + 2 * self.pairs.len()
+        }
+    }
+
+    /// Bytes held by the hierarchy (nodes and slots with triangle copies).
+    pub fn memory_bytes(&self) -> usize {
+        self.pairs.capacity() * std::mem::size_of::<Pair>() + self.slots.capacity() * std::mem::size_of::<Slot>()
+    }
+
+    /// Depth of the deepest leaf (the root alone has depth 1).
+    pub fn depth(&self) -> usize {
+        fn walk(pairs: &[Pair], n: &Node) -> usize {
+            if n.count > 0 {
+                1
+            } else {
+                let [a, b] = &pairs[n.index as usize].0;
+                1 + walk(pairs, a).max(walk(pairs, b))
+            }
+        }
+        if self.slots.is_empty() {
+            0
+        } else {
+            walk(&self.pairs, &self.root)
+        }
+    }
+
+    /// The nearest hit with RAY_EPSILON_M < t < t_max and its primitive
+    /// index: the linear scan's answer (smallest t; of equal t, the smallest
+    /// index). `shapes` must be the list the BVH was built from.
+    #[inline]
+    pub fn nearest<S: ShapeList + ?Sized>(&self, shapes: &S, ray: &Ray, t_max: f64) -> Option<(Hit, usize)> {
+        let o = ray.origin;
+        let inv = DVec3::ONE / ray.dir;
+        if self.slots.is_empty() || self.root.entry(o, inv, t_max).is_none() {
+            return None;
+        }
+        let sheared = ShearedRay::new(ray);
+        // The best so far: t, primitive, and the normal of an analytic hit.
+        let mut best_t = t_max;
+        let mut best_prim = u32::MAX;
+        let mut best_normal = DVec3::ZERO;
+        let mut stack = [(&self.root, 0f64); STACK];
+        let mut sp = 0;
+        let mut node = &self.root;
+        loop {
+            if node.count > 0 {
+                for slot in node.index as usize..(node.index + node.count) as usize {
+                    let Slot { vertices, tagged } = self.slots[slot];
+                    let prim = tagged & !TRIANGLE_BIT;
+                    // Once there is a hit, t = best_t passes too (next_up), so
+                    // an equal t can win on its smaller index.
+                    let limit = if best_prim == u32::MAX {
+                        best_t
+                    } else {
+                        best_t.next_up()
+                    };
+                    let hit = if tagged & TRIANGLE_BIT != 0 {
+                        let [p0, p1, p2] = vertices;
+                        sheared.intersect_triangle(p0, p1, p2, limit).map(|t| (t, DVec3::ZERO))
+                    } else {
+                        shapes
+                            .shape(prim as usize)
+                            .intersect(ray, limit)
+                            .map(|h| (h.t, h.normal))
+                    };
+                    if let Some((t, normal)) = hit {
+                        if t < best_t || (t == best_t && prim < best_prim) {
+                            best_t = t;
+                            best_prim = prim;
+                            best_normal = normal;
+                        }
+                    }
+                }
+            } else {
+                let [a, b] = &self.pairs[node.index as usize].0;
+                let ta = a.entry(o, inv, best_t);
+                let tb = b.entry(o, inv, best_t);
+                match (ta, tb) {
+                    (Some(ta), Some(tb)) => {
+                        let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
+                        stack[sp] = (far, t_far);
+                        sp += 1;
+                        node = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = a;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = b;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            // Pop the next subtree entered no later than the best hit.
+            loop {
+                if sp == 0 {
+                    if best_prim == u32::MAX {
+                        return None;
+                    }
+                    let normal = match *shapes.shape(best_prim as usize) {
+                        Shape::Triangle { normal, .. } => normal,
+                        _ => best_normal,
+                    };
+                    return Some((Hit { t: best_t, normal }, best_prim as usize));
+                }
+                sp -= 1;
+                let (next, t_enter) = stack[sp];
+                if t_enter <= best_t {
+                    node = next;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// True when some primitive is hit with RAY_EPSILON_M < t < t_max (a
+    /// shadow ray: the first hit ends the search).
+    #[inline]
+    pub fn occluded<S: ShapeList + ?Sized>(&self, shapes: &S, ray: &Ray, t_max: f64) -> bool {
+        let o = ray.origin;
+        let inv = DVec3::ONE / ray.dir;
+        if self.slots.is_empty() || self.root.entry(o, inv, t_max).is_none() {
+            return false;
+        }
+        let sheared = ShearedRay::new(ray);
+        let mut stack = [&self.root; STACK];
+        let mut sp = 0;
+        let mut node = &self.root;
+        loop {
+            if node.count > 0 {
+                for slot in node.index as usize..(node.index + node.count) as usize {
+                    let Slot { vertices, tagged } = self.slots[slot];
+                    let hit = if tagged & TRIANGLE_BIT != 0 {
+                        let [p0, p1, p2] = vertices;
+                        sheared.intersect_triangle(p0, p1, p2, t_max).is_some()
+                    } else {
+                        shapes.shape(tagged as usize).intersect(ray, t_max).is_some()
+                    };
+                    if hit {
+                        return true;
+                    }
+                }
+            } else {
+                let [a, b] = &self.pairs[node.index as usize].0;
+                let ta = a.entry(o, inv, t_max);
+                let tb = b.entry(o, inv, t_max);
+                match (ta, tb) {
+                    (Some(ta), Some(tb)) => {
+                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
+                        stack[sp] = far;
+                        sp += 1;
+                        node = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = a;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = b;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            node = stack[sp];
+        }
+    }
+}
+
+/// How a node is split.
+enum Split {
+    Leaf,
+    /// Centroid bin (of [`BINS`] over `[lo, lo + BINS/scale)`) on `axis` ≤ `bin` goes left.
+    Bin {
+        axis: usize,
+        lo: f64,
+        scale: f64,
+        bin: usize,
+    },
+    /// The first half by position (all centroids equal, or too deep).
+    Middle,
+}
+
+/// The centroid bin of a box along an axis.
+#[inline(always)]
+fn bin_of(b: &Aabb, axis: usize, lo: f64, scale: f64) -> usize {
+    let c = (b.min[axis] + b.max[axis]) * 0.5;
+    (((c - lo) * scale) as usize).min(BINS - 1)
+}
+
+/// Builds the subtree over `refs` (slots `first_slot..`) at `depth`: returns
+/// its root node and appends the pairs below it to `pairs`, depth first.
+fn build_subtree(refs: &mut [BuildRef], first_slot: u32, depth: usize, pairs: &mut Vec<Pair>) -> Node {
+    let n = refs.len();
+    let mut bounds = Aabb::EMPTY;
+    let mut centroids = Aabb::EMPTY;
+    for r in refs.iter() {
+        bounds = bounds.union(r.bounds);
+        centroids = centroids.union_point(r.bounds.centroid());
+    }
+    let mid = match choose_split(refs, &bounds, &centroids, depth) {
+        Split::Leaf => return Node::new(&bounds, first_slot, n as u32),
+        Split::Middle => {
+            if depth >= MAX_SAH_DEPTH {
+                // Object median on the widest centroid axis keeps the halves compact.
+                let axis = (centroids.max - centroids.min).max_position();
+                refs.select_nth_unstable_by(n / 2, |a, b| {
+                    a.bounds.centroid()[axis]
+                        .total_cmp(&b.bounds.centroid()[axis])
+                        .then(a.prim.cmp(&b.prim))
+                });
+            }
+            n / 2
+        }
+        Split::Bin { axis, lo, scale, bin } => partition(refs, |r| bin_of(&r.bounds, axis, lo, scale) <= bin),
+    };
+    let (left, right) = refs.split_at_mut(mid);
+    let right_slot = first_slot + mid as u32;
+    let me = pairs.len();
+    pairs.push(Pair::default());
+    let children = if n >= PARALLEL_BUILD_MIN {
+        // Each half into its own list (pair indices from 0), appended in the
+        // sequential order: the same tree on any number of threads.
+        let ((a, pa), (b, pb)) = rayon::join(
+            || {
+                let mut v = Vec::new();
+                (build_subtree(left, first_slot, depth + 1, &mut v), v)
+            },
+            || {
+                let mut v = Vec::new();
+                (build_subtree(right, right_slot, depth + 1, &mut v), v)
+            },
+        );
+        [append_shifted(pairs, a, pa), append_shifted(pairs, b, pb)]
+    } else {
+        let a = build_subtree(left, first_slot, depth + 1, pairs);
+        let b = build_subtree(right, right_slot, depth + 1, pairs);
+        [a, b]
+    };
+    pairs[me] = Pair(children);
+    Node::new(&bounds, me as u32, 0)
+}
+
+/// Appends the pairs of a subtree built on its own (pair indices from 0),
+/// shifting the interior nodes' pair indices (and its root's) to their new place.
+fn append_shifted(pairs: &mut Vec<Pair>, mut root: Node, sub: Vec<Pair>) -> Node {
+    let base = pairs.len() as u32;
+    let shift = |n: &mut Node| {
+        if n.count == 0 {
+            n.index += base;
+        }
+    };
+    shift(&mut root);
+    pairs.extend(sub.into_iter().map(|mut p| {
+        p.0.iter_mut().for_each(shift);
+        p
+    }));
+    root
+}
+
+/// Moves the refs for which `left` holds to the front (stable order is not
+/// needed, only determinism); returns how many there are.
+fn partition(refs: &mut [BuildRef], left: impl Fn(&BuildRef) -> bool) -> usize {
+    let mut i = 0;
+    let mut j = refs.len();
+    while i < j {
+        if left(&refs[i]) {
+            i += 1;
+        } else {
+            j -= 1;
+            refs.swap(i, j);
+        }
+    }
+    i
+}
+
+/// The binned-SAH decision for one node (Wald 2007).
+fn choose_split(refs: &[BuildRef], bounds: &Aabb, centroids: &Aabb, depth: usize) -> Split {
+    let n = refs.len();
+    if n == 1 {
+        return Split::Leaf;
+    }
+    if depth >= MAX_SAH_DEPTH {
+        return Split::Middle;
+    }
+    let extent = centroids.max - centroids.min;
+    #[derive(Clone, Copy)]
+    struct Bin {
+        bounds: Aabb,
+        count: usize,
+    }
+    let empty = Bin {
+        bounds: Aabb::EMPTY,
+        count: 0,
+    };
+    let mut bins = [[empty; BINS]; 3];
+    let mut scale = [0.0; 3];
+    for axis in 0..3 {
+        if extent[axis] > 0.0 {
+            scale[axis] = BINS as f64 / extent[axis];
+        }
+    }
+    if scale == [0.0; 3] {
+        // Every centroid is the same point: nothing to sort by.
+        return if n <= MAX_LEAF { Split::Leaf } else { Split::Middle };
+    }
+    let lo = centroids.min;
+    for r in refs {
+        for axis in 0..3 {
+            if scale[axis] > 0.0 {
+                let b = &mut bins[axis][bin_of(&r.bounds, axis, lo[axis], scale[axis])];
+                b.bounds = b.bounds.union(r.bounds);
+                b.count += 1;
+            }
+        }
+    }
+    // Sweep: cost of splitting after bin i = A_L·N_L + A_R·N_R.
+    let mut best: Option<(f64, usize, usize)> = None;
+    for axis in 0..3 {
+        if scale[axis] == 0.0 {
+            continue;
+        }
+        let bins = &bins[axis];
+        let mut right_area = [0.0; BINS];
+        let mut acc = Aabb::EMPTY;
+        let mut right_count = [0usize; BINS];
+        let mut count = 0;
+        for i in (1..BINS).rev() {
+            acc = acc.union(bins[i].bounds);
+            count += bins[i].count;
+            right_area[i] = acc.half_area();
+            right_count[i] = count;
+        }
+        let mut acc = Aabb::EMPTY;
+        let mut count = 0;
+        for i in 0..BINS - 1 {
+            acc = acc.union(bins[i].bounds);
+            count += bins[i].count;
+            if count == 0 || right_count[i + 1] == 0 {
+                continue;
+            }
+            let cost = acc.half_area() * count as f64 + right_area[i + 1] * right_count[i + 1] as f64;
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, i));
+            }
+        }
+    }
+    let Some((cost, axis, bin)) = best else {
+        return if n <= MAX_LEAF { Split::Leaf } else { Split::Middle };
+    };
+    let split_cost = TRAVERSAL_COST + cost / bounds.half_area();
+    if n <= MAX_LEAF && n as f64 <= split_cost {
+        return Split::Leaf;
+    }
+    Split::Bin {
+        axis,
+        lo: lo[axis],
+        scale: scale[axis],
+        bin,
+    }
+}
+
+/// A scene's BVH, built on first use and shared by every render of the
+/// scene and of its clones (the study renders one scene many times).
+///
+/// It is reused only while the primitives' boxes and triangles are those it
+/// was built from (checked by [`fingerprint`] on every use, O(n)); a scene
+/// whose geometry was changed in place gets a fresh, uncached BVH.
+#[derive(Clone, Default)]
+pub struct BvhCache(OnceLock<Arc<Bvh>>);
+
+impl fmt::Debug for BvhCache {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0.get() {
+            Some(b) => write!(f, "BvhCache({b:?})"),
+            None => f.write_str("BvhCache(not built)"),
+        }
+    }
+}
+
+impl BvhCache {
+    /// The BVH of `shapes`: the cached one when it matches, else a new one
+    /// (cached when nothing is yet).
+    pub fn get_or_build<S: ShapeList + ?Sized>(&self, shapes: &S) -> Arc<Bvh> {
+        let fp = fingerprint(shapes);
+        let cached = self.0.get_or_init(|| Arc::new(Bvh::build_with_fingerprint(shapes, fp)));
+        if cached.fingerprint == fp {
+            Arc::clone(cached)
+        } else {
+            Arc::new(Bvh::build_with_fingerprint(shapes, fp))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::*;
+    use crate::render::geometry::RAY_EPSILON_M;
+    use crate::render::integrator::Pcg32;
+
+    fn uniform_in(rng: &mut Pcg32, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * rng.uniform()
+    }
+
+    fn point_in(rng: &mut Pcg32, lo: f64, hi: f64) -> DVec3 {
+        DVec3::new(
+            uniform_in(rng, lo, hi),
+            uniform_in(rng, lo, hi),
+            uniform_in(rng, lo, hi),
+        )
+    }
+
+    fn unit_vector(rng: &mut Pcg32) -> DVec3 {
+        loop {
+            let v = point_in(rng, -1.0, 1.0);
+            let l2 = v.length_squared();
+            if l2 > 1e-6 && l2 <= 1.0 {
+                return v / l2.sqrt();
+            }
+        }
+    }
+
+    /// A random soup of every kind of shape in a 1 m cube, with exact
+    /// duplicates (equal t on different primitives: the tie rule).
+    fn mixed_soup(rng: &mut Pcg32, n: usize) -> Vec<Shape> {
+        let mut shapes: Vec<Shape> = Vec::new();
+        while shapes.len() < n {
+            let c = point_in(rng, -0.5, 0.5);
+            let size = uniform_in(rng, 0.005, 0.15);
+            let s = match shapes.len() % 6 {
+                0 => Shape::quad(c, unit_vector(rng) * size, unit_vector(rng) * size),
+                1 => Shape::Disc {
+                    centre: c,
+                    normal: unit_vector(rng),
+                    radius: size,
+                },
+                2 => Shape::Sphere {
+                    centre: c,
+                    radius: size,
+                },
+                3 => Shape::Cylinder {
+                    base: c,
+                    axis: unit_vector(rng),
+                    length: 2.0 * size,
+                    radius: 0.5 * size,
+                },
+                4 => match Shape::triangle(c, c + unit_vector(rng) * size, c + unit_vector(rng) * size) {
+                    Some(t) => t,
+                    None => continue,
+                },
+                _ => match shapes.last() {
+                    // An axis-aligned quad (a flat box), then a duplicate of some shape.
+                    Some(_) if rng.uniform() < 0.5 => shapes[(rng.next_u32() as usize) % shapes.len()].clone(),
+                    _ => Shape::quad(c, DVec3::X * size, DVec3::Z * size),
+                },
+            };
+            shapes.push(s);
+        }
+        shapes
+    }
+
+    /// The list of record: every shape in order, the first of equal t wins.
+    fn brute_nearest(shapes: &[Shape], ray: &Ray, t_max: f64) -> Option<(Hit, usize)> {
+        let mut best: Option<(Hit, usize)> = None;
+        let mut limit = t_max;
+        for (i, s) in shapes.iter().enumerate() {
+            if let Some(h) = s.intersect(ray, limit) {
+                limit = h.t;
+                best = Some((h, i));
+            }
+        }
+        best
+    }
+
+    /// Rays of every kind: random, and aimed exactly at corners, vertices and
+    /// centres of the shapes (the boundaries where a box could wrongly cull).
+    fn soup_rays(rng: &mut Pcg32, shapes: &[Shape], n: usize) -> Vec<Ray> {
+        (0..n)
+            .map(|i| {
+                let origin = point_in(rng, -0.8, 0.8);
+                let aim = match (i % 3, &shapes[(rng.next_u32() as usize) % shapes.len()]) {
+                    (0, _) => origin + unit_vector(rng),
+                    (1, Shape::Quad { corner, u, v, .. }) => *corner + *u * (rng.next_u32() % 2) as f64 + *v,
+                    (1, Shape::Triangle { p0, p1, p2, .. }) => [*p0, *p1, *p2][(rng.next_u32() % 3) as usize],
+                    (_, s) => s.bounds().centroid(),
+                };
+                Ray {
+                    origin,
+                    dir: (aim - origin).normalize(),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn bvh_nearest_hit_equals_the_linear_scan_over_a_random_soup_of_mixed_shapes() {
+        let mut rng = Pcg32::new(11, 1);
+        for &n in &[1usize, 2, 7, 40, 600, 3000] {
+            let shapes = mixed_soup(&mut rng, n);
+            let bvh = Bvh::build(&shapes[..]);
+            assert_eq!(bvh.len(), n);
+            let mut hits = 0;
+            let mut ties = 0;
+            for ray in soup_rays(&mut rng, &shapes, 4000) {
+                for t_max in [f64::INFINITY, uniform_in(&mut rng, 0.0, 1.0)] {
+                    let want = brute_nearest(&shapes, &ray, t_max);
+                    let got = bvh.nearest(&shapes[..], &ray, t_max);
+                    match (want, got) {
+                        (None, None) => {}
+                        (Some((wh, wi)), Some((gh, gi))) => {
+                            assert_eq!(
+                                (wh.t.to_bits(), wi, wh.normal.to_array().map(f64::to_bits)),
+                                (gh.t.to_bits(), gi, gh.normal.to_array().map(f64::to_bits)),
+                                "n = {n}, ray {ray:?}, t_max {t_max}"
+                            );
+                            hits += 1;
+                            ties += shapes
+                                .iter()
+                                .skip(wi + 1)
+                                .filter(|s| s.intersect(&ray, wh.t.next_up()).is_some_and(|h| h.t == wh.t))
+                                .count();
+                        }
+                        _ => panic!("n = {n}, ray {ray:?}, t_max {t_max}: linear {want:?}, BVH {got:?}"),
+                    }
+                    let any = shapes.iter().any(|s| s.intersect(&ray, t_max).is_some());
+                    assert_eq!(bvh.occluded(&shapes[..], &ray, t_max), any, "n = {n}, ray {ray:?}");
+                }
+            }
+            // The soup must exercise hits and, once big enough, equal-t ties.
+            assert!(hits > 100 || n < 7, "n = {n}: only {hits} hits");
+            if n >= 600 {
+                assert!(ties > 0, "n = {n}: no tie between duplicates was tested");
+                assert!(bvh.depth() < 40, "n = {n}: depth {}", bvh.depth());
+            }
+        }
+    }
+
+    #[test]
+    fn a_scene_traced_through_the_bvh_renders_bit_identically_to_the_linear_scan() {
+        use crate::render::scene::Primitive;
+        use crate::render::{load_scene, render, Coding, RenderSettings};
+        // CYLINDER (9 primitives: the linear scan) and the same scene with
+        // 40 triangles under its floor, where no path can reach them (every
+        // path starts inside the booth): over LINEAR_SCAN_BELOW, so it is
+        // traced through the BVH, and every nearest hit must be the same.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cylinder.toml");
+        let scene = load_scene(&path).unwrap();
+        assert!(scene.primitives.len() < LINEAR_SCAN_BELOW);
+        let mut with_mesh = scene.clone();
+        for i in 0..40 {
+            let x = -1.0 + 0.05 * i as f64;
+            let tri = Shape::triangle(
+                DVec3::new(x, -0.5, -1.0),
+                DVec3::new(x + 0.04, -0.5, -1.0),
+                DVec3::new(x, -0.5, 1.0),
+            )
+            .unwrap();
+            with_mesh.primitives.push(Primitive {
+                shape: tri,
+                ..scene.primitives[0].clone()
+            });
+        }
+        assert!(with_mesh.primitives.len() >= LINEAR_SCAN_BELOW);
+        let settings = |threads| RenderSettings {
+            codings: vec![Coding::Rgb, Coding::NStep(9), Coding::Spectral],
+            samples: 2048,
+            targets: Some(vec!["h01".into(), "h11".into(), "h21".into()]),
+            threads: Some(threads),
+            target_relative_se: None,
+            seed: 7,
+            ..RenderSettings::default()
+        };
+        let json = |r: &crate::render::RenderResult| serde_json::to_string(&r.targets).unwrap();
+        let linear = json(&render(&scene, &settings(2), None).unwrap());
+        for threads in [1, 2] {
+            let bvh = json(&render(&with_mesh, &settings(threads), None).unwrap());
+            assert_eq!(bvh, linear, "{threads} threads");
+        }
+    }
+
+    #[test]
+    fn bvh_of_nothing_finds_nothing() {
+        let bvh = Bvh::build(&[][..] as &[Shape]);
+        let ray = Ray {
+            origin: DVec3::ZERO,
+            dir: DVec3::X,
+        };
+        assert!(bvh.nearest(&[][..] as &[Shape], &ray, f64::INFINITY).is_none());
+        assert!(!bvh.occluded(&[][..] as &[Shape], &ray, f64::INFINITY));
+    }
+
+    /// A displaced grid of `n`×`n` quads, each split into two triangles.
+    fn grid(n: usize, rng: &mut Pcg32) -> Vec<Shape> {
+        let z: Vec<f64> = (0..(n + 1) * (n + 1)).map(|_| 0.01 * rng.uniform()).collect();
+        let v = |i: usize, j: usize| DVec3::new(i as f64 / n as f64, z[i * (n + 1) + j], j as f64 / n as f64);
+        let mut out = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                out.extend(Shape::triangle(a, b, c));
+                out.extend(Shape::triangle(a, c, d));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn bvh_is_the_same_tree_on_one_and_two_threads() {
+        // Big enough for the parallel build (PARALLEL_BUILD_MIN) to split.
+        let shapes = grid(200, &mut Pcg32::new(3, 3));
+        assert!(shapes.len() > 2 * PARALLEL_BUILD_MIN);
+        let build_on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| Bvh::build(&shapes[..]))
+        };
+        let dump = |b: &Bvh| -> Vec<u64> {
+            std::iter::once(&b.root)
+                .chain(b.pairs.iter().flat_map(|p| &p.0))
+                .flat_map(|n| {
+                    let mut v: Vec<u64> = n.min.into_iter().chain(n.max).map(|x| x.to_bits() as u64).collect();
+                    v.push(((n.index as u64) << 32) | n.count as u64);
+                    v
+                })
+                .chain(b.slots.iter().map(|s| s.tagged as u64))
+                .collect()
+        };
+        let (one, two) = (build_on(1), build_on(2));
+        assert_eq!(dump(&one), dump(&two));
+        // Every primitive sits in exactly one leaf.
+        let mut seen = vec![false; shapes.len()];
+        for s in &one.slots {
+            let p = (s.tagged & !TRIANGLE_BIT) as usize;
+            assert!(!seen[p]);
+            seen[p] = true;
+        }
+        assert!(seen.iter().all(|&s| s));
+    }
+
+    #[test]
+    fn the_cache_rebuilds_when_the_geometry_changes() {
+        let mut shapes = grid(10, &mut Pcg32::new(5, 5));
+        let cache = BvhCache::default();
+        let first = cache.get_or_build(&shapes[..]);
+        assert!(Arc::ptr_eq(&first, &cache.get_or_build(&shapes[..])));
+        // Move one triangle up by 1 m: a ray from above must find it there.
+        if let Shape::Triangle { p0, p1, p2, .. } = shapes[7] {
+            shapes[7] = Shape::triangle(p0 + DVec3::Y, p1 + DVec3::Y, p2 + DVec3::Y).unwrap();
+        }
+        let second = cache.get_or_build(&shapes[..]);
+        assert!(!Arc::ptr_eq(&first, &second));
+        let Shape::Triangle { p0, p1, p2, .. } = shapes[7] else {
+            unreachable!()
+        };
+        let aim = (p0 + p1 + p2) / 3.0;
+        let ray = Ray {
+            origin: aim + DVec3::Y,
+            dir: -DVec3::Y,
+        };
+        assert_eq!(second.nearest(&shapes[..], &ray, f64::INFINITY).map(|h| h.1), Some(7));
+    }
+
+    /// An icosahedron subdivided `levels` times and projected on the unit
+    /// sphere: a closed mesh whose neighbours share vertices exactly.
+    fn icosphere(levels: usize) -> (Vec<DVec3>, Vec<[usize; 3]>) {
+        let g = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut v: Vec<DVec3> = [
+            (-1.0, g, 0.0),
+            (1.0, g, 0.0),
+            (-1.0, -g, 0.0),
+            (1.0, -g, 0.0),
+            (0.0, -1.0, g),
+            (0.0, 1.0, g),
+            (0.0, -1.0, -g),
+            (0.0, 1.0, -g),
+            (g, 0.0, -1.0),
+            (g, 0.0, 1.0),
+            (-g, 0.0, -1.0),
+            (-g, 0.0, 1.0),
+        ]
+        .iter()
+        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+        .collect();
+        let mut f: Vec<[usize; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..levels {
+            let mut mid: HashMap<(usize, usize), usize> = HashMap::new();
+            let mut m = |a: usize, b: usize, v: &mut Vec<DVec3>| {
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    v.push(((v[a] + v[b]) * 0.5).normalize());
+                    v.len() - 1
+                })
+            };
+            f = f
+                .iter()
+                .flat_map(|&[a, b, c]| {
+                    let (ab, bc, ca) = (m(a, b, &mut v), m(b, c, &mut v), m(c, a, &mut v));
+                    [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+                })
+                .collect();
+        }
+        (v, f)
+    }
+
+    /// Möller & Trumbore (1997) with the usual barycentric bounds: not
+    /// watertight (each triangle rounds its own edge test), the control that
+    /// shows the watertightness tests can fail.
+    fn moller_trumbore(ray: &Ray, p0: DVec3, p1: DVec3, p2: DVec3) -> bool {
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let p = ray.dir.cross(e2);
+        let det = e1.dot(p);
+        if det == 0.0 {
+            return false;
+        }
+        let inv = 1.0 / det;
+        let s = ray.origin - p0;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return false;
+        }
+        let q = s.cross(e1);
+        let v = ray.dir.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return false;
+        }
+        e2.dot(q) * inv > RAY_EPSILON_M
+    }
+
+    /// Rays from `origins` aimed exactly at the points at `fractions` along
+    /// every edge (p, q) (0: at p).
+    fn edge_rays(v: &[DVec3], edges: &[(usize, usize)], origins: &[DVec3], fractions: &[f64]) -> Vec<Ray> {
+        let mut rays = Vec::new();
+        for &o in origins {
+            for &(p, q) in edges {
+                for &s in fractions {
+                    let aim = v[p] + (v[q] - v[p]) * s;
+                    rays.push(Ray {
+                        origin: o,
+                        dir: (aim - o).normalize(),
+                    });
+                }
+            }
+        }
+        rays
+    }
+
+    /// (escapes of the watertight test through the BVH, of Möller–Trumbore).
+    fn escapes(v: &[DVec3], faces: &[[usize; 3]], rays: &[Ray]) -> (usize, usize) {
+        let shapes: Vec<Shape> = faces
+            .iter()
+            .map(|&[a, b, c]| Shape::triangle(v[a], v[b], v[c]).unwrap())
+            .collect();
+        let bvh = Bvh::build(&shapes[..]);
+        let watertight = rays
+            .iter()
+            .filter(|r| {
+                bvh.nearest(&shapes[..], r, f64::INFINITY).is_none() || !bvh.occluded(&shapes[..], r, f64::INFINITY)
+            })
+            .count();
+        let mt = rays
+            .iter()
+            .filter(|r| !faces.iter().any(|&[a, b, c]| moller_trumbore(r, v[a], v[b], v[c])))
+            .count();
+        (watertight, mt)
+    }
+
+    #[test]
+    fn rays_at_shared_edges_and_vertices_of_a_closed_mesh_never_escape() {
+        // Ray origins inside the sphere of radius 1 (the mesh lies on it).
+        let (v, faces) = icosphere(3);
+        assert_eq!(faces.len(), 1280);
+        let mut rng = Pcg32::new(7, 7);
+        let mut origins = vec![DVec3::ZERO, DVec3::new(0.1, -0.2, 0.3)];
+        origins.extend((0..4).map(|_| point_in(&mut rng, -0.5, 0.5)));
+        let edges: Vec<(usize, usize)> = faces.iter().flat_map(|&[a, b, c]| [(a, b), (b, c), (c, a)]).collect();
+        let rays = edge_rays(&v, &edges, &origins, &[0.0, 0.1, 1.0 / 3.0, 0.5, 0.7, 0.999]);
+        let (watertight, mt) = escapes(&v, &faces, &rays);
+        assert_eq!(
+            watertight,
+            0,
+            "{watertight} of {} rays escaped the closed mesh",
+            rays.len()
+        );
+        // The same rays find cracks in a non-watertight test: the test has teeth.
+        assert!(mt > 0, "Möller–Trumbore found no crack: these rays would not catch one");
+    }
+
+    #[test]
+    fn rays_at_the_diagonal_of_cornell_quads_split_in_two_triangles_never_escape() {
+        // The Cornell box's (slightly non-planar) walls and blocks in m,
+        // each quad (v0, v1, v2, v3) as (v0, v1, v2), (v0, v2, v3).
+        let quads_mm = [
+            [
+                [552.8, 0.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 559.2],
+                [549.6, 0.0, 559.2],
+            ],
+            [
+                [556.0, 548.8, 0.0],
+                [556.0, 548.8, 559.2],
+                [0.0, 548.8, 559.2],
+                [0.0, 548.8, 0.0],
+            ],
+            [
+                [549.6, 0.0, 559.2],
+                [0.0, 0.0, 559.2],
+                [0.0, 548.8, 559.2],
+                [556.0, 548.8, 559.2],
+            ],
+            [
+                [0.0, 0.0, 559.2],
+                [0.0, 0.0, 0.0],
+                [0.0, 548.8, 0.0],
+                [0.0, 548.8, 559.2],
+            ],
+            [
+                [552.8, 0.0, 0.0],
+                [549.6, 0.0, 559.2],
+                [556.0, 548.8, 559.2],
+                [556.0, 548.8, 0.0],
+            ],
+            [
+                [130.0, 165.0, 65.0],
+                [82.0, 165.0, 225.0],
+                [240.0, 165.0, 272.0],
+                [290.0, 165.0, 114.0],
+            ],
+            [
+                [130.0, 0.0, 65.0],
+                [130.0, 165.0, 65.0],
+                [290.0, 165.0, 114.0],
+                [290.0, 0.0, 114.0],
+            ],
+            [
+                [423.0, 330.0, 247.0],
+                [265.0, 330.0, 296.0],
+                [314.0, 330.0, 456.0],
+                [472.0, 330.0, 406.0],
+            ],
+            [
+                [265.0, 0.0, 296.0],
+                [265.0, 330.0, 296.0],
+                [423.0, 330.0, 247.0],
+                [423.0, 0.0, 247.0],
+            ],
+        ];
+        let mut v = Vec::new();
+        let mut faces = Vec::new();
+        let mut diagonals = Vec::new();
+        for q in quads_mm {
+            let k = v.len();
+            v.extend(q.map(|p| DVec3::from(p) * 1e-3));
+            faces.push([k, k + 1, k + 2]);
+            faces.push([k, k + 2, k + 3]);
+            diagonals.push((k, k + 2));
+        }
+        // From inside the box and from the camera in front of it (mm → m).
+        let origins = [
+            [278.0, 273.0, 279.6],
+            [278.0, 273.0, -800.0],
+            [100.0, 400.0, 500.0],
+            [500.0, 50.0, 20.0],
+        ]
+        .map(|p| DVec3::from(p) * 1e-3);
+        // Points strictly inside the diagonal (v0, v2) (its ends are the
+        // quad's outer corners, shared with nothing here).
+        let fractions: Vec<f64> = (1..40)
+            .map(|k| k as f64 / 40.0)
+            .chain([1e-6, 0.3, 1.0 - 1e-9])
+            .collect();
+        let rays = edge_rays(&v, &diagonals, &origins, &fractions);
+        let (watertight, mt) = escapes(&v, &faces, &rays);
+        assert_eq!(
+            watertight,
+            0,
+            "{watertight} of {} rays escaped through a diagonal",
+            rays.len()
+        );
+        assert!(mt > 0, "Möller–Trumbore found no crack: these rays would not catch one");
+    }
+}
