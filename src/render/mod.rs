@@ -6,7 +6,8 @@
 //!   volume hierarchy that finds a ray's nearest primitive.
 //! - [`coding`]: the channel layout that carries rgb, srgb, nstepN and
 //!   spectral in one vector per path.
-//! - [`integrator`]: path tracing with next-event estimation.
+//! - [`integrator`]: path tracing with next-event estimation;
+//!   [`area_light`]: choosing points on emitting triangles, for it.
 //! - [`sensor`]: the camera image for the dashboard.
 //!
 //! The public entry points:
