@@ -264,7 +264,7 @@ fn the_f11_variant_loads_and_stays_out_of_the_daemon_list() {
         .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
         .collect();
     listed.sort();
-    assert_eq!(listed, ["blue", "cylinder", "green", "red", "white"]);
+    assert_eq!(listed, ["blue", "cornell_box", "cylinder", "green", "red", "white"]);
     let (c, f) = (scene("cylinder.toml"), scene("variants/cylinder_f11.toml"));
     assert_eq!(c.targets(), f.targets());
     assert_eq!(c.materials.len(), f.materials.len());

@@ -348,12 +348,15 @@ async function loadSceneDetail(id) {
   const done = renders.find((r) => r.state === "complete");
   const preview = $("scene-preview");
   preview.hidden = !done;
-  // Never leave the previous scene's caption under this one.
+  // Never leave the previous scene's caption under this one, nor let its
+  // image, loading late, write one.
+  preview.onload = null;
   $("preview-caption").textContent = done ? "" : "No complete render of this scene yet: no camera view.";
   if (done) {
     // Paths per pixel as the daemon chooses them (src/render/sensor.rs,
     // preview_spp): a 20 million path budget over the pixels, 16 to 1024.
     preview.onload = () => {
+      if (openScene !== id) return;
       const spp = Math.min(1024, Math.max(16, Math.floor(20e6 / (preview.naturalWidth * preview.naturalHeight))));
       $("preview-caption").textContent =
         `Camera view of render ${done.id} (sRGB coding, ${spp} paths per pixel, not denoised). ` +
