@@ -336,6 +336,7 @@ async function loadSceneDetail(id) {
   $("scene-csv").href = `/api/scenes/${id}/comparisons.csv`;
   $("scene-mat").href = `/api/scenes/${id}/comparisons.mat`;
   const c = await api(`/api/scenes/${id}/comparisons`);
+  if (openScene !== id) return; // another scene was opened meanwhile
   const tbody = document.querySelector("#coding-table tbody");
   tbody.innerHTML = "";
   for (const r of c.codings) {
@@ -344,6 +345,7 @@ async function loadSceneDetail(id) {
       `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4)]) tr.insertCell().textContent = v;
   }
   const renders = await api(`/api/scenes/${id}/renders`);
+  if (openScene !== id) return;
   showRenderJobs(renders);
   const done = renders.find((r) => r.state === "complete");
   const preview = $("scene-preview");
