@@ -113,7 +113,11 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
     charts::profile_chart(
         &format!("{}: luminance along the targets (±1 SE of the render)", c.scene),
         &info.targets,
-        "target (scene order; CYLINDER hNN: NN cm above the card)",
+        if c.scene == "cylinder" {
+            "target (scene order; hNN: NN cm above the card)"
+        } else {
+            "target (scene order)"
+        },
         "luminance Y (cd/m²)",
         &series,
     )
