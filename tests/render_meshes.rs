@@ -5,81 +5,16 @@
 //! Monte Carlo tolerances are the stated percentage plus 4 reported standard
 //! errors (seeds are fixed, so the outcome is deterministic).
 
-use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use lightbooth::render::{load_scene, render, Coding, RenderSettings};
 
-/// An icosphere of radius `r` around the origin: the icosahedron's faces
-/// split `levels` times, every new vertex pushed onto the sphere. Faces are
-/// ordered counter-clockwise seen from outside.
-fn icosphere(r: f64, levels: u32) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut v: Vec<[f64; 3]> = vec![
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ];
-    let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let unit = |p: [f64; 3]| {
-        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        [p[0] / l, p[1] / l, p[2] / l]
-    };
-    for p in v.iter_mut() {
-        *p = unit(*p);
-    }
-    for _ in 0..levels {
-        let mut mid: HashMap<(usize, usize), usize> = HashMap::new();
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let mut m = |i: usize, j: usize| {
-                *mid.entry((i.min(j), i.max(j))).or_insert_with(|| {
-                    let p = unit([
-                        (v[i][0] + v[j][0]) / 2.0,
-                        (v[i][1] + v[j][1]) / 2.0,
-                        (v[i][2] + v[j][2]) / 2.0,
-                    ]);
-                    v.push(p);
-                    v.len() - 1
-                })
-            };
-            let (ab, bc, ca) = (m(a, b), m(b, c), m(c, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v.into_iter().map(|p| p.map(|c| c * r)).collect(), f)
+/// An icosphere of radius `r` around the origin (the library's mesh of
+/// 20·4^levels triangles), as OBJ-ready vertex coordinates and faces.
+fn icosphere(r: f64, levels: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let (v, f) = lightbooth::render::geometry::icosphere(levels);
+    (v.into_iter().map(|p| (p * r).to_array()).collect(), f)
 }
 
 fn write_obj(path: &Path, v: &[[f64; 3]], f: &[[usize; 3]]) {
