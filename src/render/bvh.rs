@@ -39,14 +39,36 @@
 //!   primitive index and, for a triangle, a copy of its f64 vertices (not
 //!   the 176-byte `Primitive`), so a leaf's triangles are read in sequence;
 //!   analytic shapes are tested through the scene's list of record.
-//!   Memory for 1 M triangles: 87 MB (11 MB nodes, 76 MB slots) besides
-//!   the scene's own primitives (176 MB).
+//! - Four-wide: the binary tree is then collapsed into a BVH4 (each node
+//!   opens its interior descendant with the largest box until it has four
+//!   children; Wald et al. 2008, "Getting rid of packets"), nodes in
+//!   depth-first order, 128 bytes each: the four children's f32 boxes,
+//!   copied unchanged from the binary nodes (so still conservative), in
+//!   structure-of-arrays layout `[min x ×4, min y ×4, …]` so the four slab
+//!   tests are one loop over the lanes (in f64, as before; whether it is
+//!   vectorised was not checked). The
+//!   binary pairs are kept for [`Bvh::depth`] and the determinism test.
+//!   Memory for 1 M triangles: 98 MB (11 MB binary pairs, 11 MB four-wide
+//!   nodes, 76 MB slots) besides the scene's own primitives (176 MB).
 //! - Traversal: the inverse direction and the watertight test's shear
-//!   ([`ShearedRay`]) are computed once per ray; at an
-//!   interior node both children's boxes are tested, the nearer is visited
-//!   first and the farther is pushed with its entry distance, and popped
-//!   nodes entered beyond the current nearest hit are skipped. Shadow rays
-//!   stop at the first hit.
+//!   ([`ShearedRay`]) are computed once per ray; at a four-wide node the
+//!   four boxes are tested together, the children entered before the
+//!   current nearest hit are sorted by entry distance (ties in lane order),
+//!   the nearest is visited and the others are pushed with their entry
+//!   distances, farthest first; popped children entered beyond the current
+//!   nearest hit are skipped. Shadow rays stop at the first hit. The prune
+//!   tests (entry ≤ best t, popped entry ≤ best t) are those of the binary
+//!   traversal, so the answer is the linear scan's as before.
+//!
+//! Binary → four-wide, measured back to back with `cargo bench --bench bvh
+//! -- --json` (one thread, medians of 5, the 2-core machine loaded ~3.4 by
+//! two other builds): rays/s 1 k 1.85 M → 1.89 M, 100 k 0.69 M → 0.73 M,
+//! 1 M 0.29 M → 0.32 M (another run 0.35 M); 1 k / 1 M ratio 6.4 → 5.9.
+//! The 1 M mesh is bound by memory: random rays, 98 MB of tree, and leaves
+//! of ~4 triangles in 80-byte f64 slots (5 cache lines per leaf). Tried and
+//! reverted: TRAVERSAL_COST 2 (100 k 0.64 M, 1 M 0.31 M rays/s) and 8
+//! (0.65 M, 0.27 M) with the four-wide traversal. Not tried: compressing
+//! the slots (f32 vertices would lose the f64 answer), prefetching.
 //!
 //! Crate or own — own, for exactness, not for speed. Measured with
 //! `cargo bench --bench bvh --features bench-obvhs -- --json` (one thread
@@ -59,7 +81,7 @@
 //! | 100 k | 0.059, 0.41 M  | 0.066, 0.57 M  | 0.076, 0.76 M  |
 //! | 1 M   | 1.21, 0.21 M   | 1.03, 0.29 M   | 0.82, 0.58 M   |
 //!
-//! `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
+//! (That table predates the four-wide traversal.) `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
 //! faster. It is not used because (1) it is f32 only: its boxes are rounded
 //! to nearest, not outward, and its traversal culls by f32 distances, so it
 //! cannot promise the f64 linear scan's answer (on the 1 M mesh its nearest
@@ -67,10 +89,8 @@
 //! renderer's determinism relies on; (2) it needs glam ≥ 0.33 while the
 //! renderer uses glam 0.30 (a second glam, or an upgrade of every module);
 //! (3) analytic shapes would go through its closure API with f32 t. `bvh`
-//! pulls in nalgebra. The gap is the node width: an f64 four- or eight-wide
-//! BVH (collapsing this binary tree) is the next step if rays/s on big
-//! meshes matter more than they do for the booth (one mesh, a few thousand
-//! triangles in the Cornell box).
+//! pulls in nalgebra. Part of the gap was the node width (now four-wide,
+//! see above); the rest is the f64 slots and the f64 slab tests.
 
 use std::fmt;
 use std::sync::{Arc, OnceLock};
