@@ -39,14 +39,36 @@
 //!   primitive index and, for a triangle, a copy of its f64 vertices (not
 //!   the 176-byte `Primitive`), so a leaf's triangles are read in sequence;
 //!   analytic shapes are tested through the scene's list of record.
-//!   Memory for 1 M triangles: 87 MB (11 MB nodes, 76 MB slots) besides
-//!   the scene's own primitives (176 MB).
+//! - Four-wide: the binary tree is then collapsed into a BVH4 (each node
+//!   opens its interior descendant with the largest box until it has four
+//!   children; Wald et al. 2008, "Getting rid of packets"), nodes in
+//!   depth-first order, 128 bytes each: the four children's f32 boxes,
+//!   copied unchanged from the binary nodes (so still conservative), in
+//!   structure-of-arrays layout `[min x ×4, min y ×4, …]` so the four slab
+//!   tests are one loop over the lanes (in f64, as before; whether it is
+//!   vectorised was not checked). The
+//!   binary pairs are kept for [`Bvh::depth`] and the determinism test.
+//!   Memory for 1 M triangles: 98 MB (11 MB binary pairs, 11 MB four-wide
+//!   nodes, 76 MB slots) besides the scene's own primitives (176 MB).
 //! - Traversal: the inverse direction and the watertight test's shear
-//!   ([`ShearedRay`]) are computed once per ray; at an
-//!   interior node both children's boxes are tested, the nearer is visited
-//!   first and the farther is pushed with its entry distance, and popped
-//!   nodes entered beyond the current nearest hit are skipped. Shadow rays
-//!   stop at the first hit.
+//!   ([`ShearedRay`]) are computed once per ray; at a four-wide node the
+//!   four boxes are tested together, the children entered before the
+//!   current nearest hit are sorted by entry distance (ties in lane order),
+//!   the nearest is visited and the others are pushed with their entry
+//!   distances, farthest first; popped children entered beyond the current
+//!   nearest hit are skipped. Shadow rays stop at the first hit. The prune
+//!   tests (entry ≤ best t, popped entry ≤ best t) are those of the binary
+//!   traversal, so the answer is the linear scan's as before.
+//!
+//! Binary → four-wide, measured back to back with `cargo bench --bench bvh
+//! -- --json` (one thread, medians of 5, the 2-core machine loaded ~3.4 by
+//! two other builds): rays/s 1 k 1.85 M → 1.89 M, 100 k 0.69 M → 0.73 M,
+//! 1 M 0.29 M → 0.32 M (another run 0.35 M); 1 k / 1 M ratio 6.4 → 5.9.
+//! The 1 M mesh is bound by memory: random rays, 98 MB of tree, and leaves
+//! of ~4 triangles in 80-byte f64 slots (5 cache lines per leaf). Tried and
+//! reverted: TRAVERSAL_COST 2 (100 k 0.64 M, 1 M 0.31 M rays/s) and 8
+//! (0.65 M, 0.27 M) with the four-wide traversal. Not tried: compressing
+//! the slots (f32 vertices would lose the f64 answer), prefetching.
 //!
 //! Crate or own — own, for exactness, not for speed. Measured with
 //! `cargo bench --bench bvh --features bench-obvhs -- --json` (one thread
@@ -59,7 +81,7 @@
 //! | 100 k | 0.059, 0.41 M  | 0.066, 0.57 M  | 0.076, 0.76 M  |
 //! | 1 M   | 1.21, 0.21 M   | 1.03, 0.29 M   | 0.82, 0.58 M   |
 //!
-//! `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
+//! (That table predates the four-wide traversal.) `obvhs` 0.4's eight-wide CWBVH traces 2–3× faster and builds 1.5×
 //! faster. It is not used because (1) it is f32 only: its boxes are rounded
 //! to nearest, not outward, and its traversal culls by f32 distances, so it
 //! cannot promise the f64 linear scan's answer (on the 1 M mesh its nearest
@@ -67,10 +89,8 @@
 //! renderer's determinism relies on; (2) it needs glam ≥ 0.33 while the
 //! renderer uses glam 0.30 (a second glam, or an upgrade of every module);
 //! (3) analytic shapes would go through its closure API with f32 t. `bvh`
-//! pulls in nalgebra. The gap is the node width: an f64 four- or eight-wide
-//! BVH (collapsing this binary tree) is the next step if rays/s on big
-//! meshes matter more than they do for the booth (one mesh, a few thousand
-//! triangles in the Cornell box).
+//! pulls in nalgebra. Part of the gap was the node width (now four-wide,
+//! see above); the rest is the f64 slots and the f64 slab tests.
 
 use std::fmt;
 use std::sync::{Arc, OnceLock};
@@ -167,6 +187,114 @@ struct Node {
 #[repr(C, align(64))]
 struct Pair([Node; 2]);
 
+/// Children per node of the traversed (collapsed) tree.
+const WIDTH: usize = 4;
+
+/// Traversal stack entries of the four-wide tree: each level leaves at most
+/// WIDTH − 1 children pushed, over at most STACK levels.
+const WIDE_STACK: usize = (WIDTH - 1) * STACK;
+
+/// Marks an unused lane of a [`Wide`] node.
+const EMPTY_LANE: u32 = u32::MAX;
+
+/// A node of the four-wide tree that is traversed: up to four children's
+/// boxes (the binary nodes' f32 boxes, unchanged) in structure-of-arrays
+/// layout, `min[axis][lane]`, so the four slab tests run side by side;
+/// 128 bytes, two cache lines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+struct Wide {
+    min: [[f32; WIDTH]; 3],
+    max: [[f32; WIDTH]; 3],
+    /// Leaf child: first slot; interior child: its wide node.
+    index: [u32; WIDTH],
+    /// Leaf child: number of slots; interior child: 0; unused: [`EMPTY_LANE`].
+    count: [u32; WIDTH],
+}
+
+/// A pushed child: where it is and the distance at which the ray enters it.
+#[derive(Clone, Copy, Debug, Default)]
+struct Pending {
+    index: u32,
+    count: u32,
+    t_enter: f64,
+}
+
+impl Wide {
+    /// The children the ray enters before `t_max`, nearest first (equal
+    /// distances in lane order): their number and (distance, lane). The same
+    /// f64 slab test as [`Node::entry`], lane by lane.
+    #[inline(always)]
+    fn entries(&self, o: [f64; 3], inv: [f64; 3], t_max: f64) -> (usize, [(f64, usize); WIDTH]) {
+        let mut near = [0.0f64; WIDTH];
+        let mut far = [t_max; WIDTH];
+        for axis in 0..3 {
+            for l in 0..WIDTH {
+                let a = (self.min[axis][l] as f64 - o[axis]) * inv[axis];
+                let b = (self.max[axis][l] as f64 - o[axis]) * inv[axis];
+                near[l] = near[l].max(a.min(b));
+                far[l] = far[l].min(a.max(b));
+            }
+        }
+        let mut hits = [(0.0, 0); WIDTH];
+        let mut n = 0;
+        for l in 0..WIDTH {
+            if near[l] <= far[l] && self.count[l] != EMPTY_LANE {
+                // Insertion: nearest first, a tie after the earlier lane.
+                let mut i = n;
+                while i > 0 && hits[i - 1].0 > near[l] {
+                    hits[i] = hits[i - 1];
+                    i -= 1;
+                }
+                hits[i] = (near[l], l);
+                n += 1;
+            }
+        }
+        (n, hits)
+    }
+}
+
+/// Collapses the binary tree below `node` (an interior node) into four-wide
+/// nodes appended to `wide` in depth-first order; returns its wide index.
+/// Of its descendants, the interior one with the largest box is opened until
+/// there are four (the usual BVH2 → BVH4 collapse); first of equal areas wins.
+fn collapse(pairs: &[Pair], node: &Node, wide: &mut Vec<Wide>) -> u32 {
+    let area = |n: &Node| {
+        let d = [0, 1, 2].map(|a| n.max[a] as f64 - n.min[a] as f64);
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    };
+    let mut children: Vec<Node> = pairs[node.index as usize].0.to_vec();
+    while children.len() < WIDTH {
+        let mut open: Option<(usize, f64)> = None;
+        for (i, c) in children.iter().enumerate() {
+            if c.count == 0 && open.is_none_or(|(_, a)| area(c) > a) {
+                open = Some((i, area(c)));
+            }
+        }
+        let Some((i, _)) = open else { break };
+        let [a, b] = pairs[children[i].index as usize].0;
+        children.splice(i..=i, [a, b]);
+    }
+    let me = wide.len();
+    wide.push(Wide {
+        min: [[0.0; WIDTH]; 3],
+        max: [[0.0; WIDTH]; 3],
+        index: [0; WIDTH],
+        count: [EMPTY_LANE; WIDTH],
+    });
+    let mut w = wide[me];
+    for (l, c) in children.iter().enumerate() {
+        for axis in 0..3 {
+            w.min[axis][l] = c.min[axis];
+            w.max[axis][l] = c.max[axis];
+        }
+        w.count[l] = c.count;
+        w.index[l] = if c.count > 0 { c.index } else { collapse(pairs, c, wide) };
+    }
+    wide[me] = w;
+    me as u32
+}
+
 /// The largest f32 ≤ x.
 fn f32_down(x: f64) -> f32 {
     let f = x as f32;
@@ -237,6 +365,8 @@ pub struct Bvh {
     root: Node,
     /// Children of the interior nodes, in depth-first order.
     pairs: Vec<Pair>,
+    /// The binary tree collapsed four-wide: what is traversed (root at 0).
+    wide: Vec<Wide>,
     /// The leaves' primitives, each leaf a contiguous range.
     slots: Vec<Slot>,
     /// Of the boxes and triangles it was built from (see [`fingerprint`]).
@@ -313,6 +443,25 @@ impl Bvh {
             build_subtree(&mut refs, 0, 0, &mut pairs)
         };
         pairs.shrink_to_fit();
+        let mut wide = Vec::with_capacity(pairs.len() / 2 + 1);
+        if root.count > 0 {
+            // A single leaf: one lane.
+            let mut w = Wide {
+                min: [[0.0; WIDTH]; 3],
+                max: [[0.0; WIDTH]; 3],
+                index: [0; WIDTH],
+                count: [EMPTY_LANE; WIDTH],
+            };
+            for axis in 0..3 {
+                w.min[axis][0] = root.min[axis];
+                w.max[axis][0] = root.max[axis];
+            }
+            (w.index[0], w.count[0]) = (root.index, root.count);
+            wide.push(w);
+        } else if n > 0 {
+            collapse(&pairs, &root, &mut wide);
+        }
+        wide.shrink_to_fit();
         let slots = refs
             .iter()
             .map(|r| match *shapes.shape(r.prim as usize) {
@@ -329,6 +478,7 @@ impl Bvh {
         Bvh {
             root,
             pairs,
+            wide,
             slots,
             fingerprint,
         }
@@ -354,7 +504,9 @@ impl Bvh {
 
     /// Bytes held by the hierarchy (nodes and slots with triangle copies).
     pub fn memory_bytes(&self) -> usize {
-        self.pairs.capacity() * std::mem::size_of::<Pair>() + self.slots.capacity() * std::mem::size_of::<Slot>()
+        self.pairs.capacity() * std::mem::size_of::<Pair>()
+            + self.wide.capacity() * std::mem::size_of::<Wide>()
+            + self.slots.capacity() * std::mem::size_of::<Slot>()
     }
 
     /// Depth of the deepest leaf (the root alone has depth 1).
@@ -385,16 +537,21 @@ impl Bvh {
             return None;
         }
         let sheared = ShearedRay::new(ray);
+        let (o, inv) = (o.to_array(), inv.to_array());
         // The best so far: t, primitive, and the normal of an analytic hit.
         let mut best_t = t_max;
         let mut best_prim = u32::MAX;
         let mut best_normal = DVec3::ZERO;
-        let mut stack = [(&self.root, 0f64); STACK];
+        let mut stack = [Pending::default(); WIDE_STACK];
         let mut sp = 0;
-        let mut node = &self.root;
+        let mut next = Pending {
+            index: 0,
+            count: 0,
+            t_enter: 0.0,
+        };
         loop {
-            if node.count > 0 {
-                for slot in node.index as usize..(node.index + node.count) as usize {
+            if next.count > 0 {
+                for slot in next.index as usize..(next.index + next.count) as usize {
                     let Slot { vertices, tagged } = self.slots[slot];
                     let prim = tagged & !TRIANGLE_BIT;
                     // Once there is a hit, t = best_t passes too (next_up), so
@@ -422,26 +579,26 @@ impl Bvh {
                     }
                 }
             } else {
-                let [a, b] = &self.pairs[node.index as usize].0;
-                let ta = a.entry(o, inv, best_t);
-                let tb = b.entry(o, inv, best_t);
-                match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far, t_far) = if ta <= tb { (a, b, tb) } else { (b, a, ta) };
-                        stack[sp] = (far, t_far);
+                let w = &self.wide[next.index as usize];
+                let (n, hits) = w.entries(o, inv, best_t);
+                if n > 0 {
+                    // The farther children are pushed farthest first; the
+                    // nearest is visited now.
+                    for &(t_enter, l) in hits[1..n].iter().rev() {
+                        stack[sp] = Pending {
+                            index: w.index[l],
+                            count: w.count[l],
+                            t_enter,
+                        };
                         sp += 1;
-                        node = near;
-                        continue;
                     }
-                    (Some(_), None) => {
-                        node = a;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = b;
-                        continue;
-                    }
-                    (None, None) => {}
+                    let (t_enter, l) = hits[0];
+                    next = Pending {
+                        index: w.index[l],
+                        count: w.count[l],
+                        t_enter,
+                    };
+                    continue;
                 }
             }
             // Pop the next subtree entered no later than the best hit.
@@ -457,9 +614,8 @@ impl Bvh {
                     return Some((Hit { t: best_t, normal }, best_prim as usize));
                 }
                 sp -= 1;
-                let (next, t_enter) = stack[sp];
-                if t_enter <= best_t {
-                    node = next;
+                if stack[sp].t_enter <= best_t {
+                    next = stack[sp];
                     break;
                 }
             }
@@ -476,12 +632,13 @@ impl Bvh {
             return false;
         }
         let sheared = ShearedRay::new(ray);
-        let mut stack = [&self.root; STACK];
+        let (o, inv) = (o.to_array(), inv.to_array());
+        let mut stack = [(0u32, 0u32); WIDE_STACK];
         let mut sp = 0;
-        let mut node = &self.root;
+        let (mut index, mut count) = (0u32, 0u32);
         loop {
-            if node.count > 0 {
-                for slot in node.index as usize..(node.index + node.count) as usize {
+            if count > 0 {
+                for slot in index as usize..(index + count) as usize {
                     let Slot { vertices, tagged } = self.slots[slot];
                     let hit = if tagged & TRIANGLE_BIT != 0 {
                         let [p0, p1, p2] = vertices;
@@ -494,33 +651,23 @@ impl Bvh {
                     }
                 }
             } else {
-                let [a, b] = &self.pairs[node.index as usize].0;
-                let ta = a.entry(o, inv, t_max);
-                let tb = b.entry(o, inv, t_max);
-                match (ta, tb) {
-                    (Some(ta), Some(tb)) => {
-                        let (near, far) = if ta <= tb { (a, b) } else { (b, a) };
-                        stack[sp] = far;
+                let w = &self.wide[index as usize];
+                let (n, hits) = w.entries(o, inv, t_max);
+                if n > 0 {
+                    for &(_, l) in hits[1..n].iter().rev() {
+                        stack[sp] = (w.index[l], w.count[l]);
                         sp += 1;
-                        node = near;
-                        continue;
                     }
-                    (Some(_), None) => {
-                        node = a;
-                        continue;
-                    }
-                    (None, Some(_)) => {
-                        node = b;
-                        continue;
-                    }
-                    (None, None) => {}
+                    let l = hits[0].1;
+                    (index, count) = (w.index[l], w.count[l]);
+                    continue;
                 }
             }
             if sp == 0 {
                 return false;
             }
             sp -= 1;
-            node = stack[sp];
+            (index, count) = stack[sp];
         }
     }
 }
