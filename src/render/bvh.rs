@@ -899,10 +899,9 @@ impl BvhCache {
 
 #[cfg(test)]
 mod tests {
-    use std::collections::HashMap;
 
     use super::*;
-    use crate::render::geometry::RAY_EPSILON_M;
+    use crate::render::geometry::{icosphere, RAY_EPSILON_M};
     use crate::render::integrator::Pcg32;
 
     fn uniform_in(rng: &mut Pcg32, lo: f64, hi: f64) -> f64 {
@@ -1164,68 +1163,6 @@ mod tests {
             dir: -DVec3::Y,
         };
         assert_eq!(second.nearest(&shapes[..], &ray, f64::INFINITY).map(|h| h.1), Some(7));
-    }
-
-    /// An icosahedron subdivided `levels` times and projected on the unit
-    /// sphere: a closed mesh whose neighbours share vertices exactly.
-    fn icosphere(levels: usize) -> (Vec<DVec3>, Vec<[usize; 3]>) {
-        let g = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut v: Vec<DVec3> = [
-            (-1.0, g, 0.0),
-            (1.0, g, 0.0),
-            (-1.0, -g, 0.0),
-            (1.0, -g, 0.0),
-            (0.0, -1.0, g),
-            (0.0, 1.0, g),
-            (0.0, -1.0, -g),
-            (0.0, 1.0, -g),
-            (g, 0.0, -1.0),
-            (g, 0.0, 1.0),
-            (-g, 0.0, -1.0),
-            (-g, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-        .collect();
-        let mut f: Vec<[usize; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..levels {
-            let mut mid: HashMap<(usize, usize), usize> = HashMap::new();
-            let mut m = |a: usize, b: usize, v: &mut Vec<DVec3>| {
-                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    v.push(((v[a] + v[b]) * 0.5).normalize());
-                    v.len() - 1
-                })
-            };
-            f = f
-                .iter()
-                .flat_map(|&[a, b, c]| {
-                    let (ab, bc, ca) = (m(a, b, &mut v), m(b, c, &mut v), m(c, a, &mut v));
-                    [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
-                })
-                .collect();
-        }
-        (v, f)
     }
 
     /// Möller & Trumbore (1997) with the usual barycentric bounds: not
