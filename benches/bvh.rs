@@ -16,7 +16,9 @@
 //! --json` prints one JSON line per case instead, with the medians of
 //! [`RUNS`] runs (`build_s`, `rays_per_s`). With `--features bench-obvhs`,
 //! the same meshes and rays also go through `obvhs` 0.4 (f32, its BVH2 and
-//! CWBVH with `medium_build`), for the crate-or-own decision.
+//! CWBVH with `medium_build`), for the crate-or-own decision. `--json` also
+//! times loading a scene with a 1 M-triangle OBJ (a 501 × 1001-vertex grid
+//! of quads) and two targets checked against every triangle (`mesh_load`).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -274,6 +276,45 @@ mod with_obvhs {
     }
 }
 
+/// `--json`: loading a scene whose OBJ mesh has 1 M triangles (written to a
+/// temporary folder first), median of RUNS loads.
+fn mesh_load_summary() {
+    use std::fmt::Write;
+    let (nx, nz) = (501usize, 1001usize);
+    let mut obj = String::with_capacity(60_000_000);
+    for j in 0..nz {
+        for i in 0..nx {
+            writeln!(obj, "v {} 0.5 {}", i as f64 / 500.0, j as f64 / 1000.0).unwrap();
+        }
+    }
+    for j in 0..nz - 1 {
+        for i in 0..nx - 1 {
+            let a = j * nx + i + 1;
+            writeln!(obj, "f {} {} {} {}", a, a + 1, a + nx + 1, a + nx).unwrap();
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("grid.obj"), obj).unwrap();
+    let scene = dir.path().join("grid.toml");
+    std::fs::write(
+        &scene,
+        "name = \"grid\"\n[radiometer]\nposition = [0.5, 1.5, 0.5]\n\
+         [[target]]\nid = \"on_mesh\"\npoint = [0.25, 0.5, 0.25]\n\
+         [[target]]\nid = \"corner\"\npoint = [0.999, 0.5, 0.999]\n\
+         [materials]\ngrey = { reflectance = 0.5 }\n\
+         [[mesh]]\nfile = \"grid.obj\"\nmaterial = \"grey\"\n",
+    )
+    .unwrap();
+    let mut triangles = 0;
+    let load_s = median_seconds(|| {
+        triangles = lightbooth::render::load_scene(&scene).unwrap().primitives.len();
+    });
+    println!(
+        "{}",
+        serde_json::json!({"bench": "mesh_load", "triangles": triangles, "load_s": load_s})
+    );
+}
+
 /// `--json`: medians of RUNS runs, one line per case.
 fn json_summary() {
     for (name, nu) in MESHES {
@@ -432,6 +473,7 @@ fn criterion_benches(c: &mut Criterion) {
 fn main() {
     if std::env::args().any(|a| a == "--json") {
         json_summary();
+        mesh_load_summary();
         return;
     }
     let mut c = Criterion::default().configure_from_args();

@@ -84,12 +84,14 @@ impl AreaLights {
             .map_err(|e| e.to_string())?;
         let mut triangles = Vec::new();
         let mut weights = Vec::new();
-        let mut of_primitive = Vec::new();
+        // Only scenes with emitters pay for the per-primitive table.
+        let mut of_primitive = if scene.emitters.is_empty() {
+            Vec::new()
+        } else {
+            vec![u32::MAX; scene.primitives.len()]
+        };
         for (i, p) in scene.primitives.iter().enumerate() {
             let Some(e) = p.emitter else {
-                if !of_primitive.is_empty() {
-                    of_primitive.push(u32::MAX);
-                }
                 continue;
             };
             let Shape::Triangle { p0, p1, p2, normal } = p.shape else {
@@ -101,10 +103,7 @@ impl AreaLights {
             }
             let (e1, e2) = (p1 - p0, p2 - p0);
             let area = 0.5 * e1.cross(e2).length();
-            if of_primitive.is_empty() {
-                of_primitive = vec![u32::MAX; i];
-            }
-            of_primitive.push(triangles.len() as u32);
+            of_primitive[i] = triangles.len() as u32;
             weights.push(area * luminance[e] * if emitter.two_sided { 2.0 } else { 1.0 });
             triangles.push(EmittingTriangle {
                 p0,
@@ -136,11 +135,6 @@ impl AreaLights {
 
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
-    }
-
-    /// The emitting triangles.
-    pub fn triangles(&self) -> &[EmittingTriangle] {
-        &self.triangles
     }
 
     /// Selection probability of emitting triangle `i`.

@@ -769,39 +769,6 @@ fn a_ply_mesh_ascii_or_binary_is_read_and_its_errors_name_the_line() {
     assert_eq!(e.key, "mesh[0].material", "{e}");
 }
 
-/// Loads a 1 M-triangle OBJ (a 500 × 1000 grid of quads): a measurement,
-/// not a timed assertion. `cargo test --release --lib million -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn a_million_triangle_obj_loads() {
-    use std::fmt::Write;
-    let (nx, nz) = (501usize, 1001usize);
-    let mut obj = String::with_capacity(60_000_000);
-    for j in 0..nz {
-        for i in 0..nx {
-            writeln!(obj, "v {} 0.5 {}", i as f64 / 500.0, j as f64 / 1000.0).unwrap();
-        }
-    }
-    for j in 0..nz - 1 {
-        for i in 0..nx - 1 {
-            let a = j * nx + i + 1;
-            writeln!(obj, "f {} {} {} {}", a, a + 1, a + nx + 1, a + nx).unwrap();
-        }
-    }
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir(dir.path().join("meshes")).unwrap();
-    std::fs::write(dir.path().join("meshes/box.obj"), obj).unwrap();
-    let extra = "[[target]]\nid = \"on_mesh\"\npoint = [0.25, 0.5, 0.25]\n[[target]]\nid = \"corner\"\npoint = [0.999, 0.5, 0.999]\n\
-                 [[mesh]]\nfile = \"meshes/box.obj\"\nmaterial = \"grey\"\n";
-    let t = std::time::Instant::now();
-    let s = load_scene(&scene(dir.path(), extra)).unwrap();
-    eprintln!(
-        "1 M-triangle OBJ + 3 targets: loaded in {:.2} s",
-        t.elapsed().as_secs_f64()
-    );
-    assert_eq!(s.primitives.len(), 1 + 2 * 500 * 1000);
-}
-
 #[test]
 fn a_chart_table_takes_the_outside_rule_for_all_its_columns() {
     let dir = tempfile::tempdir().unwrap();
