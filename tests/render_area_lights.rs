@@ -61,14 +61,8 @@ fn scene(rect: [DVec3; 4], radiance: f64, rho: f64, receiver_normal: DVec3) -> S
         (DVec3::X, DVec3::Y)
     };
     let materials = vec![
-        Material {
-            name: "receiver".into(),
-            reflectance: flat(SpectralUnit::Reflectance, rho),
-        },
-        Material {
-            name: "black".into(),
-            reflectance: flat(SpectralUnit::Reflectance, 0.0),
-        },
+        Material::lambertian("receiver", flat(SpectralUnit::Reflectance, rho)),
+        Material::lambertian("black", flat(SpectralUnit::Reflectance, 0.0)),
     ];
     let mut primitives = vec![Primitive {
         shape: Shape::quad(-u * 0.05 - v * 0.05, u * 0.1, v * 0.1),

@@ -210,12 +210,52 @@ pub struct SceneError {
     pub message: String,
 }
 
-/// A Lambertian material.
+/// A material: a colour (a reflectance spectrum) and how the surface
+/// scatters light ([`Surface`]).
 #[derive(Clone, Debug)]
 pub struct Material {
     pub name: String,
-    /// Reflectance on its source grid (covers 380–780 nm).
+    /// Reflectance on its source grid (covers 380–780 nm): the diffuse colour
+    /// of a Lambertian, `plastic` or `metal` surface, the reflectance of a mirror.
     pub reflectance: Spectrum,
+    /// How the surface scatters: Lambertian unless the scene says otherwise.
+    pub surface: Surface,
+    /// The colour as RADIANCE RGB (its primaries, equal-energy white) when
+    /// the material came from a RADIANCE file with an RGB colour: the `rgb`
+    /// coding then uses these values exactly, and `reflectance` is a spectrum
+    /// synthesised from them for the other codings. `None` for spectral
+    /// materials.
+    pub rgb: Option<[f64; 3]>,
+}
+
+impl Material {
+    /// A Lambertian material with a spectral reflectance.
+    pub fn lambertian(name: impl Into<String>, reflectance: Spectrum) -> Material {
+        Material {
+            name: name.into(),
+            reflectance,
+            surface: Surface::Lambertian,
+            rgb: None,
+        }
+    }
+}
+
+/// How a surface scatters light.
+///
+/// `Plastic`, `Metal` and `Mirror` follow RADIANCE's definitions of the
+/// materials of the same names (see the module that implements their BRDFs).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Surface {
+    /// Ideal diffuse reflection, f = ρ/π.
+    #[default]
+    Lambertian,
+    /// RADIANCE `plastic`: a diffuse part of colour ρ·(1 − specularity) and
+    /// an uncoloured isotropic Ward highlight of weight `specularity`.
+    Plastic { specularity: f64, roughness: f64 },
+    /// RADIANCE `metal`: as `plastic`, but the highlight takes the colour ρ.
+    Metal { specularity: f64, roughness: f64 },
+    /// RADIANCE `mirror`: ideal specular reflection of reflectance ρ.
+    Mirror,
 }
 
 /// A surface with its material index and, for an area light, its emitter.
@@ -414,10 +454,7 @@ impl Loader {
     }
 
     fn add_material(&mut self, name: &str, reflectance: Spectrum) -> usize {
-        self.materials.push(Material {
-            name: name.to_string(),
-            reflectance,
-        });
+        self.materials.push(Material::lambertian(name, reflectance));
         let i = self.materials.len() - 1;
         self.material_index.insert(name.to_string(), i);
         i
@@ -441,10 +478,7 @@ impl Loader {
             return i;
         }
         let zero = Spectrum::constant(Grid::analysis(), SpectralUnit::Reflectance, 0.0).expect("0 is a reflectance");
-        self.materials.push(Material {
-            name: "(black emitter)".into(),
-            reflectance: zero,
-        });
+        self.materials.push(Material::lambertian("(black emitter)", zero));
         self.black = Some(self.materials.len() - 1);
         self.materials.len() - 1
     }
