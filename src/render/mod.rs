@@ -39,6 +39,7 @@ pub mod area_light;
 pub mod bvh;
 pub mod coding;
 pub mod geometry;
+mod huge_pages;
 pub mod ies;
 pub mod integrator;
 pub mod scene;
