@@ -266,7 +266,15 @@ fn the_f11_variant_loads_and_stays_out_of_the_daemon_list() {
     listed.sort();
     assert_eq!(
         listed,
-        ["blue", "cornell_box", "cylinder", "green", "material_bench", "red", "white"]
+        [
+            "blue",
+            "cornell_box",
+            "cylinder",
+            "green",
+            "material_bench",
+            "red",
+            "white"
+        ]
     );
     let (c, f) = (scene("cylinder.toml"), scene("variants/cylinder_f11.toml"));
     assert_eq!(c.targets(), f.targets());
