@@ -170,7 +170,7 @@ mod tests {
     #[test]
     fn the_shipped_spectralon_is_0_99_with_its_stated_uncertainty() {
         let s = WhiteStandard::shipped("spectralon_99").unwrap();
-        let (rho, u) = s.on_grid(&Grid::pr650().wavelengths().to_vec()).unwrap();
+        let (rho, u) = s.on_grid(Grid::pr650().wavelengths()).unwrap();
         assert!(rho.iter().all(|r| (r - 0.99).abs() < 1e-12));
         assert!(u.iter().all(|u| (u - 0.005).abs() < 1e-12));
         assert_eq!(s.sha256, sha256_hex(SHIPPED[0].2.as_bytes()));
