@@ -220,7 +220,7 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("spectra")).unwrap();
     std::fs::write(dir.path().join("spectra/red_tile.csv"), &csv).unwrap();
-    for f in ["spectralon_99.csv", "ctb_filter.csv"] {
+    for f in ["spectralon_99.csv", "ctb_filter.csv", "colorchecker_classic.csv"] {
         std::fs::copy(scenes().join("spectra").join(f), dir.path().join("spectra").join(f)).unwrap();
     }
     let bench = std::fs::read_to_string(scenes().join("material_bench.toml")).unwrap();
@@ -307,6 +307,38 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
         t.spectrum("booth_lamp", SpectralUnit::RelativePower).unwrap().values(),
         spd
     );
+    // The lamp's CSV as a scene light's `spd` (in place of blackbody and
+    // filter): the white standard renders with the chromaticity measured.
+    std::fs::write(dir.path().join("spectra/booth_lamp.csv"), &lamp_csv).unwrap();
+    let lamp_bench = bench.replace(
+        "blackbody_k = 3200             # halogen\nfilter = \"spectra/ctb_filter.csv:full_half_ctb\"",
+        "spd = \"spectra/booth_lamp.csv:booth_lamp\"",
+    );
+    assert_ne!(bench, lamp_bench, "the scene's lamp is where the test expects it");
+    let lamp_file = dir.path().join("lamp_bench.toml");
+    std::fs::write(&lamp_file, lamp_bench).unwrap();
+    let scene = render::load_scene(&lamp_file).unwrap();
+    let settings = RenderSettings {
+        codings: vec![Coding::Spectral],
+        targets: Some(vec!["standard".into()]),
+        seed: 20_261_127,
+        target_relative_se: Some(0.001),
+        ..RenderSettings::default()
+    };
+    let result = tokio::task::spawn_blocking(move || render::render(&scene, &settings, None).unwrap())
+        .await
+        .unwrap();
+    let rendered = result.target("standard").unwrap().coding("spectral").unwrap();
+    let (mx, my) = (white["x"].as_f64().unwrap(), white["y"].as_f64().unwrap());
+    let dxy = (rendered.x - mx).hypot(rendered.y - my);
+    eprintln!(
+        "white standard under the measured lamp: rendered x,y {:.5},{:.5}, measured {mx:.5},{my:.5}",
+        rendered.x, rendered.y
+    );
+    // The SPD is known at 4 nm through an 8 nm slit and interpolated
+    // linearly to 1 nm for the rendering; the shot noise of 5 samples moves
+    // x,y by about 1e-4 (5e-5 in the run that added this): 5e-4 allows both.
+    assert!(dxy < 5e-4, "x,y differ by {dxy}");
 
     // --- the CLI makes the same reflectance from the same database.
     let dir_db = d.stop_keeping_files().await;
@@ -324,6 +356,53 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
     let data = |s: &str| s.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join("\n");
     assert_eq!(data(&cli_csv), data(&csv), "CLI and API give the same numbers");
     assert!(cli_csv.contains("lightbooth reflectance 2 `red_tile`"), "{cli_csv}");
+    // Bad input on the command line: the option and the line named, nothing written.
+    let db = format!("sqlite://{}", dir_db.path().join("lab.sqlite").display());
+    let bad_cert = dir_db.path().join("cert.csv");
+    std::fs::write(&bad_cert, "# certificate 42\nnm,reflectance\n380,0.99\n384,0,98\n").unwrap();
+    for (args, expected) in [
+        (
+            vec![
+                "--sample",
+                "999",
+                "--standard",
+                "1",
+                "--standard-reflectance",
+                "spectralon_99",
+            ],
+            "--sample: no measurement 999".to_string(),
+        ),
+        (
+            vec![
+                "--sample",
+                "2",
+                "--standard",
+                "1",
+                "--standard-reflectance",
+                bad_cert.to_str().unwrap(),
+            ],
+            format!("{}:4: 3 cells where the header has 2", bad_cert.display()),
+        ),
+        (
+            vec!["--sample", "2", "--standard", "1", "--standard-reflectance", "halon"],
+            "not a shipped standard (spectralon_99)".to_string(),
+        ),
+    ] {
+        let out = dir_db.path().join("refused.csv");
+        let run = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+            .args(["reflectance", "--db", &db])
+            .args(&args)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && stderr.contains(&expected),
+            "{args:?}: {stderr}"
+        );
+        assert!(!out.exists(), "a refused request writes nothing");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
