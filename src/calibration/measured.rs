@@ -130,7 +130,11 @@ pub async fn create_illuminant(
     let (m, white) = measured(store, "measurement_id", id).await?;
     let on_grid = standard.on_grid(&white.wavelength_nm).map_err(invalid)?;
     let s: Illuminant = illuminant::illuminant(&white, (&on_grid.0, &on_grid.1)).map_err(invalid)?;
-    let luminance = m.summary.luminance_cd_m2.unwrap_or(f64::NAN);
+    // A complete measurement has its luminance (the schema enforces it).
+    let luminance = m
+        .summary
+        .luminance_cd_m2
+        .ok_or_else(|| MeasuredError::Invalid(format!("field `measurement_id`: measurement {id} has no luminance")))?;
     let prov = provenance(standard);
     let row_id = store
         .insert_illuminant(
