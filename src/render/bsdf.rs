@@ -298,7 +298,7 @@ impl Bsdf {
                     return None;
                 }
                 let pdf = self.pdf(n, wo, dir);
-                if !(pdf > 0.0) {
+                if pdf.is_nan() || pdf <= 0.0 {
                     return None;
                 }
                 Some(BsdfSample {
