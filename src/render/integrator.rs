@@ -397,6 +397,18 @@ pub struct Transport {
     pub russian_roulette_from: Option<u32>,
 }
 
+/// A point sampled on the area lights, as seen from a surface point.
+struct AreaLightPoint {
+    point: DVec3,
+    /// Unit direction from the surface point to `point`.
+    wi: DVec3,
+    /// Cosine between the surface normal and `wi` (> 0).
+    cos_i: f64,
+    /// The sample's density in solid angle at the surface point, 1/sr.
+    p_light: f64,
+    emitter: usize,
+}
+
 /// The scene with every material and light converted to channels once.
 pub struct Prepared<'a> {
     pub scene: &'a Scene,
@@ -496,6 +508,42 @@ impl<'a> Prepared<'a> {
     fn light(&self, i: usize) -> &[f32] {
         let n = self.layout.len();
         &self.light_channels[i * n..(i + 1) * n]
+    }
+
+    /// A point on the area lights for next-event estimation from the
+    /// surface point `p` (normal `n`), chosen by (u1, u2); `None` when the
+    /// surface faces away from it or it faces away from the surface.
+    /// Distances and cosines are taken from `p` itself, not from the offset
+    /// ray origin.
+    #[inline]
+    fn sample_area_light(&self, p: DVec3, n: DVec3, u1: f64, u2: f64) -> Option<AreaLightPoint> {
+        let s = self.area_lights.sample(u1, u2);
+        let to_light = s.point - p;
+        let d2 = to_light.length_squared();
+        let wi = to_light / d2.sqrt();
+        let cos_i = n.dot(wi);
+        let cos_l_signed = -wi.dot(s.normal);
+        let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
+        (cos_i > 0.0 && cos_l > 0.0).then(|| AreaLightPoint {
+            point: s.point,
+            wi,
+            cos_i,
+            p_light: s.pdf_area * d2 / cos_l,
+            emitter: s.emitter,
+        })
+    }
+
+    /// True when nothing blocks the segment from the offset ray origin to a
+    /// point on a light, stopping just short of the light's own surface.
+    #[inline]
+    fn light_point_visible(&self, origin: DVec3, point: DVec3) -> bool {
+        let to_point = point - origin;
+        let reach = to_point.length();
+        let shadow = Ray {
+            origin,
+            dir: to_point / reach,
+        };
+        !self.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9)
     }
 
     /// The nearest surface along the ray: (hit, index into
@@ -642,35 +690,18 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         let last_vertex = depth >= transport.max_bounces;
         if !prep.area_lights.is_empty() {
             let (u1, u2) = rng.next_2d();
-            let s = prep.area_lights.sample(u1, u2);
-            let to_light = s.point - p;
-            let d2 = to_light.length_squared();
-            let d = d2.sqrt();
-            let wi = to_light / d;
-            let cos_i = n.dot(wi);
-            let cos_l_signed = -wi.dot(s.normal);
-            let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
-            if cos_i > 0.0 && cos_l > 0.0 {
+            if let Some(ls) = prep.sample_area_light(p, n, u1, u2) {
                 state.rays += 1;
-                // From the offset origin to the light point, stopping just
-                // short of the light's own surface.
-                let to_point = s.point - origin;
-                let reach = to_point.length();
-                let shadow = Ray {
-                    origin,
-                    dir: to_point / reach,
-                };
-                if !prep.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9) {
-                    let p_light = s.pdf_area * d2 / cos_l;
+                if prep.light_point_visible(origin, ls.point) {
                     let w = if last_vertex {
                         1.0
                     } else {
-                        power_heuristic(p_light, cos_i / PI)
+                        power_heuristic(ls.p_light, ls.cos_i / PI)
                     };
                     // L += β ⊙ (ρ/π) ⊙ Le · cos θᵢ / p_light · w  (ρ already in β).
-                    let k = (cos_i / (PI * p_light) * w) as f32;
+                    let k = (ls.cos_i / (PI * ls.p_light) * w) as f32;
                     state.lit = true;
-                    for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(s.emitter)) {
+                    for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(ls.emitter)) {
                         *l += k * b * le;
                     }
                 }
@@ -757,46 +788,29 @@ fn glossy_vertex(
     }
     if !prep.area_lights.is_empty() {
         let (u1, u2) = rng.next_2d();
-        let s = prep.area_lights.sample(u1, u2);
-        let to_light = s.point - p;
-        let d2 = to_light.length_squared();
-        let d = d2.sqrt();
-        let wi = to_light / d;
-        let cos_i = n.dot(wi);
-        let cos_l_signed = -wi.dot(s.normal);
-        let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
-        let f = if cos_i > 0.0 && cos_l > 0.0 {
-            bsdf.eval(n, wo, wi)
-        } else {
-            super::bsdf::Weight::ZERO
-        };
-        if !f.is_zero() {
-            state.rays += 1;
-            let to_point = s.point - origin;
-            let reach = to_point.length();
-            let shadow = Ray {
-                origin,
-                dir: to_point / reach,
-            };
-            if !prep.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9) {
-                let p_light = s.pdf_area * d2 / cos_l;
-                let w = if last_vertex {
-                    1.0
-                } else {
-                    power_heuristic(p_light, bsdf.pdf(n, wo, wi))
-                };
-                // L += β ⊙ f ⊙ Le · cos θᵢ / p_light · w.
-                let k = (cos_i / p_light * w) as f32;
-                let (a, b) = (f.a as f32, f.b as f32);
-                state.lit = true;
-                for (((l, bt), le), r) in state
-                    .radiance
-                    .iter_mut()
-                    .zip(&state.beta)
-                    .zip(prep.emitter(s.emitter))
-                    .zip(rho)
-                {
-                    *l += k * bt * (a * r + b) * le;
+        if let Some(ls) = prep.sample_area_light(p, n, u1, u2) {
+            let f = bsdf.eval(n, wo, ls.wi);
+            if !f.is_zero() {
+                state.rays += 1;
+                if prep.light_point_visible(origin, ls.point) {
+                    let w = if last_vertex {
+                        1.0
+                    } else {
+                        power_heuristic(ls.p_light, bsdf.pdf(n, wo, ls.wi))
+                    };
+                    // L += β ⊙ f ⊙ Le · cos θᵢ / p_light · w.
+                    let k = (ls.cos_i / ls.p_light * w) as f32;
+                    let (a, b) = (f.a as f32, f.b as f32);
+                    state.lit = true;
+                    for (((l, bt), le), r) in state
+                        .radiance
+                        .iter_mut()
+                        .zip(&state.beta)
+                        .zip(prep.emitter(ls.emitter))
+                        .zip(rho)
+                    {
+                        *l += k * bt * (a * r + b) * le;
+                    }
                 }
             }
         }
