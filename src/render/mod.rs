@@ -41,6 +41,7 @@ pub mod coding;
 pub mod geometry;
 pub mod ies;
 pub mod integrator;
+pub mod radiance;
 pub mod scene;
 pub mod sensor;
 
@@ -224,6 +225,15 @@ pub struct RenderResult {
     /// Every coding against `spectral` (when both were rendered).
     #[serde(serialize_with = "ordered_map")]
     pub deviation_from_spectral: Vec<(String, Deviation)>,
+    /// The materials and emitters whose spectra were synthesised from
+    /// RADIANCE RGB (the `rgb` coding uses their RGB exactly; the other
+    /// codings the synthesised spectra, see `synthesis_method`). Empty for
+    /// scenes with spectral colours only.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub synthesised_spectra: Vec<String>,
+    /// How they were synthesised (`None` when nothing was).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synthesis_method: Option<&'static str>,
 }
 
 impl RenderResult {
@@ -377,7 +387,24 @@ fn render_in_pool(
         rays_per_second: rays as f64 / wall_seconds,
         targets,
         deviation_from_spectral,
+        synthesised_spectra: synthesised_spectra(scene),
+        synthesis_method: synthesised_spectra(scene).first().map(|_| radiance::SYNTHESIS_METHOD),
     })
+}
+
+/// The materials and emitters whose spectra were synthesised from RGB.
+fn synthesised_spectra(scene: &Scene) -> Vec<String> {
+    let materials = scene
+        .materials
+        .iter()
+        .filter(|m| m.rgb.is_some())
+        .map(|m| format!("material `{}`", m.name));
+    let emitters = scene
+        .emitters
+        .iter()
+        .filter(|e| e.rgb.is_some())
+        .map(|e| format!("emitter `{}`", e.name));
+    materials.chain(emitters).collect()
 }
 
 /// The standard error of Y for coding entry `k` of these sums: from the
