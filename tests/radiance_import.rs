@@ -87,6 +87,16 @@ fn lambertian_floor_under_a_light_sphere_matches_the_analytic_irradiance() {
 /// is `scenes/radiance/reference.json`.
 const RADIANCE_REFERENCE: &[(&str, &str, f64, f64)] = &[
     // (scene, target, Y, SE)
+    ("plastic_sphere", "floor_open", 12.2832, 0.0106),
+    ("plastic_sphere", "floor_shadow", 0.1898, 0.0004),
+    ("plastic_sphere", "ball_highlight", 209.9156, 1.3300),
+    ("plastic_sphere", "ball_diffuse", 4.7359, 0.0310),
+    ("plastic_sphere", "ball_underside", 1.7034, 0.0038),
+    ("metal_sphere", "floor_open", 12.3526, 0.0119),
+    ("metal_sphere", "floor_shadow", 0.1267, 0.0004),
+    ("metal_sphere", "ball_highlight", 1001.5644, 7.2519),
+    ("metal_sphere", "ball_diffuse", 0.4994, 0.0033),
+    ("metal_sphere", "ball_underside", 0.7473, 0.0209),
 ];
 
 fn compare_with_radiance(scene: &str) {
