@@ -18,6 +18,13 @@
 //!   vertex (no bounce follows) the light sample counts fully;
 //! - the next direction is sampled cosine-weighted, pdf = cos θ / π, so the
 //!   throughput update f·cos θ / pdf is exactly ρ (per channel);
+//! - on a `plastic`, `metal` or `mirror` surface ([`super::bsdf`]) f is
+//!   RADIANCE's model instead, a·ρ + b per channel (scalars a, b per
+//!   direction pair), in every term above: next-event estimation uses f,
+//!   the bounce samples the Ward lobe or the cosine (their mixture density
+//!   is p_bsdf for MIS), and an ideal reflection (mirror, polished
+//!   plastic) is a delta: the emitter it sees counts fully, as for the
+//!   sensor's ray. Lambertian vertices keep the code above unchanged;
 //! - paths stop after `max_bounces` indirect bounces (RADIANCE `-ab`), or
 //!   when they leave the scene (open sides return zero radiance); unbiased
 //!   Russian roulette (survival q = max channel of the throughput, at least
@@ -38,6 +45,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use super::area_light::{power_heuristic, AreaLights};
+use super::bsdf::Bsdf;
 use super::bvh::{Bvh, LINEAR_SCAN_BELOW};
 use super::coding::ChannelLayout;
 use super::geometry::{basis, Ray};
@@ -392,6 +400,8 @@ pub struct Prepared<'a> {
     /// Per material: true when it reflects nothing in any channel (a path
     /// that reaches it ends there).
     material_black: Vec<bool>,
+    /// Per material: its reflection model ([`super::bsdf`]).
+    bsdfs: Vec<Bsdf>,
     /// The emitting triangles, for next-event estimation.
     area_lights: AreaLights,
     /// The BVH over `scene.primitives`; `None` below
@@ -433,9 +443,23 @@ impl<'a> Prepared<'a> {
             emitter_channels.extend(c);
         }
         let n = layout.len();
+        let ybar = &crate::colorimetry::Cmf::of(super::coding::OBSERVER).on_grid(&crate::spectrum::Grid::one_nm())[1];
+        let ybar_sum: f64 = ybar.iter().sum();
+        let mut bsdfs = Vec::with_capacity(scene.materials.len());
+        for m in &scene.materials {
+            // The luminous reflectance (equal-energy white) sets only the
+            // lobe's sampling probability, the same for every coding.
+            let rho = m
+                .reflectance
+                .resample(&crate::spectrum::Grid::one_nm())
+                .map_err(|e| format!("material `{}`: {e}", m.name))?;
+            let rho_mean = rho.values().iter().zip(ybar).map(|(r, y)| r * y).sum::<f64>() / ybar_sum;
+            bsdfs.push(Bsdf::new(m.surface, rho_mean));
+        }
         let material_black = material_channels
             .chunks(n.max(1))
-            .map(|m| m.iter().all(|&r| r == 0.0))
+            .zip(&bsdfs)
+            .map(|(m, b)| !b.reflects_without_colour() && m.iter().all(|&r| r == 0.0))
             .collect();
         let bvh = (scene.primitives.len() >= LINEAR_SCAN_BELOW).then(|| scene.bvh.get_or_build(&scene.primitives[..]));
         Ok(Prepared {
@@ -445,6 +469,7 @@ impl<'a> Prepared<'a> {
             light_channels,
             emitter_channels,
             material_black,
+            bsdfs,
             area_lights: AreaLights::new(scene)?,
             bvh,
         })
@@ -566,6 +591,19 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         // Two-sided: the normal on the side the ray came from.
         let n = if front { hit.normal } else { -hit.normal };
         let origin = p + n * SPAWN_OFFSET_M;
+        let bsdf = prep.bsdfs[prim.material];
+        if !matches!(bsdf, Bsdf::Lambertian) {
+            let wo = -ray.dir;
+            match glossy_vertex(prep, transport, bsdf, prim.material, front, p, n, wo, depth, rng, state) {
+                Some((dir, pdf)) => {
+                    ray = Ray { origin, dir };
+                    bsdf_pdf = pdf;
+                    depth += 1;
+                    continue;
+                }
+                None => break,
+            }
+        }
         // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
         let rho = prep.material(prim.material);
         for (b, r) in state.beta.iter_mut().zip(rho) {
@@ -652,6 +690,133 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         ray = Ray { origin, dir };
         depth += 1;
     }
+}
+
+/// One vertex on a surface that is not Lambertian (RADIANCE `plastic`,
+/// `metal`, `mirror`; [`super::bsdf`]): next-event estimation with the
+/// BSDF's value f = a·ρ + b per channel (point lights exactly; area lights
+/// MIS-weighted against the BSDF's sampling density), then a sampled
+/// bounce. The same random numbers as a Lambertian vertex: one 2D point for
+/// the light sample, the roulette's number, one 2D point for the bounce.
+/// Returns the next direction and its density (`None` for an ideal
+/// reflection), or `None` when the path ends.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn glossy_vertex(
+    prep: &Prepared,
+    transport: &Transport,
+    bsdf: Bsdf,
+    material: usize,
+    front: bool,
+    p: DVec3,
+    n: DVec3,
+    wo: DVec3,
+    depth: u32,
+    rng: &mut PathSampler,
+    state: &mut PathState,
+) -> Option<(DVec3, Option<f64>)> {
+    if matches!(bsdf, Bsdf::Mirror) && !front {
+        return None; // RADIANCE m_mirror.c: "back is black"
+    }
+    let origin = p + n * SPAWN_OFFSET_M;
+    let rho = prep.material(material);
+    let last_vertex = depth >= transport.max_bounces;
+    for (li, light) in prep.scene.lights.iter().enumerate() {
+        let to_light = light.position - p;
+        let d2 = to_light.length_squared();
+        let d = d2.sqrt();
+        let wi = to_light / d;
+        let cos_i = n.dot(wi);
+        if cos_i <= 0.0 {
+            continue;
+        }
+        let f = bsdf.eval(n, wo, wi);
+        if f.is_zero() {
+            continue;
+        }
+        let cd = light.candela_toward(-wi);
+        if cd <= 0.0 {
+            continue;
+        }
+        state.rays += 1;
+        if prep.occluded(&Ray { origin, dir: wi }, d) {
+            continue;
+        }
+        // L += β ⊙ f ⊙ I_cd·S(λ) · cos θᵢ / d², f = a·ρ + b.
+        let s = (cd * cos_i / d2) as f32;
+        let (a, b) = (f.a as f32, f.b as f32);
+        state.lit = true;
+        for (((l, bt), e), r) in state.radiance.iter_mut().zip(&state.beta).zip(prep.light(li)).zip(rho) {
+            *l += s * bt * (a * r + b) * e;
+        }
+    }
+    if !prep.area_lights.is_empty() {
+        let (u1, u2) = rng.next_2d();
+        let s = prep.area_lights.sample(u1, u2);
+        let to_light = s.point - p;
+        let d2 = to_light.length_squared();
+        let d = d2.sqrt();
+        let wi = to_light / d;
+        let cos_i = n.dot(wi);
+        let cos_l_signed = -wi.dot(s.normal);
+        let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
+        let f = if cos_i > 0.0 && cos_l > 0.0 {
+            bsdf.eval(n, wo, wi)
+        } else {
+            super::bsdf::Weight::ZERO
+        };
+        if !f.is_zero() {
+            state.rays += 1;
+            let to_point = s.point - origin;
+            let reach = to_point.length();
+            let shadow = Ray {
+                origin,
+                dir: to_point / reach,
+            };
+            if !prep.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9) {
+                let p_light = s.pdf_area * d2 / cos_l;
+                let w = if last_vertex {
+                    1.0
+                } else {
+                    power_heuristic(p_light, bsdf.pdf(n, wo, wi))
+                };
+                // L += β ⊙ f ⊙ Le · cos θᵢ / p_light · w.
+                let k = (cos_i / p_light * w) as f32;
+                let (a, b) = (f.a as f32, f.b as f32);
+                state.lit = true;
+                for (((l, bt), le), r) in state
+                    .radiance
+                    .iter_mut()
+                    .zip(&state.beta)
+                    .zip(prep.emitter(s.emitter))
+                    .zip(rho)
+                {
+                    *l += k * bt * (a * r + b) * le;
+                }
+            }
+        }
+    }
+    if last_vertex {
+        return None;
+    }
+    if let Some(from) = transport.russian_roulette_from {
+        if depth >= from {
+            let q = state.beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
+            if rng.next_1d() >= q as f64 {
+                return None;
+            }
+            let inv = 1.0 / q;
+            state.beta.iter_mut().for_each(|b| *b *= inv);
+        }
+    }
+    let (u1, u2) = rng.next_2d();
+    let sample = bsdf.sample(n, wo, u1, u2)?;
+    // β ← β ⊙ (a·ρ + b): f·cos θᵢ/pdf of the sampled direction.
+    let (a, b) = (sample.weight.a as f32, sample.weight.b as f32);
+    for (bt, r) in state.beta.iter_mut().zip(rho) {
+        *bt *= a * r + b;
+    }
+    Some((sample.dir, sample.pdf))
 }
 
 /// Sums of one batch of radiometer samples: Σ radiance per channel, and per

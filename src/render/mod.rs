@@ -36,6 +36,7 @@
 //! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
 
 pub mod area_light;
+pub mod bsdf;
 pub mod bvh;
 pub mod coding;
 pub mod geometry;

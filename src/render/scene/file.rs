@@ -111,10 +111,28 @@ pub(super) enum Outside {
     Zero,
 }
 
+/// A material: `{ reflectance = … }` is Lambertian; `type` names one of
+/// RADIANCE's glossy materials, which take `specularity` and `roughness`
+/// (`plastic`, `metal`) or nothing more (`mirror`).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct MaterialFile {
+    #[serde(rename = "type", default)]
+    pub kind: MaterialKind,
     pub reflectance: SpectrumRef,
+    pub specularity: Option<f64>,
+    pub roughness: Option<f64>,
+}
+
+/// How a material scatters (`type = "…"`).
+#[derive(Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum MaterialKind {
+    #[default]
+    Lambertian,
+    Plastic,
+    Metal,
+    Mirror,
 }
 
 #[derive(Deserialize)]
