@@ -73,9 +73,30 @@ fn lambertian_floor_under_a_light_sphere_matches_the_analytic_irradiance() {
             c.luminance_se_cd_m2
         );
     }
-    assert_eq!(r.synthesised_spectra.len(), 1, "{:?}", r.synthesised_spectra);
-    assert!(r.synthesised_spectra[0].contains("warm"));
+    // The grey's flat spectrum and the lamp's fitted one both came from RGB.
+    assert_eq!(r.synthesised_spectra.len(), 2, "{:?}", r.synthesised_spectra);
+    assert!(r.synthesised_spectra[1].contains("light warm"));
     assert!(r.synthesis_method.unwrap().contains("Jakob & Hanika"));
+}
+
+/// Regression: an adaptive render (`target_relative_se`) whose goal is not
+/// met when a target reaches `max_samples` panicked (`clamp` with
+/// min > max) instead of stopping at the cap.
+#[test]
+fn adaptive_render_reaching_max_samples_stops_at_the_cap_instead_of_panicking() {
+    let view = RadianceView {
+        radiometer: DVec3::new(2.4, -1.6, 1.6),
+        field_deg: 1.0,
+        targets: vec![("floor".into(), DVec3::new(1.2, 0.6, 0.0))],
+    };
+    let scene = load_radiance_scene(&scenes().join("plastic_sphere.rad"), &view).unwrap();
+    let s = RenderSettings {
+        samples: 1024,
+        max_samples: 2048,
+        ..settings(vec![Coding::Rgb], 1e-9, 2048)
+    };
+    let r = render(&scene, &s, None).unwrap();
+    assert_eq!(r.targets[0].paths, 2048);
 }
 
 /// RADIANCE 6's luminances (cd/m², and their standard errors) of the

@@ -16,9 +16,24 @@ angle inside that cone (a sqrt(N) × sqrt(N) grid in (1 - cos θ, φ), one
 jittered point per cell), each traced by rtrace with the high-accuracy
 settings below: no ambient cache (-aa 0, so every indirect value is a fresh
 Monte Carlo estimate), 8 bounces with Russian roulette below weight 1e-5
-(-lr -16 -lw 1e-5: unbiased), 2048 ambient samples at the first bounce,
-16 samples of each glossy lobe (-ss 16 -st 0), light sources subdivided finely
-and jittered (-ds 0.02 -dj 0.7 -dc 1 -dt 0). Luminance is RADIANCE's
+(-lr -16 -lw 1e-5: unbiased), 1024 ambient samples at the first bounce,
+16 samples of each glossy lobe (-ss 16 -st 0), every shadow ray tested
+(-dc 1 -dt 0) and the light source fully jittered (-dj 1). The jitter matters:
+rtrace samples a sphere source at one point per ray (-ds does not subdivide
+it; tried 0.2 to 0.005, no change), so with -dj 0 the glossy highlight is the
+lobe at the source's centre times its solid angle, 6 % above the integral over
+the source for this roughness (218 vs 205 cd/m² at ball_highlight, -ab 0);
+-dj 1 draws the point uniformly over the source's disc, an unbiased estimate
+of that integral (partial jitter, -dj 0.7, lies in between: 213).
+Even -dj 1 is not uniform over the source: nextssamp() in RADIANCE's
+src/rt/srcsamp.c jitters a point in the sphere's volume (a cube trimmed to a
+ball), whose projection crowds the disc's centre, so a highlight narrower
+than the lamp's image still comes out high (203 vs lightbooth's 197.5). The
+highlight targets (GLOW_TARGETS) are therefore taken from a second run in
+which the lamp is `glow` with maxrad 0 instead of `light`: RADIANCE then does
+not sample it as a source at all, and it is found only by the glossy lobe's
+own sampling rays (-ss 64): unbiased, if noisier. The light itself is the
+same (a glow of the same RGB has the same radiance). Luminance is RADIANCE's
 179 lm/W × (0.265074 R + 0.670115 G + 0.064811 B) (RADIANCE's CIE_rf/gf/bf,
 its primaries with an equal-energy white). The standard error comes from the
 spread of the per-ray luminances (conservative: it includes the variation of
@@ -43,10 +58,16 @@ LIB = os.path.join(os.path.dirname(pyradiance.__file__), "lib")
 
 RADIOMETER = (2.4, -1.6, 1.6)
 FIELD_DEG = 1.0
-N_RAYS = 1024
+N_RAYS = 4096
 
-SETTINGS = "-ab 8 -ad 2048 -as 0 -aa 0 -lw 1e-5 -lr -16 -ss 16 -st 0 -ds 0.02 -dj 0.7 -dc 1 -dt 0".split()
-CHECK = "-ab 8 -ad 512 -as 0 -aa 0 -lw 1e-5 -lr -16 -ss 16 -st 0 -ds 0.02 -dj 0.7 -dc 1 -dt 0".split()
+SETTINGS = "-ab 8 -ad 1024 -as 0 -aa 0 -lw 1e-5 -lr -16 -ss 16 -st 0 -ds 0.02 -dj 1 -dc 1 -dt 0".split()
+CHECK = "-ab 8 -ad 256 -as 0 -aa 0 -lw 1e-5 -lr -16 -ss 16 -st 0 -ds 0.02 -dj 1 -dc 1 -dt 0".split()
+
+GLOW_TARGETS = ["ball_highlight"]
+GLOW_SETTINGS = [("-ss" if a == "-ss" else a) for a in SETTINGS]
+GLOW_SETTINGS[GLOW_SETTINGS.index("-ss") + 1] = "64"
+GLOW_CHECK = [a for a in CHECK]
+GLOW_CHECK[GLOW_CHECK.index("-ss") + 1] = "64"
 
 CIE = (0.265074126, 0.670114631, 0.064811243)
 EFFICACY = 179.0
@@ -156,6 +177,9 @@ def main():
         "rays_per_target": N_RAYS,
         "settings": " ".join(SETTINGS),
         "check_settings": " ".join(CHECK),
+        "glow_targets": GLOW_TARGETS,
+        "glow_settings": " ".join(GLOW_SETTINGS),
+        "glow_check_settings": " ".join(GLOW_CHECK),
         "targets": {k: list(v) for k, v in TARGETS.items()},
         "scenes": {},
     }
@@ -167,10 +191,19 @@ def main():
                 subprocess.run(
                     [os.path.join(BIN, "oconv"), os.path.join(HERE, scene + ".rad")], stdout=f, check=True
                 )
+            text = open(os.path.join(HERE, scene + ".rad")).read()
+            glow_text = text.replace("void light lamp_white\n0\n0\n3 100 95 80", "void glow lamp_white\n0\n0\n4 100 95 80 0")
+            assert glow_text != text
+            glow_octree = os.path.join(tmp, scene + "_glow.oct")
+            with open(glow_octree, "wb") as f:
+                subprocess.run([os.path.join(BIN, "oconv"), "-"], input=glow_text.encode(), stdout=f, check=True)
             values = {}
             for name, target in TARGETS.items():
-                main_run = measure(octree, target, SETTINGS, seed=1)
-                check_run = measure(octree, target, CHECK, seed=2)
+                glow = name in GLOW_TARGETS
+                oct_, main_s, check_s = (glow_octree, GLOW_SETTINGS, GLOW_CHECK) if glow else (octree, SETTINGS, CHECK)
+                main_run = measure(oct_, target, main_s, seed=1)
+                check_run = measure(oct_, target, check_s, seed=2)
+                main_run["lamp"] = "glow 0 (sampled by the lobe)" if glow else "light (sampled as a source)"
                 diff = main_run["luminance_cd_m2"] - check_run["luminance_cd_m2"]
                 combined = math.hypot(main_run["se_cd_m2"], check_run["se_cd_m2"])
                 main_run["check_luminance_cd_m2"] = check_run["luminance_cd_m2"]

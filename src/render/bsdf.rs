@@ -190,7 +190,11 @@ impl Bsdf {
         let rho = rho_mean.clamp(0.0, 1.0);
         let spec = if metal { s * rho } else { s };
         let diffuse = (1.0 - s) * rho;
-        let p = if spec + diffuse > 0.0 { spec / (spec + diffuse) } else { s };
+        let p = if spec + diffuse > 0.0 {
+            spec / (spec + diffuse)
+        } else {
+            s
+        };
         let alpha2 = roughness * roughness;
         if alpha2 <= PURE_SPECULAR_ALPHA2 {
             Bsdf::Smooth {
@@ -228,7 +232,10 @@ impl Bsdf {
                 let lobe = s * ward_gmd(n, wo, wi, alpha2);
                 let diffuse = (1.0 - s) / PI;
                 if metal {
-                    Weight { a: diffuse + lobe, b: 0.0 }
+                    Weight {
+                        a: diffuse + lobe,
+                        b: 0.0,
+                    }
                 } else {
                     Weight { a: diffuse, b: lobe }
                 }
@@ -253,9 +260,7 @@ impl Bsdf {
         }
         match *self {
             Bsdf::Lambertian => cos_i / PI,
-            Bsdf::Glossy { alpha2, p_lobe, .. } => {
-                p_lobe * ward_pdf(n, wo, wi, alpha2) + (1.0 - p_lobe) * cos_i / PI
-            }
+            Bsdf::Glossy { alpha2, p_lobe, .. } => p_lobe * ward_pdf(n, wo, wi, alpha2) + (1.0 - p_lobe) * cos_i / PI,
             Bsdf::Smooth { p_mirror, .. } => (1.0 - p_mirror) * cos_i / PI,
             Bsdf::Mirror => 0.0,
         }

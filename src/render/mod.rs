@@ -353,12 +353,13 @@ fn render_in_pool(
         };
         for k in 0..nt {
             let rel = relative_se(&prep.layout, settings.sampler, &sums[k]);
-            if rel > goal {
+            // At the cap the target is done, goal met or not.
+            if rel > goal && done_batches[k] < max_batches {
                 // SE ∝ 1/√n for plain Monte Carlo; randomised QMC converges
                 // faster, so that estimate overshoots: grow at most 2× a round.
                 let need = (done_batches[k] as f64 * (rel / goal).powi(2)).ceil() as u64;
                 let need = need.min(2 * done_batches[k]);
-                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches.max(done_batches[k]));
+                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches);
             }
         }
     }

@@ -211,6 +211,12 @@ pub fn emission_from_spectrum(k: f64, s: &Spectrum) -> Spectrum {
     Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite")
 }
 
+/// How spectra were synthesised from RADIANCE RGB, for reports.
+pub const SYNTHESIS_METHOD: &str = "spectra synthesised from RADIANCE RGB: reflectances as Jakob & Hanika (2019) \
+     sigmoid polynomials fitted per colour (Levenberg–Marquardt) to reproduce the RGB under the equal-energy \
+     illuminant, greys flat; light emission as the same shape scaled to RADIANCE's 179 lm/W; the rgb coding uses \
+     the file's RGB exactly";
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -266,9 +272,3 @@ mod tests {
         assert!(residual < 1e-6 && (y / want - 1.0).abs() < 1e-3, "{y} vs {want}");
     }
 }
-
-/// How spectra were synthesised from RADIANCE RGB, for reports.
-pub const SYNTHESIS_METHOD: &str = "spectra synthesised from RADIANCE RGB: reflectances as Jakob & Hanika (2019) \
-     sigmoid polynomials fitted per colour (Levenberg–Marquardt) to reproduce the RGB under the equal-energy \
-     illuminant, greys flat; light emission as the same shape scaled to RADIANCE's 179 lm/W; the rgb coding uses \
-     the file's RGB exactly";

@@ -321,7 +321,7 @@ impl Converter<'_> {
         let mut triangles: Vec<Triangle> = Vec::new();
         match kind {
             "polygon" => {
-                if !p.prim.strings.is_empty() || r.len() < 9 || r.len() % 3 != 0 {
+                if !p.prim.strings.is_empty() || r.len() < 9 || !r.len().is_multiple_of(3) {
                     return Err(p.err(format!("takes 3·n ≥ 9 reals (n vertices), has {}", r.len())));
                 }
                 let v: Vec<DVec3> = placed_vertices(p, r).into_iter().map(|v| v * k).collect();

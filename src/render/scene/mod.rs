@@ -732,9 +732,12 @@ fn surface(m: &file::MaterialFile, name: &str, l: &Loader) -> Result<Surface, Sc
     if !(0.0..=1.0).contains(&specularity) {
         return Err(l.err(key("specularity"), format!("must be in [0, 1], is {specularity}")));
     }
-    let roughness = m
-        .roughness
-        .ok_or_else(|| l.err(key("roughness"), "is required for plastic and metal (≥ 0; 0 is a polished surface)"))?;
+    let roughness = m.roughness.ok_or_else(|| {
+        l.err(
+            key("roughness"),
+            "is required for plastic and metal (≥ 0; 0 is a polished surface)",
+        )
+    })?;
     if !(roughness >= 0.0) {
         return Err(l.err(key("roughness"), format!("must be ≥ 0, is {roughness}")));
     }

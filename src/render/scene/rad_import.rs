@@ -100,7 +100,7 @@ pub fn load_radiance_scene(path: &Path, view: &RadianceView) -> Result<Scene, Sc
             .iter()
             .map(|p| p.shape.distance_to(*point))
             .fold(f64::INFINITY, f64::min);
-        if !(nearest <= super::TARGET_TOLERANCE_M) {
+        if nearest.is_nan() || nearest > super::TARGET_TOLERANCE_M {
             return Err(err(
                 &key,
                 format!("{point} is not on a surface (nearest is {nearest:.6} m away)"),
