@@ -10,6 +10,11 @@
 //! `lightbooth render scenes/cornell_box.toml --codings rgb,srgb,nstep9,nstep81,spectral --json`
 //! (`wall_seconds`).
 //!
+//! `glossy_booth/all7`: the glossy example scene
+//! (`scenes/examples/glossy_booth.toml`: RADIANCE `plastic` and `metal`
+//! spheres, a spot and an area light), four targets, all seven codings,
+//! 8192 paths per target.
+//!
 //! `cargo bench --bench render` (release profile). Measurement time is kept
 //! short: the machine is shared.
 
@@ -75,5 +80,24 @@ fn cornell_box(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, cylinder, cornell_box);
+fn glossy_booth(c: &mut Criterion) {
+    let scene = load_scene(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/examples/glossy_booth.toml")).unwrap();
+    let paths = SAMPLES * scene.targets().len() as u64;
+    let mut group = c.benchmark_group("glossy_booth");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3))
+        .throughput(Throughput::Elements(paths));
+    let settings = RenderSettings {
+        codings: Coding::ALL.to_vec(),
+        samples: SAMPLES,
+        target_relative_se: None,
+        ..RenderSettings::default()
+    };
+    group.bench_function("all7", |b| b.iter(|| render(&scene, &settings, None).unwrap()));
+    group.finish();
+}
+
+criterion_group!(benches, cylinder, cornell_box, glossy_booth);
 criterion_main!(benches);
