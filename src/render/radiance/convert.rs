@@ -493,3 +493,236 @@ fn read_specfile(text: &str) -> Result<Vec<(f64, f64)>, String> {
     }
     Ok(numbers.chunks(2).map(|c| (c[0], c[1])).collect())
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+    use std::path::{Path, PathBuf};
+
+    use super::*;
+    use crate::render::radiance::load::expand;
+
+    struct Memory(HashMap<PathBuf, String>);
+
+    impl Source for Memory {
+        fn read(&mut self, path: &Path) -> Result<String, String> {
+            self.0
+                .get(path)
+                .cloned()
+                .ok_or_else(|| format!("cannot read {}", path.display()))
+        }
+    }
+
+    fn load(text: &str, extra: &[(&str, &str)], k: f64) -> Result<RadianceScene, RadError> {
+        let mut files: HashMap<PathBuf, String> =
+            extra.iter().map(|(p, t)| (PathBuf::from(p), t.to_string())).collect();
+        files.insert(PathBuf::from("s.rad"), text.to_string());
+        let mut src = Memory(files);
+        let stream = expand(Path::new("s.rad"), &mut src)?;
+        convert(stream, k, &mut src)
+    }
+
+    const MATS: &str = "void plastic p 0 0 5 .6 .2 .1 .05 .1\nvoid metal m 0 0 5 .5 .5 .5 .9 .2\n\
+                        void mirror mi 0 0 3 .9 .9 .9\nvoid light l 0 0 3 1 1 1\nvoid glow g 0 0 4 2 2 2 0\n";
+
+    #[test]
+    fn materials_become_surfaces_with_exact_rgb_and_emitters_with_179_per_unit() {
+        let s = load(MATS, &[], 1.0).unwrap();
+        assert_eq!(s.materials.len(), 3);
+        assert_eq!(s.materials[0].name, "p");
+        assert_eq!(
+            s.materials[0].surface,
+            Surface::Plastic {
+                specularity: 0.05,
+                roughness: 0.1
+            }
+        );
+        assert_eq!(s.materials[0].rgb, Some([0.6, 0.2, 0.1]));
+        assert_eq!(
+            s.materials[1].surface,
+            Surface::Metal {
+                specularity: 0.9,
+                roughness: 0.2
+            }
+        );
+        assert_eq!(s.materials[2].surface, Surface::Mirror);
+        // A grey is a flat spectrum.
+        assert!(s.materials[1]
+            .reflectance
+            .values()
+            .iter()
+            .all(|v| (*v - 0.5).abs() < 1e-15));
+        assert_eq!(s.emitters.len(), 2);
+        assert_eq!(s.emitters[0].rgb, Some([179.0; 3]));
+        assert_eq!(s.emitters[1].rgb, Some([358.0; 3]));
+        assert!(!s.emitters[0].two_sided);
+    }
+
+    #[test]
+    fn every_surface_type_becomes_shapes_in_metres() {
+        let text = format!(
+            "{MATS}p sphere s 0 0 4 1 2 3 0.5\np bubble b 0 0 4 0 0 0 1\np cylinder c 0 0 7 0 0 0 0 0 2 0.5\n\
+             p tube t 0 0 7 0 0 0 2 0 0 0.5\np ring r 0 0 8 0 0 1 0 0 1 0 2\np ring a 0 0 8 0 0 1 0 0 1 1 2\n\
+             p cone k 0 0 8 0 0 0 0 0 1 1 0\np cup u 0 0 8 0 0 0 0 0 1 1 0.5\n\
+             p polygon q 0 0 12 0 0 0 1 0 0 1 1 0 0 1 0\n"
+        );
+        let s = load(&text, &[], 0.01).unwrap();
+        let shapes: Vec<&Shape> = s.primitives.iter().map(|p| &p.shape).collect();
+        match shapes[0] {
+            Shape::Sphere { centre, radius } => {
+                assert!((*centre - DVec3::new(0.01, 0.02, 0.03)).length() < 1e-15 && (*radius - 0.005).abs() < 1e-15)
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(shapes[1], Shape::Sphere { radius, .. } if (*radius - 0.01).abs() < 1e-15));
+        match shapes[2] {
+            Shape::Cylinder {
+                base,
+                axis,
+                length,
+                radius,
+            } => {
+                assert_eq!(*base, DVec3::ZERO);
+                assert!((*axis - DVec3::Z).length() < 1e-15);
+                assert!((*length - 0.02).abs() < 1e-15 && (*radius - 0.005).abs() < 1e-15);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(shapes[3], Shape::Cylinder { .. }));
+        match shapes[4] {
+            Shape::Disc { centre, normal, radius } => {
+                assert!((*centre - DVec3::new(0.0, 0.0, 0.01)).length() < 1e-15);
+                assert_eq!(*normal, DVec3::Z);
+                assert!((*radius - 0.02).abs() < 1e-15);
+            }
+            other => panic!("{other:?}"),
+        }
+        // The annulus, cone and cup are triangles: 2·256, 256, 2·256; the square 2.
+        let triangles = shapes[5..]
+            .iter()
+            .filter(|s| matches!(s, Shape::Triangle { .. }))
+            .count();
+        assert_eq!(shapes.len() - 5, triangles);
+        assert_eq!(triangles, 512 + 256 + 512 + 2);
+        assert!(s.primitives.iter().all(|p| p.material == 0 && p.emitter.is_none()));
+    }
+
+    /// Emitting surfaces are triangles of a black material facing their
+    /// front: out of a sphere, into a bubble.
+    #[test]
+    fn emitting_surfaces_are_oriented_triangles() {
+        let s = load(
+            &format!("{MATS}l sphere s 0 0 4 0 0 0 1\ng bubble b 0 0 4 0 0 0 3\n"),
+            &[],
+            1.0,
+        )
+        .unwrap();
+        let black = s.materials.iter().position(|m| m.name.starts_with("(black")).unwrap();
+        assert!(s.materials[black].reflectance.values().iter().all(|v| *v == 0.0));
+        let (mut out, mut inward) = (0, 0);
+        for p in &s.primitives {
+            assert_eq!(p.material, black);
+            let Shape::Triangle { p0, normal, .. } = p.shape else {
+                panic!("{:?}", p.shape)
+            };
+            match p.emitter {
+                Some(0) if normal.dot(p0) > 0.0 => out += 1,
+                Some(1) if normal.dot(p0) < 0.0 => inward += 1,
+                other => panic!("{other:?} {normal} {p0}"),
+            }
+        }
+        assert_eq!((out, inward), (5120, 5120));
+    }
+
+    /// `spectrum` and `specfile` colour a grey material: reflectance k·s(λ),
+    /// interpolated between samples and zero outside their range.
+    #[test]
+    fn spectrum_and_specfile_colour_a_grey_material() {
+        let text = "void spectrum sp 0 0 5 400 700 0.2 0.8 0.4\nsp plastic a 0 0 5 .5 .5 .5 0 0\n\
+                    void specfile sf 1 refl.dat 0 0\nsf metal b 0 0 5 1 1 1 .5 .1\n";
+        let s = load(text, &[("refl.dat", "# nm value\n400 0.1\n500 0.3\n800 0.5\n")], 1.0).unwrap();
+        let a = &s.materials[0];
+        assert_eq!(a.rgb, None);
+        let at = |m: &Material, nm: f64| m.reflectance.values()[(nm - 380.0) as usize];
+        assert_eq!(at(a, 390.0), 0.0);
+        assert!((at(a, 400.0) - 0.1).abs() < 1e-12);
+        assert!((at(a, 475.0) - 0.5 * 0.5).abs() < 1e-12);
+        assert!((at(a, 700.0) - 0.2).abs() < 1e-12);
+        assert_eq!(at(a, 701.0), 0.0);
+        let b = &s.materials[1];
+        assert!((at(b, 450.0) - 0.2).abs() < 1e-12);
+        assert!((at(b, 780.0) - (0.3 + 0.2 * 280.0 / 300.0)).abs() < 1e-12);
+        assert_eq!(s.files.len(), 2);
+        // A RADIANCE data file gives the same.
+        let d = load(
+            "void specfile sf 1 d.dat 0 0\nsf plastic c 0 0 5 1 1 1 0 0\n",
+            &[("d.dat", "1\n400 700 3\n0.2 0.8 0.4\n")],
+            1.0,
+        )
+        .unwrap();
+        assert!((at(&d.materials[0], 475.0) - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn refusals_name_the_file_line_primitive_and_what_to_do() {
+        for (text, want) in [
+            (
+                "\nvoid brightfunc f 2 x x.cal 0 0\n",
+                "s.rad:2: brightfunc f: `brightfunc`: patterns",
+            ),
+            (
+                "void spotlight s 0 0 7 1 1 1 30 0 0 -1\n",
+                "s.rad:1: spotlight s: spotlight is not imported",
+            ),
+            (
+                "void glass g 0 0 3 .9 .9 .9\n",
+                "material type `glass` is not supported",
+            ),
+            ("void glow g 0 0 4 1 1 1 -1\n", "maxrad -1 < 0"),
+            (
+                "void plastic p 0 0 5 1.2 .5 .5 0 0\n",
+                "red reflectance 1.2 is outside [0, 1]",
+            ),
+            (
+                "void plastic p 0 0 4 1 .5 .5 0\n",
+                "takes 0 string and 5 real arguments",
+            ),
+            (
+                "nope polygon q 0 0 9 0 0 0 1 0 0 0 1 0\n",
+                "s.rad:1: polygon q: its material `nope` is not defined",
+            ),
+            ("void polygon q 0 0 9 0 0 0 1 0 0 0 1 0\n", "has no material"),
+            (
+                "void spectrum sp 0 0 5 400 700 1 1 1\nsp polygon q 0 0 9 0 0 0 1 0 0 0 1 0\n",
+                "a spectrum colours a material",
+            ),
+            (
+                "void spectrum sp 0 0 5 400 700 1 1 1\nsp plastic c 0 0 5 1 .5 .5 0 0\n",
+                "give a grey",
+            ),
+            (
+                "void spectrum sp 0 0 5 400 700 1 1 2\nsp plastic c 0 0 5 .8 .8 .8 0 0\n",
+                "above 1",
+            ),
+            (
+                "void plastic p 0 0 5 .5 .5 .5 0 0\np sphere s 0 0 4 0 0 0 -1\n",
+                "write `bubble`",
+            ),
+            (
+                "void plastic p 0 0 5 .5 .5 .5 0 0\np instance i 1 x.oct 0 0\n",
+                "OBJ or PLY",
+            ),
+            (
+                "void plastic p 0 0 5 .5 .5 .5 0 0\np source sun 0 0 4 0 0 1 0.5\n",
+                "distant `source`",
+            ),
+            (
+                "void plastic p 0 0 5 .5 .5 .5 0 0\np ring r 0 0 8 0 0 0 0 0 1 2 1\n",
+                "0 ≤ inner < outer",
+            ),
+        ] {
+            let e = load(text, &[], 1.0).unwrap_err().to_string();
+            assert!(e.contains(want), "{text}: {e}");
+        }
+    }
+}
