@@ -248,14 +248,18 @@ mod tests {
         assert_eq!(fit_reflectance([0.5; 3]), (SmoothSpectrum::Flat(0.5), 0.0));
     }
 
-    /// A saturated primary cannot be reached: the fit says how far it is.
+    /// A colour no reflectance in [0, 1] has — red above the largest red any
+    /// such reflectance reaches, Σ max(w_red, 0) — is not reached: the fit
+    /// reports the miss it leaves, which is at least the gap to that bound.
     #[test]
     fn unreachable_colours_report_their_residual() {
-        // As much green as a perfect white, and no red or blue.
-        let (s, residual) = fit_reflectance([0.0, 1.0, 0.0]);
-        assert!(residual > 1e-3, "{residual}");
+        let red_max: f64 = rgb_weights()[0].iter().map(|w| w.max(0.0)).sum();
+        let target = [1.05 * red_max, 0.5, 0.5];
+        let (s, residual) = fit_reflectance(target);
         let got = rgb_of(&s);
-        assert!(got[1] > 0.5, "{got:?}");
+        let miss = (0..3).map(|k| (got[k] - target[k]).abs()).fold(0.0, f64::max);
+        assert!(residual >= 0.05 * red_max - 1e-9, "{residual} (red max {red_max})");
+        assert!((residual - miss).abs() < 1e-9, "reported {residual}, actual {miss}");
     }
 
     /// RADIANCE's convention: a light of (1, 1, 1) has luminance 179 cd/m²,
