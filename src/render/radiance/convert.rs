@@ -459,7 +459,9 @@ fn multipliers(p: &Placed, mut samples: Vec<(f64, f64)>) -> Result<Spectrum, Rad
             a.1 + (b.1 - a.1) * (nm - a.0) / (b.0 - a.0)
         })
         .collect();
-    Spectrum::new(Grid::one_nm(), SpectralUnit::Reflectance, values).map_err(|e| p.err(e.to_string()))
+    // Multipliers, not reflectances: a light's may exceed 1 (a material's
+    // product with its grey is checked against [0, 1] where it is used).
+    Spectrum::new(Grid::one_nm(), SpectralUnit::RelativePower, values).map_err(|e| p.err(e.to_string()))
 }
 
 /// A `specfile`: `wavelength value` pairs, or a RADIANCE 1-D data file
@@ -661,6 +663,18 @@ mod tests {
         )
         .unwrap();
         assert!((at(&d.materials[0], 475.0) - 0.5).abs() < 1e-12);
+        // A light's multipliers may exceed 1: a flat 2 doubles RADIANCE's 179 cd/m² per unit.
+        let l = load(
+            "void spectrum w 0 0 5 380 780 2 2 2\nw light lw 0 0 3 1 1 1\n",
+            &[],
+            1.0,
+        )
+        .unwrap();
+        assert_eq!(l.emitters[0].rgb, None);
+        let y = crate::colorimetry::xyz_from_radiance(&l.emitters[0].radiance, crate::render::coding::OBSERVER)
+            .unwrap()
+            .y;
+        assert!((y / 358.0 - 1.0).abs() < 1e-9, "{y}");
     }
 
     #[test]
