@@ -17,7 +17,10 @@
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 //! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
 //! - [`render`]: the built-in spectral renderer, every colour coding in one pass.
+//! - [`calibration`]: reflectances and lamp spectra measured in the booth
+//!   against a white standard.
 
+pub mod calibration;
 pub mod charts;
 pub mod colorimetry;
 pub mod comparison;

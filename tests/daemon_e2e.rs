@@ -49,8 +49,8 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
     assert_eq!(status, 200);
     assert_eq!(
         scenes.as_array().unwrap().len(),
-        6,
-        "the five booth scenes and the Cornell box"
+        7,
+        "the five booth scenes, the Cornell box and the material bench"
     );
     let (status, accepted) = post_json(
         d.addr,

@@ -251,7 +251,7 @@ fn the_auto_point_lies_on_the_pareto_front() {
 }
 
 /// The variant lives in `scenes/variants/`, so the daemon's scene list
-/// (files `scenes/*.toml`, not subfolders) is still the five booth scenes;
+/// (files `scenes/*.toml`, not subfolders) is the booth's scenes and the material bench;
 /// the variant loads, with F11 as both lights' spectrum and nothing else
 /// changed from CYLINDER.
 #[test]
@@ -264,7 +264,18 @@ fn the_f11_variant_loads_and_stays_out_of_the_daemon_list() {
         .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
         .collect();
     listed.sort();
-    assert_eq!(listed, ["blue", "cornell_box", "cylinder", "green", "red", "white"]);
+    assert_eq!(
+        listed,
+        [
+            "blue",
+            "cornell_box",
+            "cylinder",
+            "green",
+            "material_bench",
+            "red",
+            "white"
+        ]
+    );
     let (c, f) = (scene("cylinder.toml"), scene("variants/cylinder_f11.toml"));
     assert_eq!(c.targets(), f.targets());
     assert_eq!(c.materials.len(), f.materials.len());

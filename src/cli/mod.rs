@@ -2,6 +2,7 @@
 //! interface is stable: lab scripts and MATLAB users call it.
 
 mod analyze;
+mod calibrate;
 mod color;
 mod measure;
 mod mock_pr650;
@@ -40,6 +41,10 @@ enum Command {
     Serve(serve::ServeArgs),
     /// Every coding of every scene against measurements or a converged reference, over seeds.
     Study(study::StudyArgs),
+    /// A material's reflectance from a sample and a white-standard measurement, as a scene CSV.
+    Reflectance(calibrate::ReflectanceArgs),
+    /// The lamp's spectral power distribution from a white-standard measurement, as a scene CSV.
+    Illuminant(calibrate::IlluminantArgs),
 }
 
 impl Cli {
@@ -58,6 +63,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Study(args) => study::run(args),
+        Command::Reflectance(args) => calibrate::run_reflectance(args),
+        Command::Illuminant(args) => calibrate::run_illuminant(args),
     }
 }
 

@@ -134,6 +134,20 @@ pub struct Hit {
     pub normal: DVec3,
 }
 
+/// The unit normal of the triangle (p0, p1, p2), by the right-hand rule
+/// over its vertex order: `(p1 − p0) × (p2 − p0)`, normalised; `None` for a
+/// degenerate triangle. [`Shape::triangle`] stores exactly this, and the BVH
+/// recomputes it from the vertices it holds instead of reading the shape.
+#[inline]
+pub fn triangle_normal(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<DVec3> {
+    let n = (p1 - p0).cross(p2 - p0);
+    let len = n.length();
+    if !len.is_finite() || len <= 0.0 {
+        return None;
+    }
+    Some(n / len)
+}
+
 impl Shape {
     /// The parallelogram corner + s·u + t·v.
     pub fn quad(corner: DVec3, u: DVec3, v: DVec3) -> Shape {
@@ -150,17 +164,8 @@ impl Shape {
 
     /// The triangle p0, p1, p2; `None` when it is degenerate (zero area).
     pub fn triangle(p0: DVec3, p1: DVec3, p2: DVec3) -> Option<Shape> {
-        let n = (p1 - p0).cross(p2 - p0);
-        let len = n.length();
-        if !len.is_finite() || len <= 0.0 {
-            return None;
-        }
-        Some(Shape::Triangle {
-            p0,
-            p1,
-            p2,
-            normal: n / len,
-        })
+        let normal = triangle_normal(p0, p1, p2)?;
+        Some(Shape::Triangle { p0, p1, p2, normal })
     }
 
     /// The axis-aligned bounding box. Up to rounding (a few ulps for the

@@ -119,9 +119,19 @@ impl Pcg32 {
         r
     }
 
-    /// The generator of sample `sample` of target `target` under `seed`.
+    /// The generator of sample `sample` of target `target` under `seed`:
+    /// the initial state is a hash of all three, on one fixed stream.
+    ///
+    /// Not one stream per sample with a shared state (as before): PCG
+    /// streams that start from the same state differ by a fixed additive
+    /// offset at every step, so the samples' n-th numbers formed an
+    /// arithmetic progression mod 2⁶⁴ — a rank-1 lattice, not independent
+    /// draws — and standard errors computed as if they were independent
+    /// were wrong by up to 2× (pinned by
+    /// `tests/render_standard_errors.rs`).
     pub fn for_sample(seed: u64, target: u64, sample: u64) -> Pcg32 {
-        Pcg32::new(splitmix64(seed ^ splitmix64(target.wrapping_add(0x9e37_79b9))), sample)
+        let state = splitmix64(splitmix64(seed ^ splitmix64(target.wrapping_add(0x9e37_79b9))) ^ sample);
+        Pcg32::new(state, 0x5851_f42d_4c95_7f2d)
     }
 
     #[inline]

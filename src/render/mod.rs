@@ -40,6 +40,7 @@ pub mod bsdf;
 pub mod bvh;
 pub mod coding;
 pub mod geometry;
+mod huge_pages;
 pub mod ies;
 pub mod integrator;
 pub mod radiance;

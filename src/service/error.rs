@@ -136,6 +136,17 @@ impl From<StoreError> for ApiError {
     }
 }
 
+impl From<crate::calibration::measured::MeasuredError> for ApiError {
+    fn from(e: crate::calibration::measured::MeasuredError) -> Self {
+        use crate::calibration::measured::MeasuredError;
+        match e {
+            MeasuredError::Invalid(m) => ApiError::BadRequest(m),
+            MeasuredError::WrongState(m) => ApiError::Conflict(m),
+            MeasuredError::Store(e) => e.into(),
+        }
+    }
+}
+
 /// Turns a status some other layer chose (axum's rejections, a method
 /// router's 405) into the error with that status.
 pub fn from_rejection(status: StatusCode, message: String) -> ApiError {

@@ -12,6 +12,8 @@ use super::AppState;
 
 const INDEX: &str = include_str!("../../web/index.html");
 const APP_JS: &str = include_str!("../../web/app.js");
+/// The "measure a material" view (reflectance against a white standard).
+const MATERIAL_JS: &str = include_str!("../../web/material.js");
 const STYLE: &str = include_str!("../../web/style.css");
 
 /// MATLAB examples, served under `/matlab/`.
@@ -36,6 +38,10 @@ pub fn router() -> Router<AppState> {
         .route(
             "/app.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }),
+        )
+        .route(
+            "/material.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MATERIAL_JS) }),
         )
         .route(
             "/style.css",

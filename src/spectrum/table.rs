@@ -10,6 +10,10 @@
 //! is named as such ([`TableErrorKind::LooksLikeLight`]), not just as a value
 //! out of [0, 1].
 //!
+//! Lines that start with `#` are comments, anywhere in the file (before the
+//! header too): exported spectra carry their provenance in them (see
+//! `calibration`). A `#` elsewhere in a line is not special.
+//!
 //! Every error names the file, the line and the column, so an operator can
 //! open the file and fix it:
 //!
@@ -156,6 +160,7 @@ impl SpectraTable {
             .has_headers(false)
             .flexible(true)
             .trim(csv::Trim::All)
+            .comment(Some(b'#'))
             .from_reader(text.as_bytes());
         let mut records = reader.records();
         let header = match records.next() {
@@ -420,6 +425,19 @@ mod tests {
         assert_eq!(msg(""), "t.csv: the file is empty: expected a header `nm,<name>,…`");
         assert_eq!(msg("nm,a\n"), "t.csv: no data rows");
         assert_eq!(msg("nm,a\n380,\n"), "t.csv:2: column 2 (a): `` is not a number");
+    }
+
+    #[test]
+    fn comment_lines_are_skipped_and_errors_keep_their_file_line() {
+        let text =
+            "# provenance: measurement 3 / 4\n# standard: spectralon.csv\nnm,a\n# mid-file note\n380,0.5\n385,x\n";
+        assert_eq!(
+            SpectraTable::parse(text, "t.csv").unwrap_err().to_string(),
+            "t.csv:6: column 2 (a): `x` is not a number"
+        );
+        let t = SpectraTable::parse("# made by lightbooth\nnm,a\n380,0.5\n# end\n", "t.csv").unwrap();
+        assert_eq!(t.names().collect::<Vec<_>>(), ["a"]);
+        assert_eq!(t.spectrum("a", SpectralUnit::Reflectance).unwrap().values(), [0.5]);
     }
 
     #[test]

@@ -10,6 +10,8 @@
 //!   (the schema enforces it), and measurements left `running` or `queued` by
 //!   a crash are marked `interrupted` when the store next opens, as are
 //!   renders and studies left `queued` or `running`.
+//! - Reflectances and lamp spectra measured against a white standard keep
+//!   their provenance (`calibrations`).
 //! - Times are POSIX seconds (f64, UTC); spectra are JSON arrays of numbers.
 //!
 //! ```no_run
@@ -19,6 +21,7 @@
 //! # Ok(()) }
 //! ```
 
+mod calibrations;
 mod partial;
 mod rows;
 
@@ -29,6 +32,7 @@ use serde::{Deserialize, Serialize};
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
 use sqlx::Row;
 
+pub use calibrations::*;
 pub use rows::*;
 
 /// Errors of the store, with what to do about them.

@@ -738,7 +738,7 @@ fn surface(m: &file::MaterialFile, name: &str, l: &Loader) -> Result<Surface, Sc
             "is required for plastic and metal (≥ 0; 0 is a polished surface)",
         )
     })?;
-    if !(roughness >= 0.0) {
+    if roughness < 0.0 {
         return Err(l.err(key("roughness"), format!("must be ≥ 0, is {roughness}")));
     }
     Ok(if m.kind == MaterialKind::Plastic {

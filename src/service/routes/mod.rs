@@ -9,8 +9,10 @@
 
 mod comparisons;
 mod health;
+mod illuminants;
 mod measurements;
 mod mock;
+mod reflectances;
 mod scenes;
 mod sessions;
 mod studies;
@@ -20,8 +22,10 @@ use utoipa_axum::routes;
 
 pub use comparisons::*;
 pub use health::*;
+pub use illuminants::*;
 pub use measurements::*;
 pub use mock::*;
+pub use reflectances::*;
 pub use scenes::*;
 pub use sessions::*;
 pub use studies::*;
@@ -62,6 +66,13 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(cancel_render))
         .routes(routes!(retry_render))
         .routes(routes!(render_preview))
+        .routes(routes!(list_reflectances, create_reflectance_route))
+        .routes(routes!(get_reflectance))
+        .routes(routes!(reflectance_csv))
+        .routes(routes!(reflectance_svg))
+        .routes(routes!(list_illuminants, create_illuminant_route))
+        .routes(routes!(get_illuminant))
+        .routes(routes!(illuminant_csv))
         .routes(routes!(events::stream))
         .routes(routes!(mock_faults))
 }
