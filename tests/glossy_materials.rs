@@ -484,6 +484,7 @@ fn the_white_furnace_returns_what_the_albedo_says() {
                 name: "wall".into(),
                 radiance: flat(SpectralUnit::SpectralRadiance, le),
                 two_sided: true,
+                rgb: None,
             }],
             position,
             &targets,
@@ -585,6 +586,7 @@ fn a_mirror_shows_the_emitter_times_its_reflectance() {
         name: "panel".into(),
         radiance: flat(SpectralUnit::SpectralRadiance, le),
         two_sided: true,
+        rgb: None,
     }];
     let front = scene_of(
         materials.clone(),

@@ -1,5 +1,7 @@
 //! `lightbooth render SCENE.toml`: the built-in renderer, every colour coding
 //! in one pass, measured at the scene's targets by the simulated radiometer.
+//! `lightbooth render SCENE.rad --radiometer X,Y,Z --target NAME=X,Y,Z …`
+//! renders a RADIANCE scene file, which has no radiometer or targets of its own.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -9,14 +11,25 @@ use clap::Args;
 
 use lightbooth::colorimetry::Observer;
 use lightbooth::render::integrator::Transport;
-use lightbooth::render::scene::{MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET};
+use lightbooth::render::scene::{
+    load_radiance_scene, RadianceView, MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET,
+};
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// The scene file (TOML).
+    /// The scene file: TOML, or a RADIANCE .rad file (then with --radiometer and --target).
     scene: PathBuf,
+    /// For a .rad scene: the radiometer's position X,Y,Z in metres (the .rad's coordinates).
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    radiometer: Option<[f64; 3]>,
+    /// For a .rad scene: a measurement target NAME=X,Y,Z (a point on a surface, m); repeat for more.
+    #[arg(long = "target", value_parser = parse_target, allow_hyphen_values = true)]
+    target: Vec<(String, [f64; 3])>,
+    /// For a .rad scene: the radiometer's full field angle, degrees.
+    #[arg(long, default_value_t = 1.0, value_parser = field_angle)]
+    field_deg: f64,
     /// Colour codings, comma-separated: rgb, srgb, nstepN (1 ≤ N ≤ 81), spectral.
     #[arg(long, value_delimiter = ',', value_parser = parse_coding,
           default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
@@ -70,6 +83,29 @@ pub struct RenderArgs {
     json: bool,
 }
 
+fn parse_point(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f64>().map_err(|_| format!("`{c}` is not a number")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
+        _ => Err(format!("`{s}`: expected X,Y,Z (three finite numbers, metres)")),
+    }
+}
+
+fn parse_target(s: &str) -> Result<(String, [f64; 3]), String> {
+    let (name, point) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=X,Y,Z"))?;
+    if name.trim().is_empty() {
+        return Err(format!("`{s}`: the target needs a name before `=`"));
+    }
+    Ok((name.trim().to_string(), parse_point(point)?))
+}
+
+fn field_angle(s: &str) -> Result<f64, String> {
+    super::finite_in(s, 1e-6, 180.0, "degrees, the full angle of the field")
+}
+
 fn parse_coding(s: &str) -> Result<Coding, String> {
     s.parse()
 }
@@ -83,7 +119,30 @@ fn parse_sampler(s: &str) -> Result<SamplerKind, String> {
 }
 
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let scene = load_scene(&args.scene)?;
+    let is_rad = args.scene.extension().is_some_and(|e| e.eq_ignore_ascii_case("rad"));
+    let scene = if is_rad {
+        let radiometer = args.radiometer.with_context(|| {
+            format!(
+                "{}: a RADIANCE scene has no radiometer: give --radiometer X,Y,Z (m) and at least one \
+                 --target NAME=X,Y,Z",
+                args.scene.display()
+            )
+        })?;
+        let view = RadianceView {
+            radiometer: radiometer.into(),
+            field_deg: args.field_deg,
+            targets: args.target.iter().map(|(n, p)| (n.clone(), (*p).into())).collect(),
+        };
+        load_radiance_scene(&args.scene, &view)?
+    } else {
+        if args.radiometer.is_some() || !args.target.is_empty() {
+            anyhow::bail!(
+                "--radiometer and --target are for .rad scenes; {} gives its own [radiometer] and [[target]]",
+                args.scene.display()
+            );
+        }
+        load_scene(&args.scene)?
+    };
     let settings = RenderSettings {
         codings: args.codings.clone(),
         samples: args.samples,
@@ -198,6 +257,13 @@ fn print_table(r: &RenderResult) {
                 c.y
             );
         }
+    }
+    if !r.synthesised_spectra.is_empty() {
+        println!(
+            "note: {} — for {}",
+            r.synthesis_method.unwrap_or_default(),
+            r.synthesised_spectra.join(", ")
+        );
     }
     for (name, d) in &r.deviation_from_spectral {
         println!(

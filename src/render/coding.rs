@@ -252,6 +252,15 @@ impl ChannelLayout {
         Ok(out)
     }
 
+    /// Writes `rgb` into the `rgb` coding's channels of `channels` (a
+    /// material's or emitter's channel vector), if the layout has that
+    /// coding: colours given as RADIANCE RGB are exact in it.
+    pub fn set_rgb(&self, channels: &mut [f32], rgb: [f64; 3]) {
+        if let Some((_, r)) = self.entries.iter().find(|(c, _)| *c == Coding::Rgb) {
+            fill(&mut channels[r.clone()], &rgb);
+        }
+    }
+
     /// A light's spectral intensity per candela (W/(sr·nm) per cd on the
     /// 1 nm grid, see [`super::scene`]) as channels.
     pub fn light_channels(&self, per_cd_1nm: &Spectrum) -> Result<Vec<f32>, String> {

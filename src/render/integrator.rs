@@ -435,11 +435,14 @@ impl<'a> Prepared<'a> {
     pub fn new(scene: &'a Scene, layout: ChannelLayout) -> Result<Prepared<'a>, String> {
         let mut material_channels = Vec::new();
         for m in &scene.materials {
-            material_channels.extend(
-                layout
-                    .reflectance_channels(&m.reflectance)
-                    .map_err(|e| format!("material `{}`: {e}", m.name))?,
-            );
+            let mut c = layout
+                .reflectance_channels(&m.reflectance)
+                .map_err(|e| format!("material `{}`: {e}", m.name))?;
+            // A RADIANCE RGB colour is exact in the rgb coding.
+            if let Some(rgb) = m.rgb {
+                layout.set_rgb(&mut c, rgb);
+            }
+            material_channels.extend(c);
         }
         let mut light_channels = Vec::new();
         for l in &scene.lights {
@@ -453,11 +456,13 @@ impl<'a> Prepared<'a> {
         for e in &scene.emitters {
             // The same conversion as a point light's spectrum (spectral: the
             // values; RGB: M⁻¹ · absolute XYZ), applied to radiance.
-            emitter_channels.extend(
-                layout
-                    .light_channels(&e.radiance)
-                    .map_err(|err| format!("emitter `{}`: {err}", e.name))?,
-            );
+            let mut c = layout
+                .light_channels(&e.radiance)
+                .map_err(|err| format!("emitter `{}`: {err}", e.name))?;
+            if let Some(rgb) = e.rgb {
+                layout.set_rgb(&mut c, rgb);
+            }
+            emitter_channels.extend(c);
         }
         let n = layout.len();
         let ybar = &crate::colorimetry::Cmf::of(super::coding::OBSERVER).on_grid(&crate::spectrum::Grid::one_nm())[1];

@@ -43,6 +43,7 @@ pub mod geometry;
 mod huge_pages;
 pub mod ies;
 pub mod integrator;
+pub mod radiance;
 pub mod scene;
 pub mod sensor;
 
@@ -226,6 +227,15 @@ pub struct RenderResult {
     /// Every coding against `spectral` (when both were rendered).
     #[serde(serialize_with = "ordered_map")]
     pub deviation_from_spectral: Vec<(String, Deviation)>,
+    /// The materials and emitters whose spectra were synthesised from
+    /// RADIANCE RGB (the `rgb` coding uses their RGB exactly; the other
+    /// codings the synthesised spectra, see `synthesis_method`). Empty for
+    /// scenes with spectral colours only.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub synthesised_spectra: Vec<String>,
+    /// How they were synthesised (`None` when nothing was).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub synthesis_method: Option<&'static str>,
 }
 
 impl RenderResult {
@@ -344,12 +354,13 @@ fn render_in_pool(
         };
         for k in 0..nt {
             let rel = relative_se(&prep.layout, settings.sampler, &sums[k]);
-            if rel > goal {
+            // At the cap the target is done, goal met or not.
+            if rel > goal && done_batches[k] < max_batches {
                 // SE ∝ 1/√n for plain Monte Carlo; randomised QMC converges
                 // faster, so that estimate overshoots: grow at most 2× a round.
                 let need = (done_batches[k] as f64 * (rel / goal).powi(2)).ceil() as u64;
                 let need = need.min(2 * done_batches[k]);
-                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches.max(done_batches[k]));
+                want_batches[k] = need.clamp(done_batches[k] + 1, max_batches);
             }
         }
     }
@@ -379,7 +390,24 @@ fn render_in_pool(
         rays_per_second: rays as f64 / wall_seconds,
         targets,
         deviation_from_spectral,
+        synthesised_spectra: synthesised_spectra(scene),
+        synthesis_method: synthesised_spectra(scene).first().map(|_| radiance::SYNTHESIS_METHOD),
     })
+}
+
+/// The materials and emitters whose spectra were synthesised from RGB.
+fn synthesised_spectra(scene: &Scene) -> Vec<String> {
+    let materials = scene
+        .materials
+        .iter()
+        .filter(|m| m.rgb.is_some())
+        .map(|m| format!("material `{}`", m.name));
+    let emitters = scene
+        .emitters
+        .iter()
+        .filter(|e| e.rgb.is_some())
+        .map(|e| format!("emitter `{}`", e.name));
+    materials.chain(emitters).collect()
 }
 
 /// The standard error of Y for coding entry `k` of these sums: from the

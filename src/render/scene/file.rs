@@ -41,6 +41,8 @@ pub(super) struct SceneFile {
     pub polygons: Vec<PolygonFile>,
     #[serde(default, rename = "mesh")]
     pub meshes: Vec<MeshFile>,
+    #[serde(default, rename = "radiance")]
+    pub radiance: Vec<RadianceFile>,
     pub camera: Option<CameraFile>,
     pub cielab_white: Option<CielabWhiteFile>,
 }
@@ -308,6 +310,16 @@ pub(super) struct MeshFile {
     pub translate: Option<V3>,
     pub emission: Option<EmissionFile>,
     pub two_sided: Option<bool>,
+}
+
+/// A RADIANCE scene file (`[[radiance]]`), read by [`crate::render::radiance`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RadianceFile {
+    pub file: String,
+    /// The unit of the file's coordinates: "m", "cm" or "mm" (default: the
+    /// scene's `units`).
+    pub units: Option<String>,
 }
 
 /// A mesh's scale: one factor or one per axis.

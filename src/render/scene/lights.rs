@@ -202,5 +202,6 @@ pub(super) fn load_emitter(
         name,
         radiance,
         two_sided,
+        rgb: None,
     })
 }

@@ -180,14 +180,31 @@
 //! observer). The luminaire's intensity in W/(sr·nm) toward a direction is
 //! then I_cd(direction) · S(λ), so the IES file's candela hold on the axis.
 //!
+//! # RADIANCE files: `[[radiance]]`
+//!
+//! ```toml
+//! [[radiance]]
+//! file = "radiance/plastic_sphere.rad"   # relative to this file
+//! # units = "m"                          # of the .rad's coordinates (default: the scene's `units`)
+//! ```
+//!
+//! adds a RADIANCE scene's surfaces, materials and light sources (see
+//! [`crate::render::radiance`] for what is read and how; errors name the
+//! `.rad` file and line). Its materials are not names `[materials]` or
+//! meshes can use. A `.rad` file may also be rendered alone
+//! ([`load_radiance_scene`], `lightbooth render scene.rad --radiometer …
+//! --target …`).
+//!
 //! The submodules: `file` (the TOML as serde structs), `spectra` (spectrum
 //! references), `lights` (luminaires and emission), `analytic` (quads …
-//! charts), `triangles` and `mesh` (polygons, OBJ and PLY meshes).
+//! charts), `triangles` and `mesh` (polygons, OBJ and PLY meshes),
+//! `rad_import` (RADIANCE files).
 
 mod analytic;
 mod file;
 mod lights;
 mod mesh;
+mod rad_import;
 mod spectra;
 #[cfg(test)]
 mod tests;
@@ -197,6 +214,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+
+pub use self::rad_import::{load_radiance_scene, RadianceView};
 
 use self::file::{CameraFile, CielabWhiteFile, SceneFile, V3};
 use super::geometry::{Shape, Solid};
@@ -296,6 +315,12 @@ pub struct Emitter {
     /// False: emits only on the front side, along the triangle's geometric
     /// normal (the vertex order); true: both sides.
     pub two_sided: bool,
+    /// The radiance as RGB in the `rgb` coding's absolute units (RADIANCE's
+    /// primaries, equal-energy white, Y in cd/m²) when it came from a
+    /// RADIANCE `light`/`glow` with an RGB colour: 179·(r, g, b). The `rgb`
+    /// coding then uses these values exactly and `radiance` is a spectrum
+    /// synthesised from them. `None` for spectral emitters.
+    pub rgb: Option<[f64; 3]>,
 }
 
 /// How a point luminaire's intensity depends on direction.
@@ -518,7 +543,7 @@ fn positive(v: f64, loader: &Loader, key: &str) -> Result<f64, SceneError> {
 }
 
 /// Metres per unit of `units`.
-fn metres_per_unit(units: Option<&str>) -> Option<f64> {
+pub(super) fn metres_per_unit(units: Option<&str>) -> Option<f64> {
     match units.unwrap_or("m") {
         "m" => Some(1.0),
         "cm" => Some(0.01),
@@ -595,6 +620,9 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     }
     for (i, m) in raw.meshes.iter().enumerate() {
         triangles::add_mesh(&mut l, m, i, units, &declared, &mut primitives, &mut emitters)?;
+    }
+    for (i, r) in raw.radiance.iter().enumerate() {
+        rad_import::add_radiance(&mut l, r, i, units, &mut primitives, &mut emitters)?;
     }
 
     let mut lights = Vec::new();
