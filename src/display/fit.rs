@@ -261,7 +261,8 @@ pub fn fit_profile(patches: &[MeasuredPatch], observer: Observer) -> Result<Disp
             observer,
         )?)
     };
-    let white_xyz = xyz(mean_of(&whites))?;
+    let white = mean_of(&whites);
+    let white_xyz = xyz(white.clone())?;
     let primaries: [Vec<f64>; 3] = [primaries[0].clone(), primaries[1].clone(), primaries[2].clone()];
     let transfer: [ChannelTransfer; 3] = [transfer[0].clone(), transfer[1].clone(), transfer[2].clone()];
     let mut profile = DisplayProfile {
@@ -274,6 +275,7 @@ pub fn fit_profile(patches: &[MeasuredPatch], observer: Observer) -> Result<Disp
             white_xyz: white_xyz.to_array(),
             sum_xyz: [0.0; 3],
             delta_e00: 0.0,
+            white,
         },
         validation: Vec::new(),
         measurement_ids: patches.iter().filter_map(|p| p.measurement_id).collect(),

@@ -90,6 +90,8 @@ pub struct Additivity {
     pub sum_xyz: [f64; 3],
     /// CIEDE2000 between them, relative to the measured white.
     pub delta_e00: f64,
+    /// The measured white's spectral radiance, W/(sr·m²·nm), on the profile's grid.
+    pub white: Vec<f64>,
 }
 
 /// A validation colour: measured against what the profile predicts.
@@ -192,6 +194,12 @@ impl DisplayProfile {
                     t.measured.len()
                 ));
             }
+        }
+        if self.additivity.white.len() != n {
+            return bad(format!(
+                "`additivity.white` has {} values for {n} wavelengths",
+                self.additivity.white.len()
+            ));
         }
         self.grid()?;
         self.primary_matrix()?;
