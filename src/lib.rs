@@ -17,6 +17,7 @@
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 //! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
 //! - [`render`]: the built-in spectral renderer, every colour coding in one pass.
+//! - [`display`]: a display profile measured with the PR-650, and stimulus conversion.
 //! - [`calibration`]: reflectances and lamp spectra measured in the booth
 //!   against a white standard.
 
@@ -25,6 +26,7 @@ pub mod charts;
 pub mod colorimetry;
 pub mod comparison;
 pub mod daemon;
+pub mod display;
 pub mod export;
 pub mod instrument;
 pub mod nstep;

@@ -60,6 +60,9 @@ pub struct TaskConfig {
 pub struct MockSlot {
     handle: Mutex<Option<MockHandle>>,
     settings: MockSettings,
+    /// What the calibration page shows on the simulated display, kept so a
+    /// replugged simulator still sees it.
+    shown: Mutex<Option<crate::spectrum::Spectrum>>,
 }
 
 impl MockSlot {
@@ -69,7 +72,8 @@ impl MockSlot {
 
     /// Powers a (new) simulated PR-650 on; returns its device path.
     fn power_on(&self) -> std::io::Result<String> {
-        let mut config = MockConfig::new(default_truth());
+        let shown = self.shown.lock().unwrap_or_else(|p| p.into_inner()).clone();
+        let mut config = MockConfig::new(shown.unwrap_or_else(default_truth));
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();
         // The daemon talks to it at once, so the 5 s remote window is kept as the real one is.
@@ -95,6 +99,27 @@ impl MockControl for MockSlot {
         tracing::warn!(faults = spec, "faults injected into the simulated PR-650");
         self.with(|h| h.set_faults(faults))
             .ok_or_else(|| "the simulated PR-650 is not running".to_string())
+    }
+
+    fn show_on_display(&self, drive: [f64; 3]) -> Result<(), String> {
+        if let Some(c) = drive.iter().position(|v| !(0.0..=1.0).contains(v)) {
+            return Err(format!(
+                "{} drive {} is outside 0–1",
+                ["red", "green", "blue"][c],
+                drive[c]
+            ));
+        }
+        let display = crate::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
+        let truth = display.spectrum(drive);
+        *self.shown.lock().unwrap_or_else(|p| p.into_inner()) = Some(truth.clone());
+        match self.with(|h| h.set_truth(truth)) {
+            Some(Err(e)) => Err(format!("cannot aim the simulated PR-650: {e}")),
+            // Not running (cable pulled): it sees the colour once powered on.
+            _ => {
+                tracing::info!(?drive, "simulated display shows a colour");
+                Ok(())
+            }
+        }
     }
 }
 
@@ -175,6 +200,7 @@ pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
         Arc::new(MockSlot {
             handle: Mutex::new(None),
             settings,
+            shown: Mutex::new(None),
         })
     });
     let worker = Worker {

@@ -174,6 +174,10 @@ pub trait CancelMeasurement: Send + Sync {
 pub trait MockControl: Send + Sync {
     /// `KIND[@DELAY][:RATE]`, comma-separated (see `lightbooth serve --help`); empty clears.
     fn set_faults(&self, spec: &str) -> Result<(), String>;
+    /// Shows drives 0–1 per channel on the simulated display
+    /// ([`crate::display::SimulatedDisplay`]) the simulated PR-650 is aimed
+    /// at: what it measures until a measurement names a scene target.
+    fn show_on_display(&self, drive: [f64; 3]) -> Result<(), String>;
 }
 
 /// A scene as the API lists it.

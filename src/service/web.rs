@@ -15,6 +15,9 @@ const APP_JS: &str = include_str!("../../web/app.js");
 /// The "measure a material" view (reflectance against a white standard).
 const MATERIAL_JS: &str = include_str!("../../web/material.js");
 const STYLE: &str = include_str!("../../web/style.css");
+/// The display calibration page, opened full-screen on the stimulus monitor.
+const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
+const CALIBRATE_JS: &str = include_str!("../../web/calibrate.js");
 
 /// MATLAB examples, served under `/matlab/`.
 const MATLAB: [(&str, &str); 3] = [
@@ -46,6 +49,11 @@ pub fn router() -> Router<AppState> {
         .route(
             "/style.css",
             get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }),
+        )
+        .route("/calibrate", get(|| async { Html(CALIBRATE_HTML) }))
+        .route(
+            "/calibrate.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], CALIBRATE_JS) }),
         )
         .route("/matlab/", get(matlab_index))
         .route("/matlab/{file}", get(matlab_file))

@@ -22,6 +22,7 @@
 //! ```
 
 mod calibrations;
+mod display_profiles;
 mod partial;
 mod rows;
 
@@ -33,6 +34,7 @@ use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePo
 use sqlx::Row;
 
 pub use calibrations::*;
+pub use display_profiles::*;
 pub use rows::*;
 
 /// Errors of the store, with what to do about them.

@@ -1,4 +1,6 @@
-//! `/api/mock/faults`: fault injection into the simulated PR-650 (`--mock` only).
+//! `/api/mock/faults`: fault injection into the simulated PR-650, and
+//! `/api/mock/display`: the colour the simulated display shows to it while
+//! the calibration page shows that colour (`--mock` only).
 
 use axum::extract::State;
 use axum::http::StatusCode;
@@ -31,5 +33,30 @@ pub async fn mock_faults(
         .ok_or_else(|| ApiError::NotFound("no simulated PR-650: the daemon runs a real one".into()))?;
     mock.set_faults(&body.faults)
         .map_err(|e| ApiError::BadRequest(format!("field `faults`: {e}")))?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MockDisplay {
+    /// Drive of red, green, blue, 0–1 (frame-buffer value / maximum code).
+    pub drive: [f64; 3],
+}
+
+/// Shows a colour on the simulated display the simulated PR-650 looks at
+/// (only with `--mock`): the calibration page calls it with each patch it shows.
+#[utoipa::path(post, path = "/mock/display", tag = "instruments", request_body = MockDisplay,
+    responses((status = 204), (status = 400, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn mock_display(
+    State(state): State<AppState>,
+    Input(body): Input<MockDisplay>,
+) -> Result<StatusCode, ApiError> {
+    let mock = state
+        .mock
+        .as_ref()
+        .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real PR-650".into()))?;
+    mock.show_on_display(body.drive)
+        .map_err(|e| ApiError::BadRequest(format!("field `drive`: {e}")))?;
     Ok(StatusCode::NO_CONTENT)
 }

@@ -8,6 +8,7 @@
 //! path and method are also what the router serves (`utoipa_axum::routes!`).
 
 mod comparisons;
+mod display_profiles;
 mod health;
 mod illuminants;
 mod measurements;
@@ -21,6 +22,7 @@ use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
 pub use comparisons::*;
+pub use display_profiles::*;
 pub use health::*;
 pub use illuminants::*;
 pub use measurements::*;
@@ -75,4 +77,9 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(illuminant_csv))
         .routes(routes!(events::stream))
         .routes(routes!(mock_faults))
+        .routes(routes!(mock_display))
+        .routes(routes!(display_calibration_plan))
+        .routes(routes!(list_display_profiles, create_display_profile))
+        .routes(routes!(get_display_profile))
+        .routes(routes!(display_profile_chart))
 }

@@ -1,0 +1,143 @@
+// Display calibration: shows each colour of the plan full-screen, measures it
+// through the ordinary measurement API (with --mock, first tells the
+// simulated display what is shown), then has the daemon fit and store the
+// profile, and shows it with its charts. `#profile=ID` shows a stored one.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+
+(function takeTokenFromUrl() {
+  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
+  if (m) {
+    localStorage.setItem("lightbooth-token", m[1]);
+    history.replaceState(null, "", location.pathname);
+  }
+})();
+const token = () => localStorage.getItem("lightbooth-token") || "";
+if (token()) document.cookie = `lightbooth_token=${token()}; path=/api; SameSite=Strict`;
+
+async function api(path, options = {}) {
+  const headers = { "Accept": "application/json" };
+  if (options.body !== undefined) headers["Content-Type"] = "application/json";
+  if (token()) headers["Authorization"] = "Bearer " + token();
+  const r = await fetch(path, Object.assign({}, options, { headers }));
+  const body = r.status === 204 ? null : await r.json().catch(() => null);
+  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
+  return body;
+}
+
+function notice(text) {
+  $("notice").textContent = text;
+  $("notice").hidden = !text;
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+const css = (d) => `rgb(${d.map((v) => Math.round(v * 255)).join(",")})`;
+
+async function measure(patch, samples) {
+  const started = await api("/api/measurements", {
+    method: "POST",
+    body: JSON.stringify({ samples, note: `display calibration: ${patch.label}` }),
+  });
+  for (;;) {
+    const m = await api(`/api/measurements/${started.id}`);
+    if (m.state === "complete") return started.id;
+    if (["failed", "cancelled", "interrupted"].includes(m.state)) {
+      throw new Error(`measurement ${started.id} of ${patch.label} ${m.state}: ${m.error || ""}`);
+    }
+    await sleep(200);
+  }
+}
+
+async function calibrate() {
+  notice("");
+  $("start").disabled = true;
+  try {
+    const steps = Number($("steps").value), samples = Number($("samples").value);
+    const plan = await api(`/api/display-profiles/plan?steps=${steps}`);
+    // With --mock the simulated PR-650 looks at a simulated display, which is
+    // told each colour; a daemon with a real PR-650 answers 404 here.
+    let simulated = true;
+    document.body.classList.add("calibrating");
+    if (document.documentElement.requestFullscreen) document.documentElement.requestFullscreen().catch(() => {});
+    const shown = [];
+    $("progress").max = plan.patches.length;
+    for (const [i, p] of plan.patches.entries()) {
+      $("patch").style.background = css(p.drive);
+      $("status").textContent = `${i + 1}/${plan.patches.length}: ${p.label} (${p.purpose})`;
+      if (simulated) {
+        try {
+          await api("/api/mock/display", { method: "POST", body: JSON.stringify({ drive: p.drive }) });
+        } catch (e) {
+          if (!/no simulated display/.test(e.message)) throw e;
+          simulated = false;
+        }
+      }
+      await sleep(100); // let the monitor settle on the new colour
+      shown.push({ drive: p.drive, measurement_id: await measure(p, samples) });
+      $("progress").value = i + 1;
+    }
+    $("status").textContent = "fitting the profile…";
+    const row = await api("/api/display-profiles", {
+      method: "POST",
+      body: JSON.stringify({ name: $("name").value, patches: shown }),
+    });
+    document.body.classList.remove("calibrating");
+    if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
+    $("status").textContent = `profile ${row.id} stored`;
+    history.replaceState(null, "", `#profile=${row.id}`);
+    showProfile(row);
+  } catch (e) {
+    document.body.classList.remove("calibrating");
+    notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
+    $("status").textContent = "stopped";
+  } finally {
+    $("start").disabled = false;
+  }
+}
+
+const f = (v, d = 4) => Number(v).toFixed(d);
+
+function showProfile(row) {
+  const p = row.profile;
+  const xyz = (v) => { const s = v[0] + v[1] + v[2]; return [v[0] / s, v[1] / s]; };
+  const sec = $("profile");
+  sec.hidden = false;
+  $("controls").hidden = true;
+  const names = ["red", "green", "blue"];
+  const primaryRows = names.map((n, c) => {
+    const t = p.transfer[c];
+    return `<tr><th>${n}</th><td>${f(t.gamma, 3)}</td><td>${f(t.rms_residual, 4)}</td></tr>`;
+  }).join("");
+  const validation = (p.validation || []).map((v) =>
+    `<tr><td>${v.drive.map((d) => f(d, 3)).join(", ")}</td><td>${f(v.delta_e00, 3)}</td><td>${v.measurement_id ?? "–"}</td></tr>`).join("");
+  const w = p.additivity.white_xyz;
+  sec.innerHTML = `
+    <h1>Display profile ${row.id}: ${row.name}</h1>
+    <p>Observer: <strong>${p.observer}</strong> (every XYZ and ΔE00 here). White: Y ${f(w[1], 2)} cd/m²,
+       x ${f(xyz(w)[0])}, y ${f(xyz(w)[1])}. Additivity (white against black + R + G + B):
+       <strong id="additivity">ΔE00 ${f(p.additivity.delta_e00, 3)}</strong>.
+       Fitted to ${p.measurement_ids.length} measurements (ids ${p.measurement_ids[0]}–${p.measurement_ids[p.measurement_ids.length - 1]}).
+       Transfer model: t = v<sup>γ</sup> over the black level.</p>
+    <table><tr><th>channel</th><th>γ</th><th>RMS residual</th></tr>${primaryRows}</table>
+    <div>
+      <img alt="primaries" src="/api/display-profiles/${row.id}/primaries.svg">
+      <img alt="transfer" src="/api/display-profiles/${row.id}/transfer.svg">
+      <img alt="additivity" src="/api/display-profiles/${row.id}/additivity.svg">
+    </div>
+    <h2>Validation colours</h2>
+    <table><tr><th>drive (r, g, b)</th><th>ΔE00 predicted vs measured</th><th>measurement</th></tr>${validation}</table>
+    <p><a href="/calibrate">calibrate again</a> · <a href="/">dashboard</a></p>`;
+}
+
+(async function init() {
+  $("start").addEventListener("click", calibrate);
+  const m = location.hash.match(/profile=(\d+)/);
+  if (m) {
+    try {
+      showProfile(await api(`/api/display-profiles/${m[1]}`));
+    } catch (e) {
+      notice(e.message);
+    }
+  }
+})();
