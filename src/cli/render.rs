@@ -8,10 +8,10 @@ use anyhow::Context;
 use clap::Args;
 
 use lightbooth::colorimetry::Observer;
-use lightbooth::render::integrator::Transport;
-use lightbooth::render::scene::{MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET};
 use lightbooth::export::image::write_camera_image;
 use lightbooth::render::camera::{render_camera_image, CameraProgress, CameraSettings};
+use lightbooth::render::integrator::Transport;
+use lightbooth::render::scene::{MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET};
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
 
@@ -238,7 +238,8 @@ fn progress_bar(template: &str) -> indicatif::ProgressBar {
     if std::io::stderr().is_terminal() {
         let b = indicatif::ProgressBar::new(0);
         b.set_style(
-            indicatif::ProgressStyle::with_template(template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     } else {

@@ -35,7 +35,6 @@ use exr::prelude::{
     WritableImage,
 };
 
-
 use crate::export::mat::MatFile;
 use crate::render::camera::CameraImage;
 
@@ -109,14 +108,20 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
             "lightbooth.units.LMS",
             "cd/m²-scaled cone excitations (L + M = CIE 2006 2° luminance)".to_string(),
         ),
-        ("lightbooth.units.SE", "standard error of the pixel's mean, same units as the channel".to_string()),
+        (
+            "lightbooth.units.SE",
+            "standard error of the pixel's mean, same units as the channel".to_string(),
+        ),
     ];
     if spectral {
         other.push(("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION.to_string()));
         other.push(("emissiveUnits", EMISSIVE_UNITS.to_string()));
         other.push(("lightbooth.units.spectral", SPECTRAL_UNITS.to_string()));
     } else {
-        other.push(("lightbooth.units.RGB", format!("linear {} with Y in cd/m²", image.coding)));
+        other.push((
+            "lightbooth.units.RGB",
+            format!("linear {} with Y in cd/m²", image.coding),
+        ));
     }
     for (k, v) in other {
         attributes.other.insert(Text::from(k), text(&v));
@@ -161,7 +166,11 @@ fn column_major(image: &CameraImage, first: usize, count: usize, se: bool) -> Ve
 
 /// MATLAB Level 5 MAT-file.
 pub fn write_mat(image: &CameraImage, path: &Path) -> Result<(), String> {
-    let (w, h, n) = (image.width as usize, image.height as usize, image.quantities.coding_channels);
+    let (w, h, n) = (
+        image.width as usize,
+        image.height as usize,
+        image.quantities.coding_channels,
+    );
     let x0 = image.xyz_index();
     let mut mat = MatFile::new();
     mat.single_array("radiance", &[h, w, n], &column_major(image, 0, n, false))?;

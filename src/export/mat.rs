@@ -86,7 +86,10 @@ impl MatFile {
             ));
         }
         if data.len() * 4 > u32::MAX as usize - 1024 {
-            return Err(format!("{name}: {} values are too many for a Level 5 MAT-file element", data.len()));
+            return Err(format!(
+                "{name}: {} values are too many for a Level 5 MAT-file element",
+                data.len()
+            ));
         }
         let mut dim_bytes = Vec::new();
         for d in shape {

@@ -185,6 +185,7 @@ impl Colorimetry {
         }
         if matches!(coding, Coding::Rgb | Coding::Srgb) {
             let fit = lms_from_xyz_fit(observer);
+            #[allow(clippy::needless_range_loop)] // k indexes six rows at once
             for k in 0..n {
                 let xyz = DVec3::new(rows[0][k], rows[1][k], rows[2][k]);
                 let lms = fit * xyz;
