@@ -10,6 +10,8 @@ use anyhow::Context;
 use clap::Args;
 
 use lightbooth::colorimetry::Observer;
+use lightbooth::export::image::write_camera_image;
+use lightbooth::render::camera::{render_camera_image, CameraProgress, CameraSettings};
 use lightbooth::render::integrator::Transport;
 use lightbooth::render::scene::{
     load_radiance_scene, RadianceView, MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET,
@@ -53,12 +55,24 @@ pub struct RenderArgs {
     /// Unbiased Russian roulette from this bounce on, 0–64 (default: never).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
     russian_roulette_from: Option<u32>,
-    /// Also render the scene's [camera] view: .pfm (linear HDR) or .png (tone-mapped sRGB).
+    /// Also render the scene's [camera] view: .pfm (linear HDR), .png
+    /// (tone-mapped sRGB), or, in --image-coding with XYZ, LMS and standard
+    /// errors, .exr (spectral OpenEXR), .mat (MATLAB) or .bsq (ENVI, with .hdr).
     #[arg(long)]
     image: Option<PathBuf>,
-    /// Paths per pixel for --image, 1–65536.
+    /// Paths per pixel for --image (the cap with --image-se), 1–65536.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     spp: u32,
+    /// The coding of --image's channels: spectral (401 1 nm bands), nstepN, rgb or srgb.
+    #[arg(long, alias = "coding", default_value = "spectral", value_parser = parse_coding)]
+    image_coding: Coding,
+    /// Render --image in passes until every pixel's standard error of Y is
+    /// below this fraction of its Y (or --spp paths, or --time-budget); 0: exactly --spp.
+    #[arg(long, default_value_t = 0.0, value_parser = super::fraction)]
+    image_se: f64,
+    /// Stop --image's passes after this many seconds (checked between passes).
+    #[arg(long)]
+    time_budget: Option<f64>,
     /// After the render, render all codings and then each coding alone with
     /// exactly --samples paths per target, and report the wall times
     /// (`coding_wall_seconds` in the JSON): the cost of each coding.
@@ -156,16 +170,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         max_samples: args.max_samples,
         observer: args.observer,
     };
-    let bar = if std::io::stderr().is_terminal() {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {percent}% paths, eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let bar = progress_bar("{elapsed_precise} [{wide_bar}] {percent}% paths, eta {eta}");
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done);
@@ -202,8 +207,59 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             max_bounces: settings.max_bounces,
             russian_roulette_from: settings.russian_roulette_from,
         };
-        let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed)?;
-        img.write(path)?;
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        let preview = matches!(ext.as_str(), "pfm" | "png") && args.image_se == 0.0 && args.time_budget.is_none();
+        if preview {
+            let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed)?;
+            img.write(path)?;
+        } else {
+            let budget = match args.time_budget {
+                Some(t) if !(t.is_finite() && t > 0.0) => anyhow::bail!("--time-budget {t}: need seconds > 0"),
+                t => t.map(std::time::Duration::from_secs_f64),
+            };
+            let cam_settings = CameraSettings {
+                coding: args.image_coding,
+                observer: settings.observer,
+                transport,
+                seed: settings.seed,
+                min_spp: args.spp.min(16),
+                max_spp: args.spp,
+                target_relative_se: (args.image_se > 0.0).then_some(args.image_se),
+                time_budget: budget,
+            };
+            let cam_bar = progress_bar("{elapsed_precise} [{wide_bar}] {msg}");
+            let report = |p: CameraProgress| {
+                cam_bar.set_length(p.pixels);
+                cam_bar.set_position(p.pixels_done);
+                cam_bar.set_message(format!(
+                    "pass {}: {}/{} pixels done, {} paths",
+                    p.pass, p.pixels_done, p.pixels, p.paths
+                ));
+            };
+            let img = render_camera_image(&scene, camera, &cam_settings, Some(&report))?;
+            cam_bar.finish_and_clear();
+            if matches!(ext.as_str(), "pfm" | "png") {
+                img.to_srgb().write(path)?;
+            } else {
+                let written = write_camera_image(&img, path).map_err(anyhow::Error::msg)?;
+                let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                eprintln!(
+                    "image: {} × {} in {}, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
+                    img.width,
+                    img.height,
+                    img.coding,
+                    img.passes,
+                    img.paths,
+                    img.elapsed_seconds,
+                    img.stop,
+                    files.join(", ")
+                );
+            }
+        }
     }
 
     if args.json {
@@ -234,6 +290,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// A progress bar on a terminal's stderr, hidden otherwise.
+fn progress_bar(template: &str) -> indicatif::ProgressBar {
+    if std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
 }
 
 fn print_table(r: &RenderResult) {

@@ -5,7 +5,10 @@
 //! 128-byte header, then one `miMATRIX` element per variable holding array
 //! flags, dimensions, name and data sub-elements, each padded to 8 bytes.
 //! Only what lightbooth writes is supported: real double matrices
-//! (column-major) and char row vectors; no compression.
+//! (column-major), real single N-dimensional arrays (camera images, H × W × N)
+//! and char row vectors; no compression. No maintained Rust crate writes
+//! Level 5 MAT-files (the `matfile` crate, used in the tests, only reads), so
+//! this small writer follows the MathWorks PDF directly.
 //!
 //! ```
 //! use lightbooth::export::mat::MatFile;
@@ -19,11 +22,13 @@
 const MI_INT8: u32 = 1;
 const MI_UINT16: u32 = 4;
 const MI_INT32: u32 = 5;
+const MI_SINGLE: u32 = 7;
 const MI_UINT32: u32 = 6;
 const MI_DOUBLE: u32 = 9;
 const MI_MATRIX: u32 = 14;
 const MX_CHAR_CLASS: u32 = 4;
 const MX_DOUBLE_CLASS: u32 = 6;
+const MX_SINGLE_CLASS: u32 = 7;
 
 /// A MAT-file being built in memory.
 pub struct MatFile {
@@ -66,6 +71,37 @@ impl MatFile {
         push_element(&mut body, MI_INT8, valid_name(name)?.as_bytes());
         let raw: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
         push_element(&mut body, MI_DOUBLE, &raw);
+        push_element(&mut self.bytes, MI_MATRIX, &body);
+        Ok(())
+    }
+
+    /// A single-precision array of any rank from column-major `data`
+    /// (element (i, j, k) of an H × W × N array at i + H·j + H·W·k).
+    pub fn single_array(&mut self, name: &str, shape: &[usize], data: &[f32]) -> Result<(), String> {
+        let count: usize = shape.iter().product();
+        if shape.len() < 2 || count != data.len() {
+            return Err(format!(
+                "{name}: shape {shape:?} (at least 2 dimensions) needs {count} values, got {}",
+                data.len()
+            ));
+        }
+        if data.len() * 4 > u32::MAX as usize - 1024 {
+            return Err(format!(
+                "{name}: {} values are too many for a Level 5 MAT-file element",
+                data.len()
+            ));
+        }
+        let mut dim_bytes = Vec::new();
+        for d in shape {
+            let d = i32::try_from(*d).map_err(|_| format!("{name}: dimension {d} too large for a MAT-file"))?;
+            dim_bytes.extend_from_slice(&d.to_le_bytes());
+        }
+        let mut body = Vec::new();
+        push_element(&mut body, MI_UINT32, &flags(MX_SINGLE_CLASS));
+        push_element(&mut body, MI_INT32, &dim_bytes);
+        push_element(&mut body, MI_INT8, valid_name(name)?.as_bytes());
+        let raw: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();
+        push_element(&mut body, MI_SINGLE, &raw);
         push_element(&mut self.bytes, MI_MATRIX, &body);
         Ok(())
     }
@@ -171,6 +207,26 @@ mod tests {
         }
         let y = parsed.find_by_name("Y").unwrap();
         assert!(matches!(y.data(), matfile::NumericData::Double { real, .. } if real == &vec![34.25]));
+    }
+
+    /// A 3-D single array: dimensions and column-major order as MATLAB's.
+    #[test]
+    fn single_3d_arrays_read_back_with_an_independent_reader() {
+        let mut m = MatFile::new();
+        let data: Vec<f32> = (0..24).map(|i| i as f32 * 0.5).collect();
+        m.single_array("radiance", &[2, 3, 4], &data).unwrap();
+        assert!(m.single_array("bad", &[2, 3], &data).is_err());
+        let bytes = m.into_bytes();
+        let parsed = matfile::MatFile::parse(bytes.as_slice()).expect("a valid MAT-file");
+        let a = parsed.find_by_name("radiance").unwrap();
+        assert_eq!(a.size(), &vec![2, 3, 4]);
+        match a.data() {
+            matfile::NumericData::Single { real, .. } => assert_eq!(real, &data),
+            other => panic!("{other:?}"),
+        }
+        // The tag of the data sub-element: miSINGLE (7), 96 bytes.
+        let tag = [7u32.to_le_bytes(), 96u32.to_le_bytes()].concat();
+        assert!(bytes.windows(8).any(|w| w == tag.as_slice()));
     }
 
     #[test]

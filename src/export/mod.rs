@@ -1,4 +1,5 @@
 //! File downloads for people who want files: spectra and comparison tables
-//! as CSV and as MATLAB MAT-files.
+//! as CSV and as MATLAB MAT-files; camera images as OpenEXR, ENVI and MAT.
 
+pub mod image;
 pub mod mat;

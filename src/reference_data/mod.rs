@@ -25,6 +25,7 @@ const ILLUMINANTS_1NM_CSV: &str = include_str!("illuminants_1nm.csv");
 const COLORCHECKER_CSV: &str = include_str!("colorchecker_classic.csv");
 const MUNSELL_CSV: &str = include_str!("munsell_matt.csv");
 const NATURAL_CSV: &str = include_str!("natural_reflectances.csv");
+const CONE_FUNDAMENTALS_CSV: &str = include_str!("stockman_sharpe_2deg_cone_fundamentals.csv");
 
 /// Parses an embedded table; these files ship with the binary and are tested,
 /// so a failure here is a build defect, not user error.
@@ -109,6 +110,28 @@ pub fn illuminant_1nm(which: Illuminant) -> Option<Spectrum> {
     t.spectrum(which.name(), SpectralUnit::RelativePower).ok()
 }
 
+/// The Stockman & Sharpe (2000) 2° cone fundamentals l̄, m̄, s̄ (linear
+/// energy units, each peaking at 1) on the 380–780 nm, 1 nm grid.
+///
+/// The table starts at 390 nm; 380–389 nm are taken as 0 (an approximation:
+/// at 390 nm l̄ is 4·10⁻⁴ and s̄ 1·10⁻² of their peaks).
+pub fn cone_fundamentals_1nm() -> &'static [Vec<f64>; 3] {
+    static T: OnceLock<[Vec<f64>; 3]> = OnceLock::new();
+    T.get_or_init(|| {
+        let t = embedded(CONE_FUNDAMENTALS_CSV, "stockman_sharpe_2deg_cone_fundamentals.csv");
+        let grid = crate::spectrum::Grid::one_nm();
+        ["l", "m", "s"].map(|name| {
+            let s = t
+                .spectrum(name, SpectralUnit::RelativePower)
+                .unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"));
+            grid.wavelengths()
+                .iter()
+                .map(|&nm| s.value_at(nm).unwrap_or(0.0))
+                .collect()
+        })
+    })
+}
+
 /// The reflectance sets lightbooth ships.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReflectanceSet {
@@ -180,5 +203,21 @@ mod tests {
         }
         assert!(illuminant_1nm(Illuminant::D65).unwrap().grid().same_as(&Grid::one_nm()));
         assert!(illuminant_1nm(Illuminant::F11).is_none());
+        let lms = cone_fundamentals_1nm();
+        assert!(lms.iter().all(|c| c.len() == 401));
+        // Peaks of 1 (the table's normalisation) at the published wavelengths:
+        // L 570 nm, M 543 nm, S 442 nm (Stockman & Sharpe 2000, 2°).
+        for (c, peak_nm) in lms.iter().zip([570, 543, 442]) {
+            let (i, max) = c
+                .iter()
+                .enumerate()
+                .fold((0, 0.0), |a, (i, &v)| if v > a.1 { (i, v) } else { a });
+            assert!(
+                (max - 1.0).abs() < 1e-3 && (380 + i as i32 - peak_nm).abs() <= 2,
+                "{i} {max}"
+            );
+        }
+        assert_eq!(lms[0][0], 0.0);
+        assert!(lms[0][10] > 0.0);
     }
 }

@@ -8,7 +8,8 @@
 //!   spectral in one vector per path.
 //! - [`integrator`]: path tracing with next-event estimation;
 //!   [`area_light`]: choosing points on emitting triangles, for it.
-//! - [`sensor`]: the camera image for the dashboard.
+//! - [`sensor`]: the camera image for the dashboard; [`camera`]: the
+//!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors).
 //!
 //! The public entry points:
 //!
@@ -38,6 +39,7 @@
 pub mod area_light;
 pub mod bsdf;
 pub mod bvh;
+pub mod camera;
 pub mod coding;
 pub mod geometry;
 mod huge_pages;
