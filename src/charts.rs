@@ -113,6 +113,9 @@ fn series_style(name: &str, other: &mut usize) -> Style {
     if is_measurement(name) {
         return MEASUREMENT;
     }
+    if let Some(style) = display_channel_style(name) {
+        return style;
+    }
     coding_style(name).unwrap_or_else(|| {
         let colour = OTHER_COLOURS[*other % OTHER_COLOURS.len()];
         let marker = [Marker::Square, Marker::Diamond, Marker::Circle][*other % 3];
@@ -122,6 +125,32 @@ fn series_style(name: &str, other: &mut usize) -> Style {
             marker,
             size: MARKER_PX,
         }
+    })
+}
+
+/// A display channel's series (`red`, `green measured`, `blue fit v^2.2`,
+/// `black`, `white, measured`, `black + R + G + B`) in its own colour, so a
+/// display profile's charts read at a glance: measured points as squares,
+/// spectra and fitted curves as plain lines, the additivity sum in orange.
+fn display_channel_style(name: &str) -> Option<Style> {
+    let first = name.split([' ', ',']).next()?;
+    let colour = if name.contains(" + ") {
+        RGBColor(230, 159, 0)
+    } else {
+        match first {
+            "red" => RGBColor(213, 40, 30),
+            "green" => RGBColor(0, 150, 60),
+            "blue" => RGBColor(30, 80, 210),
+            "black" => RGBColor(90, 90, 90),
+            "white" => RGBColor(0, 0, 0),
+            _ => return None,
+        }
+    };
+    let points = name.contains("measured") && !name.contains(" + ");
+    Some(Style {
+        colour,
+        marker: Marker::Square,
+        size: if points { MARKER_PX } else { 0 },
     })
 }
 
