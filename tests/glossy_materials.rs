@@ -485,6 +485,7 @@ fn the_white_furnace_returns_what_the_albedo_says() {
                 radiance: flat(SpectralUnit::SpectralRadiance, le),
                 two_sided: true,
                 rgb: None,
+                spot: None,
             }],
             position,
             &targets,
@@ -587,6 +588,7 @@ fn a_mirror_shows_the_emitter_times_its_reflectance() {
         radiance: flat(SpectralUnit::SpectralRadiance, le),
         two_sided: true,
         rgb: None,
+        spot: None,
     }];
     let front = scene_of(
         materials.clone(),

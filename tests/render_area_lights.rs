@@ -88,6 +88,7 @@ fn scene(rect: [DVec3; 4], radiance: f64, rho: f64, receiver_normal: DVec3) -> S
             radiance: flat(SpectralUnit::SpectralRadiance, radiance),
             two_sided: false,
             rgb: None,
+            spot: None,
         }],
         radiometer: Radiometer {
             position: receiver_normal * 0.2 + (u + v) * 0.02,

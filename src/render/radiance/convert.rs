@@ -18,6 +18,13 @@
 //!   changes how RADIANCE samples it, not the light it gives.
 //!   Emitting surfaces are triangles ([`super::tessellate`]) of a black
 //!   material: a RADIANCE light reflects nothing.
+//! - `spotlight` (r g b angle xdir ydir zdir) is a `light` whose emission is
+//!   cut to the cone of full angle `angle` about (xdir, ydir, zdir), and
+//!   whose light reaching a surface at distance d falls off as
+//!   d²/(d + flen)², flen = |(xdir, ydir, zdir)| (the focus behind the
+//!   source), as RADIANCE evaluates it ([`Spot`]). The vector is transformed
+//!   with the material (rotated and scaled, as `xform` does) and flen is in
+//!   the file's units like every length.
 //! - `spectrum` (nmA nmB s₁ … s_N, N ≥ 3: multipliers at N evenly spaced
 //!   wavelengths from nmA to nmB, zero outside, linearly interpolated) and
 //!   `specfile` (one string: a file of `wavelength value` pairs, or a
@@ -42,7 +49,7 @@ use super::load::{is_surface, placed_vertices, Placed, Source, Stream};
 use super::tessellate::{self, Triangle};
 use super::{RadError, RadianceScene};
 use crate::render::geometry::Shape;
-use crate::render::scene::{Emitter, Material, Primitive, Surface};
+use crate::render::scene::{Emitter, Material, Primitive, Spot, Surface};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
 /// A defined modifier.
@@ -179,8 +186,16 @@ impl Converter<'_> {
                 });
                 Ok(Modifier::Reflecting(self.out.materials.len() - 1))
             }
-            "light" | "glow" => {
-                count(p, 0, if kind == "light" { &[3] } else { &[4] })?;
+            "light" | "glow" | "spotlight" => {
+                count(
+                    p,
+                    0,
+                    match kind {
+                        "light" => &[3],
+                        "glow" => &[4],
+                        _ => &[7],
+                    },
+                )?;
                 let r = &p.prim.reals;
                 let rgb = [r[0], r[1], r[2]];
                 if rgb.iter().any(|v| *v < 0.0) {
@@ -200,11 +215,13 @@ impl Converter<'_> {
                     }
                     Some(s) => (emission_from_spectrum(grey(p, rgb)?, &s), None),
                 };
+                let spot = if kind == "spotlight" { Some(self.spot(p)?) } else { None };
                 self.out.emitters.push(Emitter {
                     name: format!("{kind} {} ({}:{})", p.prim.id, p.file, p.prim.line),
                     radiance,
                     two_sided: false,
                     rgb: rgb_exact,
+                    spot,
                 });
                 Ok(Modifier::Emitting(self.out.emitters.len() - 1))
             }
@@ -235,11 +252,6 @@ impl Converter<'_> {
                 }
                 Ok(Modifier::Colour(multipliers(p, samples)?))
             }
-            "spotlight" => Err(p.err(
-                "spotlight is not imported: lightbooth's cone luminaires are points, a spotlight is an area \
-                 source; give it in a TOML scene as `[[light]] intensity_cd = I, cone_deg = (its angle)/2, \
-                 aim = [x, y, z]` next to `[[radiance]] file = …`",
-            )),
             "brightfunc" | "colorfunc" | "brightdata" | "colordata" | "colorpict" | "brighttext" | "colortext"
             | "texfunc" | "texdata" | "mixfunc" | "mixdata" | "mixpict" | "mixtext" | "specfunc" | "specdata"
             | "specpict" => Err(p.err(format!("`{kind}`: {PATTERN_HINT}"))),
@@ -247,11 +259,35 @@ impl Converter<'_> {
             | "plastic2" | "metal2" | "plasfunc" | "metfunc" | "plasdata" | "metdata" | "plaspict" | "metpict"
             | "BRTDfunc" | "BSDF" | "aBSDF" | "ashik2" | "prism1" | "prism2" | "mist" | "illum" | "antimatter"
             | "alias" | "mirage" => Err(p.err(format!(
-                "the material type `{kind}` is not supported: lightbooth imports plastic, metal, mirror, light \
-                 and glow (approximate it by one of those)"
+                "the material type `{kind}` is not supported: lightbooth imports plastic, metal, mirror, light, \
+                 glow and spotlight (approximate it by one of those)"
             ))),
             other => Err(p.err(format!("unknown primitive type `{other}`"))),
         }
+    }
+
+    /// A `spotlight`'s cone (reals 3–6: angle xdir ydir zdir) in scene
+    /// coordinates: the orientation vector goes through the material's
+    /// transform as `xform` moves it (rotated and scaled with the scene), and
+    /// its length, the focal length, into metres.
+    fn spot(&self, p: &Placed) -> Result<Spot, RadError> {
+        let r = &p.prim.reals;
+        let angle = r[3];
+        if !(angle > 0.0 && angle <= 360.0) {
+            return Err(p.err(format!("the cone angle {angle}° is outside (0°, 360°]")));
+        }
+        let aim = p.transform.vector(DVec3::new(r[4], r[5], r[6])) * self.metres_per_unit;
+        let focal_length_m = aim.length();
+        if !(focal_length_m > 0.0 && focal_length_m.is_finite()) {
+            return Err(p.err(
+                "zero focus vector (RADIANCE's error too): give the beam's direction, its length the focal distance",
+            ));
+        }
+        Ok(Spot {
+            axis: aim / focal_length_m,
+            cos_half_angle: (angle.to_radians() / 2.0).cos(),
+            focal_length_m,
+        })
     }
 
     fn void_modifier(&self, p: &Placed) -> Result<(), RadError> {
@@ -678,6 +714,31 @@ mod tests {
     }
 
     #[test]
+    fn a_spotlight_is_a_light_with_its_cone_moved_by_xform_and_its_focal_length_in_metres() {
+        // xform -rx 90 turns (0, 0, −1.5) into (0, 1.5, 0), -s 2 doubles it:
+        // (0, 3, 0) file units, 0.03 m at 1 cm per unit.
+        let d = load(
+            "!xform -rx 90 -s 2 lamp.rad\n",
+            &[(
+                "lamp.rad",
+                "void spotlight s 0 0 7 2 2 2 60 0 0 -1.5\ns polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n",
+            )],
+            0.01,
+        )
+        .unwrap();
+        let e = &d.emitters[0];
+        assert_eq!(e.rgb, Some([2.0 * RADIANCE_EFFICACY; 3]));
+        assert!(!e.two_sided && e.name.starts_with("spotlight s"), "{}", e.name);
+        let spot = e.spot.expect("a spotlight has a cone");
+        assert!(spot.axis.distance(DVec3::Y) < 1e-12, "{:?}", spot.axis);
+        assert!((spot.focal_length_m - 0.03).abs() < 1e-12, "{}", spot.focal_length_m);
+        assert!((spot.cos_half_angle - 30f64.to_radians().cos()).abs() < 1e-15);
+        assert!(load("void light l 0 0 3 1 1 1\n", &[], 1.0).unwrap().emitters[0]
+            .spot
+            .is_none());
+    }
+
+    #[test]
     fn refusals_name_the_file_line_primitive_and_what_to_do() {
         for (text, want) in [
             (
@@ -685,8 +746,16 @@ mod tests {
                 "s.rad:2: brightfunc f: `brightfunc`: patterns",
             ),
             (
-                "void spotlight s 0 0 7 1 1 1 30 0 0 -1\n",
-                "s.rad:1: spotlight s: spotlight is not imported",
+                "void spotlight s 0 0 7 1 1 1 30 0 0 0\n",
+                "s.rad:1: spotlight s: zero focus vector",
+            ),
+            (
+                "void spotlight s 0 0 7 1 1 1 0 0 0 -1\n",
+                "s.rad:1: spotlight s: the cone angle 0° is outside (0°, 360°]",
+            ),
+            (
+                "void spotlight s 0 0 6 1 1 1 30 0 0\n",
+                "takes 0 string and 7 real arguments",
             ),
             (
                 "void glass g 0 0 3 .9 .9 .9\n",

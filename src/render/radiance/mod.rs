@@ -5,12 +5,12 @@
 //! Read: comments, multi-line arguments, `void`, modifier chains; the
 //! surfaces `polygon`, `sphere`, `bubble`, `cylinder`, `tube`, `cone`,
 //! `cup`, `ring`; the materials `plastic`, `metal`, `mirror`, `light`,
-//! `glow`; RADIANCE 6's `spectrum` and `specfile` as colour modifiers of
+//! `glow`, `spotlight`; RADIANCE 6's `spectrum` and `specfile` as colour modifiers of
 //! those materials; the inline commands `!xform` and `!genbox`, evaluated
 //! natively (alone or piped into `xform`). Everything else — patterns and
 //! textures with `.cal` or data files (`brightfunc`, `brightdata`,
 //! `colorfunc`, …), other materials (`glass`, `trans`, `BSDF`, …),
-//! `spotlight`, `instance`, `mesh`, `source` and every other command — is
+//! `instance`, `mesh`, `source` and every other command — is
 //! refused with the file, line and primitive and what to do instead.
 //! (Reference: G. Ward, "The RADIANCE 6.0 Synthetic Imaging System",
 //! `ray.html`, and the `xform(1)` and `genbox(1)` manual pages.)

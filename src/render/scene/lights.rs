@@ -203,5 +203,6 @@ pub(super) fn load_emitter(
         radiance,
         two_sided,
         rgb: None,
+        spot: None,
     })
 }

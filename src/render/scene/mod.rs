@@ -321,6 +321,53 @@ pub struct Emitter {
     /// coding then uses these values exactly and `radiance` is a spectrum
     /// synthesised from them. `None` for spectral emitters.
     pub rgb: Option<[f64; 3]>,
+    /// A RADIANCE `spotlight`'s restriction of the emission to a cone;
+    /// `None`: the same radiance in every direction of the emitting side.
+    pub spot: Option<Spot>,
+}
+
+/// RADIANCE's `spotlight` (`mod spotlight id 0 0 7 r g b angle x y z`), as
+/// RADIANCE evaluates it (src/rt/srcsupp.c `makespot`/`spotout`, src/rt/source.c
+/// `srcray` and `m_light`): the cone is a hard cut, with no soft edge:
+/// a direction ω leaving the emitting point carries the radiance when
+/// axis·ω ≥ cos(angle/2) (`spotout`: out when siz < 2π(1 + aim·rdir),
+/// siz = 2π(1 − cos(angle/2))), nothing otherwise. The cone is tested on the
+/// direction from the emitting point itself, so the focal length does not
+/// move its apex; it lengthens the inverse-square distance instead: in
+/// `srcray` the source's solid angle seen from a surface point at distance d
+/// is A·cos/(d + flen)², i.e. the radiance that reaches a surface is scaled
+/// by d²/(d + flen)². RADIANCE does not apply that factor to a ray from the
+/// sensor that sees the lamp itself (`m_light` only tests the cone), and
+/// neither does lightbooth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    /// Unit vector along the beam (RADIANCE's `aim`), scene coordinates.
+    pub axis: DVec3,
+    /// cos(angle/2), angle the cone's full angle.
+    pub cos_half_angle: f64,
+    /// The orientation vector's length in metres (RADIANCE's `flen`): the
+    /// effective focus's distance behind the source, > 0.
+    pub focal_length_m: f64,
+}
+
+impl Spot {
+    /// The factor on the emitter's radiance along the unit direction `out`
+    /// (from the emitting point towards the receiver). `distance`: the
+    /// receiving surface point's distance in metres for light that reaches a
+    /// surface, `None` for a sensor's ray.
+    #[inline]
+    pub fn factor(&self, out: DVec3, distance: Option<f64>) -> f64 {
+        if self.axis.dot(out) < self.cos_half_angle {
+            return 0.0;
+        }
+        match distance {
+            Some(d) => {
+                let r = d / (d + self.focal_length_m);
+                r * r
+            }
+            None => 1.0,
+        }
+    }
 }
 
 /// How a point luminaire's intensity depends on direction.
