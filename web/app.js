@@ -333,6 +333,12 @@ async function loadSceneDetail(id) {
   const s = sceneInfo.find((x) => x.id === id);
   $("scene-detail").hidden = false;
   $("scene-title").textContent = s ? `${s.id}: ${s.title}` : id;
+  // The previous scene's camera view and caption go with its title, at
+  // once: not only after this scene's answers arrive (a test that read the
+  // caption right after the title changed saw the old one on a busy machine).
+  $("scene-preview").hidden = true;
+  $("scene-preview").onload = null;
+  $("preview-caption").textContent = "";
   $("scene-csv").href = `/api/scenes/${id}/comparisons.csv`;
   $("scene-mat").href = `/api/scenes/${id}/comparisons.mat`;
   const c = await api(`/api/scenes/${id}/comparisons`);
