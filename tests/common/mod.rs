@@ -235,3 +235,50 @@ impl Daemon {
             .unwrap();
     }
 }
+
+/// Where browser tests put their screenshots: `<target>/screenshots/`, an
+/// artefact a reviewer can look at.
+pub fn screenshot_dir() -> PathBuf {
+    let shots = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .map(|t| t.join("screenshots"))
+        .unwrap_or_else(|| PathBuf::from("target/screenshots"));
+    std::fs::create_dir_all(&shots).unwrap();
+    shots
+}
+
+/// Runs `tests/browser/SCRIPT` (playwright-core driving headless Chromium;
+/// `tests/setup.sh` installs both) against the daemon at `addr` with the
+/// write token and the screenshot folder `shots` as its arguments. `Err`
+/// carries the script's output when it fails.
+pub async fn run_browser_script(script: &str, addr: SocketAddr, shots: PathBuf) -> Result<(), String> {
+    let browser_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser");
+    assert!(
+        browser_dir.join("node_modules/playwright-core").exists(),
+        "playwright-core is not installed: run tests/setup.sh (it installs chromium and the npm package)"
+    );
+    let script = script.to_string();
+    let out = tokio::task::spawn_blocking(move || {
+        std::process::Command::new("node")
+            .current_dir(&browser_dir)
+            .args([
+                script.as_str(),
+                &format!("http://{addr}"),
+                TOKEN,
+                shots.to_str().unwrap(),
+            ])
+            .output()
+            .expect("run node (install Node.js 20+)")
+    })
+    .await
+    .unwrap();
+    if out.status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "browser test failed:\n{}\n{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ))
+    }
+}
