@@ -129,7 +129,7 @@ fn main() {
                 loopback_only: true,
                 scenes_dir: "scenes".into(),
                 codings: vec![],
-                default_samples: 5,
+                instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
                 observer: lightbooth::colorimetry::Observer::JuddVos,
             }),
             jobs,

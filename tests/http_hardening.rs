@@ -48,7 +48,7 @@ async fn harness(loopback_only: bool) -> Harness {
             loopback_only,
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
-            default_samples: 5,
+            instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
             observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
         jobs,

@@ -44,7 +44,7 @@ async fn harness(queue: usize) -> Harness {
             loopback_only: true,
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
-            default_samples: 5,
+            instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
             observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
         jobs: tx,

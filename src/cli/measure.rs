@@ -7,7 +7,7 @@ use std::time::UNIX_EPOCH;
 use clap::Args;
 use serde::Serialize;
 
-use lightbooth::instrument::{open_pr650, AveragedMeasurement, CancelToken, Pr650Settings};
+use lightbooth::instrument::{AveragedMeasurement, CancelToken, InstrumentSettings};
 use lightbooth::spectrum::table::write_csv;
 
 #[derive(Args, Debug)]
@@ -18,8 +18,8 @@ pub struct MeasureArgs {
     /// Instrument settings (see instruments/pr650.toml); defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
-    /// Samples to average, 1–99.
-    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=99))]
+    /// Samples to average: 1 up to the model's limit (the PR-650's: 99).
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     samples: Option<usize>,
     /// Extra attempts for samples lost to an instrument error or a link fault, 0–99.
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=99))]
@@ -104,24 +104,23 @@ impl From<&AveragedMeasurement> for MeasurementJson {
 
 pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     let mut settings = match &args.config {
-        Some(path) => Pr650Settings::from_toml_file(path)?,
-        None => Pr650Settings::default(),
+        Some(path) => InstrumentSettings::from_toml_file(path)?,
+        None => InstrumentSettings::default(),
     };
-    if let Some(n) = args.samples {
-        settings.samples = n;
-    }
-    if let Some(r) = args.retries {
-        settings.retries = r;
-    }
+    settings.set_samples(args.samples, args.retries);
     settings.validate().map_err(|e| anyhow::anyhow!("bad settings: {e}"))?;
-    let port = args.port.clone().or_else(|| settings.port.clone()).ok_or_else(|| {
-        anyhow::anyhow!("no port: pass --port PATH (e.g. /dev/ttyUSB0) or set `port` in the --config file")
-    })?;
-    let mut pr650 = open_pr650(&port, &settings)?;
+    let port = args
+        .port
+        .clone()
+        .or_else(|| settings.port().map(str::to_string))
+        .ok_or_else(|| {
+            anyhow::anyhow!("no port: pass --port PATH (e.g. /dev/ttyUSB0) or set `port` in the --config file")
+        })?;
+    let mut instrument = settings.open(&port)?;
     let cancel = CancelToken::new();
-    let samples = settings.samples;
+    let samples = settings.capabilities().default_samples;
     // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
-    let m = pr650.measure_averaged(samples, &cancel, &mut |s| match s.luminance {
+    let m = instrument.measure_averaged(samples, &cancel, &mut |s| match s.luminance {
         Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
         _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
     })?;
@@ -150,7 +149,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
             println!("  sample {} not averaged: {}", s.index, s.code);
         }
         println!(
-            "Y = {:.4} cd/m²  x = {:.4}  y = {:.4}  (observer cie-1931, as the PR-650 reports)",
+            "Y = {:.4} cd/m²  x = {:.4}  y = {:.4}  (observer cie-1931, as the instrument reports)",
             m.luminance_cd_m2, m.x, m.y
         );
         println!("luminance CV = {:.3} %", m.luminance_cv * 100.0);

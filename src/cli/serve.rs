@@ -10,7 +10,7 @@ use serde::Deserialize;
 use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::mock::Fault;
-use lightbooth::instrument::Pr650Settings;
+use lightbooth::instrument::InstrumentSettings;
 
 #[derive(Args, Debug)]
 pub struct ServeArgs {
@@ -85,10 +85,10 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         .or(file.instrument)
         .unwrap_or_else(|| "instruments/pr650.toml".into());
     let instrument = if instrument_path.exists() {
-        Pr650Settings::from_toml_file(&instrument_path)?
+        InstrumentSettings::from_toml_file(&instrument_path)?
     } else {
         anyhow::ensure!(args.mock, "instrument settings {} not found", instrument_path.display());
-        Pr650Settings::default()
+        InstrumentSettings::default()
     };
     let options = DaemonOptions {
         bind: args

@@ -30,7 +30,7 @@ use super::renders::Renderer;
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
 use crate::instrument::{
-    open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, Sample, Spectroradiometer,
+    AveragedMeasurement, CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer,
 };
 use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
 use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store};
@@ -49,7 +49,7 @@ pub struct TaskConfig {
     pub status: watch::Sender<InstrumentStatus>,
     pub events: broadcast::Sender<Event>,
     pub renderer: Arc<Renderer>,
-    pub settings: Pr650Settings,
+    pub settings: InstrumentSettings,
     pub mock: Option<MockSettings>,
     pub runtime: Handle,
 }
@@ -339,12 +339,12 @@ impl Worker {
                     mock.with(|h| h.device_path().display().to_string()).unwrap_or_default()
                 }
             }
-            None => self.config.settings.port.clone().ok_or_else(|| {
+            None => self.config.settings.port().map(str::to_string).ok_or_else(|| {
                 "no serial port configured: set `port` in instruments/pr650.toml or use --mock".to_string()
             })?,
         };
         tracing::info!(port, "opening the instrument");
-        let instrument = open_pr650(&port, &self.config.settings).map_err(|e| e.to_string())?;
+        let instrument = self.config.settings.open(&port).map_err(|e| e.to_string())?;
         let info = instrument.info().clone();
         let id = self
             .block_on(

@@ -31,7 +31,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::Observer;
 use crate::instrument::mock::Fault;
-use crate::instrument::Pr650Settings;
+use crate::instrument::InstrumentSettings;
 use crate::service::{self, auth, AppState, InstrumentStatus, ServiceConfig};
 use crate::store::Store;
 
@@ -51,7 +51,8 @@ pub struct DaemonOptions {
     pub mock_speed: f64,
     /// Faults injected into the simulated PR-650 from the start.
     pub mock_faults: Vec<Fault>,
-    pub instrument: Pr650Settings,
+    /// The booth's instrument: its model and settings file.
+    pub instrument: InstrumentSettings,
     pub scenes_dir: PathBuf,
     /// Converged scene spectra (for the simulated PR-650) are cached here.
     pub cache_dir: PathBuf,
@@ -134,7 +135,7 @@ pub async fn run(
             loopback_only,
             scenes_dir: options.scenes_dir.clone(),
             codings: options.codings.clone(),
-            default_samples: options.instrument.samples,
+            instrument: options.instrument.capabilities(),
             observer: options.observer,
         }),
         jobs: jobs_tx,

@@ -2,11 +2,13 @@
 //! line see of an instrument.
 //!
 //! An instrument is a [`Spectroradiometer`]: it says what it is
-//! ([`InstrumentInfo`], with its native wavelength grid) and takes an averaged
-//! measurement ([`Spectroradiometer::measure_averaged`]) that keeps every raw
-//! [`Sample`] with its time and quality code. Bad samples (an instrument error
-//! code, a stale spectral buffer) are reported to the caller but never enter
-//! the mean.
+//! ([`InstrumentInfo`], with its native wavelength grid), what it can do
+//! ([`Capabilities`]: sample limits, retries) and takes one sample at a time.
+//! The [`averaging`] loop above every driver takes an averaged measurement
+//! that keeps every raw [`Sample`] with its time and quality code. Bad
+//! samples (an instrument error code, a stale spectral buffer) are reported
+//! to the caller but never enter the mean. [`InstrumentSettings`] names the
+//! model a daemon drives and opens it.
 //!
 //! Layers, each testable alone:
 //!
@@ -21,10 +23,13 @@
 //!
 //! A PR-655/PR-670 personality (USB, `PHOTO`, signed status codes, 2 nm grid)
 //! is a second implementation of [`Spectroradiometer`] with its own protocol
-//! module; [`QualityCode`] already carries signed codes and [`InstrumentInfo`]
-//! the native grid, so the daemon does not change.
+//! module and a variant of [`InstrumentSettings`]; [`QualityCode`] already
+//! carries signed codes and [`InstrumentInfo`] the native grid, so the
+//! daemon, the store and the API do not change.
 
+pub mod averaging;
 pub mod mock;
+mod models;
 pub mod pr650;
 pub mod transport;
 
@@ -37,6 +42,7 @@ use serde::Serialize;
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::spectrum::{Grid, Spectrum};
 
+pub use models::InstrumentSettings;
 pub use pr650::{open_pr650, Pr650Settings};
 
 /// What an instrument is, as far as it can tell.
@@ -276,24 +282,62 @@ impl CancelToken {
     }
 }
 
-/// A spectroradiometer as the daemon drives it. Implementations run blocking
-/// I/O: call them from a dedicated thread (see [`crate::daemon::instrument_task`]).
+/// What a model can do and how its settings ask it to be driven, known
+/// before a unit is connected (the API checks requests against it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Capabilities {
+    /// The model's name as the operator knows it ("PR-650").
+    pub model: &'static str,
+    /// The grid its spectra come on until the unit says otherwise.
+    pub native_grid: Grid,
+    /// Most samples one averaged measurement may ask for.
+    pub max_samples: usize,
+    /// Samples per measurement when a request does not say (settings file).
+    pub default_samples: usize,
+    /// Extra attempts allowed over one series, for samples lost to a bad
+    /// quality code or a link fault (settings file).
+    pub retries: usize,
+}
+
+/// A spectroradiometer as the daemon drives it: identify, say what it can
+/// do, take one sample. The retry-and-average loop is the same for every
+/// model and lives above the drivers ([`averaging`]). Implementations run
+/// blocking I/O: call them from a dedicated thread (see
+/// [`crate::daemon::instrument_task`]).
 pub trait Spectroradiometer: Send {
+    /// What the connected unit said it is.
     fn info(&self) -> &InstrumentInfo;
 
-    /// Takes n samples. `on_sample` is called as each sample is taken (the
-    /// daemon stores it immediately, before the next sample), including samples
-    /// with bad codes. Returns Err if fewer than the required good samples
-    /// could be taken after the configured retries; never averages a bad sample.
-    /// An attempt lost to a link fault (no reply, a cut-off or garbled report)
-    /// yields no [`Sample`], since no quality code arrived; it is logged and
-    /// counts against the retries.
-    fn measure_averaged(
+    fn capabilities(&self) -> &Capabilities;
+
+    /// One measurement: its quality code, and its spectrum when the code is
+    /// good. A link fault (no reply, a cut-off or garbled report) is an
+    /// `Err` with [`InstrumentError::is_retryable_link_fault`]; the driver
+    /// resynchronises before its next command.
+    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError>;
+
+    /// Called after a sample with a bad code, before the next attempt (the
+    /// PR-650 turns flicker sync off after a sync failure).
+    fn after_bad_sample(&mut self, _code: &QualityCode, _cancel: &CancelToken) -> Result<(), InstrumentError> {
+        Ok(())
+    }
+
+    /// What the operator should do about a series that failed with a code of this kind.
+    fn quality_hint(&self, kind: QualityKind) -> &'static str;
+}
+
+impl dyn Spectroradiometer + '_ {
+    /// Takes `n` good samples and averages them ([`averaging::measure_averaged`]).
+    /// `on_sample` is called as each sample is taken (the daemon stores it
+    /// immediately, before the next sample), including samples with bad codes.
+    pub fn measure_averaged(
         &mut self,
         n: usize,
         cancel: &CancelToken,
         on_sample: &mut dyn FnMut(&Sample),
-    ) -> Result<AveragedMeasurement, InstrumentError>;
+    ) -> Result<AveragedMeasurement, InstrumentError> {
+        averaging::measure_averaged(self, n, cancel, on_sample)
+    }
 }
 
 /// Mean, per-wavelength SD, colorimetry and luminance CV of the good samples.

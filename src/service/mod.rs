@@ -52,8 +52,9 @@ pub struct ServiceConfig {
     pub scenes_dir: PathBuf,
     /// Colour codings rendered for comparisons.
     pub codings: Vec<String>,
-    /// Samples per measurement when a request does not say.
-    pub default_samples: usize,
+    /// What the booth's instrument model can do: its samples per measurement
+    /// when a request does not say, and the most it may be asked for.
+    pub instrument: crate::instrument::Capabilities,
     /// The observer of every x,y, XYZ, CIELAB and ΔE the service computes or
     /// charts (`serve --observer`; Judd–Vos 1978 by default, the study's).
     pub observer: crate::colorimetry::Observer,

@@ -174,7 +174,7 @@ impl Daemon {
             mock: true,
             mock_speed,
             mock_faults: Vec::new(),
-            instrument: settings,
+            instrument: lightbooth::instrument::InstrumentSettings::Pr650(settings),
             scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
             // Shared across tests: converged spectra are keyed by scene content.
             cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),

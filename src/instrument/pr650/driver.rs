@@ -1,5 +1,6 @@
 //! A PR-650 session: open the port, enter remote mode, set up, identify, and
-//! take averaged measurements as `M0` followed by `D5` and `D2`.
+//! take single samples as `M0` followed by `D5` and `D2` (the averaging loop
+//! above it is [`crate::instrument::averaging`], shared by every model).
 //!
 //! Practice from `shared/docs/pr650-protocol.md` §6 that this follows:
 //! - remote mode must be entered within ~5 s of power-on; the handshake (`B1`)
@@ -24,8 +25,8 @@ use std::time::{Duration, SystemTime};
 
 use crate::instrument::transport::SerialLink;
 use crate::instrument::{
-    average_samples, AveragedMeasurement, CancelToken, InstrumentError, InstrumentInfo, QualityCode, QualityKind,
-    Sample, Spectroradiometer, WaitPhase,
+    CancelToken, Capabilities, InstrumentError, InstrumentInfo, QualityCode, QualityKind, Sample, Spectroradiometer,
+    WaitPhase,
 };
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -44,6 +45,7 @@ pub struct Pr650 {
     link: SerialLink,
     settings: Pr650Settings,
     info: InstrumentInfo,
+    capabilities: Capabilities,
     setup: Setup,
     /// Set after a link fault or a cancel: the unit may still be measuring or
     /// sending, so the next command must resynchronise first.
@@ -54,13 +56,6 @@ pub struct Pr650 {
     /// The command and error of the exchange that last failed, for the report
     /// if the unit then stops answering.
     last_fault: Option<(String, String)>,
-}
-
-/// Why one sample could not be taken (the last reason is reported if the
-/// series fails).
-enum Failure {
-    Link(InstrumentError),
-    Code(QualityCode),
 }
 
 impl Pr650 {
@@ -76,6 +71,7 @@ impl Pr650 {
                 serial: None,
                 grid: Grid::pr650(),
             },
+            capabilities: settings.capabilities(),
             setup: Setup {
                 integration_ms: settings.integration_ms,
                 ..Setup::default()
@@ -395,60 +391,19 @@ impl Spectroradiometer for Pr650 {
         &self.info
     }
 
-    fn measure_averaged(
-        &mut self,
-        n: usize,
-        cancel: &CancelToken,
-        on_sample: &mut dyn FnMut(&Sample),
-    ) -> Result<AveragedMeasurement, InstrumentError> {
-        let n = n.max(1);
-        let max_attempts = n + self.settings.retries;
-        tracing::info!(samples = n, max_attempts, "PR-650: averaged measurement");
-        let mut samples: Vec<Sample> = Vec::with_capacity(n);
-        let mut good = 0;
-        let mut last_failure: Option<Failure> = None;
-        for attempt in 1..=max_attempts {
-            if good == n {
-                break;
-            }
-            if cancel.is_cancelled() {
-                return Err(InstrumentError::Cancelled);
-            }
-            match self.measure_once(samples.len(), cancel) {
-                Ok(sample) => {
-                    on_sample(&sample);
-                    if sample.code.is_ok() {
-                        good += 1;
-                    } else {
-                        tracing::warn!(attempt, code = %sample.code, "PR-650: bad sample, not averaged");
-                        self.react_to_code(&sample.code, cancel)?;
-                        last_failure = Some(Failure::Code(sample.code.clone()));
-                    }
-                    samples.push(sample);
-                }
-                Err(e) if e.is_retryable_link_fault() => {
-                    tracing::warn!(attempt, error = %e, "PR-650: sample lost to a link fault");
-                    last_failure = Some(Failure::Link(e));
-                }
-                Err(e) => return Err(e),
-            }
-        }
-        if good < n {
-            return Err(match last_failure {
-                Some(Failure::Link(e)) => e,
-                Some(Failure::Code(code)) => InstrumentError::Quality {
-                    hint: protocol::quality_hint(code.kind),
-                    code: code.code,
-                    message: code.message,
-                    good,
-                    needed: n,
-                },
-                None => InstrumentError::Cancelled,
-            });
-        }
-        average_samples(self.info.clone(), samples).map_err(|detail| InstrumentError::Protocol {
-            command: "D5".into(),
-            detail,
-        })
+    fn capabilities(&self) -> &Capabilities {
+        &self.capabilities
+    }
+
+    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        self.measure_once(index, cancel)
+    }
+
+    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+        self.react_to_code(code, cancel)
+    }
+
+    fn quality_hint(&self, kind: QualityKind) -> &'static str {
+        protocol::quality_hint(kind)
     }
 }

@@ -11,8 +11,13 @@ use std::time::Duration;
 use serde::Deserialize;
 
 use super::transport::LinkSettings;
-use super::{InstrumentError, Spectroradiometer};
+use super::{Capabilities, InstrumentError, Spectroradiometer};
 use protocol::Terminator;
+
+/// Most samples one averaged measurement takes: the PR-650's own averaging
+/// count (the `S` command's `avg` field) runs 01–99, and lightbooth keeps
+/// the same bound for its series of single `M0` measurements.
+pub const MAX_SAMPLES: usize = 99;
 
 /// Everything configurable about a PR-650 session. Timeouts are in ms.
 /// Deserialised from `instruments/pr650.toml`; every field has a default.
@@ -85,8 +90,11 @@ impl Pr650Settings {
 
     /// Ranges the instrument or common sense requires.
     pub fn validate(&self) -> Result<(), String> {
-        if self.samples == 0 {
-            return Err("samples must be at least 1".into());
+        if !(1..=MAX_SAMPLES).contains(&self.samples) {
+            return Err(format!(
+                "samples = {}: the PR-650 averages 1–{MAX_SAMPLES} samples per measurement",
+                self.samples
+            ));
         }
         if self.integration_ms != 0 && !(10..=6000).contains(&self.integration_ms) {
             return Err(format!(
@@ -101,6 +109,17 @@ impl Pr650Settings {
             return Err("timeouts must be positive".into());
         }
         Ok(())
+    }
+
+    /// What a PR-650 can do, with these settings' samples and retries.
+    pub fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            model: driver::MODEL,
+            native_grid: crate::spectrum::Grid::pr650(),
+            max_samples: MAX_SAMPLES,
+            default_samples: self.samples,
+            retries: self.retries,
+        }
     }
 
     pub(crate) fn link(&self) -> LinkSettings {

@@ -24,7 +24,8 @@ pub struct StartMeasurement {
     /// Scene id (see `/api/scenes`); the daemon renders and compares when given with `target`.
     pub scene: Option<String>,
     pub target: Option<String>,
-    /// Samples to average, 1–99 (default: the daemon's, 5 unless configured).
+    /// Samples to average: at least 1, at most what the instrument model allows (the PR-650: 99);
+    /// default: the daemon's, 5 unless configured.
     #[schema(minimum = 1, maximum = 99)]
     pub samples: Option<usize>,
     pub session_id: Option<i64>,
@@ -50,10 +51,12 @@ pub async fn start_measurement(
     State(state): State<AppState>,
     Input(body): Input<StartMeasurement>,
 ) -> Result<(StatusCode, Json<Accepted>), ApiError> {
-    let samples = body.samples.unwrap_or(state.config.default_samples);
-    if !(1..=99).contains(&samples) {
+    let capabilities = &state.config.instrument;
+    let samples = body.samples.unwrap_or(capabilities.default_samples);
+    if !(1..=capabilities.max_samples).contains(&samples) {
         return Err(ApiError::BadRequest(format!(
-            "field `samples`: {samples} is outside 1–99"
+            "field `samples`: {samples} is outside 1–{}, what the {} averages per measurement",
+            capabilities.max_samples, capabilities.model
         )));
     }
     match (&body.scene, &body.target) {

@@ -224,7 +224,7 @@ async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result
             state.jobs.capacity()
         )));
     }
-    let samples = state.config.default_samples;
+    let samples = state.config.instrument.default_samples;
     let mut ids = Vec::with_capacity(missing.len());
     for (scene, target) in missing {
         let new = NewMeasurement {

@@ -1,0 +1,134 @@
+//! The instrument models lightbooth drives, and how a daemon or a command
+//! opens the one its settings file names.
+//!
+//! A settings file (`instruments/pr650.toml`) may say `model = "pr650"`;
+//! without the key it is a PR-650 file, as every file written before the key
+//! existed. The rest of the file is the model's own settings, checked
+//! strictly (an unknown key is an error naming it).
+//!
+//! ```
+//! use lightbooth::instrument::InstrumentSettings;
+//! let settings = InstrumentSettings::from_toml_str("model = \"pr650\"\nsamples = 3").unwrap();
+//! assert_eq!(settings.capabilities().model, "PR-650");
+//! assert_eq!(settings.capabilities().default_samples, 3);
+//! ```
+
+use std::path::Path;
+
+use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
+
+/// The settings of one instrument, by model.
+#[derive(Clone, Debug, PartialEq)]
+pub enum InstrumentSettings {
+    Pr650(Pr650Settings),
+}
+
+impl Default for InstrumentSettings {
+    fn default() -> InstrumentSettings {
+        InstrumentSettings::Pr650(Pr650Settings::default())
+    }
+}
+
+impl InstrumentSettings {
+    /// Reads a settings file; errors name the file.
+    pub fn from_toml_file(path: &Path) -> Result<InstrumentSettings, InstrumentError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| InstrumentError::Settings(format!("cannot read {}: {e}", path.display())))?;
+        InstrumentSettings::from_toml_str(&text)
+            .map_err(|e| InstrumentError::Settings(format!("{}: {e}", path.display())))
+    }
+
+    pub fn from_toml_str(text: &str) -> Result<InstrumentSettings, String> {
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+        let model = match table.remove("model") {
+            None => "pr650".to_string(),
+            Some(toml::Value::String(m)) => m,
+            Some(other) => {
+                return Err(format!(
+                    "key `model`: expected a string such as \"pr650\", found {other}"
+                ))
+            }
+        };
+        let rest = toml::to_string(&table).map_err(|e| e.to_string())?;
+        match model.to_ascii_lowercase().replace('-', "").as_str() {
+            "pr650" => Pr650Settings::from_toml_str(&rest).map(InstrumentSettings::Pr650),
+            _ => Err(format!(
+                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\""
+            )),
+        }
+    }
+
+    /// What the model can do, with this file's samples and retries.
+    pub fn capabilities(&self) -> Capabilities {
+        match self {
+            InstrumentSettings::Pr650(s) => s.capabilities(),
+        }
+    }
+
+    /// The serial device the file names, if any.
+    pub fn port(&self) -> Option<&str> {
+        match self {
+            InstrumentSettings::Pr650(s) => s.port.as_deref(),
+        }
+    }
+
+    /// Overrides the file's samples per measurement and extra attempts.
+    pub fn set_samples(&mut self, samples: Option<usize>, retries: Option<usize>) {
+        match self {
+            InstrumentSettings::Pr650(s) => {
+                if let Some(n) = samples {
+                    s.samples = n;
+                }
+                if let Some(r) = retries {
+                    s.retries = r;
+                }
+            }
+        }
+    }
+
+    /// Checks the settings against what the model accepts.
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            InstrumentSettings::Pr650(s) => s.validate(),
+        }
+    }
+
+    /// Opens the instrument on `port`: whatever the model needs before it
+    /// can take a sample (remote mode, setup, identification).
+    pub fn open(&self, port: &str) -> Result<Box<dyn Spectroradiometer>, InstrumentError> {
+        match self {
+            InstrumentSettings::Pr650(s) => super::open_pr650(port, s),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_without_a_model_is_a_pr650_file() {
+        let s = InstrumentSettings::from_toml_str("samples = 7").unwrap();
+        assert_eq!(
+            s,
+            InstrumentSettings::Pr650(Pr650Settings {
+                samples: 7,
+                ..Pr650Settings::default()
+            })
+        );
+    }
+
+    #[test]
+    fn an_unknown_model_or_key_is_named() {
+        let e = InstrumentSettings::from_toml_str("model = \"pr999\"").unwrap_err();
+        assert!(e.contains("pr999") && e.contains("pr650"), "{e}");
+        let e = InstrumentSettings::from_toml_str("model = \"pr650\"\nsamplez = 3").unwrap_err();
+        assert!(e.contains("samplez"), "{e}");
+    }
+
+    #[test]
+    fn samples_beyond_the_models_limit_are_refused() {
+        let e = InstrumentSettings::from_toml_str("samples = 100").unwrap_err();
+        assert!(e.contains("99"), "{e}");
+    }
+}
