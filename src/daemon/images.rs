@@ -111,6 +111,8 @@ pub struct ImageInfo {
     pub settings: ImageSettings,
     /// The observer of its XYZ (and of every x,y, CIELAB and ΔE drawn from it).
     pub observer: String,
+    /// The coding's colour in every chart and page (`charts::CODING_STYLES`), `#rrggbb`.
+    pub colour: String,
     /// After each pass.
     #[schema(value_type = Option<Object>)]
     pub progress: Option<CameraProgress>,
@@ -246,6 +248,9 @@ impl ImageJobs {
                     error: None,
                     settings,
                     observer: observer.to_string(),
+                    colour: crate::charts::coding_style(&coding.to_string())
+                        .map(|s| format!("#{:02x}{:02x}{:02x}", s.colour.0, s.colour.1, s.colour.2))
+                        .unwrap_or_else(|| "#000000".into()),
                     progress: None,
                     quantities: Vec::new(),
                     wavelengths_nm: None,
