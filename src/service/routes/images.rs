@@ -103,7 +103,7 @@ pub async fn cancel_image(
 /// The image for looking at: XYZ → sRGB, Reinhard global tone map, 8 bits.
 #[utoipa::path(get, path = "/images/{id}/display.png", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody),
-              (status = 409, description = "the image is not complete", body = ErrorBody)))]
+              (status = 409, description = "the image is not complete", body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_display_png(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let (_, img) = images(&state)?.data(id)?;
     let png = tokio::task::spawn_blocking(move || image_views::display_png(&img))
@@ -132,7 +132,7 @@ fn probe_of(state: &AppState, id: i64, q: &ProbeQuery) -> Result<Probe, ApiError
 
 /// A pixel's (or a box's) channels ± SE, XYZ, x,y and LMS.
 #[utoipa::path(get, path = "/images/{id}/pixel", tag = "images", params(("id" = i64, Path), ProbeQuery),
-    responses((status = 200, body = Probe), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+    responses((status = 200, body = Probe), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_pixel(
     State(state): State<AppState>,
     Path(id): Path<i64>,
@@ -143,7 +143,7 @@ pub async fn image_pixel(
 
 /// The probe as a chart: the spectrum (or the RGB channels) ± 1 SE.
 #[utoipa::path(get, path = "/images/{id}/pixel.svg", tag = "images", params(("id" = i64, Path), ProbeQuery),
-    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_pixel_svg(
     State(state): State<AppState>,
     Path(id): Path<i64>,
@@ -181,7 +181,7 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
 /// (Fichet et al. 2021) or R, G, B, then X, Y, Z, L, M, S, each with its
 /// `SE.` layer, and `paths` (see `export::image`).
 #[utoipa::path(get, path = "/images/{id}/image.exr", tag = "images", params(("id" = i64, Path)),
-    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let (info, img) = images(&state)?.data(id)?;
     let bytes = exported(img, id, "exr").await?;
@@ -195,7 +195,7 @@ pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 /// The image as MATLAB `.mat`: `radiance` (H × W × N single),
 /// `radiance_se`, `XYZ`, `LMS`, `paths`, `wavelength_nm`, `units`, `coding`.
 #[utoipa::path(get, path = "/images/{id}/image.mat", tag = "images", params(("id" = i64, Path)),
-    responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+    responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let (info, img) = images(&state)?.data(id)?;
     let bytes = exported(img, id, "mat").await?;
@@ -233,7 +233,7 @@ async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap
 /// one render), with the scene's white: summary, colour scale and values.
 #[utoipa::path(get, path = "/images/{id}/delta-e", tag = "images", params(("id" = i64, Path), DeltaEQuery),
     responses((status = 200, body = DeltaEMap), (status = 404, body = ErrorBody),
-              (status = 409, description = "an image is not complete, or the two differ in render or size", body = ErrorBody)))]
+              (status = 409, description = "an image is not complete, or the two differ in render or size", body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_delta_e(
     State(state): State<AppState>,
     Path(id): Path<i64>,
@@ -244,7 +244,7 @@ pub async fn image_delta_e(
 
 /// The ΔE00 map as a false-colour PNG (viridis from 0 to `scale_max` of the JSON).
 #[utoipa::path(get, path = "/images/{id}/delta-e.png", tag = "images", params(("id" = i64, Path), DeltaEQuery),
-    responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)))]
+    responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_delta_e_png(
     State(state): State<AppState>,
     Path(id): Path<i64>,
