@@ -354,6 +354,7 @@ async function loadSceneDetail(id) {
   if (openScene !== id) return;
   showRenderJobs(renders);
   const done = renders.find((r) => r.state === "complete");
+  if (viewerRender?.id !== done?.id) openImageViewer(done || null); // web/viewer.js
   const preview = $("scene-preview");
   preview.hidden = !done;
   // Never leave the previous scene's caption under this one, nor let its

@@ -14,6 +14,7 @@
 //! start and stop a whole daemon in-process.
 
 pub mod db_lock;
+pub mod images;
 pub mod instrument_task;
 pub mod jobs;
 pub mod renders;

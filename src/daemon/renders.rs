@@ -54,6 +54,7 @@ use std::time::Instant;
 use tokio::runtime::Handle;
 use tokio::sync::broadcast;
 
+use super::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
 use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::{xyz_from_radiance, Lab, Observer, Xyz};
@@ -101,6 +102,8 @@ pub struct Renderer {
     converge_pool: rayon::ThreadPool,
     /// Set at shutdown: stops the comparison renders (jobs have their own flags).
     shutdown: CancelFlag,
+    /// Camera images of renders, for the image viewer ([`super::images`]).
+    images: Arc<ImageJobs>,
 }
 
 /// A job's work, as the queue carries it.
@@ -181,6 +184,7 @@ impl Renderer {
             .build()
             .map_err(|e| anyhow::anyhow!("cannot start the renderer's threads: {e}"))?;
         Ok(Renderer {
+            images: Arc::new(ImageJobs::new(events.clone())),
             jobs: JobQueue::new(store.clone()),
             observer,
             mock_world,
@@ -200,6 +204,8 @@ impl Renderer {
     /// Starts the one worker that runs queued renders and studies in turn;
     /// it ends after [`Renderer::shutdown`], once the queue is drained.
     pub fn run_jobs(self: &Arc<Self>) -> tokio::task::JoinHandle<()> {
+        // Camera images have their own queue and worker (see `images`).
+        drop(self.images.run());
         let this = Arc::clone(self);
         let receiver = self.jobs.take_receiver();
         tokio::spawn(async move {
@@ -219,6 +225,7 @@ impl Renderer {
     pub fn shutdown(&self) {
         self.shutdown.cancel();
         self.jobs.shutdown();
+        self.images.shutdown();
     }
 
     async fn run_job(self: &Arc<Self>, queued: Queued<Work>) -> anyhow::Result<()> {
@@ -989,6 +996,66 @@ impl RenderService for Renderer {
 
     fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, ApiError>> {
         Box::pin(async move { self.retry_job(job, id).await })
+    }
+
+    fn start_image(self: Arc<Self>, render_id: i64, request: ImageRequest) -> BoxFuture<Result<(i64, bool), ApiError>> {
+        Box::pin(async move { self.queue_image(render_id, request).await })
+    }
+
+    fn images(&self) -> Option<&ImageJobs> {
+        Some(&self.images)
+    }
+
+    fn cielab_white(self: Arc<Self>, scene: String) -> BoxFuture<Result<(Xyz, String), ApiError>> {
+        Box::pin(async move {
+            self.white_xyz(&scene)
+                .await
+                .map_err(|e| ApiError::Internal(format!("the CIELAB white of `{scene}`: {e}")))
+        })
+    }
+}
+
+impl Renderer {
+    /// Queues a camera image of a render (see [`super::images`]): the
+    /// render's scene, which must not have changed since, with the render's
+    /// transport and seed; the request checked against the limits first.
+    async fn queue_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), ApiError> {
+        let row = self
+            .store
+            .get_render(render_id)
+            .await?
+            .ok_or_else(|| ApiError::NotFound(format!("no render {render_id}")))?;
+        let settings: RenderSettings = serde_json::from_value(row.settings.clone())
+            .map_err(|e| ApiError::Internal(format!("render {render_id}'s stored settings: {e}")))?;
+        let entry = self
+            .entry(&row.scene)
+            .ok_or_else(|| ApiError::NotFound(format!("render {render_id}'s scene `{}` is gone", row.scene)))?;
+        let (scene, hash) = load_scene_blocking(entry.path.clone())
+            .await
+            .map_err(|e| ApiError::Internal(e.to_string()))?;
+        if hash != row.scene_hash {
+            return Err(ApiError::Conflict(format!(
+                "the scene file of `{}` changed since render {render_id}: render the scene again, then ask for its images",
+                row.scene
+            )));
+        }
+        let camera = scene
+            .camera
+            .clone()
+            .ok_or_else(|| ApiError::Conflict(format!("scene `{}` has no [camera]: no image to render", row.scene)))?;
+        let transport = render::integrator::Transport {
+            max_bounces: settings.max_bounces,
+            russian_roulette_from: settings.russian_roulette_from,
+        };
+        let (checked, coding) = camera_images::check_request(&request, &camera, &transport, settings.seed)?;
+        let (scaled, camera_settings) = camera_images::camera_settings(&checked, coding, &camera, self.observer);
+        self.images
+            .enqueue(render_id, &row.scene, self.observer, checked, |id| ImageWork {
+                id,
+                scene: Box::new(scene),
+                camera: scaled,
+                settings: camera_settings,
+            })
     }
 }
 

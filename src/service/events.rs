@@ -1,5 +1,6 @@
 //! Live events for `/api/events` (server-sent events): instrument state,
-//! measurement progress sample by sample, renders and comparisons. The event
+//! measurement progress sample by sample, renders, camera images and
+//! comparisons. The event
 //! name is the `type` field; the data is the whole event as JSON.
 
 use std::convert::Infallible;
@@ -70,6 +71,26 @@ pub enum Event {
         study_id: i64,
         message: String,
     },
+    /// A camera image after each pass (see `daemon::images`).
+    ImageProgress {
+        image_id: i64,
+        render_id: i64,
+        pass: u32,
+        /// Pixels that reached their SE target or the path cap.
+        pixels_done: u64,
+        pixels: u64,
+        /// Paths traced so far, and the most the image may trace.
+        paths: u64,
+        max_paths: u64,
+        elapsed_seconds: f64,
+    },
+    /// A camera image ended: `complete`, `failed` or `cancelled`.
+    ImageFinished {
+        image_id: i64,
+        render_id: i64,
+        state: String,
+        error: Option<String>,
+    },
     StudyFinished {
         study_id: i64,
         ok: bool,
@@ -90,6 +111,8 @@ impl Event {
             Event::RenderFinished { .. } => "render_finished",
             Event::ComparisonReady { .. } => "comparison_ready",
             Event::StudyProgress { .. } => "study_progress",
+            Event::ImageProgress { .. } => "image_progress",
+            Event::ImageFinished { .. } => "image_finished",
             Event::StudyFinished { .. } => "study_finished",
         }
     }

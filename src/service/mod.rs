@@ -14,6 +14,7 @@
 pub mod auth;
 pub mod error;
 pub mod events;
+pub mod image_views;
 pub mod input;
 pub mod limits;
 mod openapi;
@@ -132,6 +133,31 @@ pub trait RenderService: Send + Sync {
     /// Queues a new render or study with the request of an interrupted,
     /// failed or cancelled one; resolves to the new id.
     fn retry(self: Arc<Self>, job: crate::store::Job, id: i64) -> BoxFuture<Result<i64, error::ApiError>>;
+    /// Queues a camera image of a render (or finds the one already made
+    /// with the same settings); resolves to its id and whether it was reused.
+    fn start_image(
+        self: Arc<Self>,
+        _render_id: i64,
+        _request: crate::daemon::images::ImageRequest,
+    ) -> BoxFuture<Result<(i64, bool), error::ApiError>> {
+        Box::pin(async {
+            Err(error::ApiError::Unavailable(
+                "this daemon renders no camera images".into(),
+            ))
+        })
+    }
+    /// The camera images this daemon keeps (see `daemon::images`); `None`
+    /// when it renders none.
+    fn images(&self) -> Option<&crate::daemon::images::ImageJobs> {
+        None
+    }
+    /// The CIELAB white of a scene now, with its source (see `daemon::renders`).
+    fn cielab_white(
+        self: Arc<Self>,
+        _scene: String,
+    ) -> BoxFuture<Result<(crate::colorimetry::Xyz, String), error::ApiError>> {
+        Box::pin(async { Err(error::ApiError::Unavailable("this daemon has no scenes".into())) })
+    }
 }
 
 /// Options of a study started through the API (see `lightbooth study`).

@@ -14,6 +14,7 @@ const INDEX: &str = include_str!("../../web/index.html");
 const APP_JS: &str = include_str!("../../web/app.js");
 /// The "measure a material" view (reflectance against a white standard).
 const MATERIAL_JS: &str = include_str!("../../web/material.js");
+const VIEWER_JS: &str = include_str!("../../web/viewer.js");
 const STYLE: &str = include_str!("../../web/style.css");
 /// The display calibration page, opened full-screen on the stimulus monitor.
 const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
@@ -45,6 +46,10 @@ pub fn router() -> Router<AppState> {
         .route(
             "/material.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MATERIAL_JS) }),
+        )
+        .route(
+            "/viewer.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], VIEWER_JS) }),
         )
         .route(
             "/style.css",

@@ -11,6 +11,7 @@ mod comparisons;
 mod display_profiles;
 mod health;
 mod illuminants;
+mod images;
 mod measurements;
 mod mock;
 mod reflectances;
@@ -25,6 +26,7 @@ pub use comparisons::*;
 pub use display_profiles::*;
 pub use health::*;
 pub use illuminants::*;
+pub use images::*;
 pub use measurements::*;
 pub use mock::*;
 pub use reflectances::*;
@@ -68,6 +70,16 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(cancel_render))
         .routes(routes!(retry_render))
         .routes(routes!(render_preview))
+        .routes(routes!(render_images, start_image))
+        .routes(routes!(get_image))
+        .routes(routes!(cancel_image))
+        .routes(routes!(image_display_png))
+        .routes(routes!(image_pixel))
+        .routes(routes!(image_pixel_svg))
+        .routes(routes!(image_exr))
+        .routes(routes!(image_mat))
+        .routes(routes!(image_delta_e))
+        .routes(routes!(image_delta_e_png))
         .routes(routes!(list_reflectances, create_reflectance_route))
         .routes(routes!(get_reflectance))
         .routes(routes!(reflectance_csv))

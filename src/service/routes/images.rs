@@ -1,0 +1,256 @@
+//! `/api/renders/{id}/images` and `/api/images`: camera images of a render
+//! in any coding (queued, progressive, cancellable; see `daemon::images`),
+//! what the dashboard's image viewer shows of them (display PNG, pixel
+//! probe and its chart, ΔE00 map between two codings) and their files
+//! (OpenEXR, MATLAB) through [`crate::export::image`].
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+use super::measurements::download;
+use crate::daemon::images::{ImageInfo, ImageJobs, ImageRequest};
+use crate::render::camera::CameraImage;
+use crate::service::error::{ApiError, ErrorBody};
+use crate::service::image_views::{self, DeltaEMap, Probe};
+use crate::service::input::{Input, Path, Query};
+use crate::service::AppState;
+
+fn service(state: &AppState) -> Result<&Arc<dyn crate::service::RenderService>, ApiError> {
+    state
+        .renders
+        .as_ref()
+        .ok_or_else(|| ApiError::Unavailable("this daemon runs without the renderer".into()))
+}
+
+fn images(state: &AppState) -> Result<&ImageJobs, ApiError> {
+    service(state)?
+        .images()
+        .ok_or_else(|| ApiError::Unavailable("this daemon renders no camera images".into()))
+}
+
+#[derive(Serialize, ToSchema)]
+pub struct ImageAccepted {
+    pub image_id: i64,
+    pub url: String,
+    /// True when an image of this render with the same settings already
+    /// existed (queued, running or complete) and is the one answered.
+    pub reused: bool,
+}
+
+/// Queues a camera image of a render in one coding (202), or answers the
+/// image already made with the same settings. Limits: see `daemon::images`
+/// (400 naming the field and the limit).
+#[utoipa::path(post, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
+    request_body = ImageRequest,
+    responses((status = 202, body = ImageAccepted), (status = 400, body = ErrorBody),
+              (status = 401, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, description = "the image queue is full, the scene changed since the render, or it has no camera", body = ErrorBody),
+              (status = 503, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn start_image(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<ImageRequest>,
+) -> Result<(StatusCode, Json<ImageAccepted>), ApiError> {
+    let (image_id, reused) = Arc::clone(service(&state)?).start_image(id, body).await?;
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(ImageAccepted {
+            image_id,
+            url: format!("/api/images/{image_id}"),
+            reused,
+        }),
+    ))
+}
+
+/// The camera images this daemon keeps of a render, oldest first.
+#[utoipa::path(get, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, body = Vec<ImageInfo>), (status = 503, body = ErrorBody)))]
+pub async fn render_images(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<ImageInfo>>, ApiError> {
+    Ok(Json(images(&state)?.of_render(id)))
+}
+
+#[utoipa::path(get, path = "/images/{id}", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, body = ImageInfo), (status = 404, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn get_image(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<ImageInfo>, ApiError> {
+    images(&state)?
+        .info(id)
+        .map(Json)
+        .ok_or_else(|| ApiError::NotFound(format!("no image {id}")))
+}
+
+/// Cancels a queued image at once, or stops a running one within a row of pixels.
+#[utoipa::path(post, path = "/images/{id}/cancel", tag = "images", params(("id" = i64, Path)),
+    responses((status = 202, body = ImageInfo), (status = 401, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, description = "the image has already ended", body = ErrorBody), (status = 503, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn cancel_image(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<(StatusCode, Json<ImageInfo>), ApiError> {
+    Ok((StatusCode::ACCEPTED, Json(images(&state)?.cancel(id)?)))
+}
+
+/// The image for looking at: XYZ → sRGB, Reinhard global tone map, 8 bits.
+#[utoipa::path(get, path = "/images/{id}/display.png", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody),
+              (status = 409, description = "the image is not complete", body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_display_png(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let (_, img) = images(&state)?.data(id)?;
+    let png = tokio::task::spawn_blocking(move || image_views::display_png(&img))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeQuery {
+    /// Pixel column from the left (the box's left edge).
+    pub x: u32,
+    /// Pixel row from the top (the box's top edge).
+    pub y: u32,
+    /// Box width in pixels (default 1).
+    pub w: Option<u32>,
+    /// Box height in pixels (default 1).
+    pub h: Option<u32>,
+}
+
+fn probe_of(state: &AppState, id: i64, q: &ProbeQuery) -> Result<Probe, ApiError> {
+    let (_, img) = images(state)?.data(id)?;
+    image_views::probe(&img, id, q.x, q.y, q.w.unwrap_or(1), q.h.unwrap_or(1))
+}
+
+/// A pixel's (or a box's) channels ± SE, XYZ, x,y and LMS.
+#[utoipa::path(get, path = "/images/{id}/pixel", tag = "images", params(("id" = i64, Path), ProbeQuery),
+    responses((status = 200, body = Probe), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_pixel(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<ProbeQuery>,
+) -> Result<Json<Probe>, ApiError> {
+    Ok(Json(probe_of(&state, id, &q)?))
+}
+
+/// The probe as a chart: the spectrum (or the RGB channels) ± 1 SE.
+#[utoipa::path(get, path = "/images/{id}/pixel.svg", tag = "images", params(("id" = i64, Path), ProbeQuery),
+    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_pixel_svg(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<ProbeQuery>,
+) -> Result<Response, ApiError> {
+    let probe = probe_of(&state, id, &q)?;
+    let svg = tokio::task::spawn_blocking(move || image_views::probe_chart(&probe))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+}
+
+/// Writes the image with [`crate::export::image::write_camera_image`] to a
+/// private temporary file and returns its bytes.
+async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<Vec<u8>, ApiError> {
+    tokio::task::spawn_blocking(move || {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        let dir = std::env::temp_dir().join(format!("lightbooth-image-{}-{id}-{nanos}", std::process::id()));
+        std::fs::create_dir(&dir).map_err(|e| ApiError::Internal(format!("{}: {e}", dir.display())))?;
+        let path = dir.join(format!("image.{ext}"));
+        let bytes = crate::export::image::write_camera_image(&img, &path)
+            .map_err(ApiError::Internal)
+            .and_then(|_| std::fs::read(&path).map_err(|e| ApiError::Internal(format!("{}: {e}", path.display()))));
+        let _ = std::fs::remove_dir_all(&dir);
+        bytes
+    })
+    .await
+    .map_err(|e| ApiError::Internal(e.to_string()))?
+}
+
+/// The image as multi-channel OpenEXR: spectral channels `S0.<λ>nm`
+/// (Fichet et al. 2021) or R, G, B, then X, Y, Z, L, M, S, each with its
+/// `SE.` layer, and `paths` (see `export::image`).
+#[utoipa::path(get, path = "/images/{id}/image.exr", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let (info, img) = images(&state)?.data(id)?;
+    let bytes = exported(img, id, "exr").await?;
+    Ok(download(
+        "image/x-exr",
+        &format!("render_{}_{}_image_{id}.exr", info.render_id, info.settings.coding),
+        bytes,
+    ))
+}
+
+/// The image as MATLAB `.mat`: `radiance` (H × W × N single),
+/// `radiance_se`, `XYZ`, `LMS`, `paths`, `wavelength_nm`, `units`, `coding`.
+#[utoipa::path(get, path = "/images/{id}/image.mat", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let (info, img) = images(&state)?.data(id)?;
+    let bytes = exported(img, id, "mat").await?;
+    Ok(download(
+        "application/x-matlab-data",
+        &format!("render_{}_{}_image_{id}.mat", info.render_id, info.settings.coding),
+        bytes,
+    ))
+}
+
+#[derive(Deserialize, IntoParams)]
+#[serde(deny_unknown_fields)]
+pub struct DeltaEQuery {
+    /// The other image: same render, same size.
+    pub against: i64,
+}
+
+async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap, ApiError> {
+    let jobs = images(state)?;
+    let (a_info, a) = jobs.data(id)?;
+    let (b_info, b) = jobs.data(against)?;
+    if a_info.render_id != b_info.render_id {
+        return Err(ApiError::Conflict(format!(
+            "image {id} is of render {} and image {against} of render {}: a ΔE map compares two codings of one render",
+            a_info.render_id, b_info.render_id
+        )));
+    }
+    let (white, source) = Arc::clone(service(state)?).cielab_white(a_info.scene.clone()).await?;
+    tokio::task::spawn_blocking(move || image_views::delta_e_map(&a, id, &b, against, white, source))
+        .await
+        .map_err(|e| ApiError::Internal(e.to_string()))?
+}
+
+/// CIELAB ΔE00 per pixel between this image and `against` (two codings of
+/// one render), with the scene's white: summary, colour scale and values.
+#[utoipa::path(get, path = "/images/{id}/delta-e", tag = "images", params(("id" = i64, Path), DeltaEQuery),
+    responses((status = 200, body = DeltaEMap), (status = 404, body = ErrorBody),
+              (status = 409, description = "an image is not complete, or the two differ in render or size", body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_delta_e(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<DeltaEQuery>,
+) -> Result<Json<DeltaEMap>, ApiError> {
+    Ok(Json(delta_e_of(&state, id, q.against).await?))
+}
+
+/// The ΔE00 map as a false-colour PNG (viridis from 0 to `scale_max` of the JSON).
+#[utoipa::path(get, path = "/images/{id}/delta-e.png", tag = "images", params(("id" = i64, Path), DeltaEQuery),
+    responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_delta_e_png(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<DeltaEQuery>,
+) -> Result<Response, ApiError> {
+    let map = delta_e_of(&state, id, q.against).await?;
+    let png = image_views::delta_e_png(&map)?;
+    Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}

@@ -1,0 +1,157 @@
+// The image viewer on a scene's page: camera images of the scene's newest
+// complete render in any coding (src/daemon/images.rs), a pixel probe with
+// the pixel's channels ± SE charted by the daemon, and the per-pixel ΔE00
+// map between two codings with its scale bar. Uses `$`, `api`, `fmt`,
+// `notice` and `observerName` from app.js; app.js calls openImageViewer.
+"use strict";
+
+let viewerRender = null; // the render whose images are shown
+let viewerShown = null; // ImageInfo of the image on screen
+const viewerProgress = new EventSource("/api/events");
+
+// Progress of the image being waited for, from the event stream.
+viewerProgress.addEventListener("image_progress", (e) => {
+  const p = JSON.parse(e.data);
+  if (!viewerWaiting || p.image_id !== viewerWaiting) return;
+  const bar = $("viewer-progress");
+  bar.hidden = false;
+  bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
+  $("viewer-state").textContent =
+    `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
+    `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s`;
+});
+let viewerWaiting = null;
+const viewerWake = [];
+viewerProgress.addEventListener("image_finished", () => viewerWake.splice(0).forEach((f) => f()));
+
+function openImageViewer(render) {
+  viewerRender = render;
+  viewerShown = null;
+  $("image-viewer").hidden = !render;
+  for (const id of ["viewer-figure", "probe-figure", "de-figure"]) $(id).hidden = true;
+  $("viewer-state").textContent = "";
+  $("viewer-progress").hidden = true;
+  if (!render) return;
+  $("viewer-title").textContent = `Image viewer: render ${render.id}`;
+  for (const [select, preferred] of [["viewer-coding", "spectral"], ["viewer-against", "rgb"]]) {
+    const s = $(select);
+    s.innerHTML = "";
+    for (const c of render.codings) s.add(new Option(c, c, false, c === preferred));
+  }
+}
+
+// Waits (bounded by the daemon's time budget) until an image of the
+// render in `coding` is complete; queues it if there is none.
+async function viewerImage(coding) {
+  const r = await api(`/api/renders/${viewerRender.id}/images`, { method: "POST", body: JSON.stringify({ coding }) });
+  viewerWaiting = r.image_id;
+  try {
+    for (;;) {
+      const info = await api(`/api/images/${r.image_id}`);
+      if (info.state === "complete") return info;
+      if (info.state === "failed" || info.state === "cancelled") {
+        throw new Error(`image ${info.id} (${coding}) ${info.state}: ${info.error || ""}`);
+      }
+      $("viewer-state").textContent = `image ${info.id} (${coding}): ${info.state}`;
+      await new Promise((wake) => { viewerWake.push(wake); setTimeout(wake, 1000); });
+    }
+  } finally {
+    viewerWaiting = null;
+    $("viewer-progress").hidden = true;
+    $("viewer-state").textContent = "";
+  }
+}
+
+function codingLabel(info) {
+  return `<span class="swatch" style="background:${info.colour}"></span>${info.settings.coding}`;
+}
+
+$("viewer-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  notice("");
+  const render = viewerRender;
+  try {
+    const info = await viewerImage($("viewer-coding").value);
+    if (render !== viewerRender) return;
+    viewerShown = info;
+    const img = $("viewer-image");
+    img.onload = () => {
+      const s = info.settings;
+      const spp = info.paths / (s.width * s.height);
+      $("viewer-caption").innerHTML =
+        `Image ${info.id} of render ${info.render_id}: ${codingLabel(info)} coding, ${s.width} × ${s.height} px, ` +
+        `${fmt(spp, 3)} paths per pixel on average (${s.min_spp}–${s.max_spp}; ${info.passes} passes, stop: ` +
+        `${info.stop.replace("_", " ")}), ${fmt(info.elapsed_seconds, 3)} s. Shown as XYZ (observer: ` +
+        `${observerName(info.observer)}) → linear sRGB → Reinhard global tone map (each pixel × 0.18 / the ` +
+        `log-average luminance, then v / (1 + v)) → sRGB encoding: for looking at, not for measuring. ` +
+        `Click a pixel to probe it.`;
+      $("viewer-state").textContent = "";
+    };
+    img.src = `/api/images/${info.id}/display.png`;
+    $("viewer-exr").href = `/api/images/${info.id}/image.exr`;
+    $("viewer-mat").href = `/api/images/${info.id}/image.mat`;
+    $("viewer-figure").hidden = false;
+    $("viewer-marker").hidden = true;
+  } catch (e) {
+    notice(e.message);
+  }
+});
+
+$("viewer-image").addEventListener("click", async (ev) => {
+  const info = viewerShown;
+  if (!info) return;
+  const img = ev.currentTarget;
+  const scale = img.naturalWidth / img.clientWidth;
+  const x = Math.min(img.naturalWidth - 1, Math.floor(ev.offsetX * scale));
+  const y = Math.min(img.naturalHeight - 1, Math.floor(ev.offsetY * scale));
+  const marker = $("viewer-marker");
+  Object.assign(marker.style, {
+    left: `${x / scale}px`, top: `${y / scale}px`, width: `${Math.max(6, 1 / scale)}px`, height: `${Math.max(6, 1 / scale)}px`,
+  });
+  marker.hidden = false;
+  try {
+    const p = await api(`/api/images/${info.id}/pixel?x=${x}&y=${y}`);
+    const chart = $("probe-chart");
+    chart.src = `/api/images/${info.id}/pixel.svg?x=${x}&y=${y}`;
+    const pm = (q, d = 4) => `${fmt(q.mean, d)} ± ${fmt(q.se, 2)}`;
+    $("probe-caption").innerHTML =
+      `Pixel (${x}, ${y}) of image ${info.id}, ${codingLabel(info)}, ${fmt(p.paths_per_pixel, 3)} paths: ` +
+      `${p.wavelengths_nm ? "spectral radiance (W/(sr·m²·nm)) against wavelength (nm)" : "linear R, G, B"}, ` +
+      `mean ± 1 SE. X = ${pm(p.X)}, Y = ${pm(p.Y)} cd/m², Z = ${pm(p.Z)}; x, y = ${fmt(p.chromaticity_x, 4)}, ` +
+      `${fmt(p.chromaticity_y, 4)} (observer: ${observerName(p.observer)}); L, M, S = ${fmt(p.L.mean, 4)}, ` +
+      `${fmt(p.M.mean, 4)}, ${fmt(p.S.mean, 4)} (Stockman & Sharpe 2°, L + M in cd/m²).`;
+    $("probe-figure").hidden = false;
+  } catch (e) {
+    notice(e.message);
+  }
+});
+
+$("viewer-de").addEventListener("click", async () => {
+  notice("");
+  const render = viewerRender;
+  try {
+    const a = await viewerImage($("viewer-coding").value);
+    const b = await viewerImage($("viewer-against").value);
+    if (render !== viewerRender) return;
+    const m = await api(`/api/images/${a.id}/delta-e?against=${b.id}`);
+    const stops = m.stops.map((c, i) => `rgb(${c.join(",")}) ${(100 * i) / (m.stops.length - 1)}%`);
+    $("de-bar").style.background = `linear-gradient(to right, ${stops.join(", ")})`;
+    const ticks = $("de-ticks");
+    ticks.innerHTML = "";
+    for (const f of [0, 0.25, 0.5, 0.75, 1]) {
+      const t = document.createElement("span");
+      t.style.left = `${100 * f}%`;
+      t.textContent = fmt(f * m.scale_max, 3);
+      ticks.appendChild(t);
+    }
+    $("de-map").src = `/api/images/${a.id}/delta-e.png?against=${b.id}`;
+    $("de-caption").innerHTML =
+      `CIEDE2000 ΔE00 per pixel between ${codingLabel(a)} (image ${a.id}) and ${codingLabel(b)} (image ${b.id}), ` +
+      `through CIELAB with the scene's white: ${m.white_source}, XYZ = ${m.white.map((v) => fmt(v, 4)).join(", ")} ` +
+      `(observer: ${observerName(m.observer)}). Mean ${fmt(m.mean, 3)}, 95th percentile ${fmt(m.p95, 3)}, ` +
+      `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. Each image's own noise adds to ΔE.`;
+    $("de-figure").hidden = false;
+  } catch (e) {
+    notice(e.message);
+  }
+});
