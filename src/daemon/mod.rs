@@ -183,7 +183,7 @@ pub async fn run(
     if n > 0 {
         tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
     }
-    store.pool().close().await;
+    store.close().await;
     Ok(())
 }
 
