@@ -221,6 +221,20 @@ impl Store {
         Store::open_with_synchronous(url, SqliteSynchronous::Full).await
     }
 
+    /// Opens the store for a one-shot command (`calibrate`, `study`) that
+    /// may run beside daemons: on SQLite exactly [`Store::open`] (the command
+    /// runs alone on the file or holds its lock); on PostgreSQL without
+    /// start-up recovery, since daemons sharing the database may be running
+    /// the work a recovery would mark interrupted.
+    pub async fn open_as_tool(url: &str) -> Result<Store, StoreError> {
+        match engine::EngineKind::of_url(url)? {
+            engine::EngineKind::Sqlite => Store::open(url).await,
+            engine::EngineKind::Postgres => Ok(Store {
+                engine: Engine::connect(url, SqliteSynchronous::Full).await?,
+            }),
+        }
+    }
+
     /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
     /// compares FULL with NORMAL); ignored for PostgreSQL.
     pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
