@@ -116,7 +116,10 @@ mod tests {
         assert_eq!(database_path(url), None);
         let first = acquire(url).unwrap();
         let second = acquire(url).unwrap();
-        assert!(first.is_none() && second.is_none(), "no file lock for a server database");
+        assert!(
+            first.is_none() && second.is_none(),
+            "no file lock for a server database"
+        );
     }
 
     #[test]

@@ -711,9 +711,8 @@ impl Store {
         scene_hash: &str,
         settings: &serde_json::Value,
     ) -> Result<Option<(i64, serde_json::Value)>, StoreError> {
-        let row: Option<(i64, String)> =
-            with_pool!(self, |pool| {
-                sqlx::query_as(
+        let row: Option<(i64, String)> = with_pool!(self, |pool| {
+            sqlx::query_as(
             "SELECT id, result_json FROM renders WHERE scene_hash = $1 AND settings_json = $2 AND state = 'complete' \
              ORDER BY id DESC LIMIT 1",
         )
@@ -721,7 +720,7 @@ impl Store {
         .bind(settings.to_string())
         .fetch_optional(pool)
         .await?
-            });
+        });
         let Some((id, text)) = row else { return Ok(None) };
         let json = serde_json::from_str(&text).map_err(|e| StoreError::Corrupt {
             what: "renders.result_json".into(),
