@@ -22,7 +22,12 @@ async fn fill(store: &Store) {
     let spectrum: Vec<f64> = (0..101).map(|i| 1e-3 + 1e-6 * i as f64).collect();
     let json = serde_json::to_string(&spectrum).unwrap();
     let wl = serde_json::to_string(&(0..101).map(|i| 380.0 + 4.0 * i as f64).collect::<Vec<_>>()).unwrap();
-    let mut tx = store.pool().begin().await.unwrap();
+    let mut tx = store
+        .sqlite_pool()
+        .expect("the benchmark fills an SQLite store")
+        .begin()
+        .await
+        .unwrap();
     for m in 0..MEASUREMENTS {
         let scene = ["white", "red", "green", "blue", "cylinder"][(m % 5) as usize];
         let id: i64 = sqlx::query_scalar(

@@ -54,7 +54,7 @@ async fn per_sample_ms(mode: SqliteSynchronous) -> Vec<f64> {
         store.insert_sample(id, &sample).await.unwrap();
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
-    store.pool().close().await;
+    store.close().await;
     times
 }
 

@@ -1,9 +1,45 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, on a fresh
-# Debian machine: Chromium (for the dashboard test) and playwright-core from
-# npm (it drives that Chromium; no browser download). Safe to run again.
+# Debian machine: Chromium (for the dashboard test), playwright-core from
+# npm (it drives that Chromium; no browser download), and PostgreSQL (the
+# store's tests run against SQLite and PostgreSQL). Starts a throw-away
+# PostgreSQL cluster for the tests (see the end). Safe to run again.
+#
+#   tests/setup.sh                 install what is missing, start PostgreSQL
+#   tests/setup.sh stop-postgres   stop the test cluster (.ci/run does, on exit)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+# The throw-away cluster: data, socket and log under target/pg, reachable
+# only through a Unix socket there (no TCP port, so clusters of several
+# checkouts never collide). The URL is written to target/pg-url, where the
+# tests read it (or from $LIGHTBOOTH_TEST_PG, which wins).
+PG_ROOT="$PWD/target/pg"
+PG_PORT=54329
+pg_bin() {
+  local dir
+  dir=$(ls -d /usr/lib/postgresql/*/bin 2>/dev/null | sort -V | tail -n 1)
+  if [ -z "$dir" ]; then
+    return 1
+  fi
+  echo "$dir"
+}
+# initdb refuses to run as root: the cluster then belongs to the `postgres`
+# user the Debian package creates.
+as_pg_user() {
+  if [ "$(id -u)" -eq 0 ]; then
+    runuser -u postgres -- "$@"
+  else
+    "$@"
+  fi
+}
+
+if [ "${1:-}" = "stop-postgres" ]; then
+  if BIN=$(pg_bin) && [ -f "$PG_ROOT/data/postmaster.pid" ]; then
+    as_pg_user "$BIN/pg_ctl" -D "$PG_ROOT/data" -m fast -w stop >/dev/null && echo "stopped the test PostgreSQL"
+  fi
+  exit 0
+fi
 
 if ! command -v chromium >/dev/null 2>&1; then
   echo "installing chromium (Debian package)"
@@ -25,3 +61,28 @@ if [ ! -d tests/browser/node_modules/playwright-core ]; then
   echo "installing playwright-core (npm)"
   (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
 fi
+
+if ! pg_bin >/dev/null; then
+  echo "installing PostgreSQL (Debian package)"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq postgresql >/dev/null
+  # The package starts a system cluster; the tests use their own.
+fi
+BIN=$(pg_bin)
+mkdir -p "$PG_ROOT"
+[ "$(id -u)" -ne 0 ] || chown postgres: "$PG_ROOT"
+if ! as_pg_user "$BIN/pg_ctl" -D "$PG_ROOT/data" status >/dev/null 2>&1; then
+  echo "starting a throw-away PostgreSQL cluster in $PG_ROOT"
+  as_pg_user rm -rf "$PG_ROOT/data" "$PG_ROOT/run"
+  as_pg_user mkdir -p "$PG_ROOT/run"
+  as_pg_user "$BIN/initdb" -D "$PG_ROOT/data" --auth=trust --username=postgres --encoding=UTF8 --no-locale >/dev/null
+  # Durability is not what these tests measure: fsync off keeps each
+  # test's CREATE DATABASE cheap.
+  as_pg_user "$BIN/pg_ctl" -D "$PG_ROOT/data" -l "$PG_ROOT/log" -w \
+    -o "-c listen_addresses='' -c unix_socket_directories='$PG_ROOT/run' -p $PG_PORT -c fsync=off -c max_connections=300" \
+    start >/dev/null
+fi
+echo "postgres://postgres@localhost/postgres?host=$PG_ROOT/run&port=$PG_PORT" > target/pg-url
+echo "test PostgreSQL: $(cat target/pg-url)"

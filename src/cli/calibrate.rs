@@ -15,7 +15,8 @@ use lightbooth::store::Store;
 
 #[derive(Args, Debug)]
 pub struct ReflectanceArgs {
-    /// The database with the measurements (the daemon must not be running on it).
+    /// The database with the measurements: sqlite://FILE (the daemon must not
+    /// be running on it) or postgres://USER@HOST/DATABASE.
     #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
     db: String,
     /// The sample's measurement id.
@@ -43,7 +44,8 @@ pub struct ReflectanceArgs {
 
 #[derive(Args, Debug)]
 pub struct IlluminantArgs {
-    /// The database with the measurement (the daemon must not be running on it).
+    /// The database with the measurement: sqlite://FILE (the daemon must not
+    /// be running on it) or postgres://USER@HOST/DATABASE.
     #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
     db: String,
     /// The white standard's measurement id.
@@ -103,7 +105,7 @@ async fn open(db: &str) -> anyhow::Result<(Store, Option<lightbooth::daemon::db_
     }
     let lock = lightbooth::daemon::db_lock::acquire(db)
         .map_err(|e| anyhow::anyhow!("{e} (while the daemon runs, use POST /api/reflectances or /api/illuminants)"))?;
-    let store = Store::open(db).await.with_context(|| format!("opening {db}"))?;
+    let store = Store::open_as_tool(db).await.with_context(|| format!("opening {db}"))?;
     Ok((store, lock))
 }
 

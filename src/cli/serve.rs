@@ -20,7 +20,9 @@ pub struct ServeArgs {
     /// Run a simulated PR-650 on a pseudo-terminal instead of opening the real port.
     #[arg(long)]
     mock: bool,
-    /// The database, e.g. sqlite://lightbooth.sqlite (created if missing).
+    /// The database: sqlite://lightbooth.sqlite (one booth; created if
+    /// missing) or postgres://USER@HOST/DATABASE (a lab's shared server; the
+    /// database must exist).
     #[arg(long)]
     db: Option<String>,
     /// Address to listen on. Loopback by default; elsewhere, reads need the token too.

@@ -48,7 +48,8 @@ pub struct StudyArgs {
     /// Also compute the failure maps (illuminant × patch; CYLINDER interreflection).
     #[arg(long)]
     failure_map: bool,
-    /// The database with the measurements (and where the study is stored).
+    /// The database with the measurements (and where the study is stored):
+    /// sqlite://FILE or postgres://USER@HOST/DATABASE.
     #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
     db: String,
     /// First measure every target with the simulated PR-650 (reproducible, no booth needed).
@@ -113,7 +114,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         let needs_store = matches!(options.against, Against::Measurements) || args.measure_simulated;
         let store = if needs_store {
             Some(
-                Store::open(&args.db)
+                Store::open_as_tool(&args.db)
                     .await
                     .with_context(|| format!("opening {}", args.db))?,
             )

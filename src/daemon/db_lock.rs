@@ -6,6 +6,14 @@
 //! operating system releases it when the process ends, even on `kill -9`.
 //! The file also holds the holder's pid, for the message a second daemon
 //! prints.
+//!
+//! Only SQLite databases are locked. On PostgreSQL (`postgres://…`) several
+//! daemons — one per booth — may share one database, so none is refused.
+//! What is not done yet there: start-up recovery still marks *every*
+//! unfinished measurement, render and study interrupted, so a daemon
+//! starting on a shared database interrupts the others' running work. Per
+//! daemon leases with a heartbeat (recovering only what a stopped daemon
+//! was doing) are the next step of the multi-booth work (issue 14).
 
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -18,7 +26,8 @@ pub struct DbLock {
     pub path: PathBuf,
 }
 
-/// The database file of an `sqlite:` URL; `None` for an in-memory database.
+/// The database file of an `sqlite:` URL; `None` for an in-memory database
+/// and for any other engine (a PostgreSQL server is shared, never locked).
 pub fn database_path(url: &str) -> Option<PathBuf> {
     let rest = url.strip_prefix("sqlite://").or_else(|| url.strip_prefix("sqlite:"))?;
     let path = rest.split('?').next().unwrap_or_default();
@@ -98,6 +107,18 @@ mod tests {
         assert_eq!(
             lock_path(Path::new("/a/lab.sqlite")),
             PathBuf::from("/a/lab.sqlite.lock")
+        );
+    }
+
+    #[test]
+    fn daemons_sharing_a_postgres_database_do_not_refuse_each_other() {
+        let url = "postgres://lab@db.example/lightbooth";
+        assert_eq!(database_path(url), None);
+        let first = acquire(url).unwrap();
+        let second = acquire(url).unwrap();
+        assert!(
+            first.is_none() && second.is_none(),
+            "no file lock for a server database"
         );
     }
 

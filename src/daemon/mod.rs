@@ -1,13 +1,13 @@
 //! `lightbooth serve`: the lab daemon. It wires the pieces together:
 //!
-//! - the [`store`](crate::store) (an SQLite file, migrated at start-up);
+//! - the [`store`](crate::store) (an SQLite file or a PostgreSQL database, migrated at start-up);
 //! - one [instrument task](instrument_task) that owns the PR-650 (real, or
 //!   simulated on a pty with `--mock`) and takes queued measurements one at
 //!   a time, writing each sample as it is taken;
 //! - the [renderer service](renders) that renders scenes on the rayon pool
 //!   and stores the comparison of each measurement with every coding, and
 //!   runs the API's renders and studies as bounded, cancellable [jobs];
-//! - a [lock](db_lock) on the database file, so one daemon owns it;
+//! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
 //! - the HTTP [service](crate::service) (REST API, events, dashboards).
 //!
 //! [`run`] takes a shutdown future, as mini-redis's server does, so tests
@@ -185,7 +185,7 @@ pub async fn run(
     if n > 0 {
         tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
     }
-    store.pool().close().await;
+    store.close().await;
     Ok(())
 }
 

@@ -169,11 +169,11 @@ impl Store {
         c: &NewCalibration<'_>,
         r: &Reflectance,
     ) -> Result<i64, StoreError> {
-        Ok(sqlx::query_scalar(
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
             "INSERT INTO reflectances (name, sample_measurement_id, standard_measurement_id, standard_file, \
              standard_sha256, standard_uncertainty_stated, created_at, wavelength_json, reflectance_json, \
              uncertainty_json, above_one_json, below_zero_json, max_reflectance, min_reflectance, note) \
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15) RETURNING id",
         )
         .bind(c.name)
         .bind(sample_id)
@@ -190,27 +190,31 @@ impl Store {
         .bind(r.flags.max)
         .bind(r.flags.min)
         .bind(c.note)
-        .fetch_one(&self.pool)
-        .await?)
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn get_reflectance(&self, id: i64) -> Result<Option<ReflectanceRow>, StoreError> {
-        sqlx::query_as::<_, ReflectanceRecord>("SELECT * FROM reflectances WHERE id = ?")
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await?
-            .map(ReflectanceRow::try_from)
-            .transpose()
+        with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
+            "SELECT * FROM reflectances WHERE id = $1"
+        )
+        .bind(id)
+        .fetch_optional(pool)
+        .await?)
+        .map(ReflectanceRow::try_from)
+        .transpose()
     }
 
     /// Every stored reflectance, newest first.
     pub async fn list_reflectances(&self) -> Result<Vec<ReflectanceRow>, StoreError> {
-        sqlx::query_as::<_, ReflectanceRecord>("SELECT * FROM reflectances ORDER BY id DESC")
-            .fetch_all(&self.pool)
-            .await?
-            .into_iter()
-            .map(ReflectanceRow::try_from)
-            .collect()
+        with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
+            "SELECT * FROM reflectances ORDER BY id DESC"
+        )
+        .fetch_all(pool)
+        .await?)
+        .into_iter()
+        .map(ReflectanceRow::try_from)
+        .collect()
     }
 
     /// Stores a lamp SPD computed from the white standard's measurement `measurement_id`.
@@ -221,10 +225,10 @@ impl Store {
         c: &NewCalibration<'_>,
         s: &Illuminant,
     ) -> Result<i64, StoreError> {
-        Ok(sqlx::query_scalar(
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
             "INSERT INTO illuminants (name, measurement_id, standard_file, standard_sha256, \
              standard_uncertainty_stated, created_at, wavelength_json, spd_json, uncertainty_json, \
-             luminance_cd_m2, note) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+             luminance_cd_m2, note) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) RETURNING id",
         )
         .bind(c.name)
         .bind(measurement_id)
@@ -237,27 +241,31 @@ impl Store {
         .bind(json_array(&s.uncertainty))
         .bind(luminance_cd_m2)
         .bind(c.note)
-        .fetch_one(&self.pool)
-        .await?)
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn get_illuminant(&self, id: i64) -> Result<Option<IlluminantRow>, StoreError> {
-        sqlx::query_as::<_, IlluminantRecord>("SELECT * FROM illuminants WHERE id = ?")
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await?
-            .map(IlluminantRow::try_from)
-            .transpose()
+        with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
+            "SELECT * FROM illuminants WHERE id = $1"
+        )
+        .bind(id)
+        .fetch_optional(pool)
+        .await?)
+        .map(IlluminantRow::try_from)
+        .transpose()
     }
 
     /// Every stored illuminant, newest first.
     pub async fn list_illuminants(&self) -> Result<Vec<IlluminantRow>, StoreError> {
-        sqlx::query_as::<_, IlluminantRecord>("SELECT * FROM illuminants ORDER BY id DESC")
-            .fetch_all(&self.pool)
-            .await?
-            .into_iter()
-            .map(IlluminantRow::try_from)
-            .collect()
+        with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
+            "SELECT * FROM illuminants ORDER BY id DESC"
+        )
+        .fetch_all(pool)
+        .await?)
+        .into_iter()
+        .map(IlluminantRow::try_from)
+        .collect()
     }
 }
 
@@ -266,7 +274,11 @@ mod tests {
     use super::*;
     use crate::calibration::reflectance::reflectance;
     use crate::calibration::MeanSpectrum;
+    use crate::store::engine::EngineKind;
+    use crate::store::test_db::{on_both_engines, TestDb};
     use crate::store::{Average, NewMeasurement};
+
+    on_both_engines!(a_reflectance_keeps_its_provenance_and_every_value);
 
     async fn complete_measurement(store: &Store) -> i64 {
         let id = store
@@ -301,9 +313,9 @@ mod tests {
         id
     }
 
-    #[tokio::test]
-    async fn a_reflectance_keeps_its_provenance_and_every_value() {
-        let store = Store::open("sqlite::memory:").await.unwrap();
+    async fn a_reflectance_keeps_its_provenance_and_every_value(engine: EngineKind) {
+        let db = TestDb::new(engine).await;
+        let store = Store::open(&db.url).await.unwrap();
         let (a, b) = (complete_measurement(&store).await, complete_measurement(&store).await);
         let m = |v: f64| MeanSpectrum {
             wavelength_nm: vec![500.0, 504.0],
@@ -326,6 +338,10 @@ mod tests {
         let row = store.get_reflectance(id).await.unwrap().unwrap();
         assert_eq!((row.sample_measurement_id, row.standard_measurement_id), (a, b));
         assert_eq!(row.standard.sha256, "ab".repeat(32));
+        assert!(
+            row.standard.uncertainty_stated,
+            "a flag: 0/1 on SQLite, a boolean on PostgreSQL"
+        );
         assert_eq!(
             row.reflectance, r.reflectance,
             "stored as computed: 1.089, never clipped"

@@ -54,9 +54,9 @@ impl Store {
         note: &str,
         profile: &DisplayProfile,
     ) -> Result<i64, StoreError> {
-        Ok(sqlx::query_scalar(
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
             "INSERT INTO display_profiles (name, created_at, observer, measurement_ids_json, profile_json, note) \
-             VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
+             VALUES ($1, $2, $3, $4, $5, $6) RETURNING id",
         )
         .bind(name)
         .bind(now())
@@ -64,28 +64,28 @@ impl Store {
         .bind(serde_json::to_string(&profile.measurement_ids).expect("integers serialise"))
         .bind(serde_json::to_string(profile).expect("a profile of finite numbers serialises"))
         .bind(note)
-        .fetch_one(&self.pool)
-        .await?)
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn get_display_profile(&self, id: i64) -> Result<Option<DisplayProfileRow>, StoreError> {
-        sqlx::query_as::<_, DisplayProfileRecord>(
-            "SELECT id, name, created_at, profile_json, note FROM display_profiles WHERE id = ?",
+        with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
+            "SELECT id, name, created_at, profile_json, note FROM display_profiles WHERE id = $1",
         )
         .bind(id)
-        .fetch_optional(&self.pool)
-        .await?
+        .fetch_optional(pool)
+        .await?)
         .map(DisplayProfileRow::try_from)
         .transpose()
     }
 
     /// Every stored profile, newest first.
     pub async fn list_display_profiles(&self) -> Result<Vec<DisplayProfileRow>, StoreError> {
-        sqlx::query_as::<_, DisplayProfileRecord>(
+        with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
             "SELECT id, name, created_at, profile_json, note FROM display_profiles ORDER BY id DESC",
         )
-        .fetch_all(&self.pool)
-        .await?
+        .fetch_all(pool)
+        .await?)
         .into_iter()
         .map(DisplayProfileRow::try_from)
         .collect()

@@ -1,10 +1,31 @@
-//! The store: an SQLite file (through `sqlx`) that keeps everything needed to
+//! The store: the database (through `sqlx`) that keeps everything needed to
 //! audit a number later — instruments, sessions, measurements with **every
-//! raw sample**, renders, and comparisons.
+//! raw sample**, renders, and comparisons. Two engines sit behind one
+//! [`Store`]: an SQLite file (`sqlite://lab.sqlite`, the one-booth default)
+//! and a PostgreSQL server (`postgres://user@host/db`, for a lab whose
+//! booths share one database).
 //!
-//! - Migrations (`migrations/`) are embedded in the binary and applied when
-//!   the store opens; the database runs in WAL mode with foreign keys on
-//!   and `synchronous = FULL` (a committed sample survives power loss).
+//! How the two engines share the code: an engine enum ([`engine`]) holds
+//! either a `SqlitePool` or a `PgPool`, and every query is written once, with
+//! `$1, $2, …` placeholders (both engines accept them: SQLite reads `$N` as
+//! the N-th argument) in SQL both dialects run, and passed through
+//! `with_pool!`, which compiles the same statement for each engine's own
+//! driver. Rows are mapped by `#[derive(sqlx::FromRow)]` records (`rows.rs`).
+//! `sqlx::Any` was the alternative and was not taken: its values go through
+//! a lowest common type set where a `bool` decodes only from a boolean
+//! column (SQLite keeps flags as 0/1 INTEGER, so `usable` would not decode),
+//! every row is copied into that set before it is read, and it gives no
+//! typed SQLite connection options (WAL, `synchronous`, foreign keys).
+//! With the enum each engine keeps its native types and options, and SQL
+//! that genuinely differs (only the migrations, today) is written per
+//! engine.
+//!
+//! - Migrations are embedded in the binary and applied when the store
+//!   opens: `migrations/sqlite/` and `migrations/postgres/`, one file per
+//!   version in each, kept in step (a test applies both sets and compares
+//!   the tables and columns they make). SQLite runs in WAL mode with foreign
+//!   keys on and `synchronous = FULL` (a committed sample survives power
+//!   loss); PostgreSQL commits durably by default.
 //! - A sample is written when it is taken, so a crash or a pulled cable keeps
 //!   the samples taken; a measurement is `complete` only with its average
 //!   (the schema enforces it), and measurements left `running` or `queued` by
@@ -12,7 +33,15 @@
 //!   renders and studies left `queued` or `running`.
 //! - Reflectances and lamp spectra measured against a white standard keep
 //!   their provenance (`calibrations`).
-//! - Times are POSIX seconds (f64, UTC); spectra are JSON arrays of numbers.
+//! - Times are POSIX seconds (f64, UTC: DOUBLE PRECISION on PostgreSQL);
+//!   spectra are JSON arrays of numbers (TEXT); flags are 0/1 INTEGER on
+//!   SQLite and BOOLEAN on PostgreSQL.
+//! - Start-up recovery runs on both engines and marks *every* unfinished
+//!   measurement, render and study interrupted. On SQLite one daemon owns
+//!   the file ([`crate::daemon::db_lock`]); on PostgreSQL several daemons may
+//!   share the database, so a daemon starting marks the others' running
+//!   work interrupted too — per-daemon leases (recovering only what a
+//!   stopped daemon was doing) are the next step of the multi-booth work.
 //!
 //! ```no_run
 //! # async fn demo() -> anyhow::Result<()> {
@@ -21,8 +50,21 @@
 //! # Ok(()) }
 //! ```
 
+/// Runs `$body` once with `$pool` bound to the store's pool, whichever the
+/// engine: the body is compiled for each engine's driver, so one statement
+/// (with `$N` placeholders) serves both.
+macro_rules! with_pool {
+    ($store:expr, |$pool:ident| $body:expr) => {
+        match &$store.engine {
+            $crate::store::engine::Engine::Sqlite($pool) => $body,
+            $crate::store::engine::Engine::Postgres($pool) => $body,
+        }
+    };
+}
+
 mod calibrations;
 mod display_profiles;
+pub mod engine;
 mod partial;
 mod rows;
 
@@ -30,8 +72,9 @@ use std::str::FromStr;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
-use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
-use sqlx::Row;
+use sqlx::sqlite::{SqlitePool, SqliteSynchronous};
+
+use engine::Engine;
 
 pub use calibrations::*;
 pub use display_profiles::*;
@@ -48,6 +91,8 @@ pub enum StoreError {
     Corrupt { what: String, err: String },
     #[error("{0}")]
     Conflict(String),
+    #[error("{0}")]
+    Url(String),
 }
 
 /// Seconds since the Unix epoch, UTC.
@@ -155,41 +200,47 @@ impl JobEnd {
 /// A handle on the database; cheap to clone (a connection pool).
 #[derive(Clone, Debug)]
 pub struct Store {
-    pool: SqlitePool,
+    engine: Engine,
 }
 
 impl Store {
-    /// Opens (creating if needed) the database at `url` (`sqlite://path` or
-    /// `sqlite::memory:`), applies migrations, and marks measurements a crash
-    /// left unfinished as interrupted.
+    /// Opens the database at `url` — `sqlite://path` (created if needed),
+    /// `sqlite::memory:`, or `postgres://user@host/db` (the database must
+    /// exist) — applies migrations, and marks measurements a crash left
+    /// unfinished as interrupted.
     ///
-    /// Durability: `synchronous = FULL`, so every committed write — each raw
-    /// sample, each finished measurement — is on disk (WAL fsynced) before
-    /// the call returns, and survives an OS crash or power loss, not only a
-    /// crash of the daemon (NORMAL's promise in WAL mode, which can lose the
-    /// last transactions on power loss). The cost is one fsync per commit;
-    /// `cargo bench --bench sample_durability` measures it (see the README).
+    /// Durability on SQLite: `synchronous = FULL`, so every committed write —
+    /// each raw sample, each finished measurement — is on disk (WAL fsynced)
+    /// before the call returns, and survives an OS crash or power loss, not
+    /// only a crash of the daemon (NORMAL's promise in WAL mode, which can
+    /// lose the last transactions on power loss). The cost is one fsync per
+    /// commit; `cargo bench --bench sample_durability` measures it (see the
+    /// README). PostgreSQL's default (`synchronous_commit = on`) gives the
+    /// same promise.
     pub async fn open(url: &str) -> Result<Store, StoreError> {
         Store::open_with_synchronous(url, SqliteSynchronous::Full).await
     }
 
-    /// [`Store::open`] with another `synchronous` mode (the benchmark compares
-    /// FULL with NORMAL).
+    /// Opens the store for a one-shot command (`calibrate`, `study`) that
+    /// may run beside daemons: on SQLite exactly [`Store::open`] (the command
+    /// runs alone on the file or holds its lock); on PostgreSQL without
+    /// start-up recovery, since daemons sharing the database may be running
+    /// the work a recovery would mark interrupted.
+    pub async fn open_as_tool(url: &str) -> Result<Store, StoreError> {
+        match engine::EngineKind::of_url(url)? {
+            engine::EngineKind::Sqlite => Store::open(url).await,
+            engine::EngineKind::Postgres => Ok(Store {
+                engine: Engine::connect(url, SqliteSynchronous::Full).await?,
+            }),
+        }
+    }
+
+    /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
+    /// compares FULL with NORMAL); ignored for PostgreSQL.
     pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
-        let options = SqliteConnectOptions::from_str(url)?
-            .create_if_missing(true)
-            .journal_mode(SqliteJournalMode::Wal)
-            .synchronous(synchronous)
-            .foreign_keys(true)
-            .busy_timeout(Duration::from_secs(5));
-        // An in-memory database lives per connection: keep exactly one.
-        let max = if url.contains(":memory:") { 1 } else { 8 };
-        let pool = SqlitePoolOptions::new()
-            .max_connections(max)
-            .connect_with(options)
-            .await?;
-        sqlx::migrate!("./migrations").run(&pool).await?;
-        let store = Store { pool };
+        let store = Store {
+            engine: Engine::connect(url, synchronous).await?,
+        };
         let n = store
             .interrupt_unfinished("the daemon stopped before this measurement finished")
             .await?;
@@ -221,74 +272,102 @@ impl Store {
         Ok(store)
     }
 
-    pub fn pool(&self) -> &SqlitePool {
-        &self.pool
+    /// `"sqlite"` or `"postgres"`.
+    pub fn engine_name(&self) -> &'static str {
+        self.engine.name()
+    }
+
+    /// The SQLite pool, for tools that write an SQLite store directly (the
+    /// API load benchmark's fill); `None` on PostgreSQL.
+    pub fn sqlite_pool(&self) -> Option<&SqlitePool> {
+        match &self.engine {
+            Engine::Sqlite(pool) => Some(pool),
+            Engine::Postgres(_) => None,
+        }
+    }
+
+    /// Does the database answer (`SELECT 1`).
+    pub async fn ping(&self) -> Result<(), StoreError> {
+        with_pool!(self, |pool| sqlx::query("SELECT 1")
+            .execute(pool)
+            .await?
+            .rows_affected());
+        Ok(())
+    }
+
+    /// Closes every connection (waits for those in use).
+    pub async fn close(&self) {
+        with_pool!(self, |pool| pool.close().await)
     }
 
     /// Marks every queued or running measurement interrupted (start-up after a crash).
     pub async fn interrupt_unfinished(&self, why: &str) -> Result<u64, StoreError> {
-        let r = sqlx::query(
-            "UPDATE measurements SET state = 'interrupted', error = ?, finished_at = ? \
+        Ok(with_pool!(self, |pool| sqlx::query(
+            "UPDATE measurements SET state = 'interrupted', error = $1, finished_at = $2 \
              WHERE state IN ('queued', 'running')",
         )
         .bind(why)
         .bind(now())
-        .execute(&self.pool)
-        .await?;
-        Ok(r.rows_affected())
+        .execute(pool)
+        .await?
+        .rows_affected()))
     }
 
     /// Marks every queued or running render (or study) interrupted, with
     /// `why` as its error: at start-up after a crash, and at shutdown.
     pub async fn interrupt_unfinished_jobs(&self, job: Job, why: &str) -> Result<u64, StoreError> {
-        let r = sqlx::query(&format!(
-            "UPDATE {} SET state = 'interrupted', error = ?, finished_at = ? WHERE state IN ('queued', 'running')",
+        let sql = format!(
+            "UPDATE {} SET state = 'interrupted', error = $1, finished_at = $2 WHERE state IN ('queued', 'running')",
             job.table()
-        ))
-        .bind(why)
-        .bind(now())
-        .execute(&self.pool)
-        .await?;
-        Ok(r.rows_affected())
+        );
+        Ok(with_pool!(self, |pool| sqlx::query(&sql)
+            .bind(why)
+            .bind(now())
+            .execute(pool)
+            .await?
+            .rows_affected()))
     }
 
     /// `queued → running` for a render or study. False when it is no longer
     /// queued (cancelled while it waited): it must not run.
     pub async fn start_job(&self, job: Job, id: i64) -> Result<bool, StoreError> {
-        let r = sqlx::query(&format!(
-            "UPDATE {} SET state = 'running' WHERE id = ? AND state = 'queued'",
+        let sql = format!(
+            "UPDATE {} SET state = 'running' WHERE id = $1 AND state = 'queued'",
             job.table()
-        ))
-        .bind(id)
-        .execute(&self.pool)
-        .await?;
-        Ok(r.rows_affected() == 1)
+        );
+        let n = with_pool!(self, |pool| sqlx::query(&sql)
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected());
+        Ok(n == 1)
     }
 
     /// Ends an unfinished render or study as failed, interrupted or
     /// cancelled; false when it had already ended.
     pub async fn end_job(&self, job: Job, id: i64, state: JobEnd, error: &str) -> Result<bool, StoreError> {
-        let r = sqlx::query(&format!(
-            "UPDATE {} SET state = ?, error = ?, finished_at = ? WHERE id = ? AND state IN ('queued', 'running')",
+        let sql = format!(
+            "UPDATE {} SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
             job.table()
-        ))
-        .bind(state.as_str())
-        .bind(error)
-        .bind(now())
-        .bind(id)
-        .execute(&self.pool)
-        .await?;
-        Ok(r.rows_affected() == 1)
+        );
+        let n = with_pool!(self, |pool| sqlx::query(&sql)
+            .bind(state.as_str())
+            .bind(error)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected());
+        Ok(n == 1)
     }
 
     /// The state of a render or study (`None`: no such id).
     pub async fn job_state(&self, job: Job, id: i64) -> Result<Option<String>, StoreError> {
-        Ok(
-            sqlx::query_scalar(&format!("SELECT state FROM {} WHERE id = ?", job.table()))
-                .bind(id)
-                .fetch_optional(&self.pool)
-                .await?,
-        )
+        let sql = format!("SELECT state FROM {} WHERE id = $1", job.table());
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
+            .bind(id)
+            .fetch_optional(pool)
+            .await?))
     }
 
     // --- instruments and sessions ---------------------------------------
@@ -296,8 +375,8 @@ impl Store {
     /// The id of an instrument, recording it the first time it is seen.
     pub async fn upsert_instrument(&self, model: &str, serial: Option<&str>, port: &str) -> Result<i64, StoreError> {
         let t = now();
-        let row = sqlx::query(
-            "INSERT INTO instruments (model, serial, port, first_seen, last_seen) VALUES (?, ?, ?, ?, ?) \
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "INSERT INTO instruments (model, serial, port, first_seen, last_seen) VALUES ($1, $2, $3, $4, $5) \
              ON CONFLICT (model, serial) DO UPDATE SET port = excluded.port, last_seen = excluded.last_seen \
              RETURNING id",
         )
@@ -306,60 +385,45 @@ impl Store {
         .bind(port)
         .bind(t)
         .bind(t)
-        .fetch_one(&self.pool)
-        .await?;
-        Ok(row.get(0))
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn list_instruments(&self) -> Result<Vec<InstrumentRow>, StoreError> {
-        let rows = sqlx::query("SELECT id, model, serial, port, first_seen, last_seen FROM instruments ORDER BY id")
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows
-            .iter()
-            .map(|r| InstrumentRow {
-                id: r.get("id"),
-                model: r.get("model"),
-                serial: r.get("serial"),
-                port: r.get("port"),
-                first_seen: r.get("first_seen"),
-                last_seen: r.get("last_seen"),
-            })
-            .collect())
+        Ok(with_pool!(self, |pool| sqlx::query_as(
+            "SELECT id, model, serial, port, first_seen, last_seen FROM instruments ORDER BY id"
+        )
+        .fetch_all(pool)
+        .await?))
     }
 
     pub async fn create_session(&self, operator: &str, notes: &str) -> Result<i64, StoreError> {
-        let row = sqlx::query("INSERT INTO sessions (operator, notes, started_at) VALUES (?, ?, ?) RETURNING id")
-            .bind(operator)
-            .bind(notes)
-            .bind(now())
-            .fetch_one(&self.pool)
-            .await?;
-        Ok(row.get(0))
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "INSERT INTO sessions (operator, notes, started_at) VALUES ($1, $2, $3) RETURNING id"
+        )
+        .bind(operator)
+        .bind(notes)
+        .bind(now())
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn list_sessions(&self) -> Result<Vec<SessionRow>, StoreError> {
-        let rows = sqlx::query("SELECT id, operator, notes, started_at FROM sessions ORDER BY id DESC")
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows
-            .iter()
-            .map(|r| SessionRow {
-                id: r.get("id"),
-                operator: r.get("operator"),
-                notes: r.get("notes"),
-                started_at: r.get("started_at"),
-            })
-            .collect())
+        Ok(with_pool!(self, |pool| sqlx::query_as(
+            "SELECT id, operator, notes, started_at FROM sessions ORDER BY id DESC"
+        )
+        .fetch_all(pool)
+        .await?))
     }
 
     // --- measurements -----------------------------------------------------
 
     /// Records a requested measurement as `queued`.
     pub async fn create_measurement(&self, m: &NewMeasurement) -> Result<i64, StoreError> {
-        let row = sqlx::query(
+        Ok(with_pool!(self, |pool| {
+            sqlx::query_scalar(
             "INSERT INTO measurements (session_id, scene, target, samples_requested, settings_json, state, note, created_at) \
-             VALUES (?, ?, ?, ?, ?, 'queued', ?, ?) RETURNING id",
+             VALUES ($1, $2, $3, $4, $5, 'queued', $6, $7) RETURNING id",
         )
         .bind(m.session_id)
         .bind(&m.scene)
@@ -368,22 +432,25 @@ impl Store {
         .bind(m.settings_json.to_string())
         .bind(&m.note)
         .bind(now())
-        .fetch_one(&self.pool)
-        .await?;
-        Ok(row.get(0))
+        .fetch_one(pool)
+        .await?
+        }))
     }
 
     /// `queued → running`, naming the instrument that takes it.
     pub async fn mark_running(&self, id: i64, instrument_id: Option<i64>) -> Result<(), StoreError> {
-        let r = sqlx::query(
-            "UPDATE measurements SET state = 'running', instrument_id = ?, started_at = ? WHERE id = ? AND state = 'queued'",
+        let n = with_pool!(self, |pool| {
+            sqlx::query(
+            "UPDATE measurements SET state = 'running', instrument_id = $1, started_at = $2 WHERE id = $3 AND state = 'queued'",
         )
         .bind(instrument_id)
         .bind(now())
         .bind(id)
-        .execute(&self.pool)
-        .await?;
-        if r.rows_affected() != 1 {
+        .execute(pool)
+        .await?
+        .rows_affected()
+        });
+        if n != 1 {
             return Err(StoreError::Conflict(format!("measurement {id} is not queued")));
         }
         Ok(())
@@ -391,9 +458,10 @@ impl Store {
 
     /// Writes one raw sample, as it is taken.
     pub async fn insert_sample(&self, measurement_id: i64, s: &NewSample) -> Result<(), StoreError> {
-        sqlx::query(
+        with_pool!(self, |pool| {
+            sqlx::query(
             "INSERT INTO samples (measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2) \
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         )
         .bind(measurement_id)
         .bind(s.index as i64)
@@ -403,17 +471,20 @@ impl Store {
         .bind(s.usable)
         .bind(s.radiance.as_ref().map(|r| json_array(r)))
         .bind(s.luminance_cd_m2)
-        .execute(&self.pool)
-        .await?;
+        .execute(pool)
+        .await?
+        .rows_affected()
+        });
         Ok(())
     }
 
     /// `running → complete` with the average; one transaction.
     pub async fn complete_measurement(&self, id: i64, a: &Average) -> Result<(), StoreError> {
-        let r = sqlx::query(
-            "UPDATE measurements SET state = 'complete', finished_at = ?, wavelength_json = ?, radiance_json = ?, \
-             radiance_sd_json = ?, luminance_cd_m2 = ?, x = ?, y = ?, luminance_cv = ?, observer = ?, xyz_x = ?, \
-             xyz_y = ?, xyz_z = ? WHERE id = ? AND state = 'running'",
+        let n = with_pool!(self, |pool| {
+            sqlx::query(
+            "UPDATE measurements SET state = 'complete', finished_at = $1, wavelength_json = $2, radiance_json = $3, \
+             radiance_sd_json = $4, luminance_cd_m2 = $5, x = $6, y = $7, luminance_cv = $8, observer = $9, xyz_x = $10, \
+             xyz_y = $11, xyz_z = $12 WHERE id = $13 AND state = 'running'",
         )
         .bind(now())
         .bind(json_array(&a.wavelength_nm))
@@ -428,9 +499,11 @@ impl Store {
         .bind(a.xyz.map(|v| v[1]))
         .bind(a.xyz.map(|v| v[2]))
         .bind(id)
-        .execute(&self.pool)
-        .await?;
-        if r.rows_affected() != 1 {
+        .execute(pool)
+        .await?
+        .rows_affected()
+        });
+        if n != 1 {
             return Err(StoreError::Conflict(format!("measurement {id} is not running")));
         }
         Ok(())
@@ -439,100 +512,94 @@ impl Store {
     /// Ends an unfinished measurement as failed, interrupted or cancelled.
     pub async fn end_measurement(&self, id: i64, state: MeasurementState, error: &str) -> Result<(), StoreError> {
         debug_assert!(state.is_final() && state != MeasurementState::Complete);
-        sqlx::query(
-            "UPDATE measurements SET state = ?, error = ?, finished_at = ? WHERE id = ? AND state IN ('queued', 'running')",
+        with_pool!(self, |pool| {
+            sqlx::query(
+            "UPDATE measurements SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
         )
         .bind(state.as_str())
         .bind(error)
         .bind(now())
         .bind(id)
-        .execute(&self.pool)
-        .await?;
+        .execute(pool)
+        .await?
+        .rows_affected()
+        });
         Ok(())
     }
 
     /// `queued → cancelled`, only while it is still queued (so a measurement
     /// the instrument has started is never ended here). True when it was.
     pub async fn cancel_queued(&self, id: i64, message: &str) -> Result<bool, StoreError> {
-        let r = sqlx::query(
-            "UPDATE measurements SET state = 'cancelled', error = ?, finished_at = ? WHERE id = ? AND state = 'queued'",
+        let n = with_pool!(self, |pool| {
+            sqlx::query(
+            "UPDATE measurements SET state = 'cancelled', error = $1, finished_at = $2 WHERE id = $3 AND state = 'queued'",
         )
         .bind(message)
         .bind(now())
         .bind(id)
-        .execute(&self.pool)
-        .await?;
-        Ok(r.rows_affected() == 1)
+        .execute(pool)
+        .await?
+        .rows_affected()
+        });
+        Ok(n == 1)
     }
 
     /// Every (scene, target) with at least one complete measurement.
     pub async fn measured_targets(&self) -> Result<Vec<(String, String)>, StoreError> {
-        let rows = sqlx::query(
+        Ok(with_pool!(self, |pool| sqlx::query_as(
             "SELECT DISTINCT scene, target FROM measurements \
              WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL",
         )
-        .fetch_all(&self.pool)
-        .await?;
-        Ok(rows.iter().map(|r| (r.get("scene"), r.get("target"))).collect())
+        .fetch_all(pool)
+        .await?))
     }
 
     /// One measurement with all its samples.
     pub async fn get_measurement(&self, id: i64) -> Result<Option<MeasurementDetail>, StoreError> {
-        let Some(row) = sqlx::query(&format!(
-            "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = ?"
-        ))
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await?
-        else {
+        let sql = format!(
+            "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = $1"
+        );
+        let record: Option<MeasurementDetailRecord> =
+            with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?);
+        let Some(record) = record else {
             return Ok(None);
         };
-        let mut summary = measurement_from_row(&row)?;
+        let mut summary = MeasurementSummary::try_from(record.summary)?;
         self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
-        let sample_rows = sqlx::query(
+        let sample_records: Vec<SampleRecord> = with_pool!(self, |pool| sqlx::query_as(
             "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2 FROM samples \
-             WHERE measurement_id = ? ORDER BY idx",
+             WHERE measurement_id = $1 ORDER BY idx",
         )
         .bind(id)
-        .fetch_all(&self.pool)
-        .await?;
-        let samples = sample_rows
-            .iter()
-            .map(|r| {
-                Ok(SampleRow {
-                    index: r.get::<i64, _>("idx") as usize,
-                    time: r.get("taken_at"),
-                    code: r.get("code"),
-                    message: r.get("message"),
-                    usable: r.get("usable"),
-                    radiance: parse_opt_array(r.get("radiance_json"), "sample radiance")?,
-                    luminance_cd_m2: r.get("luminance_cd_m2"),
-                })
-            })
+        .fetch_all(pool)
+        .await?);
+        let samples = sample_records
+            .into_iter()
+            .map(SampleRow::try_from)
             .collect::<Result<Vec<_>, StoreError>>()?;
-        let wavelength_nm = parse_opt_array(row.get("wavelength_json"), "wavelengths")?;
-        let radiance = parse_opt_array(row.get("radiance_json"), "mean radiance")?;
-        let radiance_sd = parse_opt_array(row.get("radiance_sd_json"), "radiance SD")?;
         Ok(Some(MeasurementDetail {
             summary,
-            wavelength_nm,
-            radiance,
-            radiance_sd,
+            wavelength_nm: parse_opt_array(record.wavelength_json, "wavelengths")?,
+            radiance: parse_opt_array(record.radiance_json, "mean radiance")?,
+            radiance_sd: parse_opt_array(record.radiance_sd_json, "radiance SD")?,
             samples,
         }))
     }
 
     /// A page of measurements, newest first, with optional filters.
     pub async fn list_measurements(&self, f: &MeasurementFilter) -> Result<MeasurementPage, StoreError> {
+        // The filters' values, in the order of their `$N` placeholders.
+        let mut values: Vec<String> = Vec::new();
         let mut conditions = Vec::new();
-        if f.scene.is_some() {
-            conditions.push("scene = ?");
-        }
-        if f.target.is_some() {
-            conditions.push("target = ?");
-        }
-        if f.state.is_some() {
-            conditions.push("state = ?");
+        for (column, value) in [
+            ("scene", f.scene.clone()),
+            ("target", f.target.clone()),
+            ("state", f.state.map(|s| s.as_str().to_string())),
+        ] {
+            if let Some(v) = value {
+                values.push(v);
+                conditions.push(format!("{column} = ${}", values.len()));
+            }
         }
         // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
         let where_sql = if conditions.is_empty() {
@@ -541,7 +608,6 @@ impl Store {
             format!(" WHERE {}", conditions.join(" AND "))
         };
         let count_sql = format!("SELECT COUNT(*) FROM measurements{where_sql}");
-        let total: i64 = bind_filters(&count_sql, f).fetch_one(&self.pool).await?.get(0);
         let limit = f.limit.unwrap_or(50).clamp(1, 1000);
         let offset = f.offset.unwrap_or(0).max(0);
         // The page's ids come from the primary key alone; only those rows'
@@ -551,8 +617,19 @@ impl Store {
             "SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id IN (\
              SELECT id FROM measurements{where_sql} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
         );
-        let rows = bind_filters(&list_sql, f).fetch_all(&self.pool).await?;
-        let mut items = rows.iter().map(measurement_from_row).collect::<Result<Vec<_>, _>>()?;
+        let (total, records): (i64, Vec<MeasurementRecord>) = with_pool!(self, |pool| {
+            let mut count = sqlx::query_scalar(&count_sql);
+            let mut list = sqlx::query_as(&list_sql);
+            for v in &values {
+                count = count.bind(v.as_str());
+                list = list.bind(v.as_str());
+            }
+            (count.fetch_one(pool).await?, list.fetch_all(pool).await?)
+        });
+        let mut items = records
+            .into_iter()
+            .map(MeasurementSummary::try_from)
+            .collect::<Result<Vec<_>, _>>()?;
         self.fill_partial_averages(&mut items).await?;
         Ok(MeasurementPage {
             total,
@@ -564,13 +641,15 @@ impl Store {
 
     /// The newest complete measurement of a scene target.
     pub async fn latest_complete(&self, scene: &str, target: &str) -> Result<Option<MeasurementDetail>, StoreError> {
-        let id: Option<i64> = sqlx::query_scalar(
-            "SELECT id FROM measurements WHERE scene = ? AND target = ? AND state = 'complete' ORDER BY id DESC LIMIT 1",
+        let id: Option<i64> = with_pool!(self, |pool| {
+            sqlx::query_scalar(
+            "SELECT id FROM measurements WHERE scene = $1 AND target = $2 AND state = 'complete' ORDER BY id DESC LIMIT 1",
         )
         .bind(scene)
         .bind(target)
-        .fetch_optional(&self.pool)
-        .await?;
+        .fetch_optional(pool)
+        .await?
+        });
         match id {
             Some(id) => self.get_measurement(id).await,
             None => Ok(None),
@@ -580,9 +659,9 @@ impl Store {
     // --- renders ----------------------------------------------------------
 
     pub async fn create_render(&self, r: &NewRender) -> Result<i64, StoreError> {
-        let row = sqlx::query(
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
             "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at) \
-             VALUES (?, ?, ?, ?, ?, 'queued', ?) RETURNING id",
+             VALUES ($1, $2, $3, $4, $5, 'queued', $6) RETURNING id",
         )
         .bind(&r.scene)
         .bind(&r.scene_hash)
@@ -590,9 +669,8 @@ impl Store {
         .bind(r.codings.join(","))
         .bind(r.seed as i64)
         .bind(now())
-        .fetch_one(&self.pool)
-        .await?;
-        Ok(row.get(0))
+        .fetch_one(pool)
+        .await?))
     }
 
     pub async fn finish_render(
@@ -601,29 +679,27 @@ impl Store {
         result: Result<(&serde_json::Value, f64), &str>,
     ) -> Result<(), StoreError> {
         match result {
-            Ok((json, wall)) => {
-                sqlx::query(
-                    "UPDATE renders SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? \
-                     WHERE id = ? AND state = 'running'",
-                )
-                .bind(json.to_string())
-                .bind(wall)
-                .bind(now())
-                .bind(id)
-                .execute(&self.pool)
-                .await?
-            }
-            Err(e) => {
-                sqlx::query(
-                    "UPDATE renders SET state = 'failed', error = ?, finished_at = ? \
-                     WHERE id = ? AND state IN ('queued', 'running')",
-                )
-                .bind(e)
-                .bind(now())
-                .bind(id)
-                .execute(&self.pool)
-                .await?
-            }
+            Ok((json, wall)) => with_pool!(self, |pool| sqlx::query(
+                "UPDATE renders SET state = 'complete', result_json = $1, wall_seconds = $2, finished_at = $3 \
+                 WHERE id = $4 AND state = 'running'",
+            )
+            .bind(json.to_string())
+            .bind(wall)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()),
+            Err(e) => with_pool!(self, |pool| sqlx::query(
+                "UPDATE renders SET state = 'failed', error = $1, finished_at = $2 \
+                 WHERE id = $3 AND state IN ('queued', 'running')",
+            )
+            .bind(e)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()),
         };
         Ok(())
     }
@@ -635,84 +711,80 @@ impl Store {
         scene_hash: &str,
         settings: &serde_json::Value,
     ) -> Result<Option<(i64, serde_json::Value)>, StoreError> {
-        let row = sqlx::query(
-            "SELECT id, result_json FROM renders WHERE scene_hash = ? AND settings_json = ? AND state = 'complete' \
+        let row: Option<(i64, String)> = with_pool!(self, |pool| {
+            sqlx::query_as(
+            "SELECT id, result_json FROM renders WHERE scene_hash = $1 AND settings_json = $2 AND state = 'complete' \
              ORDER BY id DESC LIMIT 1",
         )
         .bind(scene_hash)
         .bind(settings.to_string())
-        .fetch_optional(&self.pool)
-        .await?;
-        let Some(row) = row else { return Ok(None) };
-        let text: String = row.get("result_json");
+        .fetch_optional(pool)
+        .await?
+        });
+        let Some((id, text)) = row else { return Ok(None) };
         let json = serde_json::from_str(&text).map_err(|e| StoreError::Corrupt {
             what: "renders.result_json".into(),
             err: e.to_string(),
         })?;
-        Ok(Some((row.get("id"), json)))
+        Ok(Some((id, json)))
     }
 
     /// Stores a render's preview image (PNG bytes).
     pub async fn set_render_preview(&self, id: i64, png: &[u8]) -> Result<(), StoreError> {
-        sqlx::query("UPDATE renders SET preview_png = ? WHERE id = ?")
-            .bind(png)
-            .bind(id)
-            .execute(&self.pool)
-            .await?;
+        with_pool!(self, |pool| sqlx::query(
+            "UPDATE renders SET preview_png = $1 WHERE id = $2"
+        )
+        .bind(png)
+        .bind(id)
+        .execute(pool)
+        .await?
+        .rows_affected());
         Ok(())
     }
 
     /// A render's preview PNG, if it has one.
     pub async fn render_preview(&self, id: i64) -> Result<Option<Vec<u8>>, StoreError> {
-        Ok(
-            sqlx::query_scalar::<_, Option<Vec<u8>>>("SELECT preview_png FROM renders WHERE id = ?")
-                .bind(id)
-                .fetch_optional(&self.pool)
-                .await?
-                .flatten(),
+        Ok(with_pool!(self, |pool| sqlx::query_scalar::<_, Option<Vec<u8>>>(
+            "SELECT preview_png FROM renders WHERE id = $1"
         )
+        .bind(id)
+        .fetch_optional(pool)
+        .await?)
+        .flatten())
     }
 
     pub async fn get_render(&self, id: i64) -> Result<Option<RenderRow>, StoreError> {
-        let row = sqlx::query(&format!("SELECT {RENDER_COLUMNS} FROM renders WHERE id = ?"))
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await?;
-        row.as_ref().map(render_from_row).transpose()
+        let sql = format!("SELECT {RENDER_COLUMNS} FROM renders WHERE id = $1");
+        let record: Option<RenderRecord> =
+            with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?);
+        record.map(RenderRow::try_from).transpose()
     }
 
     pub async fn list_renders(&self, scene: Option<&str>) -> Result<Vec<RenderRow>, StoreError> {
-        let rows = match scene {
+        let records: Vec<RenderRecord> = match scene {
             Some(s) => {
-                sqlx::query(&format!(
-                    "SELECT {RENDER_COLUMNS} FROM renders WHERE scene = ? ORDER BY id DESC"
-                ))
-                .bind(s)
-                .fetch_all(&self.pool)
-                .await?
+                let sql = format!("SELECT {RENDER_COLUMNS} FROM renders WHERE scene = $1 ORDER BY id DESC");
+                with_pool!(self, |pool| sqlx::query_as(&sql).bind(s).fetch_all(pool).await?)
             }
             None => {
-                sqlx::query(&format!(
-                    "SELECT {RENDER_COLUMNS} FROM renders ORDER BY id DESC LIMIT 200"
-                ))
-                .fetch_all(&self.pool)
-                .await?
+                let sql = format!("SELECT {RENDER_COLUMNS} FROM renders ORDER BY id DESC LIMIT 200");
+                with_pool!(self, |pool| sqlx::query_as(&sql).fetch_all(pool).await?)
             }
         };
-        rows.iter().map(render_from_row).collect()
+        records.into_iter().map(RenderRow::try_from).collect()
     }
 
     // --- studies ----------------------------------------------------------
 
     /// Records a study as `queued`.
     pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
-        let row =
-            sqlx::query("INSERT INTO studies (request_json, state, created_at) VALUES (?, 'queued', ?) RETURNING id")
-                .bind(request.to_string())
-                .bind(now())
-                .fetch_one(&self.pool)
-                .await?;
-        Ok(row.get(0))
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "INSERT INTO studies (request_json, state, created_at) VALUES ($1, 'queued', $2) RETURNING id"
+        )
+        .bind(request.to_string())
+        .bind(now())
+        .fetch_one(pool)
+        .await?))
     }
 
     /// Stores a finished study with its report files, in one transaction.
@@ -723,80 +795,88 @@ impl Store {
         wall_seconds: f64,
         files: &[(String, Vec<u8>)],
     ) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await?;
-        for (name, content) in files {
-            sqlx::query("INSERT INTO study_files (study_id, name, content) VALUES (?, ?, ?)")
-                .bind(id)
-                .bind(name)
-                .bind(content)
-                .execute(&mut *tx)
-                .await?;
-        }
-        let r = sqlx::query(
-            "UPDATE studies SET state = 'complete', result_json = ?, wall_seconds = ?, finished_at = ? \
-             WHERE id = ? AND state = 'running'",
-        )
-        .bind(result.to_string())
-        .bind(wall_seconds)
-        .bind(now())
-        .bind(id)
-        .execute(&mut *tx)
-        .await?;
-        if r.rows_affected() != 1 {
-            // Cancelled or interrupted meanwhile: keep nothing (the transaction rolls back).
-            return Err(StoreError::Conflict(format!("study {id} is not running")));
-        }
-        tx.commit().await?;
+        with_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            for (name, content) in files {
+                sqlx::query("INSERT INTO study_files (study_id, name, content) VALUES ($1, $2, $3)")
+                    .bind(id)
+                    .bind(name)
+                    .bind(content)
+                    .execute(&mut *tx)
+                    .await?;
+            }
+            let r = sqlx::query(
+                "UPDATE studies SET state = 'complete', result_json = $1, wall_seconds = $2, finished_at = $3 \
+                 WHERE id = $4 AND state = 'running'",
+            )
+            .bind(result.to_string())
+            .bind(wall_seconds)
+            .bind(now())
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+            if r.rows_affected() != 1 {
+                // Cancelled or interrupted meanwhile: keep nothing (the transaction rolls back).
+                return Err(StoreError::Conflict(format!("study {id} is not running")));
+            }
+            tx.commit().await?;
+        });
         Ok(())
     }
 
     pub async fn fail_study(&self, id: i64, error: &str) -> Result<(), StoreError> {
-        sqlx::query(
-            "UPDATE studies SET state = 'failed', error = ?, finished_at = ? WHERE id = ? AND state = 'running'",
+        with_pool!(self, |pool| sqlx::query(
+            "UPDATE studies SET state = 'failed', error = $1, finished_at = $2 WHERE id = $3 AND state = 'running'",
         )
         .bind(error)
         .bind(now())
         .bind(id)
-        .execute(&self.pool)
-        .await?;
+        .execute(pool)
+        .await?
+        .rows_affected());
         Ok(())
     }
 
     /// The stored studies, newest first, without their results.
     pub async fn list_studies(&self) -> Result<Vec<StudyRow>, StoreError> {
-        let rows = sqlx::query(
+        let records: Vec<StudyRecord> = with_pool!(self, |pool| {
+            sqlx::query_as(
             "SELECT id, request_json, state, error, created_at, finished_at, wall_seconds FROM studies ORDER BY id DESC",
         )
-        .fetch_all(&self.pool)
-        .await?;
-        rows.iter().map(|r| study_from_row(r, false)).collect()
+        .fetch_all(pool)
+        .await?
+        });
+        records.into_iter().map(StudyRow::try_from).collect()
     }
 
     /// One study with its result and the names of its report files.
     pub async fn get_study(&self, id: i64) -> Result<Option<StudyRow>, StoreError> {
-        let Some(row) = sqlx::query("SELECT * FROM studies WHERE id = ?")
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await?
-        else {
+        let (record, files): (Option<StudyRecord>, Vec<String>) = with_pool!(self, |pool| (
+            sqlx::query_as("SELECT * FROM studies WHERE id = $1")
+                .bind(id)
+                .fetch_optional(pool)
+                .await?,
+            sqlx::query_scalar("SELECT name FROM study_files WHERE study_id = $1 ORDER BY name")
+                .bind(id)
+                .fetch_all(pool)
+                .await?
+        ));
+        let Some(record) = record else {
             return Ok(None);
         };
-        let mut study = study_from_row(&row, true)?;
-        study.files = sqlx::query_scalar("SELECT name FROM study_files WHERE study_id = ? ORDER BY name")
-            .bind(id)
-            .fetch_all(&self.pool)
-            .await?;
+        let mut study = StudyRow::try_from(record)?;
+        study.files = files;
         Ok(Some(study))
     }
 
     pub async fn study_file(&self, id: i64, name: &str) -> Result<Option<Vec<u8>>, StoreError> {
-        Ok(
-            sqlx::query_scalar("SELECT content FROM study_files WHERE study_id = ? AND name = ?")
-                .bind(id)
-                .bind(name)
-                .fetch_optional(&self.pool)
-                .await?,
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "SELECT content FROM study_files WHERE study_id = $1 AND name = $2"
         )
+        .bind(id)
+        .bind(name)
+        .fetch_optional(pool)
+        .await?))
     }
 
     // --- comparisons ------------------------------------------------------
@@ -804,64 +884,69 @@ impl Store {
     /// Stores the comparisons of one measurement against one render, all
     /// codings in one transaction (all or nothing).
     pub async fn insert_comparisons(&self, rows: &[NewComparison]) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await?;
-        for c in rows {
-            sqlx::query(
-                "INSERT INTO comparisons (measurement_id, render_id, scene, target, coding, white_source, \
-                 white_x, white_y, white_z, measured_x, measured_y, measured_z, rendered_x, rendered_y, rendered_z, \
-                 rendered_y_se, y_ratio, xy_distance, de76, de00, created_at, observer, measured_y_se) \
-                 VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            )
-            .bind(c.measurement_id)
-            .bind(c.render_id)
-            .bind(&c.scene)
-            .bind(&c.target)
-            .bind(&c.coding)
-            .bind(&c.white_source)
-            .bind(c.white[0])
-            .bind(c.white[1])
-            .bind(c.white[2])
-            .bind(c.measured[0])
-            .bind(c.measured[1])
-            .bind(c.measured[2])
-            .bind(c.rendered[0])
-            .bind(c.rendered[1])
-            .bind(c.rendered[2])
-            .bind(c.rendered_y_se)
-            .bind(c.y_ratio)
-            .bind(c.xy_distance)
-            .bind(c.de76)
-            .bind(c.de00)
-            .bind(now())
-            .bind(c.observer.name())
-            .bind(c.measured_y_se)
-            .execute(&mut *tx)
-            .await?;
-        }
-        tx.commit().await?;
+        with_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            for c in rows {
+                sqlx::query(
+                    "INSERT INTO comparisons (measurement_id, render_id, scene, target, coding, white_source, \
+                     white_x, white_y, white_z, measured_x, measured_y, measured_z, rendered_x, rendered_y, rendered_z, \
+                     rendered_y_se, y_ratio, xy_distance, de76, de00, created_at, observer, measured_y_se) \
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, $20, \
+                     $21, $22, $23)",
+                )
+                .bind(c.measurement_id)
+                .bind(c.render_id)
+                .bind(&c.scene)
+                .bind(&c.target)
+                .bind(&c.coding)
+                .bind(&c.white_source)
+                .bind(c.white[0])
+                .bind(c.white[1])
+                .bind(c.white[2])
+                .bind(c.measured[0])
+                .bind(c.measured[1])
+                .bind(c.measured[2])
+                .bind(c.rendered[0])
+                .bind(c.rendered[1])
+                .bind(c.rendered[2])
+                .bind(c.rendered_y_se)
+                .bind(c.y_ratio)
+                .bind(c.xy_distance)
+                .bind(c.de76)
+                .bind(c.de00)
+                .bind(now())
+                .bind(c.observer.name())
+                .bind(c.measured_y_se)
+                .execute(&mut *tx)
+                .await?;
+            }
+            tx.commit().await?;
+        });
         Ok(())
     }
 
     /// For each (target, coding) of a scene, the newest comparison.
     pub async fn latest_comparisons(&self, scene: &str) -> Result<Vec<ComparisonRow>, StoreError> {
-        let rows = sqlx::query(
+        let records: Vec<ComparisonRecord> = with_pool!(self, |pool| sqlx::query_as(
             "SELECT c.* FROM comparisons c JOIN ( \
-                 SELECT target, coding, MAX(id) AS id FROM comparisons WHERE scene = ? GROUP BY target, coding \
+                 SELECT target, coding, MAX(id) AS id FROM comparisons WHERE scene = $1 GROUP BY target, coding \
              ) latest ON latest.id = c.id ORDER BY c.target, c.coding",
         )
         .bind(scene)
-        .fetch_all(&self.pool)
-        .await?;
-        Ok(rows.iter().map(comparison_from_row).collect())
+        .fetch_all(pool)
+        .await?);
+        Ok(records.into_iter().map(ComparisonRow::from).collect())
     }
 
     /// Every comparison of a scene, oldest first.
     pub async fn comparisons_of_scene(&self, scene: &str) -> Result<Vec<ComparisonRow>, StoreError> {
-        let rows = sqlx::query("SELECT * FROM comparisons WHERE scene = ? ORDER BY id")
-            .bind(scene)
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows.iter().map(comparison_from_row).collect())
+        let records: Vec<ComparisonRecord> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT * FROM comparisons WHERE scene = $1 ORDER BY id"
+        )
+        .bind(scene)
+        .fetch_all(pool)
+        .await?);
+        Ok(records.into_iter().map(ComparisonRow::from).collect())
     }
 
     /// Rewrites the CIELAB white of comparisons and the ΔE computed with it
@@ -870,52 +955,48 @@ impl Store {
         &self,
         updates: &[(i64, String, [f64; 3], f64, f64)],
     ) -> Result<(), StoreError> {
-        let mut tx = self.pool.begin().await?;
-        for (id, source, white, de76, de00) in updates {
-            sqlx::query(
-                "UPDATE comparisons SET white_source = ?, white_x = ?, white_y = ?, white_z = ?, de76 = ?, de00 = ? \
-                 WHERE id = ?",
-            )
-            .bind(source)
-            .bind(white[0])
-            .bind(white[1])
-            .bind(white[2])
-            .bind(de76)
-            .bind(de00)
-            .bind(id)
-            .execute(&mut *tx)
-            .await?;
-        }
-        tx.commit().await?;
+        with_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            for (id, source, white, de76, de00) in updates {
+                sqlx::query(
+                    "UPDATE comparisons SET white_source = $1, white_x = $2, white_y = $3, white_z = $4, de76 = $5, \
+                     de00 = $6 WHERE id = $7",
+                )
+                .bind(source)
+                .bind(white[0])
+                .bind(white[1])
+                .bind(white[2])
+                .bind(de76)
+                .bind(de00)
+                .bind(id)
+                .execute(&mut *tx)
+                .await?;
+            }
+            tx.commit().await?;
+        });
         Ok(())
     }
 
     pub async fn comparisons_for_measurement(&self, measurement_id: i64) -> Result<Vec<ComparisonRow>, StoreError> {
-        let rows = sqlx::query("SELECT * FROM comparisons WHERE measurement_id = ? ORDER BY id")
-            .bind(measurement_id)
-            .fetch_all(&self.pool)
-            .await?;
-        Ok(rows.iter().map(comparison_from_row).collect())
+        let records: Vec<ComparisonRecord> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT * FROM comparisons WHERE measurement_id = $1 ORDER BY id"
+        )
+        .bind(measurement_id)
+        .fetch_all(pool)
+        .await?);
+        Ok(records.into_iter().map(ComparisonRow::from).collect())
     }
-}
 
-/// Binds the optional filters of [`Store::list_measurements`] in the order
-/// its WHERE clause names them.
-fn bind_filters<'q>(
-    sql: &'q str,
-    f: &MeasurementFilter,
-) -> sqlx::query::Query<'q, sqlx::Sqlite, sqlx::sqlite::SqliteArguments<'q>> {
-    let mut q = sqlx::query(sql);
-    if let Some(s) = &f.scene {
-        q = q.bind(s.clone());
+    /// Runs one statement with one integer argument (`$1`), for tests that
+    /// reach past the store's API (a schema constraint, a forced state).
+    #[cfg(test)]
+    pub(crate) async fn execute_for_test(&self, sql: &str, arg: i64) -> Result<u64, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query(sql)
+            .bind(arg)
+            .execute(pool)
+            .await?
+            .rows_affected()))
     }
-    if let Some(t) = &f.target {
-        q = q.bind(t.clone());
-    }
-    if let Some(s) = f.state {
-        q = q.bind(s.as_str());
-    }
-    q
 }
 
 fn json_array(v: &[f64]) -> String {
@@ -932,5 +1013,7 @@ fn parse_opt_array(text: Option<String>, what: &str) -> Result<Option<Vec<f64>>,
     .transpose()
 }
 
+#[cfg(test)]
+pub(crate) mod test_db;
 #[cfg(test)]
 mod tests;

@@ -12,8 +12,6 @@
 
 use std::time::{Duration, UNIX_EPOCH};
 
-use sqlx::Row;
-
 use super::{parse_opt_array, MeasurementState, MeasurementSummary, Store, StoreError};
 use crate::instrument::{average_samples, InstrumentInfo, QualityCode, QualityKind, Sample};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
@@ -27,22 +25,17 @@ impl Store {
             if !unfinished || m.good_samples == 0 || m.luminance_cd_m2.is_some() {
                 continue;
             }
-            let rows = sqlx::query(
+            let rows: Vec<(i64, f64, Option<String>, Option<f64>)> = with_pool!(self, |pool| sqlx::query_as(
                 "SELECT idx, taken_at, radiance_json, luminance_cd_m2 FROM samples \
-                 WHERE measurement_id = ? AND usable = 1 AND radiance_json IS NOT NULL ORDER BY idx",
+                 WHERE measurement_id = $1 AND usable = TRUE AND radiance_json IS NOT NULL ORDER BY idx",
             )
             .bind(m.id)
-            .fetch_all(&self.pool)
-            .await?;
+            .fetch_all(pool)
+            .await?);
             let mut samples = Vec::with_capacity(rows.len());
-            for r in &rows {
-                let values = parse_opt_array(r.get("radiance_json"), "sample radiance")?.unwrap_or_default();
-                samples.push((
-                    r.get::<i64, _>("idx"),
-                    r.get::<f64, _>("taken_at"),
-                    values,
-                    r.get("luminance_cd_m2"),
-                ));
+            for (idx, taken_at, radiance_json, luminance) in rows {
+                let values = parse_opt_array(radiance_json, "sample radiance")?.unwrap_or_default();
+                samples.push((idx, taken_at, values, luminance));
             }
             match partial_average(samples) {
                 Ok(avg) => {

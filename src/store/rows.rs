@@ -1,16 +1,18 @@
 //! The records the store reads and writes. Their serde names are what the
 //! REST API sends: valid MATLAB identifiers, numbers as numbers, spectra as
 //! plain numeric arrays.
+//!
+//! What a query returns is read by `#[derive(sqlx::FromRow)]` records (the
+//! columns as stored, the same on both engines) and turned into these
+//! records by `TryFrom`, which parses stored JSON and names what is corrupt.
 
 use serde::{Deserialize, Serialize};
-use sqlx::sqlite::SqliteRow;
-use sqlx::Row;
 use utoipa::ToSchema;
 
 use super::{MeasurementState, StoreError};
 use crate::colorimetry::{Observer, Xyz};
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
 pub struct InstrumentRow {
     pub id: i64,
     pub model: String,
@@ -21,7 +23,7 @@ pub struct InstrumentRow {
     pub last_seen: f64,
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
 pub struct SessionRow {
     pub id: i64,
     pub operator: String,
@@ -173,13 +175,49 @@ pub struct MeasurementPage {
 /// The summary columns (no spectra: listings stay small and fast).
 pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
-    (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = 1) AS good_samples, \
+    (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = TRUE) AS good_samples, \
     state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
     observer, xyz_x, xyz_y, xyz_z";
 
+/// The columns of [`MEASUREMENT_COLUMNS`], as stored.
+#[derive(sqlx::FromRow)]
+pub(super) struct MeasurementRecord {
+    id: i64,
+    session_id: Option<i64>,
+    instrument_id: Option<i64>,
+    scene: Option<String>,
+    target: Option<String>,
+    samples_requested: i64,
+    samples_taken: i64,
+    good_samples: i64,
+    state: String,
+    error: Option<String>,
+    note: String,
+    created_at: f64,
+    started_at: Option<f64>,
+    finished_at: Option<f64>,
+    luminance_cd_m2: Option<f64>,
+    x: Option<f64>,
+    y: Option<f64>,
+    luminance_cv: Option<f64>,
+    observer: Option<String>,
+    xyz_x: Option<f64>,
+    xyz_y: Option<f64>,
+    xyz_z: Option<f64>,
+}
+
+/// A measurement's summary columns and its average spectra.
+#[derive(sqlx::FromRow)]
+pub(super) struct MeasurementDetailRecord {
+    #[sqlx(flatten)]
+    pub summary: MeasurementRecord,
+    pub wavelength_json: Option<String>,
+    pub radiance_json: Option<String>,
+    pub radiance_sd_json: Option<String>,
+}
+
 /// An observer name stored in a column (NULL → `None`).
-fn observer_column(r: &SqliteRow, column: &str) -> Result<Option<Observer>, StoreError> {
-    let name: Option<String> = r.get(column);
+fn observer_column(name: Option<String>, column: &str) -> Result<Option<Observer>, StoreError> {
     name.map(|n| {
         n.parse().map_err(|e: String| StoreError::Corrupt {
             what: format!("{column} column"),
@@ -189,44 +227,69 @@ fn observer_column(r: &SqliteRow, column: &str) -> Result<Option<Observer>, Stor
     .transpose()
 }
 
-pub(super) fn measurement_from_row(r: &SqliteRow) -> Result<MeasurementSummary, StoreError> {
-    let state: String = r.get("state");
-    let xyz = match (
-        r.get::<Option<f64>, _>("xyz_x"),
-        r.get::<Option<f64>, _>("xyz_y"),
-        r.get::<Option<f64>, _>("xyz_z"),
-    ) {
-        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
-        _ => None,
-    };
-    Ok(MeasurementSummary {
-        id: r.get("id"),
-        session_id: r.get("session_id"),
-        instrument_id: r.get("instrument_id"),
-        scene: r.get("scene"),
-        target: r.get("target"),
-        samples_requested: r.get("samples_requested"),
-        samples_taken: r.get("samples_taken"),
-        state: state.parse().map_err(|e: String| StoreError::Corrupt {
-            what: "measurement state".into(),
-            err: e,
-        })?,
-        error: r.get("error"),
-        note: r.get("note"),
-        created_at: r.get("created_at"),
-        started_at: r.get("started_at"),
-        finished_at: r.get("finished_at"),
-        luminance_cd_m2: r.get("luminance_cd_m2"),
-        instrument_x: r.get("x"),
-        instrument_y: r.get("y"),
-        observer: observer_column(r, "observer")?,
-        x: xyz.map(|v| Xyz::from_array(v).chromaticity().x),
-        y: xyz.map(|v| Xyz::from_array(v).chromaticity().y),
-        xyz,
-        luminance_cv: r.get("luminance_cv"),
-        good_samples: r.get("good_samples"),
-        partial: false,
-    })
+impl TryFrom<MeasurementRecord> for MeasurementSummary {
+    type Error = StoreError;
+    fn try_from(r: MeasurementRecord) -> Result<MeasurementSummary, StoreError> {
+        let xyz = match (r.xyz_x, r.xyz_y, r.xyz_z) {
+            (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+            _ => None,
+        };
+        Ok(MeasurementSummary {
+            id: r.id,
+            session_id: r.session_id,
+            instrument_id: r.instrument_id,
+            scene: r.scene,
+            target: r.target,
+            samples_requested: r.samples_requested,
+            samples_taken: r.samples_taken,
+            state: r.state.parse().map_err(|e: String| StoreError::Corrupt {
+                what: "measurement state".into(),
+                err: e,
+            })?,
+            error: r.error,
+            note: r.note,
+            created_at: r.created_at,
+            started_at: r.started_at,
+            finished_at: r.finished_at,
+            luminance_cd_m2: r.luminance_cd_m2,
+            instrument_x: r.x,
+            instrument_y: r.y,
+            observer: observer_column(r.observer, "observer")?,
+            x: xyz.map(|v| Xyz::from_array(v).chromaticity().x),
+            y: xyz.map(|v| Xyz::from_array(v).chromaticity().y),
+            xyz,
+            luminance_cv: r.luminance_cv,
+            good_samples: r.good_samples,
+            partial: false,
+        })
+    }
+}
+
+/// One stored sample, as stored.
+#[derive(sqlx::FromRow)]
+pub(super) struct SampleRecord {
+    idx: i64,
+    taken_at: f64,
+    code: i64,
+    message: String,
+    usable: bool,
+    radiance_json: Option<String>,
+    luminance_cd_m2: Option<f64>,
+}
+
+impl TryFrom<SampleRecord> for SampleRow {
+    type Error = StoreError;
+    fn try_from(r: SampleRecord) -> Result<SampleRow, StoreError> {
+        Ok(SampleRow {
+            index: r.idx as usize,
+            time: r.taken_at,
+            code: r.code,
+            message: r.message,
+            usable: r.usable,
+            radiance: super::parse_opt_array(r.radiance_json, "sample radiance")?,
+            luminance_cd_m2: r.luminance_cd_m2,
+        })
+    }
 }
 
 /// What is needed to record a render.
@@ -262,36 +325,57 @@ pub struct RenderRow {
 pub(super) const RENDER_COLUMNS: &str = "id, scene, scene_hash, settings_json, codings, seed, state, error, \
     created_at, finished_at, wall_seconds, result_json";
 
-pub(super) fn render_from_row(r: &SqliteRow) -> Result<RenderRow, StoreError> {
-    let parse = |col: &str| -> Result<Option<serde_json::Value>, StoreError> {
-        let text: Option<String> = r.get(col);
-        text.map(|t| {
-            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
-                what: format!("renders.{col}"),
-                err: e.to_string(),
-            })
+/// The columns of [`RENDER_COLUMNS`], as stored.
+#[derive(sqlx::FromRow)]
+pub(super) struct RenderRecord {
+    id: i64,
+    scene: String,
+    scene_hash: String,
+    settings_json: String,
+    codings: String,
+    seed: i64,
+    state: String,
+    error: Option<String>,
+    created_at: f64,
+    finished_at: Option<f64>,
+    wall_seconds: Option<f64>,
+    result_json: Option<String>,
+}
+
+/// Stored JSON text (NULL → `None`), or which column of which table is corrupt.
+fn parse_json(text: Option<String>, what: &str) -> Result<Option<serde_json::Value>, StoreError> {
+    text.map(|t| {
+        serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
+            what: what.into(),
+            err: e.to_string(),
         })
-        .transpose()
-    };
-    let codings: String = r.get("codings");
-    Ok(RenderRow {
-        id: r.get("id"),
-        scene: r.get("scene"),
-        scene_hash: r.get("scene_hash"),
-        settings: parse("settings_json")?.unwrap_or(serde_json::Value::Null),
-        codings: codings
-            .split(',')
-            .filter(|s| !s.is_empty())
-            .map(str::to_string)
-            .collect(),
-        seed: r.get("seed"),
-        state: r.get("state"),
-        error: r.get("error"),
-        created_at: r.get("created_at"),
-        finished_at: r.get("finished_at"),
-        wall_seconds: r.get("wall_seconds"),
-        result: parse("result_json")?,
     })
+    .transpose()
+}
+
+impl TryFrom<RenderRecord> for RenderRow {
+    type Error = StoreError;
+    fn try_from(r: RenderRecord) -> Result<RenderRow, StoreError> {
+        Ok(RenderRow {
+            id: r.id,
+            scene: r.scene,
+            scene_hash: r.scene_hash,
+            settings: parse_json(Some(r.settings_json), "renders.settings_json")?.unwrap_or(serde_json::Value::Null),
+            codings: r
+                .codings
+                .split(',')
+                .filter(|s| !s.is_empty())
+                .map(str::to_string)
+                .collect(),
+            seed: r.seed,
+            state: r.state,
+            error: r.error,
+            created_at: r.created_at,
+            finished_at: r.finished_at,
+            wall_seconds: r.wall_seconds,
+            result: parse_json(r.result_json, "renders.result_json")?,
+        })
+    }
 }
 
 /// One comparison to store: XYZ triples on the measurement's scale (cd/m²).
@@ -358,39 +442,68 @@ pub struct ComparisonRow {
     pub created_at: f64,
 }
 
-pub(super) fn comparison_from_row(r: &SqliteRow) -> ComparisonRow {
-    let measured_y_se: Option<f64> = r.get("measured_y_se");
-    let (measured_y, rendered_y, rendered_y_se): (f64, f64, f64) =
-        (r.get("measured_y"), r.get("rendered_y"), r.get("rendered_y_se"));
-    ComparisonRow {
-        // Rows are written by this program; an unknown name would be a bug,
-        // shown as the default rather than failing every listing.
-        observer: r.get::<String, _>("observer").parse().unwrap_or_default(),
-        measured_Y_se: measured_y_se,
-        Y_beyond_noise: measured_y_se
-            .map(|m| crate::comparison::beyond_noise(rendered_y - measured_y, rendered_y_se, m)),
-        id: r.get("id"),
-        measurement_id: r.get("measurement_id"),
-        render_id: r.get("render_id"),
-        scene: r.get("scene"),
-        target: r.get("target"),
-        coding: r.get("coding"),
-        white_source: r.get("white_source"),
-        white_X: r.get("white_x"),
-        white_Y: r.get("white_y"),
-        white_Z: r.get("white_z"),
-        measured_X: r.get("measured_x"),
-        measured_Y: r.get("measured_y"),
-        measured_Z: r.get("measured_z"),
-        rendered_X: r.get("rendered_x"),
-        rendered_Y: r.get("rendered_y"),
-        rendered_Z: r.get("rendered_z"),
-        rendered_Y_se: r.get("rendered_y_se"),
-        Y_ratio: r.get("y_ratio"),
-        xy_distance: r.get("xy_distance"),
-        dE76: r.get("de76"),
-        dE00: r.get("de00"),
-        created_at: r.get("created_at"),
+/// A row of `comparisons`, as stored.
+#[derive(sqlx::FromRow)]
+pub(super) struct ComparisonRecord {
+    id: i64,
+    measurement_id: i64,
+    render_id: i64,
+    scene: String,
+    target: String,
+    coding: String,
+    observer: String,
+    white_source: String,
+    white_x: f64,
+    white_y: f64,
+    white_z: f64,
+    measured_x: f64,
+    measured_y: f64,
+    measured_z: f64,
+    rendered_x: f64,
+    rendered_y: f64,
+    rendered_z: f64,
+    rendered_y_se: f64,
+    measured_y_se: Option<f64>,
+    y_ratio: f64,
+    xy_distance: f64,
+    de76: f64,
+    de00: f64,
+    created_at: f64,
+}
+
+impl From<ComparisonRecord> for ComparisonRow {
+    fn from(r: ComparisonRecord) -> ComparisonRow {
+        ComparisonRow {
+            // Rows are written by this program; an unknown name would be a bug,
+            // shown as the default rather than failing every listing.
+            observer: r.observer.parse().unwrap_or_default(),
+            measured_Y_se: r.measured_y_se,
+            Y_beyond_noise: r
+                .measured_y_se
+                .map(|m| crate::comparison::beyond_noise(r.rendered_y - r.measured_y, r.rendered_y_se, m)),
+            id: r.id,
+            measurement_id: r.measurement_id,
+            render_id: r.render_id,
+            scene: r.scene,
+            target: r.target,
+            coding: r.coding,
+            white_source: r.white_source,
+            white_X: r.white_x,
+            white_Y: r.white_y,
+            white_Z: r.white_z,
+            measured_X: r.measured_x,
+            measured_Y: r.measured_y,
+            measured_Z: r.measured_z,
+            rendered_X: r.rendered_x,
+            rendered_Y: r.rendered_y,
+            rendered_Z: r.rendered_z,
+            rendered_Y_se: r.rendered_y_se,
+            Y_ratio: r.y_ratio,
+            xy_distance: r.xy_distance,
+            dE76: r.de76,
+            dE00: r.de00,
+            created_at: r.created_at,
+        }
     }
 }
 
@@ -413,29 +526,34 @@ pub struct StudyRow {
     pub files: Vec<String>,
 }
 
-pub(super) fn study_from_row(r: &SqliteRow, with_result: bool) -> Result<StudyRow, StoreError> {
-    let parse = |text: Option<String>, what: &str| -> Result<Option<serde_json::Value>, StoreError> {
-        text.map(|t| {
-            serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
-                what: what.into(),
-                err: e.to_string(),
-            })
+/// A row of `studies`, as stored; `result_json` only when selected (the
+/// detail), absent from listings.
+#[derive(sqlx::FromRow)]
+pub(super) struct StudyRecord {
+    id: i64,
+    request_json: String,
+    state: String,
+    error: Option<String>,
+    created_at: f64,
+    finished_at: Option<f64>,
+    wall_seconds: Option<f64>,
+    #[sqlx(default)]
+    result_json: Option<String>,
+}
+
+impl TryFrom<StudyRecord> for StudyRow {
+    type Error = StoreError;
+    fn try_from(r: StudyRecord) -> Result<StudyRow, StoreError> {
+        Ok(StudyRow {
+            id: r.id,
+            request: parse_json(Some(r.request_json), "studies.request_json")?.unwrap_or_default(),
+            state: r.state,
+            error: r.error,
+            created_at: r.created_at,
+            finished_at: r.finished_at,
+            wall_seconds: r.wall_seconds,
+            result: parse_json(r.result_json, "studies.result_json")?,
+            files: Vec::new(),
         })
-        .transpose()
-    };
-    Ok(StudyRow {
-        id: r.get("id"),
-        request: parse(r.get("request_json"), "studies.request_json")?.unwrap_or_default(),
-        state: r.get("state"),
-        error: r.get("error"),
-        created_at: r.get("created_at"),
-        finished_at: r.get("finished_at"),
-        wall_seconds: r.get("wall_seconds"),
-        result: if with_result {
-            parse(r.get("result_json"), "studies.result_json")?
-        } else {
-            None
-        },
-        files: Vec::new(),
-    })
+    }
 }

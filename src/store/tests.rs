@@ -1,12 +1,34 @@
-//! The store against a real SQLite file.
+//! The store against a real SQLite file and a real PostgreSQL database:
+//! every test of the store's behaviour runs on both engines (`sqlite::…`,
+//! `postgres::…`; the PostgreSQL ones need `tests/setup.sh`). The tests of
+//! one engine's own concerns (SQLite's migration history, the two
+//! migration sets' agreement) follow them.
 
+use std::str::FromStr;
+
+use sqlx::sqlite::{SqliteConnectOptions, SqlitePool};
+
+use super::engine::EngineKind;
+use super::test_db::{on_both_engines, TestDb};
 use super::*;
 
-async fn temp_store() -> (tempfile::TempDir, Store, String) {
-    let dir = tempfile::tempdir().unwrap();
-    let url = format!("sqlite://{}", dir.path().join("t.sqlite").display());
-    let store = Store::open(&url).await.unwrap();
-    (dir, store, url)
+on_both_engines!(
+    a_measurement_keeps_every_sample_and_its_average,
+    complete_without_an_average_is_refused_by_the_schema,
+    reopening_marks_unfinished_measurements_interrupted_and_keeps_their_samples,
+    listing_filters_and_pages,
+    comparisons_are_all_or_nothing,
+    renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens,
+    job_states_move_only_forward,
+    partial_averages_and_previews_read_back_alike,
+);
+
+/// A fresh database of `engine`, opened (migrated) as a store.
+async fn temp_store(engine: EngineKind) -> (TestDb, Store, String) {
+    let db = TestDb::new(engine).await;
+    let store = Store::open(&db.url).await.unwrap();
+    let url = db.url.clone();
+    (db, store, url)
 }
 
 fn new_measurement() -> NewMeasurement {
@@ -32,9 +54,8 @@ fn sample(index: usize, usable: bool) -> NewSample {
     }
 }
 
-#[tokio::test]
-async fn a_measurement_keeps_every_sample_and_its_average() {
-    let (_dir, store, _) = temp_store().await;
+async fn a_measurement_keeps_every_sample_and_its_average(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
     let id = store.create_measurement(&new_measurement()).await.unwrap();
     let inst = store
         .upsert_instrument("PR-650", Some("60931502"), "/dev/pts/3")
@@ -81,26 +102,23 @@ async fn a_measurement_keeps_every_sample_and_its_average() {
     assert!(store.complete_measurement(id, &avg).await.is_err());
 }
 
-#[tokio::test]
-async fn complete_without_an_average_is_refused_by_the_schema() {
-    let (_dir, store, _) = temp_store().await;
+async fn complete_without_an_average_is_refused_by_the_schema(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
     let id = store.create_measurement(&new_measurement()).await.unwrap();
-    let r = sqlx::query("UPDATE measurements SET state = 'complete' WHERE id = ?")
-        .bind(id)
-        .execute(store.pool())
+    let r = store
+        .execute_for_test("UPDATE measurements SET state = 'complete' WHERE id = $1", id)
         .await;
     assert!(r.is_err(), "a complete measurement must carry its average");
 }
 
-#[tokio::test]
-async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_samples() {
-    let (_dir, store, url) = temp_store().await;
+async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_samples(engine: EngineKind) {
+    let (_dir, store, url) = temp_store(engine).await;
     let id = store.create_measurement(&new_measurement()).await.unwrap();
     store.mark_running(id, None).await.unwrap();
     store.insert_sample(id, &sample(0, true)).await.unwrap();
     store.insert_sample(id, &sample(1, true)).await.unwrap();
     let queued = store.create_measurement(&new_measurement()).await.unwrap();
-    store.pool().close().await;
+    store.close().await;
     let store = Store::open(&url).await.unwrap();
     let m = store.get_measurement(id).await.unwrap().unwrap();
     assert_eq!(m.summary.state, MeasurementState::Interrupted);
@@ -110,9 +128,8 @@ async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_sam
     assert_eq!(q.summary.state, MeasurementState::Interrupted);
 }
 
-#[tokio::test]
-async fn listing_filters_and_pages() {
-    let (_dir, store, _) = temp_store().await;
+async fn listing_filters_and_pages(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
     for i in 0..7 {
         let mut m = new_measurement();
         m.scene = Some(if i % 2 == 0 { "white" } else { "red" }.into());
@@ -133,9 +150,8 @@ async fn listing_filters_and_pages() {
     assert_eq!(all.total, 7);
 }
 
-#[tokio::test]
-async fn comparisons_are_all_or_nothing() {
-    let (_dir, store, _) = temp_store().await;
+async fn comparisons_are_all_or_nothing(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
     let mid = store.create_measurement(&new_measurement()).await.unwrap();
     let rid = store
         .create_render(&NewRender {
@@ -204,9 +220,8 @@ fn new_render() -> NewRender {
     }
 }
 
-#[tokio::test]
-async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens() {
-    let (_dir, store, url) = temp_store().await;
+async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens(engine: EngineKind) {
+    let (_dir, store, url) = temp_store(engine).await;
     let running = store.create_render(&new_render()).await.unwrap();
     assert!(store.start_job(Job::Render, running).await.unwrap());
     let queued = store.create_render(&new_render()).await.unwrap();
@@ -221,7 +236,7 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
         .await
         .unwrap();
     assert!(store.start_job(Job::Study, study).await.unwrap());
-    store.pool().close().await;
+    store.close().await;
 
     let store = Store::open(&url).await.unwrap();
     for id in [running, queued] {
@@ -237,9 +252,8 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
     assert!(!store.start_job(Job::Render, running).await.unwrap());
 }
 
-#[tokio::test]
-async fn job_states_move_only_forward() {
-    let (_dir, store, _) = temp_store().await;
+async fn job_states_move_only_forward(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
     let id = store.create_render(&new_render()).await.unwrap();
     assert_eq!(
         store.job_state(Job::Render, id).await.unwrap().as_deref(),
@@ -281,7 +295,7 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
     let dir = tempfile::tempdir().unwrap();
     let old = dir.path().join("migrations");
     std::fs::create_dir(&old).unwrap();
-    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations");
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
     for entry in std::fs::read_dir(&all).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_str().unwrap().to_string();
@@ -333,8 +347,295 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
         b"<html>".to_vec()
     );
     let violations = sqlx::query("PRAGMA foreign_key_check")
-        .fetch_all(store.pool())
+        .fetch_all(store.sqlite_pool().unwrap())
         .await
         .unwrap();
     assert!(violations.is_empty(), "no dangling references after the rebuild");
+}
+
+/// Reads that go through each engine's own types: the partial average of an
+/// interrupted measurement (its samples' `usable` flag: 0/1 on SQLite, a
+/// boolean on PostgreSQL), a preview's bytes (BLOB, BYTEA), the filters of
+/// a listing, instruments and sessions.
+async fn partial_averages_and_previews_read_back_alike(engine: EngineKind) {
+    let (_db, store, _) = temp_store(engine).await;
+    let session = store.create_session("ana", "booth 1").await.unwrap();
+    let inst = store.upsert_instrument("PR-650", None, "/dev/pts/1").await.unwrap();
+    let mut m = new_measurement();
+    m.session_id = Some(session);
+    let id = store.create_measurement(&m).await.unwrap();
+    store.mark_running(id, Some(inst)).await.unwrap();
+    let flat = |level: f64, index: usize| NewSample {
+        index,
+        taken_at: 1.0e9 + index as f64,
+        code: 0,
+        message: "OK".into(),
+        usable: true,
+        radiance: Some(vec![level; 101]),
+        luminance_cd_m2: Some(level),
+    };
+    store.insert_sample(id, &flat(0.010, 0)).await.unwrap();
+    store.insert_sample(id, &sample(1, false)).await.unwrap();
+    store.insert_sample(id, &flat(0.014, 2)).await.unwrap();
+    store
+        .end_measurement(id, MeasurementState::Interrupted, "cable pulled")
+        .await
+        .unwrap();
+    let page = store
+        .list_measurements(&MeasurementFilter {
+            target: Some("patch".into()),
+            state: Some(MeasurementState::Interrupted),
+            ..Default::default()
+        })
+        .await
+        .unwrap();
+    assert_eq!(page.total, 1);
+    let summary = &page.items[0];
+    assert_eq!((summary.samples_taken, summary.good_samples), (3, 2));
+    assert!(
+        summary.partial,
+        "an interrupted measurement's good samples are averaged"
+    );
+    // Two flat spectra, 0.010 and 0.014 W/(sr·m²·nm): their luminances are
+    // in the ratio 10 : 14, so CV = SD/mean = (0.002·√2)/0.012 = √2/6 (n − 1);
+    // the mean is equal-energy, at CIE 1931 x = 1/3.
+    assert!(
+        (summary.luminance_cv.unwrap() - 2f64.sqrt() / 6.0).abs() < 1e-9,
+        "{summary:?}"
+    );
+    assert!((summary.x.unwrap() - 1.0 / 3.0).abs() < 2e-3, "{summary:?}");
+    let one = store.get_measurement(id).await.unwrap().unwrap().summary;
+    assert_eq!(one.luminance_cd_m2, summary.luminance_cd_m2);
+    assert_eq!(one.session_id, Some(session));
+    assert_eq!(one.instrument_id, Some(inst));
+    let none = store
+        .list_measurements(&MeasurementFilter {
+            state: Some(MeasurementState::Complete),
+            ..Default::default()
+        })
+        .await
+        .unwrap();
+    assert_eq!(none.total, 0);
+
+    let render = store.create_render(&new_render()).await.unwrap();
+    let png = [0x89, b'P', b'N', b'G', 0x00, 0xff, 0x0d, 0x0a];
+    store.set_render_preview(render, &png).await.unwrap();
+    assert_eq!(store.render_preview(render).await.unwrap().unwrap(), png);
+    assert_eq!(store.render_preview(render + 1).await.unwrap(), None);
+
+    let instruments = store.list_instruments().await.unwrap();
+    assert_eq!((instruments.len(), instruments[0].serial.as_str()), (1, ""));
+    let sessions = store.list_sessions().await.unwrap();
+    assert_eq!((sessions[0].id, sessions[0].operator.as_str()), (session, "ana"));
+}
+
+/// The checksums sqlx recorded in every SQLite database made before the
+/// migrations moved to `migrations/sqlite/` (SHA-384 of each file as it was
+/// in `migrations/` on main at 5681dba).
+const CHECKSUMS_BEFORE_THE_MOVE: [(i64, &str); 8] = [
+    (
+        1,
+        "564d57b21223680f656638d05d5d9b26d16db1ca2d7216ab7a86efee549548be3ffe4e8296b24129421b01976f34ef03",
+    ),
+    (
+        2,
+        "d6811fd3f7555d2320b041ce95e5075ce59cf9d006ebb5e6ca17df2d023f5d227ce196a47a83f438d954c339847c2f42",
+    ),
+    (
+        3,
+        "5fc28bb3578910e431fd10de26184be2fa923a6a859ba0e64f7179650ea1bd56e832e2f493cb5651628c39434ad15cdd",
+    ),
+    (
+        4,
+        "c5678c44bd6c03e33b17d0d66599cb99f210e11521b06b23ebd332420a7e5db5675c8778070ede6dde0f1bfb3a14e82f",
+    ),
+    (
+        5,
+        "5ed7590ac00c8dd045fa82e0c4b8230c2ca667cd365732eeb0ffb0b5fd5b309aa662fe5dcff4b4a6b9709f5be0421d21",
+    ),
+    (
+        6,
+        "f8aef11f707f2e9d81c19b540a5e108bc5638d9d8f0e4887ded8191a79b17c6ed9bec6f1479cfbc2ab40f6ba99b2bcd0",
+    ),
+    (
+        7,
+        "0485846b8a2ba8c11eb7c4d4bad5c7375c89f6563afff8a1e8ac78408f24f7fa4c039193789ecf81e6540d2bd4ea29aa",
+    ),
+    (
+        8,
+        "5459cd1c2bcfa84a90219e91eeeb42f50733b76dce9047da08b2fafb1c691bc48bd0314321b62b0b2944da1d762bd05a",
+    ),
+];
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// A lab's existing SQLite file — migrated by lightbooth before PostgreSQL
+/// came, its `_sqlx_migrations` holding those files' checksums — must open
+/// with its data, not fail with "migration was previously applied but has
+/// been modified".
+#[tokio::test]
+async fn a_sqlite_database_migrated_before_migrations_moved_to_migrations_sqlite_opens_with_its_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let url = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    {
+        let options = SqliteConnectOptions::from_str(&url)
+            .unwrap()
+            .create_if_missing(true)
+            .foreign_keys(true);
+        let pool = SqlitePool::connect_with(options).await.unwrap();
+        let sources = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
+        sqlx::migrate::Migrator::new(sources.as_path())
+            .await
+            .unwrap()
+            .run(&pool)
+            .await
+            .unwrap();
+        // What the old binary left behind: its own checksums, whatever the
+        // files say today.
+        for (version, checksum) in CHECKSUMS_BEFORE_THE_MOVE {
+            let bytes: Vec<u8> = (0..checksum.len())
+                .step_by(2)
+                .map(|i| u8::from_str_radix(&checksum[i..i + 2], 16).unwrap())
+                .collect();
+            sqlx::query("UPDATE _sqlx_migrations SET checksum = $1 WHERE version = $2")
+                .bind(bytes)
+                .bind(version)
+                .execute(&pool)
+                .await
+                .unwrap();
+        }
+        sqlx::query(
+            "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at) \
+             VALUES (41, 5, '{}', 'running', 0)",
+        )
+        .execute(&pool)
+        .await
+        .unwrap();
+        pool.close().await;
+    }
+    let embedded: Vec<(i64, String)> = engine::SQLITE_MIGRATIONS
+        .iter()
+        .filter(|m| m.version <= 8)
+        .map(|m| (m.version, hex(&m.checksum)))
+        .collect();
+    let before: Vec<(i64, String)> = CHECKSUMS_BEFORE_THE_MOVE
+        .iter()
+        .map(|(v, c)| (*v, c.to_string()))
+        .collect();
+    assert_eq!(embedded, before, "an applied SQLite migration was edited");
+    let store = Store::open(&url).await.expect("the old database opens");
+    let m = store.get_measurement(41).await.unwrap().unwrap();
+    assert_eq!(
+        m.summary.state,
+        MeasurementState::Interrupted,
+        "and is recovered as before"
+    );
+}
+
+/// A column as the schema comparison sees it: the coarse type class both
+/// engines must agree on, and whether it may be NULL.
+type Columns = std::collections::BTreeMap<(String, String), (String, bool)>;
+
+async fn sqlite_schema(url: &str) -> Columns {
+    let store = Store::open(url).await.unwrap();
+    let pool = store.sqlite_pool().unwrap();
+    let tables: Vec<String> = sqlx::query_scalar(
+        "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%' \
+         AND name <> '_sqlx_migrations'",
+    )
+    .fetch_all(pool)
+    .await
+    .unwrap();
+    let mut columns = Columns::new();
+    for table in tables {
+        let rows: Vec<(String, String, bool, i64)> = sqlx::query_as(&format!(
+            "SELECT name, type, \"notnull\", pk FROM pragma_table_info('{table}')"
+        ))
+        .fetch_all(pool)
+        .await
+        .unwrap();
+        for (name, declared, not_null, pk) in rows {
+            let class = match declared.as_str() {
+                "INTEGER" => "integer",
+                "REAL" => "real",
+                "TEXT" => "text",
+                "BLOB" => "blob",
+                other => panic!("{table}.{name}: SQLite type {other} is none of INTEGER, REAL, TEXT, BLOB"),
+            };
+            // An INTEGER PRIMARY KEY is the rowid: never NULL, though not declared so.
+            columns.insert((table.clone(), name), (class.into(), !(not_null || pk > 0)));
+        }
+    }
+    columns
+}
+
+async fn postgres_schema(url: &str) -> Columns {
+    let store = Store::open(url).await.unwrap();
+    let rows: Vec<(String, String, String, String)> = with_pool!(store, |pool| sqlx::query_as(
+        "SELECT table_name::text, column_name::text, data_type::text, is_nullable::text \
+         FROM information_schema.columns WHERE table_schema = 'public' AND table_name <> '_sqlx_migrations'",
+    )
+    .fetch_all(pool)
+    .await
+    .unwrap());
+    rows.into_iter()
+        .map(|(table, name, data_type, nullable)| {
+            let class = match data_type.as_str() {
+                // SQLite has no boolean: its flags are 0/1 INTEGER.
+                "bigint" | "boolean" => "integer",
+                "double precision" => "real",
+                "text" => "text",
+                "bytea" => "blob",
+                other => panic!(
+                    "{table}.{name}: PostgreSQL type {other} is none of BIGINT, BOOLEAN, DOUBLE PRECISION \
+                     (REAL is only float4), TEXT, BYTEA"
+                ),
+            };
+            ((table, name), (class.to_string(), nullable == "YES"))
+        })
+        .collect()
+}
+
+/// The two migration sets stay in step: the same versions, and the same
+/// tables with the same columns (type class and nullability) once applied.
+#[tokio::test]
+async fn both_engines_migrations_make_the_same_tables_and_columns() {
+    let versions = |m: &sqlx::migrate::Migrator| {
+        m.iter()
+            .map(|m| (m.version, m.description.to_string()))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        versions(&engine::SQLITE_MIGRATIONS),
+        versions(&engine::POSTGRES_MIGRATIONS),
+        "every migration exists for both engines, with the same version and name"
+    );
+    let sqlite = TestDb::new(EngineKind::Sqlite).await;
+    let postgres = TestDb::new(EngineKind::Postgres).await;
+    let (a, b) = (sqlite_schema(&sqlite.url).await, postgres_schema(&postgres.url).await);
+    assert!(a.len() > 100, "the whole schema is read ({} columns)", a.len());
+    fn only(x: &Columns, y: &Columns) -> Columns {
+        x.iter()
+            .filter(|(k, v)| y.get(*k) != Some(*v))
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect()
+    }
+    assert!(
+        a == b,
+        "the schemas differ:\n  SQLite only or different: {:?}\n  PostgreSQL only or different: {:?}",
+        only(&a, &b),
+        only(&b, &a)
+    );
+}
+
+#[tokio::test]
+async fn an_unknown_database_kind_is_refused_naming_the_accepted_forms() {
+    let err = Store::open("mysql://root:secret@db/lab").await.unwrap_err().to_string();
+    assert!(
+        err.contains("`mysql:`") && err.contains("sqlite://") && err.contains("postgres://"),
+        "{err}"
+    );
+    assert!(!err.contains("secret"), "the URL's password is never echoed: {err}");
 }

@@ -155,6 +155,16 @@ impl Daemon {
     /// Starts it listening on `bind` (e.g. `0.0.0.0:0`, so reads need the
     /// token); `addr` is then the loopback address of the same port.
     pub async fn start_bound(mock_speed: f64, bind: &str) -> Daemon {
+        Daemon::start_with(mock_speed, bind, None).await
+    }
+
+    /// Starts it on the database at `db_url` (e.g. a PostgreSQL database)
+    /// instead of a fresh SQLite file.
+    pub async fn start_on(mock_speed: f64, db_url: &str) -> Daemon {
+        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url)).await
+    }
+
+    async fn start_with(mock_speed: f64, bind: &str, db_url: Option<&str>) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
         std::fs::write(&token_file, TOKEN).unwrap();
@@ -170,7 +180,9 @@ impl Daemon {
         };
         let options = DaemonOptions {
             bind: bound,
-            db_url: format!("sqlite://{}", dir.path().join("lab.sqlite").display()),
+            db_url: db_url
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("sqlite://{}", dir.path().join("lab.sqlite").display())),
             mock: true,
             mock_speed,
             mock_faults: Vec::new(),
@@ -280,5 +292,54 @@ pub async fn run_browser_script(script: &str, addr: SocketAddr, shots: PathBuf) 
             String::from_utf8_lossy(&out.stdout),
             String::from_utf8_lossy(&out.stderr)
         ))
+    }
+}
+
+/// A new, empty database on the test PostgreSQL server `tests/setup.sh`
+/// starts (its URL in `$LIGHTBOOTH_TEST_PG` or `target/pg-url`), with a
+/// name no other test uses; its URL. Fails saying to run `tests/setup.sh`
+/// when there is no server.
+pub async fn fresh_postgres_database() -> String {
+    use sqlx::{ConnectOptions, Connection};
+    use std::str::FromStr;
+    let admin = std::env::var("LIGHTBOOTH_TEST_PG").unwrap_or_else(|_| {
+        let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/pg-url");
+        std::fs::read_to_string(&file)
+            .unwrap_or_else(|e| {
+                panic!(
+                    "no test PostgreSQL server: run tests/setup.sh ({}: {e})",
+                    file.display()
+                )
+            })
+            .trim()
+            .to_string()
+    });
+    let mut conn = sqlx::postgres::PgConnectOptions::from_str(&admin)
+        .unwrap()
+        .connect()
+        .await
+        .unwrap_or_else(|e| panic!("the test PostgreSQL server does not answer ({e}): run tests/setup.sh"));
+    let name = format!(
+        "lbi_{}_{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos()
+    );
+    sqlx::query(&format!("CREATE DATABASE {name}"))
+        .execute(&mut conn)
+        .await
+        .unwrap();
+    conn.close().await.ok();
+    let (base, query) = admin.split_once('?').unwrap_or((&admin, ""));
+    let root = &base[..base
+        .rfind('/')
+        .filter(|&i| i > base.find("://").unwrap() + 2)
+        .unwrap_or(base.len())];
+    if query.is_empty() {
+        format!("{root}/{name}")
+    } else {
+        format!("{root}/{name}?{query}")
     }
 }

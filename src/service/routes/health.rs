@@ -29,8 +29,9 @@ pub struct Health {
     responses((status = 200, body = Health),
               (status = 503, description = "the instrument task has stopped", body = Health)))]
 pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<Health>), ApiError> {
-    sqlx::query("SELECT 1")
-        .execute(state.store.pool())
+    state
+        .store
+        .ping()
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))?;
     let instrument = state.status.borrow().clone();
