@@ -29,9 +29,8 @@
 //! channel (35 937 colours; a sampled supremum over the drive cube — the
 //! linearised error is largest at the box's corners). For the simulated CRT
 //! (γ 2.25/2.2/2.15, 100 cd/m² white, black 0.5 %, Judd–Vos) it is 1.09 at
-//! 8 bits, 0.27 at 10 and 0.069 at 12: it falls 4× per two bits. The worst
-//! case is a dark colour, where ΔE00 relative to the display's white is
-//! most sensitive to a code; mid-range colours stay well under 0.5 at 8
+//! 8 bits, 0.27 at 10 and 0.069 at 12: it falls 4× per two bits. It is a
+//! worst case over the whole cube; mid-range colours stay under 0.5 at 8
 //! bits (the round-trip test of `tests/display_calibration.rs`). The
 //! worst round trips of 2000 colours spread over the drive cube were 0.75,
 //! 0.15 and 0.047 at 8, 10 and 12 bits; `tests/stimulus.rs` checks that round trips
