@@ -305,13 +305,13 @@ fn stimulus_writes_the_codes_as_16_bit_png_and_raw_and_reports_the_delta_e_the_d
             assert!(c.iter().all(|v| *v <= max));
         }
         for (d, c) in DRIVES.iter().zip(&codes) {
-            for k in 0..3 {
-                let exact = f64::from(d[k]) / 255.0 * f64::from(max);
+            for (dk, ck) in d.iter().zip(c) {
+                let exact = f64::from(*dk) / 255.0 * f64::from(max);
                 // At drive 0 the power law's infinite slope turns the fit's
                 // ~1e-7 of linear output into a few codes of drive: < 1 % of full drive.
-                let tolerance = if d[k] == 0 { 0.01 * f64::from(max) } else { 1.0 };
+                let tolerance = if *dk == 0 { 0.01 * f64::from(max) } else { 1.0 };
                 assert!(
-                    (f64::from(c[k]) - exact).abs() <= tolerance,
+                    (f64::from(*ck) - exact).abs() <= tolerance,
                     "{bits} bits: drive {d:?} gave {c:?}"
                 );
             }
@@ -384,8 +384,8 @@ fn spectral_channels_are_integrated_with_the_files_observer() {
     assert!(img.source.contains("401 spectral channels"), "{}", img.source);
     for (d, got) in drives.iter().zip(&img.xyz) {
         let want = truth_xyz(&display, *d);
-        for k in 0..3 {
-            assert!((got[k] / want[k] - 1.0).abs() < 1e-5, "{got:?} vs {want:?}");
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g / w - 1.0).abs() < 1e-5, "{got:?} vs {want:?}");
         }
     }
     let err = read_xyz_exr(&path, Observer::Cie1931).unwrap_err();

@@ -297,7 +297,7 @@ pub fn quantisation_bound_de00(
                 let v = [level(i), level(j), level(k)];
                 let centre = xyz_of(v);
                 for corner in 0..8 {
-                    let d = [0, 1, 2].map(|c| if corner >> c & 1 == 1 { h } else { -h });
+                    let d = [0, 1, 2].map(|c| if (corner >> c) & 1 == 1 { h } else { -h });
                     let moved = [0, 1, 2].map(|c| (v[c] + d[c]).clamp(0.0, 1.0));
                     worst = worst.max(delta_e00(white, centre, xyz_of(moved)));
                 }

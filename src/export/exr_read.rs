@@ -132,9 +132,9 @@ pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String>
     let xyz = (0..n)
         .map(|i| {
             let mut acc = [0.0; 3];
-            for (k, (_, v)) in spectral.iter().enumerate() {
-                for c in 0..3 {
-                    acc[c] += weights[k][c] * v[i];
+            for (w, (_, v)) in weights.iter().zip(&spectral) {
+                for (a, wc) in acc.iter_mut().zip(w) {
+                    *a += wc * v[i];
                 }
             }
             acc
