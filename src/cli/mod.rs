@@ -4,10 +4,12 @@
 mod analyze;
 mod calibrate;
 mod color;
+mod display_resolution;
 mod measure;
 mod mock_pr650;
 mod render;
 mod serve;
+mod stimulus;
 mod study;
 
 use clap::{Parser, Subcommand};
@@ -45,6 +47,11 @@ enum Command {
     Reflectance(calibrate::ReflectanceArgs),
     /// The lamp's spectral power distribution from a white-standard measurement, as a scene CSV.
     Illuminant(calibrate::IlluminantArgs),
+    /// A rendered OpenEXR image as a measured display's frame-buffer codes (16-bit PNG, raw), with the gamut and ΔE00 report.
+    Stimulus(stimulus::StimulusArgs),
+    /// At which frame-buffer depth a measured display shows two codings' renderings of a scene apart.
+    #[command(name = "display-resolution")]
+    DisplayResolution(display_resolution::DisplayResolutionArgs),
 }
 
 impl Cli {
@@ -65,6 +72,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Study(args) => study::run(args),
         Command::Reflectance(args) => calibrate::run_reflectance(args),
         Command::Illuminant(args) => calibrate::run_illuminant(args),
+        Command::Stimulus(args) => stimulus::run(args),
+        Command::DisplayResolution(args) => display_resolution::run(args),
     }
 }
 

@@ -8,6 +8,10 @@
 //! - [`fit`]: the calibration plan (which colours to show) and the fit of a
 //!   profile to the spectra measured while showing them.
 //! - [`simulated`]: the display the simulated PR-650 looks at with `--mock`.
+//! - [`stimulus`]: rendered XYZ → gamut policy → frame-buffer codes, what
+//!   the display shows for them, and the quantisation bound.
+//! - [`stimulus_files`]: the codes and the ΔE00 map as files (PNG, raw).
+//! - [`resolution`]: at which bit depth a display shows two codings apart.
 //!
 //! The display model is the usual one of Brainard, Pelli & Robson (2002),
 //! "Display characterization", as Psychtoolbox's `CalibrateMonSpd` fits it:
@@ -24,10 +28,13 @@
 
 pub mod fit;
 pub mod profile;
+pub mod resolution;
 pub mod simulated;
+pub mod stimulus;
+pub mod stimulus_files;
 
 pub use fit::{fit_profile, CalibrationPlan, MeasuredPatch};
-pub use profile::{Additivity, ChannelTransfer, DisplayProfile, FrameBuffer};
+pub use profile::{Additivity, ChannelTransfer, Converter, DisplayProfile, FrameBuffer};
 pub use simulated::SimulatedDisplay;
 
 /// Errors of the display profile and its fit; each names what was wrong.
@@ -43,6 +50,9 @@ pub enum DisplayError {
     /// A frame-buffer bit depth other than 8, 10, 12 or 16.
     #[error("bit depth {0}: choose 8, 10, 12 or 16")]
     Bits(u32),
+    /// Colours outside the display's gamut under `--gamut fail`.
+    #[error("gamut: {0}")]
+    Gamut(String),
     #[error(transparent)]
     Color(#[from] crate::colorimetry::ColorError),
     #[error(transparent)]

@@ -1,0 +1,252 @@
+//! `lightbooth stimulus IMAGE.exr --display PROFILE --bits B`: a rendered
+//! image as the frame-buffer codes that show it on a measured display, with
+//! the gamut and quantisation report (see `lightbooth::display::stimulus`
+//! for the model, the ΔE00 white and the quantisation bound, and
+//! `lightbooth::display::stimulus_files` for the file layouts).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use serde::Serialize;
+
+use lightbooth::display::profile::TransferModel;
+use lightbooth::display::stimulus::{convert, quantisation_bound_de00, GamutPolicy, GamutReport, Summary};
+use lightbooth::display::stimulus_files::{write_codes_png, write_codes_raw, write_delta_e_map};
+use lightbooth::display::{DisplayProfile, FrameBuffer};
+use lightbooth::export::exr_read::read_xyz_exr;
+
+/// Where the display profile comes from: a JSON file or the daemon's store.
+#[derive(Args, Debug, Clone)]
+pub struct ProfileSource {
+    /// The display profile: a JSON file, as `GET /api/display-profiles/{id}` returns it (the row, or the bare profile).
+    #[arg(long, required_unless_present = "display_db")]
+    pub display: Option<PathBuf>,
+    /// Or the daemon's database (`sqlite://lab.sqlite`) with --display-id.
+    #[arg(long, requires = "display_id", conflicts_with = "display")]
+    pub display_db: Option<String>,
+    /// The stored profile's id in --display-db.
+    #[arg(long, requires = "display_db")]
+    pub display_id: Option<i64>,
+}
+
+#[derive(Args, Debug)]
+pub struct StimulusArgs {
+    /// The rendered image: an OpenEXR written by `lightbooth render --image FILE.exr`.
+    image: PathBuf,
+    #[command(flatten)]
+    profile: ProfileSource,
+    /// Frame-buffer bits per channel: 8, 10, 12 or 16.
+    #[arg(long, value_parser = frame_buffer_bits)]
+    bits: u32,
+    /// Out-of-gamut colours: clip (each channel to 0–1), scale (one factor for
+    /// the image; negative channels still clipped) or fail.
+    #[arg(long, default_value = "clip")]
+    gamut: GamutPolicy,
+    /// The transfer function: gamma (the fitted power) or table (the measured levels).
+    #[arg(long, default_value = "gamma", value_parser = transfer_model)]
+    transfer: TransferModel,
+    /// The 16-bit PNG of codes (default: IMAGE's name with `_stimulus_<B>bit.png`).
+    /// At 10 and 12 bits also `<name>.raw` (u16 codes) and `<name>.raw.json`.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// The report as JSON.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// A false-colour (viridis) PNG of each pixel's ΔE00, intended against shown.
+    #[arg(long)]
+    map: Option<PathBuf>,
+}
+
+fn frame_buffer_bits(s: &str) -> Result<u32, String> {
+    let b: u32 = s.trim().parse().map_err(|_| format!("`{s}` is not a number of bits"))?;
+    FrameBuffer::new(b).map(|fb| fb.bits).map_err(|e| e.to_string())
+}
+
+pub(super) fn transfer_model(s: &str) -> Result<TransferModel, String> {
+    match s {
+        "gamma" => Ok(TransferModel::Gamma),
+        "table" => Ok(TransferModel::Table),
+        _ => Err(format!("unknown transfer `{s}`: gamma or table")),
+    }
+}
+
+/// Parses a display profile file: the stored row (`{"id", …, "profile": {…}}`) or the bare profile.
+pub fn parse_profile(text: &str, what: &str) -> anyhow::Result<DisplayProfile> {
+    let value: serde_json::Value = serde_json::from_str(text).with_context(|| format!("{what}: not JSON"))?;
+    let (inner, key) = match value.get("profile") {
+        Some(p) => (p.clone(), "profile."),
+        None => (value, ""),
+    };
+    let profile: DisplayProfile = serde_json::from_value(inner).map_err(|e| {
+        anyhow::anyhow!(
+            "{what}: not a display profile (the JSON of GET /api/display-profiles/{{id}}, or its `profile`): \
+             {key}{e}"
+        )
+    })?;
+    profile.validate().with_context(|| what.to_string())?;
+    Ok(profile)
+}
+
+/// Loads the profile from its source; returns it and how to name it.
+pub fn load_profile(src: &ProfileSource) -> anyhow::Result<(DisplayProfile, String)> {
+    if let Some(path) = &src.display {
+        let what = path.display().to_string();
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {what}"))?;
+        return Ok((parse_profile(&text, &what)?, what));
+    }
+    let (db, id) = match (&src.display_db, src.display_id) {
+        (Some(db), Some(id)) => (db.clone(), id),
+        _ => anyhow::bail!("give --display FILE.json, or --display-db URL with --display-id N"),
+    };
+    if let Some(path) = lightbooth::daemon::db_lock::database_path(&db) {
+        anyhow::ensure!(path.exists(), "--display-db {db}: no such database file");
+    }
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+    let row = rt.block_on(async {
+        let store = lightbooth::store::Store::open(&db)
+            .await
+            .with_context(|| format!("opening {db}"))?;
+        store
+            .get_display_profile(id)
+            .await
+            .with_context(|| format!("reading display profile {id} from {db}"))
+    })?;
+    let row = row.with_context(|| format!("--display-id {id}: no display profile {id} in {db}"))?;
+    Ok((row.profile, format!("{db} display profile {id} ({})", row.name)))
+}
+
+/// The report written with --report and summarised on the terminal.
+#[derive(Serialize)]
+struct StimulusReport {
+    image: String,
+    xyz_source: String,
+    width: u32,
+    height: u32,
+    display_profile: String,
+    observer: String,
+    bits: u32,
+    transfer: &'static str,
+    /// The white of every ΔE00 below: the display's (all channels at full drive), XYZ cd/m².
+    delta_e00_white: [f64; 3],
+    delta_e00_white_is: &'static str,
+    gamut: GamutReport,
+    /// Intended (after the gamut policy, unquantised) against shown (after quantisation).
+    delta_e00_intended_vs_shown: Summary,
+    /// The original rendered colour against shown (gamut mapping and quantisation).
+    delta_e00_original_vs_shown: Summary,
+    /// Worst ΔE00 half a code can cause at this depth (sampled over the drive cube).
+    quantisation_bound_delta_e00: f64,
+    png: String,
+    png_code_alignment: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    raw: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    raw_sidecar: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    map: Option<String>,
+    /// The ΔE00 at the map's yellow end (intended vs shown); 0 is its dark end.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    map_scale_max_delta_e00: Option<f64>,
+}
+
+fn default_out(image: &Path, bits: u32) -> PathBuf {
+    let stem = image.file_stem().and_then(|s| s.to_str()).unwrap_or("image");
+    image.with_file_name(format!("{stem}_stimulus_{bits}bit.png"))
+}
+
+pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
+    let (profile, profile_name) = load_profile(&args.profile)?;
+    let image = read_xyz_exr(&args.image, profile.observer).map_err(anyhow::Error::msg)?;
+    let fb = FrameBuffer::new(args.bits)?;
+    let stim = convert(&profile, &image.xyz, fb, args.gamut, args.transfer)?;
+    let (w, h) = (image.width, image.height);
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.image, args.bits));
+    write_codes_png(&out, w, h, args.bits, &stim.codes).map_err(anyhow::Error::msg)?;
+    let (raw, raw_sidecar) = if matches!(args.bits, 10 | 12) {
+        let raw = out.with_extension("raw");
+        let side = write_codes_raw(&raw, w, h, args.bits, &stim.codes).map_err(anyhow::Error::msg)?;
+        (Some(raw.display().to_string()), Some(side.display().to_string()))
+    } else {
+        (None, None)
+    };
+    let intended = Summary::of(&stim.delta_e00_intended);
+    let map_scale = (intended.max > 0.0).then_some(intended.max).unwrap_or(1.0);
+    if let Some(map) = &args.map {
+        write_delta_e_map(map, w, h, &stim.delta_e00_intended, map_scale).map_err(anyhow::Error::msg)?;
+    }
+    let white = profile.white_xyz()?;
+    let report = StimulusReport {
+        image: args.image.display().to_string(),
+        xyz_source: image.source.clone(),
+        width: w,
+        height: h,
+        display_profile: profile_name,
+        observer: profile.observer.to_string(),
+        bits: args.bits,
+        transfer: match args.transfer {
+            TransferModel::Gamma => "gamma",
+            TransferModel::Table => "table",
+        },
+        delta_e00_white: white.to_array(),
+        delta_e00_white_is: "the display's white: all channels at full drive, black included",
+        gamut: stim.gamut.clone(),
+        delta_e00_intended_vs_shown: intended,
+        delta_e00_original_vs_shown: Summary::of(&stim.delta_e00_original),
+        quantisation_bound_delta_e00: quantisation_bound_de00(&profile, fb, args.transfer)?,
+        png: out.display().to_string(),
+        png_code_alignment: format!("16-bit PNG, each code MSB-aligned: code << {}", 16 - args.bits),
+        raw,
+        raw_sidecar,
+        map: args.map.as_ref().map(|p| p.display().to_string()),
+        map_scale_max_delta_e00: args.map.as_ref().map(|_| map_scale),
+    };
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    print_summary(&report);
+    Ok(())
+}
+
+fn print_summary(r: &StimulusReport) {
+    println!(
+        "{} ({} × {}, XYZ from {}) on {} at {} bits, transfer {}",
+        r.image, r.width, r.height, r.xyz_source, r.display_profile, r.bits, r.transfer
+    );
+    let g = &r.gamut;
+    print!(
+        "gamut: {} of {} pixels out ({:.2} %), policy {:?}",
+        g.out_of_gamut,
+        g.colours,
+        100.0 * g.fraction,
+        g.policy
+    );
+    if g.scale_factor != 1.0 {
+        print!(", scale factor {:.4}", g.scale_factor);
+    }
+    if let Some(w) = &g.worst {
+        print!(
+            "; worst pixel {} (x {}, y {}): channel excess {:.4}, ΔE00 {:.2} when clipped",
+            w.index,
+            w.index % r.width.max(1) as usize,
+            w.index / r.width.max(1) as usize,
+            w.excess,
+            w.delta_e00_clipped
+        );
+    }
+    println!();
+    let line =
+        |name: &str, s: &Summary| println!("ΔE00 {name}: mean {:.4}, p95 {:.4}, max {:.4}", s.mean, s.p95, s.max);
+    line("intended vs shown", &r.delta_e00_intended_vs_shown);
+    line("original vs shown", &r.delta_e00_original_vs_shown);
+    println!(
+        "quantisation bound at {} bits: ΔE00 {:.4} (white: the display's, Y {:.2} cd/m²)",
+        r.bits, r.quantisation_bound_delta_e00, r.delta_e00_white[1]
+    );
+    let mut files = vec![r.png.clone()];
+    files.extend(r.raw.iter().cloned());
+    files.extend(r.raw_sidecar.iter().cloned());
+    files.extend(r.map.iter().cloned());
+    println!("wrote {}", files.join(", "));
+}
