@@ -366,9 +366,9 @@ fn report_fields<'a>(bytes: &'a [u8], expected: &'static str) -> Result<Result<V
 /// PTB keeps 8 characters of a serial that "may contain trailing blanks").
 /// `Err(status)` inside when the instrument answered with an error.
 pub fn parse_text_report(bytes: &[u8]) -> Result<Result<String, i32>, ProtocolError> {
-    Ok(report_fields(bytes, "`00000,` followed by text")?.and_then(|fields| {
+    Ok(report_fields(bytes, "`00000,` followed by text")?.map(|fields| {
         let text = fields.last().copied().unwrap_or_default();
-        Ok(String::from_utf8_lossy(text).into_owned())
+        String::from_utf8_lossy(text).into_owned()
     }))
 }
 
@@ -420,7 +420,7 @@ impl HardwareConfig {
             return None;
         }
         let span = self.last_nm - self.first_nm;
-        (span % self.increment_nm == 0 && (span / self.increment_nm) as usize + 1 == self.points)
+        (span.is_multiple_of(self.increment_nm) && (span / self.increment_nm) as usize + 1 == self.points)
             .then(|| Grid::uniform(self.first_nm as f64, self.increment_nm as f64, self.points))
     }
 }
@@ -691,14 +691,6 @@ pub fn format_hardware_config(model: Model, style: StatusStyle) -> Vec<u8> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
-
-    fn crlf(lines: &[&str]) -> Vec<u8> {
-        lines
-            .iter()
-            .map(|l| format!("{l}\r\n"))
-            .collect::<String>()
-            .into_bytes()
-    }
 
     /// A spectrum reply in the manual example's form: its header, its
     /// `382,9.910e-07` line, the rest filled in the same format.
