@@ -20,7 +20,9 @@
 //!   mid-way is cut off after `gap_timeout_ms`. After a link fault the port
 //!   is resynchronised (drain, `D111` ping, drain), so a dead link is
 //!   reported [`InstrumentError::Unresponsive`] within `gap + resync quiet +
-//!   command timeout` of its last byte (5.2 s with the shipped settings);
+//!   command timeout` of its last byte (5.2 s with the shipped settings).
+//!   The ping waits a whole measurement only after an `M5` that was
+//!   cancelled or timed out, when the unit may still be measuring;
 //! - `Q` leaves remote mode when the session ends.
 
 use std::time::{Duration, SystemTime};
@@ -184,7 +186,8 @@ impl Pr655 {
                     self.needs_resync = true;
                     self.last_fault = Some((text.clone(), e.to_string()));
                 }
-                if is_measure && matches!(e, InstrumentError::Cancelled) {
+                // A cancelled or timed-out `M5`: the unit may still be measuring.
+                if is_measure && matches!(e, InstrumentError::Cancelled | InstrumentError::Timeout { .. }) {
                     self.may_be_measuring = true;
                 }
             }
