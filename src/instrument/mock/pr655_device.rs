@@ -291,6 +291,7 @@ impl Device {
     fn byte(&mut self, b: u8, burst: bool) -> Next {
         if !self.remote {
             // 13.3: local mode ignores everything but PHOTO.
+            tracing::trace!(byte = %(b as char).escape_debug(), burst, "simulated instrument in local mode");
             if self.photo_byte(b, burst) {
                 self.enter_remote();
             }
