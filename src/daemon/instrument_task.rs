@@ -649,15 +649,16 @@ fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool
         InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
             (MeasurementState::Interrupted, true)
         }
-        InstrumentError::NotInRemoteMode { .. } | InstrumentError::Unresponsive { .. } => {
-            (MeasurementState::Interrupted, true)
-        }
+        InstrumentError::NotInRemoteMode { .. }
+        | InstrumentError::NoBanner { .. }
+        | InstrumentError::Unresponsive { .. } => (MeasurementState::Interrupted, true),
         InstrumentError::NoReply { .. }
         | InstrumentError::Timeout { .. }
         | InstrumentError::Truncated { .. }
         | InstrumentError::Protocol { .. } => (MeasurementState::Interrupted, false),
-        InstrumentError::Quality { .. } | InstrumentError::Setup { .. } | InstrumentError::Settings(_) => {
-            (MeasurementState::Failed, false)
-        }
+        InstrumentError::Quality { .. }
+        | InstrumentError::Setup { .. }
+        | InstrumentError::Refused { .. }
+        | InstrumentError::Settings(_) => (MeasurementState::Failed, false),
     }
 }

@@ -124,6 +124,7 @@ mod tests {
                 info: InstrumentInfo {
                     model: "scripted".into(),
                     serial: None,
+                    firmware: None,
                     grid: grid.clone(),
                 },
                 capabilities: Capabilities {

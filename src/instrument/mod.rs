@@ -31,6 +31,7 @@ pub mod averaging;
 pub mod mock;
 mod models;
 pub mod pr650;
+pub mod pr655;
 pub mod transport;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -52,6 +53,8 @@ pub struct InstrumentInfo {
     pub model: String,
     /// Serial number, when the instrument reports one.
     pub serial: Option<String>,
+    /// Firmware version, when the instrument reports one (PR-655/670 `D114`).
+    pub firmware: Option<String>,
     /// The native wavelength grid of its spectra (PR-650: 380–780 nm at 4 nm).
     pub grid: Grid,
 }
@@ -219,6 +222,17 @@ pub enum InstrumentError {
         status: u8,
         meaning: &'static str,
     },
+    #[error(
+        "the {model} did not answer `PHOTO` with ` REMOTE MODE` in {attempts} attempts ({waited_ms} ms each): check \
+         that it is on and that this is its port (ls /dev/ttyACM*), then power-cycle it or re-plug its USB cable"
+    )]
+    NoBanner {
+        model: &'static str,
+        attempts: u32,
+        waited_ms: u64,
+    },
+    #[error("the instrument refused `{command}` with status {code}. Fix that setting or command")]
+    Refused { command: String, code: QualityCode },
     #[error("serial port {port} closed: the cable was pulled or the adapter unplugged. Reconnect it and start again")]
     PortClosed { port: String },
     #[error(
@@ -437,6 +451,7 @@ mod tests {
         let info = InstrumentInfo {
             model: "PR-650".into(),
             serial: None,
+            firmware: None,
             grid: Grid::pr650(),
         };
         let samples = vec![sample(0, 0, 1.0), sample(1, 18, 99.0), sample(2, 0, 3.0)];
@@ -453,6 +468,7 @@ mod tests {
         let info = InstrumentInfo {
             model: "PR-650".into(),
             serial: None,
+            firmware: None,
             grid: Grid::pr650(),
         };
         assert!(average_samples(info, vec![sample(0, 10, 1.0)]).is_err());

@@ -15,12 +15,15 @@
 
 use std::path::Path;
 
+use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
 
 /// The settings of one instrument, by model.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InstrumentSettings {
     Pr650(Pr650Settings),
+    /// A PR-655 or a PR-670 (the model is in the settings).
+    Pr655(Pr655Settings),
 }
 
 impl Default for InstrumentSettings {
@@ -52,8 +55,10 @@ impl InstrumentSettings {
         let rest = toml::to_string(&table).map_err(|e| e.to_string())?;
         match model.to_ascii_lowercase().replace('-', "").as_str() {
             "pr650" => Pr650Settings::from_toml_str(&rest).map(InstrumentSettings::Pr650),
+            "pr655" => Pr655Settings::from_toml_str(&rest, Model::Pr655).map(InstrumentSettings::Pr655),
+            "pr670" => Pr655Settings::from_toml_str(&rest, Model::Pr670).map(InstrumentSettings::Pr655),
             _ => Err(format!(
-                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\""
+                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\", \"pr655\" or \"pr670\""
             )),
         }
     }
@@ -62,6 +67,7 @@ impl InstrumentSettings {
     pub fn capabilities(&self) -> Capabilities {
         match self {
             InstrumentSettings::Pr650(s) => s.capabilities(),
+            InstrumentSettings::Pr655(s) => s.capabilities(),
         }
     }
 
@@ -69,6 +75,7 @@ impl InstrumentSettings {
     pub fn port(&self) -> Option<&str> {
         match self {
             InstrumentSettings::Pr650(s) => s.port.as_deref(),
+            InstrumentSettings::Pr655(s) => s.port.as_deref(),
         }
     }
 
@@ -83,6 +90,14 @@ impl InstrumentSettings {
                     s.retries = r;
                 }
             }
+            InstrumentSettings::Pr655(s) => {
+                if let Some(n) = samples {
+                    s.samples = n;
+                }
+                if let Some(r) = retries {
+                    s.retries = r;
+                }
+            }
         }
     }
 
@@ -90,6 +105,7 @@ impl InstrumentSettings {
     pub fn validate(&self) -> Result<(), String> {
         match self {
             InstrumentSettings::Pr650(s) => s.validate(),
+            InstrumentSettings::Pr655(s) => s.validate(),
         }
     }
 
@@ -98,6 +114,7 @@ impl InstrumentSettings {
     pub fn open(&self, port: &str) -> Result<Box<dyn Spectroradiometer>, InstrumentError> {
         match self {
             InstrumentSettings::Pr650(s) => super::open_pr650(port, s),
+            InstrumentSettings::Pr655(s) => super::pr655::open_pr655(port, s),
         }
     }
 }
@@ -121,7 +138,7 @@ mod tests {
     #[test]
     fn an_unknown_model_or_key_is_named() {
         let e = InstrumentSettings::from_toml_str("model = \"pr999\"").unwrap_err();
-        assert!(e.contains("pr999") && e.contains("pr650"), "{e}");
+        assert!(e.contains("pr999") && e.contains("pr670"), "{e}");
         let e = InstrumentSettings::from_toml_str("model = \"pr650\"\nsamplez = 3").unwrap_err();
         assert!(e.contains("samplez"), "{e}");
     }

@@ -190,10 +190,25 @@ impl SerialLink {
         gap_timeout: Duration,
         cancel: &CancelToken,
     ) -> Result<Vec<u8>, InstrumentError> {
+        self.read_reply_sized(command, &|_| expected_lines, first_byte_timeout, gap_timeout, cancel)
+    }
+
+    /// [`SerialLink::read_reply`] for a reply whose length its first line
+    /// decides (a PR-655 spectrum: a header and 101 lines, or an error
+    /// status alone). `expected_lines` sees the first complete line.
+    pub fn read_reply_sized(
+        &mut self,
+        command: &str,
+        expected_lines: &dyn Fn(&[u8]) -> usize,
+        first_byte_timeout: Duration,
+        gap_timeout: Duration,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>, InstrumentError> {
         let mut reply = Vec::with_capacity(2048);
         let mut buf = [0u8; 512];
         let start = Instant::now();
         let mut last_byte = start;
+        let mut expected: Option<usize> = None;
         loop {
             if cancel.is_cancelled() {
                 return Err(InstrumentError::Cancelled);
@@ -207,14 +222,22 @@ impl SerialLink {
                 Ok(n) => {
                     reply.extend_from_slice(&buf[..n]);
                     last_byte = Instant::now();
-                    if complete_lines(&reply) >= expected_lines {
-                        return Ok(trim_to_lines(reply, expected_lines));
+                    let complete = complete_lines(&reply);
+                    if expected.is_none() && complete >= 1 {
+                        let first = split_lines(&reply).first().copied().unwrap_or_default();
+                        expected = Some(expected_lines(first).max(1));
+                    }
+                    if let Some(lines) = expected {
+                        if complete >= lines {
+                            return Ok(trim_to_lines(reply, lines));
+                        }
                     }
                     if reply.len() > MAX_REPLY_BYTES {
                         return Err(InstrumentError::Protocol {
                             command: command.to_string(),
                             detail: format!(
-                                "more than {MAX_REPLY_BYTES} bytes without the expected {expected_lines} lines"
+                                "more than {MAX_REPLY_BYTES} bytes without the expected {} lines",
+                                expected.unwrap_or(1)
                             ),
                         });
                     }
@@ -232,9 +255,90 @@ impl SerialLink {
                         return Err(InstrumentError::Truncated {
                             command: command.to_string(),
                             lines: complete_lines(&reply),
-                            expected: expected_lines,
+                            expected: expected.unwrap_or(1),
                             gap_ms: gap_timeout.as_millis() as u64,
                         });
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
+    }
+
+    /// Writes `bytes` one per write, `delay` apart, with no terminator: the
+    /// PR-655's `PHOTO`, whose letters "must be sent as single characters".
+    pub fn send_bytes_singly(&mut self, bytes: &[u8], delay: Duration) -> Result<(), InstrumentError> {
+        let text = String::from_utf8_lossy(bytes).into_owned();
+        self.port
+            .set_timeout(Duration::from_millis(self.settings.write_timeout_ms))
+            .map_err(|e| InstrumentError::Io {
+                port: self.path.clone(),
+                source: e.into(),
+            })?;
+        let result = bytes.iter().try_for_each(|b| -> std::io::Result<()> {
+            self.port.write_all(std::slice::from_ref(b))?;
+            self.port.flush()?;
+            std::thread::sleep(delay);
+            Ok(())
+        });
+        let _ = self.port.set_timeout(POLL_SLICE);
+        match result {
+            Ok(()) => Ok(()),
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Err(InstrumentError::Timeout {
+                command: text,
+                phase: WaitPhase::FirstByte,
+                waited_ms: self.settings.write_timeout_ms,
+            }),
+            Err(e) => Err(self.io_error(e)),
+        }
+    }
+
+    /// Reads a reply that has no line end (the PR-655's banner): up to
+    /// `max_bytes`, ending when `max_bytes` arrived or the line has been quiet
+    /// for `quiet` after the first byte. A [`WaitPhase::FirstByte`] timeout
+    /// when nothing came within `first_byte_timeout`.
+    pub fn read_unterminated(
+        &mut self,
+        command: &str,
+        max_bytes: usize,
+        first_byte_timeout: Duration,
+        quiet: Duration,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>, InstrumentError> {
+        let mut reply = Vec::with_capacity(max_bytes);
+        let mut buf = [0u8; 64];
+        let start = Instant::now();
+        let mut last_byte = start;
+        loop {
+            if cancel.is_cancelled() {
+                return Err(InstrumentError::Cancelled);
+            }
+            let room = (max_bytes - reply.len()).min(buf.len());
+            match self.port.read(&mut buf[..room]) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => {
+                    reply.extend_from_slice(&buf[..n]);
+                    last_byte = Instant::now();
+                    if reply.len() >= max_bytes {
+                        return Ok(reply);
+                    }
+                }
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+                    if reply.is_empty() {
+                        if start.elapsed() >= first_byte_timeout {
+                            return Err(InstrumentError::Timeout {
+                                command: command.to_string(),
+                                phase: WaitPhase::FirstByte,
+                                waited_ms: start.elapsed().as_millis() as u64,
+                            });
+                        }
+                    } else if last_byte.elapsed() >= quiet {
+                        return Ok(reply);
                     }
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}

@@ -88,6 +88,7 @@ fn partial_average(
     let info = InstrumentInfo {
         model: "PR-650".into(),
         serial: None,
+        firmware: None,
         grid,
     };
     average_samples(info, samples)

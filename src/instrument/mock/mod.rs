@@ -12,9 +12,17 @@
 //!
 //! What it "sees" is a spectral radiance ([`MockHandle::set_truth`]); what it
 //! reports goes through the [`model::InstrumentModel`] (slit, noise, limits).
+//!
+//! The same pty, truth, noise model and faults also run a simulated PR-655
+//! or PR-670 ([`Personality::Pr655`]): its remote protocol with every
+//! behaviour that `shared/docs/pr655-670-protocol.md` §13 says a simulator
+//! should let one switch ([`Pr655Switches`]).
+
+pub use pr655_device::{AfterFailure, Pr655Switches, StrayTerminator};
 
 mod device;
 pub mod model;
+mod pr655_device;
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -212,9 +220,19 @@ pub enum BusyInput {
     Drop,
 }
 
-/// Everything about a simulated PR-650.
+/// Which instrument the simulator is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Personality {
+    /// The PR-650 (`shared/docs/pr650-protocol.md`).
+    Pr650,
+    /// A PR-655 or PR-670, with the protocol's uncertain behaviours chosen.
+    Pr655(Pr655Switches),
+}
+
+/// Everything about a simulated instrument (a PR-650 unless [`MockConfig::personality`] says otherwise).
 #[derive(Clone, Debug)]
 pub struct MockConfig {
+    pub personality: Personality,
     /// The radiance it is aimed at, W/(sr·m²·nm), any grid covering 380–780 nm.
     pub truth: Spectrum,
     /// Time scale: 1.0 = the real instrument's measurement and wire times, 0 = instant.
@@ -249,6 +267,7 @@ impl MockConfig {
     /// replies 12 s late (past the driver's default timeouts).
     pub fn new(truth: Spectrum) -> MockConfig {
         MockConfig {
+            personality: Personality::Pr650,
             truth,
             speed: 1.0,
             seed: 1,
@@ -264,6 +283,18 @@ impl MockConfig {
             flicker_hz: None,
             unsyncable: false,
             model: InstrumentModel::default(),
+        }
+    }
+
+    /// A simulated PR-655 or PR-670 with the default switches: the model's
+    /// grid and slit, and its statuses.
+    pub fn pr655(truth: Spectrum, switches: Pr655Switches) -> MockConfig {
+        let model = InstrumentModel::for_pr655(switches.model);
+        MockConfig {
+            personality: Personality::Pr655(switches),
+            model,
+            serial: "67065106".into(),
+            ..MockConfig::new(truth)
         }
     }
 }
@@ -327,9 +358,14 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
     let thread = {
         let shared = Arc::clone(&shared);
         let stop = Arc::clone(&stop);
-        std::thread::Builder::new()
-            .name("mock-pr650".into())
-            .spawn(move || device::Device::new(config, master, slave, shared, stop).run())?
+        match config.personality.clone() {
+            Personality::Pr650 => std::thread::Builder::new()
+                .name("mock-pr650".into())
+                .spawn(move || device::Device::new(config, master, slave, shared, stop).run())?,
+            Personality::Pr655(switches) => std::thread::Builder::new()
+                .name("mock-pr655".into())
+                .spawn(move || pr655_device::Device::new(config, switches, master, slave, shared, stop).run())?,
+        }
     };
     tracing::info!(device = %device_path.display(), "simulated PR-650 powered on");
     Ok(MockHandle {

@@ -62,6 +62,27 @@ impl Default for InstrumentModel {
     }
 }
 
+impl InstrumentModel {
+    /// The PR-655 or PR-670: its native grid, and a slit of twice its step
+    /// (8 nm, 4 nm: the PR-650's ratio; Photo Research quotes < 8 nm and
+    /// < 5 nm, and report 120's bandwidth field is 0.00, 12.15). The detector is
+    /// the PR-650's, with the shorter minimum exposure (3 or 6 ms).
+    pub fn for_pr655(model: crate::instrument::pr655::Model) -> InstrumentModel {
+        use crate::instrument::pr655::Model;
+        let grid = model.grid();
+        let (slit_fwhm_nm, min_integration_ms) = match model {
+            Model::Pr655 => (8.0, 3.0),
+            Model::Pr670 => (4.0, 6.0),
+        };
+        InstrumentModel {
+            grid,
+            slit_fwhm_nm,
+            min_integration_ms,
+            ..InstrumentModel::default()
+        }
+    }
+}
+
 /// What the instrument will do for a given target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reading {

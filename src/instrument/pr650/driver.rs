@@ -69,6 +69,7 @@ impl Pr650 {
             info: InstrumentInfo {
                 model: MODEL.into(),
                 serial: None,
+                firmware: None,
                 grid: Grid::pr650(),
             },
             capabilities: settings.capabilities(),

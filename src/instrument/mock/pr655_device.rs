@@ -1,0 +1,706 @@
+//! The simulated PR-655/PR-670's firmware: the byte-level state machine on
+//! the master end of the pty, after `shared/docs/pr655-670-protocol.md`.
+//! Every behaviour the sheet leaves uncertain is a switch in
+//! [`Pr655Switches`] (its section 13); the defaults are the first choice
+//! listed there.
+//!
+//! - Local mode ignores every byte but the `PHOTO` sequence; strict mode
+//!   takes its letters only one per read (a burst is ignored, 13.2).
+//! - The banner ` REMOTE MODE` has no line end and comes after a latency.
+//! - Commands end in CR (optionally LF), upper case (optionally any case);
+//!   an unknown one is `-1000`; `Q` leaves remote mode at once, no reply.
+//! - Replies come in one burst at USB speed, CR LF per line, status first.
+//! - Measurements go through the same [`super::model::InstrumentModel`] as
+//!   the PR-650's (on this model's grid and slit): its low light is `-8`,
+//!   its overload `-2`; a sync failure is `-10`.
+
+use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use serialport::{SerialPort, TTYPort};
+
+use super::model::Rng;
+use super::{lock, BusyInput, Fault, FaultKind, FaultRate, MockConfig, Shared};
+use crate::colorimetry::{xyz_from_radiance, Observer};
+use crate::instrument::pr655::protocol::{self as wire, LineStyle, Model, StatusStyle};
+use crate::spectrum::{SpectralUnit, Spectrum};
+
+/// Read slice of the simulator: how often it checks for stop and power-cycle requests.
+const POLL: Duration = Duration::from_millis(10);
+
+/// What a stray CR or LF right after `PHOTO` produces (13.2, 12.3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StrayTerminator {
+    #[default]
+    Ignore,
+    /// An empty CR LF line.
+    EmptyLine,
+    /// `-1000` (illegal command).
+    IllegalCommand,
+}
+
+/// What `D⟨code⟩` answers after a failed measurement (12.9, 13.9).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AfterFailure {
+    /// The failed measurement's status alone.
+    #[default]
+    Error,
+    /// The last good measurement's data, as the PR-650 does.
+    Stale,
+    /// `-2000`: no such data.
+    NoData,
+}
+
+/// The behaviours of section 13 the sources disagree on, each selectable.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Pr655Switches {
+    /// 13.1: which model (grid, exposure range, PR-670-only setup commands).
+    pub model: Model,
+    /// 13.2: `PHOTO` letters count only when each arrives in its own read.
+    pub strict_photo: bool,
+    /// 13.2: time from the last `O` to the banner, ms of wall time (not
+    /// scaled by speed, so a late banner, 13.10, is late at any speed).
+    pub banner_latency_ms: u64,
+    /// 13.10: no banner at all (the unit does not answer `PHOTO`).
+    pub no_banner: bool,
+    /// 13.2: a stray CR/LF after `PHOTO`.
+    pub stray_terminator: StrayTerminator,
+    /// 13.2: a second `PHOTO` while in remote mode gets no banner (the PR-670's way).
+    pub photo_only_once: bool,
+    /// 13.4: LF ends a command as well as CR.
+    pub accept_lf: bool,
+    /// 13.4: lower-case commands are accepted.
+    pub case_insensitive: bool,
+    /// 13.5: `00000`/`-0008` or `0000`/`-8`.
+    pub status_style: StatusStyle,
+    /// 13.8: the 16th byte of a spectral line.
+    pub line_style: LineStyle,
+    /// 13.9: `D` after a failed measurement.
+    pub after_failure: AfterFailure,
+    /// The status of an [`FaultKind::ErrorCode`] measurement (13.9: −8, −2, −1, −10, −12).
+    pub error_status: i32,
+    /// What `D114` answers.
+    pub firmware: String,
+}
+
+impl Default for Pr655Switches {
+    fn default() -> Pr655Switches {
+        Pr655Switches::for_model(Model::Pr655)
+    }
+}
+
+impl Pr655Switches {
+    /// The defaults of section 13 for `model` (a PR-670 answers `PHOTO` once).
+    pub fn for_model(model: Model) -> Pr655Switches {
+        Pr655Switches {
+            model,
+            strict_photo: true,
+            banner_latency_ms: 300,
+            no_banner: false,
+            stray_terminator: StrayTerminator::Ignore,
+            photo_only_once: model == Model::Pr670,
+            accept_lf: false,
+            case_insensitive: false,
+            status_style: StatusStyle::FiveDigits,
+            line_style: LineStyle::TrailingSpace,
+            after_failure: AfterFailure::Error,
+            error_status: -8,
+            firmware: "2.22D".into(),
+        }
+    }
+}
+
+/// One measurement, as the `D` reports resend it.
+#[derive(Clone, Debug)]
+struct Stored {
+    status: i32,
+    values: Vec<f64>,
+    /// CIE 1931 XYZ, Y in cd/m².
+    xyz: [f64; 3],
+    exposure_ms: f64,
+}
+
+/// The setup the unit keeps for the session (power-on defaults).
+#[derive(Clone, Copy, Debug)]
+struct Setup {
+    si_units: bool,
+    exposure_ms: u32,
+    cycles: u32,
+    observer: u32,
+    sync: u32,
+}
+
+impl Default for Setup {
+    fn default() -> Setup {
+        Setup {
+            si_units: false,
+            exposure_ms: 0,
+            cycles: 1,
+            observer: 2,
+            sync: 0,
+        }
+    }
+}
+
+pub(super) struct Device {
+    cfg: MockConfig,
+    sw: Pr655Switches,
+    port: Option<TTYPort>,
+    /// The device end kept open so the pty survives the host closing and reopening it.
+    keepalive: Option<TTYPort>,
+    shared: Arc<Mutex<Shared>>,
+    stop: Arc<AtomicBool>,
+    rng: Rng,
+    remote: bool,
+    /// Letters of `PHOTO` matched so far.
+    photo: usize,
+    /// The previous byte completed `PHOTO` (a CR/LF now is a stray terminator).
+    just_entered: bool,
+    echo: bool,
+    line: Vec<u8>,
+    setup: Setup,
+    /// The last measurement, and the last good one.
+    last: Option<Stored>,
+    last_good: Option<Stored>,
+}
+
+/// What a handler wants next.
+enum Next {
+    Continue,
+    /// A measurement ended; bytes received meanwhile are handled per [`BusyInput`].
+    AfterMeasurement,
+    Unplugged,
+}
+
+impl Device {
+    pub(super) fn new(
+        cfg: MockConfig,
+        sw: Pr655Switches,
+        port: TTYPort,
+        keepalive: TTYPort,
+        shared: Arc<Mutex<Shared>>,
+        stop: Arc<AtomicBool>,
+    ) -> Device {
+        let rng = Rng::new(cfg.seed);
+        Device {
+            cfg,
+            sw,
+            port: Some(port),
+            keepalive: Some(keepalive),
+            shared,
+            stop,
+            rng,
+            remote: false,
+            photo: 0,
+            just_entered: false,
+            echo: false,
+            line: Vec::new(),
+            setup: Setup::default(),
+            last: None,
+            last_good: None,
+        }
+    }
+
+    fn power_on(&mut self) {
+        tracing::info!(model = self.sw.model.name(), "simulated instrument: power cycle");
+        self.remote = false;
+        self.photo = 0;
+        self.just_entered = false;
+        self.echo = false;
+        self.line.clear();
+        self.setup = Setup::default();
+        self.last = None;
+        self.last_good = None;
+        let mut shared = lock(&self.shared);
+        shared.integration_ms = 0;
+        shared.link_dead = false;
+    }
+
+    pub(super) fn run(mut self) {
+        let mut buf = [0u8; 256];
+        while !self.stop.load(Ordering::Relaxed) {
+            if std::mem::take(&mut lock(&self.shared).power_cycle_requested) {
+                self.power_on();
+            }
+            let Some(port) = self.port.as_mut() else { break };
+            let _ = port.set_timeout(POLL);
+            let n = match port.read(&mut buf) {
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+                Err(e) => {
+                    tracing::debug!(error = %e, "simulated instrument: read failed");
+                    std::thread::sleep(POLL);
+                    continue;
+                }
+            };
+            if std::mem::take(&mut lock(&self.shared).power_cycle_requested) {
+                self.power_on();
+            }
+            if lock(&self.shared).link_dead {
+                continue; // silent until power-cycled
+            }
+            let burst = n > 1;
+            let mut i = 0;
+            while i < n {
+                match self.byte(buf[i], burst) {
+                    Next::Continue => i += 1,
+                    Next::AfterMeasurement => {
+                        i += 1;
+                        if self.cfg.busy_input == BusyInput::Drop {
+                            i = n;
+                            if let Some(port) = self.port.as_mut() {
+                                let _ = port.clear(serialport::ClearBuffer::Input);
+                            }
+                            self.line.clear();
+                        }
+                    }
+                    Next::Unplugged => return,
+                }
+            }
+        }
+    }
+
+    /// Feeds one byte of `PHOTO`; true when it completed the sequence.
+    fn photo_byte(&mut self, b: u8, burst: bool) -> bool {
+        if self.sw.strict_photo && burst {
+            self.photo = 0;
+            return false;
+        }
+        let b = if self.sw.case_insensitive {
+            b.to_ascii_uppercase()
+        } else {
+            b
+        };
+        if b == wire::REMOTE_ENTRY[self.photo] {
+            self.photo += 1;
+        } else {
+            self.photo = usize::from(b == wire::REMOTE_ENTRY[0]);
+        }
+        if self.photo == wire::REMOTE_ENTRY.len() {
+            self.photo = 0;
+            return true;
+        }
+        false
+    }
+
+    fn byte(&mut self, b: u8, burst: bool) -> Next {
+        if !self.remote {
+            // 13.3: local mode ignores everything but PHOTO.
+            tracing::trace!(byte = %(b as char).escape_debug(), burst, "simulated instrument in local mode");
+            if self.photo_byte(b, burst) {
+                self.enter_remote();
+            }
+            return Next::Continue;
+        }
+        if self.echo {
+            self.write(&[b]);
+        }
+        let just_entered = std::mem::take(&mut self.just_entered);
+        let ends_line = b == b'\r' || (b == b'\n' && self.sw.accept_lf);
+        if ends_line || b == b'\n' {
+            if just_entered && self.line.is_empty() {
+                match self.sw.stray_terminator {
+                    StrayTerminator::Ignore => {}
+                    StrayTerminator::EmptyLine => self.write(b"\r\n"),
+                    StrayTerminator::IllegalCommand => self.status_reply(-1000),
+                }
+                return Next::Continue;
+            }
+            if !ends_line || self.line.is_empty() {
+                return Next::Continue; // the LF of CR LF, or an LF that does not end commands
+            }
+            let line = std::mem::take(&mut self.line);
+            let next = self.command(&line);
+            if self.echo {
+                self.write(b">");
+            }
+            return next;
+        }
+        if self.line.len() < 256 {
+            self.line.push(b);
+        }
+        // `Q` needs no terminator (2.2); `PHOTO` again comes without one (13.2).
+        let upper = self.line.to_ascii_uppercase();
+        let upper = if self.sw.case_insensitive {
+            upper
+        } else {
+            self.line.clone()
+        };
+        if upper == b"Q" {
+            self.line.clear();
+            tracing::info!("simulated instrument: Q, back to local mode");
+            self.remote = false;
+            self.photo = 0;
+        } else if upper == wire::REMOTE_ENTRY && !(self.sw.strict_photo && burst) {
+            self.line.clear();
+            if self.sw.photo_only_once {
+                tracing::info!("simulated instrument: PHOTO again, in remote mode already: no reply");
+            } else {
+                self.enter_remote();
+            }
+        }
+        Next::Continue
+    }
+
+    fn enter_remote(&mut self) {
+        if self.sw.no_banner {
+            tracing::info!("simulated instrument: PHOTO, but the no-banner switch is on");
+            return;
+        }
+        self.sleep_ms(self.sw.banner_latency_ms as f64);
+        self.write(wire::BANNER);
+        self.remote = true;
+        self.just_entered = true;
+        self.line.clear();
+        tracing::info!(model = self.sw.model.name(), "simulated instrument in remote mode");
+    }
+
+    fn status_reply(&mut self, status: i32) {
+        let bytes = wire::format_status_reply(status, self.sw.status_style);
+        self.write(&bytes);
+    }
+
+    fn command(&mut self, raw: &[u8]) -> Next {
+        let text = String::from_utf8_lossy(raw).trim().to_string();
+        tracing::debug!(command = %text, "simulated instrument received");
+        if !self.sw.case_insensitive && text.bytes().any(|b| b.is_ascii_lowercase()) {
+            self.status_reply(-1000);
+            return Next::Continue;
+        }
+        let text = text.to_ascii_uppercase();
+        let (letter, args) = text.split_at(text.chars().next().map_or(0, char::len_utf8));
+        match letter {
+            "M" => {
+                let Ok(code) = args.parse::<u16>() else {
+                    self.status_reply(-1000);
+                    return Next::Continue;
+                };
+                if !self.measure() {
+                    return Next::Unplugged;
+                }
+                if code == 0 {
+                    let status = self.last.as_ref().map_or(0, |s| s.status);
+                    self.status_reply(status);
+                } else {
+                    self.report(code, true);
+                }
+                return Next::AfterMeasurement;
+            }
+            "D" => match args.parse::<u16>() {
+                Ok(code) => self.report(code, false),
+                Err(_) => self.status_reply(-1000),
+            },
+            "S" => {
+                let status = self.set(args);
+                self.status_reply(status);
+            }
+            "F" => match self.cfg.flicker_hz {
+                Some(hz) => {
+                    let reply = format!(
+                        "{},{hz:.2} Hertz (Period = {:.0} milliseconds)\r\n",
+                        wire::format_status(0, self.sw.status_style),
+                        1000.0 / hz
+                    );
+                    self.write(reply.as_bytes());
+                }
+                None => self.status_reply(-3),
+            },
+            "I" => self.status_reply(0),
+            "E" => {
+                tracing::warn!("simulated instrument: echo on (a driver should never send E)");
+                self.echo = true;
+            }
+            _ => self.status_reply(-1000),
+        }
+        Next::Continue
+    }
+
+    /// One `S⟨letter⟩⟨value⟩`: the status to answer (section 5, 7).
+    fn set(&mut self, args: &str) -> i32 {
+        let (letter, value) = args.split_at(args.chars().next().map_or(0, char::len_utf8));
+        let Ok(v) = value.trim().parse::<u32>() else {
+            return -1001;
+        };
+        let pr670 = self.sw.model == Model::Pr670;
+        match letter {
+            "U" if v <= 1 => self.setup.si_units = v == 1,
+            "U" => return -1009,
+            "E" if v == 0 || self.sw.model.exposure_range_ms().contains(&v) => {
+                self.setup.exposure_ms = v;
+                lock(&self.shared).integration_ms = v;
+            }
+            "E" => return -1010,
+            "N" if (1..=99).contains(&v) => self.setup.cycles = v,
+            "N" => return -1012,
+            "O" if v == 2 || v == 10 => self.setup.observer = v,
+            "O" => return -1015,
+            "S" if matches!(v, 0 | 1 | 3) => self.setup.sync = v,
+            "S" => return -1019,
+            "K" if (20..=400).contains(&v) => {}
+            "K" => return -1023,
+            "F" | "H" | "G" | "D" if !pr670 => return -1035,
+            "F" if v <= 3 => {}
+            "F" => return -1008,
+            "H" if v <= 1 => {}
+            "H" => return -1026,
+            "G" if v <= 3 => {}
+            "G" => return -1011,
+            "D" if v <= 1 => {}
+            "D" => return -1017,
+            _ => return -1000,
+        }
+        0
+    }
+
+    /// One measurement (cycles × exposure). Returns false if the cable was pulled.
+    fn measure(&mut self) -> bool {
+        let truth = lock(&self.shared).truth_1nm.clone();
+        let reading = match self.cfg.model.reading(&truth, self.setup.exposure_ms) {
+            Ok(r) => r,
+            Err(e) => {
+                tracing::error!(error = %e, "simulated instrument: cannot model the target");
+                return true;
+            }
+        };
+        if self.fires(FaultKind::CablePull) {
+            self.sleep_scaled(reading.duration_ms / 2.0);
+            tracing::info!("simulated instrument: USB cable pulled");
+            lock(&self.shared).unplugged = true;
+            self.port = None;
+            self.keepalive = None;
+            return false;
+        }
+        self.sleep_scaled(reading.duration_ms * f64::from(self.setup.cycles));
+        let mut status = match reading.code {
+            0 => 0,
+            19 => -2,
+            _ => -8,
+        };
+        if self.setup.sync == 1 && self.cfg.unsyncable {
+            status = -10;
+        }
+        if self.fires(FaultKind::ErrorCode) {
+            status = self.sw.error_status;
+        }
+        let stored = if status == 0 {
+            // Averaging `cycles` readings divides the noise by √cycles.
+            let cycles = f64::from(self.setup.cycles.max(1));
+            let mut values = vec![0.0; reading.expected.len()];
+            for _ in 0..self.setup.cycles.max(1) {
+                for (acc, v) in values.iter_mut().zip(self.cfg.model.sample(&reading, &mut self.rng)) {
+                    *acc += v / cycles;
+                }
+            }
+            let xyz = Spectrum::new(
+                self.cfg.model.grid.clone(),
+                SpectralUnit::SpectralRadiance,
+                values.clone(),
+            )
+            .ok()
+            .and_then(|s| xyz_from_radiance(&s, Observer::Cie1931).ok())
+            .map_or([0.0; 3], |x| x.to_array());
+            Stored {
+                status,
+                values,
+                xyz,
+                exposure_ms: reading.integration_ms,
+            }
+        } else {
+            Stored {
+                status,
+                values: Vec::new(),
+                xyz: [0.0; 3],
+                exposure_ms: reading.integration_ms,
+            }
+        };
+        if status == 0 {
+            self.last_good = Some(stored.clone());
+        }
+        self.last = Some(stored);
+        lock(&self.shared).measurements += 1;
+        true
+    }
+
+    /// The measurement report `code` describes: per 13.9 after a failure.
+    fn report_source(&self) -> Result<Stored, i32> {
+        match (&self.last, self.sw.after_failure) {
+            (None, _) => Err(-2000),
+            (Some(s), _) if s.status == 0 => Ok(s.clone()),
+            (Some(s), AfterFailure::Error) => Err(s.status),
+            (Some(_), AfterFailure::NoData) => Err(-2000),
+            (Some(s), AfterFailure::Stale) => self.last_good.clone().ok_or(s.status),
+        }
+    }
+
+    /// Report `code`; `fresh` when it follows this very measurement (`M`),
+    /// whose failure is then always its own status.
+    fn report(&mut self, code: u16, fresh: bool) {
+        let style = self.sw.status_style;
+        let model = self.sw.model;
+        match code {
+            wire::REPORT_SERIAL => return self.write(&wire::format_text_report(&self.cfg.serial.clone(), style)),
+            wire::REPORT_MODEL => return self.write(&wire::format_text_report(model.name(), style)),
+            wire::REPORT_FIRMWARE => return self.write(&wire::format_text_report(&self.sw.firmware.clone(), style)),
+            wire::REPORT_HARDWARE => return self.write(&wire::format_hardware_config(model, style)),
+            wire::REPORT_SETUP_TEXT => {
+                let s = self.setup;
+                let text = format!(
+                    "MS-75,None,None,None,1 deg,{},{},{} msec,Normal,{} cycles,{} deg,No Smart Dark,{},Standard Sensitivity,60.00 Hertz",
+                    if s.si_units { "SI" } else { "English" },
+                    if s.exposure_ms == 0 { "Adaptive" } else { "Fixed" },
+                    s.exposure_ms,
+                    s.cycles,
+                    s.observer,
+                    match s.sync {
+                        1 => "Auto Sync",
+                        3 => "User Sync",
+                        _ => "No Sync",
+                    }
+                );
+                return self.write(&wire::format_text_report(&text, style));
+            }
+            _ => {}
+        }
+        let source = if fresh {
+            match &self.last {
+                Some(s) if s.status != 0 => Err(s.status),
+                Some(s) => Ok(s.clone()),
+                None => Err(-2000),
+            }
+        } else {
+            self.report_source()
+        };
+        let stored = match source {
+            Ok(s) => s,
+            Err(status) => return self.status_reply(status),
+        };
+        // Y in cd/m² after SU1, in fL after SU0 (1 fL = 3.426 cd/m²).
+        let scale = if self.setup.si_units { 1.0 } else { 1.0 / 3.426_259 };
+        let [x, y, z] = stored.xyz.map(|v| v * scale);
+        let status = wire::format_status(0, style);
+        match code {
+            1 => {
+                let sum = x + y + z;
+                let (cx, cy) = if sum > 0.0 { (x / sum, y / sum) } else { (0.0, 0.0) };
+                let reply = format!("{status},0,{},{cx:.4},{cy:.4}\r\n", wire::format_float(y, 2));
+                self.write(reply.as_bytes());
+            }
+            wire::REPORT_XYZ => {
+                self.write(&wire::format_xyz_report([x, y, z], style));
+                if self.fires(FaultKind::Stale) {
+                    // Lands in the host's buffer before its next command.
+                    self.write(b"00000,0,5.440e+002,1.8");
+                }
+            }
+            13 => {
+                let reply = format!("{status},Normal,{:.0} msec\r\n", stored.exposure_ms);
+                self.write(reply.as_bytes());
+            }
+            wire::REPORT_SPECTRUM => {
+                let grid = model.grid();
+                let mut bytes = wire::format_spectral_report(&grid, &stored.values, style, self.sw.line_style);
+                if self.fires(FaultKind::NoAnswer) {
+                    return;
+                }
+                if let Some(slow) = self.fired(FaultKind::Slow) {
+                    self.sleep_ms(slow.delay_ms.unwrap_or(self.cfg.slow_ms) as f64);
+                }
+                if self.fires(FaultKind::Garble) {
+                    self.garble(&mut bytes);
+                }
+                if self.fires(FaultKind::DoubleCrlf) {
+                    let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+                    bytes.splice(header_end..header_end, *b"\r\n");
+                }
+                if self.fires(FaultKind::Truncate) {
+                    bytes.truncate(bytes.len() / 2);
+                }
+                if self.fires(FaultKind::LinkDies) {
+                    bytes.truncate(bytes.len() / 2);
+                    self.write(&bytes);
+                    tracing::info!("simulated instrument: the link died mid-reply; silent until power-cycled");
+                    lock(&self.shared).link_dead = true;
+                    return;
+                }
+                self.write(&bytes);
+            }
+            _ => self.status_reply(-2000),
+        }
+    }
+
+    /// Line noise in the data lines: characters that cannot be part of a report.
+    fn garble(&mut self, bytes: &mut [u8]) {
+        const NOISE: &[u8] = b"#?~\x7f\xff\x00\xa5";
+        let start = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+        for _ in 0..3 {
+            if bytes.len() <= start {
+                break;
+            }
+            let i = start + (self.rng.next_u32() as usize) % (bytes.len() - start);
+            if bytes[i].is_ascii_digit() || bytes[i] == b'.' || bytes[i] == b',' {
+                bytes[i] = NOISE[(self.rng.next_u32() as usize) % NOISE.len()];
+            } else {
+                bytes[i.saturating_sub(1)] = b'#';
+            }
+        }
+    }
+
+    fn fires(&mut self, kind: FaultKind) -> bool {
+        self.fired(kind).is_some()
+    }
+
+    /// The fault of `kind` that fires now, if any (each matching fault is counted down).
+    fn fired(&mut self, kind: FaultKind) -> Option<Fault> {
+        let mut shared = lock(&self.shared);
+        let mut first = None;
+        for fault in shared.faults.iter_mut().filter(|f| f.kind == kind) {
+            let fires = match &mut fault.rate {
+                FaultRate::Always => true,
+                FaultRate::Probability(p) => self.rng.uniform() < *p,
+                FaultRate::Times(n) if *n > 0 => {
+                    *n -= 1;
+                    true
+                }
+                FaultRate::Times(_) => false,
+            };
+            if fires && first.is_none() {
+                first = Some(*fault);
+            }
+        }
+        if first.is_some() {
+            tracing::info!(?kind, "simulated instrument: injecting fault");
+        }
+        first
+    }
+
+    fn sleep_scaled(&self, ms: f64) {
+        self.sleep_ms(ms * self.cfg.speed);
+    }
+
+    fn sleep_ms(&self, ms: f64) {
+        let end = Instant::now() + Duration::from_secs_f64(ms.max(0.0) / 1000.0);
+        while !self.stop.load(Ordering::Relaxed) {
+            let now = Instant::now();
+            if now >= end {
+                break;
+            }
+            std::thread::sleep((end - now).min(POLL));
+        }
+    }
+
+    /// The whole reply in one burst: USB, not 9600 baud (section 9).
+    fn write(&mut self, bytes: &[u8]) {
+        let Some(port) = self.port.as_mut() else { return };
+        let _ = port.set_timeout(Duration::from_millis(500));
+        if let Err(e) = port.write_all(bytes).and_then(|_| port.flush()) {
+            tracing::debug!(error = %e, "simulated instrument: host not reading; reply dropped");
+            return;
+        }
+        lock(&self.shared).last_byte_at = Some(Instant::now());
+    }
+}

@@ -1,0 +1,468 @@
+//! A PR-655/PR-670 session: open the USB serial port, enter remote mode,
+//! identify, set up, and take single samples as `M5` (measure, send the
+//! spectrum) followed by `D2` (the same measurement's XYZ). The averaging
+//! loop above it is [`crate::instrument::averaging`], shared by every model.
+//!
+//! Practice from `shared/docs/pr655-670-protocol.md` that this follows:
+//! - remote mode as the working clients enter it (section 0): `Q` first on
+//!   the PR-670 (it answers `PHOTO` only once), then `P`,`H`,`O`,`T`,`O` as
+//!   five separate writes with no terminator, then the 12-byte banner
+//!   ` REMOTE MODE`, read until 12 bytes or idle since it has no line end;
+//! - the unit is identified before it is trusted (11.5): `D111` must name
+//!   the model the settings file names, then `D110` (serial), `D114`
+//!   (firmware), `D120` (grid) and `D602` (setup, logged);
+//! - the input buffer is flushed before every command; commands end in CR;
+//! - an error status comes alone (3.2): a sample with that code and no
+//!   spectrum, never stale data;
+//! - values stay per nm on the native grid (8.2), never multiplied by the step;
+//! - only `M5` waits for a whole measurement; every other command waits
+//!   `command_timeout_ms` for its first byte, and a reply that stops
+//!   mid-way is cut off after `gap_timeout_ms`. After a link fault the port
+//!   is resynchronised (drain, `D111` ping, drain), so a dead link is
+//!   reported [`InstrumentError::Unresponsive`] within `gap + resync quiet +
+//!   command timeout` of its last byte (5.2 s with the shipped settings).
+//!   The ping waits a whole measurement only after an `M5` that was
+//!   cancelled or timed out, when the unit may still be measuring;
+//! - `Q` leaves remote mode when the session ends.
+
+use std::time::{Duration, SystemTime};
+
+use crate::instrument::transport::SerialLink;
+use crate::instrument::{
+    CancelToken, Capabilities, InstrumentError, InstrumentInfo, QualityCode, QualityKind, Sample, Spectroradiometer,
+    WaitPhase,
+};
+use crate::spectrum::{SpectralUnit, Spectrum};
+
+use super::protocol::{self, Command, Model, ProtocolError, SetupParam};
+use super::Pr655Settings;
+
+/// How long the PR-670 is left alone after `Q` before `PHOTO` (PTB: 0.5 s).
+const AFTER_QUIT: Duration = Duration::from_millis(500);
+
+/// A connected PR-655 or PR-670 in remote mode.
+pub struct Pr655 {
+    link: SerialLink,
+    settings: Pr655Settings,
+    model: Model,
+    info: InstrumentInfo,
+    capabilities: Capabilities,
+    /// Whether `SS1` is on (sync found by `F`).
+    synced: bool,
+    /// Set after a link fault or a cancel: the next command resynchronises first.
+    needs_resync: bool,
+    /// Set when an `M5` was cancelled: the unit may go on measuring, so the
+    /// resynchronisation ping may wait a whole measurement.
+    may_be_measuring: bool,
+    /// The command and error of the exchange that last failed.
+    last_fault: Option<(String, String)>,
+}
+
+impl Pr655 {
+    /// Opens `port`, enters remote mode, identifies the unit and sends the setup.
+    pub fn open(port: &str, settings: &Pr655Settings) -> Result<Pr655, InstrumentError> {
+        settings.validate().map_err(InstrumentError::Settings)?;
+        let model = settings.model();
+        let link = SerialLink::open(port, &settings.link())?;
+        let mut unit = Pr655 {
+            link,
+            settings: settings.clone(),
+            model,
+            info: InstrumentInfo {
+                model: model.name().into(),
+                serial: None,
+                firmware: None,
+                grid: model.grid(),
+            },
+            capabilities: settings.capabilities(),
+            synced: false,
+            needs_resync: false,
+            may_be_measuring: false,
+            last_fault: None,
+        };
+        unit.enter_remote_mode()?;
+        unit.identify()?;
+        unit.send_setup()?;
+        tracing::info!(port, model = %unit.info.model, serial = ?unit.info.serial,
+            firmware = ?unit.info.firmware, grid = %unit.info.grid, "instrument ready");
+        Ok(unit)
+    }
+
+    /// Section 0 steps 2–4.
+    fn enter_remote_mode(&mut self) -> Result<(), InstrumentError> {
+        let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
+        if self.settings.quit_before_entry() {
+            tracing::info!(
+                model = self.model.name(),
+                "sending Q before PHOTO (the unit answers PHOTO only once)"
+            );
+            self.link.send_bytes_singly(b"Q", Duration::ZERO)?;
+            std::thread::sleep(AFTER_QUIT);
+        }
+        let attempts = self.settings.remote_mode_attempts;
+        let mut last_reply: Option<Vec<u8>> = None;
+        for attempt in 1..=attempts {
+            self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
+            self.link.flush_input()?;
+            tracing::info!(attempt, attempts, "PHOTO: entering remote mode");
+            self.link.send_bytes_singly(
+                &protocol::REMOTE_ENTRY,
+                Duration::from_millis(self.settings.remote_entry_delay_ms),
+            )?;
+            match self.link.read_unterminated(
+                "PHOTO",
+                protocol::BANNER.len(),
+                Duration::from_millis(self.settings.banner_timeout_ms),
+                quiet,
+                &CancelToken::new(),
+            ) {
+                Ok(reply) if protocol::is_banner(&reply) => {
+                    // A CR LF after the banner (as on the PR-705) must not be taken as a reply.
+                    self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
+                    tracing::info!(attempt, "in remote mode");
+                    return Ok(());
+                }
+                Ok(reply) => {
+                    tracing::warn!(attempt, reply = %String::from_utf8_lossy(&reply).escape_debug(), "not the banner");
+                    last_reply = Some(reply);
+                }
+                Err(InstrumentError::Timeout { .. }) => tracing::warn!(attempt, "no banner"),
+                Err(e) => return Err(e),
+            }
+        }
+        match last_reply {
+            Some(reply) => Err(InstrumentError::Protocol {
+                command: "PHOTO".into(),
+                detail: protocol::parse_banner(&reply)
+                    .err()
+                    .map(|e| e.to_string())
+                    .unwrap_or_default(),
+            }),
+            None => Err(InstrumentError::NoBanner {
+                model: self.model.name(),
+                attempts,
+                waited_ms: self.settings.banner_timeout_ms,
+            }),
+        }
+    }
+
+    /// Flush, send, read: one command and its whole reply.
+    fn exchange(
+        &mut self,
+        command: Command,
+        first_byte_timeout: Duration,
+        cancel: &CancelToken,
+    ) -> Result<Vec<u8>, InstrumentError> {
+        let text = command.text();
+        let grid_len = self.info.grid.len();
+        let result = (|| {
+            self.link.flush_input()?;
+            tracing::debug!(command = %text, "→ instrument");
+            self.link.send(&text)?;
+            self.link.read_reply_sized(
+                &text,
+                &|first| command.reply_lines(first, grid_len),
+                first_byte_timeout,
+                self.settings.gap_timeout(),
+                cancel,
+            )
+        })();
+        let is_measure = matches!(command, Command::Measure(_));
+        // Silence to an ordinary command means nobody is listening; after `M5`
+        // it may just be a long measurement.
+        let result = match result {
+            Err(InstrumentError::Timeout {
+                command,
+                phase: WaitPhase::FirstByte,
+                waited_ms,
+            }) if !is_measure => Err(InstrumentError::NoReply { command, waited_ms }),
+            other => other,
+        };
+        match &result {
+            Ok(reply) => tracing::debug!(command = %text, bytes = reply.len(), "← instrument"),
+            Err(e) => {
+                tracing::debug!(command = %text, error = %e, "exchange failed");
+                if e.is_retryable_link_fault() || matches!(e, InstrumentError::Cancelled) {
+                    self.needs_resync = true;
+                    self.last_fault = Some((text.clone(), e.to_string()));
+                }
+                // A cancelled or timed-out `M5`: the unit may still be measuring.
+                if is_measure && matches!(e, InstrumentError::Cancelled | InstrumentError::Timeout { .. }) {
+                    self.may_be_measuring = true;
+                }
+            }
+        }
+        result
+    }
+
+    fn protocol_error(&mut self, command: Command, e: ProtocolError) -> InstrumentError {
+        self.needs_resync = true;
+        let e = InstrumentError::Protocol {
+            command: command.text(),
+            detail: e.to_string(),
+        };
+        self.last_fault = Some((command.text(), e.to_string()));
+        e
+    }
+
+    /// A one-line text report; an error status is a typed refusal.
+    fn text_report(&mut self, code: u16) -> Result<String, InstrumentError> {
+        let command = Command::Report(code);
+        let reply = self.exchange(command, self.settings.command_timeout(), &CancelToken::new())?;
+        match protocol::parse_text_report(&reply) {
+            Ok(Ok(text)) => Ok(text),
+            Ok(Err(status)) => Err(InstrumentError::Refused {
+                command: command.text(),
+                code: protocol::quality_code(status),
+            }),
+            Err(e) => Err(self.protocol_error(command, e)),
+        }
+    }
+
+    /// `D111` must name the configured model (11.5: a wrong port may answer
+    /// anything); `D110`, `D114`, `D120` and `D602` are informative.
+    fn identify(&mut self) -> Result<(), InstrumentError> {
+        let name = self.text_report(protocol::REPORT_MODEL)?;
+        match Model::from_name(&name) {
+            Some(found) if found == self.model => {}
+            Some(found) => {
+                return Err(InstrumentError::Settings(format!(
+                    "the instrument on this port says it is a {}, but the settings file is for the {}: \
+                     use instruments/{}.toml",
+                    found.name(),
+                    self.model.name(),
+                    found.name().to_ascii_lowercase().replace('-', "")
+                )))
+            }
+            None => {
+                return Err(InstrumentError::Protocol {
+                    command: "D111".into(),
+                    detail: format!(
+                        "the model reply `{}` is neither PR-655 nor PR-670; is this the instrument's port?",
+                        name.escape_debug()
+                    ),
+                })
+            }
+        }
+        // PTB keeps the first 8 characters of a serial that "may contain trailing blanks".
+        match self.text_report(protocol::REPORT_SERIAL) {
+            Ok(serial) => self.info.serial = Some(serial.chars().take(8).collect::<String>().trim().to_string()),
+            Err(e) => tracing::warn!(error = %e, "no serial number"),
+        }
+        match self.text_report(protocol::REPORT_FIRMWARE) {
+            Ok(version) => self.info.firmware = Some(version),
+            Err(e) => tracing::warn!(error = %e, "no firmware version"),
+        }
+        let command = Command::Report(protocol::REPORT_HARDWARE);
+        match self.exchange(command, self.settings.command_timeout(), &CancelToken::new()) {
+            Ok(reply) => match protocol::parse_hardware_config(&reply) {
+                Ok(Ok(config)) if config.grid().as_ref() == Some(&self.info.grid) => {
+                    tracing::info!(grid = %self.info.grid, "hardware configuration confirms the native grid")
+                }
+                // The grid is confirmed by every client (8, [C]); report 120 only by the manual.
+                Ok(Ok(config)) => tracing::warn!(?config, grid = %self.info.grid,
+                    "report 120 disagrees with the model's grid; keeping the model's"),
+                Ok(Err(status)) => tracing::warn!(status, "no hardware configuration"),
+                Err(e) => tracing::warn!(error = %e, "unreadable hardware configuration"),
+            },
+            Err(e) => tracing::warn!(error = %e, "no hardware configuration"),
+        }
+        match self.text_report(protocol::REPORT_SETUP_TEXT) {
+            Ok(_) => {}
+            Err(e) => tracing::warn!(error = %e, "no setup report"),
+        }
+        if self.needs_resync {
+            self.resync(&CancelToken::new())?;
+        }
+        Ok(())
+    }
+
+    /// One setup command; a non-zero status is a typed refusal.
+    fn set(&mut self, param: SetupParam, cancel: &CancelToken) -> Result<(), InstrumentError> {
+        let command = Command::Setup(param);
+        let reply = self.exchange(command, self.settings.command_timeout(), cancel)?;
+        let status = protocol::parse_status_reply(&reply).map_err(|e| self.protocol_error(command, e))?;
+        tracing::info!(setup = %command.text(), status, "setup");
+        if status != 0 {
+            return Err(InstrumentError::Refused {
+                command: command.text(),
+                code: protocol::quality_code(status),
+            });
+        }
+        Ok(())
+    }
+
+    /// SI units, the exposure, one cycle per measurement (lightbooth
+    /// averages itself and keeps every sample), the 2° observer, sync.
+    fn send_setup(&mut self) -> Result<(), InstrumentError> {
+        let cancel = CancelToken::new();
+        self.set(SetupParam::Units(1), &cancel)?;
+        self.set(SetupParam::Exposure(self.settings.exposure_ms), &cancel)?;
+        self.set(SetupParam::Cycles(1), &cancel)?;
+        self.set(SetupParam::Observer(2), &cancel)?;
+        self.set(SetupParam::Sync(0), &cancel)?;
+        if self.settings.sync {
+            // PTB and BrainardLab: `F` first, `SS1` only when it found a frequency.
+            let reply = self.exchange(Command::SyncFrequency, self.settings.measure_timeout(), &cancel)?;
+            match protocol::parse_sync_frequency(&reply) {
+                Ok((_, Some(hz))) => {
+                    tracing::info!(hz, "source flicker found; measuring with sync");
+                    self.set(SetupParam::Sync(1), &cancel)?;
+                    self.synced = true;
+                }
+                Ok((status, None)) => tracing::info!(status, "no sync frequency; measuring without sync"),
+                Err(e) => return Err(self.protocol_error(Command::SyncFrequency, e)),
+            }
+        }
+        Ok(())
+    }
+
+    /// After a fault or cancel: wait out whatever the unit is still sending,
+    /// ping it with `D111` until its answer comes back, then drain again.
+    fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
+        tracing::info!("resynchronising");
+        let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
+        self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
+        self.link.flush_input()?;
+        let ping = Command::Report(protocol::REPORT_MODEL).text();
+        self.link.send(&ping)?;
+        let silence = if self.may_be_measuring {
+            self.settings.measure_timeout()
+        } else {
+            self.settings.command_timeout()
+        };
+        let name = self.model.name();
+        let is_answer = |line: &[u8]| matches!(protocol::parse_text_report(line), Ok(Ok(ref m)) if m == name);
+        match self
+            .link
+            .read_until_line(&ping, &is_answer, silence, self.settings.measure_timeout(), cancel)
+        {
+            Ok(()) => {}
+            Err(InstrumentError::Timeout {
+                command,
+                phase: WaitPhase::FirstByte,
+                waited_ms,
+            }) => {
+                let (after, reason) = self
+                    .last_fault
+                    .clone()
+                    .unwrap_or_else(|| ("?".into(), "an earlier fault".into()));
+                return Err(InstrumentError::Unresponsive {
+                    after,
+                    reason,
+                    command,
+                    waited_ms,
+                });
+            }
+            Err(e) => return Err(e),
+        }
+        self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
+        self.needs_resync = false;
+        self.may_be_measuring = false;
+        self.last_fault = None;
+        tracing::info!("back in step");
+        Ok(())
+    }
+
+    /// One measurement: `M5` (the spectrum), then `D2` of the same measurement.
+    pub fn measure_once(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        if self.needs_resync {
+            self.resync(cancel)?;
+        }
+        let m5 = Command::Measure(protocol::REPORT_SPECTRUM);
+        let reply = self.exchange(m5, self.settings.measure_timeout(), cancel)?;
+        let time = SystemTime::now();
+        let report = match protocol::parse_spectral_report(&reply, &self.info.grid) {
+            Ok(Ok(report)) => report,
+            Ok(Err(status)) => {
+                let code = protocol::quality_code(status);
+                tracing::info!(index, code = code.code, "sample with an error status");
+                return Ok(Sample {
+                    index,
+                    time,
+                    code,
+                    radiance: None,
+                    luminance: None,
+                });
+            }
+            Err(e) => return Err(self.protocol_error(m5, e)),
+        };
+        let spectrum =
+            Spectrum::new(self.info.grid.clone(), SpectralUnit::SpectralRadiance, report.values).map_err(|e| {
+                InstrumentError::Protocol {
+                    command: m5.text(),
+                    detail: e.to_string(),
+                }
+            })?;
+
+        let d2 = Command::Report(protocol::REPORT_XYZ);
+        let reply = self.exchange(d2, self.settings.command_timeout(), cancel)?;
+        let luminance = match protocol::parse_xyz_report(&reply) {
+            Ok(Ok(xyz)) => Some(xyz.y),
+            // The spectrum came with a good status: an error to `D2` of the
+            // same measurement means the link or the unit is confused.
+            Ok(Err(status)) => {
+                return Err(self.protocol_error(
+                    d2,
+                    ProtocolError::Malformed {
+                        line: 1,
+                        text: protocol::format_status(status, protocol::StatusStyle::FiveDigits),
+                        expected: "the XYZ of the measurement whose spectrum just came",
+                    },
+                ))
+            }
+            Err(e) => return Err(self.protocol_error(d2, e)),
+        };
+        let code = protocol::quality_code(0);
+        tracing::info!(index, luminance_cd_m2 = ?luminance, "sample");
+        Ok(Sample {
+            index,
+            time,
+            code,
+            radiance: Some(spectrum),
+            luminance,
+        })
+    }
+
+    /// PTB: after a sync failure with sync on, measure without sync from now on.
+    fn react_to_code(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+        let sync_failure = code.kind == QualityKind::Sync || code.code == -1;
+        if sync_failure && self.synced {
+            tracing::info!(code = code.code, "sync failed; turning sync off");
+            self.set(SetupParam::Sync(0), cancel)?;
+            self.synced = false;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Pr655 {
+    /// Leaves remote mode (`Q`, no reply), so the unit's own keys work again.
+    fn drop(&mut self) {
+        if let Err(e) = self.link.send_bytes_singly(b"Q", Duration::ZERO) {
+            tracing::debug!(error = %e, "could not send Q on closing");
+        }
+    }
+}
+
+impl Spectroradiometer for Pr655 {
+    fn info(&self) -> &InstrumentInfo {
+        &self.info
+    }
+
+    fn capabilities(&self) -> &Capabilities {
+        &self.capabilities
+    }
+
+    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        self.measure_once(index, cancel)
+    }
+
+    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+        self.react_to_code(code, cancel)
+    }
+
+    fn quality_hint(&self, kind: QualityKind) -> &'static str {
+        protocol::quality_hint(kind)
+    }
+}
