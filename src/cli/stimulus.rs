@@ -171,7 +171,7 @@ pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
         (None, None)
     };
     let intended = Summary::of(&stim.delta_e00_intended);
-    let map_scale = (intended.max > 0.0).then_some(intended.max).unwrap_or(1.0);
+    let map_scale = if intended.max > 0.0 { intended.max } else { 1.0 };
     if let Some(map) = &args.map {
         write_delta_e_map(map, w, h, &stim.delta_e00_intended, map_scale).map_err(anyhow::Error::msg)?;
     }

@@ -101,13 +101,13 @@ pub fn resolve_pair(
             mean_true_delta_e00: true_de.iter().sum::<f64>() / n.max(1) as f64,
             shown_delta_e00: Vec::with_capacity(n),
         };
-        for i in 0..n {
+        for (i, &true_i) in true_de.iter().enumerate().take(n) {
             let differ = s.codes[i] != s.codes[n + i];
             let shown = delta_e00(white, s.shown[i], s.shown[n + i]);
             row.codes_differ += usize::from(differ);
-            if true_de[i] >= NEGLIGIBLE_DE00 {
+            if true_i >= NEGLIGIBLE_DE00 {
                 row.to_resolve += 1;
-                if differ && shown >= RESOLVED_FRACTION * true_de[i] {
+                if differ && shown >= RESOLVED_FRACTION * true_i {
                     row.resolved += 1;
                 } else {
                     row.unresolved += 1;

@@ -55,7 +55,7 @@ pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String>
         .attributes
         .other
         .iter()
-        .find(|(k, _)| k.to_string() == "lightbooth.observer")
+        .find(|(k, _)| k.as_slice() == b"lightbooth.observer")
         .and_then(|(_, v)| match v {
             AttributeValue::Text(t) => Some(t.to_string()),
             _ => None,
