@@ -122,9 +122,6 @@ fn write_profile(dir: &Path, profile: &DisplayProfile) -> PathBuf {
     // As GET /api/display-profiles/{id} returns it: the row around the profile.
     let row = serde_json::json!({"id": 1, "name": "simulated CRT", "created_at": 0.0, "note": "", "profile": profile});
     std::fs::write(&path, serde_json::to_string_pretty(&row).unwrap()).unwrap();
-    if let Ok(out) = std::env::var("LIGHTBOOTH_WRITE_PROFILE") {
-        std::fs::write(out, serde_json::to_string_pretty(&row).unwrap()).unwrap();
-    }
     path
 }
 
@@ -531,4 +528,70 @@ fn display_resolution_on_cylinder_reports_every_requested_depth() {
     );
     let svg = std::fs::read_to_string(&chart).unwrap();
     assert!(svg.contains("<svg") && svg.contains("nstep27"), "chart");
+}
+
+/// The README's flow: the profile calibrated in the daemon's browser page is
+/// read from the daemon's database while the daemon runs. Reading it must not
+/// run the store's start-up recovery (which marks running work interrupted).
+#[test]
+fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_interrupts_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let display = SimulatedDisplay::crt().unwrap();
+    let profile = exact_profile(&display);
+    let profile_path = write_profile(dir.path(), &profile);
+    let (image, _) = xyz_image(dir.path(), &display, None);
+    let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let (id, running) = rt.block_on(async {
+        let store = lightbooth::store::Store::open(&db).await.unwrap();
+        let id = store.insert_display_profile("simulated CRT", "", &profile).await.unwrap();
+        let running = store
+            .create_measurement(&lightbooth::store::NewMeasurement {
+                session_id: None,
+                scene: None,
+                target: None,
+                samples: 5,
+                settings_json: serde_json::json!({}),
+                note: "the daemon is measuring this".into(),
+            })
+            .await
+            .unwrap();
+        store.mark_running(running, None).await.unwrap();
+        (id, running)
+    });
+    let from_file = dir.path().join("file.png");
+    let from_db = dir.path().join("db.png");
+    let o = lightbooth(&[
+        "stimulus",
+        image.to_str().unwrap(),
+        "--display",
+        profile_path.to_str().unwrap(),
+        "--bits",
+        "10",
+        "--out",
+        from_file.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = lightbooth(&[
+        "stimulus",
+        image.to_str().unwrap(),
+        "--display-db",
+        &db,
+        "--display-id",
+        &id.to_string(),
+        "--bits",
+        "10",
+        "--out",
+        from_db.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_png16(&from_file), read_png16(&from_db));
+    let state = rt.block_on(async {
+        let store = lightbooth::store::Store::open_to_read(&db).await.unwrap();
+        store.get_measurement(running).await.unwrap().unwrap().summary.state
+    });
+    assert_eq!(state, lightbooth::store::MeasurementState::Running);
+    let o = lightbooth(&["stimulus", image.to_str().unwrap(), "--display-db", &db, "--display-id", "99"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no display profile 99"));
 }

@@ -104,7 +104,9 @@ pub fn load_profile(src: &ProfileSource) -> anyhow::Result<(DisplayProfile, Stri
     }
     let rt = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     let row = rt.block_on(async {
-        let store = lightbooth::store::Store::open(&db)
+        // Beside a running daemon (the profile was just calibrated in its
+        // browser page): no start-up recovery, which would interrupt its work.
+        let store = lightbooth::store::Store::open_to_read(&db)
             .await
             .with_context(|| format!("opening {db}"))?;
         store

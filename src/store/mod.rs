@@ -235,6 +235,15 @@ impl Store {
         }
     }
 
+    /// Opens the store to read from it beside a running daemon (`stimulus
+    /// --display-db`): never start-up recovery, on either engine, since the
+    /// daemon may be running the work a recovery would mark interrupted.
+    pub async fn open_to_read(url: &str) -> Result<Store, StoreError> {
+        Ok(Store {
+            engine: Engine::connect(url, SqliteSynchronous::Full).await?,
+        })
+    }
+
     /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
     /// compares FULL with NORMAL); ignored for PostgreSQL.
     pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
