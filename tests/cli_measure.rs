@@ -270,3 +270,51 @@ fn mock_pr650_with_stdin_closed_does_not_spin() {
         "the idle simulator used {used:.2} s of CPU in {wall:?} with stdin closed"
     );
 }
+
+/// The PR-655 and PR-670 end to end, as an operator runs them: `lightbooth
+/// mock-pr655|mock-pr670` in one process, `lightbooth measure --model …` in
+/// another. The spectrum comes on the model's own grid (101 or 201 points),
+/// per nm, and the JSON says which instrument took it.
+#[test]
+fn a_pr655_and_a_pr670_measure_from_the_command_line_on_their_own_grids() {
+    for (model, points, step) in [("pr655", 101, 4.0), ("pr670", 201, 2.0)] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+            .args([&format!("mock-{model}"), "--speed", "0", "--banner-latency-ms", "20"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let mock = Mock {
+            child,
+            path: line.trim().to_string(),
+        };
+        let (ok, stdout, stderr) = measure(&["--model", model, "--port", &mock.path, "--samples", "2", "--json"]);
+        assert!(ok, "{model}: {stderr}");
+        let v: Value = serde_json::from_str(&stdout).unwrap();
+        let nm: Vec<f64> = serde_json::from_value(v["wavelength_nm"].clone()).unwrap();
+        assert_eq!(nm.len(), points, "{model}");
+        assert_eq!((nm[0], nm[1] - nm[0], nm[points - 1]), (380.0, step, 780.0), "{model}");
+        let expected_model = if model == "pr655" { "PR-655" } else { "PR-670" };
+        assert_eq!(v["instrument"]["model"], expected_model);
+        assert_eq!(v["instrument"]["serial"], "67065106");
+        // D65 at ~100 cd/m² is the simulators' default target.
+        let y = v["Y"].as_f64().unwrap();
+        assert!((95.0..105.0).contains(&y), "{model}: Y = {y}");
+    }
+    // A --model that contradicts the settings file is refused by name.
+    let (ok, _, stderr) = measure(&[
+        "--model",
+        "pr670",
+        "--config",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/instruments/pr655.toml"),
+        "--port",
+        "/dev/null",
+    ]);
+    assert!(!ok);
+    assert!(stderr.contains("PR-655 settings file"), "{stderr}");
+}

@@ -541,10 +541,16 @@ fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_inter
     let profile_path = write_profile(dir.path(), &profile);
     let (image, _) = xyz_image(dir.path(), &display, None);
     let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
-    let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     let (id, running) = rt.block_on(async {
         let store = lightbooth::store::Store::open(&db).await.unwrap();
-        let id = store.insert_display_profile("simulated CRT", "", &profile).await.unwrap();
+        let id = store
+            .insert_display_profile("simulated CRT", "", &profile)
+            .await
+            .unwrap();
         let running = store
             .create_measurement(&lightbooth::store::NewMeasurement {
                 session_id: None,
@@ -591,7 +597,14 @@ fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_inter
         store.get_measurement(running).await.unwrap().unwrap().summary.state
     });
     assert_eq!(state, lightbooth::store::MeasurementState::Running);
-    let o = lightbooth(&["stimulus", image.to_str().unwrap(), "--display-db", &db, "--display-id", "99"]);
+    let o = lightbooth(&[
+        "stimulus",
+        image.to_str().unwrap(),
+        "--display-db",
+        &db,
+        "--display-id",
+        "99",
+    ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no display profile 99"));
 }

@@ -12,12 +12,15 @@ use lightbooth::spectrum::table::write_csv;
 
 #[derive(Args, Debug)]
 pub struct MeasureArgs {
-    /// Serial device of the PR-650 (e.g. /dev/ttyUSB0, or the path `mock-pr650` prints).
+    /// Serial device (a PR-650: /dev/ttyUSB0; a PR-655/PR-670: /dev/ttyACM0; or the path a `mock-…` command prints).
     #[arg(long)]
     port: Option<String>,
-    /// Instrument settings (see instruments/pr650.toml); defaults apply without it.
+    /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml); the model's defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
+    /// The instrument model: pr650, pr655 or pr670 (default: the --config file's, else pr650).
+    #[arg(long, value_parser = ["pr650", "pr655", "pr670"])]
+    model: Option<String>,
     /// Samples to average: 1 up to the model's limit (the PR-650's: 99).
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
     samples: Option<usize>,
@@ -105,8 +108,19 @@ impl From<&AveragedMeasurement> for MeasurementJson {
 pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     let mut settings = match &args.config {
         Some(path) => InstrumentSettings::from_toml_file(path)?,
-        None => InstrumentSettings::default(),
+        None => {
+            InstrumentSettings::defaults_for(args.model.as_deref().unwrap_or("pr650")).map_err(anyhow::Error::msg)?
+        }
     };
+    if let (Some(model), Some(path)) = (&args.model, &args.config) {
+        let wanted = InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?;
+        anyhow::ensure!(
+            wanted.capabilities().model == settings.capabilities().model,
+            "--model {model} but {} is a {} settings file: drop --model or use that model's file",
+            path.display(),
+            settings.capabilities().model
+        );
+    }
     settings.set_samples(args.samples, args.retries);
     settings.validate().map_err(|e| anyhow::anyhow!("bad settings: {e}"))?;
     let port = args

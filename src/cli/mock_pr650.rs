@@ -69,18 +69,18 @@ enum BeforeFirst {
     Silent,
 }
 
-fn parse_fault(s: &str) -> Result<Fault, String> {
+pub(super) fn parse_fault(s: &str) -> Result<Fault, String> {
     s.parse()
 }
 
 /// D65 scaled to about 100 cd/m², the default target.
-fn default_target() -> Spectrum {
+pub(super) fn default_target() -> Spectrum {
     let d65 = illuminant(Illuminant::D65);
     let values = d65.values().iter().map(|v| v * 1.4e-5).collect();
     Spectrum::new(d65.grid().clone(), SpectralUnit::SpectralRadiance, values).expect("D65 is a valid spectrum")
 }
 
-fn load_target(spec: &str) -> anyhow::Result<Spectrum> {
+pub(super) fn load_target(spec: &str) -> anyhow::Result<Spectrum> {
     let (path, column) = super::split_file_column(spec);
     let table = SpectraTable::read(Path::new(path))?;
     let column = match column {
@@ -142,6 +142,12 @@ pub fn run(args: MockPr650Args) -> anyhow::Result<()> {
              it. Ctrl-C stops it."
         ),
     }
+    power_switch(&mock, "the remote-mode window is open again")
+}
+
+/// Runs until Ctrl-C: Enter on stdin power-cycles the simulated unit
+/// (`message` says what that did); a pulled simulated cable ends it.
+pub(super) fn power_switch(mock: &lightbooth::instrument::mock::MockHandle, message: &str) -> anyhow::Result<()> {
     // Enter on stdin = power switch. At EOF (`</dev/null`, `nohup`, CI) the
     // reader thread ends and the unit simply stays on: stop listening then,
     // rather than polling a closed channel, which returns at once (a busy loop).
@@ -159,7 +165,7 @@ pub fn run(args: MockPr650Args) -> anyhow::Result<()> {
             match rx.recv_timeout(Duration::from_millis(200)) {
                 Ok(()) => {
                     mock.power_cycle();
-                    eprintln!("power-cycled: the remote-mode window is open again");
+                    eprintln!("power-cycled: {message}");
                 }
                 Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
                 Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => stdin_open = false,

@@ -7,6 +7,7 @@ mod color;
 mod display_resolution;
 mod measure;
 mod mock_pr650;
+mod mock_pr655;
 mod render;
 mod serve;
 mod stimulus;
@@ -32,11 +33,17 @@ enum Command {
     /// Analyses of spectra that do not need the instrument or the renderer.
     #[command(subcommand)]
     Analyze(analyze::AnalyzeCommand),
-    /// One averaged measurement from a PR-650 (real, or simulated by mock-pr650).
+    /// One averaged measurement from a PR-650, PR-655 or PR-670 (real, or simulated by mock-pr650/655/670).
     Measure(measure::MeasureArgs),
     /// A simulated PR-650 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr650")]
     MockPr650(mock_pr650::MockPr650Args),
+    /// A simulated PR-655 on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-pr655")]
+    MockPr655(mock_pr655::MockPr655Args),
+    /// A simulated PR-670 on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-pr670")]
+    MockPr670(mock_pr655::MockPr655Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
@@ -67,6 +74,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Analyze(cmd) => analyze::run(cmd),
         Command::Measure(args) => measure::run(args),
         Command::MockPr650(args) => mock_pr650::run(args),
+        Command::MockPr655(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr655),
+        Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Study(args) => study::run(args),

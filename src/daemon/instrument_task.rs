@@ -38,6 +38,8 @@ use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store};
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
 pub struct MockSettings {
+    /// Which instrument is simulated: the model the settings file names.
+    pub personality: crate::instrument::mock::Personality,
     pub speed: f64,
     pub faults: Vec<Fault>,
     pub cache_dir: PathBuf,
@@ -73,7 +75,11 @@ impl MockSlot {
     /// Powers a (new) simulated PR-650 on; returns its device path.
     fn power_on(&self) -> std::io::Result<String> {
         let shown = self.shown.lock().unwrap_or_else(|p| p.into_inner()).clone();
-        let mut config = MockConfig::new(shown.unwrap_or_else(default_truth));
+        let truth = shown.unwrap_or_else(default_truth);
+        let mut config = match &self.settings.personality {
+            crate::instrument::mock::Personality::Pr650 => MockConfig::new(truth),
+            crate::instrument::mock::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
+        };
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();
         // The daemon talks to it at once, so the 5 s remote window is kept as the real one is.

@@ -121,6 +121,7 @@ pub async fn run(
         renderer: Arc::clone(&renderer),
         settings: options.instrument.clone(),
         mock: options.mock.then(|| instrument_task::MockSettings {
+            personality: options.instrument.simulated_personality(),
             speed: options.mock_speed,
             faults: options.mock_faults.clone(),
             cache_dir: options.cache_dir.clone(),

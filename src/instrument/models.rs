@@ -63,6 +63,22 @@ impl InstrumentSettings {
         }
     }
 
+    /// The defaults of a model named as on the command line (`pr650`,
+    /// `pr655`, `pr670`; `PR-670` too).
+    pub fn defaults_for(model: &str) -> Result<InstrumentSettings, String> {
+        InstrumentSettings::from_toml_str(&format!("model = \"{}\"", model.escape_default()))
+    }
+
+    /// The simulated instrument that stands in for this model (`--mock`).
+    pub fn simulated_personality(&self) -> super::mock::Personality {
+        match self {
+            InstrumentSettings::Pr650(_) => super::mock::Personality::Pr650,
+            InstrumentSettings::Pr655(s) => {
+                super::mock::Personality::Pr655(super::mock::Pr655Switches::for_model(s.model()))
+            }
+        }
+    }
+
     /// What the model can do, with this file's samples and retries.
     pub fn capabilities(&self) -> Capabilities {
         match self {

@@ -52,20 +52,34 @@ impl Store {
     }
 }
 
+/// The native grids of the instruments lightbooth drives, by their length:
+/// 101 points at 4 nm from 380 nm (the PR-650 and the PR-655) and 201 at
+/// 2 nm (the PR-670). No two share a length, so a stored sample's length
+/// names its grid exactly.
+fn native_grid_of_length(len: usize) -> Option<Grid> {
+    use crate::instrument::pr655::Model;
+    [Grid::pr650(), Model::Pr655.grid(), Model::Pr670.grid()]
+        .into_iter()
+        .find(|g| g.len() == len)
+}
+
 /// The average of stored good samples `(index, time, radiance, Y)`. The
 /// store keeps sample spectra on the instrument's native grid without the
-/// grid itself; the PR-650's (380–780 nm at 4 nm, 101 points) is the only
-/// one lightbooth drives, so another length is an error, not a guess.
+/// grid itself; it is found from their length ([`native_grid_of_length`]),
+/// and any other length is an error, not a guess.
 fn partial_average(
     samples: Vec<(i64, f64, Vec<f64>, Option<f64>)>,
 ) -> Result<crate::instrument::AveragedMeasurement, String> {
-    let grid = Grid::pr650();
+    let len = samples.first().map_or(0, |s| s.2.len());
+    let grid = native_grid_of_length(len).ok_or_else(|| {
+        format!("stored samples have {len} spectral values: no instrument lightbooth drives has that grid (101 or 201 points)")
+    })?;
     let samples = samples
         .into_iter()
         .map(|(index, time, values, luminance)| {
             if values.len() != grid.len() {
                 return Err(format!(
-                    "sample {index} has {} spectral values, not the PR-650's {}",
+                    "sample {index} has {} spectral values, not the {} of the series' first sample",
                     values.len(),
                     grid.len()
                 ));
@@ -86,7 +100,7 @@ fn partial_average(
         })
         .collect::<Result<Vec<_>, String>>()?;
     let info = InstrumentInfo {
-        model: "PR-650".into(),
+        model: "stored samples".into(),
         serial: None,
         firmware: None,
         grid,
