@@ -235,14 +235,15 @@ async function loadMeasurements(openId) {
   const named = page.items.find((m) => m.observer);
   $("observer-note").textContent = named
     ? `x, y: computed by lightbooth from each spectrum with the ${observerName(named.observer)} observer ` +
-      "(the daemon's --observer); the PR-650's own CIE 1931 x, y are on each measurement's page."
+      "(the daemon's --observer); the instrument's own CIE 1931 x, y are on each measurement's page."
     : "";
   const tbody = document.querySelector("#measurement-table tbody");
   tbody.innerHTML = "";
   for (const m of page.items) {
     const tr = tbody.insertRow();
     tr.dataset.id = m.id;
-    for (const v of [m.id, localTime(m.created_at), m.scene || "", m.target || "", stateText(m),
+    const instrument = m.instrument_model ? `${m.instrument_model} ${m.instrument_serial || ""}`.trim() : "";
+    for (const v of [m.id, localTime(m.created_at), instrument, m.scene || "", m.target || "", stateText(m),
       `${m.samples_taken}/${m.samples_requested}`, fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2),
       m.note]) tr.insertCell().textContent = v;
     const action = tr.insertCell();

@@ -79,6 +79,10 @@ pub struct MeasurementSummary {
     pub id: i64,
     pub session_id: Option<i64>,
     pub instrument_id: Option<i64>,
+    /// The model of the instrument that took it ("PR-650", "PR-655", "PR-670").
+    pub instrument_model: Option<String>,
+    /// Its serial number, when it reports one.
+    pub instrument_serial: Option<String>,
     pub scene: Option<String>,
     pub target: Option<String>,
     pub samples_requested: i64,
@@ -177,7 +181,9 @@ pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, sce
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = TRUE) AS good_samples, \
     state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
-    observer, xyz_x, xyz_y, xyz_z";
+    observer, xyz_x, xyz_y, xyz_z, \
+    (SELECT i.model FROM instruments i WHERE i.id = measurements.instrument_id) AS instrument_model, \
+    (SELECT i.serial FROM instruments i WHERE i.id = measurements.instrument_id) AS instrument_serial";
 
 /// The columns of [`MEASUREMENT_COLUMNS`], as stored.
 #[derive(sqlx::FromRow)]
@@ -204,6 +210,8 @@ pub(super) struct MeasurementRecord {
     xyz_x: Option<f64>,
     xyz_y: Option<f64>,
     xyz_z: Option<f64>,
+    instrument_model: Option<String>,
+    instrument_serial: Option<String>,
 }
 
 /// A measurement's summary columns and its average spectra.
@@ -238,6 +246,9 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
             id: r.id,
             session_id: r.session_id,
             instrument_id: r.instrument_id,
+            instrument_model: r.instrument_model,
+            // Stored as '' when the instrument does not say.
+            instrument_serial: r.instrument_serial.filter(|s| !s.is_empty()),
             scene: r.scene,
             target: r.target,
             samples_requested: r.samples_requested,

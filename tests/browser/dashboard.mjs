@@ -83,7 +83,8 @@ try {
   await page.goto(`${base}/#/measurements`);
   await page.waitForFunction(() => [...document.querySelectorAll("#measurement-table tbody tr")].some((tr) =>
     /cancelled, partial \(\d+ of 99\)/.test(tr.textContent) && tr.textContent.includes("cancelled from the dashboard")
-    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent)), null, { timeout: 30000 });
+    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent) && /^PR-650 \d+$/.test(tr.cells[2].textContent)), null,
+    { timeout: 30000 });
   const pageInfo = await page.textContent("#page-info");
   if (!/^1–2 of 2$/.test(pageInfo)) failures.push("page info: " + pageInfo);
   if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });

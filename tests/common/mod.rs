@@ -155,16 +155,26 @@ impl Daemon {
     /// Starts it listening on `bind` (e.g. `0.0.0.0:0`, so reads need the
     /// token); `addr` is then the loopback address of the same port.
     pub async fn start_bound(mock_speed: f64, bind: &str) -> Daemon {
-        Daemon::start_with(mock_speed, bind, None).await
+        Daemon::start_with(mock_speed, bind, None, None).await
     }
 
     /// Starts it on the database at `db_url` (e.g. a PostgreSQL database)
     /// instead of a fresh SQLite file.
     pub async fn start_on(mock_speed: f64, db_url: &str) -> Daemon {
-        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url)).await
+        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), None).await
     }
 
-    async fn start_with(mock_speed: f64, bind: &str, db_url: Option<&str>) -> Daemon {
+    /// Starts it with another instrument model (simulated, as `--mock` does).
+    pub async fn start_instrument(mock_speed: f64, instrument: lightbooth::instrument::InstrumentSettings) -> Daemon {
+        Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument)).await
+    }
+
+    async fn start_with(
+        mock_speed: f64,
+        bind: &str,
+        db_url: Option<&str>,
+        instrument: Option<lightbooth::instrument::InstrumentSettings>,
+    ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
         std::fs::write(&token_file, TOKEN).unwrap();
@@ -186,7 +196,7 @@ impl Daemon {
             mock: true,
             mock_speed,
             mock_faults: Vec::new(),
-            instrument: lightbooth::instrument::InstrumentSettings::Pr650(settings),
+            instrument: instrument.unwrap_or(lightbooth::instrument::InstrumentSettings::Pr650(settings)),
             scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
             // Shared across tests: converged spectra are keyed by scene content.
             cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
