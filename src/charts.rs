@@ -356,7 +356,13 @@ pub fn tick_label(v: f64, span: f64) -> String {
     let span = span.abs();
     let mag = v.abs().max(span);
     if mag != 0.0 && !(1e-3..1e5).contains(&mag) {
-        let digits = ((mag / span.max(mag * 1e-6)).log10().ceil().max(0.0) as usize).min(4);
+        // Mantissa decimals down to the tick spacing's decade (~10 ticks).
+        let step = (span / 10.0).max(mag * 1e-6);
+        let digits = if v == 0.0 {
+            0
+        } else {
+            ((v.abs().log10().floor() - step.log10().floor()).max(0.0) as usize).min(4)
+        };
         return format!("{v:.digits$e}");
     }
     // Plotters puts ~10 ticks on an axis; one more decimal than the spacing.
@@ -1444,6 +1450,20 @@ mod tests {
             .filter(|c| c.parse::<f64>().is_ok())
             .collect();
         assert!(numbers.len() >= 3, "{numbers:?}");
+    }
+
+    /// The image viewer's pixel-probe chart (radiances of a few 1e-4
+    /// W/(sr·m²·nm)) labelled its ticks 3e-4, 3e-4, 2e-4, 2e-4, …: one
+    /// mantissa digit for ticks 5e-5 apart.
+    #[test]
+    fn small_radiance_tick_labels_repeated() {
+        let span = 5.5e-4;
+        let labels: Vec<String> = (0..=11).map(|i| tick_label(i as f64 * 5e-5, span)).collect();
+        let mut unique = labels.clone();
+        unique.dedup();
+        assert_eq!(unique, labels, "{labels:?}");
+        assert_eq!(tick_label(3.5e-4, span), "3.5e-4");
+        assert_eq!(tick_label(2e5, 1e6), "2e5");
     }
 
     /// A tick read 0.30000000000000004 (plotters' default f64 formatting).
