@@ -520,6 +520,16 @@ fn display_resolution_on_cylinder_reports_every_requested_depth() {
             );
         }
     }
+    // Against what the display could show (after the same gamut policy),
+    // 16 bits loses almost nothing.
+    let (shown, intended) = (
+        d16["mean_shown_delta_e00"].as_f64().unwrap(),
+        d16["mean_intended_delta_e00"].as_f64().unwrap(),
+    );
+    assert!(
+        (shown - intended).abs() < 0.005,
+        "16 bits: shown {shown}, intended {intended}"
+    );
     let u6 = depths[0]["unresolved"].as_u64().unwrap();
     let u16 = d16["unresolved"].as_u64().unwrap();
     assert!(
@@ -604,7 +614,10 @@ fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_inter
         &db,
         "--display-id",
         "99",
+        "--bits",
+        "8",
     ]);
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("no display profile 99"));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("no display profile 99"), "{stderr}");
 }

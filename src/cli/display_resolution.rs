@@ -124,8 +124,8 @@ pub fn run(args: DisplayResolutionArgs) -> anyhow::Result<()> {
         resolved_definition: format!(
             "a target is resolved at a depth when at least one code differs between the codings and the \
              ΔE00 between what the display shows for each is at least {RESOLVED_FRACTION} × the ΔE00 between \
-             the unquantised renderings; targets whose true ΔE00 is below {NEGLIGIBLE_DE00} have nothing to \
-             resolve; ΔE00 relative to the display's white"
+             them after the gamut policy, unquantised (intended); targets whose intended ΔE00 is below \
+             {NEGLIGIBLE_DE00} have nothing to resolve; ΔE00 relative to the display's white"
         ),
         pairs,
     };
@@ -153,12 +153,14 @@ fn chart(out: &Output) -> Result<String, String> {
                 .collect(),
             errors: None,
         });
+        // The reference is what the display would show with unlimited depth
+        // (after the gamut policy); the as-rendered ΔE00 is in the table and JSON.
         series.push(LineSeriesData {
-            name: format!("truth {} (unquantised)", p.a),
+            name: format!("truth {} (on the display, unquantised)", p.a),
             points: p
                 .depths
                 .iter()
-                .map(|d| (f64::from(d.bits), d.mean_true_delta_e00))
+                .map(|d| (f64::from(d.bits), d.mean_intended_delta_e00))
                 .collect(),
             errors: None,
         });
@@ -181,18 +183,19 @@ fn print_table(out: &Output) {
     for p in &out.pairs {
         println!("{} vs {}:", p.a, p.b);
         println!(
-            "{:>5} {:>13} {:>9} {:>11} {:>15} {:>14}",
-            "bits", "codes differ", "resolved", "unresolved", "mean shown ΔE", "mean true ΔE"
+            "{:>5} {:>13} {:>9} {:>11} {:>15} {:>17} {:>14}",
+            "bits", "codes differ", "resolved", "unresolved", "mean shown ΔE", "mean intended ΔE", "mean true ΔE"
         );
         for d in &p.depths {
             println!(
-                "{:>5} {:>8}/{:<4} {:>9} {:>11} {:>15.4} {:>14.4}",
+                "{:>5} {:>8}/{:<4} {:>9} {:>11} {:>15.4} {:>17.4} {:>14.4}",
                 d.bits,
                 d.codes_differ,
                 d.colours,
                 d.resolved,
                 d.unresolved,
                 d.mean_shown_delta_e00,
+                d.mean_intended_delta_e00,
                 d.mean_true_delta_e00
             );
         }

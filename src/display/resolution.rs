@@ -6,13 +6,16 @@
 //! policy applied to both codings' colours together, so a `scale` factor is
 //! common to them) and compared:
 //! - `true ΔE00`: between the two renderings as rendered (unquantised, no gamut policy);
+//! - `intended ΔE00`: between the two after the gamut policy, unquantised:
+//!   what a display of unlimited depth would show (the `scale` policy
+//!   darkens both, which changes ΔE00; quantisation is measured against this);
 //! - `shown ΔE00`: between what the display shows for each after quantisation;
 //! - a colour is **resolved** when at least one code differs between the
 //!   codings *and* the shown ΔE00 is at least [`RESOLVED_FRACTION`] of the
-//!   true ΔE00 — the display shows a difference of the size the codings
-//!   actually have, not a one-code flip of a much larger one. A colour
-//!   whose true ΔE00 is below [`NEGLIGIBLE_DE00`] has nothing to resolve
-//!   and is counted as such, not as unresolved.
+//!   intended ΔE00 — the display shows a difference of the size it could
+//!   show, not a one-code flip of a much larger one. A colour whose intended
+//!   ΔE00 is below [`NEGLIGIBLE_DE00`] has nothing to resolve and is counted
+//!   as such, not as unresolved.
 //!
 //! All ΔE00 relative to the display's white (see [`super::stimulus`]).
 
@@ -41,6 +44,8 @@ pub struct PairAtDepth {
     pub mean_shown_delta_e00: f64,
     pub max_shown_delta_e00: f64,
     pub mean_true_delta_e00: f64,
+    /// Mean ΔE00 after the gamut policy, unquantised (see the module doc).
+    pub mean_intended_delta_e00: f64,
     /// Per colour: shown ΔE00.
     pub shown_delta_e00: Vec<f64>,
 }
@@ -99,15 +104,19 @@ pub fn resolve_pair(
             mean_shown_delta_e00: 0.0,
             max_shown_delta_e00: 0.0,
             mean_true_delta_e00: true_de.iter().sum::<f64>() / n.max(1) as f64,
+            mean_intended_delta_e00: 0.0,
             shown_delta_e00: Vec::with_capacity(n),
         };
-        for (i, &true_i) in true_de.iter().enumerate().take(n) {
+        let mut intended_sum = 0.0;
+        for i in 0..n {
             let differ = s.codes[i] != s.codes[n + i];
             let shown = delta_e00(white, s.shown[i], s.shown[n + i]);
+            let intended = delta_e00(white, s.intended[i], s.intended[n + i]);
+            intended_sum += intended;
             row.codes_differ += usize::from(differ);
-            if true_i >= NEGLIGIBLE_DE00 {
+            if intended >= NEGLIGIBLE_DE00 {
                 row.to_resolve += 1;
-                if differ && shown >= RESOLVED_FRACTION * true_i {
+                if differ && shown >= RESOLVED_FRACTION * intended {
                     row.resolved += 1;
                 } else {
                     row.unresolved += 1;
@@ -117,6 +126,7 @@ pub fn resolve_pair(
             row.shown_delta_e00.push(shown);
         }
         row.mean_shown_delta_e00 = row.shown_delta_e00.iter().sum::<f64>() / n.max(1) as f64;
+        row.mean_intended_delta_e00 = intended_sum / n.max(1) as f64;
         depths.push(row);
     }
     let resolves_at_bits = depths.iter().find(|d| d.unresolved == 0).map(|d| d.bits);

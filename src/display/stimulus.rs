@@ -238,6 +238,9 @@ impl Summary {
 #[derive(Clone, Debug)]
 pub struct Stimulus {
     pub codes: Vec<[u32; 3]>,
+    /// XYZ after the gamut policy, before quantisation (what a display of
+    /// unlimited depth would show), cd/m².
+    pub intended: Vec<[f64; 3]>,
     /// XYZ shown after quantisation, cd/m².
     pub shown: Vec<[f64; 3]>,
     /// ΔE00 between the colour after the gamut policy (unquantised) and the shown one.
@@ -262,6 +265,7 @@ pub fn convert(
     let gamut = apply_gamut(&converter, &mut linear, policy)?;
     let mut out = Stimulus {
         codes: Vec::with_capacity(xyz.len()),
+        intended: Vec::with_capacity(xyz.len()),
         shown: Vec::with_capacity(xyz.len()),
         delta_e00_intended: Vec::with_capacity(xyz.len()),
         delta_e00_original: Vec::with_capacity(xyz.len()),
@@ -269,9 +273,11 @@ pub fn convert(
     };
     for (l, original) in linear.iter().zip(xyz) {
         let (codes, shown) = quantise(profile, &converter, *l, fb, model);
+        let intended = converter.xyz(*l);
         out.codes.push(codes);
+        out.intended.push(intended);
         out.shown.push(shown);
-        out.delta_e00_intended.push(delta_e00(white, converter.xyz(*l), shown));
+        out.delta_e00_intended.push(delta_e00(white, intended, shown));
         out.delta_e00_original.push(delta_e00(white, *original, shown));
     }
     Ok(out)
