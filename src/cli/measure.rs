@@ -21,8 +21,8 @@ pub struct MeasureArgs {
     /// The instrument model: pr650, pr655 or pr670 (default: the --config file's, else pr650).
     #[arg(long, value_parser = ["pr650", "pr655", "pr670"])]
     model: Option<String>,
-    /// Samples to average: 1 up to the model's limit (the PR-650's: 99).
-    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..))]
+    /// Samples to average, 1–99 (the limit of every model lightbooth drives; the driver checks its own).
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=99))]
     samples: Option<usize>,
     /// Extra attempts for samples lost to an instrument error or a link fault, 0–99.
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(0..=99))]
