@@ -18,6 +18,17 @@ use std::path::Path;
 use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
 
+/// The native grid of a spectrum from an instrument lightbooth drives, by
+/// its length: 101 points at 4 nm from 380 nm (the PR-650 and the PR-655)
+/// or 201 at 2 nm (the PR-670). Those grids differ in length, so the
+/// length of a stored sample names its grid exactly.
+pub fn native_grid_of_length(len: usize) -> Option<crate::spectrum::Grid> {
+    use super::pr655::Model;
+    [crate::spectrum::Grid::pr650(), Model::Pr655.grid(), Model::Pr670.grid()]
+        .into_iter()
+        .find(|g| g.len() == len)
+}
+
 /// The settings of one instrument, by model.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InstrumentSettings {

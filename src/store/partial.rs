@@ -14,7 +14,7 @@ use std::time::{Duration, UNIX_EPOCH};
 
 use super::{parse_opt_array, MeasurementState, MeasurementSummary, Store, StoreError};
 use crate::instrument::{average_samples, InstrumentInfo, QualityCode, QualityKind, Sample};
-use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::spectrum::{SpectralUnit, Spectrum};
 
 impl Store {
     /// Fills `Y`, `x`, `y`, `luminance_cv` and `partial` of every interrupted
@@ -52,26 +52,16 @@ impl Store {
     }
 }
 
-/// The native grids of the instruments lightbooth drives, by their length:
-/// 101 points at 4 nm from 380 nm (the PR-650 and the PR-655) and 201 at
-/// 2 nm (the PR-670). No two share a length, so a stored sample's length
-/// names its grid exactly.
-fn native_grid_of_length(len: usize) -> Option<Grid> {
-    use crate::instrument::pr655::Model;
-    [Grid::pr650(), Model::Pr655.grid(), Model::Pr670.grid()]
-        .into_iter()
-        .find(|g| g.len() == len)
-}
-
 /// The average of stored good samples `(index, time, radiance, Y)`. The
 /// store keeps sample spectra on the instrument's native grid without the
-/// grid itself; it is found from their length ([`native_grid_of_length`]),
+/// grid itself; it is found from their length
+/// ([`crate::instrument::native_grid_of_length`]),
 /// and any other length is an error, not a guess.
 fn partial_average(
     samples: Vec<(i64, f64, Vec<f64>, Option<f64>)>,
 ) -> Result<crate::instrument::AveragedMeasurement, String> {
     let len = samples.first().map_or(0, |s| s.2.len());
-    let grid = native_grid_of_length(len).ok_or_else(|| {
+    let grid = crate::instrument::native_grid_of_length(len).ok_or_else(|| {
         format!("stored samples have {len} spectral values: no instrument lightbooth drives has that grid (101 or 201 points)")
     })?;
     let samples = samples
@@ -106,4 +96,26 @@ fn partial_average(
         grid,
     };
     average_samples(info, samples)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An interrupted PR-670 measurement's stored samples have 201 values;
+    /// the partial average assumed the PR-650's 101 and refused them.
+    #[test]
+    fn partial_averages_of_pr670_samples_were_refused() {
+        let samples = vec![
+            (0, 1.0, vec![1.0; 201], Some(10.0)),
+            (1, 2.0, vec![3.0; 201], Some(30.0)),
+        ];
+        let m = partial_average(samples).unwrap();
+        assert_eq!(m.mean.grid().wavelengths()[1], 382.0, "the PR-670's 2 nm grid");
+        assert!(m.mean.values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        let pr650 = partial_average(vec![(0, 1.0, vec![1.0; 101], None)]).unwrap();
+        assert_eq!(pr650.mean.grid().wavelengths()[1], 384.0);
+        let e = partial_average(vec![(0, 1.0, vec![1.0; 81], None)]).unwrap_err();
+        assert!(e.contains("81"), "{e}");
+    }
 }

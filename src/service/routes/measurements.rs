@@ -339,16 +339,17 @@ pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>)
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
 }
 
-/// The grid of a measurement: stored with the average, or the PR-650's for
-/// a measurement that never completed.
+/// The grid of a measurement: stored with the average, or, for one that
+/// never completed, the native grid its samples' length names (101 or 201 points).
 pub(super) fn sample_grid(m: &MeasurementDetail) -> Result<Vec<f64>, ApiError> {
     if let Some(wl) = &m.wavelength_nm {
         return Ok(wl.clone());
     }
     let n = m.samples.iter().find_map(|s| s.radiance.as_ref().map(Vec::len));
-    match n {
-        Some(101) | None => Ok(crate::spectrum::Grid::pr650().wavelengths().to_vec()),
-        Some(other) => Err(ApiError::Internal(format!(
+    match n.map(|len| (len, crate::instrument::native_grid_of_length(len))) {
+        None => Ok(crate::spectrum::Grid::pr650().wavelengths().to_vec()),
+        Some((_, Some(grid))) => Ok(grid.wavelengths().to_vec()),
+        Some((other, None)) => Err(ApiError::Internal(format!(
             "measurement {} has {other}-point samples and no grid",
             m.summary.id
         ))),
