@@ -410,3 +410,81 @@ fn a_pulled_usb_cable_is_a_closed_port() {
     let e = measure(unit.as_mut(), 1).unwrap_err();
     assert!(matches!(e, InstrumentError::PortClosed { .. }), "{e}");
 }
+
+/// Sends `command` with CR and reads its reply lines (the simulator answers in one burst).
+fn ask(port: &mut Box<dyn serialport::SerialPort>, command: &str) -> Vec<String> {
+    port.write_all(format!("{command}\r").as_bytes()).unwrap();
+    let mut reply = Vec::new();
+    let mut buf = [0u8; 4096];
+    let t0 = Instant::now();
+    // Until 100 ms without a byte (PTB's end-of-reply rule, with margin).
+    let mut last = Instant::now();
+    while t0.elapsed() < Duration::from_secs(3) && (reply.is_empty() || last.elapsed() < Duration::from_millis(100)) {
+        if let Ok(n) = port.read(&mut buf) {
+            reply.extend_from_slice(&buf[..n]);
+            last = Instant::now();
+        }
+    }
+    String::from_utf8_lossy(&reply)
+        .lines()
+        .map(|l| l.trim().to_string())
+        .filter(|l| !l.is_empty())
+        .collect()
+}
+
+fn numbers(line: &str) -> Vec<f64> {
+    line.split(',').skip(2).map(|f| f.trim().parse().unwrap()).collect()
+}
+
+/// The simulator's reports 1, 3, 4, 6, 7 and 12 are views of one measurement
+/// and honour the sheet's consistency relations (section 6); D65 comes out at
+/// its published CCT (6504 K) and Duv (+0.0032, CIE 15:2004); 601 has the
+/// documented 16 fields on the PR-670 and the captured 13 on the PR-655.
+#[test]
+fn the_simulators_colorimetric_reports_are_views_of_one_measurement() {
+    for model in [Model::Pr655, Model::Pr670] {
+        let mock = mock(fast_switches(model), vec![]);
+        let mut port = serialport::new(mock.device_path().to_str().unwrap(), 9600)
+            .timeout(Duration::from_millis(50))
+            .open()
+            .unwrap();
+        for b in b"PHOTO" {
+            port.write_all(&[*b]).unwrap();
+            std::thread::sleep(Duration::from_millis(ENTRY_DELAY_MS));
+        }
+        std::thread::sleep(Duration::from_millis(200));
+        let mut banner = [0u8; 12];
+        let _ = port.read(&mut banner);
+        assert_eq!(ask(&mut port, "D1"), vec!["-2000"], "no measurement yet");
+        assert_eq!(ask(&mut port, "SU1"), vec!["00000"]);
+        assert_eq!(ask(&mut port, "M5").len(), 1 + model.grid().len());
+        let d1 = numbers(&ask(&mut port, "D1")[0]);
+        let d3 = numbers(&ask(&mut port, "D3")[0]);
+        let d4 = numbers(&ask(&mut port, "D4")[0]);
+        let d6 = numbers(&ask(&mut port, "D6")[0]);
+        let d7 = numbers(&ask(&mut port, "D7")[0]);
+        let d12 = numbers(&ask(&mut port, "D12")[0]);
+        let (x, y) = (d1[1], d1[2]);
+        let d = -2.0 * x + 12.0 * y + 3.0;
+        // Four decimals on the wire: relations hold to 2e-4.
+        assert!(
+            (d3[1] - 4.0 * x / d).abs() < 2e-4 && (d3[2] - 9.0 * y / d).abs() < 2e-4,
+            "{d1:?} {d3:?}"
+        );
+        assert_eq!(&d6[..3], &d1[..], "6 = Y, x, y, …");
+        assert_eq!(&d6[3..], &d3[1..], "… u′, v′");
+        assert!((d7[2] - 2.0 / 3.0 * d3[2]).abs() < 2e-4, "CIE 1960 v = ⅔ v′");
+        assert_eq!(&d12[..3], &d1[..]);
+        assert!((d12[4] - d7[2]).abs() < 1e-9);
+        assert!((d4[1] - 6504.0).abs() < 60.0, "{model:?}: CCT {}", d4[1]);
+        assert!((d4[2] - 0.0032).abs() < 0.002, "{model:?}: Duv {}", d4[2]);
+        let fields = ask(&mut port, "D601")[0].split(',').count();
+        assert_eq!(fields, if model == Model::Pr670 { 16 } else { 13 });
+        assert_eq!(ask(&mut port, "D117").len(), if model == Model::Pr670 { 4 } else { 1 });
+        assert_eq!(ask(&mut port, "D116"), vec!["00000,0,MS-75,Primary,Luminance,Radiance"]);
+        assert_eq!(ask(&mut port, "D14"), vec!["00000,None,0.00 Hertz"]);
+        assert_eq!(ask(&mut port, "K"), vec!["-1000"], "not a command");
+        let expected_sf = if model == Model::Pr670 { "00000" } else { "-1035" };
+        assert_eq!(ask(&mut port, "SF1"), vec![expected_sf], "apertures are the PR-670's");
+    }
+}

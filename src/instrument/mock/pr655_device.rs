@@ -13,6 +13,12 @@
 //! - Measurements go through the same [`super::model::InstrumentModel`] as
 //!   the PR-650's (on this model's grid and slit): its low light is `-8`,
 //!   its overload `-2`; a sync failure is `-10`.
+//! - Reports 1–7 (but 5 is the spectrum), 12, 13, 14, 110, 111, 114, 116,
+//!   117, 120, 601 and 602 are computed from one stored measurement and
+//!   setup, so the views agree (section 6). Not simulated: 8/9 (raw detector
+//!   counts), 11 (scotopic luminance: no V′(λ) table here), the RAM and SD
+//!   card reports and recalls (`R`, 401–412), and the `Z…` resets (which
+//!   switch a real unit off); they answer `-2000` or `-1000`.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -111,6 +117,53 @@ impl Pr655Switches {
             after_failure: AfterFailure::Error,
             error_status: -8,
             firmware: "2.22D".into(),
+        }
+    }
+}
+
+/// The colorimetric views of one XYZ that reports 1, 3, 4, 6, 7 and 12
+/// send: CIE 1931 x, y; CIE 1976 u′, v′; CIE 1960 v = ⅔·v′ (u = u′); the
+/// correlated colour temperature by McCamy's (1992) cubic in x, y, and its
+/// Duv from the Planckian locus in CIE 1960 uv by Krystek's (1985) rational
+/// approximation. Both are approximations (McCamy is within a few K from
+/// 2856 to 6500 K); a simulator's choice, the instrument's own is unknown.
+struct Views {
+    x: f64,
+    y: f64,
+    u_prime: f64,
+    v_prime: f64,
+    v_1960: f64,
+    cct_k: f64,
+    duv: f64,
+}
+
+impl Views {
+    fn of([x, y, z]: [f64; 3]) -> Views {
+        let sum = x + y + z;
+        let (cx, cy) = if sum > 0.0 { (x / sum, y / sum) } else { (0.0, 0.0) };
+        let d = -2.0 * cx + 12.0 * cy + 3.0;
+        let (u_prime, v_prime) = if d != 0.0 {
+            (4.0 * cx / d, 9.0 * cy / d)
+        } else {
+            (0.0, 0.0)
+        };
+        let n = (cx - 0.3320) / (0.1858 - cy);
+        let cct_k = 449.0 * n.powi(3) + 3525.0 * n * n + 6823.3 * n + 5520.33;
+        let t = cct_k;
+        let u_locus = (0.860_117_757 + 1.541_182_54e-4 * t + 1.286_412_12e-7 * t * t)
+            / (1.0 + 8.424_202_35e-4 * t + 7.081_451_63e-7 * t * t);
+        let v_locus = (0.317_398_726 + 4.228_062_45e-5 * t + 4.204_816_91e-8 * t * t)
+            / (1.0 - 2.897_418_16e-5 * t + 1.614_560_53e-7 * t * t);
+        let v_1960 = 2.0 / 3.0 * v_prime;
+        let duv = ((u_prime - u_locus).powi(2) + (v_1960 - v_locus).powi(2)).sqrt() * (v_1960 - v_locus).signum();
+        Views {
+            x: cx,
+            y: cy,
+            u_prime,
+            v_prime,
+            v_1960,
+            cct_k,
+            duv,
         }
     }
 }
@@ -564,6 +617,53 @@ impl Device {
                 );
                 return self.write(&wire::format_text_report(&text, style));
             }
+            // 601: the setup as codes. The PR-670 gets the 16 fields the
+            // manual describes, the PR-655 the 13 captured from a real one (6.1).
+            601 => {
+                let s = self.setup;
+                let text = match model {
+                    Model::Pr670 => format!(
+                        "0,-1,-1,-1,0,{},{},{},0,{},{},0,{},0,60.00",
+                        u8::from(s.si_units),
+                        u8::from(s.exposure_ms != 0),
+                        s.exposure_ms,
+                        s.cycles,
+                        s.observer,
+                        s.sync
+                    ),
+                    Model::Pr655 => format!(
+                        "0,-1,-1,-1,0,{},0,{},1,{},{},0.00",
+                        u8::from(s.si_units),
+                        s.exposure_ms,
+                        s.cycles,
+                        s.observer
+                    ),
+                };
+                return self.write(&wire::format_text_report(&text, style));
+            }
+            14 => {
+                let text = match (self.setup.sync, self.cfg.flicker_hz) {
+                    (1, Some(hz)) => format!("Auto Sync,{hz:.2} Hertz"),
+                    (3, _) => "User Sync,60.00 Hertz".to_string(),
+                    _ => "None,0.00 Hertz".to_string(),
+                };
+                return self.write(&wire::format_text_report(&text, style));
+            }
+            116 => return self.write(&wire::format_text_report("0,MS-75,Primary,Luminance,Radiance", style)),
+            // One line per aperture: the PR-670's four, the PR-655's one (6, report 117).
+            117 => {
+                let names: &[&str] = match model {
+                    Model::Pr670 => &["1 deg", "1/2 deg", "1/4 deg", "1/8 deg"],
+                    Model::Pr655 => &["1 deg"],
+                };
+                let status = wire::format_status(0, style);
+                let reply: String = names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| format!("{status},{i},{n},0.00\r\n"))
+                    .collect();
+                return self.write(reply.as_bytes());
+            }
             _ => {}
         }
         let source = if fresh {
@@ -584,11 +684,19 @@ impl Device {
         let [x, y, z] = stored.xyz.map(|v| v * scale);
         let status = wire::format_status(0, style);
         match code {
-            1 => {
-                let sum = x + y + z;
-                let (cx, cy) = if sum > 0.0 { (x / sum, y / sum) } else { (0.0, 0.0) };
-                let reply = format!("{status},0,{},{cx:.4},{cy:.4}\r\n", wire::format_float(y, 2));
-                self.write(reply.as_bytes());
+            // Codes 1, 3, 4, 6, 7, 12: views of the one measurement (6, consistency relations).
+            1 | 3 | 4 | 6 | 7 | 12 => {
+                let v = Views::of([x, y, z]);
+                let lum = wire::format_float(y, 2);
+                let fields = match code {
+                    1 => format!("{:.4},{:.4}", v.x, v.y),
+                    3 => format!("{:.4},{:.4}", v.u_prime, v.v_prime),
+                    4 => format!("{:.0},{:.4}", v.cct_k, v.duv),
+                    6 => format!("{:.4},{:.4},{:.4},{:.4}", v.x, v.y, v.u_prime, v.v_prime),
+                    7 => format!("{:.4},{:.4}", v.u_prime, v.v_1960),
+                    _ => format!("{:.4},{:.4},{:.4},{:.4}", v.x, v.y, v.u_prime, v.v_1960),
+                };
+                self.write(format!("{status},0,{lum},{fields}\r\n").as_bytes());
             }
             wire::REPORT_XYZ => {
                 self.write(&wire::format_xyz_report([x, y, z], style));
