@@ -10,13 +10,12 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 use super::model::Rng;
-use super::{lock, BeforeFirstMeasurement, BusyInput, Fault, FaultKind, FaultRate, MockConfig, Shared};
+use super::{lock, BeforeFirstMeasurement, BusyInput, Fault, FaultKind, MockConfig, Shared};
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::pr650::protocol as wire;
 use crate::spectrum::{SpectralUnit, Spectrum};
 
-/// Read slice of the simulator: how often it checks for stop and power-cycle requests.
-const POLL: Duration = Duration::from_millis(10);
+use super::firmware::POLL;
 
 /// One byte at 9600 baud, 8N1 (10 bits on the wire), in ms.
 const BYTE_TIME_MS: f64 = 10.0 / 9.6;
@@ -253,29 +252,9 @@ impl Device {
         self.fired(kind).is_some()
     }
 
-    /// The fault of `kind` that fires now, if any (every matching fault is
-    /// counted down; the first that fires is returned).
+    /// The fault of `kind` that fires now, if any ([`super::firmware::fired`]).
     fn fired(&mut self, kind: FaultKind) -> Option<Fault> {
-        let mut shared = lock(&self.shared);
-        let mut first = None;
-        for fault in shared.faults.iter_mut().filter(|f| f.kind == kind) {
-            let fires = match &mut fault.rate {
-                FaultRate::Always => true,
-                FaultRate::Probability(p) => self.rng.uniform() < *p,
-                FaultRate::Times(n) if *n > 0 => {
-                    *n -= 1;
-                    true
-                }
-                FaultRate::Times(_) => false,
-            };
-            if fires && first.is_none() {
-                first = Some(*fault);
-            }
-        }
-        if first.is_some() {
-            tracing::info!(?kind, "simulated PR-650: injecting fault");
-        }
-        first
+        super::firmware::fired(&self.shared, &mut self.rng, kind)
     }
 
     /// Sleeps `ms` of instrument time (scaled by speed), waking for a stop request.
@@ -285,15 +264,7 @@ impl Device {
 
     /// Sleeps `ms` of wall time, waking for a stop request.
     fn sleep_ms(&self, ms: f64) {
-        let total = Duration::from_secs_f64(ms.max(0.0) / 1000.0);
-        let end = Instant::now() + total;
-        while !self.stop.load(Ordering::Relaxed) {
-            let now = Instant::now();
-            if now >= end {
-                break;
-            }
-            std::thread::sleep((end - now).min(POLL));
-        }
+        super::firmware::sleep_ms(&self.stop, ms)
     }
 
     /// One measurement. Returns false if the cable was pulled.
@@ -438,23 +409,11 @@ impl Device {
         }
     }
 
-    /// Line noise: a few characters of the data lines replaced by bytes that
-    /// cannot be part of a report. (A digit turned into another digit cannot be
-    /// detected without a checksum, which the PR-650 does not send.)
+    /// Line noise in the data lines ([`super::firmware::garble`]).
     fn garble(&mut self, bytes: &mut [u8]) {
-        const NOISE: &[u8] = b"#?~\x7f\xff\x00\xa5";
-        let start = 17.min(bytes.len());
-        for _ in 0..3 {
-            if bytes.len() <= start {
-                break;
-            }
-            let i = start + (self.rng.next_u32() as usize) % (bytes.len() - start);
-            if bytes[i].is_ascii_digit() || bytes[i] == b'.' || bytes[i] == b',' {
-                bytes[i] = NOISE[(self.rng.next_u32() as usize) % NOISE.len()];
-            } else {
-                bytes[i.saturating_sub(1)] = b'#';
-            }
-        }
+        // Past the header (`00,0\r\n2.817E-01\r\n`): noise in the data lines.
+        let start = 17;
+        super::firmware::garble(&mut self.rng, bytes, start)
     }
 
     /// Sends bytes, paced at 9600 baud (scaled by speed) a line at a time, so

@@ -21,6 +21,7 @@
 pub use pr655_device::{AfterFailure, Pr655Switches, StrayTerminator};
 
 mod device;
+mod firmware;
 pub mod model;
 mod pr655_device;
 

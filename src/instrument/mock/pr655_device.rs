@@ -28,13 +28,12 @@ use std::time::{Duration, Instant};
 use serialport::{SerialPort, TTYPort};
 
 use super::model::Rng;
-use super::{lock, BusyInput, Fault, FaultKind, FaultRate, MockConfig, Shared};
+use super::{lock, BusyInput, Fault, FaultKind, MockConfig, Shared};
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::pr655::protocol::{self as wire, LineStyle, Model, StatusStyle};
 use crate::spectrum::{SpectralUnit, Spectrum};
 
-/// Read slice of the simulator: how often it checks for stop and power-cycle requests.
-const POLL: Duration = Duration::from_millis(10);
+use super::firmware::POLL;
 
 /// What a stray CR or LF right after `PHOTO` produces (13.2, 12.3).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
@@ -741,64 +740,28 @@ impl Device {
         }
     }
 
-    /// Line noise in the data lines: characters that cannot be part of a report.
+    /// Line noise in the data lines ([`super::firmware::garble`]).
     fn garble(&mut self, bytes: &mut [u8]) {
-        const NOISE: &[u8] = b"#?~\x7f\xff\x00\xa5";
         let start = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
-        for _ in 0..3 {
-            if bytes.len() <= start {
-                break;
-            }
-            let i = start + (self.rng.next_u32() as usize) % (bytes.len() - start);
-            if bytes[i].is_ascii_digit() || bytes[i] == b'.' || bytes[i] == b',' {
-                bytes[i] = NOISE[(self.rng.next_u32() as usize) % NOISE.len()];
-            } else {
-                bytes[i.saturating_sub(1)] = b'#';
-            }
-        }
+        super::firmware::garble(&mut self.rng, bytes, start)
     }
 
     fn fires(&mut self, kind: FaultKind) -> bool {
         self.fired(kind).is_some()
     }
 
-    /// The fault of `kind` that fires now, if any (each matching fault is counted down).
+    /// The fault of `kind` that fires now, if any ([`super::firmware::fired`]).
     fn fired(&mut self, kind: FaultKind) -> Option<Fault> {
-        let mut shared = lock(&self.shared);
-        let mut first = None;
-        for fault in shared.faults.iter_mut().filter(|f| f.kind == kind) {
-            let fires = match &mut fault.rate {
-                FaultRate::Always => true,
-                FaultRate::Probability(p) => self.rng.uniform() < *p,
-                FaultRate::Times(n) if *n > 0 => {
-                    *n -= 1;
-                    true
-                }
-                FaultRate::Times(_) => false,
-            };
-            if fires && first.is_none() {
-                first = Some(*fault);
-            }
-        }
-        if first.is_some() {
-            tracing::info!(?kind, "simulated instrument: injecting fault");
-        }
-        first
+        super::firmware::fired(&self.shared, &mut self.rng, kind)
     }
 
     fn sleep_scaled(&self, ms: f64) {
         self.sleep_ms(ms * self.cfg.speed);
     }
 
+    /// Sleeps `ms` of wall time, waking for a stop request.
     fn sleep_ms(&self, ms: f64) {
-        let end = Instant::now() + Duration::from_secs_f64(ms.max(0.0) / 1000.0);
-        while !self.stop.load(Ordering::Relaxed) {
-            let now = Instant::now();
-            if now >= end {
-                break;
-            }
-            std::thread::sleep((end - now).min(POLL));
-        }
+        super::firmware::sleep_ms(&self.stop, ms)
     }
 
     /// The whole reply in one burst: USB, not 9600 baud (section 9).
