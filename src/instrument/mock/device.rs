@@ -372,7 +372,7 @@ impl Device {
                 }
             }
             wire::REPORT_SPECTRUM => {
-                let mut bytes = wire::format_spectral_report(
+                let bytes = wire::format_spectral_report(
                     stored.code,
                     0,
                     stored.integral,
@@ -380,40 +380,27 @@ impl Device {
                     &stored.values,
                     self.cfg.header_bare_cr,
                 );
-                if self.fires(FaultKind::NoAnswer) {
-                    return;
+                // Past the header (`00,0\r\n2.817E-01\r\n`): noise in the data lines.
+                let start = 17;
+                match super::firmware::fault_spectrum_reply(
+                    &self.shared,
+                    &mut self.rng,
+                    &self.stop,
+                    self.cfg.slow_ms,
+                    bytes,
+                    start,
+                ) {
+                    super::firmware::Faulted::Silent => {}
+                    super::firmware::Faulted::Send(bytes) => self.write(&bytes),
+                    super::firmware::Faulted::SendThenDie(bytes) => {
+                        self.write(&bytes);
+                        tracing::info!("simulated PR-650: the link died mid-reply; silent until power-cycled");
+                        lock(&self.shared).link_dead = true;
+                    }
                 }
-                if let Some(slow) = self.fired(FaultKind::Slow) {
-                    self.sleep_ms(slow.delay_ms.unwrap_or(self.cfg.slow_ms) as f64);
-                }
-                if self.fires(FaultKind::Garble) {
-                    self.garble(&mut bytes);
-                }
-                if self.fires(FaultKind::DoubleCrlf) {
-                    let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
-                    bytes.splice(header_end..header_end, *b"\r\n");
-                }
-                if self.fires(FaultKind::Truncate) {
-                    bytes.truncate(bytes.len() / 2);
-                }
-                if self.fires(FaultKind::LinkDies) {
-                    bytes.truncate(bytes.len() / 2);
-                    self.write(&bytes);
-                    tracing::info!("simulated PR-650: the link died mid-reply; silent until power-cycled");
-                    lock(&self.shared).link_dead = true;
-                    return;
-                }
-                self.write(&bytes);
             }
             _ => tracing::debug!(code, "simulated PR-650: report code not simulated; no reply"),
         }
-    }
-
-    /// Line noise in the data lines ([`super::firmware::garble`]).
-    fn garble(&mut self, bytes: &mut [u8]) {
-        // Past the header (`00,0\r\n2.817E-01\r\n`): noise in the data lines.
-        let start = 17;
-        super::firmware::garble(&mut self.rng, bytes, start)
     }
 
     /// Sends bytes, paced at 9600 baud (scaled by speed) a line at a time, so

@@ -68,3 +68,46 @@ pub(super) fn sleep_ms(stop: &AtomicBool, ms: f64) {
         std::thread::sleep((end - now).min(POLL));
     }
 }
+
+/// What the injected faults leave of a spectrum reply.
+pub(super) enum Faulted {
+    /// No answer at all.
+    Silent,
+    Send(Vec<u8>),
+    /// Send the (cut) reply, then the link dies: silent until power-cycled.
+    SendThenDie(Vec<u8>),
+}
+
+/// Applies the spectrum reply's faults, in the order both simulators use:
+/// no answer, slow (after the fault's delay or `slow_ms`), garble (from
+/// byte `garble_start`), double CR LF after the header, truncate, link dies.
+pub(super) fn fault_spectrum_reply(
+    shared: &Mutex<Shared>,
+    rng: &mut Rng,
+    stop: &AtomicBool,
+    slow_ms: u64,
+    mut bytes: Vec<u8>,
+    garble_start: usize,
+) -> Faulted {
+    if fired(shared, rng, FaultKind::NoAnswer).is_some() {
+        return Faulted::Silent;
+    }
+    if let Some(slow) = fired(shared, rng, FaultKind::Slow) {
+        sleep_ms(stop, slow.delay_ms.unwrap_or(slow_ms) as f64);
+    }
+    if fired(shared, rng, FaultKind::Garble).is_some() {
+        garble(rng, &mut bytes, garble_start);
+    }
+    if fired(shared, rng, FaultKind::DoubleCrlf).is_some() {
+        let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+        bytes.splice(header_end..header_end, *b"\r\n");
+    }
+    if fired(shared, rng, FaultKind::Truncate).is_some() {
+        bytes.truncate(bytes.len() / 2);
+    }
+    if fired(shared, rng, FaultKind::LinkDies).is_some() {
+        bytes.truncate(bytes.len() / 2);
+        return Faulted::SendThenDie(bytes);
+    }
+    Faulted::Send(bytes)
+}

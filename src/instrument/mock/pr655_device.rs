@@ -710,40 +710,27 @@ impl Device {
             }
             wire::REPORT_SPECTRUM => {
                 let grid = model.grid();
-                let mut bytes = wire::format_spectral_report(&grid, &stored.values, style, self.sw.line_style);
-                if self.fires(FaultKind::NoAnswer) {
-                    return;
+                let bytes = wire::format_spectral_report(&grid, &stored.values, style, self.sw.line_style);
+                let start = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
+                match super::firmware::fault_spectrum_reply(
+                    &self.shared,
+                    &mut self.rng,
+                    &self.stop,
+                    self.cfg.slow_ms,
+                    bytes,
+                    start,
+                ) {
+                    super::firmware::Faulted::Silent => {}
+                    super::firmware::Faulted::Send(bytes) => self.write(&bytes),
+                    super::firmware::Faulted::SendThenDie(bytes) => {
+                        self.write(&bytes);
+                        tracing::info!("simulated instrument: the link died mid-reply; silent until power-cycled");
+                        lock(&self.shared).link_dead = true;
+                    }
                 }
-                if let Some(slow) = self.fired(FaultKind::Slow) {
-                    self.sleep_ms(slow.delay_ms.unwrap_or(self.cfg.slow_ms) as f64);
-                }
-                if self.fires(FaultKind::Garble) {
-                    self.garble(&mut bytes);
-                }
-                if self.fires(FaultKind::DoubleCrlf) {
-                    let header_end = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
-                    bytes.splice(header_end..header_end, *b"\r\n");
-                }
-                if self.fires(FaultKind::Truncate) {
-                    bytes.truncate(bytes.len() / 2);
-                }
-                if self.fires(FaultKind::LinkDies) {
-                    bytes.truncate(bytes.len() / 2);
-                    self.write(&bytes);
-                    tracing::info!("simulated instrument: the link died mid-reply; silent until power-cycled");
-                    lock(&self.shared).link_dead = true;
-                    return;
-                }
-                self.write(&bytes);
             }
             _ => self.status_reply(-2000),
         }
-    }
-
-    /// Line noise in the data lines ([`super::firmware::garble`]).
-    fn garble(&mut self, bytes: &mut [u8]) {
-        let start = bytes.iter().position(|b| *b == b'\n').map_or(0, |i| i + 1);
-        super::firmware::garble(&mut self.rng, bytes, start)
     }
 
     fn fires(&mut self, kind: FaultKind) -> bool {
