@@ -904,6 +904,10 @@ pub struct Candidate {
     pub on_front: bool,
 }
 
+/// The relative difference in wall time below which two candidates count
+/// as equally fast, whatever the spread of their repeats.
+pub const TIMING_RESOLUTION: f64 = 0.05;
+
 /// The candidate set of the speed/accuracy chart, its front and the chart.
 #[derive(Clone, Debug, Serialize)]
 pub struct CandidateSet {
@@ -912,8 +916,8 @@ pub struct CandidateSet {
     /// Indices into `candidates`, fastest first.
     pub front: Vec<usize>,
     pub auto_index: usize,
-    /// The largest spread of wall time between repeats of one candidate, s:
-    /// the timing noise.
+    /// The largest spread of wall time between repeats of one candidate, or
+    /// `TIMING_RESOLUTION` of its wall time if larger, s: the timing noise.
     pub timing_noise_seconds: f64,
     /// No candidate is faster by more than the timing noise *and* more
     /// accurate by more than the error noise than the automatic choice.
@@ -925,7 +929,7 @@ pub struct CandidateSet {
 /// Renders the chart's alternatives — `nstep3`, `nstep9`, `nstep27`,
 /// `nstep81`, `spectral`, `rgb`, `srgb` at each of `bounces`, plus the
 /// automatic choice — each alone, with the choice's sample count and seed,
-/// timed as the fastest of `repeats` runs, and compares each with
+/// timed as the fastest of `repeats` rounds over all of them, and compares each with
 /// `reference`. Returns the points, the Pareto front of (seconds, error) and
 /// an SVG chart with the front and the automatic point.
 pub fn candidate_set(
@@ -954,25 +958,34 @@ pub fn candidate_set(
         runs.push((choice.coding, choice.bounces, true));
     }
     let tol = choice.tolerance;
+    let settings_of = |coding: Coding, b: u32| RenderSettings {
+        codings: vec![coding],
+        max_bounces: b,
+        ..choice.settings()
+    };
+    // The repeats go round-robin over the candidates (every candidate once,
+    // then again), so a change in the machine's load between rounds shows as
+    // spread between one candidate's repeats, the timing noise, instead of as
+    // a difference between candidates timed back to back.
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); runs.len()];
+    let mut results: Vec<Option<RenderResult>> = vec![None; runs.len()];
+    for _ in 0..repeats.max(1) {
+        for (i, &(coding, b, _)) in runs.iter().enumerate() {
+            let r = render(scene, &settings_of(coding, b), None)?;
+            times[i].push(r.wall_seconds);
+            results[i] = Some(r);
+        }
+    }
     let mut candidates = Vec::new();
     let mut timing_noise = 0.0f64;
-    for (coding, b, is_auto) in runs {
-        let settings = RenderSettings {
-            codings: vec![coding],
-            max_bounces: b,
-            ..choice.settings()
-        };
-        let mut times = Vec::new();
-        let mut result = None;
-        for _ in 0..repeats.max(1) {
-            let r = render(scene, &settings, None)?;
-            times.push(r.wall_seconds);
-            result = Some(r);
-        }
-        let r = result.expect("at least one run");
-        let fastest = times.iter().copied().fold(f64::INFINITY, f64::min);
-        let slowest = times.iter().copied().fold(0.0, f64::max);
-        timing_noise = timing_noise.max(slowest - fastest);
+    for (i, (coding, b, is_auto)) in runs.into_iter().enumerate() {
+        let r = results[i].take().expect("at least one run");
+        let fastest = times[i].iter().copied().fold(f64::INFINITY, f64::min);
+        let slowest = times[i].iter().copied().fold(0.0, f64::max);
+        // Approximation: wall times within TIMING_RESOLUTION of each other are
+        // the same speed, even when the repeats happened to agree more
+        // closely (on a shared machine they rarely mean more).
+        timing_noise = timing_noise.max(slowest - fastest).max(TIMING_RESOLUTION * fastest);
         let (_, points, noise) = compare_with_reference(&r, reference)?;
         let s = summarize(&points);
         let max_de00 = points.iter().map(|p| p.de00).fold(0.0, f64::max);
@@ -980,7 +993,7 @@ pub fn candidate_set(
             label: format!("{coding} ab{b}{}", if is_auto { " (auto)" } else { "" }),
             coding,
             bounces: b,
-            samples: settings.samples,
+            samples: settings_of(coding, b).samples,
             wall_seconds: fastest,
             rms_rel: s.rms_rel,
             max_de00,
