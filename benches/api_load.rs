@@ -130,6 +130,7 @@ fn main() {
         let state = AppState {
             store,
             config: Arc::new(ServiceConfig {
+                booth: Default::default(),
                 token: "0123456789abcdef0123".into(),
                 loopback_only: true,
                 scenes_dir: "scenes".into(),

@@ -31,6 +31,7 @@ async fn per_sample_ms(mode: SqliteSynchronous) -> Vec<f64> {
         if i % 99 == 0 {
             id = store
                 .create_measurement(&NewMeasurement {
+                    booth: Default::default(),
                     session_id: None,
                     scene: None,
                     target: None,

@@ -44,6 +44,7 @@ async fn harness(loopback_only: bool) -> Harness {
     let state = AppState {
         store,
         config: Arc::new(ServiceConfig {
+            booth: Default::default(),
             token: TOKEN.into(),
             loopback_only,
             scenes_dir: "scenes".into(),

@@ -40,6 +40,7 @@ async fn harness(queue: usize) -> Harness {
     let state = AppState {
         store,
         config: Arc::new(ServiceConfig {
+            booth: Default::default(),
             token: TOKEN.into(),
             loopback_only: true,
             scenes_dir: "scenes".into(),
@@ -330,6 +331,7 @@ async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() 
     let h = harness(4).await;
     let store = &h.state.store;
     let new = |scene: Option<&str>| NewMeasurement {
+        booth: Default::default(),
         session_id: None,
         scene: scene.map(String::from),
         target: scene.map(|_| "patch".to_string()),

@@ -563,6 +563,7 @@ fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_inter
             .unwrap();
         let running = store
             .create_measurement(&lightbooth::store::NewMeasurement {
+                booth: Default::default(),
                 session_id: None,
                 scene: None,
                 target: None,

@@ -220,6 +220,8 @@ async function cancelMeasurement(id) {
 
 function measurementQuery() {
   const q = new URLSearchParams({ limit: PAGE, offset: measurementOffset });
+  if ($("filter-booth").value) q.set("booth", $("filter-booth").value);
+  if ($("filter-model").value) q.set("instrument_model", $("filter-model").value);
   if ($("filter-scene").value) q.set("scene", $("filter-scene").value);
   if ($("filter-state").value) q.set("state", $("filter-state").value);
   return q.toString();
@@ -243,7 +245,7 @@ async function loadMeasurements(openId) {
     const tr = tbody.insertRow();
     tr.dataset.id = m.id;
     const instrument = m.instrument_model ? `${m.instrument_model} ${m.instrument_serial || ""}`.trim() : "";
-    for (const v of [m.id, localTime(m.created_at), instrument, m.scene || "", m.target || "", stateText(m),
+    for (const v of [m.id, localTime(m.created_at), m.booth, instrument, m.scene || "", m.target || "", stateText(m),
       `${m.samples_taken}/${m.samples_requested}`, fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2),
       m.note]) tr.insertCell().textContent = v;
     const action = tr.insertCell();
@@ -266,12 +268,18 @@ async function loadMeasurements(openId) {
   if (openId) showMeasurement(openId);
 }
 
-function fillMeasurementFilter() {
+async function fillMeasurementFilter() {
   const sel = $("filter-scene");
   for (const s of sceneInfo) sel.add(new Option(s.id, s.id));
+  // Every booth sharing the database; this daemon's own is marked.
+  const booths = await api("/api/booths");
+  const names = booths.booths.map((b) => b.booth);
+  if (!names.includes(booths.this_daemon)) names.push(booths.this_daemon);
+  for (const name of names.sort())
+    $("filter-booth").add(new Option(name === booths.this_daemon ? `${name} (this daemon)` : name, name));
 }
 
-for (const id of ["filter-scene", "filter-state"]) {
+for (const id of ["filter-booth", "filter-model", "filter-scene", "filter-state"]) {
   $(id).addEventListener("change", () => {
     measurementOffset = 0;
     loadMeasurements();
@@ -291,7 +299,7 @@ async function showMeasurement(id) {
   $("measurement-detail").hidden = false;
   $("detail-title").textContent = `Measurement ${m.id}` + (m.scene ? `: ${m.scene} / ${m.target}` : "");
   const average = `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), CV = ${fmt(m.luminance_cv, 2)}` +
-    (m.instrument_x != null ? `; the PR-650's own CIE 1931 x = ${fmt(m.instrument_x, 4)}, y = ${fmt(m.instrument_y, 4)}` : "");
+    (m.instrument_x != null ? `; the ${m.instrument_model || "instrument"}'s own CIE 1931 x = ${fmt(m.instrument_x, 4)}, y = ${fmt(m.instrument_y, 4)}` : "");
   $("detail-summary").textContent = (m.state === "complete" ? average
     : `${m.state}${m.error ? ": " + m.error : ""}` +
       (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +
@@ -574,6 +582,6 @@ async function showStudy(id) {
 follow();
 loadSceneChoices().then(() => {
   fillStudyScenes();
-  fillMeasurementFilter();
+  fillMeasurementFilter().catch((e) => notice(e.message));
   showView();
 });

@@ -11,6 +11,7 @@ use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::mock::Fault;
 use lightbooth::instrument::InstrumentSettings;
+use lightbooth::store::Booth;
 
 #[derive(Args, Debug)]
 pub struct ServeArgs {
@@ -52,6 +53,12 @@ pub struct ServeArgs {
     /// it is, e.g. scenes/truth).
     #[arg(long, requires = "mock")]
     mock_world: Option<PathBuf>,
+    /// The booth this daemon and its instrument measure in, recorded with
+    /// every measurement (letters, digits, `-`, `_`, `.`). Several booths
+    /// sharing one PostgreSQL database each give their own; one booth needs
+    /// none (`default`).
+    #[arg(long)]
+    booth: Option<Booth>,
 }
 
 /// `lightbooth.toml`: the daemon's settings file.
@@ -69,6 +76,7 @@ struct ConfigFile {
     mock_speed: Option<f64>,
     observer: Option<String>,
     mock_world: Option<PathBuf>,
+    booth: Option<String>,
 }
 
 fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
@@ -92,7 +100,15 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         anyhow::ensure!(args.mock, "instrument settings {} not found", instrument_path.display());
         InstrumentSettings::default()
     };
+    let booth = match (args.booth, file.booth) {
+        (Some(b), _) => b,
+        (None, Some(name)) => name
+            .parse()
+            .map_err(|e| anyhow::anyhow!("{}: key `booth`: {e}", args.config.display()))?,
+        (None, None) => Booth::default(),
+    };
     let options = DaemonOptions {
+        booth,
         bind: args
             .bind
             .or(file.bind)

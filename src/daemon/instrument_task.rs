@@ -33,7 +33,7 @@ use crate::instrument::{
     AveragedMeasurement, CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer,
 };
 use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
-use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store};
+use crate::store::{unix_seconds, Average, Booth, MeasurementState, NewSample, Store};
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
@@ -52,6 +52,8 @@ pub struct TaskConfig {
     pub events: broadcast::Sender<Event>,
     pub renderer: Arc<Renderer>,
     pub settings: InstrumentSettings,
+    /// The booth this instrument measures in; recorded with it.
+    pub booth: Booth,
     pub mock: Option<MockSettings>,
     pub runtime: Handle,
 }
@@ -353,11 +355,12 @@ impl Worker {
         let instrument = self.config.settings.open(&port).map_err(|e| e.to_string())?;
         let info = instrument.info().clone();
         let id = self
-            .block_on(
-                self.config
-                    .store
-                    .upsert_instrument(&info.model, info.serial.as_deref(), &port),
-            )
+            .block_on(self.config.store.upsert_instrument(
+                &self.config.booth,
+                &info.model,
+                info.serial.as_deref(),
+                &port,
+            ))
             .map_err(|e| format!("cannot record the instrument: {e}"))?;
         tracing::info!(instrument_id = id, model = %info.model, serial = ?info.serial, port, "instrument ready");
         self.set_status(InstrumentStatus::Idle {
@@ -371,11 +374,12 @@ impl Worker {
     fn serve_jobs(&mut self, mut instrument: Box<dyn Spectroradiometer>, port: &str) -> Disconnect {
         let info = instrument.info().clone();
         let instrument_id = self
-            .block_on(
-                self.config
-                    .store
-                    .upsert_instrument(&info.model, info.serial.as_deref(), port),
-            )
+            .block_on(self.config.store.upsert_instrument(
+                &self.config.booth,
+                &info.model,
+                info.serial.as_deref(),
+                port,
+            ))
             .ok();
         loop {
             let Some(job) = self.config.jobs.blocking_recv() else {

@@ -34,7 +34,7 @@ use crate::colorimetry::Observer;
 use crate::instrument::mock::Fault;
 use crate::instrument::InstrumentSettings;
 use crate::service::{self, auth, AppState, InstrumentStatus, ServiceConfig};
-use crate::store::Store;
+use crate::store::{Booth, Store};
 
 /// How many measurements may wait for the instrument; more get 409. Enough
 /// for every target of every booth scene (1 + 1 + 1 + 1 + 21) at once.
@@ -44,6 +44,8 @@ pub const QUEUE_CAPACITY: usize = 64;
 #[derive(Clone, Debug)]
 pub struct DaemonOptions {
     pub bind: SocketAddr,
+    /// The booth this daemon and its instrument measure in (`--booth`).
+    pub booth: Booth,
     /// `sqlite://path` (created if missing).
     pub db_url: String,
     /// Run a simulated PR-650 on a pty instead of opening a real port.
@@ -120,6 +122,7 @@ pub async fn run(
         events: events.clone(),
         renderer: Arc::clone(&renderer),
         settings: options.instrument.clone(),
+        booth: options.booth.clone(),
         mock: options.mock.then(|| instrument_task::MockSettings {
             personality: options.instrument.simulated_personality(),
             speed: options.mock_speed,
@@ -133,6 +136,7 @@ pub async fn run(
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
+            booth: options.booth.clone(),
             token,
             loopback_only,
             scenes_dir: options.scenes_dir.clone(),

@@ -45,6 +45,9 @@ pub const MAX_BODY_BYTES: usize = 64 * 1024;
 /// Settings the service needs, fixed at start-up.
 #[derive(Clone, Debug)]
 pub struct ServiceConfig {
+    /// The booth this daemon measures in (`serve --booth`): every measurement
+    /// it takes records it.
+    pub booth: crate::store::Booth,
     /// The bearer token for writes (and for reads when not on loopback).
     pub token: String,
     /// True when the daemon listens on loopback only: reads need no token.

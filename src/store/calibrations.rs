@@ -283,6 +283,7 @@ mod tests {
     async fn complete_measurement(store: &Store) -> i64 {
         let id = store
             .create_measurement(&NewMeasurement {
+                booth: crate::store::Booth::default(),
                 session_id: None,
                 scene: None,
                 target: None,

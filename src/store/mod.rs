@@ -62,6 +62,7 @@ macro_rules! with_pool {
     };
 }
 
+mod booth;
 mod calibrations;
 mod display_profiles;
 pub mod engine;
@@ -76,6 +77,7 @@ use sqlx::sqlite::{SqlitePool, SqliteSynchronous};
 
 use engine::Engine;
 
+pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
 pub use rows::*;
@@ -381,26 +383,50 @@ impl Store {
 
     // --- instruments and sessions ---------------------------------------
 
-    /// The id of an instrument, recording it the first time it is seen.
-    pub async fn upsert_instrument(&self, model: &str, serial: Option<&str>, port: &str) -> Result<i64, StoreError> {
+    /// The id of an instrument, recording it the first time it is seen and
+    /// the booth and port it is seen at now.
+    pub async fn upsert_instrument(
+        &self,
+        booth: &Booth,
+        model: &str,
+        serial: Option<&str>,
+        port: &str,
+    ) -> Result<i64, StoreError> {
         let t = now();
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO instruments (model, serial, port, first_seen, last_seen) VALUES ($1, $2, $3, $4, $5) \
-             ON CONFLICT (model, serial) DO UPDATE SET port = excluded.port, last_seen = excluded.last_seen \
-             RETURNING id",
+        Ok(with_pool!(self, |pool| {
+            sqlx::query_scalar(
+            "INSERT INTO instruments (booth, model, serial, port, first_seen, last_seen) VALUES ($1, $2, $3, $4, $5, $6) \
+             ON CONFLICT (model, serial) DO UPDATE SET booth = excluded.booth, port = excluded.port, \
+             last_seen = excluded.last_seen RETURNING id",
         )
+        .bind(booth.as_str())
         .bind(model)
         .bind(serial.unwrap_or(""))
         .bind(port)
         .bind(t)
         .bind(t)
         .fetch_one(pool)
+        .await?
+        }))
+    }
+
+    /// Every booth with a measurement or an instrument, by name.
+    pub async fn list_booths(&self) -> Result<Vec<BoothRow>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_as(
+            "SELECT b.booth, \
+                    (SELECT COUNT(*) FROM measurements m WHERE m.booth = b.booth) AS measurements, \
+                    (SELECT COUNT(*) FROM measurements m WHERE m.booth = b.booth \
+                       AND m.state IN ('queued', 'running')) AS unfinished, \
+                    (SELECT MAX(m.created_at) FROM measurements m WHERE m.booth = b.booth) AS last_measurement_at \
+             FROM (SELECT booth FROM measurements UNION SELECT booth FROM instruments) b ORDER BY b.booth"
+        )
+        .fetch_all(pool)
         .await?))
     }
 
     pub async fn list_instruments(&self) -> Result<Vec<InstrumentRow>, StoreError> {
         Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, model, serial, port, first_seen, last_seen FROM instruments ORDER BY id"
+            "SELECT id, model, booth, serial, port, first_seen, last_seen FROM instruments ORDER BY id"
         )
         .fetch_all(pool)
         .await?))
@@ -431,9 +457,10 @@ impl Store {
     pub async fn create_measurement(&self, m: &NewMeasurement) -> Result<i64, StoreError> {
         Ok(with_pool!(self, |pool| {
             sqlx::query_scalar(
-            "INSERT INTO measurements (session_id, scene, target, samples_requested, settings_json, state, note, created_at) \
-             VALUES ($1, $2, $3, $4, $5, 'queued', $6, $7) RETURNING id",
+            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at) \
+             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8) RETURNING id",
         )
+        .bind(m.booth.as_str())
         .bind(m.session_id)
         .bind(&m.scene)
         .bind(&m.target)
@@ -601,6 +628,7 @@ impl Store {
         let mut values: Vec<String> = Vec::new();
         let mut conditions = Vec::new();
         for (column, value) in [
+            ("booth", f.booth.as_ref().map(|b| b.as_str().to_string())),
             ("scene", f.scene.clone()),
             ("target", f.target.clone()),
             ("state", f.state.map(|s| s.as_str().to_string())),
@@ -609,6 +637,13 @@ impl Store {
                 values.push(v);
                 conditions.push(format!("{column} = ${}", values.len()));
             }
+        }
+        if let Some(model) = &f.instrument_model {
+            values.push(model.clone());
+            conditions.push(format!(
+                "instrument_id IN (SELECT i.id FROM instruments i WHERE i.model = ${})",
+                values.len()
+            ));
         }
         // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
         let where_sql = if conditions.is_empty() {

@@ -9,18 +9,32 @@
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use super::{MeasurementState, StoreError};
+use super::{Booth, MeasurementState, StoreError};
 use crate::colorimetry::{Observer, Xyz};
 
 #[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
 pub struct InstrumentRow {
     pub id: i64,
     pub model: String,
+    /// The booth it was last seen in (`serve --booth`).
+    pub booth: String,
     /// Empty when the instrument does not report one.
     pub serial: String,
     pub port: Option<String>,
     pub first_seen: f64,
     pub last_seen: f64,
+}
+
+/// A booth as the database knows it: from its measurements and instruments.
+#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
+pub struct BoothRow {
+    pub booth: String,
+    /// Measurements taken (or queued) in it.
+    pub measurements: i64,
+    /// Of which queued or running now.
+    pub unfinished: i64,
+    /// POSIX seconds of its newest measurement's request; null without one.
+    pub last_measurement_at: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
@@ -34,6 +48,8 @@ pub struct SessionRow {
 /// What is needed to queue a measurement.
 #[derive(Clone, Debug)]
 pub struct NewMeasurement {
+    /// The booth it is taken in.
+    pub booth: Booth,
     pub session_id: Option<i64>,
     pub scene: Option<String>,
     pub target: Option<String>,
@@ -77,6 +93,8 @@ pub struct Average {
 #[derive(Clone, Debug, Serialize, ToSchema)]
 pub struct MeasurementSummary {
     pub id: i64,
+    /// The booth it was taken in (`serve --booth`; `default` for one booth).
+    pub booth: String,
     pub session_id: Option<i64>,
     pub instrument_id: Option<i64>,
     /// The model of the instrument that took it ("PR-650", "PR-655", "PR-670").
@@ -158,6 +176,12 @@ pub struct MeasurementDetail {
 #[derive(Clone, Debug, Default, Deserialize, ToSchema, utoipa::IntoParams)]
 #[serde(deny_unknown_fields)]
 pub struct MeasurementFilter {
+    /// One booth's measurements only.
+    #[schema(value_type = Option<String>)]
+    #[param(value_type = Option<String>)]
+    pub booth: Option<Booth>,
+    /// Only those taken by this instrument model (`PR-650`, `PR-655`, `PR-670`).
+    pub instrument_model: Option<String>,
     pub scene: Option<String>,
     pub target: Option<String>,
     pub state: Option<MeasurementState>,
@@ -177,7 +201,7 @@ pub struct MeasurementPage {
 }
 
 /// The summary columns (no spectra: listings stay small and fast).
-pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, scene, target, samples_requested, \
+pub(super) const MEASUREMENT_COLUMNS: &str = "id, booth, session_id, instrument_id, scene, target, samples_requested, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id) AS samples_taken, \
     (SELECT COUNT(*) FROM samples s WHERE s.measurement_id = measurements.id AND s.usable = TRUE) AS good_samples, \
     state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
@@ -189,6 +213,7 @@ pub(super) const MEASUREMENT_COLUMNS: &str = "id, session_id, instrument_id, sce
 #[derive(sqlx::FromRow)]
 pub(super) struct MeasurementRecord {
     id: i64,
+    booth: String,
     session_id: Option<i64>,
     instrument_id: Option<i64>,
     scene: Option<String>,
@@ -244,6 +269,7 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
         };
         Ok(MeasurementSummary {
             id: r.id,
+            booth: r.booth,
             session_id: r.session_id,
             instrument_id: r.instrument_id,
             instrument_model: r.instrument_model,

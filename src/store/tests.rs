@@ -21,6 +21,7 @@ on_both_engines!(
     renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens,
     job_states_move_only_forward,
     partial_averages_and_previews_read_back_alike,
+    measurements_and_instruments_name_their_booth_and_list_by_booth_and_model,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -33,6 +34,7 @@ async fn temp_store(engine: EngineKind) -> (TestDb, Store, String) {
 
 fn new_measurement() -> NewMeasurement {
     NewMeasurement {
+        booth: Booth::default(),
         session_id: None,
         scene: Some("white".into()),
         target: Some("patch".into()),
@@ -40,6 +42,78 @@ fn new_measurement() -> NewMeasurement {
         settings_json: serde_json::json!({"port": "/dev/null"}),
         note: String::new(),
     }
+}
+
+/// Two booths in one database: each measurement and instrument keeps its
+/// booth; listings filter by booth and by instrument model; the booth list
+/// counts each booth's work. Rows from before migration 0009 belong to
+/// `default` (tested in `migrations_before_booths_leave_rows_in_the_default_booth`).
+async fn measurements_and_instruments_name_their_booth_and_list_by_booth_and_model(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let north: Booth = "north".parse().unwrap();
+    let south: Booth = "south".parse().unwrap();
+    let pr650 = store
+        .upsert_instrument(&north, "PR-650", Some("60931502"), "/dev/pts/3")
+        .await
+        .unwrap();
+    let pr670 = store
+        .upsert_instrument(&south, "PR-670", Some("67001234"), "/dev/ttyACM0")
+        .await
+        .unwrap();
+    let mut ids = Vec::new();
+    for (booth, instrument) in [(&north, pr650), (&south, pr670), (&south, pr670)] {
+        let id = store
+            .create_measurement(&NewMeasurement {
+                booth: booth.clone(),
+                ..new_measurement()
+            })
+            .await
+            .unwrap();
+        store.mark_running(id, Some(instrument)).await.unwrap();
+        ids.push(id);
+    }
+    store
+        .end_measurement(ids[1], MeasurementState::Failed, "test")
+        .await
+        .unwrap();
+    let page = |booth: Option<&Booth>, model: Option<&str>| {
+        let f = MeasurementFilter {
+            booth: booth.cloned(),
+            instrument_model: model.map(String::from),
+            ..Default::default()
+        };
+        let store = store.clone();
+        async move {
+            let p = store.list_measurements(&f).await.unwrap();
+            assert_eq!(p.total as usize, p.items.len());
+            p.items.into_iter().map(|m| (m.id, m.booth)).collect::<Vec<_>>()
+        }
+    };
+    assert_eq!(page(Some(&north), None).await, [(ids[0], "north".to_string())]);
+    assert_eq!(
+        page(Some(&south), None).await,
+        [(ids[2], "south".to_string()), (ids[1], "south".to_string())]
+    );
+    assert_eq!(page(None, Some("PR-670")).await.len(), 2);
+    assert_eq!(page(Some(&north), Some("PR-670")).await, []);
+    assert_eq!(page(None, Some("PR-655")).await, []);
+    let detail = store.get_measurement(ids[0]).await.unwrap().unwrap();
+    assert_eq!(detail.summary.booth, "north");
+    assert_eq!(detail.summary.instrument_model.as_deref(), Some("PR-650"));
+
+    let booths = store.list_booths().await.unwrap();
+    let summary: Vec<(&str, i64, i64)> = booths
+        .iter()
+        .map(|b| (b.booth.as_str(), b.measurements, b.unfinished))
+        .collect();
+    assert_eq!(summary, [("north", 1, 1), ("south", 2, 1)]);
+    // An instrument moved to another booth is listed where it was last seen.
+    store
+        .upsert_instrument(&north, "PR-670", Some("67001234"), "/dev/ttyACM1")
+        .await
+        .unwrap();
+    let instruments = store.list_instruments().await.unwrap();
+    assert!(instruments.iter().all(|i| i.booth == "north"), "{instruments:?}");
 }
 
 fn sample(index: usize, usable: bool) -> NewSample {
@@ -58,12 +132,12 @@ async fn a_measurement_keeps_every_sample_and_its_average(engine: EngineKind) {
     let (_dir, store, _) = temp_store(engine).await;
     let id = store.create_measurement(&new_measurement()).await.unwrap();
     let inst = store
-        .upsert_instrument("PR-650", Some("60931502"), "/dev/pts/3")
+        .upsert_instrument(&Booth::default(), "PR-650", Some("60931502"), "/dev/pts/3")
         .await
         .unwrap();
     assert_eq!(
         store
-            .upsert_instrument("PR-650", Some("60931502"), "/dev/pts/4")
+            .upsert_instrument(&Booth::default(), "PR-650", Some("60931502"), "/dev/pts/4")
             .await
             .unwrap(),
         inst
@@ -353,6 +427,53 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
     assert!(violations.is_empty(), "no dangling references after the rebuild");
 }
 
+/// A database from before booths (migrations up to 0008) keeps its
+/// measurements and instruments, now in the `default` booth: the one booth a
+/// daemon without `--booth` serves, so a one-booth lab sees no change.
+#[tokio::test]
+async fn migrations_before_booths_leave_rows_in_the_default_booth() {
+    let dir = tempfile::tempdir().unwrap();
+    let old = dir.path().join("migrations");
+    std::fs::create_dir(&old).unwrap();
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
+    for entry in std::fs::read_dir(&all).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        if name.as_str() < "0009" {
+            std::fs::copy(&path, old.join(&name)).unwrap();
+        }
+    }
+    let url = format!("sqlite://{}", dir.path().join("old.sqlite").display());
+    {
+        let options = SqliteConnectOptions::from_str(&url).unwrap().create_if_missing(true);
+        let pool = SqlitePool::connect_with(options).await.unwrap();
+        sqlx::migrate::Migrator::new(old.as_path())
+            .await
+            .unwrap()
+            .run(&pool)
+            .await
+            .unwrap();
+        for sql in [
+            "INSERT INTO instruments (id, model, serial, port, first_seen, last_seen) \
+             VALUES (4, 'PR-650', '60931502', '/dev/ttyUSB0', 0, 0)",
+            "INSERT INTO measurements (id, instrument_id, samples_requested, settings_json, state, created_at) \
+             VALUES (1, 4, 5, '{}', 'failed', 0)",
+        ] {
+            sqlx::query(sql).execute(&pool).await.unwrap();
+        }
+        pool.close().await;
+    }
+    let store = Store::open(&url).await.unwrap();
+    let m = store.get_measurement(1).await.unwrap().unwrap();
+    assert_eq!(m.summary.booth, DEFAULT_BOOTH);
+    assert_eq!(store.list_instruments().await.unwrap()[0].booth, DEFAULT_BOOTH);
+    let default_only = MeasurementFilter {
+        booth: Some(Booth::default()),
+        ..Default::default()
+    };
+    assert_eq!(store.list_measurements(&default_only).await.unwrap().total, 1);
+}
+
 /// Reads that go through each engine's own types: the partial average of an
 /// interrupted measurement (its samples' `usable` flag: 0/1 on SQLite, a
 /// boolean on PostgreSQL), a preview's bytes (BLOB, BYTEA), the filters of
@@ -360,7 +481,10 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
 async fn partial_averages_and_previews_read_back_alike(engine: EngineKind) {
     let (_db, store, _) = temp_store(engine).await;
     let session = store.create_session("ana", "booth 1").await.unwrap();
-    let inst = store.upsert_instrument("PR-650", None, "/dev/pts/1").await.unwrap();
+    let inst = store
+        .upsert_instrument(&Booth::default(), "PR-650", None, "/dev/pts/1")
+        .await
+        .unwrap();
     let mut m = new_measurement();
     m.session_id = Some(session);
     let id = store.create_measurement(&m).await.unwrap();

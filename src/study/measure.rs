@@ -15,7 +15,7 @@ use crate::daemon::instrument_task::{average_row, sample_row};
 use crate::instrument::mock::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
 use crate::render;
-use crate::store::{MeasurementState, NewMeasurement, Store};
+use crate::store::{Booth, MeasurementState, NewMeasurement, Store};
 use crate::study::run::truth_path;
 
 /// Measures every target of `scenes` (five samples each) and stores the
@@ -46,7 +46,7 @@ pub async fn measure_with_simulator(
     let mut instrument = open_pr650(&port, &settings)?;
     let info = instrument.info().clone();
     let instrument_id = store
-        .upsert_instrument(&info.model, info.serial.as_deref(), &port)
+        .upsert_instrument(&Booth::default(), &info.model, info.serial.as_deref(), &port)
         .await?;
     let mut ids = Vec::new();
     for path in scenes {
@@ -62,6 +62,7 @@ pub async fn measure_with_simulator(
             mock.set_truth(render::converged_target_spectrum(&truth, target, Some(cache_dir))?)?;
             let id = store
                 .create_measurement(&NewMeasurement {
+                    booth: Booth::default(),
                     session_id: None,
                     scene: Some(scene_id.clone()),
                     target: Some(target.to_string()),

@@ -83,11 +83,23 @@ try {
   await page.goto(`${base}/#/measurements`);
   await page.waitForFunction(() => [...document.querySelectorAll("#measurement-table tbody tr")].some((tr) =>
     /cancelled, partial \(\d+ of 99\)/.test(tr.textContent) && tr.textContent.includes("cancelled from the dashboard")
-    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent) && /^PR-650 \d+$/.test(tr.cells[2].textContent)), null,
+    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent) && tr.cells[2].textContent === "default"
+    && /^PR-650 \d+$/.test(tr.cells[3].textContent)), null,
     { timeout: 30000 });
   const pageInfo = await page.textContent("#page-info");
   if (!/^1–2 of 2$/.test(pageInfo)) failures.push("page info: " + pageInfo);
+  // The booth and instrument filters: this daemon's booth (marked) keeps both
+  // measurements, a PR-670 took none of them.
+  const boothOption = await page.textContent("#filter-booth option[value='default']");
+  if (boothOption !== "default (this daemon)") failures.push("booth option: " + boothOption);
+  await page.selectOption("#filter-booth", "default");
+  await page.waitForFunction(() => document.getElementById("page-info").textContent === "1–2 of 2");
   if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });
+  await page.selectOption("#filter-model", "PR-670");
+  await page.waitForFunction(() => document.getElementById("page-info").textContent === "0–0 of 0"
+    && document.querySelectorAll("#measurement-table tbody tr").length === 0);
+  await page.selectOption("#filter-model", "");
+  await page.selectOption("#filter-booth", "");
 
   // The scene comparison: every coding, every chart.
   await page.goto(`${base}/#/scenes/white`);

@@ -155,18 +155,24 @@ impl Daemon {
     /// Starts it listening on `bind` (e.g. `0.0.0.0:0`, so reads need the
     /// token); `addr` is then the loopback address of the same port.
     pub async fn start_bound(mock_speed: f64, bind: &str) -> Daemon {
-        Daemon::start_with(mock_speed, bind, None, None).await
+        Daemon::start_with(mock_speed, bind, None, None, None).await
     }
 
     /// Starts it on the database at `db_url` (e.g. a PostgreSQL database)
     /// instead of a fresh SQLite file.
     pub async fn start_on(mock_speed: f64, db_url: &str) -> Daemon {
-        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), None).await
+        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), None, None).await
+    }
+
+    /// Starts the daemon of booth `booth` (`serve --booth`) on the database
+    /// at `db_url`, shared with other booths' daemons.
+    pub async fn start_booth(mock_speed: f64, db_url: &str, booth: &str) -> Daemon {
+        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), None, Some(booth)).await
     }
 
     /// Starts it with another instrument model (simulated, as `--mock` does).
     pub async fn start_instrument(mock_speed: f64, instrument: lightbooth::instrument::InstrumentSettings) -> Daemon {
-        Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument)).await
+        Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument), None).await
     }
 
     async fn start_with(
@@ -174,6 +180,7 @@ impl Daemon {
         bind: &str,
         db_url: Option<&str>,
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
+        booth: Option<&str>,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
@@ -189,6 +196,7 @@ impl Daemon {
             ..Pr650Settings::default()
         };
         let options = DaemonOptions {
+            booth: booth.map_or_else(Default::default, |b| b.parse().unwrap()),
             bind: bound,
             db_url: db_url
                 .map(str::to_string)

@@ -4,4 +4,11 @@ base = 'http://127.0.0.1:8650';
 page = webread([base '/api/measurements'], 'scene', 'cylinder', 'state', 'complete', 'limit', 50);
 fprintf('%d complete measurements of the cylinder\n', page.total);
 t = struct2table(page.items);           % one row per measurement
-disp(t(:, {'id', 'target', 'Y', 'x', 'y', 'luminance_cv'}));
+disp(t(:, {'id', 'booth', 'instrument_model', 'target', 'Y', 'x', 'y', 'luminance_cv'}));
+
+% Several booths sharing one database: list them, then one booth's data only
+% (any booth's daemon answers for the whole lab).
+booths = webread([base '/api/booths']);
+disp(struct2table(booths.booths));
+north = webread([base '/api/measurements'], 'booth', 'north', 'state', 'complete', 'limit', 1000);
+fprintf('%d complete measurements in booth north\n', north.total);

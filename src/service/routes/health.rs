@@ -12,6 +12,8 @@ use crate::store::InstrumentRow;
 
 #[derive(Serialize, ToSchema)]
 pub struct Health {
+    /// The booth this daemon measures in (`serve --booth`).
+    pub booth: String,
     /// `ok`; `degraded` while the instrument task restarts after a panic
     /// (measurements are refused meanwhile); `down` (with 503) when the
     /// instrument task has stopped and no measurement can run.
@@ -46,6 +48,7 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
     Ok((
         code,
         Json(Health {
+            booth: state.config.booth.to_string(),
             status: status.into(),
             version: env!("CARGO_PKG_VERSION").into(),
             instrument,
@@ -57,6 +60,8 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
 
 #[derive(Serialize, ToSchema)]
 pub struct Instruments {
+    /// The booth of this daemon's instrument.
+    pub booth: String,
     /// What the instrument task is doing now.
     pub status: InstrumentStatus,
     /// Every instrument this database has seen.
@@ -67,6 +72,7 @@ pub struct Instruments {
 pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instruments>, ApiError> {
     let status = state.status.borrow().clone();
     Ok(Json(Instruments {
+        booth: state.config.booth.to_string(),
         status,
         known: state.store.list_instruments().await?,
     }))

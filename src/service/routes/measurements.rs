@@ -89,6 +89,7 @@ pub async fn start_measurement(
     let id = enqueue_measurement(
         &state,
         NewMeasurement {
+            booth: state.config.booth.clone(),
             session_id: body.session_id,
             scene: body.scene,
             target: body.target,

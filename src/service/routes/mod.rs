@@ -7,6 +7,7 @@
 //! for the OpenAPI document with `#[utoipa::path]`, and that annotation's
 //! path and method are also what the router serves (`utoipa_axum::routes!`).
 
+mod booths;
 mod comparisons;
 mod display_profiles;
 mod health;
@@ -22,6 +23,7 @@ mod studies;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+pub use booths::*;
 pub use comparisons::*;
 pub use display_profiles::*;
 pub use health::*;
@@ -45,6 +47,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(health))
         .routes(routes!(openapi::document))
         .routes(routes!(instruments))
+        .routes(routes!(list_booths))
         .routes(routes!(list_sessions, create_session))
         .routes(routes!(list_measurements, start_measurement))
         .routes(routes!(get_measurement))

@@ -228,6 +228,7 @@ async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result
     let mut ids = Vec::with_capacity(missing.len());
     for (scene, target) in missing {
         let new = NewMeasurement {
+            booth: state.config.booth.clone(),
             session_id: None,
             scene: Some(scene.clone()),
             target: Some(target.clone()),
