@@ -12,7 +12,13 @@
 //! - Replies come in one burst at USB speed, CR LF per line, status first.
 //! - Measurements go through the same [`super::model::InstrumentModel`] as
 //!   the PR-650's (on this model's grid and slit): its low light is `-8`,
-//!   its overload `-2`; a sync failure is `-10`.
+//!   its overload `-2`; auto sync (`SS1`) on a source it cannot sync to
+//!   ends in `-10` or `-1` ([`SyncFailure`]).
+//! - A measurement takes the sheet's 13.7 time ([`Timing`]): a base time,
+//!   sync detection under `SS1`, and each cycle's exposure and dark exposure
+//!   (smart dark skips repeated darks); `SS1`/`SS3` round the exposure up to
+//!   whole periods of the source. [`super::MockHandle::last_measurement_ms`]
+//!   reports it; the simulator sleeps it times [`MockConfig::speed`].
 //! - Reports 1–7 (but 5 is the spectrum), 12, 13, 14, 110, 111, 114, 116,
 //!   117, 120, 601 and 602 are computed from one stored measurement and
 //!   setup, so the views agree (section 6). Not simulated: 8/9 (raw detector
@@ -60,6 +66,30 @@ pub enum AfterFailure {
     NoData,
 }
 
+/// The status of an `SS1` (auto sync) measurement of a source the unit
+/// cannot sync to (13.9 lists −1 / −10: PTB's `PR670measspd` handles both as
+/// a sync failure; the status table reads −10 "cannot auto-sync to the light
+/// source" and −1 "light source not constant").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SyncFailure {
+    /// −10: cannot auto-sync to the light source.
+    #[default]
+    CannotAutoSync,
+    /// −1: light source not constant.
+    NotConstant,
+}
+
+impl SyncFailure {
+    /// The status the measurement ends with.
+    pub fn status(self) -> i32 {
+        match self {
+            SyncFailure::CannotAutoSync => -10,
+            SyncFailure::NotConstant => -1,
+        }
+    }
+}
+
 /// The behaviours of section 13 the sources disagree on, each selectable.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -89,6 +119,13 @@ pub struct Pr655Switches {
     pub after_failure: AfterFailure,
     /// The status of an [`FaultKind::ErrorCode`] measurement (13.9: −8, −2, −1, −10, −12).
     pub error_status: i32,
+    /// 13.9: what an `SS1` measurement of an unsyncable source ends with.
+    pub sync_failure: SyncFailure,
+    /// 13.7: the time auto sync (`SS1`) spends finding the source's
+    /// frequency before each measurement, ms at speed 1. No source gives it
+    /// (9: durations are undocumented); the default, 1000 ms, is a simulator
+    /// choice: twenty periods at the slowest syncable frequency (20 Hz, 7).
+    pub sync_detection_ms: u64,
     /// What `D114` answers.
     pub firmware: String,
 }
@@ -115,6 +152,8 @@ impl Pr655Switches {
             line_style: LineStyle::TrailingSpace,
             after_failure: AfterFailure::Error,
             error_status: -8,
+            sync_failure: SyncFailure::CannotAutoSync,
+            sync_detection_ms: 1000,
             firmware: "2.22D".into(),
         }
     }
@@ -185,6 +224,10 @@ struct Setup {
     cycles: u32,
     observer: u32,
     sync: u32,
+    /// `SK`: the frequency user sync (`SS3`) locks to.
+    user_sync_hz: u32,
+    /// `SD1` (PR-670): smart dark.
+    smart_dark: bool,
 }
 
 impl Default for Setup {
@@ -195,6 +238,8 @@ impl Default for Setup {
             cycles: 1,
             observer: 2,
             sync: 0,
+            user_sync_hz: 60,
+            smart_dark: false,
         }
     }
 }
@@ -219,6 +264,49 @@ pub(super) struct Device {
     /// The last measurement, and the last good one.
     last: Option<Stored>,
     last_good: Option<Stored>,
+    /// The exposure of the last dark measurement taken (smart dark reuses it, 5 `SD`).
+    last_dark_exposure_ms: Option<f64>,
+}
+
+/// The frequencies sync can lock to (7, −3: "below 20 Hz, above 400 Hz").
+const SYNC_RANGE_HZ: std::ops::RangeInclusive<f64> = 20.0..=400.0;
+
+/// Where the time of one `M⟨code⟩` goes, ms at speed 1: section 13.7's
+/// model, "a configurable base time, plus cycles × (exposure + dark exposure
+/// unless smart dark applies), plus sync detection when `SS1`". Each dark
+/// exposure is as long as the exposure (the shutter closes for a dark reading
+/// of the same integration, 9). The transfer of the reply is not included
+/// (USB speed, 9).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Timing {
+    /// Shutter moves and computation, once per measurement ([`super::model::InstrumentModel::base_time_ms`]).
+    base_ms: f64,
+    /// `SS1`: finding the source's frequency ([`Pr655Switches::sync_detection_ms`]).
+    sync_detection_ms: f64,
+    /// One cycle's exposure, after sync a whole number of the source's periods.
+    exposure_ms: f64,
+    /// Exposures taken (`SN`); none when auto sync failed.
+    cycles: u32,
+    /// Dark exposures taken: one per cycle, or with smart dark one only when
+    /// the exposure differs from the last dark's, else none.
+    darks: u32,
+}
+
+impl Timing {
+    fn total_ms(&self) -> f64 {
+        self.base_ms + self.sync_detection_ms + f64::from(self.cycles + self.darks) * self.exposure_ms
+    }
+}
+
+/// `SS1`/`SS3` set the exposure "to a whole number of periods" (5, `SS`):
+/// the next whole number up, at least one period, at most as many as fit the
+/// model's longest exposure.
+fn synced_exposure_ms(exposure_ms: f64, hz: f64, max_ms: f64) -> f64 {
+    let period_ms = 1000.0 / hz;
+    // 1e-9: an exposure that already is whole periods stays as it is.
+    let periods = (exposure_ms / period_ms - 1e-9).ceil().max(1.0);
+    let most = (max_ms / period_ms).floor().max(1.0);
+    periods.min(most) * period_ms
 }
 
 /// What a handler wants next.
@@ -255,6 +343,7 @@ impl Device {
             setup: Setup::default(),
             last: None,
             last_good: None,
+            last_dark_exposure_ms: None,
         }
     }
 
@@ -268,6 +357,7 @@ impl Device {
         self.setup = Setup::default();
         self.last = None;
         self.last_good = None;
+        self.last_dark_exposure_ms = None;
         let mut shared = lock(&self.shared);
         shared.integration_ms = 0;
         shared.link_dead = false;
@@ -451,7 +541,7 @@ impl Device {
                 let status = self.set(args);
                 self.status_reply(status);
             }
-            "F" => match self.cfg.flicker_hz {
+            "F" => match self.cfg.flicker_hz.filter(|hz| SYNC_RANGE_HZ.contains(hz)) {
                 Some(hz) => {
                     let reply = format!(
                         "{},{hz:.2} Hertz (Period = {:.0} milliseconds)\r\n",
@@ -493,7 +583,7 @@ impl Device {
             "O" => return -1015,
             "S" if matches!(v, 0 | 1 | 3) => self.setup.sync = v,
             "S" => return -1019,
-            "K" if (20..=400).contains(&v) => {}
+            "K" if (20..=400).contains(&v) => self.setup.user_sync_hz = v,
             "K" => return -1023,
             "F" | "H" | "G" | "D" if !pr670 => return -1035,
             "F" if v <= 3 => {}
@@ -502,39 +592,98 @@ impl Device {
             "H" => return -1026,
             "G" if v <= 3 => {}
             "G" => return -1011,
-            "D" if v <= 1 => {}
+            "D" if v <= 1 => self.setup.smart_dark = v == 1,
             "D" => return -1017,
             _ => return -1000,
         }
         0
     }
 
-    /// One measurement (cycles × exposure). Returns false if the cable was pulled.
+    /// The frequency auto sync (`SS1`) locks to: the source's flicker when it
+    /// is in 20–400 Hz (7, −3). None for a steady source (no period to find:
+    /// a simulator choice, the sheet leaves `SS1` on a steady source open,
+    /// 12.10), one outside that band, or one marked [`MockConfig::unsyncable`].
+    fn auto_sync_hz(&self) -> Option<f64> {
+        if self.cfg.unsyncable {
+            return None;
+        }
+        self.cfg.flicker_hz.filter(|hz| SYNC_RANGE_HZ.contains(hz))
+    }
+
+    /// One measurement, taking [`Timing::total_ms`] scaled by the speed.
+    /// Returns false if the cable was pulled.
     fn measure(&mut self) -> bool {
         let truth = lock(&self.shared).truth_1nm.clone();
-        let reading = match self.cfg.model.reading(&truth, self.setup.exposure_ms) {
+        let model = &self.cfg.model;
+        let mut reading = match model.reading(&truth, self.setup.exposure_ms) {
             Ok(r) => r,
             Err(e) => {
                 tracing::error!(error = %e, "simulated instrument: cannot model the target");
                 return true;
             }
         };
+        let auto_sync = self.setup.sync == 1;
+        let lock_hz = match self.setup.sync {
+            1 => self.auto_sync_hz(),
+            3 => Some(f64::from(self.setup.user_sync_hz)),
+            _ => None,
+        };
+        let sync_failed = auto_sync && lock_hz.is_none();
+        let mut exposure_ms = reading.integration_ms;
+        if let Some(hz) = lock_hz {
+            let longest = f64::from(*self.sw.model.exposure_range_ms().end());
+            exposure_ms = synced_exposure_ms(reading.integration_ms, hz, longest);
+            // The detector model takes whole milliseconds; the timing keeps the exact periods.
+            match model.reading(&truth, exposure_ms.round().max(1.0) as u32) {
+                Ok(r) => reading = r,
+                Err(e) => tracing::error!(error = %e, "simulated instrument: cannot model the target"),
+            }
+        }
+        let cycles = if sync_failed { 0 } else { self.setup.cycles.max(1) };
+        let darks = if cycles == 0 {
+            0
+        } else if self.setup.smart_dark {
+            u32::from(self.last_dark_exposure_ms != Some(exposure_ms))
+        } else {
+            cycles
+        };
+        let timing = Timing {
+            base_ms: model.base_time_ms,
+            sync_detection_ms: if auto_sync {
+                self.sw.sync_detection_ms as f64
+            } else {
+                0.0
+            },
+            exposure_ms,
+            cycles,
+            darks,
+        };
+        let total_ms = timing.total_ms();
+        tracing::debug!(?timing, total_ms, sync_hz = ?lock_hz, "simulated measurement time");
         if self.fires(FaultKind::CablePull) {
-            self.sleep_scaled(reading.duration_ms / 2.0);
+            self.sleep_scaled(total_ms / 2.0);
             tracing::info!("simulated instrument: USB cable pulled");
             lock(&self.shared).unplugged = true;
             self.port = None;
             self.keepalive = None;
             return false;
         }
-        self.sleep_scaled(reading.duration_ms * f64::from(self.setup.cycles));
+        lock(&self.shared).last_measurement_ms = Some(total_ms);
+        self.sleep_scaled(total_ms);
+        if darks > 0 {
+            self.last_dark_exposure_ms = Some(exposure_ms);
+        }
         let mut status = match reading.code {
             0 => 0,
             19 => -2,
             _ => -8,
         };
-        if self.setup.sync == 1 && self.cfg.unsyncable {
-            status = -10;
+        if sync_failed {
+            tracing::info!(
+                status = self.sw.sync_failure.status(),
+                "simulated instrument: cannot auto-sync"
+            );
+            status = self.sw.sync_failure.status();
         }
         if self.fires(FaultKind::ErrorCode) {
             status = self.sw.error_status;
@@ -560,14 +709,14 @@ impl Device {
                 status,
                 values,
                 xyz,
-                exposure_ms: reading.integration_ms,
+                exposure_ms,
             }
         } else {
             Stored {
                 status,
                 values: Vec::new(),
                 xyz: [0.0; 3],
-                exposure_ms: reading.integration_ms,
+                exposure_ms,
             }
         };
         if status == 0 {
@@ -643,7 +792,7 @@ impl Device {
             14 => {
                 let text = match (self.setup.sync, self.cfg.flicker_hz) {
                     (1, Some(hz)) => format!("Auto Sync,{hz:.2} Hertz"),
-                    (3, _) => "User Sync,60.00 Hertz".to_string(),
+                    (3, _) => format!("User Sync,{}.00 Hertz", self.setup.user_sync_hz),
                     _ => "None,0.00 Hertz".to_string(),
                 };
                 return self.write(&wire::format_text_report(&text, style));
@@ -760,5 +909,43 @@ impl Device {
             return;
         }
         lock(&self.shared).last_byte_at = Some(Instant::now());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sync rounds the exposure up to whole periods of the source (sheet 5, `SS`).
+    #[test]
+    fn sync_sets_the_exposure_to_whole_periods_within_the_longest_exposure() {
+        let period = 1000.0 / 60.0;
+        assert!(
+            (synced_exposure_ms(100.0, 60.0, 6000.0) - 100.0).abs() < 1e-9,
+            "6 periods already"
+        );
+        assert!((synced_exposure_ms(101.0, 60.0, 6000.0) - 7.0 * period).abs() < 1e-9);
+        assert!(
+            (synced_exposure_ms(3.0, 60.0, 6000.0) - period).abs() < 1e-9,
+            "at least one period"
+        );
+        assert!((synced_exposure_ms(5990.0, 20.0, 6000.0) - 6000.0).abs() < 1e-9);
+        assert!(
+            (synced_exposure_ms(5990.0, 7.0, 6000.0) - 42.0 * 1000.0 / 7.0).abs() < 1e-9,
+            "capped"
+        );
+    }
+
+    /// 13.7: base + sync detection + cycles × exposure + darks × exposure.
+    #[test]
+    fn measurement_time_is_base_plus_sync_detection_plus_exposures_and_darks() {
+        let t = Timing {
+            base_ms: 1500.0,
+            sync_detection_ms: 1000.0,
+            exposure_ms: 50.0,
+            cycles: 3,
+            darks: 1,
+        };
+        assert_eq!(t.total_ms(), 1500.0 + 1000.0 + 4.0 * 50.0);
     }
 }
