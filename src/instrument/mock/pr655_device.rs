@@ -19,12 +19,14 @@
 //!   (smart dark skips repeated darks); `SS1`/`SS3` round the exposure up to
 //!   whole periods of the source. [`super::MockHandle::last_measurement_ms`]
 //!   reports it; the simulator sleeps it times [`MockConfig::speed`].
-//! - Reports 1–7 (but 5 is the spectrum), 12, 13, 14, 110, 111, 114, 116,
-//!   117, 120, 601 and 602 are computed from one stored measurement and
-//!   setup, so the views agree (section 6). Not simulated: 8/9 (raw detector
-//!   counts), 11 (scotopic luminance: no V′(λ) table here), the RAM and SD
-//!   card reports and recalls (`R`, 401–412), and the `Z…` resets (which
-//!   switch a real unit off); they answer `-2000` or `-1000`.
+//! - Reports 1–7 (but 5 is the spectrum), 11, 12, 13, 14, 110, 111, 114,
+//!   116, 117, 120, 601 and 602 are computed from one stored measurement and
+//!   setup, so the views agree (section 6). Report 11, the scotopic
+//!   luminance, weights the reported spectrum with the CIE 1951 V′(λ) table
+//!   embedded beside this file (`cie1951_scotopic_1nm.csv`, provenance in its
+//!   header). Not simulated: 8/9 (raw detector counts), the RAM and SD card
+//!   reports and recalls (`R`, 401–412), and the `Z…` resets (which switch a
+//!   real unit off); they answer `-2000` or `-1000`.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -204,6 +206,38 @@ impl Views {
             duv,
         }
     }
+}
+
+/// K′m, the maximum luminous efficacy for scotopic vision, lm/W: 1700 as in
+/// CIE 1951 (1700.06 under the 1979 candela definition, 0.004 % apart).
+const SCOTOPIC_KM_LM_PER_W: f64 = 1700.0;
+
+/// The CIE 1951 scotopic luminous efficiency V′(λ) at each of `grid`'s
+/// wavelengths (the embedded 1 nm table's own rows on the 2 and 4 nm grids),
+/// 0 outside 380–780 nm.
+fn scotopic_efficiency(grid: &crate::spectrum::Grid) -> Vec<f64> {
+    static TABLE: std::sync::OnceLock<Spectrum> = std::sync::OnceLock::new();
+    let v_prime = TABLE.get_or_init(|| {
+        crate::spectrum::table::SpectraTable::parse(
+            include_str!("cie1951_scotopic_1nm.csv"),
+            "cie1951_scotopic_1nm.csv",
+        )
+        .and_then(|t| t.spectrum("v_prime", SpectralUnit::RelativePower))
+        .unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"))
+    });
+    grid.wavelengths()
+        .iter()
+        .map(|nm| v_prime.value_at(*nm).unwrap_or(0.0))
+        .collect()
+}
+
+/// Scotopic luminance, cd/m² (scotopic): K′m · Σ V′(λ) L(λ) Δλ over the
+/// reported per-nm radiance, the sum-times-step rule the sheet gives for the
+/// instrument's integrated values (8.1).
+fn scotopic_luminance(grid: &crate::spectrum::Grid, radiance: &[f64]) -> f64 {
+    let step = grid.step_nm().unwrap_or(1.0);
+    let weighted: f64 = scotopic_efficiency(grid).iter().zip(radiance).map(|(v, l)| v * l).sum();
+    SCOTOPIC_KM_LM_PER_W * weighted * step
 }
 
 /// One measurement, as the `D` reports resend it.
@@ -845,6 +879,12 @@ impl Device {
                     _ => format!("{:.4},{:.4},{:.4},{:.4}", v.x, v.y, v.u_prime, v.v_1960),
                 };
                 self.write(format!("{status},0,{lum},{fields}\r\n").as_bytes());
+            }
+            // 11: scotopic luminance, in the same unit system as Y (8.2).
+            11 => {
+                let scotopic = scotopic_luminance(&model.grid(), &stored.values) * scale;
+                let reply = format!("{status},0,{}\r\n", wire::format_float(scotopic, 2));
+                self.write(reply.as_bytes());
             }
             wire::REPORT_XYZ => {
                 self.write(&wire::format_xyz_report([x, y, z], style));
