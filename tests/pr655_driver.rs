@@ -411,6 +411,26 @@ fn a_pulled_usb_cable_is_a_closed_port() {
     assert!(matches!(e, InstrumentError::PortClosed { .. }), "{e}");
 }
 
+/// A unit that switches off mid-session (a `ZReset…` sent by another
+/// program, or the power switch: the simulator's switch-off is the cable
+/// pull's) is a closed port naming the port, and stays one on every later
+/// call: no retry loop, no timeout wait.
+#[test]
+fn a_unit_switched_off_mid_session_stays_a_closed_port() {
+    let mock = mock(fast_switches(Model::Pr670), vec![Fault::always(FaultKind::CablePull)]);
+    let mut unit = open(&mock, &settings(Model::Pr670)).unwrap();
+    let path = mock.device_path().to_str().unwrap().to_string();
+    for attempt in 1..=2 {
+        let e = measure(unit.as_mut(), 1).unwrap_err();
+        assert!(
+            matches!(e, InstrumentError::PortClosed { .. }),
+            "attempt {attempt}: {e}"
+        );
+        assert!(e.to_string().contains(&path), "{e}");
+    }
+    assert!(mock.is_unplugged());
+}
+
 /// Sends `command` with CR and reads its reply lines (the simulator answers in one burst).
 fn ask(port: &mut Box<dyn serialport::SerialPort>, command: &str) -> Vec<String> {
     port.write_all(format!("{command}\r").as_bytes()).unwrap();

@@ -9,6 +9,8 @@ use std::time::{Duration, Instant};
 
 use lightbooth::instrument::mock::{spawn_mock, MockConfig, MockHandle, Pr655Switches};
 use lightbooth::instrument::pr655::protocol::Model;
+use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
+use lightbooth::instrument::InstrumentError;
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -184,4 +186,62 @@ fn scotopic_luminance_matches_the_definition_of_the_scotopic_units() {
             assert!((scotopic / scotopic_fl - 3.426).abs() < 0.01);
         }
     }
+}
+
+/// Sheet 4 and 11.14: `ZResetPreferences` / `ZResetSetup` are refused until
+/// `ZEnableReset` (answered `Reset Commands Enabled`); then a reset gets no
+/// reply and switches the unit off, so its USB port vanishes: the host end
+/// sees a hang-up, never data, and the driver then opening that port gets a
+/// typed error naming it.
+#[test]
+fn reset_commands_are_refused_until_enabled_then_switch_the_unit_off_and_its_port_vanishes() {
+    let mock = simulator(Model::Pr655, d65_radiance(), None);
+    let path = mock.device_path().to_str().unwrap().to_string();
+    let mut port = remote(&mock);
+    assert_eq!(ask(&mut port, "ZResetSetup"), vec!["-1000"], "not enabled yet");
+    assert_eq!(ask(&mut port, "ZResetPreferences"), vec!["-1000"], "not enabled yet");
+    assert_eq!(ask(&mut port, "D111"), vec!["00000,PR-655"], "still on");
+    assert!(!mock.is_unplugged());
+    assert_eq!(ask(&mut port, "ZEnableReset"), vec!["00000,Reset Commands Enabled"]);
+
+    port.write_all(b"ZResetSetup\r").unwrap();
+    let t0 = Instant::now();
+    while !mock.is_unplugged() && t0.elapsed() < Duration::from_secs(3) {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(mock.is_unplugged(), "the unit switched off");
+    let mut buf = [0u8; 64];
+    let mut got = Vec::new();
+    let hung_up = loop {
+        match port.read(&mut buf) {
+            Ok(0) => break true,
+            Ok(n) => got.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
+                if t0.elapsed() > Duration::from_secs(3) {
+                    break false;
+                }
+            }
+            Err(_) => break true,
+        }
+    };
+    assert!(hung_up, "the host end sees the port vanish");
+    assert!(
+        got.is_empty(),
+        "a reset has no reply: {:?}",
+        String::from_utf8_lossy(&got)
+    );
+    drop(port);
+
+    let settings = Pr655Settings {
+        command_timeout_ms: 400,
+        banner_timeout_ms: 600,
+        remote_entry_delay_ms: 40,
+        ..Pr655Settings::for_model(Model::Pr655)
+    };
+    let e = open_pr655(&path, &settings).err().expect("the port is gone");
+    assert!(
+        matches!(e, InstrumentError::Open { .. } | InstrumentError::PortClosed { .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains(&path), "{e}");
 }

@@ -25,8 +25,10 @@
 //!   luminance, weights the reported spectrum with the CIE 1951 V′(λ) table
 //!   embedded beside this file (`cie1951_scotopic_1nm.csv`, provenance in its
 //!   header). Not simulated: 8/9 (raw detector counts), the RAM and SD card
-//!   reports and recalls (`R`, 401–412), and the `Z…` resets (which switch a
-//!   real unit off); they answer `-2000` or `-1000`.
+//!   reports and recalls (`R`, 401–412); they answer `-2000` or `-1000`.
+//! - `ZEnableReset` arms the resets; `ZResetPreferences` and `ZResetSetup`
+//!   then switch the unit off (4, 11.14): no reply, the simulator stops and
+//!   the pty closes, as a USB device vanishes. Unarmed, they get `-1000`.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -293,6 +295,8 @@ pub(super) struct Device {
     /// The previous byte completed `PHOTO` (a CR/LF now is a stray terminator).
     just_entered: bool,
     echo: bool,
+    /// `ZEnableReset` was sent: the reset commands are armed.
+    reset_enabled: bool,
     line: Vec<u8>,
     setup: Setup,
     /// The last measurement, and the last good one.
@@ -373,6 +377,7 @@ impl Device {
             photo: 0,
             just_entered: false,
             echo: false,
+            reset_enabled: false,
             line: Vec::new(),
             setup: Setup::default(),
             last: None,
@@ -387,6 +392,7 @@ impl Device {
         self.photo = 0;
         self.just_entered = false;
         self.echo = false;
+        self.reset_enabled = false;
         self.line.clear();
         self.setup = Setup::default();
         self.last = None;
@@ -544,6 +550,9 @@ impl Device {
     fn command(&mut self, raw: &[u8]) -> Next {
         let text = String::from_utf8_lossy(raw).trim().to_string();
         tracing::debug!(command = %text, "simulated instrument received");
+        if let Some(next) = self.reset_command(&text) {
+            return next;
+        }
         if !self.sw.case_insensitive && text.bytes().any(|b| b.is_ascii_lowercase()) {
             self.status_reply(-1000);
             return Next::Continue;
@@ -594,6 +603,51 @@ impl Device {
             _ => self.status_reply(-1000),
         }
         Next::Continue
+    }
+
+    /// The `Z…` commands (4), spelt in mixed case as the manual paraphrase
+    /// gives them: `ZEnableReset` answers `Reset Commands Enabled` and arms
+    /// the resets; `ZResetPreferences` and `ZResetSetup`, once armed, "shut
+    /// down the instrument after they are executed" (11.14): no reply, and the
+    /// USB device disappears with the unit ([`Self::switch_off`]). Before
+    /// `ZEnableReset` they answer `-1000`: the sheet says only that they must
+    /// be enabled, not how a refusal reads (a simulator choice). None for any
+    /// other command.
+    fn reset_command(&mut self, text: &str) -> Option<Next> {
+        let any_case = self.sw.case_insensitive;
+        let is = |name: &str| {
+            if any_case {
+                text.eq_ignore_ascii_case(name)
+            } else {
+                text == name
+            }
+        };
+        if is("ZEnableReset") {
+            tracing::warn!("simulated instrument: reset commands enabled (a driver should never send Z…)");
+            self.reset_enabled = true;
+            let style = self.sw.status_style;
+            self.write(&wire::format_text_report("Reset Commands Enabled", style));
+            return Some(Next::Continue);
+        }
+        if !(is("ZResetPreferences") || is("ZResetSetup")) {
+            return None;
+        }
+        if !self.reset_enabled {
+            tracing::info!(command = text, "simulated instrument: reset refused, not enabled");
+            self.status_reply(-1000);
+            return Some(Next::Continue);
+        }
+        self.switch_off(text);
+        Some(Next::Unplugged)
+    }
+
+    /// The USB device vanishes (the unit switched off, or its cable pulled):
+    /// both ends of the pty close and the simulator stops.
+    fn switch_off(&mut self, why: &str) {
+        tracing::info!(why, "simulated instrument: the USB device vanishes");
+        lock(&self.shared).unplugged = true;
+        self.port = None;
+        self.keepalive = None;
     }
 
     /// One `S⟨letter⟩⟨value⟩`: the status to answer (section 5, 7).
@@ -696,10 +750,7 @@ impl Device {
         tracing::debug!(?timing, total_ms, sync_hz = ?lock_hz, "simulated measurement time");
         if self.fires(FaultKind::CablePull) {
             self.sleep_scaled(total_ms / 2.0);
-            tracing::info!("simulated instrument: USB cable pulled");
-            lock(&self.shared).unplugged = true;
-            self.port = None;
-            self.keepalive = None;
+            self.switch_off("USB cable pulled");
             return false;
         }
         lock(&self.shared).last_measurement_ms = Some(total_ms);
