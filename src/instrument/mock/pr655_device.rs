@@ -14,7 +14,7 @@
 //!   the PR-650's (on this model's grid and slit): its low light is `-8`,
 //!   its overload `-2`; auto sync (`SS1`) on a source it cannot sync to
 //!   ends in `-10` or `-1` ([`SyncFailure`]).
-//! - A measurement takes the sheet's 13.7 time ([`Timing`]): a base time,
+//! - A measurement takes the sheet's 13.7 time (`Timing`): a base time,
 //!   sync detection under `SS1`, and each cycle's exposure and dark exposure
 //!   (smart dark skips repeated darks); `SS1`/`SS3` round the exposure up to
 //!   whole periods of the source. [`super::MockHandle::last_measurement_ms`]
