@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use lightbooth::colorimetry::{xyz_from_radiance, Observer};
 use lightbooth::instrument::mock::{
-    spawn_mock, AfterFailure, Fault, FaultKind, MockConfig, MockHandle, Pr655Switches, StrayTerminator,
+    spawn_mock, AfterFailure, Fault, FaultKind, MockConfig, MockHandle, Pr655Switches, StrayTerminator, SyncFailure,
 };
 use lightbooth::instrument::pr655::protocol::{as_sent, LineStyle, Model, StatusStyle};
 use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
@@ -411,6 +411,26 @@ fn a_pulled_usb_cable_is_a_closed_port() {
     assert!(matches!(e, InstrumentError::PortClosed { .. }), "{e}");
 }
 
+/// A unit that switches off mid-session (a `ZReset…` sent by another
+/// program, or the power switch: the simulator's switch-off is the cable
+/// pull's) is a closed port naming the port, and stays one on every later
+/// call: no retry loop, no timeout wait.
+#[test]
+fn a_unit_switched_off_mid_session_stays_a_closed_port() {
+    let mock = mock(fast_switches(Model::Pr670), vec![Fault::always(FaultKind::CablePull)]);
+    let mut unit = open(&mock, &settings(Model::Pr670)).unwrap();
+    let path = mock.device_path().to_str().unwrap().to_string();
+    for attempt in 1..=2 {
+        let e = measure(unit.as_mut(), 1).unwrap_err();
+        assert!(
+            matches!(e, InstrumentError::PortClosed { .. }),
+            "attempt {attempt}: {e}"
+        );
+        assert!(e.to_string().contains(&path), "{e}");
+    }
+    assert!(mock.is_unplugged());
+}
+
 /// Sends `command` with CR and reads its reply lines (the simulator answers in one burst).
 fn ask(port: &mut Box<dyn serialport::SerialPort>, command: &str) -> Vec<String> {
     port.write_all(format!("{command}\r").as_bytes()).unwrap();
@@ -486,5 +506,86 @@ fn the_simulators_colorimetric_reports_are_views_of_one_measurement() {
         assert_eq!(ask(&mut port, "K"), vec!["-1000"], "not a command");
         let expected_sf = if model == Model::Pr670 { "00000" } else { "-1035" };
         assert_eq!(ask(&mut port, "SF1"), vec![expected_sf], "apertures are the PR-670's");
+    }
+}
+
+/// A simulator like [`mock`] aimed at a source that flickers at `flicker_hz`.
+fn flickering_mock(switches: Pr655Switches, flicker_hz: f64, unsyncable: bool) -> MockHandle {
+    let mut cfg = MockConfig::pr655(d65_radiance(), switches);
+    cfg.speed = 0.0;
+    cfg.seed = 7;
+    cfg.flicker_hz = Some(flicker_hz);
+    cfg.unsyncable = unsyncable;
+    spawn_mock(cfg).unwrap()
+}
+
+/// With `sync = true` the driver asks `F`, finds the 60 Hz flicker and sets
+/// `SS1`; the measurement completes and, by the simulator's account of its
+/// own time (sheet 13.7: base + sync detection + exposures and darks), takes
+/// the sync detection plus up to one period per exposure and dark longer
+/// than the same measurement without sync.
+#[test]
+fn auto_sync_measures_and_takes_its_detection_time_longer_than_no_sync() {
+    let switches = fast_switches(Model::Pr655);
+    let detection_ms = switches.sync_detection_ms as f64;
+    let mock = flickering_mock(switches, 60.0, false);
+    let synced = Pr655Settings {
+        sync: true,
+        ..settings(Model::Pr655)
+    };
+    let mut unit = open(&mock, &synced).unwrap();
+    let m = measure(unit.as_mut(), 1).expect("a measurement with auto sync completes");
+    assert_sound(&m, &mock, Model::Pr655);
+    let with_sync = mock.last_measurement_ms().unwrap();
+    drop(unit);
+
+    let mut unit = open(&mock, &settings(Model::Pr655)).unwrap();
+    let m = measure(unit.as_mut(), 1).unwrap();
+    assert_sound(&m, &mock, Model::Pr655);
+    let without = mock.last_measurement_ms().unwrap();
+    let period_ms = 1000.0 / 60.0;
+    // One exposure and one dark, each rounded up to whole periods with sync.
+    assert!(
+        with_sync - without >= detection_ms && with_sync - without < detection_ms + 2.0 * period_ms,
+        "with SS1 {with_sync} ms, with SS0 {without} ms, detection {detection_ms} ms"
+    );
+}
+
+/// An unsyncable source with `SS1`: the sample carries the simulator's
+/// status (−10, or −1 under the other reading of the sheet, 13.9) typed as a
+/// sync failure with the sync advice, is never averaged, the driver turns
+/// sync off, and the series completes on the same port.
+#[test]
+fn an_unsyncable_source_under_auto_sync_is_a_typed_sync_failure_and_the_port_stays_usable() {
+    for failure in [SyncFailure::CannotAutoSync, SyncFailure::NotConstant] {
+        let switches = Pr655Switches {
+            sync_failure: failure,
+            ..fast_switches(Model::Pr670)
+        };
+        let mock = flickering_mock(switches, 60.0, true);
+        let synced = Pr655Settings {
+            sync: true,
+            ..settings(Model::Pr670)
+        };
+        let mut unit = open(&mock, &synced).unwrap();
+        let mut seen = Vec::new();
+        let m = unit
+            .measure_averaged(2, &CancelToken::new(), &mut |s| seen.push(s.code.clone()))
+            .unwrap_or_else(|e| panic!("{failure:?}: {e}"));
+        assert_eq!(seen[0].code, failure.status(), "{failure:?}");
+        assert_eq!(seen[0].kind, QualityKind::Sync, "{failure:?}: {}", seen[0].message);
+        assert!(
+            unit.quality_hint(seen[0].kind).contains("sync"),
+            "{}",
+            unit.quality_hint(seen[0].kind)
+        );
+        assert_eq!(
+            m.samples.len(),
+            3,
+            "{failure:?}: the failed sample is kept, not averaged"
+        );
+        assert!(m.samples[0].radiance.is_none());
+        assert_sound(&m, &mock, Model::Pr670);
+        measure(unit.as_mut(), 1).unwrap_or_else(|e| panic!("{failure:?}: port unusable afterwards: {e}"));
     }
 }

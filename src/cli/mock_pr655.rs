@@ -10,7 +10,7 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 
 use lightbooth::instrument::mock::{
-    spawn_mock, AfterFailure, BusyInput, Fault, MockConfig, Pr655Switches, StrayTerminator,
+    spawn_mock, AfterFailure, BusyInput, Fault, MockConfig, Pr655Switches, StrayTerminator, SyncFailure,
 };
 use lightbooth::instrument::pr655::protocol::{LineStyle, Model, StatusStyle};
 
@@ -46,9 +46,18 @@ pub struct MockPr655Args {
     /// The source flickers at this frequency (what `F` reports); default: steady (`F` fails with −3).
     #[arg(long, value_parser = super::frequency)]
     flicker_hz: Option<f64>,
-    /// With sync on (`SS1`), measurements fail with −10.
+    /// With auto sync on (`SS1`), measurements fail (with the `--sync-failure` status), even
+    /// though `F` finds the flicker. A steady source, or one outside 20–400 Hz, is unsyncable anyway.
     #[arg(long)]
     unsyncable: bool,
+    /// §13.9: the status of an `SS1` measurement of an unsyncable source: cannot-auto-sync (−10)
+    /// or not-constant (−1).
+    #[arg(long, value_enum, default_value_t = SyncFail::CannotAutoSync)]
+    sync_failure: SyncFail,
+    /// §13.7: time auto sync (`SS1`) spends finding the source's frequency before each
+    /// measurement, ms at --speed 1 (no source documents it).
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(0..=60_000))]
+    sync_detection_ms: u64,
     /// Discard bytes that arrive during a measurement instead of queueing them.
     #[arg(long)]
     drop_busy_input: bool,
@@ -112,6 +121,12 @@ enum Lines {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
+enum SyncFail {
+    CannotAutoSync,
+    NotConstant,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
 enum After {
     Error,
     Stale,
@@ -154,6 +169,11 @@ pub fn run(args: MockPr655Args, model: Model) -> anyhow::Result<()> {
             After::NoData => AfterFailure::NoData,
         },
         error_status: args.error_status,
+        sync_failure: match args.sync_failure {
+            SyncFail::CannotAutoSync => SyncFailure::CannotAutoSync,
+            SyncFail::NotConstant => SyncFailure::NotConstant,
+        },
+        sync_detection_ms: args.sync_detection_ms,
         ..defaults
     };
     let mut cfg = MockConfig::pr655(truth, switches);

@@ -18,7 +18,7 @@
 //! behaviour that `shared/docs/pr655-670-protocol.md` §13 says a simulator
 //! should let one switch ([`Pr655Switches`]).
 
-pub use pr655_device::{AfterFailure, Pr655Switches, StrayTerminator};
+pub use pr655_device::{AfterFailure, Pr655Switches, StrayTerminator, SyncFailure};
 
 mod device;
 mod firmware;
@@ -314,6 +314,8 @@ struct Shared {
     /// When the last byte of a reply went out.
     last_byte_at: Option<std::time::Instant>,
     integration_ms: u32,
+    /// The simulated PR-655/PR-670's last measurement time at speed 1, ms.
+    last_measurement_ms: Option<f64>,
 }
 
 /// A running simulated PR-650. Dropping it stops the simulator and closes the pty.
@@ -353,6 +355,7 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
         link_dead: false,
         last_byte_at: None,
         integration_ms: 0,
+        last_measurement_ms: None,
     }));
     let stop = Arc::new(AtomicBool::new(false));
     let model = config.model.clone();
@@ -407,6 +410,14 @@ impl MockHandle {
     /// Measurements taken so far.
     pub fn measurements(&self) -> u64 {
         lock(&self.shared).measurements
+    }
+
+    /// How long the simulated PR-655/PR-670's last measurement took at speed
+    /// 1, ms: base time, sync detection, exposures and dark exposures (the
+    /// protocol sheet's 13.7), whatever [`MockConfig::speed`] made of it in
+    /// wall time. `None` before the first measurement, and on the PR-650.
+    pub fn last_measurement_ms(&self) -> Option<f64> {
+        lock(&self.shared).last_measurement_ms
     }
 
     /// True once a cable-pull fault has closed the port.

@@ -12,13 +12,23 @@
 //! - Replies come in one burst at USB speed, CR LF per line, status first.
 //! - Measurements go through the same [`super::model::InstrumentModel`] as
 //!   the PR-650's (on this model's grid and slit): its low light is `-8`,
-//!   its overload `-2`; a sync failure is `-10`.
-//! - Reports 1–7 (but 5 is the spectrum), 12, 13, 14, 110, 111, 114, 116,
-//!   117, 120, 601 and 602 are computed from one stored measurement and
-//!   setup, so the views agree (section 6). Not simulated: 8/9 (raw detector
-//!   counts), 11 (scotopic luminance: no V′(λ) table here), the RAM and SD
-//!   card reports and recalls (`R`, 401–412), and the `Z…` resets (which
-//!   switch a real unit off); they answer `-2000` or `-1000`.
+//!   its overload `-2`; auto sync (`SS1`) on a source it cannot sync to
+//!   ends in `-10` or `-1` ([`SyncFailure`]).
+//! - A measurement takes the sheet's 13.7 time (`Timing`): a base time,
+//!   sync detection under `SS1`, and each cycle's exposure and dark exposure
+//!   (smart dark skips repeated darks); `SS1`/`SS3` round the exposure up to
+//!   whole periods of the source. [`super::MockHandle::last_measurement_ms`]
+//!   reports it; the simulator sleeps it times [`MockConfig::speed`].
+//! - Reports 1–7 (but 5 is the spectrum), 11, 12, 13, 14, 110, 111, 114,
+//!   116, 117, 120, 601 and 602 are computed from one stored measurement and
+//!   setup, so the views agree (section 6). Report 11, the scotopic
+//!   luminance, weights the reported spectrum with the CIE 1951 V′(λ) table
+//!   embedded beside this file (`cie1951_scotopic_1nm.csv`, provenance in its
+//!   header). Not simulated: 8/9 (raw detector counts), the RAM and SD card
+//!   reports and recalls (`R`, 401–412); they answer `-2000` or `-1000`.
+//! - `ZEnableReset` arms the resets; `ZResetPreferences` and `ZResetSetup`
+//!   then switch the unit off (4, 11.14): no reply, the simulator stops and
+//!   the pty closes, as a USB device vanishes. Unarmed, they get `-1000`.
 
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -60,6 +70,30 @@ pub enum AfterFailure {
     NoData,
 }
 
+/// The status of an `SS1` (auto sync) measurement of a source the unit
+/// cannot sync to (13.9 lists −1 / −10: PTB's `PR670measspd` handles both as
+/// a sync failure; the status table reads −10 "cannot auto-sync to the light
+/// source" and −1 "light source not constant").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SyncFailure {
+    /// −10: cannot auto-sync to the light source.
+    #[default]
+    CannotAutoSync,
+    /// −1: light source not constant.
+    NotConstant,
+}
+
+impl SyncFailure {
+    /// The status the measurement ends with.
+    pub fn status(self) -> i32 {
+        match self {
+            SyncFailure::CannotAutoSync => -10,
+            SyncFailure::NotConstant => -1,
+        }
+    }
+}
+
 /// The behaviours of section 13 the sources disagree on, each selectable.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -89,6 +123,13 @@ pub struct Pr655Switches {
     pub after_failure: AfterFailure,
     /// The status of an [`FaultKind::ErrorCode`] measurement (13.9: −8, −2, −1, −10, −12).
     pub error_status: i32,
+    /// 13.9: what an `SS1` measurement of an unsyncable source ends with.
+    pub sync_failure: SyncFailure,
+    /// 13.7: the time auto sync (`SS1`) spends finding the source's
+    /// frequency before each measurement, ms at speed 1. No source gives it
+    /// (9: durations are undocumented); the default, 1000 ms, is a simulator
+    /// choice: twenty periods at the slowest syncable frequency (20 Hz, 7).
+    pub sync_detection_ms: u64,
     /// What `D114` answers.
     pub firmware: String,
 }
@@ -115,6 +156,8 @@ impl Pr655Switches {
             line_style: LineStyle::TrailingSpace,
             after_failure: AfterFailure::Error,
             error_status: -8,
+            sync_failure: SyncFailure::CannotAutoSync,
+            sync_detection_ms: 1000,
             firmware: "2.22D".into(),
         }
     }
@@ -167,6 +210,38 @@ impl Views {
     }
 }
 
+/// K′m, the maximum luminous efficacy for scotopic vision, lm/W: 1700 as in
+/// CIE 1951 (1700.06 under the 1979 candela definition, 0.004 % apart).
+const SCOTOPIC_KM_LM_PER_W: f64 = 1700.0;
+
+/// The CIE 1951 scotopic luminous efficiency V′(λ) at each of `grid`'s
+/// wavelengths (the embedded 1 nm table's own rows on the 2 and 4 nm grids),
+/// 0 outside 380–780 nm.
+fn scotopic_efficiency(grid: &crate::spectrum::Grid) -> Vec<f64> {
+    static TABLE: std::sync::OnceLock<Spectrum> = std::sync::OnceLock::new();
+    let v_prime = TABLE.get_or_init(|| {
+        crate::spectrum::table::SpectraTable::parse(
+            include_str!("cie1951_scotopic_1nm.csv"),
+            "cie1951_scotopic_1nm.csv",
+        )
+        .and_then(|t| t.spectrum("v_prime", SpectralUnit::RelativePower))
+        .unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"))
+    });
+    grid.wavelengths()
+        .iter()
+        .map(|nm| v_prime.value_at(*nm).unwrap_or(0.0))
+        .collect()
+}
+
+/// Scotopic luminance, cd/m² (scotopic): K′m · Σ V′(λ) L(λ) Δλ over the
+/// reported per-nm radiance, the sum-times-step rule the sheet gives for the
+/// instrument's integrated values (8.1).
+fn scotopic_luminance(grid: &crate::spectrum::Grid, radiance: &[f64]) -> f64 {
+    let step = grid.step_nm().unwrap_or(1.0);
+    let weighted: f64 = scotopic_efficiency(grid).iter().zip(radiance).map(|(v, l)| v * l).sum();
+    SCOTOPIC_KM_LM_PER_W * weighted * step
+}
+
 /// One measurement, as the `D` reports resend it.
 #[derive(Clone, Debug)]
 struct Stored {
@@ -185,6 +260,10 @@ struct Setup {
     cycles: u32,
     observer: u32,
     sync: u32,
+    /// `SK`: the frequency user sync (`SS3`) locks to.
+    user_sync_hz: u32,
+    /// `SD1` (PR-670): smart dark.
+    smart_dark: bool,
 }
 
 impl Default for Setup {
@@ -195,6 +274,8 @@ impl Default for Setup {
             cycles: 1,
             observer: 2,
             sync: 0,
+            user_sync_hz: 60,
+            smart_dark: false,
         }
     }
 }
@@ -214,11 +295,56 @@ pub(super) struct Device {
     /// The previous byte completed `PHOTO` (a CR/LF now is a stray terminator).
     just_entered: bool,
     echo: bool,
+    /// `ZEnableReset` was sent: the reset commands are armed.
+    reset_enabled: bool,
     line: Vec<u8>,
     setup: Setup,
     /// The last measurement, and the last good one.
     last: Option<Stored>,
     last_good: Option<Stored>,
+    /// The exposure of the last dark measurement taken (smart dark reuses it, 5 `SD`).
+    last_dark_exposure_ms: Option<f64>,
+}
+
+/// The frequencies sync can lock to (7, −3: "below 20 Hz, above 400 Hz").
+const SYNC_RANGE_HZ: std::ops::RangeInclusive<f64> = 20.0..=400.0;
+
+/// Where the time of one `M⟨code⟩` goes, ms at speed 1: section 13.7's
+/// model, "a configurable base time, plus cycles × (exposure + dark exposure
+/// unless smart dark applies), plus sync detection when `SS1`". Each dark
+/// exposure is as long as the exposure (the shutter closes for a dark reading
+/// of the same integration, 9). The transfer of the reply is not included
+/// (USB speed, 9).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Timing {
+    /// Shutter moves and computation, once per measurement ([`super::model::InstrumentModel::base_time_ms`]).
+    base_ms: f64,
+    /// `SS1`: finding the source's frequency ([`Pr655Switches::sync_detection_ms`]).
+    sync_detection_ms: f64,
+    /// One cycle's exposure, after sync a whole number of the source's periods.
+    exposure_ms: f64,
+    /// Exposures taken (`SN`); none when auto sync failed.
+    cycles: u32,
+    /// Dark exposures taken: one per cycle, or with smart dark one only when
+    /// the exposure differs from the last dark's, else none.
+    darks: u32,
+}
+
+impl Timing {
+    fn total_ms(&self) -> f64 {
+        self.base_ms + self.sync_detection_ms + f64::from(self.cycles + self.darks) * self.exposure_ms
+    }
+}
+
+/// `SS1`/`SS3` set the exposure "to a whole number of periods" (5, `SS`):
+/// the next whole number up, at least one period, at most as many as fit the
+/// model's longest exposure.
+fn synced_exposure_ms(exposure_ms: f64, hz: f64, max_ms: f64) -> f64 {
+    let period_ms = 1000.0 / hz;
+    // 1e-9: an exposure that already is whole periods stays as it is.
+    let periods = (exposure_ms / period_ms - 1e-9).ceil().max(1.0);
+    let most = (max_ms / period_ms).floor().max(1.0);
+    periods.min(most) * period_ms
 }
 
 /// What a handler wants next.
@@ -251,10 +377,12 @@ impl Device {
             photo: 0,
             just_entered: false,
             echo: false,
+            reset_enabled: false,
             line: Vec::new(),
             setup: Setup::default(),
             last: None,
             last_good: None,
+            last_dark_exposure_ms: None,
         }
     }
 
@@ -264,10 +392,12 @@ impl Device {
         self.photo = 0;
         self.just_entered = false;
         self.echo = false;
+        self.reset_enabled = false;
         self.line.clear();
         self.setup = Setup::default();
         self.last = None;
         self.last_good = None;
+        self.last_dark_exposure_ms = None;
         let mut shared = lock(&self.shared);
         shared.integration_ms = 0;
         shared.link_dead = false;
@@ -420,6 +550,9 @@ impl Device {
     fn command(&mut self, raw: &[u8]) -> Next {
         let text = String::from_utf8_lossy(raw).trim().to_string();
         tracing::debug!(command = %text, "simulated instrument received");
+        if let Some(next) = self.reset_command(&text) {
+            return next;
+        }
         if !self.sw.case_insensitive && text.bytes().any(|b| b.is_ascii_lowercase()) {
             self.status_reply(-1000);
             return Next::Continue;
@@ -451,7 +584,7 @@ impl Device {
                 let status = self.set(args);
                 self.status_reply(status);
             }
-            "F" => match self.cfg.flicker_hz {
+            "F" => match self.cfg.flicker_hz.filter(|hz| SYNC_RANGE_HZ.contains(hz)) {
                 Some(hz) => {
                     let reply = format!(
                         "{},{hz:.2} Hertz (Period = {:.0} milliseconds)\r\n",
@@ -470,6 +603,51 @@ impl Device {
             _ => self.status_reply(-1000),
         }
         Next::Continue
+    }
+
+    /// The `Z…` commands (4), spelt in mixed case as the manual paraphrase
+    /// gives them: `ZEnableReset` answers `Reset Commands Enabled` and arms
+    /// the resets; `ZResetPreferences` and `ZResetSetup`, once armed, "shut
+    /// down the instrument after they are executed" (11.14): no reply, and the
+    /// USB device disappears with the unit ([`Self::switch_off`]). Before
+    /// `ZEnableReset` they answer `-1000`: the sheet says only that they must
+    /// be enabled, not how a refusal reads (a simulator choice). None for any
+    /// other command.
+    fn reset_command(&mut self, text: &str) -> Option<Next> {
+        let any_case = self.sw.case_insensitive;
+        let is = |name: &str| {
+            if any_case {
+                text.eq_ignore_ascii_case(name)
+            } else {
+                text == name
+            }
+        };
+        if is("ZEnableReset") {
+            tracing::warn!("simulated instrument: reset commands enabled (a driver should never send Z…)");
+            self.reset_enabled = true;
+            let style = self.sw.status_style;
+            self.write(&wire::format_text_report("Reset Commands Enabled", style));
+            return Some(Next::Continue);
+        }
+        if !(is("ZResetPreferences") || is("ZResetSetup")) {
+            return None;
+        }
+        if !self.reset_enabled {
+            tracing::info!(command = text, "simulated instrument: reset refused, not enabled");
+            self.status_reply(-1000);
+            return Some(Next::Continue);
+        }
+        self.switch_off(text);
+        Some(Next::Unplugged)
+    }
+
+    /// The USB device vanishes (the unit switched off, or its cable pulled):
+    /// both ends of the pty close and the simulator stops.
+    fn switch_off(&mut self, why: &str) {
+        tracing::info!(why, "simulated instrument: the USB device vanishes");
+        lock(&self.shared).unplugged = true;
+        self.port = None;
+        self.keepalive = None;
     }
 
     /// One `S⟨letter⟩⟨value⟩`: the status to answer (section 5, 7).
@@ -493,7 +671,7 @@ impl Device {
             "O" => return -1015,
             "S" if matches!(v, 0 | 1 | 3) => self.setup.sync = v,
             "S" => return -1019,
-            "K" if (20..=400).contains(&v) => {}
+            "K" if (20..=400).contains(&v) => self.setup.user_sync_hz = v,
             "K" => return -1023,
             "F" | "H" | "G" | "D" if !pr670 => return -1035,
             "F" if v <= 3 => {}
@@ -502,39 +680,95 @@ impl Device {
             "H" => return -1026,
             "G" if v <= 3 => {}
             "G" => return -1011,
-            "D" if v <= 1 => {}
+            "D" if v <= 1 => self.setup.smart_dark = v == 1,
             "D" => return -1017,
             _ => return -1000,
         }
         0
     }
 
-    /// One measurement (cycles × exposure). Returns false if the cable was pulled.
+    /// The frequency auto sync (`SS1`) locks to: the source's flicker when it
+    /// is in 20–400 Hz (7, −3). None for a steady source (no period to find:
+    /// a simulator choice, the sheet leaves `SS1` on a steady source open,
+    /// 12.10), one outside that band, or one marked [`MockConfig::unsyncable`].
+    fn auto_sync_hz(&self) -> Option<f64> {
+        if self.cfg.unsyncable {
+            return None;
+        }
+        self.cfg.flicker_hz.filter(|hz| SYNC_RANGE_HZ.contains(hz))
+    }
+
+    /// One measurement, taking [`Timing::total_ms`] scaled by the speed.
+    /// Returns false if the cable was pulled.
     fn measure(&mut self) -> bool {
         let truth = lock(&self.shared).truth_1nm.clone();
-        let reading = match self.cfg.model.reading(&truth, self.setup.exposure_ms) {
+        let model = &self.cfg.model;
+        let mut reading = match model.reading(&truth, self.setup.exposure_ms) {
             Ok(r) => r,
             Err(e) => {
                 tracing::error!(error = %e, "simulated instrument: cannot model the target");
                 return true;
             }
         };
+        let auto_sync = self.setup.sync == 1;
+        let lock_hz = match self.setup.sync {
+            1 => self.auto_sync_hz(),
+            3 => Some(f64::from(self.setup.user_sync_hz)),
+            _ => None,
+        };
+        let sync_failed = auto_sync && lock_hz.is_none();
+        let mut exposure_ms = reading.integration_ms;
+        if let Some(hz) = lock_hz {
+            let longest = f64::from(*self.sw.model.exposure_range_ms().end());
+            exposure_ms = synced_exposure_ms(reading.integration_ms, hz, longest);
+            // The detector model takes whole milliseconds; the timing keeps the exact periods.
+            match model.reading(&truth, exposure_ms.round().max(1.0) as u32) {
+                Ok(r) => reading = r,
+                Err(e) => tracing::error!(error = %e, "simulated instrument: cannot model the target"),
+            }
+        }
+        let cycles = if sync_failed { 0 } else { self.setup.cycles.max(1) };
+        let darks = if cycles == 0 {
+            0
+        } else if self.setup.smart_dark {
+            u32::from(self.last_dark_exposure_ms != Some(exposure_ms))
+        } else {
+            cycles
+        };
+        let timing = Timing {
+            base_ms: model.base_time_ms,
+            sync_detection_ms: if auto_sync {
+                self.sw.sync_detection_ms as f64
+            } else {
+                0.0
+            },
+            exposure_ms,
+            cycles,
+            darks,
+        };
+        let total_ms = timing.total_ms();
+        tracing::debug!(?timing, total_ms, sync_hz = ?lock_hz, "simulated measurement time");
         if self.fires(FaultKind::CablePull) {
-            self.sleep_scaled(reading.duration_ms / 2.0);
-            tracing::info!("simulated instrument: USB cable pulled");
-            lock(&self.shared).unplugged = true;
-            self.port = None;
-            self.keepalive = None;
+            self.sleep_scaled(total_ms / 2.0);
+            self.switch_off("USB cable pulled");
             return false;
         }
-        self.sleep_scaled(reading.duration_ms * f64::from(self.setup.cycles));
+        lock(&self.shared).last_measurement_ms = Some(total_ms);
+        self.sleep_scaled(total_ms);
+        if darks > 0 {
+            self.last_dark_exposure_ms = Some(exposure_ms);
+        }
         let mut status = match reading.code {
             0 => 0,
             19 => -2,
             _ => -8,
         };
-        if self.setup.sync == 1 && self.cfg.unsyncable {
-            status = -10;
+        if sync_failed {
+            tracing::info!(
+                status = self.sw.sync_failure.status(),
+                "simulated instrument: cannot auto-sync"
+            );
+            status = self.sw.sync_failure.status();
         }
         if self.fires(FaultKind::ErrorCode) {
             status = self.sw.error_status;
@@ -560,14 +794,14 @@ impl Device {
                 status,
                 values,
                 xyz,
-                exposure_ms: reading.integration_ms,
+                exposure_ms,
             }
         } else {
             Stored {
                 status,
                 values: Vec::new(),
                 xyz: [0.0; 3],
-                exposure_ms: reading.integration_ms,
+                exposure_ms,
             }
         };
         if status == 0 {
@@ -643,7 +877,7 @@ impl Device {
             14 => {
                 let text = match (self.setup.sync, self.cfg.flicker_hz) {
                     (1, Some(hz)) => format!("Auto Sync,{hz:.2} Hertz"),
-                    (3, _) => "User Sync,60.00 Hertz".to_string(),
+                    (3, _) => format!("User Sync,{}.00 Hertz", self.setup.user_sync_hz),
                     _ => "None,0.00 Hertz".to_string(),
                 };
                 return self.write(&wire::format_text_report(&text, style));
@@ -696,6 +930,12 @@ impl Device {
                     _ => format!("{:.4},{:.4},{:.4},{:.4}", v.x, v.y, v.u_prime, v.v_1960),
                 };
                 self.write(format!("{status},0,{lum},{fields}\r\n").as_bytes());
+            }
+            // 11: scotopic luminance, in the same unit system as Y (8.2).
+            11 => {
+                let scotopic = scotopic_luminance(&model.grid(), &stored.values) * scale;
+                let reply = format!("{status},0,{}\r\n", wire::format_float(scotopic, 2));
+                self.write(reply.as_bytes());
             }
             wire::REPORT_XYZ => {
                 self.write(&wire::format_xyz_report([x, y, z], style));
@@ -760,5 +1000,43 @@ impl Device {
             return;
         }
         lock(&self.shared).last_byte_at = Some(Instant::now());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sync rounds the exposure up to whole periods of the source (sheet 5, `SS`).
+    #[test]
+    fn sync_sets_the_exposure_to_whole_periods_within_the_longest_exposure() {
+        let period = 1000.0 / 60.0;
+        assert!(
+            (synced_exposure_ms(100.0, 60.0, 6000.0) - 100.0).abs() < 1e-9,
+            "6 periods already"
+        );
+        assert!((synced_exposure_ms(101.0, 60.0, 6000.0) - 7.0 * period).abs() < 1e-9);
+        assert!(
+            (synced_exposure_ms(3.0, 60.0, 6000.0) - period).abs() < 1e-9,
+            "at least one period"
+        );
+        assert!((synced_exposure_ms(5990.0, 20.0, 6000.0) - 6000.0).abs() < 1e-9);
+        assert!(
+            (synced_exposure_ms(5990.0, 7.0, 6000.0) - 42.0 * 1000.0 / 7.0).abs() < 1e-9,
+            "capped"
+        );
+    }
+
+    /// 13.7: base + sync detection + cycles × exposure + darks × exposure.
+    #[test]
+    fn measurement_time_is_base_plus_sync_detection_plus_exposures_and_darks() {
+        let t = Timing {
+            base_ms: 1500.0,
+            sync_detection_ms: 1000.0,
+            exposure_ms: 50.0,
+            cycles: 3,
+            darks: 1,
+        };
+        assert_eq!(t.total_ms(), 1500.0 + 1000.0 + 4.0 * 50.0);
     }
 }

@@ -375,8 +375,8 @@ impl Pr655 {
         let report = match protocol::parse_spectral_report(&reply, &self.info.grid) {
             Ok(Ok(report)) => report,
             Ok(Err(status)) => {
-                let code = protocol::quality_code(status);
-                tracing::info!(index, code = code.code, "sample with an error status");
+                let code = self.measurement_code(status);
+                tracing::info!(index, code = code.code, kind = ?code.kind, "sample with an error status");
                 return Ok(Sample {
                     index,
                     time,
@@ -422,6 +422,22 @@ impl Pr655 {
             radiance: Some(spectrum),
             luminance,
         })
+    }
+
+    /// A measurement's error status, typed. With auto sync on, −1 ("light
+    /// source not constant") is the unit failing to sync, as PTB's
+    /// `PR670measspd` reads it (sheet 7, 13.9): typed as a sync failure, so
+    /// the advice is the sync advice and [`Self::react_to_code`] turns sync off.
+    fn measurement_code(&self, status: i32) -> QualityCode {
+        let code = protocol::quality_code(status);
+        if self.synced && status == -1 {
+            return QualityCode {
+                kind: QualityKind::Sync,
+                message: format!("{} (auto sync could not lock to it)", code.message),
+                ..code
+            };
+        }
+        code
     }
 
     /// PTB: after a sync failure with sync on, measure without sync from now on.
