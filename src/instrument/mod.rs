@@ -233,7 +233,7 @@ pub enum InstrumentError {
     },
     #[error("the instrument refused `{command}` with status {code}. Fix that setting or command")]
     Refused { command: String, code: QualityCode },
-    #[error("serial port {port} closed: the cable was pulled or the adapter unplugged. Reconnect it and start again")]
+    #[error("serial port {port} closed: the cable was pulled, the adapter unplugged or the instrument switched off (a PR-655/670 does after a `ZReset…` command). Reconnect it or switch it on, and start again")]
     PortClosed { port: String },
     #[error(
         "the instrument stopped answering: no reply to `{command}` for {waited_ms} ms after `{after}` failed \
