@@ -166,6 +166,7 @@ mod tests {
     on_both_engines!(
         a_scene_bundle_round_trips_byte_exact_and_a_second_put_changes_nothing,
         a_bundle_from_the_store_unpacked_far_from_scenes_loads_as_the_same_scene,
+        a_bundle_whose_file_insert_fails_leaves_no_bundle_and_no_files,
     );
 
     fn cylinder() -> crate::render::bundle::CollectedScene {
@@ -231,5 +232,61 @@ mod tests {
         );
         assert_eq!(format!("{:?}", unpacked.lights), format!("{:?}", c.scene.lights));
         assert_eq!(format!("{:?}", unpacked.materials), format!("{:?}", c.scene.materials));
+    }
+
+    /// A trigger refuses the IES file, the second of CYLINDER's files
+    /// (sorted): without one transaction the TOML's row would remain.
+    async fn a_bundle_whose_file_insert_fails_leaves_no_bundle_and_no_files(engine: EngineKind) {
+        let db = TestDb::new(engine).await;
+        let store = Store::open(&db.url).await.unwrap();
+        let c = cylinder();
+        assert_eq!(c.bundle.files()[1].path, "luminaires/mr16_ctb.ies");
+        let count = "SELECT COUNT(*) FROM scene_bundle_files";
+        let files: i64 = match engine {
+            EngineKind::Sqlite => {
+                let pool = sqlx::SqlitePool::connect(&db.url).await.unwrap();
+                sqlx::query(
+                    "CREATE TRIGGER refuse_ies BEFORE INSERT ON scene_bundle_files WHEN NEW.path LIKE '%.ies' \
+                     BEGIN SELECT RAISE(ABORT, 'refused by the test'); END",
+                )
+                .execute(&pool)
+                .await
+                .unwrap();
+                let e = store
+                    .put_scene_bundle("cylinder", &c.scene_hash, &c.bundle)
+                    .await
+                    .unwrap_err();
+                assert!(e.to_string().contains("refused by the test"), "{e}");
+                sqlx::query_scalar(count).fetch_one(&pool).await.unwrap()
+            }
+            EngineKind::Postgres => {
+                let pool = sqlx::PgPool::connect(&db.url).await.unwrap();
+                sqlx::query(
+                    "CREATE FUNCTION refuse_ies() RETURNS trigger LANGUAGE plpgsql AS $$ BEGIN \
+                     IF NEW.path LIKE '%.ies' THEN RAISE EXCEPTION 'refused by the test'; END IF; RETURN NEW; END $$",
+                )
+                .execute(&pool)
+                .await
+                .unwrap();
+                sqlx::query(
+                    "CREATE TRIGGER refuse_ies BEFORE INSERT ON scene_bundle_files \
+                     FOR EACH ROW EXECUTE FUNCTION refuse_ies()",
+                )
+                .execute(&pool)
+                .await
+                .unwrap();
+                let e = store
+                    .put_scene_bundle("cylinder", &c.scene_hash, &c.bundle)
+                    .await
+                    .unwrap_err();
+                assert!(e.to_string().contains("refused by the test"), "{e}");
+                let n = sqlx::query_scalar(count).fetch_one(&pool).await.unwrap();
+                pool.close().await;
+                n
+            }
+        };
+        assert_eq!(files, 0, "a failed put left files");
+        assert!(!store.has_scene_bundle(&c.bundle.hash()).await.unwrap());
+        assert!(store.scene_bundle(&c.bundle.hash()).await.unwrap().is_none());
     }
 }
