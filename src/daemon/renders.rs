@@ -37,6 +37,13 @@
 //! scene of the same id in DIR instead (the booth as it is, when it differs
 //! from the model the codings render).
 //!
+//! # Scene bundles
+//!
+//! Before a render is recorded, the scene's bundle (its TOML and every file
+//! the loader reads, [`render::bundle`]) is stored unless the store has it,
+//! with the render key (`scene_hash`) of the same bytes, so a machine
+//! without `scenes/` can fetch the files a render row names.
+//!
 //! # Cost per coding
 //!
 //! After a render, each coding is rendered alone with a *fixed* number of
@@ -515,8 +522,10 @@ impl Renderer {
         Ok((id, result))
     }
 
-    /// Records a render as queued; returns its id.
+    /// Records a render as queued, after storing its scene's bundle
+    /// ([`Renderer::store_bundle`]); returns its id.
     async fn record(&self, scene_id: &str, settings: &RenderSettings, hash: String) -> anyhow::Result<i64> {
+        self.store_bundle(scene_id, &hash).await;
         let id = self
             .store
             .create_render(&NewRender {
@@ -529,6 +538,40 @@ impl Renderer {
             .await?;
         tracing::info!(render_id = id, scene = scene_id, "render queued");
         Ok(id)
+    }
+
+    /// Stores the bundle of the scene `scene_id` (its files, for render
+    /// workers without the scenes folder; [`render::bundle`]) unless the
+    /// store has it. A scene that cannot be bundled (a reference outside
+    /// the scenes folder) or whose files changed since `hash` was taken is
+    /// logged and still rendered here: the daemon needs no bundle itself.
+    async fn store_bundle(&self, scene_id: &str, hash: &str) {
+        let Some(path) = self.entry(scene_id).map(|e| e.path.clone()) else {
+            return;
+        };
+        let collected = tokio::task::spawn_blocking(move || {
+            let root = path.parent().unwrap_or(Path::new("."));
+            render::bundle::SceneBundle::collect(root, &path).map_err(|e| e.to_string())
+        })
+        .await
+        .map_err(|e| e.to_string())
+        .and_then(|r| r);
+        let stored = match collected {
+            Ok(c) if c.scene_hash != hash => Err(format!(
+                "its files changed while it was loaded (render key {hash}, bundle's {})",
+                c.scene_hash
+            )),
+            Ok(c) => self
+                .store
+                .put_scene_bundle(scene_id, hash, &c.bundle)
+                .await
+                .map(|_| ())
+                .map_err(|e| e.to_string()),
+            Err(e) => Err(e),
+        };
+        if let Err(e) = stored {
+            tracing::warn!(scene = scene_id, error = %e, "scene bundle not stored; render workers cannot render this scene");
+        }
     }
 
     /// Runs a recorded render on the rayon pool with progress events, then

@@ -38,6 +38,7 @@
 
 pub mod area_light;
 pub mod bsdf;
+pub mod bundle;
 pub mod bvh;
 pub mod camera;
 pub mod coding;
@@ -549,7 +550,20 @@ pub fn truth_settings(target_id: &str) -> RenderSettings {
 /// A stable content hash (FNV-1a, 64 bit) of the scene file and every file it
 /// references (spectra CSVs, IES files), in load order, with the renderer's
 /// cache version: the key under which converged spectra are cached.
+///
+/// It is not the [scene bundle](bundle)'s hash: see that module for how the
+/// two relate.
 pub fn scene_hash(scene: &Scene) -> Result<String, RenderError> {
+    let mut contents = Vec::with_capacity(scene.files.len());
+    for f in &scene.files {
+        contents.push(std::fs::read(f).map_err(|e| RenderError::Io(format!("{}: {e}", f.display())))?);
+    }
+    Ok(scene_hash_of(contents.iter().map(Vec::as_slice)))
+}
+
+/// [`scene_hash`] of the files' contents, given in the loader's order
+/// (`Scene::files`).
+pub fn scene_hash_of<'a>(contents: impl IntoIterator<Item = &'a [u8]>) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut feed = |bytes: &[u8]| {
         for b in bytes {
@@ -558,12 +572,11 @@ pub fn scene_hash(scene: &Scene) -> Result<String, RenderError> {
         }
     };
     feed(b"lightbooth-render-v1");
-    for f in &scene.files {
-        let bytes = std::fs::read(f).map_err(|e| RenderError::Io(format!("{}: {e}", f.display())))?;
+    for bytes in contents {
         feed(&(bytes.len() as u64).to_le_bytes());
-        feed(&bytes);
+        feed(bytes);
     }
-    Ok(format!("{h:016x}"))
+    format!("{h:016x}")
 }
 
 fn memory_cache() -> &'static Mutex<HashMap<(String, String), Spectrum>> {

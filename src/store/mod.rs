@@ -68,6 +68,7 @@ mod display_profiles;
 pub mod engine;
 mod partial;
 mod rows;
+pub mod scene_bundles;
 
 use std::str::FromStr;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
