@@ -2,13 +2,21 @@
 //! (the server `tests/setup.sh` starts). A measurement goes through the API
 //! into PostgreSQL with every sample, and a second daemon on the same
 //! database starts (no file lock between them) and serves what the first
-//! measured.
+//! measured. Leases: a daemon starting or stopping beside a running one
+//! leaves its work alone, and a daemon killed with SIGKILL has its running
+//! measurement interrupted (samples kept) by a neighbour once its lease
+//! runs out, with nothing else touched.
 
 mod common;
 
+use std::io::{BufRead, BufReader};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
 use common::{get_json, poll_until, post_json, Daemon, TOKEN};
+use serde_json::Value;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn two_daemons_share_one_postgres_database_and_see_each_others_measurements() {
@@ -95,4 +103,190 @@ async fn each_booths_daemon_records_its_booth_and_the_api_filters_by_booth() {
     assert!(message.contains("booth") && message.contains("a space"), "{message}");
     south.stop().await;
     north.stop().await;
+}
+
+/// Starts a measurement of `samples` samples on `daemon`; its URL.
+async fn start_measurement(daemon: SocketAddr, samples: u32) -> String {
+    let (status, m) = post_json(
+        daemon,
+        "/api/measurements",
+        TOKEN,
+        &format!(r#"{{"samples":{samples}}}"#),
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    m["url"].as_str().unwrap().to_string()
+}
+
+/// Waits (bounded) until the measurement at `url` is running with at least
+/// `samples` samples stored.
+async fn wait_for_samples(reader: SocketAddr, url: &str, samples: usize) -> Value {
+    poll_until(reader, url, Duration::from_secs(60), |v| {
+        v["state"] == "running" && v["samples"].as_array().is_some_and(|s| s.len() >= samples)
+    })
+    .await
+}
+
+/// The regression of issue 14's bug: a daemon starting (and later shutting
+/// down) on a PostgreSQL database marked *every* unfinished measurement
+/// interrupted, the running one of another booth's daemon included. With
+/// leases both leave it alone, and it completes with all its samples.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_booths_daemon_starting_left_the_first_ones_running_measurement_alone() {
+    let db = common::fresh_postgres_database().await;
+    let north = Daemon::start_booth(0.2, &db, "north").await;
+    let url = start_measurement(north.addr, 8).await;
+    wait_for_samples(north.addr, &url, 1).await;
+
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let (_, m) = get_json(north.addr, &url).await;
+    assert_eq!(m["state"], "running", "south's start touched north's measurement: {m}");
+    south.stop().await;
+    let (_, m) = get_json(north.addr, &url).await;
+    assert_eq!(
+        m["state"], "running",
+        "south's shutdown touched north's measurement: {m}"
+    );
+
+    let done = poll_until(north.addr, &url, Duration::from_secs(120), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    assert_eq!(done["samples"].as_array().unwrap().len(), 8);
+    north.stop().await;
+}
+
+/// `lightbooth serve` as a child process, killed (SIGKILL) when dropped.
+struct ServeProcess {
+    child: Child,
+    addr: SocketAddr,
+    _dir: tempfile::TempDir,
+}
+
+impl Drop for ServeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Runs the built binary: `serve --mock --db DB --booth BOOTH` with a short
+/// lease (`heartbeat_seconds`, `lease_seconds` in its config file); returns
+/// once its instrument is idle.
+async fn spawn_serve(db: &str, booth: &str, heartbeat_seconds: f64, lease_seconds: f64) -> ServeProcess {
+    let dir = tempfile::tempdir().unwrap();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
+    let config = dir.path().join("lightbooth.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "scenes_dir = {:?}\ncache_dir = {:?}\nheartbeat_seconds = {heartbeat_seconds}\nlease_seconds = {lease_seconds}\n",
+            root.join("scenes").display().to_string(),
+            cache.display().to_string(),
+        ),
+    )
+    .unwrap();
+    let token_file = dir.path().join("token");
+    std::fs::write(&token_file, TOKEN).unwrap();
+    let log = std::fs::File::create(dir.path().join("serve.log")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(&root)
+        .args([
+            "serve",
+            "--mock",
+            "--mock-speed",
+            "0.2",
+            "--bind",
+            "127.0.0.1:0",
+            "--db",
+            db,
+            "--booth",
+            booth,
+        ])
+        .arg("--config")
+        .arg(&config)
+        .arg("--token-file")
+        .arg(&token_file)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(log))
+        .spawn()
+        .expect("run lightbooth serve");
+    let stdout = child.stdout.take().unwrap();
+    // The daemon prints `lightbooth listening on http://ADDR/`; read its
+    // lines on a thread (and keep draining them) so it never blocks on a pipe.
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if let Some(rest) = line.strip_prefix("lightbooth listening on http://") {
+                let _ = tx.send(rest.trim_end_matches('/').to_string());
+            }
+        }
+    });
+    let addr: SocketAddr = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
+        .await
+        .unwrap()
+        .expect("the daemon printed its address")
+        .parse()
+        .unwrap();
+    poll_until(addr, "/api/health", Duration::from_secs(60), |v| {
+        v["instrument"]["state"] == "idle"
+    })
+    .await;
+    ServeProcess { child, addr, _dir: dir }
+}
+
+/// kill -9 of a booth's daemon mid-measurement: once its lease runs out a
+/// neighbour marks that measurement interrupted, keeping the samples it
+/// took and naming the dead daemon (booth, pid); a third booth's running
+/// measurement is untouched and still completes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_daemon_killed_mid_measurement_has_it_interrupted_by_a_neighbour_and_nothing_else_touched() {
+    let db = common::fresh_postgres_database().await;
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let east = Daemon::start_booth(0.2, &db, "east").await;
+    let mut north = spawn_serve(&db, "north", 0.3, 1.5).await;
+    let north_pid = north.child.id();
+
+    let north_url = start_measurement(north.addr, 60).await;
+    let east_url = start_measurement(east.addr, 12).await;
+    wait_for_samples(south.addr, &north_url, 2).await;
+    wait_for_samples(south.addr, &east_url, 1).await;
+    north.child.kill().unwrap(); // SIGKILL: no shutdown marking, no stopped_at
+    north.child.wait().unwrap();
+    let (_, at_kill) = get_json(south.addr, &north_url).await;
+    let kept = at_kill["samples"].as_array().unwrap().len();
+    assert_eq!(at_kill["state"], "running", "{at_kill}");
+
+    // Lease 1.5 s + a neighbour's heartbeat (2 s by default), bounded generously.
+    let m = poll_until(south.addr, &north_url, Duration::from_secs(30), |v| {
+        v["state"] != "running"
+    })
+    .await;
+    assert_eq!(m["state"], "interrupted", "{m}");
+    assert_eq!(m["samples"].as_array().unwrap().len(), kept, "{m}");
+    assert!(kept >= 2);
+    let error = m["error"].as_str().unwrap();
+    assert!(
+        error.contains("booth `north`")
+            && error.contains(&format!("pid {north_pid}"))
+            && error.contains("stopped heartbeating"),
+        "{error}"
+    );
+    let (_, e) = get_json(south.addr, &east_url).await;
+    assert_eq!(
+        e["state"], "running",
+        "the kill's recovery touched east's measurement: {e}"
+    );
+    let done = poll_until(east.addr, &east_url, Duration::from_secs(120), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    assert_eq!(done["samples"].as_array().unwrap().len(), 12);
+    drop(north);
+    east.stop().await;
+    south.stop().await;
 }

@@ -2,6 +2,7 @@
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
@@ -77,6 +78,24 @@ struct ConfigFile {
     observer: Option<String>,
     mock_world: Option<PathBuf>,
     booth: Option<String>,
+    /// Seconds between the daemon's lease renewals (default 2).
+    heartbeat_seconds: Option<f64>,
+    /// Seconds without a heartbeat after which other daemons on the same
+    /// database count this one gone and mark its unfinished work
+    /// interrupted (default 10; longer than `heartbeat_seconds`).
+    lease_seconds: Option<f64>,
+}
+
+/// A positive number of seconds from key `key` of the config file.
+fn seconds_key(config: &Path, key: &str, value: Option<f64>, default: Duration) -> anyhow::Result<Duration> {
+    match value {
+        None => Ok(default),
+        Some(s) if s.is_finite() && s > 0.0 && s < 86_400.0 => Ok(Duration::from_secs_f64(s)),
+        Some(s) => anyhow::bail!(
+            "{}: key `{key}`: {s} is not a number of seconds between 0 and 86400",
+            config.display()
+        ),
+    }
 }
 
 fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
@@ -107,7 +126,23 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{}: key `booth`: {e}", args.config.display()))?,
         (None, None) => Booth::default(),
     };
+    let heartbeat = seconds_key(
+        &args.config,
+        "heartbeat_seconds",
+        file.heartbeat_seconds,
+        daemon::DEFAULT_HEARTBEAT,
+    )?;
+    let lease = seconds_key(&args.config, "lease_seconds", file.lease_seconds, daemon::DEFAULT_LEASE)?;
+    anyhow::ensure!(
+        lease > heartbeat,
+        "{}: key `lease_seconds` ({} s) must be longer than `heartbeat_seconds` ({} s)",
+        args.config.display(),
+        lease.as_secs_f64(),
+        heartbeat.as_secs_f64()
+    );
     let options = DaemonOptions {
+        heartbeat,
+        lease,
         booth,
         bind: args
             .bind

@@ -1,7 +1,8 @@
-//! One daemon per database file. At start-up the daemon marks every
-//! measurement, render and study left unfinished as interrupted; a second
-//! daemon on the same file would do that to the first one's running work.
-//! So the daemon holds an exclusive lock on `<database>.lock` (an advisory
+//! One daemon per database file. At start-up a daemon on SQLite marks every
+//! measurement, render and study left unfinished as interrupted (holding the
+//! file alone, it knows every other daemon registered in it is gone); a
+//! second daemon on the same file would do that to the first one's running
+//! work. So the daemon holds an exclusive lock on `<database>.lock` (an advisory
 //! `flock` through [`std::fs::File::try_lock`]) for as long as it runs; the
 //! operating system releases it when the process ends, even on `kill -9`.
 //! The file also holds the holder's pid, for the message a second daemon
@@ -9,11 +10,12 @@
 //!
 //! Only SQLite databases are locked. On PostgreSQL (`postgres://…`) several
 //! daemons — one per booth — may share one database, so none is refused.
-//! What is not done yet there: start-up recovery still marks *every*
-//! unfinished measurement, render and study interrupted, so a daemon
-//! starting on a shared database interrupts the others' running work. Per
-//! daemon leases with a heartbeat (recovering only what a stopped daemon
-//! was doing) are the next step of the multi-booth work (issue 14).
+//! There each daemon holds a lease instead (`store/leases.rs`, migration
+//! 0010): it registers, records itself on the work it creates or runs, and
+//! renews its lease with a heartbeat; at start and on every heartbeat a
+//! daemon marks interrupted only the unfinished work of daemons whose lease
+//! expired or that stopped (and, at start, rows naming no daemon), never a
+//! live neighbour's running measurement.
 
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, SeekFrom, Write};

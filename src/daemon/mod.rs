@@ -8,6 +8,9 @@
 //!   and stores the comparison of each measurement with every coding, and
 //!   runs the API's renders and studies as bounded, cancellable [jobs];
 //! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
+//! - a lease in the database, renewed by a heartbeat task, so that daemons
+//!   sharing a PostgreSQL database recover only the work of daemons that are
+//!   gone (see `store/leases.rs`);
 //! - the HTTP [service](crate::service) (REST API, events, dashboards).
 //!
 //! [`run`] takes a shutdown future, as mini-redis's server does, so tests
@@ -74,7 +77,21 @@ pub struct DaemonOptions {
     /// the simulated PR-650 measures instead of the model scenes — the booth
     /// as it is, when it differs from the model (`serve --mock-world DIR`).
     pub mock_world: Option<PathBuf>,
+    /// How often the daemon renews its lease and looks for gone daemons'
+    /// work to recover ([`DEFAULT_HEARTBEAT`]).
+    pub heartbeat: Duration,
+    /// How long after its last heartbeat the daemon counts as gone and its
+    /// unfinished work may be marked interrupted by another daemon
+    /// ([`DEFAULT_LEASE`]; longer than `heartbeat`).
+    pub lease: Duration,
 }
+
+/// The heartbeat interval of a daemon's lease unless configured.
+pub const DEFAULT_HEARTBEAT: Duration = Duration::from_secs(2);
+
+/// A daemon's lease unless configured: five heartbeats, so a slow database
+/// round trip or two never costs a live daemon its work.
+pub const DEFAULT_LEASE: Duration = Duration::from_secs(10);
 
 /// Runs the daemon on an already-bound listener until `shutdown` resolves.
 /// The running measurement, render and study are cancelled and marked
@@ -87,9 +104,24 @@ pub async fn run(
 ) -> anyhow::Result<()> {
     // Before the store opens: opening marks unfinished work interrupted.
     let _lock = db_lock::acquire(&options.db_url)?;
+    anyhow::ensure!(
+        !options.heartbeat.is_zero() && options.lease > options.heartbeat,
+        "the lease ({:?}) must be longer than the heartbeat interval ({:?}), which must not be zero",
+        options.lease,
+        options.heartbeat
+    );
     let store = Store::open(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?;
+    // From here on every measurement, render and study this daemon creates
+    // or runs names it, and its lease says it is alive.
+    let daemon_id = store
+        .register_daemon(&options.booth, options.lease)
+        .await
+        .context("registering this daemon's lease")?;
+    let store = store.as_daemon(daemon_id);
+    tracing::info!(daemon = daemon_id, booth = %options.booth, "registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
+    let heartbeat = AbortOnDrop(tokio::spawn(heartbeat(store.clone(), daemon_id, options.heartbeat)));
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
@@ -172,10 +204,12 @@ pub async fn run(
     if tokio::time::timeout(Duration::from_secs(30), job_worker).await.is_err() {
         tracing::warn!("the render job did not stop within 30 s");
     }
+    // Only this daemon's own work: a neighbour's on a shared database is
+    // its own business.
     for job in [crate::store::Job::Render, crate::store::Job::Study] {
         store
-            .interrupt_unfinished_jobs(
-                job,
+            .interrupt_own_unfinished(
+                job.table(),
                 &format!(
                     "the daemon shut down during this {}; retry it with POST /api/{}/{{id}}/retry",
                     job.noun(),
@@ -185,13 +219,57 @@ pub async fn run(
             .await?;
     }
     let n = store
-        .interrupt_unfinished("the daemon shut down before this measurement ran")
+        .interrupt_own_unfinished("measurements", "the daemon shut down before this measurement ran")
         .await?;
     if n > 0 {
         tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
     }
+    drop(heartbeat);
+    store
+        .mark_daemon_stopped(daemon_id)
+        .await
+        .context("marking this daemon stopped")?;
     store.close().await;
     Ok(())
+}
+
+/// Aborts a task when dropped: the heartbeat stops with `run`, also when
+/// `run` returns early with an error.
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
+/// Renews daemon `id`'s lease every `interval` and recovers the work of
+/// daemons whose lease expired; runs until aborted at shutdown. A database
+/// error is logged and retried at the next beat (if beats fail for longer
+/// than the lease, other daemons will count this one gone).
+async fn heartbeat(store: Store, id: i64, interval: Duration) {
+    let mut ticks = tokio::time::interval(interval);
+    ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        ticks.tick().await;
+        match store.heartbeat(id).await {
+            Ok(true) => {}
+            Ok(false) => tracing::warn!(daemon = id, "this daemon's lease row is marked stopped"),
+            Err(e) => {
+                tracing::warn!(daemon = id, error = %e, "cannot renew this daemon's lease");
+                continue;
+            }
+        }
+        if let Err(e) = store
+            .recover_abandoned_work(crate::store::RecoveryScope {
+                rows_without_daemon: false,
+                every_daemon_is_gone: false,
+            })
+            .await
+        {
+            tracing::warn!(daemon = id, error = %e, "cannot recover the work of gone daemons");
+        }
+    }
 }
 
 /// Resolves on SIGINT (Ctrl-C) or SIGTERM.

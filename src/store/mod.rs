@@ -36,12 +36,13 @@
 //! - Times are POSIX seconds (f64, UTC: DOUBLE PRECISION on PostgreSQL);
 //!   spectra are JSON arrays of numbers (TEXT); flags are 0/1 INTEGER on
 //!   SQLite and BOOLEAN on PostgreSQL.
-//! - Start-up recovery runs on both engines and marks *every* unfinished
-//!   measurement, render and study interrupted. On SQLite one daemon owns
-//!   the file ([`crate::daemon::db_lock`]); on PostgreSQL several daemons may
-//!   share the database, so a daemon starting marks the others' running
-//!   work interrupted too — per-daemon leases (recovering only what a
-//!   stopped daemon was doing) are the next step of the multi-booth work.
+//! - Recovery follows daemon leases (`leases.rs`, migration 0010): every
+//!   daemon registers, heartbeats, and records itself on the work it creates
+//!   or runs; at start and on every heartbeat a daemon marks interrupted only
+//!   the unfinished work of daemons whose lease expired or that stopped (and,
+//!   at start, rows naming no daemon) — never a live neighbour's. On SQLite
+//!   one daemon owns the file ([`crate::daemon::db_lock`]), so opening it
+//!   recovers all unfinished work, as before leases.
 //!
 //! ```no_run
 //! # async fn demo() -> anyhow::Result<()> {
@@ -66,6 +67,7 @@ mod booth;
 mod calibrations;
 mod display_profiles;
 pub mod engine;
+mod leases;
 mod partial;
 mod rows;
 pub mod scene_bundles;
@@ -81,6 +83,7 @@ use engine::Engine;
 pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
+pub use leases::{DaemonRow, Recovered, RecoveryScope};
 pub use rows::*;
 
 /// Errors of the store, with what to do about them.
@@ -204,6 +207,9 @@ impl JobEnd {
 #[derive(Clone, Debug)]
 pub struct Store {
     engine: Engine,
+    /// The daemon this handle acts for ([`Store::as_daemon`]): recorded on
+    /// the measurements, renders and studies it creates or starts.
+    daemon_id: Option<i64>,
 }
 
 impl Store {
@@ -234,6 +240,7 @@ impl Store {
             engine::EngineKind::Sqlite => Store::open(url).await,
             engine::EngineKind::Postgres => Ok(Store {
                 engine: Engine::connect(url, SqliteSynchronous::Full).await?,
+                daemon_id: None,
             }),
         }
     }
@@ -244,6 +251,7 @@ impl Store {
     pub async fn open_to_read(url: &str) -> Result<Store, StoreError> {
         Ok(Store {
             engine: Engine::connect(url, SqliteSynchronous::Full).await?,
+            daemon_id: None,
         })
     }
 
@@ -252,34 +260,24 @@ impl Store {
     pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
         let store = Store {
             engine: Engine::connect(url, synchronous).await?,
+            daemon_id: None,
         };
-        let n = store
-            .interrupt_unfinished("the daemon stopped before this measurement finished")
+        // The work of daemons that are gone (leases, `leases.rs`) and rows
+        // that name no daemon. On SQLite the caller holds the file alone, so
+        // every daemon registered in it is gone.
+        let recovered = store
+            .recover_abandoned_work(RecoveryScope {
+                rows_without_daemon: true,
+                every_daemon_is_gone: matches!(store.engine, Engine::Sqlite(_)),
+            })
             .await?;
-        if n > 0 {
+        if recovered.total() > 0 {
             tracing::warn!(
-                count = n,
-                "marked measurements left unfinished by the last run as interrupted"
+                measurements = recovered.measurements,
+                renders = recovered.renders,
+                studies = recovered.studies,
+                "marked work left unfinished by daemons that are gone as interrupted"
             );
-        }
-        for job in [Job::Render, Job::Study] {
-            let n = store
-                .interrupt_unfinished_jobs(
-                    job,
-                    &format!(
-                        "the daemon stopped before this {} finished; retry it with POST /api/{}/{{id}}/retry",
-                        job.noun(),
-                        job.table()
-                    ),
-                )
-                .await?;
-            if n > 0 {
-                tracing::warn!(
-                    count = n,
-                    "marked {} left unfinished by the last run as interrupted",
-                    job.table()
-                );
-            }
         }
         Ok(store)
     }
@@ -344,11 +342,12 @@ impl Store {
     /// queued (cancelled while it waited): it must not run.
     pub async fn start_job(&self, job: Job, id: i64) -> Result<bool, StoreError> {
         let sql = format!(
-            "UPDATE {} SET state = 'running' WHERE id = $1 AND state = 'queued'",
+            "UPDATE {} SET state = 'running', daemon_id = COALESCE($2, daemon_id) WHERE id = $1 AND state = 'queued'",
             job.table()
         );
         let n = with_pool!(self, |pool| sqlx::query(&sql)
             .bind(id)
+            .bind(self.daemon_id)
             .execute(pool)
             .await?
             .rows_affected());
@@ -458,8 +457,8 @@ impl Store {
     pub async fn create_measurement(&self, m: &NewMeasurement) -> Result<i64, StoreError> {
         Ok(with_pool!(self, |pool| {
             sqlx::query_scalar(
-            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at) \
-             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8) RETURNING id",
+            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at, daemon_id) \
+             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8, $9) RETURNING id",
         )
         .bind(m.booth.as_str())
         .bind(m.session_id)
@@ -469,6 +468,7 @@ impl Store {
         .bind(m.settings_json.to_string())
         .bind(&m.note)
         .bind(now())
+        .bind(self.daemon_id)
         .fetch_one(pool)
         .await?
         }))
@@ -478,14 +478,16 @@ impl Store {
     pub async fn mark_running(&self, id: i64, instrument_id: Option<i64>) -> Result<(), StoreError> {
         let n = with_pool!(self, |pool| {
             sqlx::query(
-            "UPDATE measurements SET state = 'running', instrument_id = $1, started_at = $2 WHERE id = $3 AND state = 'queued'",
-        )
-        .bind(instrument_id)
-        .bind(now())
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected()
+                "UPDATE measurements SET state = 'running', instrument_id = $1, started_at = $2, \
+             daemon_id = COALESCE($4, daemon_id) WHERE id = $3 AND state = 'queued'",
+            )
+            .bind(instrument_id)
+            .bind(now())
+            .bind(id)
+            .bind(self.daemon_id)
+            .execute(pool)
+            .await?
+            .rows_affected()
         });
         if n != 1 {
             return Err(StoreError::Conflict(format!("measurement {id} is not queued")));
@@ -705,8 +707,8 @@ impl Store {
 
     pub async fn create_render(&self, r: &NewRender) -> Result<i64, StoreError> {
         Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at) \
-             VALUES ($1, $2, $3, $4, $5, 'queued', $6) RETURNING id",
+            "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at, daemon_id) \
+             VALUES ($1, $2, $3, $4, $5, 'queued', $6, $7) RETURNING id",
         )
         .bind(&r.scene)
         .bind(&r.scene_hash)
@@ -714,6 +716,7 @@ impl Store {
         .bind(r.codings.join(","))
         .bind(r.seed as i64)
         .bind(now())
+        .bind(self.daemon_id)
         .fetch_one(pool)
         .await?))
     }
@@ -823,13 +826,16 @@ impl Store {
 
     /// Records a study as `queued`.
     pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO studies (request_json, state, created_at) VALUES ($1, 'queued', $2) RETURNING id"
+        Ok(with_pool!(self, |pool| {
+            sqlx::query_scalar(
+            "INSERT INTO studies (request_json, state, created_at, daemon_id) VALUES ($1, 'queued', $2, $3) RETURNING id"
         )
         .bind(request.to_string())
         .bind(now())
+        .bind(self.daemon_id)
         .fetch_one(pool)
-        .await?))
+        .await?
+        }))
     }
 
     /// Stores a finished study with its report files, in one transaction.

@@ -22,6 +22,8 @@ on_both_engines!(
     job_states_move_only_forward,
     partial_averages_and_previews_read_back_alike,
     measurements_and_instruments_name_their_booth_and_list_by_booth_and_model,
+    recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none,
+    two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -762,4 +764,140 @@ async fn an_unknown_database_kind_is_refused_naming_the_accepted_forms() {
         "{err}"
     );
     assert!(!err.contains("secret"), "the URL's password is never echoed: {err}");
+}
+
+/// The state and error of measurement `id`.
+async fn state_of(store: &Store, id: i64) -> (MeasurementState, Option<String>, usize) {
+    let m = store.get_measurement(id).await.unwrap().unwrap();
+    (m.summary.state, m.summary.error, m.samples.len())
+}
+
+/// Leases (migration 0010): a daemon whose lease expired or that stopped
+/// loses its unfinished work to whoever recovers — interrupted, samples
+/// kept, the error naming it — while a live daemon's running work is left
+/// alone; rows naming no daemon are recovered only when asked (at a
+/// daemon's start); a caller holding the database alone (SQLite's file
+/// lock) recovers everything.
+async fn recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let lease = Duration::from_secs(3600);
+    let live = store.register_daemon(&"north".parse().unwrap(), lease).await.unwrap();
+    let lapsing = store
+        .register_daemon(&"south".parse().unwrap(), Duration::from_millis(50))
+        .await
+        .unwrap();
+    let stopping = store.register_daemon(&"east".parse().unwrap(), lease).await.unwrap();
+    let running_as = |daemon: Option<i64>| {
+        let store = daemon.map_or_else(|| store.clone(), |d| store.as_daemon(d));
+        async move {
+            let id = store.create_measurement(&new_measurement()).await.unwrap();
+            store.mark_running(id, None).await.unwrap();
+            store.insert_sample(id, &sample(0, true)).await.unwrap();
+            id
+        }
+    };
+    let of_live = running_as(Some(live)).await;
+    let of_lapsing = running_as(Some(lapsing)).await;
+    let of_stopping = running_as(Some(stopping)).await;
+    let of_none = running_as(None).await;
+    let study_of_lapsing = store
+        .as_daemon(lapsing)
+        .create_study(&serde_json::json!({}))
+        .await
+        .unwrap();
+    store.mark_daemon_stopped(stopping).await.unwrap();
+    // The lapsing daemon's 50 ms lease runs out on the database's clock.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(store.heartbeat(live).await.unwrap());
+
+    let noticer = store.as_daemon(live);
+    let heartbeat_scope = RecoveryScope {
+        rows_without_daemon: false,
+        every_daemon_is_gone: false,
+    };
+    let recovered = noticer.recover_abandoned_work(heartbeat_scope).await.unwrap();
+    assert_eq!(
+        recovered,
+        Recovered {
+            measurements: 2,
+            renders: 0,
+            studies: 1
+        }
+    );
+    let (state, error, samples) = state_of(&store, of_lapsing).await;
+    assert_eq!((state, samples), (MeasurementState::Interrupted, 1));
+    let error = error.unwrap();
+    let pid = std::process::id();
+    assert!(
+        error.contains("booth `south`")
+            && error.contains(&format!("pid {pid}"))
+            && error.contains("stopped heartbeating"),
+        "{error}"
+    );
+    let (state, error, samples) = state_of(&store, of_stopping).await;
+    assert_eq!((state, samples), (MeasurementState::Interrupted, 1));
+    assert!(error.as_deref().unwrap().contains("booth `east`") && error.as_deref().unwrap().contains("stopped at"));
+    let study = store.get_study(study_of_lapsing).await.unwrap().unwrap();
+    assert_eq!(study.state, "interrupted");
+    assert!(study
+        .error
+        .as_deref()
+        .unwrap()
+        .contains("retry it with POST /api/studies/"));
+    assert_eq!(state_of(&store, of_live).await.0, MeasurementState::Running);
+    assert_eq!(state_of(&store, of_none).await.0, MeasurementState::Running);
+    // Nothing is left to recover: a second pass changes nothing.
+    assert_eq!(
+        noticer.recover_abandoned_work(heartbeat_scope).await.unwrap(),
+        Recovered::default()
+    );
+
+    // At a daemon's start: the rows naming no daemon too, still not the live one's.
+    let at_start = RecoveryScope {
+        rows_without_daemon: true,
+        every_daemon_is_gone: false,
+    };
+    let recovered = store.recover_abandoned_work(at_start).await.unwrap();
+    assert_eq!(recovered.total(), 1);
+    let (state, _, samples) = state_of(&store, of_none).await;
+    assert_eq!((state, samples), (MeasurementState::Interrupted, 1));
+    assert_eq!(state_of(&store, of_live).await.0, MeasurementState::Running);
+
+    // Holding the database alone, even the live-looking daemon is gone.
+    let alone = RecoveryScope {
+        rows_without_daemon: true,
+        every_daemon_is_gone: true,
+    };
+    assert_eq!(store.recover_abandoned_work(alone).await.unwrap().measurements, 1);
+    assert_eq!(state_of(&store, of_live).await.0, MeasurementState::Interrupted);
+}
+
+/// Two daemons noticing the same gone daemon at the same moment: the
+/// conditional UPDATE interrupts each of its rows exactly once (the counts
+/// of the two recoveries add up to the rows), and the row keeps one error.
+async fn two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let lease = Duration::from_secs(3600);
+    let a = store.as_daemon(store.register_daemon(&"a".parse().unwrap(), lease).await.unwrap());
+    let b = store.as_daemon(store.register_daemon(&"b".parse().unwrap(), lease).await.unwrap());
+    let gone = store.register_daemon(&"c".parse().unwrap(), lease).await.unwrap();
+    let gone_store = store.as_daemon(gone);
+    let mut ids = Vec::new();
+    for _ in 0..20 {
+        let id = gone_store.create_measurement(&new_measurement()).await.unwrap();
+        ids.push(id);
+    }
+    gone_store.mark_running(ids[0], None).await.unwrap();
+    store.mark_daemon_stopped(gone).await.unwrap();
+    let scope = RecoveryScope {
+        rows_without_daemon: false,
+        every_daemon_is_gone: false,
+    };
+    let (ra, rb) = tokio::join!(a.recover_abandoned_work(scope), b.recover_abandoned_work(scope));
+    assert_eq!(ra.unwrap().measurements + rb.unwrap().measurements, 20);
+    for id in ids {
+        let (state, error, _) = state_of(&store, id).await;
+        assert_eq!(state, MeasurementState::Interrupted);
+        assert!(error.unwrap().contains("booth `c`"));
+    }
 }

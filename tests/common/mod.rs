@@ -216,6 +216,8 @@ impl Daemon {
             render_samples: 2048,
             observer: lightbooth::colorimetry::Observer::JuddVos,
             mock_world: None,
+            heartbeat: daemon::DEFAULT_HEARTBEAT,
+            lease: daemon::DEFAULT_LEASE,
         };
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(daemon::run(listener, options, async move {
