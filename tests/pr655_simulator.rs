@@ -11,15 +11,11 @@ use lightbooth::instrument::mock::{spawn_mock, MockConfig, MockHandle, Pr655Swit
 use lightbooth::instrument::pr655::protocol::Model;
 use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
 use lightbooth::instrument::InstrumentError;
-use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
 
-/// D65 as an absolute radiance of about 100 cd/m².
-fn d65_radiance() -> Spectrum {
-    let d65 = illuminant(Illuminant::D65);
-    let values = d65.values().iter().map(|v| v * 1.4e-5).collect();
-    Spectrum::new(d65.grid().clone(), SpectralUnit::SpectralRadiance, values).unwrap()
-}
+#[path = "common/pr655_wire.rs"]
+mod pr655_wire;
+use pr655_wire::{ask, d65_radiance};
 
 /// A narrow line: a Gaussian of σ = 1 nm at `nm`, about 100 cd/m² near 555 nm.
 fn line_radiance(nm: f64) -> Spectrum {
@@ -72,27 +68,6 @@ fn remote(mock: &MockHandle) -> Box<dyn serialport::SerialPort> {
     }
     assert_eq!(banner, b" REMOTE MODE");
     port
-}
-
-/// Sends `command` with CR and reads its reply lines (the simulator answers in one burst).
-fn ask(port: &mut Box<dyn serialport::SerialPort>, command: &str) -> Vec<String> {
-    port.write_all(format!("{command}\r").as_bytes()).unwrap();
-    let mut reply = Vec::new();
-    let mut buf = [0u8; 4096];
-    let t0 = Instant::now();
-    // Until 100 ms without a byte (PTB's end-of-reply rule, with margin).
-    let mut last = Instant::now();
-    while t0.elapsed() < Duration::from_secs(3) && (reply.is_empty() || last.elapsed() < Duration::from_millis(100)) {
-        if let Ok(n) = port.read(&mut buf) {
-            reply.extend_from_slice(&buf[..n]);
-            last = Instant::now();
-        }
-    }
-    String::from_utf8_lossy(&reply)
-        .lines()
-        .map(|l| l.trim().to_string())
-        .filter(|l| !l.is_empty())
-        .collect()
 }
 
 /// The third comma field of a one-line report (after status and units), as a number.

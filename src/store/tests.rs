@@ -363,36 +363,49 @@ async fn job_states_move_only_forward(engine: EngineKind) {
     assert!(store.get_study(study).await.unwrap().unwrap().files.is_empty());
 }
 
+/// An SQLite database at `dir/old.sqlite` migrated only up to (not
+/// including) migration `before`, with `rows` inserted: a lab's database
+/// from an older lightbooth. Returns its URL.
+async fn sqlite_database_before_migration(dir: &std::path::Path, before: &str, rows: &[&str]) -> String {
+    let old = dir.join("migrations");
+    std::fs::create_dir(&old).unwrap();
+    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
+    for entry in std::fs::read_dir(&all).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_str().unwrap().to_string();
+        if name.as_str() < before {
+            std::fs::copy(&path, old.join(&name)).unwrap();
+        }
+    }
+    let url = format!("sqlite://{}", dir.join("old.sqlite").display());
+    let options = SqliteConnectOptions::from_str(&url)
+        .unwrap()
+        .create_if_missing(true)
+        .foreign_keys(true);
+    let pool = SqlitePool::connect_with(options).await.unwrap();
+    sqlx::migrate::Migrator::new(old.as_path())
+        .await
+        .unwrap()
+        .run(&pool)
+        .await
+        .unwrap();
+    for sql in rows {
+        sqlx::query(sql).execute(&pool).await.unwrap();
+    }
+    pool.close().await;
+    url
+}
+
 /// Migration 0005 rebuilds `renders` and `studies` (wider state checks):
 /// every row, the comparisons that reference renders, and every study file
 /// must survive it.
 #[tokio::test]
 async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
     let dir = tempfile::tempdir().unwrap();
-    let old = dir.path().join("migrations");
-    std::fs::create_dir(&old).unwrap();
-    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
-    for entry in std::fs::read_dir(&all).unwrap() {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_str().unwrap().to_string();
-        if name.as_str() < "0005" {
-            std::fs::copy(&path, old.join(&name)).unwrap();
-        }
-    }
-    let url = format!("sqlite://{}", dir.path().join("old.sqlite").display());
-    {
-        let options = SqliteConnectOptions::from_str(&url)
-            .unwrap()
-            .create_if_missing(true)
-            .foreign_keys(true);
-        let pool = SqlitePool::connect_with(options).await.unwrap();
-        sqlx::migrate::Migrator::new(old.as_path())
-            .await
-            .unwrap()
-            .run(&pool)
-            .await
-            .unwrap();
-        for sql in [
+    let url = sqlite_database_before_migration(
+        dir.path(),
+        "0005",
+        &[
             "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at) \
              VALUES (1, 5, '{}', 'failed', 0)",
             "INSERT INTO renders (id, scene, scene_hash, settings_json, codings, seed, state, created_at, result_json, preview_png) \
@@ -405,11 +418,9 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
              0, 1, 0, 0, 0, 0)",
             "INSERT INTO studies (id, request_json, state, created_at, result_json) VALUES (3, '{}', 'complete', 0, '{}')",
             "INSERT INTO study_files (study_id, name, content) VALUES (3, 'index.html', x'3c68746d6c3e')",
-        ] {
-            sqlx::query(sql).execute(&pool).await.unwrap();
-        }
-        pool.close().await;
-    }
+        ],
+    )
+    .await;
     let store = Store::open(&url).await.unwrap();
     let kept = store.get_render(7).await.unwrap().unwrap();
     assert_eq!(kept.state, "complete");
@@ -435,36 +446,17 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
 #[tokio::test]
 async fn migrations_before_booths_leave_rows_in_the_default_booth() {
     let dir = tempfile::tempdir().unwrap();
-    let old = dir.path().join("migrations");
-    std::fs::create_dir(&old).unwrap();
-    let all = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations/sqlite");
-    for entry in std::fs::read_dir(&all).unwrap() {
-        let path = entry.unwrap().path();
-        let name = path.file_name().unwrap().to_str().unwrap().to_string();
-        if name.as_str() < "0009" {
-            std::fs::copy(&path, old.join(&name)).unwrap();
-        }
-    }
-    let url = format!("sqlite://{}", dir.path().join("old.sqlite").display());
-    {
-        let options = SqliteConnectOptions::from_str(&url).unwrap().create_if_missing(true);
-        let pool = SqlitePool::connect_with(options).await.unwrap();
-        sqlx::migrate::Migrator::new(old.as_path())
-            .await
-            .unwrap()
-            .run(&pool)
-            .await
-            .unwrap();
-        for sql in [
+    let url = sqlite_database_before_migration(
+        dir.path(),
+        "0009",
+        &[
             "INSERT INTO instruments (id, model, serial, port, first_seen, last_seen) \
              VALUES (4, 'PR-650', '60931502', '/dev/ttyUSB0', 0, 0)",
             "INSERT INTO measurements (id, instrument_id, samples_requested, settings_json, state, created_at) \
              VALUES (1, 4, 5, '{}', 'failed', 0)",
-        ] {
-            sqlx::query(sql).execute(&pool).await.unwrap();
-        }
-        pool.close().await;
-    }
+        ],
+    )
+    .await;
     let store = Store::open(&url).await.unwrap();
     let m = store.get_measurement(1).await.unwrap().unwrap();
     assert_eq!(m.summary.booth, DEFAULT_BOOTH);
