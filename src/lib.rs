@@ -36,3 +36,4 @@ pub mod service;
 pub mod spectrum;
 pub mod store;
 pub mod study;
+pub mod worker;

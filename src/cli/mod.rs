@@ -12,6 +12,7 @@ mod render;
 mod serve;
 mod stimulus;
 mod study;
+mod worker;
 
 use clap::{Parser, Subcommand};
 
@@ -59,12 +60,14 @@ enum Command {
     /// At which frame-buffer depth a measured display shows two codings' renderings of a scene apart.
     #[command(name = "display-resolution")]
     DisplayResolution(display_resolution::DisplayResolutionArgs),
+    /// A render worker: claims the comparisons, renders and studies daemons (`serve --renders workers`) queue in the shared PostgreSQL database.
+    Worker(worker::WorkerArgs),
 }
 
 impl Cli {
     /// True for `serve`, whose logs are the lab's record of a run.
     pub fn is_daemon(&self) -> bool {
-        matches!(self.command, Command::Serve(_))
+        matches!(self.command, Command::Serve(_) | Command::Worker(_))
     }
 }
 
@@ -78,6 +81,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
+        Command::Worker(args) => worker::run(args),
         Command::Study(args) => study::run(args),
         Command::Reflectance(args) => calibrate::run_reflectance(args),
         Command::Illuminant(args) => calibrate::run_illuminant(args),

@@ -9,6 +9,7 @@ use clap::Args;
 use serde::Deserialize;
 
 use lightbooth::colorimetry::Observer;
+use lightbooth::daemon::worker_queue::RenderPlace;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::mock::Fault;
 use lightbooth::instrument::InstrumentSettings;
@@ -60,6 +61,11 @@ pub struct ServeArgs {
     /// none (`default`).
     #[arg(long)]
     booth: Option<Booth>,
+    /// Where comparisons, renders and studies run: `here` (the default) or
+    /// `workers` (`lightbooth worker` processes sharing the PostgreSQL
+    /// database; the daemon publishes its scenes for them).
+    #[arg(long, value_parser = clap::builder::ValueParser::new(|s: &str| s.parse::<RenderPlace>()))]
+    renders: Option<RenderPlace>,
 }
 
 /// `lightbooth.toml`: the daemon's settings file.
@@ -84,6 +90,8 @@ struct ConfigFile {
     /// database count this one gone and mark its unfinished work
     /// interrupted (default 10; longer than `heartbeat_seconds`).
     lease_seconds: Option<f64>,
+    /// `here` or `workers` (see `--renders`).
+    renders: Option<String>,
 }
 
 /// A positive number of seconds from key `key` of the config file.
@@ -140,7 +148,15 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         lease.as_secs_f64(),
         heartbeat.as_secs_f64()
     );
+    let renders = match (args.renders, file.renders) {
+        (Some(r), _) => r,
+        (None, Some(name)) => name
+            .parse()
+            .map_err(|e| anyhow::anyhow!("{}: key `renders`: {e}", args.config.display()))?,
+        (None, None) => RenderPlace::Here,
+    };
     let options = DaemonOptions {
+        renders,
         heartbeat,
         lease,
         booth,

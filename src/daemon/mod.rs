@@ -22,6 +22,7 @@ pub mod instrument_task;
 pub mod jobs;
 pub mod renders;
 pub mod study_measurements;
+pub mod worker_queue;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -84,7 +85,14 @@ pub struct DaemonOptions {
     /// unfinished work may be marked interrupted by another daemon
     /// ([`DEFAULT_LEASE`]; longer than `heartbeat`).
     pub lease: Duration,
+    /// Where comparisons, renders and studies run: here, or on render
+    /// workers sharing the database (`--renders`, [`worker_queue`]).
+    pub renders: worker_queue::RenderPlace,
 }
+
+/// How often a daemon leaving its work to render workers looks for the
+/// jobs that ended, to send their events.
+pub const WORKER_JOB_POLL: Duration = Duration::from_millis(250);
 
 /// The heartbeat interval of a daemon's lease unless configured.
 pub const DEFAULT_HEARTBEAT: Duration = Duration::from_secs(2);
@@ -110,6 +118,8 @@ pub async fn run(
         options.lease,
         options.heartbeat
     );
+    // Before registering: a daemon that cannot start leaves no lease behind.
+    let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let store = Store::open(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?;
@@ -122,7 +132,6 @@ pub async fn run(
     let store = store.as_daemon(daemon_id);
     tracing::info!(daemon = daemon_id, booth = %options.booth, "registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
     let heartbeat = AbortOnDrop(tokio::spawn(heartbeat(store.clone(), daemon_id, options.heartbeat)));
-    let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
     println!("{}", source.describe());
@@ -137,7 +146,7 @@ pub async fn run(
         reason: "starting".into(),
     });
     let (events, _) = broadcast::channel(1024);
-    let renderer = Arc::new(renders::Renderer::new(
+    let mut renderer = renders::Renderer::new(
         options.scenes_dir.clone(),
         store.clone(),
         events.clone(),
@@ -145,7 +154,20 @@ pub async fn run(
         options.render_samples,
         options.observer,
         options.mock_world.clone(),
-    )?);
+    )?;
+    let _worker_watch = match options.renders {
+        worker_queue::RenderPlace::Here => None,
+        worker_queue::RenderPlace::Workers => {
+            anyhow::ensure!(
+                store.engine_name() == "postgres",
+                "--renders workers needs a database shared with the render workers: a PostgreSQL one \
+                 (--db postgres://…); on an SQLite file the daemon renders itself (--renders here)"
+            );
+            let queue = renderer.leave_to_workers().await?;
+            Some(AbortOnDrop(tokio::spawn(queue.watch(WORKER_JOB_POLL))))
+        }
+    };
+    let renderer = Arc::new(renderer);
     let job_worker = renderer.run_jobs();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {
         store: store.clone(),
@@ -235,7 +257,7 @@ pub async fn run(
 
 /// Aborts a task when dropped: the heartbeat stops with `run`, also when
 /// `run` returns early with an error.
-struct AbortOnDrop(tokio::task::JoinHandle<()>);
+pub(crate) struct AbortOnDrop(pub(crate) tokio::task::JoinHandle<()>);
 
 impl Drop for AbortOnDrop {
     fn drop(&mut self) {
@@ -247,7 +269,7 @@ impl Drop for AbortOnDrop {
 /// daemons whose lease expired; runs until aborted at shutdown. A database
 /// error is logged and retried at the next beat (if beats fail for longer
 /// than the lease, other daemons will count this one gone).
-async fn heartbeat(store: Store, id: i64, interval: Duration) {
+pub(crate) async fn heartbeat(store: Store, id: i64, interval: Duration) {
     let mut ticks = tokio::time::interval(interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
@@ -259,6 +281,11 @@ async fn heartbeat(store: Store, id: i64, interval: Duration) {
                 tracing::warn!(daemon = id, error = %e, "cannot renew this daemon's lease");
                 continue;
             }
+        }
+        // Before recovery: a gone worker's render and study rows go back
+        // to the queue, never to `interrupted`.
+        if let Err(e) = store.requeue_abandoned_jobs().await {
+            tracing::warn!(daemon = id, error = %e, "cannot queue again the jobs of gone render workers");
         }
         if let Err(e) = store
             .recover_abandoned_work(crate::store::RecoveryScope {

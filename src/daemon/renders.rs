@@ -64,6 +64,7 @@ use tokio::sync::broadcast;
 use super::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
 use super::jobs::{self, JobQueue, Queued, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use super::study_measurements::wait_for_measurements;
+use super::worker_queue::{PublishedScene, RenderConfig, WorkerQueue};
 use crate::colorimetry::{xyz_from_radiance, Lab, Observer, Xyz};
 use crate::comparison::{compare_point, delta_e_pair};
 use crate::render::integrator::{with_cancel, CancelFlag};
@@ -71,7 +72,7 @@ use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
 use crate::service::error::ApiError;
 use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
-use crate::store::{Job, JobEnd, NewComparison, NewRender, Store};
+use crate::store::{Job, JobEnd, NewComparison, NewRender, Store, WorkerJobKind};
 use crate::study::report::report_files;
 use crate::study::run::{run_study, Against, StudyOptions, COST_DEFINITION};
 use crate::study::white::{scene_white, SceneWhite};
@@ -111,6 +112,9 @@ pub struct Renderer {
     shutdown: CancelFlag,
     /// Camera images of renders, for the image viewer ([`super::images`]).
     images: Arc<ImageJobs>,
+    /// Set when comparisons, renders and studies run on render workers
+    /// (`serve --renders workers`, [`super::worker_queue`]).
+    workers: Option<Arc<WorkerQueue>>,
 }
 
 /// A job's work, as the queue carries it.
@@ -141,14 +145,29 @@ impl Renderer {
         observer: Observer,
         mock_world: Option<PathBuf>,
     ) -> anyhow::Result<Renderer> {
-        let mut scenes = Vec::new();
         let mut paths: Vec<PathBuf> = std::fs::read_dir(&scenes_dir)
             .map_err(|e| anyhow::anyhow!("cannot read the scenes folder {}: {e}", scenes_dir.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| p.extension().is_some_and(|x| x == "toml"))
             .collect();
         paths.sort();
-        for path in &paths {
+        Renderer::with_scene_files(&paths, store, events, codings, samples, observer, mock_world)
+    }
+
+    /// A renderer of the scene files `paths` (each scene's id is its file
+    /// name without `.toml`): a render worker's, whose scenes are unpacked
+    /// bundles in separate folders.
+    pub fn with_scene_files(
+        paths: &[PathBuf],
+        store: Store,
+        events: broadcast::Sender<Event>,
+        codings: Vec<String>,
+        samples: u64,
+        observer: Observer,
+        mock_world: Option<PathBuf>,
+    ) -> anyhow::Result<Renderer> {
+        let mut scenes = Vec::new();
+        for path in paths {
             let scene = render::load_scene(path)?;
             // A scene must declare its CIELAB white: refuse it at start, not
             // at the first comparison.
@@ -205,7 +224,50 @@ impl Renderer {
             scene_locks: Default::default(),
             converge_pool,
             shutdown: CancelFlag::default(),
+            workers: None,
         })
+    }
+
+    /// Leaves this daemon's comparisons, renders and studies to render
+    /// workers: stores every scene's bundle and publishes the
+    /// [`RenderConfig`] workers render with (see [`super::worker_queue`]).
+    /// Returns the queue, whose [`WorkerQueue::watch`] the daemon runs.
+    pub async fn leave_to_workers(&mut self) -> anyhow::Result<Arc<WorkerQueue>> {
+        anyhow::ensure!(
+            self.mock_world.is_none(),
+            "--renders workers cannot be combined with --mock-world: the mock world's scenes are not published to workers"
+        );
+        let mut scenes = Vec::new();
+        for entry in &self.scenes {
+            let path = entry.path.clone();
+            let collected = tokio::task::spawn_blocking(move || {
+                let root = path.parent().unwrap_or(Path::new("."));
+                render::bundle::SceneBundle::collect(root, &path)
+            })
+            .await?
+            .map_err(|e| anyhow::anyhow!("scene `{}` cannot be bundled for render workers: {e}", entry.id))?;
+            self.store
+                .put_scene_bundle(&entry.id, &collected.scene_hash, &collected.bundle)
+                .await?;
+            scenes.push(PublishedScene {
+                id: entry.id.clone(),
+                bundle: collected.bundle.hash(),
+                scene_hash: collected.scene_hash,
+            });
+        }
+        let config = RenderConfig {
+            codings: self.codings.iter().map(|c| c.to_string()).collect(),
+            samples: self.samples,
+            observer: self.observer,
+            scenes,
+        };
+        self.store
+            .set_daemon_role("daemon", Some(&serde_json::to_value(&config)?))
+            .await?;
+        let queue = Arc::new(WorkerQueue::new(self.store.clone(), self.events.clone()));
+        self.workers = Some(Arc::clone(&queue));
+        tracing::info!(scenes = config.scenes.len(), "comparisons, renders and studies are left to render workers");
+        Ok(queue)
     }
 
     /// Starts the one worker that runs queued renders and studies in turn;
@@ -304,6 +366,16 @@ impl Renderer {
     ) {
         let this = Arc::clone(self);
         self.runtime.spawn(async move {
+            if let Some(workers) = &this.workers {
+                match workers
+                    .queue_comparison(measurement_id, &scene, &target, measured, measured_y_se)
+                    .await
+                {
+                    Ok(_) => return,
+                    // Nothing is lost: the daemon compares it itself.
+                    Err(e) => tracing::error!(measurement_id, error = %e, "cannot queue the comparison for the render workers; comparing here"),
+                }
+            }
             if let Err(e) = this
                 .compare(measurement_id, &scene, &target, measured, measured_y_se)
                 .await
@@ -313,7 +385,11 @@ impl Renderer {
         });
     }
 
-    async fn compare(
+    /// Compares measurement `measurement_id` of `scene`/`target` (XYZ
+    /// `measured` with the daemon's observer, `measured_y_se` the standard
+    /// error of its Y) with every coding, rendering the scene if no render
+    /// of it with the comparison settings is stored, and stores the rows.
+    pub(crate) async fn compare(
         &self,
         measurement_id: i64,
         scene: &str,
@@ -928,6 +1004,15 @@ impl Renderer {
         let (loaded, hash) = load_scene_blocking(path)
             .await
             .map_err(|e| ApiError::Internal(e.to_string()))?;
+        if let Some(workers) = &self.workers {
+            self.check_worker_share().await?;
+            let id = self
+                .record(&scene, &settings, hash)
+                .await
+                .map_err(|e| ApiError::Internal(e.to_string()))?;
+            self.hand_to_workers(workers, Job::Render, id, &scene).await?;
+            return Ok(id);
+        }
         let create = async {
             self.record(&scene, &settings, hash)
                 .await
@@ -951,6 +1036,13 @@ impl Renderer {
                 .await
                 .map_err(ApiError::from)
         };
+        if let Some(workers) = &self.workers {
+            self.check_worker_share().await?;
+            let id = create.await?;
+            self.hand_to_workers(workers, Job::Study, id, "").await?;
+            tracing::info!(study_id = id, "study queued for the render workers");
+            return Ok(id);
+        }
         let work = Work::Study {
             paths,
             options: Box::new(options),
@@ -959,6 +1051,59 @@ impl Renderer {
         let id = self.jobs.enqueue(Job::Study, create, work).await?;
         tracing::info!(study_id = id, "study queued");
         Ok(id)
+    }
+
+    /// 409 when this daemon already has [`jobs::JOB_QUEUE_CAPACITY`] renders
+    /// and studies waiting for or running on workers: its share of the
+    /// shared queue is bounded as its own queue is.
+    async fn check_worker_share(&self) -> Result<(), ApiError> {
+        let waiting = self.store.unfinished_worker_jobs_requested().await?;
+        if waiting >= jobs::JOB_QUEUE_CAPACITY as i64 {
+            return Err(ApiError::Conflict(format!(
+                "the render queue is full: {waiting} renders and studies of this daemon are waiting for \
+                 or running on render workers; wait for one to finish (GET /api/renders, /api/studies)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Queues a recorded render or study row for the workers; if that fails
+    /// the row is failed with the reason (it would never run otherwise).
+    async fn hand_to_workers(&self, workers: &WorkerQueue, job: Job, id: i64, scene: &str) -> Result<(), ApiError> {
+        let kind = match job {
+            Job::Render => WorkerJobKind::Render,
+            Job::Study => WorkerJobKind::Study,
+        };
+        if let Err(e) = workers.queue_row(kind, id, scene).await {
+            let why = format!("cannot queue this {} for the render workers: {e}", job.noun());
+            self.store.end_job(job, id, JobEnd::Failed, &why).await?;
+            return Err(ApiError::Internal(why));
+        }
+        Ok(())
+    }
+
+    /// Cancels a render or study left to the workers: a queued one ends at
+    /// once, a running one is flagged for its worker. False when no worker
+    /// job has it (it runs here).
+    async fn cancel_on_workers(&self, job: Job, id: i64) -> Result<bool, ApiError> {
+        let kind = match job {
+            Job::Render => WorkerJobKind::Render,
+            Job::Study => WorkerJobKind::Study,
+        };
+        match self.store.cancel_worker_job(kind, id).await? {
+            Some(true) => {
+                self.store
+                    .end_job(job, id, JobEnd::Cancelled, "cancelled by a client before a render worker took it")
+                    .await?;
+                tracing::info!(job = job.noun(), id, "cancelled while queued for the render workers");
+                Ok(true)
+            }
+            Some(false) => {
+                tracing::info!(job = job.noun(), id, "cancellation requested of the render worker running it");
+                Ok(true)
+            }
+            None => Ok(false),
+        }
     }
 
     /// A new job with the request of an ended one (see the [jobs](super::jobs) doc).
@@ -1034,7 +1179,12 @@ impl RenderService for Renderer {
     }
 
     fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), ApiError>> {
-        Box::pin(async move { self.jobs.cancel(job, id).await })
+        Box::pin(async move {
+            if self.workers.is_some() && self.cancel_on_workers(job, id).await? {
+                return Ok(());
+            }
+            self.jobs.cancel(job, id).await
+        })
     }
 
     fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, ApiError>> {
@@ -1112,4 +1262,60 @@ async fn load_scene_blocking(path: PathBuf) -> Result<(Scene, String), RenderErr
     })
     .await
     .map_err(|e| RenderError::Io(format!("loading a scene: {e}")))?
+}
+
+/// The render worker's entry points ([`crate::worker`]): a render or study
+/// row another daemon recorded, run here with that daemon's configuration.
+impl Renderer {
+    /// Runs the queued render row `id` under `cancel`. Its scene must be the
+    /// content the row was recorded for (same render key).
+    pub(crate) async fn run_render_row(&self, id: i64, cancel: CancelFlag) -> anyhow::Result<()> {
+        let row = self
+            .store
+            .get_render(id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("no render {id}"))?;
+        let settings: RenderSettings = serde_json::from_value(row.settings.clone())
+            .map_err(|e| anyhow::anyhow!("render {id}'s stored settings: {e}"))?;
+        let entry = self
+            .entry(&row.scene)
+            .ok_or_else(|| anyhow::anyhow!("render {id}'s scene `{}` is not among its daemon's scenes", row.scene))?;
+        let (scene, hash) = load_scene_blocking(entry.path.clone()).await?;
+        if hash != row.scene_hash {
+            let why = format!(
+                "the scene `{}` this worker fetched has render key {hash}, not the render's {}: \
+                 its daemon's scene files changed since; render it again",
+                row.scene, row.scene_hash
+            );
+            self.store.end_job(Job::Render, id, JobEnd::Failed, &why).await?;
+            anyhow::bail!(why);
+        }
+        self.execute(id, &row.scene, scene, settings, cancel).await
+    }
+
+    /// Runs the queued study row `id` under `cancel`, from its stored
+    /// request (and the measurements its daemon queued for it first).
+    pub(crate) async fn run_study_row(self: &Arc<Self>, id: i64, cancel: CancelFlag) -> anyhow::Result<()> {
+        let row = self
+            .store
+            .get_study(id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("no study {id}"))?;
+        let measured_first: Vec<i64> = row
+            .request
+            .get("measured_first")
+            .and_then(|m| serde_json::from_value(m.clone()).ok())
+            .unwrap_or_default();
+        let request: StudyRequest = serde_json::from_value(row.request.clone())
+            .map_err(|e| anyhow::anyhow!("study {id}'s stored request: {e}"))?;
+        let (paths, options) = match self.study_plan(&request) {
+            Ok(plan) => plan,
+            Err(e) => {
+                let why = format!("study {id}'s request on this worker: {e}");
+                self.store.end_job(Job::Study, id, JobEnd::Failed, &why).await?;
+                anyhow::bail!(why);
+            }
+        };
+        self.run_study_job(id, paths, options, measured_first, cancel).await
+    }
 }

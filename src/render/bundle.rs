@@ -248,6 +248,48 @@ impl SceneBundle {
         })
     }
 
+    /// One bundle holding the files of all `bundles` (which share one
+    /// scenes folder, as a daemon's scenes do), with the first one's scene
+    /// file: unpacked, every scene's TOML sits where its references (a
+    /// `[cielab_white]` naming a sibling scene, shared spectra) expect. A
+    /// path two bundles hold with different bytes is refused, naming it.
+    pub fn merge(bundles: &[SceneBundle]) -> Result<SceneBundle, BundleError> {
+        let first = bundles.first().ok_or_else(|| BundleError::BadPath {
+            path: String::new(),
+            message: "no bundles to merge".into(),
+        })?;
+        let mut files: BTreeMap<&str, (&[u8], &str)> = BTreeMap::new();
+        for b in bundles {
+            for f in &b.files {
+                match files.get(f.path.as_str()) {
+                    Some((content, _)) if *content == f.content.as_slice() => {}
+                    Some((_, other)) => {
+                        return Err(BundleError::BadPath {
+                            path: f.path.clone(),
+                            message: format!(
+                                "differs between the bundles of `{other}` and `{}` (the scenes folder changed between them)",
+                                b.scene_file
+                            ),
+                        })
+                    }
+                    None => {
+                        files.insert(&f.path, (&f.content, &b.scene_file));
+                    }
+                }
+            }
+        }
+        SceneBundle::from_parts(
+            first.scene_file.clone(),
+            files
+                .into_iter()
+                .map(|(path, (content, _))| BundleFile {
+                    path: path.to_string(),
+                    content: content.to_vec(),
+                })
+                .collect(),
+        )
+    }
+
     /// The scene TOML's relative path.
     pub fn scene_file(&self) -> &str {
         &self.scene_file

@@ -176,7 +176,7 @@ impl Store {
     }
 
     /// The database's clock, POSIX seconds, as an SQL expression.
-    fn clock_sql(&self) -> &'static str {
+    pub(super) fn clock_sql(&self) -> &'static str {
         match self.engine {
             Engine::Sqlite(_) => "((julianday('now') - 2440587.5) * 86400.0)",
             Engine::Postgres(_) => "(EXTRACT(EPOCH FROM clock_timestamp())::DOUBLE PRECISION)",
@@ -270,7 +270,8 @@ impl Store {
                 let sql = format!(
                     "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
                      WHERE daemon_id = $2 AND state IN ('queued', 'running') \
-                     AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone})"
+                     AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone}){}",
+                    not_a_worker_job(table)
                 );
                 let n = with_pool!(self, |pool| sqlx::query(&sql)
                     .bind(daemon.interruption(table))
@@ -300,7 +301,8 @@ impl Store {
                 );
                 let sql = format!(
                     "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
-                     WHERE daemon_id IS NULL AND state IN ('queued', 'running')"
+                     WHERE daemon_id IS NULL AND state IN ('queued', 'running'){}",
+                    not_a_worker_job(table)
                 );
                 let n = with_pool!(self, |pool| sqlx::query(&sql)
                     .bind(&why)
@@ -356,4 +358,19 @@ mod tests {
         assert_eq!(utc_text(951_782_400.5), "2000-02-29 00:00:00 UTC");
         assert_eq!(utc_text(-1.0), "1969-12-31 23:59:59 UTC");
     }
+}
+
+/// The condition that keeps recovery off the render and study rows of
+/// unfinished worker jobs (`worker_jobs.rs`): the job queue owns those, and
+/// re-queues them when their worker is gone.
+fn not_a_worker_job(table: &str) -> String {
+    let kind = match table {
+        "renders" => "render",
+        "studies" => "study",
+        _ => return String::new(),
+    };
+    format!(
+        " AND NOT EXISTS (SELECT 1 FROM worker_jobs j WHERE j.kind = '{kind}' AND j.subject_id = {table}.id \
+         AND j.state IN ('queued', 'running'))"
+    )
 }

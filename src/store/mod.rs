@@ -71,6 +71,7 @@ mod leases;
 mod partial;
 mod rows;
 pub mod scene_bundles;
+pub mod worker_jobs;
 
 use std::str::FromStr;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -85,6 +86,7 @@ pub use calibrations::*;
 pub use display_profiles::*;
 pub use leases::{DaemonRow, Recovered, RecoveryScope};
 pub use rows::*;
+pub use worker_jobs::{ClaimedJob, WorkerJobKind, WorkerJobRecord};
 
 /// Errors of the store, with what to do about them.
 #[derive(Debug, thiserror::Error)]

@@ -170,6 +170,21 @@ impl Daemon {
         Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), None, Some(booth)).await
     }
 
+    /// Starts the daemon of booth `booth` on the PostgreSQL database at
+    /// `db_url`, leaving its comparisons, renders and studies to render
+    /// workers (`serve --renders workers`).
+    pub async fn start_for_workers(mock_speed: f64, db_url: &str, booth: &str) -> Daemon {
+        Daemon::start_full(
+            mock_speed,
+            "127.0.0.1:0",
+            Some(db_url),
+            None,
+            Some(booth),
+            lightbooth::daemon::worker_queue::RenderPlace::Workers,
+        )
+        .await
+    }
+
     /// Starts it with another instrument model (simulated, as `--mock` does).
     pub async fn start_instrument(mock_speed: f64, instrument: lightbooth::instrument::InstrumentSettings) -> Daemon {
         Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument), None).await
@@ -181,6 +196,17 @@ impl Daemon {
         db_url: Option<&str>,
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
+    ) -> Daemon {
+        Daemon::start_full(mock_speed, bind, db_url, instrument, booth, Default::default()).await
+    }
+
+    async fn start_full(
+        mock_speed: f64,
+        bind: &str,
+        db_url: Option<&str>,
+        instrument: Option<lightbooth::instrument::InstrumentSettings>,
+        booth: Option<&str>,
+        renders: lightbooth::daemon::worker_queue::RenderPlace,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
@@ -218,6 +244,7 @@ impl Daemon {
             mock_world: None,
             heartbeat: daemon::DEFAULT_HEARTBEAT,
             lease: daemon::DEFAULT_LEASE,
+            renders,
         };
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
         let task = tokio::spawn(daemon::run(listener, options, async move {
