@@ -266,7 +266,10 @@ impl Renderer {
             .await?;
         let queue = Arc::new(WorkerQueue::new(self.store.clone(), self.events.clone()));
         self.workers = Some(Arc::clone(&queue));
-        tracing::info!(scenes = config.scenes.len(), "comparisons, renders and studies are left to render workers");
+        tracing::info!(
+            scenes = config.scenes.len(),
+            "comparisons, renders and studies are left to render workers"
+        );
         Ok(queue)
     }
 
@@ -1093,13 +1096,22 @@ impl Renderer {
         match self.store.cancel_worker_job(kind, id).await? {
             Some(true) => {
                 self.store
-                    .end_job(job, id, JobEnd::Cancelled, "cancelled by a client before a render worker took it")
+                    .end_job(
+                        job,
+                        id,
+                        JobEnd::Cancelled,
+                        "cancelled by a client before a render worker took it",
+                    )
                     .await?;
                 tracing::info!(job = job.noun(), id, "cancelled while queued for the render workers");
                 Ok(true)
             }
             Some(false) => {
-                tracing::info!(job = job.noun(), id, "cancellation requested of the render worker running it");
+                tracing::info!(
+                    job = job.noun(),
+                    id,
+                    "cancellation requested of the render worker running it"
+                );
                 Ok(true)
             }
             None => Ok(false),

@@ -146,16 +146,30 @@ impl WorkerQueue {
             .queue_worker_job(WorkerJobKind::Comparison, measurement_id, &payload)
             .await?;
         self.wait_for(id, WorkerJobKind::Comparison, measurement_id, scene, target);
-        tracing::info!(job = id, measurement_id, scene, target, "comparison queued for the render workers");
+        tracing::info!(
+            job = id,
+            measurement_id,
+            scene,
+            target,
+            "comparison queued for the render workers"
+        );
         Ok(id)
     }
 
     /// Queues a recorded render or study row for the workers.
     pub async fn queue_row(&self, kind: WorkerJobKind, subject_id: i64, scene: &str) -> Result<i64, StoreError> {
-        let payload = serde_json::to_value(JobPayload { scene: scene.to_string() }).expect("a job payload serialises");
+        let payload = serde_json::to_value(JobPayload {
+            scene: scene.to_string(),
+        })
+        .expect("a job payload serialises");
         let id = self.store.queue_worker_job(kind, subject_id, &payload).await?;
         self.wait_for(id, kind, subject_id, scene, "");
-        tracing::info!(job = id, kind = kind.as_str(), subject_id, "queued for the render workers");
+        tracing::info!(
+            job = id,
+            kind = kind.as_str(),
+            subject_id,
+            "queued for the render workers"
+        );
         Ok(id)
     }
 

@@ -106,9 +106,7 @@ impl Store {
     /// The id the calling process registered with (daemon or worker).
     fn registered_id(&self, what: &str) -> Result<i64, StoreError> {
         self.daemon_id.ok_or_else(|| {
-            StoreError::Conflict(format!(
-                "{what} needs a registered daemon or worker (Store::as_daemon)"
-            ))
+            StoreError::Conflict(format!("{what} needs a registered daemon or worker (Store::as_daemon)"))
         })
     }
 
@@ -192,7 +190,10 @@ impl Store {
     /// Job `id`'s row.
     pub async fn worker_job(&self, id: i64) -> Result<Option<WorkerJobRecord>, StoreError> {
         let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE id = $1");
-        Ok(with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?))
+        Ok(with_pool!(self, |pool| sqlx::query_as(&sql)
+            .bind(id)
+            .fetch_optional(pool)
+            .await?))
     }
 
     /// The job of `kind` about `subject_id`, if one was queued.
@@ -240,14 +241,17 @@ impl Store {
         if ended == 1 {
             return Ok(Some(true));
         }
-        let flagged = with_pool!(self, |pool| sqlx::query(
+        let flagged =
+            with_pool!(self, |pool| {
+                sqlx::query(
             "UPDATE worker_jobs SET cancel_requested = TRUE WHERE kind = $1 AND subject_id = $2 AND state = 'running'"
         )
         .bind(kind.as_str())
         .bind(subject_id)
         .execute(pool)
         .await?
-        .rows_affected());
+        .rows_affected()
+            });
         Ok((flagged == 1).then_some(false))
     }
 

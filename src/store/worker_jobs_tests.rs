@@ -79,7 +79,10 @@ async fn a_gone_workers_render_is_queued_again_never_interrupted_and_fails_after
         let worker = registered(&db.url, "workers").await;
         let claimed = worker.claim_worker_job().await.unwrap().expect("the job is queued");
         assert_eq!((claimed.id, claimed.attempts), (job, attempt));
-        assert!(worker.start_job(Job::Render, render).await.unwrap(), "its render row is queued");
+        assert!(
+            worker.start_job(Job::Render, render).await.unwrap(),
+            "its render row is queued"
+        );
         // The worker dies (stopped counts as gone at once, as an expired lease does).
         worker.mark_daemon_stopped(worker.daemon_id().unwrap()).await.unwrap();
         // Lease recovery alone never interrupts a job's render...
@@ -97,7 +100,11 @@ async fn a_gone_workers_render_is_queued_again_never_interrupted_and_fails_after
         let row = daemon.worker_job(job).await.unwrap().unwrap();
         let render_row = daemon.get_render(render).await.unwrap().unwrap();
         if attempt < MAX_ATTEMPTS {
-            assert_eq!((row.state.as_str(), row.worker_id), ("queued", None), "attempt {attempt}");
+            assert_eq!(
+                (row.state.as_str(), row.worker_id),
+                ("queued", None),
+                "attempt {attempt}"
+            );
             assert_eq!(render_row.state, "queued");
         } else {
             assert_eq!(row.state, "failed");
@@ -106,7 +113,11 @@ async fn a_gone_workers_render_is_queued_again_never_interrupted_and_fails_after
             assert!(error.contains("3 workers stopped while running this render"), "{error}");
         }
     }
-    assert_eq!(daemon.requeue_abandoned_jobs().await.unwrap(), 0, "nothing left to take back");
+    assert_eq!(
+        daemon.requeue_abandoned_jobs().await.unwrap(),
+        0,
+        "nothing left to take back"
+    );
 }
 
 async fn cancelling_ends_a_queued_job_and_flags_a_running_one(engine: EngineKind) {
@@ -131,13 +142,25 @@ async fn cancelling_ends_a_queued_job_and_flags_a_running_one(engine: EngineKind
     let claimed = worker.claim_worker_job().await.unwrap().unwrap();
     assert_eq!(claimed.id, first);
     assert!(!worker.worker_job_cancel_requested(first).await.unwrap());
-    assert_eq!(daemon.cancel_worker_job(WorkerJobKind::Study, 7).await.unwrap(), Some(false));
+    assert_eq!(
+        daemon.cancel_worker_job(WorkerJobKind::Study, 7).await.unwrap(),
+        Some(false)
+    );
     assert!(worker.worker_job_cancel_requested(first).await.unwrap());
-    assert_eq!(daemon.cancel_worker_job(WorkerJobKind::Study, 8).await.unwrap(), Some(true));
+    assert_eq!(
+        daemon.cancel_worker_job(WorkerJobKind::Study, 8).await.unwrap(),
+        Some(true)
+    );
     let second = daemon.worker_job_of(WorkerJobKind::Study, 8).await.unwrap().unwrap();
     assert_eq!(second.state, "cancelled");
     assert_eq!(daemon.cancel_worker_job(WorkerJobKind::Study, 9).await.unwrap(), None);
-    assert!(worker.claim_worker_job().await.unwrap().is_none(), "a cancelled job is not claimed");
-    assert!(worker.finish_worker_job(first, "cancelled", Some("cancelled by a client")).await.unwrap());
+    assert!(
+        worker.claim_worker_job().await.unwrap().is_none(),
+        "a cancelled job is not claimed"
+    );
+    assert!(worker
+        .finish_worker_job(first, "cancelled", Some("cancelled by a client"))
+        .await
+        .unwrap());
     assert_eq!(daemon.unfinished_worker_jobs_requested().await.unwrap(), 0);
 }

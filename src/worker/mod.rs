@@ -81,8 +81,16 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
         .context("registering this worker's lease")?;
     let store = store.as_daemon(id);
     store.set_daemon_role("worker", None).await?;
-    tracing::info!(worker = id, "render worker registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
-    println!("lightbooth worker {id} claiming jobs from {}", redacted(&options.db_url));
+    tracing::info!(
+        worker = id,
+        "render worker registered; heartbeat every {:?}, lease {:?}",
+        options.heartbeat,
+        options.lease
+    );
+    println!(
+        "lightbooth worker {id} claiming jobs from {}",
+        redacted(&options.db_url)
+    );
     let beat = AbortOnDrop(tokio::spawn(heartbeat(store.clone(), id, options.heartbeat)));
     let mut worker = Worker {
         store: store.clone(),
@@ -153,7 +161,14 @@ impl Worker {
     /// resolved meanwhile (the job was cancelled and is left to others).
     async fn run_job(&mut self, job: ClaimedJob, shutdown: &mut (impl Future<Output = ()> + Unpin)) -> bool {
         let (id, kind, subject) = (job.id, job.kind.as_str(), job.subject_id);
-        tracing::info!(job = id, kind, subject, attempt = job.attempts, requested_by = job.requested_by, "job claimed");
+        tracing::info!(
+            job = id,
+            kind,
+            subject,
+            attempt = job.attempts,
+            requested_by = job.requested_by,
+            "job claimed"
+        );
         let cancel = CancelFlag::default();
         let (store, poll) = (self.store.clone(), self.options.poll);
         let mut stopping = false;
@@ -189,7 +204,10 @@ impl Worker {
         };
         match self.store.finish_worker_job(job.id, state, error).await {
             Ok(true) => tracing::info!(job = id, kind, subject, state, error = error.unwrap_or(""), "job ended"),
-            Ok(false) => tracing::warn!(job = id, "the job was no longer this worker's when it ended (queued again meanwhile)"),
+            Ok(false) => tracing::warn!(
+                job = id,
+                "the job was no longer this worker's when it ended (queued again meanwhile)"
+            ),
             Err(e) => tracing::error!(job = id, error = %e, "cannot record the end of the job"),
         }
         false
@@ -264,8 +282,8 @@ impl Worker {
         if let Some(r) = self.renderers.get(&key) {
             return Ok(Arc::clone(r));
         }
-        let config: RenderConfig = serde_json::from_value(config_json)
-            .map_err(|e| format!("daemon {daemon}'s render configuration: {e}"))?;
+        let config: RenderConfig =
+            serde_json::from_value(config_json).map_err(|e| format!("daemon {daemon}'s render configuration: {e}"))?;
         // Every scene of the daemon in one folder, as in its scenes folder:
         // a scene's `[cielab_white]` may name a sibling scene.
         let mut bundles = Vec::new();
@@ -290,7 +308,10 @@ impl Worker {
             let root = cache.join("bundles").join(merged.hash());
             debug_assert!(first.starts_with(&root));
             Ok::<_, crate::render::bundle::BundleError>(
-                bundles.iter().map(|b| root.join(b.scene_file())).collect::<Vec<PathBuf>>(),
+                bundles
+                    .iter()
+                    .map(|b| root.join(b.scene_file()))
+                    .collect::<Vec<PathBuf>>(),
             )
         })
         .await
@@ -312,7 +333,11 @@ impl Worker {
         .map_err(|e| e.to_string())?
         .map_err(|e| format!("daemon {daemon}'s scenes on this worker: {e}"))?;
         let renderer = Arc::new(renderer);
-        tracing::info!(daemon, config = &key[..12], "renderer built from the daemon's published scenes");
+        tracing::info!(
+            daemon,
+            config = &key[..12],
+            "renderer built from the daemon's published scenes"
+        );
         self.renderers.insert(key, Arc::clone(&renderer));
         Ok(renderer)
     }

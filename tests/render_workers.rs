@@ -1,0 +1,296 @@
+//! Render workers (`lightbooth worker`) beside a booth's daemon started with
+//! `serve --renders workers`, on a real PostgreSQL database (the server
+//! `tests/setup.sh` starts). Each worker is the built binary, run in an
+//! empty folder: it has no `scenes/` and renders from the scene bundles the
+//! daemon stored. A comparison waits for a worker and then arrives with
+//! its event; a render asked through the booth's API runs on a worker and
+//! a cancel reaches it; a worker killed (SIGKILL) mid-render has the render
+//! finished by another worker, never marked interrupted.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use common::{get_json, poll_until, post_json, Daemon, TOKEN};
+use lightbooth::store::{Store, WorkerJobKind};
+use serde_json::Value;
+
+/// `lightbooth worker` as a child process in an empty folder, killed
+/// (SIGKILL) when dropped.
+struct WorkerProcess {
+    child: Child,
+    /// Its id in `daemons`.
+    id: i64,
+    _dir: tempfile::TempDir,
+}
+
+impl Drop for WorkerProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Starts a worker on `db` with the given lease; returns once it has
+/// registered (it prints `lightbooth worker ID claiming jobs …`).
+async fn spawn_worker(db: &str, heartbeat_seconds: f64, lease_seconds: f64) -> WorkerProcess {
+    let dir = tempfile::tempdir().unwrap();
+    let log = std::fs::File::create(dir.path().join("worker.log")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(dir.path())
+        .args(["worker", "--db", db, "--poll-ms", "50"])
+        .arg("--cache-dir")
+        .arg(dir.path().join("cache"))
+        .args(["--heartbeat-seconds", &heartbeat_seconds.to_string()])
+        .args(["--lease-seconds", &lease_seconds.to_string()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(log))
+        .spawn()
+        .expect("run lightbooth worker");
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if let Some(rest) = line.strip_prefix("lightbooth worker ") {
+                let id = rest.split_whitespace().next().and_then(|s| s.parse::<i64>().ok());
+                let _ = tx.send(id);
+            }
+        }
+    });
+    let id = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
+        .await
+        .unwrap()
+        .expect("the worker printed its id")
+        .expect("a numeric worker id");
+    WorkerProcess { child, id, _dir: dir }
+}
+
+async fn measure(addr: std::net::SocketAddr, scene: &str, target: &str) -> i64 {
+    let (status, m) = post_json(
+        addr,
+        "/api/measurements",
+        TOKEN,
+        &format!(r#"{{"scene":"{scene}","target":"{target}","samples":2}}"#),
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let done = poll_until(addr, &format!("/api/measurements/{id}"), Duration::from_secs(60), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    id
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_booth_leaving_renders_to_workers_gets_its_comparisons_from_a_worker_without_its_scenes() {
+    let db = common::fresh_postgres_database().await;
+    let booth = Daemon::start_for_workers(0.0, &db, "north").await;
+    let store = Store::open_as_tool(&db).await.unwrap();
+    let mut events = common::events(booth.addr).await;
+    let m = measure(booth.addr, "white", "patch").await;
+
+    // No worker yet: the comparison waits in the queue, and the daemon does
+    // not render it itself.
+    let job = store
+        .worker_job_of(WorkerJobKind::Comparison, m)
+        .await
+        .unwrap()
+        .expect("queued");
+    assert_eq!(job.state, "queued");
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let (_, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
+    assert_eq!(rows.as_array().map_or(0, Vec::len), 0, "{rows}");
+
+    let worker = spawn_worker(&db, 2.0, 10.0).await;
+    let ready = common::wait_for(&mut events, "comparison_ready", Duration::from_secs(120), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == m
+    })
+    .await;
+    assert_eq!(ready["scene"], "white");
+    let (_, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
+    let codings: Vec<&str> = rows
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["coding"].as_str().unwrap())
+        .collect();
+    assert_eq!(codings.len(), 7, "every coding of the daemon's configuration: {rows}");
+    for c in ["rgb", "srgb", "nstep81", "spectral"] {
+        assert!(codings.contains(&c), "{c} in {codings:?}");
+    }
+    // The render behind it is the worker's, of the daemon's scene content.
+    let render_id = rows[0]["render_id"].as_i64().unwrap();
+    let render = store.get_render(render_id).await.unwrap().unwrap();
+    assert_eq!(render.state, "complete");
+    let by: Option<i64> = with_daemon_of_render(&db, render_id).await;
+    assert_eq!(by, Some(worker.id), "rendered by the worker");
+    let job = store.worker_job(job.id).await.unwrap().unwrap();
+    assert_eq!(
+        (job.state.as_str(), job.worker_id, job.attempts),
+        ("done", Some(worker.id), 1)
+    );
+    booth.stop().await;
+}
+
+/// The `daemon_id` of a render row.
+async fn with_daemon_of_render(db: &str, render_id: i64) -> Option<i64> {
+    use sqlx::Connection;
+    let mut conn = sqlx::PgConnection::connect(db).await.unwrap();
+    sqlx::query_scalar("SELECT daemon_id FROM renders WHERE id = $1")
+        .bind(render_id)
+        .fetch_one(&mut conn)
+        .await
+        .unwrap()
+}
+
+/// A render of WHITE long enough to kill or cancel a worker in: 2²⁰ paths
+/// per coding, then each coding alone (several seconds on a 2-core machine).
+async fn start_long_render(addr: std::net::SocketAddr) -> i64 {
+    let (status, r) = post_json(addr, "/api/scenes/white/renders", TOKEN, r#"{"samples":1048576}"#).await;
+    assert_eq!(status, 202, "{r}");
+    r["render_id"].as_i64().unwrap()
+}
+
+async fn wait_for_job(store: &Store, render: i64, what: &str, mut pred: impl FnMut(&Value) -> bool) -> Value {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
+    loop {
+        let job = store.worker_job_of(WorkerJobKind::Render, render).await.unwrap();
+        let r = store.get_render(render).await.unwrap().unwrap();
+        let v = serde_json::json!({
+            "job_state": job.as_ref().map(|j| j.state.clone()),
+            "worker_id": job.as_ref().and_then(|j| j.worker_id),
+            "attempts": job.as_ref().map(|j| j.attempts),
+            "render_state": r.state,
+            "render_error": r.error,
+        });
+        if pred(&v) {
+            return v;
+        }
+        assert!(tokio::time::Instant::now() < deadline, "never {what}: {v}");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_render_asked_of_a_booth_runs_on_a_worker_and_a_cancel_reaches_it() {
+    let db = common::fresh_postgres_database().await;
+    let booth = Daemon::start_for_workers(0.0, &db, "north").await;
+    let store = Store::open_as_tool(&db).await.unwrap();
+    let mut events = common::events(booth.addr).await;
+    let worker = spawn_worker(&db, 2.0, 10.0).await;
+
+    let long = start_long_render(booth.addr).await;
+    wait_for_job(&store, long, "running on the worker", |v| {
+        v["render_state"] == "running" && v["worker_id"] == worker.id
+    })
+    .await;
+    let (status, body) = post_json(booth.addr, &format!("/api/renders/{long}/cancel"), TOKEN, "").await;
+    assert!(status < 300, "{status} {body}");
+    let ended = wait_for_job(&store, long, "cancelled", |v| v["job_state"] == "cancelled").await;
+    assert_eq!(ended["render_state"], "cancelled", "{ended}");
+    let finished = common::wait_for(&mut events, "render_finished", Duration::from_secs(30), |name, v| {
+        name == "render_finished" && v["render_id"] == long
+    })
+    .await;
+    assert_eq!(finished["ok"], false, "{finished}");
+
+    // The worker is free again: a small render completes, with its event.
+    let (status, r) = post_json(booth.addr, "/api/scenes/red/renders", TOKEN, r#"{"samples":256}"#).await;
+    assert_eq!(status, 202, "{r}");
+    let small = r["render_id"].as_i64().unwrap();
+    let finished = common::wait_for(&mut events, "render_finished", Duration::from_secs(120), |name, v| {
+        name == "render_finished" && v["render_id"] == small
+    })
+    .await;
+    assert_eq!(finished["ok"], true, "{finished}");
+    let (_, row) = get_json(booth.addr, &format!("/api/renders/{small}")).await;
+    assert_eq!(row["state"], "complete", "{row}");
+    booth.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_killed_mid_render_has_the_render_finished_by_another_never_interrupted() {
+    let db = common::fresh_postgres_database().await;
+    let booth = Daemon::start_for_workers(0.0, &db, "north").await;
+    let store = Store::open_as_tool(&db).await.unwrap();
+    let mut first = spawn_worker(&db, 0.3, 1.5).await;
+    let render = start_long_render(booth.addr).await;
+    wait_for_job(&store, render, "running on the first worker", |v| {
+        v["render_state"] == "running" && v["worker_id"] == first.id
+    })
+    .await;
+    first.child.kill().unwrap(); // SIGKILL: no stopped_at, the lease runs out
+    first.child.wait().unwrap();
+
+    let second = spawn_worker(&db, 2.0, 10.0).await;
+    let taken = wait_for_job(&store, render, "taken by the second worker", |v| {
+        v["worker_id"] == second.id
+    })
+    .await;
+    assert_eq!(taken["attempts"], 2, "{taken}");
+    let done = wait_for_job(&store, render, "done", |v| {
+        v["job_state"] != "running" && v["job_state"] != "queued"
+    })
+    .await;
+    assert_eq!(done["job_state"], "done", "{done}");
+    assert_eq!(done["render_state"], "complete", "{done}");
+    assert_eq!(done["render_error"], Value::Null, "{done}");
+    booth.stop().await;
+}
+
+/// Render workers share a PostgreSQL database; on an SQLite file the
+/// daemon renders itself, and both commands say so instead of starting.
+#[test]
+fn workers_on_an_sqlite_file_are_refused_with_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["worker", "--db", &db])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("PostgreSQL database (--db postgres://"), "{err}");
+
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let token = dir.path().join("token");
+    std::fs::write(&token, TOKEN).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(&root)
+        .args([
+            "serve",
+            "--mock",
+            "--bind",
+            "127.0.0.1:0",
+            "--renders",
+            "workers",
+            "--db",
+            &db,
+        ])
+        .arg("--token-file")
+        .arg(&token)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--renders workers needs a database shared with the render workers"),
+        "{err}"
+    );
+
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(&root)
+        .args(["serve", "--mock", "--renders", "elsewhere"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("`elsewhere` is neither `here`"), "{err}");
+}
