@@ -345,6 +345,21 @@ impl Store {
     }
 }
 
+/// The condition that keeps recovery off the render and study rows of
+/// unfinished worker jobs (`worker_jobs.rs`): the job queue owns those, and
+/// re-queues them when their worker is gone.
+fn not_a_worker_job(table: &str) -> String {
+    let kind = match table {
+        "renders" => "render",
+        "studies" => "study",
+        _ => return String::new(),
+    };
+    format!(
+        " AND NOT EXISTS (SELECT 1 FROM worker_jobs j WHERE j.kind = '{kind}' AND j.subject_id = {table}.id \
+         AND j.state IN ('queued', 'running'))"
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::utc_text;
@@ -360,17 +375,3 @@ mod tests {
     }
 }
 
-/// The condition that keeps recovery off the render and study rows of
-/// unfinished worker jobs (`worker_jobs.rs`): the job queue owns those, and
-/// re-queues them when their worker is gone.
-fn not_a_worker_job(table: &str) -> String {
-    let kind = match table {
-        "renders" => "render",
-        "studies" => "study",
-        _ => return String::new(),
-    };
-    format!(
-        " AND NOT EXISTS (SELECT 1 FROM worker_jobs j WHERE j.kind = '{kind}' AND j.subject_id = {table}.id \
-         AND j.state IN ('queued', 'running'))"
-    )
-}
