@@ -135,6 +135,27 @@ async fn a_booth_leaving_renders_to_workers_gets_its_comparisons_from_a_worker_w
         (job.state.as_str(), job.worker_id, job.attempts),
         ("done", Some(worker.id), 1)
     );
+
+    // A study asked of the booth runs on the worker too, with its report.
+    let (status, s) = post_json(
+        booth.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"white","against":"measurements","seeds":1}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{s}");
+    let study = s["id"].as_i64().unwrap();
+    let finished = common::wait_for(&mut events, "study_finished", Duration::from_secs(180), |name, v| {
+        name == "study_finished" && v["study_id"] == study
+    })
+    .await;
+    assert_eq!(finished["ok"], true, "{finished}");
+    let (_, row) = get_json(booth.addr, &format!("/api/studies/{study}")).await;
+    assert_eq!(row["state"], "complete", "{row}");
+    assert!(!row["files"].as_array().unwrap().is_empty(), "{row}");
+    let job = store.worker_job_of(WorkerJobKind::Study, study).await.unwrap().unwrap();
+    assert_eq!((job.state.as_str(), job.worker_id), ("done", Some(worker.id)));
     booth.stop().await;
 }
 
