@@ -581,12 +581,22 @@ impl Renderer {
         let settings = self.settings(&RenderRequest::default())?;
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
         let (loaded, hash) = load_scene_blocking(entry.path.clone()).await?;
-        if let Some(found) = self
-            .store
-            .find_render_result(&hash, &serde_json::to_value(&settings)?)
-            .await?
-        {
-            return Ok(found);
+        let settings_json = serde_json::to_value(&settings)?;
+        loop {
+            if let Some(found) = self.store.find_render_result(&hash, &settings_json).await? {
+                return Ok(found);
+            }
+            // Another process (a render worker, a neighbour daemon) is
+            // rendering exactly this: wait for it rather than render twice.
+            // A running render always ends — done, failed, or interrupted
+            // by lease recovery when its process is gone.
+            match self.store.running_render_of(&hash, &settings_json).await? {
+                Some(other) if !self.shutdown.is_cancelled() => {
+                    tracing::debug!(render_id = other, scene, "waiting for the same render running elsewhere");
+                    tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+                }
+                _ => break,
+            }
         }
         let id = self.record(scene, &settings, hash).await?;
         self.execute(id, scene, loaded, settings, self.shutdown.clone()).await?;

@@ -779,6 +779,23 @@ impl Store {
         Ok(Some((id, json)))
     }
 
+    /// A running render of this scene content with these exact settings,
+    /// by any process: its id.
+    pub async fn running_render_of(
+        &self,
+        scene_hash: &str,
+        settings: &serde_json::Value,
+    ) -> Result<Option<i64>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "SELECT id FROM renders WHERE scene_hash = $1 AND settings_json = $2 AND state = 'running' \
+             ORDER BY id DESC LIMIT 1"
+        )
+        .bind(scene_hash)
+        .bind(settings.to_string())
+        .fetch_optional(pool)
+        .await?))
+    }
+
     /// Stores a render's preview image (PNG bytes).
     pub async fn set_render_preview(&self, id: i64, png: &[u8]) -> Result<(), StoreError> {
         with_pool!(self, |pool| sqlx::query(
