@@ -592,7 +592,11 @@ impl Renderer {
             // by lease recovery when its process is gone.
             match self.store.running_render_of(&hash, &settings_json).await? {
                 Some(other) if !self.shutdown.is_cancelled() => {
-                    tracing::debug!(render_id = other, scene, "waiting for the same render running elsewhere");
+                    tracing::debug!(
+                        render_id = other,
+                        scene,
+                        "waiting for the same render running elsewhere"
+                    );
                     tokio::time::sleep(std::time::Duration::from_millis(200)).await;
                 }
                 _ => break,

@@ -374,4 +374,3 @@ mod tests {
         assert_eq!(utc_text(-1.0), "1969-12-31 23:59:59 UTC");
     }
 }
-

@@ -187,6 +187,44 @@ impl Store {
         Ok(n == 1)
     }
 
+    /// Hands job `id`, held by this handle's worker, back to the queue (the
+    /// worker is stopping): its render or study row goes back to `queued`
+    /// from wherever stopping it left it, and another worker takes it
+    /// without waiting for a lease to run out. False when the job is no
+    /// longer this worker's.
+    pub async fn release_worker_job(&self, id: i64) -> Result<bool, StoreError> {
+        let me = self.registered_id("releasing a worker job")?;
+        let Some(job) = self.worker_job(id).await? else {
+            return Ok(false);
+        };
+        if job.state != "running" || job.worker_id != Some(me) {
+            return Ok(false);
+        }
+        if let Some(table) = WorkerJobKind::parse(&job.kind)?.subject_table() {
+            let sql = format!(
+                "UPDATE {table} SET state = 'queued', error = NULL, finished_at = NULL, daemon_id = $1 \
+                 WHERE id = $2 AND daemon_id = $3 AND state IN ('running', 'cancelled', 'interrupted')"
+            );
+            with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(job.requested_by)
+                .bind(job.subject_id)
+                .bind(me)
+                .execute(pool)
+                .await?
+                .rows_affected());
+        }
+        let n = with_pool!(self, |pool| sqlx::query(
+            "UPDATE worker_jobs SET state = 'queued', worker_id = NULL, started_at = NULL \
+             WHERE id = $1 AND worker_id = $2 AND state = 'running'"
+        )
+        .bind(id)
+        .bind(me)
+        .execute(pool)
+        .await?
+        .rows_affected());
+        Ok(n == 1)
+    }
+
     /// Job `id`'s row.
     pub async fn worker_job(&self, id: i64) -> Result<Option<WorkerJobRecord>, StoreError> {
         let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE id = $1");
@@ -241,9 +279,8 @@ impl Store {
         if ended == 1 {
             return Ok(Some(true));
         }
-        let flagged =
-            with_pool!(self, |pool| {
-                sqlx::query(
+        let flagged = with_pool!(self, |pool| {
+            sqlx::query(
             "UPDATE worker_jobs SET cancel_requested = TRUE WHERE kind = $1 AND subject_id = $2 AND state = 'running'"
         )
         .bind(kind.as_str())
@@ -251,7 +288,7 @@ impl Store {
         .execute(pool)
         .await?
         .rows_affected()
-            });
+        });
         Ok((flagged == 1).then_some(false))
     }
 

@@ -171,6 +171,7 @@ impl Worker {
         );
         let cancel = CancelFlag::default();
         let (store, poll) = (self.store.clone(), self.options.poll);
+        let renderers = self.renderers.clone();
         let mut stopping = false;
         let outcome = {
             let work = self.execute(&job, cancel.clone());
@@ -181,8 +182,12 @@ impl Worker {
                 tokio::select! {
                     outcome = &mut work => break outcome,
                     _ = &mut *shutdown, if !stopping => {
-                        tracing::info!(job = id, "shutting down: cancelling the running job");
+                        tracing::info!(job = id, "shutting down: stopping the running job to hand it back");
                         cancel.cancel();
+                        // A comparison's render stops with its renderer.
+                        for r in renderers.values() {
+                            r.shutdown();
+                        }
                         stopping = true;
                     }
                     _ = polls.tick() => {
@@ -194,7 +199,15 @@ impl Worker {
             }
         };
         if stopping {
-            // Not finished: stopping this worker queues it again for another.
+            // Not finished: back to the queue for another worker (or this
+            // one's next start), its row `queued` again.
+            match self.store.release_worker_job(id).await {
+                Ok(true) => tracing::info!(job = id, "job handed back to the queue"),
+                Ok(false) => {}
+                Err(e) => {
+                    tracing::warn!(job = id, error = %e, "cannot hand the job back; it is queued again once this worker counts as gone")
+                }
+            }
             return true;
         }
         let (state, error) = match &outcome {
