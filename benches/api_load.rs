@@ -4,7 +4,8 @@
 //! whether or not earlier ones finished) and report p50/p99 latency of each
 //! endpoint a dashboard or MATLAB script uses: one measurement with its
 //! samples, the first page of the listing, the page filtered by booth and by
-//! scene, a deep page (offset 90 % of the rows), `/api/booths` and
+//! scene, a deep page (offset 90 % of the rows, and the same depth by the
+//! `before_id` cursor), `/api/booths` and
 //! `/api/health`. The goal is p99 < 10 ms at 200 requests/s.
 //!
 //! ```text
@@ -402,6 +403,10 @@ fn main() {
             (
                 "deep page (offset 90 %)",
                 Box::new(move |i| format!("/api/measurements?limit=50&offset={}", deep + (i * 50) % (n / 20).max(1))),
+            ),
+            (
+                "deep page (cursor before_id 10 %)",
+                Box::new(move |i| format!("/api/measurements?limit=50&before_id={}", n - deep - (i * 50) % (n / 20).max(1))),
             ),
             ("booths", Box::new(|_| "/api/booths".into())),
             ("health", Box::new(|_| "/api/health".into())),
