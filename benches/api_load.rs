@@ -200,7 +200,10 @@ async fn fill_postgres(store: &Store, url: &str, measurements: i64) {
         .unwrap();
     }
     tx.commit().await.unwrap();
-    sqlx::query("VACUUM ANALYZE measurements").execute(&mut conn).await.unwrap();
+    sqlx::query("VACUUM ANALYZE measurements")
+        .execute(&mut conn)
+        .await
+        .unwrap();
     sqlx::query("VACUUM ANALYZE samples").execute(&mut conn).await.unwrap();
     conn.close().await.ok();
 }
@@ -222,7 +225,10 @@ async fn get(addr: SocketAddr, path: &str) -> (Duration, Option<String>) {
         let text = String::from_utf8_lossy(&buf);
         let body = text.split("\r\n\r\n").nth(1).unwrap_or_default();
         let status = text.lines().next().unwrap_or_default();
-        (elapsed, Some(format!("GET {path}: {status} {}", &body[..body.len().min(200)])))
+        (
+            elapsed,
+            Some(format!("GET {path}: {status} {}", &body[..body.len().min(200)])),
+        )
     }
 }
 
@@ -327,7 +333,10 @@ fn options() -> Options {
 
 fn main() {
     let o = options();
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     rt.block_on(async move {
         let dir = tempfile::tempdir().unwrap();
         let (url, measurements) = match &o.postgres {
@@ -335,7 +344,10 @@ fn main() {
                 format!("sqlite://{}", dir.path().join("load.sqlite").display()),
                 o.measurements.unwrap_or(10_000),
             ),
-            Some(PostgresTarget::Fresh) => (common::fresh_postgres_database().await, o.measurements.unwrap_or(100_000)),
+            Some(PostgresTarget::Fresh) => (
+                common::fresh_postgres_database().await,
+                o.measurements.unwrap_or(100_000),
+            ),
             Some(PostgresTarget::Url(u)) => (u.clone(), o.measurements.unwrap_or(100_000)),
         };
         let store = Store::open(&url).await.unwrap();
@@ -391,7 +403,10 @@ fn main() {
                 "fetch one measurement (3 samples)",
                 Box::new(move |i| format!("/api/measurements/{}", 1 + (i * 7919) % n)),
             ),
-            ("first page of measurements (50)", Box::new(|_| "/api/measurements".into())),
+            (
+                "first page of measurements (50)",
+                Box::new(|_| "/api/measurements".into()),
+            ),
             (
                 "first page of one booth",
                 Box::new(|i| format!("/api/measurements?booth={}", BOOTHS[(i % 3) as usize])),
@@ -402,11 +417,21 @@ fn main() {
             ),
             (
                 "deep page (offset 90 %)",
-                Box::new(move |i| format!("/api/measurements?limit=50&offset={}", deep + (i * 50) % (n / 20).max(1))),
+                Box::new(move |i| {
+                    format!(
+                        "/api/measurements?limit=50&offset={}",
+                        deep + (i * 50) % (n / 20).max(1)
+                    )
+                }),
             ),
             (
                 "deep page (cursor before_id 10 %)",
-                Box::new(move |i| format!("/api/measurements?limit=50&before_id={}", n - deep - (i * 50) % (n / 20).max(1))),
+                Box::new(move |i| {
+                    format!(
+                        "/api/measurements?limit=50&before_id={}",
+                        n - deep - (i * 50) % (n / 20).max(1)
+                    )
+                }),
             ),
             ("booths", Box::new(|_| "/api/booths".into())),
             ("health", Box::new(|_| "/api/health".into())),

@@ -80,14 +80,20 @@ fn options() -> Options {
             other => panic!("unknown argument {other}"),
         }
     }
-    assert!(o.daemons >= 2 || !o.kill, "the kill test needs a neighbour: --daemons 2 or more");
+    assert!(
+        o.daemons >= 2 || !o.kill,
+        "the kill test needs a neighbour: --daemons 2 or more"
+    );
     assert!(o.daemons >= 1, "--daemons 0: nothing to measure with");
     o
 }
 
 fn main() {
     let o = options();
-    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     let passed = rt.block_on(async move {
         let db = match &o.db {
             Some(url) => url.clone(),
@@ -101,7 +107,7 @@ fn main() {
             o.per_booth
         );
         let codings = o.serve.codings.clone();
-        let load = booths::run_load(&lab, "scale", o.per_booth, o.samples, &codings, Duration::from_secs(1800)).await;
+        let load = booths::run_load(&lab, "scale", o.per_booth, o.samples, &booths::TARGETS, &codings, Duration::from_secs(1800)).await;
         let a = &load.audit;
         let mut report = json!({
             "daemons": o.daemons,

@@ -152,7 +152,10 @@ pub async fn spawn_serve(db: &str, booth: &str, options: &ServeOptions) -> Serve
         dir,
     };
     let Ok(addr) = printed else {
-        panic!("the daemon of booth {booth} never printed its address:\n{}", process.log_tail());
+        panic!(
+            "the daemon of booth {booth} never printed its address:\n{}",
+            process.log_tail()
+        );
     };
     process.addr = addr.parse().unwrap();
     poll_until(process.addr, "/api/health", Duration::from_secs(60), |v| {
@@ -188,7 +191,12 @@ pub async fn start_lab(db: &str, booths: &[String], options: &ServeOptions) -> L
 /// The scene targets the load measures, round robin: the four single-patch
 /// scenes (the WHITE patch is the others' CIELAB white, so its
 /// measurements also bring their comparisons to a new white).
-pub const TARGETS: [(&str, &str); 4] = [("red", "patch"), ("green", "patch"), ("blue", "patch"), ("white", "patch")];
+pub const TARGETS: [(&str, &str); 4] = [
+    ("red", "patch"),
+    ("green", "patch"),
+    ("blue", "patch"),
+    ("white", "patch"),
+];
 
 /// One measurement the load asked a daemon for.
 #[derive(Clone, Debug)]
@@ -218,15 +226,21 @@ pub async fn submit(addr: SocketAddr, scene: &str, target: &str, samples: usize,
 }
 
 /// Submits `per_booth` measurements to every daemon of `lab` at once (one
-/// submitter per booth), targets round robin; `run` makes the notes unique.
-pub async fn submit_load(lab: &Lab, run: &str, per_booth: usize, samples: usize) -> Vec<Submission> {
+/// submitter per booth), `targets` round robin; `run` makes the notes unique.
+pub async fn submit_load(
+    lab: &Lab,
+    run: &str,
+    per_booth: usize,
+    samples: usize,
+    targets: &[(&'static str, &'static str)],
+) -> Vec<Submission> {
     let mut tasks = Vec::new();
     for d in &lab.daemons {
-        let (addr, booth, run) = (d.addr, d.booth.clone(), run.to_string());
+        let (addr, booth, run, targets) = (d.addr, d.booth.clone(), run.to_string(), targets.to_vec());
         tasks.push(tokio::spawn(async move {
             let mut out = Vec::new();
             for k in 0..per_booth {
-                let (scene, target) = TARGETS[k % TARGETS.len()];
+                let (scene, target) = targets[k % targets.len()];
                 let note = format!("{run} {booth} #{k}");
                 let id = submit(addr, scene, target, samples, &note).await;
                 out.push(Submission {
@@ -326,7 +340,8 @@ pub async fn audit(reader: SocketAddr, subs: &[Submission], codings: &[String]) 
         let found = by_note.get(s.note.as_str()).map(Vec::as_slice).unwrap_or_default();
         let row = match found {
             [] => {
-                a.lost.push(format!("{}: no row (the daemon answered id {})", s.note, s.id));
+                a.lost
+                    .push(format!("{}: no row (the daemon answered id {})", s.note, s.id));
                 continue;
             }
             [row] => row,
@@ -351,7 +366,8 @@ pub async fn audit(reader: SocketAddr, subs: &[Submission], codings: &[String]) 
             }
             "complete" => {}
             other => {
-                a.not_complete.push(format!("{}: measurement {} {other}: {}", s.note, s.id, row["error"]));
+                a.not_complete
+                    .push(format!("{}: measurement {} {other}: {}", s.note, s.id, row["error"]));
                 continue;
             }
         }
@@ -384,7 +400,10 @@ pub async fn audit_when_settled(reader: SocketAddr, subs: &[Submission], codings
 }
 
 /// The load part of the scale test: `per_booth` measurements of `samples`
-/// samples on every booth, waited for (bounded by `limit`) and audited.
+/// samples of `targets` on every booth, waited for (bounded by `limit`)
+/// and audited. Each daemon renders each scene for its comparisons once
+/// (unless another daemon's render of it is already stored): with the
+/// camera preview every render makes, that dominates a small load.
 pub struct LoadRun {
     pub submissions: Vec<Submission>,
     pub audit: Audit,
@@ -410,9 +429,17 @@ impl LoadRun {
     }
 }
 
-pub async fn run_load(lab: &Lab, run: &str, per_booth: usize, samples: usize, codings: &[String], limit: Duration) -> LoadRun {
+pub async fn run_load(
+    lab: &Lab,
+    run: &str,
+    per_booth: usize,
+    samples: usize,
+    targets: &[(&'static str, &'static str)],
+    codings: &[String],
+    limit: Duration,
+) -> LoadRun {
     let t = Instant::now();
-    let submissions = submit_load(lab, run, per_booth, samples).await;
+    let submissions = submit_load(lab, run, per_booth, samples, targets).await;
     let submit_seconds = t.elapsed().as_secs_f64();
     let audit = audit_when_settled(lab.daemons[0].addr, &submissions, codings, limit).await;
     LoadRun {
@@ -521,8 +548,10 @@ pub async fn kill_test(
     out.samples_after = after["samples"].as_array().map_or(0, Vec::len);
     out.error = after["error"].as_str().unwrap_or_default().to_string();
     if out.state_after != "interrupted" {
-        out.failures
-            .push(format!("the killed measurement is {}, not interrupted", out.state_after));
+        out.failures.push(format!(
+            "the killed measurement is {}, not interrupted",
+            out.state_after
+        ));
     }
     if out.samples_after != out.samples_at_kill || out.samples_at_kill < 2 {
         out.failures.push(format!(
