@@ -262,6 +262,9 @@ async fn run(addr: SocketAddr, rate: f64, seconds: f64, path: impl Fn(u64) -> St
     (out, errors)
 }
 
+/// The path of request `i` of an endpoint's run.
+type PathOf = Box<dyn Fn(u64) -> String>;
+
 /// One endpoint's figures.
 struct Figures {
     name: &'static str,
@@ -398,7 +401,7 @@ fn main() {
         }
         let n = measurements as u64;
         let deep = n * 9 / 10;
-        let endpoints: Vec<(&'static str, Box<dyn Fn(u64) -> String>)> = vec![
+        let endpoints: Vec<(&'static str, PathOf)> = vec![
             (
                 "fetch one measurement (3 samples)",
                 Box::new(move |i| format!("/api/measurements/{}", 1 + (i * 7919) % n)),
