@@ -412,15 +412,19 @@ impl Store {
         }))
     }
 
-    /// Every booth with a measurement or an instrument, by name.
+    /// Every booth with a measurement or an instrument, by name. The counts
+    /// and newest time come from `booth_measurement_counts` (kept by
+    /// triggers, migration 0014), the unfinished ones from the state index:
+    /// nothing here reads every measurement.
     pub async fn list_booths(&self) -> Result<Vec<BoothRow>, StoreError> {
         Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT b.booth, \
-                    (SELECT COUNT(*) FROM measurements m WHERE m.booth = b.booth) AS measurements, \
-                    (SELECT COUNT(*) FROM measurements m WHERE m.booth = b.booth \
-                       AND m.state IN ('queued', 'running')) AS unfinished, \
-                    (SELECT MAX(m.created_at) FROM measurements m WHERE m.booth = b.booth) AS last_measurement_at \
-             FROM (SELECT booth FROM measurements UNION SELECT booth FROM instruments) b ORDER BY b.booth"
+            "SELECT b.booth, COALESCE(c.measurements, 0) AS measurements, \
+                    (SELECT COUNT(*) FROM measurements m WHERE m.state IN ('queued', 'running') \
+                       AND m.booth = b.booth) AS unfinished, \
+                    c.last_measurement_at \
+             FROM (SELECT booth FROM booth_measurement_counts WHERE measurements > 0 \
+                   UNION SELECT booth FROM instruments) b \
+             LEFT JOIN booth_measurement_counts c ON c.booth = b.booth ORDER BY b.booth"
         )
         .fetch_all(pool)
         .await?))
@@ -656,15 +660,31 @@ impl Store {
         } else {
             format!(" WHERE {}", conditions.join(" AND "))
         };
-        let count_sql = format!("SELECT COUNT(*) FROM measurements{where_sql}");
+        // Unfiltered or by booth alone, the total is the booths' counts
+        // (migration 0014): counting the rows costs O(rows) per request.
+        let count_sql = match (&f.booth, values.len()) {
+            (_, 0) => "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts".to_string(),
+            (Some(_), 1) => {
+                "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts WHERE booth = $1"
+                    .into()
+            }
+            _ => format!("SELECT COUNT(*) FROM measurements{where_sql}"),
+        };
         let limit = f.limit.unwrap_or(50).clamp(1, 1000);
         let offset = f.offset.unwrap_or(0).max(0);
         // The page's ids come from the primary key alone; only those rows'
         // columns (and sample counts) are computed. With the columns in the
         // paging query itself, SQLite evaluates them for every skipped row.
+        // `before_id` pages by the primary key (an index range, the same
+        // cost at any depth); the total ignores it, as it ignores `offset`.
+        let page_where = match (f.before_id, where_sql.is_empty()) {
+            (None, _) => where_sql.clone(),
+            (Some(before), true) => format!(" WHERE id < {before}"),
+            (Some(before), false) => format!("{where_sql} AND id < {before}"),
+        };
         let list_sql = format!(
             "SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id IN (\
-             SELECT id FROM measurements{where_sql} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
+             SELECT id FROM measurements{page_where} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
         );
         let (total, records): (i64, Vec<MeasurementRecord>) = with_pool!(self, |pool| {
             let mut count = sqlx::query_scalar(&count_sql);

@@ -190,6 +190,10 @@ pub struct MeasurementFilter {
     pub limit: Option<i64>,
     #[param(minimum = 0)]
     pub offset: Option<i64>,
+    /// Only measurements with an id below this one: the page after a page
+    /// whose last (oldest) item has this id. Unlike `offset`, it costs the
+    /// same at any depth; `total` still counts every match.
+    pub before_id: Option<i64>,
 }
 
 #[derive(Clone, Debug, Serialize, ToSchema)]

@@ -24,6 +24,8 @@ on_both_engines!(
     measurements_and_instruments_name_their_booth_and_list_by_booth_and_model,
     recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none,
     two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once,
+    booth_counts_follow_every_insert_delete_and_move_of_a_measurement,
+    a_page_before_an_id_is_the_page_at_the_matching_offset,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -116,6 +118,133 @@ async fn measurements_and_instruments_name_their_booth_and_list_by_booth_and_mod
         .unwrap();
     let instruments = store.list_instruments().await.unwrap();
     assert!(instruments.iter().all(|i| i.booth == "north"), "{instruments:?}");
+}
+
+/// The booths' counts (migration 0014's triggers) that `/api/booths` and
+/// the listing totals read stay what counting the rows gives, through
+/// inserts, a hand-made DELETE and a measurement moved to another booth.
+async fn booth_counts_follow_every_insert_delete_and_move_of_a_measurement(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let north: Booth = "north".parse().unwrap();
+    let south: Booth = "south".parse().unwrap();
+    let mut ids = Vec::new();
+    for booth in [&north, &south, &south, &north, &south] {
+        let m = NewMeasurement {
+            booth: booth.clone(),
+            ..new_measurement()
+        };
+        ids.push(store.create_measurement(&m).await.unwrap());
+    }
+    let created_at = |id: i64| {
+        let store = store.clone();
+        async move { store.get_measurement(id).await.unwrap().unwrap().summary.created_at }
+    };
+    let counts = || async {
+        let booths = store.list_booths().await.unwrap();
+        let mut out = Vec::new();
+        for b in booths {
+            let filter = MeasurementFilter {
+                booth: Some(b.booth.parse().unwrap()),
+                ..Default::default()
+            };
+            let page = store.list_measurements(&filter).await.unwrap();
+            assert_eq!(page.total, b.measurements, "{b:?}: the booth's listing total");
+            assert_eq!(page.total as usize, page.items.len());
+            out.push((b.booth, b.measurements, b.last_measurement_at));
+        }
+        let all = store.list_measurements(&MeasurementFilter::default()).await.unwrap();
+        assert_eq!(all.total as usize, all.items.len(), "the unfiltered total");
+        out
+    };
+    assert_eq!(
+        counts().await,
+        [
+            ("north".to_string(), 2, Some(created_at(ids[3]).await)),
+            ("south".to_string(), 3, Some(created_at(ids[4]).await)),
+        ]
+    );
+    // The newest of south's goes: its newest time falls back to the one before.
+    let deleted = store
+        .execute_for_test("DELETE FROM measurements WHERE id = $1", ids[4])
+        .await
+        .unwrap();
+    assert_eq!(deleted, 1);
+    assert_eq!(
+        counts().await,
+        [
+            ("north".to_string(), 2, Some(created_at(ids[3]).await)),
+            ("south".to_string(), 2, Some(created_at(ids[2]).await)),
+        ]
+    );
+    store
+        .execute_for_test("UPDATE measurements SET booth = 'east' WHERE id = $1", ids[0])
+        .await
+        .unwrap();
+    assert_eq!(
+        counts().await,
+        [
+            ("east".to_string(), 1, Some(created_at(ids[0]).await)),
+            ("north".to_string(), 1, Some(created_at(ids[3]).await)),
+            ("south".to_string(), 2, Some(created_at(ids[2]).await)),
+        ]
+    );
+    // A booth whose measurements are all gone is no longer listed.
+    store
+        .execute_for_test("DELETE FROM measurements WHERE id = $1", ids[0])
+        .await
+        .unwrap();
+    let names: Vec<String> = counts().await.into_iter().map(|(b, _, _)| b).collect();
+    assert_eq!(names, ["north", "south"]);
+}
+
+/// `before_id` (the cursor of deep pages) gives what `offset` gives, with
+/// and without a filter, and the total still counts every match.
+async fn a_page_before_an_id_is_the_page_at_the_matching_offset(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let north: Booth = "north".parse().unwrap();
+    let mut ids = Vec::new();
+    for k in 0..12 {
+        let m = NewMeasurement {
+            booth: if k % 3 == 0 { north.clone() } else { Booth::default() },
+            ..new_measurement()
+        };
+        ids.push(store.create_measurement(&m).await.unwrap());
+    }
+    for booth in [None, Some(north)] {
+        let filter = MeasurementFilter {
+            booth: booth.clone(),
+            limit: Some(2),
+            ..Default::default()
+        };
+        let first = store.list_measurements(&filter).await.unwrap();
+        let by_offset = store
+            .list_measurements(&MeasurementFilter {
+                offset: Some(2),
+                ..filter.clone()
+            })
+            .await
+            .unwrap();
+        let by_cursor = store
+            .list_measurements(&MeasurementFilter {
+                before_id: Some(first.items[1].id),
+                ..filter.clone()
+            })
+            .await
+            .unwrap();
+        let item_ids = |p: &MeasurementPage| p.items.iter().map(|m| m.id).collect::<Vec<_>>();
+        assert_eq!(item_ids(&by_cursor), item_ids(&by_offset), "booth {booth:?}");
+        assert_eq!(item_ids(&by_cursor).len(), 2);
+        assert_eq!(by_cursor.total, first.total);
+        assert_eq!(first.total, if booth.is_some() { 4 } else { 12 });
+    }
+    let oldest = store
+        .list_measurements(&MeasurementFilter {
+            before_id: Some(ids[0]),
+            ..Default::default()
+        })
+        .await
+        .unwrap();
+    assert!(oldest.items.is_empty());
 }
 
 fn sample(index: usize, usable: bool) -> NewSample {
