@@ -290,3 +290,82 @@ async fn a_daemon_killed_mid_measurement_has_it_interrupted_by_a_neighbour_and_n
     east.stop().await;
     south.stop().await;
 }
+
+/// Measures `scene/target` with `samples` samples on `daemon` and waits
+/// (bounded) until it is complete and its comparisons are stored; its id.
+async fn measure_and_compare(daemon: SocketAddr, scene: &str, target: &str, samples: u32) -> i64 {
+    let (status, m) = post_json(
+        daemon,
+        "/api/measurements",
+        TOKEN,
+        &format!(r#"{{"scene":"{scene}","target":"{target}","samples":{samples}}}"#),
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let done = poll_until(
+        daemon,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(120),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    poll_until(
+        daemon,
+        &format!("/api/measurements/{id}/comparisons"),
+        Duration::from_secs(300),
+        |v| v.as_array().is_some_and(|rows| !rows.is_empty()),
+    )
+    .await;
+    id
+}
+
+/// A comparison's CIELAB white ignored the booth: the white was the newest
+/// complete measurement of the white target in *any* booth, so booth
+/// north measuring its Spectralon rewrote every comparison of booth south
+/// with north's white. Each booth's comparisons now use, and keep, the
+/// white measured in their own booth.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_white_measured_in_one_booth_rewrote_another_booths_comparisons() {
+    let db = common::fresh_postgres_database().await;
+    let north = Daemon::start_booth(0.0, &db, "north").await;
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let south_white = measure_and_compare(south.addr, "white", "patch", 2).await;
+    let north_white = measure_and_compare(north.addr, "white", "patch", 2).await;
+
+    let (_, south_rows) = get_json(south.addr, &format!("/api/measurements/{south_white}/comparisons")).await;
+    let (_, north_rows) = get_json(north.addr, &format!("/api/measurements/{north_white}/comparisons")).await;
+    let sources = |rows: &Value| -> Vec<String> {
+        rows.as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["white_source"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let south_sources = sources(&south_rows);
+    assert!(
+        south_sources
+            .iter()
+            .all(|s| s == &format!("measurement {south_white} (white/patch)")),
+        "north's white (measurement {north_white}) reached south's comparisons: {south_sources:?}"
+    );
+    let north_sources = sources(&north_rows);
+    assert!(
+        north_sources
+            .iter()
+            .all(|s| s == &format!("measurement {north_white} (white/patch)")),
+        "{north_sources:?}"
+    );
+    // The ΔE of south's rows is still computed with south's own white: it
+    // measured the white itself, so the row's white is its measured XYZ.
+    for row in south_rows.as_array().unwrap() {
+        let (white_y, measured_y) = (row["white_Y"].as_f64().unwrap(), row["measured_Y"].as_f64().unwrap());
+        assert!(
+            (white_y - measured_y).abs() <= 1e-6 * measured_y,
+            "white Y {white_y} vs south's own measured Y {measured_y}: {row}"
+        );
+    }
+    south.stop().await;
+    north.stop().await;
+}

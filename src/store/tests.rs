@@ -25,6 +25,7 @@ on_both_engines!(
     recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none,
     two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once,
     schema_refused_more_than_99_samples_though_the_limit_is_the_drivers,
+    a_booths_white_and_comparisons_are_found_in_that_booth_only,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -310,6 +311,95 @@ async fn comparisons_are_all_or_nothing(engine: EngineKind) {
     );
     let other = rows.iter().find(|r| r.id == latest[1].id).unwrap();
     assert_eq!(other.white_source, "D65");
+}
+
+/// The queries behind a comparison's CIELAB white: the newest complete
+/// white of a booth, and the comparisons a booth's new white applies to,
+/// never another booth's (booths share scene ids but not lamps).
+async fn a_booths_white_and_comparisons_are_found_in_that_booth_only(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let north: Booth = "north".parse().unwrap();
+    let south: Booth = "south".parse().unwrap();
+    let avg = Average {
+        wavelength_nm: vec![380.0, 384.0, 388.0],
+        radiance: vec![0.01, 0.02, 0.03],
+        radiance_sd: vec![0.0; 3],
+        luminance_cd_m2: 34.0,
+        x: 0.31,
+        y: 0.33,
+        luminance_cv: 0.002,
+        xyz: None,
+        observer: None,
+    };
+    let mut ids = Vec::new();
+    // South's white, then north's (newer): south must still find its own.
+    for booth in [&south, &north, &north] {
+        let id = store
+            .create_measurement(&NewMeasurement {
+                booth: booth.clone(),
+                ..new_measurement()
+            })
+            .await
+            .unwrap();
+        store.mark_running(id, None).await.unwrap();
+        ids.push(id);
+    }
+    store.complete_measurement(ids[0], &avg).await.unwrap();
+    store.complete_measurement(ids[1], &avg).await.unwrap();
+    // ids[2] (north, newest) never completes: not a white.
+    let white = |b: &Booth| {
+        let store = store.clone();
+        let b = b.clone();
+        async move {
+            store
+                .latest_complete_in_booth("white", "patch", &b)
+                .await
+                .unwrap()
+                .map(|m| m.summary.id)
+        }
+    };
+    assert_eq!(white(&south).await, Some(ids[0]));
+    assert_eq!(white(&north).await, Some(ids[1]));
+    assert_eq!(white(&"east".parse().unwrap()).await, None);
+    assert_eq!(store.measurement_booth(ids[1]).await.unwrap(), Some(north.clone()));
+    assert_eq!(store.measurement_booth(9_999).await.unwrap(), None);
+
+    let rid = store.create_render(&new_render()).await.unwrap();
+    let row = |measurement_id: i64| NewComparison {
+        measurement_id,
+        render_id: rid,
+        scene: "white".into(),
+        target: "patch".into(),
+        coding: "rgb".into(),
+        observer: crate::colorimetry::Observer::Cie1931,
+        white_source: "D65".into(),
+        white: [95.0, 100.0, 108.9],
+        measured: [30.0, 32.0, 35.0],
+        measured_y_se: 0.04,
+        rendered: [31.0, 33.0, 34.0],
+        rendered_y_se: 0.05,
+        y_ratio: 33.0 / 32.0,
+        xy_distance: 0.001,
+        de76: 1.2,
+        de00: 0.8,
+    };
+    store.insert_comparisons(&[row(ids[0])]).await.unwrap();
+    store.insert_comparisons(&[row(ids[1])]).await.unwrap();
+    let of = |b: Booth| {
+        let store = store.clone();
+        async move {
+            store
+                .comparisons_of_scene_in_booth("white", &b)
+                .await
+                .unwrap()
+                .into_iter()
+                .map(|r| r.measurement_id)
+                .collect::<Vec<_>>()
+        }
+    };
+    assert_eq!(of(south).await, [ids[0]]);
+    assert_eq!(of(north).await, [ids[1]]);
+    assert_eq!(store.comparisons_of_scene("white").await.unwrap().len(), 2);
 }
 
 fn new_render() -> NewRender {
