@@ -369,3 +369,42 @@ async fn a_white_measured_in_one_booth_rewrote_another_booths_comparisons() {
     south.stop().await;
     north.stop().await;
 }
+
+/// A neighbour's interruption sent no event: a daemon whose heartbeat
+/// marked a killed daemon's measurement interrupted told no one, so its
+/// dashboards saw it only on their next read. Its `/api/events` clients now
+/// get `measurement_finished` (interrupted, with the error naming the dead
+/// daemon) as it happens.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_neighbours_measurement_interrupted_by_recovery_sent_no_event() {
+    let db = common::fresh_postgres_database().await;
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let mut north = spawn_serve(&db, "north", 0.3, 1.5).await;
+    let mut events = common::events(south.addr).await;
+
+    let north_url = start_measurement(north.addr, 60).await;
+    let north_id: i64 = north_url.rsplit('/').next().unwrap().parse().unwrap();
+    wait_for_samples(south.addr, &north_url, 2).await;
+    north.child.kill().unwrap(); // SIGKILL: only a neighbour can end its measurement
+    north.child.wait().unwrap();
+
+    // Lease 1.5 s + south's heartbeat (2 s), bounded generously.
+    let event = common::wait_for(
+        &mut events,
+        "the interrupted event of north's measurement",
+        Duration::from_secs(30),
+        |name, v| name == "measurement_finished" && v["measurement_id"] == north_id,
+    )
+    .await;
+    assert_eq!(event["state"], "interrupted", "{event}");
+    let error = event["error"].as_str().unwrap();
+    assert!(
+        error.contains("booth `north`") && error.contains("stopped heartbeating"),
+        "{error}"
+    );
+    let (_, m) = get_json(south.addr, &north_url).await;
+    assert_eq!(m["state"], "interrupted", "the event matches the row: {m}");
+    assert_eq!(m["error"].as_str(), Some(error));
+    drop(north);
+    south.stop().await;
+}

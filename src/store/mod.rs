@@ -83,7 +83,7 @@ use engine::Engine;
 pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
-pub use leases::{DaemonRow, Recovered, RecoveryScope};
+pub use leases::{DaemonRow, InterruptedWork, Recovered, RecoveryScope};
 pub use rows::*;
 
 /// Errors of the store, with what to do about them.

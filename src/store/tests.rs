@@ -1016,13 +1016,34 @@ async fn recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none(
     };
     let recovered = noticer.recover_abandoned_work(heartbeat_scope).await.unwrap();
     assert_eq!(
-        recovered,
-        Recovered {
-            measurements: 2,
-            renders: 0,
-            studies: 1
-        }
+        (recovered.measurements, recovered.renders, recovered.studies),
+        (2, 0, 1)
     );
+    // Recovery returns the rows it marked, with their errors, so the daemon
+    // that noticed can send their events (`daemon::lease`).
+    let mut ids: Vec<(&str, i64)> = recovered
+        .interrupted
+        .iter()
+        .map(|w| match w {
+            InterruptedWork::Measurement { id, error } => {
+                assert!(error.contains("before this measurement finished"), "{error}");
+                ("measurement", *id)
+            }
+            InterruptedWork::Render { id, .. } => ("render", *id),
+            InterruptedWork::Study { id, error } => {
+                assert!(error.contains("retry it with POST /api/studies/"), "{error}");
+                ("study", *id)
+            }
+        })
+        .collect();
+    ids.sort();
+    let mut expected = vec![
+        ("measurement", of_lapsing),
+        ("measurement", of_stopping),
+        ("study", study_of_lapsing),
+    ];
+    expected.sort();
+    assert_eq!(ids, expected);
     let (state, error, samples) = state_of(&store, of_lapsing).await;
     assert_eq!((state, samples), (MeasurementState::Interrupted, 1));
     let error = error.unwrap();
