@@ -408,3 +408,68 @@ async fn a_neighbours_measurement_interrupted_by_recovery_sent_no_event() {
     drop(north);
     south.stop().await;
 }
+
+/// A one-shot tool held no lease: `lightbooth study --db postgres://…` wrote
+/// its study with no daemon, and a daemon starting meanwhile recovered it as
+/// abandoned (interrupted), so the study could not be stored. The tool now
+/// registers in `daemons` and heartbeats while it runs: the study completes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_tools_study_was_interrupted_by_a_daemon_starting_on_the_same_database() {
+    let db = common::fresh_postgres_database().await;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
+    // Enough paths that the study is still rendering when the daemon starts.
+    let tool = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(&root)
+        .args([
+            "study",
+            "scenes/white.toml",
+            "--measure-simulated",
+            "--seeds",
+            "4",
+            "--samples",
+            "2000000",
+        ])
+        .args(["--booth", "south", "--db", &db])
+        .arg("--cache-dir")
+        .arg(&cache)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run lightbooth study");
+    let reader = lightbooth::store::Store::open_to_read(&db).await.unwrap();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
+    loop {
+        if let Some(s) = reader.get_study(1).await.unwrap() {
+            assert_eq!(s.state, "running", "{:?}", s.error);
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the tool never started its study"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
+    let north = Daemon::start_booth(0.0, &db, "north").await;
+    let study = reader.get_study(1).await.unwrap().unwrap();
+    assert_eq!(
+        study.state, "running",
+        "the daemon's start interrupted the tool's study: {:?}",
+        study.error
+    );
+    let out = tokio::task::spawn_blocking(move || tool.wait_with_output())
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let study = reader.get_study(1).await.unwrap().unwrap();
+    assert_eq!(study.state, "complete", "{:?}", study.error);
+    // The tool's lease: its booth, and stopped once it finished.
+    let (_, booths) = get_json(north.addr, "/api/booths").await;
+    assert_eq!(booths["this_daemon"], "north", "{booths}");
+    let lease = reader.daemon(1).await.unwrap().expect("the tool registered first");
+    assert_eq!(lease.booth, "south");
+    assert!(lease.stopped_at.is_some(), "{lease:?}");
+    north.stop().await;
+}
