@@ -290,3 +290,186 @@ async fn a_daemon_killed_mid_measurement_has_it_interrupted_by_a_neighbour_and_n
     east.stop().await;
     south.stop().await;
 }
+
+/// Measures `scene/target` with `samples` samples on `daemon` and waits
+/// (bounded) until it is complete and its comparisons are stored; its id.
+async fn measure_and_compare(daemon: SocketAddr, scene: &str, target: &str, samples: u32) -> i64 {
+    let (status, m) = post_json(
+        daemon,
+        "/api/measurements",
+        TOKEN,
+        &format!(r#"{{"scene":"{scene}","target":"{target}","samples":{samples}}}"#),
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let done = poll_until(
+        daemon,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(120),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    poll_until(
+        daemon,
+        &format!("/api/measurements/{id}/comparisons"),
+        Duration::from_secs(300),
+        |v| v.as_array().is_some_and(|rows| !rows.is_empty()),
+    )
+    .await;
+    id
+}
+
+/// A comparison's CIELAB white ignored the booth: the white was the newest
+/// complete measurement of the white target in *any* booth, so booth
+/// north measuring its Spectralon rewrote every comparison of booth south
+/// with north's white. Each booth's comparisons now use, and keep, the
+/// white measured in their own booth.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_white_measured_in_one_booth_rewrote_another_booths_comparisons() {
+    let db = common::fresh_postgres_database().await;
+    let north = Daemon::start_booth(0.0, &db, "north").await;
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let south_white = measure_and_compare(south.addr, "white", "patch", 2).await;
+    let north_white = measure_and_compare(north.addr, "white", "patch", 2).await;
+
+    let (_, south_rows) = get_json(south.addr, &format!("/api/measurements/{south_white}/comparisons")).await;
+    let (_, north_rows) = get_json(north.addr, &format!("/api/measurements/{north_white}/comparisons")).await;
+    let sources = |rows: &Value| -> Vec<String> {
+        rows.as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["white_source"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let south_sources = sources(&south_rows);
+    assert!(
+        south_sources
+            .iter()
+            .all(|s| s == &format!("measurement {south_white} (white/patch)")),
+        "north's white (measurement {north_white}) reached south's comparisons: {south_sources:?}"
+    );
+    let north_sources = sources(&north_rows);
+    assert!(
+        north_sources
+            .iter()
+            .all(|s| s == &format!("measurement {north_white} (white/patch)")),
+        "{north_sources:?}"
+    );
+    // The ΔE of south's rows is still computed with south's own white: it
+    // measured the white itself, so the row's white is its measured XYZ.
+    for row in south_rows.as_array().unwrap() {
+        let (white_y, measured_y) = (row["white_Y"].as_f64().unwrap(), row["measured_Y"].as_f64().unwrap());
+        assert!(
+            (white_y - measured_y).abs() <= 1e-6 * measured_y,
+            "white Y {white_y} vs south's own measured Y {measured_y}: {row}"
+        );
+    }
+    south.stop().await;
+    north.stop().await;
+}
+
+/// A neighbour's interruption sent no event: a daemon whose heartbeat
+/// marked a killed daemon's measurement interrupted told no one, so its
+/// dashboards saw it only on their next read. Its `/api/events` clients now
+/// get `measurement_finished` (interrupted, with the error naming the dead
+/// daemon) as it happens.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_neighbours_measurement_interrupted_by_recovery_sent_no_event() {
+    let db = common::fresh_postgres_database().await;
+    let south = Daemon::start_booth(0.0, &db, "south").await;
+    let mut north = spawn_serve(&db, "north", 0.3, 1.5).await;
+    let mut events = common::events(south.addr).await;
+
+    let north_url = start_measurement(north.addr, 60).await;
+    let north_id: i64 = north_url.rsplit('/').next().unwrap().parse().unwrap();
+    wait_for_samples(south.addr, &north_url, 2).await;
+    north.child.kill().unwrap(); // SIGKILL: only a neighbour can end its measurement
+    north.child.wait().unwrap();
+
+    // Lease 1.5 s + south's heartbeat (2 s), bounded generously.
+    let event = common::wait_for(
+        &mut events,
+        "the interrupted event of north's measurement",
+        Duration::from_secs(30),
+        |name, v| name == "measurement_finished" && v["measurement_id"] == north_id,
+    )
+    .await;
+    assert_eq!(event["state"], "interrupted", "{event}");
+    let error = event["error"].as_str().unwrap();
+    assert!(
+        error.contains("booth `north`") && error.contains("stopped heartbeating"),
+        "{error}"
+    );
+    let (_, m) = get_json(south.addr, &north_url).await;
+    assert_eq!(m["state"], "interrupted", "the event matches the row: {m}");
+    assert_eq!(m["error"].as_str(), Some(error));
+    drop(north);
+    south.stop().await;
+}
+
+/// A one-shot tool held no lease: `lightbooth study --db postgres://…` wrote
+/// its study with no daemon, and a daemon starting meanwhile recovered it as
+/// abandoned (interrupted), so the study could not be stored. The tool now
+/// registers in `daemons` and heartbeats while it runs: the study completes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_tools_study_was_interrupted_by_a_daemon_starting_on_the_same_database() {
+    let db = common::fresh_postgres_database().await;
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
+    // Enough paths that the study is still rendering when the daemon starts.
+    let tool = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(&root)
+        .args([
+            "study",
+            "scenes/white.toml",
+            "--measure-simulated",
+            "--seeds",
+            "4",
+            "--samples",
+            "2000000",
+        ])
+        .args(["--booth", "south", "--db", &db])
+        .arg("--cache-dir")
+        .arg(&cache)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run lightbooth study");
+    let reader = lightbooth::store::Store::open_to_read(&db).await.unwrap();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
+    loop {
+        if let Some(s) = reader.get_study(1).await.unwrap() {
+            assert_eq!(s.state, "running", "{:?}", s.error);
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the tool never started its study"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
+    let north = Daemon::start_booth(0.0, &db, "north").await;
+    let study = reader.get_study(1).await.unwrap().unwrap();
+    assert_eq!(
+        study.state, "running",
+        "the daemon's start interrupted the tool's study: {:?}",
+        study.error
+    );
+    let out = tokio::task::spawn_blocking(move || tool.wait_with_output())
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let study = reader.get_study(1).await.unwrap().unwrap();
+    assert_eq!(study.state, "complete", "{:?}", study.error);
+    // The tool's lease: its booth, and stopped once it finished.
+    let (_, booths) = get_json(north.addr, "/api/booths").await;
+    assert_eq!(booths["this_daemon"], "north", "{booths}");
+    let lease = reader.daemon(1).await.unwrap().expect("the tool registered first");
+    assert_eq!(lease.booth, "south");
+    assert!(lease.stopped_at.is_some(), "{lease:?}");
+    north.stop().await;
+}

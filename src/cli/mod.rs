@@ -20,7 +20,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "lightbooth",
     version,
-    about = "Measure a lighting booth with a PR-650, render it, and compare"
+    about = "Measure a lighting booth with a spectroradiometer (PR-650, PR-655, PR-670), render it, and compare"
 )]
 pub struct Cli {
     #[command(subcommand)]

@@ -7,8 +7,10 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 
 use lightbooth::colorimetry::Observer;
+use lightbooth::daemon::lease::Lease;
+use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
 use lightbooth::render::Coding;
-use lightbooth::store::Store;
+use lightbooth::store::{Job, Store};
 use lightbooth::study::measure::measure_with_simulator;
 use lightbooth::study::report::write_report;
 use lightbooth::study::run::{run_study, Against, StudyOptions};
@@ -52,6 +54,12 @@ pub struct StudyArgs {
     /// sqlite://FILE or postgres://USER@HOST/DATABASE.
     #[arg(long, default_value = "sqlite://lightbooth.sqlite")]
     db: String,
+    /// The booth this study runs for, recorded with its lease in the
+    /// database's `daemons` table (as a daemon's `--booth`): while the study
+    /// runs it heartbeats, so a daemon starting on the same database leaves
+    /// its study alone.
+    #[arg(long, default_value = lightbooth::store::DEFAULT_BOOTH)]
+    booth: lightbooth::store::Booth,
     /// First measure every target with the simulated PR-650 (reproducible, no booth needed).
     #[arg(long)]
     measure_simulated: bool,
@@ -112,15 +120,31 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     let runtime = tokio::runtime::Runtime::new().context("starting the async runtime")?;
     runtime.block_on(async move {
         let needs_store = matches!(options.against, Against::Measurements) || args.measure_simulated;
-        let store = if needs_store {
-            Some(
-                Store::open_as_tool(&args.db)
-                    .await
-                    .with_context(|| format!("opening {}", args.db))?,
-            )
+        // The study's rows name its lease, renewed while it runs and
+        // released at the end (also on error): no daemon counts them abandoned.
+        let lease = if needs_store {
+            let store = Store::open_as_tool(&args.db)
+                .await
+                .with_context(|| format!("opening {}", args.db))?;
+            let lease = Lease::take(&store, &args.booth, DEFAULT_LEASE, DEFAULT_HEARTBEAT, None)
+                .await
+                .with_context(|| format!("registering this study's lease in {}", args.db))?;
+            Some(lease)
         } else {
             None
         };
+        let store = lease.as_ref().map(|l| l.store().clone());
+        let outcome = study(&args, &options, store).await;
+        if let Some(lease) = lease {
+            lease.release().await.context("marking this study's lease stopped")?;
+        }
+        outcome
+    })
+}
+
+/// The study itself, on `store` when it needs one.
+async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -> anyhow::Result<()> {
+    {
         let progress = |msg: &str| eprintln!("{msg}");
         if args.measure_simulated {
             let store = store.as_ref().expect("opened above");
@@ -136,12 +160,21 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             .await?;
             eprintln!("stored {} simulated measurements", ids.len());
         }
-        let request = serde_json::json!({ "scenes": &args.scenes, "options": &options, "command_line": true });
+        let request = serde_json::json!({ "scenes": &args.scenes, "options": options, "command_line": true });
+        // Created and started at once: the study runs here, now (a
+        // study left `queued` could not be completed).
         let study_id = match &store {
-            Some(store) => Some(store.create_study(&request).await?),
+            Some(store) => {
+                let id = store.create_study(&request).await?;
+                anyhow::ensure!(
+                    store.start_job(Job::Study, id).await?,
+                    "study {id} was ended before it started"
+                );
+                Some(id)
+            }
             None => None,
         };
-        let result = match run_study(&args.scenes, &options, store.as_ref(), &progress).await {
+        let result = match run_study(&args.scenes, options, store.as_ref(), &progress).await {
             Ok(r) => r,
             Err(e) => {
                 if let (Some(store), Some(id)) = (&store, study_id) {
@@ -191,5 +224,5 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
             );
         }
         Ok(())
-    })
+    }
 }

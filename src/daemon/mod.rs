@@ -20,6 +20,7 @@ pub mod db_lock;
 pub mod images;
 pub mod instrument_task;
 pub mod jobs;
+pub mod lease;
 pub mod renders;
 pub mod study_measurements;
 pub mod worker_queue;
@@ -123,15 +124,22 @@ pub async fn run(
     let store = Store::open(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?;
+    let (events, _) = broadcast::channel(1024);
     // From here on every measurement, render and study this daemon creates
-    // or runs names it, and its lease says it is alive.
-    let daemon_id = store
-        .register_daemon(&options.booth, options.lease)
-        .await
-        .context("registering this daemon's lease")?;
-    let store = store.as_daemon(daemon_id);
+    // or runs names it, and its lease says it is alive; its heartbeat tells
+    // the event clients of the gone daemons' work it interrupts.
+    let lease = lease::Lease::take(
+        &store,
+        &options.booth,
+        options.lease,
+        options.heartbeat,
+        Some(events.clone()),
+    )
+    .await
+    .context("registering this daemon's lease")?;
+    let daemon_id = lease.id();
+    let store = lease.store().clone();
     tracing::info!(daemon = daemon_id, booth = %options.booth, "registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
-    let heartbeat = AbortOnDrop(tokio::spawn(heartbeat(store.clone(), daemon_id, options.heartbeat)));
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
     println!("{}", source.describe());
@@ -145,7 +153,6 @@ pub async fn run(
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
         reason: "starting".into(),
     });
-    let (events, _) = broadcast::channel(1024);
     let mut renderer = renders::Renderer::new(
         options.scenes_dir.clone(),
         store.clone(),
@@ -246,56 +253,18 @@ pub async fn run(
     if n > 0 {
         tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
     }
-    drop(heartbeat);
-    store
-        .mark_daemon_stopped(daemon_id)
-        .await
-        .context("marking this daemon stopped")?;
+    lease.release().await.context("marking this daemon stopped")?;
     store.close().await;
     Ok(())
 }
 
-/// Aborts a task when dropped: the heartbeat stops with `run`, also when
-/// `run` returns early with an error.
+/// Aborts a task when dropped: a background task stops with its owner,
+/// also when the owner returns early with an error.
 pub(crate) struct AbortOnDrop(pub(crate) tokio::task::JoinHandle<()>);
 
 impl Drop for AbortOnDrop {
     fn drop(&mut self) {
         self.0.abort();
-    }
-}
-
-/// Renews daemon `id`'s lease every `interval` and recovers the work of
-/// daemons whose lease expired; runs until aborted at shutdown. A database
-/// error is logged and retried at the next beat (if beats fail for longer
-/// than the lease, other daemons will count this one gone).
-pub(crate) async fn heartbeat(store: Store, id: i64, interval: Duration) {
-    let mut ticks = tokio::time::interval(interval);
-    ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        ticks.tick().await;
-        match store.heartbeat(id).await {
-            Ok(true) => {}
-            Ok(false) => tracing::warn!(daemon = id, "this daemon's lease row is marked stopped"),
-            Err(e) => {
-                tracing::warn!(daemon = id, error = %e, "cannot renew this daemon's lease");
-                continue;
-            }
-        }
-        // Before recovery: a gone worker's render and study rows go back
-        // to the queue, never to `interrupted`.
-        if let Err(e) = store.requeue_abandoned_jobs().await {
-            tracing::warn!(daemon = id, error = %e, "cannot queue again the jobs of gone render workers");
-        }
-        if let Err(e) = store
-            .recover_abandoned_work(crate::store::RecoveryScope {
-                rows_without_daemon: false,
-                every_daemon_is_gone: false,
-            })
-            .await
-        {
-            tracing::warn!(daemon = id, error = %e, "cannot recover the work of gone daemons");
-        }
     }
 }
 

@@ -18,13 +18,15 @@
 //! the scene declares in its file (`[cielab_white]`, resolved by
 //! [`scene_white`]). WHITE, RED, GREEN and BLUE declare the WHITE scene's
 //! Spectralon (`white/patch`), CYLINDER its top target (`h21`). A target
-//! white is the newest complete *measurement* of that target; until one
+//! white is the newest complete *measurement* of that target in the booth
+//! the compared measurement was taken in (booths have their own lamps: a
+//! white measured in booth north never serves booth south); until one
 //! exists, the `spectral` rendering of it stands in, and the row says so
 //! (`white_source`, with the white's XYZ).
 //!
-//! When a white's source changes — its target is measured for the first time
-//! or again — every comparison of every scene using it is recomputed with the
-//! new white (ΔE from the stored XYZ; the measured and rendered XYZ do not
+//! When a booth's white changes — its target is measured there for the first
+//! time or again — every comparison of that booth of every scene using it is
+//! recomputed with the new white (ΔE from the stored XYZ; the measured and rendered XYZ do not
 //! depend on the white), so no scene mixes whites. Comparisons and these
 //! updates are serialised by one lock, so a comparison finishing late cannot
 //! write an old white after the update.
@@ -72,7 +74,7 @@ use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
 use crate::service::error::ApiError;
 use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
-use crate::store::{Job, JobEnd, NewComparison, NewRender, Store, WorkerJobKind};
+use crate::store::{Booth, Job, JobEnd, NewComparison, NewRender, Store, WorkerJobKind};
 use crate::study::report::report_files;
 use crate::study::run::{run_study, Against, StudyOptions, COST_DEFINITION};
 use crate::study::white::{scene_white, SceneWhite};
@@ -404,7 +406,13 @@ impl Renderer {
         let rendered = rendered_codings(&result, target)
             .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
         let _serial = self.compare_lock.lock().await;
-        let (white, white_source) = self.white_xyz(scene).await?;
+        // The white is the one of the booth this measurement was taken in.
+        let booth = self
+            .store
+            .measurement_booth(measurement_id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("no measurement {measurement_id}"))?;
+        let (white, white_source) = self.white_xyz(scene, &booth).await?;
         let observer = self.observer;
         let rows: Vec<NewComparison> = rendered
             .into_iter()
@@ -452,7 +460,7 @@ impl Renderer {
         })
         .await?;
         for other in dependent {
-            self.refresh_white(&other).await?;
+            self.refresh_white(&other, &booth).await?;
         }
         let _ = self.events.send(Event::ComparisonReady {
             measurement_id,
@@ -462,14 +470,16 @@ impl Renderer {
         Ok(())
     }
 
-    /// Recomputes every comparison of `scene` (of the daemon's observer)
-    /// whose white is not the scene's current one: ΔE from the stored XYZ
-    /// with the current white. The caller holds `compare_lock`.
-    async fn refresh_white(&self, scene: &str) -> anyhow::Result<()> {
-        let (white, source) = self.white_xyz(scene).await?;
+    /// Recomputes every comparison of `scene` in `booth` (of the daemon's
+    /// observer) whose white is not the booth's current one for the scene:
+    /// ΔE from the stored XYZ with the current white. Other booths'
+    /// comparisons keep their own booth's white. The caller holds
+    /// `compare_lock`.
+    async fn refresh_white(&self, scene: &str, booth: &Booth) -> anyhow::Result<()> {
+        let (white, source) = self.white_xyz(scene, booth).await?;
         let updates: Vec<(i64, String, [f64; 3], f64, f64)> = self
             .store
-            .comparisons_of_scene(scene)
+            .comparisons_of_scene_in_booth(scene, booth)
             .await?
             .into_iter()
             .filter(|r| r.observer == self.observer)
@@ -483,14 +493,15 @@ impl Renderer {
             .collect();
         if !updates.is_empty() {
             self.store.update_comparison_whites(&updates).await?;
-            tracing::info!(scene, rows = updates.len(), white = %source, "comparisons recomputed with the scene's current white");
+            tracing::info!(scene, %booth, rows = updates.len(), white = %source, "comparisons recomputed with the scene's current white");
         }
         Ok(())
     }
 
-    /// The CIELAB white of `scene` now, and where it came from (see the
-    /// module doc).
-    async fn white_xyz(&self, scene: &str) -> anyhow::Result<(Xyz, String)> {
+    /// The CIELAB white of `scene` in `booth` now, and where it came from
+    /// (see the module doc): a white target's newest complete measurement
+    /// taken in that booth, never another booth's.
+    async fn white_xyz(&self, scene: &str, booth: &Booth) -> anyhow::Result<(Xyz, String)> {
         let entry = self.entry(scene).ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
         let (loaded, _) = load_scene_blocking(entry.path.clone()).await?;
         let (white_scene, target) =
@@ -498,7 +509,11 @@ impl Renderer {
                 SceneWhite::Fixed { xyz, source } => return Ok((xyz, source)),
                 SceneWhite::Target { scene_id, target, .. } => (scene_id, target),
             };
-        if let Some(m) = self.store.latest_complete(&white_scene, &target).await? {
+        if let Some(m) = self
+            .store
+            .latest_complete_in_booth(&white_scene, &target, booth)
+            .await?
+        {
             if let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) {
                 let s = Spectrum::new(Grid::from_wavelengths(wl)?, SpectralUnit::SpectralRadiance, radiance)?;
                 let xyz = xyz_from_radiance(&s, self.observer)?;
@@ -1225,9 +1240,9 @@ impl RenderService for Renderer {
         Some(&self.images)
     }
 
-    fn cielab_white(self: Arc<Self>, scene: String) -> BoxFuture<Result<(Xyz, String), ApiError>> {
+    fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), ApiError>> {
         Box::pin(async move {
-            self.white_xyz(&scene)
+            self.white_xyz(&scene, &booth)
                 .await
                 .map_err(|e| ApiError::Internal(format!("the CIELAB white of `{scene}`: {e}")))
         })

@@ -154,10 +154,12 @@ pub trait RenderService: Send + Sync {
     fn images(&self) -> Option<&crate::daemon::images::ImageJobs> {
         None
     }
-    /// The CIELAB white of a scene now, with its source (see `daemon::renders`).
+    /// The CIELAB white of a scene in a booth now, with its source (see
+    /// `daemon::renders`).
     fn cielab_white(
         self: Arc<Self>,
         _scene: String,
+        _booth: crate::store::Booth,
     ) -> BoxFuture<Result<(crate::colorimetry::Xyz, String), error::ApiError>> {
         Box::pin(async { Err(error::ApiError::Unavailable("this daemon has no scenes".into())) })
     }

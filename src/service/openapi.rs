@@ -20,7 +20,7 @@ use super::error::ErrorBody;
 #[openapi(
     info(
         title = "lightbooth",
-        description = "PR-650 booth measurements, spectral renders and their comparison. Reads need no token on \
+        description = "Spectroradiometer booth measurements, spectral renders and their comparison. Reads need no token on \
                        loopback; writes need `Authorization: Bearer <token>`. Times are POSIX seconds; spectra are \
                        numeric arrays on `wavelength_nm`, radiance in W/(sr·m²·nm); luminance Y in cd/m². Every \
                        error is `{\"error\": {\"code\", \"message\"}}`."

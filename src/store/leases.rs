@@ -19,7 +19,8 @@
 //! - Recovery ([`Store::recover_abandoned_work`]) marks the queued and running
 //!   measurements, renders and studies of gone daemons `interrupted` (a
 //!   measurement keeps its samples), with an error naming the daemon (booth,
-//!   host, pid) and its last heartbeat. Each table is recovered with one
+//!   host, pid) and its last heartbeat, and returns the ids it marked (so
+//!   the daemon that noticed sends the matching events). Each table is recovered with one
 //!   conditional `UPDATE … WHERE daemon_id = $d AND state IN ('queued',
 //!   'running') AND <daemon $d is still gone>`: when two daemons notice the
 //!   same dead one at once, PostgreSQL row-locks each row for the first
@@ -65,12 +66,23 @@ pub struct DaemonRow {
     pub stopped_at: Option<f64>,
 }
 
-/// How many rows a recovery marked interrupted, per table.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How many rows a recovery marked interrupted, per table, and which (so
+/// the daemon that recovered them can tell its event clients).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Recovered {
     pub measurements: u64,
     pub renders: u64,
     pub studies: u64,
+    /// Every row marked interrupted, in the order marked.
+    pub interrupted: Vec<InterruptedWork>,
+}
+
+/// A row a recovery marked interrupted, with the error it was given.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InterruptedWork {
+    Measurement { id: i64, error: String },
+    Render { id: i64, scene: String, error: String },
+    Study { id: i64, error: String },
 }
 
 impl Recovered {
@@ -78,12 +90,35 @@ impl Recovered {
         self.measurements + self.renders + self.studies
     }
 
-    fn add(&mut self, table: &str, n: u64) {
+    /// Adds the rows `(id, scene)` of `table` marked with `error`.
+    fn add(&mut self, table: &str, rows: Vec<(i64, Option<String>)>, error: &str) {
+        let n = rows.len() as u64;
         match table {
             "measurements" => self.measurements += n,
             "renders" => self.renders += n,
             _ => self.studies += n,
         }
+        for (id, scene) in rows {
+            let error = error.to_string();
+            self.interrupted.push(match table {
+                "measurements" => InterruptedWork::Measurement { id, error },
+                "renders" => InterruptedWork::Render {
+                    id,
+                    scene: scene.unwrap_or_default(),
+                    error,
+                },
+                _ => InterruptedWork::Study { id, error },
+            });
+        }
+    }
+}
+
+/// What an UPDATE of `table` returns for each row it marks: its id and, for
+/// measurements and renders, its scene.
+fn returning(table: &str) -> &'static str {
+    match table {
+        "studies" => "RETURNING id, CAST(NULL AS TEXT) AS scene",
+        _ => "RETURNING id, scene",
     }
 }
 
@@ -270,15 +305,17 @@ impl Store {
                 let sql = format!(
                     "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
                      WHERE daemon_id = $2 AND state IN ('queued', 'running') \
-                     AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone}){}",
-                    not_a_worker_job(table)
+                     AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone}){} {}",
+                    not_a_worker_job(table),
+                    returning(table)
                 );
-                let n = with_pool!(self, |pool| sqlx::query(&sql)
-                    .bind(daemon.interruption(table))
+                let why = daemon.interruption(table);
+                let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
+                    .bind(&why)
                     .bind(daemon.id)
-                    .execute(pool)
-                    .await?
-                    .rows_affected());
+                    .fetch_all(pool)
+                    .await?);
+                let n = rows.len();
                 if n > 0 {
                     tracing::warn!(
                         daemon = daemon.id,
@@ -289,7 +326,7 @@ impl Store {
                         "marked the {table} of a daemon that is gone as interrupted"
                     );
                 }
-                recovered.add(table, n);
+                recovered.add(table, rows, &why);
             }
         }
         if scope.rows_without_daemon {
@@ -301,21 +338,20 @@ impl Store {
                 );
                 let sql = format!(
                     "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
-                     WHERE daemon_id IS NULL AND state IN ('queued', 'running'){}",
-                    not_a_worker_job(table)
+                     WHERE daemon_id IS NULL AND state IN ('queued', 'running'){} {}",
+                    not_a_worker_job(table),
+                    returning(table)
                 );
-                let n = with_pool!(self, |pool| sqlx::query(&sql)
-                    .bind(&why)
-                    .execute(pool)
-                    .await?
-                    .rows_affected());
+                let rows: Vec<(i64, Option<String>)> =
+                    with_pool!(self, |pool| sqlx::query_as(&sql).bind(&why).fetch_all(pool).await?);
+                let n = rows.len();
                 if n > 0 {
                     tracing::warn!(
                         count = n,
                         "marked {table} left unfinished by the last run as interrupted"
                     );
                 }
-                recovered.add(table, n);
+                recovered.add(table, rows, &why);
             }
         }
         Ok(recovered)

@@ -84,7 +84,7 @@ use engine::Engine;
 pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
-pub use leases::{DaemonRow, Recovered, RecoveryScope};
+pub use leases::{DaemonRow, InterruptedWork, Recovered, RecoveryScope};
 pub use rows::*;
 pub use worker_jobs::{ClaimedJob, WorkerJobKind, WorkerJobRecord};
 
@@ -725,6 +725,51 @@ impl Store {
         }
     }
 
+    /// The newest complete measurement of a scene target taken in `booth`:
+    /// the CIELAB white of that booth's comparisons (each booth has its own
+    /// lamps, so another booth's white never stands in for it).
+    pub async fn latest_complete_in_booth(
+        &self,
+        scene: &str,
+        target: &str,
+        booth: &Booth,
+    ) -> Result<Option<MeasurementDetail>, StoreError> {
+        let id: Option<i64> = with_pool!(self, |pool| {
+            sqlx::query_scalar(
+                "SELECT id FROM measurements WHERE scene = $1 AND target = $2 AND booth = $3 AND state = 'complete' \
+                 ORDER BY id DESC LIMIT 1",
+            )
+            .bind(scene)
+            .bind(target)
+            .bind(booth.as_str())
+            .fetch_optional(pool)
+            .await?
+        });
+        match id {
+            Some(id) => self.get_measurement(id).await,
+            None => Ok(None),
+        }
+    }
+
+    /// The booth a measurement was taken in; `None` when there is no such
+    /// measurement.
+    pub async fn measurement_booth(&self, id: i64) -> Result<Option<Booth>, StoreError> {
+        let booth: Option<String> = with_pool!(self, |pool| {
+            sqlx::query_scalar("SELECT booth FROM measurements WHERE id = $1")
+                .bind(id)
+                .fetch_optional(pool)
+                .await?
+        });
+        booth
+            .map(|b| {
+                b.parse().map_err(|e: String| StoreError::Corrupt {
+                    what: format!("measurement {id}'s booth"),
+                    err: e,
+                })
+            })
+            .transpose()
+    }
+
     // --- renders ----------------------------------------------------------
 
     pub async fn create_render(&self, r: &NewRender) -> Result<i64, StoreError> {
@@ -1034,6 +1079,24 @@ impl Store {
             "SELECT * FROM comparisons WHERE scene = $1 ORDER BY id"
         )
         .bind(scene)
+        .fetch_all(pool)
+        .await?);
+        Ok(records.into_iter().map(ComparisonRow::from).collect())
+    }
+
+    /// Every comparison of a scene whose measurement was taken in `booth`,
+    /// oldest first: the rows a new white of that booth applies to.
+    pub async fn comparisons_of_scene_in_booth(
+        &self,
+        scene: &str,
+        booth: &Booth,
+    ) -> Result<Vec<ComparisonRow>, StoreError> {
+        let records: Vec<ComparisonRecord> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT c.* FROM comparisons c JOIN measurements m ON m.id = c.measurement_id \
+             WHERE c.scene = $1 AND m.booth = $2 ORDER BY c.id"
+        )
+        .bind(scene)
+        .bind(booth.as_str())
         .fetch_all(pool)
         .await?);
         Ok(records.into_iter().map(ComparisonRow::from).collect())

@@ -79,7 +79,7 @@ pub struct Average {
     pub radiance: Vec<f64>,
     pub radiance_sd: Vec<f64>,
     pub luminance_cd_m2: f64,
-    /// CIE 1931 x, y of the mean spectrum: what the PR-650 itself reports.
+    /// CIE 1931 x, y of the mean spectrum: what the instrument itself reports.
     pub x: f64,
     pub y: f64,
     pub luminance_cv: f64,
@@ -116,7 +116,7 @@ pub struct MeasurementSummary {
     #[serde(rename = "Y")]
     pub luminance_cd_m2: Option<f64>,
     /// The instrument's own chromaticity: CIE 1931 2° x of the mean
-    /// spectrum, as the PR-650 reports it. Never charted next to lightbooth's
+    /// spectrum, as the instrument reports it. Never charted next to lightbooth's
     /// values (those are `x`, `y` with `observer`).
     pub instrument_x: Option<f64>,
     /// The instrument's own CIE 1931 2° y (see `instrument_x`).

@@ -26,6 +26,8 @@ on_both_engines!(
     two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once,
     booth_counts_follow_every_insert_delete_and_move_of_a_measurement,
     a_page_before_an_id_is_the_page_at_the_matching_offset,
+    schema_refused_more_than_99_samples_though_the_limit_is_the_drivers,
+    a_booths_white_and_comparisons_are_found_in_that_booth_only,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -307,6 +309,31 @@ async fn a_measurement_keeps_every_sample_and_its_average(engine: EngineKind) {
     assert!(store.complete_measurement(id, &avg).await.is_err());
 }
 
+/// The 1–99 sample limit was the PR-650's, written into the schema (0001's
+/// CHECK), so an instrument that averages more could not record its
+/// measurement. Since 0012 the schema asks only for at least one sample; the
+/// limit is each driver's (`Capabilities::max_samples`).
+async fn schema_refused_more_than_99_samples_though_the_limit_is_the_drivers(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let id = store
+        .create_measurement(&NewMeasurement {
+            samples: 150,
+            ..new_measurement()
+        })
+        .await
+        .expect("150 samples are the driver's business, not the schema's");
+    let m = store.get_measurement(id).await.unwrap().unwrap();
+    assert_eq!(m.summary.samples_requested, 150);
+    let none = NewMeasurement {
+        samples: 0,
+        ..new_measurement()
+    };
+    assert!(
+        store.create_measurement(&none).await.is_err(),
+        "a measurement of no samples is still refused by the schema"
+    );
+}
+
 async fn complete_without_an_average_is_refused_by_the_schema(engine: EngineKind) {
     let (_dir, store, _) = temp_store(engine).await;
     let id = store.create_measurement(&new_measurement()).await.unwrap();
@@ -413,6 +440,95 @@ async fn comparisons_are_all_or_nothing(engine: EngineKind) {
     );
     let other = rows.iter().find(|r| r.id == latest[1].id).unwrap();
     assert_eq!(other.white_source, "D65");
+}
+
+/// The queries behind a comparison's CIELAB white: the newest complete
+/// white of a booth, and the comparisons a booth's new white applies to,
+/// never another booth's (booths share scene ids but not lamps).
+async fn a_booths_white_and_comparisons_are_found_in_that_booth_only(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let north: Booth = "north".parse().unwrap();
+    let south: Booth = "south".parse().unwrap();
+    let avg = Average {
+        wavelength_nm: vec![380.0, 384.0, 388.0],
+        radiance: vec![0.01, 0.02, 0.03],
+        radiance_sd: vec![0.0; 3],
+        luminance_cd_m2: 34.0,
+        x: 0.31,
+        y: 0.33,
+        luminance_cv: 0.002,
+        xyz: None,
+        observer: None,
+    };
+    let mut ids = Vec::new();
+    // South's white, then north's (newer): south must still find its own.
+    for booth in [&south, &north, &north] {
+        let id = store
+            .create_measurement(&NewMeasurement {
+                booth: booth.clone(),
+                ..new_measurement()
+            })
+            .await
+            .unwrap();
+        store.mark_running(id, None).await.unwrap();
+        ids.push(id);
+    }
+    store.complete_measurement(ids[0], &avg).await.unwrap();
+    store.complete_measurement(ids[1], &avg).await.unwrap();
+    // ids[2] (north, newest) never completes: not a white.
+    let white = |b: &Booth| {
+        let store = store.clone();
+        let b = b.clone();
+        async move {
+            store
+                .latest_complete_in_booth("white", "patch", &b)
+                .await
+                .unwrap()
+                .map(|m| m.summary.id)
+        }
+    };
+    assert_eq!(white(&south).await, Some(ids[0]));
+    assert_eq!(white(&north).await, Some(ids[1]));
+    assert_eq!(white(&"east".parse().unwrap()).await, None);
+    assert_eq!(store.measurement_booth(ids[1]).await.unwrap(), Some(north.clone()));
+    assert_eq!(store.measurement_booth(9_999).await.unwrap(), None);
+
+    let rid = store.create_render(&new_render()).await.unwrap();
+    let row = |measurement_id: i64| NewComparison {
+        measurement_id,
+        render_id: rid,
+        scene: "white".into(),
+        target: "patch".into(),
+        coding: "rgb".into(),
+        observer: crate::colorimetry::Observer::Cie1931,
+        white_source: "D65".into(),
+        white: [95.0, 100.0, 108.9],
+        measured: [30.0, 32.0, 35.0],
+        measured_y_se: 0.04,
+        rendered: [31.0, 33.0, 34.0],
+        rendered_y_se: 0.05,
+        y_ratio: 33.0 / 32.0,
+        xy_distance: 0.001,
+        de76: 1.2,
+        de00: 0.8,
+    };
+    store.insert_comparisons(&[row(ids[0])]).await.unwrap();
+    store.insert_comparisons(&[row(ids[1])]).await.unwrap();
+    let of = |b: Booth| {
+        let store = store.clone();
+        async move {
+            store
+                .comparisons_of_scene_in_booth("white", &b)
+                .await
+                .unwrap()
+                .into_iter()
+                .map(|r| r.measurement_id)
+                .collect::<Vec<_>>()
+        }
+    };
+    assert_eq!(of(south).await, [ids[0]]);
+    assert_eq!(of(north).await, [ids[1]]);
+    assert_eq!(store.comparisons_of_scene("white").await.unwrap().len(), 2);
 }
 
 fn new_render() -> NewRender {
@@ -567,6 +683,97 @@ async fn job_state_migration_keeps_renders_comparisons_and_study_files() {
         .await
         .unwrap();
     assert!(violations.is_empty(), "no dangling references after the rebuild");
+}
+
+/// Migration 0012 rebuilds `measurements` on SQLite (a CHECK cannot be
+/// altered): every measurement with its booth, daemon and XYZ, its samples
+/// (ON DELETE CASCADE: dropped with the old table unless set aside), the
+/// comparisons, reflectances and illuminants that reference it, and its
+/// indexes must survive, with no dangling reference.
+#[tokio::test]
+async fn sample_limit_migration_keeps_measurements_samples_and_comparisons() {
+    let dir = tempfile::tempdir().unwrap();
+    let url = sqlite_database_before_migration(
+        dir.path(),
+        "0012",
+        &[
+            "INSERT INTO daemons (id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at) \
+             VALUES (2, 'north', 'pc1', 77, 15, 0, 0, 1)",
+            "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at, radiance_json, \
+             luminance_cd_m2, xyz_x, xyz_y, xyz_z, observer, booth, daemon_id) \
+             VALUES (1, 5, '{}', 'complete', 0, '[0.01,0.02,0.03]', 34, 30, 34, 20, 'judd-vos-1978', 'north', 2)",
+            "INSERT INTO measurements (id, samples_requested, settings_json, state, created_at, error) \
+             VALUES (4, 99, '{}', 'interrupted', 0, 'gone')",
+            "INSERT INTO samples (id, measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2) \
+             VALUES (10, 1, 0, 0, 0, 'ok', 1, '[0.01,0.02,0.03]', 34)",
+            "INSERT INTO samples (id, measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2) \
+             VALUES (11, 1, 1, 0, 18, 'stale', 0, NULL, NULL)",
+            "INSERT INTO samples (id, measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2) \
+             VALUES (12, 4, 0, 0, 0, 'ok', 1, '[0.01,0.02,0.03]', 33)",
+            "INSERT INTO renders (id, scene, scene_hash, settings_json, codings, seed, state, created_at, result_json) \
+             VALUES (7, 'white', 'h', '{}', 'rgb', 1, 'complete', 0, '{}')",
+            "INSERT INTO comparisons (measurement_id, render_id, scene, target, coding, white_source, white_x, white_y, \
+             white_z, measured_x, measured_y, measured_z, rendered_x, rendered_y, rendered_z, rendered_y_se, y_ratio, \
+             xy_distance, de76, de00, created_at) VALUES (1, 7, 'white', 'patch', 'rgb', 'w', 1, 1, 1, 1, 1, 1, 1, 1, 1, \
+             0, 1, 0, 0, 0, 0)",
+            "INSERT INTO illuminants (id, name, measurement_id, standard_file, standard_sha256, \
+             standard_uncertainty_stated, created_at, wavelength_json, spd_json, uncertainty_json, luminance_cd_m2) \
+             VALUES (3, 'booth lamp', 1, 'std.csv', 'ab', 1, 0, '[]', '[]', '[]', 34)",
+        ],
+    )
+    .await;
+    let store = Store::open(&url).await.unwrap();
+    let m = store.get_measurement(1).await.unwrap().unwrap();
+    assert_eq!(m.summary.state, MeasurementState::Complete);
+    assert_eq!((m.summary.booth.as_str(), m.summary.samples_requested), ("north", 5));
+    assert_eq!(m.summary.observer, Some(crate::colorimetry::Observer::JuddVos));
+    assert_eq!(
+        m.samples.len(),
+        2,
+        "the samples are kept, not cascaded away with the old table"
+    );
+    assert!(m.samples[0].usable && !m.samples[1].usable);
+    let interrupted = store.get_measurement(4).await.unwrap().unwrap();
+    assert_eq!(interrupted.summary.error.as_deref(), Some("gone"));
+    assert_eq!(interrupted.samples.len(), 1);
+    assert_eq!(store.comparisons_for_measurement(1).await.unwrap().len(), 1);
+    let pool = store.sqlite_pool().unwrap();
+    let (daemon, illuminant): (Option<i64>, i64) = sqlx::query_as(
+        "SELECT (SELECT daemon_id FROM measurements WHERE id = 1), (SELECT measurement_id FROM illuminants WHERE id = 3)",
+    )
+    .fetch_one(pool)
+    .await
+    .unwrap();
+    assert_eq!((daemon, illuminant), (Some(2), 1));
+    let violations = sqlx::query("PRAGMA foreign_key_check").fetch_all(pool).await.unwrap();
+    assert!(violations.is_empty(), "no dangling references after the rebuild");
+    let mut indexes: Vec<String> = sqlx::query_scalar(
+        "SELECT name FROM sqlite_master WHERE type = 'index' AND tbl_name = 'measurements' AND sql IS NOT NULL",
+    )
+    .fetch_all(pool)
+    .await
+    .unwrap();
+    indexes.sort();
+    assert_eq!(
+        indexes,
+        [
+            "measurements_booth",
+            "measurements_by_scene",
+            "measurements_daemon",
+            "measurements_newest",
+            "measurements_scene",
+            "measurements_state"
+        ]
+    );
+    // And the new limit holds on the migrated table too.
+    let id = store
+        .create_measurement(&NewMeasurement {
+            samples: 150,
+            ..new_measurement()
+        })
+        .await
+        .unwrap();
+    assert!(id > 4, "ids continue after the kept rows");
 }
 
 /// A database from before booths (migrations up to 0008) keeps its
@@ -938,13 +1145,34 @@ async fn recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none(
     };
     let recovered = noticer.recover_abandoned_work(heartbeat_scope).await.unwrap();
     assert_eq!(
-        recovered,
-        Recovered {
-            measurements: 2,
-            renders: 0,
-            studies: 1
-        }
+        (recovered.measurements, recovered.renders, recovered.studies),
+        (2, 0, 1)
     );
+    // Recovery returns the rows it marked, with their errors, so the daemon
+    // that noticed can send their events (`daemon::lease`).
+    let mut ids: Vec<(&str, i64)> = recovered
+        .interrupted
+        .iter()
+        .map(|w| match w {
+            InterruptedWork::Measurement { id, error } => {
+                assert!(error.contains("before this measurement finished"), "{error}");
+                ("measurement", *id)
+            }
+            InterruptedWork::Render { id, .. } => ("render", *id),
+            InterruptedWork::Study { id, error } => {
+                assert!(error.contains("retry it with POST /api/studies/"), "{error}");
+                ("study", *id)
+            }
+        })
+        .collect();
+    ids.sort();
+    let mut expected = vec![
+        ("measurement", of_lapsing),
+        ("measurement", of_stopping),
+        ("study", study_of_lapsing),
+    ];
+    expected.sort();
+    assert_eq!(ids, expected);
     let (state, error, samples) = state_of(&store, of_lapsing).await;
     assert_eq!((state, samples), (MeasurementState::Interrupted, 1));
     let error = error.unwrap();

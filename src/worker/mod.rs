@@ -32,9 +32,9 @@ use anyhow::Context;
 use sha2::{Digest, Sha256};
 use tokio::sync::broadcast;
 
+use crate::daemon::lease::Lease;
 use crate::daemon::renders::Renderer;
 use crate::daemon::worker_queue::{ComparisonPayload, RenderConfig};
-use crate::daemon::{heartbeat, AbortOnDrop};
 use crate::render::bundle::SceneBundle;
 use crate::render::integrator::CancelFlag;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
@@ -75,11 +75,14 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
          a daemon on an SQLite file renders itself"
     );
     let booth: Booth = WORKER_BOOTH.parse().map_err(anyhow::Error::msg)?;
-    let id = store
-        .register_daemon(&booth, options.lease)
+    // Nobody listens to a worker's events; its heartbeat still recovers the
+    // work of gone daemons and workers, as a daemon's does.
+    let events = broadcast::channel(64).0;
+    let lease = Lease::take(&store, &booth, options.lease, options.heartbeat, Some(events.clone()))
         .await
         .context("registering this worker's lease")?;
-    let store = store.as_daemon(id);
+    let id = lease.id();
+    let store = lease.store().clone();
     store.set_daemon_role("worker", None).await?;
     tracing::info!(
         worker = id,
@@ -91,12 +94,11 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
         "lightbooth worker {id} claiming jobs from {}",
         redacted(&options.db_url)
     );
-    let beat = AbortOnDrop(tokio::spawn(heartbeat(store.clone(), id, options.heartbeat)));
     let mut worker = Worker {
         store: store.clone(),
         options: options.clone(),
         renderers: HashMap::new(),
-        events: broadcast::channel(64).0,
+        events,
     };
     let mut shutdown = std::pin::pin!(shutdown);
     loop {
@@ -126,9 +128,7 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
             }
         }
     }
-    drop(beat);
-    // Stopped: the job it held (if any) is queued again by whoever beats next.
-    store.mark_daemon_stopped(id).await?;
+    lease.release().await?;
     tracing::info!(worker = id, "render worker stopped");
     store.close().await;
     Ok(())

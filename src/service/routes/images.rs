@@ -223,7 +223,9 @@ async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap
             a_info.render_id, b_info.render_id
         )));
     }
-    let (white, source) = Arc::clone(service(state)?).cielab_white(a_info.scene.clone()).await?;
+    let (white, source) = Arc::clone(service(state)?)
+        .cielab_white(a_info.scene.clone(), state.config.booth.clone())
+        .await?;
     tokio::task::spawn_blocking(move || image_views::delta_e_map(&a, id, &b, against, white, source))
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))?

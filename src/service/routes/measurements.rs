@@ -24,9 +24,9 @@ pub struct StartMeasurement {
     /// Scene id (see `/api/scenes`); the daemon renders and compares when given with `target`.
     pub scene: Option<String>,
     pub target: Option<String>,
-    /// Samples to average: at least 1, at most what the instrument model allows (the PR-650: 99);
-    /// default: the daemon's, 5 unless configured.
-    #[schema(minimum = 1, maximum = 99)]
+    /// Samples to average: at least 1, at most what the daemon's instrument model allows
+    /// (its capabilities; the PR-650's driver: 99); default: the daemon's, 5 unless configured.
+    #[schema(minimum = 1)]
     pub samples: Option<usize>,
     pub session_id: Option<i64>,
     /// Free text kept with the measurement and shown in the table (`notes` is accepted too).

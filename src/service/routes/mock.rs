@@ -55,7 +55,7 @@ pub async fn mock_display(
     let mock = state
         .mock
         .as_ref()
-        .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real PR-650".into()))?;
+        .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real instrument".into()))?;
     mock.show_on_display(body.drive)
         .map_err(|e| ApiError::BadRequest(format!("field `drive`: {e}")))?;
     Ok(StatusCode::NO_CONTENT)
