@@ -10,17 +10,22 @@
 //! fails. The harness is `tests/common/booths.rs`, shared with
 //! `tests/booths_scale.rs` (the same checks with a small load, in CI).
 //!
+//! With `--workers N` the daemons leave their comparisons, renders and
+//! studies to N render workers (`serve --renders workers`, `lightbooth
+//! worker`); after the load one study runs (on a worker), and with two or
+//! more workers the worker kill test runs first: a render asked of a booth
+//! is running on a worker when that worker is killed with SIGKILL, and
+//! another must finish it.
+//!
 //! ```text
-//! cargo bench --bench booths_scale -- [--json] [--daemons 3] [--per-booth 100]
-//!     [--samples 3] [--mock-speed 0] [--render-samples 1024]
-//!     [--kill-samples 99] [--beside-kill 5] [--no-kill] [--db postgres://…]
+//! cargo bench --bench booths_scale -- [--json] [--daemons 3] [--workers 0]
+//!     [--per-booth 100] [--samples 3] [--mock-speed 0] [--render-samples 1024]
+//!     [--kill-samples 99] [--beside-kill 5] [--no-kill]
+//!     [--worker-kill-samples 1048576] [--no-study] [--db postgres://…]
 //! ```
 //!
 //! Without `--db` the database is a fresh one on the test server
-//! (`tests/setup.sh`; `$LIGHTBOOTH_TEST_PG` or target/pg-url). Render
-//! workers (`--workers N`) join once `lightbooth worker` exists: a
-//! `spawn_worker` beside `booths::spawn_serve`, daemons started with
-//! `--renders workers` through `ServeOptions::extra_args`.
+//! (`tests/setup.sh`; `$LIGHTBOOTH_TEST_PG` or target/pg-url).
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -41,6 +46,9 @@ struct Options {
     kill: bool,
     kill_samples: usize,
     beside_kill: usize,
+    workers: usize,
+    worker_kill_samples: u32,
+    study: bool,
     serve: booths::ServeOptions,
 }
 
@@ -59,6 +67,9 @@ fn options() -> Options {
         kill: true,
         kill_samples: 99,
         beside_kill: 5,
+        workers: 0,
+        worker_kill_samples: 1 << 20,
+        study: true,
         serve: booths::ServeOptions::default(),
     };
     let mut args = std::env::args().skip(1);
@@ -74,7 +85,9 @@ fn options() -> Options {
             "--kill-samples" => o.kill_samples = value("--kill-samples", args.next()),
             "--beside-kill" => o.beside_kill = value("--beside-kill", args.next()),
             "--no-kill" => o.kill = false,
-            "--workers" => panic!("--workers: render workers (`lightbooth worker`) are not part of this build yet"),
+            "--workers" => o.workers = value("--workers", args.next()),
+            "--worker-kill-samples" => o.worker_kill_samples = value("--worker-kill-samples", args.next()),
+            "--no-study" => o.study = false,
             // `cargo bench` passes `--bench`.
             "--bench" => {}
             other => panic!("unknown argument {other}"),
@@ -85,6 +98,11 @@ fn options() -> Options {
         "the kill test needs a neighbour: --daemons 2 or more"
     );
     assert!(o.daemons >= 1, "--daemons 0: nothing to measure with");
+    if o.workers > 0 {
+        o.serve
+            .extra_args
+            .extend(["--renders".to_string(), "workers".to_string()]);
+    }
     o
 }
 
@@ -101,6 +119,10 @@ fn main() {
         };
         let names = booths::booth_names(o.daemons);
         let mut lab = booths::start_lab(&db, &names, &o.serve).await;
+        for _ in 0..o.workers {
+            let w = booths::spawn_worker(&db, 0.5, 2.0).await;
+            lab.workers.push(w);
+        }
         eprintln!(
             "{} daemons up; submitting {} measurements per booth",
             lab.daemons.len(),
@@ -111,6 +133,7 @@ fn main() {
         let a = &load.audit;
         let mut report = json!({
             "daemons": o.daemons,
+            "workers": o.workers,
             "per_booth": o.per_booth,
             "samples": o.samples,
             "mock_speed": o.serve.mock_speed,
@@ -140,6 +163,30 @@ fn main() {
             }
         }
         let mut passed = a.passed();
+        if o.workers >= 2 {
+            let k = booths::kill_worker_test(&mut lab, o.worker_kill_samples).await;
+            if !o.json {
+                println!(
+                    "kill -9 of worker {} mid-render {}: {} {:.1} s after the kill, finished by worker {:?} ({} claims)",
+                    k.killed_worker, k.render_id, k.state_after, k.seconds_to_complete, k.finished_by, k.attempts
+                );
+                for f in &k.failures {
+                    println!("    FAILED: {f}");
+                }
+            }
+            passed &= k.failures.is_empty();
+            report["worker_kill"] = k.to_json();
+        }
+        if o.study {
+            let t = std::time::Instant::now();
+            let study = booths::run_study(&lab, "white,red", Duration::from_secs(1800)).await;
+            let seconds = t.elapsed().as_secs_f64();
+            if !o.json {
+                println!("one study (white, red; 1 seed): {} in {seconds:.1} s {}", study["state"], study["error"]);
+            }
+            passed &= study["state"] == "complete";
+            report["study"] = json!({ "state": study["state"], "error": study["error"], "seconds": seconds });
+        }
         if o.kill {
             let kill = booths::kill_test(&mut lab, "scale", o.kill_samples, o.beside_kill, &load.submissions, &codings).await;
             if !o.json {

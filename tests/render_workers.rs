@@ -9,65 +9,16 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader};
+#[path = "common/booths.rs"]
+mod booths;
+
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::Duration;
 
 use common::{get_json, poll_until, post_json, Daemon, TOKEN};
 use lightbooth::store::{Store, WorkerJobKind};
 use serde_json::Value;
-
-/// `lightbooth worker` as a child process in an empty folder, killed
-/// (SIGKILL) when dropped.
-struct WorkerProcess {
-    child: Child,
-    /// Its id in `daemons`.
-    id: i64,
-    _dir: tempfile::TempDir,
-}
-
-impl Drop for WorkerProcess {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Starts a worker on `db` with the given lease; returns once it has
-/// registered (it prints `lightbooth worker ID claiming jobs …`).
-async fn spawn_worker(db: &str, heartbeat_seconds: f64, lease_seconds: f64) -> WorkerProcess {
-    let dir = tempfile::tempdir().unwrap();
-    let log = std::fs::File::create(dir.path().join("worker.log")).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
-        .current_dir(dir.path())
-        .args(["worker", "--db", db, "--poll-ms", "50"])
-        .arg("--cache-dir")
-        .arg(dir.path().join("cache"))
-        .args(["--heartbeat-seconds", &heartbeat_seconds.to_string()])
-        .args(["--lease-seconds", &lease_seconds.to_string()])
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::from(log))
-        .spawn()
-        .expect("run lightbooth worker");
-    let stdout = child.stdout.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if let Some(rest) = line.strip_prefix("lightbooth worker ") {
-                let id = rest.split_whitespace().next().and_then(|s| s.parse::<i64>().ok());
-                let _ = tx.send(id);
-            }
-        }
-    });
-    let id = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
-        .await
-        .unwrap()
-        .expect("the worker printed its id")
-        .expect("a numeric worker id");
-    WorkerProcess { child, id, _dir: dir }
-}
 
 async fn measure(addr: std::net::SocketAddr, scene: &str, target: &str) -> i64 {
     let (status, m) = post_json(
@@ -107,7 +58,7 @@ async fn a_booth_leaving_renders_to_workers_gets_its_comparisons_from_a_worker_w
     let (_, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
     assert_eq!(rows.as_array().map_or(0, Vec::len), 0, "{rows}");
 
-    let worker = spawn_worker(&db, 2.0, 10.0).await;
+    let worker = booths::spawn_worker(&db, 2.0, 10.0).await;
     let ready = common::wait_for(&mut events, "comparison_ready", Duration::from_secs(120), |name, v| {
         name == "comparison_ready" && v["measurement_id"] == m
     })
@@ -204,7 +155,7 @@ async fn a_render_asked_of_a_booth_runs_on_a_worker_and_a_cancel_reaches_it() {
     let booth = Daemon::start_for_workers(0.0, &db, "north").await;
     let store = Store::open_as_tool(&db).await.unwrap();
     let mut events = common::events(booth.addr).await;
-    let worker = spawn_worker(&db, 2.0, 10.0).await;
+    let worker = booths::spawn_worker(&db, 2.0, 10.0).await;
 
     let long = start_long_render(booth.addr).await;
     wait_for_job(&store, long, "running on the worker", |v| {
@@ -240,16 +191,15 @@ async fn a_worker_killed_mid_render_has_the_render_finished_by_another_never_int
     let db = common::fresh_postgres_database().await;
     let booth = Daemon::start_for_workers(0.0, &db, "north").await;
     let store = Store::open_as_tool(&db).await.unwrap();
-    let mut first = spawn_worker(&db, 0.3, 1.5).await;
+    let mut first = booths::spawn_worker(&db, 0.3, 1.5).await;
     let render = start_long_render(booth.addr).await;
     wait_for_job(&store, render, "running on the first worker", |v| {
         v["render_state"] == "running" && v["worker_id"] == first.id
     })
     .await;
-    first.child.kill().unwrap(); // SIGKILL: no stopped_at, the lease runs out
-    first.child.wait().unwrap();
+    first.kill(); // SIGKILL: no stopped_at, the lease runs out
 
-    let second = spawn_worker(&db, 2.0, 10.0).await;
+    let second = booths::spawn_worker(&db, 2.0, 10.0).await;
     let taken = wait_for_job(&store, render, "taken by the second worker", |v| {
         v["worker_id"] == second.id
     })

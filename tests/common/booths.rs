@@ -7,10 +7,11 @@
 //! figures) and `tests/booths_scale.rs` (a small load in CI) both include
 //! this file with `#[path]`, beside `tests/common/mod.rs` as `common`.
 //!
-//! Every process is started by one small function ([`spawn_serve`]), so
-//! the render workers of issue 14 (`lightbooth worker --db …`, daemons with
-//! `--renders workers`) join as a `spawn_worker` beside it and
-//! [`ServeOptions::extra_args`].
+//! Every process is started by one small function: [`spawn_serve`] for a
+//! booth's daemon, [`spawn_worker`] for a render worker (`lightbooth
+//! worker`, run in an empty folder: it renders from the scene bundles in
+//! the database); daemons leave their rendering to workers with
+//! `--renders workers` in [`ServeOptions::extra_args`].
 //!
 //! A submission is identified by its note (unique per run), not by the id
 //! the daemon answered: the audit counts the rows carrying each note, so a
@@ -165,10 +166,79 @@ pub async fn spawn_serve(db: &str, booth: &str, options: &ServeOptions) -> Serve
     process
 }
 
-/// The booths' daemons on one database.
+/// `lightbooth worker` as a child process in an empty folder, killed
+/// (SIGKILL) when dropped.
+pub struct WorkerProcess {
+    pub child: Child,
+    /// Its id in `daemons` (it prints `lightbooth worker ID claiming jobs …`).
+    pub id: i64,
+    dir: tempfile::TempDir,
+}
+
+impl WorkerProcess {
+    /// The last lines of its log (stderr), for a failure message.
+    pub fn log_tail(&self) -> String {
+        let log = std::fs::read_to_string(self.dir.path().join("worker.log")).unwrap_or_default();
+        let lines: Vec<&str> = log.lines().collect();
+        lines[lines.len().saturating_sub(20)..].join("\n")
+    }
+
+    /// kill -9: no shutdown, no lease release; waits for the process to end.
+    pub fn kill(&mut self) {
+        self.child.kill().expect("SIGKILL the worker");
+        self.child.wait().expect("reap the worker");
+    }
+}
+
+impl Drop for WorkerProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Runs the built binary `worker --db DB` with the given lease, in an empty
+/// folder (no `scenes/`); returns once it has registered.
+pub async fn spawn_worker(db: &str, heartbeat_seconds: f64, lease_seconds: f64) -> WorkerProcess {
+    let dir = tempfile::tempdir().unwrap();
+    let log = std::fs::File::create(dir.path().join("worker.log")).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .current_dir(dir.path())
+        .args(["worker", "--db", db, "--poll-ms", "50"])
+        .arg("--cache-dir")
+        .arg(dir.path().join("cache"))
+        .args(["--heartbeat-seconds", &heartbeat_seconds.to_string()])
+        .args(["--lease-seconds", &lease_seconds.to_string()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(log))
+        .spawn()
+        .expect("run lightbooth worker");
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if let Some(rest) = line.strip_prefix("lightbooth worker ") {
+                let _ = tx.send(rest.split_whitespace().next().and_then(|s| s.parse::<i64>().ok()));
+            }
+        }
+    });
+    let printed = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
+        .await
+        .unwrap();
+    let mut worker = WorkerProcess { child, id: 0, dir };
+    match printed {
+        Ok(Some(id)) => worker.id = id,
+        _ => panic!("the worker never printed its id:\n{}", worker.log_tail()),
+    }
+    worker
+}
+
+/// The booths' daemons on one database, and the render workers.
 pub struct Lab {
     pub db: String,
     pub daemons: Vec<ServeProcess>,
+    pub workers: Vec<WorkerProcess>,
 }
 
 /// `booth-1` … `booth-N`.
@@ -185,6 +255,7 @@ pub async fn start_lab(db: &str, booths: &[String], options: &ServeOptions) -> L
     Lab {
         db: db.to_string(),
         daemons,
+        workers: Vec::new(),
     }
 }
 
@@ -578,4 +649,134 @@ pub async fn kill_test(
             .push("the kill (or its recovery) touched measurements finished before it".into());
     }
     out
+}
+
+/// What the worker kill test saw.
+#[derive(Debug, Default)]
+pub struct WorkerKillOutcome {
+    pub render_id: i64,
+    pub killed_worker: i64,
+    /// The render's final state and the worker that finished it.
+    pub state_after: String,
+    pub finished_by: Option<i64>,
+    /// How many workers claimed the job.
+    pub attempts: i64,
+    /// From the kill until the render was complete.
+    pub seconds_to_complete: f64,
+    pub failures: Vec<String>,
+}
+
+impl WorkerKillOutcome {
+    pub fn to_json(&self) -> Value {
+        json!({
+            "render_id": self.render_id,
+            "killed_worker": self.killed_worker,
+            "state_after": self.state_after,
+            "finished_by": self.finished_by,
+            "attempts": self.attempts,
+            "seconds_to_complete": self.seconds_to_complete,
+            "failures": self.failures,
+        })
+    }
+}
+
+/// The job of `kind` about `subject` (state, worker, attempts), read from
+/// the database directly: the API does not show worker jobs.
+async fn worker_job(db: &str, kind: &str, subject: i64) -> Option<(String, Option<i64>, i64)> {
+    use sqlx::Connection;
+    let mut conn = sqlx::PgConnection::connect(db).await.unwrap();
+    sqlx::query_as("SELECT state, worker_id, attempts FROM worker_jobs WHERE kind = $1 AND subject_id = $2")
+        .bind(kind)
+        .bind(subject)
+        .fetch_optional(&mut conn)
+        .await
+        .unwrap()
+}
+
+/// kill -9 of a render worker mid-job: a render of `samples` paths per
+/// target is asked of the first booth; once a worker runs it, that worker
+/// is killed, and another must finish the render (complete, never
+/// interrupted), the job claimed twice. The killed worker is removed from
+/// `lab`; at least two workers are needed.
+pub async fn kill_worker_test(lab: &mut Lab, samples: u32) -> WorkerKillOutcome {
+    assert!(lab.workers.len() >= 2, "the worker kill test needs two workers");
+    let booth = lab.daemons[0].addr;
+    let (status, r) = post_json(
+        booth,
+        "/api/scenes/white/renders",
+        TOKEN,
+        &json!({ "samples": samples }).to_string(),
+    )
+    .await;
+    assert_eq!(status, 202, "{r}");
+    let mut out = WorkerKillOutcome {
+        render_id: r["render_id"].as_i64().unwrap(),
+        ..WorkerKillOutcome::default()
+    };
+    let url = format!("/api/renders/{}", out.render_id);
+    let deadline = Instant::now() + Duration::from_secs(600);
+    let holder = loop {
+        let job = worker_job(&lab.db, "render", out.render_id).await;
+        let (_, row) = get_json(booth, &url).await;
+        if let Some((state, Some(worker), _)) = &job {
+            if state == "running" && row["state"] == "running" {
+                break *worker;
+            }
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no worker ever ran render {}: {job:?} {row}",
+            out.render_id
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    let k = lab
+        .workers
+        .iter()
+        .position(|w| w.id == holder)
+        .expect("a worker of this lab");
+    let mut victim = lab.workers.remove(k);
+    victim.kill();
+    out.killed_worker = holder;
+    let killed_at = Instant::now();
+    let done = poll_until(booth, &url, Duration::from_secs(900), |v| {
+        v["state"] != "running" && v["state"] != "queued"
+    })
+    .await;
+    out.seconds_to_complete = killed_at.elapsed().as_secs_f64();
+    out.state_after = done["state"].as_str().unwrap_or_default().to_string();
+    if let Some((_, worker, attempts)) = worker_job(&lab.db, "render", out.render_id).await {
+        out.finished_by = worker;
+        out.attempts = attempts;
+    }
+    if out.state_after != "complete" {
+        out.failures
+            .push(format!("the render is {}: {}", out.state_after, done["error"]));
+    }
+    if out.attempts != 2 || out.finished_by == Some(holder) || out.finished_by.is_none() {
+        out.failures.push(format!(
+            "the job was claimed {} times, last by worker {:?} (killed: {holder})",
+            out.attempts, out.finished_by
+        ));
+    }
+    out
+}
+
+/// A study asked of the first booth (every coding of `scenes` against the
+/// measurements, one seed): its final state, waited for (bounded).
+pub async fn run_study(lab: &Lab, scenes: &str, limit: Duration) -> Value {
+    let booth = lab.daemons[0].addr;
+    let (status, s) = post_json(
+        booth,
+        "/api/studies",
+        TOKEN,
+        &json!({ "scenes": scenes, "against": "measurements", "seeds": 1 }).to_string(),
+    )
+    .await;
+    assert_eq!(status, 202, "{s}");
+    let url = format!("/api/studies/{}", s["id"].as_i64().unwrap());
+    poll_until(booth, &url, limit, |v| {
+        v["state"] != "running" && v["state"] != "queued"
+    })
+    .await
 }
