@@ -13,6 +13,9 @@ CREATE TABLE worker_jobs (
     id INTEGER PRIMARY KEY,
     kind TEXT NOT NULL CHECK (kind IN ('comparison', 'render', 'study')),
     subject_id INTEGER NOT NULL,
+    -- The scene a comparison or render is of ('' for a study): a worker
+    -- prefers a job whose scene no running comparison is rendering.
+    scene TEXT NOT NULL DEFAULT '',
     requested_by INTEGER NOT NULL REFERENCES daemons (id),
     payload_json TEXT NOT NULL,
     state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'done', 'failed', 'cancelled')),

@@ -119,9 +119,10 @@ impl Store {
         payload: &serde_json::Value,
     ) -> Result<i64, StoreError> {
         let me = self.registered_id("queueing a worker job")?;
+        let scene = payload.get("scene").and_then(|s| s.as_str()).unwrap_or_default();
         let sql = format!(
-            "INSERT INTO worker_jobs (kind, subject_id, requested_by, payload_json, state, created_at) \
-             VALUES ($1, $2, $3, $4, 'queued', {}) RETURNING id",
+            "INSERT INTO worker_jobs (kind, subject_id, requested_by, payload_json, scene, state, created_at) \
+             VALUES ($1, $2, $3, $4, $5, 'queued', {}) RETURNING id",
             self.clock_sql()
         );
         Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
@@ -129,11 +130,15 @@ impl Store {
             .bind(subject_id)
             .bind(me)
             .bind(payload.to_string())
+            .bind(scene)
             .fetch_one(pool)
             .await?))
     }
 
-    /// Claims the oldest queued job for this handle's worker, if any.
+    /// Claims a queued job for this handle's worker, if any: the oldest,
+    /// except that a comparison of a scene another worker's comparison is
+    /// rendering comes after the rest (it would only wait for that render),
+    /// so a second worker renders another scene meanwhile.
     pub async fn claim_worker_job(&self) -> Result<Option<ClaimedJob>, StoreError> {
         let me = self.registered_id("claiming a worker job")?;
         let lock = match self.engine {
@@ -142,7 +147,9 @@ impl Store {
         };
         let sql = format!(
             "UPDATE worker_jobs SET state = 'running', worker_id = $1, attempts = attempts + 1, started_at = {clock} \
-             WHERE state = 'queued' AND id = (SELECT id FROM worker_jobs WHERE state = 'queued' ORDER BY id LIMIT 1 {lock}) \
+             WHERE state = 'queued' AND id = (SELECT j.id FROM worker_jobs j WHERE j.state = 'queued' \
+             ORDER BY (j.kind = 'comparison' AND j.scene <> '' AND EXISTS (SELECT 1 FROM worker_jobs r \
+             WHERE r.state = 'running' AND r.kind = 'comparison' AND r.scene = j.scene)), j.id LIMIT 1 {lock}) \
              RETURNING {JOB_COLUMNS}",
             clock = self.clock_sql()
         );

@@ -13,6 +13,7 @@ use super::MAX_ATTEMPTS;
 
 on_both_engines!(
     workers_claiming_at_once_never_take_the_same_job,
+    a_second_worker_takes_another_scene_than_the_one_being_rendered,
     a_gone_workers_render_is_queued_again_never_interrupted_and_fails_after_max_attempts,
     cancelling_ends_a_queued_job_and_flags_a_running_one,
 );
@@ -163,4 +164,31 @@ async fn cancelling_ends_a_queued_job_and_flags_a_running_one(engine: EngineKind
         .await
         .unwrap());
     assert_eq!(daemon.unfinished_worker_jobs_requested().await.unwrap(), 0);
+}
+
+/// Comparisons of red, red, green queued in that order: while the first
+/// worker holds red (rendering it), the second takes green, which it can
+/// render meanwhile, not the second red, which would wait for the first.
+async fn a_second_worker_takes_another_scene_than_the_one_being_rendered(engine: EngineKind) {
+    let db = TestDb::new(engine).await;
+    let daemon = registered(&db.url, "north").await;
+    for (subject, scene) in [(1, "red"), (2, "red"), (3, "green")] {
+        daemon
+            .queue_worker_job(
+                WorkerJobKind::Comparison,
+                subject,
+                &serde_json::json!({ "scene": scene }),
+            )
+            .await
+            .unwrap();
+    }
+    let first = registered(&db.url, "workers").await;
+    let second = registered(&db.url, "workers").await;
+    assert_eq!(first.claim_worker_job().await.unwrap().unwrap().subject_id, 1);
+    assert_eq!(second.claim_worker_job().await.unwrap().unwrap().subject_id, 3);
+    assert_eq!(
+        second.claim_worker_job().await.unwrap().unwrap().subject_id,
+        2,
+        "then the rest, oldest first"
+    );
 }
