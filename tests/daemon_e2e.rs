@@ -99,8 +99,27 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         ix > 0.3 && x > 0.3 && (ix - x).abs() > 1e-4,
         "instrument {ix} vs Judd–Vos {x}"
     );
+    // a_measurements_y_was_the_instruments_cie_1931_luminance: `Y` was the
+    // instrument's CIE 1931 luminance shown beside Judd–Vos x, y; now every
+    // `Y` is XYZ[1] of the named observer, and the instrument's own is
+    // `instrument_Y`.
+    let xyz_y = m["XYZ"][1].as_f64().unwrap();
+    assert_eq!(y, xyz_y, "Y is XYZ[1] of the observer: {m}");
+    let instrument_y = m["instrument_Y"].as_f64().unwrap();
+    assert!(
+        (instrument_y - y).abs() > 1e-6 && (instrument_y / y - 1.0).abs() < 0.05,
+        "the instrument's CIE 1931 Y {instrument_y} is not the Judd–Vos Y {y}"
+    );
+    for s in m["samples"].as_array().unwrap() {
+        let (sy, iy) = (s["Y"].as_f64().unwrap(), s["instrument_Y"].as_f64().unwrap());
+        assert!(
+            (sy / y - 1.0).abs() < 0.05 && (sy - iy).abs() > 1e-6,
+            "a sample's Y is its spectrum's Judd–Vos luminance, not the instrument's: {s}"
+        );
+    }
     let (_, list) = get_json(d.addr, "/api/measurements").await;
     let listed = &list["items"][0];
+    assert_eq!(listed["Y"], m["XYZ"][1], "{listed}");
     assert_eq!(listed["observer"], "judd-vos-1978", "{listed}");
     assert_eq!(listed["instrument_x"], m["instrument_x"]);
 

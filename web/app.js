@@ -299,7 +299,7 @@ async function showMeasurement(id) {
   $("measurement-detail").hidden = false;
   $("detail-title").textContent = `Measurement ${m.id}` + (m.scene ? `: ${m.scene} / ${m.target}` : "");
   const average = `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), CV = ${fmt(m.luminance_cv, 2)}` +
-    (m.instrument_x != null ? `; the ${m.instrument_model || "instrument"}'s own CIE 1931 x = ${fmt(m.instrument_x, 4)}, y = ${fmt(m.instrument_y, 4)}` : "");
+    (m.instrument_x != null ? `; the ${m.instrument_model || "instrument"}'s own CIE 1931 values: Y = ${fmt(m.instrument_Y, 5)} cd/m², x = ${fmt(m.instrument_x, 4)}, y = ${fmt(m.instrument_y, 4)}` : "");
   $("detail-summary").textContent = (m.state === "complete" ? average
     : `${m.state}${m.error ? ": " + m.error : ""}` +
       (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +
@@ -312,7 +312,7 @@ async function showMeasurement(id) {
   for (const s of m.samples) {
     const tr = tbody.insertRow();
     for (const v of [s.index, new Date(s.time * 1000).toLocaleTimeString(), s.code, s.message, s.usable ? "yes" : "no",
-      fmt(s.Y, 5)]) tr.insertCell().textContent = v;
+      fmt(s.Y, 5), fmt(s.instrument_Y, 4)]) tr.insertCell().textContent = v;
   }
 }
 

@@ -476,6 +476,7 @@ impl Worker {
         let status = self.config.status.clone();
         let runtime = self.config.runtime.clone();
         let of = job.samples;
+        let observer = self.config.renderer.observer();
         let (mut taken, mut usable) = (0usize, 0usize);
         // The first sample that could not be written: the measurement stops there.
         let mut write_failed: Option<String> = None;
@@ -513,7 +514,12 @@ impl Worker {
                 code: row.code,
                 message: row.message.clone(),
                 usable: row.usable,
-                luminance_cd_m2: row.luminance_cd_m2,
+                luminance_cd_m2: s
+                    .radiance
+                    .as_ref()
+                    .and_then(|r| xyz_from_radiance(r, observer).ok())
+                    .map(|xyz| xyz.y),
+                instrument_luminance_cd_m2: row.luminance_cd_m2,
                 wavelength_nm: s
                     .radiance
                     .as_ref()

@@ -123,7 +123,8 @@ pub async fn run(
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let store = Store::open(&options.db_url)
         .await
-        .with_context(|| format!("opening the database {}", options.db_url))?;
+        .with_context(|| format!("opening the database {}", options.db_url))?
+        .with_observer(options.observer);
     let (events, _) = broadcast::channel(1024);
     // From here on every measurement, render and study this daemon creates
     // or runs names it, and its lease says it is alive; its heartbeat tells

@@ -37,8 +37,12 @@ pub enum Event {
         code: i64,
         message: String,
         usable: bool,
+        /// The sample's luminance with the daemon's observer, cd/m².
         #[serde(rename = "Y")]
         luminance_cd_m2: Option<f64>,
+        /// The luminance the instrument itself reported (CIE 1931); never charted.
+        #[serde(rename = "instrument_Y")]
+        instrument_luminance_cd_m2: Option<f64>,
         wavelength_nm: Vec<f64>,
         radiance: Option<Vec<f64>>,
     },

@@ -200,8 +200,8 @@ impl Store {
     /// record the daemon.
     pub fn as_daemon(&self, id: i64) -> Store {
         Store {
-            engine: self.engine.clone(),
             daemon_id: Some(id),
+            ..self.clone()
         }
     }
 

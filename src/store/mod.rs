@@ -81,6 +81,8 @@ use sqlx::sqlite::{SqlitePool, SqliteSynchronous};
 
 use engine::Engine;
 
+use crate::colorimetry::Observer;
+
 pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
@@ -212,9 +214,27 @@ pub struct Store {
     /// The daemon this handle acts for ([`Store::as_daemon`]): recorded on
     /// the measurements, renders and studies it creates or starts.
     daemon_id: Option<i64>,
+    /// The observer of what the store computes when it reads (a partial
+    /// average, each sample's `Y`) for measurements that have none stored:
+    /// the daemon's `--observer` ([`Store::with_observer`]).
+    observer: Observer,
 }
 
 impl Store {
+    /// This handle, computing with `observer` what it derives on read (a
+    /// partial average's Y, x, y; a sample's Y) where the measurement stores
+    /// no observer of its own. The daemon passes its `--observer`; the
+    /// default is Judd–Vos 1978, the daemon's default.
+    pub fn with_observer(mut self, observer: Observer) -> Store {
+        self.observer = observer;
+        self
+    }
+
+    /// The observer of [`Store::with_observer`].
+    pub fn observer(&self) -> Observer {
+        self.observer
+    }
+
     /// Opens the database at `url` — `sqlite://path` (created if needed),
     /// `sqlite::memory:`, or `postgres://user@host/db` (the database must
     /// exist) — applies migrations, and marks measurements a crash left
@@ -243,6 +263,7 @@ impl Store {
             engine::EngineKind::Postgres => Ok(Store {
                 engine: Engine::connect(url, SqliteSynchronous::Full).await?,
                 daemon_id: None,
+                observer: Observer::default(),
             }),
         }
     }
@@ -254,6 +275,7 @@ impl Store {
         Ok(Store {
             engine: Engine::connect(url, SqliteSynchronous::Full).await?,
             daemon_id: None,
+            observer: Observer::default(),
         })
     }
 
@@ -263,6 +285,7 @@ impl Store {
         let store = Store {
             engine: Engine::connect(url, synchronous).await?,
             daemon_id: None,
+            observer: Observer::default(),
         };
         // The work of daemons that are gone (leases, `leases.rs`) and rows
         // that name no daemon. On SQLite the caller holds the file alone, so
@@ -618,10 +641,16 @@ impl Store {
         .bind(id)
         .fetch_all(pool)
         .await?);
-        let samples = sample_records
+        let mut samples = sample_records
             .into_iter()
             .map(SampleRow::try_from)
             .collect::<Result<Vec<_>, StoreError>>()?;
+        // Each sample's Y from its spectrum with the measurement's observer,
+        // the same one as the measurement's `Y` (never the instrument's own).
+        let observer = summary.observer.unwrap_or(self.observer);
+        for s in &mut samples {
+            s.luminance_cd_m2 = s.radiance.as_deref().and_then(|values| sample_luminance(values, observer));
+        }
         Ok(Some(MeasurementDetail {
             summary,
             wavelength_nm: parse_opt_array(record.wavelength_json, "wavelengths")?,
@@ -1154,6 +1183,15 @@ impl Store {
 
 fn json_array(v: &[f64]) -> String {
     serde_json::to_string(v).expect("finite numbers serialise")
+}
+
+/// Luminance (cd/m²) with `observer` of a stored sample spectrum, on the
+/// native grid its length names; `None` for a length no instrument has.
+fn sample_luminance(values: &[f64], observer: Observer) -> Option<f64> {
+    let grid = crate::instrument::native_grid_of_length(values.len())?;
+    let spectrum =
+        crate::spectrum::Spectrum::new(grid, crate::spectrum::SpectralUnit::SpectralRadiance, values.to_vec()).ok()?;
+    crate::colorimetry::xyz_from_radiance(&spectrum, observer).ok().map(|x| x.y)
 }
 
 fn parse_opt_array(text: Option<String>, what: &str) -> Result<Option<Vec<f64>>, StoreError> {

@@ -7,8 +7,10 @@
 //!
 //! The average is the one a complete measurement gets
 //! ([`average_samples`](crate::instrument::average_samples)): the mean
-//! spectrum of the usable samples, its CIE 1931 Y, x, y, and the luminance
-//! CV over those samples.
+//! spectrum of the usable samples, its `Y`, `x`, `y`, `XYZ` with the
+//! store's observer ([`Store::with_observer`]), the instrument's own CIE
+//! 1931 values beside them (`instrument_Y`, `instrument_x`,
+//! `instrument_y`), and the luminance CV over those samples.
 
 use std::time::{Duration, UNIX_EPOCH};
 
@@ -22,7 +24,7 @@ impl Store {
     pub(super) async fn fill_partial_averages(&self, items: &mut [MeasurementSummary]) -> Result<(), StoreError> {
         for m in items.iter_mut() {
             let unfinished = matches!(m.state, MeasurementState::Interrupted | MeasurementState::Cancelled);
-            if !unfinished || m.good_samples == 0 || m.luminance_cd_m2.is_some() {
+            if !unfinished || m.good_samples == 0 || m.instrument_luminance_cd_m2.is_some() {
                 continue;
             }
             let rows: Vec<(i64, f64, Option<String>, Option<f64>)> = with_pool!(self, |pool| sqlx::query_as(
@@ -37,11 +39,26 @@ impl Store {
                 let values = parse_opt_array(radiance_json, "sample radiance")?.unwrap_or_default();
                 samples.push((idx, taken_at, values, luminance));
             }
+            let observer = m.observer.unwrap_or(self.observer);
             match partial_average(samples) {
                 Ok(avg) => {
-                    m.luminance_cd_m2 = Some(avg.luminance_cd_m2);
-                    m.x = Some(avg.x);
-                    m.y = Some(avg.y);
+                    // The instrument's CIE 1931 values, labelled as its own;
+                    // `Y`, `x`, `y`, `XYZ` with the observer, as for a
+                    // complete measurement.
+                    m.instrument_luminance_cd_m2 = Some(avg.luminance_cd_m2);
+                    m.instrument_x = Some(avg.x);
+                    m.instrument_y = Some(avg.y);
+                    match crate::colorimetry::xyz_from_radiance(&avg.mean, observer) {
+                        Ok(xyz) => {
+                            let xy = xyz.chromaticity();
+                            m.luminance_cd_m2 = Some(xyz.y);
+                            m.x = Some(xy.x);
+                            m.y = Some(xy.y);
+                            m.xyz = Some(xyz.to_array());
+                            m.observer = Some(observer);
+                        }
+                        Err(e) => tracing::warn!(measurement_id = m.id, error = %e, "no XYZ of the partial average"),
+                    }
                     m.luminance_cv = Some(avg.luminance_cv);
                     m.partial = true;
                 }

@@ -112,9 +112,16 @@ pub struct MeasurementSummary {
     pub created_at: f64,
     pub started_at: Option<f64>,
     pub finished_at: Option<f64>,
-    /// Mean luminance, cd/m² (V(λ), the CIE 1931 ȳ).
+    /// Luminance of the mean spectrum, cd/m², computed by lightbooth with
+    /// `observer`: always `XYZ[1]` (the same observer as `x`, `y`, `XYZ`
+    /// and every comparison of the measurement).
     #[serde(rename = "Y")]
     pub luminance_cd_m2: Option<f64>,
+    /// The instrument's own luminance of the mean spectrum, cd/m² (CIE 1931
+    /// 2°, Km = 683 lm/W, as the instrument computes it). Shown labelled as
+    /// the instrument's and never charted.
+    #[serde(rename = "instrument_Y")]
+    pub instrument_luminance_cd_m2: Option<f64>,
     /// The instrument's own chromaticity: CIE 1931 2° x of the mean
     /// spectrum, as the instrument reports it. Never charted next to lightbooth's
     /// values (those are `x`, `y` with `observer`).
@@ -154,8 +161,14 @@ pub struct SampleRow {
     pub usable: bool,
     /// W/(sr·m²·nm) on `wavelength_nm` of the measurement; null when the instrument gave none.
     pub radiance: Option<Vec<f64>>,
+    /// Luminance of this sample's spectrum, cd/m², with the measurement's
+    /// `observer` (null without a spectrum).
     #[serde(rename = "Y")]
     pub luminance_cd_m2: Option<f64>,
+    /// The luminance the instrument itself reported for this sample (its
+    /// CIE 1931 `Y`, four significant digits on a PR-650); never charted.
+    #[serde(rename = "instrument_Y")]
+    pub instrument_luminance_cd_m2: Option<f64>,
 }
 
 /// A measurement with its average spectrum and every raw sample.
@@ -292,7 +305,10 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
             created_at: r.created_at,
             started_at: r.started_at,
             finished_at: r.finished_at,
-            luminance_cd_m2: r.luminance_cd_m2,
+            // Lightbooth's Y is the observer's, from the stored XYZ; the
+            // stored luminance column is the instrument's CIE 1931 value.
+            luminance_cd_m2: xyz.map(|v| v[1]),
+            instrument_luminance_cd_m2: r.luminance_cd_m2,
             instrument_x: r.x,
             instrument_y: r.y,
             observer: observer_column(r.observer, "observer")?,
@@ -328,7 +344,10 @@ impl TryFrom<SampleRecord> for SampleRow {
             message: r.message,
             usable: r.usable,
             radiance: super::parse_opt_array(r.radiance_json, "sample radiance")?,
-            luminance_cd_m2: r.luminance_cd_m2,
+            // Filled from the spectrum with the measurement's observer by
+            // `Store::get_measurement`, which knows it.
+            luminance_cd_m2: None,
+            instrument_luminance_cd_m2: r.luminance_cd_m2,
         })
     }
 }

@@ -858,8 +858,22 @@ async fn partial_averages_and_previews_read_back_alike(engine: EngineKind) {
         "{summary:?}"
     );
     assert!((summary.x.unwrap() - 1.0 / 3.0).abs() < 2e-3, "{summary:?}");
-    let one = store.get_measurement(id).await.unwrap().unwrap().summary;
+    // a_partial_average_labelled_the_instruments_values_as_the_observers:
+    // Y, x, y, XYZ are computed with the store's observer and named; the
+    // CIE 1931 values are the instrument's.
+    assert_eq!(summary.observer, Some(store.observer()), "{summary:?}");
+    assert_eq!(summary.luminance_cd_m2, summary.xyz.map(|v| v[1]), "{summary:?}");
+    assert!(summary.instrument_luminance_cd_m2.is_some() && summary.instrument_x.is_some());
+    assert!(
+        (summary.instrument_luminance_cd_m2.unwrap() - summary.luminance_cd_m2.unwrap()).abs() > 1e-9,
+        "Judd–Vos and CIE 1931 luminances of a flat spectrum differ: {summary:?}"
+    );
+    let detail = store.get_measurement(id).await.unwrap().unwrap();
+    let one = detail.summary;
     assert_eq!(one.luminance_cd_m2, summary.luminance_cd_m2);
+    for s in detail.samples.iter().filter(|s| s.radiance.is_some()) {
+        assert!(s.luminance_cd_m2.is_some(), "a sample with a spectrum has the observer's Y: {s:?}");
+    }
     assert_eq!(one.session_id, Some(session));
     assert_eq!(one.instrument_id, Some(inst));
     let none = store

@@ -287,7 +287,8 @@ pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>)
 
 /// `load('measurement_7.mat')` gives wavelength_nm, radiance, radiance_sd,
 /// samples (one column per sample; NaN where a sample had no valid
-/// spectrum), sample_code, sample_usable, Y, x, y.
+/// spectrum), sample_code, sample_usable, Y, x, y (with `observer`), and
+/// the instrument's own CIE 1931 instrument_Y, instrument_x, instrument_y.
 #[utoipa::path(get, path = "/measurements/{id}/spectrum.mat", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data")))]
 pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
@@ -314,8 +315,20 @@ pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>)
     mat.matrix("sample_code", 1, codes.len(), &codes).map_err(internal)?;
     mat.matrix("sample_usable", 1, usable.len(), &usable)
         .map_err(internal)?;
-    for (name, v) in [("Y", m.summary.luminance_cd_m2), ("x", m.summary.x), ("y", m.summary.y)] {
+    // Y, x, y with the measurement's observer (named in `observer`); the
+    // instrument's own CIE 1931 values under their own names.
+    for (name, v) in [
+        ("Y", m.summary.luminance_cd_m2),
+        ("x", m.summary.x),
+        ("y", m.summary.y),
+        ("instrument_Y", m.summary.instrument_luminance_cd_m2),
+        ("instrument_x", m.summary.instrument_x),
+        ("instrument_y", m.summary.instrument_y),
+    ] {
         mat.scalar(name, v.unwrap_or(f64::NAN)).map_err(internal)?;
+    }
+    if let Some(o) = m.summary.observer {
+        mat.text("observer", o.name()).map_err(internal)?;
     }
     mat.text("state", m.summary.state.as_str()).map_err(internal)?;
     Ok(download(
