@@ -48,6 +48,16 @@ try {
   await page.waitForFunction(() => document.getElementById("live-result").textContent.includes("cd/m²"), null, { timeout: 60000 });
   const progress = await page.$eval("#progress", (p) => [p.value, p.max]);
   if (progress[0] !== 5 || progress[1] !== 5) failures.push(`progress bar at ${progress}`);
+  // live_y_was_the_instruments_cie_1931_luminance: the Y shown beside the
+  // observer's x, y is that observer's XYZ[1], not the instrument's own Y.
+  {
+    const text = await page.$eval("#live-result", (e) => e.textContent);
+    const id = Number((await page.$eval("#progress-text", (e) => e.textContent)).match(/#(\d+)/)[1]);
+    const m = await (await fetch(`${base}/api/measurements/${id}`, { headers: { Authorization: `Bearer ${token}` } })).json();
+    const shown = Number(text.match(/Y = ([0-9.e+-]+) cd/)[1]);
+    if (Math.abs(shown - Number(m.XYZ[1].toPrecision(5))) > 1e-9 || !text.includes("Judd"))
+      failures.push(`Live shows Y = ${shown} but XYZ[1] (${m.observer}) is ${m.XYZ[1]}: ${text}`);
+  }
   await page.waitForFunction(() => {
     const img = document.getElementById("live-spectrum");
     return img.complete && img.naturalWidth > 0;
@@ -60,6 +70,10 @@ try {
   if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });
   await page.click("#measurement-table tbody tr");
   await page.waitForFunction(() => document.querySelectorAll("#sample-table tbody tr").length === 5);
+  {
+    const summary = await page.$eval("#detail-summary", (e) => e.textContent);
+    if (!/own CIE 1931 values: Y = [0-9.]+ cd\/m²/.test(summary)) failures.push(`detail without the instrument's own Y: ${summary}`);
+  }
   await page.waitForFunction(() => {
     const img = document.getElementById("detail-spectrum");
     return img.complete && img.naturalWidth > 0;
