@@ -62,7 +62,10 @@ fn toml_with_radiance(dir: &Path, rad: &str) -> PathBuf {
 fn a_radiance_light_of_1e308_is_an_error_not_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     for (text, want) in [
-        ("void light lamp 0 0 3 1e308 1e308 1e308\n", "lamp.rad:3: light lamp: the radiance 1e308"),
+        (
+            "void light lamp 0 0 3 1e308 1e308 1e308\n",
+            "lamp.rad:3: light lamp: the radiance 1e308",
+        ),
         (
             "void spectrum sp 0 0 5 380 780 1 1 1\nsp light lamp 0 0 3 1e308 1e308 1e308\n",
             "lamp.rad:4: light lamp: grey 1e308",
@@ -126,12 +129,23 @@ fn an_ies_file_with_non_finite_or_overflowing_candela_is_an_error() {
     use lightbooth::render::ies::IesDistribution;
     let head = "IESNA:LM-63-2002\nTILT=NONE\n";
     for (body, want) in [
-        ("1 1000 1 1 1000000000000000000 1 2 0 0 0\n1 1 10\n0\n0\n100\n", "need more numbers"),
-        ("1 1000 1e300 2 1 1 2 0 0 0\n1e300 1 10\n0 90\n0\n100 50\n", "not a finite number"),
-        ("1 1000 1 2 1 1 2 0 0 0\n1 1 10\n0 90\n0\n100 nan\n", "not a finite number"),
+        (
+            "1 1000 1 1 1000000000000000000 1 2 0 0 0\n1 1 10\n0\n0\n100\n",
+            "need more numbers",
+        ),
+        (
+            "1 1000 1e300 2 1 1 2 0 0 0\n1e300 1 10\n0 90\n0\n100 50\n",
+            "not a finite number",
+        ),
+        (
+            "1 1000 1 2 1 1 2 0 0 0\n1 1 10\n0 90\n0\n100 nan\n",
+            "not a finite number",
+        ),
         ("1 1000 -1 2 1 1 2 0 0 0\n1 1 10\n0 90\n0\n100 50\n", "must be positive"),
     ] {
-        let e = IesDistribution::parse(&format!("{head}{body}"), "lamp.ies").unwrap_err().to_string();
+        let e = IesDistribution::parse(&format!("{head}{body}"), "lamp.ies")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("lamp.ies") && e.contains(want), "{e}");
     }
 }
@@ -146,23 +160,43 @@ fn xform_arrays_are_linear_in_their_count() {
     // The whole array is one expansion of the file placed N times: N polygons
     // (2 triangles each), and the copies are where arrays put them.
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "tile.rad", "grey polygon tile 0 0 12 0 0 0 0.001 0 0 0.001 0.001 0 0 0.001 0\n");
+    write(
+        dir.path(),
+        "tile.rad",
+        "grey polygon tile 0 0 12 0 0 0 0.001 0 0 0.001 0.001 0 0 0.001 0\n",
+    );
     for n in [10, 1000, 100_000] {
-        let rad = write(dir.path(), "s.rad", &format!("{FLOOR}!xform -t 0 0 1 -a {n} -t 0.002 0 0 tile.rad\n"));
+        let rad = write(
+            dir.path(),
+            "s.rad",
+            &format!("{FLOOR}!xform -t 0 0 1 -a {n} -t 0.002 0 0 tile.rad\n"),
+        );
         assert_eq!(rad_primitives(&rad), 2 + 2 * n, "-a {n}");
     }
     // Arrays nested through files multiply: 300 × 300 tiles.
     write(dir.path(), "row.rad", "!xform -a 300 -t 0.002 0 0 tile.rad\n");
-    let rad = write(dir.path(), "s.rad", &format!("{FLOOR}!xform -t 0 0 1 -a 300 -t 0 0.002 0 row.rad\n"));
+    let rad = write(
+        dir.path(),
+        "s.rad",
+        &format!("{FLOOR}!xform -t 0 0 1 -a 300 -t 0 0.002 0 row.rad\n"),
+    );
     assert_eq!(rad_primitives(&rad), 2 + 2 * 300 * 300);
 }
 
 #[test]
 fn nested_xform_arrays_are_bounded_in_primitives_and_placements() {
     let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), "tile.rad", "grey polygon tile 0 0 12 0 0 0 0.001 0 0 0.001 0.001 0 0 0.001 0\n");
+    write(
+        dir.path(),
+        "tile.rad",
+        "grey polygon tile 0 0 12 0 0 0 0.001 0 0 0.001 0.001 0 0 0.001 0\n",
+    );
     write(dir.path(), "row.rad", "!xform -a 100000 -t 0.002 0 0 tile.rad\n");
-    let rad = write(dir.path(), "s.rad", &format!("{FLOOR}\n!xform -a 100000 -t 0 0.002 0 row.rad\n"));
+    let rad = write(
+        dir.path(),
+        "s.rad",
+        &format!("{FLOOR}\n!xform -a 100000 -t 0 0.002 0 row.rad\n"),
+    );
     let e = within(Duration::from_secs(120), move || load_radiance_scene(&rad, &view()))
         .unwrap_err()
         .to_string();
@@ -207,7 +241,10 @@ fn a_fifo_as_an_included_file_is_refused_without_hanging() {
     let e = within(Duration::from_secs(60), move || load_radiance_scene(&rad, &view()))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("s.rad:3") && e.contains("pipe.rad: it is a FIFO (named pipe), not a regular file"), "{e}");
+    assert!(
+        e.contains("s.rad:3") && e.contains("pipe.rad: it is a FIFO (named pipe), not a regular file"),
+        "{e}"
+    );
     let rad = write(
         dir.path(),
         "s.rad",
@@ -306,7 +343,10 @@ fn a_scene_file_larger_than_the_limit_is_refused_naming_the_limit() {
     let dir = tempfile::tempdir().unwrap();
     // A sparse file: one byte over the limit, no disk used.
     let big = dir.path().join("big.csv");
-    std::fs::File::create(&big).unwrap().set_len(MAX_INPUT_BYTES + 1).unwrap();
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(MAX_INPUT_BYTES + 1)
+        .unwrap();
     let toml = toml_scene(dir.path(), "[materials]\nm = { reflectance = \"big.csv:x\" }\n");
     let e: SceneError = load_scene(&toml).unwrap_err();
     assert_eq!(e.key, "materials.m.reflectance");
@@ -322,8 +362,16 @@ fn errors_about_files_outside_the_scene_folder_do_not_quote_them() {
     let secret = "SECRET-hunter2";
     let outside = root.path().join("outside");
     write(&outside, "t.csv", &format!("nm,{secret}\n380,{secret}\n"));
-    write(&outside, "t.obj", &format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl {secret}\nf 1 2 3\n"));
-    write(&outside, "t.ies", &format!("IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 {secret}\n"));
+    write(
+        &outside,
+        "t.obj",
+        &format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl {secret}\nf 1 2 3\n"),
+    );
+    write(
+        &outside,
+        "t.ies",
+        &format!("IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 {secret}\n"),
+    );
     write(&outside, "t.rad", &format!("void plastic {secret} 0 0 5 .5 .5 x 0 0\n"));
     write(&outside, "t.dat", &format!("400 {secret}\n"));
     let scenes = root.path().join("scenes");
@@ -337,10 +385,18 @@ fn errors_about_files_outside_the_scene_folder_do_not_quote_them() {
         assert_eq!(e.key, key, "{e}");
         let text = e.to_string();
         assert!(!text.contains("SECRET"), "{text}");
-        assert!(text.contains("outside/t.") && text.contains("outside the scene's folder"), "{text}");
+        assert!(
+            text.contains("outside/t.") && text.contains("outside the scene's folder"),
+            "{text}"
+        );
     }
-    let e = load_scene(&toml_with_radiance(&scenes, "../outside/t.rad")).unwrap_err().to_string();
-    assert!(!e.contains("SECRET") && e.contains("outside/t.rad:1:") && e.contains("not quoted"), "{e}");
+    let e = load_scene(&toml_with_radiance(&scenes, "../outside/t.rad"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        !e.contains("SECRET") && e.contains("outside/t.rad:1:") && e.contains("not quoted"),
+        "{e}"
+    );
     let rad = write(&scenes, "s.rad", &format!("{FLOOR}!xform ../outside/t.rad\n"));
     let e = load_radiance_scene(&rad, &view()).unwrap_err().to_string();
     assert!(!e.contains("SECRET") && e.contains("outside/t.rad:1:"), "{e}");
@@ -364,7 +420,11 @@ fn errors_about_files_outside_the_scene_folder_do_not_quote_them() {
 fn serve_with_a_1e308_light_in_its_scenes_folder_refuses_to_start_naming_the_file_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let scenes = dir.path().join("scenes");
-    write(&scenes, "lamp.rad", &format!("{FLOOR}void light lamp 0 0 3 1e308 1e308 1e308\n"));
+    write(
+        &scenes,
+        "lamp.rad",
+        &format!("{FLOOR}void light lamp 0 0 3 1e308 1e308 1e308\n"),
+    );
     toml_with_radiance(&scenes, "lamp.rad");
     std::fs::write(dir.path().join("token"), "scene-limits-token-0123456789").unwrap();
     std::fs::write(
@@ -374,7 +434,14 @@ fn serve_with_a_1e308_light_in_its_scenes_folder_refuses_to_start_naming_the_fil
     .unwrap();
     let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
         .current_dir(dir.path())
-        .args(["serve", "--mock", "--bind", "127.0.0.1:0", "--config", "lightbooth.toml"])
+        .args([
+            "serve",
+            "--mock",
+            "--bind",
+            "127.0.0.1:0",
+            "--config",
+            "lightbooth.toml",
+        ])
         .args(["--db", &format!("sqlite://{}", dir.path().join("lab.sqlite").display())])
         .args(["--token-file", dir.path().join("token").to_str().unwrap()])
         .stdout(Stdio::null())

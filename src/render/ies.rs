@@ -126,7 +126,10 @@ impl IesDistribution {
         let nh = count(n_horiz, l_nh, "horizontal")?;
         // The angles and the nh × nv candela table must all be in the file:
         // counts beyond what it holds are an error, not an allocation.
-        let needed = nh.checked_add(1).and_then(|n| n.checked_mul(nv)).and_then(|n| n.checked_add(nh));
+        let needed = nh
+            .checked_add(1)
+            .and_then(|n| n.checked_mul(nv))
+            .and_then(|n| n.checked_add(nh));
         if needed.is_none_or(|n| n > available) {
             return Err(err(
                 Some(l_nh),
@@ -136,7 +139,11 @@ impl IesDistribution {
                 ),
             ));
         }
-        for (v, what) in [(multiplier, "candela multiplier"), (ballast, "ballast factor"), (ballast_lamp, "ballast-lamp photometric factor")] {
+        for (v, what) in [
+            (multiplier, "candela multiplier"),
+            (ballast, "ballast factor"),
+            (ballast_lamp, "ballast-lamp photometric factor"),
+        ] {
             if v <= 0.0 {
                 return Err(err(None, format!("the {what} is {v}; it must be positive")));
             }

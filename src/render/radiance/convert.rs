@@ -253,7 +253,11 @@ impl Converter<'_> {
                     if quote {
                         p.err(format!("{}: {m}", path.display()))
                     } else {
-                        p.err(format!("{}: {}", path.display(), unquoted("not a usable spectrum file")))
+                        p.err(format!(
+                            "{}: {}",
+                            path.display(),
+                            unquoted("not a usable spectrum file")
+                        ))
                     }
                 })?;
                 if !self.out.files.contains(&path) {

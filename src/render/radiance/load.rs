@@ -229,7 +229,12 @@ impl Expander<'_> {
             if quote {
                 e
             } else {
-                RadError::new(&file, e.line, None, unquoted("not a RADIANCE scene lightbooth can read"))
+                RadError::new(
+                    &file,
+                    e.line,
+                    None,
+                    unquoted("not a RADIANCE scene lightbooth can read"),
+                )
             }
         })?;
         for item in items {
@@ -251,7 +256,12 @@ impl Expander<'_> {
                         if quote {
                             RadError::new(&file, line, Some(format!("!{}", text.trim())), m)
                         } else {
-                            RadError::new(&file, line, None, unquoted("an inline command lightbooth cannot evaluate"))
+                            RadError::new(
+                                &file,
+                                line,
+                                None,
+                                unquoted("an inline command lightbooth cannot evaluate"),
+                            )
                         }
                     };
                     let made = self.command(&text, line, &file_rc, &dir, quote, depth, &err)?;
@@ -304,7 +314,11 @@ impl Expander<'_> {
                  (lightbooth runs no programs; it evaluates xform and genbox, alone or piped)"
             )));
         }
-        let too_many = || err(format!("expands to more than {MAX_PRIMITIVES} primitives (MAX_PRIMITIVES): use fewer or smaller arrays (-a)"));
+        let too_many = || {
+            err(format!(
+                "expands to more than {MAX_PRIMITIVES} primitives (MAX_PRIMITIVES): use fewer or smaller arrays (-a)"
+            ))
+        };
         // The first stage makes primitives; later stages are xforms of them.
         let mut made = Stream::default();
         let first = stages[0];

@@ -209,7 +209,10 @@ pub fn parse_xform(args: &[String]) -> Result<Xform, String> {
                 i += 1;
                 let n = args.get(i).ok_or("`-n` needs a name after it")?;
                 if n.len() > MAX_NAME_BYTES {
-                    return Err(format!("`-n`: a name of {} bytes, more than the {MAX_NAME_BYTES} accepted", n.len()));
+                    return Err(format!(
+                        "`-n`: a name of {} bytes, more than the {MAX_NAME_BYTES} accepted",
+                        n.len()
+                    ));
                 }
                 name = Some(n.clone());
                 None
@@ -418,7 +421,10 @@ mod tests {
             ("-a 1000 -a 1000 f", "more than"),
             ("-s 0 f", "collapses"),
             ("-a -2 f", "whole number"),
-            ("-a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 1 f", "more than the 8 one xform may nest"),
+            (
+                "-a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 2 -a 1 f",
+                "more than the 8 one xform may nest",
+            ),
         ] {
             let e = parse_xform(&args(a)).unwrap_err();
             assert!(e.contains(want), "{a}: {e}");

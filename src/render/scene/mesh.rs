@@ -274,7 +274,11 @@ fn read_obj(bytes: &[u8], shown: &str, known: &HashMap<String, usize>, quote: bo
     for m in models {
         let mesh = m.mesh;
         if let Some(n) = mesh.face_arities.iter().find(|n| **n < 3) {
-            let object = if quote { format!("object `{}`", m.name) } else { "an object".into() };
+            let object = if quote {
+                format!("object `{}`", m.name)
+            } else {
+                "an object".into()
+            };
             return Err(format!(
                 "{shown}: {object} has a face of {n} vertices; a surface needs at least 3"
             ));

@@ -760,7 +760,10 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         .map(|w| cielab_white(w, &l, &target_list, &emitters))
         .transpose()?;
     if let Some(CielabWhite::LightOnPerfectDiffuser { point, normal }) = &cielab_white {
-        if diffuser_radiance(&lights, *point, *normal).iter().any(|v| !v.is_finite()) {
+        if diffuser_radiance(&lights, *point, *normal)
+            .iter()
+            .any(|v| !v.is_finite())
+        {
             return Err(l.err(
                 "cielab_white.point",
                 "the lights' radiance on the diffuser here is not a finite number (a light is too close \

@@ -33,7 +33,8 @@ impl Loader {
         let path = self.dir.join(rel);
         if !self.tables.contains_key(&path) {
             let text = read_text(&path).map_err(|e| self.err(key, e.to_string()))?;
-            let t = SpectraTable::parse(&text, &path.display().to_string()).map_err(|e| self.table_err(&path, key, e))?;
+            let t =
+                SpectraTable::parse(&text, &path.display().to_string()).map_err(|e| self.table_err(&path, key, e))?;
             self.files.push(path.clone());
             self.tables.insert(path.clone(), t);
         }
