@@ -143,7 +143,7 @@ impl SceneBundle {
             reference: scenes_root.display().to_string(),
             message: e.to_string(),
         })?;
-        let toml_text = std::fs::read_to_string(&scene.path).unwrap_or_default();
+        let toml_text = super::scene::input_file::read_text(&scene.path).unwrap_or_default();
         let toml_tree: Option<toml::Value> = toml::from_str(&toml_text).ok();
         let scene_dir = absolute(scene.path.parent().unwrap_or(Path::new("")));
         let key_of = |file: &Path| -> String {
@@ -180,11 +180,12 @@ impl SceneBundle {
                 path: rel.display().to_string(),
                 message,
             })?;
-            let bytes = std::fs::read(f).map_err(|e| BundleError::Unreadable {
+            // Bounded and regular files only, as the loader read them.
+            let bytes = super::scene::input_file::read_bytes(f).map_err(|e| BundleError::Unreadable {
                 file: scene_file_name.clone(),
                 key: key_of(&abs),
                 reference: f.display().to_string(),
-                message: e.to_string(),
+                message: e.reason,
             })?;
             total += bytes.len() as u64;
             contents.push(bytes.clone());

@@ -47,10 +47,10 @@ pub struct IesError {
 impl IesDistribution {
     /// Reads and parses an IES file.
     pub fn read(path: &Path) -> Result<IesDistribution, IesError> {
-        let text = std::fs::read_to_string(path).map_err(|e| IesError {
+        let text = super::scene::input_file::read_text(path).map_err(|e| IesError {
             file: path.display().to_string(),
             line: None,
-            message: format!("cannot read the file: {e}"),
+            message: format!("cannot read the file: {}", e.reason),
         })?;
         IesDistribution::parse(&text, &path.display().to_string())
     }
@@ -81,12 +81,15 @@ impl IesDistribution {
                 .split(|c: char| c.is_whitespace() || c == ',')
                 .filter(|t| !t.is_empty())
             {
-                let v: f64 = tok
-                    .parse()
-                    .map_err(|_| err(Some(i + 1), format!("`{tok}` is not a number")))?;
+                let v: f64 = match tok.parse::<f64>() {
+                    Ok(v) if v.is_finite() => v,
+                    Ok(_) => return Err(err(Some(i + 1), format!("`{tok}` is not a finite number"))),
+                    Err(_) => return Err(err(Some(i + 1), format!("`{tok}` is not a number"))),
+                };
                 numbers.push((v, i + 1));
             }
         }
+        let available = numbers.len();
         let mut it = numbers.into_iter();
         let last_line = lines.len();
         let mut next = |what: &str| -> Result<(f64, usize), IesError> {
@@ -121,6 +124,30 @@ impl IesDistribution {
         };
         let nv = count(n_vert, l_nv, "vertical")?;
         let nh = count(n_horiz, l_nh, "horizontal")?;
+        // The angles and the nh × nv candela table must all be in the file:
+        // counts beyond what it holds are an error, not an allocation.
+        let needed = nh
+            .checked_add(1)
+            .and_then(|n| n.checked_mul(nv))
+            .and_then(|n| n.checked_add(nh));
+        if needed.is_none_or(|n| n > available) {
+            return Err(err(
+                Some(l_nh),
+                format!(
+                    "{nv} vertical × {nh} horizontal angles need more numbers than the file's {available}: \
+                     the counts do not match the table"
+                ),
+            ));
+        }
+        for (v, what) in [
+            (multiplier, "candela multiplier"),
+            (ballast, "ballast factor"),
+            (ballast_lamp, "ballast-lamp photometric factor"),
+        ] {
+            if v <= 0.0 {
+                return Err(err(None, format!("the {what} is {v}; it must be positive")));
+            }
+        }
         let mut take =
             |n: usize, what: &str| -> Result<Vec<(f64, usize)>, IesError> { (0..n).map(|_| next(what)).collect() };
         let vertical = take(nv, "all vertical angles")?;
@@ -134,7 +161,21 @@ impl IesDistribution {
                     return Err(err(Some(*line), format!("negative candela value {v}")));
                 }
             }
-            candela_cd.push(row.iter().map(|(v, _)| v * scale).collect());
+            let mut scaled = Vec::with_capacity(nv);
+            for (v, line) in &row {
+                let cd = v * scale;
+                if !cd.is_finite() {
+                    return Err(err(
+                        Some(*line),
+                        format!(
+                            "candela value {v} × the multipliers ({scale:e}) is not a finite number: the \
+                             numbers overflow; check the candela multiplier and the ballast factors"
+                        ),
+                    ));
+                }
+                scaled.push(cd);
+            }
+            candela_cd.push(scaled);
         }
         let increasing = |a: &[(f64, usize)], what: &str| -> Result<Vec<f64>, IesError> {
             for w in a.windows(2) {

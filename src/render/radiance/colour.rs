@@ -60,11 +60,12 @@ impl SmoothSpectrum {
         }
     }
 
-    /// Sampled on the 1 nm grid, 380–780 nm.
-    pub fn on_1nm(&self, unit: SpectralUnit, scale: f64) -> Spectrum {
+    /// Sampled on the 1 nm grid, 380–780 nm, times `scale`; an error when
+    /// a value is not a finite number (a `scale` that overflows).
+    pub fn on_1nm(&self, unit: SpectralUnit, scale: f64) -> Result<Spectrum, String> {
         let grid = Grid::one_nm();
         let values = grid.wavelengths().iter().map(|&nm| scale * self.at(nm)).collect();
-        Spectrum::new(grid, unit, values).expect("finite, non-negative values")
+        Spectrum::new(grid, unit, values).map_err(|e| e.to_string())
     }
 }
 
@@ -185,30 +186,49 @@ fn flat_luminance() -> f64 {
 
 /// The spectral radiance (W/(sr·m²·nm), 1 nm grid) synthesised for a
 /// RADIANCE light of RGB radiance `rgb`, and the fit's residual (in the
-/// RGB of `rgb`/max).
-pub fn emission_from_rgb(rgb: [f64; 3]) -> (Spectrum, f64) {
+/// RGB of `rgb`/max); an error when the radiance in lightbooth's units
+/// (× 179 lm/W) is not a finite number.
+pub fn emission_from_rgb(rgb: [f64; 3]) -> Result<(Spectrum, f64), String> {
     let m = rgb.iter().copied().fold(0.0, f64::max);
+    if !(m * RADIANCE_EFFICACY).is_finite() {
+        return Err(overflow(m));
+    }
     if m <= 0.0 {
-        return (
+        return Ok((
             Spectrum::constant(Grid::one_nm(), SpectralUnit::SpectralRadiance, 0.0).expect("zero"),
             0.0,
-        );
+        ));
     }
     let (shape, residual) = fit_reflectance(rgb.map(|v| v / m));
-    (
-        shape.on_1nm(SpectralUnit::SpectralRadiance, m * RADIANCE_EFFICACY / flat_luminance()),
-        residual,
+    let spectrum = shape
+        .on_1nm(SpectralUnit::SpectralRadiance, m * RADIANCE_EFFICACY / flat_luminance())
+        .map_err(|_| overflow(m))?;
+    Ok((spectrum, residual))
+}
+
+fn overflow(m: f64) -> String {
+    format!(
+        "the radiance {m:e} × {RADIANCE_EFFICACY} lm/W is not a finite number in lightbooth's units \
+         (W/(sr·m²·nm)): give a radiance below {:e}",
+        f64::MAX / RADIANCE_EFFICACY / 1e3
     )
 }
 
 /// The spectral radiance of a light of grey level `k` modified by the
 /// multiplier spectrum `s` (RADIANCE 6 `spectrum`/`specfile`): k·s(λ)·179 /
 /// (683·Σȳ), so a spectrum averaging 1 against V(λ) keeps 179·k cd/m².
-pub fn emission_from_spectrum(k: f64, s: &Spectrum) -> Spectrum {
-    let s1 = s.resample(&Grid::one_nm()).expect("covers 380–780 nm");
+/// An error when the product is not a finite number.
+pub fn emission_from_spectrum(k: f64, s: &Spectrum) -> Result<Spectrum, String> {
+    let s1 = s.resample(&Grid::one_nm()).map_err(|e| e.to_string())?;
     let scale = k * RADIANCE_EFFICACY / flat_luminance();
-    let values = s1.values().iter().map(|v| v * scale).collect();
-    Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite")
+    let values: Vec<f64> = s1.values().iter().map(|v| v * scale).collect();
+    if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+        return Err(format!(
+            "grey {k:e} × its spectrum × {RADIANCE_EFFICACY} lm/W gives {v}, not a finite number: the numbers \
+             overflow; give a smaller grey or spectrum"
+        ));
+    }
+    Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).map_err(|e| e.to_string())
 }
 
 /// How spectra were synthesised from RADIANCE RGB, for reports.
@@ -267,10 +287,10 @@ mod tests {
     /// `luminance` from `rcalc`, with its primaries' Y row).
     #[test]
     fn a_white_light_of_one_has_179_cd_per_m2() {
-        let (l, _) = emission_from_rgb([1.0, 1.0, 1.0]);
+        let (l, _) = emission_from_rgb([1.0, 1.0, 1.0]).unwrap();
         let y = xyz_from_radiance(&l, OBSERVER).unwrap().y;
         assert!((y - 179.0).abs() < 1e-9, "{y}");
-        let (l, residual) = emission_from_rgb([2.0, 1.5, 1.0]);
+        let (l, residual) = emission_from_rgb([2.0, 1.5, 1.0]).unwrap();
         let y = xyz_from_radiance(&l, OBSERVER).unwrap().y;
         let want = 179.0 * (0.2651 * 2.0 + 0.6701 * 1.5 + 0.0648 * 1.0);
         assert!(residual < 1e-6 && (y / want - 1.0).abs() < 1e-3, "{y} vs {want}");

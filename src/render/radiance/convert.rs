@@ -45,10 +45,11 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::colour::{emission_from_rgb, emission_from_spectrum, fit_reflectance, RADIANCE_EFFICACY};
-use super::load::{is_surface, placed_vertices, Placed, Source, Stream};
+use super::load::{is_surface, placed_vertices, Placed, Source, Stream, MAX_PRIMITIVES};
 use super::tessellate::{self, Triangle};
 use super::{RadError, RadianceScene};
 use crate::render::geometry::Shape;
+use crate::render::scene::input_file::unquoted;
 use crate::render::scene::{Emitter, Material, Primitive, Spot, Surface};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -163,7 +164,8 @@ impl Converter<'_> {
                                 p.prim.id
                             );
                         }
-                        (shape.on_1nm(SpectralUnit::Reflectance, 1.0), Some(rgb))
+                        let spectrum = shape.on_1nm(SpectralUnit::Reflectance, 1.0).map_err(|m| p.err(m))?;
+                        (spectrum, Some(rgb))
                     }
                     Some(s) => {
                         let k = grey(p, rgb)?;
@@ -210,10 +212,10 @@ impl Converter<'_> {
                 }
                 let (radiance, rgb_exact) = match self.colour_of(p)? {
                     None => {
-                        let (spectrum, _) = emission_from_rgb(rgb);
+                        let (spectrum, _) = emission_from_rgb(rgb).map_err(|m| p.err(m))?;
                         (spectrum, Some(rgb.map(|v| v * RADIANCE_EFFICACY)))
                     }
-                    Some(s) => (emission_from_spectrum(grey(p, rgb)?, &s), None),
+                    Some(s) => (emission_from_spectrum(grey(p, rgb)?, &s).map_err(|m| p.err(m))?, None),
                 };
                 let spot = if kind == "spotlight" { Some(self.spot(p)?) } else { None };
                 self.out.emitters.push(Emitter {
@@ -246,7 +248,18 @@ impl Converter<'_> {
                 count(p, 1, &[0])?;
                 let path = p.dir.join(&p.prim.strings[0]);
                 let text = self.source.read(&path).map_err(|m| p.err(m))?;
-                let samples = read_specfile(&text).map_err(|m| p.err(format!("{}: {m}", path.display())))?;
+                let quote = self.source.may_quote(&path);
+                let samples = read_specfile(&text).map_err(|m| {
+                    if quote {
+                        p.err(format!("{}: {m}", path.display()))
+                    } else {
+                        p.err(format!(
+                            "{}: {}",
+                            path.display(),
+                            unquoted("not a usable spectrum file")
+                        ))
+                    }
+                })?;
                 if !self.out.files.contains(&path) {
                     self.out.files.push(path);
                 }
@@ -361,6 +374,9 @@ impl Converter<'_> {
                     return Err(p.err(format!("takes 3·n ≥ 9 reals (n vertices), has {}", r.len())));
                 }
                 let v: Vec<DVec3> = placed_vertices(p, r).into_iter().map(|v| v * k).collect();
+                if let Some(i) = v.iter().position(|v| !v.is_finite()) {
+                    return Err(p.err(overflow_message(&format!("vertex {}", i + 1), k)));
+                }
                 triangles = tessellate::polygon(&v).map_err(|m| p.err(m))?;
             }
             "sphere" | "bubble" => {
@@ -438,6 +454,19 @@ impl Converter<'_> {
             }
             other => return Err(p.err(format!("unknown surface type `{other}`"))),
         }
+        let finite_shapes = shapes.iter().all(|s| {
+            let b = s.bounds();
+            b.min.is_finite() && b.max.is_finite()
+        });
+        if !finite_shapes || !triangles.iter().flatten().all(|v| v.is_finite()) {
+            return Err(p.err(overflow_message("its geometry", k)));
+        }
+        if self.out.primitives.len() + shapes.len() + triangles.len() > MAX_PRIMITIVES {
+            return Err(p.err(format!(
+                "the scene converts to more than {MAX_PRIMITIVES} renderer primitives (MAX_PRIMITIVES; \
+                 emitting spheres, cones and rings are hundreds of triangles each): use fewer or simpler surfaces"
+            )));
+        }
         for shape in shapes {
             self.out.primitives.push(Primitive {
                 shape,
@@ -456,6 +485,14 @@ impl Converter<'_> {
         }
         Ok(())
     }
+}
+
+/// The error for geometry that is not finite once placed.
+fn overflow_message(what: &str, metres_per_unit: f64) -> String {
+    format!(
+        "{what} is not a finite number once placed (the file's numbers × the enclosing `!xform`s × \
+         {metres_per_unit} m per unit overflow): check the primitive's numbers and the transforms around it"
+    )
 }
 
 /// The grey level k of an RGB that a spectrum multiplies (r = g = b).

@@ -7,10 +7,28 @@
 //! where each later `xform` transforms the output of the one before).
 //! Every other command is refused: lightbooth never runs a program. Files
 //! named by `xform` are read relative to the directory of the file that
-//! names them. File access goes through [`Source`], so the parsing can be
-//! tested without files.
+//! names them, each once: a file's expansion does not depend on where it
+//! is placed, so `xform -a N` places N copies of one expansion (work
+//! linear in N, not N expansions). File access goes through [`Source`], so
+//! the parsing can be tested without files; [`Files`] reads only regular
+//! files of at most [`MAX_INPUT_BYTES`](crate::render::scene::input_file::MAX_INPUT_BYTES).
+//!
+//! Limits (errors naming the file, the line and the limit, not clamps):
+//! - [`MAX_DEPTH`] (16) files nested by `xform` (a file that includes
+//!   itself stops here);
+//! - [`MAX_PRIMITIVES`] (2 000 000) primitives in the expanded scene (arrays
+//!   multiply them), and as many renderer primitives once converted;
+//! - [`MAX_PLACEMENTS`] (2 000 000) copies of files placed by all the
+//!   scene's `xform`s together (an array of an empty file, or arrays nested
+//!   through files, cost work without adding primitives);
+//! - [`super::xform::MAX_COPIES`] (100 000) copies made by one `xform`.
+//!
+//! Errors about a file outside the scene's folder name the file and the
+//! line but do not quote it ([`crate::render::scene::input_file::Quoting`]).
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 
 use glam::DVec3;
 
@@ -19,41 +37,64 @@ use super::lex::command_words;
 use super::parse::{parse, Item, RawPrimitive};
 use super::xform::{parse_xform, Transform};
 use super::RadError;
+use crate::render::scene::input_file::{read_text, unquoted, Quoting};
 
 /// How deep `xform` may nest files (a file that includes itself stops here).
 pub const MAX_DEPTH: usize = 16;
 
-/// Most primitives a scene may expand to (arrays multiply them).
+/// Most primitives a scene may expand to (arrays multiply them), and most
+/// renderer primitives (triangles, spheres, …) it may convert to.
 pub const MAX_PRIMITIVES: usize = 2_000_000;
+
+/// Most copies of files the `xform`s of one scene may place, all together.
+pub const MAX_PLACEMENTS: u64 = 2_000_000;
+
+/// The longest identifier prefix nested `xform -n` and arrays may build, bytes.
+pub const MAX_PREFIX_BYTES: usize = 256;
 
 /// Where file text comes from.
 pub trait Source {
     fn read(&mut self, path: &Path) -> Result<String, String>;
+
+    /// Whether errors about `path` may quote its content.
+    fn may_quote(&self, _path: &Path) -> bool {
+        true
+    }
 }
 
-/// The file system.
-pub struct Files;
+/// The file system: regular files only, bounded in size; files outside
+/// the scene's folder are not quoted in errors.
+pub struct Files {
+    pub quoting: Quoting,
+}
 
 impl Source for Files {
     fn read(&mut self, path: &Path) -> Result<String, String> {
-        std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+        read_text(path).map_err(|e| e.to_string())
+    }
+
+    fn may_quote(&self, path: &Path) -> bool {
+        self.quoting.may_quote(path)
     }
 }
 
 /// A primitive where the expanded scene puts it.
 #[derive(Clone, Debug)]
 pub struct Placed {
-    pub prim: RawPrimitive,
+    /// Shared by every copy an `xform` array makes.
+    pub prim: Rc<RawPrimitive>,
     /// The file it was read from, as messages name it.
-    pub file: String,
+    pub file: Rc<str>,
     /// That file's directory (for `specfile` paths).
-    pub dir: PathBuf,
+    pub dir: Rc<Path>,
+    /// Whether errors about it may quote the file (see [`Source::may_quote`]).
+    pub quote: bool,
     /// Local → scene coordinates.
     pub transform: Transform,
     /// `xform -n` and array prefixes of a surface's identifier.
     pub prefix: String,
     /// `xform -m`: the modifier a surface takes instead of its own.
-    pub material: Option<String>,
+    pub material: Option<Rc<str>>,
 }
 
 impl Placed {
@@ -68,6 +109,14 @@ impl Placed {
     }
 
     pub fn err(&self, message: impl Into<String>) -> RadError {
+        if !self.quote {
+            return RadError::new(
+                &self.file,
+                self.prim.line,
+                None,
+                unquoted("a primitive lightbooth cannot import"),
+            );
+        }
         RadError::new(
             &self.file,
             self.prim.line,
@@ -104,11 +153,16 @@ pub fn is_surface(kind: &str) -> bool {
 
 /// Reads `path` and everything it includes.
 pub fn expand(path: &Path, source: &mut dyn Source) -> Result<Stream, RadError> {
-    let mut out = Stream::default();
     let display = path.display().to_string();
     let text = source.read(path).map_err(|m| RadError::new(&display, 0, None, m))?;
+    let mut x = Expander {
+        source,
+        placements: 0,
+        expanded: HashMap::new(),
+    };
+    let mut out = Stream::default();
     out.files.push(path.to_path_buf());
-    expand_text(&text, path, &Context::default(), 0, source, &mut out)?;
+    x.expand_text(&text, path, &Context::default(), 0, &mut out)?;
     Ok(out)
 }
 
@@ -117,7 +171,7 @@ pub fn expand(path: &Path, source: &mut dyn Source) -> Result<Stream, RadError> 
 struct Context {
     transform: Transform,
     prefix: String,
-    material: Option<String>,
+    material: Option<Rc<str>>,
 }
 
 impl Context {
@@ -132,127 +186,250 @@ impl Context {
     }
 }
 
-fn expand_text(
-    text: &str,
-    path: &Path,
-    ctx: &Context,
-    depth: usize,
-    source: &mut dyn Source,
-    out: &mut Stream,
-) -> Result<(), RadError> {
-    let file = path.display().to_string();
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    for item in parse(text, &file)? {
-        match item {
-            Item::Primitive(prim) => push(out, place(prim, &file, &dir, ctx), &file)?,
-            Item::Command { text, line } => {
-                let err = |m: String| RadError::new(&file, line, Some(format!("!{}", text.trim())), m);
-                let words = command_words(&text).map_err(err)?;
-                let stages: Vec<&[String]> = words.split(|w| w == "|").collect();
-                if let Some(w) = words
-                    .iter()
-                    .find(|w| w.contains(['<', '>', '`', '$', ';', '&']) || (w.contains('|') && *w != "|"))
-                {
-                    return Err(err(format!(
-                        "`{w}`: redirections, substitutions and command lists are not evaluated \
-                         (lightbooth runs no programs; it evaluates xform and genbox, alone or piped)"
-                    )));
+/// One expansion of a scene: the files expanded so far and the work done.
+struct Expander<'a> {
+    source: &'a mut dyn Source,
+    /// Copies of files placed so far (bounded by [`MAX_PLACEMENTS`]).
+    placements: u64,
+    /// Each file's expansion where it stands (identity placement), by path:
+    /// a file named again (by another copy, command or file) is not read,
+    /// parsed or expanded again.
+    expanded: HashMap<PathBuf, Rc<Stream>>,
+}
+
+impl Expander<'_> {
+    /// The expansion of the file `p` in place, read once; `err` frames a
+    /// failure to read it.
+    fn file(&mut self, p: &Path, depth: usize, err: &dyn Fn(String) -> RadError) -> Result<Rc<Stream>, RadError> {
+        if let Some(s) = self.expanded.get(p) {
+            return Ok(s.clone());
+        }
+        let text = self.source.read(p).map_err(|m| err(format!("xform: {m}")))?;
+        let mut sub = Stream::default();
+        sub.files.push(p.to_path_buf());
+        self.expand_text(&text, p, &Context::default(), depth, &mut sub)?;
+        let sub = Rc::new(sub);
+        self.expanded.insert(p.to_path_buf(), sub.clone());
+        Ok(sub)
+    }
+
+    fn expand_text(
+        &mut self,
+        text: &str,
+        path: &Path,
+        ctx: &Context,
+        depth: usize,
+        out: &mut Stream,
+    ) -> Result<(), RadError> {
+        let file = path.display().to_string();
+        let file_rc: Rc<str> = Rc::from(file.as_str());
+        let dir: Rc<Path> = Rc::from(path.parent().unwrap_or(Path::new("")));
+        let quote = self.source.may_quote(path);
+        let items = parse(text, &file).map_err(|e| {
+            if quote {
+                e
+            } else {
+                RadError::new(
+                    &file,
+                    e.line,
+                    None,
+                    unquoted("not a RADIANCE scene lightbooth can read"),
+                )
+            }
+        })?;
+        for item in items {
+            match item {
+                Item::Primitive(prim) => {
+                    let placed = Placed {
+                        prim: Rc::new(prim),
+                        file: file_rc.clone(),
+                        dir: dir.clone(),
+                        quote,
+                        transform: Transform::IDENTITY,
+                        prefix: String::new(),
+                        material: None,
+                    };
+                    push(out, placed_in(&placed, ctx), &file)?
                 }
-                // The first stage makes primitives; later stages are xforms of them.
-                let mut made = Stream::default();
-                let first = stages[0];
-                match first.first().map(String::as_str) {
-                    Some("genbox") => {
-                        let g = parse_genbox(&first[1..]).map_err(|m| err(format!("genbox: {m}")))?;
-                        for (suffix, v) in g.faces() {
-                            let reals = v.iter().flat_map(|p| p.to_array()).collect();
-                            let prim = RawPrimitive {
-                                modifier: g.material.clone(),
-                                kind: "polygon".into(),
-                                id: format!("{}.{suffix}", g.name),
-                                strings: vec![],
-                                integers: vec![],
-                                reals,
+                Item::Command { text, line } => {
+                    let err = |m: String| {
+                        if quote {
+                            RadError::new(&file, line, Some(format!("!{}", text.trim())), m)
+                        } else {
+                            RadError::new(
+                                &file,
                                 line,
-                            };
-                            made.items.push(place(prim, &file, &dir, &Context::default()));
+                                None,
+                                unquoted("an inline command lightbooth cannot evaluate"),
+                            )
                         }
+                    };
+                    let made = self.command(&text, line, &file_rc, &dir, quote, depth, &err)?;
+                    for p in &made.items {
+                        push(out, placed_in(p, ctx), &file)?;
                     }
-                    Some("xform") => {
-                        let x = parse_xform(&first[1..]).map_err(|m| err(format!("xform: {m}")))?;
-                        if depth + 1 >= MAX_DEPTH {
-                            return Err(err(format!(
-                                "xform nests deeper than {MAX_DEPTH} files (does a file include itself?)"
-                            )));
+                    for f in &made.files {
+                        if !out.files.contains(f) {
+                            out.files.push(f.clone());
                         }
-                        for f in &x.files {
-                            let p = dir.join(f);
-                            let sub_text = source.read(&p).map_err(|m| err(format!("xform: {m}")))?;
-                            if !made.files.contains(&p) {
-                                made.files.push(p.clone());
-                            }
-                            for (t, prefix) in &x.copies {
-                                let c = Context {
-                                    transform: *t,
-                                    prefix: prefix.clone(),
-                                    material: x.material.clone(),
-                                };
-                                expand_text(&sub_text, &p, &c, depth + 1, source, &mut made)?;
-                                if made.items.len() > MAX_PRIMITIVES {
-                                    return Err(err(format!("expands to more than {MAX_PRIMITIVES} primitives")));
-                                }
-                            }
-                        }
-                    }
-                    Some(other) => {
-                        return Err(err(format!(
-                            "the command `{other}` is not evaluated: lightbooth runs no programs and \
-                             evaluates only `xform` and `genbox`; run it once and include its output \
-                             (e.g. `{other} … > part.rad`, then `!xform part.rad`)"
-                        )))
-                    }
-                    None => return Err(err("an empty command".into())),
-                }
-                for stage in &stages[1..] {
-                    if stage.first().map(String::as_str) != Some("xform") {
-                        return Err(err(format!(
-                            "a pipe into `{}`: only `xform` may follow a pipe",
-                            stage.first().map(String::as_str).unwrap_or("")
-                        )));
-                    }
-                    let mut args = stage[1..].to_vec();
-                    // The files of a piped xform are its standard input.
-                    args.push("(stdin)".into());
-                    let x = parse_xform(&args).map_err(|m| err(format!("xform: {m}")))?;
-                    if x.files.len() > 1 {
-                        return Err(err("xform after a pipe reads the pipe; it names no files".into()));
-                    }
-                    let mut next = Vec::new();
-                    for (t, prefix) in &x.copies {
-                        let c = Context {
-                            transform: *t,
-                            prefix: prefix.clone(),
-                            material: x.material.clone(),
-                        };
-                        for p in &made.items {
-                            next.push(placed_in(p, &c));
-                            if next.len() > MAX_PRIMITIVES {
-                                return Err(err(format!("expands to more than {MAX_PRIMITIVES} primitives")));
-                            }
-                        }
-                    }
-                    made.items = next;
-                }
-                for p in made.items {
-                    push(out, placed_in(&p, ctx), &file)?;
-                }
-                for f in made.files {
-                    if !out.files.contains(&f) {
-                        out.files.push(f);
                     }
                 }
             }
         }
+        Ok(())
+    }
+
+    /// One shared budget of placed file copies for the whole scene.
+    fn place_copies(&mut self, n: u64, err: &dyn Fn(String) -> RadError) -> Result<(), RadError> {
+        self.placements += n;
+        if self.placements > MAX_PLACEMENTS {
+            return Err(err(format!(
+                "the scene's xforms place more than {MAX_PLACEMENTS} copies of files in all (MAX_PLACEMENTS): \
+                 use fewer or smaller arrays (-a), or fewer levels of arrays nested through files"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The primitives an inline command makes, in the command's file's coordinates.
+    #[allow(clippy::too_many_arguments)]
+    fn command(
+        &mut self,
+        text: &str,
+        line: usize,
+        file: &Rc<str>,
+        dir: &Rc<Path>,
+        quote: bool,
+        depth: usize,
+        err: &dyn Fn(String) -> RadError,
+    ) -> Result<Stream, RadError> {
+        let words = command_words(text).map_err(err)?;
+        let stages: Vec<&[String]> = words.split(|w| w == "|").collect();
+        if let Some(w) = words
+            .iter()
+            .find(|w| w.contains(['<', '>', '`', '$', ';', '&']) || (w.contains('|') && *w != "|"))
+        {
+            return Err(err(format!(
+                "`{w}`: redirections, substitutions and command lists are not evaluated \
+                 (lightbooth runs no programs; it evaluates xform and genbox, alone or piped)"
+            )));
+        }
+        let too_many = || {
+            err(format!(
+                "expands to more than {MAX_PRIMITIVES} primitives (MAX_PRIMITIVES): use fewer or smaller arrays (-a)"
+            ))
+        };
+        // The first stage makes primitives; later stages are xforms of them.
+        let mut made = Stream::default();
+        let first = stages[0];
+        match first.first().map(String::as_str) {
+            Some("genbox") => {
+                let g = parse_genbox(&first[1..]).map_err(|m| err(format!("genbox: {m}")))?;
+                for (suffix, v) in g.faces() {
+                    let reals = v.iter().flat_map(|p| p.to_array()).collect();
+                    let prim = RawPrimitive {
+                        modifier: g.material.clone(),
+                        kind: "polygon".into(),
+                        id: format!("{}.{suffix}", g.name),
+                        strings: vec![],
+                        integers: vec![],
+                        reals,
+                        line,
+                    };
+                    made.items.push(Placed {
+                        prim: Rc::new(prim),
+                        file: file.clone(),
+                        dir: dir.clone(),
+                        quote,
+                        transform: Transform::IDENTITY,
+                        prefix: String::new(),
+                        material: None,
+                    });
+                }
+            }
+            Some("xform") => {
+                let x = parse_xform(&first[1..]).map_err(|m| err(format!("xform: {m}")))?;
+                if depth + 1 >= MAX_DEPTH {
+                    return Err(err(format!(
+                        "xform nests deeper than {MAX_DEPTH} files (MAX_DEPTH; does a file include itself?)"
+                    )));
+                }
+                for f in &x.files {
+                    let p = dir.join(f);
+                    self.place_copies(x.copies.len() as u64, err)?;
+                    let sub = self.file(&p, depth + 1, err)?;
+                    if made.items.len() + x.copies.len() * sub.items.len() > MAX_PRIMITIVES {
+                        return Err(too_many());
+                    }
+                    let material: Option<Rc<str>> = x.material.as_deref().map(Rc::from);
+                    let longest = sub.items.iter().map(|q| q.prefix.len()).max().unwrap_or(0);
+                    for (t, prefix) in &x.copies {
+                        long_prefix(longest + prefix.len(), err)?;
+                        let c = Context {
+                            transform: *t,
+                            prefix: prefix.clone(),
+                            material: material.clone(),
+                        };
+                        made.items.extend(sub.items.iter().map(|q| placed_in(q, &c)));
+                    }
+                    for f in &sub.files {
+                        if !made.files.contains(f) {
+                            made.files.push(f.clone());
+                        }
+                    }
+                }
+            }
+            Some(other) => {
+                return Err(err(format!(
+                    "the command `{other}` is not evaluated: lightbooth runs no programs and \
+                     evaluates only `xform` and `genbox`; run it once and include its output \
+                     (e.g. `{other} … > part.rad`, then `!xform part.rad`)"
+                )))
+            }
+            None => return Err(err("an empty command".into())),
+        }
+        for stage in &stages[1..] {
+            if stage.first().map(String::as_str) != Some("xform") {
+                return Err(err(format!(
+                    "a pipe into `{}`: only `xform` may follow a pipe",
+                    stage.first().map(String::as_str).unwrap_or("")
+                )));
+            }
+            let mut args = stage[1..].to_vec();
+            // The files of a piped xform are its standard input.
+            args.push("(stdin)".into());
+            let x = parse_xform(&args).map_err(|m| err(format!("xform: {m}")))?;
+            if x.files.len() > 1 {
+                return Err(err("xform after a pipe reads the pipe; it names no files".into()));
+            }
+            self.place_copies(x.copies.len() as u64, err)?;
+            if x.copies.len() * made.items.len() > MAX_PRIMITIVES {
+                return Err(too_many());
+            }
+            let mut next = Vec::with_capacity(x.copies.len() * made.items.len());
+            let material: Option<Rc<str>> = x.material.as_deref().map(Rc::from);
+            let longest = made.items.iter().map(|q| q.prefix.len()).max().unwrap_or(0);
+            for (t, prefix) in &x.copies {
+                long_prefix(longest + prefix.len(), err)?;
+                let c = Context {
+                    transform: *t,
+                    prefix: prefix.clone(),
+                    material: material.clone(),
+                };
+                next.extend(made.items.iter().map(|p| placed_in(p, &c)));
+            }
+            made.items = next;
+        }
+        Ok(made)
+    }
+}
+
+fn long_prefix(bytes: usize, err: &dyn Fn(String) -> RadError) -> Result<(), RadError> {
+    if bytes > MAX_PREFIX_BYTES {
+        return Err(err(format!(
+            "the nested `-n` names and array indices make identifiers longer than {MAX_PREFIX_BYTES} bytes \
+             (MAX_PREFIX_BYTES): use shorter names"
+        )));
     }
     Ok(())
 }
@@ -263,23 +440,14 @@ fn push(out: &mut Stream, p: Placed, file: &str) -> Result<(), RadError> {
             file,
             p.prim.line,
             None,
-            format!("the scene expands to more than {MAX_PRIMITIVES} primitives"),
+            format!(
+                "the scene expands to more than {MAX_PRIMITIVES} primitives (MAX_PRIMITIVES): use fewer or \
+                 smaller arrays (-a)"
+            ),
         ));
     }
     out.items.push(p);
     Ok(())
-}
-
-fn place(prim: RawPrimitive, file: &str, dir: &Path, ctx: &Context) -> Placed {
-    let surface = is_surface(&prim.kind);
-    Placed {
-        prim,
-        file: file.to_string(),
-        dir: dir.to_path_buf(),
-        transform: ctx.transform,
-        prefix: if surface { ctx.prefix.clone() } else { String::new() },
-        material: if surface { ctx.material.clone() } else { None },
-    }
 }
 
 /// `p` (already placed by inner commands) placed further by `ctx`.

@@ -23,7 +23,15 @@
 //! `colour` (RGB as exact `rgb`-coding colours plus synthesised spectra).
 //!
 //! Coordinates are in the file's units, multiplied by `metres_per_unit` at
-//! load.
+//! load. Every number must be a finite number, and stay one once placed
+//! and converted (a `light` of `1e308` × 179 lm/W, or a vertex × `xform
+//! -s 1e300`, is an error naming the file, line and primitive).
+//!
+//! Limits: see [`load`]'s — at most [`MAX_DEPTH`] files nested, [`MAX_PRIMITIVES`]
+//! primitives, [`MAX_PLACEMENTS`] file copies placed by all `xform`s,
+//! [`MAX_COPIES`] copies and [`MAX_ARRAYS`] arrays per `xform`; files are read
+//! only if regular and at most
+//! [`MAX_INPUT_BYTES`](crate::render::scene::input_file::MAX_INPUT_BYTES).
 
 mod colour;
 mod convert;
@@ -38,6 +46,7 @@ use std::path::{Path, PathBuf};
 
 pub use colour::{RADIANCE_EFFICACY, SYNTHESIS_METHOD};
 
+use super::scene::input_file::Quoting;
 use super::scene::{Emitter, Material, Primitive};
 
 /// An error in a RADIANCE file: the file, the line (0: the file as a
@@ -74,8 +83,15 @@ pub struct RadianceScene {
     pub files: Vec<PathBuf>,
 }
 
-/// Reads a RADIANCE scene file and everything it includes.
-pub fn load_radiance(path: &Path, metres_per_unit: f64) -> Result<RadianceScene, RadError> {
-    let stream = load::expand(path, &mut load::Files)?;
-    convert::convert(stream, metres_per_unit, &mut load::Files)
+pub use load::{MAX_DEPTH, MAX_PLACEMENTS, MAX_PREFIX_BYTES, MAX_PRIMITIVES};
+pub use xform::{MAX_ARRAYS, MAX_COPIES, MAX_NAME_BYTES};
+
+/// Reads a RADIANCE scene file and everything it includes; `quoting` says
+/// which files errors may quote (those in the scene's folder).
+pub fn load_radiance(path: &Path, metres_per_unit: f64, quoting: &Quoting) -> Result<RadianceScene, RadError> {
+    let mut files = load::Files {
+        quoting: quoting.clone(),
+    };
+    let stream = load::expand(path, &mut files)?;
+    convert::convert(stream, metres_per_unit, &mut files)
 }

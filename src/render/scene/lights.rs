@@ -11,6 +11,7 @@
 use glam::DVec3;
 
 use super::file::{EmissionFile, LightFile};
+use super::input_file::{read_text, unquoted};
 use super::spectra::luminous_1nm;
 use super::{positive, unit, Emitter, Light, LightDistribution, Loader, SceneError};
 use crate::render::ies::IesDistribution;
@@ -47,7 +48,18 @@ pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Lig
                 return Err(l.err(key("aim"), "an IES luminaire needs `aim` (the direction of γ = 0)"));
             }
             let ies_path = l.dir.join(ies);
-            let table = IesDistribution::read(&ies_path).map_err(|e| l.err(key("ies"), e.to_string()))?;
+            let text = read_text(&ies_path).map_err(|e| l.err(key("ies"), e.to_string()))?;
+            let table = IesDistribution::parse(&text, &ies_path.display().to_string()).map_err(|e| {
+                if l.quoting.may_quote(&ies_path) {
+                    l.err(key("ies"), e.to_string())
+                } else {
+                    let at = e.line.map(|n| format!(":{n}")).unwrap_or_default();
+                    l.err(
+                        key("ies"),
+                        format!("{}{at}: {}", e.file, unquoted("not a usable IES LM-63 file")),
+                    )
+                }
+            })?;
             l.files.push(ies_path);
             if !table.is_rotationally_symmetric() && lf.c0.is_none() {
                 return Err(l.err(

@@ -15,8 +15,7 @@
 //! `vertex_indices` (or `vertex_index`) list; other elements are skipped.
 
 use std::collections::HashMap;
-use std::fs::File;
-use std::io::{self, BufRead, BufReader, Read};
+use std::io::{self, BufRead, Read};
 use std::path::Path;
 
 use glam::{DMat3, DVec3};
@@ -24,6 +23,7 @@ use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
 
 use super::file::{Scale, V3};
+use super::input_file::{read_bytes, unquoted};
 use crate::render::geometry::Shape;
 
 /// The triangles of a fan over `points`: (0, i, i + 1).
@@ -103,19 +103,40 @@ pub(super) fn triangle(p: [DVec3; 3], mirrors: bool) -> Option<Shape> {
     }
 }
 
-/// Reads an OBJ or PLY file (by extension). `known` names the scene's
-/// materials, which OBJ `usemtl` may use; `shown` is the path as the scene
-/// writes it, for messages (which name the line where the format has one).
-pub(super) fn read_mesh(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<Vec<FaceGroup>, String> {
+/// Reads an OBJ or PLY file (by extension; bounded, a regular file:
+/// [`super::input_file`]). `known` names the scene's materials, which OBJ
+/// `usemtl` may use; `shown` is the path as the scene writes it, for
+/// messages (which name the line where the format has one, and quote it
+/// only when `quote`: the file is inside the scene's folder).
+pub(super) fn read_mesh(
+    path: &Path,
+    shown: &str,
+    known: &HashMap<String, usize>,
+    quote: bool,
+) -> Result<Vec<FaceGroup>, String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
         .unwrap_or_default();
-    match ext.as_str() {
-        "obj" => read_obj(path, shown, known),
-        "ply" => read_ply(path, shown),
-        _ => Err(format!("{shown}: unknown mesh format (expected a .obj or .ply file)")),
+    if ext != "obj" && ext != "ply" {
+        return Err(format!("{shown}: unknown mesh format (expected a .obj or .ply file)"));
+    }
+    let bytes = read_bytes(path).map_err(|e| format!("cannot read {shown}: {}", e.reason))?;
+    if ext == "obj" {
+        read_obj(&bytes, shown, known, quote)
+    } else {
+        read_ply(&bytes, shown, quote)
+    }
+}
+
+/// `{shown} line {line} (`{text}`): {message}`, or without the text and
+/// the message (which may quote it) when the file may not be quoted.
+fn at_line(shown: &str, line: usize, text: &str, message: &str, quote: bool) -> String {
+    if quote {
+        format!("{shown} line {line} (`{text}`): {message}")
+    } else {
+        format!("{shown} line {line}: {}", unquoted("not a usable OBJ line"))
     }
 }
 
@@ -198,10 +219,9 @@ impl<R: BufRead> BufRead for ObjLines<'_, R> {
     }
 }
 
-fn read_obj(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<Vec<FaceGroup>, String> {
-    let file = File::open(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+fn read_obj(bytes: &[u8], shown: &str, known: &HashMap<String, usize>, quote: bool) -> Result<Vec<FaceGroup>, String> {
     let mut lines = ObjLines {
-        inner: BufReader::with_capacity(1 << 16, file),
+        inner: bytes,
         line: 0,
         started: false,
         text: String::new(),
@@ -230,7 +250,7 @@ fn read_obj(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<
         Ok(m) => m,
         Err(e) => {
             if let Some((line, text, message)) = lines.problem {
-                return Err(format!("{shown} line {line} (`{text}`): {message}"));
+                return Err(at_line(shown, line, &text, &message, quote));
             }
             let out_of_bounds = matches!(
                 e,
@@ -241,12 +261,12 @@ fn read_obj(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<
             // tobj finds bad indices when it closes an object, past the
             // face: find the face's line again.
             if out_of_bounds {
-                if let Some((line, text)) = locate_bad_index(path) {
-                    return Err(format!("{shown} line {line} (`{text}`): {e}"));
+                if let Some((line, text)) = locate_bad_index(bytes) {
+                    return Err(at_line(shown, line, &text, &e.to_string(), quote));
                 }
                 return Err(format!("{shown}: {e}"));
             }
-            return Err(format!("{shown} line {} (`{}`): {e}", lines.line, lines.text));
+            return Err(at_line(shown, lines.line, &lines.text, &e.to_string(), quote));
         }
     };
     let materials = materials.map_err(|e| format!("{shown}: {e}"))?;
@@ -254,9 +274,13 @@ fn read_obj(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<
     for m in models {
         let mesh = m.mesh;
         if let Some(n) = mesh.face_arities.iter().find(|n| **n < 3) {
+            let object = if quote {
+                format!("object `{}`", m.name)
+            } else {
+                "an object".into()
+            };
             return Err(format!(
-                "{shown}: object `{}` has a face of {n} vertices; a surface needs at least 3",
-                m.name
+                "{shown}: {object} has a face of {n} vertices; a surface needs at least 3"
             ));
         }
         groups.push(FaceGroup {
@@ -276,8 +300,8 @@ fn read_obj(path: &Path, shown: &str, known: &HashMap<String, usize>) -> Result<
 
 /// The first OBJ face line with a vertex, texture or normal index that
 /// names no element read before it (tobj's rule: 1…n, or −n…−1 from the end).
-fn locate_bad_index(path: &Path) -> Option<(usize, String)> {
-    let text = std::fs::read_to_string(path).ok()?;
+fn locate_bad_index(bytes: &[u8]) -> Option<(usize, String)> {
+    let text = String::from_utf8_lossy(bytes);
     let mut counts = [0isize; 3];
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
@@ -370,10 +394,22 @@ impl PropertyAccess for PlyIgnored {
     }
 }
 
-fn read_ply(path: &Path, shown: &str) -> Result<Vec<FaceGroup>, String> {
-    let file = File::open(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
-    let mut reader = Reader::new(BufReader::with_capacity(1 << 16, file));
-    let fail = |e: ply_rs_bw::parser::ParseError| format!("{shown}: {e}");
+fn read_ply(bytes: &[u8], shown: &str, quote: bool) -> Result<Vec<FaceGroup>, String> {
+    let mut reader = Reader::new(bytes);
+    let fail = |e: ply_rs_bw::parser::ParseError| {
+        if quote {
+            return format!("{shown}: {e}");
+        }
+        // ply-rs names the line as `Line N`; keep that, not the rest.
+        let text = e.to_string();
+        let line = text
+            .split_once("Line ")
+            .and_then(|(_, rest)| rest.split(|c: char| !c.is_ascii_digit()).next())
+            .filter(|n| !n.is_empty())
+            .map(|n| format!(" line {n}"))
+            .unwrap_or_default();
+        format!("{shown}{line}: {}", unquoted("not a usable PLY file"))
+    };
     let header = Parser::<PlyIgnored>::new().read_header(&mut reader).map_err(fail)?;
     let mut vertices: Option<Vec<PlyVertex>> = None;
     let mut faces: Option<(Vec<PlyFace>, usize)> = None;

@@ -163,8 +163,17 @@
 //! dashboard view. Only boxes, capped cylinders and solid spheres are solids
 //! for the light-inside-geometry check; meshes are not.
 //!
-//! Every number must be finite: `nan` or `inf` anywhere in the file is an
-//! error naming its key (`light[0].position[1]`). A camera must look
+//! Every number must be finite and at most [`MAX_SCENE_NUMBER`] (10¹²) in
+//! magnitude: `nan`, `inf` or `1e308` anywhere in the file is an error
+//! naming its key (`light[0].position[1]`). Numbers that overflow once
+//! combined (a mesh vertex × `scale`, a light's radiance on the CIELAB
+//! diffuser) are errors naming the key too; the numbers in CSV, IES, mesh
+//! and RADIANCE files must be finite and stay finite once converted.
+//!
+//! Files a scene names are read only if they are regular files (not a
+//! FIFO or a device such as `/dev/zero`) of at most
+//! [`input_file::MAX_INPUT_BYTES`] (256 MiB); errors about a file outside
+//! the scene's folder name it and the line but do not quote it. A camera must look
 //! somewhere (`look_at` ≠ `position`), with `up` not along the view
 //! direction and 0 < `fov_deg` < 180.
 //!
@@ -202,6 +211,7 @@
 
 mod analytic;
 mod file;
+pub mod input_file;
 mod lights;
 mod mesh;
 mod rad_import;
@@ -222,6 +232,10 @@ use super::geometry::{Shape, Solid};
 use super::ies::IesDistribution;
 use crate::spectrum::table::SpectraTable;
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+
+/// The largest magnitude of a number in a scene file (TOML): 10¹², so that
+/// products and squares of scene numbers stay finite.
+pub const MAX_SCENE_NUMBER: f64 = 1e12;
 
 /// Targets farther than this from every surface are an error, m.
 pub const TARGET_TOLERANCE_M: f64 = 1e-4;
@@ -531,6 +545,8 @@ struct Loader {
     material_index: HashMap<String, usize>,
     /// The black material of emitting surfaces without one, once added.
     black: Option<usize>,
+    /// Which of the files the scene names errors may quote.
+    quoting: input_file::Quoting,
 }
 
 impl Loader {
@@ -602,10 +618,10 @@ pub(super) fn metres_per_unit(units: Option<&str>) -> Option<f64> {
 /// Loads and validates a scene file.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+    let text = input_file::read_text(path).map_err(|e| SceneError {
         file: file.clone(),
         key: "(file)".into(),
-        message: format!("cannot read: {e}"),
+        message: e.reason,
     })?;
     let syntax = |e: toml::de::Error| SceneError {
         file: file.clone(),
@@ -614,10 +630,18 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     };
     let tree: toml::Table = toml::from_str(&text).map_err(syntax)?;
     if let Some((key, v)) = first_non_finite(&toml::Value::Table(tree), String::new()) {
+        let message = if v.is_finite() {
+            format!(
+                "{v:e} is beyond ±{MAX_SCENE_NUMBER:e}, the largest magnitude a scene number may have \
+                 (MAX_SCENE_NUMBER; larger numbers overflow once multiplied): check the number and its unit"
+            )
+        } else {
+            format!("{v} is not a finite number")
+        };
         return Err(SceneError {
             file: file.clone(),
             key,
-            message: format!("{v} is not a finite number"),
+            message,
         });
     }
     let de = toml::Deserializer::parse(&text).map_err(syntax)?;
@@ -636,6 +660,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         materials: Vec::new(),
         material_index: HashMap::new(),
         black: None,
+        quoting: input_file::Quoting::for_scene(path),
     };
     let units = metres_per_unit(raw.units.as_deref()).ok_or_else(|| {
         l.err(
@@ -734,6 +759,18 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         .as_ref()
         .map(|w| cielab_white(w, &l, &target_list, &emitters))
         .transpose()?;
+    if let Some(CielabWhite::LightOnPerfectDiffuser { point, normal }) = &cielab_white {
+        if diffuser_radiance(&lights, *point, *normal)
+            .iter()
+            .any(|v| !v.is_finite())
+        {
+            return Err(l.err(
+                "cielab_white.point",
+                "the lights' radiance on the diffuser here is not a finite number (a light is too close \
+                 to the point, or too intense): move the point away from the lights",
+            ));
+        }
+    }
 
     Ok(Scene {
         cielab_white,
@@ -872,8 +909,17 @@ impl Scene {
     /// light only: no shadows, no interreflections (an approximation the
     /// scene's author accepts by choosing this white).
     pub fn light_on_perfect_diffuser(&self, point: DVec3, normal: DVec3) -> Spectrum {
+        let values = diffuser_radiance(&self.lights, point, normal);
+        // Loading refused a white whose radiance is not finite.
+        Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
+    }
+}
+
+/// [`Scene::light_on_perfect_diffuser`]'s values, W/(sr·m²·nm) on the 1 nm grid.
+fn diffuser_radiance(lights: &[Light], point: DVec3, normal: DVec3) -> Vec<f64> {
+    {
         let mut values = vec![0.0; Grid::one_nm().len()];
-        for light in &self.lights {
+        for light in lights {
             let to_point = point - light.position;
             let d2 = to_point.length_squared();
             let dir = to_point / d2.sqrt();
@@ -886,14 +932,16 @@ impl Scene {
                 *v += k * s;
             }
         }
-        Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
+        values
     }
 }
 
-/// The first NaN or infinity in a parsed TOML tree, with its key path.
+/// The first NaN, infinity or number beyond ±[`MAX_SCENE_NUMBER`] in a
+/// parsed TOML tree, with its key path.
 fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
     match v {
-        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
+        toml::Value::Float(f) if !(f.abs() <= MAX_SCENE_NUMBER) => Some((key, *f)),
+        toml::Value::Integer(i) if (*i as f64).abs() > MAX_SCENE_NUMBER => Some((key, *i as f64)),
         toml::Value::Array(items) => items
             .iter()
             .enumerate()

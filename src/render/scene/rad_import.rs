@@ -29,7 +29,7 @@ pub(super) fn add_radiance(
         })?,
     };
     let path = l.dir.join(&r.file);
-    let rad = load_radiance(&path, k).map_err(|e| l.err(format!("radiance[{i}].file"), e.to_string()))?;
+    let rad = load_radiance(&path, k, &l.quoting).map_err(|e| l.err(format!("radiance[{i}].file"), e.to_string()))?;
     let (m0, e0) = (l.materials.len(), emitters.len());
     l.materials.extend(rad.materials);
     emitters.extend(rad.emitters);
@@ -65,7 +65,8 @@ pub fn load_radiance_scene(path: &Path, view: &RadianceView) -> Result<Scene, Sc
         key: key.into(),
         message,
     };
-    let rad = load_radiance(path, 1.0).map_err(|e| err("(radiance)", e.to_string()))?;
+    let quoting = super::input_file::Quoting::for_scene(path);
+    let rad = load_radiance(path, 1.0, &quoting).map_err(|e| err("(radiance)", e.to_string()))?;
     let l = Loader {
         file: file.clone(),
         dir: Default::default(),
@@ -74,6 +75,7 @@ pub fn load_radiance_scene(path: &Path, view: &RadianceView) -> Result<Scene, Sc
         materials: vec![],
         material_index: Default::default(),
         black: None,
+        quoting,
     };
     if !view.radiometer.is_finite() {
         return Err(err(

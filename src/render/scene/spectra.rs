@@ -12,9 +12,10 @@
 //! renderer resamples to).
 
 use super::file::{ExtendedRef, Outside, SpectrumRef};
+use super::input_file::{read_text, unquoted};
 use super::{Loader, SceneError};
 use crate::colorimetry::{Cmf, KM_LM_PER_W};
-use crate::spectrum::table::SpectraTable;
+use crate::spectrum::table::{SpectraTable, TableError};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum, SpectrumError};
 
 /// Second radiation constant c₂ = hc/k in m·K (CODATA 2018, as CIE 15:2018).
@@ -31,11 +32,30 @@ impl Loader {
     pub(super) fn table(&mut self, rel: &str, key: &str) -> Result<&SpectraTable, SceneError> {
         let path = self.dir.join(rel);
         if !self.tables.contains_key(&path) {
-            let t = SpectraTable::read(&path).map_err(|e| self.err(key, e.to_string()))?;
+            let text = read_text(&path).map_err(|e| self.err(key, e.to_string()))?;
+            let t =
+                SpectraTable::parse(&text, &path.display().to_string()).map_err(|e| self.table_err(&path, key, e))?;
             self.files.push(path.clone());
             self.tables.insert(path.clone(), t);
         }
         Ok(&self.tables[&path])
+    }
+
+    /// The error `e` about the table at `path`: as it is for a file in the
+    /// scene's folder; for one outside, its file and line only.
+    fn table_err(&self, path: &std::path::Path, key: &str, e: TableError) -> SceneError {
+        if self.quoting.may_quote(path) {
+            return self.err(key, e.to_string());
+        }
+        let at = e.line.map(|l| format!(":{l}")).unwrap_or_default();
+        self.err(
+            key,
+            format!(
+                "{}{at}: {}",
+                path.display(),
+                unquoted("not a usable spectra CSV (`nm,<name>,…`) or not the column named")
+            ),
+        )
     }
 
     /// A spectrum reference in `unit`, covering 380–780 nm (extended by its
@@ -56,8 +76,10 @@ impl Loader {
                 ),
             )
         })?;
-        let t = self.table(file, key)?;
-        let s = t.spectrum(column, unit).map_err(|e| self.err(key, e.to_string()))?;
+        let s = match self.table(file, key)?.spectrum(column, unit) {
+            Ok(s) => s,
+            Err(e) => return Err(self.table_err(&self.dir.join(file), key, e)),
+        };
         if s.grid().covers(RANGE_NM.0, RANGE_NM.1) {
             return Ok(s);
         }

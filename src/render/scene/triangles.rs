@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::file::{EmissionFile, MeshFile, PolygonFile, Scale};
+use super::input_file::unquoted;
 use super::lights::load_emitter;
 use super::mesh::{fan, read_mesh, triangle, Placement};
 use super::{Emitter, Loader, Primitive, SceneError};
@@ -115,7 +116,8 @@ pub(super) fn add_mesh(
         return Err(l.err(format!("{at}.scale"), "must be non-zero on every axis"));
     }
     let path = l.dir.join(&m.file);
-    let groups = read_mesh(&path, &m.file, declared).map_err(|e| l.err(format!("{at}.file"), e))?;
+    let quote = l.quoting.may_quote(&path);
+    let groups = read_mesh(&path, &m.file, declared, quote).map_err(|e| l.err(format!("{at}.file"), e))?;
     l.files.push(path);
     let emitter = emitter_of(l, m.emission.as_ref(), m.two_sided, &at, &label, emitters)?;
     let fallback = match (&m.material, emitter) {
@@ -144,11 +146,33 @@ pub(super) fn add_mesh(
             }
         };
         let p: Vec<DVec3> = g.positions.iter().map(|v| placement.apply(*v)).collect();
+        if let Some(k) = p.iter().position(|v| !v.is_finite()) {
+            return Err(l.err(
+                format!("{at}.file"),
+                format!(
+                    "{}: vertex {} is not a finite number once placed (its coordinates × `scale` × the \
+                     units overflow): check the mesh's numbers and `scale`",
+                    m.file,
+                    k + 1
+                ),
+            ));
+        }
         primitives.reserve(g.indices.len() / 3);
         for (f, poly) in g.polygons().enumerate() {
             for [a, b, c] in fan(poly.len()) {
                 let corners = [p[poly[a] as usize], p[poly[b] as usize], p[poly[c] as usize]];
                 let shape = triangle(corners, placement.mirrors).ok_or_else(|| {
+                    if !quote {
+                        return l.err(
+                            format!("{at}.file"),
+                            format!(
+                                "{}: face {}: {}",
+                                m.file,
+                                f + 1,
+                                unquoted("a triangle of its fan has zero area")
+                            ),
+                        );
+                    }
                     l.err(
                         format!("{at}.file"),
                         format!(
