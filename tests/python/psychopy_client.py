@@ -89,11 +89,10 @@ def main():
         out["model"] = phot.type
         out["serial"] = phot.sendMessage("d110").strip().split(",")[-1]
         phot.measure()
-        # PR650's setup command ('s01,,,,,,01,1') asks for cd/m²; D2's second field says which.
-        units = phot.sendMessage("d2").split(",")[1].strip()
-        scale = 1.0 if units == "1" else CD_M2_PER_FL
-        out["units_code"] = units
-        out["Y_cd_m2"] = phot.getLastLum() * scale
+        # PR650's setup command ('s01,,,,,,01,1') ends in units 1, metric:
+        # Y in cd/m² (D2's second field is luminance/illuminance, not units).
+        scale = 1.0
+        out["Y_cd_m2"] = phot.getLastLum()
         nm, power = phot.getLastSpectrum(parse=True)
         nm = [float(v) for v in nm]
         power = [float(v) for v in power]
