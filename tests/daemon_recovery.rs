@@ -351,7 +351,7 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
     let south = spawn_serve(&db, "south", 0.0, 0.5, 2.0).await;
     wait_until_idle(north.addr).await;
     wait_until_idle(south.addr).await;
-    let url = start_measurement(north.addr, 200).await;
+    let url = start_measurement(north.addr, 99).await;
     wait_for_samples(north.addr, &url, 2).await;
 
     cluster.stop();
