@@ -42,7 +42,13 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
     let db = format!("sqlite://{}", dir.path().join("study.sqlite").display());
     let mut tool = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
         .current_dir(root())
-        .args(["study", "scenes/white.toml", "--measure-simulated", "--simulated-speed", "0.5"])
+        .args([
+            "study",
+            "scenes/white.toml",
+            "--measure-simulated",
+            "--simulated-speed",
+            "0.5",
+        ])
         .args(["--db", &db])
         .arg("--cache-dir")
         .arg(cache_dir())
@@ -58,7 +64,10 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
                 break store;
             }
         }
-        assert!(tokio::time::Instant::now() < deadline, "the study never made its database");
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "the study never made its database"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     };
     let kept = loop {
@@ -82,7 +91,11 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
     };
     let m = reader.get_measurement(1).await.unwrap().unwrap();
     assert_eq!(m.summary.state, lightbooth::store::MeasurementState::Running);
-    assert!(m.samples.len() >= kept && kept >= 2, "{} samples after the kill", m.samples.len());
+    assert!(
+        m.samples.len() >= kept && kept >= 2,
+        "{} samples after the kill",
+        m.samples.len()
+    );
     reader.close().await;
 }
 
@@ -115,7 +128,13 @@ impl Drop for ServeProcess {
 /// Runs `serve --mock --db DB --booth BOOTH` (heartbeat and lease in its
 /// config file); returns once it printed its address, i.e. is ready (its
 /// start-up recovery done), without waiting for the instrument.
-async fn spawn_serve(db: &str, booth: &str, mock_speed: f64, heartbeat_seconds: f64, lease_seconds: f64) -> ServeProcess {
+async fn spawn_serve(
+    db: &str,
+    booth: &str,
+    mock_speed: f64,
+    heartbeat_seconds: f64,
+    lease_seconds: f64,
+) -> ServeProcess {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("lightbooth.toml");
     std::fs::write(
@@ -155,7 +174,12 @@ async fn spawn_serve(db: &str, booth: &str, mock_speed: f64, heartbeat_seconds: 
     let addr: SocketAddr = tokio::task::spawn_blocking(move || rx.recv_timeout(Duration::from_secs(60)))
         .await
         .unwrap()
-        .unwrap_or_else(|_| panic!("the daemon printed no address; its log:\n{}", std::fs::read_to_string(&log).unwrap_or_default()))
+        .unwrap_or_else(|_| {
+            panic!(
+                "the daemon printed no address; its log:\n{}",
+                std::fs::read_to_string(&log).unwrap_or_default()
+            )
+        })
         .parse()
         .unwrap();
     ServeProcess {
@@ -174,7 +198,13 @@ async fn wait_until_idle(addr: SocketAddr) {
 }
 
 async fn start_measurement(daemon: SocketAddr, samples: u32) -> String {
-    let (status, m) = post_json(daemon, "/api/measurements", TOKEN, &format!(r#"{{"samples":{samples}}}"#)).await;
+    let (status, m) = post_json(
+        daemon,
+        "/api/measurements",
+        TOKEN,
+        &format!(r#"{{"samples":{samples}}}"#),
+    )
+    .await;
     assert_eq!(status, 202, "{m}");
     m["url"].as_str().unwrap().to_string()
 }
@@ -203,7 +233,8 @@ async fn a_booths_daemon_restarted_after_kill_9_left_its_predecessors_measuremen
     let second = spawn_serve(&db, "north", 0.3, 1.0, 60.0).await;
     let (_, m) = get_json(second.addr, &url).await;
     assert_eq!(
-        m["state"], "interrupted",
+        m["state"],
+        "interrupted",
         "the restarted daemon left its dead predecessor's measurement as it was: {m}\n{}",
         second.log()
     );
@@ -270,7 +301,14 @@ impl Cluster {
         let data = cluster.data();
         cluster.run_as_postgres(
             "initdb",
-            &["-D", &data, "--auth=trust", "--username=postgres", "--encoding=UTF8", "--no-locale"],
+            &[
+                "-D",
+                &data,
+                "--auth=trust",
+                "--username=postgres",
+                "--encoding=UTF8",
+                "--no-locale",
+            ],
         );
         std::fs::create_dir_all(cluster.dir.path().join("run")).unwrap();
         if is_root() {
@@ -294,7 +332,10 @@ impl Cluster {
             self.dir.path().join("run").display()
         );
         let log = self.dir.path().join("log").display().to_string();
-        self.run_as_postgres("pg_ctl", &["-D", &self.data(), "-l", &log, "-w", "-o", &options, "start"]);
+        self.run_as_postgres(
+            "pg_ctl",
+            &["-D", &self.data(), "-l", &log, "-w", "-o", &options, "start"],
+        );
     }
 
     fn stop(&self) {
@@ -385,7 +426,8 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
     })
     .await;
     assert_eq!(
-        done["state"], "failed",
+        done["state"],
+        "failed",
         "{done}\nnorth's log:\n{}\nsouth's log:\n{}",
         north.log(),
         south.log()
@@ -393,9 +435,15 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
     let error = done["error"].as_str().unwrap();
     assert!(error.contains("could not be written to the database"), "{error}");
     assert!(!error.contains("stopped heartbeating"), "{error}");
-    assert!(done["samples"].as_array().unwrap().len() >= 2, "the samples written are kept");
+    assert!(
+        done["samples"].as_array().unwrap().len() >= 2,
+        "the samples written are kept"
+    );
     // Both daemons carry on: healthy, and north measures again.
-    poll_until(north.addr, "/api/health", Duration::from_secs(60), |v| v["status"] == "ok").await;
+    poll_until(north.addr, "/api/health", Duration::from_secs(60), |v| {
+        v["status"] == "ok"
+    })
+    .await;
     let url = start_measurement(north.addr, 2).await;
     let again = poll_until(north.addr, &url, Duration::from_secs(60), |v| {
         v["state"] != "queued" && v["state"] != "running"

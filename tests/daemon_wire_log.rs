@@ -19,7 +19,14 @@ fn a_pr670_daemon_logged_no_wire_commands_and_its_simulator_called_itself_a_pr65
     let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
     let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
         .current_dir(&root)
-        .args(["serve", "--mock", "--mock-speed", "0", "--instrument", "instruments/pr670.toml"])
+        .args([
+            "serve",
+            "--mock",
+            "--mock-speed",
+            "0",
+            "--instrument",
+            "instruments/pr670.toml",
+        ])
         .args(["--bind", "127.0.0.1:0", "--db", &db])
         .arg("--token-file")
         .arg(&token)

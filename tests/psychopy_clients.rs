@@ -83,7 +83,10 @@ fn start_simulator(subcommand: &str, truth: &Path, extra: &[&str]) -> Simulator 
         .read_line(&mut first)
         .unwrap();
     let port = first.trim().to_string();
-    assert!(port.starts_with("/dev/"), "{subcommand} printed {first:?}, not a device path");
+    assert!(
+        port.starts_with("/dev/"),
+        "{subcommand} printed {first:?}, not a device path"
+    );
     Simulator { child, port }
 }
 
@@ -213,5 +216,8 @@ fn strict_photo_flag_keeps_the_old_strict_remote_entry() {
     }
     let _ = child.kill();
     let status = child.wait().unwrap();
-    assert!(!status.success(), "a strict simulator answered PsychoPy's unpaced PHOTO and LF commands");
+    assert!(
+        !status.success(),
+        "a strict simulator answered PsychoPy's unpaced PHOTO and LF commands"
+    );
 }

@@ -91,8 +91,8 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
         None,
         &|_| {},
     )
-        .await
-        .unwrap();
+    .await
+    .unwrap();
     assert_eq!(ids.len(), 1);
     let m = store.get_measurement(ids[0]).await.unwrap().unwrap();
     assert_eq!(m.samples.len(), 5);

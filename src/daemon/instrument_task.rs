@@ -597,14 +597,9 @@ impl Worker {
     /// daemon shuts down meanwhile.
     fn finish_failed(&self, id: i64, state: MeasurementState, message: &str) -> Option<String> {
         let canceller = self.canceller.clone();
-        if let Err(e) = recorder::end_measurement(
-            &self.config.store,
-            &self.config.runtime,
-            id,
-            state,
-            message,
-            &|| canceller.is_shutting_down(),
-        ) {
+        if let Err(e) = recorder::end_measurement(&self.config.store, &self.config.runtime, id, state, message, &|| {
+            canceller.is_shutting_down()
+        }) {
             tracing::error!(error = %e, measurement_id = id, "cannot record the end of a measurement");
         }
         let _ = self.config.events.send(Event::MeasurementFinished {

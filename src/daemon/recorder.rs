@@ -53,7 +53,9 @@ impl Recorder {
         instrument_id: Option<i64>,
         give_up: &dyn Fn() -> bool,
     ) -> Result<Recorder, StoreError> {
-        retry_while_unavailable(runtime, id, "its start", give_up, || store.mark_running(id, instrument_id))?;
+        retry_while_unavailable(runtime, id, "its start", give_up, || {
+            store.mark_running(id, instrument_id)
+        })?;
         Ok(Recorder {
             store: store.clone(),
             runtime: runtime.clone(),
@@ -111,8 +113,10 @@ impl Recorder {
             ));
         }
         let average = average_row(avg, observer);
-        self.retry("its average", give_up, || self.store.complete_measurement(self.id, &average))
-            .map_err(|e| format!("cannot store the average: {e}"))
+        self.retry("its average", give_up, || {
+            self.store.complete_measurement(self.id, &average)
+        })
+        .map_err(|e| format!("cannot store the average: {e}"))
     }
 
     /// Ends the measurement `state` with `message`, retrying while the
@@ -166,7 +170,11 @@ where
         match runtime.block_on(write()) {
             Ok(()) => {
                 if tries > 0 {
-                    tracing::info!(measurement_id = id, tries = tries + 1, "recorded {what} once the database answered again");
+                    tracing::info!(
+                        measurement_id = id,
+                        tries = tries + 1,
+                        "recorded {what} once the database answered again"
+                    );
                 }
                 return Ok(());
             }

@@ -1269,11 +1269,19 @@ async fn a_live_daemons_lease_lapsed_during_a_database_outage_and_a_neighbour_to
         .register_daemon(&"south".parse().unwrap(), Duration::from_millis(300))
         .await
         .unwrap();
-    let id = store.as_daemon(live).create_measurement(&new_measurement()).await.unwrap();
+    let id = store
+        .as_daemon(live)
+        .create_measurement(&new_measurement())
+        .await
+        .unwrap();
     store.as_daemon(live).mark_running(id, None).await.unwrap();
     // The outage: no beat for longer than the lease.
     tokio::time::sleep(Duration::from_millis(600)).await;
-    let back_at = store.renew_lease(noticer).await.unwrap().expect("the noticer's lease is not stopped");
+    let back_at = store
+        .renew_lease(noticer)
+        .await
+        .unwrap()
+        .expect("the noticer's lease is not stopped");
     let scope = RecoveryScope {
         rows_without_daemon: false,
         every_daemon_is_gone: false,
@@ -1308,12 +1316,14 @@ async fn a_dead_predecessor_on_this_host_is_recovered_at_once_a_live_one_is_not(
     let dead = store.register_daemon(&north, lease).await.unwrap();
     let other_booth = store.register_daemon(&"south".parse().unwrap(), lease).await.unwrap();
     // The dead one's pid: beyond Linux's pid_max (4 194 304), so no process has it.
-    with_pool!(store, |pool| sqlx::query("UPDATE daemons SET pid = 99999999 WHERE id IN ($1, $2)")
-        .bind(dead)
-        .bind(other_booth)
-        .execute(pool)
-        .await
-        .unwrap());
+    with_pool!(store, |pool| sqlx::query(
+        "UPDATE daemons SET pid = 99999999 WHERE id IN ($1, $2)"
+    )
+    .bind(dead)
+    .bind(other_booth)
+    .execute(pool)
+    .await
+    .unwrap());
     let running_as = |daemon: i64| {
         let store = store.as_daemon(daemon);
         async move {
@@ -1325,15 +1335,26 @@ async fn a_dead_predecessor_on_this_host_is_recovered_at_once_a_live_one_is_not(
     let of_dead = running_as(dead).await;
     let of_other_booth = running_as(other_booth).await;
     let successor = store.register_daemon(&north, lease).await.unwrap();
-    let recovered = store.as_daemon(successor).recover_dead_predecessors(&north).await.unwrap();
+    let recovered = store
+        .as_daemon(successor)
+        .recover_dead_predecessors(&north)
+        .await
+        .unwrap();
     assert_eq!(recovered.measurements, 1, "{recovered:?}");
     let (state, error, _) = state_of(&store, of_dead).await;
     assert_eq!(state, MeasurementState::Interrupted);
     let error = error.unwrap();
-    assert!(error.contains("pid 99999999") && error.contains("process is gone"), "{error}");
+    assert!(
+        error.contains("pid 99999999") && error.contains("process is gone"),
+        "{error}"
+    );
     assert!(store.daemon(dead).await.unwrap().unwrap().stopped_at.is_some());
     assert_eq!(state_of(&store, of_other_booth).await.0, MeasurementState::Running);
     // The successor itself is never its own predecessor.
-    let again = store.as_daemon(successor).recover_dead_predecessors(&north).await.unwrap();
+    let again = store
+        .as_daemon(successor)
+        .recover_dead_predecessors(&north)
+        .await
+        .unwrap();
     assert_eq!(again.total(), 0);
 }
