@@ -9,8 +9,11 @@ use std::process::ExitCode;
 use clap::Parser;
 
 /// The daemon's default log filter: state changes and jobs at info, and every
-/// command sent to the instrument and its reply (the driver logs those at debug).
-const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug";
+/// command sent to the instrument and its reply, whichever model's driver
+/// sends it (each driver logs its wire traffic at debug: `→ PR-650 command`,
+/// `← PR-670 reply`; the shared serial link, `transport`, its discarded input).
+const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug,lightbooth::instrument::pr655=debug,\
+                          lightbooth::instrument::transport=debug";
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();

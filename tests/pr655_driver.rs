@@ -169,9 +169,9 @@ fn every_uncertain_behaviour_of_section_13_is_handled() {
             },
         ),
         (
-            "PHOTO in any pacing",
+            "PHOTO one letter per read (strict)",
             Pr655Switches {
-                strict_photo: false,
+                strict_photo: true,
                 ..fast_switches(Model::Pr655)
             },
         ),
@@ -190,9 +190,9 @@ fn every_uncertain_behaviour_of_section_13_is_handled() {
             },
         ),
         (
-            "LF accepted",
+            "CR only",
             Pr655Switches {
-                accept_lf: true,
+                accept_lf: false,
                 ..fast_switches(Model::Pr655)
             },
         ),

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, on a fresh
 # Debian machine: Chromium (for the dashboard test), playwright-core from
-# npm (it drives that Chromium; no browser download), and PostgreSQL (the
-# store's tests run against SQLite and PostgreSQL). Starts a throw-away
+# npm (it drives that Chromium; no browser download), PostgreSQL (the
+# store's tests run against SQLite and PostgreSQL) and a Python venv of
+# other programs' clients (target/py). Starts a throw-away
 # PostgreSQL cluster for the tests (see the end). Safe to run again.
 #
 #   tests/setup.sh                 install what is missing, start PostgreSQL
@@ -70,6 +71,32 @@ if ! pg_bin >/dev/null; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq postgresql >/dev/null
   # The package starts a system cluster; the tests use their own.
 fi
+# Python programs the project did not write, in one venv under target/py:
+# PsychoPy's Photo Research clients (psychopy-photoresearch, with pyserial and
+# the numpy it imports) talk to the simulated instruments
+# (tests/psychopy_clients.rs; tests/python/ stands in for `psychopy.logging`).
+PY_VENV="$PWD/target/py"
+if [ ! -x "$PY_VENV/bin/python" ]; then
+  echo "creating the tests' Python venv in $PY_VENV"
+  mkdir -p target
+  if ! python3 -m venv "$PY_VENV" >/dev/null 2>&1; then
+    SUDO=""
+    [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq python3-venv >/dev/null
+    rm -rf "$PY_VENV"
+    python3 -m venv "$PY_VENV"
+  fi
+fi
+py_missing=()
+for pkg in pyserial numpy psychopy-photoresearch; do
+  "$PY_VENV/bin/pip" show -q "$pkg" >/dev/null 2>&1 || py_missing+=("$pkg")
+done
+if [ "${#py_missing[@]}" -gt 0 ]; then
+  echo "installing ${py_missing[*]} (PyPI) into $PY_VENV"
+  "$PY_VENV/bin/pip" install -q --disable-pip-version-check "${py_missing[@]}"
+fi
+
 BIN=$(pg_bin)
 mkdir -p "$PG_ROOT"
 [ "$(id -u)" -ne 0 ] || chown postgres: "$PG_ROOT"

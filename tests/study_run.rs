@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use lightbooth::colorimetry::Observer;
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
-use lightbooth::study::measure::measure_with_simulator;
+use lightbooth::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::study::report::write_report;
 use lightbooth::study::run::{run_study, Against, StudyOptions};
 
@@ -82,9 +82,17 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
         .await
         .unwrap();
     let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
-    let ids = measure_with_simulator(&[scene("white")], &store, &cache, 1, Observer::JuddVos, None, &|_| {})
-        .await
-        .unwrap();
+    let ids = measure_with_simulator(
+        &[scene("white")],
+        &store,
+        &cache,
+        SimulatedPr650 { seed: 1, speed: 0.0 },
+        Observer::JuddVos,
+        None,
+        &|_| {},
+    )
+    .await
+    .unwrap();
     assert_eq!(ids.len(), 1);
     let m = store.get_measurement(ids[0]).await.unwrap().unwrap();
     assert_eq!(m.samples.len(), 5);

@@ -61,9 +61,10 @@ pub struct MockPr655Args {
     /// Discard bytes that arrive during a measurement instead of queueing them.
     #[arg(long)]
     drop_busy_input: bool,
-    /// §13.2: accept `PHOTO` in any pacing (default: only letters that arrive one per read).
+    /// §13.2: take the letters of `PHOTO` only when each arrives in its own read (a burst is
+    /// ignored). Default: any pacing, as real units answer clients that write with no pause (§1).
     #[arg(long)]
-    loose_photo: bool,
+    strict_photo: bool,
     /// §13.2: the banner's latency, ms (a late banner past 10 s is a link fault to try).
     #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u64).range(0..=60_000))]
     banner_latency_ms: u64,
@@ -76,9 +77,10 @@ pub struct MockPr655Args {
     /// §13.2: a second `PHOTO` in remote mode gets no banner (default: only on the PR-670).
     #[arg(long, value_enum)]
     photo_only_once: Option<OnOff>,
-    /// §13.4: LF ends a command as well as CR.
+    /// §13.4: only CR ends a command (an LF is ignored). Default: CR or LF, as real units answer
+    /// LF-terminated commands (§1).
     #[arg(long)]
-    accept_lf: bool,
+    cr_only: bool,
     /// §13.4: accept lower-case commands.
     #[arg(long)]
     any_case: bool,
@@ -140,7 +142,7 @@ pub fn run(args: MockPr655Args, model: Model) -> anyhow::Result<()> {
     };
     let defaults = Pr655Switches::for_model(model);
     let switches = Pr655Switches {
-        strict_photo: !args.loose_photo,
+        strict_photo: args.strict_photo,
         banner_latency_ms: args.banner_latency_ms,
         no_banner: args.no_banner,
         stray_terminator: match args.stray_terminator {
@@ -151,7 +153,7 @@ pub fn run(args: MockPr655Args, model: Model) -> anyhow::Result<()> {
         photo_only_once: args
             .photo_only_once
             .map_or(defaults.photo_only_once, |o| matches!(o, OnOff::On)),
-        accept_lf: args.accept_lf,
+        accept_lf: !args.cr_only,
         case_insensitive: args.any_case,
         status_style: match args.status {
             Status::FiveDigits => StatusStyle::FiveDigits,

@@ -11,7 +11,7 @@ use lightbooth::daemon::lease::Lease;
 use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
 use lightbooth::render::Coding;
 use lightbooth::store::{Job, Store};
-use lightbooth::study::measure::measure_with_simulator;
+use lightbooth::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::study::report::write_report;
 use lightbooth::study::run::{run_study, Against, StudyOptions};
 
@@ -63,6 +63,10 @@ pub struct StudyArgs {
     /// First measure every target with the simulated PR-650 (reproducible, no booth needed).
     #[arg(long)]
     measure_simulated: bool,
+    /// Time scale of the simulated PR-650 of --measure-simulated: 0 = instant, 1 = the real
+    /// instrument's measurement and 9600-baud wire times.
+    #[arg(long, default_value_t = 0.0, value_parser = super::time_scale)]
+    simulated_speed: f64,
     /// Where converged spectra of scene targets are cached.
     #[arg(long, default_value = ".lightbooth-cache")]
     cache_dir: PathBuf,
@@ -152,7 +156,10 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
                 &args.scenes,
                 store,
                 &args.cache_dir,
-                1,
+                SimulatedPr650 {
+                    seed: 1,
+                    speed: args.simulated_speed,
+                },
                 options.observer,
                 options.truth_scene.as_deref(),
                 &progress,

@@ -2,9 +2,11 @@
 //! driver does blocking serial I/O), takes queued measurements one at a
 //! time so commands never interleave on the wire, and:
 //!
-//! - writes each raw sample to the store *before* the next sample starts
-//!   (the thread blocks on the write), so a crash or a pulled cable keeps
-//!   every sample taken;
+//! - records each measurement through [`super::recorder::Recorder`]: each
+//!   raw sample is in the store *before* the next sample starts (the thread
+//!   blocks on the write), so a crash or a pulled cable keeps every sample
+//!   taken, and the end of a measurement is written again until a database
+//!   that was away answers;
 //! - publishes its live [`InstrumentStatus`] and an [`Event`] per step;
 //! - reopens a lost port with exponential backoff (1 s doubling to 30 s),
 //!   saying so in the status and the log;
@@ -26,14 +28,13 @@ use std::time::{Duration, Instant};
 use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
 
+use super::recorder::{self, Recorder};
 use super::renders::Renderer;
-use crate::colorimetry::{xyz_from_radiance, Observer};
+use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{
-    AveragedMeasurement, CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer,
-};
+use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
 use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
-use crate::store::{unix_seconds, Average, Booth, MeasurementState, NewSample, Store};
+use crate::store::{Booth, MeasurementState, Store};
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
@@ -416,12 +417,18 @@ impl Worker {
         // finds the measurement no longer queued always finds its token.
         let cancel = CancelToken::new();
         self.canceller.set_current(Some((id, cancel.clone())));
-        if let Err(e) = self.block_on(store.mark_running(id, instrument_id)) {
-            tracing::warn!(error = %e, "measurement no longer queued; skipped");
-            return None;
-        }
+        let canceller = self.canceller.clone();
+        let recorder = match Recorder::start(&store, &self.config.runtime, id, instrument_id, &|| {
+            canceller.is_shutting_down()
+        }) {
+            Ok(recorder) => recorder,
+            Err(e) => {
+                tracing::warn!(error = %e, "measurement no longer queued; skipped");
+                return None;
+            }
+        };
         self.current = Some(id);
-        let outcome = self.take_running(instrument, id, job, cancel);
+        let outcome = self.take_running(instrument, recorder, job, cancel);
         self.current = None;
         outcome
     }
@@ -430,11 +437,11 @@ impl Worker {
     fn take_running(
         &mut self,
         instrument: &mut dyn Spectroradiometer,
-        id: i64,
+        mut recorder: Recorder,
         job: &MeasurementJob,
         cancel: CancelToken,
     ) -> Option<String> {
-        let store = self.config.store.clone();
+        let id = recorder.id();
         let _ = self.config.events.send(Event::MeasurementStarted {
             measurement_id: id,
             samples: job.samples,
@@ -474,25 +481,20 @@ impl Worker {
 
         let events = self.config.events.clone();
         let status = self.config.status.clone();
-        let runtime = self.config.runtime.clone();
         let of = job.samples;
         let observer = self.config.renderer.observer();
-        let (mut taken, mut usable) = (0usize, 0usize);
-        // The first sample that could not be written: the measurement stops there.
-        let mut write_failed: Option<String> = None;
         let stop = cancel.clone();
         let mut on_sample = |s: &Sample| {
-            let row = sample_row(s);
-            taken += 1;
-            usable += usize::from(row.usable);
             // Blocks this thread until the sample is on disk: the next sample waits.
-            if let Err(e) = runtime.block_on(store.insert_sample(id, &row)) {
-                tracing::error!(error = %e, index = s.index, "cannot store a sample; stopping the measurement");
-                write_failed
-                    .get_or_insert_with(|| format!("sample {} could not be written to the database: {e}", s.index));
-                stop.cancel();
-                return;
-            }
+            let row = match recorder.store_sample(s) {
+                Ok(row) => row,
+                Err(why) => {
+                    // The first sample that could not be written: the measurement stops there.
+                    tracing::error!(error = %why, index = s.index, "cannot store a sample; stopping the measurement");
+                    stop.cancel();
+                    return;
+                }
+            };
             tracing::info!(
                 index = s.index,
                 code = s.code.code,
@@ -529,7 +531,8 @@ impl Worker {
             });
         };
         let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
-        if let Some(why) = write_failed {
+        let (taken, usable) = recorder.taken();
+        if let Some(why) = recorder.write_failed() {
             // Not every sample is on disk: never `complete`, whatever the instrument said.
             tracing::error!(error = %why, "measurement failed: a sample was not stored");
             return self.finish_failed(
@@ -545,10 +548,10 @@ impl Worker {
                 // stored instrument_x, instrument_y are the instrument's own
                 // (CIE 1931, as the PR-650 reports), never compared or charted.
                 let observer = self.config.renderer.observer();
-                let average = average_row(&avg, observer);
-                if let Err(e) = self.block_on(store.complete_measurement(id, &average)) {
-                    tracing::error!(error = %e, "cannot store the average");
-                    return self.finish_failed(id, MeasurementState::Failed, &format!("cannot store the average: {e}"));
+                let canceller = self.canceller.clone();
+                if let Err(why) = recorder.complete(&avg, observer, &|| canceller.is_shutting_down()) {
+                    tracing::error!(error = %why, "cannot store the average");
+                    return self.finish_failed(id, MeasurementState::Failed, &why);
                 }
                 tracing::info!(
                     luminance_cd_m2 = avg.luminance_cd_m2,
@@ -595,8 +598,14 @@ impl Worker {
         }
     }
 
+    /// Ends measurement `id` `state` with `message`, writing it again while
+    /// the database is away ([`recorder::end_measurement`]) unless the
+    /// daemon shuts down meanwhile.
     fn finish_failed(&self, id: i64, state: MeasurementState, message: &str) -> Option<String> {
-        if let Err(e) = self.block_on(self.config.store.end_measurement(id, state, message)) {
+        let canceller = self.canceller.clone();
+        if let Err(e) = recorder::end_measurement(&self.config.store, &self.config.runtime, id, state, message, &|| {
+            canceller.is_shutting_down()
+        }) {
             tracing::error!(error = %e, measurement_id = id, "cannot record the end of a measurement");
         }
         let _ = self.config.events.send(Event::MeasurementFinished {
@@ -623,36 +632,6 @@ fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
         n => format!("{n} usable, averaged as a partial result"),
     };
     format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
-}
-
-/// A raw sample as the store keeps it.
-pub fn sample_row(s: &Sample) -> NewSample {
-    NewSample {
-        index: s.index,
-        taken_at: unix_seconds(s.time),
-        code: i64::from(s.code.code),
-        message: s.code.message.clone(),
-        usable: s.code.is_ok() && s.radiance.is_some(),
-        radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
-        luminance_cd_m2: s.luminance,
-    }
-}
-
-/// The average of a measurement as the store keeps it, with lightbooth's
-/// XYZ of the mean spectrum for `observer`.
-pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
-    let xyz = xyz_from_radiance(&avg.mean, observer).ok().map(|x| x.to_array());
-    Average {
-        xyz,
-        observer: xyz.is_some().then_some(observer),
-        wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
-        radiance: avg.mean.values().to_vec(),
-        radiance_sd: avg.sd.clone(),
-        luminance_cd_m2: avg.luminance_cd_m2,
-        x: avg.x,
-        y: avg.y,
-        luminance_cv: avg.luminance_cv,
-    }
 }
 
 /// The state a failed measurement ends in, and whether the port is lost.

@@ -97,18 +97,34 @@ pub fn interruption_events(recovered: &Recovered) -> Vec<Event> {
 
 /// Renews lease `id` every `interval`; with `events`, also recovers the
 /// work of daemons whose lease expired and sends its events. Runs until
-/// aborted. A database error is logged and retried at the next beat (if
-/// beats fail for longer than the lease, others will count this one gone).
+/// aborted. A database error is logged and retried at the next beat, for as
+/// long as it takes: the first renewal after a failed one is the moment this
+/// daemon saw the database come back, and no lease it judges counts time
+/// before it (`store::leases`, the outage rule), so an outage neither
+/// expires this daemon's lease nor lets it take a neighbour's work that
+/// was only renewed late.
 async fn heartbeat(store: Store, id: i64, interval: Duration, events: Option<broadcast::Sender<Event>>) {
     let mut ticks = tokio::time::interval(interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    // Whether the last renewal failed, and since when (database time) the
+    // renewals have succeeded after the last failure.
+    let mut failing = false;
+    let mut seen_since: Option<f64> = None;
     loop {
         ticks.tick().await;
-        match store.heartbeat(id).await {
-            Ok(true) => {}
-            Ok(false) => tracing::warn!(daemon = id, "this daemon's lease row is marked stopped"),
+        match store.renew_lease(id).await {
+            Ok(at) => {
+                if std::mem::take(&mut failing) {
+                    tracing::info!(daemon = id, "the database answers again: lease renewed");
+                    seen_since = at;
+                }
+                if at.is_none() {
+                    tracing::warn!(daemon = id, "this daemon's lease row is marked stopped");
+                }
+            }
             Err(e) => {
-                tracing::warn!(daemon = id, error = %e, "cannot renew this daemon's lease");
+                tracing::warn!(daemon = id, error = %e, "cannot renew this daemon's lease; retrying at the next beat");
+                failing = true;
                 continue;
             }
         }
@@ -119,10 +135,13 @@ async fn heartbeat(store: Store, id: i64, interval: Duration, events: Option<bro
             tracing::warn!(daemon = id, error = %e, "cannot queue again the jobs of gone render workers");
         }
         match store
-            .recover_abandoned_work(RecoveryScope {
-                rows_without_daemon: false,
-                every_daemon_is_gone: false,
-            })
+            .recover_abandoned_work_seen_since(
+                RecoveryScope {
+                    rows_without_daemon: false,
+                    every_daemon_is_gone: false,
+                },
+                seen_since,
+            )
             .await
         {
             Ok(recovered) => {

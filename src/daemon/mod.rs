@@ -21,6 +21,7 @@ pub mod images;
 pub mod instrument_task;
 pub mod jobs;
 pub mod lease;
+pub mod recorder;
 pub mod renders;
 pub mod study_measurements;
 pub mod worker_queue;
@@ -141,6 +142,20 @@ pub async fn run(
     let daemon_id = lease.id();
     let store = lease.store().clone();
     tracing::info!(daemon = daemon_id, booth = %options.booth, "registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
+    // This booth's previous daemon on this host, killed (kill -9, a crash):
+    // its work is recovered now, not a lease later (`store::leases`).
+    let recovered = store
+        .recover_dead_predecessors(&options.booth)
+        .await
+        .context("recovering the work of this booth's previous daemon")?;
+    if recovered.total() > 0 {
+        tracing::warn!(
+            measurements = recovered.measurements,
+            renders = recovered.renders,
+            studies = recovered.studies,
+            "marked the work of this booth's dead previous daemon as interrupted"
+        );
+    }
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
     println!("{}", source.describe());

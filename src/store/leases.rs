@@ -30,6 +30,27 @@
 //!   SQLite writers are serialised anyway. The gone-check inside the UPDATE
 //!   also keeps a daemon that heartbeated again between the look-up and the
 //!   UPDATE from losing its work.
+//! - **A database outage never expires a lease.** While the database is
+//!   away no daemon can renew its lease, and none can judge another's: so
+//!   a lease counts only time during which the database was seen answering.
+//!   A daemon is gone when it has not heartbeated for its whole lease since
+//!   the later of its last heartbeat and the moment the database was last
+//!   seen coming back: the server's start (`pg_postmaster_start_time()` on
+//!   PostgreSQL: a restarted server restarts every lease), and, for the
+//!   daemon judging, the first heartbeat it renewed after one it could not
+//!   ([`Store::recover_abandoned_work_seen_since`]; an outage it saw on its
+//!   side of the network restarts every lease it judges). A daemon whose
+//!   heartbeat fails keeps trying at every beat and renews as soon as the
+//!   database answers, well within the lease it is given after the return,
+//!   so recovery never takes the work of a daemon that was alive all along
+//!   but renewed late because of the outage; and the gone-check inside each
+//!   recovery UPDATE still protects one that renews between the look-up
+//!   and the UPDATE.
+//! - **A dead predecessor is recovered at once** ([`Store::recover_dead_predecessors`]):
+//!   a daemon starting finds its own booth's earlier daemons registered on
+//!   the same host and not stopped; one whose process is gone (no such pid,
+//!   or the pid now runs another program) cannot be alive, so its work is
+//!   marked interrupted and its row stopped then, not a lease later.
 //! - Rows without a daemon (made before leases, or by a one-shot tool such as
 //!   `lightbooth study`) are recovered only when a daemon starts, as before
 //!   leases; heartbeats never touch them, so a tool's study running beside
@@ -237,16 +258,85 @@ impl Store {
 
     /// Renews daemon `id`'s lease. False when it has been marked stopped.
     pub async fn heartbeat(&self, id: i64) -> Result<bool, StoreError> {
+        Ok(self.renew_lease(id).await?.is_some())
+    }
+
+    /// Renews daemon `id`'s lease; the database's time of the renewal
+    /// (POSIX seconds), or `None` when it has been marked stopped.
+    pub async fn renew_lease(&self, id: i64) -> Result<Option<f64>, StoreError> {
         let sql = format!(
-            "UPDATE daemons SET heartbeat_at = {} WHERE id = $1 AND stopped_at IS NULL",
+            "UPDATE daemons SET heartbeat_at = {} WHERE id = $1 AND stopped_at IS NULL RETURNING heartbeat_at",
             self.clock_sql()
         );
-        let n = with_pool!(self, |pool| sqlx::query(&sql)
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
             .bind(id)
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(n == 1)
+            .fetch_optional(pool)
+            .await?))
+    }
+
+    /// The database's time, POSIX seconds, from which leases count (see the
+    /// module doc): the server's start on PostgreSQL, never on SQLite (a file
+    /// has no outages of its own).
+    fn leases_count_from_sql(&self) -> &'static str {
+        match self.engine {
+            Engine::Sqlite(_) => "0.0",
+            Engine::Postgres(_) => "(EXTRACT(EPOCH FROM pg_postmaster_start_time())::DOUBLE PRECISION)",
+        }
+    }
+
+    /// Recovers at once the unfinished work of this booth's earlier daemons
+    /// (and tools) registered on this host whose process is gone (see the
+    /// module doc), and marks them stopped; never this handle's own daemon's.
+    pub async fn recover_dead_predecessors(&self, booth: &Booth) -> Result<Recovered, StoreError> {
+        let me = self.daemon_id.unwrap_or(-1);
+        let host = host_name();
+        let candidates: Vec<DaemonRow> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at \
+             FROM daemons WHERE booth = $1 AND host = $2 AND stopped_at IS NULL AND id <> $3 ORDER BY id"
+        )
+        .bind(booth.as_str())
+        .bind(&host)
+        .bind(me)
+        .fetch_all(pool)
+        .await?);
+        let clock = self.clock_sql();
+        let mut recovered = Recovered::default();
+        for daemon in candidates.iter().filter(|d| !process_may_be_alive(d.pid)) {
+            for table in OWNED_TABLES {
+                let why = format!(
+                    "the daemon of booth `{}` (host {}, pid {}, daemon {}) died before this {} finished: \
+                     its process is gone, found by the next daemon of the booth on the same host{}",
+                    daemon.booth,
+                    daemon.host,
+                    daemon.pid,
+                    daemon.id,
+                    noun(table),
+                    retry_hint(table)
+                );
+                let sql = format!(
+                    "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
+                     WHERE daemon_id = $2 AND state IN ('queued', 'running'){} {}",
+                    not_a_worker_job(table),
+                    returning(table)
+                );
+                let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
+                    .bind(&why)
+                    .bind(daemon.id)
+                    .fetch_all(pool)
+                    .await?);
+                if !rows.is_empty() {
+                    tracing::warn!(
+                        daemon = daemon.id,
+                        pid = daemon.pid,
+                        count = rows.len(),
+                        "marked the {table} of this booth's dead predecessor as interrupted"
+                    );
+                }
+                recovered.add(table, rows, &why);
+            }
+            self.mark_daemon_stopped(daemon.id).await?;
+        }
+        Ok(recovered)
     }
 
     /// Marks daemon `id` stopped (a graceful shutdown, after it marked its
@@ -280,11 +370,36 @@ impl Store {
     /// never this handle's own daemon's. See the module doc for what *gone*
     /// means and why the UPDATEs are race-safe.
     pub async fn recover_abandoned_work(&self, scope: RecoveryScope) -> Result<Recovered, StoreError> {
+        self.recover_abandoned_work_seen_since(scope, None).await
+    }
+
+    /// [`Store::recover_abandoned_work`] by a daemon that has seen the
+    /// database answer continuously only since `seen_since` (the database's
+    /// time of its first renewal after a failed one): no lease counts time
+    /// before it (the module doc's outage rule).
+    pub async fn recover_abandoned_work_seen_since(
+        &self,
+        scope: RecoveryScope,
+        seen_since: Option<f64>,
+    ) -> Result<Recovered, StoreError> {
         let clock = self.clock_sql();
+        let counts_from = format!(
+            "{}({}, {:?})",
+            match self.engine {
+                Engine::Sqlite(_) => "MAX",
+                Engine::Postgres(_) => "GREATEST",
+            },
+            self.leases_count_from_sql(),
+            seen_since.filter(|t| t.is_finite()).unwrap_or(0.0)
+        );
         let gone = if scope.every_daemon_is_gone {
             "TRUE".to_string()
         } else {
-            format!("(d.stopped_at IS NOT NULL OR d.heartbeat_at + d.lease_seconds < {clock})")
+            let last_sign_of_life = match self.engine {
+                Engine::Sqlite(_) => format!("MAX(d.heartbeat_at, {counts_from})"),
+                Engine::Postgres(_) => format!("GREATEST(d.heartbeat_at, {counts_from})"),
+            };
+            format!("(d.stopped_at IS NOT NULL OR {last_sign_of_life} + d.lease_seconds < {clock})")
         };
         let has_work = OWNED_TABLES
             .iter()
@@ -378,6 +493,31 @@ impl Store {
             .execute(pool)
             .await?
             .rows_affected()))
+    }
+}
+
+/// Whether process `pid` of this host may still be the daemon registered
+/// with it: false when no such process exists, or it runs a program that is
+/// not lightbooth (the pid was reused). True where `/proc` cannot tell (not
+/// Linux), and for this very process (tests run several daemons in one):
+/// the lease decides there.
+fn process_may_be_alive(pid: i64) -> bool {
+    if pid == i64::from(std::process::id()) {
+        return true;
+    }
+    if !std::path::Path::new("/proc/self/cmdline").exists() {
+        return true;
+    }
+    match std::fs::read(format!("/proc/{pid}/cmdline")) {
+        // A zombie's cmdline is empty: it is gone too.
+        Ok(cmdline) => {
+            let argv0 = cmdline.split(|b| *b == 0).next().unwrap_or_default();
+            let argv0 = String::from_utf8_lossy(argv0);
+            std::path::Path::new(&*argv0)
+                .file_name()
+                .is_some_and(|name| name.to_string_lossy().contains("lightbooth"))
+        }
+        Err(_) => false,
     }
 }
 

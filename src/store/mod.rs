@@ -105,6 +105,33 @@ pub enum StoreError {
     Url(String),
 }
 
+impl StoreError {
+    /// The database could not be reached or is not answering for now (a
+    /// server that stopped, restarts or refuses connections, a pool with no
+    /// connection to give, a busy SQLite file): the same statement may
+    /// succeed later, unlike a refused or conflicting one.
+    pub fn is_unavailable(&self) -> bool {
+        let StoreError::Sql(e) = self else { return false };
+        match e {
+            sqlx::Error::Io(_)
+            | sqlx::Error::Tls(_)
+            | sqlx::Error::PoolTimedOut
+            | sqlx::Error::PoolClosed
+            | sqlx::Error::WorkerCrashed => true,
+            // An unexpected end of the server's stream is reported as a protocol error.
+            sqlx::Error::Protocol(_) => true,
+            sqlx::Error::Database(db) => db.code().is_some_and(|code| {
+                // PostgreSQL: class 08 (connection exception), 57P01–57P03
+                // (administrator shutdown, crash shutdown, cannot connect
+                // now), 53300 (too many connections). SQLite: 5 and 6 (busy,
+                // locked).
+                code.starts_with("08") || matches!(code.as_ref(), "57P01" | "57P02" | "57P03" | "53300" | "5" | "6")
+            }),
+            _ => false,
+        }
+    }
+}
+
 /// Seconds since the Unix epoch, UTC.
 pub fn unix_seconds(t: SystemTime) -> f64 {
     t.duration_since(UNIX_EPOCH).unwrap_or(Duration::ZERO).as_secs_f64()

@@ -28,6 +28,8 @@ on_both_engines!(
     a_page_before_an_id_is_the_page_at_the_matching_offset,
     schema_refused_more_than_99_samples_though_the_limit_is_the_drivers,
     a_booths_white_and_comparisons_are_found_in_that_booth_only,
+    a_live_daemons_lease_lapsed_during_a_database_outage_and_a_neighbour_took_its_work,
+    a_dead_predecessor_on_this_host_is_recovered_at_once_a_live_one_is_not,
 );
 
 /// A fresh database of `engine`, opened (migrated) as a store.
@@ -1263,4 +1265,110 @@ async fn two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_
         assert_eq!(state, MeasurementState::Interrupted);
         assert!(error.unwrap().contains("booth `c`"));
     }
+}
+
+/// The bug: a database outage longer than a lease let a neighbour mark a
+/// live daemon's running measurement interrupted ("stopped heartbeating")
+/// as soon as the database was back, before the live daemon's next beat.
+/// A noticer that saw the database come back only at `seen_since` counts
+/// no lease time before it; once a whole lease passes after it with no
+/// beat, the daemon is gone after all.
+async fn a_live_daemons_lease_lapsed_during_a_database_outage_and_a_neighbour_took_its_work(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let noticer = store
+        .register_daemon(&"north".parse().unwrap(), Duration::from_secs(3600))
+        .await
+        .unwrap();
+    let live = store
+        .register_daemon(&"south".parse().unwrap(), Duration::from_millis(300))
+        .await
+        .unwrap();
+    let id = store
+        .as_daemon(live)
+        .create_measurement(&new_measurement())
+        .await
+        .unwrap();
+    store.as_daemon(live).mark_running(id, None).await.unwrap();
+    // The outage: no beat for longer than the lease.
+    tokio::time::sleep(Duration::from_millis(600)).await;
+    let back_at = store
+        .renew_lease(noticer)
+        .await
+        .unwrap()
+        .expect("the noticer's lease is not stopped");
+    let scope = RecoveryScope {
+        rows_without_daemon: false,
+        every_daemon_is_gone: false,
+    };
+    let recovered = store
+        .as_daemon(noticer)
+        .recover_abandoned_work_seen_since(scope, Some(back_at))
+        .await
+        .unwrap();
+    assert_eq!(recovered.total(), 0, "{recovered:?}");
+    assert_eq!(state_of(&store, id).await.0, MeasurementState::Running);
+    // Renewed late, after the outage: still its own.
+    assert!(store.heartbeat(live).await.unwrap());
+    // A whole lease after the return without a beat: gone.
+    tokio::time::sleep(Duration::from_millis(600)).await;
+    let recovered = store
+        .as_daemon(noticer)
+        .recover_abandoned_work_seen_since(scope, Some(back_at))
+        .await
+        .unwrap();
+    assert_eq!(recovered.measurements, 1, "{recovered:?}");
+    assert_eq!(state_of(&store, id).await.0, MeasurementState::Interrupted);
+}
+
+/// A daemon's start recovers at once the work of its booth's earlier
+/// daemon registered on this host whose process is gone (a pid no process
+/// has), and marks it stopped; another booth's, and its own, are left alone.
+async fn a_dead_predecessor_on_this_host_is_recovered_at_once_a_live_one_is_not(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let lease = Duration::from_secs(3600);
+    let north: Booth = "north".parse().unwrap();
+    let dead = store.register_daemon(&north, lease).await.unwrap();
+    let other_booth = store.register_daemon(&"south".parse().unwrap(), lease).await.unwrap();
+    // The dead one's pid: beyond Linux's pid_max (4 194 304), so no process has it.
+    with_pool!(store, |pool| sqlx::query(
+        "UPDATE daemons SET pid = 99999999 WHERE id IN ($1, $2)"
+    )
+    .bind(dead)
+    .bind(other_booth)
+    .execute(pool)
+    .await
+    .unwrap());
+    let running_as = |daemon: i64| {
+        let store = store.as_daemon(daemon);
+        async move {
+            let id = store.create_measurement(&new_measurement()).await.unwrap();
+            store.mark_running(id, None).await.unwrap();
+            id
+        }
+    };
+    let of_dead = running_as(dead).await;
+    let of_other_booth = running_as(other_booth).await;
+    let successor = store.register_daemon(&north, lease).await.unwrap();
+    let recovered = store
+        .as_daemon(successor)
+        .recover_dead_predecessors(&north)
+        .await
+        .unwrap();
+    assert_eq!(recovered.measurements, 1, "{recovered:?}");
+    let (state, error, _) = state_of(&store, of_dead).await;
+    assert_eq!(state, MeasurementState::Interrupted);
+    let error = error.unwrap();
+    assert!(
+        error.contains("pid 99999999") && error.contains("process is gone"),
+        "{error}"
+    );
+    assert!(store.daemon(dead).await.unwrap().unwrap().stopped_at.is_some());
+    assert_eq!(state_of(&store, of_other_booth).await.0, MeasurementState::Running);
+    // The successor itself is never its own predecessor.
+    let again = store
+        .as_daemon(successor)
+        .recover_dead_predecessors(&north)
+        .await
+        .unwrap();
+    assert_eq!(again.total(), 0);
 }

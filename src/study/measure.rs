@@ -6,28 +6,40 @@
 //! differs from the model — and stored like any measurement. Bounce
 //! truncation and sampling of the renderings under test, the instrument
 //! model (slit, noise) and any truth-scene perturbation are what make these
-//! "measurements" differ from the renderings.
+//! "measurements" differ from the renderings. Each measurement is recorded
+//! as the daemon records one ([`crate::daemon::recorder::Recorder`]): every
+//! sample is stored before the next is taken.
 
 use std::path::{Path, PathBuf};
 
 use crate::colorimetry::Observer;
-use crate::daemon::instrument_task::{average_row, sample_row};
+use crate::daemon::recorder::Recorder;
 use crate::instrument::mock::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
 use crate::render;
 use crate::store::{Booth, MeasurementState, NewMeasurement, Store};
 use crate::study::run::truth_path;
 
-/// Measures every target of `scenes` (five samples each) and stores the
-/// measurements; returns their ids. `seed` fixes the simulator's noise;
+/// The simulated PR-650 a study measures with.
+#[derive(Clone, Copy, Debug)]
+pub struct SimulatedPr650 {
+    /// Fixes the simulated noise (same seed, same samples).
+    pub seed: u64,
+    /// Time scale: 0 instant, 1 the real instrument's measurement and wire times.
+    pub speed: f64,
+}
+
+/// Measures every target of `scenes` (five samples each) with `simulator`
+/// and stores the measurements; returns their ids.
 /// `truth_scene` (a scene file or folder, see
 /// [`super::run::StudyOptions::truth_scene`]) is the booth as it is;
-/// `observer` names the XYZ stored with each measurement.
+/// `observer` names the XYZ stored with each measurement. Needs a
+/// multi-threaded runtime (the driver and the store writes block a thread).
 pub async fn measure_with_simulator(
     scenes: &[PathBuf],
     store: &Store,
     cache_dir: &Path,
-    seed: u64,
+    simulator: SimulatedPr650,
     observer: Observer,
     truth_scene: Option<&Path>,
     progress: &(dyn Fn(&str) + Sync),
@@ -38,8 +50,9 @@ pub async fn measure_with_simulator(
         crate::spectrum::SpectralUnit::SpectralRadiance,
         0.01,
     )?);
-    config.speed = 0.0;
-    config.seed = seed;
+    config.speed = simulator.speed;
+    config.seed = simulator.seed;
+    let seed = simulator.seed;
     let mock = spawn_mock(config)?;
     let port = mock.device_path().display().to_string();
     let settings = Pr650Settings::default();
@@ -76,22 +89,33 @@ pub async fn measure_with_simulator(
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;
-            store.mark_running(id, Some(instrument_id)).await?;
-            let mut rows = Vec::new();
-            let result =
-                instrument.measure_averaged(settings.samples, &CancelToken::new(), &mut |s| rows.push(sample_row(s)));
-            // The driver is synchronous; the samples are written right after it returns.
-            for row in &rows {
-                store.insert_sample(id, row).await?;
-            }
-            match result {
-                Ok(avg) => store.complete_measurement(id, &average_row(&avg, observer)).await?,
-                Err(e) => {
-                    store
-                        .end_measurement(id, MeasurementState::Failed, &e.to_string())
-                        .await?;
-                    anyhow::bail!("measuring {scene_id}/{target}: {e}");
-                }
+            // The daemon's path (`daemon::recorder`): each sample is on disk
+            // before the next is taken, so a study killed mid-measurement
+            // keeps every sample it took. The driver and the recorder block:
+            // this runtime thread is handed over to them meanwhile.
+            let outcome = tokio::task::block_in_place(|| -> anyhow::Result<Option<String>> {
+                let runtime = tokio::runtime::Handle::current();
+                let never = || false;
+                let mut recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
+                let cancel = CancelToken::new();
+                let result = instrument.measure_averaged(settings.samples, &cancel, &mut |s| {
+                    if recorder.store_sample(s).is_err() {
+                        cancel.cancel(); // the measurement stops at the first sample not written
+                    }
+                });
+                let failure = match (recorder.write_failed(), result) {
+                    (Some(why), _) => format!("{why}; a measurement without all its samples on disk is not complete"),
+                    (None, Ok(avg)) => match recorder.complete(&avg, observer, &never) {
+                        Ok(()) => return Ok(None),
+                        Err(why) => why,
+                    },
+                    (None, Err(e)) => e.to_string(),
+                };
+                recorder.end(MeasurementState::Failed, &failure, &never)?;
+                Ok(Some(failure))
+            })?;
+            if let Some(failure) = outcome {
+                anyhow::bail!("measuring {scene_id}/{target}: {failure}");
             }
             ids.push(id);
         }

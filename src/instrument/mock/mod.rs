@@ -230,6 +230,16 @@ pub enum Personality {
     Pr655(Pr655Switches),
 }
 
+impl Personality {
+    /// The model's name as the unit reports it: `PR-650`, `PR-655` or `PR-670`.
+    pub fn model_name(&self) -> &'static str {
+        match self {
+            Personality::Pr650 => "PR-650",
+            Personality::Pr655(switches) => switches.model.name(),
+        }
+    }
+}
+
 /// Everything about a simulated instrument (a PR-650 unless [`MockConfig::personality`] says otherwise).
 #[derive(Clone, Debug)]
 pub struct MockConfig {
@@ -318,8 +328,10 @@ struct Shared {
     last_measurement_ms: Option<f64>,
 }
 
-/// A running simulated PR-650. Dropping it stops the simulator and closes the pty.
+/// A running simulated PR-650, PR-655 or PR-670. Dropping it stops the simulator and closes the pty.
 pub struct MockHandle {
+    /// The simulated model's name (`PR-650`, `PR-655`, `PR-670`), for the log.
+    name: &'static str,
     device_path: PathBuf,
     shared: Arc<Mutex<Shared>>,
     /// Set to stop the simulator thread; it polls between reads.
@@ -337,7 +349,7 @@ fn to_1nm(radiance: &Spectrum) -> Result<Spectrum, SpectrumError> {
     radiance.to_per_nm().resample(&Grid::one_nm())
 }
 
-/// Opens a pty pair and runs a simulated PR-650 on it.
+/// Opens a pty pair and runs the simulated instrument `config` describes on it.
 pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
     let truth_1nm = to_1nm(&config.truth).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))?;
     let (master, slave) = serialport::TTYPort::pair().map_err(std::io::Error::from)?;
@@ -359,6 +371,7 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
     }));
     let stop = Arc::new(AtomicBool::new(false));
     let model = config.model.clone();
+    let name = config.personality.model_name();
     let thread = {
         let shared = Arc::clone(&shared);
         let stop = Arc::clone(&stop);
@@ -371,8 +384,9 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
                 .spawn(move || pr655_device::Device::new(config, switches, master, slave, shared, stop).run())?,
         }
     };
-    tracing::info!(device = %device_path.display(), "simulated PR-650 powered on");
+    tracing::info!(device = %device_path.display(), "simulated {name} powered on");
     Ok(MockHandle {
+        name,
         device_path,
         shared,
         stop,
@@ -392,7 +406,7 @@ impl MockHandle {
     pub fn set_truth(&self, radiance: Spectrum) -> Result<(), SpectrumError> {
         let one_nm = to_1nm(&radiance)?;
         lock(&self.shared).truth_1nm = one_nm;
-        tracing::info!("simulated PR-650 re-aimed");
+        tracing::info!("simulated {} re-aimed", self.name);
         Ok(())
     }
 

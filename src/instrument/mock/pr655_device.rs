@@ -2,12 +2,16 @@
 //! the master end of the pty, after `shared/docs/pr655-670-protocol.md`.
 //! Every behaviour the sheet leaves uncertain is a switch in
 //! [`Pr655Switches`] (its section 13); the defaults are the first choice
-//! listed there.
+//! listed there, except where the sheet's section 1 grades a client habit
+//! as working on real units: those the default accepts (what a real unit
+//! accepts), and the stricter reading is a switch.
 //!
-//! - Local mode ignores every byte but the `PHOTO` sequence; strict mode
-//!   takes its letters only one per read (a burst is ignored, 13.2).
+//! - Local mode ignores every byte but the `PHOTO` sequence, in any pacing
+//!   (PsychoPy writes its letters with no pause, §1); strict mode takes its
+//!   letters only one per read (a burst is ignored, 13.2).
 //! - The banner ` REMOTE MODE` has no line end and comes after a latency.
-//! - Commands end in CR (optionally LF), upper case (optionally any case);
+//! - Commands end in CR or LF (PsychoPy ends them in LF, §1; optionally CR
+//!   only), upper case (optionally any case);
 //!   an unknown one is `-1000`; `Q` leaves remote mode at once, no reply.
 //! - Replies come in one burst at USB speed, CR LF per line, status first.
 //! - Measurements go through the same [`super::model::InstrumentModel`] as
@@ -100,7 +104,9 @@ impl SyncFailure {
 pub struct Pr655Switches {
     /// 13.1: which model (grid, exposure range, PR-670-only setup commands).
     pub model: Model,
-    /// 13.2: `PHOTO` letters count only when each arrives in its own read.
+    /// 13.2: `PHOTO` letters count only when each arrives in its own read
+    /// (off by default: a real unit answers PsychoPy, whose letters arrive
+    /// with no pause between them, §1).
     pub strict_photo: bool,
     /// 13.2: time from the last `O` to the banner, ms of wall time (not
     /// scaled by speed, so a late banner, 13.10, is late at any speed).
@@ -111,7 +117,8 @@ pub struct Pr655Switches {
     pub stray_terminator: StrayTerminator,
     /// 13.2: a second `PHOTO` while in remote mode gets no banner (the PR-670's way).
     pub photo_only_once: bool,
-    /// 13.4: LF ends a command as well as CR.
+    /// 13.4: LF ends a command as well as CR (on by default: a real unit
+    /// answers PsychoPy's LF-terminated commands, §1).
     pub accept_lf: bool,
     /// 13.4: lower-case commands are accepted.
     pub case_insensitive: bool,
@@ -141,16 +148,18 @@ impl Default for Pr655Switches {
 }
 
 impl Pr655Switches {
-    /// The defaults of section 13 for `model` (a PR-670 answers `PHOTO` once).
+    /// The defaults for `model` (a PR-670 answers `PHOTO` once): section
+    /// 13's first choices, but `PHOTO` in any pacing and LF-terminated
+    /// commands accepted, as real units accept them (section 1).
     pub fn for_model(model: Model) -> Pr655Switches {
         Pr655Switches {
             model,
-            strict_photo: true,
+            strict_photo: false,
             banner_latency_ms: 300,
             no_banner: false,
             stray_terminator: StrayTerminator::Ignore,
             photo_only_once: model == Model::Pr670,
-            accept_lf: false,
+            accept_lf: true,
             case_insensitive: false,
             status_style: StatusStyle::FiveDigits,
             line_style: LineStyle::TrailingSpace,

@@ -155,9 +155,10 @@ impl Pr655 {
     ) -> Result<Vec<u8>, InstrumentError> {
         let text = command.text();
         let grid_len = self.info.grid.len();
+        let model = self.model.name();
         let result = (|| {
             self.link.flush_input()?;
-            tracing::debug!(command = %text, "→ instrument");
+            tracing::debug!(command = %text, "→ {model}");
             self.link.send(&text)?;
             self.link.read_reply_sized(
                 &text,
@@ -179,9 +180,9 @@ impl Pr655 {
             other => other,
         };
         match &result {
-            Ok(reply) => tracing::debug!(command = %text, bytes = reply.len(), "← instrument"),
+            Ok(reply) => tracing::debug!(command = %text, bytes = reply.len(), "← {model}"),
             Err(e) => {
-                tracing::debug!(command = %text, error = %e, "exchange failed");
+                tracing::debug!(command = %text, error = %e, "{model} exchange failed");
                 if e.is_retryable_link_fault() || matches!(e, InstrumentError::Cancelled) {
                     self.needs_resync = true;
                     self.last_fault = Some((text.clone(), e.to_string()));

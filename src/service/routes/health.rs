@@ -10,14 +10,25 @@ use crate::service::error::ApiError;
 use crate::service::{AppState, InstrumentStatus};
 use crate::store::InstrumentRow;
 
+/// How long `/api/health` waits for the database to answer its ping.
+const DATABASE_ANSWER: std::time::Duration = std::time::Duration::from_secs(2);
+
 #[derive(Serialize, ToSchema)]
 pub struct Health {
     /// The booth this daemon measures in (`serve --booth`).
     pub booth: String,
     /// `ok`; `degraded` while the instrument task restarts after a panic
     /// (measurements are refused meanwhile); `down` (with 503) when the
-    /// instrument task has stopped and no measurement can run.
+    /// instrument task has stopped or the database does not answer, and no
+    /// measurement can be recorded.
     pub status: String,
+    /// `ok`, or `unavailable` (with 503 and `down`) when the database does
+    /// not answer; the daemon keeps retrying, and ends every measurement
+    /// once it answers again.
+    pub database: String,
+    /// Why the database is unavailable, as the database driver says it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub database_error: Option<String>,
     pub version: String,
     pub instrument: InstrumentStatus,
     /// The thread that owns the instrument: `running`, `restarting` or `stopped`.
@@ -26,20 +37,29 @@ pub struct Health {
 }
 
 /// Is the daemon alive: the database answers and the instrument task runs.
-/// 503 (with the same body) when the instrument task is gone.
+/// 503 (with the same body, `down`) when the instrument task is gone or the
+/// database does not answer.
 #[utoipa::path(get, path = "/health", tag = "service",
     responses((status = 200, body = Health),
-              (status = 503, description = "the instrument task has stopped", body = Health)))]
+              (status = 503, description = "the instrument task has stopped, or the database does not answer",
+               body = Health)))]
 pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<Health>), ApiError> {
-    state
-        .store
-        .ping()
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))?;
+    // Bounded: a database that is away may hold a connection attempt for
+    // its pool's whole acquire timeout.
+    let database_error = match tokio::time::timeout(DATABASE_ANSWER, state.store.ping()).await {
+        Ok(Ok(())) => None,
+        Ok(Err(e)) => Some(e.to_string()),
+        Err(_) => Some(format!(
+            "the database did not answer within {} s",
+            DATABASE_ANSWER.as_secs()
+        )),
+    };
     let instrument = state.status.borrow().clone();
     // The task holds the receiving end of the queue for as long as it runs.
-    let (code, status, task) = if state.jobs.is_closed() {
-        (StatusCode::SERVICE_UNAVAILABLE, "down", "stopped")
+    let task_stopped = state.jobs.is_closed();
+    let (code, status, task) = if task_stopped || database_error.is_some() {
+        let task = if task_stopped { "stopped" } else { "running" };
+        (StatusCode::SERVICE_UNAVAILABLE, "down", task)
     } else if matches!(instrument, InstrumentStatus::Error { .. }) {
         (StatusCode::OK, "degraded", "restarting")
     } else {
@@ -50,6 +70,8 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
         Json(Health {
             booth: state.config.booth.to_string(),
             status: status.into(),
+            database: if database_error.is_some() { "unavailable" } else { "ok" }.into(),
+            database_error,
             version: env!("CARGO_PKG_VERSION").into(),
             instrument,
             instrument_task: task.into(),

@@ -1,0 +1,231 @@
+//! Records one measurement in the store while the instrument takes it: the
+//! one path of the daemon's instrument task and of `lightbooth study
+//! --measure-simulated`. It marks the measurement running, writes each raw
+//! sample *before* the next is taken (the driver's thread blocks on the
+//! write, so a crash keeps every sample taken), completes it with its
+//! average, or ends it with the true reason.
+//!
+//! Ending a measurement must not be lost to a database that is briefly
+//! away: the end (`complete`, `failed`, …) is written again with backoff
+//! (0.5 s doubling to 10 s) for as long as the database is unavailable
+//! ([`StoreError::is_unavailable`]), until it answers or the caller gives
+//! up (the daemon shutting down: its lease then hands the measurement to
+//! recovery). A sample that could not be written stops the measurement: it
+//! ends `failed`, saying which sample and why, never `complete`.
+//!
+//! It knows nothing of HTTP or events; callers publish those from what it
+//! returns. Blocking: call it from the instrument's thread (or inside
+//! `tokio::task::block_in_place`), never from an async task.
+
+use std::time::Duration;
+
+use tokio::runtime::Handle;
+
+use crate::colorimetry::{xyz_from_radiance, Observer};
+use crate::instrument::{AveragedMeasurement, Sample};
+use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
+
+/// The first wait before writing the end of a measurement again.
+const FIRST_RETRY: Duration = Duration::from_millis(500);
+/// The longest wait between two tries.
+const LONGEST_RETRY: Duration = Duration::from_secs(10);
+
+/// One measurement being recorded (see the module doc).
+pub struct Recorder {
+    store: Store,
+    runtime: Handle,
+    id: i64,
+    taken: usize,
+    usable: usize,
+    /// Why the first sample that could not be written was not.
+    write_failed: Option<String>,
+}
+
+impl Recorder {
+    /// Marks queued measurement `id` running on `instrument_id` and starts
+    /// recording it, retrying while the database is away. An error when it
+    /// is no longer queued (cancelled, or taken by another) or the database
+    /// refused.
+    pub fn start(
+        store: &Store,
+        runtime: &Handle,
+        id: i64,
+        instrument_id: Option<i64>,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<Recorder, StoreError> {
+        retry_while_unavailable(runtime, id, "its start", give_up, || {
+            store.mark_running(id, instrument_id)
+        })?;
+        Ok(Recorder {
+            store: store.clone(),
+            runtime: runtime.clone(),
+            id,
+            taken: 0,
+            usable: 0,
+            write_failed: None,
+        })
+    }
+
+    pub fn id(&self) -> i64 {
+        self.id
+    }
+
+    /// Samples taken so far (written or not), and how many of them were usable.
+    pub fn taken(&self) -> (usize, usize) {
+        (self.taken, self.usable)
+    }
+
+    /// Writes sample `s`, blocking until it is on disk; its row. After a
+    /// failed write the error says which sample and why (also kept for
+    /// [`Recorder::write_failed`]); the caller stops the measurement.
+    pub fn store_sample(&mut self, s: &Sample) -> Result<NewSample, String> {
+        let row = sample_row(s);
+        self.taken += 1;
+        self.usable += usize::from(row.usable);
+        match self.runtime.block_on(self.store.insert_sample(self.id, &row)) {
+            Ok(()) => Ok(row),
+            Err(e) => {
+                let why = format!("sample {} could not be written to the database: {e}", s.index);
+                self.write_failed.get_or_insert_with(|| why.clone());
+                Err(why)
+            }
+        }
+    }
+
+    /// Why the first sample that could not be written was not, if one was not.
+    pub fn write_failed(&self) -> Option<&str> {
+        self.write_failed.as_deref()
+    }
+
+    /// Completes the measurement with its average (lightbooth's XYZ for
+    /// `observer`), retrying while the database is away. Refused (an error)
+    /// when a sample could not be written: a measurement without all its
+    /// samples on disk is never complete.
+    pub fn complete(
+        &self,
+        avg: &AveragedMeasurement,
+        observer: Observer,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<(), String> {
+        if let Some(why) = &self.write_failed {
+            return Err(format!(
+                "{why}; a measurement without all its samples on disk is not complete"
+            ));
+        }
+        let average = average_row(avg, observer);
+        self.retry("its average", give_up, || {
+            self.store.complete_measurement(self.id, &average)
+        })
+        .map_err(|e| format!("cannot store the average: {e}"))
+    }
+
+    /// Ends the measurement `state` with `message`, retrying while the
+    /// database is away (see the module doc).
+    pub fn end(&self, state: MeasurementState, message: &str, give_up: &dyn Fn() -> bool) -> Result<(), StoreError> {
+        end_measurement(&self.store, &self.runtime, self.id, state, message, give_up)
+    }
+
+    fn retry<F, Fut>(&self, what: &str, give_up: &dyn Fn() -> bool, write: F) -> Result<(), StoreError>
+    where
+        F: Fn() -> Fut,
+        Fut: std::future::Future<Output = Result<(), StoreError>>,
+    {
+        retry_while_unavailable(&self.runtime, self.id, what, give_up, write)
+    }
+}
+
+/// Ends measurement `id` `state` with `message`, retrying while the
+/// database is away (the module doc); for a measurement that failed before
+/// it was recorded (a panic, a scene that cannot be rendered) as for one a
+/// [`Recorder`] records.
+pub fn end_measurement(
+    store: &Store,
+    runtime: &Handle,
+    id: i64,
+    state: MeasurementState,
+    message: &str,
+    give_up: &dyn Fn() -> bool,
+) -> Result<(), StoreError> {
+    retry_while_unavailable(runtime, id, "its end", give_up, || {
+        store.end_measurement(id, state, message)
+    })
+}
+
+/// Runs `write` until it succeeds, fails for a reason other than an
+/// unavailable database, or `give_up` says so; logs each retry.
+fn retry_while_unavailable<F, Fut>(
+    runtime: &Handle,
+    id: i64,
+    what: &str,
+    give_up: &dyn Fn() -> bool,
+    write: F,
+) -> Result<(), StoreError>
+where
+    F: Fn() -> Fut,
+    Fut: std::future::Future<Output = Result<(), StoreError>>,
+{
+    let mut wait = FIRST_RETRY;
+    let mut tries = 0u32;
+    loop {
+        match runtime.block_on(write()) {
+            Ok(()) => {
+                if tries > 0 {
+                    tracing::info!(
+                        measurement_id = id,
+                        tries = tries + 1,
+                        "recorded {what} once the database answered again"
+                    );
+                }
+                return Ok(());
+            }
+            Err(e) if e.is_unavailable() && !give_up() => {
+                tries += 1;
+                tracing::warn!(
+                    measurement_id = id,
+                    error = %e,
+                    retry_in_ms = wait.as_millis() as u64,
+                    "the database is unavailable: cannot record {what} of the measurement yet; retrying"
+                );
+                let deadline = std::time::Instant::now() + wait;
+                while std::time::Instant::now() < deadline && !give_up() {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                wait = (wait * 2).min(LONGEST_RETRY);
+            }
+            Err(e) => {
+                tracing::error!(measurement_id = id, error = %e, "cannot record {what} of the measurement");
+                return Err(e);
+            }
+        }
+    }
+}
+
+/// A raw sample as the store keeps it.
+pub fn sample_row(s: &Sample) -> NewSample {
+    NewSample {
+        index: s.index,
+        taken_at: unix_seconds(s.time),
+        code: i64::from(s.code.code),
+        message: s.code.message.clone(),
+        usable: s.code.is_ok() && s.radiance.is_some(),
+        radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
+        luminance_cd_m2: s.luminance,
+    }
+}
+
+/// The average of a measurement as the store keeps it, with lightbooth's
+/// XYZ of the mean spectrum for `observer`.
+pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
+    let xyz = xyz_from_radiance(&avg.mean, observer).ok().map(|x| x.to_array());
+    Average {
+        xyz,
+        observer: xyz.is_some().then_some(observer),
+        wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
+        radiance: avg.mean.values().to_vec(),
+        radiance_sd: avg.sd.clone(),
+        luminance_cd_m2: avg.luminance_cd_m2,
+        x: avg.x,
+        y: avg.y,
+        luminance_cv: avg.luminance_cv,
+    }
+}
