@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, on a fresh
 # Debian machine: Chromium (for the dashboard test), playwright-core from
-# npm (it drives that Chromium; no browser download), and PostgreSQL (the
-# store's tests run against SQLite and PostgreSQL). Starts a throw-away
+# npm (it drives that Chromium; no browser download), OpenEXR's Python
+# binding in a venv (target/py) and PostgreSQL (the store's tests run
+# against SQLite and PostgreSQL). Starts a throw-away
 # PostgreSQL cluster for the tests (see the end). Safe to run again.
 #
 #   tests/setup.sh                 install what is missing, start PostgreSQL
@@ -60,6 +61,15 @@ fi
 if [ ! -d tests/browser/node_modules/playwright-core ]; then
   echo "installing playwright-core (npm)"
   (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
+fi
+
+# OpenEXR's own Python binding (PyPI `OpenEXR` 3.x), a reader the project
+# did not write: tests/exr_python.rs opens the spectral EXR with it.
+if ! target/py/bin/python -c "import OpenEXR, numpy" >/dev/null 2>&1; then
+  echo "installing OpenEXR's Python binding (pip, in target/py)"
+  mkdir -p target
+  python3 -m venv target/py
+  target/py/bin/pip install -q --disable-pip-version-check "OpenEXR>=3.2,<4" numpy
 fi
 
 if ! pg_bin >/dev/null; then
