@@ -426,7 +426,10 @@ pub fn log_axis(lo: f64, hi: f64) -> plotters::coord::combinators::WithKeyPoints
             }
         }
     }
-    (at(1, a)..at(1, b)).log_scale().with_key_points(bold).with_light_points(light)
+    (at(1, a)..at(1, b))
+        .log_scale()
+        .with_key_points(bold)
+        .with_light_points(light)
 }
 
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
@@ -924,9 +927,7 @@ pub fn profile_chart(
         let x = Slots::new(0.5..n as f64 + 0.5, keys);
         if log_y {
             let y_desc = format!("{y_desc} (log scale)");
-            let mut chart = builder(&plot)
-                .build_cartesian_2d(x, log_axis(lo, hi))
-                .map_err(err)?;
+            let mut chart = builder(&plot).build_cartesian_2d(x, log_axis(lo, hi)).map_err(err)?;
             mesh!(chart, x_desc, y_desc.as_str())
                 .x_label_formatter(&x_label)
                 .y_label_formatter(&|v| log_tick_label(*v))

@@ -91,16 +91,27 @@ fn spectral_exr_opens_in_openexrs_python_binding_with_every_channel_and_attribut
     // Pixel (x=1, y=2) as written, in a band, in Y and in its SE.
     let k550 = 550 - 380;
     let name_550 = spectral_channel_name(550.0);
-    assert_eq!(channels[&name_550]["at_1_2"].as_f64().unwrap() as f32, img.mean(1, 2, k550) as f32);
+    assert_eq!(
+        channels[&name_550]["at_1_2"].as_f64().unwrap() as f32,
+        img.mean(1, 2, k550) as f32
+    );
     assert!(img.mean(1, 2, 401 + Y) > 0.0);
-    assert_eq!(channels["Y"]["at_1_2"].as_f64().unwrap() as f32, img.mean(1, 2, 401 + Y) as f32);
+    assert_eq!(
+        channels["Y"]["at_1_2"].as_f64().unwrap() as f32,
+        img.mean(1, 2, 401 + Y) as f32
+    );
     assert_eq!(
         channels[&format!("SE.{name_550}")]["at_1_2"].as_f64().unwrap() as f32,
         img.standard_error(1, 2, k550) as f32
     );
 
     // Every attribute lightbooth writes, with its text as written.
-    let attr = |k: &str| header.get(k).and_then(|v| v.as_str()).unwrap_or_else(|| panic!("no `{k}` in {header:?}"));
+    let attr = |k: &str| {
+        header
+            .get(k)
+            .and_then(|v| v.as_str())
+            .unwrap_or_else(|| panic!("no `{k}` in {header:?}"))
+    };
     assert_eq!(attr("lightbooth.units.spectral"), SPECTRAL_UNITS);
     assert_eq!(SPECTRAL_UNITS, "W/(sr*m^2*nm)");
     assert_eq!(attr("emissiveUnits"), EMISSIVE_UNITS);

@@ -64,7 +64,11 @@ fn assert_agree(a: &RenderResult, b: &RenderResult) {
             }
         }
     }
-    assert!(failures.is_empty(), "the default render is biased:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "the default render is biased:\n{}",
+        failures.join("\n")
+    );
 }
 
 #[test]
@@ -109,7 +113,10 @@ fn capped_render_json_says_it_is_truncated_at_n_bounces() {
     assert_eq!(v["truncated_at_bounces"], 5);
     assert_eq!(v["settings"]["max_bounces"], 5);
     assert!(
-        v["truncation_note"].as_str().unwrap().contains("truncated at 5 bounces"),
+        v["truncation_note"]
+            .as_str()
+            .unwrap()
+            .contains("truncated at 5 bounces"),
         "{}",
         v["truncation_note"]
     );
@@ -184,7 +191,16 @@ fn first_timed_coding_does_not_pay_the_warm_up_timings_are_rotated_medians() {
     let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
         .arg("render")
         .arg(scene_path("white.toml"))
-        .args(["--codings", "rgb,spectral", "--samples", "256", "--target-se", "0", "--time-each-coding", "--json"])
+        .args([
+            "--codings",
+            "rgb,spectral",
+            "--samples",
+            "256",
+            "--target-se",
+            "0",
+            "--time-each-coding",
+            "--json",
+        ])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -194,5 +210,30 @@ fn first_timed_coding_does_not_pay_the_warm_up_timings_are_rotated_medians() {
     assert!(rgb["wall_seconds_min"].as_f64().unwrap() <= rgb["wall_seconds"].as_f64().unwrap());
     assert!(rgb["wall_seconds"].as_f64().unwrap() <= rgb["wall_seconds_max"].as_f64().unwrap());
     let def = v["cost_definition"].as_str().unwrap();
-    assert!(def.contains("median of 3 repeats in rotated order after a warm-up"), "{def}");
+    assert!(
+        def.contains("median of 3 repeats in rotated order after a warm-up"),
+        "{def}"
+    );
+}
+
+/// The check above has teeth: the old default (a 5-bounce cap, no
+/// roulette) fails it on the Cornell box — the bug this file pins.
+#[test]
+fn old_five_bounce_default_fails_the_same_check_on_the_cornell_box() {
+    let scene = load_scene(&scene_path("cornell_box.toml")).unwrap();
+    let old = RenderSettings {
+        codings: vec![Coding::Rgb, Coding::Spectral],
+        max_bounces: Some(5),
+        russian_roulette_from: None,
+        ..RenderSettings::default()
+    };
+    let old = render(&scene, &old, None).unwrap();
+    let deep = deep_render("cornell_box.toml");
+    let caught = std::panic::catch_unwind(|| assert_agree(&old, &deep));
+    let message = *caught
+        .expect_err("a 5-bounce render passed as unbiased")
+        .downcast::<String>()
+        .unwrap();
+    assert!(message.contains("short_front"), "{message}");
+    eprintln!("{message}");
 }

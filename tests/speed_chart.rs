@@ -1,6 +1,8 @@
 //! The speed-against-accuracy chart (issue 22): its log axes showed a single
 //! labelled tick, and it plotted one wall time per coding with no spread.
 
+use std::path::Path;
+
 use lightbooth::charts::{scatter_chart, scatter_chart_with_spread, ScatterSeries};
 
 fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
@@ -41,12 +43,27 @@ fn speed_chart_log_axes_have_at_least_two_labelled_decades() {
         scatter("spectral", &[(0.64, 0.25)]),
     ];
     let spread = vec![vec![(0.9, 1.02)], vec![(0.45, 0.5)], vec![(0.6, 0.7)]];
-    let svg = scatter_chart_with_spread("t", "time (s)", "dE", &series, &[], &spread, (true, true)).unwrap();
+    let x_desc = format!("render time (s), {}", lightbooth::render::cost::TIMING_METHOD);
+    let svg = scatter_chart_with_spread(
+        "CYLINDER: speed against accuracy",
+        &x_desc,
+        "mean ΔE00 (CIEDE2000 units, floor 1e-4)",
+        &series,
+        &[],
+        &spread,
+        (true, true),
+    )
+    .unwrap();
+    // For a look: target/tmp/speed_chart.svg.
+    std::fs::write(Path::new(env!("CARGO_TARGET_TMPDIR")).join("speed_chart.svg"), &svg).unwrap();
     let labels = texts(&svg);
     let decades: Vec<f64> = labels.iter().filter_map(|l| decade(l)).collect();
     // x: 0.1 and 1 (and 10); y: 0.1 and 1.
     assert!(decades.len() >= 4, "{labels:?}");
-    assert!(labels.iter().any(|l| l == "0.2") && labels.iter().any(|l| l == "0.5"), "{labels:?}");
+    assert!(
+        labels.iter().any(|l| l == "0.2") && labels.iter().any(|l| l == "0.5"),
+        "{labels:?}"
+    );
     for (lo, hi) in [(0.02, 0.07), (1e-3, 1.5e-3), (3.0, 30.0), (1e-5, 1e-1)] {
         let svg = scatter_chart("t", "s", "e", &[scatter("a", &[(lo, lo), (hi, hi)])], (true, true)).unwrap();
         let labels = texts(&svg);

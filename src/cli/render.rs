@@ -289,7 +289,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             if matches!(ext.as_str(), "pfm" | "png") {
                 img.to_srgb().write(path)?;
             } else {
-                let img = img.every_nth_band(args.image_step as usize).map_err(|e| anyhow::anyhow!("--image-step: {e}"))?;
+                let img = img
+                    .every_nth_band(args.image_step as usize)
+                    .map_err(|e| anyhow::anyhow!("--image-step: {e}"))?;
                 let written = write_camera_image(&img, path).map_err(anyhow::Error::msg)?;
                 let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
                 let bands = match lightbooth::export::image::spectral_step_nm(&img) {

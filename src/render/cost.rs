@@ -139,7 +139,11 @@ mod tests {
                 assert_eq!(order, (0..n).collect::<Vec<_>>());
             }
             firsts.dedup();
-            assert_eq!(firsts.len(), repeats.min(n), "{n} settings, {repeats} rounds: {firsts:?}");
+            assert_eq!(
+                firsts.len(),
+                repeats.min(n),
+                "{n} settings, {repeats} rounds: {firsts:?}"
+            );
         }
     }
 }

@@ -65,8 +65,8 @@ use serde::{Deserialize, Serialize};
 pub use coding::{ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
 
-use integrator::{radiometer_batch, BatchSums, Prepared};
 pub use integrator::Transport;
+use integrator::{radiometer_batch, BatchSums, Prepared};
 
 use crate::colorimetry::Observer;
 use crate::spectrum::table::{write_csv, SpectraTable};

@@ -175,9 +175,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
     let mut labels = Vec::new();
     let mut spreads = Vec::new();
     for s in &c.codings {
-        let cost = renders
-            .iter()
-            .find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding));
+        let cost = renders.iter().find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding));
         if let Some(x) = cost.and_then(|c| c.get(field)?.as_f64()) {
             let bound = |k: &str| cost.and_then(|c| c.get(k)?.as_f64()).unwrap_or(x);
             spreads.push(vec![(bound("wall_seconds_min"), bound("wall_seconds_max"))]);

@@ -150,7 +150,12 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             connect: false,
         });
         labels.push(points.iter().map(|p| sweep_label(p)).collect());
-        spreads.push(points.iter().map(|p| (p.wall_seconds_min, p.wall_seconds_max)).collect());
+        spreads.push(
+            points
+                .iter()
+                .map(|p| (p.wall_seconds_min, p.wall_seconds_max))
+                .collect(),
+        );
     }
     let front = pareto_front(&s.sweeps);
     series.push(ScatterSeries {

@@ -674,7 +674,13 @@ fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) ->
         plan.push(("samples", Coding::Spectral, samples, options.max_bounces, false));
     }
     for bounces in 0..=8 {
-        plan.push(("bounces", Coding::Spectral, options.sweep_samples, Some(bounces), bounces == 5));
+        plan.push((
+            "bounces",
+            Coding::Spectral,
+            options.sweep_samples,
+            Some(bounces),
+            bounces == 5,
+        ));
     }
     for n in [1, 2, 3, 5, 7, 9, 15, 20, 27, 40, 54, 81] {
         plan.push((
