@@ -5,7 +5,8 @@
 //! `cornell_box/goal`: the Cornell box's nine targets in the codings
 //! `rgb,srgb,nstep9,nstep81,spectral`, rendered until the standard error of
 //! Y is at most 0.3 % at every target in every coding (the default
-//! settings: 5 bounces) — the performance goal of issue 11 is a median of
+//! settings: no bounce cap, Russian roulette from bounce 3) — the
+//! performance goal of issue 11 is a median of
 //! ≤ 1.5 s on a 2-core machine. The same with the command line:
 //! `lightbooth render scenes/cornell_box.toml --codings rgb,srgb,nstep9,nstep81,spectral --json`
 //! (`wall_seconds`).

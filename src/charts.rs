@@ -394,6 +394,44 @@ pub fn log_tick_label(v: f64) -> String {
     }
 }
 
+/// A logarithmic axis covering `lo..hi` (both > 0), widened to whole
+/// decades so that at least two decades carry a labelled tick (plotters' own
+/// log axis labelled a single tick on a narrow range). Labelled ticks at
+/// every decade, and at 2× and 5× when the axis spans at most two decades;
+/// light grid lines at the other integers × decade.
+pub fn log_axis(lo: f64, hi: f64) -> plotters::coord::combinators::WithKeyPoints<LogCoord<f64>> {
+    let (lo, hi) = if lo > 0.0 && hi.is_finite() && hi > lo {
+        (lo, hi)
+    } else if lo > 0.0 && lo.is_finite() {
+        (lo, lo * 10.0)
+    } else {
+        (1e-3, 1.0)
+    };
+    let a = lo.log10().floor() as i32;
+    let b = (hi.log10().ceil() as i32).max(a + 1);
+    // Exact decimal values (10f64.powi(-3) is 0.0010000000000000002).
+    let at = |m: u32, e: i32| -> f64 { format!("{m}e{e}").parse().expect("a number") };
+    let dense = b - a <= 2;
+    let mut bold = Vec::new();
+    let mut light = Vec::new();
+    for e in a..=b {
+        bold.push(at(1, e));
+        if e < b {
+            for m in 2..=9 {
+                if dense && (m == 2 || m == 5) {
+                    bold.push(at(m, e));
+                } else {
+                    light.push(at(m, e));
+                }
+            }
+        }
+    }
+    (at(1, a)..at(1, b))
+        .log_scale()
+        .with_key_points(bold)
+        .with_light_points(light)
+}
+
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
@@ -822,13 +860,12 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .flat_map(|s| s.points.iter().map(|p| p.0))
                 .filter(|v| *v > 0.0)
                 .fold(f64::INFINITY, f64::min);
-            let lo = if lo.is_finite() { lo / 1.5 } else { 1e-3 };
-            let hi = (xs.1 * 1.5).max(lo * 10.0);
+            let lo = if lo.is_finite() { lo } else { 1e-3 };
+            let hi = xs.1.max(lo);
             let mut chart = builder(&plot)
-                .build_cartesian_2d((lo..hi).log_scale(), ys.0..ys.1)
+                .build_cartesian_2d(log_axis(lo, hi), ys.0..ys.1)
                 .map_err(err)?;
             mesh!(chart, x_desc, y_desc)
-                .x_labels(6)
                 .x_label_formatter(&|v| log_tick_label(*v))
                 .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
                 .draw()
@@ -890,9 +927,7 @@ pub fn profile_chart(
         let x = Slots::new(0.5..n as f64 + 0.5, keys);
         if log_y {
             let y_desc = format!("{y_desc} (log scale)");
-            let mut chart = builder(&plot)
-                .build_cartesian_2d(x, (lo / 1.5..hi * 1.5).log_scale())
-                .map_err(err)?;
+            let mut chart = builder(&plot).build_cartesian_2d(x, log_axis(lo, hi)).map_err(err)?;
             mesh!(chart, x_desc, y_desc.as_str())
                 .x_label_formatter(&x_label)
                 .y_label_formatter(&|v| log_tick_label(*v))
@@ -1161,25 +1196,34 @@ pub fn scatter_chart_labelled(
     labels: &[Vec<String>],
     log: (bool, bool),
 ) -> ChartResult {
-    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    scatter_chart_with_spread(title, x_desc, y_desc, series, labels, &[], log)
+}
+
+/// [`scatter_chart_labelled`] with a horizontal whisker through points:
+/// `x_spread[i][j] = (low, high)` of point j of series i (a timing's fastest
+/// and slowest repeat; missing: none).
+pub fn scatter_chart_with_spread(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[ScatterSeries],
+    labels: &[Vec<String>],
+    x_spread: &[Vec<(f64, f64)>],
+    log: (bool, bool),
+) -> ChartResult {
+    let spread_x = x_spread.iter().flatten().flat_map(|&(a, b)| [a, b]);
+    let all_x = || series.iter().flat_map(|s| s.points.iter().map(|p| p.0));
+    let xs = bounds(all_x().chain(spread_x.clone()));
     let ys = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
-    // A log axis from the positive values, one decade at least.
-    let positive = |r: (f64, f64), pick: fn(&(f64, f64)) -> f64| {
-        let vals = series
-            .iter()
-            .flat_map(|s| s.points.iter().map(pick))
-            .filter(|v| *v > 0.0);
-        let (lo, hi) = vals.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
-        if lo.is_finite() {
-            let (lo, hi) = (lo / 1.3, hi * 1.3);
-            // At least a factor 4, so the axis has ticks to read.
-            let widen = (4.0 * lo / hi).max(1.0).sqrt();
-            (lo / widen, hi * widen)
-        } else {
-            (r.0.max(1e-9), r.1.max(1e-8))
-        }
+    // A log axis from the positive values (whole decades, see `log_axis`).
+    let positive = |vals: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = vals
+            .filter(|v| *v > 0.0 && v.is_finite())
+            .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
+        (lo, hi)
     };
-    let (lx, ly) = (positive(xs, |p| p.0), positive(ys, |p| p.1));
+    let lx = positive(&mut all_x().chain(spread_x));
+    let ly = positive(&mut series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
@@ -1187,7 +1231,6 @@ pub fn scatter_chart_labelled(
         macro_rules! draw {
             ($x:expr, $y:expr, $xf:expr, $yf:expr) => {{
                 let mut chart = builder(&plot).build_cartesian_2d($x, $y).map_err(err)?;
-                // Few labels: a log axis otherwise labels every light tick, overlapping.
                 mesh!(chart, x_desc, y_desc)
                     .x_labels(6)
                     .y_labels(6)
@@ -1195,6 +1238,15 @@ pub fn scatter_chart_labelled(
                     .y_label_formatter(&$yf)
                     .draw()
                     .map_err(err)?;
+                let st = styles(series, |s| s.name.as_str());
+                for (i, s) in series.iter().enumerate() {
+                    let Some(spread) = x_spread.get(i) else { continue };
+                    chart
+                        .draw_series(s.points.iter().zip(spread).map(|(p, &(a, b))| {
+                            PathElement::new(vec![(a, p.1), (b, p.1)], st[i].colour.stroke_width(2))
+                        }))
+                        .map_err(err)?;
+                }
                 draw_scatter(&mut chart, series, Some(labels), true)?;
             }};
         }
@@ -1202,9 +1254,9 @@ pub fn scatter_chart_labelled(
         let lin_y = |v: &f64| tick_label(*v, ys.1 - ys.0);
         let log_l = |v: &f64| log_tick_label(*v);
         match log {
-            (true, true) => draw!((lx.0..lx.1).log_scale(), (ly.0..ly.1).log_scale(), log_l, log_l),
-            (true, false) => draw!((lx.0..lx.1).log_scale(), ys.0..ys.1, log_l, lin_y),
-            (false, true) => draw!(xs.0..xs.1, (ly.0..ly.1).log_scale(), lin_x, log_l),
+            (true, true) => draw!(log_axis(lx.0, lx.1), log_axis(ly.0, ly.1), log_l, log_l),
+            (true, false) => draw!(log_axis(lx.0, lx.1), ys.0..ys.1, log_l, lin_y),
+            (false, true) => draw!(xs.0..xs.1, log_axis(ly.0, ly.1), lin_x, log_l),
             (false, false) => draw!(xs.0..xs.1, ys.0..ys.1, lin_x, lin_y),
         }
         draw_legend(&legend_area, &scatter_legend(series))?;

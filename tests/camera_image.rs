@@ -17,7 +17,7 @@ fn cylinder() -> Scene {
 }
 
 const TRANSPORT: Transport = Transport {
-    max_bounces: 5,
+    max_bounces: Some(5),
     russian_roulette_from: None,
 };
 

@@ -106,7 +106,7 @@ fn the_ceiling_is_lit_by_interreflection_only() {
     let direct = render(
         &scene,
         &RenderSettings {
-            max_bounces: 0,
+            max_bounces: Some(0),
             ..settings(&[Coding::Spectral], 4096)
         },
         None,

@@ -419,7 +419,8 @@ fn settings(codings: &[Coding], samples: u64, bounces: u32) -> RenderSettings {
     RenderSettings {
         codings: codings.to_vec(),
         samples,
-        max_bounces: bounces,
+        max_bounces: Some(bounces),
+        russian_roulette_from: None,
         target_relative_se: None,
         ..RenderSettings::default()
     }

@@ -23,7 +23,8 @@ fn settings(codings: Vec<Coding>, relative_se: f64, max_samples: u64) -> RenderS
     RenderSettings {
         codings,
         samples: 1 << 14,
-        max_bounces: 8,
+        max_bounces: Some(8),
+        russian_roulette_from: None,
         target_relative_se: Some(relative_se),
         max_samples,
         ..RenderSettings::default()

@@ -109,7 +109,8 @@ fn settings(bounces: u32, samples: u64) -> RenderSettings {
     RenderSettings {
         codings: vec![Coding::Rgb, Coding::NStep(9), Coding::Spectral],
         samples,
-        max_bounces: bounces,
+        max_bounces: Some(bounces),
+        russian_roulette_from: None,
         target_relative_se: None,
         ..RenderSettings::default()
     }

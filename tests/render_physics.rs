@@ -162,7 +162,8 @@ fn interreflection_in_a_closed_sphere_matches_the_geometric_series() {
     let scene = load_scene(&sphere_scene(dir.path(), rho)).unwrap();
     for k in [0u32, 1, 2, 5] {
         let s = RenderSettings {
-            max_bounces: k,
+            max_bounces: Some(k),
+            russian_roulette_from: None,
             ..settings(&[Coding::Spectral, Coding::Rgb, Coding::NStep(9)], 2048)
         };
         let r = render(&scene, &s, None).unwrap();
@@ -181,7 +182,7 @@ fn interreflection_in_a_closed_sphere_matches_the_geometric_series() {
     // leave ρ⁶¹ ≈ 4e-19 of the series out.
     for sampler in [SamplerKind::Sobol, SamplerKind::Independent] {
         let s = RenderSettings {
-            max_bounces: 60,
+            max_bounces: Some(60),
             russian_roulette_from: Some(1),
             sampler,
             ..settings(&[Coding::Spectral], 16_384)
@@ -210,7 +211,7 @@ fn the_camera_sees_the_uniform_sphere_wall() {
     let dir = tempfile::tempdir().unwrap();
     let scene = load_scene(&sphere_scene(dir.path(), 0.5)).unwrap();
     let transport = Transport {
-        max_bounces: 2,
+        max_bounces: Some(2),
         russian_roulette_from: None,
     };
     let img = render_camera(&scene, scene.camera.as_ref().unwrap(), Coding::Srgb, 2, &transport, 1).unwrap();

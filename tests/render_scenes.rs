@@ -318,7 +318,10 @@ fn render_settings_round_trip_through_json() {
     assert_eq!(back.codings, s.codings);
     assert_eq!(back.samples, 2048);
     let partial: RenderSettings = serde_json::from_str(r#"{"codings":["nstep27"]}"#).unwrap();
-    assert_eq!(partial.max_bounces, 5);
+    // No bounce cap by default (JSON `null`), Russian roulette instead.
+    assert_eq!(partial.max_bounces, None);
+    assert_eq!(partial.russian_roulette_from, Some(3));
+    assert!(json.contains(r#""max_bounces":null"#), "{json}");
     assert!(serde_json::from_str::<RenderSettings>(r#"{"codings":["cmyk"]}"#).is_err());
     assert!(serde_json::from_str::<RenderSettings>(r#"{"colour":1}"#).is_err());
 }
@@ -338,7 +341,7 @@ fn simulated_truth_is_not_the_comparison_render() {
     let comparison = RenderSettings::default();
     assert_ne!(s.seed, comparison.seed);
     assert!((1..=64).all(|study_seed| s.seed != study_seed));
-    assert_eq!(s.max_bounces, u32::MAX);
+    assert_eq!(s.max_bounces, None);
     assert!(s.russian_roulette_from.is_some());
     assert_eq!(s.codings, vec![Coding::Spectral]);
 
@@ -390,7 +393,8 @@ target = "wall"
         &scene,
         &RenderSettings {
             codings: vec![Coding::Spectral],
-            max_bounces: 5,
+            max_bounces: Some(5),
+            russian_roulette_from: None,
             target_relative_se: Some(1e-3),
             ..RenderSettings::default()
         },

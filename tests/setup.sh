@@ -3,7 +3,7 @@
 # Debian machine: Chromium (for the dashboard test), playwright-core from
 # npm (it drives that Chromium; no browser download), PostgreSQL (the
 # store's tests run against SQLite and PostgreSQL) and a Python venv of
-# other programs' clients (target/py). Starts a throw-away
+# other programs' clients and readers (target/py). Starts a throw-away
 # PostgreSQL cluster for the tests (see the end). Safe to run again.
 #
 #   tests/setup.sh                 install what is missing, start PostgreSQL
@@ -88,9 +88,13 @@ if [ ! -x "$PY_VENV/bin/python" ]; then
     python3 -m venv "$PY_VENV"
   fi
 fi
+# Also OpenEXR's own Python binding (PyPI `OpenEXR` 3.x), a reader the
+# project did not write: tests/exr_python.rs opens the spectral EXR with it.
+# Each entry is `name=requirement`; only what is missing is installed.
 py_missing=()
-for pkg in pyserial numpy psychopy-photoresearch; do
-  "$PY_VENV/bin/pip" show -q "$pkg" >/dev/null 2>&1 || py_missing+=("$pkg")
+for entry in "pyserial=pyserial" "numpy=numpy" "psychopy-photoresearch=psychopy-photoresearch" \
+    "OpenEXR=OpenEXR>=3.2,<4"; do
+  "$PY_VENV/bin/pip" show -q "${entry%%=*}" >/dev/null 2>&1 || py_missing+=("${entry#*=}")
 done
 if [ "${#py_missing[@]}" -gt 0 ]; then
   echo "installing ${py_missing[*]} (PyPI) into $PY_VENV"

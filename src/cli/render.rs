@@ -12,12 +12,13 @@ use clap::Args;
 use lightbooth::colorimetry::Observer;
 use lightbooth::export::image::write_camera_image;
 use lightbooth::render::camera::{render_camera_image, CameraProgress, CameraSettings};
-use lightbooth::render::integrator::Transport;
 use lightbooth::render::scene::{
     load_radiance_scene, RadianceView, MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET,
 };
 use lightbooth::render::sensor::render_camera;
-use lightbooth::render::{load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind};
+use lightbooth::render::{
+    load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind, DEFAULT_ROULETTE_FROM,
+};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -40,9 +41,11 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = RenderSettings::default().samples,
           value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     samples: u64,
-    /// Maximum indirect bounces (RADIANCE -ab), 0–64.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
-    bounces: u32,
+    /// Cap paths at this many indirect bounces, 0–64 (`--bounces 5` emulates
+    /// RADIANCE -ab 5; the output then says "truncated at N bounces").
+    /// Default: no cap, Russian roulette ends the paths (unbiased).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
+    bounces: Option<u32>,
     /// Random seed: the same seed gives the same numbers on any number of threads.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -52,9 +55,10 @@ pub struct RenderArgs {
     /// Worker threads, 1–1024 (default: one per core).
     #[arg(long, value_parser = super::threads)]
     threads: Option<usize>,
-    /// Unbiased Russian roulette from this bounce on, 0–64 (default: never).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
-    russian_roulette_from: Option<u32>,
+    /// Unbiased Russian roulette from this bounce on, 0–64, or `never` (only
+    /// with --bounces).
+    #[arg(long, default_value_t = RouletteFrom(Some(DEFAULT_ROULETTE_FROM)), value_parser = parse_roulette)]
+    russian_roulette_from: RouletteFrom,
     /// Also render the scene's [camera] view: .pfm (linear HDR), .png
     /// (tone-mapped sRGB), or, in --image-coding with XYZ, LMS and standard
     /// errors, .exr (spectral OpenEXR), .mat (MATLAB) or .bsq (ENVI, with .hdr).
@@ -66,6 +70,12 @@ pub struct RenderArgs {
     /// The coding of --image's channels: spectral (401 1 nm bands), nstepN, rgb or srgb.
     #[arg(long, alias = "coding", default_value = "spectral", value_parser = parse_coding)]
     image_coding: Coding,
+    /// The spectral grid of an --image file in the `spectral` coding, nm
+    /// (1–100): every Nth 1 nm band (380, 385, … 780 nm with 5, the
+    /// instrument's grid), their own values, not averaged; X, Y, Z, L, M, S
+    /// still from all 401 bands. Default 1 (all 401 bands).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
+    image_step: u32,
     /// Render --image in passes until every pixel's standard error of Y is
     /// below this fraction of its Y (or --spp paths, or --time-budget); 0: exactly --spp.
     #[arg(long, default_value_t = 0.0, value_parser = super::fraction)]
@@ -73,9 +83,10 @@ pub struct RenderArgs {
     /// Stop --image's passes after this many seconds (checked between passes).
     #[arg(long)]
     time_budget: Option<f64>,
-    /// After the render, render all codings and then each coding alone with
-    /// exactly --samples paths per target, and report the wall times
-    /// (`coding_wall_seconds` in the JSON): the cost of each coding.
+    /// After the render, render all codings and each coding alone with
+    /// exactly --samples paths per target, 3 times each in rotated order
+    /// after a warm-up, and report the median wall times and their spread
+    /// (`coding_wall_seconds`, `coding_cost` in the JSON): the cost of each coding.
     #[arg(long)]
     time_each_coding: bool,
     /// Random numbers: sobol (scrambled, stratified; SE from batch means) or independent.
@@ -120,6 +131,29 @@ fn field_angle(s: &str) -> Result<f64, String> {
     super::finite_in(s, 1e-6, 180.0, "degrees, the full angle of the field")
 }
 
+/// `--russian-roulette-from`: a bounce, or `never`.
+#[derive(Clone, Copy, Debug)]
+struct RouletteFrom(Option<u32>);
+
+impl std::fmt::Display for RouletteFrom {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(b) => write!(f, "{b}"),
+            None => f.write_str("never"),
+        }
+    }
+}
+
+fn parse_roulette(s: &str) -> Result<RouletteFrom, String> {
+    if s == "never" {
+        return Ok(RouletteFrom(None));
+    }
+    match s.parse::<u32>() {
+        Ok(b) if b <= MAX_BOUNCES => Ok(RouletteFrom(Some(b))),
+        _ => Err(format!("`{s}`: expected a bounce 0–{MAX_BOUNCES} or `never`")),
+    }
+}
+
 fn parse_coding(s: &str) -> Result<Coding, String> {
     s.parse()
 }
@@ -157,12 +191,24 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         load_scene(&args.scene)?
     };
+    if args.image_step > 1 && args.image_coding != Coding::Spectral {
+        anyhow::bail!(
+            "--image-step {} picks bands of the 1 nm `spectral` coding; --image-coding is {}",
+            args.image_step,
+            args.image_coding
+        );
+    }
+    if args.bounces.is_none() && args.russian_roulette_from.0.is_none() {
+        anyhow::bail!(
+            "--russian-roulette-from never needs --bounces N: without roulette or a cap a path in a closed scene never ends"
+        );
+    }
     let settings = RenderSettings {
         codings: args.codings.clone(),
         samples: args.samples,
         max_bounces: args.bounces,
         seed: args.seed,
-        russian_roulette_from: args.russian_roulette_from,
+        russian_roulette_from: args.russian_roulette_from.0,
         targets: args.targets.clone(),
         threads: args.threads,
         sampler: args.sampler,
@@ -181,32 +227,30 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // The cost of each coding: every coding rendered alone, and all together,
     // with the same fixed path count (`--samples` per target, no adaptive
     // rounds), so the times compare like with like.
-    let mut coding_times: Vec<(String, f64, u64, u64)> = Vec::new();
+    let mut coding_times: Vec<(String, lightbooth::render::cost::TimedRender)> = Vec::new();
     if args.time_each_coding {
         let fixed = RenderSettings {
             target_relative_se: None,
             ..settings.clone()
         };
-        let all = render(&scene, &fixed, None)?;
-        coding_times.push(("all".to_string(), all.wall_seconds, all.paths, all.rays));
+        let mut names = vec!["all".to_string()];
+        let mut runs = vec![fixed.clone()];
         for c in &settings.codings {
-            let alone = RenderSettings {
+            names.push(c.to_string());
+            runs.push(RenderSettings {
                 codings: vec![*c],
                 ..fixed.clone()
-            };
-            let r = render(&scene, &alone, None)?;
-            coding_times.push((c.to_string(), r.wall_seconds, r.paths, r.rays));
+            });
         }
+        let timed = lightbooth::render::cost::time_renders(&scene, &runs, lightbooth::render::cost::TIMING_REPEATS)?;
+        coding_times = names.into_iter().zip(timed).collect();
     }
     if let Some(path) = &args.image {
         let camera = scene
             .camera
             .as_ref()
             .with_context(|| format!("{} has no [camera] for --image", args.scene.display()))?;
-        let transport = Transport {
-            max_bounces: settings.max_bounces,
-            russian_roulette_from: settings.russian_roulette_from,
-        };
+        let transport = settings.transport();
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -245,10 +289,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             if matches!(ext.as_str(), "pfm" | "png") {
                 img.to_srgb().write(path)?;
             } else {
+                let img = img
+                    .every_nth_band(args.image_step as usize)
+                    .map_err(|e| anyhow::anyhow!("--image-step: {e}"))?;
                 let written = write_camera_image(&img, path).map_err(anyhow::Error::msg)?;
                 let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+                let bands = match lightbooth::export::image::spectral_step_nm(&img) {
+                    Some(step) => format!(" ({} bands, every {step} nm)", img.quantities.coding_channels),
+                    None => String::new(),
+                };
                 eprintln!(
-                    "image: {} × {} in {}, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
+                    "image: {} × {} in {}{bands}, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
                     img.width,
                     img.height,
                     img.coding,
@@ -267,26 +318,29 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         if !coding_times.is_empty() {
             let m: serde_json::Map<String, serde_json::Value> = coding_times
                 .iter()
-                .map(|(k, t, _, _)| (k.clone(), serde_json::json!(t)))
+                .map(|(k, t)| (k.clone(), serde_json::json!(t.median_seconds())))
                 .collect();
             v["coding_wall_seconds"] = serde_json::Value::Object(m);
-            let cost: serde_json::Map<String, serde_json::Value> = coding_times
-                .iter()
-                .map(|(k, t, paths, rays)| {
-                    (
-                        k.clone(),
-                        serde_json::json!({ "paths": paths, "rays": rays, "wall_seconds": t }),
-                    )
-                })
-                .collect();
+            let cost: serde_json::Map<String, serde_json::Value> =
+                coding_times.iter().map(|(k, t)| (k.clone(), t.cost_json())).collect();
             v["coding_cost"] = serde_json::Value::Object(cost);
             v["cost_definition"] = lightbooth::study::run::COST_DEFINITION.into();
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print_table(&result);
-        for (c, t, paths, rays) in coding_times {
-            println!("{c} alone: {rays} rays, {paths} paths, {t:.3} s");
+        if !coding_times.is_empty() {
+            println!("cost: {}", lightbooth::render::cost::TIMING_METHOD);
+        }
+        for (c, t) in coding_times {
+            println!(
+                "{c} alone: {} rays, {} paths, {:.3} s ({:.3}–{:.3} s)",
+                t.result.rays,
+                t.result.paths,
+                t.median_seconds(),
+                t.fastest_seconds(),
+                t.slowest_seconds()
+            );
         }
     }
     Ok(())
@@ -327,6 +381,9 @@ fn print_table(r: &RenderResult) {
                 c.y
             );
         }
+    }
+    if let Some(note) = &r.truncation_note {
+        println!("note: {note}");
     }
     if !r.synthesised_spectra.is_empty() {
         println!(

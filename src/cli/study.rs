@@ -37,10 +37,11 @@ pub struct StudyArgs {
     #[arg(long, default_value_t = 4096,
           value_parser = clap::value_parser!(u64).range(1..=lightbooth::render::scene::MAX_SAMPLES_PER_TARGET))]
     samples: u64,
-    /// Maximum bounces (the study's -ab 5).
-    #[arg(long, default_value_t = 5,
-          value_parser = clap::value_parser!(u32).range(0..=i64::from(lightbooth::render::scene::MAX_BOUNCES)))]
-    bounces: u32,
+    /// Cap the renders at this many bounces, 0–64 (5 emulates the original
+    /// study's RADIANCE -ab 5; the report then says "truncated at N bounces").
+    /// Default: no cap, Russian roulette ends the paths (unbiased).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=i64::from(lightbooth::render::scene::MAX_BOUNCES)))]
+    bounces: Option<u32>,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     #[arg(long)]
     sweeps: bool,

@@ -95,7 +95,8 @@ pub struct ImageSettings {
     pub time_budget_s: f64,
     /// The render's seed, bounces and Russian roulette.
     pub seed: u64,
-    pub max_bounces: u32,
+    /// The bounce cap; `null`: none (Russian roulette, unbiased).
+    pub max_bounces: Option<u32>,
     pub russian_roulette_from: Option<u32>,
 }
 

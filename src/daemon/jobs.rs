@@ -37,8 +37,9 @@ pub const JOB_QUEUE_CAPACITY: usize = 8;
 /// own cap on adaptive sampling (`RenderSettings::max_samples`, 2²²).
 pub const MAX_RENDER_SAMPLES: u32 = 1 << 22;
 
-/// Indirect bounces a render request may ask for. The study used 5; past a
-/// few dozen bounces the booth's reflectances leave nothing to add.
+/// The largest bounce cap a render request may ask for (`bounces`; absent:
+/// no cap, Russian roulette). The study used 5; past a few dozen bounces
+/// the booth's reflectances leave nothing to add.
 pub const MAX_RENDER_BOUNCES: u32 = 64;
 
 /// Set in the environment of a test daemon: renders, studies and converged

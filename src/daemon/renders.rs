@@ -50,9 +50,11 @@
 //!
 //! After a render, each coding is rendered alone with a *fixed* number of
 //! paths per target (the render's `samples`, no adaptive stop, as the CLI's
-//! `--time-each-coding` and the study's sweeps): `coding_cost` in the stored
-//! result gives its paths, rays traced (the cost that does not jitter with
-//! machine load) and wall time; `coding_seconds` keeps the wall time alone.
+//! `--time-each-coding` and the study's sweeps), timed as
+//! [`render::cost`] says (median of rotated repeats after a warm-up; the
+//! codings trace the same rays, so rays cannot rank them): `coding_cost` in
+//! the stored result gives its paths, rays, median wall time and its
+//! fastest and slowest repeat; `coding_seconds` keeps the median alone.
 
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -576,7 +578,8 @@ impl Renderer {
                     "field `bounces`: {b} is above the limit {MAX_RENDER_BOUNCES}"
                 )));
             }
-            s.max_bounces = b;
+            // A cap (RADIANCE -ab); absent: none, Russian roulette (unbiased).
+            s.max_bounces = Some(b);
         }
         if let Some(seed) = request.seed {
             s.seed = seed;
@@ -796,38 +799,34 @@ fn render_with_timings(
         }
     };
     render::render(scene, settings, Some(&progress)).map(|full| {
-        // Every coding alone at a fixed number of paths per target
-        // (no adaptive stop): equal work, comparable costs.
+        // Every coding alone at a fixed number of paths per target (no
+        // adaptive stop): equal work, comparable costs; timed in rotated
+        // rounds after a warm-up (`render::cost`), so the first-timed coding
+        // does not pay the warm-up.
         let mut coding_seconds = serde_json::Map::new();
         let mut coding_cost = serde_json::Map::new();
-        for coding in &settings.codings {
-            let alone = RenderSettings {
+        let alone: Vec<RenderSettings> = settings
+            .codings
+            .iter()
+            .map(|coding| RenderSettings {
                 codings: vec![*coding],
                 target_relative_se: None,
                 ..settings.clone()
-            };
-            let t = Instant::now();
-            if let Ok(r) = render::render(scene, &alone, None) {
-                let wall = t.elapsed().as_secs_f64();
-                coding_seconds.insert(coding.to_string(), wall.into());
-                coding_cost.insert(
-                    coding.to_string(),
-                    serde_json::json!({
-                        "paths": r.paths,
-                        "paths_per_target": r.paths / r.targets.len().max(1) as u64,
-                        "rays": r.rays,
-                        "wall_seconds": wall,
-                    }),
-                );
+            })
+            .collect();
+        match render::cost::time_renders(scene, &alone, render::cost::TIMING_REPEATS) {
+            Ok(timed) => {
+                for (coding, t) in settings.codings.iter().zip(&timed) {
+                    coding_seconds.insert(coding.to_string(), t.median_seconds().into());
+                    coding_cost.insert(coding.to_string(), t.cost_json());
+                }
             }
+            Err(e) => tracing::warn!(render_id = id, error = %e, "codings not timed"),
         }
         // The camera view for the dashboard: the sRGB coding, few paths per
         // pixel from a fixed budget (a preview, not a measurement).
         let preview = scene.camera.as_ref().and_then(|camera| {
-            let transport = render::integrator::Transport {
-                max_bounces: settings.max_bounces,
-                russian_roulette_from: settings.russian_roulette_from,
-            };
+            let transport = settings.transport();
             render::sensor::render_camera(
                 scene,
                 camera,
@@ -1277,10 +1276,7 @@ impl Renderer {
             .camera
             .clone()
             .ok_or_else(|| ApiError::Conflict(format!("scene `{}` has no [camera]: no image to render", row.scene)))?;
-        let transport = render::integrator::Transport {
-            max_bounces: settings.max_bounces,
-            russian_roulette_from: settings.russian_roulette_from,
-        };
+        let transport = settings.transport();
         let (checked, coding) = camera_images::check_request(&request, &camera, &transport, settings.seed)?;
         let (scaled, camera_settings) = camera_images::camera_settings(&checked, coding, &camera, self.observer);
         self.images

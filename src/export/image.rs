@@ -18,7 +18,10 @@
 //! Header attributes: `spectralLayoutVersion` = "1.0" and `emissiveUnits` =
 //! "W.m^-2.sr^-1" (the spec's spelling for spectral radiance; the per-nm is
 //! implied by the channel's wavelength), plus lightbooth's own
-//! `lightbooth.units.*`, `lightbooth.coding` and `lightbooth.observer`.
+//! `lightbooth.units.*` (`W/(sr*m^2*nm)`, `cd/m^2`), `lightbooth.coding`,
+//! `lightbooth.observer` and `lightbooth.spectralStep` (`1 nm`, or `5 nm`
+//! with `--image-step 5`). Every attribute's text is plain ASCII. The pixels
+//! are ZIP-compressed scan lines (lossless).
 //!
 //! ENVI: one band per coding channel, band-sequential float32
 //! little-endian (`data type = 4`, `byte order = 0`), with `wavelength`,
@@ -38,8 +41,11 @@ use exr::prelude::{
 use crate::export::mat::MatFile;
 use crate::render::camera::CameraImage;
 
-/// The units of the spectral channels.
-pub const SPECTRAL_UNITS: &str = "W/(sr·m²·nm)";
+/// The units of the spectral channels, in ASCII: OpenEXR's text attributes
+/// have no declared encoding, and readers (OpenEXR's own Python binding)
+/// decode them as UTF-8; the Latin-1 `²`, `·` and `°` the writer once
+/// produced made the whole header unreadable there.
+pub const SPECTRAL_UNITS: &str = "W/(sr*m^2*nm)";
 /// The value of the `emissiveUnits` attribute (Fichet et al. 2021).
 pub const EMISSIVE_UNITS: &str = "W.m^-2.sr^-1";
 pub const SPECTRAL_LAYOUT_VERSION: &str = "1.0";
@@ -82,11 +88,25 @@ pub fn write_camera_image(image: &CameraImage, path: &Path) -> Result<Vec<PathBu
     }
 }
 
-fn text(s: &str) -> AttributeValue {
-    AttributeValue::Text(Text::from(s))
+/// An attribute's text, which must be ASCII (see [`SPECTRAL_UNITS`]): the
+/// `exr` crate writes each `char` as one Latin-1 byte.
+fn text(s: &str) -> Result<AttributeValue, String> {
+    if !s.is_ascii() {
+        return Err(format!("OpenEXR attribute text `{s}` is not ASCII"));
+    }
+    Ok(AttributeValue::Text(Text::from(s)))
 }
 
-/// Multi-channel OpenEXR, one part, uncompressed-equivalent lossless (ZIP).
+/// The spacing of an image's spectral channels, nm (`None`: RGB, or one band).
+pub fn spectral_step_nm(image: &CameraImage) -> Option<f64> {
+    match image.quantities.wavelengths_nm.as_deref() {
+        Some([a, b, ..]) => Some(b - a),
+        _ => None,
+    }
+}
+
+/// Multi-channel OpenEXR, one part, scan lines compressed losslessly with
+/// ZIP (16 lines a block: OpenEXR's `ZIP_COMPRESSION`, which every reader has).
 pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
     let names = quantity_names(image);
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
@@ -103,10 +123,10 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
     let mut other = vec![
         ("lightbooth.coding", image.coding.to_string()),
         ("lightbooth.observer", image.observer.to_string()),
-        ("lightbooth.units.XYZ", "cd/m² (Y is luminance)".to_string()),
+        ("lightbooth.units.XYZ", "cd/m^2 (Y is luminance)".to_string()),
         (
             "lightbooth.units.LMS",
-            "cd/m²-scaled cone excitations (L + M = CIE 2006 2° luminance)".to_string(),
+            "cd/m^2-scaled cone excitations (L + M = CIE 2006 2 deg luminance)".to_string(),
         ),
         (
             "lightbooth.units.SE",
@@ -117,6 +137,9 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
         other.push(("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION.to_string()));
         other.push(("emissiveUnits", EMISSIVE_UNITS.to_string()));
         other.push(("lightbooth.units.spectral", SPECTRAL_UNITS.to_string()));
+        if let Some(step) = spectral_step_nm(image) {
+            other.push(("lightbooth.spectralStep", format!("{step} nm")));
+        }
     } else {
         other.push((
             "lightbooth.units.RGB",
@@ -124,12 +147,12 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
         ));
     }
     for (k, v) in other {
-        attributes.other.insert(Text::from(k), text(&v));
+        attributes.other.insert(Text::from(k), text(&v)?);
     }
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
         attributes,
-        Encoding::FAST_LOSSLESS,
+        Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels),
     );
     Image::from_layer(layer)

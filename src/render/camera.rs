@@ -499,6 +499,52 @@ impl CameraImage {
             .collect()
     }
 
+    /// The image with every `step`-th band of the 1 nm `spectral` coding
+    /// (380, 380 + step, … nm, and 780 nm when step divides 400): the
+    /// bands' own values and standard errors, not averaged, and X, Y, Z,
+    /// L, M, S unchanged (from all 401 bands). A coarser grid for image
+    /// files (`--image-step 5`); `step` 1 returns the image as it is.
+    pub fn every_nth_band(&self, step: usize) -> Result<CameraImage, String> {
+        if step == 1 {
+            return Ok(self.clone());
+        }
+        if self.coding != Coding::Spectral || step == 0 {
+            return Err(format!(
+                "a spectral step of {step} nm needs the 1 nm `spectral` coding (the image is {}) and a step of 1 nm or more",
+                self.coding
+            ));
+        }
+        let n = self.quantities.coding_channels;
+        let keep: Vec<usize> = (0..n).step_by(step).chain(n..n + 6).collect();
+        let pick = |v: &[f32]| -> Vec<f32> {
+            v.chunks_exact(self.stride())
+                .flat_map(|px| keep.iter().map(move |&k| px[k]))
+                .collect()
+        };
+        let wavelengths = self
+            .quantities
+            .wavelengths_nm
+            .as_ref()
+            .map(|w| w.iter().step_by(step).copied().collect::<Vec<f64>>());
+        Ok(CameraImage {
+            quantities: Quantities {
+                coding_channels: keep.len() - 6,
+                wavelengths_nm: wavelengths,
+            },
+            mean: pick(&self.mean),
+            m2: pick(&self.m2),
+            width: self.width,
+            height: self.height,
+            coding: self.coding,
+            observer: self.observer,
+            samples: self.samples.clone(),
+            passes: self.passes,
+            paths: self.paths,
+            elapsed_seconds: self.elapsed_seconds,
+            stop: self.stop,
+        })
+    }
+
     /// The index of X (Y, Z, L, M, S follow).
     pub fn xyz_index(&self) -> usize {
         self.quantities.coding_channels

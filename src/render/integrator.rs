@@ -31,10 +31,11 @@
 //!   is p_bsdf for MIS), and an ideal reflection (mirror, polished
 //!   plastic) is a delta: the emitter it sees counts fully, as for the
 //!   sensor's ray. Lambertian vertices keep the code above unchanged;
-//! - paths stop after `max_bounces` indirect bounces (RADIANCE `-ab`), or
-//!   when they leave the scene (open sides return zero radiance); unbiased
-//!   Russian roulette (survival q = max channel of the throughput, at least
-//!   0.05, with β /= q) only from the bounce the settings ask for.
+//! - paths end by unbiased Russian roulette (survival q = max channel of the
+//!   throughput, at least 0.05, with β /= q) from the bounce the settings
+//!   ask for (by default the third), or when they leave the scene (open
+//!   sides return zero radiance), or — only when a cap is asked for — after
+//!   `max_bounces` indirect bounces (RADIANCE `-ab`: a truncation bias).
 //!
 //! The channel arithmetic works on contiguous `f32` slices whose length is a
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
@@ -397,8 +398,9 @@ pub fn cone_direction(axis: DVec3, half_angle_rad: f64, u1: f64, u2: f64) -> DVe
 /// Transport settings shared by every sensor.
 #[derive(Clone, Copy, Debug)]
 pub struct Transport {
-    /// Maximum number of indirect bounces (RADIANCE `-ab`).
-    pub max_bounces: u32,
+    /// Most indirect bounces (RADIANCE `-ab`); `None`: no cap (then
+    /// Russian roulette must end the paths).
+    pub max_bounces: Option<u32>,
     /// Russian roulette from this bounce on; `None` = never.
     pub russian_roulette_from: Option<u32>,
 }
@@ -715,7 +717,7 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
                 *l += s * b * e;
             }
         }
-        let last_vertex = depth >= transport.max_bounces;
+        let last_vertex = transport.max_bounces.is_some_and(|m| depth >= m);
         if !prep.area_lights.is_empty() {
             let (u1, u2) = rng.next_2d();
             if let Some(ls) = prep.sample_area_light(p, n, u1, u2) {
@@ -784,7 +786,7 @@ fn glossy_vertex(
     }
     let origin = p + n * SPAWN_OFFSET_M;
     let rho = prep.material(material);
-    let last_vertex = depth >= transport.max_bounces;
+    let last_vertex = transport.max_bounces.is_some_and(|m| depth >= m);
     for (li, light) in prep.scene.lights.iter().enumerate() {
         let to_light = light.position - p;
         let d2 = to_light.length_squared();

@@ -34,7 +34,8 @@
 //!
 //! Cost per coding: one pass serves every coding, so [`RenderResult`] reports
 //! the total wall time only; the cost of a coding is measured by rendering it
-//! alone (`lightbooth render --time-each-coding`, `benches/render.rs`).
+//! alone ([`cost`]: `lightbooth render --time-each-coding`, the daemon's
+//! `coding_cost`, the study's sweeps; `benches/render.rs`).
 
 pub mod area_light;
 pub mod bsdf;
@@ -42,6 +43,7 @@ pub mod bundle;
 pub mod bvh;
 pub mod camera;
 pub mod coding;
+pub mod cost;
 pub mod geometry;
 mod huge_pages;
 pub mod ies;
@@ -63,7 +65,8 @@ use serde::{Deserialize, Serialize};
 pub use coding::{ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
 
-use integrator::{radiometer_batch, BatchSums, Prepared, Transport};
+pub use integrator::Transport;
+use integrator::{radiometer_batch, BatchSums, Prepared};
 
 use crate::colorimetry::Observer;
 use crate::spectrum::table::{write_csv, SpectraTable};
@@ -100,10 +103,15 @@ pub struct RenderSettings {
     /// `target_relative_se` is set), rounded up to whole batches of
     /// [`BATCH_SAMPLES`].
     pub samples: u64,
-    /// Maximum indirect bounces (RADIANCE `-ab`; the study used 5).
-    pub max_bounces: u32,
+    /// Most indirect bounces (RADIANCE `-ab`). `None` (JSON `null`, the
+    /// default): no cap, paths end by Russian roulette only, so the estimate
+    /// has no truncation bias. A cap (`--bounces 5` emulates RADIANCE's
+    /// `-ab 5`) leaves out the light of later bounces, a bias the standard
+    /// error does not show: the result says so in `truncated_at_bounces`.
+    pub max_bounces: Option<u32>,
     pub seed: u64,
-    /// Russian roulette from this bounce on; `None` = never (the default).
+    /// Unbiased Russian roulette from this bounce on (default
+    /// [`DEFAULT_ROULETTE_FROM`]); `None` = never, which needs a bounce cap.
     pub russian_roulette_from: Option<u32>,
     /// Only these targets (ids); `None` = all.
     pub targets: Option<Vec<String>>,
@@ -134,14 +142,37 @@ fn codings_from_names<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<Codi
         .collect()
 }
 
+/// Russian roulette starts at this bounce in a default render (as in the
+/// simulated booth's truth, [`TRUTH_ROULETTE_FROM`]): before it every path
+/// continues; with no bounce cap the estimate has no truncation bias.
+pub const DEFAULT_ROULETTE_FROM: u32 = 3;
+
+impl RenderSettings {
+    /// The light transport of these settings, for the camera images too.
+    pub fn transport(&self) -> Transport {
+        Transport {
+            max_bounces: self.max_bounces,
+            russian_roulette_from: self.russian_roulette_from,
+        }
+    }
+}
+
+/// What a render capped at `bounces` says beside its standard errors.
+pub fn truncation_note(bounces: u32) -> String {
+    format!(
+        "truncated at {bounces} bounces: the light of later bounces is missing from every value, \
+         a bias (always darker) that the standard errors do not include; omit the cap for an unbiased render"
+    )
+}
+
 impl Default for RenderSettings {
     fn default() -> RenderSettings {
         RenderSettings {
             codings: Coding::ALL.to_vec(),
             samples: 4096,
-            max_bounces: 5,
+            max_bounces: None,
             seed: 1,
-            russian_roulette_from: None,
+            russian_roulette_from: Some(DEFAULT_ROULETTE_FROM),
             targets: None,
             threads: None,
             sampler: SamplerKind::Sobol,
@@ -239,6 +270,12 @@ pub struct RenderResult {
     /// How they were synthesised (`None` when nothing was).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub synthesis_method: Option<&'static str>,
+    /// The bounce cap in force (`settings.max_bounces`), `null` when there is
+    /// none: every Y above misses the light of later bounces.
+    pub truncated_at_bounces: Option<u32>,
+    /// [`truncation_note`] when a cap is in force.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truncation_note: Option<String>,
 }
 
 impl RenderResult {
@@ -304,10 +341,14 @@ fn render_in_pool(
     };
     let layout = ChannelLayout::with_observer(&settings.codings, settings.observer);
     let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
-    let transport = Transport {
-        max_bounces: settings.max_bounces,
-        russian_roulette_from: settings.russian_roulette_from,
-    };
+    if settings.max_bounces.is_none() && settings.russian_roulette_from.is_none() {
+        return Err(RenderError::Settings(
+            "no bounce cap and no Russian roulette: a path in a closed scene would never end; \
+             give a cap (`--bounces N`, the API's `bounces`) or Russian roulette"
+                .into(),
+        ));
+    }
+    let transport = settings.transport();
     // Whole batches only, so every replicate has the same number of paths.
     let first = settings.samples.div_ceil(BATCH_SAMPLES);
     let max_batches = settings.max_samples.div_ceil(BATCH_SAMPLES).max(first);
@@ -395,6 +436,8 @@ fn render_in_pool(
         deviation_from_spectral,
         synthesised_spectra: synthesised_spectra(scene),
         synthesis_method: synthesised_spectra(scene).first().map(|_| radiance::SYNTHESIS_METHOD),
+        truncated_at_bounces: settings.max_bounces,
+        truncation_note: settings.max_bounces.map(truncation_note),
     })
 }
 
@@ -541,7 +584,7 @@ pub fn truth_settings(target_id: &str) -> RenderSettings {
         target_relative_se: Some(CONVERGED_RELATIVE_SE),
         max_samples: 1 << 24,
         seed: TRUTH_SEED,
-        max_bounces: u32::MAX,
+        max_bounces: None,
         russian_roulette_from: Some(TRUTH_ROULETTE_FROM),
         ..RenderSettings::default()
     }

@@ -231,7 +231,10 @@ pub struct RenderRequest {
     /// adaptive sampling at most).
     #[schema(minimum = 2, maximum = 4_194_304)]
     pub samples: Option<u32>,
-    /// Indirect bounces, 0–64 (`daemon::jobs::MAX_RENDER_BOUNCES`).
+    /// A cap on indirect bounces, 0–64 (`daemon::jobs::MAX_RENDER_BOUNCES`;
+    /// 5 emulates RADIANCE `-ab 5`). Absent: no cap, Russian roulette ends
+    /// the paths (unbiased). A capped render's result says so:
+    /// `truncated_at_bounces` (`null` when uncapped) and `truncation_note`.
     #[schema(minimum = 0, maximum = 64)]
     pub bounces: Option<u32>,
     pub seed: Option<u64>,

@@ -24,7 +24,9 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
 /// `daemon::renders`), and the axis title. The rays traced are stored beside
 /// it (`coding_cost.CODING.rays`) but do not separate the codings: the same
 /// paths trace the same rays in every coding, which differ only in the
-/// arithmetic per ray (channels), so rays cannot be this chart's axis.
+/// arithmetic per ray (channels), so rays cannot be this chart's axis. The
+/// wall time is the median of rotated repeats after a warm-up
+/// ([`crate::render::cost`]), drawn with its fastest–slowest whisker.
 const SPEED_COST: (&str, &str, &str) = (
     "coding_cost",
     "wall_seconds",
@@ -171,11 +173,12 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
     let (key, field, x_desc) = SPEED_COST;
     let mut series = Vec::new();
     let mut labels = Vec::new();
+    let mut spreads = Vec::new();
     for s in &c.codings {
-        let cost = renders
-            .iter()
-            .find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding)?.get(field)?.as_f64());
-        if let Some(x) = cost {
+        let cost = renders.iter().find_map(|r| r.result.as_ref()?.get(key)?.get(&s.coding));
+        if let Some(x) = cost.and_then(|c| c.get(field)?.as_f64()) {
+            let bound = |k: &str| cost.and_then(|c| c.get(k)?.as_f64()).unwrap_or(x);
+            spreads.push(vec![(bound("wall_seconds_min"), bound("wall_seconds_max"))]);
             series.push(ScatterSeries {
                 name: s.coding.clone(),
                 points: vec![(x, s.summary.mean_dE76.max(1e-4))],
@@ -190,12 +193,13 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
             c.scene
         ));
     }
-    charts::scatter_chart_labelled(
+    charts::scatter_chart_with_spread(
         &format!("{}: speed against accuracy", c.scene),
-        x_desc,
+        &format!("{x_desc}; {}", crate::render::cost::TIMING_METHOD),
         "mean ΔE*ab (CIELAB units, log)",
         &series,
         &labels,
+        &spreads,
         (true, true),
     )
 }

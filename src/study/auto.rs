@@ -362,7 +362,9 @@ impl AutoChoice {
         RenderSettings {
             codings: vec![self.coding],
             samples: self.samples,
-            max_bounces: self.bounces,
+            max_bounces: Some(self.bounces),
+            // A chosen cap, its tail estimated: no roulette (the paths of the pilots).
+            russian_roulette_from: None,
             seed: self.seed,
             target_relative_se: None,
             ..RenderSettings::default()
@@ -610,7 +612,9 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
             &RenderSettings {
                 codings: vec![coding],
                 samples: PILOT_SAMPLES,
-                max_bounces: k,
+                // Caps k = 0, 1, … on the same paths: no roulette.
+                max_bounces: Some(k),
+                russian_roulette_from: None,
                 seed,
                 target_relative_se: None,
                 ..RenderSettings::default()
@@ -767,7 +771,8 @@ pub fn reference_render(scene: &Scene, choice: &AutoChoice) -> Result<RenderResu
         &RenderSettings {
             codings: vec![Coding::Spectral],
             samples: PILOT_SAMPLES,
-            max_bounces: choice.reference_bounces,
+            max_bounces: Some(choice.reference_bounces),
+            russian_roulette_from: None,
             seed: choice.seed.wrapping_add(1_000_003),
             target_relative_se: Some(goal),
             max_samples: 1 << 24,
@@ -960,7 +965,7 @@ pub fn candidate_set(
     let tol = choice.tolerance;
     let settings_of = |coding: Coding, b: u32| RenderSettings {
         codings: vec![coding],
-        max_bounces: b,
+        max_bounces: Some(b),
         ..choice.settings()
     };
     // The repeats go round-robin over the candidates (every candidate once,

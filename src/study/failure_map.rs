@@ -301,7 +301,8 @@ pub struct FailureMapSettings {
     pub seeds: Vec<u64>,
     /// Radiometer paths per target per render (fixed; no SE-adaptive sampling).
     pub samples: u64,
-    pub max_bounces: u32,
+    /// The bounce cap; `None`: none (Russian roulette, unbiased).
+    pub max_bounces: Option<u32>,
     /// The target whose `spectral` XYZ is the CIELAB white.
     pub white_target: String,
     #[serde(serialize_with = "coding_names")]
@@ -314,7 +315,7 @@ fn coding_names<S: serde::Serializer>(codings: &[Coding], s: S) -> Result<S::Ok,
 
 impl FailureMapSettings {
     /// The CYLINDER sweep of the study with the scene at `scene`: 4 seeds,
-    /// 4096 paths per target, 5 bounces, all seven codings.
+    /// 4096 paths per target, no bounce cap, all seven codings.
     pub fn cylinder(scene: &Path) -> FailureMapSettings {
         FailureMapSettings {
             scene: scene.to_path_buf(),
@@ -322,7 +323,7 @@ impl FailureMapSettings {
             scales: CARD_SCALES.to_vec(),
             seeds: vec![1, 2, 3, 4],
             samples: 4096,
-            max_bounces: 5,
+            max_bounces: None,
             white_target: "h21".into(),
             codings: Coding::ALL.to_vec(),
         }

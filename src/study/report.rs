@@ -8,6 +8,25 @@ use std::path::Path;
 use super::run::{SceneStudy, StudyResult, SweepPoint};
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 
+/// What a chart title says about the renders' bounce cap: nothing without
+/// one, " — truncated at N bounces" with one (a bias beside the SE).
+fn truncation_suffix(s: &SceneStudy) -> String {
+    s.truncated_at_bounces
+        .map(|b| format!(" — truncated at {b} bounces"))
+        .unwrap_or_default()
+}
+
+/// The bounces of the study's renders in words, for the report.
+fn bounces_text(cap: Option<u32>) -> String {
+    match cap {
+        None => format!(
+            "no bounce cap (Russian roulette from bounce {}, unbiased)",
+            crate::render::DEFAULT_ROULETTE_FROM
+        ),
+        Some(b) => format!("<strong>{}</strong>", crate::render::truncation_note(b)),
+    }
+}
+
 /// Luminance along the targets per coding (mean over seeds ± 1 SD over
 /// seeds) and the truth (± its SE).
 pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
@@ -34,7 +53,11 @@ pub fn profile_chart(s: &SceneStudy) -> Result<String, String> {
         });
     }
     charts::profile_chart(
-        &format!("{}: luminance along the targets (±1 SD over seeds)", s.title),
+        &format!(
+            "{}: luminance along the targets (±1 SD over seeds){}",
+            s.title,
+            truncation_suffix(s)
+        ),
         &s.targets,
         if s.scene == "cylinder" {
             "target (scene order; hNN: NN cm above the card)"
@@ -77,7 +100,7 @@ pub fn rms_chart(s: &SceneStudy) -> Result<String, String> {
         })
         .collect();
     charts::bar_chart(
-        &format!("{}: rms_rel (±1 SD over seeds)", s.title),
+        &format!("{}: rms_rel (±1 SD over seeds){}", s.title, truncation_suffix(s)),
         "rms_rel (relative, 0.01 = 1 %)",
         &bars,
     )
@@ -95,7 +118,7 @@ pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
         })
         .collect();
     charts::bar_chart(
-        &format!("{}: mean ΔE*ab (±1 SD over targets)", s.title),
+        &format!("{}: mean ΔE*ab (±1 SD over targets){}", s.title, truncation_suffix(s)),
         "mean ΔE*ab (CIELAB units)",
         &bars,
     )
@@ -104,12 +127,15 @@ pub fn delta_e_chart(s: &SceneStudy) -> Result<String, String> {
 /// Wall time against mean ΔE00 for every sweep point, one series per
 /// coding (its colour and marker), each point labelled with what its sweep
 /// varied, and the Pareto front as its own series. Every point renders a
-/// fixed number of paths per target (no adaptive stop). Rays traced are in
+/// fixed number of paths per target (no adaptive stop), timed as
+/// [`crate::render::cost`] says (the median, whiskers fastest–slowest, the
+/// method in the axis title). Rays traced are in
 /// `sweeps.csv` beside the time but are not the axis: the codings trace the
 /// same rays for the same paths and differ only in the arithmetic per ray.
 pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
     let mut series = Vec::new();
     let mut labels = Vec::new();
+    let mut spreads = Vec::new();
     let mut codings: Vec<&str> = Vec::new();
     for p in &s.sweeps {
         if !codings.contains(&p.coding.as_str()) {
@@ -124,6 +150,12 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             connect: false,
         });
         labels.push(points.iter().map(|p| sweep_label(p)).collect());
+        spreads.push(
+            points
+                .iter()
+                .map(|p| (p.wall_seconds_min, p.wall_seconds_max))
+                .collect(),
+        );
     }
     let front = pareto_front(&s.sweeps);
     series.push(ScatterSeries {
@@ -134,15 +166,17 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             .collect(),
         connect: true,
     });
-    charts::scatter_chart_labelled(
+    charts::scatter_chart_with_spread(
         &format!(
-            "{}: speed against accuracy (p = paths per target, b = bounces)",
-            s.title
+            "{}: speed against accuracy (p = paths per target, b = bounces){}",
+            s.title,
+            truncation_suffix(s)
         ),
-        "render time (s)",
+        &format!("render time (s), {}", crate::render::cost::TIMING_METHOD),
         "mean ΔE00 (CIEDE2000 units, floor 1e-4)",
         &series,
         &labels,
+        &spreads,
         (true, true),
     )
 }
@@ -152,7 +186,10 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
 fn sweep_label(p: &SweepPoint) -> String {
     match p.sweep.as_str() {
         "samples" => format!("{} p", p.samples),
-        "bounces" => format!("{} b", p.bounces),
+        "bounces" => match p.bounces {
+            Some(b) => format!("{b} b"),
+            None => "∞ b".into(),
+        },
         _ => p.coding.clone(),
     }
 }
@@ -191,7 +228,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     let _ = write!(
         html,
         "<p>Against {:?}; {} seeds; codings {}; first round {} paths per target, adaptive to a relative SE of Y of {}; \
-         {} bounces. Wall time {:.1} s. Figures: rms_rel = sqrt(mean (1 − S/M)²) over a scene's targets; ΔE with the \
+         {}. Wall time {:.1} s. Figures: rms_rel = sqrt(mean (1 − S/M)²) over a scene's targets; ΔE with the \
          CIELAB white the scene file declares, stated per scene; observer {}; a target differs beyond noise when \
          |Ȳ_render − Y_truth| &gt; {}·√(SE_render² + SE_truth²); ± values are SD over seeds unless marked.</p>",
         o.against,
@@ -199,7 +236,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         o.codings.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "),
         o.samples,
         o.target_relative_se.map(|v| format!("{:.2} %", v * 100.0)).unwrap_or_else(|| "none".into()),
-        o.max_bounces,
+        bounces_text(o.max_bounces),
         result.wall_seconds,
         result.observer,
         result.beyond_noise_k
@@ -207,7 +244,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     let mut figures_csv = String::from("scene,observer,coding,seed,rms_rel,mean_dE76,sd_dE76,mean_dE00,sd_dE00\n");
     let mut profile_csv = String::from("scene,observer,target,coding,Y_mean,Y_sd_seeds,Y_se,x_mean,y_mean,truth_Y,truth_x,truth_y,truth_source,Y_differs_significantly\n");
     let mut sweeps_csv = String::from(
-        "scene,observer,sweep,coding,samples,bounces,wall_seconds,rays,rms_rel,mean_dE00,study_choice,pareto\n",
+        "scene,observer,sweep,coding,samples,bounces,wall_seconds,wall_seconds_min,wall_seconds_max,rays,rms_rel,mean_dE00,study_choice,pareto\n",
     );
     for s in &result.scenes {
         let _ = write!(
@@ -306,14 +343,16 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             for (i, p) in s.sweeps.iter().enumerate() {
                 let _ = writeln!(
                     sweeps_csv,
-                    "{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     s.scene,
                     s.observer,
                     p.sweep,
                     p.coding,
                     p.samples,
-                    p.bounces,
+                    p.bounces.map(|b| b.to_string()).unwrap_or_else(|| "unbounded".into()),
                     p.wall_seconds,
+                    p.wall_seconds_min,
+                    p.wall_seconds_max,
                     p.rays,
                     p.rms_rel,
                     p.mean_dE00,

@@ -69,7 +69,10 @@ pub struct StudyOptions {
     /// SE of Y is below `target_relative_se` (the renderer's adaptive mode).
     pub samples: u64,
     pub target_relative_se: Option<f64>,
-    pub max_bounces: u32,
+    /// The bounce cap of the study's renders; `None` (the default): no cap,
+    /// Russian roulette ends the paths (unbiased). A cap is stated beside
+    /// every figure of the report ("truncated at N bounces").
+    pub max_bounces: Option<u32>,
     pub against: Against,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     pub sweeps: bool,
@@ -124,7 +127,7 @@ impl Default for StudyOptions {
             seeds: 8,
             samples: 4096,
             target_relative_se: Some(0.003),
-            max_bounces: 5,
+            max_bounces: None,
             against: Against::Reference,
             sweeps: false,
             sweep_samples: 4096,
@@ -231,8 +234,14 @@ pub struct SweepPoint {
     pub sweep: String,
     pub coding: String,
     pub samples: u64,
-    pub bounces: u32,
+    /// The bounce cap of this point's render (`null`: none, unbiased); the
+    /// `bounces` sweep caps at 0…8 on purpose: truncated at N bounces.
+    pub bounces: Option<u32>,
+    /// The median wall time of the repeats, s ([`render::cost`]).
     pub wall_seconds: f64,
+    /// The fastest and slowest repeat, s.
+    pub wall_seconds_min: f64,
+    pub wall_seconds_max: f64,
     /// Rays traced (primary, bounce and shadow): the cost that does not
     /// jitter with machine load; `wall_seconds` beside it.
     pub rays: u64,
@@ -261,6 +270,12 @@ pub struct SceneStudy {
     pub codings: Vec<CodingStudy>,
     /// Wall time of all seeds' renders of this scene.
     pub render_seconds: f64,
+    /// The bounce cap of the seeds' renders (`options.max_bounces`), `null`
+    /// when none: with a cap every figure misses the later bounces' light.
+    pub truncated_at_bounces: Option<u32>,
+    /// [`crate::render::truncation_note`] when a cap is in force.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub truncation_note: Option<String>,
     pub sweeps: Vec<SweepPoint>,
     /// The automatic choice for this scene (with `auto`).
     pub auto: Option<AutoStudy>,
@@ -495,6 +510,8 @@ pub async fn run_study(
             truth,
             codings,
             render_seconds,
+            truncated_at_bounces: options.max_bounces,
+            truncation_note: options.max_bounces.map(render::truncation_note),
             sweeps,
             auto,
         });
@@ -627,9 +644,11 @@ fn coding_study(
 
 /// How the cost of a coding is measured everywhere (study sweeps, daemon
 /// renders): a fixed number of paths per target, the same for every coding,
-/// with rays traced as the load-independent cost and wall time beside it.
-pub const COST_DEFINITION: &str =
-    "fixed paths per target (no adaptive stop), every coding rendered alone; cost = rays traced, wall time beside it";
+/// timed as [`render::cost`] says.
+pub const COST_DEFINITION: &str = "fixed paths per target (no adaptive stop), every coding rendered alone; \
+     cost = wall time, the median of 3 repeats in rotated order after a warm-up render, with the fastest and \
+     slowest beside it; rays traced beside it (the same for every coding of the same paths, so not a cost that \
+     ranks codings)";
 
 /// The sweeps of the speed-against-accuracy chart, each a render with a
 /// fixed number of paths (so wall times compare equal work): every coding
@@ -644,62 +663,74 @@ fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) ->
         observer: options.observer,
         ..RenderSettings::default()
     };
-    let mut points = Vec::new();
-    let mut run =
-        |sweep: &str, coding: Coding, samples: u64, bounces: u32, study_choice: bool| -> Result<(), StudyError> {
-            let settings = RenderSettings {
-                codings: vec![coding],
-                samples,
-                max_bounces: bounces,
-                ..base.clone()
-            };
-            let t = Instant::now();
-            let r = render::render(scene, &settings, None)?;
-            let wall = t.elapsed().as_secs_f64();
-            let f = figures(&differences(
-                &rendered(&r, &coding.to_string(), truth),
-                truth,
-                white,
-                options.observer,
-            ));
-            points.push(SweepPoint {
-                sweep: sweep.into(),
-                coding: coding.to_string(),
-                samples,
-                bounces,
-                wall_seconds: wall,
-                rays: r.rays,
-                paths: r.paths,
-                rms_rel: f.rms_rel,
-                mean_dE00: f.mean_dE00,
-                study_choice,
-            });
-            Ok(())
-        };
+    // (sweep, coding, samples, bounces, study choice) of every point, then
+    // all timed together in rotated rounds (`render::cost`).
+    let mut plan: Vec<(&str, Coding, u64, Option<u32>, bool)> = Vec::new();
     for c in &options.codings {
         let study = matches!(c, Coding::Rgb | Coding::Srgb) || matches!(c, Coding::NStep(3 | 9 | 27 | 81));
-        run("coding", *c, options.sweep_samples, options.max_bounces, study)?;
+        plan.push(("coding", *c, options.sweep_samples, options.max_bounces, study));
     }
     for samples in [256, 1024, 4096, 16384] {
-        run("samples", Coding::Spectral, samples, options.max_bounces, false)?;
+        plan.push(("samples", Coding::Spectral, samples, options.max_bounces, false));
     }
     for bounces in 0..=8 {
-        run(
+        plan.push((
             "bounces",
             Coding::Spectral,
             options.sweep_samples,
-            bounces,
+            Some(bounces),
             bounces == 5,
-        )?;
+        ));
     }
     for n in [1, 2, 3, 5, 7, 9, 15, 20, 27, 40, 54, 81] {
-        run(
+        plan.push((
             "n",
             Coding::NStep(n),
             options.sweep_samples,
             options.max_bounces,
             matches!(n, 3 | 9 | 27 | 81),
-        )?;
+        ));
+    }
+    let settings: Vec<RenderSettings> = plan
+        .iter()
+        .map(|&(_, coding, samples, bounces, _)| RenderSettings {
+            codings: vec![coding],
+            samples,
+            max_bounces: bounces,
+            // A capped point traces the same paths as the next cap up to its
+            // last bounce: no roulette on the caps.
+            russian_roulette_from: if bounces.is_some() {
+                None
+            } else {
+                base.russian_roulette_from
+            },
+            ..base.clone()
+        })
+        .collect();
+    let timed = render::cost::time_renders(scene, &settings, render::cost::TIMING_REPEATS)?;
+    let mut points = Vec::new();
+    for ((sweep, coding, samples, bounces, study_choice), t) in plan.into_iter().zip(timed) {
+        let r = &t.result;
+        let f = figures(&differences(
+            &rendered(r, &coding.to_string(), truth),
+            truth,
+            white,
+            options.observer,
+        ));
+        points.push(SweepPoint {
+            sweep: sweep.into(),
+            coding: coding.to_string(),
+            samples,
+            bounces,
+            wall_seconds: t.median_seconds(),
+            wall_seconds_min: t.fastest_seconds(),
+            wall_seconds_max: t.slowest_seconds(),
+            rays: r.rays,
+            paths: r.paths,
+            rms_rel: f.rms_rel,
+            mean_dE00: f.mean_dE00,
+            study_choice,
+        });
     }
     Ok(points)
 }
