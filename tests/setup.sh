@@ -62,6 +62,18 @@ if [ ! -d tests/browser/node_modules/playwright-core ]; then
   (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
 fi
 
+# Schemathesis (tests/api_schemathesis.rs) in the shared Python venv
+# target/py; only what is missing is installed.
+if [ ! -x target/py/bin/python ]; then
+  echo "creating the Python venv target/py"
+  mkdir -p target
+  python3 -m venv target/py
+fi
+if [ ! -x target/py/bin/st ]; then
+  echo "installing schemathesis (pip, into target/py)"
+  target/py/bin/pip install -q --disable-pip-version-check schemathesis
+fi
+
 if ! pg_bin >/dev/null; then
   echo "installing PostgreSQL (Debian package)"
   SUDO=""
