@@ -113,7 +113,9 @@ where
 
     async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, ApiError> {
         if let Ok(raw) = RawPathParams::from_request_parts(parts, state).await {
-            if let Some((key, value)) = raw.iter().find(|(_, v)| is_unplain_number(v)) {
+            // Only ids: a name (`/api/studies/{id}/files/{name}`) may well be `01`.
+            let is_id = |key: &str| key == "id" || key.ends_with("_id");
+            if let Some((key, value)) = raw.iter().find(|(k, v)| is_id(k) && is_unplain_number(v)) {
                 return Err(ApiError::BadRequest(format!(
                     "path parameter `{key}`: `{value}` is not a plain number: write the digits alone, \
                      without a sign or leading zeros"

@@ -215,6 +215,12 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         &mut schemas["MockFaults"]["properties"]["faults"],
         &json!({"pattern": format!("^( *{FAULT} *(, *{FAULT} *)*)?$")}),
     );
+    // `store::Booth`: 1–64 letters, digits, `-`, `_`, `.` (the filter of `GET /api/measurements`).
+    if let Some(parameters) = doc["paths"]["/api/measurements"]["get"]["parameters"].as_array_mut() {
+        for p in parameters.iter_mut().filter(|p| p["name"] == "booth") {
+            merge(&mut p["schema"], &json!({"pattern": "^[A-Za-z0-9._-]{1,64}$"}));
+        }
+    }
     // `input::Path`: ids are plain digits, so never negative.
     if let Some(paths) = doc["paths"].as_object_mut() {
         for item in paths.values_mut() {
