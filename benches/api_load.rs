@@ -378,6 +378,7 @@ fn main() {
                 booth: "north".parse().unwrap(),
                 token: "0123456789abcdef0123".into(),
                 loopback_only: true,
+                allowed_hosts: Default::default(),
                 scenes_dir: "scenes".into(),
                 codings: vec![],
                 instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),

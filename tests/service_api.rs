@@ -43,6 +43,7 @@ async fn harness(queue: usize) -> Harness {
             booth: Default::default(),
             token: TOKEN.into(),
             loopback_only: true,
+            allowed_hosts: Default::default(),
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
             instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),

@@ -63,6 +63,20 @@ if [ ! -d tests/browser/node_modules/playwright-core ]; then
   (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
 fi
 
+# Schemathesis (tests/api_schemathesis.rs) in the shared Python venv
+# target/py; only what is missing is installed.
+if [ ! -x target/py/bin/python ]; then
+  echo "creating the Python venv target/py"
+  mkdir -p target
+  python3 -m venv target/py
+fi
+# Pinned: its checks and the allow-list in that test change between releases.
+SCHEMATHESIS_VERSION=4.32.5
+if [ "$(target/py/bin/st --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$SCHEMATHESIS_VERSION" ]; then
+  echo "installing schemathesis $SCHEMATHESIS_VERSION (pip, into target/py)"
+  target/py/bin/pip install -q --disable-pip-version-check "schemathesis==$SCHEMATHESIS_VERSION"
+fi
+
 if ! pg_bin >/dev/null; then
   echo "installing PostgreSQL (Debian package)"
   SUDO=""

@@ -19,14 +19,20 @@ function token() {
   return localStorage.getItem("lightbooth-token") || "";
 }
 
-// Bound off loopback, reads need the token too. fetch() sends it in the
-// Authorization header (below); chart <img>s, download links and the event
-// stream (EventSource) cannot set headers, so the token also goes in a
-// SameSite=Strict cookie for /api, which the daemon accepts for reads only
-// (writes need the header; see src/service/auth.rs for why this is safe).
-(function tokenCookie() {
-  if (token()) document.cookie = `lightbooth_token=${token()}; path=/api; SameSite=Strict`;
-})();
+// Bound off loopback, reads need a token too. fetch() sends the write token
+// in the Authorization header (below); chart <img>s, download links and the
+// event stream (EventSource) cannot set headers, so the page asks the daemon
+// (with the header) for a read-only cookie: HttpOnly, SameSite=Strict, for
+// /api, named after the daemon's port, holding a read token the daemon
+// derives for this run. The write token never goes in a cookie (cookies are
+// not bound to a port: any other local service under /api would receive
+// it); see src/service/auth.rs. A cookie of older versions is deleted.
+document.cookie = "lightbooth_token=; path=/api; max-age=0; SameSite=Strict";
+const readCredential = token()
+  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } })
+    .then((r) => { if (!r.ok) throw new Error(`the daemon refused the token (HTTP ${r.status}): open the URL it printed`); })
+    .catch((e) => notice(e.message))
+  : Promise.resolve();
 
 function notice(text) {
   const n = $("notice");
@@ -579,9 +585,12 @@ async function showStudy(id) {
 
 // --- start -----------------------------------------------------------------
 
-follow();
-loadSceneChoices().then(() => {
-  fillStudyScenes();
-  fillMeasurementFilter().catch((e) => notice(e.message));
-  showView();
+// After the read cookie (off loopback, <img>s and the event stream need it).
+readCredential.then(() => {
+  follow();
+  loadSceneChoices().then(() => {
+    fillStudyScenes();
+    fillMeasurementFilter().catch((e) => notice(e.message));
+    showView();
+  });
 });

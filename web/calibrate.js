@@ -14,7 +14,12 @@ const $ = (id) => document.getElementById(id);
   }
 })();
 const token = () => localStorage.getItem("lightbooth-token") || "";
-if (token()) document.cookie = `lightbooth_token=${token()}; path=/api; SameSite=Strict`;
+// Chart <img>s off loopback: a read-only cookie from the daemon (see app.js);
+// the write token never goes in a cookie, and an older version's is deleted.
+document.cookie = "lightbooth_token=; path=/api; max-age=0; SameSite=Strict";
+const readCredential = token()
+  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } }).catch(() => {})
+  : Promise.resolve();
 
 async function api(path, options = {}) {
   const headers = { "Accept": "application/json" };
@@ -131,6 +136,7 @@ function showProfile(row) {
 }
 
 (async function init() {
+  await readCredential;
   $("start").addEventListener("click", calibrate);
   const m = location.hash.match(/profile=(\d+)/);
   if (m) {

@@ -7,22 +7,25 @@
 
 let viewerRender = null; // the render whose images are shown
 let viewerShown = null; // ImageInfo of the image on screen
-const viewerProgress = new EventSource("/api/events");
-
-// Progress of the image being waited for, from the event stream.
-viewerProgress.addEventListener("image_progress", (e) => {
-  const p = JSON.parse(e.data);
-  if (!viewerWaiting || p.image_id !== viewerWaiting) return;
-  const bar = $("viewer-progress");
-  bar.hidden = false;
-  bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
-  $("viewer-state").textContent =
-    `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
-    `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s`;
-});
 let viewerWaiting = null;
 const viewerWake = [];
-viewerProgress.addEventListener("image_finished", () => viewerWake.splice(0).forEach((f) => f()));
+// The event stream, once app.js has the read cookie (`readCredential`).
+readCredential.then(() => {
+  const viewerProgress = new EventSource("/api/events");
+
+  // Progress of the image being waited for, from the event stream.
+  viewerProgress.addEventListener("image_progress", (e) => {
+    const p = JSON.parse(e.data);
+    if (!viewerWaiting || p.image_id !== viewerWaiting) return;
+    const bar = $("viewer-progress");
+    bar.hidden = false;
+    bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
+    $("viewer-state").textContent =
+      `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
+      `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s`;
+  });
+  viewerProgress.addEventListener("image_finished", () => viewerWake.splice(0).forEach((f) => f()));
+});
 
 function openImageViewer(render) {
   viewerRender = render;

@@ -31,6 +31,12 @@ pub struct ServeArgs {
     /// Address to listen on. Loopback by default; elsewhere, reads need the token too.
     #[arg(long)]
     bind: Option<SocketAddr>,
+    /// A host name the daemon answers requests for besides `localhost` and
+    /// its own addresses (repeatable), e.g. the booth PC's name when the
+    /// dashboard is opened by it. Others get 421: the defence against DNS
+    /// rebinding.
+    #[arg(long = "allowed-host", value_name = "NAME")]
+    allowed_hosts: Vec<String>,
     /// File holding the write token (else LIGHTBOOTH_TOKEN, else one is generated).
     #[arg(long)]
     token_file: Option<PathBuf>,
@@ -74,6 +80,8 @@ pub struct ServeArgs {
 struct ConfigFile {
     db: Option<String>,
     bind: Option<SocketAddr>,
+    /// Host names besides `localhost` and the daemon's addresses (see `--allowed-host`).
+    allowed_hosts: Option<Vec<String>>,
     token_file: Option<PathBuf>,
     instrument: Option<PathBuf>,
     scenes_dir: Option<PathBuf>,
@@ -155,7 +163,18 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow::anyhow!("{}: key `renders`: {e}", args.config.display()))?,
         (None, None) => RenderPlace::Here,
     };
+    // The flags add to the file's list.
+    let mut allowed_hosts = file.allowed_hosts.unwrap_or_default();
+    for name in &allowed_hosts {
+        lightbooth::service::hosts::parse_allowed_host(name)
+            .map_err(|e| anyhow::anyhow!("{}: key `allowed_hosts`: {e}", args.config.display()))?;
+    }
+    for name in &args.allowed_hosts {
+        lightbooth::service::hosts::parse_allowed_host(name).map_err(|e| anyhow::anyhow!("--allowed-host: {e}"))?;
+    }
+    allowed_hosts.extend(args.allowed_hosts);
     let options = DaemonOptions {
+        allowed_hosts,
         renders,
         heartbeat,
         lease,

@@ -50,6 +50,9 @@ pub const QUEUE_CAPACITY: usize = 64;
 #[derive(Clone, Debug)]
 pub struct DaemonOptions {
     pub bind: SocketAddr,
+    /// Host names requests may name besides `localhost` and the daemon's
+    /// addresses (`--allowed-host`; see `service::hosts`).
+    pub allowed_hosts: Vec<String>,
     /// The booth this daemon and its instrument measure in (`--booth`).
     pub booth: Booth,
     /// `sqlite://path` (created if missing).
@@ -164,6 +167,8 @@ pub async fn run(
     if !loopback_only {
         println!("not bound to loopback: reads need the token too");
     }
+    let allowed_hosts = service::hosts::AllowedHosts::new(addr, &options.allowed_hosts).map_err(anyhow::Error::msg)?;
+    println!("answering requests for {}", allowed_hosts.describe());
 
     let (jobs_tx, jobs_rx) = mpsc::channel(QUEUE_CAPACITY);
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
@@ -216,6 +221,7 @@ pub async fn run(
             booth: options.booth.clone(),
             token,
             loopback_only,
+            allowed_hosts,
             scenes_dir: options.scenes_dir.clone(),
             codings: options.codings.clone(),
             instrument: options.instrument.capabilities(),

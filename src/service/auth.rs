@@ -18,11 +18,21 @@
 //!
 //! The dashboard, bound off loopback, must authorise its reads too. Its
 //! `fetch` calls send the header, but `<img>` charts, download links and
-//! `EventSource` (the event stream) cannot set headers, so the dashboard also
-//! keeps the token in the cookie [`TOKEN_COOKIE`] (`SameSite=Strict`,
-//! `Path=/api`), and that cookie is accepted for **reads only** (GET, HEAD).
-//! Why that is safe: a page of another site cannot make the browser send the
-//! cookie (`SameSite=Strict`), and could not read the answer anyway (no CORS
+//! `EventSource` (the event stream) cannot set headers. So the dashboard
+//! asks, with the write token in the header, `POST /api/read-cookie` for a
+//! **read-only** credential: the daemon answers with the cookie
+//! [`read_cookie_name`] (`lightbooth_read_<port>`; `HttpOnly`,
+//! `SameSite=Strict`, `Path=/api`) holding [`read_token`], a token derived
+//! from the write token and a secret drawn afresh for each run of the
+//! daemon. That cookie is accepted for **reads only** (GET, HEAD), and the
+//! write token is never accepted from a cookie. Why: cookies are not bound
+//! to a port, so every other web service on the same host under `/api` (a
+//! notebook server, say) receives them; what it receives can read this
+//! daemon's data until the daemon restarts, and can neither write nor be
+//! turned into the write token (a SHA-256 preimage). Naming the cookie
+//! after the port keeps two daemons on one host from overwriting each
+//! other's. A page of another site cannot make the browser send the cookie
+//! (`SameSite=Strict`), and could not read the answer anyway (no CORS
 //! headers are sent); writes need the header, which only script that knows
 //! the token can set, so the cookie opens no cross-site request forgery. A
 //! token in the query string is not accepted: it would be copied into
@@ -34,17 +44,52 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use std::sync::OnceLock;
+
 use axum::extract::{Request, State};
 use axum::http::{header::AUTHORIZATION, header::COOKIE, HeaderMap, Method};
 use axum::middleware::Next;
 use axum::response::Response;
+use sha2::{Digest, Sha256};
 use subtle::ConstantTimeEq;
 
 use super::error::ApiError;
 use super::AppState;
 
-/// The cookie in which the dashboard keeps the token for its reads.
-pub const TOKEN_COOKIE: &str = "lightbooth_token";
+/// The read-only cookie of the daemon listening on `port` (see the module doc).
+pub fn read_cookie_name(port: Option<u16>) -> String {
+    match port {
+        Some(port) => format!("lightbooth_read_{port}"),
+        None => "lightbooth_read".into(),
+    }
+}
+
+/// The read-only token of this run of the daemon for `write_token`: SHA-256
+/// of a secret drawn at the first call of the process and the write token,
+/// as hex. It authorises reads from a cookie, never a write.
+pub fn read_token(write_token: &str) -> String {
+    static RUN_SECRET: OnceLock<[u8; 32]> = OnceLock::new();
+    let secret = RUN_SECRET.get_or_init(|| {
+        let mut bytes = [0u8; 32];
+        if let Err(e) =
+            std::fs::File::open("/dev/urandom").and_then(|mut f| std::io::Read::read_exact(&mut f, &mut bytes))
+        {
+            // Still unguessable from outside the process, if weaker.
+            tracing::warn!(error = %e, "cannot read /dev/urandom; the read token's secret comes from the clock");
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0);
+            bytes = Sha256::digest(format!("{nanos}/{}", std::process::id())).into();
+        }
+        bytes
+    });
+    let mut hash = Sha256::new();
+    hash.update(b"lightbooth read token\0");
+    hash.update(secret);
+    hash.update(write_token.as_bytes());
+    hash.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
 
 /// Where the token came from, to tell the operator.
 #[derive(Clone, Debug)]
@@ -235,37 +280,43 @@ fn bearer_token(value: &str) -> Option<&str> {
     (scheme.eq_ignore_ascii_case("bearer") && !token.is_empty()).then_some(token)
 }
 
-/// The token in the dashboard's cookie, if any.
-fn cookie_token(headers: &HeaderMap) -> Option<&str> {
+/// The value of cookie `name`, if the request has it.
+fn cookie<'a>(headers: &'a HeaderMap, name: &str) -> Option<&'a str> {
     headers
         .get_all(COOKIE)
         .iter()
         .filter_map(|v| v.to_str().ok())
         .flat_map(|v| v.split(';'))
-        .find_map(|pair| pair.trim().strip_prefix(TOKEN_COOKIE)?.strip_prefix('='))
+        .find_map(|pair| pair.trim().strip_prefix(name)?.strip_prefix('='))
 }
 
-/// Middleware: writes need the token in the `Authorization` header; reads
-/// need it unless bound to loopback, in the header or the dashboard's cookie.
+/// Middleware: writes need the write token in the `Authorization` header;
+/// reads need it unless bound to loopback, in the header, or the read
+/// token in the dashboard's read-only cookie.
 pub async fn require_token(State(state): State<AppState>, req: Request, next: Next) -> Result<Response, ApiError> {
     let is_read = matches!(*req.method(), Method::GET | Method::HEAD | Method::OPTIONS);
     if is_read && state.config.loopback_only {
         return Ok(next.run(req).await);
     }
     let headers = req.headers();
-    let presented = match headers.get(AUTHORIZATION) {
-        Some(v) => v.to_str().ok().and_then(bearer_token),
-        None if is_read => cookie_token(headers),
+    let authorised = match headers.get(AUTHORIZATION) {
+        Some(v) => v
+            .to_str()
+            .ok()
+            .and_then(bearer_token)
+            .map(|t| token_matches(t, &state.config.token)),
+        None if is_read => cookie(headers, &read_cookie_name(state.config.allowed_hosts.port()))
+            .map(|t| token_matches(t, &read_token(&state.config.token))),
         None => None,
     };
-    match presented {
+    match authorised {
         None => Err(ApiError::Unauthorized(
             "this request needs the daemon's token: send `Authorization: Bearer <token>` (the token file's path \
              is printed when the daemon starts)"
                 .into(),
         )),
-        Some(t) if token_matches(t, &state.config.token) => Ok(next.run(req).await),
-        Some(_) => Err(ApiError::Unauthorized("wrong token".into())),
+        Some(true) => Ok(next.run(req).await),
+        Some(false) => Err(ApiError::Unauthorized("wrong token".into())),
     }
 }
 

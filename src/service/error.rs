@@ -38,6 +38,9 @@ pub enum ApiError {
     MethodNotAllowed(String),
     #[error("{0}")]
     Conflict(String),
+    /// The request names a host this daemon does not answer for (see `service::hosts`).
+    #[error("{0}")]
+    MisdirectedRequest(String),
     #[error("{0}")]
     PayloadTooLarge(String),
     #[error("{0}")]
@@ -63,8 +66,10 @@ pub struct ErrorBody {
 pub struct ErrorDetail {
     /// Stable, machine-readable: bad_request, unauthorized, not_found,
     /// method_not_allowed, request_timeout (408, from the body timeout in
-    /// `limits`), conflict, payload_too_large, uri_too_long,
-    /// headers_too_large, unsupported_media_type, unavailable, internal.
+    /// `limits`), conflict, misdirected_request (421, a `Host` the daemon
+    /// does not answer: `hosts`), payload_too_large, uri_too_long,
+    /// headers_too_large, unsupported_media_type, too_many_requests (429,
+    /// too many event streams from one client: `limits`), unavailable, internal.
     pub code: &'static str,
     pub message: String,
 }
@@ -77,6 +82,7 @@ impl ApiError {
             ApiError::NotFound(_) => StatusCode::NOT_FOUND,
             ApiError::MethodNotAllowed(_) => StatusCode::METHOD_NOT_ALLOWED,
             ApiError::Conflict(_) => StatusCode::CONFLICT,
+            ApiError::MisdirectedRequest(_) => StatusCode::MISDIRECTED_REQUEST,
             ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             ApiError::UriTooLong(_) => StatusCode::URI_TOO_LONG,
             ApiError::HeadersTooLarge(_) => StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
@@ -93,6 +99,7 @@ impl ApiError {
             ApiError::NotFound(_) => "not_found",
             ApiError::MethodNotAllowed(_) => "method_not_allowed",
             ApiError::Conflict(_) => "conflict",
+            ApiError::MisdirectedRequest(_) => "misdirected_request",
             ApiError::PayloadTooLarge(_) => "payload_too_large",
             ApiError::UriTooLong(_) => "uri_too_long",
             ApiError::HeadersTooLarge(_) => "headers_too_large",
@@ -155,6 +162,7 @@ pub fn from_rejection(status: StatusCode, message: String) -> ApiError {
         StatusCode::NOT_FOUND => ApiError::NotFound(message),
         StatusCode::METHOD_NOT_ALLOWED => ApiError::MethodNotAllowed(message),
         StatusCode::CONFLICT => ApiError::Conflict(message),
+        StatusCode::MISDIRECTED_REQUEST => ApiError::MisdirectedRequest(message),
         StatusCode::PAYLOAD_TOO_LARGE => ApiError::PayloadTooLarge(message),
         StatusCode::URI_TOO_LONG => ApiError::UriTooLong(message),
         StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE => ApiError::HeadersTooLarge(message),
@@ -187,7 +195,8 @@ pub const MAX_HEAD_BYTES: usize = 32 * 1024;
 
 /// Refuses a request whose target or headers exceed the service's limits
 /// with 414 or 431 in the JSON shape (hyper's own, larger limits answer
-/// with an empty body: see the module doc).
+/// with an empty body: see the module doc), and one whose `Content-Length`
+/// exceeds [`super::MAX_BODY_BYTES`] with 413 before its body is read.
 pub async fn refuse_oversized_head(request: Request, next: Next) -> Response {
     let uri_len = request.uri().to_string().len();
     if uri_len > MAX_URI_BYTES {
@@ -206,6 +215,24 @@ pub async fn refuse_oversized_head(request: Request, next: Next) -> Response {
             "the header fields are {head} bytes; the limit is {MAX_HEAD_BYTES}"
         ))
         .into_response();
+    }
+    // A body announced too large is refused at once, not read (nor waited for).
+    let announced = request
+        .headers()
+        .get(header::CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse::<u64>().ok());
+    if let Some(length) = announced.filter(|&l| l > super::MAX_BODY_BYTES as u64) {
+        let mut response = ApiError::PayloadTooLarge(format!(
+            "the body is {length} bytes (Content-Length); the limit is {} bytes",
+            super::MAX_BODY_BYTES
+        ))
+        .into_response();
+        // The body is not read, so the connection cannot carry another request.
+        response
+            .headers_mut()
+            .insert(header::CONNECTION, HeaderValue::from_static("close"));
+        return response;
     }
     next.run(request).await
 }

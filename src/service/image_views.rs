@@ -85,17 +85,32 @@ fn box_mean(img: &CameraImage, xs: std::ops::Range<usize>, ys: std::ops::Range<u
     }
 }
 
-/// Probes the box (x, y, w, h); 400 naming the field when it leaves the image.
-pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Probe, ApiError> {
-    for (name, v, size, max) in [("x", x, w, img.width), ("y", y, h, img.height)] {
-        if size == 0 || v >= max || v + size > max {
+/// Refuses a probe box that is empty or leaves a `width` × `height` image,
+/// naming the query field at fault. In u64, so `x + w` cannot wrap
+/// (`x=1&w=4294967295` once passed as a box of 0 pixels and answered nulls).
+pub fn check_box(x: u32, y: u32, w: u32, h: u32, width: u32, height: u32) -> Result<(), ApiError> {
+    for (name, size_name, v, size, max) in [("x", "w", x, w, width), ("y", "h", y, h, height)] {
+        let (v64, size64, max64) = (u64::from(v), u64::from(size), u64::from(max));
+        if v64 >= max64 {
             return Err(ApiError::BadRequest(format!(
-                "query `{name}`: the box {v}…{} leaves the image (0…{})",
-                v as u64 + size as u64 - 1,
-                max - 1
+                "query `{name}`: {v} is outside the image (0…{})",
+                max64.saturating_sub(1)
+            )));
+        }
+        if size == 0 || v64 + size64 > max64 {
+            return Err(ApiError::BadRequest(format!(
+                "query `{size_name}`: {size} pixels from {name}={v} leave the image (0…{}); give 1–{}",
+                max64 - 1,
+                max64 - v64
             )));
         }
     }
+    Ok(())
+}
+
+/// Probes the box (x, y, w, h); 400 naming the field when it leaves the image.
+pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Probe, ApiError> {
+    check_box(x, y, w, h, img.width, img.height)?;
     let (xs, ys) = (x as usize..(x + w) as usize, y as usize..(y + h) as usize);
     let n_ch = img.quantities.coding_channels;
     let coding: Vec<MeanSe> = (0..n_ch).map(|k| box_mean(img, xs.clone(), ys.clone(), k)).collect();
@@ -303,6 +318,26 @@ pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, ApiError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression: `?x=1&y=0&w=4294967295` wrapped in u32 and was answered
+    /// 200 with nulls.
+    #[test]
+    fn pixel_box_width_that_wraps_u32_is_refused_naming_w() {
+        for (x, y, w, h, field) in [
+            (1, 0, u32::MAX, 1, "`w`"),
+            (0, 1, 1, u32::MAX, "`h`"),
+            (2, 0, u32::MAX - 1, 1, "`w`"),
+            (0, 0, 0, 1, "`w`"),
+            (u32::MAX, 0, 1, 1, "`x`"),
+            (0, 40, 1, 1, "`y`"),
+        ] {
+            let e = check_box(x, y, w, h, 64, 40).unwrap_err();
+            assert!(matches!(e, ApiError::BadRequest(_)), "{e}");
+            assert!(e.to_string().contains(field), "{x},{y},{w},{h}: {e}");
+        }
+        assert!(check_box(0, 0, 64, 40, 64, 40).is_ok());
+        assert!(check_box(63, 39, 1, 1, 64, 40).is_ok());
+    }
 
     #[test]
     fn nice_ceiling_rounds_up_to_1_2_2_5_5() {

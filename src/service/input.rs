@@ -6,7 +6,9 @@
 //! `deny_unknown_fields`), and errors say which field was wrong, via
 //! `serde_path_to_error`. A JSON body is one value and nothing after it
 //! (trailing bytes are refused, not ignored). [`Path`] names the path
-//! parameter that does not parse, in the same JSON error shape.
+//! parameter that does not parse, in the same JSON error shape, and refuses
+//! numbers written with a sign or leading zeros (`/api/images/+1`): ids are
+//! plain digits.
 
 use axum::body::Bytes;
 use axum::extract::path::ErrorKind;
@@ -110,6 +112,16 @@ where
     type Rejection = ApiError;
 
     async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, ApiError> {
+        if let Ok(raw) = RawPathParams::from_request_parts(parts, state).await {
+            // Only ids: a name (`/api/studies/{id}/files/{name}`) may well be `01`.
+            let is_id = |key: &str| key == "id" || key.ends_with("_id");
+            if let Some((key, value)) = raw.iter().find(|(k, v)| is_id(k) && is_unplain_number(v)) {
+                return Err(ApiError::BadRequest(format!(
+                    "path parameter `{key}`: `{value}` is not a plain number: write the digits alone, \
+                     without a sign or leading zeros"
+                )));
+            }
+        }
         let rejection = match axum::extract::Path::<T>::from_request_parts(parts, state).await {
             Ok(axum::extract::Path(value)) => return Ok(Path(value)),
             Err(r) => r,
@@ -146,6 +158,15 @@ where
         };
         Err(from_rejection(e.status(), message))
     }
+}
+
+/// A number with a sign or leading zeros (`+1`, `-0`, `007`), which Rust's
+/// integer parsing accepts but no id is written as: one resource, one URL.
+fn is_unplain_number(value: &str) -> bool {
+    let digits = value.strip_prefix(['+', '-']).unwrap_or(value);
+    !digits.is_empty()
+        && digits.bytes().all(|b| b.is_ascii_digit())
+        && (digits.len() != value.len() || (digits.len() > 1 && digits.starts_with('0')))
 }
 
 /// Refuses paging outside its range rather than clamping it silently:

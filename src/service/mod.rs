@@ -4,7 +4,11 @@
 //! [`app`] builds the router from an [`AppState`] and is what tests call with
 //! `tower::ServiceExt::oneshot`, without a socket; [`serve`] runs it on a
 //! listener until a shutdown future resolves, within [`ServeLimits`] (a
-//! bounded number of connections, deadlines on request heads and bodies).
+//! bounded number of connections, idle ones closed first, a bounded number
+//! of event streams, deadlines on request heads and bodies). Every request
+//! must name a host the daemon answers for ([`hosts`]: no DNS rebinding),
+//! and a body announced larger than [`MAX_BODY_BYTES`] is refused before it
+//! is read.
 //!
 //! The service never touches the instrument itself: it queues
 //! [`MeasurementJob`]s for the task that owns the instrument and reads that
@@ -14,6 +18,7 @@
 pub mod auth;
 pub mod error;
 pub mod events;
+pub mod hosts;
 pub mod image_views;
 pub mod input;
 pub mod limits;
@@ -52,6 +57,9 @@ pub struct ServiceConfig {
     pub token: String,
     /// True when the daemon listens on loopback only: reads need no token.
     pub loopback_only: bool,
+    /// The `Host` names requests may use besides `localhost` and loopback
+    /// addresses, and the address the daemon listens on (see [`hosts`]).
+    pub allowed_hosts: hosts::AllowedHosts,
     /// Where scene files live; nothing outside it is read on a request's behalf.
     pub scenes_dir: PathBuf,
     /// Colour codings rendered for comparisons.
@@ -169,7 +177,8 @@ pub trait RenderService: Send + Sync {
 #[derive(Clone, Debug, Default, serde::Deserialize, Serialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StudyRequest {
-    /// Comma-separated scene ids; default: every scene.
+    /// Comma-separated scene ids, each named once, at most 64
+    /// (`routes::MAX_STUDY_SCENES`); default: every scene.
     pub scenes: Option<String>,
     /// `measurements` (default) or `reference` (a converged spectral rendering).
     pub against: Option<String>,
@@ -251,6 +260,10 @@ pub fn app(state: AppState) -> Router {
         .merge(web::router())
         .fallback(error::no_route)
         .layer(axum::middleware::map_response(error::json_error_bodies))
+        .layer(axum::middleware::from_fn_with_state(
+            state.clone(),
+            hosts::require_known_host,
+        ))
         .layer(axum::middleware::from_fn(error::refuse_oversized_head))
         .with_state(state)
 }

@@ -3,8 +3,18 @@
 //! through its `#[utoipa::path]`), so it cannot drift from the code.
 //!
 //! [`CommonResponses`] adds the statuses every operation can answer without
-//! its handler choosing them: 401 (a missing or wrong token), 500, 400/404
-//! for path parameters, 400 for query parameters, 400/413/415 for bodies.
+//! its handler choosing them: 401 (a missing or wrong token), 421 (a `Host`
+//! the daemon does not answer), 500, 400/404 for path parameters, 400 for
+//! query parameters, 400/413/415 for bodies.
+//!
+//! [`state_request_rules`] then writes into the document the rules the
+//! handlers enforce that the derived schemas cannot say: arrays of exactly
+//! three drives in 0–1, "exactly one of `standard` / `standard_csv`", a
+//! `target` only with its `scene`, open and closed bounds on numbers, the
+//! forms of coding lists and fault specs, and ids in paths as plain digits
+//! (`minimum: 0`). Schemathesis checks both directions
+//! (`tests/api_schemathesis.rs`): every request the document allows is
+//! accepted, and every one it forbids is refused.
 
 use std::sync::OnceLock;
 
@@ -108,6 +118,11 @@ impl Modify for CommonResponses {
                     "401",
                     "a token is needed (writes; reads when not on loopback) or is wrong",
                 );
+                Self::add(
+                    operation,
+                    "421",
+                    "the `Host` names a host this daemon does not answer for (see `--allowed-host`)",
+                );
                 Self::add(operation, "500", "internal error (logged by the daemon)");
             }
         }
@@ -127,9 +142,115 @@ pub fn api_document() -> &'static utoipa::openapi::OpenApi {
     })
 }
 
+/// The document as served: [`api_document`] with [`state_request_rules`]. Built once.
+pub fn served_document() -> &'static serde_json::Value {
+    static DOCUMENT: OnceLock<serde_json::Value> = OnceLock::new();
+    DOCUMENT.get_or_init(|| {
+        let mut doc = serde_json::to_value(api_document()).expect("the OpenAPI document serialises");
+        state_request_rules(&mut doc);
+        doc
+    })
+}
+
+/// A coding: `rgb`, `srgb`, `spectral` or `nstepN` with 1 ≤ N ≤ 81.
+const CODING: &str = "(rgb|srgb|spectral|nstep([1-9]|[1-7][0-9]|8[01]))";
+/// A fault of the simulated PR-650: `KIND[@DELAY][:RATE]` (see `instrument::mock::Fault`).
+const FAULT: &str =
+    "((no-answer|truncate|garble|stale|error-code|cable-pull|double-crlf|link-dies)|slow(@[0-9]{1,4}ms)?)\
+                     (:(once|[0-9]{1,3}x|0(\\.[0-9]{1,3})?|1(\\.0{1,3})?))?";
+
+/// Writes the handlers' rules the derived schemas leave out into `doc` (see
+/// the module doc). Each rule here is enforced by the handler named.
+pub fn state_request_rules(doc: &mut serde_json::Value) {
+    use serde_json::json;
+    let schemas = &mut doc["components"]["schemas"];
+    let three_drives = json!({
+        "type": "array", "minItems": 3, "maxItems": 3,
+        "items": {"type": "number", "minimum": 0.0, "maximum": 1.0},
+    });
+    // `routes::mock::mock_display`, `routes::display_profiles`: `[f64; 3]`, each 0–1.
+    for (schema, field) in [("MockDisplay", "drive"), ("ShownPatch", "drive")] {
+        merge(&mut schemas[schema]["properties"][field], &three_drives);
+    }
+    // `routes::reflectances`, `routes::illuminants`: exactly one of a shipped
+    // standard and a calibration CSV; `standard_file` only with the CSV.
+    for schema in ["NewReflectance", "NewIlluminant"] {
+        schemas[schema]["oneOf"] = json!([
+            {"required": ["standard"], "properties": {
+                "standard": {"type": "string"}, "standard_csv": {"type": "null"}, "standard_file": {"type": "null"}}},
+            {"required": ["standard_csv"], "properties": {
+                "standard_csv": {"type": "string"}, "standard": {"type": "null"}}},
+        ]);
+    }
+    // `routes::measurements::start_measurement`: a target needs its scene.
+    schemas["StartMeasurement"]["anyOf"] = json!([
+        {"properties": {"target": {"type": "null"}}},
+        {"required": ["scene"], "properties": {"scene": {"type": "string"}}},
+    ]);
+    // `daemon::images` (`check_request`): 0 < SE target ≤ 1, 0 < time budget ≤ 600 s.
+    merge(
+        &mut schemas["ImageRequest"]["properties"]["target_relative_se"],
+        &json!({"exclusiveMinimum": 0.0, "maximum": 1.0}),
+    );
+    merge(
+        &mut schemas["ImageRequest"]["properties"]["time_budget_s"],
+        &json!({"exclusiveMinimum": 0.0, "maximum": 600.0}),
+    );
+    merge(
+        &mut schemas["ImageRequest"]["properties"]["coding"],
+        &json!({"pattern": format!("^{CODING}$")}),
+    );
+    // `daemon::renders` (`settings`): a comma-separated list of known codings.
+    merge(
+        &mut schemas["RenderRequest"]["properties"]["codings"],
+        &json!({"pattern": format!("^ *{CODING} *( *, *{CODING} *)*$")}),
+    );
+    // `routes::studies::start_study`: at least one scene name in the list.
+    merge(
+        &mut schemas["StudyRequest"]["properties"]["scenes"],
+        &json!({"pattern": "[^, ]"}),
+    );
+    // `routes::mock::mock_faults`: empty (clears), or comma-separated faults.
+    merge(
+        &mut schemas["MockFaults"]["properties"]["faults"],
+        &json!({"pattern": format!("^( *{FAULT} *(, *{FAULT} *)*)?$")}),
+    );
+    // `store::Booth`: 1–64 letters, digits, `-`, `_`, `.` (the filter of `GET /api/measurements`).
+    if let Some(parameters) = doc["paths"]["/api/measurements"]["get"]["parameters"].as_array_mut() {
+        for p in parameters.iter_mut().filter(|p| p["name"] == "booth") {
+            merge(&mut p["schema"], &json!({"pattern": "^[A-Za-z0-9._-]{1,64}$"}));
+        }
+    }
+    // `input::Path`: ids are plain digits, so never negative.
+    if let Some(paths) = doc["paths"].as_object_mut() {
+        for item in paths.values_mut() {
+            let Some(item) = item.as_object_mut() else { continue };
+            for operation in item.values_mut() {
+                let Some(parameters) = operation["parameters"].as_array_mut() else {
+                    continue;
+                };
+                for p in parameters {
+                    if p["in"] == "path" && p["schema"]["type"] == "integer" {
+                        p["schema"]["minimum"] = json!(0);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Adds the keys of `rules` to the schema `into` (which may be a `$ref`-free object).
+fn merge(into: &mut serde_json::Value, rules: &serde_json::Value) {
+    if let (Some(into), Some(rules)) = (into.as_object_mut(), rules.as_object()) {
+        for (k, v) in rules {
+            into.insert(k.clone(), v.clone());
+        }
+    }
+}
+
 /// This document.
 #[utoipa::path(get, path = "/openapi.json", tag = "service",
     responses((status = 200, description = "the OpenAPI 3.1 document of this API", content_type = "application/json")))]
-pub async fn document() -> Json<&'static utoipa::openapi::OpenApi> {
-    Json(api_document())
+pub async fn document() -> Json<&'static serde_json::Value> {
+    Json(served_document())
 }

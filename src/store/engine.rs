@@ -54,12 +54,34 @@ impl EngineKind {
     }
 }
 
+/// Creates the SQLite file `path`, empty and readable only by its owner
+/// (0600), unless it exists: SQLite itself would create it with the umask's
+/// mode (typically 0644, every user could read every measurement), and it
+/// gives its `-wal` and `-shm` files the main file's mode. An existing file
+/// keeps its mode (the operator's choice); a file that cannot be created is
+/// left to SQLite to report.
+fn create_private(path: &std::path::Path) {
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    if let Err(e) = options.open(path) {
+        if e.kind() != std::io::ErrorKind::AlreadyExists {
+            tracing::debug!(path = %path.display(), error = %e, "cannot create the database file; SQLite will say why");
+        }
+    }
+}
+
 impl Engine {
     /// Connects to `url` and applies that engine's migrations.
     pub async fn connect(url: &str, synchronous: SqliteSynchronous) -> Result<Engine, StoreError> {
         match EngineKind::of_url(url)? {
             EngineKind::Sqlite => {
-                let options = SqliteConnectOptions::from_str(url)?
+                let options = SqliteConnectOptions::from_str(url)?;
+                if !url.contains(":memory:") && !url.contains("mode=memory") {
+                    create_private(options.get_filename());
+                }
+                let options = options
                     .create_if_missing(true)
                     .journal_mode(SqliteJournalMode::Wal)
                     .synchronous(synchronous)

@@ -187,6 +187,7 @@ pub struct MeasurementDetail {
 
 /// Filters and paging for listing measurements.
 #[derive(Clone, Debug, Default, Deserialize, ToSchema, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct MeasurementFilter {
     /// One booth's measurements only.

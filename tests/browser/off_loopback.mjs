@@ -2,7 +2,10 @@
 // token: opened with the printed URL (#token=…), it must show the live
 // instrument state (event stream), list the scenes (fetch), take a
 // measurement (POST) and show its spectrum chart (<img>), with no request
-// refused. Fails on any HTTP error or console error.
+// refused; and the write token must never be in a cookie (Set-Cookie,
+// document.cookie, the browser's cookie jar): the event stream and <img>s
+// use the read-only cookie the daemon sets. Fails on any HTTP error or
+// console error.
 //
 // Usage: node off_loopback.mjs BASE_URL TOKEN [SCREENSHOT_DIR]
 import { chromium } from "playwright-core";
@@ -28,6 +31,9 @@ try {
     if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
   });
   page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  // Every Set-Cookie the daemon sends, to check none carries the write token.
+  const setCookies = [];
+  page.on("response", (r) => setCookies.push(r.allHeaders().then((h) => [r.url(), h["set-cookie"] || ""]).catch(() => ["", ""])));
 
   await page.goto(`${base}/#token=${token}`);
   // The instrument state arrives over the event stream (EventSource: the cookie).
@@ -45,6 +51,23 @@ try {
     return img.complete && img.naturalWidth > 0;
   }, null, { timeout: 30000 });
   if (shots) await page.screenshot({ path: `${shots}/off-loopback.png`, fullPage: true });
+  // The write token is never a cookie: not set by the daemon, not visible to
+  // script, not in the jar; the read cookie is there (it opened the stream and the chart).
+  for (const [url, set] of await Promise.all(setCookies)) {
+    if (set.includes(token)) failures.push(`the write token is in a Set-Cookie of ${url}: ${set}`);
+  }
+  const scriptCookies = await page.evaluate(() => document.cookie);
+  if (scriptCookies.includes(token)) failures.push(`the write token is in document.cookie: ${scriptCookies}`);
+  const jar = await page.context().cookies();
+  for (const c of jar) {
+    if (c.value.includes(token)) failures.push(`the write token is in the cookie ${c.name} (path ${c.path})`);
+  }
+  const port = new URL(base).port;
+  const read = jar.find((c) => c.name === `lightbooth_read_${port}`);
+  if (!read) failures.push(`no read cookie lightbooth_read_${port}: ${JSON.stringify(jar)}`);
+  else if (!read.httpOnly || read.sameSite !== "Strict" || read.path !== "/api") {
+    failures.push(`the read cookie is not HttpOnly, SameSite=Strict, path /api: ${JSON.stringify(read)}`);
+  }
 } catch (e) {
   failures.push(String(e));
 } finally {

@@ -224,6 +224,7 @@ impl Daemon {
         let options = DaemonOptions {
             booth: booth.map_or_else(Default::default, |b| b.parse().unwrap()),
             bind: bound,
+            allowed_hosts: Vec::new(),
             db_url: db_url
                 .map(str::to_string)
                 .unwrap_or_else(|| format!("sqlite://{}", dir.path().join("lab.sqlite").display())),

@@ -27,9 +27,11 @@ use crate::store::{DisplayProfileRow, MeasurementState};
 const MAX_PATCHES: usize = 256;
 
 #[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct PlanQuery {
     /// Levels per channel ramp, 2–32 (default 8).
+    #[param(minimum = 2, maximum = 32, nullable = false)]
     pub steps: Option<usize>,
 }
 

@@ -69,14 +69,19 @@ pub async fn start_image(
     ))
 }
 
-/// The camera images this daemon keeps of a render, oldest first.
+/// The camera images this daemon keeps of a render, oldest first (404 when
+/// there is no such render).
 #[utoipa::path(get, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
-    responses((status = 200, body = Vec<ImageInfo>), (status = 503, body = ErrorBody)))]
+    responses((status = 200, body = Vec<ImageInfo>), (status = 404, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn render_images(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<ImageInfo>>, ApiError> {
-    Ok(Json(images(&state)?.of_render(id)))
+    let jobs = images(&state)?;
+    if state.store.get_render(id).await?.is_none() {
+        return Err(ApiError::NotFound(format!("no render {id}")));
+    }
+    Ok(Json(jobs.of_render(id)))
 }
 
 #[utoipa::path(get, path = "/images/{id}", tag = "images", params(("id" = i64, Path)),
@@ -113,6 +118,7 @@ pub async fn image_display_png(State(state): State<AppState>, Path(id): Path<i64
 }
 
 #[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeQuery {
     /// Pixel column from the left (the box's left edge).
@@ -120,8 +126,10 @@ pub struct ProbeQuery {
     /// Pixel row from the top (the box's top edge).
     pub y: u32,
     /// Box width in pixels (default 1).
+    #[param(minimum = 1, nullable = false)]
     pub w: Option<u32>,
     /// Box height in pixels (default 1).
+    #[param(minimum = 1, nullable = false)]
     pub h: Option<u32>,
 }
 
@@ -165,7 +173,7 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
             .map(|d| d.as_nanos())
             .unwrap_or(0);
         let dir = std::env::temp_dir().join(format!("lightbooth-image-{}-{id}-{nanos}", std::process::id()));
-        std::fs::create_dir(&dir).map_err(|e| ApiError::Internal(format!("{}: {e}", dir.display())))?;
+        create_private_dir(&dir)?;
         let path = dir.join(format!("image.{ext}"));
         let bytes = crate::export::image::write_camera_image(&img, &path)
             .map_err(ApiError::Internal)
@@ -175,6 +183,17 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
     })
     .await
     .map_err(|e| ApiError::Internal(e.to_string()))?
+}
+
+/// Creates `dir` readable only by its owner (0700): the system's temporary
+/// folder is shared by every user, and an export holds a whole image.
+fn create_private_dir(dir: &std::path::Path) -> Result<(), ApiError> {
+    let mut private = std::fs::DirBuilder::new();
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut private, 0o700);
+    private
+        .create(dir)
+        .map_err(|e| ApiError::Internal(format!("{}: {e}", dir.display())))
 }
 
 /// The image as multi-channel OpenEXR: spectral channels `S0.<λ>nm`
@@ -207,6 +226,7 @@ pub async fn image_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 }
 
 #[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct DeltaEQuery {
     /// The other image: same render, same size.
@@ -255,4 +275,21 @@ pub async fn image_delta_e_png(
     let map = delta_e_of(&state, id, q.against).await?;
     let png = image_views::delta_e_png(&map)?;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    /// Regression: the folder an image is exported into (EXR, MAT) was
+    /// created with the umask's mode (0755) under the shared temporary
+    /// folder, although the code said private.
+    #[cfg(unix)]
+    #[test]
+    fn image_export_folder_created_world_readable() {
+        use std::os::unix::fs::PermissionsExt;
+        let parent = tempfile::tempdir().unwrap();
+        let dir = parent.path().join("export");
+        super::create_private_dir(&dir).unwrap();
+        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700, "{mode:04o}");
+    }
 }

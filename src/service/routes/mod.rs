@@ -9,6 +9,7 @@
 
 mod booths;
 mod comparisons;
+mod credentials;
 mod display_profiles;
 mod health;
 mod illuminants;
@@ -25,6 +26,7 @@ use utoipa_axum::routes;
 
 pub use booths::*;
 pub use comparisons::*;
+pub use credentials::*;
 pub use display_profiles::*;
 pub use health::*;
 pub use illuminants::*;
@@ -46,6 +48,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
     OpenApiRouter::default()
         .routes(routes!(health))
         .routes(routes!(openapi::document))
+        .routes(routes!(read_cookie))
         .routes(routes!(instruments))
         .routes(routes!(list_booths))
         .routes(routes!(list_sessions, create_session))

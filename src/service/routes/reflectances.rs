@@ -126,6 +126,7 @@ pub async fn get_reflectance(
 }
 
 #[derive(Deserialize, ToSchema, utoipa::IntoParams, Default)]
+#[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct CsvOptions {
     /// Clip values outside [0, 1] for the scene, saying so in the header;

@@ -1,0 +1,183 @@
+//! Which `Host` a request may name: the defence against DNS rebinding.
+//!
+//! A page of `attacker.example` can make its own name resolve to 127.0.0.1
+//! and then read, as same-origin requests, whatever a daemon on loopback
+//! answers without a token. Its requests carry `Host: attacker.example`, so
+//! the daemon answers only requests that name
+//!
+//! - `localhost` or a name under `.localhost` (which browsers resolve to
+//!   loopback themselves, RFC 6761 §6.3),
+//! - a loopback address (`127.0.0.0/8`, `[::1]`) or the address the daemon
+//!   listens on — any IP address when it listens on all of them (`0.0.0.0`,
+//!   `[::]`): an address is not a name an attacker can rebind,
+//! - or a name of the operator's allow-list (`serve --allowed-host NAME`,
+//!   `allowed_hosts` in `lightbooth.toml`), e.g. the booth PC's own name
+//!   when the daemon is reached by it.
+//!
+//! Anything else is answered 421 (Misdirected Request) naming the host and
+//! how to allow it. A request without `Host` (HTTP/1.0, a test calling the
+//! router directly) passes: browsers always send it. The port is not
+//! checked: a rebound name is refused whatever port it names.
+
+use std::net::{IpAddr, SocketAddr};
+
+use axum::extract::{Request, State};
+use axum::http::header::HOST;
+use axum::middleware::Next;
+use axum::response::Response;
+
+use super::error::ApiError;
+use super::AppState;
+
+/// The names and addresses requests may name in `Host` besides `localhost`
+/// and loopback addresses.
+#[derive(Clone, Debug, Default)]
+pub struct AllowedHosts {
+    /// The address the daemon listens on; `None` when it is not known.
+    pub bound: Option<SocketAddr>,
+    /// Host names of the allow-list, lower case, without a trailing dot.
+    pub names: Vec<String>,
+}
+
+impl AllowedHosts {
+    /// `bound` and the allow-list `names`, each checked by [`parse_allowed_host`].
+    pub fn new(bound: SocketAddr, names: &[String]) -> Result<AllowedHosts, String> {
+        Ok(AllowedHosts {
+            bound: Some(bound),
+            names: names.iter().map(|n| parse_allowed_host(n)).collect::<Result<_, _>>()?,
+        })
+    }
+
+    /// The port the daemon listens on, when known.
+    pub fn port(&self) -> Option<u16> {
+        self.bound.map(|b| b.port())
+    }
+
+    /// True when a request naming `host` (a `Host` value: name or address,
+    /// with or without a port) is answered.
+    pub fn allows(&self, host: &str) -> bool {
+        let name = host_name(host);
+        if let Ok(ip) = name.trim_start_matches('[').trim_end_matches(']').parse::<IpAddr>() {
+            return ip.is_loopback()
+                || self.bound.is_some_and(|b| b.ip().is_unspecified() || b.ip() == ip)
+                || self.names.contains(&ip.to_string());
+        }
+        let name = name.trim_end_matches('.').to_ascii_lowercase();
+        name == "localhost" || name.ends_with(".localhost") || self.names.contains(&name)
+    }
+
+    /// What the daemon answers: for its start-up message and its 421s.
+    pub fn describe(&self) -> String {
+        let mut accepted = vec!["localhost".to_string(), "loopback addresses".to_string()];
+        match self.bound {
+            Some(b) if b.ip().is_unspecified() => accepted.push("any IP address".into()),
+            Some(b) if !b.ip().is_loopback() => accepted.push(b.ip().to_string()),
+            _ => {}
+        }
+        accepted.extend(self.names.iter().cloned());
+        accepted.join(", ")
+    }
+}
+
+/// The host of a `Host` value: `name`, `name:port`, `[v6]` or `[v6]:port`.
+fn host_name(host: &str) -> &str {
+    let host = host.trim();
+    if host.starts_with('[') {
+        return host.split_inclusive(']').next().unwrap_or(host);
+    }
+    match host.rsplit_once(':') {
+        // One colon: `name:port`. More: a bare IPv6 address (not valid in Host, but not a name either).
+        Some((name, _)) if !name.contains(':') => name,
+        _ => host,
+    }
+}
+
+/// One allow-list entry: a DNS name (letters, digits, `-`, `.`) or an IP
+/// address, lower-cased; the error says what is wrong with it.
+pub fn parse_allowed_host(entry: &str) -> Result<String, String> {
+    let name = entry.trim().trim_end_matches('.').to_ascii_lowercase();
+    let is_name = !name.is_empty()
+        && name.len() <= 253
+        && name
+            .split('.')
+            .all(|label| !label.is_empty() && label.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-'));
+    let is_address = name
+        .trim_start_matches('[')
+        .trim_end_matches(']')
+        .parse::<IpAddr>()
+        .is_ok();
+    if is_name || is_address {
+        Ok(name.trim_start_matches('[').trim_end_matches(']').to_string())
+    } else {
+        Err(format!(
+            "allowed host `{entry}`: not a host name (letters, digits, `-` and `.`, without a port) or an IP address"
+        ))
+    }
+}
+
+/// Middleware: refuses, with 421, a request whose `Host` this daemon does not answer.
+pub async fn require_known_host(State(state): State<AppState>, req: Request, next: Next) -> Result<Response, ApiError> {
+    let allowed = &state.config.allowed_hosts;
+    if let Some(host) = req.headers().get(HOST) {
+        let host = String::from_utf8_lossy(host.as_bytes());
+        if !allowed.allows(&host) {
+            tracing::warn!(%host, "request for a host this daemon does not answer (DNS rebinding?)");
+            return Err(ApiError::MisdirectedRequest(format!(
+                "this daemon does not answer for the host `{host}` (it answers {}): a page that made its own \
+                 name point at this machine would otherwise read its data. Reach the daemon by one of those, \
+                 or start it with `--allowed-host {}` (or `allowed_hosts` in lightbooth.toml)",
+                allowed.describe(),
+                host_name(&host)
+            )));
+        }
+    }
+    Ok(next.run(req).await)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_names_and_addresses_pass_and_other_names_do_not() {
+        let loopback = AllowedHosts::new("127.0.0.1:8650".parse().unwrap(), &["Booth1.Lab.example.".into()]).unwrap();
+        for ok in [
+            "localhost",
+            "localhost:8650",
+            "LOCALHOST.",
+            "app.localhost:1",
+            "127.0.0.1:8650",
+            "127.1.2.3",
+            "[::1]:8650",
+            "[::1]",
+            "booth1.lab.example:8650",
+        ] {
+            assert!(loopback.allows(ok), "{ok}");
+        }
+        for refused in [
+            "attacker.example",
+            "attacker.example:8650",
+            "localhost.attacker.example",
+            "10.0.0.5:8650",
+            "[fe80::1]:8650",
+            "",
+            "127.0.0.1.attacker.example",
+        ] {
+            assert!(!loopback.allows(refused), "{refused}");
+        }
+        let everywhere = AllowedHosts::new("0.0.0.0:8650".parse().unwrap(), &[]).unwrap();
+        assert!(everywhere.allows("10.0.0.5:8650") && !everywhere.allows("booth1:8650"));
+        let one = AllowedHosts::new("10.0.0.5:8650".parse().unwrap(), &[]).unwrap();
+        assert!(one.allows("10.0.0.5:8650") && !one.allows("10.0.0.6:8650"));
+    }
+
+    #[test]
+    fn allow_list_entries_are_names_or_addresses() {
+        assert_eq!(parse_allowed_host(" Booth1.LAB. ").unwrap(), "booth1.lab");
+        assert_eq!(parse_allowed_host("[::1]").unwrap(), "::1");
+        for bad in ["", "booth:8650", "a b", "http://booth", "a..b"] {
+            let e = parse_allowed_host(bad).unwrap_err();
+            assert!(e.contains(bad) && e.contains("host name"), "{e}");
+        }
+    }
+}

@@ -1,0 +1,186 @@
+//! The OpenAPI document against the daemon that serves it, checked by a
+//! program the project did not write: Schemathesis (`tests/setup.sh`
+//! installs it into the venv `target/py`) runs a short seeded pass with
+//! every check against the real binary (`serve --mock --mock-speed 0`, a
+//! fresh SQLite file and token, a free loopback port), and the test fails on
+//! any server error, undeclared status or rule the document under- or
+//! over-states (ST201/ST202), except the allow-list below, each entry a rule
+//! JSON Schema cannot state. The full command for a longer run is in
+//! `tests/README.md`.
+
+use std::net::TcpListener;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const TOKEN: &str = "schemathesis-token-0123456789abcdef";
+
+/// (check code, operation): findings that are expected, and why.
+const ALLOWED: &[(&str, &str, &str)] = &[
+    (
+        "ST202",
+        "POST /api/studies",
+        "scene names that are well-formed but name no scene of this daemon",
+    ),
+    (
+        "ST202",
+        "POST /api/scenes/{scene}/renders",
+        "a coding named twice (refused like a repeated scene); JSON Schema cannot say `unique` of a comma list",
+    ),
+    (
+        "ST202",
+        "POST /api/measurements",
+        "a scene or target name that names nothing",
+    ),
+    (
+        "ST202",
+        "POST /api/reflectances",
+        "a `standard` name that is no shipped standard, or a `standard_csv` that is no calibration",
+    ),
+    (
+        "ST202",
+        "POST /api/illuminants",
+        "a `standard` name that is no shipped standard, or a `standard_csv` that is no calibration",
+    ),
+    (
+        "ST202",
+        "POST /api/renders/{id}/images",
+        "an integer written as a float (`57.0`), which the API refuses for integer fields",
+    ),
+    (
+        "ST202",
+        "POST /api/display-profiles",
+        "patches that cannot be fitted (too few, or not the plan's colours)",
+    ),
+];
+
+/// Kills the daemon when the test ends, however it ends.
+struct Daemon(Child);
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn health_answers(port: u16) -> bool {
+    use std::io::{Read, Write};
+    let Ok(mut s) = std::net::TcpStream::connect(("127.0.0.1", port)) else {
+        return false;
+    };
+    let _ = s.set_read_timeout(Some(Duration::from_secs(2)));
+    let _ = write!(
+        s,
+        "GET /api/health HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+    );
+    let mut answer = String::new();
+    let _ = s.read_to_string(&mut answer);
+    answer.starts_with("HTTP/1.1 200") && answer.contains("\"idle\"")
+}
+
+#[test]
+fn schemathesis_finds_no_server_error_and_no_understated_rule() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let st = root.join("target/py/bin/st");
+    assert!(
+        st.exists(),
+        "Schemathesis is not installed at {}: run tests/setup.sh (it creates the venv target/py)",
+        st.display()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let token = dir.path().join("token");
+    std::fs::write(&token, TOKEN).unwrap();
+    let port = free_port();
+    let daemon = Daemon(
+        Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+            .current_dir(&root)
+            .args([
+                "serve",
+                "--mock",
+                "--mock-speed",
+                "0",
+                "--config",
+                "/dev/null",
+                "--bind",
+            ])
+            .arg(format!("127.0.0.1:{port}"))
+            .arg("--db")
+            .arg(format!("sqlite://{}", dir.path().join("lab.sqlite").display()))
+            .arg("--token-file")
+            .arg(&token)
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.path().join("daemon.log")).unwrap())
+            .spawn()
+            .expect("start lightbooth serve"),
+    );
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !health_answers(port) {
+        assert!(
+            Instant::now() < deadline,
+            "the daemon did not become healthy: {}",
+            std::fs::read_to_string(dir.path().join("daemon.log")).unwrap_or_default()
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let report = dir.path().join("report.json");
+    let out = Command::new(&st)
+        .current_dir(dir.path())
+        .args([
+            "--no-color",
+            "run",
+            &format!("http://127.0.0.1:{port}/api/openapi.json"),
+        ])
+        .args(["-H", &format!("Authorization: Bearer {TOKEN}")])
+        .args(["--checks", "all", "--exclude-path", "/api/events"])
+        // Seeded, 5 examples per operation and at most 45 s, so that CI
+        // stays quick; tests/README.md has the command for a longer run.
+        .args(["--seed", "1", "-n", "5", "--workers", "1", "--request-timeout", "20"])
+        .args(["--max-time", "45", "--continue-on-failure"])
+        .args(["--report", "json", "--report-json-path"])
+        .arg(&report)
+        .output()
+        .expect("run schemathesis");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    drop(daemon);
+    let json: serde_json::Value = match std::fs::read(&report) {
+        Ok(bytes) => serde_json::from_slice(&bytes).expect("the report is JSON"),
+        Err(e) => panic!("Schemathesis wrote no report ({e}):\n{text}"),
+    };
+    let mut unexpected = Vec::new();
+    for failure in json["failures"].as_array().into_iter().flatten() {
+        let code = failure["code"].as_str().unwrap_or("?");
+        for operation in failure["operations"].as_array().into_iter().flatten() {
+            let operation = operation.as_str().unwrap_or("?");
+            if !ALLOWED.iter().any(|(c, o, _)| *c == code && *o == operation) {
+                unexpected.push(format!("{code} {} on {operation}", failure["title"]));
+            }
+        }
+    }
+    let errors = json["errors"].as_array().map_or(0, Vec::len);
+    assert!(
+        unexpected.is_empty() && errors == 0,
+        "Schemathesis found {} unexpected failures and {errors} errors:\n{}\nerrors: {}\n\n{}",
+        unexpected.len(),
+        unexpected.join("\n"),
+        json["errors"],
+        tail(&text, 12_000)
+    );
+    assert!(
+        json["test_cases"]["generated"].as_u64().unwrap_or(0) > 100,
+        "Schemathesis generated almost nothing:\n{}",
+        tail(&text, 4_000)
+    );
+}
+
+fn tail(text: &str, n: usize) -> &str {
+    let start = text.len().saturating_sub(n);
+    let start = (start..text.len())
+        .find(|&i| text.is_char_boundary(i))
+        .unwrap_or(text.len());
+    &text[start..]
+}
