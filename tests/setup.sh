@@ -63,20 +63,6 @@ if [ ! -d tests/browser/node_modules/playwright-core ]; then
   (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error)
 fi
 
-# Schemathesis (tests/api_schemathesis.rs) in the shared Python venv
-# target/py; only what is missing is installed.
-if [ ! -x target/py/bin/python ]; then
-  echo "creating the Python venv target/py"
-  mkdir -p target
-  python3 -m venv target/py
-fi
-# Pinned: its checks and the allow-list in that test change between releases.
-SCHEMATHESIS_VERSION=4.32.5
-if [ "$(target/py/bin/st --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$SCHEMATHESIS_VERSION" ]; then
-  echo "installing schemathesis $SCHEMATHESIS_VERSION (pip, into target/py)"
-  target/py/bin/pip install -q --disable-pip-version-check "schemathesis==$SCHEMATHESIS_VERSION"
-fi
-
 if ! pg_bin >/dev/null; then
   echo "installing PostgreSQL (Debian package)"
   SUDO=""
@@ -103,13 +89,19 @@ if [ ! -x "$PY_VENV/bin/python" ]; then
   fi
 fi
 # Also OpenEXR's own Python binding (PyPI `OpenEXR` 3.x), a reader the
-# project did not write: tests/exr_python.rs opens the spectral EXR with it.
+# project did not write: tests/exr_python.rs opens the spectral EXR with it;
+# and Schemathesis (tests/api_schemathesis.rs), pinned: its checks and the
+# allow-list in that test change between releases.
 # Each entry is `name=requirement`; only what is missing is installed.
+SCHEMATHESIS_VERSION=4.32.5
 py_missing=()
 for entry in "pyserial=pyserial" "numpy=numpy" "psychopy-photoresearch=psychopy-photoresearch" \
     "OpenEXR=OpenEXR>=3.2,<4"; do
   "$PY_VENV/bin/pip" show -q "${entry%%=*}" >/dev/null 2>&1 || py_missing+=("${entry#*=}")
 done
+if [ "$("$PY_VENV/bin/st" --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$SCHEMATHESIS_VERSION" ]; then
+  py_missing+=("schemathesis==$SCHEMATHESIS_VERSION")
+fi
 if [ "${#py_missing[@]}" -gt 0 ]; then
   echo "installing ${py_missing[*]} (PyPI) into $PY_VENV"
   "$PY_VENV/bin/pip" install -q --disable-pip-version-check "${py_missing[@]}"
