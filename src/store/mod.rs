@@ -676,7 +676,10 @@ impl Store {
         // the same one as the measurement's `Y` (never the instrument's own).
         let observer = summary.observer.unwrap_or(self.observer);
         for s in &mut samples {
-            s.luminance_cd_m2 = s.radiance.as_deref().and_then(|values| sample_luminance(values, observer));
+            s.luminance_cd_m2 = s
+                .radiance
+                .as_deref()
+                .and_then(|values| sample_luminance(values, observer));
         }
         Ok(Some(MeasurementDetail {
             summary,
@@ -1218,7 +1221,9 @@ fn sample_luminance(values: &[f64], observer: Observer) -> Option<f64> {
     let grid = crate::instrument::native_grid_of_length(values.len())?;
     let spectrum =
         crate::spectrum::Spectrum::new(grid, crate::spectrum::SpectralUnit::SpectralRadiance, values.to_vec()).ok()?;
-    crate::colorimetry::xyz_from_radiance(&spectrum, observer).ok().map(|x| x.y)
+    crate::colorimetry::xyz_from_radiance(&spectrum, observer)
+        .ok()
+        .map(|x| x.y)
 }
 
 fn parse_opt_array(text: Option<String>, what: &str) -> Result<Option<Vec<f64>>, StoreError> {

@@ -874,7 +874,10 @@ async fn partial_averages_and_previews_read_back_alike(engine: EngineKind) {
     let one = detail.summary;
     assert_eq!(one.luminance_cd_m2, summary.luminance_cd_m2);
     for s in detail.samples.iter().filter(|s| s.radiance.is_some()) {
-        assert!(s.luminance_cd_m2.is_some(), "a sample with a spectrum has the observer's Y: {s:?}");
+        assert!(
+            s.luminance_cd_m2.is_some(),
+            "a sample with a spectrum has the observer's Y: {s:?}"
+        );
     }
     assert_eq!(one.session_id, Some(session));
     assert_eq!(one.instrument_id, Some(inst));
