@@ -226,7 +226,9 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         for item in paths.values_mut() {
             let Some(item) = item.as_object_mut() else { continue };
             for operation in item.values_mut() {
-                let Some(parameters) = operation["parameters"].as_array_mut() else {
+                // `get_mut`, not `[..]`: indexing inserts `"parameters": null`
+                // into operations without parameters, an invalid document.
+                let Some(parameters) = operation.get_mut("parameters").and_then(|p| p.as_array_mut()) else {
                     continue;
                 };
                 for p in parameters {
