@@ -1340,6 +1340,7 @@ async fn a_dead_predecessor_on_this_host_is_recovered_at_once_a_live_one_is_not(
     .bind(other_booth)
     .execute(pool)
     .await
+    .map(|_| ())
     .unwrap());
     let running_as = |daemon: i64| {
         let store = store.as_daemon(daemon);
