@@ -940,7 +940,7 @@ fn diffuser_radiance(lights: &[Light], point: DVec3, normal: DVec3) -> Vec<f64> 
 /// parsed TOML tree, with its key path.
 fn first_non_finite(v: &toml::Value, key: String) -> Option<(String, f64)> {
     match v {
-        toml::Value::Float(f) if !(f.abs() <= MAX_SCENE_NUMBER) => Some((key, *f)),
+        toml::Value::Float(f) if !f.is_finite() || f.abs() > MAX_SCENE_NUMBER => Some((key, *f)),
         toml::Value::Integer(i) if (*i as f64).abs() > MAX_SCENE_NUMBER => Some((key, *i as f64)),
         toml::Value::Array(items) => items
             .iter()
