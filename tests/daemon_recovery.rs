@@ -1,3 +1,4 @@
+#![allow(clippy::zombie_processes)] // the killed study process is reaped by the test harness exit; kill -9 is the point of the test
 //! Every sample on disk, every outage reported (issue 22): whole processes
 //! (`lightbooth study`, `lightbooth serve`) killed with SIGKILL or left
 //! without their PostgreSQL server mid-measurement, checked in the database
