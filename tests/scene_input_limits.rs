@@ -248,7 +248,7 @@ fn a_fifo_as_an_included_file_is_refused_without_hanging() {
     let rad = write(
         dir.path(),
         "s.rad",
-        &format!("void specfile sp 1 pipe.dat 0 0\nsp plastic grey 0 0 5 .5 .5 .5 0 0\n"),
+        "void specfile sp 1 pipe.dat 0 0\nsp plastic grey 0 0 5 .5 .5 .5 0 0\n",
     );
     let e = within(Duration::from_secs(60), move || load_radiance_scene(&rad, &view()))
         .unwrap_err()
