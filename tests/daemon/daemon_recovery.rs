@@ -14,7 +14,7 @@
 //!   reason once the server is back, not `running` forever nor `interrupted`
 //!   by a neighbour, and `/api/health` answers 503 `down` meanwhile.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;

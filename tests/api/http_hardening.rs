@@ -5,7 +5,7 @@
 //! open, the dashboard's read-only cookie, the bearer scheme's case, the
 //! `Host` check against DNS rebinding, and bodies announced too large.
 
-mod common;
+use crate::common;
 
 use std::net::SocketAddr;
 use std::sync::Arc;
