@@ -31,7 +31,8 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use lightbooth::service::{app, AppState, InstrumentStatus, ServiceConfig};
+use lightbooth::http::{app, AppState, ServiceConfig};
+use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::store::{now, Booth, Store};
 use sqlx::Connection;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};

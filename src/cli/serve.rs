@@ -9,10 +9,10 @@ use clap::Args;
 use serde::Deserialize;
 
 use lightbooth::colorimetry::Observer;
-use lightbooth::daemon::worker_queue::RenderPlace;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::mock::Fault;
 use lightbooth::instrument::InstrumentSettings;
+use lightbooth::lab::worker_queue::RenderPlace;
 use lightbooth::store::Booth;
 
 #[derive(Args, Debug)]
@@ -166,11 +166,11 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
     // The flags add to the file's list.
     let mut allowed_hosts = file.allowed_hosts.unwrap_or_default();
     for name in &allowed_hosts {
-        lightbooth::service::hosts::parse_allowed_host(name)
+        lightbooth::http::hosts::parse_allowed_host(name)
             .map_err(|e| anyhow::anyhow!("{}: key `allowed_hosts`: {e}", args.config.display()))?;
     }
     for name in &args.allowed_hosts {
-        lightbooth::service::hosts::parse_allowed_host(name).map_err(|e| anyhow::anyhow!("--allowed-host: {e}"))?;
+        lightbooth::http::hosts::parse_allowed_host(name).map_err(|e| anyhow::anyhow!("--allowed-host: {e}"))?;
     }
     allowed_hosts.extend(args.allowed_hosts);
     let options = DaemonOptions {

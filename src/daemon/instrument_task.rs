@@ -28,12 +28,15 @@ use std::time::{Duration, Instant};
 use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
 
-use super::recorder::{self, Recorder};
-use super::renders::Renderer;
 use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
 use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
-use crate::service::{Event, InstrumentStatus, MeasurementJob, MockControl};
+use crate::lab::events::Event;
+use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::instrument_queue::MeasurementJob;
+use crate::lab::instrument_queue::MockControl;
+use crate::lab::measurement::{self as recorder, Recorder};
+use crate::lab::renders::Renderer;
 use crate::store::{Booth, MeasurementState, Store};
 
 /// Settings of the simulated PR-650.
@@ -169,7 +172,7 @@ impl Canceller {
     }
 }
 
-impl crate::service::CancelMeasurement for Canceller {
+impl crate::lab::instrument_queue::CancelMeasurement for Canceller {
     fn cancel(&self, id: i64) -> bool {
         match self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             Some((running, t)) if *running == id => {
@@ -246,7 +249,7 @@ fn supervise(mut worker: Worker) {
         let Err(panic) = catch_unwind(AssertUnwindSafe(|| worker.run())) else {
             return;
         };
-        let message = super::jobs::panic_message(&*panic);
+        let message = crate::lab::jobs::panic_message(&*panic);
         tracing::error!(panic = %message, restart_in_s = backoff.as_secs(), "the instrument task panicked");
         worker.canceller.set_current(None);
         if let Some(id) = worker.current.take() {

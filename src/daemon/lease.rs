@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use tokio::sync::broadcast;
 
-use crate::service::Event;
+use crate::lab::events::Event;
 use crate::store::{Booth, InterruptedWork, MeasurementState, Recovered, RecoveryScope, Store, StoreError};
 
 /// A registered lease and its heartbeat task; the heartbeat stops when the

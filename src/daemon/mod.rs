@@ -11,20 +11,14 @@
 //! - a lease in the database, renewed by a heartbeat task, so that daemons
 //!   sharing a PostgreSQL database recover only the work of daemons that are
 //!   gone (see `store/leases.rs`);
-//! - the HTTP [service](crate::service) (REST API, events, dashboards).
+//! - the HTTP [service](crate::http) (REST API, events, dashboards).
 //!
 //! [`run`] takes a shutdown future, as mini-redis's server does, so tests
 //! start and stop a whole daemon in-process.
 
 pub mod db_lock;
-pub mod images;
 pub mod instrument_task;
-pub mod jobs;
 pub mod lease;
-pub mod recorder;
-pub mod renders;
-pub mod study_measurements;
-pub mod worker_queue;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -37,9 +31,10 @@ use tokio::net::TcpListener;
 use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::Observer;
+use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::mock::Fault;
 use crate::instrument::InstrumentSettings;
-use crate::service::{self, auth, AppState, InstrumentStatus, ServiceConfig};
+use crate::lab::instrument_queue::InstrumentStatus;
 use crate::store::{Booth, Store};
 
 /// How many measurements may wait for the instrument; more get 409. Enough
@@ -51,7 +46,7 @@ pub const QUEUE_CAPACITY: usize = 64;
 pub struct DaemonOptions {
     pub bind: SocketAddr,
     /// Host names requests may name besides `localhost` and the daemon's
-    /// addresses (`--allowed-host`; see `service::hosts`).
+    /// addresses (`--allowed-host`; see `http::hosts`).
     pub allowed_hosts: Vec<String>,
     /// The booth this daemon and its instrument measure in (`--booth`).
     pub booth: Booth,
@@ -92,7 +87,7 @@ pub struct DaemonOptions {
     pub lease: Duration,
     /// Where comparisons, renders and studies run: here, or on render
     /// workers sharing the database (`--renders`, [`worker_queue`]).
-    pub renders: worker_queue::RenderPlace,
+    pub renders: crate::lab::worker_queue::RenderPlace,
 }
 
 /// How often a daemon leaving its work to render workers looks for the
@@ -167,14 +162,14 @@ pub async fn run(
     if !loopback_only {
         println!("not bound to loopback: reads need the token too");
     }
-    let allowed_hosts = service::hosts::AllowedHosts::new(addr, &options.allowed_hosts).map_err(anyhow::Error::msg)?;
+    let allowed_hosts = http::hosts::AllowedHosts::new(addr, &options.allowed_hosts).map_err(anyhow::Error::msg)?;
     println!("answering requests for {}", allowed_hosts.describe());
 
     let (jobs_tx, jobs_rx) = mpsc::channel(QUEUE_CAPACITY);
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
         reason: "starting".into(),
     });
-    let mut renderer = renders::Renderer::new(
+    let mut renderer = crate::lab::renders::Renderer::new(
         options.scenes_dir.clone(),
         store.clone(),
         events.clone(),
@@ -184,8 +179,8 @@ pub async fn run(
         options.mock_world.clone(),
     )?;
     let _worker_watch = match options.renders {
-        worker_queue::RenderPlace::Here => None,
-        worker_queue::RenderPlace::Workers => {
+        crate::lab::worker_queue::RenderPlace::Here => None,
+        crate::lab::worker_queue::RenderPlace::Workers => {
             anyhow::ensure!(
                 store.engine_name() == "postgres",
                 "--renders workers needs a database shared with the render workers: a PostgreSQL one \
@@ -230,14 +225,14 @@ pub async fn run(
         jobs: jobs_tx,
         status: status_rx,
         events,
-        renders: Some(Arc::clone(&renderer) as Arc<dyn service::RenderService>),
+        renders: Some(Arc::clone(&renderer) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
         measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
     };
     let cancel_running = instrument.canceller();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let server = tokio::spawn(service::serve(listener, state, async move {
+    let server = tokio::spawn(http::serve(listener, state, async move {
         let _ = stop_rx.await;
     }));
     shutdown.await;

@@ -7,15 +7,15 @@
 //! truncation and sampling of the renderings under test, the instrument
 //! model (slit, noise) and any truth-scene perturbation are what make these
 //! "measurements" differ from the renderings. Each measurement is recorded
-//! as the daemon records one ([`crate::daemon::recorder::Recorder`]): every
+//! as the daemon records one ([`crate::lab::measurement::Recorder`]): every
 //! sample is stored before the next is taken.
 
 use std::path::{Path, PathBuf};
 
 use crate::colorimetry::Observer;
-use crate::daemon::recorder::Recorder;
 use crate::instrument::mock::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
+use crate::lab::measurement::Recorder;
 use crate::render;
 use crate::store::{Booth, MeasurementState, NewMeasurement, Store};
 use crate::study::run::truth_path;
@@ -89,7 +89,7 @@ pub async fn measure_with_simulator(
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;
-            // The daemon's path (`daemon::recorder`): each sample is on disk
+            // The daemon's path (`lab::measurement`): each sample is on disk
             // before the next is taken, so a study killed mid-measurement
             // keeps every sample it took. The driver and the recorder block:
             // this runtime thread is handed over to them meanwhile.

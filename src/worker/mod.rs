@@ -33,8 +33,8 @@ use sha2::{Digest, Sha256};
 use tokio::sync::broadcast;
 
 use crate::daemon::lease::Lease;
-use crate::daemon::renders::Renderer;
-use crate::daemon::worker_queue::{ComparisonPayload, RenderConfig};
+use crate::lab::renders::Renderer;
+use crate::lab::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::render::bundle::SceneBundle;
 use crate::render::integrator::CancelFlag;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
@@ -153,7 +153,7 @@ struct Worker {
     renderers: HashMap<String, Arc<Renderer>>,
     /// The renderer's events: nobody listens here (the asking daemon sends
     /// its own when it sees the job end).
-    events: broadcast::Sender<crate::service::Event>,
+    events: broadcast::Sender<crate::lab::events::Event>,
 }
 
 impl Worker {

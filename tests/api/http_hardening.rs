@@ -14,7 +14,8 @@ use std::time::Duration;
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
-use lightbooth::service::{app, serve_with_limits, AppState, InstrumentStatus, ServeLimits, ServiceConfig};
+use lightbooth::http::{app, serve_with_limits, AppState, ServeLimits, ServiceConfig};
+use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
@@ -25,7 +26,7 @@ const TOKEN: &str = "0123456789abcdef0123456789abcdef";
 
 struct Harness {
     state: AppState,
-    _jobs: mpsc::Receiver<lightbooth::service::MeasurementJob>,
+    _jobs: mpsc::Receiver<lightbooth::lab::instrument_queue::MeasurementJob>,
     _status: watch::Sender<InstrumentStatus>,
     shutdown: watch::Sender<bool>,
     _dir: tempfile::TempDir,
@@ -429,8 +430,7 @@ async fn host_header_unchecked_on_loopback_lets_dns_rebinding_read() {
     let mut h = harness(true).await;
     let mut config = (*h.state.config).clone();
     config.allowed_hosts =
-        lightbooth::service::hosts::AllowedHosts::new("127.0.0.1:8650".parse().unwrap(), &["booth1.lab".into()])
-            .unwrap();
+        lightbooth::http::hosts::AllowedHosts::new("127.0.0.1:8650".parse().unwrap(), &["booth1.lab".into()]).unwrap();
     h.state.config = Arc::new(config);
     for (host, expected) in [
         ("booth1.lab:8650", StatusCode::OK),

@@ -8,7 +8,9 @@ use std::sync::Arc;
 use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
-use lightbooth::service::{app, AppState, InstrumentStatus, MeasurementJob, ServiceConfig};
+use lightbooth::http::{app, AppState, ServiceConfig};
+use lightbooth::lab::instrument_queue::InstrumentStatus;
+use lightbooth::lab::instrument_queue::MeasurementJob;
 use lightbooth::store::Store;
 use serde_json::Value;
 use tokio::sync::{broadcast, mpsc, watch};
@@ -213,10 +215,7 @@ async fn bad_bodies_get_400_naming_the_field() {
 #[tokio::test]
 async fn a_huge_body_gets_413() {
     let h = harness(4).await;
-    let huge = format!(
-        "{{\"note\": \"{}\"}}",
-        "x".repeat(lightbooth::service::MAX_BODY_BYTES + 1)
-    );
+    let huge = format!("{{\"note\": \"{}\"}}", "x".repeat(lightbooth::http::MAX_BODY_BYTES + 1));
     let (status, v) = send(
         &h.state,
         post("/api/measurements", "application/json", huge, Some(TOKEN)),
@@ -474,7 +473,7 @@ async fn a_queued_measurement_could_not_be_cancelled() {
     assert_eq!(status, StatusCode::OK, "{body}");
     assert_eq!(body["state"], "cancelled");
     match events.try_recv().unwrap() {
-        lightbooth::service::Event::MeasurementFinished {
+        lightbooth::lab::events::Event::MeasurementFinished {
             measurement_id, state, ..
         } => {
             assert_eq!(
@@ -744,12 +743,12 @@ async fn openapi_states_render_and_study_limits() {
     let render = &doc["components"]["schemas"]["RenderRequest"]["properties"];
     assert_eq!(
         render["samples"]["maximum"],
-        lightbooth::daemon::jobs::MAX_RENDER_SAMPLES,
+        lightbooth::lab::jobs::MAX_RENDER_SAMPLES,
         "{render}"
     );
     assert_eq!(
         render["bounces"]["maximum"],
-        lightbooth::daemon::jobs::MAX_RENDER_BOUNCES,
+        lightbooth::lab::jobs::MAX_RENDER_BOUNCES,
         "{render}"
     );
     assert_eq!(render["bounces"]["maximum"], 64, "{render}");

@@ -183,7 +183,7 @@ impl Daemon {
             Some(db_url),
             None,
             Some(booth),
-            lightbooth::daemon::worker_queue::RenderPlace::Workers,
+            lightbooth::lab::worker_queue::RenderPlace::Workers,
         )
         .await
     }
@@ -209,7 +209,7 @@ impl Daemon {
         db_url: Option<&str>,
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
-        renders: lightbooth::daemon::worker_queue::RenderPlace,
+        renders: lightbooth::lab::worker_queue::RenderPlace,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");

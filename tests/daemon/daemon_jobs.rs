@@ -7,8 +7,8 @@ use crate::common;
 use std::time::Duration;
 
 use common::{get_json, poll_until, post_json, request, Daemon, TOKEN};
-use lightbooth::daemon::jobs::{JOB_QUEUE_CAPACITY, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use lightbooth::daemon::QUEUE_CAPACITY;
+use lightbooth::lab::jobs::{JOB_QUEUE_CAPACITY, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use lightbooth::store::Store;
 
 /// A render of CYLINDER (21 targets) big enough to run for minutes.

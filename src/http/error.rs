@@ -38,7 +38,7 @@ pub enum ApiError {
     MethodNotAllowed(String),
     #[error("{0}")]
     Conflict(String),
-    /// The request names a host this daemon does not answer for (see `service::hosts`).
+    /// The request names a host this daemon does not answer for (see `http::hosts`).
     #[error("{0}")]
     MisdirectedRequest(String),
     #[error("{0}")]
@@ -139,6 +139,20 @@ impl From<StoreError> for ApiError {
         match e {
             StoreError::Conflict(m) => ApiError::Conflict(m),
             other => ApiError::Internal(other.to_string()),
+        }
+    }
+}
+
+/// The one place a workflow's refusal becomes a status.
+impl From<crate::lab::error::LabError> for ApiError {
+    fn from(e: crate::lab::error::LabError) -> Self {
+        use crate::lab::error::LabError;
+        match e {
+            LabError::Invalid(m) => ApiError::BadRequest(m),
+            LabError::NotFound(m) => ApiError::NotFound(m),
+            LabError::Conflict(m) => ApiError::Conflict(m),
+            LabError::Unavailable(m) => ApiError::Unavailable(m),
+            LabError::Internal(m) => ApiError::Internal(m),
         }
     }
 }

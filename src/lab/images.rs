@@ -38,12 +38,12 @@ use utoipa::ToSchema;
 
 use super::jobs;
 use crate::colorimetry::Observer;
+use crate::lab::error::LabError;
+use crate::lab::events::Event;
 use crate::render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
 use crate::render::integrator::{with_cancel, CancelFlag, Transport};
 use crate::render::scene::Camera;
 use crate::render::{Coding, RenderError, Scene};
-use crate::service::error::ApiError;
-use crate::service::Event;
 
 /// Image width (pixels) when a request does not say: the scene camera's
 /// aspect kept, 96 px wide (or the camera's width when smaller).
@@ -186,12 +186,12 @@ impl ImageJobs {
     }
 
     /// A complete image's data; 404 for an unknown id, 409 before it is complete.
-    pub fn data(&self, id: i64) -> Result<(ImageInfo, Arc<CameraImage>), ApiError> {
+    pub fn data(&self, id: i64) -> Result<(ImageInfo, Arc<CameraImage>), LabError> {
         let entries = self.lock();
         let e = entries.get(&id).ok_or_else(|| not_found(id))?;
         match &e.image {
             Some(img) => Ok((e.info.clone(), Arc::clone(img))),
-            None => Err(ApiError::Conflict(format!(
+            None => Err(LabError::Conflict(format!(
                 "image {id} is {}{}; its pixels exist once it is complete",
                 e.info.state,
                 e.info.error.as_deref().map(|m| format!(" ({m})")).unwrap_or_default()
@@ -209,7 +209,7 @@ impl ImageJobs {
         observer: Observer,
         settings: ImageSettings,
         work: impl FnOnce(i64) -> ImageWork,
-    ) -> Result<(i64, bool), ApiError> {
+    ) -> Result<(i64, bool), LabError> {
         let mut entries = self.lock();
         if let Some(e) = entries.values().find(|e| {
             e.info.render_id == render_id
@@ -223,13 +223,13 @@ impl ImageJobs {
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .clone()
-            .ok_or_else(|| ApiError::Unavailable("the daemon is shutting down".into()))?;
+            .ok_or_else(|| LabError::Unavailable("the daemon is shutting down".into()))?;
         let permit = sender.try_reserve().map_err(|e| match e {
-            mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
+            mpsc::error::TrySendError::Full(()) => LabError::Conflict(format!(
                 "the image queue is full: {IMAGE_QUEUE_CAPACITY} images are already waiting; \
                  try again when one finishes, or cancel one"
             )),
-            mpsc::error::TrySendError::Closed(()) => ApiError::Unavailable("the daemon is shutting down".into()),
+            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable("the daemon is shutting down".into()),
         })?;
         let id = {
             let mut next = self.next_id.lock().unwrap_or_else(|p| p.into_inner());
@@ -271,7 +271,7 @@ impl ImageJobs {
     }
 
     /// Cancels a queued or running image (409 once it has ended).
-    pub fn cancel(&self, id: i64) -> Result<ImageInfo, ApiError> {
+    pub fn cancel(&self, id: i64) -> Result<ImageInfo, LabError> {
         let mut entries = self.lock();
         let e = entries.get_mut(&id).ok_or_else(|| not_found(id))?;
         match e.info.state.as_str() {
@@ -282,7 +282,7 @@ impl ImageJobs {
             }
             "running" => e.cancel.cancel(),
             other => {
-                return Err(ApiError::Conflict(format!(
+                return Err(LabError::Conflict(format!(
                     "image {id} is already {other}; nothing to cancel"
                 )))
             }
@@ -437,8 +437,8 @@ fn forget_oldest(entries: &mut BTreeMap<i64, Entry>) {
     }
 }
 
-fn not_found(id: i64) -> ApiError {
-    ApiError::NotFound(format!(
+fn not_found(id: i64) -> LabError {
+    LabError::NotFound(format!(
         "no image {id} (images are kept in memory: a restart, or newer images beyond {} MB, forget them)",
         MAX_KEPT_BYTES >> 20
     ))
@@ -451,14 +451,14 @@ pub fn check_request(
     camera: &Camera,
     transport: &Transport,
     seed: u64,
-) -> Result<(ImageSettings, Coding), ApiError> {
+) -> Result<(ImageSettings, Coding), LabError> {
     let coding: Coding = request
         .coding
         .parse()
-        .map_err(|e| ApiError::BadRequest(format!("field `coding`: {e}")))?;
+        .map_err(|e| LabError::Invalid(format!("field `coding`: {e}")))?;
     let width = request.width.unwrap_or(DEFAULT_WIDTH.min(camera.width));
     if !(8..=camera.width).contains(&width) {
-        return Err(ApiError::BadRequest(format!(
+        return Err(LabError::Invalid(format!(
             "field `width`: {width} is outside 8–{} (the scene camera's width)",
             camera.width
         )));
@@ -466,35 +466,35 @@ pub fn check_request(
     let height = ((width as f64 * camera.height as f64 / camera.width as f64).round() as u32).max(1);
     let max_spp = request.max_spp.unwrap_or(DEFAULT_MAX_SPP);
     if !(1..=MAX_IMAGE_SPP).contains(&max_spp) {
-        return Err(ApiError::BadRequest(format!(
+        return Err(LabError::Invalid(format!(
             "field `max_spp`: {max_spp} is outside 1–{MAX_IMAGE_SPP} (paths per pixel)"
         )));
     }
     let min_spp = request.min_spp.unwrap_or(DEFAULT_MIN_SPP.min(max_spp));
     if !(1..=max_spp).contains(&min_spp) {
-        return Err(ApiError::BadRequest(format!(
+        return Err(LabError::Invalid(format!(
             "field `min_spp`: {min_spp} is outside 1–{max_spp} (`max_spp`)"
         )));
     }
     if let Some(t) = request.target_relative_se {
         if !(t > 0.0 && t <= 1.0) {
-            return Err(ApiError::BadRequest(format!(
+            return Err(LabError::Invalid(format!(
                 "field `target_relative_se`: {t} is outside (0, 1]"
             )));
         }
     }
     let time_budget_s = request.time_budget_s.unwrap_or(MAX_TIME_BUDGET_S);
     if !(time_budget_s > 0.0 && time_budget_s <= MAX_TIME_BUDGET_S) {
-        return Err(ApiError::BadRequest(format!(
+        return Err(LabError::Invalid(format!(
             "field `time_budget_s`: {time_budget_s} is outside (0, {MAX_TIME_BUDGET_S}] seconds"
         )));
     }
     let quantities = coding.channels() as u64 + 6;
     let work = width as u64 * height as u64 * max_spp as u64 * quantities;
     if work > MAX_IMAGE_WORK {
-        return Err(ApiError::BadRequest(format!(
+        return Err(LabError::Invalid(format!(
             "fields `width`, `max_spp`, `coding`: width × height × max_spp × quantities = {width} × {height} × \
-             {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (daemon::images::MAX_IMAGE_WORK); \
+             {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (lab::images::MAX_IMAGE_WORK); \
              ask for fewer pixels, fewer paths per pixel or fewer bands"
         )));
     }

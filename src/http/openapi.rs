@@ -35,7 +35,7 @@ use super::error::ErrorBody;
                        numeric arrays on `wavelength_nm`, radiance in W/(sr·m²·nm); luminance Y in cd/m². Every \
                        error is `{\"error\": {\"code\", \"message\"}}`."
     ),
-    components(schemas(super::events::Event, ErrorBody)),
+    components(schemas(crate::lab::events::Event, ErrorBody)),
     modifiers(&BearerAuth)
 )]
 pub struct ApiDoc;
@@ -187,7 +187,7 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         {"properties": {"target": {"type": "null"}}},
         {"required": ["scene"], "properties": {"scene": {"type": "string"}}},
     ]);
-    // `daemon::images` (`check_request`): 0 < SE target ≤ 1, 0 < time budget ≤ 600 s.
+    // `lab::images` (`check_request`): 0 < SE target ≤ 1, 0 < time budget ≤ 600 s.
     merge(
         &mut schemas["ImageRequest"]["properties"]["target_relative_se"],
         &json!({"exclusiveMinimum": 0.0, "maximum": 1.0}),
@@ -200,7 +200,7 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         &mut schemas["ImageRequest"]["properties"]["coding"],
         &json!({"pattern": format!("^{CODING}$")}),
     );
-    // `daemon::renders` (`settings`): a comma-separated list of known codings.
+    // `lab::renders` (`settings`): a comma-separated list of known codings.
     merge(
         &mut schemas["RenderRequest"]["properties"]["codings"],
         &json!({"pattern": format!("^ *{CODING} *( *, *{CODING} *)*$")}),

@@ -6,8 +6,9 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::service::error::ApiError;
-use crate::service::{AppState, InstrumentStatus};
+use crate::http::error::ApiError;
+use crate::http::AppState;
+use crate::lab::instrument_queue::InstrumentStatus;
 use crate::store::InstrumentRow;
 
 /// How long `/api/health` waits for the database to answer its ping.

@@ -10,9 +10,11 @@ use serde::Serialize;
 use utoipa::ToSchema;
 
 use super::measurements::enqueue_measurement;
-use crate::service::error::ApiError;
-use crate::service::input::{Input, Path};
-use crate::service::{AppState, InstrumentStatus, StudyRequest};
+use crate::http::error::ApiError;
+use crate::http::input::{Input, Path};
+use crate::http::AppState;
+use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::requests::StudyRequest;
 use crate::store::{Job, NewMeasurement, StudyRow};
 
 #[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
@@ -34,11 +36,11 @@ pub struct StudyAccepted {
 /// `measured_first`, progress in `study_progress` events); without it a
 /// study missing measurements is refused with 409 naming them.
 #[utoipa::path(post, path = "/studies", tag = "studies", request_body = Option<StudyRequest>,
-    responses((status = 202, body = StudyAccepted), (status = 400, body = crate::service::error::ErrorBody),
-              (status = 401, body = crate::service::error::ErrorBody),
-              (status = 409, body = crate::service::error::ErrorBody,
+    responses((status = 202, body = StudyAccepted), (status = 400, body = crate::http::error::ErrorBody),
+              (status = 401, body = crate::http::error::ErrorBody),
+              (status = 409, body = crate::http::error::ErrorBody,
                description = "measurements are missing, the instrument queue cannot take them, or the render queue is full"),
-              (status = 503, body = crate::service::error::ErrorBody, description = "measurements are missing and the instrument is unavailable")),
+              (status = 503, body = crate::http::error::ErrorBody, description = "measurements are missing and the instrument is unavailable")),
     security(("bearer" = [])))]
 pub async fn start_study(
     State(state): State<AppState>,
@@ -78,7 +80,7 @@ pub async fn start_study(
 }
 
 #[utoipa::path(get, path = "/studies/{id}", tag = "studies", params(("id" = i64, Path)),
-    responses((status = 200, body = StudyRow), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 200, body = StudyRow), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<StudyRow>, ApiError> {
     state
         .store
@@ -91,9 +93,9 @@ pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 /// Cancels a queued study at once, or stops a running one at its next
 /// batch of paths (it then ends `cancelled`); answers with the study as it is now.
 #[utoipa::path(post, path = "/studies/{id}/cancel", tag = "studies", params(("id" = i64, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyRow), (status = 401, body = crate::service::error::ErrorBody),
-              (status = 404, body = crate::service::error::ErrorBody),
-              (status = 409, description = "the study has already ended", body = crate::service::error::ErrorBody)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 202, body = StudyRow), (status = 401, body = crate::http::error::ErrorBody),
+              (status = 404, body = crate::http::error::ErrorBody),
+              (status = 409, description = "the study has already ended", body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn cancel_study(
     State(state): State<AppState>,
@@ -115,10 +117,10 @@ pub async fn cancel_study(
 /// Queues a new study (a new id) with the request of an interrupted,
 /// failed or cancelled one; the old study stays as it ended.
 #[utoipa::path(post, path = "/studies/{id}/retry", tag = "studies", params(("id" = i64, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = StudyAccepted), (status = 401, body = crate::service::error::ErrorBody),
-              (status = 404, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 202, body = StudyAccepted), (status = 401, body = crate::http::error::ErrorBody),
+              (status = 404, body = crate::http::error::ErrorBody),
               (status = 409, description = "the study is not retryable, or the queue is full",
-               body = crate::service::error::ErrorBody)),
+               body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn retry_study(
     State(state): State<AppState>,
@@ -142,7 +144,7 @@ pub async fn retry_study(
 /// (`.svg`), a table (`.csv`) or `study.json`.
 #[utoipa::path(get, path = "/studies/{id}/files/{name}", tag = "studies",
     params(("id" = i64, Path), ("name" = String, Path)),
-    responses((status = 200, description = "the file"), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 200, description = "the file"), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn study_file(
     State(state): State<AppState>,
     Path((id, name)): Path<(i64, String)>,

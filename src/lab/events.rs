@@ -1,19 +1,14 @@
-//! Live events for `/api/events` (server-sent events): instrument state,
-//! measurement progress sample by sample, renders, camera images and
-//! comparisons. The event
-//! name is the `type` field; the data is the whole event as JSON.
+//! What happens in the lab, as it happens: instrument state, measurement
+//! progress sample by sample, renders, camera images, comparisons and
+//! studies. The workflows send [`Event`]s on one broadcast channel (the
+//! bus); the HTTP layer streams them as server-sent events (`/api/events`,
+//! `http::sse`), where the event name is [`Event::name`] (the `type` field)
+//! and the data is the whole event as JSON.
 
-use std::convert::Infallible;
-use std::time::Duration;
-
-use axum::extract::State;
-use axum::response::sse::{self, KeepAlive, Sse};
-use futures_util::stream::{Stream, StreamExt};
 use serde::Serialize;
-use tokio_stream::wrappers::{errors::BroadcastStreamRecvError, BroadcastStream};
 use utoipa::ToSchema;
 
-use super::{AppState, InstrumentStatus};
+use super::instrument_queue::InstrumentStatus;
 use crate::store::MeasurementState;
 
 #[derive(Clone, Debug, Serialize, ToSchema)]
@@ -75,7 +70,7 @@ pub enum Event {
         study_id: i64,
         message: String,
     },
-    /// A camera image after each pass (see `daemon::images`).
+    /// A camera image after each pass (see `lab::images`).
     ImageProgress {
         image_id: i64,
         render_id: i64,
@@ -122,30 +117,7 @@ impl Event {
     }
 }
 
-/// `GET /api/events`: the current instrument status first, then every event.
-#[utoipa::path(get, path = "/events", tag = "events",
-    responses((status = 200, description = "text/event-stream of Event objects; the SSE event name is the `type` field")))]
-pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Result<sse::Event, Infallible>>> {
-    let first = Event::InstrumentStatus {
-        status: state.status.borrow().clone(),
-    };
-    let rx = state.events.subscribe();
-    let live = BroadcastStream::new(rx).map(|item| match item {
-        Ok(event) => to_sse(&event),
-        Err(BroadcastStreamRecvError::Lagged(n)) => Ok(sse::Event::default()
-            .event("lagged")
-            .data(format!("{{\"type\":\"lagged\",\"missed\":{n}}}"))),
-    });
-    let mut shutting_down = state.shutting_down.clone();
-    let stream = futures_util::stream::once(async move { to_sse(&first) })
-        .chain(live)
-        .take_until(async move {
-            let _ = shutting_down.wait_for(|down| *down).await;
-        });
-    Sse::new(stream).keep_alive(KeepAlive::new().interval(Duration::from_secs(15)))
-}
-
-fn to_sse(event: &Event) -> Result<sse::Event, Infallible> {
-    let data = serde_json::to_string(event).unwrap_or_else(|e| format!("{{\"type\":\"error\",\"message\":\"{e}\"}}"));
-    Ok(sse::Event::default().event(event.name()).data(data))
-}
+/// The bus: every workflow sends on it, every event stream subscribes.
+/// Lagging subscribers miss events (and are told so) rather than slowing
+/// the lab.
+pub type EventBus = tokio::sync::broadcast::Sender<Event>;

@@ -18,9 +18,9 @@ use crate::charts::{self, LineSeriesData};
 use crate::colorimetry::Observer;
 use crate::display::fit::{CalibrationPlan, MeasuredPatch};
 use crate::display::fit_profile;
-use crate::service::error::{ApiError, ErrorBody};
-use crate::service::input::{Input, Path, Query};
-use crate::service::AppState;
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::input::{Input, Path, Query};
+use crate::http::AppState;
 use crate::store::{DisplayProfileRow, MeasurementState};
 
 /// The most patches one profile may be fitted from (the plan at 32 steps has 108).

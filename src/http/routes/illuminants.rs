@@ -13,9 +13,9 @@ use utoipa::ToSchema;
 use super::measurements::download;
 use super::reflectances::requested_standard;
 use crate::calibration::measured::{self, create_illuminant};
-use crate::service::error::{ApiError, ErrorBody};
-use crate::service::input::{Input, Path};
-use crate::service::AppState;
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::input::{Input, Path};
+use crate::http::AppState;
 use crate::store::IlluminantRow;
 
 #[derive(Deserialize, ToSchema)]

@@ -7,8 +7,8 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::service::error::ApiError;
-use crate::service::AppState;
+use crate::http::error::ApiError;
+use crate::http::AppState;
 use crate::store::BoothRow;
 
 #[derive(Serialize, ToSchema)]

@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::broadcast;
 
 use crate::colorimetry::{Observer, Xyz};
-use crate::service::Event;
+use crate::lab::events::Event;
 use crate::store::{Store, StoreError, WorkerJobKind};
 
 /// Where a daemon's comparisons, renders and studies run.

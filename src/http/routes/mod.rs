@@ -38,7 +38,7 @@ pub use scenes::*;
 pub use sessions::*;
 pub use studies::*;
 
-use super::{events, openapi, AppState};
+use super::{openapi, sse, AppState};
 
 /// Every path of the API (relative to `/api`) with its handlers. Each
 /// `routes!` entry takes its path and methods from the handlers'
@@ -93,7 +93,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(list_illuminants, create_illuminant_route))
         .routes(routes!(get_illuminant))
         .routes(routes!(illuminant_csv))
-        .routes(routes!(events::stream))
+        .routes(routes!(sse::stream))
         .routes(routes!(mock_faults))
         .routes(routes!(mock_display))
         .routes(routes!(display_calibration_plan))

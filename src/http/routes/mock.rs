@@ -7,9 +7,9 @@ use axum::http::StatusCode;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use crate::service::error::ApiError;
-use crate::service::input::Input;
-use crate::service::AppState;
+use crate::http::error::ApiError;
+use crate::http::input::Input;
+use crate::http::AppState;
 
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -21,7 +21,7 @@ pub struct MockFaults {
 
 /// Injects faults into the simulated PR-650 (only when the daemon runs with `--mock`).
 #[utoipa::path(post, path = "/mock/faults", tag = "instruments", request_body = MockFaults,
-    responses((status = 204), (status = 400, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody)),
+    responses((status = 204), (status = 400, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn mock_faults(
     State(state): State<AppState>,
@@ -46,7 +46,7 @@ pub struct MockDisplay {
 /// Shows a colour on the simulated display the simulated PR-650 looks at
 /// (only with `--mock`): the calibration page calls it with each patch it shows.
 #[utoipa::path(post, path = "/mock/display", tag = "instruments", request_body = MockDisplay,
-    responses((status = 204), (status = 400, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody)),
+    responses((status = 204), (status = 400, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn mock_display(
     State(state): State<AppState>,

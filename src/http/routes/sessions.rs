@@ -6,9 +6,9 @@ use axum::Json;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::service::error::ApiError;
-use crate::service::input::Input;
-use crate::service::AppState;
+use crate::http::error::ApiError;
+use crate::http::input::Input;
+use crate::http::AppState;
 use crate::store::SessionRow;
 
 #[derive(Deserialize, ToSchema)]
@@ -32,7 +32,7 @@ pub struct Created {
 }
 
 #[utoipa::path(post, path = "/sessions", tag = "sessions", request_body = NewSession,
-    responses((status = 201, body = Created), (status = 400, body = crate::service::error::ErrorBody)),
+    responses((status = 201, body = Created), (status = 400, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn create_session(
     State(state): State<AppState>,

@@ -10,9 +10,12 @@ use utoipa::ToSchema;
 
 use crate::charts;
 use crate::export::mat::MatFile;
-use crate::service::error::ApiError;
-use crate::service::input::{check_paging, Input, Path, Query};
-use crate::service::{AppState, Event, InstrumentStatus, MeasurementJob};
+use crate::http::error::ApiError;
+use crate::http::input::{check_paging, Input, Path, Query};
+use crate::http::AppState;
+use crate::lab::events::Event;
+use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::instrument_queue::MeasurementJob;
 use crate::store::{
     ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, MeasurementSummary,
     NewMeasurement,
@@ -43,9 +46,9 @@ pub struct Accepted {
 }
 
 #[utoipa::path(post, path = "/measurements", tag = "measurements", request_body = Option<StartMeasurement>,
-    responses((status = 202, body = Accepted), (status = 400, body = crate::service::error::ErrorBody),
-              (status = 401, body = crate::service::error::ErrorBody), (status = 409, body = crate::service::error::ErrorBody),
-              (status = 503, body = crate::service::error::ErrorBody)),
+    responses((status = 202, body = Accepted), (status = 400, body = crate::http::error::ErrorBody),
+              (status = 401, body = crate::http::error::ErrorBody), (status = 409, body = crate::http::error::ErrorBody),
+              (status = 503, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_measurement(
     State(state): State<AppState>,
@@ -155,9 +158,9 @@ const CANCEL_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
     params(("id" = i64, Path, description = "measurement id")),
     responses((status = 200, body = MeasurementSummary, description = "cancelled"),
               (status = 202, body = MeasurementSummary, description = "stopping"),
-              (status = 401, body = crate::service::error::ErrorBody),
-              (status = 404, body = crate::service::error::ErrorBody),
-              (status = 409, body = crate::service::error::ErrorBody, description = "already finished")),
+              (status = 401, body = crate::http::error::ErrorBody),
+              (status = 404, body = crate::http::error::ErrorBody),
+              (status = 409, body = crate::http::error::ErrorBody, description = "already finished")),
     security(("bearer" = [])))]
 pub async fn cancel_measurement(
     State(state): State<AppState>,
@@ -254,7 +257,7 @@ pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<Measur
 
 #[utoipa::path(get, path = "/measurements/{id}", tag = "measurements",
     params(("id" = i64, Path, description = "measurement id")),
-    responses((status = 200, body = MeasurementDetail), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 200, body = MeasurementDetail), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_measurement(
     State(state): State<AppState>,
     Path(id): Path<i64>,

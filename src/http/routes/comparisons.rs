@@ -11,9 +11,9 @@ use utoipa::ToSchema;
 use super::{download, find_scene};
 use crate::comparison::{mean_sd, SceneSummary};
 use crate::export::mat::MatFile;
-use crate::service::error::ApiError;
-use crate::service::input::Path;
-use crate::service::AppState;
+use crate::http::error::ApiError;
+use crate::http::input::Path;
+use crate::http::AppState;
 use crate::store::ComparisonRow;
 
 /// A coding's figures of merit over a scene's targets.
@@ -134,7 +134,7 @@ pub fn coding_order(c: &str) -> (u32, u32) {
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = SceneComparison), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = SceneComparison), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn scene_comparisons(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -143,7 +143,7 @@ pub async fn scene_comparisons(
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "text/csv")))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, content_type = "text/csv")))]
 pub async fn scene_comparisons_csv(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -162,7 +162,7 @@ pub async fn scene_comparisons_csv(
 /// and char matrices `target` and `coding` (one row each), so
 /// `table(cellstr(target), cellstr(coding), dE00, ...)` rebuilds the table.
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.mat", tag = "comparisons", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "application/x-matlab-data")))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, content_type = "application/x-matlab-data")))]
 pub async fn scene_comparisons_mat(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -209,7 +209,7 @@ pub async fn scene_comparisons_mat(
 /// coding with ±1 SD), `speed.svg` (render time against ΔE per coding).
 #[utoipa::path(get, path = "/scenes/{scene}/charts/{chart}", tag = "comparisons",
     params(("scene" = String, Path), ("chart" = String, Path, description = "chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg")),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, content_type = "image/svg+xml"), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, content_type = "image/svg+xml"), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn scene_chart(
     State(state): State<AppState>,
     Path((scene, chart)): Path<(String, String)>,
@@ -222,11 +222,11 @@ pub async fn scene_chart(
         )));
     }
     let svg = match chart.as_str() {
-        "chromaticity.svg" => crate::service::scene_charts::chromaticity(&c, &info, state.config.observer),
-        "profile.svg" => crate::service::scene_charts::profile(&c, &info),
-        "rms.svg" => crate::service::scene_charts::rms(&c),
-        "de.svg" => crate::service::scene_charts::delta_e(&c),
-        "speed.svg" => crate::service::scene_charts::speed(&state, &c).await,
+        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, state.config.observer),
+        "profile.svg" => crate::http::scene_charts::profile(&c, &info),
+        "rms.svg" => crate::http::scene_charts::rms(&c),
+        "de.svg" => crate::http::scene_charts::delta_e(&c),
+        "speed.svg" => crate::http::scene_charts::speed(&state, &c).await,
         other => {
             return Err(ApiError::NotFound(format!(
                 "no chart `{other}`: choose chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg"

@@ -71,10 +71,15 @@ use super::study_measurements::wait_for_measurements;
 use super::worker_queue::{PublishedScene, RenderConfig, WorkerQueue};
 use crate::colorimetry::{xyz_from_radiance, Lab, Observer, Xyz};
 use crate::comparison::{compare_point, delta_e_pair};
+use crate::lab::error::LabError;
+use crate::lab::events::Event;
+use crate::lab::requests::RenderRequest;
+use crate::lab::requests::SceneInfo;
+use crate::lab::requests::StudyRequest;
+use crate::lab::services::BoxFuture;
+use crate::lab::services::RenderService;
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
-use crate::service::error::ApiError;
-use crate::service::{BoxFuture, Event, RenderRequest, RenderService, SceneInfo, StudyRequest};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{Booth, Job, JobEnd, NewComparison, NewRender, Store, WorkerJobKind};
 use crate::study::report::report_files;
@@ -534,17 +539,17 @@ impl Renderer {
 
     /// The settings of a render request, each field checked against its
     /// limit (400 naming the field and the limit).
-    fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, ApiError> {
+    fn settings(&self, request: &RenderRequest) -> Result<RenderSettings, LabError> {
         let codings = match &request.codings {
             Some(list) => {
                 let codings = list
                     .split(',')
                     .map(|c| c.parse::<Coding>())
                     .collect::<Result<Vec<_>, _>>()
-                    .map_err(|e| ApiError::BadRequest(format!("field `codings`: {e}")))?;
+                    .map_err(|e| LabError::Invalid(format!("field `codings`: {e}")))?;
                 for (i, c) in codings.iter().enumerate() {
                     if codings[..i].contains(c) {
-                        return Err(ApiError::BadRequest(format!("field `codings`: `{c}` is named twice")));
+                        return Err(LabError::Invalid(format!("field `codings`: `{c}` is named twice")));
                     }
                 }
                 codings
@@ -566,7 +571,7 @@ impl Renderer {
         };
         if let Some(n) = request.samples {
             if !(2..=MAX_RENDER_SAMPLES).contains(&n) {
-                return Err(ApiError::BadRequest(format!(
+                return Err(LabError::Invalid(format!(
                     "field `samples`: {n} is outside 2–{MAX_RENDER_SAMPLES} (paths per target)"
                 )));
             }
@@ -574,7 +579,7 @@ impl Renderer {
         }
         if let Some(b) = request.bounces {
             if b > MAX_RENDER_BOUNCES {
-                return Err(ApiError::BadRequest(format!(
+                return Err(LabError::Invalid(format!(
                     "field `bounces`: {b} is above the limit {MAX_RENDER_BOUNCES}"
                 )));
             }
@@ -862,7 +867,7 @@ fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(Str
 
 impl Renderer {
     /// The study options of an API request, checked field by field.
-    fn study_plan(&self, request: &StudyRequest) -> Result<(Vec<PathBuf>, StudyOptions), ApiError> {
+    fn study_plan(&self, request: &StudyRequest) -> Result<(Vec<PathBuf>, StudyOptions), LabError> {
         let paths = match &request.scenes {
             None => self.scenes.iter().map(|s| s.path.clone()).collect(),
             Some(list) => list
@@ -872,7 +877,7 @@ impl Renderer {
                 .map(|id| {
                     self.entry(id).map(|e| e.path.clone()).ok_or_else(|| {
                         let names: Vec<&str> = self.scenes.iter().map(|s| s.id.as_str()).collect();
-                        ApiError::BadRequest(format!(
+                        LabError::Invalid(format!(
                             "field `scenes`: no scene `{id}`; available: {}",
                             names.join(", ")
                         ))
@@ -881,24 +886,24 @@ impl Renderer {
                 .collect::<Result<Vec<_>, _>>()?,
         };
         if paths.is_empty() {
-            return Err(ApiError::BadRequest("field `scenes`: name at least one scene".into()));
+            return Err(LabError::Invalid("field `scenes`: name at least one scene".into()));
         }
         let against = match request.against.as_deref().unwrap_or("measurements") {
             "measurements" => Against::Measurements,
             "reference" => Against::Reference,
             other => {
-                return Err(ApiError::BadRequest(format!(
+                return Err(LabError::Invalid(format!(
                     "field `against`: `{other}` is neither `measurements` nor `reference`"
                 )))
             }
         };
         let seeds = request.seeds.unwrap_or(8);
         if !(1..=64).contains(&seeds) {
-            return Err(ApiError::BadRequest(format!("field `seeds`: {seeds} is outside 1–64")));
+            return Err(LabError::Invalid(format!("field `seeds`: {seeds} is outside 1–64")));
         }
         let failure_map = request.failure_map.unwrap_or(false);
         if failure_map && !paths.iter().any(|p| p.file_stem().is_some_and(|s| s == "cylinder")) {
-            return Err(ApiError::BadRequest(
+            return Err(LabError::Invalid(
                 "field `failure_map`: the failure maps need the `cylinder` scene".into(),
             ));
         }
@@ -908,7 +913,7 @@ impl Renderer {
             .filter(|t| !t.trim().is_empty())
             .map(|t| t.parse::<crate::study::auto::Tolerance>())
             .transpose()
-            .map_err(|e| ApiError::BadRequest(format!("field `auto`: {e}")))?;
+            .map_err(|e| LabError::Invalid(format!("field `auto`: {e}")))?;
         let options = StudyOptions {
             auto,
             codings: self.codings.clone(),
@@ -1027,27 +1032,27 @@ impl Renderer {
 
     /// Queues a render of a scene (validated settings, the scene file read
     /// off the async workers).
-    async fn queue_render(&self, scene: String, settings: RenderSettings) -> Result<i64, ApiError> {
+    async fn queue_render(&self, scene: String, settings: RenderSettings) -> Result<i64, LabError> {
         let path = self
             .entry(&scene)
             .map(|e| e.path.clone())
-            .ok_or_else(|| ApiError::NotFound(format!("no scene `{scene}`")))?;
+            .ok_or_else(|| LabError::NotFound(format!("no scene `{scene}`")))?;
         let (loaded, hash) = load_scene_blocking(path)
             .await
-            .map_err(|e| ApiError::Internal(e.to_string()))?;
+            .map_err(|e| LabError::Internal(e.to_string()))?;
         if let Some(workers) = &self.workers {
             self.check_worker_share().await?;
             let id = self
                 .record(&scene, &settings, hash)
                 .await
-                .map_err(|e| ApiError::Internal(e.to_string()))?;
+                .map_err(|e| LabError::Internal(e.to_string()))?;
             self.hand_to_workers(workers, Job::Render, id, &scene).await?;
             return Ok(id);
         }
         let create = async {
             self.record(&scene, &settings, hash)
                 .await
-                .map_err(|e| ApiError::Internal(e.to_string()))
+                .map_err(|e| LabError::Internal(e.to_string()))
         };
         let work = Work::Render {
             scene_id: scene.clone(),
@@ -1059,13 +1064,13 @@ impl Renderer {
     }
 
     /// Queues a study (its request checked field by field).
-    async fn queue_study(&self, request: StudyRequest) -> Result<i64, ApiError> {
+    async fn queue_study(&self, request: StudyRequest) -> Result<i64, LabError> {
         let (paths, options) = self.study_plan(&request)?;
         let create = async {
             self.store
                 .create_study(&serde_json::to_value(&request).unwrap_or_default())
                 .await
-                .map_err(ApiError::from)
+                .map_err(LabError::from)
         };
         if let Some(workers) = &self.workers {
             self.check_worker_share().await?;
@@ -1087,10 +1092,10 @@ impl Renderer {
     /// 409 when this daemon already has [`jobs::JOB_QUEUE_CAPACITY`] renders
     /// and studies waiting for or running on workers: its share of the
     /// shared queue is bounded as its own queue is.
-    async fn check_worker_share(&self) -> Result<(), ApiError> {
+    async fn check_worker_share(&self) -> Result<(), LabError> {
         let waiting = self.store.unfinished_worker_jobs_requested().await?;
         if waiting >= jobs::JOB_QUEUE_CAPACITY as i64 {
-            return Err(ApiError::Conflict(format!(
+            return Err(LabError::Conflict(format!(
                 "the render queue is full: {waiting} renders and studies of this daemon are waiting for \
                  or running on render workers; wait for one to finish (GET /api/renders, /api/studies)"
             )));
@@ -1100,7 +1105,7 @@ impl Renderer {
 
     /// Queues a recorded render or study row for the workers; if that fails
     /// the row is failed with the reason (it would never run otherwise).
-    async fn hand_to_workers(&self, workers: &WorkerQueue, job: Job, id: i64, scene: &str) -> Result<(), ApiError> {
+    async fn hand_to_workers(&self, workers: &WorkerQueue, job: Job, id: i64, scene: &str) -> Result<(), LabError> {
         let kind = match job {
             Job::Render => WorkerJobKind::Render,
             Job::Study => WorkerJobKind::Study,
@@ -1108,7 +1113,7 @@ impl Renderer {
         if let Err(e) = workers.queue_row(kind, id, scene).await {
             let why = format!("cannot queue this {} for the render workers: {e}", job.noun());
             self.store.end_job(job, id, JobEnd::Failed, &why).await?;
-            return Err(ApiError::Internal(why));
+            return Err(LabError::Internal(why));
         }
         Ok(())
     }
@@ -1116,7 +1121,7 @@ impl Renderer {
     /// Cancels a render or study left to the workers: a queued one ends at
     /// once, a running one is flagged for its worker. False when no worker
     /// job has it (it runs here).
-    async fn cancel_on_workers(&self, job: Job, id: i64) -> Result<bool, ApiError> {
+    async fn cancel_on_workers(&self, job: Job, id: i64) -> Result<bool, LabError> {
         let kind = match job {
             Job::Render => WorkerJobKind::Render,
             Job::Study => WorkerJobKind::Study,
@@ -1147,13 +1152,13 @@ impl Renderer {
     }
 
     /// A new job with the request of an ended one (see the [jobs](super::jobs) doc).
-    async fn retry_job(&self, job: Job, id: i64) -> Result<i64, ApiError> {
+    async fn retry_job(&self, job: Job, id: i64) -> Result<i64, LabError> {
         let noun = job.noun();
-        let not_found = || ApiError::NotFound(format!("no {noun} {id}"));
-        let retryable = |state: &str| -> Result<(), ApiError> {
+        let not_found = || LabError::NotFound(format!("no {noun} {id}"));
+        let retryable = |state: &str| -> Result<(), LabError> {
             match state {
                 "interrupted" | "failed" | "cancelled" => Ok(()),
-                other => Err(ApiError::Conflict(format!(
+                other => Err(LabError::Conflict(format!(
                     "{noun} {id} is {other}; only an interrupted, failed or cancelled {noun} can be retried"
                 ))),
             }
@@ -1163,7 +1168,7 @@ impl Renderer {
                 let row = self.store.get_render(id).await?.ok_or_else(not_found)?;
                 retryable(&row.state)?;
                 let settings: RenderSettings = serde_json::from_value(row.settings.clone())
-                    .map_err(|e| ApiError::Internal(format!("render {id}'s stored settings: {e}")))?;
+                    .map_err(|e| LabError::Internal(format!("render {id}'s stored settings: {e}")))?;
                 let new = self.queue_render(row.scene.clone(), settings).await?;
                 tracing::info!(render_id = new, retry_of = id, "render retried");
                 Ok(new)
@@ -1179,7 +1184,7 @@ impl Renderer {
                     fields.remove("measured_first");
                 }
                 let request: StudyRequest = serde_json::from_value(stored)
-                    .map_err(|e| ApiError::Internal(format!("study {id}'s stored request: {e}")))?;
+                    .map_err(|e| LabError::Internal(format!("study {id}'s stored request: {e}")))?;
                 let new = self.queue_study(request).await?;
                 tracing::info!(study_id = new, retry_of = id, "study retried");
                 Ok(new)
@@ -1200,25 +1205,25 @@ impl RenderService for Renderer {
             .collect()
     }
 
-    fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, ApiError>> {
+    fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, LabError>> {
         Box::pin(async move {
             if self.entry(&scene).is_none() {
-                return Err(ApiError::NotFound(format!("no scene `{scene}`")));
+                return Err(LabError::NotFound(format!("no scene `{scene}`")));
             }
             let settings = self.settings(&request)?;
             self.queue_render(scene, settings).await
         })
     }
 
-    fn check_study(&self, request: &StudyRequest) -> Result<(), ApiError> {
+    fn check_study(&self, request: &StudyRequest) -> Result<(), LabError> {
         self.study_plan(request).map(|_| ())
     }
 
-    fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, ApiError>> {
+    fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, LabError>> {
         Box::pin(async move { self.queue_study(request).await })
     }
 
-    fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), ApiError>> {
+    fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), LabError>> {
         Box::pin(async move {
             if self.workers.is_some() && self.cancel_on_workers(job, id).await? {
                 return Ok(());
@@ -1227,11 +1232,11 @@ impl RenderService for Renderer {
         })
     }
 
-    fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, ApiError>> {
+    fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, LabError>> {
         Box::pin(async move { self.retry_job(job, id).await })
     }
 
-    fn start_image(self: Arc<Self>, render_id: i64, request: ImageRequest) -> BoxFuture<Result<(i64, bool), ApiError>> {
+    fn start_image(self: Arc<Self>, render_id: i64, request: ImageRequest) -> BoxFuture<Result<(i64, bool), LabError>> {
         Box::pin(async move { self.queue_image(render_id, request).await })
     }
 
@@ -1239,11 +1244,11 @@ impl RenderService for Renderer {
         Some(&self.images)
     }
 
-    fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), ApiError>> {
+    fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), LabError>> {
         Box::pin(async move {
             self.white_xyz(&scene, &booth)
                 .await
-                .map_err(|e| ApiError::Internal(format!("the CIELAB white of `{scene}`: {e}")))
+                .map_err(|e| LabError::Internal(format!("the CIELAB white of `{scene}`: {e}")))
         })
     }
 }
@@ -1252,22 +1257,22 @@ impl Renderer {
     /// Queues a camera image of a render (see [`super::images`]): the
     /// render's scene, which must not have changed since, with the render's
     /// transport and seed; the request checked against the limits first.
-    async fn queue_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), ApiError> {
+    async fn queue_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), LabError> {
         let row = self
             .store
             .get_render(render_id)
             .await?
-            .ok_or_else(|| ApiError::NotFound(format!("no render {render_id}")))?;
+            .ok_or_else(|| LabError::NotFound(format!("no render {render_id}")))?;
         let settings: RenderSettings = serde_json::from_value(row.settings.clone())
-            .map_err(|e| ApiError::Internal(format!("render {render_id}'s stored settings: {e}")))?;
+            .map_err(|e| LabError::Internal(format!("render {render_id}'s stored settings: {e}")))?;
         let entry = self
             .entry(&row.scene)
-            .ok_or_else(|| ApiError::NotFound(format!("render {render_id}'s scene `{}` is gone", row.scene)))?;
+            .ok_or_else(|| LabError::NotFound(format!("render {render_id}'s scene `{}` is gone", row.scene)))?;
         let (scene, hash) = load_scene_blocking(entry.path.clone())
             .await
-            .map_err(|e| ApiError::Internal(e.to_string()))?;
+            .map_err(|e| LabError::Internal(e.to_string()))?;
         if hash != row.scene_hash {
-            return Err(ApiError::Conflict(format!(
+            return Err(LabError::Conflict(format!(
                 "the scene file of `{}` changed since render {render_id}: render the scene again, then ask for its images",
                 row.scene
             )));
@@ -1275,7 +1280,7 @@ impl Renderer {
         let camera = scene
             .camera
             .clone()
-            .ok_or_else(|| ApiError::Conflict(format!("scene `{}` has no [camera]: no image to render", row.scene)))?;
+            .ok_or_else(|| LabError::Conflict(format!("scene `{}` has no [camera]: no image to render", row.scene)))?;
         let transport = settings.transport();
         let (checked, coding) = camera_images::check_request(&request, &camera, &transport, settings.seed)?;
         let (scaled, camera_settings) = camera_images::camera_settings(&checked, coding, &camera, self.observer);

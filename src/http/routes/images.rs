@@ -1,5 +1,5 @@
 //! `/api/renders/{id}/images` and `/api/images`: camera images of a render
-//! in any coding (queued, progressive, cancellable; see `daemon::images`),
+//! in any coding (queued, progressive, cancellable; see `lab::images`),
 //! what the dashboard's image viewer shows of them (display PNG, pixel
 //! probe and its chart, ΔE00 map between two codings) and their files
 //! (OpenEXR, MATLAB) through [`crate::export::image`].
@@ -14,14 +14,14 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
 use super::measurements::download;
-use crate::daemon::images::{ImageInfo, ImageJobs, ImageRequest};
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::image_views::{self, DeltaEMap, Probe};
+use crate::http::input::{Input, Path, Query};
+use crate::http::AppState;
+use crate::lab::images::{ImageInfo, ImageJobs, ImageRequest};
 use crate::render::camera::CameraImage;
-use crate::service::error::{ApiError, ErrorBody};
-use crate::service::image_views::{self, DeltaEMap, Probe};
-use crate::service::input::{Input, Path, Query};
-use crate::service::AppState;
 
-fn service(state: &AppState) -> Result<&Arc<dyn crate::service::RenderService>, ApiError> {
+fn service(state: &AppState) -> Result<&Arc<dyn crate::lab::services::RenderService>, ApiError> {
     state
         .renders
         .as_ref()
@@ -44,7 +44,7 @@ pub struct ImageAccepted {
 }
 
 /// Queues a camera image of a render in one coding (202), or answers the
-/// image already made with the same settings. Limits: see `daemon::images`
+/// image already made with the same settings. Limits: see `lab::images`
 /// (400 naming the field and the limit).
 #[utoipa::path(post, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
     request_body = ImageRequest,

@@ -26,8 +26,8 @@ use std::sync::Mutex;
 
 use tokio::sync::mpsc;
 
+use crate::lab::error::LabError;
 use crate::render::integrator::CancelFlag;
-use crate::service::error::ApiError;
 use crate::store::{Job, JobEnd, Store};
 
 /// Renders and studies that may wait for the worker; more get 409.
@@ -106,22 +106,22 @@ impl<W: Send + 'static> JobQueue<W> {
     /// Admits a job: reserves a slot (409 when the queue is full, 503 when
     /// the daemon is shutting down), then records the row with `create`
     /// and queues `work`. Nothing is written for a refused request.
-    pub async fn enqueue<F>(&self, job: Job, create: F, work: W) -> Result<i64, ApiError>
+    pub async fn enqueue<F>(&self, job: Job, create: F, work: W) -> Result<i64, LabError>
     where
-        F: std::future::Future<Output = Result<i64, ApiError>>,
+        F: std::future::Future<Output = Result<i64, LabError>>,
     {
         let sender = self
             .sender
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .clone()
-            .ok_or_else(|| ApiError::Unavailable("the daemon is shutting down".into()))?;
+            .ok_or_else(|| LabError::Unavailable("the daemon is shutting down".into()))?;
         let permit = sender.try_reserve().map_err(|e| match e {
-            mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
+            mpsc::error::TrySendError::Full(()) => LabError::Conflict(format!(
                 "the render queue is full: {JOB_QUEUE_CAPACITY} renders and studies are already waiting; \
                  try again when one finishes, or cancel one"
             )),
-            mpsc::error::TrySendError::Closed(()) => ApiError::Unavailable("the daemon is shutting down".into()),
+            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable("the daemon is shutting down".into()),
         })?;
         let id = create.await?;
         let cancel = CancelFlag::default();
@@ -139,13 +139,13 @@ impl<W: Send + 'static> JobQueue<W> {
     /// Cancels a render or study: a queued one ends `cancelled` at once, a
     /// running one is stopped (the worker records `cancelled` within a batch
     /// of paths). 404 for an unknown id, 409 when it has already ended.
-    pub async fn cancel(&self, job: Job, id: i64) -> Result<(), ApiError> {
+    pub async fn cancel(&self, job: Job, id: i64) -> Result<(), LabError> {
         let noun = job.noun();
         let state = self
             .store
             .job_state(job, id)
             .await?
-            .ok_or_else(|| ApiError::NotFound(format!("no {noun} {id}")))?;
+            .ok_or_else(|| LabError::NotFound(format!("no {noun} {id}")))?;
         match state.as_str() {
             "queued" => {
                 if self
@@ -170,7 +170,7 @@ impl<W: Send + 'static> JobQueue<W> {
                 tracing::info!(job = noun, id, "cancellation requested");
                 Ok(())
             }
-            other => Err(ApiError::Conflict(format!(
+            other => Err(LabError::Conflict(format!(
                 "{noun} {id} is already {other}; nothing to cancel"
             ))),
         }

@@ -10,13 +10,13 @@
 //! - Probe of a box of pixels: the mean of the pixels' means, and its
 //!   standard error √(Σ SEᵢ²) / n (the pixels' paths are independent).
 //! - ΔE map: both images through CIELAB with the scene's white (the one the
-//!   daemon's comparisons use, see `daemon::renders`), CIEDE2000 per pixel,
+//!   daemon's comparisons use, see `lab::renders`), CIEDE2000 per pixel,
 //!   drawn with the viridis colour map from 0 to a rounded-up maximum.
 
 use crate::charts::{self, LineSeriesData};
 use crate::colorimetry::{ciede2000, Lab, Xyz};
+use crate::http::error::ApiError;
 use crate::render::camera::{CameraImage, L, M, S, X, Y, Z};
-use crate::service::error::ApiError;
 
 /// The tone-mapped display image as PNG bytes (see the module doc).
 pub fn display_png(img: &CameraImage) -> Result<Vec<u8>, ApiError> {

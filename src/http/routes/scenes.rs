@@ -10,9 +10,11 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::service::error::ApiError;
-use crate::service::input::{Input, Path};
-use crate::service::{AppState, RenderRequest, SceneInfo};
+use crate::http::error::ApiError;
+use crate::http::input::{Input, Path};
+use crate::http::AppState;
+use crate::lab::requests::RenderRequest;
+use crate::lab::requests::SceneInfo;
 use crate::store::{Job, RenderRow};
 
 pub(super) fn scenes(state: &AppState) -> Result<Vec<SceneInfo>, ApiError> {
@@ -31,19 +33,19 @@ pub(super) fn find_scene(state: &AppState, id: &str) -> Result<SceneInfo, ApiErr
     })
 }
 
-#[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
+#[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
 pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<SceneInfo>>, ApiError> {
     Ok(Json(scenes(&state)?))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = SceneInfo), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = SceneInfo), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_scene(State(state): State<AppState>, Path(scene): Path<String>) -> Result<Json<SceneInfo>, ApiError> {
     Ok(Json(find_scene(&state, &scene)?))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/targets", tag = "scenes", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<String>)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<String>)))]
 pub async fn scene_targets(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -52,7 +54,7 @@ pub async fn scene_targets(
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 200, body = Vec<RenderRow>)))]
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<RenderRow>)))]
 pub async fn scene_renders(
     State(state): State<AppState>,
     Path(scene): Path<String>,
@@ -69,10 +71,10 @@ pub struct RenderAccepted {
 
 #[utoipa::path(post, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
     request_body = Option<RenderRequest>,
-    responses((status = 202, body = RenderAccepted), (status = 400, body = crate::service::error::ErrorBody),
-              (status = 401, body = crate::service::error::ErrorBody), (status = 404, body = crate::service::error::ErrorBody),
-              (status = 409, description = "the render queue is full", body = crate::service::error::ErrorBody),
-              (status = 503, body = crate::service::error::ErrorBody)),
+    responses((status = 202, body = RenderAccepted), (status = 400, body = crate::http::error::ErrorBody),
+              (status = 401, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody),
+              (status = 409, description = "the render queue is full", body = crate::http::error::ErrorBody),
+              (status = 503, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn start_render(
     State(state): State<AppState>,
@@ -95,7 +97,7 @@ pub async fn start_render(
 }
 
 #[utoipa::path(get, path = "/renders/{id}", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 200, body = RenderRow), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 200, body = RenderRow), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<RenderRow>, ApiError> {
     state
         .store
@@ -108,9 +110,9 @@ pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> R
 /// Cancels a queued render at once, or stops a running one within a batch
 /// of paths (it then ends `cancelled`); answers with the render as it is now.
 #[utoipa::path(post, path = "/renders/{id}/cancel", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = RenderRow), (status = 401, body = crate::service::error::ErrorBody),
-              (status = 404, body = crate::service::error::ErrorBody),
-              (status = 409, description = "the render has already ended", body = crate::service::error::ErrorBody)),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 202, body = RenderRow), (status = 401, body = crate::http::error::ErrorBody),
+              (status = 404, body = crate::http::error::ErrorBody),
+              (status = 409, description = "the render has already ended", body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn cancel_render(
     State(state): State<AppState>,
@@ -132,10 +134,10 @@ pub async fn cancel_render(
 /// Queues a new render (a new id) with the scene and settings of an
 /// interrupted, failed or cancelled one; the old render stays as it ended.
 #[utoipa::path(post, path = "/renders/{id}/retry", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 503, description = "this daemon runs without the renderer", body = crate::service::error::ErrorBody), (status = 202, body = RenderAccepted), (status = 401, body = crate::service::error::ErrorBody),
-              (status = 404, body = crate::service::error::ErrorBody),
+    responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 202, body = RenderAccepted), (status = 401, body = crate::http::error::ErrorBody),
+              (status = 404, body = crate::http::error::ErrorBody),
               (status = 409, description = "the render is not retryable, or the queue is full",
-               body = crate::service::error::ErrorBody)),
+               body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
 pub async fn retry_render(
     State(state): State<AppState>,
@@ -157,7 +159,7 @@ pub async fn retry_render(
 
 /// The scene's camera view of a render (tone-mapped sRGB), once the render is complete.
 #[utoipa::path(get, path = "/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
-    responses((status = 200, content_type = "image/png"), (status = 404, body = crate::service::error::ErrorBody)))]
+    responses((status = 200, content_type = "image/png"), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn render_preview(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let png = state.store.render_preview(id).await?.ok_or_else(|| {
         ApiError::NotFound(format!(

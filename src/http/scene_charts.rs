@@ -3,9 +3,10 @@
 //! measurement black and last) in [`crate::charts`].
 
 use super::routes::{coding_order, SceneComparison};
-use super::{AppState, SceneInfo};
+use super::AppState;
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 use crate::colorimetry::{Observer, Xyz};
+use crate::lab::requests::SceneInfo;
 
 /// Targets in the scene's own order (the cylinder's 21 heights bottom to top).
 fn target_index(info: &SceneInfo, target: &str) -> usize {
@@ -21,7 +22,7 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
 /// The cost on the speed chart's x axis: the wall time of each coding
 /// rendered alone at the same fixed number of paths per target
 /// (`coding_cost.CODING.wall_seconds` of a stored render, see
-/// `daemon::renders`), and the axis title. The rays traced are stored beside
+/// `lab::renders`), and the axis title. The rays traced are stored beside
 /// it (`coding_cost.CODING.rays`) but do not separate the codings: the same
 /// paths trace the same rays in every coding, which differ only in the
 /// arithmetic per ray (channels), so rays cannot be this chart's axis. The

@@ -14,9 +14,9 @@ use super::measurements::download;
 use crate::calibration::measured::{self, create_reflectance};
 use crate::calibration::reflectance::OutOfRange;
 use crate::calibration::standard::{WhiteStandard, SHIPPED};
-use crate::service::error::{ApiError, ErrorBody};
-use crate::service::input::{Input, Path, Query};
-use crate::service::AppState;
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::input::{Input, Path, Query};
+use crate::http::AppState;
 use crate::store::ReflectanceRow;
 
 #[derive(Deserialize, ToSchema)]

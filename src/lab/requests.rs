@@ -1,0 +1,63 @@
+//! The requests the lab's render and study workflows take, and what they
+//! answer about scenes: the shapes the REST API, the CLI and render workers
+//! share (deserialised from JSON by the HTTP layer, checked here).
+
+use serde::Serialize;
+use utoipa::ToSchema;
+
+/// Options of a study started through the API (see `lightbooth study`).
+#[derive(Clone, Debug, Default, serde::Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StudyRequest {
+    /// Comma-separated scene ids, each named once, at most 64
+    /// (`routes::MAX_STUDY_SCENES`); default: every scene.
+    pub scenes: Option<String>,
+    /// `measurements` (default) or `reference` (a converged spectral rendering).
+    pub against: Option<String>,
+    /// Seeds, 1–64 (default 8).
+    #[schema(minimum = 1, maximum = 64)]
+    pub seeds: Option<u32>,
+    /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
+    pub sweeps: Option<bool>,
+    /// Also compute the failure maps.
+    pub failure_map: Option<bool>,
+    /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
+    pub auto: Option<String>,
+    /// Against measurements: first measure, through the instrument queue,
+    /// every target of the chosen scenes that has no complete measurement;
+    /// the study waits for them (reporting progress), then runs. Without it,
+    /// a study missing measurements is refused with 409 naming them.
+    pub measure_missing: Option<bool>,
+    /// The measurements queued for this study by `measure_missing` (set by the daemon).
+    #[serde(skip_deserializing, default, skip_serializing_if = "Vec::is_empty")]
+    #[schema(read_only)]
+    pub measured_first: Vec<i64>,
+}
+
+/// A scene as the API lists it.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct SceneInfo {
+    pub id: String,
+    pub title: String,
+    pub targets: Vec<String>,
+}
+
+/// Options of a render request.
+#[derive(Clone, Debug, Default, serde::Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RenderRequest {
+    /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
+    pub codings: Option<String>,
+    /// Radiometer paths per target, 2–4194304 (`lab::jobs::MAX_RENDER_SAMPLES`:
+    /// two paths at least for a standard error; the renderer's own cap on
+    /// adaptive sampling at most).
+    #[schema(minimum = 2, maximum = 4_194_304)]
+    pub samples: Option<u32>,
+    /// A cap on indirect bounces, 0–64 (`lab::jobs::MAX_RENDER_BOUNCES`;
+    /// 5 emulates RADIANCE `-ab 5`). Absent: no cap, Russian roulette ends
+    /// the paths (unbiased). A capped render's result says so:
+    /// `truncated_at_bounces` (`null` when uncapped) and `truncation_note`.
+    #[schema(minimum = 0, maximum = 64)]
+    pub bounces: Option<u32>,
+    pub seed: Option<u64>,
+}
