@@ -210,16 +210,10 @@ fn book_builds_without_warnings() {
         complaints.join("\n")
     );
     for page in ["index.html", "setup.html", "instruments/pr650-protocol.html"] {
-        assert!(
-            out_dir.path().join(page).exists(),
-            "the built book has no {page}"
-        );
+        assert!(out_dir.path().join(page).exists(), "the built book has no {page}");
     }
     // The images the chapters show are in the built book.
-    assert!(out_dir
-        .path()
-        .join("screenshots/issue-9/after/page-study.png")
-        .exists());
+    assert!(out_dir.path().join("screenshots/issue-9/after/page-study.png").exists());
 }
 
 #[test]
@@ -300,11 +294,8 @@ fn book_and_readme_code_blocks_name_their_language() {
         for (i, line) in read(&file).lines().enumerate() {
             let ticks: String = line.chars().take_while(|&c| c == '`').collect();
             match &fence {
-                Some(open) => {
-                    if line.trim() == open.as_str() {
-                        fence = None;
-                    }
-                }
+                Some(open) if line.trim() == open.as_str() => fence = None,
+                Some(_) => {}
                 None if ticks.len() >= 3 => {
                     if line[ticks.len()..].trim().is_empty() {
                         untagged.push(format!("{}:{}", shown(&file), i + 1));
