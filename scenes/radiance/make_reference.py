@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reference luminances for plastic_sphere.rad and metal_sphere.rad from RADIANCE 6 itself.
 
-How the numbers in tests/radiance_import.rs were obtained (run from anywhere):
+How the numbers in tests/render/radiance_import.rs were obtained (run from anywhere):
 
     python3 -m venv /tmp/radvenv && /tmp/radvenv/bin/pip install pyradiance==1.3.1 numpy
     /tmp/radvenv/bin/python scenes/radiance/make_reference.py > scenes/radiance/reference.json

@@ -31,9 +31,9 @@
 //! (γ 2.25/2.2/2.15, 100 cd/m² white, black 0.5 %, Judd–Vos) it is 1.09 at
 //! 8 bits, 0.27 at 10 and 0.069 at 12: it falls 4× per two bits. It is a
 //! worst case over the whole cube; mid-range colours stay under 0.5 at 8
-//! bits (the round-trip test of `tests/display_calibration.rs`). The
+//! bits (the round-trip test of `tests/study/display_calibration.rs`). The
 //! worst round trips of 2000 colours spread over the drive cube were 0.75,
-//! 0.15 and 0.047 at 8, 10 and 12 bits; `tests/stimulus.rs` checks that round trips
+//! 0.15 and 0.047 at 8, 10 and 12 bits; `tests/study/stimulus.rs` checks that round trips
 //! through the simulated display stay under it.
 
 use serde::Serialize;

@@ -135,7 +135,7 @@ impl Pcg32 {
     /// arithmetic progression mod 2⁶⁴ — a rank-1 lattice, not independent
     /// draws — and standard errors computed as if they were independent
     /// were wrong by up to 2× (pinned by
-    /// `tests/render_standard_errors.rs`).
+    /// `tests/render/render_standard_errors.rs`).
     pub fn for_sample(seed: u64, target: u64, sample: u64) -> Pcg32 {
         let state = splitmix64(splitmix64(seed ^ splitmix64(target.wrapping_add(0x9e37_79b9))) ^ sample);
         Pcg32::new(state, 0x5851_f42d_4c95_7f2d)

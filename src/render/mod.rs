@@ -599,7 +599,10 @@ pub fn truth_settings(target_id: &str) -> RenderSettings {
 pub fn scene_hash(scene: &Scene) -> Result<String, RenderError> {
     let mut contents = Vec::with_capacity(scene.files.len());
     for f in &scene.files {
-        contents.push(std::fs::read(f).map_err(|e| RenderError::Io(format!("{}: {e}", f.display())))?);
+        // Bounded as at load time: the files were regular files then, and
+        // are read again the same way (a file swapped for a FIFO since is
+        // refused, not waited on).
+        contents.push(scene::input_file::read_bytes(f).map_err(|e| RenderError::Io(e.to_string()))?);
     }
     Ok(scene_hash_of(contents.iter().map(Vec::as_slice)))
 }

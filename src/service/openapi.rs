@@ -13,7 +13,7 @@
 //! `target` only with its `scene`, open and closed bounds on numbers, the
 //! forms of coding lists and fault specs, and ids in paths as plain digits
 //! (`minimum: 0`). Schemathesis checks both directions
-//! (`tests/api_schemathesis.rs`): every request the document allows is
+//! (`tests/api/api_schemathesis.rs`): every request the document allows is
 //! accepted, and every one it forbids is refused.
 
 use std::sync::OnceLock;

@@ -4,8 +4,8 @@
 //! the database holds afterwards — measurements lost or duplicated,
 //! comparisons missing — plus the kill test (SIGKILL of one daemon
 //! mid-measurement). `benches/booths_scale.rs` (the scale test, with
-//! figures) and `tests/booths_scale.rs` (a small load in CI) both include
-//! this file with `#[path]`, beside `tests/common/mod.rs` as `common`.
+//! figures) and `tests/daemon/booths_scale.rs` (a small load in CI) both use
+//! it as `common::booths`.
 //!
 //! Every process is started by one small function: [`spawn_serve`] for a
 //! booth's daemon, [`spawn_worker`] for a render worker (`lightbooth
@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
 
-use crate::common::{get_json, poll_until, post_json, TOKEN};
+use super::{get_json, poll_until, post_json, TOKEN};
 
 /// How each `serve` child is started.
 #[derive(Clone, Debug)]

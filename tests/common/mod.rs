@@ -3,6 +3,9 @@
 
 #![allow(dead_code)]
 
+pub mod booths;
+pub mod pr655_wire;
+
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;

@@ -1,5 +1,5 @@
 """Measures through a simulated Photo Research instrument with PsychoPy's own
-client classes (PyPI `psychopy-photoresearch`), for tests/psychopy_clients.rs.
+client classes (PyPI `psychopy-photoresearch`), for tests/instrument/psychopy_clients.rs.
 
     psychopy_client.py PR655|PR650 PORT TRUTH.csv CMF.csv
 

@@ -1,4 +1,4 @@
-"""A stand-in for the `psychopy` package, for tests/psychopy_clients.rs.
+"""A stand-in for the `psychopy` package, for tests/instrument/psychopy_clients.rs.
 
 psychopy-photoresearch (PsychoPy's Photo Research clients, PyPI) imports only
 `psychopy.logging` from PsychoPy itself; installing all of PsychoPy for that

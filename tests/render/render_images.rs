@@ -5,7 +5,7 @@
 //! paths: the radiometer's Sobol field samples, not the camera's pixels),
 //! and the ΔE00 map's properties.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 use std::path::Path;

@@ -3,7 +3,7 @@
 //! measurement, its spectrum stays on the PR-670's 2 nm grid, and requests
 //! are checked against the PR-670's own limits.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -14,7 +14,7 @@
 //!   reason once the server is back, not `running` forever nor `interrupted`
 //!   by a neighbour, and `/api/health` answers 503 `down` meanwhile.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
@@ -397,6 +397,7 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
     wait_for_samples(north.addr, &url, 2).await;
 
     cluster.stop();
+    let stopped = std::time::Instant::now();
     // During the outage: 503 `down`, saying the database is unavailable.
     let mut health_during = None;
     let outage_deadline = tokio::time::Instant::now() + Duration::from_secs(20);
@@ -415,12 +416,14 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
     let health = health_during.expect("/api/health never answered 503 during the outage");
+    let noticed = stopped.elapsed();
     assert_eq!(health["status"], "down", "{health}");
     assert_eq!(health["database"], "unavailable", "{health}");
     // Long enough for the next sample's write to fail and for both leases
     // to be overdue many times over by the daemons' clocks.
     tokio::time::sleep(Duration::from_secs(12)).await;
     cluster.start();
+    let restarted = std::time::Instant::now();
 
     let done = poll_until(south.addr, &url, Duration::from_secs(120), |v| {
         v["state"] != "queued" && v["state"] != "running"
@@ -440,15 +443,98 @@ async fn a_postgres_outage_mid_measurement_left_it_running_forever_and_health_an
         done["samples"].as_array().unwrap().len() >= 2,
         "the samples written are kept"
     );
+    let resolved = restarted.elapsed();
     // Both daemons carry on: healthy, and north measures again.
     poll_until(north.addr, "/api/health", Duration::from_secs(60), |v| {
         v["status"] == "ok"
     })
     .await;
+    let healthy = restarted.elapsed();
+    println!(
+        "PostgreSQL outage of {:.1} s: health 503 `down` after {:.2} s; after the restart the measurement was `failed` ({} samples kept) within {:.2} s, health `ok` within {:.2} s",
+        (restarted - stopped).as_secs_f64(),
+        noticed.as_secs_f64(),
+        done["samples"].as_array().unwrap().len(),
+        resolved.as_secs_f64(),
+        healthy.as_secs_f64()
+    );
     let url = start_measurement(north.addr, 2).await;
     let again = poll_until(north.addr, &url, Duration::from_secs(60), |v| {
         v["state"] != "queued" && v["state"] != "running"
     })
     .await;
     assert_eq!(again["state"], "complete", "{again}");
+}
+
+/// kill -9 at arbitrary moments of a measurement, as the probe did
+/// (44 runs): a daemon on one SQLite file is killed while measuring and
+/// restarted on the same file, `LIGHTBOOTH_KILL_RUNS` times (default 4).
+/// Every sample the API showed before the kill is still stored after the
+/// restart, no measurement is `complete` with fewer samples than it asked
+/// for, and the killed one is `interrupted` the moment the new daemon is
+/// ready. Prints the figures (`-- --nocapture`).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn kill_9_at_arbitrary_moments_loses_no_sample_shown_before_the_kill() {
+    let runs: u32 = std::env::var("LIGHTBOOTH_KILL_RUNS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4);
+    let dir = tempfile::tempdir().unwrap();
+    let db = format!("sqlite://{}", dir.path().join("kill.sqlite").display());
+    let (mut shown_total, mut kept_total, mut lost_total) = (0usize, 0usize, 0usize);
+    let mut ready_ms = Vec::new();
+    let mut url = String::new();
+    let mut daemon = spawn_serve(&db, "default", 0.3, 1.0, 60.0).await;
+    for run in 0..=runs {
+        if run > 0 {
+            // The previous run's measurement, seen by its successor.
+            let shown = {
+                let (_, m) = get_json(daemon.addr, &url).await;
+                m["samples"].as_array().map_or(0, |s| s.len())
+            };
+            daemon.kill();
+            let restarted = std::time::Instant::now();
+            daemon = spawn_serve(&db, "default", 0.3, 1.0, 60.0).await;
+            ready_ms.push(restarted.elapsed().as_millis());
+            let (_, m) = get_json(daemon.addr, &url).await;
+            let kept = m["samples"].as_array().unwrap().len();
+            assert!(
+                m["state"] == "interrupted" || (m["state"] == "complete" && kept == 20),
+                "run {run}: after kill -9 and restart: {m}"
+            );
+            assert!(
+                kept >= shown,
+                "run {run}: {shown} samples shown before the kill, {kept} kept"
+            );
+            shown_total += shown;
+            kept_total += kept;
+            lost_total += shown.saturating_sub(kept);
+            if run == runs {
+                break;
+            }
+        }
+        wait_until_idle(daemon.addr).await;
+        url = start_measurement(daemon.addr, 20).await;
+        // A different moment each run: after 1..=5 samples, plus a part
+        // of the next sample's integration.
+        let after = 1 + (run as usize * 7) % 5;
+        wait_for_samples(daemon.addr, &url, after).await;
+        tokio::time::sleep(Duration::from_millis(37 * (run as u64 % 9))).await;
+    }
+    let (_, page) = get_json(daemon.addr, "/api/measurements?limit=100").await;
+    let items = page["items"].as_array().unwrap();
+    assert_eq!(items.len(), runs as usize, "{page}");
+    for m in items {
+        assert!(
+            m["state"] != "complete" || m["samples_taken"] == m["samples_requested"],
+            "a measurement recorded complete with samples missing: {m}"
+        );
+    }
+    ready_ms.sort();
+    println!(
+        "kill -9 probe: {runs} runs; samples shown before the kill {shown_total}, stored after the restart {kept_total}, lost {lost_total}; restart to ready median {} ms (min {}, max {})",
+        ready_ms[ready_ms.len() / 2],
+        ready_ms[0],
+        ready_ms[ready_ms.len() - 1]
+    );
 }

@@ -9,10 +9,9 @@
 //! each, compared): the other daemons find them in the database, so the
 //! test does not wait for every daemon to render (and preview) each scene.
 
-mod common;
+use crate::common;
 
-#[path = "common/booths.rs"]
-mod booths;
+use crate::common::booths;
 
 use std::time::Duration;
 

@@ -5,7 +5,7 @@
 //! bar; no console errors, failed requests or HTTP errors. Screenshots go to
 //! `target/screenshots/` (`viewer-*.png`).
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -6,7 +6,7 @@
 //! Screenshots of every page go to `target/screenshots/` (path printed). `tests/setup.sh` installs the browser and
 //! the npm package.
 
-mod common;
+use crate::common;
 
 use common::Daemon;
 

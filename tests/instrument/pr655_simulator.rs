@@ -13,8 +13,7 @@ use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
 use lightbooth::instrument::InstrumentError;
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
 
-#[path = "common/pr655_wire.rs"]
-mod pr655_wire;
+use crate::common::pr655_wire;
 use pr655_wire::{ask, d65_radiance};
 
 /// A narrow line: a Gaussian of σ = 1 nm at `nm`, about 100 cd/m² near 555 nm.

@@ -18,7 +18,7 @@ fn icosphere(r: f64, levels: usize) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
 }
 
 fn write_obj(path: &Path, v: &[[f64; 3]], f: &[[usize; 3]]) {
-    let mut s = String::from("# icosphere written by tests/render_meshes.rs\n");
+    let mut s = String::from("# icosphere written by tests/render/render_meshes.rs\n");
     for p in v {
         s.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
     }

@@ -4,7 +4,7 @@
 //! measure and show its charts without one request refused. `tests/setup.sh`
 //! installs the browser and the npm package.
 
-mod common;
+use crate::common;
 
 use common::{request, Daemon};
 

@@ -18,8 +18,7 @@ use lightbooth::instrument::{
 };
 use lightbooth::spectrum::SpectralUnit;
 
-#[path = "common/pr655_wire.rs"]
-mod pr655_wire;
+use crate::common::pr655_wire;
 use pr655_wire::{ask, d65_radiance};
 
 fn mock(switches: Pr655Switches, faults: Vec<Fault>) -> MockHandle {

@@ -4,7 +4,7 @@
 //! tile, save the reflectance, see its chart and flags, download its scene
 //! CSV. The screenshot goes to `target/screenshots/material.png`.
 
-mod common;
+use crate::common;
 
 use common::Daemon;
 

@@ -6,7 +6,7 @@
 //! instrument's noise, and its scene CSV must render back to the measured
 //! luminance. Bad requests get 4xx errors naming what is wrong.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::Command;

@@ -4,7 +4,7 @@
 //! stored with its measurement ids, its charts, and bad requests refused
 //! with the field named. Truth: the simulated display's own primaries and γ.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 //! request with `samples` and `bounces` of 4e9 used to tie up the renderer.
 //! A whole daemon on loopback, as a script would reach it.
 
-mod common;
+use crate::common;
 
 use common::{get_json, post_json, Daemon, TOKEN};
 

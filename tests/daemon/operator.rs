@@ -3,7 +3,7 @@
 //! or running measurement, and a study that measures what it is missing
 //! instead of failing.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

@@ -2,7 +2,7 @@
 //! (`POST /api/mock/faults`, the same `KIND[@DELAY][:RATE]` syntax as
 //! `serve --mock-fault`), seen from outside: over HTTP on loopback.
 
-mod common;
+use crate::common;
 
 use std::time::{Duration, Instant};
 

@@ -7,7 +7,7 @@
 //! measurement interrupted (samples kept) by a neighbour once its lease
 //! runs out, with nothing else touched.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;

@@ -6,7 +6,7 @@
 //! renderer fails one job and never the daemon, and a second daemon on the
 //! same file is refused.
 
-mod common;
+use crate::common;
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;

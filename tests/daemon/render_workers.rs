@@ -7,10 +7,9 @@
 //! a cancel reaches it; a worker killed (SIGKILL) mid-render has the render
 //! finished by another worker, never marked interrupted.
 
-mod common;
+use crate::common;
 
-#[path = "common/booths.rs"]
-mod booths;
+use crate::common::booths;
 
 use std::path::PathBuf;
 use std::process::Command;

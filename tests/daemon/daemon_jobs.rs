@@ -2,7 +2,7 @@
 //! broken request leaves behind, against a whole daemon in-process (real
 //! SQLite file, real HTTP on loopback, the simulated PR-650 on a pty).
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

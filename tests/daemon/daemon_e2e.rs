@@ -3,7 +3,7 @@
 //! test plays a MATLAB script and a dashboard: it starts measurements,
 //! follows the server-sent events, and reads results back.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

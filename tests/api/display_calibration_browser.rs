@@ -4,7 +4,7 @@
 //! Screenshots go to `target/screenshots/`. `tests/setup.sh` installs the
 //! browser and the npm package.
 
-mod common;
+use crate::common;
 
 use common::Daemon;
 
