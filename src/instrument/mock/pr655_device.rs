@@ -1,5 +1,5 @@
 //! The simulated PR-655/PR-670's firmware: the byte-level state machine on
-//! the master end of the pty, after `shared/docs/pr655-670-protocol.md`.
+//! the master end of the pty, after `docs/src/instruments/pr655-670-protocol.md`.
 //! Every behaviour the sheet leaves uncertain is a switch in
 //! [`Pr655Switches`] (its section 13); the defaults are the first choice
 //! listed there, except where the sheet's section 1 grades a client habit

@@ -2,7 +2,7 @@
 //! take single samples as `M0` followed by `D5` and `D2` (the averaging loop
 //! above it is [`crate::instrument::averaging`], shared by every model).
 //!
-//! Practice from `shared/docs/pr650-protocol.md` §6 that this follows:
+//! Practice from `docs/src/instruments/pr650-protocol.md` §6 that this follows:
 //! - remote mode must be entered within ~5 s of power-on; the handshake (`B1`)
 //!   is retried, and if it never answers the operator is told to power-cycle;
 //! - the input buffer is flushed before every command;

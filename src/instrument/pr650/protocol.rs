@@ -2,7 +2,7 @@
 //! reply formatting (the simulator's side). Pure: no I/O, no clocks, and the
 //! parsers never panic, whatever the bytes (property-tested below).
 //!
-//! The reference is `shared/docs/pr650-protocol.md` (sections 1–4). Where it
+//! The reference is `docs/src/instruments/pr650-protocol.md` (sections 1–4). Where it
 //! marks a point \[uncertain\], the choice made here is commented at the spot.
 //!
 //! Replies are split into lines at CR, LF or CR LF, with empty lines skipped

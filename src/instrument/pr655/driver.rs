@@ -3,7 +3,7 @@
 //! spectrum) followed by `D2` (the same measurement's XYZ). The averaging
 //! loop above it is [`crate::instrument::averaging`], shared by every model.
 //!
-//! Practice from `shared/docs/pr655-670-protocol.md` that this follows:
+//! Practice from `docs/src/instruments/pr655-670-protocol.md` that this follows:
 //! - remote mode as the working clients enter it (section 0): `Q` first on
 //!   the PR-670 (it answers `PHOTO` only once), then `P`,`H`,`O`,`T`,`O` as
 //!   five separate writes with no terminator, then the 12-byte banner

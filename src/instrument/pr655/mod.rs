@@ -1,5 +1,5 @@
 //! The Photo Research PR-655 and PR-670 SpectraScan: one remote protocol
-//! ([`protocol`], after `shared/docs/pr655-670-protocol.md`), one driver
+//! ([`protocol`], after `docs/src/instruments/pr655-670-protocol.md`), one driver
 //! ([`driver`]) and their settings ([`Pr655Settings`], the files
 //! `instruments/pr655.toml` and `instruments/pr670.toml`).
 //!

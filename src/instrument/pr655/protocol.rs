@@ -3,7 +3,7 @@
 //! clocks, and the parsers never panic, whatever the bytes (property-tested
 //! below).
 //!
-//! The reference is `shared/docs/pr655-670-protocol.md`; section numbers
+//! The reference is `docs/src/instruments/pr655-670-protocol.md`; section numbers
 //! below are its sections. Its confidence markers decide how strict a parser
 //! is:
 //!
