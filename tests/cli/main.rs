@@ -1,4 +1,4 @@
-//! The command line: arguments, `lightbooth color`, and the build (no dependency compiled twice).
+//! The command line and its manual: arguments, `lightbooth color`, the build (no dependency compiled twice), and the book (it builds, its links resolve, its console examples run).
 //!
 //! One test crate (`cargo test --release --test cli`); each module below
 //! was its own crate before, and keeps its file and its tests' names
@@ -6,4 +6,5 @@
 
 mod cli_arguments;
 mod cli_colorimetry;
+mod book_examples;
 mod feature_pins;
