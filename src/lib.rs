@@ -1,25 +1,78 @@
 //! lightbooth: checks, in the lab, that a rendered stimulus matches the real
 //! scene.
 //!
-//! It drives a PR-650 spectroradiometer in a lighting booth, keeps every
-//! spectrum, renders the same scene in every colour coding (RGB, sRGB, N-step
-//! spectral) and reports how far each rendering is from the measurement, and
-//! at what cost in time. The study it automates is Ruppertsberg & Bloj (2006),
-//! "Rendering complex scenes for psychophysics using RADIANCE: How accurate
-//! can you get?", JOSA A 23(3).
+//! It drives a Photo Research spectroradiometer (PR-650, PR-655, PR-670) in a
+//! lighting booth, keeps every spectrum, renders the same scene in every
+//! colour coding (RGB, sRGB, N-step spectral, full spectral) and reports how
+//! far each rendering is from the measurement, and at what cost in time. The
+//! study it automates is Ruppertsberg & Bloj (2006), "Rendering complex
+//! scenes for psychophysics using RADIANCE: How accurate can you get?",
+//! JOSA A 23(3).
 //!
-//! Where things live:
+//! # Where things live
+//!
+//! Science, pure and without I/O:
 //!
 //! - [`spectrum`]: spectra with their grid and unit; CSV in and out.
 //! - [`reference_data`]: CIE matching functions, illuminants and reflectance
 //!   sets compiled into the binary.
 //! - [`colorimetry`]: XYZ, chromaticity, CIELAB, ΔE*ab, CIEDE2000, RGB spaces.
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
-//! - [`instrument`]: the PR-650 (protocol, serial transport, driver) and its simulator.
-//! - [`render`]: the built-in spectral renderer, every colour coding in one pass.
-//! - [`display`]: a display profile measured with the PR-650, and stimulus conversion.
-//! - [`calibration`]: reflectances and lamp spectra measured in the booth
+//! - [`comparison`]: the figures of merit of a rendering against a
+//!   measurement (ΔE, luminance ratio, rms_rel, significance).
+//! - [`calibration`]: reflectances and lamp spectra from measurements
 //!   against a white standard.
+//! - [`display`]: a display profile, and rendered colours turned into
+//!   frame-buffer codes.
+//!
+//! The two instruments of the lab, a real one and a simulated one:
+//!
+//! - [`instrument`]: the `Spectroradiometer` trait, the PR-650 and PR-655/670
+//!   drivers and their simulators on ptys.
+//! - [`render`]: the built-in spectral renderer, every coding in one pass.
+//!
+//! Keeping and showing results:
+//!
+//! - [`store`]: the database (SQLite or PostgreSQL), every raw sample.
+//! - [`charts`]: the charts as SVG; [`export`]: CSV, MAT, EXR and ENVI files.
+//!
+//! The workflows:
+//!
+//! - [`lab`]: measurements (one recorder), the instrument queue, events,
+//!   renders, comparisons, jobs, camera images, calibrations, leases, the
+//!   hand-off to render workers. **A measurement's comparison with every
+//!   coding is computed in [`lab::renders`]** (`Renderer::compare`: it
+//!   renders the scene's target, or reuses the cached render, and applies
+//!   [`comparison`]), and stored by [`store`].
+//! - [`study`]: the study (every coding against measurements or a
+//!   reference, sweeps, failure maps, the automatic choice of settings).
+//!
+//! Serving them:
+//!
+//! - [`http`]: the REST API, server-sent events and dashboards (axum).
+//! - [`worker`]: `lightbooth worker`, a render worker on PostgreSQL.
+//! - [`daemon`]: `lightbooth serve`, wiring it all: [`daemon::run`] starts
+//!   the instrument task, the lab's workflows and the HTTP server.
+//!
+//! The command line (`src/cli/`, in the binary) calls these.
+//!
+//! # The layer rule
+//!
+//! A module may use modules on its own level or below, never above; the
+//! architecture test (`tests/cli/architecture.rs`) reads this table and
+//! every `crate::…` path under `src/`, and fails naming the file, the line
+//! and the forbidden edge. So physics and colour science know nothing of
+//! storage or HTTP, the workflows know nothing of axum, and only the
+//! daemon, which wires it together, names the HTTP layer.
+//!
+//! | level | modules |
+//! |---|---|
+//! | 5 | daemon |
+//! | 4 | http, worker |
+//! | 3 | lab, study |
+//! | 2 | store, charts, export |
+//! | 1 | instrument, render |
+//! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display |
 
 pub mod calibration;
 pub mod charts;

@@ -3,8 +3,8 @@
 //! lamp's spectral power distribution from the white standard alone
 //! ([`illuminant`]), as the study took its materials and illuminants from its
 //! own booth. Pure functions of the stored samples and the standard's
-//! calibration ([`standard`]): no I/O, no database — except [`measured`],
-//! which reads the measurements from the store and stores the results.
+//! calibration ([`standard`]): no I/O, no database ([`crate::lab::calibration`]
+//! reads the measurements from the store and stores the results).
 //!
 //! Uncertainties are standard uncertainties (k = 1), propagated to first
 //! order from the standard errors of the measurements' means (the sample
@@ -12,7 +12,7 @@
 //! calibration uncertainty, taken as independent.
 
 pub mod illuminant;
-pub mod measured;
+
 pub mod reflectance;
 pub mod standard;
 

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 
-use lightbooth::calibration::measured::{self, MeasuredError};
 use lightbooth::calibration::reflectance::OutOfRange;
 use lightbooth::calibration::standard::{WhiteStandard, SHIPPED};
+use lightbooth::lab::calibration::{self as measured, MeasuredError};
 use lightbooth::store::Store;
 
 #[derive(Args, Debug)]

@@ -7,8 +7,8 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 
 use lightbooth::colorimetry::Observer;
-use lightbooth::daemon::lease::Lease;
 use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
+use lightbooth::lab::lease::Lease;
 use lightbooth::render::Coding;
 use lightbooth::store::{Job, Store};
 use lightbooth::study::measure::{measure_with_simulator, SimulatedPr650};

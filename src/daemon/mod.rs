@@ -18,7 +18,6 @@
 
 pub mod db_lock;
 pub mod instrument_task;
-pub mod lease;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -128,7 +127,7 @@ pub async fn run(
     // From here on every measurement, render and study this daemon creates
     // or runs names it, and its lease says it is alive; its heartbeat tells
     // the event clients of the gone daemons' work it interrupts.
-    let lease = lease::Lease::take(
+    let lease = crate::lab::lease::Lease::take(
         &store,
         &options.booth,
         options.lease,

@@ -157,9 +157,9 @@ impl From<crate::lab::error::LabError> for ApiError {
     }
 }
 
-impl From<crate::calibration::measured::MeasuredError> for ApiError {
-    fn from(e: crate::calibration::measured::MeasuredError) -> Self {
-        use crate::calibration::measured::MeasuredError;
+impl From<crate::lab::calibration::MeasuredError> for ApiError {
+    fn from(e: crate::lab::calibration::MeasuredError) -> Self {
+        use crate::lab::calibration::MeasuredError;
         match e {
             MeasuredError::Invalid(m) => ApiError::BadRequest(m),
             MeasuredError::WrongState(m) => ApiError::Conflict(m),

@@ -23,11 +23,13 @@
 //! `render`, `instrument` and the science below them; nothing here names
 //! axum or the HTTP layer.
 
+pub mod calibration;
 pub mod error;
 pub mod events;
 pub mod images;
 pub mod instrument_queue;
 pub mod jobs;
+pub mod lease;
 pub mod measurement;
 pub mod renders;
 pub mod requests;

@@ -1168,7 +1168,7 @@ async fn recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none(
         (2, 0, 1)
     );
     // Recovery returns the rows it marked, with their errors, so the daemon
-    // that noticed can send their events (`daemon::lease`).
+    // that noticed can send their events (`lab::lease`).
     let mut ids: Vec<(&str, i64)> = recovered
         .interrupted
         .iter()

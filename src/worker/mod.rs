@@ -32,7 +32,7 @@ use anyhow::Context;
 use sha2::{Digest, Sha256};
 use tokio::sync::broadcast;
 
-use crate::daemon::lease::Lease;
+use crate::lab::lease::Lease;
 use crate::lab::renders::Renderer;
 use crate::lab::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::render::bundle::SceneBundle;

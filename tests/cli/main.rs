@@ -4,6 +4,7 @@
 //! was its own crate before, and keeps its file and its tests' names
 //! (`cargo test --release --test cli <module>::`).
 
+mod architecture;
 mod book_examples;
 mod cli_arguments;
 mod cli_colorimetry;

@@ -12,10 +12,10 @@ use utoipa::ToSchema;
 
 use super::measurements::download;
 use super::reflectances::requested_standard;
-use crate::calibration::measured::{self, create_illuminant};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
+use crate::lab::calibration::{self as measured, create_illuminant};
 use crate::store::IlluminantRow;
 
 #[derive(Deserialize, ToSchema)]

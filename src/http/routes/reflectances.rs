@@ -11,12 +11,12 @@ use serde::Deserialize;
 use utoipa::ToSchema;
 
 use super::measurements::download;
-use crate::calibration::measured::{self, create_reflectance};
 use crate::calibration::reflectance::OutOfRange;
 use crate::calibration::standard::{WhiteStandard, SHIPPED};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
+use crate::lab::calibration::{self as measured, create_reflectance};
 use crate::store::ReflectanceRow;
 
 #[derive(Deserialize, ToSchema)]

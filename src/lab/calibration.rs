@@ -1,13 +1,14 @@
 //! The calibrations from stored measurements: reads the measurements from
 //! the store, checks that each is complete and has enough good samples,
-//! runs the physics ([`super::reflectance`], [`super::illuminant`]) on the
-//! raw samples, and stores the result with its provenance. The one part of
-//! [`crate::calibration`] that does I/O; the REST API and the CLI share it.
+//! runs the physics ([`crate::calibration::reflectance`],
+//! [`crate::calibration::illuminant`]) on the raw samples, and stores the
+//! result with its provenance. The I/O around the pure
+//! [`crate::calibration`]; the REST API and the CLI share it.
 
-use super::illuminant::{self, Illuminant};
-use super::reflectance::{self, OutOfRange, Reflectance};
-use super::standard::WhiteStandard;
-use super::{CalibrationError, MeanSpectrum};
+use crate::calibration::illuminant::{self, Illuminant};
+use crate::calibration::reflectance::{self, OutOfRange, Reflectance};
+use crate::calibration::standard::WhiteStandard;
+use crate::calibration::{CalibrationError, MeanSpectrum};
 use crate::store::{
     IlluminantRow, MeasurementDetail, MeasurementState, NewCalibration, ReflectanceRow, StandardProvenance, Store,
     StoreError,
