@@ -4,14 +4,16 @@
 //! - one [instrument task](instrument_task) that owns the PR-650 (real, or
 //!   simulated on a pty with `--mock`) and takes queued measurements one at
 //!   a time, writing each sample as it is taken;
-//! - the [renderer service](renders) that renders scenes on the rayon pool
-//!   and stores the comparison of each measurement with every coding, and
-//!   runs the API's renders and studies as bounded, cancellable [jobs];
+//! - the lab's [renderer](crate::lab::renders) that renders scenes on the
+//!   rayon pool and stores the comparison of each measurement with every
+//!   coding, and runs the API's renders and studies as bounded, cancellable
+//!   [jobs](crate::lab::jobs);
 //! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
-//! - a lease in the database, renewed by a heartbeat task, so that daemons
-//!   sharing a PostgreSQL database recover only the work of daemons that are
-//!   gone (see `store/leases.rs`);
-//! - the HTTP [service](crate::http) (REST API, events, dashboards).
+//! - a [lease](crate::lab::lease) in the database, renewed by a heartbeat
+//!   task, so that daemons sharing a PostgreSQL database recover only the
+//!   work of daemons that are gone (see `store/leases.rs`);
+//! - the [HTTP layer](crate::http) (REST API, events, dashboards): the
+//!   daemon is the one module that names it (the layer rule in `lib.rs`).
 //!
 //! [`run`] takes a shutdown future, as mini-redis's server does, so tests
 //! start and stop a whole daemon in-process.
