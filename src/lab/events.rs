@@ -116,8 +116,3 @@ impl Event {
         }
     }
 }
-
-/// The bus: every workflow sends on it, every event stream subscribes.
-/// Lagging subscribers miss events (and are told so) rather than slowing
-/// the lab.
-pub type EventBus = tokio::sync::broadcast::Sender<Event>;
