@@ -62,8 +62,9 @@
 //! architecture test (`tests/cli/architecture.rs`) reads this table and
 //! every `crate::…` path under `src/`, and fails naming the file, the line
 //! and the forbidden edge. So physics and colour science know nothing of
-//! storage or HTTP, the workflows know nothing of axum, and only the
-//! daemon, which wires it together, names the HTTP layer.
+//! storage or HTTP, and the workflows know nothing of axum. Only levels 4
+//! and 5 may name the HTTP layer; today only the daemon, which wires it
+//! together, does (the worker, on level 4 beside it, does not).
 //!
 //! | level | modules |
 //! |---|---|
