@@ -28,7 +28,7 @@ use glam::DVec3;
 
 use lightbooth::render::bvh::Bvh;
 use lightbooth::render::geometry::{Ray, Shape};
-use lightbooth::render::integrator::Pcg32;
+use lightbooth::render::sampling::Pcg32;
 
 /// Mesh sizes: (name, nu); the torus has nu × 2nu quads = 4nu² triangles.
 const MESHES: [(&str, usize); 3] = [("1k", 16), ("100k", 158), ("1M", 500)];

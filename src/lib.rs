@@ -41,9 +41,11 @@
 //! - [`lab`]: measurements (one recorder), the instrument queue, events,
 //!   renders, comparisons, jobs, camera images, calibrations, leases, the
 //!   hand-off to render workers. **A measurement's comparison with every
-//!   coding is computed in [`lab::renders`]** (`Renderer::compare`: it
-//!   renders the scene's target, or reuses the cached render, and applies
-//!   [`comparison`]), and stored by [`store`].
+//!   coding is computed in [`lab::comparisons`]** (`Comparisons::compare`:
+//!   it takes the render of the scene from the store, or has
+//!   [`lab::render_runner`] render it once, resolves the booth's CIELAB
+//!   white, applies [`comparison`]'s figures of merit), and stored by
+//!   [`store`]; [`lab::comparisons::summary`] summarises a scene's per coding.
 //! - [`study`]: the study (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings).
 //!

@@ -31,12 +31,13 @@ use tokio::sync::{broadcast, mpsc, watch};
 use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
 use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
+use crate::lab::comparisons::Comparisons;
 use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::instrument_queue::MeasurementJob;
 use crate::lab::instrument_queue::MockControl;
 use crate::lab::measurement::{self as recorder, Recorder};
-use crate::lab::renders::Renderer;
+use crate::lab::simulated_truth::SimulatedTruth;
 use crate::store::{Booth, MeasurementState, Store};
 
 /// Settings of the simulated PR-650.
@@ -54,7 +55,12 @@ pub struct TaskConfig {
     pub jobs: mpsc::Receiver<MeasurementJob>,
     pub status: watch::Sender<InstrumentStatus>,
     pub events: broadcast::Sender<Event>,
-    pub renderer: Arc<Renderer>,
+    /// Where each complete measurement of a scene target is compared.
+    pub comparisons: Arc<Comparisons>,
+    /// What the simulated instrument measures (with `mock`).
+    pub truth: Arc<SimulatedTruth>,
+    /// The observer of every XYZ computed from a spectrum.
+    pub observer: crate::colorimetry::Observer,
     pub settings: InstrumentSettings,
     /// The booth this instrument measures in; recorded with it.
     pub booth: Booth,
@@ -457,11 +463,7 @@ impl Worker {
 
         // Re-aim the simulated instrument at the scene target.
         if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
-            match self
-                .config
-                .renderer
-                .converged_spectrum(scene, target, &mock.settings.cache_dir)
-            {
+            match self.config.truth.spectrum(scene, target, &mock.settings.cache_dir) {
                 Ok(truth) => {
                     if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
                         return self.finish_failed(
@@ -485,7 +487,7 @@ impl Worker {
         let events = self.config.events.clone();
         let status = self.config.status.clone();
         let of = job.samples;
-        let observer = self.config.renderer.observer();
+        let observer = self.config.observer;
         let stop = cancel.clone();
         let mut on_sample = |s: &Sample| {
             // Blocks this thread until the sample is on disk: the next sample waits.
@@ -550,7 +552,7 @@ impl Worker {
                 // The comparison uses the daemon's observer on both sides; the
                 // stored instrument_x, instrument_y are the instrument's own
                 // (CIE 1931, as the PR-650 reports), never compared or charted.
-                let observer = self.config.renderer.observer();
+                let observer = self.config.observer;
                 let canceller = self.canceller.clone();
                 if let Err(why) = recorder.complete(&avg, observer, &|| canceller.is_shutting_down()) {
                     tracing::error!(error = %why, "cannot store the average");
@@ -577,7 +579,7 @@ impl Worker {
                                 .count();
                             let y_se = avg.luminance_cv * xyz.y / (good.max(1) as f64).sqrt();
                             self.config
-                                .renderer
+                                .comparisons
                                 .compare_later(id, scene.clone(), target.clone(), xyz, y_se)
                         }
                         Err(e) => tracing::error!(error = %e, "cannot compute XYZ of the mean spectrum"),

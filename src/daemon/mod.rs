@@ -4,10 +4,12 @@
 //! - one [instrument task](instrument_task) that owns the PR-650 (real, or
 //!   simulated on a pty with `--mock`) and takes queued measurements one at
 //!   a time, writing each sample as it is taken;
-//! - the lab's [renderer](crate::lab::renders) that renders scenes on the
-//!   rayon pool and stores the comparison of each measurement with every
-//!   coding, and runs the API's renders and studies as bounded, cancellable
-//!   [jobs](crate::lab::jobs);
+//! - the lab's render side: the [scene catalogue](crate::lab::scenes), one
+//!   [render runner](crate::lab::render_runner) on the rayon pool, the
+//!   [comparisons](crate::lab::comparisons) of each measurement with every
+//!   coding, the API's renders, studies and images as bounded, cancellable
+//!   [jobs](crate::lab::render_jobs), and the
+//!   [simulated truth](crate::lab::simulated_truth) with `--mock`;
 //! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
 //! - a [lease](crate::lab::lease) in the database, renewed by a heartbeat
 //!   task, so that daemons sharing a PostgreSQL database recover only the
@@ -35,7 +37,18 @@ use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::mock::Fault;
 use crate::instrument::InstrumentSettings;
+use crate::lab::comparisons::Comparisons;
+use crate::lab::events::EventSink;
+use crate::lab::images::ImageJobs;
 use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::render_jobs::RenderJobs;
+use crate::lab::render_runner::RenderRunner;
+use crate::lab::scenes::SceneCatalog;
+use crate::lab::simulated_truth::SimulatedTruth;
+use crate::lab::study_jobs::StudyRunner;
+use crate::lab::worker_queue::{RenderPlace, WorkerQueue};
+use crate::render::integrator::CancelFlag;
+use crate::render::Coding;
 use crate::store::{Booth, Store};
 
 /// How many measurements may wait for the instrument; more get 409. Enough
@@ -170,35 +183,86 @@ pub async fn run(
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
         reason: "starting".into(),
     });
-    let mut renderer = crate::lab::renders::Renderer::new(
-        options.scenes_dir.clone(),
-        store.clone(),
-        events.clone(),
-        options.codings.clone(),
-        options.render_samples,
-        options.observer,
-        options.mock_world.clone(),
-    )?;
-    let _worker_watch = match options.renders {
-        crate::lab::worker_queue::RenderPlace::Here => None,
-        crate::lab::worker_queue::RenderPlace::Workers => {
+    // The lab's render side (see `lab`): the scenes, loaded once; one
+    // render runner; the comparisons, studies and jobs that use it; and
+    // what the simulated instrument measures.
+    let catalogue = Arc::new(SceneCatalog::from_folder(&options.scenes_dir, options.observer)?);
+    let codings = options
+        .codings
+        .iter()
+        .map(|c| c.parse::<Coding>().map_err(|e| anyhow::anyhow!("coding `{c}`: {e}")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let truth = Arc::new(SimulatedTruth::new(Arc::clone(&catalogue), options.mock_world.clone())?);
+    let workers = match options.renders {
+        RenderPlace::Here => None,
+        RenderPlace::Workers => {
             anyhow::ensure!(
                 store.engine_name() == "postgres",
                 "--renders workers needs a database shared with the render workers: a PostgreSQL one \
                  (--db postgres://…); on an SQLite file the daemon renders itself (--renders here)"
             );
-            let queue = renderer.leave_to_workers().await?;
-            Some(AbortOnDrop(tokio::spawn(queue.watch(WORKER_JOB_POLL))))
+            anyhow::ensure!(
+                options.mock_world.is_none(),
+                "--renders workers cannot be combined with --mock-world: the mock world's scenes are not published to workers"
+            );
+            let queue = WorkerQueue::publish(
+                store.clone(),
+                events.clone(),
+                &catalogue,
+                &codings,
+                options.render_samples,
+                options.observer,
+            )
+            .await?;
+            Some(Arc::new(queue))
         }
     };
-    let renderer = Arc::new(renderer);
-    let job_worker = renderer.run_jobs();
+    let _worker_watch = workers
+        .as_ref()
+        .map(|queue| AbortOnDrop(tokio::spawn(Arc::clone(queue).watch(WORKER_JOB_POLL))));
+    let lab_events = EventSink::bus(events.clone());
+    let shutdown_flag = CancelFlag::default();
+    let runner = Arc::new(RenderRunner::new(
+        store.clone(),
+        Arc::clone(&catalogue),
+        lab_events.clone(),
+        codings.clone(),
+        options.render_samples,
+        options.observer,
+        shutdown_flag.clone(),
+    ));
+    let comparisons = Arc::new(Comparisons::new(
+        store.clone(),
+        Arc::clone(&runner),
+        lab_events.clone(),
+        workers.clone(),
+    ));
+    let studies = Arc::new(StudyRunner::new(
+        store.clone(),
+        Arc::clone(&catalogue),
+        lab_events,
+        codings,
+        options.observer,
+        options.mock_world.clone(),
+        shutdown_flag,
+    ));
+    let render_jobs = Arc::new(RenderJobs::new(
+        store.clone(),
+        runner,
+        studies,
+        Arc::clone(&comparisons),
+        Arc::new(ImageJobs::new(events.clone())),
+        workers,
+    ));
+    let job_worker = render_jobs.run();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {
         store: store.clone(),
         jobs: jobs_rx,
         status: status_tx,
         events: events.clone(),
-        renderer: Arc::clone(&renderer),
+        comparisons,
+        truth,
+        observer: options.observer,
         settings: options.instrument.clone(),
         booth: options.booth.clone(),
         mock: options.mock.then(|| instrument_task::MockSettings {
@@ -226,7 +290,7 @@ pub async fn run(
         jobs: jobs_tx,
         status: status_rx,
         events,
-        renders: Some(Arc::clone(&renderer) as Arc<dyn crate::lab::services::RenderService>),
+        renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
         measurement_cancel: Some(Arc::new(instrument.canceller())),
         shutting_down,
@@ -239,7 +303,7 @@ pub async fn run(
     shutdown.await;
     tracing::info!("shutting down: cancelling the running measurement, render and study; closing the HTTP server");
     cancel_running.shutdown();
-    renderer.shutdown();
+    render_jobs.shutdown();
     let _ = shutting_down_tx.send(true);
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;

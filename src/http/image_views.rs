@@ -10,7 +10,7 @@
 //! - Probe of a box of pixels: the mean of the pixels' means, and its
 //!   standard error √(Σ SEᵢ²) / n (the pixels' paths are independent).
 //! - ΔE map: both images through CIELAB with the scene's white (the one the
-//!   daemon's comparisons use, see `lab::renders`), CIEDE2000 per pixel,
+//!   daemon's comparisons use, see `lab::comparisons`), CIEDE2000 per pixel,
 //!   drawn with the viridis colour map from 0 to a rounded-up maximum.
 
 use crate::charts::{self, LineSeriesData};

@@ -200,7 +200,7 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         &mut schemas["ImageRequest"]["properties"]["coding"],
         &json!({"pattern": format!("^{CODING}$")}),
     );
-    // `lab::renders` (`settings`): a comma-separated list of known codings.
+    // `lab::render_runner` (`settings`): a comma-separated list of known codings.
     merge(
         &mut schemas["RenderRequest"]["properties"]["codings"],
         &json!({"pattern": format!("^ *{CODING} *( *, *{CODING} *)*$")}),

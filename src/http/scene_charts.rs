@@ -2,10 +2,10 @@
 //! selection here, drawing (one palette and marker per coding, the
 //! measurement black and last) in [`crate::charts`].
 
-use super::routes::{coding_order, SceneComparison};
 use super::AppState;
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 use crate::colorimetry::{Observer, Xyz};
+use crate::lab::comparisons::summary::{coding_order, SceneComparisons as SceneComparison};
 use crate::lab::requests::SceneInfo;
 
 /// Targets in the scene's own order (the cylinder's 21 heights bottom to top).
@@ -22,7 +22,7 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
 /// The cost on the speed chart's x axis: the wall time of each coding
 /// rendered alone at the same fixed number of paths per target
 /// (`coding_cost.CODING.wall_seconds` of a stored render, see
-/// `lab::renders`), and the axis title. The rays traced are stored beside
+/// `lab::render_runner`), and the axis title. The rays traced are stored beside
 /// it (`coding_cost.CODING.rays`) but do not separate the codings: the same
 /// paths trace the same rays in every coding, which differ only in the
 /// arithmetic per ray (channels), so rays cannot be this chart's axis. The
@@ -151,8 +151,8 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
         .iter()
         .map(|s| Bar {
             label: s.coding.clone(),
-            value: s.summary.mean_dE76,
-            sd: s.summary.sd_dE76,
+            value: s.summary.mean_de76,
+            sd: s.summary.sd_de76,
         })
         .collect();
     charts::bar_chart(
@@ -182,7 +182,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
             spreads.push(vec![(bound("wall_seconds_min"), bound("wall_seconds_max"))]);
             series.push(ScatterSeries {
                 name: s.coding.clone(),
-                points: vec![(x, s.summary.mean_dE76.max(1e-4))],
+                points: vec![(x, s.summary.mean_de76.max(1e-4))],
                 connect: false,
             });
             labels.push(vec![s.coding.clone()]);

@@ -116,3 +116,28 @@ impl Event {
         }
     }
 }
+
+/// Where a workflow sends its events: the daemon's bus, or nowhere (a
+/// render worker's workflows: the daemon that asked reports the job's end
+/// itself when it sees it in the store).
+#[derive(Clone, Default)]
+pub struct EventSink(Option<tokio::sync::broadcast::Sender<Event>>);
+
+impl EventSink {
+    /// Events sent on `bus`.
+    pub fn bus(bus: tokio::sync::broadcast::Sender<Event>) -> EventSink {
+        EventSink(Some(bus))
+    }
+
+    /// Events dropped (nobody would listen).
+    pub fn nowhere() -> EventSink {
+        EventSink(None)
+    }
+
+    /// Sends `event` to whoever listens now (nobody listening is no error).
+    pub fn send(&self, event: Event) {
+        if let Some(bus) = &self.0 {
+            let _ = bus.send(event);
+        }
+    }
+}

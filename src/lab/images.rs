@@ -141,7 +141,7 @@ struct Entry {
 /// An admitted image, as the worker receives it.
 pub struct ImageWork {
     pub id: i64,
-    pub scene: Box<Scene>,
+    pub scene: Arc<Scene>,
     pub camera: Camera,
     pub settings: CameraSettings,
 }

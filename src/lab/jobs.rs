@@ -17,7 +17,7 @@
 //!   record of what happened.
 //!
 //! The simulated PR-650's converged spectra are rendered on a separate pool
-//! (see [`Renderer`](super::renders::Renderer)), so a long job never leaves
+//! (see [`SimulatedTruth`](super::simulated_truth::SimulatedTruth)), so a long job never leaves
 //! the instrument thread waiting behind its batches.
 
 use std::collections::HashMap;
@@ -206,20 +206,28 @@ impl<W: Send + 'static> JobQueue<W> {
         }
     }
 
-    /// How a job that did not complete ends, and why.
+    /// How a job that did not complete ends, and why ([`job_end`], with
+    /// this queue's shutdown).
     pub fn end_of(&self, job: Job, cancelled: bool, error: Option<String>) -> (JobEnd, String) {
-        let noun = job.noun();
-        match (cancelled, error) {
-            (true, _) if self.is_shutting_down() => (
-                JobEnd::Interrupted,
-                format!(
-                    "the daemon shut down during this {noun}; retry it with POST /api/{}/{{id}}/retry",
-                    job.table()
-                ),
+        job_end(job, cancelled, self.is_shutting_down(), error)
+    }
+}
+
+/// How a job that did not complete ends, and why: stopped by the daemon's
+/// shutdown, `interrupted` (retry it); stopped otherwise, `cancelled` by a
+/// client; else `failed` with its error.
+pub fn job_end(job: Job, cancelled: bool, shutting_down: bool, error: Option<String>) -> (JobEnd, String) {
+    let noun = job.noun();
+    match (cancelled, error) {
+        (true, _) if shutting_down => (
+            JobEnd::Interrupted,
+            format!(
+                "the daemon shut down during this {noun}; retry it with POST /api/{}/{{id}}/retry",
+                job.table()
             ),
-            (true, _) => (JobEnd::Cancelled, "cancelled by a client".into()),
-            (false, Some(e)) => (JobEnd::Failed, e),
-            (false, None) => (JobEnd::Failed, format!("the {noun} ended without a result")),
-        }
+        ),
+        (true, _) => (JobEnd::Cancelled, "cancelled by a client".into()),
+        (false, Some(e)) => (JobEnd::Failed, e),
+        (false, None) => (JobEnd::Failed, format!("the {noun} ended without a result")),
     }
 }

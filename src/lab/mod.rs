@@ -9,9 +9,16 @@
 //!   instrument task and by `lightbooth study --measure-simulated`;
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
-//! - [`renders`]: the scene catalogue, the comparison of every measurement
-//!   with every coding, and the render, study and image jobs (one type
-//!   today, to be split), behind [`services::RenderService`];
+//! - [`scenes`]: the scene catalogue, every scene loaded once at start;
+//! - [`render_runner`]: one recorded render run (settings checked, bundle
+//!   stored, rendered on the rayon pool, each coding's cost);
+//! - [`comparisons`]: **where a measurement's comparison with every coding
+//!   is computed** (the render, the booth's CIELAB white, the rows, the
+//!   whites kept current) and a scene's comparisons summarised per coding;
+//! - [`render_jobs`]: the daemon's renders, studies and camera images as
+//!   the API asks for them, behind [`services::RenderService`];
+//! - [`study_jobs`]: a study planned from a request and run as a job;
+//! - [`simulated_truth`]: what the simulated PR-650 measures;
 //! - [`jobs`], [`images`], [`worker_queue`], [`study_measurements`]: the
 //!   bounded job queue, camera images, the hand-off to render workers, and
 //!   a study's wait for the measurements it asked for;
@@ -24,6 +31,7 @@
 //! axum or the HTTP layer.
 
 pub mod calibration;
+pub mod comparisons;
 pub mod error;
 pub mod events;
 pub mod images;
@@ -31,8 +39,14 @@ pub mod instrument_queue;
 pub mod jobs;
 pub mod lease;
 pub mod measurement;
-pub mod renders;
+pub mod render_jobs;
+pub mod render_runner;
 pub mod requests;
+pub mod scenes;
 pub mod services;
+pub mod simulated_truth;
+pub mod study_jobs;
 pub mod study_measurements;
+#[cfg(test)]
+mod testing;
 pub mod worker_queue;

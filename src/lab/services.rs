@@ -42,7 +42,7 @@ pub trait RenderService: Send + Sync {
         None
     }
     /// The CIELAB white of a scene in a booth now, with its source (see
-    /// `lab::renders`).
+    /// `lab::comparisons`).
     fn cielab_white(
         self: Arc<Self>,
         _scene: String,

@@ -28,9 +28,13 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::broadcast;
 
+use super::error::LabError;
+use super::jobs::JOB_QUEUE_CAPACITY;
+use super::scenes::SceneCatalog;
 use crate::colorimetry::{Observer, Xyz};
 use crate::lab::events::Event;
-use crate::store::{Store, StoreError, WorkerJobKind};
+use crate::render::Coding;
+use crate::store::{Job, JobEnd, Store, StoreError, WorkerJobKind};
 
 /// Where a daemon's comparisons, renders and studies run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -122,6 +126,112 @@ impl WorkerQueue {
             store,
             events,
             pending: Mutex::default(),
+        }
+    }
+
+    /// Leaves a daemon's comparisons, renders and studies to render
+    /// workers: stores every scene of `catalogue` as a bundle and publishes
+    /// the [`RenderConfig`] workers render with (`codings`, `samples`,
+    /// `observer`) on the daemon's row. Returns the queue, whose
+    /// [`WorkerQueue::watch`] the daemon runs.
+    pub async fn publish(
+        store: Store,
+        events: broadcast::Sender<Event>,
+        catalogue: &SceneCatalog,
+        codings: &[Coding],
+        samples: u64,
+        observer: Observer,
+    ) -> anyhow::Result<WorkerQueue> {
+        let mut scenes = Vec::new();
+        for entry in catalogue.iter() {
+            let path = entry.path.clone();
+            let collected = tokio::task::spawn_blocking(move || {
+                let root = path.parent().unwrap_or(std::path::Path::new("."));
+                crate::render::bundle::SceneBundle::collect(root, &path)
+            })
+            .await?
+            .map_err(|e| anyhow::anyhow!("scene `{}` cannot be bundled for render workers: {e}", entry.id))?;
+            anyhow::ensure!(
+                collected.scene_hash == entry.hash,
+                "scene `{}`: its files changed since the daemon loaded them; start the daemon again",
+                entry.id
+            );
+            store
+                .put_scene_bundle(&entry.id, &collected.scene_hash, &collected.bundle)
+                .await?;
+            scenes.push(PublishedScene {
+                id: entry.id.clone(),
+                bundle: collected.bundle.hash(),
+                scene_hash: collected.scene_hash,
+            });
+        }
+        let config = RenderConfig {
+            codings: codings.iter().map(|c| c.to_string()).collect(),
+            samples,
+            observer,
+            scenes,
+        };
+        store
+            .set_daemon_role("daemon", Some(&serde_json::to_value(&config)?))
+            .await?;
+        tracing::info!(
+            scenes = config.scenes.len(),
+            "comparisons, renders and studies are left to render workers"
+        );
+        Ok(WorkerQueue::new(store, events))
+    }
+
+    /// [`LabError::Conflict`] when this daemon already has
+    /// [`JOB_QUEUE_CAPACITY`] renders and studies waiting for or running on
+    /// workers: its share of the shared queue is bounded as its own queue is.
+    pub async fn check_share(&self) -> Result<(), LabError> {
+        let waiting = self.store.unfinished_worker_jobs_requested().await?;
+        if waiting >= JOB_QUEUE_CAPACITY as i64 {
+            return Err(LabError::Conflict(format!(
+                "the render queue is full: {waiting} renders and studies of this daemon are waiting for \
+                 or running on render workers; wait for one to finish (GET /api/renders, /api/studies)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Queues a recorded render or study row for the workers; if that fails
+    /// the row is failed with the reason (it would never run otherwise).
+    pub async fn hand_over(&self, job: Job, id: i64, scene: &str) -> Result<(), LabError> {
+        if let Err(e) = self.queue_row(worker_kind(job), id, scene).await {
+            let why = format!("cannot queue this {} for the render workers: {e}", job.noun());
+            self.store.end_job(job, id, JobEnd::Failed, &why).await?;
+            return Err(LabError::Internal(why));
+        }
+        Ok(())
+    }
+
+    /// Cancels a render or study left to the workers: a queued one ends at
+    /// once, a running one is flagged for its worker. False when no worker
+    /// job has it (it runs in the daemon).
+    pub async fn cancel(&self, job: Job, id: i64) -> Result<bool, LabError> {
+        match self.store.cancel_worker_job(worker_kind(job), id).await? {
+            Some(true) => {
+                self.store
+                    .end_job(
+                        job,
+                        id,
+                        JobEnd::Cancelled,
+                        "cancelled by a client before a render worker took it",
+                    )
+                    .await?;
+                tracing::info!(job = job.noun(), id, "cancelled while queued for the render workers");
+                Ok(true)
+            }
+            Some(false) => {
+                tracing::info!(
+                    job = job.noun(),
+                    id,
+                    "cancellation requested of the render worker running it"
+                );
+                Ok(true)
+            }
+            None => Ok(false),
         }
     }
 
@@ -263,5 +373,13 @@ impl WorkerQueue {
             }
         };
         let _ = self.events.send(event);
+    }
+}
+
+/// The worker job kind of a render or study row.
+fn worker_kind(job: Job) -> WorkerJobKind {
+    match job {
+        Job::Render => WorkerJobKind::Render,
+        Job::Study => WorkerJobKind::Study,
     }
 }

@@ -93,7 +93,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::geometry::basis;
-use super::integrator::cosine_direction;
+use super::sampling::cosine_direction;
 use super::scene::Surface;
 
 /// RADIANCE 6's Fresnel estimate `FRESNE(ci)` (normal.c, m_wgmdf.c).

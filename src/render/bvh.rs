@@ -1025,7 +1025,7 @@ mod tests {
 
     use super::*;
     use crate::render::geometry::{icosphere, RAY_EPSILON_M};
-    use crate::render::integrator::Pcg32;
+    use crate::render::sampling::Pcg32;
 
     fn uniform_in(rng: &mut Pcg32, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * rng.uniform()

@@ -47,7 +47,8 @@ use rayon::prelude::*;
 
 use super::coding::{ChannelLayout, Coding};
 use super::geometry::Ray;
-use super::integrator::{current_cancel, trace_path, PathSampler, PathState, Prepared, SamplerKind, Transport};
+use super::integrator::{current_cancel, trace_path, PathState, Prepared, Transport};
+use super::sampling::{PathSampler, SamplerKind};
 use super::scene::{Camera, Scene};
 use super::sensor::Image;
 use super::RenderError;

@@ -49,6 +49,7 @@ mod huge_pages;
 pub mod ies;
 pub mod integrator;
 pub mod radiance;
+pub mod sampling;
 pub mod scene;
 pub mod sensor;
 
@@ -72,7 +73,7 @@ use crate::colorimetry::Observer;
 use crate::spectrum::table::{write_csv, SpectraTable};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
-pub use integrator::{SamplerKind, BATCH_SAMPLES, REPLICATES};
+pub use sampling::{SamplerKind, BATCH_SAMPLES, REPLICATES};
 
 /// Everything that can go wrong in a render.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -12,8 +12,11 @@
 //!   reads the published [`RenderConfig`] (codings, samples, observer and
 //!   the bundle of each scene), fetches each bundle from the database,
 //!   unpacks it under its cache folder ([`crate::render::bundle`]) and
-//!   renders with the same code the daemon would ([`Renderer`]), one
-//!   renderer per distinct configuration, kept for the next job.
+//!   renders, compares and studies with the same code the daemon would
+//!   ([`RenderRunner`], [`Comparisons`], [`StudyRunner`]): one set per
+//!   distinct configuration, kept for the next job. It builds no job queue,
+//!   no camera images and no simulated instrument, and sends no events (the
+//!   daemon that asked reports a job's end when it sees it in the store).
 //! - One job at a time, on the rayon pool (all cores). A job asked to stop
 //!   (`POST /api/renders/{id}/cancel` on its daemon) is cancelled within a
 //!   poll; at shutdown the running job is cancelled and marked stopped, and
@@ -32,11 +35,16 @@ use anyhow::Context;
 use sha2::{Digest, Sha256};
 use tokio::sync::broadcast;
 
+use crate::lab::comparisons::Comparisons;
+use crate::lab::events::EventSink;
 use crate::lab::lease::Lease;
-use crate::lab::renders::Renderer;
+use crate::lab::render_runner::RenderRunner;
+use crate::lab::scenes::SceneCatalog;
+use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::render::bundle::SceneBundle;
 use crate::render::integrator::CancelFlag;
+use crate::render::Coding;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
 
 /// Everything `lightbooth worker` needs.
@@ -78,7 +86,7 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
     // Nobody listens to a worker's events; its heartbeat still recovers the
     // work of gone daemons and workers, as a daemon's does.
     let events = broadcast::channel(64).0;
-    let lease = Lease::take(&store, &booth, options.lease, options.heartbeat, Some(events.clone()))
+    let lease = Lease::take(&store, &booth, options.lease, options.heartbeat, Some(events))
         .await
         .context("registering this worker's lease")?;
     let id = lease.id();
@@ -98,7 +106,6 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
         store: store.clone(),
         options: options.clone(),
         renderers: HashMap::new(),
-        events,
     };
     let mut shutdown = std::pin::pin!(shutdown);
     loop {
@@ -149,11 +156,16 @@ fn redacted(url: &str) -> String {
 struct Worker {
     store: Store,
     options: WorkerOptions,
-    /// One renderer per published configuration (by its SHA-256).
-    renderers: HashMap<String, Arc<Renderer>>,
-    /// The renderer's events: nobody listens here (the asking daemon sends
-    /// its own when it sees the job end).
-    events: broadcast::Sender<crate::lab::events::Event>,
+    /// One set of renderers per published configuration (by its SHA-256).
+    renderers: HashMap<String, Arc<DaemonRenders>>,
+}
+
+/// What a worker renders, compares and studies with for one daemon's
+/// published configuration.
+struct DaemonRenders {
+    runner: Arc<RenderRunner>,
+    comparisons: Arc<Comparisons>,
+    studies: Arc<StudyRunner>,
 }
 
 impl Worker {
@@ -186,7 +198,7 @@ impl Worker {
                         cancel.cancel();
                         // A comparison's render stops with its renderer.
                         for r in renderers.values() {
-                            r.shutdown();
+                            r.runner.shutdown();
                         }
                         stopping = true;
                     }
@@ -234,20 +246,23 @@ impl Worker {
                 let p: ComparisonPayload = serde_json::from_value(job.payload.clone())
                     .map_err(|e| format!("comparison job {}: its payload: {e}", job.id))?;
                 renderer
+                    .comparisons
                     .compare(job.subject_id, &p.scene, &p.target, p.measured_xyz(), p.measured_y_se)
                     .await
                     .map_err(|e| e.to_string())
             }
             WorkerJobKind::Render => {
                 renderer
-                    .run_render_row(job.subject_id, cancel)
+                    .runner
+                    .run_row(job.subject_id, cancel)
                     .await
                     .map_err(|e| e.to_string())?;
                 self.subject_ended_well("renders", job.subject_id).await
             }
             WorkerJobKind::Study => {
                 renderer
-                    .run_study_row(job.subject_id, cancel)
+                    .studies
+                    .run_row(job.subject_id, cancel)
                     .await
                     .map_err(|e| e.to_string())?;
                 self.subject_ended_well("studies", job.subject_id).await
@@ -282,7 +297,7 @@ impl Worker {
 
     /// The renderer of daemon `daemon`'s published configuration: its
     /// scenes fetched from the database and unpacked, built once.
-    async fn renderer_for(&mut self, daemon: i64) -> Result<Arc<Renderer>, String> {
+    async fn renderer_for(&mut self, daemon: i64) -> Result<Arc<DaemonRenders>, String> {
         let config_json = self
             .store
             .render_config(daemon)
@@ -330,21 +345,50 @@ impl Worker {
         .await
         .map_err(|e| e.to_string())?
         .map_err(|e| format!("daemon {daemon}'s scenes: {e}"))?;
-        let (store, events) = (self.store.clone(), self.events.clone());
-        let renderer = tokio::task::spawn_blocking(move || {
-            Renderer::with_scene_files(
-                &paths,
-                store,
-                events,
-                config.codings,
-                config.samples,
-                config.observer,
+        let observer = config.observer;
+        let catalogue = tokio::task::spawn_blocking(move || SceneCatalog::from_files(&paths, observer))
+            .await
+            .map_err(|e| e.to_string())?
+            .map_err(|e| format!("daemon {daemon}'s scenes on this worker: {e}"))?;
+        let catalogue = Arc::new(catalogue);
+        let codings = config
+            .codings
+            .iter()
+            .map(|c| {
+                c.parse::<Coding>()
+                    .map_err(|e| format!("daemon {daemon}'s coding `{c}`: {e}"))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        // The worker's own shutdown flag: set when it stops, so the render
+        // a comparison runs stops too.
+        let shutdown = CancelFlag::default();
+        let runner = Arc::new(RenderRunner::new(
+            self.store.clone(),
+            Arc::clone(&catalogue),
+            EventSink::nowhere(),
+            codings.clone(),
+            config.samples,
+            observer,
+            shutdown.clone(),
+        ));
+        let renderer = DaemonRenders {
+            comparisons: Arc::new(Comparisons::new(
+                self.store.clone(),
+                Arc::clone(&runner),
+                EventSink::nowhere(),
                 None,
-            )
-        })
-        .await
-        .map_err(|e| e.to_string())?
-        .map_err(|e| format!("daemon {daemon}'s scenes on this worker: {e}"))?;
+            )),
+            studies: Arc::new(StudyRunner::new(
+                self.store.clone(),
+                catalogue,
+                EventSink::nowhere(),
+                codings,
+                observer,
+                None,
+                shutdown,
+            )),
+            runner,
+        };
         let renderer = Arc::new(renderer);
         tracing::info!(
             daemon,

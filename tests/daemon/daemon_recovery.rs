@@ -39,8 +39,22 @@ fn cache_dir() -> PathBuf {
 /// its k-th sample left the measurement `running` with none.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measurement() {
+    // The converged truth of the first target is rendered here first (the
+    // shared cache the study reads), so the wait below is for the
+    // measurement alone: on a busy 2-core CI machine, with other tests
+    // rendering the same truths, the render once took longer than the
+    // whole deadline and the test failed without the study having measured.
+    let scene = root().join("scenes/white.toml");
+    let first_target = lightbooth::render::load_scene(&scene).unwrap().targets()[0].to_string();
+    let (s, t, c) = (scene, first_target, cache_dir());
+    tokio::task::spawn_blocking(move || lightbooth::render::converged_target_spectrum(&s, &t, Some(&c)))
+        .await
+        .unwrap()
+        .expect("the converged truth of WHITE's first target");
+
     let dir = tempfile::tempdir().unwrap();
     let db = format!("sqlite://{}", dir.path().join("study.sqlite").display());
+    let stderr_path = dir.path().join("study.stderr");
     let mut tool = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
         .current_dir(root())
         .args([
@@ -54,23 +68,21 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
         .arg("--cache-dir")
         .arg(cache_dir())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(std::fs::File::create(&stderr_path).unwrap())
         .spawn()
         .expect("run lightbooth study");
-    // Wait (bounded) until the file exists with its first measurement running.
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(180);
+    // Bounded waits that end early, with the study's own words, if it exits.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(300);
     let reader = loop {
         if dir.path().join("study.sqlite").exists() {
             if let Ok(store) = Store::open_to_read(&db).await {
                 break store;
             }
         }
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "the study never made its database"
-        );
+        check_alive(&mut tool, deadline, &stderr_path, "making its database");
         tokio::time::sleep(Duration::from_millis(50)).await;
     };
+    let mut last_seen = String::from("no measurement yet");
     let kept = loop {
         if let Ok(Some(m)) = reader.get_measurement(1).await {
             let n = m.samples.len();
@@ -83,10 +95,13 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
                 m.summary.state != lightbooth::store::MeasurementState::Complete,
                 "the measurement completed without its samples ever being on disk while it ran ({n} samples)"
             );
+            last_seen = format!("measurement 1 {:?} with {n} samples", m.summary.state);
         }
-        assert!(
-            tokio::time::Instant::now() < deadline,
-            "no sample of the study's first measurement was on disk while it ran"
+        check_alive(
+            &mut tool,
+            deadline,
+            &stderr_path,
+            &format!("two samples of its first measurement were on disk ({last_seen})"),
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     };
@@ -98,6 +113,20 @@ async fn a_study_killed_after_its_second_sample_kept_no_samples_of_the_measureme
         m.samples.len()
     );
     reader.close().await;
+}
+
+/// Panics, with what the study printed, if it exited or `deadline` passed
+/// before `what`.
+fn check_alive(tool: &mut Child, deadline: tokio::time::Instant, stderr: &std::path::Path, what: &str) {
+    let said = || std::fs::read_to_string(stderr).unwrap_or_default();
+    if let Some(status) = tool.try_wait().unwrap() {
+        panic!("the study exited ({status}) before {what}; it said:\n{}", said());
+    }
+    assert!(
+        tokio::time::Instant::now() < deadline,
+        "{what} did not happen within 300 s; the study said:\n{}",
+        said()
+    );
 }
 
 /// `lightbooth serve` as a child process, killed (SIGKILL) when dropped.

@@ -14,7 +14,7 @@ use glam::DVec3;
 use lightbooth::colorimetry::{Cmf, KM_LM_PER_W};
 use lightbooth::render::bsdf::{Bsdf, Weight};
 use lightbooth::render::geometry::{icosphere, Ray, Shape};
-use lightbooth::render::integrator::Pcg32;
+use lightbooth::render::sampling::Pcg32;
 use lightbooth::render::scene::{Emitter, Material, Primitive, Radiometer, Surface, Target};
 use lightbooth::render::{load_scene, render, Coding, RenderSettings, Scene};
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};

@@ -9,11 +9,12 @@ use serde::Serialize;
 use utoipa::ToSchema;
 
 use super::{download, find_scene};
-use crate::comparison::{mean_sd, SceneSummary};
+use crate::comparison::SceneSummary;
 use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
 use crate::http::input::Path;
 use crate::http::AppState;
+use crate::lab::comparisons::summary::{self, SceneComparisons};
 use crate::store::ComparisonRow;
 
 /// A coding's figures of merit over a scene's targets.
@@ -70,66 +71,29 @@ pub struct SceneComparison {
     pub rows: Vec<ComparisonRow>,
 }
 
-async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparison, ApiError> {
+/// The scene's newest comparisons with the daemon's observer, summarised
+/// per coding ([`crate::lab::comparisons::summary`]).
+async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparisons, ApiError> {
     find_scene(state, scene)?;
-    let observer = state.config.observer;
-    // Only the daemon's observer: rows of another (from a run with another
-    // `--observer`) are never summarised or charted with these.
-    let rows: Vec<ComparisonRow> = state
-        .store
-        .latest_comparisons(scene)
-        .await?
-        .into_iter()
-        .filter(|r| r.observer == observer)
-        .collect();
-    let mut codings: Vec<String> = rows.iter().map(|r| r.coding.clone()).collect();
-    codings.sort_by_key(|c| coding_order(c));
-    codings.dedup();
-    let summaries = codings
-        .into_iter()
-        .map(|coding| {
-            let points: Vec<crate::comparison::PointDifference> = rows
-                .iter()
-                .filter(|r| r.coding == coding)
-                .map(|r| crate::comparison::PointDifference {
-                    observer: r.observer,
-                    measured: crate::colorimetry::Xyz::new(r.measured_X, r.measured_Y, r.measured_Z),
-                    rendered: crate::colorimetry::Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z),
-                    y_ratio: r.Y_ratio,
-                    xy_distance: r.xy_distance,
-                    de76: r.dE76,
-                    de00: r.dE00,
-                })
-                .collect();
-            let (mean_ratio, _) = mean_sd(points.iter().map(|p| p.y_ratio));
-            CodingSummary {
-                coding,
-                summary: crate::comparison::summarize(&points).into(),
-                mean_Y_ratio: mean_ratio,
-            }
-        })
-        .collect();
-    Ok(SceneComparison {
-        scene: scene.to_string(),
-        observer,
-        codings: summaries,
-        rows,
-    })
+    Ok(summary::scene_comparisons(&state.store, scene, state.config.observer).await?)
 }
 
-/// Sorts codings as the study lists them: rgb, srgb, nstepN by N, spectral.
-pub fn coding_order(c: &str) -> (u32, u32) {
-    match c {
-        "rgb" => (0, 0),
-        "srgb" => (1, 0),
-        "spectral" => (3, 0),
-        other => (
-            2,
-            other
-                .strip_prefix("nstep")
-                .and_then(|n| n.parse().ok())
-                .unwrap_or(u32::MAX),
-        ),
+impl From<SceneComparisons> for SceneComparison {
+    fn from(c: SceneComparisons) -> Self {
+        SceneComparison {
+            scene: c.scene,
+            observer: c.observer,
+            codings: c
+                .codings
+                .into_iter()
+                .map(|s| CodingSummary {
+                    coding: s.coding,
+                    summary: s.summary.into(),
+                    mean_Y_ratio: s.mean_y_ratio,
+                })
+                .collect(),
+            rows: c.rows,
+        }
     }
 }
 
@@ -139,7 +103,7 @@ pub async fn scene_comparisons(
     State(state): State<AppState>,
     Path(scene): Path<String>,
 ) -> Result<Json<SceneComparison>, ApiError> {
-    Ok(Json(scene_comparison(&state, &scene).await?))
+    Ok(Json(scene_comparison(&state, &scene).await?.into()))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),

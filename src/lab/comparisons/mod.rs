@@ -1,0 +1,437 @@
+//! Where a measurement's comparison with every coding is computed: the
+//! render it is compared with (reused from the store, or rendered once),
+//! the CIELAB white of its booth, the rows stored, the whites kept current,
+//! and ([`summary`]) a scene's comparisons summarised per coding.
+//!
+//! The figures of merit themselves (ΔE, luminance ratio, x,y distance) are
+//! the science's ([`crate::comparison`]); this module decides what is
+//! compared with what.
+//!
+//! # The observer
+//!
+//! Every XYZ, x,y, CIELAB and ΔE uses the one observer of the
+//! [`RenderRunner`] (`serve --observer`): the renders' settings, the
+//! measured XYZ and the white; every comparison row names it.
+//!
+//! # The CIELAB reference white
+//!
+//! Both sides of a comparison go through CIELAB with the same white: the
+//! one the scene declares in its file (`[cielab_white]`, resolved by the
+//! [catalogue](super::scenes)). WHITE, RED, GREEN and BLUE declare the
+//! WHITE scene's Spectralon (`white/patch`), CYLINDER its top target
+//! (`h21`). A target white is the newest complete *measurement* of that
+//! target in the booth the compared measurement was taken in (booths have
+//! their own lamps: a white measured in booth north never serves booth
+//! south); until one exists, the `spectral` rendering of it stands in, and
+//! the row says so (`white_source`, with the white's XYZ).
+//!
+//! When a booth's white changes — its target is measured there for the first
+//! time or again — every comparison of that booth of every scene using it is
+//! recomputed with the new white (ΔE from the stored XYZ; the measured and
+//! rendered XYZ do not depend on the white), so no scene mixes whites.
+//! Comparisons and these updates are serialised by one lock, so a
+//! comparison finishing late cannot write an old white after the update.
+//!
+//! No scene file is read here: the scenes, their render keys and whites
+//! are the catalogue's.
+
+pub mod summary;
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use tokio::runtime::Handle;
+
+use super::events::{Event, EventSink};
+use super::render_runner::RenderRunner;
+use super::worker_queue::WorkerQueue;
+use crate::colorimetry::{xyz_from_radiance, Lab, Xyz};
+use crate::comparison::{compare_point, delta_e_pair};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::store::{Booth, NewComparison, Store};
+use crate::study::white::SceneWhite;
+
+/// Compares measurements with every coding of their scene's render.
+pub struct Comparisons {
+    store: Store,
+    runner: Arc<RenderRunner>,
+    events: EventSink,
+    /// Serialises "resolve the white, store comparisons, refresh whites".
+    compare_lock: tokio::sync::Mutex<()>,
+    /// One lock per scene, so concurrent comparisons of one scene wait for a
+    /// single render instead of each starting its own.
+    scene_locks: std::sync::Mutex<HashMap<String, Arc<tokio::sync::Mutex<()>>>>,
+    /// Set when comparisons are left to render workers
+    /// (`serve --renders workers`, [`super::handoff`]).
+    workers: Option<Arc<WorkerQueue>>,
+    runtime: Handle,
+}
+
+impl Comparisons {
+    /// Comparisons rendered by `runner` (its catalogue, settings and
+    /// observer), or queued for render workers when `workers` is given.
+    /// Call it on the runtime the background comparisons should run on.
+    pub fn new(
+        store: Store,
+        runner: Arc<RenderRunner>,
+        events: EventSink,
+        workers: Option<Arc<WorkerQueue>>,
+    ) -> Comparisons {
+        Comparisons {
+            store,
+            runner,
+            events,
+            compare_lock: tokio::sync::Mutex::new(()),
+            scene_locks: Default::default(),
+            workers,
+            runtime: Handle::current(),
+        }
+    }
+
+    /// After a measurement of a scene target completes: render (or reuse a
+    /// render of) the scene and store the comparison, in the background —
+    /// or queue it for the render workers. `measured` is XYZ with the
+    /// runner's observer, `measured_y_se` the standard error of its Y.
+    pub fn compare_later(
+        self: &Arc<Self>,
+        measurement_id: i64,
+        scene: String,
+        target: String,
+        measured: Xyz,
+        measured_y_se: f64,
+    ) {
+        let this = Arc::clone(self);
+        self.runtime.spawn(async move {
+            if let Some(workers) = &this.workers {
+                match workers
+                    .queue_comparison(measurement_id, &scene, &target, measured, measured_y_se)
+                    .await
+                {
+                    Ok(_) => return,
+                    // Nothing is lost: the daemon compares it itself.
+                    Err(e) => tracing::error!(measurement_id, error = %e, "cannot queue the comparison for the render workers; comparing here"),
+                }
+            }
+            if let Err(e) = this
+                .compare(measurement_id, &scene, &target, measured, measured_y_se)
+                .await
+            {
+                tracing::error!(measurement_id, scene, target, error = %e, "comparison failed");
+            }
+        });
+    }
+
+    /// Compares measurement `measurement_id` of `scene`/`target` (XYZ
+    /// `measured` with the runner's observer, `measured_y_se` the standard
+    /// error of its Y) with every coding, rendering the scene if no render
+    /// of it with the comparison settings is stored, and stores the rows.
+    pub async fn compare(
+        &self,
+        measurement_id: i64,
+        scene: &str,
+        target: &str,
+        measured: Xyz,
+        measured_y_se: f64,
+    ) -> anyhow::Result<()> {
+        let (render_id, result) = self.render_for_comparison(scene).await?;
+        let rendered = rendered_codings(&result, target)
+            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let _serial = self.compare_lock.lock().await;
+        // The white is the one of the booth this measurement was taken in.
+        let booth = self
+            .store
+            .measurement_booth(measurement_id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("no measurement {measurement_id}"))?;
+        let (white, white_source) = self.white_xyz(scene, &booth).await?;
+        let observer = self.runner.observer();
+        let rows: Vec<NewComparison> = rendered
+            .into_iter()
+            .map(|(coding, rendered, y_se)| {
+                let d = compare_point(measured, rendered, white, observer);
+                NewComparison {
+                    measurement_id,
+                    render_id,
+                    scene: scene.to_string(),
+                    target: target.to_string(),
+                    coding,
+                    observer,
+                    white_source: white_source.clone(),
+                    white: white.to_array(),
+                    measured: measured.to_array(),
+                    measured_y_se,
+                    rendered: rendered.to_array(),
+                    rendered_y_se: y_se,
+                    y_ratio: d.y_ratio,
+                    xy_distance: d.xy_distance,
+                    de76: d.de76,
+                    de00: d.de00,
+                }
+            })
+            .collect();
+        self.store.insert_comparisons(&rows).await?;
+        tracing::info!(measurement_id, scene, target, codings = rows.len(), white = %white_source, "comparison stored");
+        // This measurement may be the white of this and other scenes: bring
+        // every comparison of those scenes to the current white.
+        let dependent: Vec<String> = self
+            .runner
+            .catalogue()
+            .whitened_by(scene, target)
+            .into_iter()
+            .map(str::to_string)
+            .collect();
+        for other in dependent {
+            self.refresh_white(&other, &booth).await?;
+        }
+        self.events.send(Event::ComparisonReady {
+            measurement_id,
+            scene: scene.to_string(),
+            target: target.to_string(),
+        });
+        Ok(())
+    }
+
+    /// Recomputes every comparison of `scene` in `booth` (of the runner's
+    /// observer) whose white is not the booth's current one for the scene:
+    /// ΔE from the stored XYZ with the current white. Other booths'
+    /// comparisons keep their own booth's white. The caller holds
+    /// `compare_lock`.
+    async fn refresh_white(&self, scene: &str, booth: &Booth) -> anyhow::Result<()> {
+        let (white, source) = self.white_xyz(scene, booth).await?;
+        let observer = self.runner.observer();
+        let updates: Vec<(i64, String, [f64; 3], f64, f64)> = self
+            .store
+            .comparisons_of_scene_in_booth(scene, booth)
+            .await?
+            .into_iter()
+            .filter(|r| r.observer == observer)
+            .filter(|r| r.white_source != source || [r.white_X, r.white_Y, r.white_Z] != white.to_array())
+            .map(|r| {
+                let m = Lab::from_xyz(Xyz::new(r.measured_X, r.measured_Y, r.measured_Z), white);
+                let q = Lab::from_xyz(Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z), white);
+                let (de76, de00) = delta_e_pair(m, q);
+                (r.id, source.clone(), white.to_array(), de76, de00)
+            })
+            .collect();
+        if !updates.is_empty() {
+            self.store.update_comparison_whites(&updates).await?;
+            tracing::info!(scene, %booth, rows = updates.len(), white = %source, "comparisons recomputed with the scene's current white");
+        }
+        Ok(())
+    }
+
+    /// The CIELAB white of `scene` in `booth` now, and where it came from
+    /// (see the module doc): a white target's newest complete measurement
+    /// taken in that booth, never another booth's.
+    pub async fn white_xyz(&self, scene: &str, booth: &Booth) -> anyhow::Result<(Xyz, String)> {
+        let entry = self
+            .runner
+            .catalogue()
+            .get(scene)
+            .ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
+        let (white_scene, target) = match &entry.white {
+            SceneWhite::Fixed { xyz, source } => return Ok((*xyz, source.clone())),
+            SceneWhite::Target { scene_id, target, .. } => (scene_id.clone(), target.clone()),
+        };
+        if let Some(m) = self
+            .store
+            .latest_complete_in_booth(&white_scene, &target, booth)
+            .await?
+        {
+            if let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) {
+                let s = Spectrum::new(Grid::from_wavelengths(wl)?, SpectralUnit::SpectralRadiance, radiance)?;
+                let xyz = xyz_from_radiance(&s, self.runner.observer())?;
+                return Ok((xyz, format!("measurement {} ({white_scene}/{target})", m.summary.id)));
+            }
+        }
+        let (render_id, result) = self.render_for_comparison(&white_scene).await?;
+        let (_, xyz, _) = rendered_codings(&result, &target)
+            .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
+            .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {white_scene}/{target}"))?;
+        Ok((
+            xyz,
+            format!("render {render_id} spectral ({white_scene}/{target}; not yet measured)"),
+        ))
+    }
+
+    /// The render comparisons use: reused when the store has one of the same
+    /// scene content and settings, rendered (once, even under concurrent
+    /// requests) otherwise. Returns the render id and its stored JSON result.
+    async fn render_for_comparison(&self, scene: &str) -> anyhow::Result<(i64, serde_json::Value)> {
+        let lock = {
+            let mut locks = self.scene_locks.lock().unwrap_or_else(|p| p.into_inner());
+            Arc::clone(locks.entry(scene.to_string()).or_default())
+        };
+        let _guard = lock.lock().await;
+        let settings = self.runner.comparison_settings();
+        let hash = self
+            .runner
+            .catalogue()
+            .get(scene)
+            .ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?
+            .hash
+            .clone();
+        let settings_json = serde_json::to_value(&settings)?;
+        let shutdown = self.runner.shutdown_flag();
+        loop {
+            if let Some(found) = self.store.find_render_result(&hash, &settings_json).await? {
+                return Ok(found);
+            }
+            // Another process (a render worker, a neighbour daemon) is
+            // rendering exactly this: wait for it rather than render twice.
+            // A running render always ends — done, failed, or interrupted
+            // by lease recovery when its process is gone.
+            match self.store.running_render_of(&hash, &settings_json).await? {
+                Some(other) if !shutdown.is_cancelled() => {
+                    tracing::debug!(
+                        render_id = other,
+                        scene,
+                        "waiting for the same render running elsewhere"
+                    );
+                    tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+                }
+                _ => break,
+            }
+        }
+        let id = self.runner.record(scene, &settings).await?;
+        self.runner.execute(id, scene, settings, shutdown).await?;
+        let row = self
+            .store
+            .get_render(id)
+            .await?
+            .ok_or_else(|| anyhow::anyhow!("render {id} vanished"))?;
+        let result = row
+            .result
+            .ok_or_else(|| anyhow::anyhow!("render {id} failed: {}", row.error.unwrap_or_default()))?;
+        Ok((id, result))
+    }
+}
+
+/// Every coding's XYZ and standard error of Y at `target` in a stored
+/// render result.
+fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
+    let t = result
+        .get("targets")?
+        .as_array()?
+        .iter()
+        .find(|t| t.get("id").and_then(|i| i.as_str()) == Some(target))?;
+    let codings = t.get("codings")?.as_object()?;
+    codings
+        .iter()
+        .map(|(name, c)| {
+            let xyz: [f64; 3] = serde_json::from_value(c.get("XYZ")?.clone()).ok()?;
+            Some((name.clone(), Xyz::from_array(xyz), c.get("Y_se")?.as_f64()?))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colorimetry::Observer;
+    use crate::lab::testing::{drain, runner, store_in};
+    use crate::render::integrator::CancelFlag;
+    use crate::store::NewMeasurement;
+
+    /// A measurement of `scene`/`target` in the default booth, as queued.
+    async fn measurement_of(store: &Store, scene: &str, target: &str) -> i64 {
+        store
+            .create_measurement(&NewMeasurement {
+                booth: Booth::default(),
+                session_id: None,
+                scene: Some(scene.into()),
+                target: Some(target.into()),
+                samples: 1,
+                settings_json: serde_json::json!({}),
+                note: String::new(),
+            })
+            .await
+            .unwrap()
+    }
+
+    /// A measurement 10 % brighter than the spectral rendering of WHITE's
+    /// Spectralon, of the same chromaticity, compared while the Spectralon
+    /// is unmeasured: the white is that rendering, so CIELAB gives
+    /// L* = 116·1.1^(1/3) − 16 against L* = 100, a* = b* = 0 for both
+    /// (CIE 15:2004, §8.2.1), and ΔE*ab = 116·(1.1^(1/3) − 1) = 3.7445.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_measurement_brighter_than_the_unmeasured_white_has_the_analytic_delta_e() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (runner, mut events) = runner(&store);
+        // The render the comparison will reuse (same scene content and settings).
+        let settings = runner.comparison_settings();
+        let render_id = runner.record("white", &settings).await.unwrap();
+        runner
+            .execute(render_id, "white", settings, CancelFlag::default())
+            .await
+            .unwrap();
+        let result = store.get_render(render_id).await.unwrap().unwrap().result.unwrap();
+        let (_, spectral, _) = rendered_codings(&result, "patch")
+            .unwrap()
+            .into_iter()
+            .find(|(c, _, _)| c == "spectral")
+            .unwrap();
+        let measured = Xyz::new(1.1 * spectral.x, 1.1 * spectral.y, 1.1 * spectral.z);
+        let id = measurement_of(&store, "white", "patch").await;
+        let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
+        comparisons.compare(id, "white", "patch", measured, 0.01).await.unwrap();
+
+        assert_eq!(
+            store.list_renders(Some("white")).await.unwrap().len(),
+            1,
+            "the render was reused"
+        );
+        let rows = store.latest_comparisons("white").await.unwrap();
+        let codings: Vec<&str> = rows.iter().map(|r| r.coding.as_str()).collect();
+        assert_eq!(codings.len(), 2, "{codings:?}");
+        let row = rows.iter().find(|r| r.coding == "spectral").unwrap();
+        assert_eq!(
+            row.white_source,
+            format!("render {render_id} spectral (white/patch; not yet measured)")
+        );
+        assert_eq!([row.white_X, row.white_Y, row.white_Z], spectral.to_array());
+        assert!((row.Y_ratio - 1.0 / 1.1).abs() < 1e-12, "{}", row.Y_ratio);
+        let expected = 116.0 * (1.1f64.cbrt() - 1.0);
+        assert!(
+            (row.dE76 - expected).abs() < 1e-9,
+            "ΔE*ab {} against {expected}",
+            row.dE76
+        );
+        assert!(row.xy_distance < 1e-12, "{}", row.xy_distance);
+        assert_eq!(row.observer, Observer::JuddVos);
+        // The render's own events; the comparison's went nowhere.
+        assert!(!drain(&mut events).iter().any(|e| e.name() == "comparison_ready"));
+
+        // Summarised: one point per coding, rms_rel = |1 − Y ratio|.
+        let summary = summary::scene_comparisons(&store, "white", Observer::JuddVos)
+            .await
+            .unwrap();
+        let spectral_summary = summary.codings.iter().find(|c| c.coding == "spectral").unwrap();
+        assert_eq!(spectral_summary.summary.points, 1);
+        assert!((spectral_summary.summary.rms_rel - (1.0 - 1.0 / 1.1)).abs() < 1e-12);
+        assert!((spectral_summary.mean_y_ratio - 1.0 / 1.1).abs() < 1e-12);
+        assert_eq!(summary.codings[0].coding, "rgb");
+        // Another observer's summary has none of these rows.
+        let other = summary::scene_comparisons(&store, "white", Observer::Cie1931)
+            .await
+            .unwrap();
+        assert!(other.rows.is_empty() && other.codings.is_empty());
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_comparison_of_a_target_the_scene_lacks_stores_nothing_and_says_which() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (runner, _) = runner(&store);
+        let id = measurement_of(&store, "white", "no_such_target").await;
+        let comparisons = Comparisons::new(store.clone(), runner, EventSink::nowhere(), None);
+        let err = comparisons
+            .compare(id, "white", "no_such_target", Xyz::new(1.0, 1.0, 1.0), 0.01)
+            .await
+            .unwrap_err()
+            .to_string();
+        assert_eq!(err, "the render of white has no target no_such_target");
+        assert!(store.latest_comparisons("white").await.unwrap().is_empty());
+    }
+}

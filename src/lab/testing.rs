@@ -1,0 +1,52 @@
+//! What the lab's unit tests share: a store on a fresh SQLite file, the
+//! shipped scenes' catalogue, and a render runner with few paths per
+//! target (the tests check what is recorded, not how accurate it is).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use super::events::{Event, EventSink};
+use super::render_runner::RenderRunner;
+use super::scenes::SceneCatalog;
+use crate::colorimetry::Observer;
+use crate::render::integrator::CancelFlag;
+use crate::render::Coding;
+use crate::store::Store;
+
+/// Paths per target of the tests' renders.
+pub const TEST_SAMPLES: u64 = 64;
+
+/// A store on a new SQLite file in `dir`.
+pub async fn store_in(dir: &Path) -> Store {
+    Store::open(&format!("sqlite://{}", dir.join("lab.sqlite").display()))
+        .await
+        .expect("a store on a new SQLite file")
+}
+
+/// The catalogue of the shipped `scenes/`.
+pub fn shipped_scenes() -> Arc<SceneCatalog> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    Arc::new(SceneCatalog::from_folder(&dir, Observer::JuddVos).expect("the shipped scenes load"))
+}
+
+/// A runner of the shipped scenes in `rgb` and `spectral` with
+/// [`TEST_SAMPLES`] paths per target, sending its events to the returned
+/// receiver.
+pub fn runner(store: &Store) -> (Arc<RenderRunner>, tokio::sync::broadcast::Receiver<Event>) {
+    let (bus, events) = tokio::sync::broadcast::channel(1024);
+    let runner = RenderRunner::new(
+        store.clone(),
+        shipped_scenes(),
+        EventSink::bus(bus),
+        vec![Coding::Rgb, Coding::Spectral],
+        TEST_SAMPLES,
+        Observer::JuddVos,
+        CancelFlag::default(),
+    );
+    (Arc::new(runner), events)
+}
+
+/// Every event received so far.
+pub fn drain(events: &mut tokio::sync::broadcast::Receiver<Event>) -> Vec<Event> {
+    std::iter::from_fn(|| events.try_recv().ok()).collect()
+}
