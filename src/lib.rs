@@ -63,8 +63,11 @@
 //! A module may use modules on its own level or below, never above; the
 //! architecture test (`tests/cli/architecture.rs`) reads this table and
 //! every `crate::…` path under `src/`, and fails naming the file, the line
-//! and the forbidden edge. So physics and colour science know nothing of
-//! storage or HTTP, and the workflows know nothing of axum. Only levels 4
+//! and the forbidden edge. No two files import each other, directly or
+//! round a circle (the same test resolves every path to its file; a
+//! module's `mod.rs` using its own submodules does not count). So physics
+//! and colour science know nothing of storage or HTTP, and the workflows
+//! know nothing of axum. Only levels 4
 //! and 5 may name the HTTP layer; today only the daemon, which wires it
 //! together, does (the worker, on level 4 beside it, does not).
 //!

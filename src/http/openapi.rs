@@ -18,7 +18,6 @@
 
 use std::sync::OnceLock;
 
-use axum::Json;
 use utoipa::openapi::path::{Operation, ParameterIn};
 use utoipa::openapi::security::{HttpAuthScheme, HttpBuilder, SecurityScheme};
 use utoipa::openapi::{ContentBuilder, Ref, ResponseBuilder};
@@ -248,11 +247,4 @@ fn merge(into: &mut serde_json::Value, rules: &serde_json::Value) {
             into.insert(k.clone(), v.clone());
         }
     }
-}
-
-/// This document.
-#[utoipa::path(get, path = "/openapi.json", tag = "service",
-    responses((status = 200, description = "the OpenAPI 3.1 document of this API", content_type = "application/json")))]
-pub async fn document() -> Json<&'static serde_json::Value> {
-    Json(served_document())
 }

@@ -143,7 +143,7 @@ impl SceneBundle {
             reference: scenes_root.display().to_string(),
             message: e.to_string(),
         })?;
-        let toml_text = super::scene::input_file::read_text(&scene.path).unwrap_or_default();
+        let toml_text = super::input_file::read_text(&scene.path).unwrap_or_default();
         let toml_tree: Option<toml::Value> = toml::from_str(&toml_text).ok();
         let scene_dir = absolute(scene.path.parent().unwrap_or(Path::new("")));
         let key_of = |file: &Path| -> String {
@@ -181,7 +181,7 @@ impl SceneBundle {
                 message,
             })?;
             // Bounded and regular files only, as the loader read them.
-            let bytes = super::scene::input_file::read_bytes(f).map_err(|e| BundleError::Unreadable {
+            let bytes = super::input_file::read_bytes(f).map_err(|e| BundleError::Unreadable {
                 file: scene_file_name.clone(),
                 key: key_of(&abs),
                 reference: f.display().to_string(),

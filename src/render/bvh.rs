@@ -117,7 +117,6 @@ use glam::DVec3;
 
 use super::geometry::{triangle_normal, Aabb, Hit, Ray, Shape, ShearedRay};
 use super::huge_pages::vec_with_huge_pages;
-use super::scene::Primitive;
 
 /// Scenes with fewer primitives are traced by a linear scan: below this the
 /// scan is faster than a traversal. Measured: in `benches/bvh.rs`
@@ -174,17 +173,6 @@ impl ShapeList for [Shape] {
     #[inline]
     fn shape(&self, i: usize) -> &Shape {
         &self[i]
-    }
-}
-
-impl ShapeList for [Primitive] {
-    #[inline]
-    fn len(&self) -> usize {
-        <[Primitive]>::len(self)
-    }
-    #[inline]
-    fn shape(&self, i: usize) -> &Shape {
-        &self[i].shape
     }
 }
 

@@ -47,7 +47,7 @@ pub struct IesError {
 impl IesDistribution {
     /// Reads and parses an IES file.
     pub fn read(path: &Path) -> Result<IesDistribution, IesError> {
-        let text = super::scene::input_file::read_text(path).map_err(|e| IesError {
+        let text = super::input_file::read_text(path).map_err(|e| IesError {
             file: path.display().to_string(),
             line: None,
             message: format!("cannot read the file: {}", e.reason),

@@ -47,6 +47,7 @@ pub mod cost;
 pub mod geometry;
 mod huge_pages;
 pub mod ies;
+pub mod input_file;
 pub mod integrator;
 pub mod radiance;
 pub mod sampling;
@@ -603,7 +604,7 @@ pub fn scene_hash(scene: &Scene) -> Result<String, RenderError> {
         // Bounded as at load time: the files were regular files then, and
         // are read again the same way (a file swapped for a FIFO since is
         // refused, not waited on).
-        contents.push(scene::input_file::read_bytes(f).map_err(|e| RenderError::Io(e.to_string()))?);
+        contents.push(input_file::read_bytes(f).map_err(|e| RenderError::Io(e.to_string()))?);
     }
     Ok(scene_hash_of(contents.iter().map(Vec::as_slice)))
 }

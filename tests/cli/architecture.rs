@@ -3,8 +3,15 @@
 //! file's own level or below, as the table in `lib.rs`'s documentation
 //! says; every module `lib.rs` declares is in the table and in its map.
 //! A failure names the file, the line and the forbidden edge.
+//!
+//! And no two files import each other, directly or round a circle: every
+//! `use` and path (`crate::`, `super::`, `self::`, a child module) of a
+//! file's non-test code is resolved to the file that defines it, and the
+//! graph must have no cycle. A module's root file (`mod.rs`) may use its
+//! own submodules (it declares and re-exports them; they use what it
+//! defines): that edge is not counted.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 fn src() -> PathBuf {
@@ -218,5 +225,331 @@ fn a_planted_forbidden_import_is_named_with_its_file_and_line() {
             "src/colorimetry/mod.rs:4: `colorimetry` (level 0) uses `crate::http` (level 4), a layer above it"
                 .to_string()
         ]
+    );
+}
+
+// --- file-level import cycles -------------------------------------------
+
+/// A file's module path: `render/scene/mod.rs` → `["render", "scene"]`.
+fn module_of(rel: &Path) -> Vec<String> {
+    let mut parts: Vec<String> = rel.iter().map(|c| c.to_string_lossy().into_owned()).collect();
+    let last = parts.pop().unwrap();
+    let stem = last.trim_end_matches(".rs");
+    if !matches!(stem, "mod" | "lib" | "main") {
+        parts.push(stem.to_string());
+    }
+    parts
+}
+
+/// `code` up to its first inline test module (`#[cfg(test)] mod name {`):
+/// the code a build without tests compiles (test modules stand at the end
+/// of their file).
+fn without_tests(code: &str) -> &str {
+    let mut from = 0;
+    while let Some(i) = code[from..].find("#[cfg(test)]") {
+        let at = from + i;
+        let item = code[at + "#[cfg(test)]".len()..].trim_start();
+        if let Some(rest) = item.strip_prefix("mod ") {
+            let name_end = rest
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(rest.len());
+            if rest[name_end..].trim_start().starts_with('{') {
+                return &code[..at];
+            }
+        }
+        from = at + 1;
+    }
+    code
+}
+
+/// The tokens of a `use` tree: identifiers, `::`, braces, commas, `*`.
+fn use_tokens(tree: &str) -> Vec<String> {
+    let mut tokens = Vec::new();
+    let mut chars = tree.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c.is_alphanumeric() || c == '_' {
+            let mut ident = c.to_string();
+            while let Some(&n) = chars.peek() {
+                if n.is_alphanumeric() || n == '_' {
+                    ident.push(n);
+                    chars.next();
+                } else {
+                    break;
+                }
+            }
+            tokens.push(ident);
+        } else if c == ':' && chars.peek() == Some(&':') {
+            chars.next();
+            tokens.push("::".into());
+        } else if matches!(c, '{' | '}' | ',' | '*') {
+            tokens.push(c.to_string());
+        }
+    }
+    tokens
+}
+
+/// The paths a `use` tree names: `a::{b::C, d as e}` → `a::b::C`, `a::d`.
+fn expand_use(tokens: &[String], at: &mut usize, prefix: &[String], out: &mut Vec<Vec<String>>) {
+    let mut path = prefix.to_vec();
+    while *at < tokens.len() {
+        match tokens[*at].as_str() {
+            "::" => *at += 1,
+            "{" => {
+                *at += 1;
+                while *at < tokens.len() && tokens[*at] != "}" {
+                    expand_use(tokens, at, &path, out);
+                    if *at < tokens.len() && tokens[*at] == "," {
+                        *at += 1;
+                    }
+                }
+                *at += 1; // the `}`
+                return;
+            }
+            "}" | "," => break,
+            "as" => *at += 2, // `as name`: the path is what precedes
+            "*" => *at += 1,
+            ident => {
+                path.push(ident.to_string());
+                *at += 1;
+            }
+        }
+    }
+    out.push(path);
+}
+
+/// Every path `code` names, with its line: the `use` trees expanded, and
+/// each `crate::…`, `super::…`, `self::…` path elsewhere.
+fn named_paths(code: &str) -> Vec<(usize, Vec<String>)> {
+    let mut found = Vec::new();
+    let line_of = |at: usize| code[..at].matches('\n').count() + 1;
+    let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let mut from = 0;
+    while let Some(i) = code[from..].find("use ") {
+        let at = from + i;
+        from = at + 4;
+        if code[..at].chars().last().is_some_and(|c| ident(c) || c == ':') {
+            continue;
+        }
+        let Some(end) = code[at..].find(';') else { break };
+        let tokens = use_tokens(&code[at + 4..at + end]);
+        let mut paths = Vec::new();
+        expand_use(&tokens, &mut 0, &[], &mut paths);
+        found.extend(paths.into_iter().map(|p| (line_of(at), p)));
+    }
+    for root in ["crate::", "super::", "self::"] {
+        let mut from = 0;
+        while let Some(i) = code[from..].find(root) {
+            let at = from + i;
+            from = at + root.len();
+            if code[..at]
+                .chars()
+                .last()
+                .is_some_and(|c| ident(c) || c == ':' || c == '$')
+            {
+                continue;
+            }
+            let mut path = vec![root.trim_end_matches("::").to_string()];
+            let mut rest = &code[at + root.len()..];
+            loop {
+                let name: String = rest.chars().take_while(|&c| ident(c)).collect();
+                if name.is_empty() {
+                    break;
+                }
+                rest = &rest[name.len()..];
+                path.push(name);
+                match rest.strip_prefix("::") {
+                    Some(r) => rest = r,
+                    None => break,
+                }
+            }
+            found.push((line_of(at), path));
+        }
+    }
+    found
+}
+
+/// The file a path named in the file of module `me` resolves to: the
+/// longest prefix of it that is a module with a file; `None` for other
+/// crates' paths.
+fn resolve(me: &[String], path: &[String], files: &BTreeMap<Vec<String>, PathBuf>) -> Option<PathBuf> {
+    let (mut module, mut rest) = match path.first()?.as_str() {
+        "crate" => (Vec::new(), &path[1..]),
+        "self" => (me.to_vec(), &path[1..]),
+        "super" => {
+            let mut m = me.to_vec();
+            let mut r = path;
+            while r.first().is_some_and(|s| s == "super") {
+                m.pop();
+                r = &r[1..];
+            }
+            (m, r)
+        }
+        first => {
+            // A child module of this one, else another crate's path.
+            let mut child = me.to_vec();
+            child.push(first.to_string());
+            if !files.contains_key(&child) {
+                return None;
+            }
+            (me.to_vec(), path)
+        }
+    };
+    let mut best = files.get(&module).cloned();
+    while let Some((head, tail)) = rest.split_first() {
+        module.push(head.clone());
+        rest = tail;
+        if let Some(f) = files.get(&module) {
+            best = Some(f.clone());
+        }
+    }
+    best
+}
+
+/// The import graph of the library's files under `src` (not the binary's
+/// `main.rs` and `cli/`, nor test-only files): for each file, the files
+/// it uses and the first line that does.
+fn import_graph(src: &Path) -> BTreeMap<PathBuf, BTreeMap<PathBuf, usize>> {
+    let mut all = Vec::new();
+    rust_files(src, &mut all);
+    let rels: Vec<PathBuf> = all
+        .iter()
+        .map(|f| f.strip_prefix(src).unwrap().to_path_buf())
+        .filter(|r| !r.starts_with("cli") && r != Path::new("main.rs"))
+        .collect();
+    let files: BTreeMap<Vec<String>, PathBuf> = rels.iter().map(|r| (module_of(r), r.clone())).collect();
+    let codes: BTreeMap<PathBuf, String> = rels
+        .iter()
+        .map(|r| (r.clone(), code_only(&std::fs::read_to_string(src.join(r)).unwrap())))
+        .collect();
+    // Files only tests compile: `#[cfg(test)] mod name;` in their parent.
+    let mut test_only = BTreeSet::new();
+    for (rel, code) in &codes {
+        for (i, _) in code.match_indices("#[cfg(test)]") {
+            let item = code[i + "#[cfg(test)]".len()..].trim_start();
+            let item = item
+                .strip_prefix("pub(crate) ")
+                .or(item.strip_prefix("pub "))
+                .unwrap_or(item);
+            if let Some(name) = item.strip_prefix("mod ").and_then(|m| m.split(';').next()) {
+                if !name.contains('{') {
+                    let mut m = module_of(rel);
+                    m.push(name.trim().to_string());
+                    if let Some(f) = files.get(&m) {
+                        test_only.insert(f.clone());
+                    }
+                }
+            }
+        }
+    }
+    let mut graph = BTreeMap::new();
+    for (rel, code) in &codes {
+        if test_only.contains(rel) {
+            continue;
+        }
+        let me = module_of(rel);
+        let root_dir = rel.file_name().is_some_and(|n| n == "mod.rs" || n == "lib.rs");
+        let mut uses: BTreeMap<PathBuf, usize> = BTreeMap::new();
+        for (line, path) in named_paths(without_tests(code)) {
+            let Some(to) = resolve(&me, &path, &files) else {
+                continue;
+            };
+            let own_submodule = root_dir && to.parent().is_some_and(|d| d.starts_with(rel.parent().unwrap()));
+            if to != *rel && !own_submodule && !test_only.contains(&to) {
+                uses.entry(to).or_insert(line);
+            }
+        }
+        graph.insert(rel.clone(), uses);
+    }
+    graph
+}
+
+/// Import cycles of `graph`, as `a.rs:12 → b.rs:7 → a.rs` (the line of
+/// each file that uses the next): the shortest through each file not named
+/// in an earlier one.
+fn cycles(graph: &BTreeMap<PathBuf, BTreeMap<PathBuf, usize>>) -> Vec<String> {
+    let mut reported: BTreeSet<PathBuf> = BTreeSet::new();
+    let mut found = Vec::new();
+    for start in graph.keys() {
+        if reported.contains(start) {
+            continue;
+        }
+        // The shortest way back to `start`, breadth first.
+        let mut previous: BTreeMap<&PathBuf, &PathBuf> = BTreeMap::new();
+        let mut queue = std::collections::VecDeque::from([start]);
+        let mut closing = None;
+        while let Some(file) = queue.pop_front() {
+            for next in graph[file].keys() {
+                if next == start {
+                    closing = Some(file);
+                    break;
+                }
+                if graph.contains_key(next) && !previous.contains_key(next) {
+                    previous.insert(next, file);
+                    queue.push_back(next);
+                }
+            }
+            if closing.is_some() {
+                break;
+            }
+        }
+        let Some(mut file) = closing else { continue };
+        let mut circle = vec![file];
+        while file != start {
+            file = previous[file];
+            circle.push(file);
+        }
+        circle.reverse();
+        let mut text = String::new();
+        for (i, f) in circle.iter().enumerate() {
+            let next = circle.get(i + 1).copied().unwrap_or(start);
+            text.push_str(&format!("src/{}:{} → ", f.display(), graph[*f][next]));
+            reported.insert((*f).clone());
+        }
+        text.push_str(&format!("src/{}", start.display()));
+        found.push(text);
+    }
+    found
+}
+
+#[test]
+fn no_two_files_import_each_other_directly_or_round_a_circle() {
+    let graph = import_graph(&src());
+    assert!(graph.len() > 100, "the graph missed the files: {}", graph.len());
+    let found = cycles(&graph);
+    assert!(
+        found.is_empty(),
+        "import cycles between files of src/ ({}); move what both need into a file below both:\n{}",
+        found.len(),
+        found.join("\n")
+    );
+}
+
+/// The check itself: a planted circle (`a.rs` → `b.rs` → `c/mod.rs` →
+/// `a.rs`) is found with each line; a root using its own submodule, a
+/// path in a test module and another crate's path are not edges.
+#[test]
+fn a_planted_import_cycle_is_named_with_each_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    std::fs::create_dir_all(src.join("c")).unwrap();
+    let write = |f: &str, text: &str| std::fs::write(src.join(f), text).unwrap();
+    write("lib.rs", "pub mod a;\npub mod b;\npub mod c;\n");
+    write("a.rs", "use std::fmt;\n\nuse crate::b::{Thing as Other, more::*};\n");
+    write("b.rs", "pub struct Thing;\nfn f() { super::c::g(); }\n");
+    write(
+        "c/mod.rs",
+        "pub mod d;\npub use d::D;\npub fn g() {}\nfn h() -> crate::a::A { todo!() }\n#[cfg(test)]\nmod tests { use crate::b::Thing; }\n",
+    );
+    write("c/d.rs", "pub struct D;\nuse super::g;\n");
+    let graph = import_graph(src);
+    assert_eq!(
+        graph[Path::new("c/mod.rs")].keys().collect::<Vec<_>>(),
+        [Path::new("a.rs")],
+        "{graph:?}"
+    );
+    assert_eq!(
+        cycles(&graph),
+        ["src/a.rs:3 → src/b.rs:2 → src/c/mod.rs:4 → src/a.rs"],
+        "{graph:?}"
     );
 }

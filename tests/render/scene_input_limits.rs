@@ -11,9 +11,9 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 use glam::DVec3;
+use lightbooth::render::input_file::MAX_INPUT_BYTES;
 use lightbooth::render::load_scene;
 use lightbooth::render::radiance::{MAX_PLACEMENTS, MAX_PRIMITIVES};
-use lightbooth::render::scene::input_file::MAX_INPUT_BYTES;
 use lightbooth::render::scene::{load_radiance_scene, RadianceView, SceneError};
 
 fn view() -> RadianceView {

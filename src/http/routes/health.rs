@@ -1,4 +1,5 @@
-//! `/api/health` and `/api/instruments`: is the daemon alive, and what is the instrument doing.
+//! `/api/health` and `/api/instruments`: is the daemon alive, and what is
+//! the instrument doing; `/api/openapi.json`: what the API offers.
 
 use axum::extract::State;
 use axum::http::StatusCode;
@@ -7,6 +8,7 @@ use serde::Serialize;
 use utoipa::ToSchema;
 
 use crate::http::error::ApiError;
+use crate::http::openapi::served_document;
 use crate::http::AppState;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::store::InstrumentRow;
@@ -99,4 +101,11 @@ pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instrumen
         status,
         known: state.store.list_instruments().await?,
     }))
+}
+
+/// The OpenAPI document of this API ([`crate::http::openapi`]).
+#[utoipa::path(get, path = "/openapi.json", tag = "service",
+    responses((status = 200, description = "the OpenAPI 3.1 document of this API", content_type = "application/json")))]
+pub async fn document() -> Json<&'static serde_json::Value> {
+    Json(served_document())
 }

@@ -38,7 +38,7 @@ pub use scenes::*;
 pub use sessions::*;
 pub use studies::*;
 
-use super::{openapi, sse, AppState};
+use super::{sse, AppState};
 
 /// Every path of the API (relative to `/api`) with its handlers. Each
 /// `routes!` entry takes its path and methods from the handlers'
@@ -47,7 +47,7 @@ use super::{openapi, sse, AppState};
 pub fn api_router() -> OpenApiRouter<AppState> {
     OpenApiRouter::default()
         .routes(routes!(health))
-        .routes(routes!(openapi::document))
+        .routes(routes!(document))
         .routes(routes!(read_cookie))
         .routes(routes!(instruments))
         .routes(routes!(list_booths))

@@ -49,7 +49,7 @@ use super::load::{is_surface, placed_vertices, Placed, Source, Stream, MAX_PRIMI
 use super::tessellate::{self, Triangle};
 use super::{RadError, RadianceScene};
 use crate::render::geometry::Shape;
-use crate::render::scene::input_file::unquoted;
+use crate::render::input_file::unquoted;
 use crate::render::scene::{Emitter, Material, Primitive, Spot, Surface};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 

@@ -11,7 +11,7 @@
 //! is placed, so `xform -a N` places N copies of one expansion (work
 //! linear in N, not N expansions). File access goes through [`Source`], so
 //! the parsing can be tested without files; [`Files`] reads only regular
-//! files of at most [`MAX_INPUT_BYTES`](crate::render::scene::input_file::MAX_INPUT_BYTES).
+//! files of at most [`MAX_INPUT_BYTES`](crate::render::input_file::MAX_INPUT_BYTES).
 //!
 //! Limits (errors naming the file, the line and the limit, not clamps):
 //! - [`MAX_DEPTH`] (16) files nested by `xform` (a file that includes
@@ -24,7 +24,7 @@
 //! - [`super::xform::MAX_COPIES`] (100 000) copies made by one `xform`.
 //!
 //! Errors about a file outside the scene's folder name the file and the
-//! line but do not quote it ([`crate::render::scene::input_file::Quoting`]).
+//! line but do not quote it ([`crate::render::input_file::Quoting`]).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -37,7 +37,7 @@ use super::lex::command_words;
 use super::parse::{parse, Item, RawPrimitive};
 use super::xform::{parse_xform, Transform};
 use super::RadError;
-use crate::render::scene::input_file::{read_text, unquoted, Quoting};
+use crate::render::input_file::{read_text, unquoted, Quoting};
 
 /// How deep `xform` may nest files (a file that includes itself stops here).
 pub const MAX_DEPTH: usize = 16;

@@ -31,7 +31,7 @@
 //! primitives, [`MAX_PLACEMENTS`] file copies placed by all `xform`s,
 //! [`MAX_COPIES`] copies and [`MAX_ARRAYS`] arrays per `xform`; files are read
 //! only if regular and at most
-//! [`MAX_INPUT_BYTES`](crate::render::scene::input_file::MAX_INPUT_BYTES).
+//! [`MAX_INPUT_BYTES`](crate::render::input_file::MAX_INPUT_BYTES).
 
 mod colour;
 mod convert;
@@ -46,7 +46,7 @@ use std::path::{Path, PathBuf};
 
 pub use colour::{RADIANCE_EFFICACY, SYNTHESIS_METHOD};
 
-use super::scene::input_file::Quoting;
+use super::input_file::Quoting;
 use super::scene::{Emitter, Material, Primitive};
 
 /// An error in a RADIANCE file: the file, the line (0: the file as a

@@ -11,10 +11,10 @@
 use glam::DVec3;
 
 use super::file::{EmissionFile, LightFile};
-use super::input_file::{read_text, unquoted};
 use super::spectra::luminous_1nm;
 use super::{positive, unit, Emitter, Light, LightDistribution, Loader, SceneError};
 use crate::render::ies::IesDistribution;
+use crate::render::input_file::{read_text, unquoted};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
 pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneError> {

@@ -23,8 +23,8 @@ use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Property, PropertyAccess, PropertyAccessResult};
 
 use super::file::{Scale, V3};
-use super::input_file::{read_bytes, unquoted};
 use crate::render::geometry::Shape;
+use crate::render::input_file::{read_bytes, unquoted};
 
 /// The triangles of a fan over `points`: (0, i, i + 1).
 pub(super) fn fan(n: usize) -> impl Iterator<Item = [usize; 3]> {
@@ -104,7 +104,7 @@ pub(super) fn triangle(p: [DVec3; 3], mirrors: bool) -> Option<Shape> {
 }
 
 /// Reads an OBJ or PLY file (by extension; bounded, a regular file:
-/// [`super::input_file`]). `known` names the scene's materials, which OBJ
+/// [`crate::render::input_file`]). `known` names the scene's materials, which OBJ
 /// `usemtl` may use; `shown` is the path as the scene writes it, for
 /// messages (which name the line where the format has one, and quote it
 /// only when `quote`: the file is inside the scene's folder).

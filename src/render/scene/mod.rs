@@ -172,7 +172,7 @@
 //!
 //! Files a scene names are read only if they are regular files (not a
 //! FIFO or a device such as `/dev/zero`) of at most
-//! [`input_file::MAX_INPUT_BYTES`] (256 MiB); errors about a file outside
+//! [`MAX_INPUT_BYTES`](super::input_file::MAX_INPUT_BYTES) (256 MiB); errors about a file outside
 //! the scene's folder name it and the line but do not quote it. A camera must look
 //! somewhere (`look_at` ≠ `position`), with `up` not along the view
 //! direction and 0 < `fov_deg` < 180.
@@ -211,7 +211,6 @@
 
 mod analytic;
 mod file;
-pub mod input_file;
 mod lights;
 mod mesh;
 mod rad_import;
@@ -228,6 +227,7 @@ use glam::DVec3;
 pub use self::rad_import::{load_radiance_scene, RadianceView};
 
 use self::file::{CameraFile, CielabWhiteFile, SceneFile, V3};
+use super::bvh::ShapeList;
 use super::geometry::{Shape, Solid};
 use super::ies::IesDistribution;
 use crate::spectrum::table::SpectraTable;
@@ -316,6 +316,18 @@ pub struct Primitive {
     /// Index into [`Scene::emitters`] when this surface emits light (only
     /// triangles do: `[[polygon]]` and `[[mesh]]` with `emission`).
     pub emitter: Option<usize>,
+}
+
+/// The BVH is built over a scene's primitives by their shapes.
+impl ShapeList for [Primitive] {
+    #[inline]
+    fn len(&self) -> usize {
+        <[Primitive]>::len(self)
+    }
+    #[inline]
+    fn shape(&self, i: usize) -> &Shape {
+        &self[i].shape
+    }
 }
 
 /// The emission of an area light: every primitive with this emitter emits
@@ -546,7 +558,7 @@ struct Loader {
     /// The black material of emitting surfaces without one, once added.
     black: Option<usize>,
     /// Which of the files the scene names errors may quote.
-    quoting: input_file::Quoting,
+    quoting: super::input_file::Quoting,
 }
 
 impl Loader {
@@ -618,7 +630,7 @@ pub(super) fn metres_per_unit(units: Option<&str>) -> Option<f64> {
 /// Loads and validates a scene file.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
-    let text = input_file::read_text(path).map_err(|e| SceneError {
+    let text = super::input_file::read_text(path).map_err(|e| SceneError {
         file: file.clone(),
         key: "(file)".into(),
         message: e.reason,
@@ -660,7 +672,7 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         materials: Vec::new(),
         material_index: HashMap::new(),
         black: None,
-        quoting: input_file::Quoting::for_scene(path),
+        quoting: super::input_file::Quoting::for_scene(path),
     };
     let units = metres_per_unit(raw.units.as_deref()).ok_or_else(|| {
         l.err(

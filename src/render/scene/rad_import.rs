@@ -65,7 +65,7 @@ pub fn load_radiance_scene(path: &Path, view: &RadianceView) -> Result<Scene, Sc
         key: key.into(),
         message,
     };
-    let quoting = super::input_file::Quoting::for_scene(path);
+    let quoting = crate::render::input_file::Quoting::for_scene(path);
     let rad = load_radiance(path, 1.0, &quoting).map_err(|e| err("(radiance)", e.to_string()))?;
     let l = Loader {
         file: file.clone(),

@@ -12,9 +12,9 @@
 //! renderer resamples to).
 
 use super::file::{ExtendedRef, Outside, SpectrumRef};
-use super::input_file::{read_text, unquoted};
 use super::{Loader, SceneError};
 use crate::colorimetry::{Cmf, KM_LM_PER_W};
+use crate::render::input_file::{read_text, unquoted};
 use crate::spectrum::table::{SpectraTable, TableError};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum, SpectrumError};
 

@@ -12,10 +12,10 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::file::{EmissionFile, MeshFile, PolygonFile, Scale};
-use super::input_file::unquoted;
 use super::lights::load_emitter;
 use super::mesh::{fan, read_mesh, triangle, Placement};
 use super::{Emitter, Loader, Primitive, SceneError};
+use crate::render::input_file::unquoted;
 
 /// `polygon[i]` or `mesh[i]`, and its label for messages (with its name).
 fn labels(kind: &str, i: usize, name: Option<&str>) -> (String, String) {

@@ -1,0 +1,175 @@
+//! Line charts: series against a linear or log x, and profiles along a
+//! scene's targets.
+
+use super::*;
+
+/// A y-against-x line chart of several named series with optional error bars.
+pub struct LineSeriesData {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    /// ±1 SD (or SE) per point, drawn as error bars when present.
+    pub errors: Option<Vec<f64>>,
+}
+
+pub(super) fn line_y_bounds(series: &[LineSeriesData]) -> (f64, f64) {
+    bounds(series.iter().flat_map(|s| {
+        s.points.iter().enumerate().flat_map(move |(i, p)| {
+            let e = s.errors.as_ref().and_then(|e| e.get(i).copied()).unwrap_or(0.0);
+            [p.1 - e, p.1 + e]
+        })
+    }))
+}
+
+/// Pareto charts, interreflection curves and the like: y against x, x linear
+/// or logarithmic.
+pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesData], log_x: bool) -> ChartResult {
+    let xs = bounds(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let ys = line_y_bounds(series);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let (plot, legend_area) = page(&root, title)?;
+        if log_x {
+            let lo = series
+                .iter()
+                .flat_map(|s| s.points.iter().map(|p| p.0))
+                .filter(|v| *v > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            let lo = if lo.is_finite() { lo } else { 1e-3 };
+            let hi = xs.1.max(lo);
+            let mut chart = builder(&plot)
+                .build_cartesian_2d(log_axis(lo, hi), ys.0..ys.1)
+                .map_err(err)?;
+            mesh!(chart, x_desc, y_desc)
+                .x_label_formatter(&|v| log_tick_label(*v))
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        } else {
+            let mut chart = builder(&plot).build_cartesian_2d(xs.0..xs.1, ys.0..ys.1).map_err(err)?;
+            mesh!(chart, x_desc, y_desc)
+                .x_label_formatter(&|v| tick_label(*v, xs.1 - xs.0))
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        }
+        draw_legend(&legend_area, &line_legend(series))?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// A profile along a scene's targets: series' x are target numbers
+/// 1…n (the scene's order), labelled with the targets' ids on the x axis
+/// (every k-th when there are many). When the positive values span more
+/// than two decades (the Cornell box's light beside its walls) the y axis
+/// is logarithmic, and the axis description says so.
+pub fn profile_chart(
+    title: &str,
+    targets: &[String],
+    x_desc: &str,
+    y_desc: &str,
+    series: &[LineSeriesData],
+) -> ChartResult {
+    let n = targets.len().max(1);
+    let every = n.div_ceil(11);
+    let keys: Vec<f64> = (1..=n).step_by(every).map(|i| i as f64).collect();
+    let ys = line_y_bounds(series);
+    let x_label = |v: &f64| {
+        let i = v.round() as usize;
+        if (v - v.round()).abs() < 1e-6 && (1..=targets.len()).contains(&i) {
+            targets[i - 1].clone()
+        } else {
+            String::new()
+        }
+    };
+    let positive = series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+    let (lo, hi) = positive.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
+        if y > 0.0 {
+            (lo.min(y), hi.max(y))
+        } else {
+            (lo, hi)
+        }
+    });
+    let all_positive = series.iter().all(|s| s.points.iter().all(|p| p.1 > 0.0));
+    let log_y = all_positive && lo.is_finite() && hi / lo > 100.0;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let (plot, legend_area) = page(&root, title)?;
+        let x = Slots::new(0.5..n as f64 + 0.5, keys);
+        if log_y {
+            let y_desc = format!("{y_desc} (log scale)");
+            let mut chart = builder(&plot).build_cartesian_2d(x, log_axis(lo, hi)).map_err(err)?;
+            mesh!(chart, x_desc, y_desc.as_str())
+                .x_label_formatter(&x_label)
+                .y_label_formatter(&|v| log_tick_label(*v))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        } else {
+            let mut chart = builder(&plot).build_cartesian_2d(x, ys.0..ys.1).map_err(err)?;
+            mesh!(chart, x_desc, y_desc)
+                .x_label_formatter(&x_label)
+                .y_label_formatter(&|v| tick_label(*v, ys.1 - ys.0))
+                .draw()
+                .map_err(err)?;
+            draw_lines(&mut chart, series)?;
+        }
+        draw_legend(&legend_area, &line_legend(series))?;
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// Series in drawing order: others first, the measurement last.
+pub(super) fn measurement_last<T>(series: &[T], name: impl Fn(&T) -> &str) -> Vec<(usize, &T)> {
+    let mut order: Vec<(usize, &T)> = series.iter().enumerate().collect();
+    order.sort_by_key(|(_, s)| is_measurement(name(s)));
+    order
+}
+
+/// Styles for series by name, in the series' own order.
+pub(super) fn styles<T>(series: &[T], name: impl Fn(&T) -> &str) -> Vec<Style> {
+    let mut other = 0;
+    series.iter().map(|s| series_style(name(s), &mut other)).collect()
+}
+
+pub(super) fn line_legend(series: &[LineSeriesData]) -> Vec<LegendEntry> {
+    let st = styles(series, |s| s.name.as_str());
+    series
+        .iter()
+        .zip(st)
+        .map(|(s, style)| LegendEntry {
+            name: s.name.clone(),
+            glyph: Glyph::LineMarker(style),
+        })
+        .collect()
+}
+
+pub(super) fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    series: &[LineSeriesData],
+) -> Result<(), String> {
+    let st = styles(series, |s| s.name.as_str());
+    for (i, s) in measurement_last(series, |s| s.name.as_str()) {
+        let style = st[i];
+        let width = if is_measurement(&s.name) { 3 } else { 2 };
+        chart
+            .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
+            .map_err(err)?;
+        if let Some(errors) = &s.errors {
+            let bars: Vec<(f64, f64, f64)> = s
+                .points
+                .iter()
+                .zip(errors)
+                .map(|(p, e)| (p.0, p.1 - e, p.1 + e))
+                .collect();
+            draw_error_bars(chart, &bars, style.colour, 4)?;
+        }
+        draw_markers(chart, &s.points, style)?;
+    }
+    Ok(())
+}

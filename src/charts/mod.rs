@@ -1,0 +1,176 @@
+//! The study's charts as SVG, drawn with `plotters` on the server.
+//!
+//! Why server-side SVG: the same chart serves the dashboard, downloads for
+//! papers and the `study --report` HTML, with no JavaScript build step and no
+//! charting code in the browser. Text is left to the viewer's fonts (SVG
+//! `<text>`), so no font files are needed here.
+//!
+//! One visual language for every chart, page and report:
+//! - each coding has one colour and one marker ([`CODING_STYLES`], Okabe–Ito
+//!   colours, safe for the common colour-vision deficiencies; the dashboard
+//!   and the report read the same table through [`coding_css`]);
+//! - the measurement (or the study's truth) is black, an open circle larger
+//!   than any coding's marker, drawn last so nothing hides it;
+//! - legends sit in their own column right of the plot, never over data;
+//! - tick labels are formatted from the axis span (no float noise), every
+//!   axis names its unit, fonts are sized for a chart scaled to ~600 px.
+//!
+//! Every function is pure: data in, SVG text out.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::colorimetry::rgb::RgbSpace;
+use crate::colorimetry::{Cmf, Observer, Xyz};
+
+/// Chart size in px; the dashboard scales the SVG to its box.
+const W: u32 = 780;
+const H: u32 = 460;
+/// The legend column right of the plot.
+const LEGEND_W: u32 = 190;
+const CAPTION_PX: u32 = 20;
+const DESC_PX: u32 = 16;
+const TICK_PX: u32 = 14;
+const LEGEND_PX: u32 = 14;
+/// A coding's marker radius; the measurement's is larger.
+const MARKER_PX: i32 = 5;
+const MEASUREMENT_PX: i32 = 8;
+
+type ChartResult = Result<String, String>;
+type Area<DB> = DrawingArea<DB, Shift>;
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("chart drawing failed: {e:?}")
+}
+
+/// Runs `$body` with `$mk` bound to a closure that builds the marker of
+/// `$style` at a point (data or pixel coordinates). A macro because each
+/// marker shape is its own element type (and plotters' boxed `DynElement`
+/// needs a `'static` backend).
+macro_rules! with_marker {
+    ($style:expr, |$mk:ident| $body:expr) => {{
+        let st: Style = $style;
+        let (s, c) = (st.size, st.colour);
+        let tri = (s as f64 * 0.9) as i32;
+        match st.marker {
+            Marker::Circle => {
+                let $mk = |at| EmptyElement::at(at) + Circle::new((0, 0), s, c.filled());
+                $body
+            }
+            Marker::OpenCircle => {
+                let $mk = |at| EmptyElement::at(at) + Circle::new((0, 0), s, c.stroke_width(2));
+                $body
+            }
+            Marker::Square => {
+                let $mk = |at| EmptyElement::at(at) + Rectangle::new([(1 - s, 1 - s), (s - 1, s - 1)], c.filled());
+                $body
+            }
+            Marker::Diamond => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + Polygon::new(vec![(0, -s - 1), (s + 1, 0), (0, s + 1), (-s - 1, 0)], c.filled())
+                };
+                $body
+            }
+            Marker::TriangleUp => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(0, -s - 1), (s + 1, tri), (-s - 1, tri)], c.filled())
+                };
+                $body
+            }
+            Marker::TriangleDown => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(0, s + 1), (s + 1, -tri), (-s - 1, -tri)], c.filled())
+                };
+                $body
+            }
+            Marker::Cross => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(-s, -s), (s, s)], c.stroke_width(3))
+                        + PathElement::new(vec![(-s, s), (s, -s)], c.stroke_width(3))
+                };
+                $body
+            }
+            Marker::Plus => {
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(-s - 1, 0), (s + 1, 0)], c.stroke_width(3))
+                        + PathElement::new(vec![(0, -s - 1), (0, s + 1)], c.stroke_width(3))
+                };
+                $body
+            }
+        }
+    }};
+}
+
+/// Draws `points` as markers of `style` into a chart.
+fn draw_markers<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    points: &[(f64, f64)],
+    style: Style,
+) -> Result<(), String> {
+    with_marker!(style, |mk| chart
+        .draw_series(points.iter().map(|p| mk(*p)))
+        .map(|_| ())
+        .map_err(err))
+}
+
+/// Vertical error bars (x, low, high) with caps `cap` px wide each side;
+/// unlike plotters' `ErrorBar`, no circle at the centre (which would hide
+/// or fake a marker).
+fn draw_error_bars<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    bars: &[(f64, f64, f64)],
+    colour: RGBColor,
+    cap: i32,
+) -> Result<(), String> {
+    let style = colour.stroke_width(2);
+    chart
+        .draw_series(
+            bars.iter()
+                .map(|&(x, lo, hi)| PathElement::new(vec![(x, lo), (x, hi)], style)),
+        )
+        .map_err(err)?;
+    chart
+        .draw_series(
+            bars.iter()
+                .flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)])
+                .map(|p| EmptyElement::at(p) + PathElement::new(vec![(-cap, 0), (cap, 0)], style)),
+        )
+        .map_err(err)?;
+    Ok(())
+}
+
+macro_rules! mesh {
+    ($chart:expr, $x_desc:expr, $y_desc:expr) => {
+        $chart
+            .configure_mesh()
+            .x_desc($x_desc)
+            .y_desc($y_desc)
+            .label_style(("sans-serif", TICK_PX))
+            .axis_desc_style(("sans-serif", DESC_PX))
+            .light_line_style(RGBColor(244, 244, 244))
+            .bold_line_style(RGBColor(215, 215, 215))
+    };
+}
+
+mod axes;
+mod bars;
+mod chromaticity;
+mod legend;
+mod lines;
+mod scatter;
+mod spectra;
+mod style;
+#[cfg(test)]
+mod tests;
+
+pub use axes::*;
+pub use bars::*;
+pub use chromaticity::*;
+use legend::*;
+pub use lines::*;
+pub use scatter::*;
+pub use spectra::*;
+pub use style::*;

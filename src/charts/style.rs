@@ -1,0 +1,145 @@
+//! One colour and one marker per coding ([`CODING_STYLES`]), the
+//! measurement's black open circle, and the styles of other series.
+
+use super::*;
+
+/// The shape drawn at a data point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Marker {
+    Circle,
+    OpenCircle,
+    Square,
+    Diamond,
+    TriangleUp,
+    TriangleDown,
+    Cross,
+    Plus,
+}
+
+/// How one series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Style {
+    pub colour: RGBColor,
+    pub marker: Marker,
+    /// Marker radius in px.
+    pub size: i32,
+}
+
+/// One colour and marker per coding, the same in every chart, page and
+/// report (Okabe & Ito 2008 colours; black is kept for the measurement).
+pub const CODING_STYLES: [(&str, RGBColor, Marker); 7] = [
+    ("rgb", RGBColor(213, 94, 0), Marker::Square),
+    ("srgb", RGBColor(230, 159, 0), Marker::Diamond),
+    ("nstep3", RGBColor(204, 121, 167), Marker::TriangleUp),
+    ("nstep9", RGBColor(86, 180, 233), Marker::TriangleDown),
+    ("nstep27", RGBColor(0, 114, 178), Marker::Circle),
+    ("nstep81", RGBColor(0, 158, 115), Marker::Cross),
+    ("spectral", RGBColor(90, 90, 90), Marker::Plus),
+];
+
+/// The measurement (or the study's truth): black, open, larger, drawn last.
+pub const MEASUREMENT: Style = Style {
+    colour: RGBColor(0, 0, 0),
+    marker: Marker::OpenCircle,
+    size: MEASUREMENT_PX,
+};
+
+/// Series that are neither a coding nor the measurement (a Pareto front,
+/// a sweep, a threshold): greys and the one Okabe–Ito colour no coding uses.
+pub(super) const OTHER_COLOURS: [RGBColor; 3] =
+    [RGBColor(110, 110, 110), RGBColor(240, 200, 40), RGBColor(170, 170, 170)];
+
+/// A coding's style, if `name` is a coding (`nstepN` for an N not in the
+/// table gets the nearest tabulated N's colour and marker).
+pub fn coding_style(name: &str) -> Option<Style> {
+    let name = name.trim().to_ascii_lowercase();
+    let style = |(_, colour, marker): (&str, RGBColor, Marker)| Style {
+        colour,
+        marker,
+        size: MARKER_PX,
+    };
+    if let Some(row) = CODING_STYLES.iter().find(|(c, _, _)| *c == name) {
+        return Some(style(*row));
+    }
+    let n: f64 = name.strip_prefix("nstep")?.parse().ok()?;
+    CODING_STYLES
+        .iter()
+        .filter_map(|row| Some((row.0.strip_prefix("nstep")?.parse::<f64>().ok()?, *row)))
+        .min_by(|a, b| (a.0.ln() - n.ln()).abs().total_cmp(&(b.0.ln() - n.ln()).abs()))
+        .map(|(_, row)| style(row))
+}
+
+/// Whether a series is the measurement (or the study's truth).
+pub(super) fn is_measurement(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    n.starts_with("measured") || n.starts_with("measurement") || n.starts_with("truth")
+}
+
+/// The style of a named series: its coding's, the measurement's, or the
+/// `other`-th of the neutral styles.
+pub(super) fn series_style(name: &str, other: &mut usize) -> Style {
+    if is_measurement(name) {
+        return MEASUREMENT;
+    }
+    if let Some(style) = display_channel_style(name) {
+        return style;
+    }
+    coding_style(name).unwrap_or_else(|| {
+        let colour = OTHER_COLOURS[*other % OTHER_COLOURS.len()];
+        let marker = [Marker::Square, Marker::Diamond, Marker::Circle][*other % 3];
+        *other += 1;
+        Style {
+            colour,
+            marker,
+            size: MARKER_PX,
+        }
+    })
+}
+
+/// A display channel's series (`red`, `green measured`, `blue fit v^2.2`,
+/// `black`, `white, measured`, `black + R + G + B`) in its own colour, so a
+/// display profile's charts read at a glance: measured points as squares,
+/// spectra and fitted curves as plain lines, the additivity sum in orange.
+pub(super) fn display_channel_style(name: &str) -> Option<Style> {
+    let first = name.split([' ', ',']).next()?;
+    let colour = if name.contains(" + ") {
+        RGBColor(230, 159, 0)
+    } else {
+        match first {
+            "red" => RGBColor(213, 40, 30),
+            "green" => RGBColor(0, 150, 60),
+            "blue" => RGBColor(30, 80, 210),
+            "black" => RGBColor(90, 90, 90),
+            "white" => RGBColor(0, 0, 0),
+            _ => return None,
+        }
+    };
+    let points = name.contains("measured") && !name.contains(" + ");
+    Some(Style {
+        colour,
+        marker: Marker::Square,
+        size: if points { MARKER_PX } else { 0 },
+    })
+}
+
+/// The coding table as CSS custom properties and classes, for the dashboard
+/// and the report (`--coding-nstep3: #cc79a7` …, `.coding-nstep3 { color }`).
+pub fn coding_css() -> String {
+    let mut css = String::from(":root{");
+    for (c, RGBColor(r, g, b), _) in CODING_STYLES {
+        css.push_str(&format!("--coding-{c}:#{r:02x}{g:02x}{b:02x};"));
+    }
+    css.push_str("--coding-measured:#000000}");
+    for (c, _, _) in CODING_STYLES {
+        css.push_str(&format!(".coding-{c}{{color:var(--coding-{c});font-weight:600}}"));
+    }
+    css
+}
+
+/// The observer's name as charts print it.
+pub fn observer_name(observer: Observer) -> &'static str {
+    match observer {
+        Observer::JuddVos => "Judd–Vos 1978 2°",
+        Observer::Cie1931 => "CIE 1931 2°",
+    }
+}

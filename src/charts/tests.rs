@@ -1,0 +1,449 @@
+//! The charts drawn and read back: every chart's SVG checked for its
+//! axes, legend, markers and colours.
+
+use super::*;
+use crate::spectrum::Grid;
+
+/// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
+fn elements(svg: &str, tag: &str) -> Vec<(String, String)> {
+    let open = format!("<{tag} ");
+    let mut out = Vec::new();
+    let mut rest = svg;
+    while let Some(i) = rest.find(&open) {
+        rest = &rest[i + open.len()..];
+        let end = rest.find('>').unwrap();
+        let attrs = rest[..end].to_string();
+        let content = if attrs.ends_with('/') {
+            String::new()
+        } else {
+            let close = format!("</{tag}>");
+            let c = rest.find(&close).unwrap();
+            rest[end + 1..c].trim().to_string()
+        };
+        out.push((attrs, content));
+    }
+    out
+}
+
+fn attr(attrs: &str, name: &str) -> Option<String> {
+    let key = format!(" {name}=\"");
+    let i = format!(" {attrs}").find(&key)? + key.len() - 1;
+    let v = &attrs[i..];
+    Some(v[..v.find('"')?].to_string())
+}
+
+fn num(attrs: &str, name: &str) -> f64 {
+    attr(attrs, name).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
+}
+
+fn texts(svg: &str) -> Vec<(f64, f64, String)> {
+    elements(svg, "text")
+        .into_iter()
+        .map(|(a, c)| (num(&a, "x"), num(&a, "y"), c))
+        .collect()
+}
+
+fn series(name: &str, points: &[(f64, f64)]) -> LineSeriesData {
+    LineSeriesData {
+        name: name.into(),
+        points: points.to_vec(),
+        errors: None,
+    }
+}
+
+fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
+    ScatterSeries {
+        name: name.into(),
+        points: points.to_vec(),
+        connect: false,
+    }
+}
+
+#[test]
+fn charts_are_svg_with_their_labels() {
+    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+    let sd = vec![1e-5; wl.len()];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
+    let xy = chromaticity_chart(
+        "chromaticity",
+        Observer::JuddVos,
+        &[scatter("measured", &[(0.31, 0.33)])],
+    )
+    .unwrap();
+    assert!(xy.contains("spectral locus") && xy.contains("sRGB gamut") && xy.contains("RADIANCE RGB gamut"));
+    let bars = bar_chart(
+        "rms",
+        "rms_rel",
+        &[Bar {
+            label: "rgb".into(),
+            value: 0.1,
+            sd: Some(0.02),
+        }],
+    )
+    .unwrap();
+    assert!(bars.contains("rgb"));
+    let mut pareto = series("pareto", &[(0.1, 3.0), (1.0, 1.0)]);
+    pareto.errors = Some(vec![0.1, 0.1]);
+    let lines = line_chart("speed", "s", "dE", &[pareto], true).unwrap();
+    assert!(lines.contains("pareto"));
+    let grid = grid_chart(
+        "map",
+        &["red".into(), "grey".into()],
+        &["A rgb".into()],
+        &[vec![5.0], vec![0.5]],
+        2.0,
+    )
+    .unwrap();
+    assert!(grid.starts_with("<svg") && grid.contains("A rgb") && grid.contains("5.0"));
+    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
+}
+
+#[test]
+fn scatter_chart_draws_every_series_name() {
+    let series = [
+        scatter("candidates", &[(0.1, 2.0), (1.0, 0.5)]),
+        ScatterSeries {
+            name: "front".into(),
+            points: vec![(0.1, 2.0), (1.0, 0.5)],
+            connect: true,
+        },
+    ];
+    for log in [(true, true), (true, false), (false, true), (false, false)] {
+        let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
+    }
+}
+
+/// The CYLINDER profile plotted target k at x = k − 1 under an axis that
+/// said 1–21: the first point must sit on the first target's tick.
+#[test]
+fn profile_ticks_are_not_shifted_by_one() {
+    let targets: Vec<String> = ["h01", "h02", "h03"].map(String::from).to_vec();
+    let svg = profile_chart(
+        "profile",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("measured", &[(1.0, 1.0), (2.0, 4.0), (3.0, 9.0)])],
+    )
+    .unwrap();
+    let t = texts(&svg);
+    let tick = |id: &str| {
+        t.iter()
+            .find(|(_, _, c)| c == id)
+            .unwrap_or_else(|| panic!("no tick {id}"))
+            .0
+    };
+    // The measurement's markers: black open circles, in x order.
+    let marks: Vec<f64> = elements(&svg, "circle")
+        .iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000") && num(a, "r") == MEASUREMENT_PX as f64)
+        .map(|(a, _)| num(a, "cx"))
+        .filter(|x| *x < (W - LEGEND_W) as f64)
+        .collect();
+    assert_eq!(marks.len(), 3, "{svg}");
+    for (id, x) in ["h01", "h02", "h03"].iter().zip(&marks) {
+        assert!(
+            (tick(id) - x).abs() <= 1.0,
+            "{id} tick at {} but its point at {x}",
+            tick(id)
+        );
+    }
+}
+
+/// One target (WHITE's patch) made a zero-width x range whose ticks all read "0.0".
+#[test]
+fn single_target_scene_ticks_are_not_all_zero() {
+    let targets = vec!["patch".to_string()];
+    let svg = profile_chart(
+        "white",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("measured", &[(1.0, 34.48)]), series("rgb", &[(1.0, 34.55)])],
+    )
+    .unwrap();
+    let t = texts(&svg);
+    assert!(
+        t.iter().any(|(_, _, c)| c == "patch"),
+        "the target is named on its tick"
+    );
+    let numbers: Vec<&String> = t
+        .iter()
+        .map(|(_, _, c)| c)
+        .filter(|c| c.parse::<f64>().is_ok())
+        .collect();
+    let distinct: std::collections::BTreeSet<&String> = numbers.iter().copied().collect();
+    assert!(distinct.len() >= 3, "y ticks {numbers:?}");
+    assert!(!numbers.iter().any(|c| c.as_str() == "0.0"), "{numbers:?}");
+    // A line chart of one point: distinct ticks on both axes too.
+    let one = line_chart("one", "x (s)", "y (cd/m²)", &[series("rgb", &[(0.0, 0.0)])], false).unwrap();
+    let numbers: std::collections::BTreeSet<String> = texts(&one)
+        .into_iter()
+        .map(|t| t.2)
+        .filter(|c| c.parse::<f64>().is_ok())
+        .collect();
+    assert!(numbers.len() >= 3, "{numbers:?}");
+}
+
+/// The image viewer's pixel-probe chart (radiances of a few 1e-4
+/// W/(sr·m²·nm)) labelled its ticks 3e-4, 3e-4, 2e-4, 2e-4, …: one
+/// mantissa digit for ticks 5e-5 apart.
+#[test]
+fn small_radiance_tick_labels_repeated() {
+    let span = 5.5e-4;
+    let labels: Vec<String> = (0..=11).map(|i| tick_label(i as f64 * 5e-5, span)).collect();
+    let mut unique = labels.clone();
+    unique.dedup();
+    assert_eq!(unique, labels, "{labels:?}");
+    assert_eq!(tick_label(3.5e-4, span), "3.5e-4");
+    assert_eq!(tick_label(2e5, 1e6), "2e5");
+}
+
+/// A tick read 0.30000000000000004 (plotters' default f64 formatting).
+#[test]
+fn tick_labels_have_no_float_noise() {
+    assert_eq!(tick_label(0.30000000000000004, 0.5), "0.30");
+    assert_eq!(tick_label(0.1 + 0.2, 0.05), "0.300");
+    assert_eq!(tick_label(-1e-17, 0.5), "0.00");
+    assert_eq!(log_tick_label(0.30000000000000004), "0.3");
+    assert_eq!(log_tick_label(20.000000000000004), "20");
+    let data = [
+        scatter("measured", &[(0.3, 0.3), (0.33, 0.36)]),
+        scatter("rgb", &[(0.31, 0.34)]),
+    ];
+    let charts = [
+        chromaticity_chart("xy", Observer::JuddVos, &data).unwrap(),
+        scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+        scatter_chart("s", "t (s)", "ΔE", &data, (true, true)).unwrap(),
+        line_chart(
+            "l",
+            "x",
+            "y",
+            &[series("rgb", &[(0.1, 0.3), (0.2, 0.30000000000000004)])],
+            false,
+        )
+        .unwrap(),
+    ];
+    for svg in &charts {
+        for (_, _, c) in texts(svg) {
+            if let Some((_, decimals)) = c.split_once('.') {
+                if c.parse::<f64>().is_ok() {
+                    assert!(decimals.len() <= 4, "tick `{c}`");
+                }
+            }
+        }
+    }
+}
+
+fn colour_hex(c: RGBColor) -> String {
+    format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+}
+
+/// The Cornell box's light (9e5 cd/m²) flattened its walls (2e3–2e4)
+/// to a line at zero on a linear axis: beyond two decades the profile's
+/// y axis is logarithmic, and says so.
+#[test]
+fn cornell_light_beside_its_walls_gets_a_log_axis() {
+    let targets: Vec<String> = ["wall", "ceiling", "light"].map(String::from).to_vec();
+    let wide = profile_chart(
+        "p",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e5)])],
+    )
+    .unwrap();
+    assert!(wide.contains("Y (cd/m²) (log scale)"), "{wide}");
+    let narrow = profile_chart(
+        "p",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e3)])],
+    )
+    .unwrap();
+    assert!(!narrow.contains("log scale"));
+}
+
+/// nstep3 was pink in one chart and green in the next: colours went by
+/// series position.
+#[test]
+fn nstep3_has_the_same_colour_in_every_chart() {
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    let rgb = colour_hex(coding_style("rgb").unwrap().colour);
+    let alone = [scatter("measured", &[(0.31, 0.33)]), scatter("nstep3", &[(0.32, 0.34)])];
+    let behind = [
+        scatter("measured", &[(0.31, 0.33)]),
+        scatter("srgb", &[(0.30, 0.33)]),
+        scatter("nstep9", &[(0.31, 0.32)]),
+        scatter("nstep3", &[(0.32, 0.34)]),
+    ];
+    let bars = |names: &[&str]| -> Vec<Bar> {
+        names
+            .iter()
+            .map(|n| Bar {
+                label: n.to_string(),
+                value: 1.0,
+                sd: None,
+            })
+            .collect()
+    };
+    let charts = [
+        chromaticity_chart("a", Observer::JuddVos, &alone).unwrap(),
+        chromaticity_chart("b", Observer::Cie1931, &behind).unwrap(),
+        scatter_chart("c", "t (s)", "ΔE", &alone, (true, true)).unwrap(),
+        scatter_chart("d", "t (s)", "ΔE", &behind, (false, false)).unwrap(),
+        bar_chart("e", "ΔE", &bars(&["nstep3"])).unwrap(),
+        bar_chart("f", "ΔE", &bars(&["srgb", "nstep81", "nstep3"])).unwrap(),
+        profile_chart("g", &["patch".into()], "t", "Y", &[series("nstep3", &[(1.0, 1.0)])]).unwrap(),
+        line_chart(
+            "h",
+            "s",
+            "y",
+            &[series("spectral", &[(0.0, 1.0)]), series("nstep3", &[(1.0, 2.0)])],
+            false,
+        )
+        .unwrap(),
+    ];
+    for (i, svg) in charts.iter().enumerate() {
+        assert!(svg.contains(&pink), "chart {i} draws nstep3 without {pink}");
+        // No chart here has rgb: its colour must not be handed to another series.
+        assert!(!svg.contains(&rgb), "chart {i} uses rgb's {rgb} for another series");
+    }
+    // The dashboard's and the report's CSS read the same table.
+    assert!(coding_css().contains(&format!("--coding-nstep3:{}", pink.to_ascii_lowercase())));
+    // An N not in the table takes the nearest tabulated N's style.
+    assert_eq!(coding_style("nstep4"), coding_style("nstep3"));
+    assert_eq!(coding_style("cie"), None);
+}
+
+/// The measurement is drawn after every coding, larger and in black.
+#[test]
+fn measurement_is_drawn_last_and_largest() {
+    let data = [
+        scatter("measured", &[(0.31, 0.33)]),
+        scatter("nstep27", &[(0.311, 0.331)]),
+        scatter("spectral", &[(0.312, 0.332)]),
+    ];
+    let svg = scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap();
+    let plot_right = (W - LEGEND_W) as f64;
+    let circles: Vec<(String, String)> = elements(&svg, "circle")
+        .into_iter()
+        .filter(|(a, _)| num(a, "cx") < plot_right)
+        .collect();
+    let last = circles.last().expect("markers");
+    assert_eq!(attr(&last.0, "stroke").as_deref(), Some("#000000"));
+    assert!(circles.iter().all(|(a, _)| num(a, "r") <= num(&last.0, "r")));
+    assert!(num(&last.0, "r") > MARKER_PX as f64);
+}
+
+/// Legends were drawn inside the plot, over the data.
+#[test]
+fn legend_is_outside_the_plot_area() {
+    let data = [
+        scatter("measured", &[(0.31, 0.33), (0.40, 0.45)]),
+        scatter("nstep3", &[(0.32, 0.34), (0.41, 0.44)]),
+    ];
+    for svg in [
+        scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+        line_chart("l", "x", "y", &[series("nstep3", &[(0.0, 1.0), (1.0, 2.0)])], false).unwrap(),
+    ] {
+        let plot_right = (W - LEGEND_W) as f64;
+        let legend = texts(&svg).into_iter().find(|t| t.2 == "nstep3").expect("legend entry");
+        assert!(legend.0 > plot_right, "legend text at x = {}", legend.0);
+        // Every grid line (the plot area) ends left of the legend column.
+        for (a, _) in elements(&svg, "line") {
+            assert!(
+                num(&a, "x2").max(num(&a, "x1")) <= plot_right,
+                "grid line into the legend: {a}"
+            );
+        }
+    }
+    let xy = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+    let width = num(&elements(&xy, "svg")[0].0, "width");
+    let legend = texts(&xy).into_iter().find(|t| t.2 == "nstep3").unwrap();
+    assert!(legend.0 > width - LEGEND_W as f64);
+}
+
+/// The spectrum chart added one legend entry per raw sample, all but the
+/// first with an empty name.
+#[test]
+fn no_empty_legend_entries() {
+    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+    let sd = vec![1e-5; wl.len()];
+    let samples = vec![mean.clone(), mean.clone(), mean.clone()];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), &samples).unwrap();
+    let t = texts(&svg);
+    assert!(t.iter().all(|(_, _, c)| !c.is_empty()), "an empty text element");
+    assert_eq!(t.iter().filter(|(_, _, c)| c.starts_with("raw samples")).count(), 1);
+    // The legend column holds exactly the three entries' swatches.
+    let swatches = elements(&svg, "polyline")
+        .iter()
+        .chain(elements(&svg, "rect").iter())
+        .filter(|(a, _)| {
+            num(a, "x") > (W - LEGEND_W) as f64
+                || attr(a, "points").is_some_and(|p| {
+                    p.split(',')
+                        .next()
+                        .and_then(|x| x.parse::<f64>().ok())
+                        .is_some_and(|x| x > (W - LEGEND_W) as f64)
+                })
+        })
+        .count();
+    assert_eq!(swatches, 3, "{svg}");
+}
+
+/// Bar charts had an empty slot after the last bar.
+#[test]
+fn bar_chart_has_no_trailing_empty_slot() {
+    let bars: Vec<Bar> = ["rgb", "srgb", "nstep3"]
+        .iter()
+        .map(|n| Bar {
+            label: n.to_string(),
+            value: 1.0,
+            sd: Some(0.1),
+        })
+        .collect();
+    let svg = bar_chart("b", "ΔE*ab (CIELAB units)", &bars).unwrap();
+    let rects: Vec<(f64, f64)> = elements(&svg, "rect")
+        .iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| (num(a, "x"), num(a, "x") + num(a, "width")))
+        .collect();
+    assert_eq!(rects.len(), 3);
+    let lines = elements(&svg, "line");
+    let left = lines.iter().map(|(a, _)| num(a, "x1")).fold(f64::INFINITY, f64::min);
+    let right = lines.iter().map(|(a, _)| num(a, "x2")).fold(0.0, f64::max);
+    let (gap_left, gap_right) = (rects[0].0 - left, right - rects[2].1);
+    assert!(
+        (gap_left - gap_right).abs() <= 3.0,
+        "margins {gap_left} and {gap_right} px"
+    );
+}
+
+/// The x,y diagram drew Judd–Vos points on the CIE 1931 locus under a
+/// "CIE 1931" title: the locus and the title follow the observer.
+#[test]
+fn chromaticity_locus_and_title_follow_the_observer() {
+    let data = [scatter("measured", &[(0.33, 0.48)])];
+    let jv = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+    let c31 = chromaticity_chart("xy", Observer::Cie1931, &data).unwrap();
+    assert!(jv.contains("Judd–Vos 1978 2°") && !jv.contains("CIE 1931 2°"));
+    assert!(c31.contains("CIE 1931 2°") && !c31.contains("Judd–Vos"));
+    let locus_jv = spectral_locus(Observer::JuddVos);
+    let locus_31 = spectral_locus(Observer::Cie1931);
+    // The whole locus, 380 (or the table's first row) to 700 nm.
+    for l in [&locus_jv, &locus_31] {
+        assert!(l.first().unwrap().0 <= 385.0 && l.last().unwrap().0 >= 695.0);
+    }
+    // The observers differ most in the blue (Judd's correction below 460 nm).
+    let at = |l: &[(f64, (f64, f64))], nm: f64| l.iter().find(|p| p.0 == nm).unwrap().1;
+    let (a, b) = (at(&locus_jv, 420.0), at(&locus_31, 420.0));
+    assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() > 1e-3, "{a:?} vs {b:?}");
+    // Both gamuts are drawn and named, distinctly (one dashed).
+    assert!(jv.contains("sRGB gamut") && jv.contains("RADIANCE RGB gamut"));
+}
