@@ -379,7 +379,7 @@ mod tests {
     fn session_with(
         timing: SessionTiming,
         script: impl FnOnce(&mut FarEnd) + Send + 'static,
-    ) -> (Session, JoinHandle<Vec<u8>>, TTYPort) {
+    ) -> (Session, JoinHandle<FarEnd>, TTYPort) {
         let (mut master, slave) = TTYPort::pair().expect("a pty pair");
         master.set_timeout(Duration::from_millis(10)).unwrap();
         let path = slave.name().expect("the pty's device name");
@@ -404,7 +404,9 @@ mod tests {
                 heard: Vec::new(),
             };
             script(&mut far);
-            far.heard
+            // Handed back, not dropped: the master end stays open (a closed
+            // master hangs the line up) until the test has read all.
+            far
         });
         // The slave end stays open with the test, so the pty never hangs up under the session.
         (session, far, slave)
@@ -428,7 +430,7 @@ mod tests {
         assert_eq!(reply, b"00,0\r\n1.000E-03\r\n0380.,1.203E-05\r\n");
         assert!(!session.needs_resync());
         assert_eq!(
-            far.join().unwrap(),
+            far.join().unwrap().heard,
             b"D5\n",
             "the command and its terminator, nothing else"
         );
@@ -457,7 +459,7 @@ mod tests {
             matches!(&e, InstrumentError::Timeout { command, phase: WaitPhase::FirstByte, .. } if command == "M0"),
             "{e:?}"
         );
-        assert_eq!(far.join().unwrap(), b"B1\nM0\n");
+        assert_eq!(far.join().unwrap().heard, b"B1\nM0\n");
     }
 
     #[test]
@@ -492,7 +494,7 @@ mod tests {
             .exchange(&B1, Duration::from_secs(1), &CancelToken::new())
             .unwrap();
         assert_eq!(reply, b"000\r\n");
-        assert_eq!(far.join().unwrap(), b"D5\nB1\nB1\n");
+        assert_eq!(far.join().unwrap().heard, b"D5\nB1\nB1\n");
     }
 
     #[test]
@@ -537,7 +539,7 @@ mod tests {
             "the ping waits the command timeout, not a measurement"
         );
         assert!(session.needs_resync(), "still out of step");
-        assert_eq!(far.join().unwrap(), b"D5\nB1\n");
+        assert_eq!(far.join().unwrap().heard, b"D5\nB1\n");
     }
 
     /// The far end of a unit that goes on measuring: it ignores `M0`, and
@@ -563,7 +565,7 @@ mod tests {
         let start = Instant::now();
         session.resync_if_needed(&CancelToken::new()).unwrap();
         assert!(start.elapsed() >= late, "the ping's late answer was awaited");
-        assert_eq!(far.join().unwrap(), b"M0\nB1\n");
+        assert_eq!(far.join().unwrap().heard, b"M0\nB1\n");
     }
 
     #[test]
