@@ -192,6 +192,14 @@ impl Session {
         result
     }
 
+    /// The start of every sample: resynchronise if a fault left the line out
+    /// of step, then send the measuring `command` (`M0`, `M5`) and wait up
+    /// to a whole measurement for its reply.
+    pub fn measure(&mut self, command: &dyn Request, cancel: &CancelToken) -> Result<Vec<u8>, InstrumentError> {
+        self.resync_if_needed(cancel)?;
+        self.exchange(command, self.timing.measure, cancel)
+    }
+
     /// A reply to `command` that arrived whole but does not parse: a
     /// [`InstrumentError::Protocol`] error, and the line is out of step.
     pub fn protocol_error(&mut self, command: &str, detail: &dyn Display) -> InstrumentError {

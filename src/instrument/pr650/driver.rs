@@ -272,12 +272,10 @@ impl Spectroradiometer for Pr650 {
 
     /// One measurement: `M0`, then `D5` and `D2` of the same measurement.
     fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
-        self.session.resync_if_needed(cancel)?;
-        let m0 = Command::MeasureAndHold;
-        let ack = self.session.exchange(&m0, self.session.timing().measure, cancel)?;
+        let ack = self.session.measure(&Command::MeasureAndHold, cancel)?;
         // What M0 answers on failure is [uncertain]; PTB only waits for any
         // bytes. Accept any status number, reject non-numeric garbage.
-        let ack_status = protocol::parse_ack(&ack).map_err(|e| self.session.protocol_error(&m0.text(), &e))?;
+        let ack_status = protocol::parse_ack(&ack).map_err(|e| self.session.protocol_error("M0", &e))?;
         if ack_status != 0 {
             tracing::debug!(
                 ack_status,

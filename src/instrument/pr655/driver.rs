@@ -338,9 +338,8 @@ impl Spectroradiometer for Pr655 {
 
     /// One measurement: `M5` (the spectrum), then `D2` of the same measurement.
     fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
-        self.session.resync_if_needed(cancel)?;
         let m5 = Command::Measure(protocol::REPORT_SPECTRUM);
-        let reply = self.session.exchange(&m5, self.session.timing().measure, cancel)?;
+        let reply = self.session.measure(&m5, cancel)?;
         let time = SystemTime::now();
         let report = match protocol::parse_spectral_report(&reply, &self.session.info().grid) {
             Ok(Ok(report)) => report,

@@ -294,7 +294,6 @@ impl Firmware for Device {
     }
 
     fn power_on(&mut self) {
-        tracing::info!("simulated PR-650: power cycle");
         self.powered_at = Instant::now();
         self.remote = false;
         self.local = false;
@@ -302,9 +301,6 @@ impl Firmware for Device {
         self.line.clear();
         self.settings = Settings::default();
         self.stored = None;
-        let mut shared = self.unit.shared();
-        shared.integration_ms = 0;
-        shared.link_dead = false;
     }
 
     /// A dead link is checked byte by byte (after the power-on window's clock).

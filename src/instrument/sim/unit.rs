@@ -80,7 +80,8 @@ pub(super) enum Next {
 /// A simulated instrument's firmware: its own state machine over a [`Unit`].
 pub(super) trait Firmware {
     fn unit(&mut self) -> &mut Unit;
-    /// A power cycle: local state is lost.
+    /// A power cycle: the firmware's own state back to power-on (the
+    /// unit's shared state is reset before, by [`run`]).
     fn power_on(&mut self);
     /// Handles one received byte; `burst` when it came with others in one read.
     fn byte(&mut self, b: u8, burst: bool) -> Next;
@@ -99,11 +100,13 @@ pub(super) fn run(mut firmware: impl Firmware) {
     let mut buf = [0u8; 256];
     while !firmware.unit().stop.load(Ordering::Relaxed) {
         if firmware.unit().power_cycle_requested() {
+            firmware.unit().power_on();
             firmware.power_on();
         }
         let Some(n) = firmware.unit().read(&mut buf) else { break };
         // A power cycle requested while the read was blocked comes before these bytes.
         if firmware.unit().power_cycle_requested() {
+            firmware.unit().power_on();
             firmware.power_on();
         }
         if n == 0 || !firmware.listening() {
@@ -183,6 +186,15 @@ impl Unit {
 
     fn power_cycle_requested(&self) -> bool {
         std::mem::take(&mut self.shared().power_cycle_requested)
+    }
+
+    /// Power-on for what the unit shares with the handle: adaptive
+    /// integration again, and a link that died answers again.
+    fn power_on(&mut self) {
+        tracing::info!("simulated {}: power cycle", self.name);
+        let mut shared = self.shared();
+        shared.integration_ms = 0;
+        shared.link_dead = false;
     }
 
     /// One read of what the host sent, 0 bytes when nothing came within a

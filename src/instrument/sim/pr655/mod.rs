@@ -377,7 +377,6 @@ impl Firmware for Device {
     }
 
     fn power_on(&mut self) {
-        tracing::info!("simulated {}: power cycle", self.unit.name);
         self.remote = false;
         self.photo = 0;
         self.just_entered = false;
@@ -388,9 +387,6 @@ impl Firmware for Device {
         self.last = None;
         self.last_good = None;
         self.last_dark_exposure_ms = None;
-        let mut shared = self.unit.shared();
-        shared.integration_ms = 0;
-        shared.link_dead = false;
     }
 
     fn byte(&mut self, b: u8, burst: bool) -> Next {
