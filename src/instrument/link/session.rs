@@ -61,13 +61,16 @@ pub struct SessionTiming {
     pub measuring_after_timeout: bool,
 }
 
+/// Whether a line of the unit's is the answer to the ping.
+pub type IsAnswer = Box<dyn Fn(&[u8]) -> bool + Send>;
+
 /// How the session asks whether the unit is still there and in step: a
 /// harmless command, and the line that answers it.
 pub struct Ping {
     /// The command as typed, without terminator (`B1`, `D111`).
     pub command: String,
     /// True for the ping's answer; other lines (a late report) are skipped.
-    pub is_answer: Box<dyn Fn(&[u8]) -> bool + Send>,
+    pub is_answer: IsAnswer,
 }
 
 /// An open session with one instrument: its serial port, what the unit
