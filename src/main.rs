@@ -10,10 +10,11 @@ use clap::Parser;
 
 /// The daemon's default log filter: state changes and jobs at info, and every
 /// command sent to the instrument and its reply, whichever model's driver
-/// sends it (each driver logs its wire traffic at debug: `→ PR-650 command`,
-/// `← PR-670 reply`; the shared serial link, `transport`, its discarded input).
+/// sends it (the shared link session logs the wire traffic at debug, `→ PR-650
+/// command`, `← PR-670 reply`, and the serial port its discarded input; each
+/// driver logs its own details at debug).
 const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug,lightbooth::instrument::pr655=debug,\
-                          lightbooth::instrument::transport=debug";
+                          lightbooth::instrument::link=debug";
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();

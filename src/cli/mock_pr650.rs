@@ -1,6 +1,6 @@
 //! `lightbooth mock-pr650`: a simulated PR-650 on a pseudo-terminal, for trying
 //! `measure` (and any PR-650 client) without the instrument. A thin wrapper
-//! around [`lightbooth::instrument::mock::spawn_mock`].
+//! around [`lightbooth::instrument::sim::spawn_mock`].
 
 use std::io::{BufRead, Write};
 use std::path::Path;
@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
-use lightbooth::instrument::mock::{spawn_mock, BeforeFirstMeasurement, BusyInput, Fault, MockConfig};
+use lightbooth::instrument::sim::{spawn_mock, BeforeFirstMeasurement, BusyInput, Fault, MockConfig};
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{table::SpectraTable, SpectralUnit, Spectrum};
 
@@ -147,7 +147,7 @@ pub fn run(args: MockPr650Args) -> anyhow::Result<()> {
 
 /// Runs until Ctrl-C: Enter on stdin power-cycles the simulated unit
 /// (`message` says what that did); a pulled simulated cable ends it.
-pub(super) fn power_switch(mock: &lightbooth::instrument::mock::MockHandle, message: &str) -> anyhow::Result<()> {
+pub(super) fn power_switch(mock: &lightbooth::instrument::sim::MockHandle, message: &str) -> anyhow::Result<()> {
     // Enter on stdin = power switch. At EOF (`</dev/null`, `nohup`, CI) the
     // reader thread ends and the unit simply stays on: stop listening then,
     // rather than polling a closed channel, which returns at once (a busy loop).

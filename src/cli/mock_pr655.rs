@@ -2,17 +2,18 @@
 //! PR-670 on a pseudo-terminal, for trying `measure --model pr655|pr670` (and
 //! any PR-655/670 client) without the instrument. Every behaviour the
 //! protocol sheet leaves uncertain (`docs/src/instruments/pr655-670-protocol.md` §13)
-//! is a flag. A thin wrapper around [`lightbooth::instrument::mock::spawn_mock`].
+//! is a flag. A thin wrapper around [`lightbooth::instrument::sim::spawn_mock`].
 
 use std::io::Write;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
-use lightbooth::instrument::mock::{
+use lightbooth::instrument::pr655::protocol::{LineStyle, StatusStyle};
+use lightbooth::instrument::pr655::Model;
+use lightbooth::instrument::sim::{
     spawn_mock, AfterFailure, BusyInput, Fault, MockConfig, Pr655Switches, StrayTerminator, SyncFailure,
 };
-use lightbooth::instrument::pr655::protocol::{LineStyle, Model, StatusStyle};
 
 use super::mock_pr650::{default_target, load_target, parse_fault, power_switch};
 

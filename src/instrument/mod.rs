@@ -12,27 +12,38 @@
 //!
 //! Layers, each testable alone:
 //!
-//! - [`pr650::protocol`]: the PR-650's wire format, pure (no I/O).
-//! - [`transport`]: the serial port (settings, flushing, the two-phase read).
-//! - [`pr650::driver`]: the PR-650 session (remote mode, identify, measure).
-//! - [`mock`]: a simulated PR-650 on a real pseudo-terminal.
+//! - [`link`]: the serial port ([`link::serial`]: settings, flushing, the
+//!   two-phase read), its line framing, and the one [`link::Session`] every
+//!   driver shares: a command and its reply within the right timeouts, and
+//!   the resynchronisation (drain, ping, drain) after a fault.
+//! - [`pr650`] and [`pr655`] (the PR-655 and PR-670): each model's protocol,
+//!   pure (no I/O), what its codes mean, its settings, and a driver with only
+//!   what is particular to the model (entering remote mode, identifying the
+//!   unit, its setup, how one sample is measured and read, and how it reacts
+//!   to a bad code) over the shared session.
+//! - [`averaging`]: the retry-and-average loop above every driver.
+//! - [`sim`]: the simulated PR-650, PR-655 and PR-670 on real pseudo-terminals.
 //!
 //! The one loop that owns an instrument for async callers (a dedicated
 //! thread, measurements one at a time, each sample stored as it is taken) is
-//! the daemon's [instrument task](crate::daemon::instrument_task).
-//!
-//! A PR-655/PR-670 personality (USB, `PHOTO`, signed status codes, 2 nm grid)
-//! is a second implementation of [`Spectroradiometer`] with its own protocol
-//! module and a variant of [`InstrumentSettings`]; [`QualityCode`] already
-//! carries signed codes and [`InstrumentInfo`] the native grid, so the
-//! daemon, the store and the API do not change.
+//! the daemon's [instrument task](crate::daemon::instrument_task). Every
+//! model is an implementation of [`Spectroradiometer`] and a variant of
+//! [`InstrumentSettings`]; [`QualityCode`] carries signed codes and
+//! [`InstrumentInfo`] the native grid, so the daemon, the store and the API
+//! do not depend on the model.
 
 pub mod averaging;
-pub mod mock;
+pub mod link;
 mod models;
 pub mod pr650;
 pub mod pr655;
-pub mod transport;
+pub mod sim;
+
+/// The simulators' former path, [`sim`] under its old name, which code
+/// outside this module still uses (the daemon, `study::measure`,
+/// `lightbooth serve`, the `pr650_overhead` bench, the `render` and `study`
+/// test suites); drop it once they say `sim`.
+pub use sim as mock;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -440,7 +451,7 @@ mod tests {
         Sample {
             index,
             time: SystemTime::now(),
-            code: pr650::protocol::quality_code(code as u8),
+            code: pr650::codes::quality_code(code as u8),
             radiance: ok.then(|| Spectrum::constant(Grid::pr650(), SpectralUnit::SpectralRadiance, value).unwrap()),
             luminance: None,
         }

@@ -9,8 +9,8 @@ use std::process::{Child, Command, Stdio};
 use serde_json::Value;
 
 use lightbooth::colorimetry::{Cmf, Observer, KM_LM_PER_W};
-use lightbooth::instrument::mock::model::InstrumentModel;
 use lightbooth::instrument::pr650::protocol::as_sent;
+use lightbooth::instrument::sim::model::InstrumentModel;
 use lightbooth::spectrum::table::SpectraTable;
 use lightbooth::spectrum::SpectralUnit;
 

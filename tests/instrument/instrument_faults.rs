@@ -8,8 +8,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use lightbooth::colorimetry::{xyz_from_radiance, Cmf, Observer, KM_LM_PER_W};
-use lightbooth::instrument::mock::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::pr650::protocol::{as_sent, Terminator};
+use lightbooth::instrument::link::Terminator;
+use lightbooth::instrument::pr650::protocol::as_sent;
+use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::{
     open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, QualityKind, Sample,
     Spectroradiometer,

@@ -8,11 +8,11 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use lightbooth::colorimetry::{xyz_from_radiance, Observer};
-use lightbooth::instrument::mock::{
+use lightbooth::instrument::pr655::protocol::{as_sent, LineStyle, StatusStyle};
+use lightbooth::instrument::pr655::{open_pr655, Model, Pr655Settings};
+use lightbooth::instrument::sim::{
     spawn_mock, AfterFailure, Fault, FaultKind, MockConfig, MockHandle, Pr655Switches, StrayTerminator, SyncFailure,
 };
-use lightbooth::instrument::pr655::protocol::{as_sent, LineStyle, Model, StatusStyle};
-use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
 use lightbooth::instrument::{
     open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, QualityKind, Spectroradiometer,
 };
@@ -372,7 +372,7 @@ fn link_faults_are_retried_or_typed_and_the_port_stays_usable() {
 
 #[test]
 fn a_measurement_later_than_its_timeout_is_lost_retried_and_its_late_reply_never_read_as_data() {
-    let late = Fault::slow(2_000, lightbooth::instrument::mock::FaultRate::Times(1));
+    let late = Fault::slow(2_000, lightbooth::instrument::sim::FaultRate::Times(1));
     let mock = mock(fast_switches(Model::Pr655), vec![late]);
     let mut unit = open(&mock, &settings(Model::Pr655)).unwrap();
     let m = measure(unit.as_mut(), 2).unwrap();

@@ -7,9 +7,8 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
-use lightbooth::instrument::mock::{spawn_mock, MockConfig, MockHandle, Pr655Switches};
-use lightbooth::instrument::pr655::protocol::Model;
-use lightbooth::instrument::pr655::{open_pr655, Pr655Settings};
+use lightbooth::instrument::pr655::{open_pr655, Model, Pr655Settings};
+use lightbooth::instrument::sim::{spawn_mock, MockConfig, MockHandle, Pr655Switches};
 use lightbooth::instrument::InstrumentError;
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
 

@@ -1,7 +1,9 @@
-//! The Photo Research PR-650 SpectraScan: its protocol ([`protocol`]), its
-//! driver ([`driver`]) and its settings ([`Pr650Settings`], the
-//! `instruments/pr650.toml` file).
+//! The Photo Research PR-650 SpectraScan: its protocol ([`protocol`], pure),
+//! what its codes mean ([`codes`]), its driver ([`driver`]: what is
+//! PR-650-specific over the shared [`super::link::Session`]) and its settings
+//! ([`Pr650Settings`], the `instruments/pr650.toml` file).
 
+pub mod codes;
 pub mod driver;
 pub mod protocol;
 
@@ -10,9 +12,8 @@ use std::time::Duration;
 
 use serde::Deserialize;
 
-use super::transport::LinkSettings;
+use super::link::{LinkSettings, SessionTiming, Terminator};
 use super::{Capabilities, InstrumentError, Spectroradiometer};
-use protocol::Terminator;
 
 /// Most samples one averaged measurement takes: the PR-650's own averaging
 /// count (the `S` command's `avg` field) runs 01–99, and lightbooth keeps
@@ -131,16 +132,16 @@ impl Pr650Settings {
         }
     }
 
-    pub(crate) fn command_timeout(&self) -> Duration {
-        Duration::from_millis(self.command_timeout_ms)
-    }
-
-    pub(crate) fn measure_timeout(&self) -> Duration {
-        Duration::from_millis(self.measure_timeout_ms)
-    }
-
-    pub(crate) fn gap_timeout(&self) -> Duration {
-        Duration::from_millis(self.gap_timeout_ms)
+    /// The session's timeouts. A PR-650 `M0` that timed out is not taken to
+    /// be still measuring (only a cancelled one is).
+    pub(crate) fn timing(&self) -> SessionTiming {
+        SessionTiming {
+            command: Duration::from_millis(self.command_timeout_ms),
+            measure: Duration::from_millis(self.measure_timeout_ms),
+            gap: Duration::from_millis(self.gap_timeout_ms),
+            resync_quiet: Duration::from_millis(self.resync_quiet_ms),
+            measuring_after_timeout: false,
+        }
     }
 }
 

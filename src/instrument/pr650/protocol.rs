@@ -6,34 +6,16 @@
 //! marks a point \[uncertain\], the choice made here is commented at the spot.
 //!
 //! Replies are split into lines at CR, LF or CR LF, with empty lines skipped
-//! (section 3: header line 1 may end in a bare CR; a doubled CR LF is
-//! harmless). Spectral data lines are recognised by their form and their
-//! wavelength must be the next one of the expected grid, so reordered,
-//! doubled or missing lines are errors, never silently shifted data.
+//! ([`split_lines`], the link's own framing; section 3: header line 1 may end
+//! in a bare CR; a doubled CR LF is harmless). What the quality codes and
+//! setup statuses mean is [`super::codes`].
+//!
+//! Spectral data lines are recognised by their form and their wavelength
+//! must be the next one of the expected grid, so reordered, doubled or
+//! missing lines are errors, never silently shifted data.
 
-use crate::instrument::{QualityCode, QualityKind};
+use crate::instrument::link::lines::{split_lines, Terminator};
 use crate::spectrum::Grid;
-
-/// How the host ends a command. The PR-650 accepts all three (section 1,
-/// \[confirmed\]); LF is what PTB, PsychoPy and mgl send.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Terminator {
-    #[default]
-    Lf,
-    Cr,
-    Crlf,
-}
-
-impl Terminator {
-    pub fn bytes(self) -> &'static [u8] {
-        match self {
-            Terminator::Lf => b"\n",
-            Terminator::Cr => b"\r",
-            Terminator::Crlf => b"\r\n",
-        }
-    }
-}
 
 /// The `sync` field of the `S` command.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -159,23 +141,6 @@ pub enum ProtocolError {
     Trailing { extra: usize, first: String },
 }
 
-/// Lines of a reply, split at CR, LF or CR LF, empty ones skipped.
-pub fn split_lines(bytes: &[u8]) -> Vec<&[u8]> {
-    bytes
-        .split(|b| *b == b'\r' || *b == b'\n')
-        .filter(|l| !l.iter().all(|b| b.is_ascii_whitespace()))
-        .collect()
-}
-
-/// Number of complete (terminated) non-empty lines in a growing buffer: what
-/// the transport counts to know a reply has fully arrived.
-pub fn complete_lines(bytes: &[u8]) -> usize {
-    let Some(last_term) = bytes.iter().rposition(|b| *b == b'\r' || *b == b'\n') else {
-        return 0;
-    };
-    split_lines(&bytes[..=last_term]).len()
-}
-
 fn show(line: &[u8]) -> String {
     let s: String = String::from_utf8_lossy(line).chars().take(40).collect();
     s.escape_debug().to_string()
@@ -237,70 +202,6 @@ pub fn parse_setup_status(bytes: &[u8]) -> Result<u8, ProtocolError> {
     parse_digits(trim(first))
         .and_then(|v| u8::try_from(v).ok())
         .ok_or_else(|| malformed(1, first, "a two-digit setup status such as `00`"))
-}
-
-/// What a non-zero `S` status means (section 2): the number of the invalid
-/// field, or 50 for the accessory.
-pub fn setup_status_meaning(status: u8) -> &'static str {
-    match status {
-        0 => "setup accepted",
-        1 => "field 1, the primary accessory (01–12), is invalid",
-        2..=4 => "an add-on accessory field (02–12) is invalid",
-        5 => "field 5, sync (empty, 1, or 40–250 Hz), is invalid",
-        6 => "field 6, the integration time (0 = adaptive, or 10–6000 ms), is invalid",
-        7 => "field 7, the number of measurements averaged (01–99), is invalid",
-        8 => "field 8, units (0 English, 1 metric), is invalid",
-        50 => "no primary accessory, more than one, or the first accessory is not a primary",
-        _ => "an undocumented setup status",
-    }
-}
-
-/// The PR-650 quality codes of section 4 with their manual texts.
-pub fn quality_code(code: u8) -> QualityCode {
-    use QualityKind::*;
-    let (kind, message) = match code {
-        0 => (Ok, "measurement OK"),
-        1 => (Hardware, "no EOS signal at start of measurement"),
-        3 => (Hardware, "no start signal"),
-        4 => (Hardware, "no EOS signal to start integration time"),
-        5 => (Hardware, "DMA failure"),
-        6 => (Sync, "no EOS after change to SYNC mode"),
-        7 => (Sync, "unable to sync to the light source"),
-        8 => (Sync, "sync lost during measurement"),
-        10 => (LowLight, "weak light signal"),
-        12 => (Hardware, "unspecified hardware malfunction"),
-        13 => (Hardware, "software error"),
-        14 => (Other, "no sample in L*u*v* or L*a*b* calculation"),
-        16 => (
-            Other,
-            "adaptive integration took too long to find an integration time (source may be varying)",
-        ),
-        17 => (Hardware, "main battery low"),
-        18 => (LowLight, "low light level"),
-        19 => (Overload, "light level too high (overload)"),
-        20 => (Sync, "no sync signal"),
-        21 => (Hardware, "RAM error"),
-        29 => (Other, "corrupted data"),
-        30 => (Other, "noisy signal"),
-        _ => (Unknown, "not a PR-650 quality code"),
-    };
-    QualityCode {
-        code: i32::from(code),
-        kind,
-        message: message.to_string(),
-    }
-}
-
-/// What the operator should do about a quality code.
-pub fn quality_hint(kind: QualityKind) -> &'static str {
-    match kind {
-        QualityKind::Ok => "",
-        QualityKind::LowLight => "Aim at a brighter target, open the aperture or use a fixed, longer integration time",
-        QualityKind::Overload => "Too much light: add a neutral-density filter or use a shorter integration time",
-        QualityKind::Sync => "Turn synchronisation off (sync = false) or check that the source flickers steadily",
-        QualityKind::Hardware => "Power-cycle the instrument; if it persists, it needs service (or a charged battery)",
-        QualityKind::Other | QualityKind::Unknown => "Measure again; if it persists, check the source is steady",
-    }
 }
 
 /// The `qq,U` header of reports 1–6.
@@ -645,6 +546,9 @@ pub fn format_spectral_config(grid: &Grid, bandwidth_nm: f64) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::instrument::link::lines::complete_lines;
+    use crate::instrument::pr650::codes::{quality_code, setup_status_meaning};
+    use crate::instrument::QualityKind;
     use proptest::prelude::*;
 
     /// The document's example spectrum: its three example lines, the rest filled

@@ -18,7 +18,8 @@
 //! - only `M5` waits for a whole measurement; every other command waits
 //!   `command_timeout_ms` for its first byte, and a reply that stops
 //!   mid-way is cut off after `gap_timeout_ms`. After a link fault the port
-//!   is resynchronised (drain, `D111` ping, drain), so a dead link is
+//!   is resynchronised (drain, `D111` ping, drain: the shared [`Session`]'s
+//!   exchange and resynchronisation, as the PR-650's), so a dead link is
 //!   reported [`InstrumentError::Unresponsive`] within `gap + resync quiet +
 //!   command timeout` of its last byte (5.2 s with the shipped settings).
 //!   The ping waits a whole measurement only after an `M5` that was
@@ -27,35 +28,43 @@
 
 use std::time::{Duration, SystemTime};
 
-use crate::instrument::transport::SerialLink;
+use crate::instrument::link::{Ping, Request, Session};
 use crate::instrument::{
     CancelToken, Capabilities, InstrumentError, InstrumentInfo, QualityCode, QualityKind, Sample, Spectroradiometer,
-    WaitPhase,
 };
 use crate::spectrum::{SpectralUnit, Spectrum};
 
-use super::protocol::{self, Command, Model, ProtocolError, SetupParam};
-use super::Pr655Settings;
+use super::codes;
+use super::protocol::{self, Command, ProtocolError, SetupParam};
+use super::{Model, Pr655Settings};
 
 /// How long the PR-670 is left alone after `Q` before `PHOTO` (PTB: 0.5 s).
 const AFTER_QUIT: Duration = Duration::from_millis(500);
 
+/// What the session needs to know of a PR-655/670 command: `M⟨code⟩`
+/// measures, and a spectrum's length follows its first line's status.
+impl Request for Command {
+    fn text(&self) -> String {
+        Command::text(self)
+    }
+
+    fn measures(&self) -> bool {
+        matches!(self, Command::Measure(_))
+    }
+
+    fn reply_lines(&self, first_line: &[u8], grid_len: usize) -> usize {
+        Command::reply_lines(self, first_line, grid_len)
+    }
+}
+
 /// A connected PR-655 or PR-670 in remote mode.
 pub struct Pr655 {
-    link: SerialLink,
+    session: Session,
     settings: Pr655Settings,
     model: Model,
-    info: InstrumentInfo,
     capabilities: Capabilities,
     /// Whether `SS1` is on (sync found by `F`).
     synced: bool,
-    /// Set after a link fault or a cancel: the next command resynchronises first.
-    needs_resync: bool,
-    /// Set when an `M5` was cancelled: the unit may go on measuring, so the
-    /// resynchronisation ping may wait a whole measurement.
-    may_be_measuring: bool,
-    /// The command and error of the exchange that last failed.
-    last_fault: Option<(String, String)>,
 }
 
 impl Pr655 {
@@ -63,53 +72,57 @@ impl Pr655 {
     pub fn open(port: &str, settings: &Pr655Settings) -> Result<Pr655, InstrumentError> {
         settings.validate().map_err(InstrumentError::Settings)?;
         let model = settings.model();
-        let link = SerialLink::open(port, &settings.link())?;
+        let info = InstrumentInfo {
+            model: model.name().into(),
+            serial: None,
+            firmware: None,
+            grid: model.grid(),
+        };
+        let name = model.name();
+        let ping = Ping {
+            command: Command::Report(protocol::REPORT_MODEL).text(),
+            is_answer: Box::new(move |line| matches!(protocol::parse_text_report(line), Ok(Ok(ref m)) if m == name)),
+        };
+        let session = Session::open(port, &settings.link(), settings.timing(), info, ping)?;
         let mut unit = Pr655 {
-            link,
+            session,
             settings: settings.clone(),
             model,
-            info: InstrumentInfo {
-                model: model.name().into(),
-                serial: None,
-                firmware: None,
-                grid: model.grid(),
-            },
             capabilities: settings.capabilities(),
             synced: false,
-            needs_resync: false,
-            may_be_measuring: false,
-            last_fault: None,
         };
         unit.enter_remote_mode()?;
         unit.identify()?;
         unit.send_setup()?;
-        tracing::info!(port, model = %unit.info.model, serial = ?unit.info.serial,
-            firmware = ?unit.info.firmware, grid = %unit.info.grid, "instrument ready");
+        let info = unit.session.info();
+        tracing::info!(port, model = %info.model, serial = ?info.serial,
+            firmware = ?info.firmware, grid = %info.grid, "instrument ready");
         Ok(unit)
     }
 
     /// Section 0 steps 2–4.
     fn enter_remote_mode(&mut self) -> Result<(), InstrumentError> {
-        let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
+        let quiet = self.session.timing().resync_quiet;
         if self.settings.quit_before_entry() {
             tracing::info!(
                 model = self.model.name(),
                 "sending Q before PHOTO (the unit answers PHOTO only once)"
             );
-            self.link.send_bytes_singly(b"Q", Duration::ZERO)?;
+            self.session.link().send_bytes_singly(b"Q", Duration::ZERO)?;
             std::thread::sleep(AFTER_QUIT);
         }
         let attempts = self.settings.remote_mode_attempts;
         let mut last_reply: Option<Vec<u8>> = None;
         for attempt in 1..=attempts {
-            self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
-            self.link.flush_input()?;
+            self.session.drain()?;
+            let link = self.session.link();
+            link.flush_input()?;
             tracing::info!(attempt, attempts, "PHOTO: entering remote mode");
-            self.link.send_bytes_singly(
+            link.send_bytes_singly(
                 &protocol::REMOTE_ENTRY,
                 Duration::from_millis(self.settings.remote_entry_delay_ms),
             )?;
-            match self.link.read_unterminated(
+            match link.read_unterminated(
                 "PHOTO",
                 protocol::BANNER.len(),
                 Duration::from_millis(self.settings.banner_timeout_ms),
@@ -118,7 +131,7 @@ impl Pr655 {
             ) {
                 Ok(reply) if protocol::is_banner(&reply) => {
                     // A CR LF after the banner (as on the PR-705) must not be taken as a reply.
-                    self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
+                    self.session.drain()?;
                     tracing::info!(attempt, "in remote mode");
                     return Ok(());
                 }
@@ -146,77 +159,19 @@ impl Pr655 {
         }
     }
 
-    /// Flush, send, read: one command and its whole reply.
-    fn exchange(
-        &mut self,
-        command: Command,
-        first_byte_timeout: Duration,
-        cancel: &CancelToken,
-    ) -> Result<Vec<u8>, InstrumentError> {
-        let text = command.text();
-        let grid_len = self.info.grid.len();
-        let model = self.model.name();
-        let result = (|| {
-            self.link.flush_input()?;
-            tracing::debug!(command = %text, "→ {model}");
-            self.link.send(&text)?;
-            self.link.read_reply_sized(
-                &text,
-                &|first| command.reply_lines(first, grid_len),
-                first_byte_timeout,
-                self.settings.gap_timeout(),
-                cancel,
-            )
-        })();
-        let is_measure = matches!(command, Command::Measure(_));
-        // Silence to an ordinary command means nobody is listening; after `M5`
-        // it may just be a long measurement.
-        let result = match result {
-            Err(InstrumentError::Timeout {
-                command,
-                phase: WaitPhase::FirstByte,
-                waited_ms,
-            }) if !is_measure => Err(InstrumentError::NoReply { command, waited_ms }),
-            other => other,
-        };
-        match &result {
-            Ok(reply) => tracing::debug!(command = %text, bytes = reply.len(), "← {model}"),
-            Err(e) => {
-                tracing::debug!(command = %text, error = %e, "{model} exchange failed");
-                if e.is_retryable_link_fault() || matches!(e, InstrumentError::Cancelled) {
-                    self.needs_resync = true;
-                    self.last_fault = Some((text.clone(), e.to_string()));
-                }
-                // A cancelled or timed-out `M5`: the unit may still be measuring.
-                if is_measure && matches!(e, InstrumentError::Cancelled | InstrumentError::Timeout { .. }) {
-                    self.may_be_measuring = true;
-                }
-            }
-        }
-        result
-    }
-
-    fn protocol_error(&mut self, command: Command, e: ProtocolError) -> InstrumentError {
-        self.needs_resync = true;
-        let e = InstrumentError::Protocol {
-            command: command.text(),
-            detail: e.to_string(),
-        };
-        self.last_fault = Some((command.text(), e.to_string()));
-        e
-    }
-
     /// A one-line text report; an error status is a typed refusal.
     fn text_report(&mut self, code: u16) -> Result<String, InstrumentError> {
         let command = Command::Report(code);
-        let reply = self.exchange(command, self.settings.command_timeout(), &CancelToken::new())?;
+        let reply = self
+            .session
+            .exchange(&command, self.session.timing().command, &CancelToken::new())?;
         match protocol::parse_text_report(&reply) {
             Ok(Ok(text)) => Ok(text),
             Ok(Err(status)) => Err(InstrumentError::Refused {
                 command: command.text(),
-                code: protocol::quality_code(status),
+                code: codes::quality_code(status),
             }),
-            Err(e) => Err(self.protocol_error(command, e)),
+            Err(e) => Err(self.session.protocol_error(&command.text(), &e)),
         }
     }
 
@@ -247,47 +202,51 @@ impl Pr655 {
         }
         // PTB keeps the first 8 characters of a serial that "may contain trailing blanks".
         match self.text_report(protocol::REPORT_SERIAL) {
-            Ok(serial) => self.info.serial = Some(serial.chars().take(8).collect::<String>().trim().to_string()),
+            Ok(serial) => {
+                self.session.info_mut().serial = Some(serial.chars().take(8).collect::<String>().trim().to_string())
+            }
             Err(e) => tracing::warn!(error = %e, "no serial number"),
         }
         match self.text_report(protocol::REPORT_FIRMWARE) {
-            Ok(version) => self.info.firmware = Some(version),
+            Ok(version) => self.session.info_mut().firmware = Some(version),
             Err(e) => tracing::warn!(error = %e, "no firmware version"),
         }
         let command = Command::Report(protocol::REPORT_HARDWARE);
-        match self.exchange(command, self.settings.command_timeout(), &CancelToken::new()) {
-            Ok(reply) => match protocol::parse_hardware_config(&reply) {
-                Ok(Ok(config)) if config.grid().as_ref() == Some(&self.info.grid) => {
-                    tracing::info!(grid = %self.info.grid, "hardware configuration confirms the native grid")
+        let timeout = self.session.timing().command;
+        match self.session.exchange(&command, timeout, &CancelToken::new()) {
+            Ok(reply) => {
+                let grid = &self.session.info().grid;
+                match protocol::parse_hardware_config(&reply) {
+                    Ok(Ok(config)) if config.grid().as_ref() == Some(grid) => {
+                        tracing::info!(grid = %grid, "hardware configuration confirms the native grid")
+                    }
+                    // The grid is confirmed by every client (8, [C]); report 120 only by the manual.
+                    Ok(Ok(config)) => tracing::warn!(?config, grid = %grid,
+                        "report 120 disagrees with the model's grid; keeping the model's"),
+                    Ok(Err(status)) => tracing::warn!(status, "no hardware configuration"),
+                    Err(e) => tracing::warn!(error = %e, "unreadable hardware configuration"),
                 }
-                // The grid is confirmed by every client (8, [C]); report 120 only by the manual.
-                Ok(Ok(config)) => tracing::warn!(?config, grid = %self.info.grid,
-                    "report 120 disagrees with the model's grid; keeping the model's"),
-                Ok(Err(status)) => tracing::warn!(status, "no hardware configuration"),
-                Err(e) => tracing::warn!(error = %e, "unreadable hardware configuration"),
-            },
+            }
             Err(e) => tracing::warn!(error = %e, "no hardware configuration"),
         }
         match self.text_report(protocol::REPORT_SETUP_TEXT) {
             Ok(_) => {}
             Err(e) => tracing::warn!(error = %e, "no setup report"),
         }
-        if self.needs_resync {
-            self.resync(&CancelToken::new())?;
-        }
-        Ok(())
+        self.session.resync_if_needed(&CancelToken::new())
     }
 
     /// One setup command; a non-zero status is a typed refusal.
     fn set(&mut self, param: SetupParam, cancel: &CancelToken) -> Result<(), InstrumentError> {
         let command = Command::Setup(param);
-        let reply = self.exchange(command, self.settings.command_timeout(), cancel)?;
-        let status = protocol::parse_status_reply(&reply).map_err(|e| self.protocol_error(command, e))?;
+        let reply = self.session.exchange(&command, self.session.timing().command, cancel)?;
+        let status =
+            protocol::parse_status_reply(&reply).map_err(|e| self.session.protocol_error(&command.text(), &e))?;
         tracing::info!(setup = %command.text(), status, "setup");
         if status != 0 {
             return Err(InstrumentError::Refused {
                 command: command.text(),
-                code: protocol::quality_code(status),
+                code: codes::quality_code(status),
             });
         }
         Ok(())
@@ -304,7 +263,10 @@ impl Pr655 {
         self.set(SetupParam::Sync(0), &cancel)?;
         if self.settings.sync {
             // PTB and BrainardLab: `F` first, `SS1` only when it found a frequency.
-            let reply = self.exchange(Command::SyncFrequency, self.settings.measure_timeout(), &cancel)?;
+            let command = Command::SyncFrequency;
+            let reply = self
+                .session
+                .exchange(&command, self.session.timing().measure, &cancel)?;
             match protocol::parse_sync_frequency(&reply) {
                 Ok((_, Some(hz))) => {
                     tracing::info!(hz, "source flicker found; measuring with sync");
@@ -312,68 +274,74 @@ impl Pr655 {
                     self.synced = true;
                 }
                 Ok((status, None)) => tracing::info!(status, "no sync frequency; measuring without sync"),
-                Err(e) => return Err(self.protocol_error(Command::SyncFrequency, e)),
+                Err(e) => return Err(self.session.protocol_error(&command.text(), &e)),
             }
         }
         Ok(())
     }
 
-    /// After a fault or cancel: wait out whatever the unit is still sending,
-    /// ping it with `D111` until its answer comes back, then drain again.
-    fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
-        tracing::info!("resynchronising");
-        let quiet = Duration::from_millis(self.settings.resync_quiet_ms);
-        self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
-        self.link.flush_input()?;
-        let ping = Command::Report(protocol::REPORT_MODEL).text();
-        self.link.send(&ping)?;
-        let silence = if self.may_be_measuring {
-            self.settings.measure_timeout()
-        } else {
-            self.settings.command_timeout()
-        };
-        let name = self.model.name();
-        let is_answer = |line: &[u8]| matches!(protocol::parse_text_report(line), Ok(Ok(ref m)) if m == name);
-        match self
-            .link
-            .read_until_line(&ping, &is_answer, silence, self.settings.measure_timeout(), cancel)
-        {
-            Ok(()) => {}
-            Err(InstrumentError::Timeout {
-                command,
-                phase: WaitPhase::FirstByte,
-                waited_ms,
-            }) => {
-                let (after, reason) = self
-                    .last_fault
-                    .clone()
-                    .unwrap_or_else(|| ("?".into(), "an earlier fault".into()));
-                return Err(InstrumentError::Unresponsive {
-                    after,
-                    reason,
-                    command,
-                    waited_ms,
-                });
+    /// `D2` of the measurement whose good spectrum `M5` just sent: its Y.
+    fn read_luminance(&mut self, cancel: &CancelToken) -> Result<f64, InstrumentError> {
+        let d2 = Command::Report(protocol::REPORT_XYZ);
+        let reply = self.session.exchange(&d2, self.session.timing().command, cancel)?;
+        match protocol::parse_xyz_report(&reply) {
+            Ok(Ok(xyz)) => Ok(xyz.y),
+            // The spectrum came with a good status: an error to `D2` of the
+            // same measurement means the link or the unit is confused.
+            Ok(Err(status)) => {
+                let confused = ProtocolError::Malformed {
+                    line: 1,
+                    text: protocol::format_status(status, protocol::StatusStyle::FiveDigits),
+                    expected: "the XYZ of the measurement whose spectrum just came",
+                };
+                Err(self.session.protocol_error(&d2.text(), &confused))
             }
-            Err(e) => return Err(e),
+            Err(e) => Err(self.session.protocol_error(&d2.text(), &e)),
         }
-        self.link.drain_until_quiet(quiet, self.settings.command_timeout())?;
-        self.needs_resync = false;
-        self.may_be_measuring = false;
-        self.last_fault = None;
-        tracing::info!("back in step");
-        Ok(())
+    }
+
+    /// A measurement's error status, typed. With auto sync on, −1 ("light
+    /// source not constant") is the unit failing to sync, as PTB's
+    /// `PR670measspd` reads it (sheet 7, 13.9): typed as a sync failure, so
+    /// the advice is the sync advice and [`Spectroradiometer::after_bad_sample`]
+    /// turns sync off.
+    fn measurement_code(&self, status: i32) -> QualityCode {
+        let code = codes::quality_code(status);
+        if self.synced && status == -1 {
+            return QualityCode {
+                kind: QualityKind::Sync,
+                message: format!("{} (auto sync could not lock to it)", code.message),
+                ..code
+            };
+        }
+        code
+    }
+}
+
+impl Drop for Pr655 {
+    /// Leaves remote mode (`Q`, no reply), so the unit's own keys work again.
+    fn drop(&mut self) {
+        if let Err(e) = self.session.link().send_bytes_singly(b"Q", Duration::ZERO) {
+            tracing::debug!(error = %e, "could not send Q on closing");
+        }
+    }
+}
+
+impl Spectroradiometer for Pr655 {
+    fn info(&self) -> &InstrumentInfo {
+        self.session.info()
+    }
+
+    fn capabilities(&self) -> &Capabilities {
+        &self.capabilities
     }
 
     /// One measurement: `M5` (the spectrum), then `D2` of the same measurement.
-    pub fn measure_once(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
-        if self.needs_resync {
-            self.resync(cancel)?;
-        }
+    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
         let m5 = Command::Measure(protocol::REPORT_SPECTRUM);
-        let reply = self.exchange(m5, self.settings.measure_timeout(), cancel)?;
+        let reply = self.session.measure(&m5, cancel)?;
         let time = SystemTime::now();
-        let report = match protocol::parse_spectral_report(&reply, &self.info.grid) {
+        let report = match protocol::parse_spectral_report(&reply, &self.session.info().grid) {
             Ok(Ok(report)) => report,
             Ok(Err(status)) => {
                 let code = self.measurement_code(status);
@@ -386,63 +354,28 @@ impl Pr655 {
                     luminance: None,
                 });
             }
-            Err(e) => return Err(self.protocol_error(m5, e)),
+            Err(e) => return Err(self.session.protocol_error(&m5.text(), &e)),
         };
-        let spectrum =
-            Spectrum::new(self.info.grid.clone(), SpectralUnit::SpectralRadiance, report.values).map_err(|e| {
-                InstrumentError::Protocol {
-                    command: m5.text(),
-                    detail: e.to_string(),
-                }
-            })?;
-
-        let d2 = Command::Report(protocol::REPORT_XYZ);
-        let reply = self.exchange(d2, self.settings.command_timeout(), cancel)?;
-        let luminance = match protocol::parse_xyz_report(&reply) {
-            Ok(Ok(xyz)) => Some(xyz.y),
-            // The spectrum came with a good status: an error to `D2` of the
-            // same measurement means the link or the unit is confused.
-            Ok(Err(status)) => {
-                return Err(self.protocol_error(
-                    d2,
-                    ProtocolError::Malformed {
-                        line: 1,
-                        text: protocol::format_status(status, protocol::StatusStyle::FiveDigits),
-                        expected: "the XYZ of the measurement whose spectrum just came",
-                    },
-                ))
+        let grid = self.session.info().grid.clone();
+        let spectrum = Spectrum::new(grid, SpectralUnit::SpectralRadiance, report.values).map_err(|e| {
+            InstrumentError::Protocol {
+                command: m5.text(),
+                detail: e.to_string(),
             }
-            Err(e) => return Err(self.protocol_error(d2, e)),
-        };
-        let code = protocol::quality_code(0);
+        })?;
+        let luminance = Some(self.read_luminance(cancel)?);
         tracing::info!(index, luminance_cd_m2 = ?luminance, "sample");
         Ok(Sample {
             index,
             time,
-            code,
+            code: codes::quality_code(0),
             radiance: Some(spectrum),
             luminance,
         })
     }
 
-    /// A measurement's error status, typed. With auto sync on, −1 ("light
-    /// source not constant") is the unit failing to sync, as PTB's
-    /// `PR670measspd` reads it (sheet 7, 13.9): typed as a sync failure, so
-    /// the advice is the sync advice and [`Self::react_to_code`] turns sync off.
-    fn measurement_code(&self, status: i32) -> QualityCode {
-        let code = protocol::quality_code(status);
-        if self.synced && status == -1 {
-            return QualityCode {
-                kind: QualityKind::Sync,
-                message: format!("{} (auto sync could not lock to it)", code.message),
-                ..code
-            };
-        }
-        code
-    }
-
     /// PTB: after a sync failure with sync on, measure without sync from now on.
-    fn react_to_code(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
         let sync_failure = code.kind == QualityKind::Sync || code.code == -1;
         if sync_failure && self.synced {
             tracing::info!(code = code.code, "sync failed; turning sync off");
@@ -451,35 +384,8 @@ impl Pr655 {
         }
         Ok(())
     }
-}
-
-impl Drop for Pr655 {
-    /// Leaves remote mode (`Q`, no reply), so the unit's own keys work again.
-    fn drop(&mut self) {
-        if let Err(e) = self.link.send_bytes_singly(b"Q", Duration::ZERO) {
-            tracing::debug!(error = %e, "could not send Q on closing");
-        }
-    }
-}
-
-impl Spectroradiometer for Pr655 {
-    fn info(&self) -> &InstrumentInfo {
-        &self.info
-    }
-
-    fn capabilities(&self) -> &Capabilities {
-        &self.capabilities
-    }
-
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
-        self.measure_once(index, cancel)
-    }
-
-    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
-        self.react_to_code(code, cancel)
-    }
 
     fn quality_hint(&self, kind: QualityKind) -> &'static str {
-        protocol::quality_hint(kind)
+        codes::quality_hint(kind)
     }
 }

@@ -1,24 +1,28 @@
-//! The Photo Research PR-655 and PR-670 SpectraScan: one remote protocol
-//! ([`protocol`], after `docs/src/instruments/pr655-670-protocol.md`), one driver
-//! ([`driver`]) and their settings ([`Pr655Settings`], the files
-//! `instruments/pr655.toml` and `instruments/pr670.toml`).
+//! The Photo Research PR-655 and PR-670 SpectraScan: the two models
+//! ([`model`]), one remote protocol ([`protocol`], pure, after
+//! `docs/src/instruments/pr655-670-protocol.md`), what its statuses mean
+//! ([`codes`]), one driver ([`driver`]: what is particular to these models
+//! over the shared [`super::link::Session`]) and their settings
+//! ([`Pr655Settings`], the files `instruments/pr655.toml` and
+//! `instruments/pr670.toml`).
 //!
 //! They differ from the PR-650 in every layer: a USB virtual serial port
 //! (`/dev/ttyACM0`), `PHOTO` sent letter by letter to enter remote mode and a
 //! 12-byte banner, CR-terminated commands, signed five-digit statuses, and
 //! spectra of 101 points at 4 nm (PR-655) or 201 at 2 nm (PR-670).
 
+pub mod codes;
 pub mod driver;
+pub mod model;
 pub mod protocol;
 
 use std::time::Duration;
 
 use serde::Deserialize;
 
-use super::transport::LinkSettings;
+use super::link::{LinkSettings, SessionTiming, Terminator};
 use super::{Capabilities, InstrumentError, Spectroradiometer};
-use crate::instrument::pr650::protocol::Terminator;
-pub use protocol::Model;
+pub use model::Model;
 
 /// Most samples one averaged measurement takes (lightbooth's series of
 /// single measurements keeps the instrument's own `SN` bound, 1–99).
@@ -169,8 +173,16 @@ impl Pr655Settings {
         }
     }
 
-    pub(crate) fn command_timeout(&self) -> Duration {
-        Duration::from_millis(self.command_timeout_ms)
+    /// The session's timeouts. An `M5` that timed out may still be
+    /// measuring, so the next ping waits a whole measurement.
+    pub(crate) fn timing(&self) -> SessionTiming {
+        SessionTiming {
+            command: Duration::from_millis(self.command_timeout_ms),
+            measure: self.measure_timeout(),
+            gap: Duration::from_millis(self.gap_timeout_ms),
+            resync_quiet: Duration::from_millis(self.resync_quiet_ms),
+            measuring_after_timeout: true,
+        }
     }
 
     pub(crate) fn measure_timeout(&self) -> Duration {
@@ -178,10 +190,6 @@ impl Pr655Settings {
             Model::Pr655 => 60_000,
             Model::Pr670 => 300_000,
         }))
-    }
-
-    pub(crate) fn gap_timeout(&self) -> Duration {
-        Duration::from_millis(self.gap_timeout_ms)
     }
 
     pub(crate) fn quit_before_entry(&self) -> bool {

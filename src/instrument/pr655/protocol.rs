@@ -20,56 +20,11 @@
 //!   offending bytes.
 //!
 //! Spectral values are per nm, as the instrument sends them (8.2): never
-//! multiplied by the step into "power per band" as PTB does.
+//! multiplied by the step into "power per band" as PTB does. The two models
+//! are [`super::model`]; what the statuses mean is [`super::codes`].
 
-use crate::instrument::{QualityCode, QualityKind};
+use super::model::Model;
 use crate::spectrum::Grid;
-
-/// The two models that speak this protocol.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Model {
-    Pr655,
-    Pr670,
-}
-
-impl Model {
-    /// The name `D111` answers ("PR-655", "PR-670").
-    pub fn name(self) -> &'static str {
-        match self {
-            Model::Pr655 => "PR-655",
-            Model::Pr670 => "PR-670",
-        }
-    }
-
-    /// The native spectral grid (section 8, \[C\]): 380–780 nm at 4 nm (101
-    /// points) on the PR-655, at 2 nm (201 points) on the PR-670.
-    pub fn grid(self) -> Grid {
-        match self {
-            Model::Pr655 => Grid::uniform(380.0, 4.0, 101),
-            Model::Pr670 => Grid::uniform(380.0, 2.0, 201),
-        }
-    }
-
-    /// The model whose `D111` reply this is, if either.
-    pub fn from_name(name: &str) -> Option<Model> {
-        match name.trim().to_ascii_uppercase().replace(' ', "").as_str() {
-            "PR-655" | "PR655" => Some(Model::Pr655),
-            "PR-670" | "PR670" => Some(Model::Pr670),
-            _ => None,
-        }
-    }
-
-    /// Fixed exposure times the model takes, in ms (section 5, \[M\]): the
-    /// PR-655 3–6000, the PR-670 6–6000 (6–30000 in extended sensitivity,
-    /// which lightbooth does not set).
-    pub fn exposure_range_ms(self) -> std::ops::RangeInclusive<u32> {
-        match self {
-            Model::Pr655 => 3..=6000,
-            Model::Pr670 => 6..=6000,
-        }
-    }
-}
 
 /// The remote-mode banner (2.1, \[C\]): 12 bytes, a leading space, no CR LF.
 pub const BANNER: &[u8] = b" REMOTE MODE";
@@ -265,65 +220,6 @@ pub fn parse_number(field: &[u8]) -> Option<f64> {
     }
     let v: f64 = std::str::from_utf8(field).ok()?.parse().ok()?;
     v.is_finite().then_some(v)
-}
-
-/// A status code with its documented meaning (section 7). Codes not in the
-/// table are [`QualityKind::Unknown`], with the number kept.
-pub fn quality_code(code: i32) -> QualityCode {
-    use QualityKind::*;
-    let (kind, message) = match code {
-        0 => (Ok, "no error"),
-        -1 => (Other, "light source not constant"),
-        -2 => (Overload, "light overload: signal too intense"),
-        -3 => (
-            Sync,
-            "cannot sync to the light source (below 20 Hz, above 400 Hz, or too weak)",
-        ),
-        -4 => (Other, "adaptive-mode error"),
-        -8 => (LowLight, "weak light: not enough signal"),
-        -9 => (Sync, "sync error"),
-        -10 => (Sync, "cannot auto-sync to the light source"),
-        -12 => (Other, "adaptive-mode time-out; light source not constant"),
-        -1000 => (Other, "illegal command"),
-        -1001 => (Other, "too many fields in a setup command"),
-        -1004..=-1002 | -1025 => (Other, "invalid accessory code"),
-        -1007..=-1005 => (Other, "accessory not usable in that position"),
-        -1008 => (Other, "invalid aperture index"),
-        -1009 => (Other, "invalid units code"),
-        -1010 => (Other, "invalid exposure time"),
-        -1011 => (Other, "invalid gain code"),
-        -1012 => (Other, "invalid number of cycles (1–99)"),
-        -1015 => (Other, "invalid CIE observer (2 or 10)"),
-        -1017 => (Other, "invalid dark-measurement mode"),
-        -1019 => (Other, "invalid sync mode (0, 1, 3)"),
-        -1021 => (Other, "title too long"),
-        -1022 => (Other, "title empty"),
-        -1023 => (Other, "invalid user sync frequency (20–400 Hz)"),
-        -1024 => (Other, "invalid R command"),
-        -1026 => (Other, "invalid sensitivity mode"),
-        -1035 => (Other, "parameter not applicable to this instrument"),
-        -2000 => (Other, "the report does not exist, or no measurement has been made yet"),
-        _ => (Unknown, "not in the PR-655/PR-670 status table"),
-    };
-    QualityCode {
-        code,
-        kind,
-        message: message.into(),
-    }
-}
-
-/// What the operator should do about a series that failed with this kind of status.
-pub fn quality_hint(kind: QualityKind) -> &'static str {
-    match kind {
-        QualityKind::Ok => "",
-        QualityKind::LowLight => {
-            "Check the lens cap, aim at a brighter target, or use a fixed, longer exposure (exposure_ms)"
-        }
-        QualityKind::Overload => "Too much light: add a neutral-density filter or use a shorter fixed exposure",
-        QualityKind::Sync => "Turn synchronisation off (sync = false) or check that the source flickers steadily",
-        QualityKind::Hardware => "Power-cycle the instrument and re-plug its USB cable",
-        QualityKind::Other | QualityKind::Unknown => "Measure again; if it persists, check the source is steady",
-    }
 }
 
 /// A status-only reply (setup commands, and any error).
@@ -747,20 +643,6 @@ mod tests {
         for bad in ["", "-", "OK", "0x00", "--8", "00000000", "1.0"] {
             assert!(parse_status(bad.as_bytes()).is_err(), "{bad:?}");
         }
-    }
-
-    #[test]
-    fn status_codes_carry_their_documented_meaning() {
-        assert_eq!(quality_code(0).kind, QualityKind::Ok);
-        assert_eq!(quality_code(-8).kind, QualityKind::LowLight);
-        assert_eq!(quality_code(-2).kind, QualityKind::Overload);
-        assert_eq!(quality_code(-10).kind, QualityKind::Sync);
-        assert!(quality_code(-1035).message.contains("not applicable"));
-        assert!(quality_code(-2000).message.contains("no measurement"));
-        let unknown = quality_code(-4242);
-        assert_eq!((unknown.code, unknown.kind), (-4242, QualityKind::Unknown));
-        // PR-650 codes copied into PR-655 clients are not PR-655 codes (section 7).
-        assert_eq!(quality_code(18).kind, QualityKind::Unknown);
     }
 
     #[test]

@@ -1,24 +1,24 @@
-//! The serial link to an instrument: port settings, flushing, writes with a
-//! timeout, and the two-phase read that neither hangs nor cuts a slow reply
-//! short.
+//! The serial port to an instrument: port settings, flushing, writes with a
+//! timeout, and the reads that neither hang nor cut a slow reply short.
 //!
 //! Blocking I/O: a [`SerialLink`] belongs to one thread (the daemon's
 //! instrument task, or `lightbooth measure`), which serialises every command to it.
 //!
-//! The read (`docs/src/instruments/pr650-protocol.md` §6.4): first wait up to a long
-//! timeout for the first byte (the instrument is silent while it measures),
-//! then read until the expected number of lines has arrived, giving up only
-//! when no byte comes for a gap timeout. A fixed short per-read timeout
-//! truncates spectra when the link pauses mid-reply (PsychoPy's bug).
-//! Reads poll in short slices so a [`CancelToken`] is honoured promptly.
+//! The read of a reply (`docs/src/instruments/pr650-protocol.md` §6.4): first wait up
+//! to a long timeout for the first byte (the instrument is silent while it
+//! measures), then read until the expected number of lines has arrived,
+//! giving up only when no byte comes for a gap timeout. A fixed short
+//! per-read timeout truncates spectra when the link pauses mid-reply
+//! (PsychoPy's bug). Reads poll in short slices so a [`CancelToken`] is
+//! honoured promptly.
 
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use serialport::{ClearBuffer, DataBits, FlowControl, Parity, SerialPort, StopBits};
 
-use super::pr650::protocol::{complete_lines, split_lines, Terminator};
-use super::{CancelToken, InstrumentError, WaitPhase};
+use super::lines::{complete_lines, split_lines, trim_to_lines, Terminator};
+use crate::instrument::{CancelToken, InstrumentError, WaitPhase};
 
 /// Longest slice of a blocking read, so cancellation and deadlines are
 /// checked at least this often.
@@ -147,31 +147,47 @@ impl SerialLink {
         Ok(discarded)
     }
 
-    /// Writes one command (the text without terminator) and its terminator.
+    /// Writes one command (the text without terminator) and its terminator:
+    /// in one write, or a byte per write `byte_delay_ms` apart.
     pub fn send(&mut self, command: &str) -> Result<(), InstrumentError> {
         let mut bytes = command.as_bytes().to_vec();
         bytes.extend_from_slice(self.settings.terminator.bytes());
+        let pacing = (self.settings.byte_delay_ms != 0).then(|| Duration::from_millis(self.settings.byte_delay_ms));
+        self.write_timed(command, &bytes, pacing)
+    }
+
+    /// Writes `bytes` one per write, `delay` apart, with no terminator: the
+    /// PR-655's `PHOTO`, whose letters "must be sent as single characters".
+    pub fn send_bytes_singly(&mut self, bytes: &[u8], delay: Duration) -> Result<(), InstrumentError> {
+        let shown = String::from_utf8_lossy(bytes).into_owned();
+        self.write_timed(&shown, bytes, Some(delay))
+    }
+
+    /// Writes `bytes` within the write timeout: all at once, or with
+    /// `pacing` one byte per write, each followed by that pause. A write
+    /// that blocks past the timeout is a [`WaitPhase::FirstByte`] timeout
+    /// naming `shown`.
+    fn write_timed(&mut self, shown: &str, bytes: &[u8], pacing: Option<Duration>) -> Result<(), InstrumentError> {
         self.port
             .set_timeout(Duration::from_millis(self.settings.write_timeout_ms))
             .map_err(|e| InstrumentError::Io {
                 port: self.path.clone(),
                 source: e.into(),
             })?;
-        let result = if self.settings.byte_delay_ms == 0 {
-            self.port.write_all(&bytes).and_then(|_| self.port.flush())
-        } else {
-            bytes.iter().try_for_each(|b| {
+        let result = match pacing {
+            None => self.port.write_all(bytes).and_then(|_| self.port.flush()),
+            Some(delay) => bytes.iter().try_for_each(|b| {
                 self.port.write_all(std::slice::from_ref(b))?;
                 self.port.flush()?;
-                std::thread::sleep(Duration::from_millis(self.settings.byte_delay_ms));
+                std::thread::sleep(delay);
                 Ok(())
-            })
+            }),
         };
         let _ = self.port.set_timeout(POLL_SLICE);
         match result {
             Ok(()) => Ok(()),
             Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Err(InstrumentError::Timeout {
-                command: command.to_string(),
+                command: shown.to_string(),
                 phase: WaitPhase::FirstByte,
                 waited_ms: self.settings.write_timeout_ms,
             }),
@@ -179,24 +195,33 @@ impl SerialLink {
         }
     }
 
-    /// The two-phase read of a reply of `expected_lines` non-empty lines.
-    /// Bytes after the last expected line (a chunk read past it) are dropped
-    /// with a log line; the next command flushes anyway.
-    pub fn read_reply(
-        &mut self,
-        command: &str,
-        expected_lines: usize,
-        first_byte_timeout: Duration,
-        gap_timeout: Duration,
-        cancel: &CancelToken,
-    ) -> Result<Vec<u8>, InstrumentError> {
-        self.read_reply_sized(command, &|_| expected_lines, first_byte_timeout, gap_timeout, cancel)
+    /// One read of at most one [`POLL_SLICE`]: `Some(n)` bytes, or `None`
+    /// when the slice passed in silence. End of file (the far end gone) is
+    /// [`InstrumentError::PortClosed`]; a read interrupted by a signal is
+    /// simply read again.
+    fn read_chunk(&mut self, buf: &mut [u8]) -> Result<Option<usize>, InstrumentError> {
+        loop {
+            match self.port.read(buf) {
+                Ok(0) => {
+                    return Err(InstrumentError::PortClosed {
+                        port: self.path.clone(),
+                    })
+                }
+                Ok(n) => return Ok(Some(n)),
+                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => return Ok(None),
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io_error(e)),
+            }
+        }
     }
 
-    /// [`SerialLink::read_reply`] for a reply whose length its first line
-    /// decides (a PR-655 spectrum: a header and 101 lines, or an error
-    /// status alone). `expected_lines` sees the first complete line.
-    pub fn read_reply_sized(
+    /// The two-phase read of a reply whose length (in non-empty lines) its
+    /// first line decides: `expected_lines` sees the first complete line (a
+    /// PR-655 spectrum is a header and 101 lines, or an error status alone;
+    /// a PR-650 reply's length is known before it starts). Bytes after the
+    /// last expected line (a chunk read past it) are dropped with a log
+    /// line; the next command flushes anyway.
+    pub fn read_reply(
         &mut self,
         command: &str,
         expected_lines: &dyn Fn(&[u8]) -> usize,
@@ -213,13 +238,8 @@ impl SerialLink {
             if cancel.is_cancelled() {
                 return Err(InstrumentError::Cancelled);
             }
-            match self.port.read(&mut buf) {
-                Ok(0) => {
-                    return Err(InstrumentError::PortClosed {
-                        port: self.path.clone(),
-                    })
-                }
-                Ok(n) => {
+            match self.read_chunk(&mut buf)? {
+                Some(n) => {
                     reply.extend_from_slice(&buf[..n]);
                     last_byte = Instant::now();
                     let complete = complete_lines(&reply);
@@ -242,16 +262,13 @@ impl SerialLink {
                         });
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
-                    if reply.is_empty() {
-                        if start.elapsed() >= first_byte_timeout {
-                            return Err(InstrumentError::Timeout {
-                                command: command.to_string(),
-                                phase: WaitPhase::FirstByte,
-                                waited_ms: start.elapsed().as_millis() as u64,
-                            });
-                        }
-                    } else if last_byte.elapsed() >= gap_timeout {
+                None if reply.is_empty() => {
+                    if start.elapsed() >= first_byte_timeout {
+                        return Err(no_first_byte(command, start));
+                    }
+                }
+                None => {
+                    if last_byte.elapsed() >= gap_timeout {
                         return Err(InstrumentError::Truncated {
                             command: command.to_string(),
                             lines: complete_lines(&reply),
@@ -260,37 +277,7 @@ impl SerialLink {
                         });
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io_error(e)),
             }
-        }
-    }
-
-    /// Writes `bytes` one per write, `delay` apart, with no terminator: the
-    /// PR-655's `PHOTO`, whose letters "must be sent as single characters".
-    pub fn send_bytes_singly(&mut self, bytes: &[u8], delay: Duration) -> Result<(), InstrumentError> {
-        let text = String::from_utf8_lossy(bytes).into_owned();
-        self.port
-            .set_timeout(Duration::from_millis(self.settings.write_timeout_ms))
-            .map_err(|e| InstrumentError::Io {
-                port: self.path.clone(),
-                source: e.into(),
-            })?;
-        let result = bytes.iter().try_for_each(|b| -> std::io::Result<()> {
-            self.port.write_all(std::slice::from_ref(b))?;
-            self.port.flush()?;
-            std::thread::sleep(delay);
-            Ok(())
-        });
-        let _ = self.port.set_timeout(POLL_SLICE);
-        match result {
-            Ok(()) => Ok(()),
-            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => Err(InstrumentError::Timeout {
-                command: text,
-                phase: WaitPhase::FirstByte,
-                waited_ms: self.settings.write_timeout_ms,
-            }),
-            Err(e) => Err(self.io_error(e)),
         }
     }
 
@@ -315,34 +302,24 @@ impl SerialLink {
                 return Err(InstrumentError::Cancelled);
             }
             let room = (max_bytes - reply.len()).min(buf.len());
-            match self.port.read(&mut buf[..room]) {
-                Ok(0) => {
-                    return Err(InstrumentError::PortClosed {
-                        port: self.path.clone(),
-                    })
-                }
-                Ok(n) => {
+            match self.read_chunk(&mut buf[..room])? {
+                Some(n) => {
                     reply.extend_from_slice(&buf[..n]);
                     last_byte = Instant::now();
                     if reply.len() >= max_bytes {
                         return Ok(reply);
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {
-                    if reply.is_empty() {
-                        if start.elapsed() >= first_byte_timeout {
-                            return Err(InstrumentError::Timeout {
-                                command: command.to_string(),
-                                phase: WaitPhase::FirstByte,
-                                waited_ms: start.elapsed().as_millis() as u64,
-                            });
-                        }
-                    } else if last_byte.elapsed() >= quiet {
+                None if reply.is_empty() => {
+                    if start.elapsed() >= first_byte_timeout {
+                        return Err(no_first_byte(command, start));
+                    }
+                }
+                None => {
+                    if last_byte.elapsed() >= quiet {
                         return Ok(reply);
                     }
                 }
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io_error(e)),
             }
         }
     }
@@ -368,29 +345,18 @@ impl SerialLink {
             if cancel.is_cancelled() {
                 return Err(InstrumentError::Cancelled);
             }
-            match self.port.read(&mut buf) {
-                Ok(0) => {
-                    return Err(InstrumentError::PortClosed {
-                        port: self.path.clone(),
-                    })
+            let Some(n) = self.read_chunk(&mut buf)? else { continue };
+            last_byte = Some(Instant::now());
+            pending.extend_from_slice(&buf[..n]);
+            if let Some(end) = pending.iter().rposition(|b| *b == b'\r' || *b == b'\n') {
+                let found = split_lines(&pending[..=end]).into_iter().any(is_answer);
+                pending.drain(..=end);
+                if found {
+                    return Ok(());
                 }
-                Ok(n) => {
-                    last_byte = Some(Instant::now());
-                    pending.extend_from_slice(&buf[..n]);
-                    if let Some(end) = pending.iter().rposition(|b| *b == b'\r' || *b == b'\n') {
-                        let found = split_lines(&pending[..=end]).into_iter().any(is_answer);
-                        pending.drain(..=end);
-                        if found {
-                            return Ok(());
-                        }
-                    }
-                    if pending.len() > MAX_REPLY_BYTES {
-                        pending.clear();
-                    }
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io_error(e)),
+            }
+            if pending.len() > MAX_REPLY_BYTES {
+                pending.clear();
             }
         }
         Err(InstrumentError::Timeout {
@@ -413,19 +379,9 @@ impl SerialLink {
         let mut total = 0;
         let mut buf = [0u8; 512];
         while last.elapsed() < quiet && start.elapsed() < max {
-            match self.port.read(&mut buf) {
-                Ok(0) => {
-                    return Err(InstrumentError::PortClosed {
-                        port: self.path.clone(),
-                    })
-                }
-                Ok(n) => {
-                    total += n;
-                    last = Instant::now();
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(self.io_error(e)),
+            if let Some(n) = self.read_chunk(&mut buf)? {
+                total += n;
+                last = Instant::now();
             }
         }
         if total > 0 {
@@ -435,50 +391,19 @@ impl SerialLink {
     }
 }
 
+/// Nothing came for `command` since `start`: a [`WaitPhase::FirstByte`] timeout.
+fn no_first_byte(command: &str, start: Instant) -> InstrumentError {
+    InstrumentError::Timeout {
+        command: command.to_string(),
+        phase: WaitPhase::FirstByte,
+        waited_ms: start.elapsed().as_millis() as u64,
+    }
+}
+
 /// The far end has gone: POLLHUP (reported as a broken pipe), EIO, EOF.
 fn is_hangup(e: &std::io::Error) -> bool {
     use std::io::ErrorKind::*;
     matches!(e.kind(), BrokenPipe | UnexpectedEof | NotConnected | ConnectionReset)
         || e.raw_os_error() == Some(5)
         || e.to_string().contains("Input/output error")
-}
-
-/// Cuts `reply` just after its `n`-th complete non-empty line.
-fn trim_to_lines(mut reply: Vec<u8>, n: usize) -> Vec<u8> {
-    let mut seen = 0;
-    let mut in_line = false;
-    for (i, b) in reply.iter().enumerate() {
-        if *b == b'\r' || *b == b'\n' {
-            if in_line {
-                seen += 1;
-                in_line = false;
-                if seen == n {
-                    let mut end = i + 1;
-                    if *b == b'\r' && reply.get(end) == Some(&b'\n') {
-                        end += 1;
-                    }
-                    if end < reply.len() {
-                        tracing::debug!(bytes = reply.len() - end, "bytes after the reply dropped");
-                    }
-                    reply.truncate(end);
-                    return reply;
-                }
-            }
-        } else if !b.is_ascii_whitespace() {
-            in_line = true;
-        }
-    }
-    reply
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn trims_after_the_expected_lines() {
-        assert_eq!(trim_to_lines(b"000\r\n00,0\r\n".to_vec(), 1), b"000\r\n");
-        assert_eq!(trim_to_lines(b"a\rb\r\nc".to_vec(), 2), b"a\rb\r\n");
-        assert_eq!(trim_to_lines(b"\r\n\r\na\n".to_vec(), 1), b"\r\n\r\na\n");
-    }
 }

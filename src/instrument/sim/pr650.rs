@@ -1,24 +1,30 @@
 //! The simulated PR-650's firmware: the byte-level state machine on the
-//! master end of the pty. One thread runs [`Device::run`]; it reads bytes,
-//! assembles commands, and answers as the instrument would.
+//! master end of the pty, after the checklist of
+//! `docs/src/instruments/pr650-protocol.md` §7. The simulator thread
+//! ([`super::unit::run`]) feeds it the bytes the host sends; it assembles
+//! commands and answers as the instrument would, a line at a time at 9600
+//! baud.
+//!
+//! - A command must come within the power-on window, else the unit stays in
+//!   local mode and ignores the port until power-cycled.
+//! - Commands end in CR, LF or CR LF and are case-insensitive: `B`, `S`
+//!   (each field checked, its status sent), `M` (measure, then ack or send a
+//!   report), `D`/`R` (reports 1, 2, 5, 110, 120, 201), `F`, `E` (echo).
+//! - A failed measurement leaves the spectral buffer stale: `D5` resends the
+//!   last spectrum under the new code.
 
-use std::io::{Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use serialport::{SerialPort, TTYPort};
+use serialport::TTYPort;
 
-use super::model::Rng;
-use super::{lock, BeforeFirstMeasurement, BusyInput, Fault, FaultKind, MockConfig, Shared};
+use super::config::{BeforeFirstMeasurement, MockConfig};
+use super::faults::FaultKind;
+use super::unit::{Firmware, Next, Shared, Unit};
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::instrument::pr650::protocol as wire;
 use crate::spectrum::{SpectralUnit, Spectrum};
-
-use super::firmware::POLL;
-
-/// One byte at 9600 baud, 8N1 (10 bits on the wire), in ms.
-const BYTE_TIME_MS: f64 = 10.0 / 9.6;
 
 /// The data of the last measurement, as `D` reports resend it.
 #[derive(Clone, Debug)]
@@ -39,16 +45,7 @@ struct Settings {
 
 pub(super) struct Device {
     cfg: MockConfig,
-    port: Option<TTYPort>,
-    /// The device end kept open so the pty survives the host closing and
-    /// reopening it (a real unit does not notice the host's port closing).
-    keepalive: Option<TTYPort>,
-    /// Target, faults and counters shared with the [`super::MockHandle`];
-    /// locked briefly per command, never across a sleep or a write.
-    shared: Arc<Mutex<Shared>>,
-    /// Set by the handle to stop this thread; checked between reads and during sleeps.
-    stop: Arc<AtomicBool>,
-    rng: Rng,
+    unit: Unit,
     powered_at: Instant,
     remote: bool,
     local: bool,
@@ -59,15 +56,6 @@ pub(super) struct Device {
     stored: Option<Stored>,
 }
 
-/// What a command handler wants next.
-enum Next {
-    Continue,
-    /// The measurement is done; handle bytes received meanwhile per [`BusyInput`].
-    AfterMeasurement,
-    /// The cable was pulled: stop.
-    Unplugged,
-}
-
 impl Device {
     pub(super) fn new(
         cfg: MockConfig,
@@ -76,14 +64,11 @@ impl Device {
         shared: Arc<Mutex<Shared>>,
         stop: Arc<AtomicBool>,
     ) -> Device {
-        let rng = Rng::new(cfg.seed);
+        let paced = cfg.pace_output;
+        let unit = Unit::new("PR-650", &cfg, port, keepalive, shared, stop, paced);
         Device {
             cfg,
-            port: Some(port),
-            keepalive: Some(keepalive),
-            shared,
-            stop,
-            rng,
+            unit,
             powered_at: Instant::now(),
             remote: false,
             local: false,
@@ -95,68 +80,8 @@ impl Device {
         }
     }
 
-    fn power_on(&mut self) {
-        tracing::info!("simulated PR-650: power cycle");
-        self.powered_at = Instant::now();
-        self.remote = false;
-        self.local = false;
-        self.echo = false;
-        self.line.clear();
-        self.settings = Settings::default();
-        self.stored = None;
-        let mut shared = lock(&self.shared);
-        shared.integration_ms = 0;
-        shared.link_dead = false;
-    }
-
-    pub(super) fn run(mut self) {
-        let mut buf = [0u8; 256];
-        while !self.stop.load(Ordering::Relaxed) {
-            let cycle = std::mem::take(&mut lock(&self.shared).power_cycle_requested);
-            if cycle {
-                self.power_on();
-            }
-            let Some(port) = self.port.as_mut() else { break };
-            let _ = port.set_timeout(POLL);
-            let n = match port.read(&mut buf) {
-                Ok(n) => n,
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
-                Err(e) => {
-                    tracing::debug!(error = %e, "simulated PR-650: read failed");
-                    std::thread::sleep(POLL);
-                    continue;
-                }
-            };
-            // A power cycle requested while the read was blocked comes before these bytes.
-            let cycle = std::mem::take(&mut lock(&self.shared).power_cycle_requested);
-            if cycle {
-                self.power_on();
-            }
-            let mut i = 0;
-            while i < n {
-                match self.byte(buf[i]) {
-                    Next::Continue => i += 1,
-                    Next::AfterMeasurement => {
-                        i += 1;
-                        if self.cfg.busy_input == BusyInput::Drop {
-                            i = n;
-                            self.drain_input();
-                        }
-                    }
-                    Next::Unplugged => return,
-                }
-            }
-        }
-    }
-
-    fn drain_input(&mut self) {
-        if let Some(port) = self.port.as_mut() {
-            let _ = port.clear(serialport::ClearBuffer::Input);
-        }
-        self.line.clear();
-    }
-
-    fn byte(&mut self, b: u8) -> Next {
+    /// One byte from the host.
+    fn receive(&mut self, b: u8) -> Next {
         if !self.remote && !self.local {
             if let Some(window) = self.cfg.remote_window_ms {
                 if self.powered_at.elapsed() > Duration::from_millis(window) {
@@ -165,11 +90,11 @@ impl Device {
                 }
             }
         }
-        if self.local || lock(&self.shared).link_dead {
+        if self.local || self.unit.shared().link_dead {
             return Next::Continue; // ignores the port until power-cycled
         }
         if self.echo {
-            self.write(&[b]);
+            self.unit.write(&[b]);
         }
         if b == b'\r' || b == b'\n' {
             let pair = b == b'\n' && self.last_was_cr;
@@ -182,7 +107,7 @@ impl Device {
             self.remote = true;
             let next = self.command(String::from_utf8_lossy(&command).trim());
             if self.echo {
-                self.write(b">");
+                self.unit.write(b">");
             }
             return next;
         }
@@ -197,17 +122,17 @@ impl Device {
         tracing::debug!(command = text, "simulated PR-650 received");
         let (letter, args) = text.split_at(text.chars().next().map_or(0, char::len_utf8));
         match letter {
-            "B" if matches!(args, "" | "0" | "1" | "2" | "3") => self.write(b"000\r\n"),
+            "B" if matches!(args, "" | "0" | "1" | "2" | "3") => self.unit.write(b"000\r\n"),
             "S" => {
                 let status = setup_status(args);
                 if status == 0 {
                     let fields: Vec<&str> = args.split(',').collect();
                     self.settings.sync_on = !fields.get(4).unwrap_or(&"").is_empty();
                     self.settings.integration_ms = fields.get(5).and_then(|f| f.parse().ok()).unwrap_or(0);
-                    lock(&self.shared).integration_ms = self.settings.integration_ms;
+                    self.unit.shared().integration_ms = self.settings.integration_ms;
                 }
                 self.settings.last_status = status;
-                self.write(format!("{status:02}\r\n").as_bytes());
+                self.unit.write(format!("{status:02}\r\n").as_bytes());
             }
             "M" => {
                 let code: u16 = if args.is_empty() {
@@ -222,7 +147,7 @@ impl Device {
                     return Next::Unplugged;
                 }
                 if code == 0 {
-                    self.write(b"000\r\n");
+                    self.unit.write(b"000\r\n");
                 } else {
                     self.report(code);
                 }
@@ -235,8 +160,8 @@ impl Device {
             }
             // An "unsyncable" source still shows a frequency; measuring with sync then fails (07).
             "F" => match self.cfg.flicker_hz {
-                Some(hz) => self.write(format!("00,{hz:.2}\r\n").as_bytes()),
-                None => self.write(b"20\r\n"),
+                Some(hz) => self.unit.write(format!("00,{hz:.2}\r\n").as_bytes()),
+                None => self.unit.write(b"20\r\n"),
             },
             "E" => {
                 tracing::warn!("simulated PR-650: echo mode on (a driver should never send E)");
@@ -247,29 +172,9 @@ impl Device {
         Next::Continue
     }
 
-    /// Whether a fault of `kind` fires now (and counts it down).
-    fn fires(&mut self, kind: FaultKind) -> bool {
-        self.fired(kind).is_some()
-    }
-
-    /// The fault of `kind` that fires now, if any ([`super::firmware::fired`]).
-    fn fired(&mut self, kind: FaultKind) -> Option<Fault> {
-        super::firmware::fired(&self.shared, &mut self.rng, kind)
-    }
-
-    /// Sleeps `ms` of instrument time (scaled by speed), waking for a stop request.
-    fn sleep_scaled(&self, ms: f64) {
-        self.sleep_ms(ms * self.cfg.speed);
-    }
-
-    /// Sleeps `ms` of wall time, waking for a stop request.
-    fn sleep_ms(&self, ms: f64) {
-        super::firmware::sleep_ms(&self.stop, ms)
-    }
-
     /// One measurement. Returns false if the cable was pulled.
     fn measure(&mut self) -> bool {
-        let truth = lock(&self.shared).truth_1nm.clone();
+        let truth = self.unit.shared().truth_1nm.clone();
         let reading = match self.cfg.model.reading(&truth, self.settings.integration_ms) {
             Ok(r) => r,
             Err(e) => {
@@ -282,24 +187,19 @@ impl Device {
             code = reading.code,
             "simulated PR-650 measuring"
         );
-        if self.fires(FaultKind::CablePull) {
-            self.sleep_scaled(reading.duration_ms / 2.0);
-            tracing::info!("simulated PR-650: cable pulled");
-            lock(&self.shared).unplugged = true;
-            self.port = None;
-            self.keepalive = None;
+        if self.unit.cable_pulled_during(reading.duration_ms, "cable pulled") {
             return false;
         }
-        self.sleep_scaled(reading.duration_ms);
+        self.unit.sleep_scaled(reading.duration_ms);
         let mut code = reading.code;
         if self.settings.sync_on && self.cfg.unsyncable {
             code = 7;
         }
-        if self.fires(FaultKind::ErrorCode) {
+        if self.unit.fires(FaultKind::ErrorCode) {
             code = self.cfg.error_code;
         }
         if code == 0 {
-            let values = self.cfg.model.sample(&reading, &mut self.rng);
+            let values = self.cfg.model.sample(&reading, &mut self.unit.rng);
             let spectrum = Spectrum::new(
                 self.cfg.model.grid.clone(),
                 SpectralUnit::SpectralRadiance,
@@ -328,7 +228,7 @@ impl Device {
             stored.xyz = [0.0; 3];
             self.stored = Some(stored);
         }
-        lock(&self.shared).measurements += 1;
+        self.unit.shared().measurements += 1;
         true
     }
 
@@ -337,17 +237,17 @@ impl Device {
         match code {
             wire::REPORT_SERIAL => {
                 let serial = format!("{:<8}", self.cfg.serial);
-                self.write(format!("{serial}\r\n").as_bytes());
+                self.unit.write(format!("{serial}\r\n").as_bytes());
                 return;
             }
             wire::REPORT_CONFIG => {
                 let bytes = wire::format_spectral_config(&grid, self.cfg.model.slit_fwhm_nm);
-                self.write(&bytes);
+                self.unit.write(&bytes);
                 return;
             }
             wire::REPORT_SETUP_STATUS => {
                 let status = self.settings.last_status;
-                self.write(format!("{status:02}\r\n").as_bytes());
+                self.unit.write(format!("{status:02}\r\n").as_bytes());
                 return;
             }
             _ => {}
@@ -362,13 +262,13 @@ impl Device {
             wire::REPORT_YXY => {
                 let sum = x + y + z;
                 let (cx, cy) = if sum > 0.0 { (x / sum, y / sum) } else { (0.0, 0.0) };
-                self.write(&wire::format_yxy_report(stored.code, 0, y, cx, cy));
+                self.unit.write(&wire::format_yxy_report(stored.code, 0, y, cx, cy));
             }
             wire::REPORT_XYZ => {
-                self.write(&wire::format_xyz_report(stored.code, 0, x, y, z));
-                if self.fires(FaultKind::Stale) {
+                self.unit.write(&wire::format_xyz_report(stored.code, 0, x, y, z));
+                if self.unit.fires(FaultKind::Stale) {
                     // Lands in the host's buffer before its next command.
-                    self.write(b"00,0\r\n2.817E-01\r\n0380.,1.2");
+                    self.unit.write(b"00,0\r\n2.817E-01\r\n0380.,1.2");
                 }
             }
             wire::REPORT_SPECTRUM => {
@@ -381,49 +281,35 @@ impl Device {
                     self.cfg.header_bare_cr,
                 );
                 // Past the header (`00,0\r\n2.817E-01\r\n`): noise in the data lines.
-                let start = 17;
-                match super::firmware::fault_spectrum_reply(
-                    &self.shared,
-                    &mut self.rng,
-                    &self.stop,
-                    self.cfg.slow_ms,
-                    bytes,
-                    start,
-                ) {
-                    super::firmware::Faulted::Silent => {}
-                    super::firmware::Faulted::Send(bytes) => self.write(&bytes),
-                    super::firmware::Faulted::SendThenDie(bytes) => {
-                        self.write(&bytes);
-                        tracing::info!("simulated PR-650: the link died mid-reply; silent until power-cycled");
-                        lock(&self.shared).link_dead = true;
-                    }
-                }
+                self.unit.send_spectrum(bytes, 17);
             }
             _ => tracing::debug!(code, "simulated PR-650: report code not simulated; no reply"),
         }
     }
+}
 
-    /// Sends bytes, paced at 9600 baud (scaled by speed) a line at a time, so
-    /// no pause inside a reply exceeds a line's time (≪ 0.5 s, §7.3).
-    fn write(&mut self, bytes: &[u8]) {
-        let pace = self.cfg.pace_output && self.cfg.speed > 0.0;
-        let chunks: Vec<&[u8]> = if pace {
-            bytes.split_inclusive(|b| *b == b'\n').collect()
-        } else {
-            vec![bytes]
-        };
-        for chunk in chunks {
-            let Some(port) = self.port.as_mut() else { return };
-            let _ = port.set_timeout(Duration::from_millis(500));
-            if let Err(e) = port.write_all(chunk).and_then(|_| port.flush()) {
-                tracing::debug!(error = %e, "simulated PR-650: host not reading; reply dropped");
-                return;
-            }
-            lock(&self.shared).last_byte_at = Some(Instant::now());
-            if pace {
-                self.sleep_scaled(chunk.len() as f64 * BYTE_TIME_MS);
-            }
-        }
+impl Firmware for Device {
+    fn unit(&mut self) -> &mut Unit {
+        &mut self.unit
+    }
+
+    fn power_on(&mut self) {
+        self.powered_at = Instant::now();
+        self.remote = false;
+        self.local = false;
+        self.echo = false;
+        self.line.clear();
+        self.settings = Settings::default();
+        self.stored = None;
+    }
+
+    /// A dead link is checked byte by byte (after the power-on window's clock).
+    fn byte(&mut self, b: u8, _burst: bool) -> Next {
+        self.receive(b)
+    }
+
+    fn forget_line(&mut self) {
+        self.line.clear();
     }
 }
 

@@ -1,0 +1,115 @@
+//! What a simulated instrument is told to be: which model
+//! ([`Personality`]), what it is aimed at, how fast it runs, which faults it
+//! injects, and its behaviours the protocol sheets leave open.
+
+use super::faults::Fault;
+use super::model::InstrumentModel;
+use super::pr655::switches::Pr655Switches;
+use crate::spectrum::Spectrum;
+
+/// What `D5` answers before the first measurement ever (undocumented, §7.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BeforeFirstMeasurement {
+    /// A report of zeros with code 00.
+    StaleZeros,
+    /// Nothing.
+    NoReply,
+}
+
+/// What happens to bytes that arrive while measuring (undocumented, §7.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BusyInput {
+    /// Processed after the measurement.
+    Queue,
+    /// Discarded.
+    Drop,
+}
+
+/// Which instrument the simulator is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Personality {
+    /// The PR-650 (`docs/src/instruments/pr650-protocol.md`).
+    Pr650,
+    /// A PR-655 or PR-670, with the protocol's uncertain behaviours chosen.
+    Pr655(Pr655Switches),
+}
+
+impl Personality {
+    /// The model's name as the unit reports it: `PR-650`, `PR-655` or `PR-670`.
+    pub fn model_name(&self) -> &'static str {
+        match self {
+            Personality::Pr650 => "PR-650",
+            Personality::Pr655(switches) => switches.model.name(),
+        }
+    }
+}
+
+/// Everything about a simulated instrument (a PR-650 unless [`MockConfig::personality`] says otherwise).
+#[derive(Clone, Debug)]
+pub struct MockConfig {
+    pub personality: Personality,
+    /// The radiance it is aimed at, W/(sr·m²·nm), any grid covering 380–780 nm.
+    pub truth: Spectrum,
+    /// Time scale: 1.0 = the real instrument's measurement and wire times, 0 = instant.
+    pub speed: f64,
+    /// Seed of the noise and fault-rate generator.
+    pub seed: u64,
+    /// The remote-mode window after power-on; `None` = never closes.
+    pub remote_window_ms: Option<u64>,
+    pub faults: Vec<Fault>,
+    /// Delay of a [`FaultKind::Slow`] reply that names none, ms (not scaled by speed).
+    pub slow_ms: u64,
+    /// Code of a [`FaultKind::ErrorCode`] measurement.
+    pub error_code: u8,
+    /// What `D110` answers (8 characters).
+    pub serial: String,
+    /// End header line 1 of the spectral report in a bare CR.
+    pub header_bare_cr: bool,
+    /// Pace replies at 9600 baud (scaled by speed).
+    pub pace_output: bool,
+    pub before_first: BeforeFirstMeasurement,
+    pub busy_input: BusyInput,
+    /// The source's flicker frequency for `F`; `None` = steady (`F` answers 20).
+    pub flicker_hz: Option<f64>,
+    /// With sync on, every measurement fails with 07 (tests the sync-off path).
+    pub unsyncable: bool,
+    pub model: InstrumentModel,
+}
+
+impl MockConfig {
+    /// Defaults: real speed, a 5 s remote window, no faults, stale zeros
+    /// before the first measurement, queued input while busy, and `slow`
+    /// replies 12 s late (past the driver's default timeouts).
+    pub fn new(truth: Spectrum) -> MockConfig {
+        MockConfig {
+            personality: Personality::Pr650,
+            truth,
+            speed: 1.0,
+            seed: 1,
+            remote_window_ms: Some(5000),
+            faults: Vec::new(),
+            slow_ms: 12_000,
+            error_code: 18,
+            serial: "60954303".into(),
+            header_bare_cr: false,
+            pace_output: true,
+            before_first: BeforeFirstMeasurement::StaleZeros,
+            busy_input: BusyInput::Queue,
+            flicker_hz: None,
+            unsyncable: false,
+            model: InstrumentModel::default(),
+        }
+    }
+
+    /// A simulated PR-655 or PR-670 with the default switches: the model's
+    /// grid and slit, and its statuses.
+    pub fn pr655(truth: Spectrum, switches: Pr655Switches) -> MockConfig {
+        let model = InstrumentModel::for_pr655(switches.model);
+        MockConfig {
+            personality: Personality::Pr655(switches),
+            model,
+            serial: "67065106".into(),
+            ..MockConfig::new(truth)
+        }
+    }
+}
