@@ -13,7 +13,7 @@
 
 use std::time::{Duration, Instant};
 
-use lightbooth::instrument::mock::{spawn_mock, MockConfig};
+use lightbooth::instrument::sim::{spawn_mock, MockConfig};
 use lightbooth::instrument::{open_pr650, CancelToken, Pr650Settings};
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{SpectralUnit, Spectrum};

@@ -10,7 +10,7 @@ use serde::Deserialize;
 
 use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{self, DaemonOptions};
-use lightbooth::instrument::mock::Fault;
+use lightbooth::instrument::sim::Fault;
 use lightbooth::instrument::InstrumentSettings;
 use lightbooth::lab::worker_queue::RenderPlace;
 use lightbooth::store::Booth;

@@ -29,7 +29,7 @@ use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::xyz_from_radiance;
-use crate::instrument::mock::{spawn_mock, Fault, MockConfig, MockHandle};
+use crate::instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
 use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::Event;
@@ -44,7 +44,7 @@ use crate::store::{Booth, MeasurementState, Store};
 #[derive(Clone, Debug)]
 pub struct MockSettings {
     /// Which instrument is simulated: the model the settings file names.
-    pub personality: crate::instrument::mock::Personality,
+    pub personality: crate::instrument::sim::Personality,
     pub speed: f64,
     pub faults: Vec<Fault>,
     pub cache_dir: PathBuf,
@@ -89,8 +89,8 @@ impl MockSlot {
         let shown = self.shown.lock().unwrap_or_else(|p| p.into_inner()).clone();
         let truth = shown.unwrap_or_else(default_truth);
         let mut config = match &self.settings.personality {
-            crate::instrument::mock::Personality::Pr650 => MockConfig::new(truth),
-            crate::instrument::mock::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
+            crate::instrument::sim::Personality::Pr650 => MockConfig::new(truth),
+            crate::instrument::sim::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
         };
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();

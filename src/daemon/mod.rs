@@ -35,7 +35,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
-use crate::instrument::mock::Fault;
+use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::EventSink;

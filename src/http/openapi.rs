@@ -153,7 +153,7 @@ pub fn served_document() -> &'static serde_json::Value {
 
 /// A coding: `rgb`, `srgb`, `spectral` or `nstepN` with 1 ≤ N ≤ 81.
 const CODING: &str = "(rgb|srgb|spectral|nstep([1-9]|[1-7][0-9]|8[01]))";
-/// A fault of the simulated PR-650: `KIND[@DELAY][:RATE]` (see `instrument::mock::Fault`).
+/// A fault of the simulated PR-650: `KIND[@DELAY][:RATE]` (see `instrument::sim::Fault`).
 const FAULT: &str =
     "((no-answer|truncate|garble|stale|error-code|cable-pull|double-crlf|link-dies)|slow(@[0-9]{1,4}ms)?)\
                      (:(once|[0-9]{1,3}x|0(\\.[0-9]{1,3})?|1(\\.0{1,3})?))?";

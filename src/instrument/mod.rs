@@ -39,12 +39,6 @@ pub mod pr650;
 pub mod pr655;
 pub mod sim;
 
-/// The simulators' former path, [`sim`] under its old name, which code
-/// outside this module still uses (the daemon, `study::measure`,
-/// `lightbooth serve`, the `pr650_overhead` bench, the `render` and `study`
-/// test suites); drop it once they say `sim`.
-pub use sim as mock;
-
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::SystemTime;

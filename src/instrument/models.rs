@@ -81,11 +81,11 @@ impl InstrumentSettings {
     }
 
     /// The simulated instrument that stands in for this model (`--mock`).
-    pub fn simulated_personality(&self) -> super::mock::Personality {
+    pub fn simulated_personality(&self) -> super::sim::Personality {
         match self {
-            InstrumentSettings::Pr650(_) => super::mock::Personality::Pr650,
+            InstrumentSettings::Pr650(_) => super::sim::Personality::Pr650,
             InstrumentSettings::Pr655(s) => {
-                super::mock::Personality::Pr655(super::mock::Pr655Switches::for_model(s.model()))
+                super::sim::Personality::Pr655(super::sim::Pr655Switches::for_model(s.model()))
             }
         }
     }

@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::colorimetry::Observer;
-use crate::instrument::mock::{spawn_mock, MockConfig};
+use crate::instrument::sim::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
 use crate::lab::measurement::Recorder;
 use crate::render;

@@ -13,7 +13,7 @@ use std::process::Command;
 use std::time::Duration;
 
 use common::{get_json, poll_until, post_json, request, Daemon, TOKEN};
-use lightbooth::instrument::mock::model::InstrumentModel;
+use lightbooth::instrument::sim::model::InstrumentModel;
 use lightbooth::render::{self, Coding, RenderSettings};
 use lightbooth::spectrum::table::SpectraTable;
 use lightbooth::spectrum::{Grid, SpectralUnit};

@@ -7,7 +7,7 @@
 use lightbooth::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use lightbooth::display::profile::{FrameBuffer, TransferModel};
 use lightbooth::display::{fit_profile, CalibrationPlan, DisplayProfile, MeasuredPatch, SimulatedDisplay};
-use lightbooth::instrument::mock::model::{InstrumentModel, Rng};
+use lightbooth::instrument::sim::model::{InstrumentModel, Rng};
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
 
 /// What the simulated PR-650 reports for a drive: the mean of `samples` noisy readings.

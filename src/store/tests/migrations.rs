@@ -200,7 +200,6 @@ pub(super) async fn migrations_before_booths_leave_rows_in_the_default_booth() {
     assert_eq!(store.list_measurements(&default_only).await.unwrap().total, 1);
 }
 
-
 pub(super) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }

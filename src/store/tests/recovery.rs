@@ -166,7 +166,9 @@ pub(super) async fn two_daemons_recovering_the_same_gone_daemon_at_once_interrup
 /// A noticer that saw the database come back only at `seen_since` counts
 /// no lease time before it; once a whole lease passes after it with no
 /// beat, the daemon is gone after all.
-pub(super) async fn a_live_daemons_lease_lapsed_during_a_database_outage_and_a_neighbour_took_its_work(engine: EngineKind) {
+pub(super) async fn a_live_daemons_lease_lapsed_during_a_database_outage_and_a_neighbour_took_its_work(
+    engine: EngineKind,
+) {
     let (_dir, store, _) = temp_store(engine).await;
     let noticer = store
         .register_daemon(&"north".parse().unwrap(), Duration::from_secs(3600))
