@@ -90,11 +90,6 @@ impl RenderRunner {
         self.observer
     }
 
-    /// The codings a render has when its request names none.
-    pub fn codings(&self) -> &[Coding] {
-        &self.codings
-    }
-
     /// The scenes it renders.
     pub fn catalogue(&self) -> &Arc<SceneCatalog> {
         &self.catalogue

@@ -538,7 +538,7 @@ fn a_planted_import_cycle_is_named_with_each_file_and_line() {
     write("b.rs", "pub struct Thing;\nfn f() { super::c::g(); }\n");
     write(
         "c/mod.rs",
-        "pub mod d;\npub use d::D;\npub fn g() {}\nfn h() -> crate::a::A { todo!() }\n#[cfg(test)]\nmod tests { use crate::b::Thing; }\n",
+        "pub mod d;\npub use d::D;\npub fn g() {}\nfn h(a: crate::a::A) -> crate::a::A { a }\n#[cfg(test)]\nmod tests { use crate::b::Thing; }\n",
     );
     write("c/d.rs", "pub struct D;\nuse super::g;\n");
     let graph = import_graph(src);
