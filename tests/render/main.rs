@@ -11,6 +11,7 @@ mod camera_image;
 mod converged_cache;
 mod cornell_box;
 mod exr_python;
+mod fixed_seed_pins;
 mod glossy_booth;
 mod glossy_materials;
 mod radiance_import;
