@@ -2,7 +2,7 @@
 //! driver does blocking serial I/O), takes queued measurements one at a
 //! time so commands never interleave on the wire, and:
 //!
-//! - records each measurement through [`super::recorder::Recorder`]: each
+//! - records each measurement through [`crate::lab::measurement::Recorder`]: each
 //!   raw sample is in the store *before* the next sample starts (the thread
 //!   blocks on the write), so a crash or a pulled cable keeps every sample
 //!   taken, and the end of a measurement is written again until a database

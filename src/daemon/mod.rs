@@ -100,7 +100,7 @@ pub struct DaemonOptions {
     /// ([`DEFAULT_LEASE`]; longer than `heartbeat`).
     pub lease: Duration,
     /// Where comparisons, renders and studies run: here, or on render
-    /// workers sharing the database (`--renders`, [`worker_queue`]).
+    /// workers sharing the database (`--renders`, `lab::worker_queue`).
     pub renders: crate::lab::worker_queue::RenderPlace,
 }
 

@@ -127,7 +127,7 @@ pub struct Sample {
     pub luminance: Option<f64>,
 }
 
-/// The result of [`Spectroradiometer::measure_averaged`]: every sample, and
+/// The result of [`measure_averaged`](averaging::measure_averaged): every sample, and
 /// statistics over the good ones only.
 #[derive(Clone, Debug)]
 pub struct AveragedMeasurement {

@@ -361,6 +361,13 @@ impl Bsdf {
         }
     }
 
+    /// False for a mirror, whose back is black (RADIANCE `m_mirror.c`); every
+    /// other model reflects on both sides of a surface.
+    #[inline]
+    pub fn reflects_on_back(&self) -> bool {
+        !matches!(self, Bsdf::Mirror)
+    }
+
     /// True when the model can reflect light even where ρ is 0 in every
     /// channel (`plastic`'s uncoloured highlight).
     pub fn reflects_without_colour(&self) -> bool {
@@ -368,6 +375,128 @@ impl Bsdf {
             Bsdf::Glossy { metal, .. } | Bsdf::Smooth { metal, .. } => !metal,
             _ => false,
         }
+    }
+}
+
+/// A material's BSDF at one path vertex, acting on every coding's channels
+/// at once (pbrt-v4's `BSDF`: the model in the frame of one surface point).
+/// The integrator's one direct-light estimate and one bounce go through it
+/// for every material, Lambertian included.
+///
+/// A Lambertian vertex's throughput ρ does not depend on the direction, so
+/// [`VertexBsdf::at`] folds it into β at once and its value toward a light
+/// is the scalar 1/π ([`Reflection::Folded`]): one multiply per channel
+/// fewer per light, and the arithmetic the renderer has always done for
+/// Lambertian surfaces (the fixed-seed pins hold it bit for bit). Every
+/// other model gives a·ρ + b per channel ([`Reflection::Channels`]).
+pub struct VertexBsdf<'a> {
+    bsdf: Bsdf,
+    /// Unit normal on the side of `wo`.
+    n: DVec3,
+    /// Unit direction toward where the path came from.
+    wo: DVec3,
+    /// The material's reflectance channels.
+    rho: &'a [f32],
+}
+
+/// A BSDF's value toward a light, in the form the channel arithmetic takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reflection {
+    /// f = ρ/π with ρ already in the throughput: the light's scalar is
+    /// divided by π ([`Reflection::divisor`]).
+    Folded,
+    /// f = a·ρ + b per channel.
+    Channels { a: f32, b: f32 },
+}
+
+impl Reflection {
+    /// The constant divisor of the light's scalar: π for [`Reflection::Folded`], 1 otherwise.
+    #[inline]
+    pub fn divisor(self) -> f64 {
+        match self {
+            Reflection::Folded => PI,
+            Reflection::Channels { .. } => 1.0,
+        }
+    }
+}
+
+impl<'a> VertexBsdf<'a> {
+    /// The BSDF at a vertex with normal `n` (on `wo`'s side) and reflectance
+    /// channels `rho`; a Lambertian surface multiplies the throughput `beta`
+    /// by ρ here (see the type's doc).
+    #[inline]
+    pub fn at(bsdf: Bsdf, n: DVec3, wo: DVec3, rho: &'a [f32], beta: &mut [f32]) -> VertexBsdf<'a> {
+        if matches!(bsdf, Bsdf::Lambertian) {
+            // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
+            for (b, r) in beta.iter_mut().zip(rho) {
+                *b *= r;
+            }
+        }
+        VertexBsdf { bsdf, n, wo, rho }
+    }
+
+    /// f toward the unit direction `wi`; `None` where it is zero (light from
+    /// there adds nothing and needs no shadow ray).
+    #[inline]
+    pub fn f(&self, wi: DVec3) -> Option<Reflection> {
+        if matches!(self.bsdf, Bsdf::Lambertian) {
+            return Some(Reflection::Folded);
+        }
+        let f = self.bsdf.eval(self.n, self.wo, wi);
+        (!f.is_zero()).then_some(Reflection::Channels {
+            a: f.a as f32,
+            b: f.b as f32,
+        })
+    }
+
+    /// The density with which [`VertexBsdf::sample`] produces `wi`, with
+    /// `cos_i` = n·wi (for the MIS weight of a light sample).
+    #[inline]
+    pub fn pdf(&self, wi: DVec3, cos_i: f64) -> f64 {
+        match self.bsdf {
+            Bsdf::Lambertian => cos_i / PI,
+            other => other.pdf(self.n, self.wo, wi),
+        }
+    }
+
+    /// L += k · β ⊙ f ⊙ `spectrum`: a light sample's contribution, `k` its
+    /// scalar ([`crate::render::lights::LiSample::scale`] with this
+    /// reflection's divisor).
+    #[inline]
+    pub fn add_light(&self, f: Reflection, k: f32, beta: &[f32], spectrum: &[f32], radiance: &mut [f32]) {
+        match f {
+            // L += β ⊙ (ρ/π) ⊙ S · k  (ρ already in β, 1/π in k).
+            Reflection::Folded => {
+                for ((l, b), e) in radiance.iter_mut().zip(beta).zip(spectrum) {
+                    *l += k * b * e;
+                }
+            }
+            // L += β ⊙ (a·ρ + b) ⊙ S · k.
+            Reflection::Channels { a, b } => {
+                for (((l, bt), e), r) in radiance.iter_mut().zip(beta).zip(spectrum).zip(self.rho) {
+                    *l += k * bt * (a * r + b) * e;
+                }
+            }
+        }
+    }
+
+    /// The next direction from the uniform point (u1, u2) and its density
+    /// (`None` for an ideal reflection), with β multiplied by f·cos θᵢ/pdf;
+    /// `None` when the sample falls below the surface and the path ends.
+    #[inline]
+    pub fn sample(&self, u1: f64, u2: f64, beta: &mut [f32]) -> Option<(DVec3, Option<f64>)> {
+        if matches!(self.bsdf, Bsdf::Lambertian) {
+            // ρ is already in β ([`VertexBsdf::at`]).
+            let dir = cosine_direction(self.n, u1, u2);
+            return Some((dir, Some(self.n.dot(dir).max(0.0) / PI)));
+        }
+        let sample = self.bsdf.sample(self.n, self.wo, u1, u2)?;
+        // β ← β ⊙ (a·ρ + b): f·cos θᵢ/pdf of the sampled direction.
+        let (a, b) = (sample.weight.a as f32, sample.weight.b as f32);
+        for (bt, r) in beta.iter_mut().zip(self.rho) {
+            *bt *= a * r + b;
+        }
+        Some((sample.dir, sample.pdf))
     }
 }
 

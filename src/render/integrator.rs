@@ -1,41 +1,49 @@
 //! Monte Carlo path tracing with next-event estimation, carrying every
 //! coding's channels at once.
 //!
-//! The estimator, for a path x₀ (first hit), x₁, … and Lambertian BRDFs
-//! f = ρ/π:
+//! One loop ([`trace_path`]) serves every material and every light, as
+//! pbrt-v4's `PathIntegrator` (`cpu/integrators.cpp`, `SampleLd`): at each
+//! vertex xⱼ of a path x₀ (first hit), x₁, …, with throughput β per channel,
 //!
-//! - at each vertex xⱼ, the point lights are sampled exactly (next-event
-//!   estimation): a point light has no area, so its contribution is the
-//!   deterministic L = β ⊙ ρ/π ⊙ I(ω)·cos θᵢ / d², with I(ω) the luminaire's
-//!   spectral intensity in W/(sr·nm) toward xⱼ and an unoccluded shadow ray;
-//! - area lights (emitting triangles) are reached by two strategies, combined
-//!   by multiple importance sampling (Veach & Guibas 1995, power heuristic):
-//!   at each vertex one point y is chosen on the lights ([`super::area_light`],
-//!   density p_light in solid angle) and adds β ⊙ ρ/π ⊙ Le·cos θᵢ / p_light ·
-//!   w_light; a bounce direction that hits an emitter adds β ⊙ Le · w_bsdf,
-//!   with w = p²/(p_light² + p_bsdf²). The sensor's own ray has no BSDF
-//!   density, so an emitter it sees directly counts fully; at the last
-//!   vertex (no bounce follows) the light sample counts fully. A RADIANCE
-//!   `spotlight`'s Le is Le·s(ω, d) in both strategies alike
-//!   ([`super::scene::Spot`]: 0 outside its cone, d²/(d + flen)² inside, 1
-//!   for the sensor's own ray), so the weights and densities are unchanged
-//!   and the estimate stays unbiased (the bounce's d is measured from the
-//!   offset ray origin, `SPAWN_OFFSET_M` from the point the light sample
-//!   uses: a relative difference below 1e-6 at the booth's distances);
-//! - the next direction is sampled cosine-weighted, pdf = cos θ / π, so the
-//!   throughput update f·cos θ / pdf is exactly ρ (per channel);
-//! - on a `plastic`, `metal` or `mirror` surface ([`super::bsdf`]) f is
-//!   RADIANCE's model instead, a·ρ + b per channel (scalars a, b per
-//!   direction pair), in every term above: next-event estimation uses f,
-//!   the bounce samples the Ward lobe or the cosine (their mixture density
-//!   is p_bsdf for MIS), and an ideal reflection (mirror, polished
-//!   plastic) is a delta: the emitter it sees counts fully, as for the
-//!   sensor's ray. Lambertian vertices keep the code above unchanged;
-//! - paths end by unbiased Russian roulette (survival q = max channel of the
-//!   throughput, at least 0.05, with β /= q) from the bounce the settings
-//!   ask for (by default the third), or when they leave the scene (open
-//!   sides return zero radiance), or — only when a cap is asked for — after
-//!   `max_bounces` indirect bounces (RADIANCE `-ab`: a truncation bias).
+//! 1. **emission**: a ray that hits an emitting triangle adds β ⊙ Le ·
+//!    w_bsdf, w_bsdf = p_bsdf²/(p_bsdf² + p_light²) (Veach & Guibas 1995,
+//!    the power heuristic), where p_light is the area-light strategy's
+//!    density of that point ([`Light::pdf_li`]). The sensor's own ray and
+//!    an ideal reflection have no BSDF density: the emitter counts fully;
+//! 2. **the BSDF at the vertex** ([`VertexBsdf`], [`super::bsdf`]): f = ρ/π
+//!    for a Lambertian surface, RADIANCE's `plastic`, `metal` and `mirror`
+//!    otherwise, a·ρ + b per channel (scalars a, b per direction pair);
+//! 3. **one direct-light estimate** (`estimate_direct`): every point light
+//!    exactly (a delta light has no area: L = β ⊙ f ⊙ I(ω)·cos θᵢ / d², I
+//!    the luminaire's spectral intensity in W/(sr·nm) toward xⱼ), then one
+//!    point y on the area lights ([`super::lights`], density p_light in
+//!    solid angle) adding β ⊙ f ⊙ Le·cos θᵢ / p_light · w_light, each with
+//!    an unblocked shadow ray. At the last vertex (no bounce follows) the
+//!    light sample counts fully;
+//! 4. **one Russian roulette** (`russian_roulette`) from the bounce the
+//!    settings ask for (by default the third): survival q = max channel of
+//!    β, at least 0.05, with β /= q — unbiased;
+//! 5. **the bounce**: a direction sampled from the BSDF (cosine-weighted for
+//!    a Lambertian surface, pdf = cos θ / π, so f·cos θ / pdf is exactly ρ;
+//!    the Ward lobe or the cosine for a glossy one, their mixture density
+//!    being p_bsdf for MIS; an ideal reflection for a mirror), β ← β ⊙
+//!    f·cos θ / pdf.
+//!
+//! A RADIANCE `spotlight`'s Le is Le·s(ω, d) in both strategies alike
+//! ([`super::scene::Spot`]: 0 outside its cone, d²/(d + flen)² inside, 1
+//! for the sensor's own ray), so the weights and densities are unchanged
+//! and the estimate stays unbiased (the bounce's d is measured from the
+//! offset ray origin, `SPAWN_OFFSET_M` from the point the light sample
+//! uses: a relative difference below 1e-6 at the booth's distances).
+//!
+//! Paths end by the roulette, when they leave the scene (open sides return
+//! zero radiance), on a surface that reflects nothing, or — only when a cap
+//! is asked for — after `max_bounces` indirect bounces (RADIANCE `-ab`: a
+//! truncation bias).
+//!
+//! The order of every product is fixed: the renderer gives the same bits
+//! for a fixed seed as before the materials and lights shared this one
+//! loop (`tests/render/fixed_seed_pins.rs`).
 //!
 //! The channel arithmetic works on contiguous `f32` slices whose length is a
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
@@ -45,19 +53,19 @@
 //! jobs do; the command line's renders have none and always finish).
 
 use std::cell::RefCell;
-use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use glam::DVec3;
 
-use super::area_light::{power_heuristic, AreaLights};
-use super::bsdf::Bsdf;
+use super::bsdf::{Bsdf, VertexBsdf};
 use super::bvh::{Bvh, LINEAR_SCAN_BELOW};
 use super::coding::ChannelLayout;
 use super::geometry::Ray;
-use super::sampling::{cone_direction, cosine_direction, PathSampler, SamplerKind, REPLICATES};
-use super::scene::{Light, Scene};
+use super::lights::point::Luminaire;
+use super::lights::{power_heuristic, AreaLights, EmitterHit, LiSample, Light, LightContext, ShadowRay, SpectrumOf};
+use super::sampling::{cone_direction, PathSampler, SamplerKind, REPLICATES};
+use super::scene::Scene;
 
 /// Asks the renders of one job to stop: checked before each batch of
 /// [`BATCH_SAMPLES`](super::sampling::BATCH_SAMPLES) paths, so a cancelled render stops within one batch per
@@ -115,18 +123,6 @@ pub struct Transport {
     pub russian_roulette_from: Option<u32>,
 }
 
-/// A point sampled on the area lights, as seen from a surface point.
-struct AreaLightPoint {
-    point: DVec3,
-    /// Unit direction from the surface point to `point`.
-    wi: DVec3,
-    /// Cosine between the surface normal and `wi` (> 0).
-    cos_i: f64,
-    /// The sample's density in solid angle at the surface point, 1/sr.
-    p_light: f64,
-    emitter: usize,
-}
-
 /// The scene with every material and light converted to channels once.
 pub struct Prepared<'a> {
     pub scene: &'a Scene,
@@ -142,6 +138,8 @@ pub struct Prepared<'a> {
     material_black: Vec<bool>,
     /// Per material: its reflection model ([`super::bsdf`]).
     bsdfs: Vec<Bsdf>,
+    /// The point lights, for next-event estimation.
+    luminaires: Vec<Luminaire<'a>>,
     /// The emitting triangles, for next-event estimation.
     area_lights: AreaLights,
     /// The BVH over `scene.primitives`; `None` below
@@ -210,6 +208,12 @@ impl<'a> Prepared<'a> {
             emitter_channels,
             material_black,
             bsdfs,
+            luminaires: scene
+                .lights
+                .iter()
+                .enumerate()
+                .map(|(index, light)| Luminaire { index, light })
+                .collect(),
             area_lights: AreaLights::new(scene)?,
             bvh,
         })
@@ -233,50 +237,32 @@ impl<'a> Prepared<'a> {
         &self.light_channels[i * n..(i + 1) * n]
     }
 
-    /// A point on the area lights for next-event estimation from the
-    /// surface point `p` (normal `n`), chosen by (u1, u2); `None` when the
-    /// surface faces away from it or it faces away from the surface.
-    /// Distances and cosines are taken from `p` itself, not from the offset
-    /// ray origin.
+    /// The prepared channels of a light sample's spectrum.
     #[inline]
-    fn sample_area_light(&self, p: DVec3, n: DVec3, u1: f64, u2: f64) -> Option<AreaLightPoint> {
-        let s = self.area_lights.sample(u1, u2);
-        let to_light = s.point - p;
-        let d2 = to_light.length_squared();
-        let wi = to_light / d2.sqrt();
-        let cos_i = n.dot(wi);
-        let cos_l_signed = -wi.dot(s.normal);
-        let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
-        (cos_i > 0.0 && cos_l > 0.0).then(|| AreaLightPoint {
-            point: s.point,
-            wi,
-            cos_i,
-            p_light: s.pdf_area * d2 / cos_l,
-            emitter: s.emitter,
-        })
-    }
-
-    /// A sampled light point's spotlight factor (`Spot::factor`) towards the
-    /// surface point `p`; 1 for emitters that are not spotlights.
-    #[inline]
-    fn spot_factor(&self, ls: &AreaLightPoint, p: DVec3) -> f64 {
-        match &self.scene.emitters[ls.emitter].spot {
-            None => 1.0,
-            Some(spot) => spot.factor(-ls.wi, Some(ls.point.distance(p))),
+    fn spectrum(&self, of: SpectrumOf) -> &[f32] {
+        match of {
+            SpectrumOf::Luminaire(i) => self.light(i),
+            SpectrumOf::Emitter(e) => self.emitter(e),
         }
     }
 
-    /// True when nothing blocks the segment from the offset ray origin to a
-    /// point on a light, stopping just short of the light's own surface.
+    /// True when nothing blocks a light sample's shadow ray from the offset
+    /// origin: along the direction up to a point light, or to a point on an
+    /// emitting triangle, stopping just short of the light's own surface.
     #[inline]
-    fn light_point_visible(&self, origin: DVec3, point: DVec3) -> bool {
-        let to_point = point - origin;
-        let reach = to_point.length();
-        let shadow = Ray {
-            origin,
-            dir: to_point / reach,
-        };
-        !self.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9)
+    fn unoccluded(&self, origin: DVec3, sample: &LiSample) -> bool {
+        match sample.shadow {
+            ShadowRay::Along { t_max } => !self.occluded(&Ray { origin, dir: sample.wi }, t_max),
+            ShadowRay::ToPoint(point) => {
+                let to_point = point - origin;
+                let reach = to_point.length();
+                let shadow = Ray {
+                    origin,
+                    dir: to_point / reach,
+                };
+                !self.occluded(&shadow, reach * (1.0 - 1e-9) - 1e-9)
+            }
+        }
     }
 
     /// The nearest surface along the ray: (hit, index into
@@ -340,10 +326,10 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         state.lit = false;
     }
     state.beta.fill(1.0);
-    let lights: &[Light] = &prep.scene.lights;
     let mut depth = 0u32;
     // Solid-angle density of the direction that led here (for MIS); `None`
-    // for the sensor's ray, which no light sample could have produced.
+    // for the sensor's ray and an ideal reflection, which no light sample
+    // could have produced.
     let mut bsdf_pdf: Option<f64> = None;
     loop {
         state.rays += 1;
@@ -352,230 +338,140 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         };
         let prim = &prep.scene.primitives[primitive];
         let front = hit.normal.dot(ray.dir) < 0.0;
-        if let Some(e) = prim.emitter {
-            if front || prep.scene.emitters[e].two_sided {
-                // Le reached by the bounce direction, weighted against the
-                // light strategy's density of the same point.
-                let w = match bsdf_pdf {
-                    None => 1.0,
-                    Some(p_bsdf) => {
-                        let cos_l = hit.normal.dot(ray.dir).abs();
-                        let p_light = prep.area_lights.pdf_area_of_primitive(primitive) * hit.t * hit.t / cos_l;
-                        power_heuristic(p_bsdf, p_light)
-                    }
-                } as f32;
-                // A spotlight's cone and focal falloff (`Spot`): the sensor's
-                // own ray (depth 0) sees the lamp's radiance, a surface the
-                // radiance scaled by d²/(d + flen)².
-                let w = match &prep.scene.emitters[e].spot {
-                    None => w,
-                    Some(spot) => w * spot.factor(-ray.dir, (depth > 0).then_some(hit.t)) as f32,
+        if let Some(emitter) = prim.emitter {
+            if front || prep.scene.emitters[emitter].two_sided {
+                let at = EmitterHit {
+                    primitive,
+                    emitter,
+                    distance: hit.t,
+                    cos_l: hit.normal.dot(ray.dir).abs(),
+                    dir: ray.dir,
+                    from_sensor: depth == 0,
                 };
-                state.lit = true;
-                for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(e)) {
-                    *l += w * b * le;
-                }
+                add_emission(prep, &at, bsdf_pdf, state);
             }
         }
         if prep.material_black[prim.material] {
             break; // reflects nothing: the path ends
         }
+        let bsdf = prep.bsdfs[prim.material];
+        if !front && !bsdf.reflects_on_back() {
+            break; // RADIANCE m_mirror.c: "back is black"
+        }
         let p = ray.origin + ray.dir * hit.t;
         // Two-sided: the normal on the side the ray came from.
         let n = if front { hit.normal } else { -hit.normal };
         let origin = p + n * SPAWN_OFFSET_M;
-        let bsdf = prep.bsdfs[prim.material];
-        if !matches!(bsdf, Bsdf::Lambertian) {
-            let wo = -ray.dir;
-            match glossy_vertex(prep, transport, bsdf, prim.material, front, p, n, wo, depth, rng, state) {
-                Some((dir, pdf)) => {
-                    ray = Ray { origin, dir };
-                    bsdf_pdf = pdf;
-                    depth += 1;
-                    continue;
-                }
-                None => break,
-            }
-        }
-        // β ← β ⊙ ρ: the throughput after this reflection (f·cos/pdf = ρ).
-        let rho = prep.material(prim.material);
-        for (b, r) in state.beta.iter_mut().zip(rho) {
-            *b *= r;
-        }
-        for (li, light) in lights.iter().enumerate() {
-            let to_light = light.position - p;
-            let d2 = to_light.length_squared();
-            let d = d2.sqrt();
-            let wi = to_light / d;
-            let cos_i = n.dot(wi);
-            if cos_i <= 0.0 {
-                continue;
-            }
-            let cd = light.candela_toward(-wi);
-            if cd <= 0.0 {
-                continue;
-            }
-            state.rays += 1;
-            if prep.occluded(&Ray { origin, dir: wi }, d) {
-                continue;
-            }
-            // L += β ⊙ (ρ/π) ⊙ I_cd·S(λ) · cos θᵢ / d²  (ρ already in β).
-            let s = (cd * cos_i / (PI * d2)) as f32;
-            let spd = prep.light(li);
-            state.lit = true;
-            for ((l, b), e) in state.radiance.iter_mut().zip(&state.beta).zip(spd) {
-                *l += s * b * e;
-            }
-        }
+        let vertex = VertexBsdf::at(bsdf, n, -ray.dir, prep.material(prim.material), &mut state.beta);
         let last_vertex = transport.max_bounces.is_some_and(|m| depth >= m);
-        if !prep.area_lights.is_empty() {
-            let (u1, u2) = rng.next_2d();
-            if let Some(ls) = prep.sample_area_light(p, n, u1, u2) {
-                state.rays += 1;
-                if prep.light_point_visible(origin, ls.point) {
-                    let w = if last_vertex {
-                        1.0
-                    } else {
-                        power_heuristic(ls.p_light, ls.cos_i / PI)
-                    };
-                    // L += β ⊙ (ρ/π) ⊙ Le · cos θᵢ / p_light · w  (ρ already in β).
-                    let k = (ls.cos_i / (PI * ls.p_light) * w * prep.spot_factor(&ls, p)) as f32;
-                    state.lit = true;
-                    for ((l, b), le) in state.radiance.iter_mut().zip(&state.beta).zip(prep.emitter(ls.emitter)) {
-                        *l += k * b * le;
-                    }
-                }
-            }
-        }
-        if last_vertex {
+        estimate_direct(prep, &vertex, LightContext { p, n }, origin, last_vertex, rng, state);
+        if last_vertex || !russian_roulette(transport, depth, rng, &mut state.beta) {
             break;
         }
-        if let Some(from) = transport.russian_roulette_from {
-            if depth >= from {
-                let q = state.beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
-                if rng.next_1d() >= q as f64 {
-                    break;
-                }
-                let inv = 1.0 / q;
-                state.beta.iter_mut().for_each(|b| *b *= inv);
-            }
-        }
         let (u1, u2) = rng.next_2d();
-        let dir = cosine_direction(n, u1, u2);
-        bsdf_pdf = Some(n.dot(dir).max(0.0) / PI);
+        let Some((dir, pdf)) = vertex.sample(u1, u2, &mut state.beta) else {
+            break;
+        };
         ray = Ray { origin, dir };
+        bsdf_pdf = pdf;
         depth += 1;
     }
 }
 
-/// One vertex on a surface that is not Lambertian (RADIANCE `plastic`,
-/// `metal`, `mirror`; [`super::bsdf`]): next-event estimation with the
-/// BSDF's value f = a·ρ + b per channel (point lights exactly; area lights
-/// MIS-weighted against the BSDF's sampling density), then a sampled
-/// bounce. The same random numbers as a Lambertian vertex: one 2D point for
-/// the light sample, the roulette's number, one 2D point for the bounce.
-/// Returns the next direction and its density (`None` for an ideal
-/// reflection), or `None` when the path ends.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn glossy_vertex(
+/// Le reached by a ray, weighted against the light strategy's density of
+/// the same point (`bsdf_pdf`: the density of the direction that led here;
+/// `None` counts it fully), times a spotlight's factor.
+#[inline(always)]
+fn add_emission(prep: &Prepared, hit: &EmitterHit, bsdf_pdf: Option<f64>, state: &mut PathState) {
+    let w = match bsdf_pdf {
+        None => 1.0,
+        Some(p_bsdf) => power_heuristic(p_bsdf, prep.area_lights.pdf_li(hit)),
+    } as f32;
+    let w = w * prep.area_lights.le_factor(hit) as f32;
+    state.lit = true;
+    for ((l, b), le) in state
+        .radiance
+        .iter_mut()
+        .zip(&state.beta)
+        .zip(prep.emitter(hit.emitter))
+    {
+        *l += w * b * le;
+    }
+}
+
+/// The one direct-light estimate at a vertex, for every material: each
+/// point light exactly, then one point on the area lights (one 2D number
+/// when the scene has any), MIS-weighted against the BSDF's density except
+/// at the last vertex, where no bounce could find it.
+#[inline(always)]
+fn estimate_direct(
     prep: &Prepared,
-    transport: &Transport,
-    bsdf: Bsdf,
-    material: usize,
-    front: bool,
-    p: DVec3,
-    n: DVec3,
-    wo: DVec3,
-    depth: u32,
+    vertex: &VertexBsdf,
+    ctx: LightContext,
+    origin: DVec3,
+    last_vertex: bool,
     rng: &mut PathSampler,
     state: &mut PathState,
-) -> Option<(DVec3, Option<f64>)> {
-    if matches!(bsdf, Bsdf::Mirror) && !front {
-        return None; // RADIANCE m_mirror.c: "back is black"
-    }
-    let origin = p + n * SPAWN_OFFSET_M;
-    let rho = prep.material(material);
-    let last_vertex = transport.max_bounces.is_some_and(|m| depth >= m);
-    for (li, light) in prep.scene.lights.iter().enumerate() {
-        let to_light = light.position - p;
-        let d2 = to_light.length_squared();
-        let d = d2.sqrt();
-        let wi = to_light / d;
-        let cos_i = n.dot(wi);
-        if cos_i <= 0.0 {
-            continue;
-        }
-        let f = bsdf.eval(n, wo, wi);
-        if f.is_zero() {
-            continue;
-        }
-        let cd = light.candela_toward(-wi);
-        if cd <= 0.0 {
-            continue;
-        }
-        state.rays += 1;
-        if prep.occluded(&Ray { origin, dir: wi }, d) {
-            continue;
-        }
-        // L += β ⊙ f ⊙ I_cd·S(λ) · cos θᵢ / d², f = a·ρ + b.
-        let s = (cd * cos_i / d2) as f32;
-        let (a, b) = (f.a as f32, f.b as f32);
-        state.lit = true;
-        for (((l, bt), e), r) in state.radiance.iter_mut().zip(&state.beta).zip(prep.light(li)).zip(rho) {
-            *l += s * bt * (a * r + b) * e;
+) {
+    for luminaire in &prep.luminaires {
+        if let Some(sample) = luminaire.sample_li(&ctx, (0.0, 0.0)) {
+            add_light_sample(prep, vertex, &sample, origin, last_vertex, state);
         }
     }
     if !prep.area_lights.is_empty() {
-        let (u1, u2) = rng.next_2d();
-        if let Some(ls) = prep.sample_area_light(p, n, u1, u2) {
-            let f = bsdf.eval(n, wo, ls.wi);
-            if !f.is_zero() {
-                state.rays += 1;
-                if prep.light_point_visible(origin, ls.point) {
-                    let w = if last_vertex {
-                        1.0
-                    } else {
-                        power_heuristic(ls.p_light, bsdf.pdf(n, wo, ls.wi))
-                    };
-                    // L += β ⊙ f ⊙ Le · cos θᵢ / p_light · w.
-                    let k = (ls.cos_i / ls.p_light * w * prep.spot_factor(&ls, p)) as f32;
-                    let (a, b) = (f.a as f32, f.b as f32);
-                    state.lit = true;
-                    for (((l, bt), le), r) in state
-                        .radiance
-                        .iter_mut()
-                        .zip(&state.beta)
-                        .zip(prep.emitter(ls.emitter))
-                        .zip(rho)
-                    {
-                        *l += k * bt * (a * r + b) * le;
-                    }
-                }
-            }
+        let u = rng.next_2d();
+        if let Some(sample) = prep.area_lights.sample_li(&ctx, u) {
+            add_light_sample(prep, vertex, &sample, origin, last_vertex, state);
         }
     }
-    if last_vertex {
-        return None;
+}
+
+/// L += β ⊙ f ⊙ S · scale, when f is not zero toward the light and its
+/// shadow ray is unblocked.
+#[inline(always)]
+fn add_light_sample(
+    prep: &Prepared,
+    vertex: &VertexBsdf,
+    sample: &LiSample,
+    origin: DVec3,
+    last_vertex: bool,
+    state: &mut PathState,
+) {
+    let Some(f) = vertex.f(sample.wi) else {
+        return;
+    };
+    state.rays += 1;
+    if !prep.unoccluded(origin, sample) {
+        return;
     }
-    if let Some(from) = transport.russian_roulette_from {
-        if depth >= from {
-            let q = state.beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
-            if rng.next_1d() >= q as f64 {
-                return None;
-            }
-            let inv = 1.0 / q;
-            state.beta.iter_mut().for_each(|b| *b *= inv);
-        }
+    let w = match sample.pdf() {
+        Some(p_light) if !last_vertex => power_heuristic(p_light, vertex.pdf(sample.wi, sample.cos_i)),
+        _ => 1.0,
+    };
+    let k = sample.scale(f.divisor(), w) as f32;
+    state.lit = true;
+    vertex.add_light(f, k, &state.beta, prep.spectrum(sample.spectrum), &mut state.radiance);
+}
+
+/// The one Russian roulette, for every material: from bounce
+/// `russian_roulette_from` on, a path survives with q = the largest channel
+/// of β (at least 0.05, at most 1) and β /= q, which keeps it unbiased.
+/// False when the path ends.
+#[inline(always)]
+fn russian_roulette(transport: &Transport, depth: u32, rng: &mut PathSampler, beta: &mut [f32]) -> bool {
+    let Some(from) = transport.russian_roulette_from else {
+        return true;
+    };
+    if depth < from {
+        return true;
     }
-    let (u1, u2) = rng.next_2d();
-    let sample = bsdf.sample(n, wo, u1, u2)?;
-    // β ← β ⊙ (a·ρ + b): f·cos θᵢ/pdf of the sampled direction.
-    let (a, b) = (sample.weight.a as f32, sample.weight.b as f32);
-    for (bt, r) in state.beta.iter_mut().zip(rho) {
-        *bt *= a * r + b;
+    let q = beta.iter().fold(0.0f32, |m, &b| m.max(b)).clamp(0.05, 1.0);
+    if rng.next_1d() >= q as f64 {
+        return false;
     }
-    Some((sample.dir, sample.pdf))
+    let inv = 1.0 / q;
+    beta.iter_mut().for_each(|b| *b *= inv);
+    true
 }
 
 /// Sums of one batch of radiometer samples: Σ radiance per channel, and per

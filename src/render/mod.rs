@@ -7,7 +7,8 @@
 //! - [`coding`]: the channel layout that carries rgb, srgb, nstepN and
 //!   spectral in one vector per path.
 //! - [`integrator`]: path tracing with next-event estimation;
-//!   [`area_light`]: choosing points on emitting triangles, for it.
+//!   [`lights`]: point and area lights behind one interface, for it;
+//!   [`bsdf`]: every material's reflection model, Lambertian included.
 //! - [`sensor`]: the camera image for the dashboard; [`camera`]: the
 //!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors).
 //!
@@ -37,7 +38,6 @@
 //! alone ([`cost`]: `lightbooth render --time-each-coding`, the daemon's
 //! `coding_cost`, the study's sweeps; `benches/render.rs`).
 
-pub mod area_light;
 pub mod bsdf;
 pub mod bundle;
 pub mod bvh;
@@ -49,6 +49,7 @@ mod huge_pages;
 pub mod ies;
 pub mod input_file;
 pub mod integrator;
+pub mod lights;
 pub mod radiance;
 pub mod sampling;
 pub mod scene;

@@ -126,7 +126,7 @@ impl Grid {
         self.first_nm() <= lo_nm + NM_EPS && self.last_nm() >= hi_nm - NM_EPS
     }
 
-    /// Same wavelengths, within [`NM_EPS`].
+    /// Same wavelengths, within `NM_EPS`.
     pub fn same_as(&self, other: &Grid) -> bool {
         self.nm.len() == other.nm.len() && self.nm.iter().zip(&other.nm).all(|(a, b)| (a - b).abs() < NM_EPS)
     }

@@ -7,11 +7,11 @@
 //! below are its sections. Its confidence markers decide how strict a parser
 //! is:
 //!
-//! - **Confirmed** ([C]) facts are checked strictly: the 12-byte banner
+//! - **Confirmed** (\[C\]) facts are checked strictly: the 12-byte banner
 //!   ` REMOTE MODE`, CR LF line ends, one header line before the spectrum,
 //!   the wavelength as a plain integer on the model's grid (101 points at
 //!   4 nm, or 201 at 2 nm), the status as the first comma field.
-//! - **Uncertain** ([U]) points are parsed leniently, each at its spot: the
+//! - **Uncertain** (\[U\]) points are parsed leniently, each at its spot: the
 //!   status's width (`00000`, `0000`) and the padding of negative codes
 //!   (`-0008`, `-8`); the 16th byte of a spectral line (a trailing or
 //!   leading space, or a three-digit exponent); a bare LF instead of CR LF;

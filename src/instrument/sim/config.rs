@@ -57,9 +57,9 @@ pub struct MockConfig {
     /// The remote-mode window after power-on; `None` = never closes.
     pub remote_window_ms: Option<u64>,
     pub faults: Vec<Fault>,
-    /// Delay of a [`FaultKind::Slow`] reply that names none, ms (not scaled by speed).
+    /// Delay of a [`FaultKind::Slow`](super::faults::FaultKind::Slow) reply that names none, ms (not scaled by speed).
     pub slow_ms: u64,
-    /// Code of a [`FaultKind::ErrorCode`] measurement.
+    /// Code of a [`FaultKind::ErrorCode`](super::faults::FaultKind::ErrorCode) measurement.
     pub error_code: u8,
     /// What `D110` answers (8 characters).
     pub serial: String,

@@ -1,7 +1,7 @@
 //! The faults a simulator can be told to inject (`--fault KIND[@DELAY][:RATE]`,
 //! `POST /api/mock/faults`): what each does, how often it fires, how it is
 //! written, and the line noise of a garbled reply. Pure: the simulated
-//! units ([`super::unit`]) decide where each applies.
+//! units (`sim::unit`) decide where each applies.
 
 use std::str::FromStr;
 
@@ -19,13 +19,13 @@ pub enum FaultKind {
     /// Junk (a stale partial report) lands in the host's input buffer after
     /// the `D2` reply, before the next command: tests the flush.
     Stale,
-    /// A measurement ends with [`MockConfig::error_code`] (default 18, whose
+    /// A measurement ends with [`MockConfig::error_code`](super::config::MockConfig::error_code) (default 18, whose
     /// spectral buffer stays stale) instead of its real code.
     ErrorCode,
     /// The port closes during a measurement: the cable pulled. The simulator stops.
     CablePull,
     /// A `D5` reply's first byte comes late: after the fault's own delay
-    /// (`slow@2500ms`), else after [`MockConfig::slow_ms`].
+    /// (`slow@2500ms`), else after [`MockConfig::slow_ms`](super::config::MockConfig::slow_ms).
     Slow,
     /// A `D5` reply carries an extra, empty CR LF after its header (harmless
     /// to a correct parser).
@@ -53,7 +53,7 @@ pub enum FaultRate {
 pub struct Fault {
     pub kind: FaultKind,
     pub rate: FaultRate,
-    /// The delay of a [`FaultKind::Slow`] reply, ms; `None` uses [`MockConfig::slow_ms`].
+    /// The delay of a [`FaultKind::Slow`] reply, ms; `None` uses [`MockConfig::slow_ms`](super::config::MockConfig::slow_ms).
     pub delay_ms: Option<u64>,
 }
 

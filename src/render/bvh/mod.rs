@@ -44,7 +44,7 @@
 //!   children; Wald et al. 2008, "Getting rid of packets"), nodes in
 //!   depth-first order, 64 bytes each (one cache line): the four children's
 //!   f32 boxes quantised outward to 8 bits per coordinate relative to the
-//!   node's box (so still conservative; see [`Wide`]), in
+//!   node's box (so still conservative; see `Wide`), in
 //!   structure-of-arrays layout so the four slab tests are one loop over the
 //!   lanes (in f64). The binary pairs are kept for [`Bvh::depth`] and the
 //!   determinism test.

@@ -27,7 +27,7 @@
 //! and converted (a `light` of `1e308` × 179 lm/W, or a vertex × `xform
 //! -s 1e300`, is an error naming the file, line and primitive).
 //!
-//! Limits: see [`load`]'s — at most [`MAX_DEPTH`] files nested, [`MAX_PRIMITIVES`]
+//! Limits: see `load`'s — at most [`MAX_DEPTH`] files nested, [`MAX_PRIMITIVES`]
 //! primitives, [`MAX_PLACEMENTS`] file copies placed by all `xform`s,
 //! [`MAX_COPIES`] copies and [`MAX_ARRAYS`] arrays per `xform`; files are read
 //! only if regular and at most

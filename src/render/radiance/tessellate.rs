@@ -1,6 +1,6 @@
 //! Triangles for the RADIANCE surfaces the renderer has no analytic shape
 //! for (cones, cups, rings with a hole) and for every emitting surface
-//! (area lights are triangles, [`crate::render::area_light`]).
+//! (area lights are triangles, [`crate::render::lights::area`]).
 //!
 //! Approximations, stated:
 //! - polygons are fan-triangulated from their first vertex; a concave

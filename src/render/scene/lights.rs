@@ -12,12 +12,12 @@ use glam::DVec3;
 
 use super::file::{EmissionFile, LightFile};
 use super::spectra::luminous_1nm;
-use super::{positive, unit, Emitter, Light, LightDistribution, Loader, SceneError};
+use super::{positive, unit, Emitter, LightDistribution, Loader, PointLight, SceneError};
 use crate::render::ies::IesDistribution;
 use crate::render::input_file::{read_text, unquoted};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
-pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Light, SceneError> {
+pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<PointLight, SceneError> {
     let key = |k: &str| format!("light[{i}].{k}");
     let stray = |k: &str, present: bool, why: &str| {
         if present {
@@ -151,7 +151,7 @@ pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Lig
         spd.iter().map(|s| s / lum).collect(),
     )
     .map_err(|e| l.err(key("spd"), e.to_string()))?;
-    Ok(Light {
+    Ok(PointLight {
         id: lf.id.clone(),
         position: DVec3::from(lf.position),
         aim,

@@ -415,9 +415,11 @@ pub enum LightDistribution {
     },
 }
 
-/// A point luminaire.
+/// A point luminaire (`[[light]]`): an IES table or a plain intensity with
+/// an optional cone (pbrt-v4's `PointLight`, `GoniometricLight` and
+/// `SpotLight` in one type); sampled by [`crate::render::lights`].
 #[derive(Clone, Debug)]
-pub struct Light {
+pub struct PointLight {
     pub id: String,
     pub position: DVec3,
     /// Unit aim direction: the type C nadir (γ = 0).
@@ -431,7 +433,7 @@ pub struct Light {
     pub spectrum_per_cd: Spectrum,
 }
 
-impl Light {
+impl PointLight {
     /// Luminous intensity in cd toward the unit direction `dir` (from the light).
     #[inline]
     pub fn candela_toward(&self, dir: DVec3) -> f64 {
@@ -507,7 +509,7 @@ pub struct Scene {
     pub primitives: Vec<Primitive>,
     pub solids: Vec<Solid>,
     /// Point luminaires.
-    pub lights: Vec<Light>,
+    pub lights: Vec<PointLight>,
     /// Area lights' emission, referenced by [`Primitive::emitter`].
     pub emitters: Vec<Emitter>,
     pub radiometer: Radiometer,
@@ -563,7 +565,7 @@ impl Scene {
 }
 
 /// [`Scene::light_on_perfect_diffuser`]'s values, W/(sr·m²·nm) on the 1 nm grid.
-fn diffuser_radiance(lights: &[Light], point: DVec3, normal: DVec3) -> Vec<f64> {
+fn diffuser_radiance(lights: &[PointLight], point: DVec3, normal: DVec3) -> Vec<f64> {
     {
         let mut values = vec![0.0; Grid::one_nm().len()];
         for light in lights {

@@ -2,7 +2,7 @@
 //! next-event estimation, and the density of that choice for multiple
 //! importance sampling.
 //!
-//! Every primitive with an [`Emitter`](super::scene::Emitter) is a triangle
+//! Every primitive with an [`Emitter`](crate::render::scene::Emitter) is a triangle
 //! (the scene loader only lets `[[polygon]]` and `[[mesh]]` emit). A light
 //! sample picks one triangle with probability proportional to its power
 //! (area × luminance of its radiance × emitting sides: bright small panels
@@ -25,10 +25,11 @@
 
 use glam::DVec3;
 
-use super::coding::OBSERVER;
-use super::geometry::Shape;
-use super::scene::Scene;
+use super::{Arrival, EmitterHit, LiSample, Light, LightContext, ShadowRay, SpectrumOf};
 use crate::colorimetry::{Cmf, KM_LM_PER_W};
+use crate::render::coding::OBSERVER;
+use crate::render::geometry::Shape;
+use crate::render::scene::{Scene, Spot};
 use crate::spectrum::Grid;
 
 /// One emitting triangle: the vertex p0 and edges, its unit geometric normal
@@ -66,6 +67,8 @@ pub struct AreaLights {
     cdf: Vec<f64>,
     /// Per primitive of the scene, its index in `triangles` (`u32::MAX`: none).
     of_primitive: Vec<u32>,
+    /// Per emitter (`Scene::emitters`), a RADIANCE spotlight's cone.
+    spots: Vec<Option<Spot>>,
 }
 
 impl AreaLights {
@@ -130,6 +133,7 @@ impl AreaLights {
             triangles,
             cdf,
             of_primitive,
+            spots: scene.emitters.iter().map(|e| e.spot.clone()).collect(),
         })
     }
 
@@ -176,15 +180,51 @@ impl AreaLights {
     }
 }
 
-/// The power heuristic with β = 2 (Veach & Guibas 1995): the weight of the
-/// strategy with density `a` against one with density `b`.
-#[inline]
-pub fn power_heuristic(a: f64, b: f64) -> f64 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 == 0.0 {
-        0.0
-    } else {
-        a2 / (a2 + b2)
+impl Light for AreaLights {
+    /// One point on all the emitting triangles ([`AreaLights::sample`]),
+    /// with its density in solid angle at the surface point.
+    #[inline]
+    fn sample_li(&self, ctx: &LightContext, u: (f64, f64)) -> Option<LiSample> {
+        let s = self.sample(u.0, u.1);
+        let to_light = s.point - ctx.p;
+        let d2 = to_light.length_squared();
+        let wi = to_light / d2.sqrt();
+        let cos_i = ctx.n.dot(wi);
+        let cos_l_signed = -wi.dot(s.normal);
+        let cos_l = if s.two_sided { cos_l_signed.abs() } else { cos_l_signed };
+        if !(cos_i > 0.0 && cos_l > 0.0) {
+            return None;
+        }
+        let spot = match &self.spots[s.emitter] {
+            None => 1.0,
+            Some(spot) => spot.factor(-wi, Some(s.point.distance(ctx.p))),
+        };
+        Some(LiSample {
+            wi,
+            cos_i,
+            arrival: Arrival::Area {
+                pdf: s.pdf_area * d2 / cos_l,
+                spot,
+            },
+            shadow: ShadowRay::ToPoint(s.point),
+            spectrum: SpectrumOf::Emitter(s.emitter),
+        })
+    }
+
+    /// p_ω = P(triangle)/A · d² / |cos θ_y| of the point a ray hit.
+    #[inline]
+    fn pdf_li(&self, hit: &EmitterHit) -> f64 {
+        self.pdf_area_of_primitive(hit.primitive) * hit.distance * hit.distance / hit.cos_l
+    }
+
+    /// A spotlight's cone and focal falloff: the sensor's own ray sees the
+    /// lamp's radiance, a surface the radiance scaled by d²/(d + flen)².
+    #[inline]
+    fn le_factor(&self, hit: &EmitterHit) -> f64 {
+        match &self.spots[hit.emitter] {
+            None => 1.0,
+            Some(spot) => spot.factor(-hit.dir, (!hit.from_sensor).then_some(hit.distance)),
+        }
     }
 }
 
@@ -192,10 +232,66 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 mod tests {
     use super::*;
 
-    #[test]
-    fn power_heuristic_weights_sum_to_one() {
-        for (a, b) in [(1.0, 2.0), (0.3, 0.0), (5.0, 5.0)] {
-            assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-15);
+    /// Two triangles making the square [−½, ½]² at z = 1, emitting down.
+    fn panel() -> AreaLights {
+        let tri = |p0: DVec3, p1: DVec3, p2: DVec3| EmittingTriangle {
+            p0,
+            e1: p1 - p0,
+            e2: p2 - p0,
+            normal: -DVec3::Z,
+            area: 0.5,
+            emitter: 0,
+            two_sided: false,
+        };
+        let (a, b, c, d) = (
+            DVec3::new(-0.5, -0.5, 1.0),
+            DVec3::new(-0.5, 0.5, 1.0),
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(0.5, -0.5, 1.0),
+        );
+        AreaLights {
+            triangles: vec![tri(a, b, c), tri(a, c, d)],
+            cdf: vec![0.0, 0.5, 1.0],
+            of_primitive: vec![0, 1],
+            spots: vec![None],
         }
+    }
+
+    /// A 1 m × 1 m one-sided panel 1 m above the surface point, facing it:
+    /// the light sample's density is 1/A · d²/cos θ_y in solid angle
+    /// (pbrt-v4 §4.2.3), and the density the ray strategy's `pdf_li` gives
+    /// the same point is the same.
+    #[test]
+    fn a_panel_overhead_has_the_area_density_converted_to_solid_angle() {
+        let lights = panel();
+        let ctx = LightContext {
+            p: DVec3::ZERO,
+            n: DVec3::Z,
+        };
+        let mut checked = 0;
+        for (u1, u2) in [(0.1, 0.2), (0.5, 0.5), (0.9, 0.3), (0.3, 0.8)] {
+            let Some(s) = lights.sample_li(&ctx, (u1, u2)) else {
+                panic!("the panel faces the point");
+            };
+            let ShadowRay::ToPoint(y) = s.shadow else {
+                panic!("an area sample ends on the light")
+            };
+            let d2 = y.length_squared();
+            let cos_y = s.wi.z; // the panel's normal is −z
+            let pdf = s.pdf().unwrap();
+            assert!((pdf - d2 / cos_y).abs() < 1e-12 * pdf, "{pdf} vs {}", d2 / cos_y);
+            let hit = EmitterHit {
+                primitive: usize::from(y.x > y.y),
+                emitter: 0,
+                distance: d2.sqrt(),
+                cos_l: cos_y,
+                dir: s.wi,
+                from_sensor: false,
+            };
+            assert!((lights.pdf_li(&hit) - pdf).abs() < 1e-9 * pdf);
+            assert_eq!(lights.le_factor(&hit), 1.0, "a plain emitter");
+            checked += 1;
+        }
+        assert_eq!(checked, 4);
     }
 }
