@@ -46,8 +46,10 @@
 //!   it takes the render of the scene from the store, or has
 //!   [`lab::render_runner`] render it once, resolves the booth's CIELAB
 //!   white, applies [`comparison`]'s figures of merit), and stored by
-//!   [`store`]; [`lab::comparisons::summary`] summarises a scene's per coding.
-//! - [`study`]: the study (every coding against measurements or a
+//!   [`store`]; [`lab::comparisons::summary`] summarises a scene's per coding;
+//!   [`lab::comparisons::white`] resolves a scene's CIELAB white, for the
+//!   study too.
+//! - [`lab::study`]: the study (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings).
 //!
 //! Serving them:
@@ -76,7 +78,7 @@
 //! |---|---|
 //! | 5 | daemon |
 //! | 4 | http, worker |
-//! | 3 | lab, study |
+//! | 3 | lab |
 //! | 2 | store, charts, export |
 //! | 1 | instrument, render |
 //! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display |
@@ -96,5 +98,4 @@ pub mod reference_data;
 pub mod render;
 pub mod spectrum;
 pub mod store;
-pub mod study;
 pub mod worker;

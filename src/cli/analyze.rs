@@ -7,10 +7,10 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 
+use lightbooth::lab::study::failure_map::{failure_map, Crossing, FailureMap, FailureMapSettings};
 use lightbooth::nstep::nstep_error;
 use lightbooth::reference_data::{reflectances, ReflectanceSet};
 use lightbooth::spectrum::{table::SpectraTable, Grid, SpectralUnit, Spectrum};
-use lightbooth::study::failure_map::{failure_map, Crossing, FailureMap, FailureMapSettings};
 
 #[derive(Subcommand, Debug)]
 pub enum AnalyzeCommand {
@@ -90,7 +90,7 @@ pub fn run(cmd: AnalyzeCommand) -> anyhow::Result<()> {
 }
 
 fn auto_cmd(args: AutoArgs) -> anyhow::Result<()> {
-    use lightbooth::study::auto::{candidate_set, choose_settings, reference_render, verify, Tolerance};
+    use lightbooth::lab::study::auto::{candidate_set, choose_settings, reference_render, verify, Tolerance};
     let tol: Tolerance = args.tolerance.parse()?;
     let scene = lightbooth::render::load_scene(&args.scene)?;
     let choice = choose_settings(&scene, &tol, args.seed)?;

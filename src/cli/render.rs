@@ -324,7 +324,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             let cost: serde_json::Map<String, serde_json::Value> =
                 coding_times.iter().map(|(k, t)| (k.clone(), t.cost_json())).collect();
             v["coding_cost"] = serde_json::Value::Object(cost);
-            v["cost_definition"] = lightbooth::study::run::COST_DEFINITION.into();
+            v["cost_definition"] = lightbooth::lab::study::run::COST_DEFINITION.into();
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {

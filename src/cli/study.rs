@@ -9,11 +9,11 @@ use clap::{Args, ValueEnum};
 use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
 use lightbooth::lab::lease::Lease;
+use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
+use lightbooth::lab::study::report::write_report;
+use lightbooth::lab::study::run::{run_study, Against, StudyOptions};
 use lightbooth::render::Coding;
 use lightbooth::store::{Job, Store};
-use lightbooth::study::measure::{measure_with_simulator, SimulatedPr650};
-use lightbooth::study::report::write_report;
-use lightbooth::study::run::{run_study, Against, StudyOptions};
 
 #[derive(Args, Debug)]
 pub struct StudyArgs {
@@ -47,7 +47,7 @@ pub struct StudyArgs {
     sweeps: bool,
     /// Also choose per scene the cheapest settings meeting this tolerance, e.g. `de00=1,rms=0.02`.
     #[arg(long)]
-    auto: Option<lightbooth::study::auto::Tolerance>,
+    auto: Option<lightbooth::lab::study::auto::Tolerance>,
     /// Also compute the failure maps (illuminant × patch; CYLINDER interreflection).
     #[arg(long)]
     failure_map: bool,
@@ -192,7 +192,7 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
             }
         };
         if let (Some(store), Some(id)) = (&store, study_id) {
-            let files = lightbooth::study::report::report_files(&result)?;
+            let files = lightbooth::lab::study::report::report_files(&result)?;
             store
                 .complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files)
                 .await?;

@@ -17,6 +17,9 @@
 //!   whites kept current) and a scene's comparisons summarised per coding;
 //! - [`render_jobs`]: the daemon's renders, studies and camera images as
 //!   the API asks for them, behind [`services::RenderService`];
+//! - [`study`]: the study itself (every coding against measurements or a
+//!   reference, sweeps, failure maps, the automatic choice of settings,
+//!   the report);
 //! - [`study_jobs`]: a study planned from a request and run as a job;
 //! - [`simulated_truth`]: what the simulated PR-650 measures;
 //! - [`jobs`], [`images`], [`worker_queue`], [`study_measurements`]: the
@@ -45,6 +48,7 @@ pub mod requests;
 pub mod scenes;
 pub mod services;
 pub mod simulated_truth;
+pub mod study;
 pub mod study_jobs;
 pub mod study_measurements;
 #[cfg(test)]

@@ -19,9 +19,9 @@ use crate::colorimetry::Xyz;
 use crate::lab::error::LabError;
 use crate::lab::requests::{RenderRequest, SceneInfo, StudyRequest};
 use crate::lab::services::{BoxFuture, RenderService};
+use crate::lab::study::run::StudyOptions;
 use crate::render::RenderSettings;
 use crate::store::{Booth, Job, JobEnd, Store};
-use crate::study::run::StudyOptions;
 
 /// A job's work, as the queue carries it.
 pub enum Work {

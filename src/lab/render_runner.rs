@@ -42,10 +42,10 @@ use super::scenes::SceneCatalog;
 use crate::colorimetry::Observer;
 use crate::lab::error::LabError;
 use crate::lab::requests::RenderRequest;
+use crate::lab::study::run::COST_DEFINITION;
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::{self, Coding, RenderError, RenderSettings, Scene};
 use crate::store::{Job, JobEnd, NewRender, Store};
-use crate::study::run::COST_DEFINITION;
 
 /// Records and runs renders of the catalogue's scenes.
 pub struct RenderRunner {

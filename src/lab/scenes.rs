@@ -28,9 +28,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::colorimetry::Observer;
+use crate::lab::comparisons::white::{scene_white, SceneWhite};
 use crate::lab::requests::SceneInfo;
 use crate::render::{self, Scene};
-use crate::study::white::{scene_white, SceneWhite};
 
 /// The study's order of its scenes: the simple ones, then CYLINDER; other
 /// scenes follow in file-name order.

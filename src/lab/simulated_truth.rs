@@ -57,7 +57,7 @@ impl SimulatedTruth {
     /// The scene file measured for the catalogue's scene at `model`: the
     /// mock world's of the same id when there is one, else the model.
     fn world_path(&self, model: &Path) -> PathBuf {
-        crate::study::run::truth_path(self.mock_world.as_deref(), model)
+        crate::lab::study::run::truth_path(self.mock_world.as_deref(), model)
     }
 
     /// The converged spectral radiance of `scene`/`target` on 1 nm, cached

@@ -3,7 +3,7 @@
 //! its cancellation flag, with panics caught, and its end recorded.
 //!
 //! The study itself (every coding against measurements or a reference,
-//! sweeps, failure maps) is [`crate::study::run`]; this module runs it for
+//! sweeps, failure maps) is [`crate::lab::study::run`]; this module runs it for
 //! the daemon's queue ([`super::render_jobs`]) and for render workers
 //! ([`StudyRunner::run_row`]).
 
@@ -20,11 +20,11 @@ use super::study_measurements::wait_for_measurements;
 use crate::colorimetry::Observer;
 use crate::lab::error::LabError;
 use crate::lab::requests::StudyRequest;
+use crate::lab::study::report::report_files;
+use crate::lab::study::run::{run_study, Against, StudyOptions};
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::Coding;
 use crate::store::{Job, JobEnd, Store};
-use crate::study::report::report_files;
-use crate::study::run::{run_study, Against, StudyOptions};
 
 /// Plans and runs studies of the catalogue's scenes.
 pub struct StudyRunner {
@@ -112,7 +112,7 @@ impl StudyRunner {
             .auto
             .as_deref()
             .filter(|t| !t.trim().is_empty())
-            .map(|t| t.parse::<crate::study::auto::Tolerance>())
+            .map(|t| t.parse::<crate::lab::study::auto::Tolerance>())
             .transpose()
             .map_err(|e| LabError::Invalid(format!("field `auto`: {e}")))?;
         let options = StudyOptions {

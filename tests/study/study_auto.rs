@@ -10,11 +10,11 @@
 
 use std::path::{Path, PathBuf};
 
-use lightbooth::render::{load_scene, Scene};
-use lightbooth::study::auto::{
+use lightbooth::lab::study::auto::{
     bounce_test, candidate_set, choose_settings, fig7_curves, n_analysis, pareto_front, reference_render, verify,
     Tolerance, BOUNCE_SHARE,
 };
+use lightbooth::render::{load_scene, Scene};
 
 fn scene(rel: &str) -> Scene {
     let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(rel);

@@ -12,11 +12,11 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use lightbooth::render::Coding;
-use lightbooth::study::failure_map::{
+use lightbooth::lab::study::failure_map::{
     failure_map, illuminant_patch_map, interreflection_map, FailureMapSettings, IlluminantPatchMap, InterreflectionMap,
     DELTA_E_THRESHOLD, ILLUMINANTS,
 };
+use lightbooth::render::Coding;
 
 fn cylinder() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cylinder.toml")

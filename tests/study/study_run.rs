@@ -4,11 +4,11 @@
 use std::path::PathBuf;
 
 use lightbooth::colorimetry::Observer;
+use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
+use lightbooth::lab::study::report::write_report;
+use lightbooth::lab::study::run::{run_study, Against, StudyOptions};
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
-use lightbooth::study::measure::{measure_with_simulator, SimulatedPr650};
-use lightbooth::study::report::write_report;
-use lightbooth::study::run::{run_study, Against, StudyOptions};
 
 fn scene(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -175,7 +175,7 @@ async fn simulated_truth_is_independent_of_the_compared_render() {
         perturbed.scenes[0].truth[0].scene_file,
         truth_dir.path().join("white.toml").display().to_string()
     );
-    let spectral = |r: &lightbooth::study::run::StudyResult| {
+    let spectral = |r: &lightbooth::lab::study::run::StudyResult| {
         r.scenes[0]
             .codings
             .iter()

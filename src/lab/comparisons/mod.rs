@@ -36,6 +36,7 @@
 //! are the catalogue's.
 
 pub mod summary;
+pub mod white;
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -45,11 +46,10 @@ use tokio::runtime::Handle;
 use super::events::{Event, EventSink};
 use super::render_runner::RenderRunner;
 use super::worker_queue::WorkerQueue;
-use crate::colorimetry::{xyz_from_radiance, Lab, Xyz};
+use crate::colorimetry::{Lab, Xyz};
 use crate::comparison::{compare_point, delta_e_pair};
-use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::{Booth, NewComparison, Store};
-use crate::study::white::SceneWhite;
+use white::{measured_xyz, SceneWhite};
 
 /// Compares measurements with every coding of their scene's render.
 pub struct Comparisons {
@@ -238,9 +238,7 @@ impl Comparisons {
             .latest_complete_in_booth(&white_scene, &target, booth)
             .await?
         {
-            if let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) {
-                let s = Spectrum::new(Grid::from_wavelengths(wl)?, SpectralUnit::SpectralRadiance, radiance)?;
-                let xyz = xyz_from_radiance(&s, self.runner.observer())?;
+            if let Some(xyz) = measured_xyz(&m, self.runner.observer()).map_err(anyhow::Error::msg)? {
                 return Ok((xyz, format!("measurement {} ({white_scene}/{target})", m.summary.id)));
             }
         }

@@ -1,6 +1,7 @@
 //! A scene's CIELAB reference white, from its `[cielab_white]` declaration
 //! (see [`crate::render::scene`]): the same rule for the study and the
-//! daemon, so a scene's comparisons never depend on measurement order.
+//! daemon's comparisons, so a scene's comparisons never depend on
+//! measurement order; and a stored measurement's XYZ, for both.
 //!
 //! - A target white (`target`, optionally `scene`) names a scene file and a
 //!   target; the caller finds its newest complete measurement (or, until
@@ -13,6 +14,8 @@ use std::path::{Path, PathBuf};
 use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use crate::render::scene::CielabWhite;
 use crate::render::{self, Scene};
+use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::store::MeasurementDetail;
 
 /// Where a scene's white comes from, resolved.
 #[derive(Clone, Debug, PartialEq)]
@@ -99,4 +102,21 @@ pub fn scene_id(path: &Path) -> String {
         .and_then(|s| s.to_str())
         .unwrap_or_default()
         .to_string()
+}
+
+/// The XYZ of a stored measurement's mean spectral radiance with
+/// `observer`; `None` when the row holds no spectrum (a measurement that
+/// never completed). Used for the truth of a study against measurements and
+/// for a comparison's white alike.
+pub fn measured_xyz(m: &MeasurementDetail, observer: Observer) -> Result<Option<Xyz>, String> {
+    let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) else {
+        return Ok(None);
+    };
+    let id = m.summary.id;
+    let grid = Grid::from_wavelengths(wl.clone()).map_err(|e| format!("measurement {id}: {e}"))?;
+    let s = Spectrum::new(grid, SpectralUnit::SpectralRadiance, radiance.clone())
+        .map_err(|e| format!("measurement {id}: {e}"))?;
+    xyz_from_radiance(&s, observer)
+        .map(Some)
+        .map_err(|e| format!("measurement {id}: {e}"))
 }

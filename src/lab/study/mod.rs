@@ -8,11 +8,13 @@
 //! - [`measure`]: measurements of every target with the simulated PR-650.
 //! - [`failure_map`]: where each coding crosses ΔE = 2 and rms_rel = 5 %.
 //! - [`auto`]: the cheapest settings that meet a tolerance, and why.
-//! - [`white`]: the CIELAB reference white each scene declares.
+//!
+//! The CIELAB white each scene declares, and a stored measurement's XYZ,
+//! are [`crate::lab::comparisons::white`]'s: the same for the study and the
+//! daemon's comparisons.
 
 pub mod auto;
 pub mod failure_map;
 pub mod measure;
 pub mod report;
 pub mod run;
-pub mod white;

@@ -20,7 +20,7 @@
 //!   (rms_rel, mean ± SD of ΔE*ab and ΔE00 over the targets) are computed per
 //!   seed and then summarised as mean ± SD over seeds.
 //! - CIELAB white: the one each scene declares (`[cielab_white]`, see
-//!   [`super::white`]); the same white for truth and renderings.
+//!   [`crate::lab::comparisons::white`]); the same white for truth and renderings.
 //! - Observer: [`StudyOptions::observer`] for every XYZ, x,y, CIELAB and ΔE
 //!   (renders and measurements alike); the result names it.
 //! - "Beyond noise": a rendered luminance differs from the truth beyond
@@ -36,17 +36,16 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
+use crate::colorimetry::{Observer, Xyz};
 use crate::comparison::{beyond_noise, compare_point, mean_sd, summarize, PointDifference, BEYOND_NOISE_K};
 use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
-use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 use crate::store::Store;
 
 use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
 };
 use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
-use super::white::{scene_id, scene_white, SceneWhite};
+use crate::lab::comparisons::white::{measured_xyz, scene_id, scene_white, SceneWhite};
 
 /// Relative standard error of Y of the reference rendering.
 pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
@@ -368,13 +367,9 @@ async fn measured(
     let Some(m) = store.latest_complete(scene_id, target).await? else {
         return Ok(None);
     };
-    let (Some(wl), Some(radiance)) = (m.wavelength_nm, m.radiance) else {
+    let Some(xyz) = measured_xyz(&m, observer).map_err(StudyError::Truth)? else {
         return Ok(None);
     };
-    let grid = Grid::from_wavelengths(wl).map_err(|e| StudyError::Truth(e.to_string()))?;
-    let s =
-        Spectrum::new(grid, SpectralUnit::SpectralRadiance, radiance).map_err(|e| StudyError::Truth(e.to_string()))?;
-    let xyz = xyz_from_radiance(&s, observer).map_err(|e| StudyError::Truth(e.to_string()))?;
     let good = m.samples.iter().filter(|s| s.usable).count().max(1) as f64;
     let y_se = m.summary.luminance_cv.unwrap_or(0.0) * xyz.y / good.sqrt();
     Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))

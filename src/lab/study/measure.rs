@@ -16,9 +16,9 @@ use crate::colorimetry::Observer;
 use crate::instrument::sim::{spawn_mock, MockConfig};
 use crate::instrument::{open_pr650, CancelToken, Pr650Settings};
 use crate::lab::measurement::Recorder;
+use crate::lab::study::run::truth_path;
 use crate::render;
 use crate::store::{Booth, MeasurementState, NewMeasurement, Store};
-use crate::study::run::truth_path;
 
 /// The simulated PR-650 a study measures with.
 #[derive(Clone, Copy, Debug)]
