@@ -133,7 +133,7 @@ impl AreaLights {
             triangles,
             cdf,
             of_primitive,
-            spots: scene.emitters.iter().map(|e| e.spot.clone()).collect(),
+            spots: scene.emitters.iter().map(|e| e.spot).collect(),
         })
     }
 
