@@ -28,8 +28,9 @@
 //! The two instruments of the lab, a real one and a simulated one:
 //!
 //! - [`instrument`]: the `Spectroradiometer` trait; one serial link session
-//!   (`instrument::link`: exchange, resync, timeouts) under the PR-650 and
-//!   PR-655/670 drivers; their simulators on ptys (`instrument::sim`).
+//!   (`instrument::link`: exchange, resync, timeouts) and one reply error
+//!   (`instrument::reply`) under the PR-650 and PR-655/670 drivers; their
+//!   simulators on ptys (`instrument::sim`).
 //! - [`render`]: the built-in spectral renderer, every coding in one pass.
 //!
 //! Keeping and showing results:

@@ -100,7 +100,7 @@ mod tests {
     use std::time::SystemTime;
 
     use super::*;
-    use crate::instrument::{Capabilities, InstrumentInfo, QualityKind};
+    use crate::instrument::{Capabilities, Identity, QualityKind};
     use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
     /// What the scripted instrument answers to each `take_sample`.
@@ -111,8 +111,7 @@ mod tests {
     }
 
     struct Scripted {
-        info: InstrumentInfo,
-        capabilities: Capabilities,
+        identity: Identity,
         steps: VecDeque<Step>,
         reactions: Vec<i32>,
     }
@@ -120,20 +119,15 @@ mod tests {
     impl Scripted {
         fn new(retries: usize, steps: Vec<Step>) -> Scripted {
             let grid = Grid::uniform(380.0, 2.0, 201);
+            let capabilities = Capabilities {
+                model: "scripted",
+                native_grid: grid,
+                max_samples: 3,
+                default_samples: 2,
+                retries,
+            };
             Scripted {
-                info: InstrumentInfo {
-                    model: "scripted".into(),
-                    serial: None,
-                    firmware: None,
-                    grid: grid.clone(),
-                },
-                capabilities: Capabilities {
-                    model: "scripted",
-                    native_grid: grid,
-                    max_samples: 3,
-                    default_samples: 2,
-                    retries,
-                },
+                identity: Identity::new(capabilities, |_| "the scripted hint"),
                 steps: steps.into(),
                 reactions: Vec::new(),
             }
@@ -141,11 +135,8 @@ mod tests {
     }
 
     impl Spectroradiometer for Scripted {
-        fn info(&self) -> &InstrumentInfo {
-            &self.info
-        }
-        fn capabilities(&self) -> &Capabilities {
-            &self.capabilities
+        fn identity(&self) -> &Identity {
+            &self.identity
         }
         fn take_sample(&mut self, index: usize, _cancel: &CancelToken) -> Result<Sample, InstrumentError> {
             let (code, radiance) = match self.steps.pop_front().expect("the loop asked for one sample too many") {
@@ -155,7 +146,9 @@ mod tests {
                         kind: QualityKind::Ok,
                         message: "ok".into(),
                     },
-                    Some(Spectrum::constant(self.info.grid.clone(), SpectralUnit::SpectralRadiance, v).unwrap()),
+                    Some(
+                        Spectrum::constant(self.identity.info.grid.clone(), SpectralUnit::SpectralRadiance, v).unwrap(),
+                    ),
                 ),
                 Step::Bad(code) => (
                     QualityCode {
@@ -183,9 +176,6 @@ mod tests {
         fn after_bad_sample(&mut self, code: &QualityCode, _cancel: &CancelToken) -> Result<(), InstrumentError> {
             self.reactions.push(code.code);
             Ok(())
-        }
-        fn quality_hint(&self, _kind: QualityKind) -> &'static str {
-            "the scripted hint"
         }
     }
 

@@ -16,6 +16,8 @@
 //!   two-phase read), its line framing, and the one [`link::Session`] every
 //!   driver shares: a command and its reply within the right timeouts, and
 //!   the resynchronisation (drain, ping, drain) after a fault.
+//! - [`reply`]: what every model's replies share: the one
+//!   [`reply::ProtocolError`] and the number syntax.
 //! - [`pr650`] and [`pr655`] (the PR-655 and PR-670): each model's protocol,
 //!   pure (no I/O), what its codes mean, its settings, and a driver with only
 //!   what is particular to the model (entering remote mode, identifying the
@@ -37,6 +39,7 @@ pub mod link;
 mod models;
 pub mod pr650;
 pub mod pr655;
+pub mod reply;
 pub mod sim;
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -318,16 +321,43 @@ pub struct Capabilities {
     pub retries: usize,
 }
 
+/// Everything a caller asks of a connected unit besides its samples: what
+/// it said it is, what its model can do, and what its codes advise.
+#[derive(Clone, Debug)]
+pub struct Identity {
+    pub info: InstrumentInfo,
+    pub capabilities: Capabilities,
+    /// The model's advice for a series that failed with a code of this kind
+    /// (each model's `codes::quality_hint`).
+    pub quality_hint: fn(QualityKind) -> &'static str,
+}
+
+impl Identity {
+    /// A unit of the model `capabilities` describe, before it has said more
+    /// about itself: its model's name and native grid, no serial, no firmware.
+    pub fn new(capabilities: Capabilities, quality_hint: fn(QualityKind) -> &'static str) -> Identity {
+        Identity {
+            info: InstrumentInfo {
+                model: capabilities.model.into(),
+                serial: None,
+                firmware: None,
+                grid: capabilities.native_grid.clone(),
+            },
+            capabilities,
+            quality_hint,
+        }
+    }
+}
+
 /// A spectroradiometer as the daemon drives it: identify, say what it can
 /// do, take one sample. The retry-and-average loop is the same for every
 /// model and lives above the drivers ([`averaging`]). Implementations run
 /// blocking I/O: call them from a dedicated thread (see
 /// [`crate::daemon::instrument_task`]).
 pub trait Spectroradiometer: Send {
-    /// What the connected unit said it is.
-    fn info(&self) -> &InstrumentInfo;
-
-    fn capabilities(&self) -> &Capabilities;
+    /// What the connected unit said it is, what its model can do, and its
+    /// advice on bad codes. A driver keeps it in its [`link::Session`].
+    fn identity(&self) -> &Identity;
 
     /// One measurement: its quality code, and its spectrum when the code is
     /// good. A link fault (no reply, a cut-off or garbled report) is an
@@ -341,8 +371,20 @@ pub trait Spectroradiometer: Send {
         Ok(())
     }
 
+    /// What the connected unit said it is.
+    fn info(&self) -> &InstrumentInfo {
+        &self.identity().info
+    }
+
+    /// What its model can do, with the settings' samples and retries.
+    fn capabilities(&self) -> &Capabilities {
+        &self.identity().capabilities
+    }
+
     /// What the operator should do about a series that failed with a code of this kind.
-    fn quality_hint(&self, kind: QualityKind) -> &'static str;
+    fn quality_hint(&self, kind: QualityKind) -> &'static str {
+        (self.identity().quality_hint)(kind)
+    }
 }
 
 impl dyn Spectroradiometer + '_ {

@@ -39,6 +39,20 @@ pub struct LinkSettings {
     pub byte_delay_ms: u64,
 }
 
+impl LinkSettings {
+    /// How every supported model talks: 9600 baud, 8N1, commands ended by
+    /// `terminator`; a write blocks no longer than the command timeout, and
+    /// 5 s at the most.
+    pub fn at_9600_baud(terminator: Terminator, command_timeout_ms: u64, byte_delay_ms: u64) -> LinkSettings {
+        LinkSettings {
+            baud: 9600,
+            terminator,
+            write_timeout_ms: command_timeout_ms.min(5_000),
+            byte_delay_ms,
+        }
+    }
+}
+
 impl Default for LinkSettings {
     fn default() -> LinkSettings {
         LinkSettings {

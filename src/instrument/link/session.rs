@@ -25,7 +25,7 @@ use std::fmt::Display;
 use std::time::Duration;
 
 use super::serial::{LinkSettings, SerialLink};
-use crate::instrument::{CancelToken, InstrumentError, InstrumentInfo, WaitPhase};
+use crate::instrument::{CancelToken, Identity, InstrumentError, InstrumentInfo, WaitPhase};
 
 /// A command as the session sends it; each model's command type says this
 /// of itself.
@@ -77,7 +77,7 @@ pub struct Ping {
 /// said it is, and whether the line is in step.
 pub struct Session {
     link: SerialLink,
-    info: InstrumentInfo,
+    identity: Identity,
     timing: SessionTiming,
     ping: Ping,
     /// Set after a link fault or a cancel: the unit may still be measuring or
@@ -93,18 +93,18 @@ pub struct Session {
 }
 
 impl Session {
-    /// Opens `port` with `link`'s settings for a unit taken to be `info`
-    /// until it says more about itself ([`Session::info_mut`]).
+    /// Opens `port` with `link`'s settings for a unit taken to be
+    /// `identity.info` until it says more about itself ([`Session::info_mut`]).
     pub fn open(
         port: &str,
         link: &LinkSettings,
         timing: SessionTiming,
-        info: InstrumentInfo,
+        identity: Identity,
         ping: Ping,
     ) -> Result<Session, InstrumentError> {
         Ok(Session {
             link: SerialLink::open(port, link)?,
-            info,
+            identity,
             timing,
             ping,
             needs_resync: false,
@@ -115,12 +115,17 @@ impl Session {
 
     /// What the unit is, as far as the session knows.
     pub fn info(&self) -> &InstrumentInfo {
-        &self.info
+        &self.identity.info
+    }
+
+    /// What the unit is and can do, as [`crate::instrument::Spectroradiometer::identity`] reports it.
+    pub fn identity(&self) -> &Identity {
+        &self.identity
     }
 
     /// For the driver to fill in what the unit reports (serial, firmware, grid).
     pub fn info_mut(&mut self) -> &mut InstrumentInfo {
-        &mut self.info
+        &mut self.identity.info
     }
 
     pub fn timing(&self) -> &SessionTiming {
@@ -150,9 +155,9 @@ impl Session {
         cancel: &CancelToken,
     ) -> Result<Vec<u8>, InstrumentError> {
         let text = command.text();
-        let grid_len = self.info.grid.len();
+        let grid_len = self.identity.info.grid.len();
         let gap = self.timing.gap;
-        let model = self.info.model.clone();
+        let model = self.identity.info.model.clone();
         let result = (|| {
             self.link.flush_input()?;
             tracing::debug!(command = %text, "→ {model}");
@@ -203,6 +208,20 @@ impl Session {
         self.exchange(command, self.timing.measure, cancel)
     }
 
+    /// An ordinary command (first byte within the command timeout) and its
+    /// reply as `parse` reads it. A reply that does not parse is a
+    /// [`Session::protocol_error`]: the error names the command, and the
+    /// line is out of step.
+    pub fn query<T, E: Display>(
+        &mut self,
+        command: &dyn Request,
+        cancel: &CancelToken,
+        parse: impl FnOnce(&[u8]) -> Result<T, E>,
+    ) -> Result<T, InstrumentError> {
+        let reply = self.exchange(command, self.timing.command, cancel)?;
+        parse(&reply).map_err(|e| self.protocol_error(&command.text(), &e))
+    }
+
     /// A reply to `command` that arrived whole but does not parse: a
     /// [`InstrumentError::Protocol`] error, and the line is out of step.
     pub fn protocol_error(&mut self, command: &str, detail: &dyn Display) -> InstrumentError {
@@ -241,7 +260,7 @@ impl Session {
     /// silence for the command timeout (a whole measurement while the unit
     /// may still be measuring) is [`InstrumentError::Unresponsive`].
     pub fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
-        let model = self.info.model.clone();
+        let model = self.identity.info.model.clone();
         tracing::info!("{model}: resynchronising");
         self.drain()?;
         self.link.flush_input()?;
@@ -305,6 +324,7 @@ mod tests {
 
     use super::*;
     use crate::instrument::link::lines::Terminator;
+    use crate::instrument::Capabilities;
     use crate::spectrum::Grid;
 
     /// A command of a test's making.
@@ -398,17 +418,19 @@ mod tests {
             terminator: Terminator::Lf,
             ..LinkSettings::default()
         };
-        let info = InstrumentInfo {
-            model: "PR-650".into(),
-            serial: None,
-            firmware: None,
-            grid: Grid::pr650(),
+        let capabilities = Capabilities {
+            model: "PR-650",
+            native_grid: Grid::pr650(),
+            max_samples: 99,
+            default_samples: 1,
+            retries: 0,
         };
+        let identity = Identity::new(capabilities, |_| "");
         let ping = Ping {
             command: "B1".into(),
             is_answer: Box::new(|line| line.trim_ascii() == b"000"),
         };
-        let session = Session::open(&path, &link, timing, info, ping).expect("the session opens the pty");
+        let session = Session::open(&path, &link, timing, identity, ping).expect("the session opens the pty");
         let far = std::thread::spawn(move || {
             let mut far = FarEnd {
                 port: master,

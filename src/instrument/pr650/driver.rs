@@ -26,16 +26,14 @@
 use std::time::SystemTime;
 
 use crate::instrument::link::{Ping, Request, Session};
-use crate::instrument::{
-    CancelToken, Capabilities, InstrumentError, InstrumentInfo, QualityCode, QualityKind, Sample, Spectroradiometer,
-};
-use crate::spectrum::{Grid, SpectralUnit, Spectrum};
+use crate::instrument::{CancelToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
+use crate::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
 use super::protocol::{self, Command, ProtocolError, Setup, SyncSetting};
 use super::Pr650Settings;
 
-/// The PR-650 has no model query; this is what [`InstrumentInfo::model`] says.
+/// The PR-650 has no model query; this is what [`crate::instrument::InstrumentInfo::model`] says.
 pub const MODEL: &str = "PR-650";
 
 /// Backlight level sent as the remote-mode handshake and the
@@ -63,7 +61,6 @@ impl Request for Command {
 pub struct Pr650 {
     session: Session,
     settings: Pr650Settings,
-    capabilities: Capabilities,
     setup: Setup,
 }
 
@@ -71,21 +68,15 @@ impl Pr650 {
     /// Opens `port`, enters remote mode, sends the setup, and identifies the unit.
     pub fn open(port: &str, settings: &Pr650Settings) -> Result<Pr650, InstrumentError> {
         settings.validate().map_err(InstrumentError::Settings)?;
-        let info = InstrumentInfo {
-            model: MODEL.into(),
-            serial: None,
-            firmware: None,
-            grid: Grid::pr650(),
-        };
+        let identity = Identity::new(settings.capabilities(), codes::quality_hint);
         let ping = Ping {
             command: Command::Backlight(HANDSHAKE_BACKLIGHT).text(),
             is_answer: Box::new(|line| line.trim_ascii() == b"000"),
         };
-        let session = Session::open(port, &settings.link(), settings.timing(), info, ping)?;
+        let session = Session::open(port, &settings.link(), settings.timing(), identity, ping)?;
         let mut pr650 = Pr650 {
             session,
             settings: settings.clone(),
-            capabilities: settings.capabilities(),
             setup: Setup {
                 integration_ms: settings.integration_ms,
                 ..Setup::default()
@@ -132,9 +123,7 @@ impl Pr650 {
 
     fn send_setup(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
         let command = Command::Setup(self.setup);
-        let reply = self.session.exchange(&command, self.session.timing().command, cancel)?;
-        let status =
-            protocol::parse_setup_status(&reply).map_err(|e| self.session.protocol_error(&command.text(), &e))?;
+        let status = self.session.query(&command, cancel, protocol::parse_setup_status)?;
         tracing::info!(setup = %command.text(), status, "PR-650 setup");
         if status != 0 {
             return Err(InstrumentError::Setup {
@@ -211,15 +200,14 @@ impl Pr650 {
         time: SystemTime,
         cancel: &CancelToken,
     ) -> Result<Sample, InstrumentError> {
-        let timeout = self.session.timing().command;
         let d5 = Command::Report(protocol::REPORT_SPECTRUM);
-        let reply = self.session.exchange(&d5, timeout, cancel)?;
-        let report = protocol::parse_spectral_report(&reply, &self.session.info().grid)
-            .map_err(|e| self.session.protocol_error(&d5.text(), &e))?;
+        let grid = self.session.info().grid.clone();
+        let report = self
+            .session
+            .query(&d5, cancel, |reply| protocol::parse_spectral_report(reply, &grid))?;
 
         let d2 = Command::Report(protocol::REPORT_XYZ);
-        let reply = self.session.exchange(&d2, timeout, cancel)?;
-        let xyz = protocol::parse_xyz_report(&reply).map_err(|e| self.session.protocol_error(&d2.text(), &e))?;
+        let xyz = self.session.query(&d2, cancel, protocol::parse_xyz_report)?;
         if xyz.code != report.code {
             let mismatch = ProtocolError::Malformed {
                 line: 1,
@@ -262,16 +250,12 @@ impl Pr650 {
 }
 
 impl Spectroradiometer for Pr650 {
-    fn info(&self) -> &InstrumentInfo {
-        self.session.info()
+    fn identity(&self) -> &Identity {
+        self.session.identity()
     }
 
-    fn capabilities(&self) -> &Capabilities {
-        &self.capabilities
-    }
-
-    /// One measurement: `M0`, then `D5` and `D2` of the same measurement.
     fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        // One measurement: `M0`, then `D5` and `D2` of the same measurement.
         let ack = self.session.measure(&Command::MeasureAndHold, cancel)?;
         // What M0 answers on failure is [uncertain]; PTB only waits for any
         // bytes. Accept any status number, reject non-numeric garbage.
@@ -293,9 +277,5 @@ impl Spectroradiometer for Pr650 {
             self.send_setup(cancel)?;
         }
         Ok(())
-    }
-
-    fn quality_hint(&self, kind: QualityKind) -> &'static str {
-        codes::quality_hint(kind)
     }
 }

@@ -124,12 +124,7 @@ impl Pr650Settings {
     }
 
     pub(crate) fn link(&self) -> LinkSettings {
-        LinkSettings {
-            baud: 9600,
-            terminator: self.terminator,
-            write_timeout_ms: self.command_timeout_ms.min(5_000),
-            byte_delay_ms: self.byte_delay_ms,
-        }
+        LinkSettings::at_9600_baud(self.terminator, self.command_timeout_ms, self.byte_delay_ms)
     }
 
     /// The session's timeouts. A PR-650 `M0` that timed out is not taken to

@@ -17,6 +17,9 @@
 use crate::instrument::link::lines::{split_lines, Terminator};
 use crate::spectrum::Grid;
 
+use crate::instrument::reply::{malformed, show};
+pub use crate::instrument::reply::{parse_number, ProtocolError};
+
 /// The `sync` field of the `S` command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SyncSetting {
@@ -121,39 +124,6 @@ impl Command {
     }
 }
 
-/// What is wrong with a reply. Always names the line (1-based among the
-/// non-empty lines) and shows it, so a log reader can see the bytes.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ProtocolError {
-    #[error("empty reply")]
-    Empty,
-    #[error("line {line}: `{text}` is not {expected}")]
-    Malformed {
-        line: usize,
-        text: String,
-        expected: &'static str,
-    },
-    #[error("spectral data line {line}: wavelength {got_nm} nm where {expected_nm} nm was due (reordered, doubled or missing line)")]
-    WrongWavelength { line: usize, got_nm: f64, expected_nm: f64 },
-    #[error("spectrum cut short: {got} of {expected} data lines")]
-    Truncated { got: usize, expected: usize },
-    #[error("{extra} unexpected line(s) after the reply, first `{first}`")]
-    Trailing { extra: usize, first: String },
-}
-
-fn show(line: &[u8]) -> String {
-    let s: String = String::from_utf8_lossy(line).chars().take(40).collect();
-    s.escape_debug().to_string()
-}
-
-fn malformed(line: usize, text: &[u8], expected: &'static str) -> ProtocolError {
-    ProtocolError::Malformed {
-        line,
-        text: show(text),
-        expected,
-    }
-}
-
 fn trim(line: &[u8]) -> &[u8] {
     line.trim_ascii()
 }
@@ -164,28 +134,6 @@ fn parse_digits(field: &[u8]) -> Option<u32> {
         return None;
     }
     std::str::from_utf8(field).ok()?.parse().ok()
-}
-
-/// A PR-650 float: `d.dddEsdd` (upper-case E documented; the case is
-/// \[uncertain\], so either is accepted), or a plain decimal (`.3127`,
-/// `60.02`, `0380.`). Only digits, one sign per mantissa/exponent, dot and E:
-/// no `inf`/`nan`, and the value must be finite.
-pub fn parse_number(field: &[u8]) -> Option<f64> {
-    let field = trim(field);
-    if field.is_empty() || field.len() > 24 {
-        return None;
-    }
-    if !field
-        .iter()
-        .all(|b| b.is_ascii_digit() || matches!(b, b'.' | b'e' | b'E' | b'+' | b'-'))
-    {
-        return None;
-    }
-    if !field.iter().any(u8::is_ascii_digit) {
-        return None;
-    }
-    let v: f64 = std::str::from_utf8(field).ok()?.parse().ok()?;
-    v.is_finite().then_some(v)
 }
 
 /// The `000` acknowledgement of `B` and `M0`.

@@ -29,9 +29,7 @@
 use std::time::{Duration, SystemTime};
 
 use crate::instrument::link::{Ping, Request, Session};
-use crate::instrument::{
-    CancelToken, Capabilities, InstrumentError, InstrumentInfo, QualityCode, QualityKind, Sample, Spectroradiometer,
-};
+use crate::instrument::{CancelToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
 use crate::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
@@ -62,7 +60,6 @@ pub struct Pr655 {
     session: Session,
     settings: Pr655Settings,
     model: Model,
-    capabilities: Capabilities,
     /// Whether `SS1` is on (sync found by `F`).
     synced: bool,
 }
@@ -72,23 +69,17 @@ impl Pr655 {
     pub fn open(port: &str, settings: &Pr655Settings) -> Result<Pr655, InstrumentError> {
         settings.validate().map_err(InstrumentError::Settings)?;
         let model = settings.model();
-        let info = InstrumentInfo {
-            model: model.name().into(),
-            serial: None,
-            firmware: None,
-            grid: model.grid(),
-        };
+        let identity = Identity::new(settings.capabilities(), codes::quality_hint);
         let name = model.name();
         let ping = Ping {
             command: Command::Report(protocol::REPORT_MODEL).text(),
             is_answer: Box::new(move |line| matches!(protocol::parse_text_report(line), Ok(Ok(ref m)) if m == name)),
         };
-        let session = Session::open(port, &settings.link(), settings.timing(), info, ping)?;
+        let session = Session::open(port, &settings.link(), settings.timing(), identity, ping)?;
         let mut unit = Pr655 {
             session,
             settings: settings.clone(),
             model,
-            capabilities: settings.capabilities(),
             synced: false,
         };
         unit.enter_remote_mode()?;
@@ -162,16 +153,15 @@ impl Pr655 {
     /// A one-line text report; an error status is a typed refusal.
     fn text_report(&mut self, code: u16) -> Result<String, InstrumentError> {
         let command = Command::Report(code);
-        let reply = self
+        match self
             .session
-            .exchange(&command, self.session.timing().command, &CancelToken::new())?;
-        match protocol::parse_text_report(&reply) {
-            Ok(Ok(text)) => Ok(text),
-            Ok(Err(status)) => Err(InstrumentError::Refused {
+            .query(&command, &CancelToken::new(), protocol::parse_text_report)?
+        {
+            Ok(text) => Ok(text),
+            Err(status) => Err(InstrumentError::Refused {
                 command: command.text(),
                 code: codes::quality_code(status),
             }),
-            Err(e) => Err(self.session.protocol_error(&command.text(), &e)),
         }
     }
 
@@ -239,9 +229,7 @@ impl Pr655 {
     /// One setup command; a non-zero status is a typed refusal.
     fn set(&mut self, param: SetupParam, cancel: &CancelToken) -> Result<(), InstrumentError> {
         let command = Command::Setup(param);
-        let reply = self.session.exchange(&command, self.session.timing().command, cancel)?;
-        let status =
-            protocol::parse_status_reply(&reply).map_err(|e| self.session.protocol_error(&command.text(), &e))?;
+        let status = self.session.query(&command, cancel, protocol::parse_status_reply)?;
         tracing::info!(setup = %command.text(), status, "setup");
         if status != 0 {
             return Err(InstrumentError::Refused {
@@ -283,21 +271,16 @@ impl Pr655 {
     /// `D2` of the measurement whose good spectrum `M5` just sent: its Y.
     fn read_luminance(&mut self, cancel: &CancelToken) -> Result<f64, InstrumentError> {
         let d2 = Command::Report(protocol::REPORT_XYZ);
-        let reply = self.session.exchange(&d2, self.session.timing().command, cancel)?;
-        match protocol::parse_xyz_report(&reply) {
-            Ok(Ok(xyz)) => Ok(xyz.y),
-            // The spectrum came with a good status: an error to `D2` of the
-            // same measurement means the link or the unit is confused.
-            Ok(Err(status)) => {
-                let confused = ProtocolError::Malformed {
-                    line: 1,
-                    text: protocol::format_status(status, protocol::StatusStyle::FiveDigits),
-                    expected: "the XYZ of the measurement whose spectrum just came",
-                };
-                Err(self.session.protocol_error(&d2.text(), &confused))
-            }
-            Err(e) => Err(self.session.protocol_error(&d2.text(), &e)),
-        }
+        // The spectrum came with a good status: an error to `D2` of the
+        // same measurement means the link or the unit is confused.
+        let xyz = self.session.query(&d2, cancel, |reply| {
+            protocol::parse_xyz_report(reply)?.map_err(|status| ProtocolError::Malformed {
+                line: 1,
+                text: protocol::format_status(status, protocol::StatusStyle::FiveDigits),
+                expected: "the XYZ of the measurement whose spectrum just came",
+            })
+        })?;
+        Ok(xyz.y)
     }
 
     /// A measurement's error status, typed. With auto sync on, −1 ("light
@@ -328,16 +311,12 @@ impl Drop for Pr655 {
 }
 
 impl Spectroradiometer for Pr655 {
-    fn info(&self) -> &InstrumentInfo {
-        self.session.info()
+    fn identity(&self) -> &Identity {
+        self.session.identity()
     }
 
-    fn capabilities(&self) -> &Capabilities {
-        &self.capabilities
-    }
-
-    /// One measurement: `M5` (the spectrum), then `D2` of the same measurement.
     fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        // One measurement: `M5` (the spectrum), then `D2` of the same measurement.
         let m5 = Command::Measure(protocol::REPORT_SPECTRUM);
         let reply = self.session.measure(&m5, cancel)?;
         let time = SystemTime::now();
@@ -383,9 +362,5 @@ impl Spectroradiometer for Pr655 {
             self.synced = false;
         }
         Ok(())
-    }
-
-    fn quality_hint(&self, kind: QualityKind) -> &'static str {
-        codes::quality_hint(kind)
     }
 }

@@ -165,12 +165,7 @@ impl Pr655Settings {
     }
 
     pub(crate) fn link(&self) -> LinkSettings {
-        LinkSettings {
-            baud: 9600,
-            terminator: Terminator::Cr,
-            write_timeout_ms: self.command_timeout_ms.min(5_000),
-            byte_delay_ms: self.byte_delay_ms,
-        }
+        LinkSettings::at_9600_baud(Terminator::Cr, self.command_timeout_ms, self.byte_delay_ms)
     }
 
     /// The session's timeouts. An `M5` that timed out may still be

@@ -26,6 +26,9 @@
 use super::model::Model;
 use crate::spectrum::Grid;
 
+use crate::instrument::reply::{malformed, show};
+pub use crate::instrument::reply::{parse_number, ProtocolError};
+
 /// The remote-mode banner (2.1, \[C\]): 12 bytes, a leading space, no CR LF.
 pub const BANNER: &[u8] = b" REMOTE MODE";
 
@@ -116,43 +119,6 @@ impl Command {
     }
 }
 
-/// What is wrong with a reply, with the bytes that were wrong.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ProtocolError {
-    #[error("empty reply")]
-    Empty,
-    #[error("line {line}: `{text}` is not {expected}")]
-    Malformed {
-        line: usize,
-        text: String,
-        expected: &'static str,
-    },
-    #[error("spectral data line {line}: wavelength {got_nm} nm where {expected_nm} nm was due (reordered, doubled or missing line, or another model's grid)")]
-    WrongWavelength { line: usize, got_nm: u32, expected_nm: u32 },
-    #[error("spectrum cut short: {got} of {expected} data lines")]
-    Truncated { got: usize, expected: usize },
-    #[error("{extra} unexpected line(s) after the reply, first `{first}`")]
-    Trailing { extra: usize, first: String },
-    #[error("the banner was `{got}`, not ` REMOTE MODE`: this port may not be a PR-655/PR-670")]
-    Banner { got: String },
-}
-
-/// At most this many bytes of a bad line are shown in an error.
-const SHOWN_BYTES: usize = 48;
-
-fn show(bytes: &[u8]) -> String {
-    let s: String = String::from_utf8_lossy(bytes).chars().take(SHOWN_BYTES).collect();
-    s.escape_debug().to_string()
-}
-
-fn malformed(line: usize, text: &[u8], expected: &'static str) -> ProtocolError {
-    ProtocolError::Malformed {
-        line,
-        text: show(text),
-        expected,
-    }
-}
-
 /// The reply's lines: split at LF, CR and spaces stripped, empty lines
 /// skipped (8.1: "split on LF, strip CR and spaces"; 12.7: a stray empty
 /// line is harmless).
@@ -205,21 +171,6 @@ pub fn parse_status(line: &[u8]) -> Result<i32, ProtocolError> {
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);
     Ok(if negative { -value } else { value })
-}
-
-/// A number in any of the forms the instrument sends (`1.865e+01`,
-/// `9.910e-007`, `0.4035`, `380`), after trimming spaces (section 6).
-pub fn parse_number(field: &[u8]) -> Option<f64> {
-    let field = field.trim_ascii();
-    if field.is_empty() || field.len() > 24 {
-        return None;
-    }
-    let allowed = |b: &u8| b.is_ascii_digit() || matches!(b, b'.' | b'e' | b'E' | b'+' | b'-');
-    if !field.iter().all(allowed) || !field.iter().any(u8::is_ascii_digit) {
-        return None;
-    }
-    let v: f64 = std::str::from_utf8(field).ok()?.parse().ok()?;
-    v.is_finite().then_some(v)
 }
 
 /// A status-only reply (setup commands, and any error).
@@ -430,8 +381,8 @@ pub fn parse_spectral_report(bytes: &[u8], grid: &Grid) -> Result<Result<Spectra
         if f64::from(nm) != due {
             return Err(ProtocolError::WrongWavelength {
                 line: line_no,
-                got_nm: nm,
-                expected_nm: due as u32,
+                got_nm: f64::from(nm),
+                expected_nm: due,
             });
         }
         let value = parse_number(value_field).ok_or_else(|| malformed(line_no, line, expected_line))?;
@@ -742,8 +693,8 @@ mod tests {
             parse_spectral_report(&pr670, &Model::Pr655.grid()),
             Err(ProtocolError::WrongWavelength {
                 line: 3,
-                got_nm: 382,
-                expected_nm: 384
+                got_nm: 382.0,
+                expected_nm: 384.0
             })
         );
         let (pr655, _) = example_spectrum(Model::Pr655, LineStyle::Plain);

@@ -47,11 +47,19 @@ pub(super) struct Device {
     cfg: MockConfig,
     unit: Unit,
     powered_at: Instant,
+    last_was_cr: bool,
+    /// What a power cycle resets.
+    state: PowerOnState,
+}
+
+/// The firmware's state from power-on: a power cycle sets it back to
+/// [`Default`], so power-on and a new unit cannot disagree.
+#[derive(Default)]
+struct PowerOnState {
     remote: bool,
     local: bool,
     echo: bool,
     line: Vec<u8>,
-    last_was_cr: bool,
     settings: Settings,
     stored: Option<Stored>,
 }
@@ -70,50 +78,45 @@ impl Device {
             cfg,
             unit,
             powered_at: Instant::now(),
-            remote: false,
-            local: false,
-            echo: false,
-            line: Vec::new(),
             last_was_cr: false,
-            settings: Settings::default(),
-            stored: None,
+            state: PowerOnState::default(),
         }
     }
 
     /// One byte from the host.
     fn receive(&mut self, b: u8) -> Next {
-        if !self.remote && !self.local {
+        if !self.state.remote && !self.state.local {
             if let Some(window) = self.cfg.remote_window_ms {
                 if self.powered_at.elapsed() > Duration::from_millis(window) {
                     tracing::info!("simulated PR-650: no command within the power-on window; local mode");
-                    self.local = true;
+                    self.state.local = true;
                 }
             }
         }
-        if self.local || self.unit.shared().link_dead {
+        if self.state.local || self.unit.shared().link_dead {
             return Next::Continue; // ignores the port until power-cycled
         }
-        if self.echo {
+        if self.state.echo {
             self.unit.write(&[b]);
         }
         if b == b'\r' || b == b'\n' {
             let pair = b == b'\n' && self.last_was_cr;
             self.last_was_cr = b == b'\r';
-            if pair || self.line.iter().all(u8::is_ascii_whitespace) {
-                self.line.clear();
+            if pair || self.state.line.iter().all(u8::is_ascii_whitespace) {
+                self.state.line.clear();
                 return Next::Continue;
             }
-            let command = std::mem::take(&mut self.line).to_ascii_uppercase();
-            self.remote = true;
+            let command = std::mem::take(&mut self.state.line).to_ascii_uppercase();
+            self.state.remote = true;
             let next = self.command(String::from_utf8_lossy(&command).trim());
-            if self.echo {
+            if self.state.echo {
                 self.unit.write(b">");
             }
             return next;
         }
         self.last_was_cr = false;
-        if self.line.len() < 256 {
-            self.line.push(b);
+        if self.state.line.len() < 256 {
+            self.state.line.push(b);
         }
         Next::Continue
     }
@@ -127,11 +130,11 @@ impl Device {
                 let status = setup_status(args);
                 if status == 0 {
                     let fields: Vec<&str> = args.split(',').collect();
-                    self.settings.sync_on = !fields.get(4).unwrap_or(&"").is_empty();
-                    self.settings.integration_ms = fields.get(5).and_then(|f| f.parse().ok()).unwrap_or(0);
-                    self.unit.shared().integration_ms = self.settings.integration_ms;
+                    self.state.settings.sync_on = !fields.get(4).unwrap_or(&"").is_empty();
+                    self.state.settings.integration_ms = fields.get(5).and_then(|f| f.parse().ok()).unwrap_or(0);
+                    self.unit.shared().integration_ms = self.state.settings.integration_ms;
                 }
-                self.settings.last_status = status;
+                self.state.settings.last_status = status;
                 self.unit.write(format!("{status:02}\r\n").as_bytes());
             }
             "M" => {
@@ -165,7 +168,7 @@ impl Device {
             },
             "E" => {
                 tracing::warn!("simulated PR-650: echo mode on (a driver should never send E)");
-                self.echo = true;
+                self.state.echo = true;
             }
             _ => tracing::debug!(command = text, "simulated PR-650: unknown command ignored"),
         }
@@ -175,7 +178,7 @@ impl Device {
     /// One measurement. Returns false if the cable was pulled.
     fn measure(&mut self) -> bool {
         let truth = self.unit.shared().truth_1nm.clone();
-        let reading = match self.cfg.model.reading(&truth, self.settings.integration_ms) {
+        let reading = match self.cfg.model.reading(&truth, self.state.settings.integration_ms) {
             Ok(r) => r,
             Err(e) => {
                 tracing::error!(error = %e, "simulated PR-650: cannot model the target");
@@ -192,7 +195,7 @@ impl Device {
         }
         self.unit.sleep_scaled(reading.duration_ms);
         let mut code = reading.code;
-        if self.settings.sync_on && self.cfg.unsyncable {
+        if self.state.settings.sync_on && self.cfg.unsyncable {
             code = 7;
         }
         if self.unit.fires(FaultKind::ErrorCode) {
@@ -214,7 +217,7 @@ impl Device {
                 }
                 Err(_) => (0.0, [0.0; 3]),
             };
-            self.stored = Some(Stored {
+            self.state.stored = Some(Stored {
                 code,
                 values,
                 integral,
@@ -223,10 +226,14 @@ impl Device {
         } else {
             // §3: on a failed measurement the spectral buffer is not updated;
             // D5 resends the previous spectrum under the new code, Y is 0.
-            let mut stored = self.stored.take().unwrap_or_else(|| zeros(self.cfg.model.grid.len()));
+            let mut stored = self
+                .state
+                .stored
+                .take()
+                .unwrap_or_else(|| zeros(self.cfg.model.grid.len()));
             stored.code = code;
             stored.xyz = [0.0; 3];
-            self.stored = Some(stored);
+            self.state.stored = Some(stored);
         }
         self.unit.shared().measurements += 1;
         true
@@ -246,13 +253,13 @@ impl Device {
                 return;
             }
             wire::REPORT_SETUP_STATUS => {
-                let status = self.settings.last_status;
+                let status = self.state.settings.last_status;
                 self.unit.write(format!("{status:02}\r\n").as_bytes());
                 return;
             }
             _ => {}
         }
-        let stored = match (&self.stored, self.cfg.before_first) {
+        let stored = match (&self.state.stored, self.cfg.before_first) {
             (Some(s), _) => s.clone(),
             (None, BeforeFirstMeasurement::StaleZeros) => zeros(grid.len()),
             (None, BeforeFirstMeasurement::NoReply) => return,
@@ -289,18 +296,9 @@ impl Device {
 }
 
 impl Firmware for Device {
-    fn unit(&mut self) -> &mut Unit {
-        &mut self.unit
-    }
-
     fn power_on(&mut self) {
         self.powered_at = Instant::now();
-        self.remote = false;
-        self.local = false;
-        self.echo = false;
-        self.line.clear();
-        self.settings = Settings::default();
-        self.stored = None;
+        self.state = PowerOnState::default();
     }
 
     /// A dead link is checked byte by byte (after the power-on window's clock).
@@ -309,7 +307,11 @@ impl Firmware for Device {
     }
 
     fn forget_line(&mut self) {
-        self.line.clear();
+        self.state.line.clear();
+    }
+
+    fn unit(&mut self) -> &mut Unit {
+        &mut self.unit
     }
 }
 

@@ -120,3 +120,99 @@ pub fn measured_xyz(m: &MeasurementDetail, observer: Observer) -> Result<Option<
         .map(Some)
         .map_err(|e| format!("measurement {id}: {e}"))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lab::testing::store_in;
+    use crate::store::{Average, Booth, NewMeasurement, Store};
+
+    /// A queued measurement of WHITE's Spectralon, completed at once with
+    /// `radiance` on `wavelength_nm` (what the store holds of an average;
+    /// the instrument's own figures are left zero, unused here).
+    async fn stored_average(store: &Store, wavelength_nm: Vec<f64>, radiance: Vec<f64>) -> i64 {
+        let id = store
+            .create_measurement(&NewMeasurement {
+                booth: Booth::default(),
+                session_id: None,
+                scene: Some("white".into()),
+                target: Some("patch".into()),
+                samples: 1,
+                settings_json: serde_json::json!({}),
+                note: String::new(),
+            })
+            .await
+            .unwrap();
+        store.mark_running(id, None).await.unwrap();
+        let len = radiance.len();
+        let average = Average {
+            wavelength_nm,
+            radiance,
+            radiance_sd: vec![0.0; len],
+            luminance_cd_m2: 0.0,
+            x: 0.0,
+            y: 0.0,
+            luminance_cv: 0.0,
+            xyz: None,
+            observer: None,
+        };
+        store.complete_measurement(id, &average).await.unwrap();
+        id
+    }
+
+    /// An equal-energy spectrum has CIE 1931 chromaticity (1/3, 1/3): the
+    /// colour-matching functions are normalised to equal integrals (CIE
+    /// 15:2004, §7.1, illuminant E; the tabulated 1 nm sums agree within
+    /// 0.04 %), here over the PR-650's 380–780 nm at 4 nm, which leaves out
+    /// < 0.01 % of each integral. Its luminance is
+    /// Km·L·∫ȳ dλ with Km = 683 lm/W and ∫ȳ dλ = 106.857 nm (the sum of the
+    /// 1 nm table, CIE 15:2004 Table T.4).
+    #[tokio::test]
+    async fn an_equal_energy_measurement_has_the_chromaticity_of_illuminant_e() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let wavelength_nm: Vec<f64> = (0..101).map(|i| 380.0 + 4.0 * f64::from(i)).collect();
+        let radiance = 1e-3; // W/(sr·m²·nm)
+        let id = stored_average(&store, wavelength_nm, vec![radiance; 101]).await;
+        let detail = store.get_measurement(id).await.unwrap().unwrap();
+
+        let xyz = measured_xyz(&detail, Observer::Cie1931).unwrap().expect("a spectrum");
+        let crate::colorimetry::Chromaticity { x, y } = xyz.chromaticity();
+        assert!(
+            (x - 1.0 / 3.0).abs() < 2e-4 && (y - 1.0 / 3.0).abs() < 2e-4,
+            "x, y = {x}, {y}"
+        );
+        let luminance = 683.0 * radiance * 106.857;
+        assert!(
+            (xyz.y / luminance - 1.0).abs() < 2e-3,
+            "Y = {} cd/m² against {luminance}",
+            xyz.y
+        );
+    }
+
+    #[tokio::test]
+    async fn a_measurement_without_a_spectrum_has_no_xyz_and_a_bad_one_names_itself() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let queued = store
+            .create_measurement(&NewMeasurement {
+                booth: Booth::default(),
+                session_id: None,
+                scene: None,
+                target: None,
+                samples: 1,
+                settings_json: serde_json::json!({}),
+                note: String::new(),
+            })
+            .await
+            .unwrap();
+        let detail = store.get_measurement(queued).await.unwrap().unwrap();
+        assert_eq!(measured_xyz(&detail, Observer::JuddVos), Ok(None));
+
+        // Wavelengths that do not increase: no grid, and the error says which row.
+        let id = stored_average(&store, vec![500.0, 400.0], vec![1.0, 1.0]).await;
+        let detail = store.get_measurement(id).await.unwrap().unwrap();
+        let error = measured_xyz(&detail, Observer::JuddVos).unwrap_err();
+        assert!(error.starts_with(&format!("measurement {id}: ")), "{error}");
+    }
+}

@@ -73,17 +73,17 @@ impl Device {
     pub(super) fn measure(&mut self) -> bool {
         let truth = self.unit.shared().truth_1nm.clone();
         let model = &self.cfg.model;
-        let mut reading = match model.reading(&truth, self.setup.exposure_ms) {
+        let mut reading = match model.reading(&truth, self.state.setup.exposure_ms) {
             Ok(r) => r,
             Err(e) => {
                 tracing::error!(error = %e, "simulated instrument: cannot model the target");
                 return true;
             }
         };
-        let auto_sync = self.setup.sync == 1;
-        let lock_hz = match self.setup.sync {
+        let auto_sync = self.state.setup.sync == 1;
+        let lock_hz = match self.state.setup.sync {
             1 => self.auto_sync_hz(),
-            3 => Some(f64::from(self.setup.user_sync_hz)),
+            3 => Some(f64::from(self.state.setup.user_sync_hz)),
             _ => None,
         };
         let sync_failed = auto_sync && lock_hz.is_none();
@@ -97,11 +97,11 @@ impl Device {
                 Err(e) => tracing::error!(error = %e, "simulated instrument: cannot model the target"),
             }
         }
-        let cycles = if sync_failed { 0 } else { self.setup.cycles.max(1) };
+        let cycles = if sync_failed { 0 } else { self.state.setup.cycles.max(1) };
         let darks = if cycles == 0 {
             0
-        } else if self.setup.smart_dark {
-            u32::from(self.last_dark_exposure_ms != Some(exposure_ms))
+        } else if self.state.setup.smart_dark {
+            u32::from(self.state.last_dark_exposure_ms != Some(exposure_ms))
         } else {
             cycles
         };
@@ -124,7 +124,7 @@ impl Device {
         self.unit.shared().last_measurement_ms = Some(total_ms);
         self.unit.sleep_scaled(total_ms);
         if darks > 0 {
-            self.last_dark_exposure_ms = Some(exposure_ms);
+            self.state.last_dark_exposure_ms = Some(exposure_ms);
         }
         let mut status = match reading.code {
             0 => 0,
@@ -143,9 +143,9 @@ impl Device {
         }
         let stored = if status == 0 {
             // Averaging `cycles` readings divides the noise by √cycles.
-            let cycles = f64::from(self.setup.cycles.max(1));
+            let cycles = f64::from(self.state.setup.cycles.max(1));
             let mut values = vec![0.0; reading.expected.len()];
-            for _ in 0..self.setup.cycles.max(1) {
+            for _ in 0..self.state.setup.cycles.max(1) {
                 for (acc, v) in values
                     .iter_mut()
                     .zip(self.cfg.model.sample(&reading, &mut self.unit.rng))
@@ -176,9 +176,9 @@ impl Device {
             }
         };
         if status == 0 {
-            self.last_good = Some(stored.clone());
+            self.state.last_good = Some(stored.clone());
         }
-        self.last = Some(stored);
+        self.state.last = Some(stored);
         self.unit.shared().measurements += 1;
         true
     }

@@ -92,6 +92,14 @@ pub(super) struct Device {
     cfg: MockConfig,
     sw: Pr655Switches,
     unit: Unit,
+    /// What a power cycle resets.
+    state: PowerOnState,
+}
+
+/// The firmware's state from power-on: a power cycle sets it back to
+/// [`Default`], so power-on and a new unit cannot disagree.
+#[derive(Default)]
+struct PowerOnState {
     remote: bool,
     /// Letters of `PHOTO` matched so far.
     photo: usize,
@@ -124,23 +132,14 @@ impl Device {
             cfg,
             sw,
             unit,
-            remote: false,
-            photo: 0,
-            just_entered: false,
-            echo: false,
-            reset_enabled: false,
-            line: Vec::new(),
-            setup: Setup::default(),
-            last: None,
-            last_good: None,
-            last_dark_exposure_ms: None,
+            state: PowerOnState::default(),
         }
     }
 
     /// Feeds one byte of `PHOTO`; true when it completed the sequence.
     fn photo_byte(&mut self, b: u8, burst: bool) -> bool {
         if self.sw.strict_photo && burst {
-            self.photo = 0;
+            self.state.photo = 0;
             return false;
         }
         let b = if self.sw.case_insensitive {
@@ -148,13 +147,13 @@ impl Device {
         } else {
             b
         };
-        if b == wire::REMOTE_ENTRY[self.photo] {
-            self.photo += 1;
+        if b == wire::REMOTE_ENTRY[self.state.photo] {
+            self.state.photo += 1;
         } else {
-            self.photo = usize::from(b == wire::REMOTE_ENTRY[0]);
+            self.state.photo = usize::from(b == wire::REMOTE_ENTRY[0]);
         }
-        if self.photo == wire::REMOTE_ENTRY.len() {
-            self.photo = 0;
+        if self.state.photo == wire::REMOTE_ENTRY.len() {
+            self.state.photo = 0;
             return true;
         }
         false
@@ -162,7 +161,7 @@ impl Device {
 
     /// One byte from the host; `burst` when it came with others in one read.
     fn receive(&mut self, b: u8, burst: bool) -> Next {
-        if !self.remote {
+        if !self.state.remote {
             // 13.3: local mode ignores everything but PHOTO.
             tracing::trace!(byte = %(b as char).escape_debug(), burst, "simulated instrument in local mode");
             if self.photo_byte(b, burst) {
@@ -170,13 +169,13 @@ impl Device {
             }
             return Next::Continue;
         }
-        if self.echo {
+        if self.state.echo {
             self.unit.write(&[b]);
         }
-        let just_entered = std::mem::take(&mut self.just_entered);
+        let just_entered = std::mem::take(&mut self.state.just_entered);
         let ends_line = b == b'\r' || (b == b'\n' && self.sw.accept_lf);
         if ends_line || b == b'\n' {
-            if just_entered && self.line.is_empty() {
+            if just_entered && self.state.line.is_empty() {
                 match self.sw.stray_terminator {
                     StrayTerminator::Ignore => {}
                     StrayTerminator::EmptyLine => self.unit.write(b"\r\n"),
@@ -184,33 +183,33 @@ impl Device {
                 }
                 return Next::Continue;
             }
-            if !ends_line || self.line.is_empty() {
+            if !ends_line || self.state.line.is_empty() {
                 return Next::Continue; // the LF of CR LF, or an LF that does not end commands
             }
-            let line = std::mem::take(&mut self.line);
+            let line = std::mem::take(&mut self.state.line);
             let next = self.command(&line);
-            if self.echo {
+            if self.state.echo {
                 self.unit.write(b">");
             }
             return next;
         }
-        if self.line.len() < 256 {
-            self.line.push(b);
+        if self.state.line.len() < 256 {
+            self.state.line.push(b);
         }
         // `Q` needs no terminator (2.2); `PHOTO` again comes without one (13.2).
-        let upper = self.line.to_ascii_uppercase();
+        let upper = self.state.line.to_ascii_uppercase();
         let upper = if self.sw.case_insensitive {
             upper
         } else {
-            self.line.clone()
+            self.state.line.clone()
         };
         if upper == b"Q" {
-            self.line.clear();
+            self.state.line.clear();
             tracing::info!("simulated instrument: Q, back to local mode");
-            self.remote = false;
-            self.photo = 0;
+            self.state.remote = false;
+            self.state.photo = 0;
         } else if upper == wire::REMOTE_ENTRY && !(self.sw.strict_photo && burst) {
-            self.line.clear();
+            self.state.line.clear();
             if self.sw.photo_only_once {
                 tracing::info!("simulated instrument: PHOTO again, in remote mode already: no reply");
             } else {
@@ -227,9 +226,9 @@ impl Device {
         }
         self.unit.sleep_ms(self.sw.banner_latency_ms as f64);
         self.unit.write(wire::BANNER);
-        self.remote = true;
-        self.just_entered = true;
-        self.line.clear();
+        self.state.remote = true;
+        self.state.just_entered = true;
+        self.state.line.clear();
         tracing::info!(model = self.sw.model.name(), "simulated instrument in remote mode");
     }
 
@@ -260,7 +259,7 @@ impl Device {
                     return Next::Unplugged;
                 }
                 if code == 0 {
-                    let status = self.last.as_ref().map_or(0, |s| s.status);
+                    let status = self.state.last.as_ref().map_or(0, |s| s.status);
                     self.status_reply(status);
                 } else {
                     self.report(code, true);
@@ -289,7 +288,7 @@ impl Device {
             "I" => self.status_reply(0),
             "E" => {
                 tracing::warn!("simulated instrument: echo on (a driver should never send E)");
-                self.echo = true;
+                self.state.echo = true;
             }
             _ => self.status_reply(-1000),
         }
@@ -315,7 +314,7 @@ impl Device {
         };
         if is("ZEnableReset") {
             tracing::warn!("simulated instrument: reset commands enabled (a driver should never send Z…)");
-            self.reset_enabled = true;
+            self.state.reset_enabled = true;
             let style = self.sw.status_style;
             self.unit
                 .write(&wire::format_text_report("Reset Commands Enabled", style));
@@ -324,7 +323,7 @@ impl Device {
         if !(is("ZResetPreferences") || is("ZResetSetup")) {
             return None;
         }
-        if !self.reset_enabled {
+        if !self.state.reset_enabled {
             tracing::info!(command = text, "simulated instrument: reset refused, not enabled");
             self.status_reply(-1000);
             return Some(Next::Continue);
@@ -341,20 +340,20 @@ impl Device {
         };
         let pr670 = self.sw.model == Model::Pr670;
         match letter {
-            "U" if v <= 1 => self.setup.si_units = v == 1,
+            "U" if v <= 1 => self.state.setup.si_units = v == 1,
             "U" => return -1009,
             "E" if v == 0 || self.sw.model.exposure_range_ms().contains(&v) => {
-                self.setup.exposure_ms = v;
+                self.state.setup.exposure_ms = v;
                 self.unit.shared().integration_ms = v;
             }
             "E" => return -1010,
-            "N" if (1..=99).contains(&v) => self.setup.cycles = v,
+            "N" if (1..=99).contains(&v) => self.state.setup.cycles = v,
             "N" => return -1012,
-            "O" if v == 2 || v == 10 => self.setup.observer = v,
+            "O" if v == 2 || v == 10 => self.state.setup.observer = v,
             "O" => return -1015,
-            "S" if matches!(v, 0 | 1 | 3) => self.setup.sync = v,
+            "S" if matches!(v, 0 | 1 | 3) => self.state.setup.sync = v,
             "S" => return -1019,
-            "K" if (20..=400).contains(&v) => self.setup.user_sync_hz = v,
+            "K" if (20..=400).contains(&v) => self.state.setup.user_sync_hz = v,
             "K" => return -1023,
             "F" | "H" | "G" | "D" if !pr670 => return -1035,
             "F" if v <= 3 => {}
@@ -363,7 +362,7 @@ impl Device {
             "H" => return -1026,
             "G" if v <= 3 => {}
             "G" => return -1011,
-            "D" if v <= 1 => self.setup.smart_dark = v == 1,
+            "D" if v <= 1 => self.state.setup.smart_dark = v == 1,
             "D" => return -1017,
             _ => return -1000,
         }
@@ -377,16 +376,7 @@ impl Firmware for Device {
     }
 
     fn power_on(&mut self) {
-        self.remote = false;
-        self.photo = 0;
-        self.just_entered = false;
-        self.echo = false;
-        self.reset_enabled = false;
-        self.line.clear();
-        self.setup = Setup::default();
-        self.last = None;
-        self.last_good = None;
-        self.last_dark_exposure_ms = None;
+        self.state = PowerOnState::default();
     }
 
     fn byte(&mut self, b: u8, burst: bool) -> Next {
@@ -394,7 +384,7 @@ impl Firmware for Device {
     }
 
     fn forget_line(&mut self) {
-        self.line.clear();
+        self.state.line.clear();
     }
 
     /// A dead link ignores every read whole, until power-cycled.

@@ -92,12 +92,12 @@ fn scotopic_luminance(grid: &crate::spectrum::Grid, radiance: &[f64]) -> f64 {
 impl Device {
     /// The measurement report `code` describes: per 13.9 after a failure.
     fn report_source(&self) -> Result<Stored, i32> {
-        match (&self.last, self.sw.after_failure) {
+        match (&self.state.last, self.sw.after_failure) {
             (None, _) => Err(-2000),
             (Some(s), _) if s.status == 0 => Ok(s.clone()),
             (Some(s), AfterFailure::Error) => Err(s.status),
             (Some(_), AfterFailure::NoData) => Err(-2000),
-            (Some(s), AfterFailure::Stale) => self.last_good.clone().ok_or(s.status),
+            (Some(s), AfterFailure::Stale) => self.state.last_good.clone().ok_or(s.status),
         }
     }
 
@@ -120,7 +120,7 @@ impl Device {
             }
             wire::REPORT_HARDWARE => return self.unit.write(&wire::format_hardware_config(model, style)),
             wire::REPORT_SETUP_TEXT => {
-                let s = self.setup;
+                let s = self.state.setup;
                 let text = format!(
                     "MS-75,None,None,None,1 deg,{},{},{} msec,Normal,{} cycles,{} deg,No Smart Dark,{},Standard Sensitivity,60.00 Hertz",
                     if s.si_units { "SI" } else { "English" },
@@ -139,7 +139,7 @@ impl Device {
             // 601: the setup as codes. The PR-670 gets the 16 fields the
             // manual describes, the PR-655 the 13 captured from a real one (6.1).
             601 => {
-                let s = self.setup;
+                let s = self.state.setup;
                 let text = match model {
                     Model::Pr670 => format!(
                         "0,-1,-1,-1,0,{},{},{},0,{},{},0,{},0,60.00",
@@ -161,9 +161,9 @@ impl Device {
                 return self.unit.write(&wire::format_text_report(&text, style));
             }
             14 => {
-                let text = match (self.setup.sync, self.cfg.flicker_hz) {
+                let text = match (self.state.setup.sync, self.cfg.flicker_hz) {
                     (1, Some(hz)) => format!("Auto Sync,{hz:.2} Hertz"),
-                    (3, _) => format!("User Sync,{}.00 Hertz", self.setup.user_sync_hz),
+                    (3, _) => format!("User Sync,{}.00 Hertz", self.state.setup.user_sync_hz),
                     _ => "None,0.00 Hertz".to_string(),
                 };
                 return self.unit.write(&wire::format_text_report(&text, style));
@@ -190,7 +190,7 @@ impl Device {
             _ => {}
         }
         let source = if fresh {
-            match &self.last {
+            match &self.state.last {
                 Some(s) if s.status != 0 => Err(s.status),
                 Some(s) => Ok(s.clone()),
                 None => Err(-2000),
@@ -203,7 +203,11 @@ impl Device {
             Err(status) => return self.status_reply(status),
         };
         // Y in cd/m² after SU1, in fL after SU0 (1 fL = 3.426 cd/m²).
-        let scale = if self.setup.si_units { 1.0 } else { 1.0 / 3.426_259 };
+        let scale = if self.state.setup.si_units {
+            1.0
+        } else {
+            1.0 / 3.426_259
+        };
         let [x, y, z] = stored.xyz.map(|v| v * scale);
         let status = wire::format_status(0, style);
         match code {
