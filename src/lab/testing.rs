@@ -11,7 +11,7 @@ use super::scenes::SceneCatalog;
 use crate::colorimetry::Observer;
 use crate::render::integrator::CancelFlag;
 use crate::render::Coding;
-use crate::store::Store;
+use crate::store::{Booth, NewMeasurement, Store};
 
 /// Paths per target of the tests' renders.
 pub const TEST_SAMPLES: u64 = 64;
@@ -21,6 +21,23 @@ pub async fn store_in(dir: &Path) -> Store {
     Store::open(&format!("sqlite://{}", dir.join("lab.sqlite").display()))
         .await
         .expect("a store on a new SQLite file")
+}
+
+/// A new measurement of one sample in the default booth, queued, of
+/// `scene`/`target` (or of nothing in particular).
+pub async fn queued_measurement(store: &Store, scene_target: Option<(&str, &str)>) -> i64 {
+    store
+        .create_measurement(&NewMeasurement {
+            booth: Booth::default(),
+            session_id: None,
+            scene: scene_target.map(|(scene, _)| scene.into()),
+            target: scene_target.map(|(_, target)| target.into()),
+            samples: 1,
+            settings_json: serde_json::json!({}),
+            note: String::new(),
+        })
+        .await
+        .expect("the store queues a measurement")
 }
 
 /// The catalogue of the shipped `scenes/`.

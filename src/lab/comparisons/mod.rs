@@ -327,24 +327,12 @@ fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(Str
 mod tests {
     use super::*;
     use crate::colorimetry::Observer;
-    use crate::lab::testing::{drain, runner, store_in};
+    use crate::lab::testing::{drain, queued_measurement, runner, store_in};
     use crate::render::integrator::CancelFlag;
-    use crate::store::NewMeasurement;
 
     /// A measurement of `scene`/`target` in the default booth, as queued.
     async fn measurement_of(store: &Store, scene: &str, target: &str) -> i64 {
-        store
-            .create_measurement(&NewMeasurement {
-                booth: Booth::default(),
-                session_id: None,
-                scene: Some(scene.into()),
-                target: Some(target.into()),
-                samples: 1,
-                settings_json: serde_json::json!({}),
-                note: String::new(),
-            })
-            .await
-            .unwrap()
+        queued_measurement(store, Some((scene, target))).await
     }
 
     /// A measurement 10 % brighter than the spectral rendering of WHITE's

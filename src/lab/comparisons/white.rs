@@ -124,25 +124,14 @@ pub fn measured_xyz(m: &MeasurementDetail, observer: Observer) -> Result<Option<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lab::testing::store_in;
-    use crate::store::{Average, Booth, NewMeasurement, Store};
+    use crate::lab::testing::{queued_measurement, store_in};
+    use crate::store::{Average, Store};
 
     /// A queued measurement of WHITE's Spectralon, completed at once with
     /// `radiance` on `wavelength_nm` (what the store holds of an average;
     /// the instrument's own figures are left zero, unused here).
     async fn stored_average(store: &Store, wavelength_nm: Vec<f64>, radiance: Vec<f64>) -> i64 {
-        let id = store
-            .create_measurement(&NewMeasurement {
-                booth: Booth::default(),
-                session_id: None,
-                scene: Some("white".into()),
-                target: Some("patch".into()),
-                samples: 1,
-                settings_json: serde_json::json!({}),
-                note: String::new(),
-            })
-            .await
-            .unwrap();
+        let id = queued_measurement(store, Some(("white", "patch"))).await;
         store.mark_running(id, None).await.unwrap();
         let len = radiance.len();
         let average = Average {
@@ -194,18 +183,7 @@ mod tests {
     async fn a_measurement_without_a_spectrum_has_no_xyz_and_a_bad_one_names_itself() {
         let dir = tempfile::tempdir().unwrap();
         let store = store_in(dir.path()).await;
-        let queued = store
-            .create_measurement(&NewMeasurement {
-                booth: Booth::default(),
-                session_id: None,
-                scene: None,
-                target: None,
-                samples: 1,
-                settings_json: serde_json::json!({}),
-                note: String::new(),
-            })
-            .await
-            .unwrap();
+        let queued = queued_measurement(&store, None).await;
         let detail = store.get_measurement(queued).await.unwrap().unwrap();
         assert_eq!(measured_xyz(&detail, Observer::JuddVos), Ok(None));
 
