@@ -24,6 +24,9 @@
 //!   against a white standard.
 //! - [`display`]: a display profile, and rendered colours turned into
 //!   frame-buffer codes.
+//! - [`psychophysics`]: whether an observer can tell: percent correct with
+//!   its exact interval, and d′ of the study's oddity task under the
+//!   differencing and independent-observation models.
 //!
 //! The two instruments of the lab, a real one and a simulated one:
 //!
@@ -82,7 +85,7 @@
 //! | 3 | lab |
 //! | 2 | store, charts, export |
 //! | 1 | instrument, render |
-//! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display |
+//! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display, psychophysics |
 
 pub mod calibration;
 pub mod charts;
@@ -95,6 +98,7 @@ pub mod http;
 pub mod instrument;
 pub mod lab;
 pub mod nstep;
+pub mod psychophysics;
 pub mod reference_data;
 pub mod render;
 pub mod spectrum;
