@@ -5,6 +5,8 @@
 //! one colour and one of another, and asked which was the odd one. What a
 //! block of such trials says is here:
 //!
+//! - [`design`]: the trials of a block, the study's six configurations in
+//!   an order fixed by a stored seed.
 //! - [`binomial`]: the proportion correct with its exact (Clopper–Pearson)
 //!   interval.
 //! - [`oddity`]: the proportion correct of the three-interval oddity task
@@ -13,6 +15,8 @@
 //!   the independent-observation model of Versfeld, Dai & Green 1996), and
 //!   [`oddity::estimate`], which turns a count of correct trials into d′
 //!   with its interval, naming the model and any rule applied.
+//! - [`observer`]: a simulated observer whose true d′ is known (ΔE*ab over
+//!   its stated noise), for tests and for planning.
 //!
 //! ```
 //! use lightbooth::psychophysics::oddity::{estimate, OddityModel};
@@ -25,6 +29,8 @@
 //! ```
 
 pub mod binomial;
+pub mod design;
+pub mod observer;
 pub mod oddity;
 
 /// The standard normal distribution function Φ(x), from `libm`'s `erfc`
