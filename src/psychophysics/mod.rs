@@ -49,7 +49,7 @@ pub(crate) fn normal_pdf(x: f64) -> f64 {
 /// The integrands here are smooth on each interval they are given (kinks
 /// are split off by the callers), so the error falls as h⁴.
 pub(crate) fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, panels: usize) -> f64 {
-    debug_assert!(panels >= 2 && panels % 2 == 0);
+    debug_assert!(panels >= 2 && panels.is_multiple_of(2));
     let h = (b - a) / panels as f64;
     let inner: f64 = (1..panels)
         .map(|i| {
