@@ -85,7 +85,7 @@ impl fmt::Display for Count {
 }
 
 /// ln i! for i = 0..=n.
-fn ln_factorials(n: u32) -> Vec<f64> {
+pub(super) fn ln_factorials(n: u32) -> Vec<f64> {
     let mut out = Vec::with_capacity(n as usize + 1);
     let mut acc = 0.0;
     out.push(0.0);
@@ -114,7 +114,7 @@ fn sum_exp(terms: impl Iterator<Item = f64> + Clone) -> f64 {
 }
 
 /// P(X ≥ k).
-fn upper_tail(k: u32, n: u32, p: f64, ln_factorial: &[f64]) -> f64 {
+pub(super) fn upper_tail(k: u32, n: u32, p: f64, ln_factorial: &[f64]) -> f64 {
     sum_exp((k..=n).map(|i| ln_pmf(i, n, p, ln_factorial)))
 }
 

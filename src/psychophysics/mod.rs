@@ -17,6 +17,7 @@
 //!   with its interval, naming the model and any rule applied.
 //! - [`observer`]: a simulated observer whose true d′ is known (ΔE*ab over
 //!   its stated noise), for tests and for planning.
+//! - [`plan`]: how many trials tell one d′ from another with a given power.
 //!
 //! ```
 //! use lightbooth::psychophysics::oddity::{estimate, OddityModel};
@@ -32,6 +33,7 @@ pub mod binomial;
 pub mod design;
 pub mod observer;
 pub mod oddity;
+pub mod plan;
 
 /// The standard normal distribution function Φ(x), from `libm`'s `erfc`
 /// (a port of musl's, accurate to about one unit in the last place):
