@@ -66,7 +66,7 @@ pub fn trials_for_power(d0: f64, d1: f64, model: OddityModel, alpha: f64, target
     if !(d0.is_finite() && d1.is_finite() && 0.0 <= d0 && d0 < d1) {
         return Err(format!("d′ {d0} against {d1}: give 0 ≤ d′₀ < d′₁"));
     }
-    if !(alpha > 0.0 && alpha < 0.5) || !(target > 0.0 && target < 1.0) {
+    if !(alpha > 0.0 && alpha < 0.5 && target > 0.0 && target < 1.0) {
         return Err(format!(
             "alpha {alpha}, power {target}: give a level in (0, 0.5) and a power in (0, 1), such as 0.05 and 0.8"
         ));
