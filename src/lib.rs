@@ -24,6 +24,8 @@
 //!   against a white standard.
 //! - [`display`]: a display profile, and rendered colours turned into
 //!   frame-buffer codes.
+//! - [`random`]: seeded random numbers specified to the bit (SplitMix64),
+//!   for seeds that are stored.
 //! - [`psychophysics`]: whether an observer can tell: percent correct with
 //!   its exact interval, and d′ of the study's oddity task under the
 //!   differencing and independent-observation models.
@@ -85,7 +87,7 @@
 //! | 3 | lab |
 //! | 2 | store, charts, export |
 //! | 1 | instrument, render |
-//! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display, psychophysics |
+//! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display, psychophysics, random |
 
 pub mod calibration;
 pub mod charts;
@@ -99,6 +101,7 @@ pub mod instrument;
 pub mod lab;
 pub mod nstep;
 pub mod psychophysics;
+pub mod random;
 pub mod reference_data;
 pub mod render;
 pub mod spectrum;

@@ -15,8 +15,9 @@
 
 use crate::colorimetry::{delta_e76, Lab};
 
-use super::design::{Configuration, SplitMix64, Stimulus};
+use super::design::{Configuration, Stimulus};
 use super::oddity::OddityModel;
+use crate::random::SplitMix64;
 
 /// An observer with noise `noise_sd` (ΔE*ab units, per axis) deciding as `model`.
 #[derive(Clone, Copy, Debug, PartialEq)]

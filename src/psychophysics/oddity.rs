@@ -291,7 +291,7 @@ mod tests {
     #[test]
     fn the_independent_observation_integral_agrees_with_a_simulated_observer() {
         let d = 1.5;
-        let mut rng = crate::psychophysics::design::SplitMix64(11);
+        let mut rng = crate::random::SplitMix64(11);
         let trials = 2_000_000;
         let mut correct = 0u32;
         for _ in 0..trials {

@@ -83,8 +83,9 @@ pub fn trials_for_power(d0: f64, d1: f64, model: OddityModel, alpha: f64, target
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::psychophysics::design::{SplitMix64, CONFIGURATIONS};
+    use crate::psychophysics::design::CONFIGURATIONS;
     use crate::psychophysics::observer::SimulatedObserver;
+    use crate::random::SplitMix64;
 
     /// The plan for the question (d′ = 1 against 2, 80 % power,
     /// α = 0.05), checked by simulation: observers of true d′ 2 run the

@@ -15,6 +15,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::geometry::basis;
+use crate::random::splitmix64;
 
 /// PCG32 (O'Neill 2014, `pcg32_random_r`): a small, fast, statistically
 /// good generator with 2⁶³ selectable streams. Each Monte Carlo sample gets
@@ -66,14 +67,6 @@ impl Pcg32 {
     pub fn uniform(&mut self) -> f64 {
         self.next_u32() as f64 * (1.0 / 4_294_967_296.0)
     }
-}
-
-/// SplitMix64 finaliser (Steele et al. 2014): decorrelates nearby seeds.
-pub fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// How a path draws its random numbers.
