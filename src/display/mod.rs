@@ -10,6 +10,8 @@
 //! - [`simulated`]: the display the simulated PR-650 looks at with `--mock`.
 //! - [`stimulus`]: rendered XYZ → gamut policy → frame-buffer codes, what
 //!   the display shows for them, and the quantisation bound.
+//! - [`output`]: the output methods (8 bit, noisy-bit dithering, 10 bit)
+//!   and whether an experiment's colours are distinct with one.
 //! - [`stimulus_files`]: the codes and the ΔE00 map as files (PNG, raw).
 //! - [`resolution`]: at which bit depth a display shows two codings apart.
 //!
@@ -27,6 +29,7 @@
 //! whose spectral shape does not change with drive (phosphor constancy).
 
 pub mod fit;
+pub mod output;
 pub mod profile;
 pub mod resolution;
 pub mod simulated;

@@ -10,7 +10,7 @@
 //! the drive per channel, [`GAMMAS`], the model the fit assumes; the
 //! simulated display is exactly additive.
 
-use super::DisplayError;
+use super::{fit_profile, CalibrationPlan, DisplayError, DisplayProfile, MeasuredPatch};
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::spectrum::table::SpectraTable;
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
@@ -69,6 +69,24 @@ impl SimulatedDisplay {
             .map(|i| self.black[i] + (0..3).map(|c| t[c] * self.primaries[c][i]).sum::<f64>())
             .collect();
         Spectrum::new(self.grid.clone(), SpectralUnit::SpectralRadiance, values).expect("finite by construction")
+    }
+
+    /// The profile a calibration would fit to this display's exact 1 nm
+    /// spectra (the eight-level plan of [`CalibrationPlan::new`]): for tests
+    /// and for the simulated booth's experiments.
+    pub fn exact_profile(&self, observer: Observer) -> Result<DisplayProfile, DisplayError> {
+        let patches: Vec<MeasuredPatch> = CalibrationPlan::new(8)?
+            .patches
+            .iter()
+            .enumerate()
+            .map(|(i, p)| MeasuredPatch {
+                drive: p.drive,
+                wavelength_nm: self.grid.wavelengths().to_vec(),
+                radiance: self.spectrum(p.drive).into_values(),
+                measurement_id: Some(i as i64 + 1),
+            })
+            .collect();
+        fit_profile(&patches, observer)
     }
 
     /// The true γ of each channel.

@@ -86,6 +86,47 @@ pub fn block_order(seed: u64, repeats: u32) -> Result<Vec<Configuration>, String
     Ok(trials)
 }
 
+/// One trial of a session: which approximation (its index in the
+/// experiment's list) and in which configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PlannedTrial {
+    pub approximation: usize,
+    pub configuration: Configuration,
+}
+
+/// More approximations than this in one block are refused (the study's
+/// full set, N = 3, 9, 27, 81 with RGB and sRGB, is six).
+pub const MAX_APPROXIMATIONS: usize = 16;
+
+/// One block of a scene: every approximation in each configuration
+/// `repeats` times, interleaved and shuffled with `seed` (Fisher–Yates, as
+/// [`block_order`]).
+pub fn session_order(seed: u64, approximations: usize, repeats: u32) -> Result<Vec<PlannedTrial>, String> {
+    if approximations == 0 || approximations > MAX_APPROXIMATIONS {
+        return Err(format!(
+            "{approximations} approximations: give 1–{MAX_APPROXIMATIONS} to test against the original"
+        ));
+    }
+    // Validates `repeats`; its order is not used.
+    block_order(seed, repeats)?;
+    let mut trials: Vec<PlannedTrial> = (0..approximations)
+        .flat_map(|approximation| {
+            (0..repeats).flat_map(move |_| {
+                CONFIGURATIONS.map(|configuration| PlannedTrial {
+                    approximation,
+                    configuration,
+                })
+            })
+        })
+        .collect();
+    let mut rng = SplitMix64(seed);
+    for i in (1..trials.len()).rev() {
+        let j = rng.below(i as u64 + 1) as usize;
+        trials.swap(i, j);
+    }
+    Ok(trials)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,6 +149,26 @@ mod tests {
         assert_ne!(block, block_order(43, 6).unwrap());
         assert!(block_order(42, 0).unwrap_err().contains("the study used 6"));
         assert!(block_order(42, MAX_REPEATS + 1).is_err());
+    }
+
+    #[test]
+    fn a_session_interleaves_every_approximation_in_every_configuration() {
+        let trials = session_order(7, 3, 6).unwrap();
+        assert_eq!(trials.len(), 108);
+        for a in 0..3 {
+            for c in CONFIGURATIONS {
+                let n = trials
+                    .iter()
+                    .filter(|t| t.approximation == a && t.configuration == c)
+                    .count();
+                assert_eq!(n, 6, "approximation {a}, {c}");
+            }
+        }
+        // Interleaved, not in runs: the first 36 trials are not all one approximation.
+        assert!(trials[..36].iter().any(|t| t.approximation != trials[0].approximation));
+        assert_eq!(trials, session_order(7, 3, 6).unwrap());
+        assert!(session_order(7, 0, 6).unwrap_err().contains("1–16"));
+        assert!(session_order(7, 2, 0).unwrap_err().contains("the study used 6"));
     }
 
     /// Every position of the odd piece is equally likely at each trial of

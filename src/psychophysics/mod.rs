@@ -18,6 +18,7 @@
 //! - [`observer`]: a simulated observer whose true d′ is known (ΔE*ab over
 //!   its stated noise), for tests and for planning.
 //! - [`plan`]: how many trials tell one d′ from another with a given power.
+//! - [`presentation`]: the pie's size and the trial's timeline in frames.
 //!
 //! ```
 //! use lightbooth::psychophysics::oddity::{estimate, OddityModel};
@@ -34,6 +35,7 @@ pub mod design;
 pub mod observer;
 pub mod oddity;
 pub mod plan;
+pub mod presentation;
 
 /// The standard normal distribution function Φ(x), from `libm`'s `erfc`
 /// (a port of musl's, accurate to about one unit in the last place):
