@@ -20,6 +20,9 @@
 //! - [`study`]: the study itself (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings,
 //!   the report);
+//! - [`experiments`]: the study's oddity experiment: set up from a
+//!   measurement and checked on its display, observers' sessions trial by
+//!   trial, and the analysis (percent correct, d′);
 //! - [`study_jobs`]: a study planned from a request and run as a job;
 //! - [`simulated_truth`]: what the simulated PR-650 measures;
 //! - [`jobs`], [`images`], [`worker_queue`], [`study_measurements`]: the
@@ -37,6 +40,7 @@ pub mod calibration;
 pub mod comparisons;
 pub mod error;
 pub mod events;
+pub mod experiments;
 pub mod images;
 pub mod instrument_queue;
 pub mod jobs;

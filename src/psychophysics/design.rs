@@ -127,6 +127,27 @@ pub fn session_order(seed: u64, approximations: usize, repeats: u32) -> Result<V
     Ok(trials)
 }
 
+/// The order trials are shown in: the planned trials, then again, at the
+/// end, every trial that had a frame dropped while its pie was shown
+/// (`dropped[i]` for the i-th trial recorded; a repeat that drops a frame
+/// is repeated too). Its length is the number of trials the session needs
+/// so far: the session is complete when that many are recorded.
+pub fn shown_order(planned: &[PlannedTrial], dropped: &[bool]) -> Vec<PlannedTrial> {
+    let mut order = planned.to_vec();
+    for (i, &d) in dropped.iter().enumerate() {
+        if d && i < order.len() {
+            order.push(order[i]);
+        }
+    }
+    order
+}
+
+/// A configuration as three letters, left top right: `O` the original, `N`
+/// the approximation (`OON`), as stored with each trial.
+pub fn letters(c: Configuration) -> String {
+    c.0.iter().map(|&s| if s == O { 'O' } else { 'N' }).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,6 +190,18 @@ mod tests {
         assert_eq!(trials, session_order(7, 3, 6).unwrap());
         assert!(session_order(7, 0, 6).unwrap_err().contains("1–16"));
         assert!(session_order(7, 2, 0).unwrap_err().contains("the study used 6"));
+    }
+
+    #[test]
+    fn a_trial_with_a_dropped_frame_is_shown_again_at_the_end() {
+        let planned = session_order(1, 1, 1).unwrap();
+        assert_eq!(shown_order(&planned, &[]), planned);
+        let order = shown_order(&planned, &[false, true, false, false, false, false, true]);
+        // Trial 1 dropped: repeated as trial 6; its repeat dropped again: trial 7.
+        assert_eq!(order.len(), 8);
+        assert_eq!(order[6], planned[1]);
+        assert_eq!(order[7], planned[1]);
+        assert_eq!(letters(CONFIGURATIONS[0]), "OON");
     }
 
     /// Every position of the odd piece is equally likely at each trial of
