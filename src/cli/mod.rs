@@ -5,6 +5,7 @@ mod analyze;
 mod calibrate;
 mod color;
 mod display_resolution;
+mod experiment;
 mod measure;
 mod mock_pr650;
 mod mock_pr655;
@@ -60,6 +61,9 @@ enum Command {
     /// At which frame-buffer depth a measured display shows two codings' renderings of a scene apart.
     #[command(name = "display-resolution")]
     DisplayResolution(display_resolution::DisplayResolutionArgs),
+    /// The study's oddity experiment: plan its trials, set one up on a display, analyse observers' answers.
+    #[command(subcommand)]
+    Experiment(experiment::ExperimentCommand),
     /// A render worker: claims the comparisons, renders and studies daemons (`serve --renders workers`) queue in the shared PostgreSQL database.
     Worker(worker::WorkerArgs),
 }
@@ -87,6 +91,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Illuminant(args) => calibrate::run_illuminant(args),
         Command::Stimulus(args) => stimulus::run(args),
         Command::DisplayResolution(args) => display_resolution::run(args),
+        Command::Experiment(cmd) => experiment::run(cmd),
     }
 }
 

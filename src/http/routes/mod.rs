@@ -11,6 +11,7 @@ mod booths;
 mod comparisons;
 mod credentials;
 mod display_profiles;
+mod experiments;
 mod health;
 mod illuminants;
 mod images;
@@ -28,6 +29,7 @@ pub use booths::*;
 pub use comparisons::*;
 pub use credentials::*;
 pub use display_profiles::*;
+pub use experiments::*;
 pub use health::*;
 pub use illuminants::*;
 pub use images::*;
@@ -100,4 +102,13 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(list_display_profiles, create_display_profile))
         .routes(routes!(get_display_profile))
         .routes(routes!(display_profile_chart))
+        .routes(routes!(list_experiments, create_experiment))
+        .routes(routes!(check_experiment))
+        .routes(routes!(get_experiment))
+        .routes(routes!(list_experiment_sessions, start_experiment_session))
+        .routes(routes!(get_experiment_session))
+        .routes(routes!(report_session_display))
+        .routes(routes!(record_experiment_trial))
+        .routes(routes!(experiment_analysis))
+        .routes(routes!(experiment_analysis_csv))
 }

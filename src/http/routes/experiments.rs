@@ -1,0 +1,164 @@
+//! `/api/experiments` and `/api/experiment-sessions`: the study's oddity
+//! experiment ([`crate::lab::experiments`]). An experiment is set up from a
+//! complete measurement and its comparisons and checked on its display
+//! profile when created (`POST /api/experiments/check` checks without
+//! storing); observers' sessions take their trials one by one as each ends
+//! (`POST /api/experiment-sessions/{id}/trials`), and the analysis gives
+//! percent correct and d′ per observer and approximation.
+
+use axum::extract::State;
+use axum::http::{header, StatusCode};
+use axum::response::IntoResponse;
+use axum::Json;
+use serde::Deserialize;
+use utoipa::ToSchema;
+
+use crate::display::output::ColourCheck;
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::input::{Input, Path};
+use crate::http::AppState;
+use crate::lab::experiments::analysis::{analysis_csv, Analysis};
+use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
+use crate::lab::experiments::{ExperimentRequest, Experiments};
+use crate::store::{ExperimentRow, ExperimentSessionRow};
+
+fn experiments(state: &AppState) -> Experiments {
+    Experiments::new(state.store.clone())
+}
+
+/// Every experiment, newest first.
+#[utoipa::path(get, path = "/experiments", tag = "experiments",
+    responses((status = 200, body = Vec<ExperimentRow>)))]
+pub async fn list_experiments(State(state): State<AppState>) -> Result<Json<Vec<ExperimentRow>>, ApiError> {
+    Ok(Json(state.store.list_experiments().await?))
+}
+
+/// Sets up an experiment: every colour through the display profile, the
+/// check stored with it (see `check`).
+#[utoipa::path(post, path = "/experiments", tag = "experiments", request_body = ExperimentRequest,
+    responses((status = 201, body = ExperimentRow), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn create_experiment(
+    State(state): State<AppState>,
+    Input(body): Input<ExperimentRequest>,
+) -> Result<(StatusCode, Json<ExperimentRow>), ApiError> {
+    Ok((StatusCode::CREATED, Json(experiments(&state).create(body).await?)))
+}
+
+/// What an experiment's display would show: per colour the codes at 8 bits
+/// and with the output method, out of gamut or not distinct, in words.
+/// Stores nothing.
+#[utoipa::path(post, path = "/experiments/check", tag = "experiments", request_body = ExperimentRequest,
+    responses((status = 200, body = ColourCheck), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn check_experiment(
+    State(state): State<AppState>,
+    Input(body): Input<ExperimentRequest>,
+) -> Result<Json<ColourCheck>, ApiError> {
+    Ok(Json(experiments(&state).check(&body).await?.1))
+}
+
+#[utoipa::path(get, path = "/experiments/{id}", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, body = ExperimentRow), (status = 404, body = ErrorBody)))]
+pub async fn get_experiment(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<ExperimentRow>, ApiError> {
+    Ok(Json(experiments(&state).get(id).await?))
+}
+
+/// An experiment's sessions, oldest first.
+#[utoipa::path(get, path = "/experiments/{id}/sessions", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, body = Vec<ExperimentSessionRow>), (status = 404, body = ErrorBody)))]
+pub async fn list_experiment_sessions(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<ExperimentSessionRow>>, ApiError> {
+    experiments(&state).get(id).await?;
+    Ok(Json(state.store.sessions_of_experiment(id).await?))
+}
+
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct NewExperimentSession {
+    /// The observer's id: 1–64 letters, digits, `.`, `_`, `-` (no names needed).
+    pub observer: String,
+}
+
+/// Starts a session of an observer, or resumes the observer's running one
+/// where it stopped.
+#[utoipa::path(post, path = "/experiments/{id}/sessions", tag = "experiments", params(("id" = i64, Path)),
+    request_body = NewExperimentSession,
+    responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn start_experiment_session(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<NewExperimentSession>,
+) -> Result<Json<SessionView>, ApiError> {
+    Ok(Json(experiments(&state).start_session(id, &body.observer).await?))
+}
+
+/// A session's state and the trial to show next.
+#[utoipa::path(get, path = "/experiment-sessions/{id}", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, body = SessionView), (status = 404, body = ErrorBody)))]
+pub async fn get_experiment_session(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<SessionView>, ApiError> {
+    Ok(Json(experiments(&state).view(id).await?))
+}
+
+/// The refresh the session page measured before its first trial.
+#[utoipa::path(post, path = "/experiment-sessions/{id}/display", tag = "experiments", params(("id" = i64, Path)),
+    request_body = DisplayReport,
+    responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn report_session_display(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<DisplayReport>,
+) -> Result<Json<SessionView>, ApiError> {
+    Ok(Json(experiments(&state).report_display(id, &body).await?))
+}
+
+/// Stores one trial as it ended; answers with the next.
+#[utoipa::path(post, path = "/experiment-sessions/{id}/trials", tag = "experiments", params(("id" = i64, Path)),
+    request_body = TrialReport,
+    responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn record_experiment_trial(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<TrialReport>,
+) -> Result<Json<SessionView>, ApiError> {
+    Ok(Json(experiments(&state).record_trial(id, &body).await?))
+}
+
+/// Percent correct and d′ (both oddity models) per observer and approximation.
+#[utoipa::path(get, path = "/experiments/{id}/analysis", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, body = Analysis), (status = 404, body = ErrorBody)))]
+pub async fn experiment_analysis(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<Analysis>, ApiError> {
+    Ok(Json(experiments(&state).analyze(id).await?))
+}
+
+/// The analysis as CSV, one row per observer and approximation.
+#[utoipa::path(get, path = "/experiments/{id}/analysis.csv", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "text/csv"), (status = 404, body = ErrorBody)))]
+pub async fn experiment_analysis_csv(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<impl IntoResponse, ApiError> {
+    let a = experiments(&state).analyze(id).await?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"experiment-{id}-analysis.csv\""),
+            ),
+        ],
+        analysis_csv(&a),
+    ))
+}
