@@ -158,6 +158,7 @@ macro_rules! mesh {
 mod axes;
 mod bars;
 mod chromaticity;
+mod discrimination;
 mod legend;
 mod lines;
 mod scatter;
@@ -169,6 +170,7 @@ mod tests;
 pub use axes::*;
 pub use bars::*;
 pub use chromaticity::*;
+pub use discrimination::*;
 use legend::*;
 pub use lines::*;
 pub use scatter::*;

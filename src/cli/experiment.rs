@@ -12,9 +12,9 @@ use lightbooth::lab::experiments::{ExperimentRequest, Experiments};
 use lightbooth::psychophysics::design::CONFIGURATIONS;
 use lightbooth::psychophysics::observer::SimulatedObserver;
 use lightbooth::psychophysics::oddity::OddityModel;
-use lightbooth::random::SplitMix64;
 use lightbooth::psychophysics::plan::trials_for_power;
 use lightbooth::psychophysics::presentation::Presentation;
+use lightbooth::random::SplitMix64;
 use lightbooth::store::Store;
 
 #[derive(Subcommand, Debug)]
@@ -68,7 +68,9 @@ fn simulated_power(model: OddityModel, trials: u32, critical: u32, d1: f64, sess
     let observer = SimulatedObserver::new(1.0, model).expect("unit noise is valid");
     let block: Vec<_> = (0..trials as usize).map(|i| CONFIGURATIONS[i % 6]).collect();
     let mut rng = SplitMix64(1);
-    let rejected = (0..sessions).filter(|_| observer.run_block(&block, d1, &mut rng) >= critical).count();
+    let rejected = (0..sessions)
+        .filter(|_| observer.run_block(&block, d1, &mut rng) >= critical)
+        .count();
     let p = rejected as f64 / f64::from(sessions.max(1));
     (p, (p * (1.0 - p) / f64::from(sessions.max(1))).sqrt())
 }
@@ -160,7 +162,11 @@ fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
 
 fn plan(a: PlanArgs) -> anyhow::Result<()> {
     if a.d1 <= a.d0 {
-        anyhow::bail!("--d1 {} must be larger than --d0 {}: the test detects a larger d′", a.d1, a.d0);
+        anyhow::bail!(
+            "--d1 {} must be larger than --d0 {}: the test detects a larger d′",
+            a.d1,
+            a.d0
+        );
     }
     let models: Vec<OddityModel> = match a.model {
         ModelArg::Differencing => vec![OddityModel::Differencing],
@@ -237,7 +243,10 @@ async fn create(a: CreateArgs) -> anyhow::Result<()> {
         seed: a.seed,
     };
     let e = Experiments::new(store).create(request).await?;
-    println!("experiment {} ({}), {} on {}/{}", e.id, e.name, e.output_method, e.scene, e.target);
+    println!(
+        "experiment {} ({}), {} on {}/{}",
+        e.id, e.name, e.output_method, e.scene, e.target
+    );
     if let Some(lines) = e.check["summary"].as_array() {
         for l in lines {
             println!("  {}", l.as_str().unwrap_or_default());
@@ -245,7 +254,11 @@ async fn create(a: CreateArgs) -> anyhow::Result<()> {
     }
     if let Some(cs) = e.check["approximations"].as_array() {
         for c in cs {
-            println!("  {}: {}", c["name"].as_str().unwrap_or_default(), c["verdict"].as_str().unwrap_or_default());
+            println!(
+                "  {}: {}",
+                c["name"].as_str().unwrap_or_default(),
+                c["verdict"].as_str().unwrap_or_default()
+            );
         }
     }
     println!("run it: open /experiment/{}/run on the stimulus display", e.id);

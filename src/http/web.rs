@@ -19,6 +19,12 @@ const STYLE: &str = include_str!("../../web/style.css");
 /// The display calibration page, opened full-screen on the stimulus monitor.
 const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
 const CALIBRATE_JS: &str = include_str!("../../web/calibrate.js");
+/// Experiments: set one up, its colours on the display, its results.
+const EXPERIMENT_HTML: &str = include_str!("../../web/experiment.html");
+const EXPERIMENT_JS: &str = include_str!("../../web/experiment.js");
+/// An experiment's session, full-screen on the stimulus display.
+const EXPERIMENT_RUN_HTML: &str = include_str!("../../web/experiment-run.html");
+const EXPERIMENT_RUN_JS: &str = include_str!("../../web/experiment-run.js");
 
 /// MATLAB examples, served under `/matlab/`.
 const MATLAB: [(&str, &str); 3] = [
@@ -59,6 +65,27 @@ pub fn router() -> Router<AppState> {
         .route(
             "/calibrate.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], CALIBRATE_JS) }),
+        )
+        .route("/experiment", get(|| async { Html(EXPERIMENT_HTML) }))
+        .route("/experiment/{id}", get(|| async { Html(EXPERIMENT_HTML) }))
+        .route("/experiment/{id}/run", get(|| async { Html(EXPERIMENT_RUN_HTML) }))
+        .route(
+            "/experiment.js",
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+                    EXPERIMENT_JS,
+                )
+            }),
+        )
+        .route(
+            "/experiment-run.js",
+            get(|| async {
+                (
+                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
+                    EXPERIMENT_RUN_JS,
+                )
+            }),
         )
         .route("/matlab/", get(matlab_index))
         .route("/matlab/{file}", get(matlab_file))

@@ -14,6 +14,7 @@ mod dashboard_off_loopback;
 mod dashboard_viewer;
 mod display_calibration_browser;
 mod display_profile_api;
+mod experiment;
 mod http_hardening;
 mod render_requests;
 mod service_api;

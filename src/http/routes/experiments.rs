@@ -15,11 +15,12 @@ use utoipa::ToSchema;
 
 use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
-use crate::http::input::{Input, Path};
+use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::experiments::analysis::{analysis_csv, Analysis};
+use crate::lab::experiments::analysis::{analysis_csv, figure, Analysis};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
 use crate::lab::experiments::{ExperimentRequest, Experiments};
+use crate::psychophysics::oddity::OddityModel;
 use crate::store::{ExperimentRow, ExperimentSessionRow};
 
 fn experiments(state: &AppState) -> Experiments {
@@ -62,7 +63,10 @@ pub async fn check_experiment(
 
 #[utoipa::path(get, path = "/experiments/{id}", tag = "experiments", params(("id" = i64, Path)),
     responses((status = 200, body = ExperimentRow), (status = 404, body = ErrorBody)))]
-pub async fn get_experiment(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<ExperimentRow>, ApiError> {
+pub async fn get_experiment(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<ExperimentRow>, ApiError> {
     Ok(Json(experiments(&state).get(id).await?))
 }
 
@@ -139,7 +143,10 @@ pub async fn record_experiment_trial(
 /// Percent correct and d′ (both oddity models) per observer and approximation.
 #[utoipa::path(get, path = "/experiments/{id}/analysis", tag = "experiments", params(("id" = i64, Path)),
     responses((status = 200, body = Analysis), (status = 404, body = ErrorBody)))]
-pub async fn experiment_analysis(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<Analysis>, ApiError> {
+pub async fn experiment_analysis(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Analysis>, ApiError> {
     Ok(Json(experiments(&state).analyze(id).await?))
 }
 
@@ -161,4 +168,49 @@ pub async fn experiment_analysis_csv(
         ],
         analysis_csv(&a),
     ))
+}
+
+#[derive(Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+pub struct FigureQuery {
+    /// Experiments (comma-separated ids, at most 24), one group of bars each.
+    pub ids: String,
+    /// `differencing` (default) or `independent-observation`.
+    pub model: Option<String>,
+}
+
+/// The study's Fig. 5 (right) for experiments: d′ bars per scene and
+/// approximation (observers pooled), percent correct on a second axis,
+/// chance marked.
+#[utoipa::path(get, path = "/experiments/figure.svg", tag = "experiments", params(FigureQuery),
+    responses((status = 200, content_type = "image/svg+xml"), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn experiments_figure(
+    State(state): State<AppState>,
+    Query(q): Query<FigureQuery>,
+) -> Result<impl IntoResponse, ApiError> {
+    let model = match q.model.as_deref() {
+        None | Some("differencing") => OddityModel::Differencing,
+        Some("independent-observation") => OddityModel::IndependentObservation,
+        Some(other) => {
+            return Err(ApiError::BadRequest(format!(
+                "query `model`: `{other}`; give differencing or independent-observation"
+            )))
+        }
+    };
+    let ids: Vec<i64> = q
+        .ids
+        .split(',')
+        .map(|s| s.trim().parse::<i64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| ApiError::BadRequest(format!("query `ids`: `{}` is not a list of experiment ids", q.ids)))?;
+    if ids.is_empty() || ids.len() > 24 {
+        return Err(ApiError::BadRequest("query `ids`: give 1–24 experiment ids".into()));
+    }
+    let x = experiments(&state);
+    let mut analyses = Vec::new();
+    for id in ids {
+        analyses.push(x.analyze(id).await?);
+    }
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], figure(&analyses, model)?))
 }

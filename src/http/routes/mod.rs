@@ -111,4 +111,5 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(record_experiment_trial))
         .routes(routes!(experiment_analysis))
         .routes(routes!(experiment_analysis_csv))
+        .routes(routes!(experiments_figure))
 }

@@ -184,3 +184,45 @@ pub fn analysis_csv(a: &Analysis) -> String {
     }
     out
 }
+
+/// The study's Fig. 5 (right) for experiments' analyses: per scene and
+/// approximation the pooled row (or the only observer's), d′ under `model`.
+pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabError> {
+    let mut bars = Vec::new();
+    for a in analyses {
+        let mut approximations: Vec<&str> = a.rows.iter().map(|r| r.approximation.as_str()).collect();
+        approximations.dedup();
+        for name in approximations {
+            let of: Vec<&ConditionResult> = a.rows.iter().filter(|r| r.approximation == name).collect();
+            let Some(r) = of.iter().find(|r| r.observer == ALL_OBSERVERS).or(of.first()) else {
+                continue;
+            };
+            let e = match model {
+                OddityModel::Differencing => &r.differencing,
+                OddityModel::IndependentObservation => &r.independent_observation,
+            };
+            bars.push(crate::charts::DiscriminationBar {
+                group: a.scene.clone(),
+                coding: name.to_string(),
+                d_prime: e.d_prime,
+                interval: e.d_prime_interval,
+                upper_bounded: e.upper_bounded,
+                percent_correct: 100.0 * e.proportion_correct,
+            });
+        }
+    }
+    let observers: Vec<&str> = analyses
+        .iter()
+        .flat_map(|a| a.observers.iter().map(String::as_str))
+        .collect();
+    let mut unique = observers.clone();
+    unique.sort();
+    unique.dedup();
+    let title = format!(
+        "Can observers tell? d′ and percent correct, {} observer{}, {:.0} % intervals",
+        unique.len(),
+        if unique.len() == 1 { "" } else { "s" },
+        CONFIDENCE * 100.0
+    );
+    crate::charts::discrimination_chart(&title, model.name(), &bars).map_err(LabError::Internal)
+}

@@ -1,0 +1,142 @@
+// Drives the experiment pages in Debian's headless Chromium against the
+// daemon with --mock, with a simulated observer at the keyboard: the setup
+// page checks the colours of the newest experiment's measurement, the
+// session page (WebGL2, noisy-bit dithering) runs every trial of one
+// session, answered with arrow keys by an observer of Gaussian noise σ in
+// ΔE00 (true d′ = ΔE00 shown / σ; the differencing rule: the odd piece is
+// the one outside the closest pair), then a second session with the CPU
+// throttled 4×, and the results page shows the table and the figure.
+// Fails on any console error, failed request or HTTP error; saves
+// screenshots.
+//
+// Usage: node experiment.mjs BASE_URL TOKEN SCREENSHOT_DIR
+import { chromium } from "playwright-core";
+
+const [base, token, shots] = process.argv.slice(2);
+if (!base || !token) {
+  console.error("usage: node experiment.mjs BASE_URL TOKEN [SCREENSHOT_DIR]");
+  process.exit(2);
+}
+const SIGMA = 0.5;
+
+// mulberry32: a small seeded generator, so the observer's answers repeat.
+function generator(seed) {
+  let a = seed >>> 0;
+  return () => {
+    a = (a + 0x6D2B79F5) >>> 0;
+    let t = a;
+    t = Math.imul(t ^ (t >>> 15), t | 1);
+    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+  };
+}
+function normal(u) {
+  return Math.sqrt(-2 * Math.log(u() + 1e-12)) * Math.cos(2 * Math.PI * u());
+}
+// The differencing observer: three noisy percepts; the odd one is outside the closest pair.
+function answer(configuration, dPrime, u) {
+  const seen = [...configuration].map((s) => (s === "N" ? dPrime : 0) + normal(u));
+  const gap = (i) => Math.abs(seen[(i + 1) % 3] - seen[(i + 2) % 3]);
+  let best = 0;
+  for (let i = 1; i < 3; i++) if (gap(i) < gap(best)) best = i;
+  return best;
+}
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  headless: true,
+  // WebGL2 through SwiftShader (no GPU on the test machine).
+  args: ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync"],
+});
+const failures = [];
+const auth = { "Authorization": "Bearer " + token };
+async function apiGet(path) {
+  const r = await fetch(base + path, { headers: auth });
+  if (!r.ok) throw new Error(`GET ${path}: HTTP ${r.status}`);
+  return r.json();
+}
+
+async function runSession(page, experiment, observer, seed, shotName) {
+  const u = generator(seed);
+  await page.goto(`${base}/experiment/${experiment.id}/run?observer=${observer}#token=${token}`);
+  await page.waitForFunction(() => !/loading/.test(document.getElementById("title").textContent), null, { timeout: 10000 });
+  await page.click("#start");
+  await page.waitForFunction(() => document.body.dataset.state === "trials" || document.body.dataset.state === "complete", null, { timeout: 60000 });
+  const colours = new Map(experiment.check.approximations.map((c) => [c.name, c.delta_e00_shown]));
+  let shot = false;
+  for (;;) {
+    const state = await page.evaluate(() => document.body.dataset.state);
+    if (state !== "trials") break;
+    const position = Number(await page.evaluate(() => document.body.dataset.trial));
+    const sessions = await apiGet(`/api/experiments/${experiment.id}/sessions`);
+    const session = sessions.filter((s) => s.observer_id === observer).pop();
+    const view = await apiGet(`/api/experiment-sessions/${session.id}`);
+    if (!view.next || view.next.position !== position) {
+      await page.waitForTimeout(20);
+      continue;
+    }
+    // Wait for the pie (keys before it are ignored), then answer.
+    await page.waitForFunction(() => document.body.dataset.phase === "pie", null, { timeout: 20000, polling: "raf" });
+    if (!shot && shots && shotName) {
+      await page.screenshot({ path: `${shots}/${shotName}` });
+      shot = true;
+    }
+    const key = ["ArrowLeft", "ArrowUp", "ArrowRight"][answer(view.next.configuration, colours.get(view.next.approximation) / SIGMA, u)];
+    await page.keyboard.press(key);
+    await page.waitForFunction((p) => document.body.dataset.trial !== String(p) || document.body.dataset.state !== "trials",
+      position, { timeout: 20000 });
+  }
+  const status = await page.textContent("#status");
+  if (!/session complete/.test(status)) failures.push(`${observer}: the session did not complete: ${status}`);
+}
+
+try {
+  const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
+  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
+  page.on("pageerror", (e) => failures.push("page error: " + e.message));
+  page.on("requestfailed", (r) => {
+    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
+  });
+  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+
+  const [experiment] = await apiGet("/api/experiments");
+  if (!experiment) throw new Error("the test made no experiment");
+
+  // The setup page: the list, and the check of the colours.
+  await page.goto(`${base}/experiment#token=${token}`);
+  await page.waitForFunction(() => document.querySelector("#approximations input"), null, { timeout: 20000 });
+  await page.click("#check-button");
+  await page.waitForSelector("#check-table", { timeout: 20000 });
+  const checkText = await page.textContent("#check");
+  for (const want of ["noisy-bit dithering", "distinct at 8 bits", "8-bit codes"]) {
+    if (!checkText.includes(want)) failures.push(`the setup page's check lacks "${want}"`);
+  }
+  if (shots) await page.screenshot({ path: `${shots}/experiment-setup.png`, fullPage: true });
+
+  // One session at full speed, one with the CPU throttled.
+  await runSession(page, experiment, "sim1", 1, "experiment-session-pie.png");
+  const cdp = await page.context().newCDPSession(page);
+  await cdp.send("Emulation.setCPUThrottlingRate", { rate: 4 });
+  await runSession(page, experiment, "sim2", 2, null);
+  await cdp.send("Emulation.setCPUThrottlingRate", { rate: 1 });
+
+  // The results page.
+  await page.goto(`${base}/experiment/${experiment.id}#token=${token}`);
+  await page.waitForFunction(() => document.querySelector("#figure img")?.complete && document.querySelector("#figure img").naturalWidth > 0,
+    null, { timeout: 20000 });
+  const results = await page.textContent("#analysis");
+  for (const want of ["sim1", "sim2", "d′ differencing", "independent observation"]) {
+    if (!results.includes(want)) failures.push(`the results page lacks "${want}"`);
+  }
+  if (shots) await page.screenshot({ path: `${shots}/experiment-results.png`, fullPage: true });
+} catch (e) {
+  failures.push("error: " + e.message);
+} finally {
+  await browser.close();
+}
+if (failures.length) {
+  console.error(failures.join("\n"));
+  process.exit(1);
+}
+console.log("experiment pages: ok");

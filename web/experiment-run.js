@@ -1,0 +1,404 @@
+// The session page of an oddity experiment (/experiment/ID/run), shown
+// full-screen on the calibrated stimulus display.
+//
+// Before the first trial it measures the display's refresh (the median
+// requestAnimationFrame interval with nothing else drawn) and turns every
+// duration into whole frames. Each frame is drawn with WebGL2: the pie, in
+// linear RGB, is a 32-bit float texture; the fragment shader applies the
+// display profile's inverse (drive = linear^(1/γ) per gun) to every pixel
+// and then the output method: rounding to 8 bits, noisy-bit dithering
+// (Allard & Faubert 2008: each pixel and frame shows the upper of the two
+// 8-bit codes around the fractional code with probability equal to its
+// fraction) or 10 bits into a float16 drawing buffer. Stimuli change only
+// inside the animation callback; every frame interval is logged, an
+// interval over 1.5 frames is a dropped frame, and keys are timed with the
+// event's own timeStamp. Every trial is posted as it ends; the daemon says
+// which trial comes next, so a reload resumes where the session stopped.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+
+(function takeTokenFromUrl() {
+  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
+  if (m) {
+    localStorage.setItem("lightbooth-token", m[1]);
+    history.replaceState(null, "", location.pathname);
+  }
+})();
+const token = () => localStorage.getItem("lightbooth-token") || "";
+
+async function api(path, options = {}) {
+  const headers = { "Accept": "application/json" };
+  if (options.body !== undefined) headers["Content-Type"] = "application/json";
+  if (token()) headers["Authorization"] = "Bearer " + token();
+  const r = await fetch(path, Object.assign({}, options, { headers }));
+  const body = r.status === 204 ? null : await r.json().catch(() => null);
+  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
+  return body;
+}
+
+const experimentId = Number(location.pathname.split("/")[2]);
+const KEYS = { ArrowLeft: 0, ArrowUp: 1, ArrowRight: 2 };
+const METHOD = { "8bit": 0, "noisy_bit": 1, "10bit": 2 };
+// An interval longer than this many frames is a dropped frame.
+const DROPPED = 1.5;
+
+let experiment = null;
+let view = null;
+let frameMs = null;
+let stopRequested = false;
+
+function notice(text) {
+  $("notice").textContent = text;
+  $("notice").hidden = !text;
+}
+
+function fact(name, value) {
+  const dt = document.createElement("dt");
+  dt.textContent = name;
+  const dd = document.createElement("dd");
+  dd.textContent = value;
+  $("facts").append(dt, dd);
+}
+
+const frames = (ms) => (ms <= 0 ? 0 : Math.max(1, Math.round(ms / frameMs)));
+
+// ---- WebGL2 ------------------------------------------------------------
+
+const VERTEX = `#version 300 es
+in vec2 position;
+void main() { gl_Position = vec4(position, 0.0, 1.0); }`;
+
+const FRAGMENT = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D pie;        // linear RGB of the pie's square, RGBA32F
+uniform ivec2 pieOrigin;      // its lower-left pixel on the canvas
+uniform ivec2 pieSize;
+uniform bool showPie;
+uniform bool showCross;
+uniform ivec2 centre;
+uniform int crossArm;
+uniform int crossHalfWidth;
+uniform vec3 background;      // linear RGB
+uniform vec3 inverseGamma;    // 1/γ of red, green, blue
+uniform int method;           // 0 8 bit, 1 noisy-bit, 2 10 bit
+uniform uint frameSeed;
+out vec4 colour;
+
+// A 32-bit integer hash (PCG's output permutation): a fresh uniform number
+// per pixel, channel and frame.
+uint hash(uint v) {
+  uint state = v * 747796405u + 2891336453u;
+  uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+  return (word >> 22u) ^ word;
+}
+float uniform01(uint v) { return (float(hash(v) >> 8u) + 0.5) / 16777216.0; }
+
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec3 linear = background;
+  if (showPie) {
+    ivec2 q = p - pieOrigin;
+    if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, pieSize))) linear = texelFetch(pie, q, 0).rgb;
+  } else if (showCross) {
+    ivec2 d = abs(p - centre);
+    if ((d.x <= crossArm && d.y <= crossHalfWidth) || (d.y <= crossArm && d.x <= crossHalfWidth)) linear = vec3(0.0);
+  }
+  vec3 drive = pow(clamp(linear, 0.0, 1.0), inverseGamma);
+  vec3 shown;
+  if (method == 1) {
+    vec3 code = drive * 255.0;
+    vec3 low = min(floor(code), vec3(254.0));
+    vec3 fraction = code - low;
+    uint pixel = hash(uint(p.x) ^ hash(uint(p.y) ^ hash(frameSeed)));
+    vec3 r = vec3(uniform01(pixel), uniform01(pixel ^ 0x9E3779B9u), uniform01(pixel ^ 0x7F4A7C15u));
+    shown = (low + vec3(lessThan(r, fraction))) / 255.0;
+  } else if (method == 2) {
+    shown = floor(drive * 1023.0 + 0.5) / 1023.0;
+  } else {
+    shown = floor(drive * 255.0 + 0.5) / 255.0;
+  }
+  colour = vec4(shown, 1.0);
+}`;
+
+const screen = { canvas: null, gl: null, program: null, texture: null, u: {}, outputPath: "" };
+
+function compile(gl, type, source) {
+  const s = gl.createShader(type);
+  gl.shaderSource(s, source);
+  gl.compileShader(s);
+  if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error("shader: " + gl.getShaderInfoLog(s));
+  return s;
+}
+
+function setUpScreen() {
+  const canvas = $("screen");
+  const dpr = window.devicePixelRatio || 1;
+  canvas.width = Math.round(innerWidth * dpr);
+  canvas.height = Math.round(innerHeight * dpr);
+  const gl = canvas.getContext("webgl2", { antialias: false, alpha: false, depth: false, desynchronized: false, preserveDrawingBuffer: true });
+  if (!gl) throw new Error("this browser has no WebGL2: the session needs it to draw the stimuli with more than 8 bits");
+  let path = "WebGL2, 8-bit canvas";
+  if (view.output === "10bit") {
+    if (typeof gl.drawingBufferStorage !== "function") {
+      throw new Error("10-bit output: this browser offers no float drawing buffer (drawingBufferStorage); use noisy_bit");
+    }
+    gl.drawingBufferStorage(gl.RGBA16F, canvas.width, canvas.height);
+    path = "WebGL2, float16 drawing buffer (10-bit codes; whether the display shows 10 bits is not visible to the page: verify with the spectroradiometer)";
+  }
+  const program = gl.createProgram();
+  gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX));
+  gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT));
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error("shader program: " + gl.getProgramInfoLog(program));
+  gl.useProgram(program);
+  const buffer = gl.createBuffer();
+  gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
+  const loc = gl.getAttribLocation(program, "position");
+  gl.enableVertexAttribArray(loc);
+  gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
+  const texture = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D, texture);
+  for (const [k, v] of [[gl.TEXTURE_MIN_FILTER, gl.NEAREST], [gl.TEXTURE_MAG_FILTER, gl.NEAREST],
+    [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(gl.TEXTURE_2D, k, v);
+  for (const name of ["pie", "pieOrigin", "pieSize", "showPie", "showCross", "centre", "crossArm", "crossHalfWidth",
+    "background", "inverseGamma", "method", "frameSeed"]) screen.u[name] = gl.getUniformLocation(program, name);
+  gl.viewport(0, 0, canvas.width, canvas.height);
+  gl.uniform1i(screen.u.pie, 0);
+  gl.uniform3fv(screen.u.background, view.background.linear);
+  gl.uniform3fv(screen.u.inverseGamma, view.gammas.map((g) => 1 / g));
+  gl.uniform1i(screen.u.method, METHOD[view.output]);
+  const cx = Math.floor(canvas.width / 2), cy = Math.floor(canvas.height / 2);
+  gl.uniform2i(screen.u.centre, cx, cy);
+  // The cross: arms of 0.3° of the pie's 5.7° scale, two pixels wide at least.
+  const diameter = pieDiameterPx();
+  gl.uniform1i(screen.u.crossArm, Math.max(4, Math.round(diameter * 0.3 / view.presentation.pie_diameter_deg)));
+  gl.uniform1i(screen.u.crossHalfWidth, Math.max(1, Math.round(diameter / 200)));
+  Object.assign(screen, { canvas, gl, program, texture, outputPath: path, cx, cy });
+}
+
+function pieDiameterPx() {
+  const p = view.presentation;
+  return 2 * p.viewing_distance_mm * Math.tan((p.pie_diameter_deg * Math.PI / 180) / 2) / p.pixel_pitch_mm;
+}
+
+// The pie of one trial as a float texture: three 120° pieces (left, top,
+// right) with a thin gap of background between them.
+function uploadPie(configuration, approximationIndex) {
+  const { gl } = screen;
+  const d = pieDiameterPx();
+  const size = Math.ceil(d) + 2;
+  const r = d / 2, c = size / 2, gap = Math.max(2, d * 0.02) / 2;
+  const colours = { O: view.original.linear, N: view.approximations[approximationIndex].linear };
+  const bg = view.background.linear;
+  // Pieces centred at 210° (left), 90° (top), 330° (right); boundaries at 30°, 150°, 270°.
+  const bounds = [30, 150, 270].map((a) => [Math.cos(a * Math.PI / 180), Math.sin(a * Math.PI / 180)]);
+  const data = new Float32Array(size * size * 4);
+  for (let j = 0; j < size; j++) {
+    for (let i = 0; i < size; i++) {
+      const x = i + 0.5 - c, y = j + 0.5 - c; // y up: texture row 0 is the bottom
+      let rgb = bg;
+      if (Math.hypot(x, y) <= r) {
+        const nearBoundary = bounds.some(([bx, by]) => x * bx + y * by > 0 && Math.abs(x * by - y * bx) < gap);
+        if (!nearBoundary) {
+          const angle = (Math.atan2(y, x) * 180 / Math.PI + 360) % 360;
+          const piece = angle >= 30 && angle < 150 ? 1 : angle >= 150 && angle < 270 ? 0 : 2;
+          rgb = colours[configuration[piece]];
+        }
+      }
+      data.set([rgb[0], rgb[1], rgb[2], 1], (j * size + i) * 4);
+    }
+  }
+  gl.bindTexture(gl.TEXTURE_2D, screen.texture);
+  gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, size, size, 0, gl.RGBA, gl.FLOAT, data);
+  gl.uniform2i(screen.u.pieOrigin, screen.cx - Math.floor(size / 2), screen.cy - Math.floor(size / 2));
+  gl.uniform2i(screen.u.pieSize, size, size);
+}
+
+let frameCounter = 0;
+function draw(showPie, showCross) {
+  const { gl } = screen;
+  gl.uniform1i(screen.u.showPie, showPie ? 1 : 0);
+  gl.uniform1i(screen.u.showCross, showCross ? 1 : 0);
+  gl.uniform1ui(screen.u.frameSeed, (frameCounter++ * 2654435761) >>> 0);
+  gl.drawArrays(gl.TRIANGLES, 0, 3);
+}
+
+// ---- timing ------------------------------------------------------------
+
+// The median of 120 frame intervals with nothing else drawn.
+function measureRefresh() {
+  return new Promise((resolve) => {
+    const times = [];
+    const tick = (t) => {
+      times.push(t);
+      if (times.length < 121) requestAnimationFrame(tick);
+      else {
+        const d = times.slice(1).map((t2, i) => t2 - times[i]).sort((a, b) => a - b);
+        resolve(d[Math.floor(d.length / 2)]);
+      }
+    };
+    requestAnimationFrame(tick);
+  });
+}
+
+// The background alone for the adaptation time, with the cross.
+function adapt(seconds) {
+  return new Promise((resolve) => {
+    const n = frames(seconds * 1000);
+    let i = 0;
+    const tick = () => {
+      draw(false, true);
+      if (++i >= n) resolve();
+      else requestAnimationFrame(tick);
+    };
+    requestAnimationFrame(tick);
+  });
+}
+
+// One trial: the cross for the fixation frames, the pie for the stimulus
+// frames, then the cross until a key. Resolves with what happened.
+function runTrial(next) {
+  uploadPie(next.configuration, next.approximation_index);
+  const fixation = frames(view.presentation.fixation_ms);
+  const stimulus = frames(view.presentation.stimulus_ms);
+  return new Promise((resolve) => {
+    let frame = 0, last = null, previousPie = false;
+    let onsetCallback = false, onset = null, shown = 0, dropped = 0, droppedInStimulus = false, response = null;
+    const intervals = [];
+    const onKey = (e) => {
+      if (!(e.key in KEYS)) return;
+      e.preventDefault();
+      if (onset === null && !onsetCallback) return; // before the pie: ignored
+      if (response === null) response = { key: KEYS[e.key], at: e.timeStamp };
+    };
+    addEventListener("keydown", onKey);
+    const tick = (now) => {
+      if (last !== null) {
+        const dt = now - last;
+        intervals.push(Math.round(dt * 1000) / 1000);
+        if (dt > DROPPED * frameMs) {
+          dropped++;
+          if (previousPie) droppedInStimulus = true;
+        }
+      }
+      last = now;
+      // The callback after the pie's first draw runs when that frame reached the screen.
+      if (onsetCallback && onset === null) onset = now;
+      const pie = frame >= fixation && frame < fixation + stimulus;
+      if (pie && shown === 0) onsetCallback = true;
+      if (pie !== previousPie || frame === 0) document.body.dataset.phase = pie ? "pie" : "cross";
+      draw(pie, !pie);
+      if (pie) shown++;
+      previousPie = pie;
+      frame++;
+      if (response !== null && frame > fixation + stimulus && onset !== null) {
+        removeEventListener("keydown", onKey);
+        resolve({
+          response: response.key,
+          reaction_ms: Math.max(0, response.at - onset),
+          stimulus_frames: shown,
+          dropped_frames: dropped,
+          dropped_in_stimulus: droppedInStimulus,
+          frame_intervals_ms: intervals,
+        });
+      } else {
+        requestAnimationFrame(tick);
+      }
+    };
+    requestAnimationFrame(tick);
+  });
+}
+
+// ---- the session -------------------------------------------------------
+
+function describe() {
+  $("facts").replaceChildren();
+  const p = view.presentation;
+  const hz = frameMs ? 1000 / frameMs : null;
+  fact("observer", view.session.observer_id);
+  fact("trials", `${view.trials_recorded} of ${view.trials_total} recorded` + (view.repeats ? ` (${view.repeats} repeated after a dropped frame)` : ""));
+  fact("pie", `${p.pie_diameter_deg}° = ${pieDiameterPx().toFixed(0)} px at ${p.viewing_distance_mm} mm and ${p.pixel_pitch_mm} mm per pixel (as stated in the experiment)`);
+  if (hz) {
+    fact("display", `${hz.toFixed(2)} Hz (median frame ${frameMs.toFixed(3)} ms, measured)`);
+    fact("timeline", `cross ${frames(p.fixation_ms)} frames (${(frames(p.fixation_ms) * frameMs).toFixed(0)} ms), ` +
+      `pie ${frames(p.stimulus_ms)} frames (${(frames(p.stimulus_ms) * frameMs).toFixed(0)} ms), then the cross until a key`);
+  } else {
+    fact("timeline", `cross ${p.fixation_ms} ms, pie ${p.stimulus_ms} ms, then the cross until a key; adaptation ${p.adaptation_s} s`);
+  }
+  fact("output", outputWords(hz));
+}
+
+// The method and its effective resolution for one pie piece over the pie's frames.
+function outputWords(hz) {
+  if (view.output === "8bit") return "8 bits per gun, each colour rounded to its nearest code";
+  if (view.output === "10bit") return "10 bits per gun (float16 drawing buffer)";
+  const r = pieDiameterPx() / 2;
+  const n = Math.PI * r * r / 3 * (hz ? frames(view.presentation.stimulus_ms) : 18);
+  const step = 3 * Math.SQRT2 * 0.5 / Math.sqrt(n);
+  return `noisy-bit dithering of 8-bit codes (Allard & Faubert 2008): the mean of a piece over the pie's frames ` +
+    `resolves ${step.toFixed(4)} of a code, about ${(8 + Math.log2(1 / step)).toFixed(1)} bits`;
+}
+
+async function load() {
+  try {
+    experiment = await api(`/api/experiments/${experimentId}`);
+    $("title").textContent = `${experiment.name} (${experiment.scene}/${experiment.target}), ${experiment.output_method}`;
+    const observer = new URLSearchParams(location.search).get("observer");
+    if (observer) $("observer").value = observer;
+    $("status").textContent = (experiment.check.summary || []).join("; ");
+  } catch (e) {
+    notice(e.message);
+  }
+}
+
+async function start() {
+  notice("");
+  try {
+    view = await api(`/api/experiments/${experimentId}/sessions`, {
+      method: "POST", body: JSON.stringify({ observer: $("observer").value.trim() }),
+    });
+    if (!view.next) {
+      describe();
+      $("status").textContent = "this observer's session is complete";
+      return;
+    }
+    try { await document.documentElement.requestFullscreen(); } catch (_) { /* a headless or embedded page stays windowed */ }
+    document.body.classList.add("running");
+    setUpScreen();
+    frameMs = await measureRefresh();
+    view = await api(`/api/experiment-sessions/${view.session.id}/display`, {
+      method: "POST", body: JSON.stringify({ frame_ms: frameMs, client: `${navigator.userAgent}; ${screen.outputPath}` }),
+    });
+    describe();
+    document.body.dataset.state = "adapting";
+    await adapt(view.presentation.adaptation_s);
+    document.body.dataset.state = "trials";
+    while (view.next && !stopRequested) {
+      document.body.dataset.trial = String(view.next.position);
+      const result = await runTrial(view.next);
+      view = await api(`/api/experiment-sessions/${view.session.id}/trials`, {
+        method: "POST", body: JSON.stringify(Object.assign({ position: view.next.position }, result)),
+      });
+    }
+  } catch (e) {
+    notice(e.message + " — the trials recorded are kept; press start to resume");
+  }
+  document.body.classList.remove("running");
+  if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
+  if (view) {
+    describe();
+    document.body.dataset.state = view.next ? "paused" : "complete";
+    $("status").textContent = view.next
+      ? `paused after trial ${view.trials_recorded}; press start to resume`
+      : `session complete: ${view.trials_recorded} trials. Thank you!`;
+  }
+  stopRequested = false;
+}
+
+addEventListener("keydown", (e) => { if (e.key === "Escape") stopRequested = true; });
+$("start").addEventListener("click", start);
+load();

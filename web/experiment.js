@@ -1,0 +1,271 @@
+// Experiments (/experiment, /experiment/ID): set one up from a complete
+// measurement and its comparisons, see every colour on the display (codes
+// at 8 bits and with the output method, out of gamut, not distinct) before
+// anyone is run, follow its sessions, and read the results (percent
+// correct, d′ under both models, the study's Fig. 5 right).
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+
+(function takeTokenFromUrl() {
+  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
+  if (m) {
+    localStorage.setItem("lightbooth-token", m[1]);
+    history.replaceState(null, "", location.pathname);
+  }
+})();
+const token = () => localStorage.getItem("lightbooth-token") || "";
+// Chart <img>s off loopback read with the daemon's read-only cookie (see app.js).
+const readCredential = token()
+  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } }).catch(() => {})
+  : Promise.resolve();
+
+async function api(path, options = {}) {
+  const headers = { "Accept": "application/json" };
+  if (options.body !== undefined) headers["Content-Type"] = "application/json";
+  if (token()) headers["Authorization"] = "Bearer " + token();
+  const r = await fetch(path, Object.assign({}, options, { headers }));
+  const body = r.status === 204 ? null : await r.json().catch(() => null);
+  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
+  return body;
+}
+
+function notice(text) {
+  $("notice").textContent = text;
+  $("notice").hidden = !text;
+}
+
+function el(tag, text, cls) {
+  const e = document.createElement(tag);
+  if (text !== undefined) e.textContent = text;
+  if (cls) e.className = cls;
+  return e;
+}
+
+function row(cells) {
+  const tr = el("tr");
+  for (const c of cells) {
+    if (c instanceof Node) {
+      const td = el("td");
+      td.append(c);
+      tr.append(td);
+    } else if (c && typeof c === "object") {
+      tr.append(el("td", c.text, c.cls));
+    } else {
+      tr.append(el("td", c === undefined || c === null ? "" : String(c)));
+    }
+  }
+  return tr;
+}
+
+const when = (t) => new Date(t * 1000).toLocaleString();
+const codes = (c) => `(${c.join(", ")})`;
+const yesNo = (v) => ({ text: v ? "yes" : "no", cls: v ? "yes" : "no" });
+
+// ---- the check: every colour on the display ------------------------------
+
+function checkView(check) {
+  const box = el("div");
+  const r = check.resolution;
+  box.append(el("p", `Output: ${r.how} (${r.effective_bits.toFixed(1)} effective bits per gun).`, "hint"));
+  const ul = el("ul", undefined, "summary");
+  for (const line of check.summary) ul.append(el("li", line));
+  box.append(ul);
+  const table = el("table");
+  table.id = "check-table";
+  const head = el("tr");
+  for (const h of ["colour", "8-bit codes", "fractional codes", "ΔE00 intended", "ΔE00 shown",
+    "distinct at 8 bits", `distinct (${r.method})`, "what the display does"]) head.append(el("th", h));
+  table.append(el("thead"));
+  table.tHead.append(head);
+  const body = el("tbody");
+  const o = check.original;
+  body.append(row([o.name, codes(o.codes_8bit), o.fractional_code.map((v) => v.toFixed(3)).join(", "), "", "", "", "", o.verdict]));
+  for (const c of check.approximations) {
+    body.append(row([c.name, codes(c.codes_8bit), c.fractional_code.map((v) => v.toFixed(3)).join(", "),
+      c.delta_e00_intended.toFixed(3), c.delta_e00_shown.toFixed(3), yesNo(c.distinct_at_8bit), yesNo(c.distinct), c.verdict]));
+  }
+  const b = check.background;
+  body.append(row([b.name, codes(b.codes_8bit), b.fractional_code.map((v) => v.toFixed(3)).join(", "), "", "", "", "", b.verdict]));
+  table.append(body);
+  box.append(table);
+  box.append(el("p", "ΔE00 relative to the display's white, in the display profile's observer.", "hint"));
+  return box;
+}
+
+// ---- setting one up -------------------------------------------------------
+
+let comparisonsByMeasurement = new Map();
+
+async function loadSetup() {
+  const [list, profiles, measurements] = await Promise.all([
+    api("/api/experiments"),
+    api("/api/display-profiles"),
+    api("/api/measurements?state=complete&limit=200"),
+  ]);
+  const tbody = $("experiment-table").tBodies[0];
+  tbody.replaceChildren();
+  for (const e of list) {
+    const tr = row([e.id, e.name, `${e.scene}/${e.target}`, e.output_method, e.request.approximations.join(", "),
+      (e.check.testable || []).join(", ") || "none", when(e.created_at)]);
+    tr.addEventListener("click", () => { location.href = `/experiment/${e.id}`; });
+    tbody.append(tr);
+  }
+  if (!list.length) tbody.append(row(["", "no experiments yet", "", "", "", "", ""]));
+  $("profile").replaceChildren(...profiles.map((p) => {
+    const o = el("option", `${p.id}: ${p.name} (${p.profile.observer}, ${when(p.created_at)})`);
+    o.value = p.id;
+    return o;
+  }));
+  if (!profiles.length) $("profile").append(el("option", "no display profile: calibrate the display first (/calibrate)"));
+  const items = (measurements.items || measurements).filter((m) => m.scene && m.target);
+  $("measurement").replaceChildren(...items.map((m) => {
+    const o = el("option", `${m.id}: ${m.scene}/${m.target}, ${m.booth}, ${when(m.created_at)}`);
+    o.value = m.id;
+    return o;
+  }));
+  if (!items.length) $("measurement").append(el("option", "no complete measurement of a scene target yet"));
+  await loadCodings();
+}
+
+async function loadCodings() {
+  const id = Number($("measurement").value);
+  const box = $("approximations");
+  if (!id) return;
+  let rows = comparisonsByMeasurement.get(id);
+  if (!rows) {
+    rows = await api(`/api/measurements/${id}/comparisons`);
+    comparisonsByMeasurement.set(id, rows);
+  }
+  const codings = [...new Set(rows.map((r) => r.coding))];
+  box.replaceChildren();
+  if (!codings.length) {
+    box.textContent = "this measurement has no comparisons yet";
+    return;
+  }
+  box.append(el("span", "approximations: "));
+  for (const c of codings) {
+    const label = el("label");
+    const input = el("input");
+    input.type = "checkbox";
+    input.value = c;
+    input.checked = /^nstep(3|9|27|81)$|^s?rgb$/.test(c);
+    label.append(input, " " + c);
+    box.append(label);
+  }
+  const original = $("original");
+  original.replaceChildren(original.options[0]);
+  for (const c of codings) {
+    const o = el("option", `the ${c} rendering`);
+    o.value = c;
+    original.append(o);
+  }
+}
+
+function request() {
+  const number = (id) => Number($(id).value);
+  return {
+    name: $("name").value.trim(),
+    measurement_id: number("measurement"),
+    original: $("original").value,
+    approximations: [...$("approximations").querySelectorAll("input:checked")].map((i) => i.value)
+      .filter((c) => c !== $("original").value),
+    display_profile_id: number("profile"),
+    output: $("output").value,
+    gamut: $("gamut").value,
+    presentation: {
+      pie_diameter_deg: number("pie_diameter_deg"), viewing_distance_mm: number("viewing_distance_mm"),
+      pixel_pitch_mm: number("pixel_pitch_mm"), fixation_ms: number("fixation_ms"), stimulus_ms: number("stimulus_ms"),
+      adaptation_s: number("adaptation_s"), repeats: number("repeats"),
+    },
+  };
+}
+
+async function check() {
+  notice("");
+  try {
+    const c = await api("/api/experiments/check", { method: "POST", body: JSON.stringify(request()) });
+    $("check").replaceChildren(el("h3", "The colours on the display"), checkView(c));
+  } catch (e) {
+    notice(e.message);
+  }
+}
+
+async function create(ev) {
+  ev.preventDefault();
+  notice("");
+  try {
+    const e = await api("/api/experiments", { method: "POST", body: JSON.stringify(request()) });
+    location.href = `/experiment/${e.id}`;
+  } catch (e) {
+    notice(e.message);
+  }
+}
+
+// ---- one experiment ----------------------------------------------------------
+
+async function loadDetail(id) {
+  $("list-view").hidden = true;
+  $("detail-view").hidden = false;
+  const [e, sessions, analysis] = await Promise.all([
+    api(`/api/experiments/${id}`),
+    api(`/api/experiments/${id}/sessions`),
+    api(`/api/experiments/${id}/analysis`),
+  ]);
+  $("detail-title").textContent = `Experiment ${e.id}: ${e.name}`;
+  const p = e.request.presentation;
+  $("detail-facts").textContent = `${e.scene}/${e.target} in booth ${e.booth}; original: ${e.request.original} ` +
+    `(measurement ${e.measurement_id}); display profile ${e.display_profile_id}; ${e.output_method}; ` +
+    `pie ${p.pie_diameter_deg}° for ${p.stimulus_ms} ms after a ${p.fixation_ms} ms cross, ${p.repeats} repeats of ` +
+    `6 configurations per approximation, ${p.adaptation_s} s adaptation; seed ${e.seed}.`;
+  $("run-link").href = `/experiment/${e.id}/run`;
+  $("detail-check").replaceChildren(checkView(e.check));
+  const tbody = $("session-table").tBodies[0];
+  tbody.replaceChildren();
+  for (const s of sessions) {
+    const done = analysis.rows.filter((r) => r.observer === s.observer_id).reduce((n, r) => n + r.trials + r.excluded, 0);
+    tbody.append(row([s.id, s.observer_id, s.state, done,
+      s.frame_ms ? `${(1000 / s.frame_ms).toFixed(2)} Hz` : "not measured yet", when(s.created_at)]));
+  }
+  if (!sessions.length) tbody.append(row(["", "no sessions yet", "", "", "", ""]));
+  const box = $("analysis");
+  box.replaceChildren();
+  if (!analysis.rows.length) {
+    box.append(el("p", "No trials yet.", "hint"));
+    $("figure").replaceChildren();
+    return;
+  }
+  const table = el("table");
+  const head = el("tr");
+  for (const h of ["observer", "approximation", "correct", "% correct [95 %]", "d′ differencing [95 %]",
+    "d′ independent observation [95 %]", "ΔE00 shown", "not counted"]) head.append(el("th", h));
+  table.append(el("thead"));
+  table.tHead.append(head);
+  const body = el("tbody");
+  const dp = (x) => `${x.d_prime.toFixed(2)} [${x.d_prime_interval[0].toFixed(2)}, ${x.upper_bounded ? x.d_prime_interval[1].toFixed(2) : "no bound"}]` + (x.rule ? " *" : "");
+  for (const r of analysis.rows) {
+    const d = r.differencing;
+    body.append(row([r.observer, r.approximation, `${r.correct}/${r.trials}`,
+      `${(100 * d.proportion_correct).toFixed(1)} [${(100 * d.proportion_interval[0]).toFixed(1)}, ${(100 * d.proportion_interval[1]).toFixed(1)}]`,
+      dp(d), dp(r.independent_observation), r.delta_e00_shown.toFixed(3), r.excluded]));
+  }
+  table.append(body);
+  box.append(table);
+  for (const n of analysis.notes) box.append(el("p", n, "hint"));
+  if (analysis.rows.some((r) => r.differencing.rule)) box.append(el("p", "* " + analysis.rows.find((r) => r.differencing.rule).differencing.rule, "hint"));
+  const csv = el("a", "analysis as CSV");
+  csv.href = `/api/experiments/${id}/analysis.csv`;
+  box.append(csv);
+  await readCredential;
+  const img = el("img");
+  img.alt = "d′ and percent correct per approximation";
+  img.src = `/api/experiments/figure.svg?ids=${id}`;
+  $("figure").replaceChildren(img, el("figcaption", "d′ under the differencing model (bars, 95 % intervals), percent correct (◆) on the right axis; chance is 33 %.", "hint"));
+}
+
+const parts = location.pathname.split("/").filter(Boolean);
+const detailId = parts.length >= 2 ? Number(parts[1]) : null;
+(detailId ? loadDetail(detailId) : loadSetup()).catch((e) => notice(e.message));
+$("measurement").addEventListener("change", () => loadCodings().catch((e) => notice(e.message)));
+$("check-button").addEventListener("click", check);
+$("setup").addEventListener("submit", create);
