@@ -22,7 +22,7 @@ const $ = (id) => document.getElementById(id);
   const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
   if (m) {
     localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname);
+    history.replaceState(null, "", location.pathname + location.search);
   }
 })();
 const token = () => localStorage.getItem("lightbooth-token") || "";

@@ -130,12 +130,15 @@ pub fn session_order(seed: u64, approximations: usize, repeats: u32) -> Result<V
 /// The order trials are shown in: the planned trials, then again, at the
 /// end, every trial that had a frame dropped while its pie was shown
 /// (`dropped[i]` for the i-th trial recorded; a repeat that drops a frame
-/// is repeated too). Its length is the number of trials the session needs
-/// so far: the session is complete when that many are recorded.
+/// is repeated too), at most as many repeats as planned trials: a display
+/// that drops frames in every trial ends its session after twice the
+/// planned trials, with the dropped trials reported, rather than never.
+/// Its length is the number of trials the session needs so far: the
+/// session is complete when that many are recorded.
 pub fn shown_order(planned: &[PlannedTrial], dropped: &[bool]) -> Vec<PlannedTrial> {
     let mut order = planned.to_vec();
     for (i, &d) in dropped.iter().enumerate() {
-        if d && i < order.len() {
+        if d && i < order.len() && order.len() < 2 * planned.len() {
             order.push(order[i]);
         }
     }
@@ -202,6 +205,8 @@ mod tests {
         assert_eq!(order[6], planned[1]);
         assert_eq!(order[7], planned[1]);
         assert_eq!(letters(CONFIGURATIONS[0]), "OON");
+        // A display that drops a frame in every trial: at most as many repeats as planned.
+        assert_eq!(shown_order(&planned, &[true; 100]).len(), 12);
     }
 
     /// Every position of the odd piece is equally likely at each trial of

@@ -108,7 +108,8 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
         assert!(s["client"].as_str().unwrap().contains("WebGL2"), "{s}");
     }
     // Every trial, as the database has it: 4 approximations × 6 configurations,
-    // plus one repeat for each trial with a dropped frame during its pie; the
+    // plus one repeat for each trial with a dropped frame during its pie (at
+    // most 24); the
     // page's counts agree with the frame intervals it logged.
     let db = d.stop_keeping_files().await;
     let store = lightbooth::store::Store::open(&format!("sqlite://{}", db.path().join("lab.sqlite").display()))
@@ -118,8 +119,8 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
         let sid = s["id"].as_i64().unwrap();
         let frame_ms = s["frame_ms"].as_f64().unwrap();
         let trials = store.trials_of_session(sid).await.unwrap();
-        let repeats = trials.iter().filter(|t| t.dropped_in_stimulus).count();
-        assert_eq!(trials.len(), 24 + repeats, "session {sid}");
+        let repeats = trials.iter().filter(|t| t.dropped_in_stimulus).count().min(24);
+        assert_eq!(trials.len(), 24 + repeats, "session {sid}: the planned trials and the (capped) repeats");
         let mut dropped_total = 0;
         for t in &trials {
             let long = t.frame_intervals_ms.iter().filter(|&&v| v > 1.5 * frame_ms).count() as i64;

@@ -92,7 +92,8 @@ async function runSession(page, experiment, observer, seed, shotName) {
 }
 
 try {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
+  // A small window: SwiftShader draws every pixel on the CPU.
+  const page = await browser.newPage({ viewport: { width: 800, height: 600 } });
   page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
   page.on("pageerror", (e) => failures.push("page error: " + e.message));
   page.on("requestfailed", (r) => {

@@ -156,7 +156,7 @@ impl Experiments {
             approximation: request.approximations[t.approximation].clone(),
             configuration: letters(t.configuration),
         });
-        let planned = order.len() - trials.iter().filter(|t| t.dropped_in_stimulus).count();
+        let planned = request.approximations.len() * 6 * request.presentation.repeats as usize;
         Ok(SessionView {
             experiment_id: e.id,
             experiment_name: e.name.clone(),
@@ -268,8 +268,12 @@ impl Experiments {
             created_at: now(),
         };
         self.store.insert_trial(&trial).await?;
-        // The order grows by a repeat when this trial dropped a frame.
-        let needed = order.len() + usize::from(report.dropped_in_stimulus);
+        // The order grows by a repeat when this trial dropped a frame (up to its cap).
+        let mut dropped: Vec<bool> = trials.iter().map(|t| t.dropped_in_stimulus).collect();
+        dropped.push(report.dropped_in_stimulus);
+        let planned_trials = session_order(session.seed as u64, request.approximations.len(), request.presentation.repeats)
+            .map_err(LabError::Internal)?;
+        let needed = shown_order(&planned_trials, &dropped).len();
         if trials.len() + 1 >= needed {
             self.store.finish_experiment_session(session_id).await?;
         }
