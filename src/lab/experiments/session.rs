@@ -271,8 +271,12 @@ impl Experiments {
         // The order grows by a repeat when this trial dropped a frame (up to its cap).
         let mut dropped: Vec<bool> = trials.iter().map(|t| t.dropped_in_stimulus).collect();
         dropped.push(report.dropped_in_stimulus);
-        let planned_trials = session_order(session.seed as u64, request.approximations.len(), request.presentation.repeats)
-            .map_err(LabError::Internal)?;
+        let planned_trials = session_order(
+            session.seed as u64,
+            request.approximations.len(),
+            request.presentation.repeats,
+        )
+        .map_err(LabError::Internal)?;
         let needed = shown_order(&planned_trials, &dropped).len();
         if trials.len() + 1 >= needed {
             self.store.finish_experiment_session(session_id).await?;
