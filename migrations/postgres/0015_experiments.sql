@@ -44,14 +44,14 @@ CREATE INDEX experiment_sessions_by_experiment ON experiment_sessions (experimen
 
 CREATE TABLE trials (
     session_id           BIGINT NOT NULL REFERENCES experiment_sessions (id),
-    position             INTEGER NOT NULL CHECK (position >= 0),   -- 0, 1, … in the order shown
+    position             BIGINT NOT NULL CHECK (position >= 0),   -- 0, 1, … in the order shown
     approximation        TEXT NOT NULL,                             -- the coding tested against the original
     configuration        TEXT NOT NULL CHECK (length(configuration) = 3),  -- e.g. 'OON', left top right
-    response             INTEGER NOT NULL CHECK (response BETWEEN 0 AND 2), -- 0 left, 1 top, 2 right
+    response             BIGINT NOT NULL CHECK (response BETWEEN 0 AND 2), -- 0 left, 1 top, 2 right
     correct              BOOLEAN NOT NULL,
     reaction_ms          DOUBLE PRECISION NOT NULL,    -- key event's timeStamp − the pie's first frame
-    stimulus_frames      INTEGER NOT NULL, -- frames the pie was on screen
-    dropped_frames       INTEGER NOT NULL, -- intervals over 1.5 frames during the trial
+    stimulus_frames      BIGINT NOT NULL, -- frames the pie was on screen
+    dropped_frames       BIGINT NOT NULL, -- intervals over 1.5 frames during the trial
     dropped_in_stimulus  BOOLEAN NOT NULL,
     frame_intervals_json TEXT NOT NULL,    -- every frame interval of the trial, ms
     created_at           DOUBLE PRECISION NOT NULL,
