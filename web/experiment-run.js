@@ -188,11 +188,16 @@ function pieDiameterPx() {
 // The pie of one trial as a float texture: three 120° pieces (left, top,
 // right) with a thin gap of background between them.
 function uploadPie(configuration, approximationIndex) {
+  const colours = { O: view.original.linear, N: view.approximations[approximationIndex].linear };
+  uploadPieColours([...configuration].map((letter) => colours[letter]));
+}
+
+// The pie's pieces in linear RGB: left, top, right.
+function uploadPieColours(pieces) {
   const { gl } = screen;
   const d = pieDiameterPx();
   const size = Math.ceil(d) + 2;
   const r = d / 2, c = size / 2, gap = Math.max(2, d * 0.02) / 2;
-  const colours = { O: view.original.linear, N: view.approximations[approximationIndex].linear };
   const bg = view.background.linear;
   // Pieces centred at 210° (left), 90° (top), 330° (right); boundaries at 30°, 150°, 270°.
   const bounds = [30, 150, 270].map((a) => [Math.cos(a * Math.PI / 180), Math.sin(a * Math.PI / 180)]);
@@ -206,7 +211,7 @@ function uploadPie(configuration, approximationIndex) {
         if (!nearBoundary) {
           const angle = (Math.atan2(y, x) * 180 / Math.PI + 360) % 360;
           const piece = angle >= 30 && angle < 150 ? 1 : angle >= 150 && angle < 270 ? 0 : 2;
-          rgb = colours[configuration[piece]];
+          rgb = pieces[piece];
         }
       }
       data.set([rgb[0], rgb[1], rgb[2], 1], (j * size + i) * 4);
@@ -313,6 +318,225 @@ function runTrial(next) {
   });
 }
 
+// ---- verification --------------------------------------------------------
+//
+// Before observers sit down, every colour is shown through the same path as
+// a trial (this shader, the profile's γ, the output method) full-field and
+// in the pie, and measured with the booth's spectroradiometer as a
+// calibration patch is. With `serve --mock` the simulated PR-650 looks at a
+// simulated display, which is told the codes this page drew in the
+// instrument's spot: the frame buffer is read back over several frames
+// (every dithered pixel and frame counted), so the simulated display emits
+// what this shader really produced.
+
+// Frames read back per patch for the simulated display.
+const READBACK_FRAMES = 16;
+
+// The view of an experiment without a session (the verification's).
+async function verificationView() {
+  const profile = await api(`/api/display-profiles/${experiment.display_profile_id}`);
+  return {
+    presentation: experiment.request.presentation,
+    output: experiment.output_method,
+    gammas: profile.profile.transfer.map((t) => t.gamma),
+    original: experiment.check.original,
+    approximations: experiment.check.approximations,
+    background: experiment.check.background,
+  };
+}
+
+// The instrument's spot: a square of `side` pixels at the screen's centre
+// (full field) or at the middle of the left piece (pie), lower-left corner.
+function spot(geometry) {
+  const r = pieDiameterPx() / 2;
+  const side = Math.max(8, Math.min(64, Math.round(r / 3)));
+  let x = screen.cx, y = screen.cy;
+  if (geometry === "pie") {
+    x += (r / 2) * Math.cos(210 * Math.PI / 180);
+    y += (r / 2) * Math.sin(210 * Math.PI / 180);
+  }
+  return { x: Math.round(x - side / 2), y: Math.round(y - side / 2), side };
+}
+
+// Adds the codes of the spot in the frame just drawn to `counts`.
+function countSpot(area, counts, maxCode) {
+  const { gl } = screen;
+  const n = area.side * area.side * 4;
+  let values;
+  if (maxCode === 255) {
+    values = new Uint8Array(n);
+    gl.readPixels(area.x, area.y, area.side, area.side, gl.RGBA, gl.UNSIGNED_BYTE, values);
+  } else {
+    const f = new Float32Array(n);
+    gl.readPixels(area.x, area.y, area.side, area.side, gl.RGBA, gl.FLOAT, f);
+    values = f.map((v) => Math.round(v * maxCode));
+  }
+  for (let i = 0; i < n; i += 4) {
+    for (let c = 0; c < 3; c++) counts[c][Math.min(maxCode, Math.max(0, values[i + c]))]++;
+  }
+}
+
+// Shows `linear` (the whole screen, or all three pieces of the pie) every
+// frame until the returned stop() is called; with `readback`, resolves
+// `counted` once READBACK_FRAMES frames of the spot are counted.
+function showPatch(linear, geometry, readback) {
+  const { gl } = screen;
+  const maxCode = view.output === "10bit" ? 1023 : 255;
+  const counts = [0, 1, 2].map(() => new Array(maxCode + 1).fill(0));
+  const area = spot(geometry);
+  if (geometry === "pie") {
+    gl.uniform3fv(screen.u.background, view.background.linear);
+    uploadPieColours([linear, linear, linear]);
+  } else {
+    gl.uniform3fv(screen.u.background, linear);
+  }
+  let running = true, frames = 0, done;
+  const counted = new Promise((resolve) => { done = resolve; });
+  const tick = () => {
+    if (!running) return;
+    draw(geometry === "pie", false);
+    if (readback && frames < READBACK_FRAMES) {
+      countSpot(area, counts, maxCode);
+      if (++frames === READBACK_FRAMES) done({ code_counts: counts, max_code: maxCode });
+    }
+    requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
+  if (!readback) done(null);
+  return { counted, stop: () => { running = false; gl.uniform3fv(screen.u.background, view.background.linear); } };
+}
+
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+async function measureShown(samples, note) {
+  const started = await api("/api/measurements", { method: "POST", body: JSON.stringify({ samples, note }) });
+  for (;;) {
+    const m = await api(`/api/measurements/${started.id}`);
+    if (m.state === "complete") return m;
+    if (["failed", "cancelled", "interrupted"].includes(m.state)) {
+      throw new Error(`measurement ${started.id} (${note}) ${m.state}: ${m.error || ""}`);
+    }
+    await sleep(200);
+  }
+}
+
+// Shows one patch and measures it; with the simulated display, tells it
+// what was drawn first. Returns the complete measurement.
+async function showAndMeasure(linear, geometry, samples, note, simulated) {
+  const shown = showPatch(linear, geometry, simulated.yes);
+  try {
+    const codes = await shown.counted;
+    if (codes) {
+      try {
+        await api("/api/mock/display", { method: "POST", body: JSON.stringify(codes) });
+      } catch (e) {
+        if (!/no simulated display/.test(e.message)) throw e;
+        simulated.yes = false; // a real instrument looks at the real screen
+      }
+    }
+    await sleep(100); // let the monitor settle on the new colour
+    return await measureShown(samples, note);
+  } finally {
+    shown.stop();
+  }
+}
+
+function beginScreen() {
+  document.body.classList.add("running");
+  try { document.documentElement.requestFullscreen().catch(() => {}); } catch (_) { /* windowed */ }
+  setUpScreen();
+}
+
+function endScreen() {
+  document.body.classList.remove("running");
+  if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
+}
+
+async function verify() {
+  notice("");
+  $("verify").disabled = $("start").disabled = true;
+  const samples = Number($("verify-samples").value);
+  const simulated = { yes: true };
+  try {
+    view = await verificationView();
+    beginScreen();
+    document.body.dataset.state = "verifying";
+    const colours = [view.original, ...view.approximations, view.background];
+    const patches = [];
+    for (const geometry of ["full_field", "pie"]) {
+      for (const c of colours) {
+        if (geometry === "pie" && c.name === "background") continue; // the pie's surround is the background itself
+        $("hud").textContent = `verifying ${c.name} (${geometry.replace("_", " ")})`;
+        const m = await showAndMeasure(c.linear, geometry, samples,
+          `experiment ${experimentId} verification: ${c.name}, ${geometry.replace("_", " ")}`, simulated);
+        patches.push({ colour: c.name, geometry, measurement_id: m.id });
+      }
+    }
+    const v = await api(`/api/experiments/${experimentId}/verifications`, {
+      method: "POST",
+      body: JSON.stringify({ patches, client: `${navigator.userAgent}; ${screen.outputPath}` + (simulated.yes ? "; simulated display" : "") }),
+    });
+    endScreen();
+    showVerification(v);
+  } catch (e) {
+    endScreen();
+    notice("verification stopped: " + e.message);
+  } finally {
+    document.body.dataset.state = "idle";
+    $("verify").disabled = $("start").disabled = false;
+  }
+}
+
+// A full-field test patch at fractional codes (e.g. 127.30 on every gun),
+// shown with the experiment's output method without the profile's γ, and
+// measured: with noisy-bit dithering its mean lies between the two 8-bit
+// levels around it.
+async function testPatch() {
+  notice("");
+  const code = Number($("test-code").value);
+  if (!(code >= 0 && code <= 255)) {
+    notice("test patch: give a code from 0 to 255, e.g. 127.3");
+    return;
+  }
+  $("test-patch").disabled = true;
+  const simulated = { yes: true };
+  try {
+    view = await verificationView();
+    beginScreen();
+    document.body.dataset.state = "verifying";
+    // γ = 1: the drive is the linear value, so the code drawn is exactly `code`.
+    screen.gl.uniform3fv(screen.u.inverseGamma, [1, 1, 1]);
+    const m = await showAndMeasure([code / 255, code / 255, code / 255], "full_field", Number($("verify-samples").value),
+      `test patch: code ${code.toFixed(2)} on every gun, ${view.output}`, simulated);
+    endScreen();
+    $("test-result").textContent = `code ${code.toFixed(2)} (${view.output}): measurement ${m.id}, ` +
+      `${m.luminance_cd_m2 === undefined ? "" : Number(m.luminance_cd_m2).toFixed(4) + " cd/m²"}`;
+    document.body.dataset.testMeasurement = String(m.id);
+  } catch (e) {
+    endScreen();
+    notice("test patch stopped: " + e.message);
+  } finally {
+    document.body.dataset.state = "idle";
+    $("test-patch").disabled = false;
+  }
+}
+
+function showVerification(v) {
+  const box = $("verification");
+  box.replaceChildren();
+  if (!v) {
+    box.textContent = "not verified yet: verify the display before the first observer";
+    return;
+  }
+  const head = document.createElement("div");
+  head.className = v.passed ? "passed" : "failed";
+  head.textContent = `verification ${v.id} ${v.passed ? "passed" : "FAILED"} (ΔE00 tolerance ${v.tolerance_delta_e00}, ` +
+    `${v.observer} observer, the display's white): ` + v.summary.join("; ");
+  box.append(head);
+  document.body.dataset.verification = v.passed ? "passed" : "failed";
+  if (!v.passed) notice(`the display's newest verification failed: ${v.summary[0]}. Run observers only once it passes.`);
+}
+
 // ---- the session -------------------------------------------------------
 
 function describe() {
@@ -350,6 +574,8 @@ async function load() {
     const observer = new URLSearchParams(location.search).get("observer");
     if (observer) $("observer").value = observer;
     $("status").textContent = (experiment.check.summary || []).join("; ");
+    const verifications = await api(`/api/experiments/${experimentId}/verifications`);
+    showVerification(verifications[0]);
   } catch (e) {
     notice(e.message);
   }
@@ -366,9 +592,7 @@ async function start() {
       $("status").textContent = "this observer's session is complete";
       return;
     }
-    try { await document.documentElement.requestFullscreen(); } catch (_) { /* a headless or embedded page stays windowed */ }
-    document.body.classList.add("running");
-    setUpScreen();
+    beginScreen();
     frameMs = await measureRefresh();
     view = await api(`/api/experiment-sessions/${view.session.id}/display`, {
       method: "POST", body: JSON.stringify({ frame_ms: frameMs, client: `${navigator.userAgent}; ${screen.outputPath}` }),
@@ -387,8 +611,7 @@ async function start() {
   } catch (e) {
     notice(e.message + " — the trials recorded are kept; press start to resume");
   }
-  document.body.classList.remove("running");
-  if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
+  endScreen();
   if (view) {
     describe();
     document.body.dataset.state = view.next ? "paused" : "complete";
@@ -401,4 +624,6 @@ async function start() {
 
 addEventListener("keydown", (e) => { if (e.key === "Escape") stopRequested = true; });
 $("start").addEventListener("click", start);
+$("verify").addEventListener("click", verify);
+$("test-patch").addEventListener("click", testPatch);
 load();

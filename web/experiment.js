@@ -202,15 +202,53 @@ async function create(ev) {
   }
 }
 
+// The newest verification: each colour as the display emitted it, measured.
+function verificationView(v) {
+  const box = el("div");
+  if (!v) {
+    box.append(el("p", "Not verified yet: open the session page on the stimulus display and press “verify the display” " +
+      "before the first observer.", "notice"));
+    return box;
+  }
+  box.append(el("p", `Verification ${v.id} (${when(v.created_at)}): ${v.passed ? "passed" : "FAILED"} — ` +
+    `ΔE00 tolerance ${v.tolerance_delta_e00}, ${v.observer} observer, relative to the display's white.`,
+  v.passed ? "hint" : "notice"));
+  const ul = el("ul", undefined, "summary");
+  for (const line of v.summary) ul.append(el("li", line));
+  box.append(ul);
+  const table = el("table");
+  table.id = "verification-table";
+  const head = el("tr");
+  for (const h of ["colour", "shown", "measurement", "Y emitted cd/m²", "ΔE00 intended → emitted", "of which quantisation",
+    "of which drift", "ΔE00 booth → emitted", "verdict"]) head.append(el("th", h));
+  table.append(el("thead"));
+  table.tHead.append(head);
+  const body = el("tbody");
+  for (const c of v.colours) {
+    const tr = row([c.colour, c.geometry.replace("_", " "), c.measurement_id, c.emitted_xyz[1].toFixed(3),
+      c.delta_e00_emitted.toFixed(3), c.delta_e00_quantisation.toFixed(3), c.delta_e00_drift.toFixed(3),
+      c.delta_e00_booth === null ? "" : c.delta_e00_booth.toFixed(2), c.passed ? "within tolerance" : c.likely_cause]);
+    tr.lastChild.className = c.passed ? "yes" : "no";
+    body.append(tr);
+  }
+  table.append(body);
+  box.append(table);
+  box.append(el("p", "Intended: the colour asked of the display (gamut policy applied, unquantised); quantisation: " +
+    "ΔE00 from intended to what the profile predicts the output method emits; drift: from that prediction to the " +
+    "measurement; booth: the real booth measurement the stimulus stands for, shown through the same gamut policy.", "hint"));
+  return box;
+}
+
 // ---- one experiment ----------------------------------------------------------
 
 async function loadDetail(id) {
   $("list-view").hidden = true;
   $("detail-view").hidden = false;
-  const [e, sessions, analysis] = await Promise.all([
+  const [e, sessions, analysis, verifications] = await Promise.all([
     api(`/api/experiments/${id}`),
     api(`/api/experiments/${id}/sessions`),
     api(`/api/experiments/${id}/analysis`),
+    api(`/api/experiments/${id}/verifications`),
   ]);
   $("detail-title").textContent = `Experiment ${e.id}: ${e.name}`;
   const p = e.request.presentation;
@@ -220,6 +258,7 @@ async function loadDetail(id) {
     `6 configurations per approximation, ${p.adaptation_s} s adaptation; seed ${e.seed}.`;
   $("run-link").href = `/experiment/${e.id}/run`;
   $("detail-check").replaceChildren(checkView(e.check));
+  $("detail-verification").replaceChildren(verificationView(verifications[0]));
   const tbody = $("session-table").tBodies[0];
   tbody.replaceChildren();
   for (const s of sessions) {
@@ -231,7 +270,8 @@ async function loadDetail(id) {
   const box = $("analysis");
   box.replaceChildren();
   if (!analysis.rows.length) {
-    box.append(el("p", "No trials yet.", "hint"));
+    // Trials may be stored and none counted: every one dropped a frame during its pie.
+    box.append(el("p", analysis.sessions ? analysis.notes[0] + ": none is counted yet." : "No trials yet.", "hint"));
     $("figure").replaceChildren();
     return;
   }

@@ -128,13 +128,25 @@ impl MockControl for MockSlot {
             ));
         }
         let display = crate::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
-        let truth = display.spectrum(drive);
+        self.aim_at_display(display.spectrum(drive), &format!("drive {drive:?}"))
+    }
+
+    fn show_codes_on_display(&self, codes: &crate::display::CodeCounts) -> Result<(), String> {
+        let display = crate::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
+        let truth = display.mean_spectrum(codes)?;
+        self.aim_at_display(truth, "a patch of counted codes")
+    }
+}
+
+impl MockSlot {
+    /// Aims the simulated PR-650 at the simulated display showing `truth`.
+    fn aim_at_display(&self, truth: crate::spectrum::Spectrum, what: &str) -> Result<(), String> {
         *self.shown.lock().unwrap_or_else(|p| p.into_inner()) = Some(truth.clone());
         match self.with(|h| h.set_truth(truth)) {
             Some(Err(e)) => Err(format!("cannot aim the simulated PR-650: {e}")),
             // Not running (cable pulled): it sees the colour once powered on.
             _ => {
-                tracing::info!(?drive, "simulated display shows a colour");
+                tracing::info!(shown = what, "simulated display shows a colour");
                 Ok(())
             }
         }

@@ -38,7 +38,7 @@ pub mod stimulus_files;
 
 pub use fit::{fit_profile, CalibrationPlan, MeasuredPatch};
 pub use profile::{Additivity, ChannelTransfer, Converter, DisplayProfile, FrameBuffer};
-pub use simulated::SimulatedDisplay;
+pub use simulated::{CodeCounts, SimulatedDisplay};
 
 /// Errors of the display profile and its fit; each names what was wrong.
 #[derive(Debug, thiserror::Error)]

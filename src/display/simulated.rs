@@ -24,6 +24,61 @@ pub const BLACK_FRACTION: f64 = 0.005;
 /// γ of red, green, blue.
 pub const GAMMAS: [f64; 3] = [2.25, 2.2, 2.15];
 
+/// What one patch of the screen showed while it was measured: per channel,
+/// how many pixels × frames had each code (`counts[c][k]`, codes
+/// 0–`max_code`). A dithered patch is many codes; a plain one, one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CodeCounts {
+    /// 255 (8 bits) or 1023 (10 bits).
+    pub max_code: u32,
+    /// Red, green, blue: `max_code + 1` counts each, the same total per channel.
+    pub counts: [Vec<u64>; 3],
+}
+
+/// Pixels × frames a [`CodeCounts`] may hold per channel (a 4K screen for
+/// two seconds at 120 Hz).
+pub const MAX_COUNTED: u64 = 4096 * 2160 * 240;
+
+impl CodeCounts {
+    /// Checks the shape; says what is wrong with which channel.
+    pub fn check(&self) -> Result<u64, String> {
+        if !matches!(self.max_code, 255 | 1023) {
+            return Err(format!(
+                "max_code = {}: give 255 (8 bits) or 1023 (10 bits)",
+                self.max_code
+            ));
+        }
+        let mut total = None;
+        for (c, counts) in self.counts.iter().enumerate() {
+            let name = ["red", "green", "blue"][c];
+            if counts.len() != self.max_code as usize + 1 {
+                return Err(format!(
+                    "{name}: {} counts; give one per code 0–{}",
+                    counts.len(),
+                    self.max_code
+                ));
+            }
+            let sum = counts
+                .iter()
+                .try_fold(0u64, |a, &n| a.checked_add(n))
+                .unwrap_or(u64::MAX);
+            if sum == 0 || sum > MAX_COUNTED {
+                return Err(format!("{name}: {sum} pixels × frames counted; give 1–{MAX_COUNTED}"));
+            }
+            match total {
+                None => total = Some(sum),
+                Some(t) if t != sum => {
+                    return Err(format!(
+                        "{name}: {sum} pixels × frames counted, but red has {t}: every channel counts the same pixels"
+                    ));
+                }
+                _ => {}
+            }
+        }
+        Ok(total.unwrap_or(0))
+    }
+}
+
 /// A display whose truth is known: the one the simulated PR-650 looks at.
 #[derive(Clone, Debug)]
 pub struct SimulatedDisplay {
@@ -71,6 +126,28 @@ impl SimulatedDisplay {
         Spectrum::new(self.grid.clone(), SpectralUnit::SpectralRadiance, values).expect("finite by construction")
     }
 
+    /// The mean spectral radiance of a patch whose pixels and frames showed
+    /// `codes` (1 nm grid). The display is additive and each channel's
+    /// output depends on its own code alone, so the mean over pixels is
+    /// black plus each primary times its channel's mean output, exactly.
+    pub fn mean_spectrum(&self, codes: &CodeCounts) -> Result<Spectrum, String> {
+        let total = codes.check()? as f64;
+        let max = f64::from(codes.max_code);
+        let t = [0, 1, 2].map(|c| {
+            codes.counts[c]
+                .iter()
+                .enumerate()
+                .filter(|(_, &n)| n > 0)
+                .map(|(k, &n)| n as f64 * (k as f64 / max).powf(self.gammas[c]))
+                .sum::<f64>()
+                / total
+        });
+        let values = (0..self.grid.len())
+            .map(|i| self.black[i] + (0..3).map(|c| t[c] * self.primaries[c][i]).sum::<f64>())
+            .collect();
+        Ok(Spectrum::new(self.grid.clone(), SpectralUnit::SpectralRadiance, values).expect("finite by construction"))
+    }
+
     /// The profile a calibration would fit to this display's exact 1 nm
     /// spectra (the eight-level plan of [`CalibrationPlan::new`]): for tests
     /// and for the simulated booth's experiments.
@@ -103,5 +180,60 @@ impl SimulatedDisplay {
             *o = [c.x, c.y];
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn counts_at(max_code: u32, code: [usize; 3], n: u64) -> CodeCounts {
+        let mut counts = [0, 1, 2].map(|_| vec![0u64; max_code as usize + 1]);
+        for c in 0..3 {
+            counts[c][code[c]] = n;
+        }
+        CodeCounts { max_code, counts }
+    }
+
+    #[test]
+    fn one_code_everywhere_is_that_codes_spectrum() {
+        let d = SimulatedDisplay::crt().unwrap();
+        let shown = d.mean_spectrum(&counts_at(255, [200, 10, 128], 64)).unwrap();
+        let drive = [200.0 / 255.0, 10.0 / 255.0, 128.0 / 255.0];
+        for (a, b) in shown.values().iter().zip(d.spectrum(drive).values()) {
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-9), "{a} {b}");
+        }
+    }
+
+    #[test]
+    fn a_dithered_patch_is_the_count_weighted_mean_of_its_codes_spectra() {
+        // 70 % of pixels at 127, 30 % at 128 on every gun: the mean radiance
+        // is 0.7·S(127) + 0.3·S(128) (additivity), between the two levels.
+        let d = SimulatedDisplay::crt().unwrap();
+        let mut c = counts_at(255, [127; 3], 700);
+        for ch in 0..3 {
+            c.counts[ch][128] = 300;
+        }
+        let mean = d.mean_spectrum(&c).unwrap();
+        let lo = d.spectrum([127.0 / 255.0; 3]);
+        let hi = d.spectrum([128.0 / 255.0; 3]);
+        for i in 0..lo.values().len() {
+            let want = 0.7 * lo.values()[i] + 0.3 * hi.values()[i];
+            assert!((mean.values()[i] - want).abs() <= 1e-12 * want.max(1e-9));
+        }
+    }
+
+    #[test]
+    fn counts_of_the_wrong_shape_are_refused_naming_the_channel() {
+        let mut c = counts_at(255, [1; 3], 5);
+        c.counts[2][1] = 4;
+        assert!(c.check().unwrap_err().starts_with("blue: 4 pixels"));
+        c.counts[1].pop();
+        assert!(c.check().unwrap_err().starts_with("green: 255 counts"));
+        assert!(counts_at(511, [0; 3], 1)
+            .check()
+            .unwrap_err()
+            .contains("255 (8 bits) or 1023"));
+        assert!(counts_at(255, [0; 3], 0).check().unwrap_err().contains("0 pixels"));
     }
 }

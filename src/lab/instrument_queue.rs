@@ -53,4 +53,7 @@ pub trait MockControl: Send + Sync {
     /// ([`crate::display::SimulatedDisplay`]) the simulated PR-650 is aimed
     /// at: what it measures until a measurement names a scene target.
     fn show_on_display(&self, drive: [f64; 3]) -> Result<(), String>;
+    /// Shows a patch whose pixels and frames had the codes `codes` (what a
+    /// page drew, dithered or not): the simulated PR-650 sees their mean.
+    fn show_codes_on_display(&self, codes: &crate::display::CodeCounts) -> Result<(), String>;
 }

@@ -1,7 +1,9 @@
 //! The study's oddity experiment through the real daemon with `--mock`: the
 //! simulated display calibrated through the API, WHITE's patch measured and
 //! compared, an experiment set up on them; then the pages in headless
-//! Chromium with a simulated observer at the keyboard
+//! Chromium: the display verified through the session page's own shader
+//! and the simulated PR-650, a dithered test patch measured between two
+//! 8-bit levels, and a simulated observer at the keyboard
 //! (`tests/browser/experiment.mjs`), whose every trial the daemon stored
 //! with its frames, and the API alone driven by simulated observers of known
 //! d′ for the statistics.
@@ -77,7 +79,6 @@ async fn create(d: &Daemon, body: Value) -> Value {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "issue 24, unfinished: a wait of tests/browser/experiment.mjs times out after the first pie (session 13); run with --ignored"]
 async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_stored_with_its_frames() {
     let d = Daemon::start(0.0).await;
     let (profile, measurement) = calibrated_booth(&d).await;
@@ -86,7 +87,7 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
         json!({
             "measurement_id": measurement, "display_profile_id": profile,
             "approximations": ["nstep3", "nstep9", "nstep81", "rgb"], "output": "noisy_bit",
-            "presentation": { "repeats": 1, "adaptation_s": 0, "fixation_ms": 250 },
+            "presentation": { "repeats": 1, "adaptation_s": 0, "fixation_ms": 250, "pixel_pitch_mm": 0.5 },
             "seed": 5,
         }),
     )
@@ -99,6 +100,7 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
         d.stop().await;
         panic!("{err}");
     }
+    verified_on_the_simulated_display(&d, id, profile).await;
     let (_, sessions) = get_json(d.addr, &format!("/api/experiments/{id}/sessions")).await;
     let sessions = sessions.as_array().unwrap().clone();
     assert_eq!(sessions.len(), 2, "{sessions:?}");
@@ -154,6 +156,126 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
             1000.0 / frame_ms
         );
     }
+}
+
+/// A measurement's mean luminance and its standard error from its samples'
+/// spread, cd/m².
+async fn luminance_and_se(d: &Daemon, measurement: i64) -> (f64, f64, Value) {
+    let (s, m) = get_json(d.addr, &format!("/api/measurements/{measurement}")).await;
+    assert_eq!(s, 200, "{m}");
+    let y: Vec<f64> = m["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["Y"].as_f64().unwrap())
+        .collect();
+    let n = y.len() as f64;
+    assert!(n >= 2.0, "{m}");
+    let mean = y.iter().sum::<f64>() / n;
+    let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (mean, sd / n.sqrt(), m)
+}
+
+/// What the page verified: every colour, drawn by the page's shader with
+/// noisy-bit dithering, read back, emitted by the simulated display and
+/// measured by the simulated PR-650, is within ΔE00 1 of what the
+/// experiment intended; the approximations that share the original's
+/// 8-bit codes are distinct *means* with dithering, their measured
+/// differences from the original as the profile predicts; and the test
+/// patch at code 127.30 on every gun lies between the 127 and 128 levels
+/// where the profile predicts (Allard & Faubert 2008).
+async fn verified_on_the_simulated_display(d: &Daemon, id: i64, profile_id: i64) {
+    let (s, vs) = get_json(d.addr, &format!("/api/experiments/{id}/verifications")).await;
+    assert_eq!(s, 200, "{vs}");
+    let v = &vs[0];
+    assert_eq!(v["passed"], true, "{v}");
+    let colours = v["colours"].as_array().unwrap();
+    // Original, 4 approximations and the background full-field; all but the background in the pie.
+    assert_eq!(colours.len(), 11, "{v}");
+    for c in colours {
+        let de = c["delta_e00_emitted"].as_f64().unwrap();
+        assert!(de <= 1.0, "{c}");
+        assert_eq!(c["booth_xyz"].is_null(), c["colour"] == "background", "{c}");
+    }
+    let (_, e) = get_json(d.addr, &format!("/api/experiments/{id}")).await;
+    let full = |name: &str| {
+        colours
+            .iter()
+            .find(|c| c["colour"] == name && c["geometry"] == "full_field")
+            .unwrap_or_else(|| panic!("{name} full field in {v}"))
+            .clone()
+    };
+    let original = full("original");
+    let (y_o, se_o, _) = luminance_and_se(d, original["measurement_id"].as_i64().unwrap()).await;
+    let mut shared = 0;
+    for a in e["check"]["approximations"].as_array().unwrap() {
+        let name = a["name"].as_str().unwrap();
+        let c = full(name);
+        let (y_a, se_a, _) = luminance_and_se(d, c["measurement_id"].as_i64().unwrap()).await;
+        let predicted = c["predicted_xyz"][1].as_f64().unwrap() - original["predicted_xyz"][1].as_f64().unwrap();
+        let measured = y_a - y_o;
+        let se = (se_a * se_a + se_o * se_o).sqrt();
+        eprintln!(
+            "{name}: 8-bit codes {} (original {}), ΔY predicted {predicted:+.4}, measured {measured:+.4} ± {se:.4} cd/m²",
+            a["codes_8bit"], e["check"]["original"]["codes_8bit"]
+        );
+        assert!(
+            (measured - predicted).abs() <= 4.0 * se + 1e-3 * y_o,
+            "{name}: the measured difference from the original, {measured} cd/m², is not the predicted {predicted} (SE {se})"
+        );
+        if a["distinct_at_8bit"] == false && a["distinct"] == true {
+            shared += 1;
+        }
+    }
+    eprintln!("{shared} approximation(s) share the original's 8-bit codes and are distinct with dithering");
+
+    // The test patches, measured after the verification: codes 127, 128
+    // and 127.30 on every gun. Dithered, 127.30 shows code 128 on 30 % of
+    // pixels and frames, so its mean is 30 % of the way from the 127 level
+    // to the 128 level (the display is additive; the profile's prediction
+    // of a dithered mean, `mean_dithered_output`, is this interpolation).
+    let last = colours
+        .iter()
+        .map(|c| c["measurement_id"].as_i64().unwrap())
+        .max()
+        .unwrap();
+    let mut levels = Vec::new();
+    for (k, code) in ["127.00", "128.00", "127.30"].iter().enumerate() {
+        let (y, se, m) = luminance_and_se(d, last + 1 + k as i64).await;
+        assert!(
+            m["note"]
+                .as_str()
+                .unwrap()
+                .starts_with(&format!("test patch: code {code}")),
+            "{m}"
+        );
+        levels.push((y, se));
+    }
+    let [(y127, se127), (y128, se128), (y, se)] = [levels[0], levels[1], levels[2]];
+    let gap = y128 - y127;
+    let fraction = (y - y127) / gap;
+    // First-order propagation of the three SEs.
+    let se_fraction =
+        ((se * se + (1.0 - fraction).powi(2) * se127 * se127 + fraction.powi(2) * se128 * se128).sqrt()) / gap;
+    let (_, p) = get_json(d.addr, &format!("/api/display-profiles/{profile_id}")).await;
+    let profile: lightbooth::display::DisplayProfile = serde_json::from_value(p["profile"].clone()).unwrap();
+    let predicted = {
+        let t = |v: f64| lightbooth::display::output::mean_dithered_output(&profile, 1, v / 255.0);
+        (t(127.3) - t(127.0)) / (t(128.0) - t(127.0))
+    };
+    eprintln!(
+        "test patches: 127 → {y127:.4} ± {se127:.4}, 128 → {y128:.4} ± {se128:.4}, 127.30 → {y:.4} ± {se:.4} cd/m²: \
+         {fraction:.3} ± {se_fraction:.3} of the way (the profile predicts {predicted:.3})"
+    );
+    assert!(
+        gap > 6.0 * (se127 * se127 + se128 * se128).sqrt(),
+        "the two levels are told apart"
+    );
+    assert!((predicted - 0.3).abs() < 1e-9, "{predicted}");
+    assert!(
+        (fraction - predicted).abs() <= 4.0 * se_fraction && se_fraction < 0.1,
+        "127.30 dithered lies {fraction} ± {se_fraction} of the way from 127 to 128, not {predicted}"
+    );
 }
 
 fn configuration(letters: &str) -> Configuration {

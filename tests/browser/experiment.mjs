@@ -1,7 +1,9 @@
 // Drives the experiment pages in Debian's headless Chromium against the
 // daemon with --mock, with a simulated observer at the keyboard: the setup
 // page checks the colours of the newest experiment's measurement, the
-// session page (WebGL2, noisy-bit dithering) runs every trial of one
+// session page verifies the display (every colour drawn, read back and
+// measured by the simulated PR-650) and measures test patches at codes
+// 127, 128 and 127.30, then (WebGL2, noisy-bit dithering) runs every trial of one
 // session, answered with arrow keys by an observer of Gaussian noise σ in
 // ΔE00 (true d′ = ΔE00 shown / σ; the differencing rule: the odd piece is
 // the one outside the closest pair), then a second session with the CPU
@@ -82,6 +84,9 @@ async function runSession(page, experiment, observer, seed, shotName) {
       await page.screenshot({ path: `${shots}/${shotName}` });
       shot = true;
     }
+    // A person's reaction takes 200 ms or more; a key before the pie's
+    // first frame reached the screen would be an anticipation.
+    await page.waitForTimeout(200);
     const key = ["ArrowLeft", "ArrowUp", "ArrowRight"][answer(view.next.configuration, colours.get(view.next.approximation) / SIGMA, u)];
     await page.keyboard.press(key);
     await page.waitForFunction((p) => document.body.dataset.trial !== String(p) || document.body.dataset.state !== "trials",
@@ -92,8 +97,10 @@ async function runSession(page, experiment, observer, seed, shotName) {
 }
 
 try {
-  // A small window: SwiftShader draws every pixel on the CPU.
-  const page = await browser.newPage({ viewport: { width: 800, height: 600 } });
+  // A small window: SwiftShader draws every pixel on the CPU, and a frame
+  // it cannot draw in time is a dropped frame (the test's experiment uses
+  // a coarse pixel pitch, so the pie still fits).
+  const page = await browser.newPage({ viewport: { width: 400, height: 300 } });
   page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
   page.on("pageerror", (e) => failures.push("page error: " + e.message));
   page.on("requestfailed", (r) => {
@@ -115,6 +122,27 @@ try {
   }
   if (shots) await page.screenshot({ path: `${shots}/experiment-setup.png`, fullPage: true });
 
+  // The display verified before any observer: every colour full-field and
+  // in the pie, drawn by the page, read back and measured by the simulated
+  // PR-650 looking at the simulated display; then test patches at codes
+  // 127, 128 and 127.30 on every gun.
+  await page.goto(`${base}/experiment/${experiment.id}/run#token=${token}`);
+  await page.waitForFunction(() => /not verified yet/.test(document.getElementById("verification").textContent), null, { timeout: 10000 });
+  await page.fill("#verify-samples", "8");
+  await page.click("#verify");
+  await page.waitForFunction(() => document.body.dataset.verification, null, { timeout: 120000 });
+  const verification = await page.textContent("#verification");
+  if (!/passed/.test(verification)) failures.push(`the verification did not pass: ${verification}`);
+  if (shots) await page.screenshot({ path: `${shots}/experiment-verified.png` });
+  await page.click(".verify-box summary");
+  for (const code of ["127", "128", "127.30"]) {
+    await page.fill("#test-code", code);
+    const before = await page.evaluate(() => document.body.dataset.testMeasurement || "");
+    await page.click("#test-patch");
+    await page.waitForFunction((b) => (document.body.dataset.testMeasurement || "") !== b && document.body.dataset.state === "idle",
+      before, { timeout: 60000 });
+  }
+
   // One session at full speed, one with the CPU throttled.
   await runSession(page, experiment, "sim1", 1, "experiment-session-pie.png");
   const cdp = await page.context().newCDPSession(page);
@@ -130,9 +158,24 @@ try {
   for (const want of ["sim1", "sim2", "d′ differencing", "independent observation"]) {
     if (!results.includes(want)) failures.push(`the results page lacks "${want}"`);
   }
+  const measured = await page.textContent("#detail-verification");
+  for (const want of ["passed", "ΔE00 booth → emitted", "full field", "pie"]) {
+    if (!measured.includes(want)) failures.push(`the results page's verification lacks "${want}"`);
+  }
   if (shots) await page.screenshot({ path: `${shots}/experiment-results.png`, fullPage: true });
 } catch (e) {
   failures.push("error: " + e.message);
+  // Where the page was when it happened.
+  try {
+    const [page] = browser.contexts()[0].pages();
+    failures.push("page state: " + JSON.stringify(await page.evaluate(() => ({
+      dataset: Object.assign({}, document.body.dataset), running: document.body.classList.contains("running"),
+      status: document.getElementById("status")?.textContent, notice: document.getElementById("notice")?.textContent,
+      focus: document.activeElement?.tagName, url: location.href, title: document.title,
+      img: document.querySelector("#figure img") ? [document.querySelector("#figure img").complete, document.querySelector("#figure img").naturalWidth, document.querySelector("#figure img").src] : null,
+      analysis: document.getElementById("analysis")?.textContent.slice(0, 200),
+    }))));
+  } catch (_) { /* the page itself is gone */ }
 } finally {
   await browser.close();
 }

@@ -19,6 +19,7 @@ use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
 use crate::lab::experiments::analysis::{analysis_csv, figure, Analysis};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
+use crate::lab::experiments::verification::{Verification, VerificationRequest};
 use crate::lab::experiments::{ExperimentRequest, Experiments};
 use crate::psychophysics::oddity::OddityModel;
 use crate::store::{ExperimentRow, ExperimentSessionRow};
@@ -138,6 +139,33 @@ pub async fn record_experiment_trial(
     Input(body): Input<TrialReport>,
 ) -> Result<Json<SessionView>, ApiError> {
     Ok(Json(experiments(&state).record_trial(id, &body).await?))
+}
+
+/// Stores a verification: the experiment's colours as the display emitted
+/// them, each measured with the spectroradiometer, against what was
+/// intended and against the real booth measurement (ΔE00, the display's
+/// white), with a likely cause for each colour over the tolerance.
+#[utoipa::path(post, path = "/experiments/{id}/verifications", tag = "experiments", params(("id" = i64, Path)),
+    request_body = VerificationRequest,
+    responses((status = 201, body = Verification), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn create_experiment_verification(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<VerificationRequest>,
+) -> Result<(StatusCode, Json<Verification>), ApiError> {
+    Ok((StatusCode::CREATED, Json(experiments(&state).verify(id, &body).await?)))
+}
+
+/// An experiment's verifications, newest first.
+#[utoipa::path(get, path = "/experiments/{id}/verifications", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, body = Vec<Verification>), (status = 404, body = ErrorBody)))]
+pub async fn list_experiment_verifications(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<Verification>>, ApiError> {
+    Ok(Json(experiments(&state).verifications(id).await?))
 }
 
 /// Percent correct and d′ (both oddity models) per observer and approximation.

@@ -39,12 +39,24 @@ pub async fn mock_faults(
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MockDisplay {
-    /// Drive of red, green, blue, 0–1 (frame-buffer value / maximum code).
-    pub drive: [f64; 3],
+    /// Drive of red, green, blue, 0–1 (frame-buffer value / maximum code):
+    /// one colour on every pixel.
+    #[serde(default)]
+    pub drive: Option<[f64; 3]>,
+    /// Or what a page drew in the measured patch: per channel (red, green,
+    /// blue) the number of pixels × frames that had each code 0–`max_code`
+    /// (a dithered patch has several codes).
+    #[serde(default)]
+    pub code_counts: Option<[Vec<u64>; 3]>,
+    /// 255 (8 bits, the default) or 1023 (10 bits), with `code_counts`.
+    #[serde(default)]
+    pub max_code: Option<u32>,
 }
 
 /// Shows a colour on the simulated display the simulated PR-650 looks at
-/// (only with `--mock`): the calibration page calls it with each patch it shows.
+/// (only with `--mock`): the calibration page calls it with each patch it
+/// shows (`drive`), the experiment's verification with the codes it drew
+/// in the instrument's spot, dithered or not (`code_counts`).
 #[utoipa::path(post, path = "/mock/display", tag = "instruments", request_body = MockDisplay,
     responses((status = 204), (status = 400, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
@@ -56,7 +68,23 @@ pub async fn mock_display(
         .mock
         .as_ref()
         .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real instrument".into()))?;
-    mock.show_on_display(body.drive)
-        .map_err(|e| ApiError::BadRequest(format!("field `drive`: {e}")))?;
+    match (body.drive, body.code_counts) {
+        (Some(drive), None) if body.max_code.is_none() => mock
+            .show_on_display(drive)
+            .map_err(|e| ApiError::BadRequest(format!("field `drive`: {e}")))?,
+        (None, Some(counts)) => {
+            let codes = crate::display::CodeCounts {
+                max_code: body.max_code.unwrap_or(255),
+                counts,
+            };
+            mock.show_codes_on_display(&codes)
+                .map_err(|e| ApiError::BadRequest(format!("field `code_counts`: {e}")))?
+        }
+        _ => {
+            return Err(ApiError::BadRequest(
+                "give either `drive` (one colour, 0–1 per channel) or `code_counts` with an optional `max_code`".into(),
+            ))
+        }
+    }
     Ok(StatusCode::NO_CONTENT)
 }

@@ -109,6 +109,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(get_experiment_session))
         .routes(routes!(report_session_display))
         .routes(routes!(record_experiment_trial))
+        .routes(routes!(list_experiment_verifications, create_experiment_verification))
         .routes(routes!(experiment_analysis))
         .routes(routes!(experiment_analysis_csv))
         .routes(routes!(experiments_figure))

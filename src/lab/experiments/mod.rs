@@ -26,6 +26,7 @@ pub mod analysis;
 pub mod session;
 #[cfg(test)]
 mod tests;
+pub mod verification;
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -288,13 +289,42 @@ pub struct StoredCheck {
     pub original: StoredColour,
     pub approximations: Vec<StoredColour>,
     pub background: StoredColour,
+    #[serde(default)]
+    pub gamut: StoredGamut,
+}
+
+impl StoredCheck {
+    /// The factor the `scale` gamut policy darkened every colour by (1 otherwise).
+    pub fn gamut_scale_factor(&self) -> f64 {
+        self.gamut.scale_factor
+    }
+}
+
+/// The part of a stored gamut report the verification reads.
+#[derive(Clone, Debug, Deserialize)]
+pub struct StoredGamut {
+    pub scale_factor: f64,
+}
+
+impl Default for StoredGamut {
+    fn default() -> Self {
+        StoredGamut { scale_factor: 1.0 }
+    }
 }
 
 /// One colour of a stored check.
 #[derive(Clone, Debug, Deserialize, Serialize, ToSchema)]
 pub struct StoredColour {
     pub name: String,
+    /// The colour asked for, XYZ cd/m² (before the gamut policy).
+    #[serde(default)]
+    pub xyz: [f64; 3],
+    #[serde(default)]
+    pub out_of_gamut: bool,
     pub linear: [f64; 3],
+    /// What the profile predicts the output method emits, XYZ cd/m².
+    #[serde(default)]
+    pub shown_xyz: [f64; 3],
     pub fractional_code: [f64; 3],
     pub codes_8bit: [u32; 3],
     #[serde(default)]
