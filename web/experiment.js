@@ -64,21 +64,33 @@ const yesNo = (v) => ({ text: v ? "yes" : "no", cls: v ? "yes" : "no" });
 
 // ---- the check: every colour on the display ------------------------------
 
-function checkView(check) {
-  const box = el("div");
-  const r = check.resolution;
-  box.append(el("p", `Output: ${r.how} (${r.effective_bits.toFixed(1)} effective bits per gun).`, "hint"));
-  const ul = el("ul", undefined, "summary");
-  for (const line of check.summary) ul.append(el("li", line));
-  box.append(ul);
+// A table with its header row and an empty body (returned).
+function tableWithHead(id, headers) {
   const table = el("table");
-  table.id = "check-table";
+  table.id = id;
   const head = el("tr");
-  for (const h of ["colour", "8-bit codes", "fractional codes", "ΔE00 intended", "ΔE00 shown",
-    "distinct at 8 bits", `distinct (${r.method})`, "what the display does"]) head.append(el("th", h));
+  for (const h of headers) head.append(el("th", h));
   table.append(el("thead"));
   table.tHead.append(head);
   const body = el("tbody");
+  table.append(body);
+  return { table, body };
+}
+
+// A paragraph, then the lines as a list.
+function summaryList(box, text, cls, lines) {
+  box.append(el("p", text, cls));
+  const ul = el("ul", undefined, "summary");
+  for (const line of lines) ul.append(el("li", line));
+  box.append(ul);
+}
+
+function checkView(check) {
+  const box = el("div");
+  const r = check.resolution;
+  summaryList(box, `Output: ${r.how} (${r.effective_bits.toFixed(1)} effective bits per gun).`, "hint", check.summary);
+  const { table, body } = tableWithHead("check-table", ["colour", "8-bit codes", "fractional codes", "ΔE00 intended",
+    "ΔE00 shown", "distinct at 8 bits", `distinct (${r.method})`, "what the display does"]);
   const o = check.original;
   body.append(row([o.name, codes(o.codes_8bit), o.fractional_code.map((v) => v.toFixed(3)).join(", "), "", "", "", "", o.verdict]));
   for (const c of check.approximations) {
@@ -87,7 +99,6 @@ function checkView(check) {
   }
   const b = check.background;
   body.append(row([b.name, codes(b.codes_8bit), b.fractional_code.map((v) => v.toFixed(3)).join(", "), "", "", "", "", b.verdict]));
-  table.append(body);
   box.append(table);
   box.append(el("p", "ΔE00 relative to the display's white, in the display profile's observer.", "hint"));
   return box;
@@ -210,20 +221,11 @@ function verificationView(v) {
       "before the first observer.", "notice"));
     return box;
   }
-  box.append(el("p", `Verification ${v.id} (${when(v.created_at)}): ${v.passed ? "passed" : "FAILED"} — ` +
+  summaryList(box, `Verification ${v.id} (${when(v.created_at)}): ${v.passed ? "passed" : "FAILED"} — ` +
     `ΔE00 tolerance ${v.tolerance_delta_e00}, ${v.observer} observer, relative to the display's white.`,
-  v.passed ? "hint" : "notice"));
-  const ul = el("ul", undefined, "summary");
-  for (const line of v.summary) ul.append(el("li", line));
-  box.append(ul);
-  const table = el("table");
-  table.id = "verification-table";
-  const head = el("tr");
-  for (const h of ["colour", "shown", "measurement", "Y emitted cd/m²", "ΔE00 intended → emitted", "of which quantisation",
-    "of which drift", "ΔE00 booth → emitted", "verdict"]) head.append(el("th", h));
-  table.append(el("thead"));
-  table.tHead.append(head);
-  const body = el("tbody");
+  v.passed ? "hint" : "notice", v.summary);
+  const { table, body } = tableWithHead("verification-table", ["colour", "shown", "measurement", "Y emitted cd/m²",
+    "ΔE00 intended → emitted", "of which quantisation", "of which drift", "ΔE00 booth → emitted", "verdict"]);
   for (const c of v.colours) {
     const tr = row([c.colour, c.geometry.replace("_", " "), c.measurement_id, c.emitted_xyz[1].toFixed(3),
       c.delta_e00_emitted.toFixed(3), c.delta_e00_quantisation.toFixed(3), c.delta_e00_drift.toFixed(3),
@@ -231,7 +233,6 @@ function verificationView(v) {
     tr.lastChild.className = c.passed ? "yes" : "no";
     body.append(tr);
   }
-  table.append(body);
   box.append(table);
   box.append(el("p", "Intended: the colour asked of the display (gamut policy applied, unquantised); quantisation: " +
     "ΔE00 from intended to what the profile predicts the output method emits; drift: from that prediction to the " +
@@ -295,7 +296,9 @@ async function loadDetail(id) {
   if (analysis.rows.some((r) => r.differencing.rule)) box.append(el("p", "* " + analysis.rows.find((r) => r.differencing.rule).differencing.rule, "hint"));
   const csv = el("a", "analysis as CSV");
   csv.href = `/api/experiments/${id}/analysis.csv`;
-  box.append(csv);
+  const mat = el("a", "as a MAT-file");
+  mat.href = `/api/experiments/${id}/analysis.mat`;
+  box.append(csv, " · ", mat);
   await readCredential;
   const img = el("img");
   img.alt = "d′ and percent correct per approximation";

@@ -27,7 +27,7 @@ const EXPERIMENT_RUN_HTML: &str = include_str!("../../web/experiment-run.html");
 const EXPERIMENT_RUN_JS: &str = include_str!("../../web/experiment-run.js");
 
 /// MATLAB examples, served under `/matlab/`.
-const MATLAB: [(&str, &str); 3] = [
+const MATLAB: [(&str, &str); 4] = [
     (
         "list_measurements.m",
         include_str!("../../web/matlab/list_measurements.m"),
@@ -39,6 +39,10 @@ const MATLAB: [(&str, &str); 3] = [
     (
         "fetch_comparison.m",
         include_str!("../../web/matlab/fetch_comparison.m"),
+    ),
+    (
+        "oddity_experiment.m",
+        include_str!("../../web/matlab/oddity_experiment.m"),
     ),
 ];
 

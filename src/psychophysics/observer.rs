@@ -40,6 +40,11 @@ impl SimulatedObserver {
         self.model
     }
 
+    /// The noise σ, in the colour-difference units its d′ are counted in.
+    pub fn sigma(&self) -> f64 {
+        self.noise_sd
+    }
+
     /// The observer's true d′ for `original` against `approximation`: ΔE*ab / σ.
     pub fn d_prime(&self, original: Lab, approximation: Lab) -> f64 {
         delta_e76(original, approximation) / self.noise_sd

@@ -299,10 +299,16 @@ impl Store {
         let intervals = serde_json::to_string(&trial.frame_intervals_ms).expect("finite numbers serialise");
         with_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
-            let state: Option<String> = sqlx::query_scalar("SELECT state FROM experiment_sessions WHERE id = $1")
-                .bind(session)
-                .fetch_optional(&mut *tx)
-                .await?;
+            // A write first: it takes SQLite's write lock (waiting out a busy
+            // database) and PostgreSQL's row lock before anything is read. A
+            // read first would let another writer commit in between, and
+            // SQLite would then refuse this transaction's write outright
+            // (SQLITE_BUSY_SNAPSHOT, "database is locked", no retry).
+            let state: Option<String> =
+                sqlx::query_scalar("UPDATE experiment_sessions SET state = state WHERE id = $1 RETURNING state")
+                    .bind(session)
+                    .fetch_optional(&mut *tx)
+                    .await?;
             match state.as_deref() {
                 None => return Err(StoreError::Conflict(format!("there is no session {session}"))),
                 Some("running") => {}

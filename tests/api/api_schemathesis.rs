@@ -40,6 +40,16 @@ const ALLOWED: &[(&str, &str, &str)] = &[
     ),
     (
         "ST202",
+        "POST /api/experiments/{id}/verifications",
+        "a colour the experiment does not show, a measurement that is not complete, an integer written as a float",
+    ),
+    (
+        "ST202",
+        "POST /api/mock/display",
+        "both or neither of `drive` and `code_counts`, counts not one per code or not the same total per channel",
+    ),
+    (
+        "ST202",
         "GET /api/experiments/figure.svg",
         "`ids` that is not a comma list of 1–24 experiment ids",
     ),

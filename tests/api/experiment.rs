@@ -19,7 +19,7 @@ use lightbooth::psychophysics::oddity::OddityModel;
 use lightbooth::random::SplitMix64;
 use serde_json::{json, Value};
 
-async fn measure(d: &Daemon, body: Value) -> i64 {
+pub(crate) async fn measure(d: &Daemon, body: Value) -> i64 {
     let (s, started) = post_json(d.addr, "/api/measurements", TOKEN, &body.to_string()).await;
     assert_eq!(s, 202, "{started}");
     let id = started["id"].as_i64().unwrap();
@@ -36,7 +36,7 @@ async fn measure(d: &Daemon, body: Value) -> i64 {
 
 /// A profile of the simulated display (the 4-level plan) and a compared
 /// measurement of WHITE's patch: (profile id, measurement id).
-async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
+pub(crate) async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
     let (s, plan) = get_json(d.addr, "/api/display-profiles/plan?steps=4").await;
     assert_eq!(s, 200, "{plan}");
     let mut patches = Vec::new();
@@ -60,7 +60,14 @@ async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
     )
     .await;
     assert_eq!(s, 201, "{profile}");
-    let m = measure(d, json!({ "scene": "white", "target": "patch", "samples": 3 })).await;
+    let m = compared_measurement(d, "white", "patch").await;
+    (profile["id"].as_i64().unwrap(), m)
+}
+
+/// A measurement of a scene's target, once its comparisons with the
+/// daemon's seven codings are computed.
+pub(crate) async fn compared_measurement(d: &Daemon, scene: &str, target: &str) -> i64 {
+    let m = measure(d, json!({ "scene": scene, "target": target, "samples": 3 })).await;
     // Its comparisons are computed after it completes.
     poll_until(
         d.addr,
@@ -69,10 +76,10 @@ async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
         |v| v.as_array().is_some_and(|a| a.len() >= 7),
     )
     .await;
-    (profile["id"].as_i64().unwrap(), m)
+    m
 }
 
-async fn create(d: &Daemon, body: Value) -> Value {
+pub(crate) async fn create(d: &Daemon, body: Value) -> Value {
     let (s, e) = post_json(d.addr, "/api/experiments", TOKEN, &body.to_string()).await;
     assert_eq!(s, 201, "{e}");
     e
@@ -159,21 +166,12 @@ async fn observers_run_the_oddity_experiment_in_the_browser_and_every_trial_is_s
 }
 
 /// A measurement's mean luminance and its standard error from its samples'
-/// spread, cd/m².
+/// spread, cd/m², and the measurement.
 async fn luminance_and_se(d: &Daemon, measurement: i64) -> (f64, f64, Value) {
     let (s, m) = get_json(d.addr, &format!("/api/measurements/{measurement}")).await;
     assert_eq!(s, 200, "{m}");
-    let y: Vec<f64> = m["samples"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["Y"].as_f64().unwrap())
-        .collect();
-    let n = y.len() as f64;
-    assert!(n >= 2.0, "{m}");
-    let mean = y.iter().sum::<f64>() / n;
-    let sd = (y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    (mean, sd / n.sqrt(), m)
+    let y = common::luminance_of_samples(&m);
+    (y.mean, y.se, m)
 }
 
 /// What the page verified: every colour, drawn by the page's shader with
@@ -278,6 +276,69 @@ async fn verified_on_the_simulated_display(d: &Daemon, id: i64, profile_id: i64)
     );
 }
 
+/// `observer_id`'s whole session of experiment `id` through the API, each
+/// trial answered by `observer` seeing the ΔE00 shown of each approximation
+/// (`shown`: name, ΔE00); the last session view.
+pub(crate) async fn run_simulated_session(
+    d: &Daemon,
+    id: i64,
+    observer_id: &str,
+    shown: &[(String, f64)],
+    observer: &SimulatedObserver,
+    rng: &mut SplitMix64,
+) -> Value {
+    let (s, mut view) = post_json(
+        d.addr,
+        &format!("/api/experiments/{id}/sessions"),
+        TOKEN,
+        &json!({ "observer": observer_id }).to_string(),
+    )
+    .await;
+    assert_eq!(s, 200, "{view}");
+    let sid = view["session"]["id"].as_i64().unwrap();
+    while let Some(next) = view["next"].as_object().cloned() {
+        let name = next["approximation"].as_str().unwrap();
+        let de = shown.iter().find(|(n, _)| n == name).unwrap().1;
+        let response = observer.respond(
+            configuration(next["configuration"].as_str().unwrap()),
+            de / observer.sigma(),
+            rng,
+        );
+        let body = json!({
+            "position": next["position"], "response": response, "reaction_ms": 700.0, "stimulus_frames": 18,
+            "dropped_frames": 0, "dropped_in_stimulus": false, "frame_intervals_ms": [16.7, 16.7],
+        });
+        let path = format!("/api/experiment-sessions/{sid}/trials");
+        let (mut s, mut v) = post_json(d.addr, &path, TOKEN, &body.to_string()).await;
+        // A busy daemon (other tests' renders on two cores) may ask to come back later.
+        for _ in 0..20 {
+            if s != 429 && s != 503 {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(250)).await;
+            (s, v) = post_json(d.addr, &path, TOKEN, &body.to_string()).await;
+        }
+        assert_eq!(s, 200, "trial {}: {v}", next["position"]);
+        view = v;
+    }
+    view
+}
+
+/// Each approximation's name and the ΔE00 the display shows it at.
+pub(crate) fn shown_delta_e00(experiment: &Value) -> Vec<(String, f64)> {
+    experiment["check"]["approximations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            (
+                c["name"].as_str().unwrap().to_string(),
+                c["delta_e00_shown"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
 fn configuration(letters: &str) -> Configuration {
     let mut c = [Stimulus::Original; 3];
     for (i, l) in letters.chars().enumerate() {
@@ -306,55 +367,12 @@ async fn simulated_observers_through_the_api_recover_their_true_d_prime() {
     )
     .await;
     let id = e["id"].as_i64().unwrap();
-    let shown: Vec<(String, f64)> = e["check"]["approximations"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| {
-            (
-                c["name"].as_str().unwrap().to_string(),
-                c["delta_e00_shown"].as_f64().unwrap(),
-            )
-        })
-        .collect();
+    let shown = shown_delta_e00(&e);
     let sigma = 0.25;
     let observer = SimulatedObserver::new(sigma, OddityModel::Differencing).unwrap();
     let mut rng = SplitMix64(77);
     for o in 0..4 {
-        let (s, mut view) = post_json(
-            d.addr,
-            &format!("/api/experiments/{id}/sessions"),
-            TOKEN,
-            &json!({ "observer": format!("sim{o}") }).to_string(),
-        )
-        .await;
-        assert_eq!(s, 200, "{view}");
-        let sid = view["session"]["id"].as_i64().unwrap();
-        while let Some(next) = view["next"].as_object().cloned() {
-            let name = next["approximation"].as_str().unwrap();
-            let de = shown.iter().find(|(n, _)| n == name).unwrap().1;
-            let response = observer.respond(
-                configuration(next["configuration"].as_str().unwrap()),
-                de / sigma,
-                &mut rng,
-            );
-            let body = json!({
-                "position": next["position"], "response": response, "reaction_ms": 700.0, "stimulus_frames": 18,
-                "dropped_frames": 0, "dropped_in_stimulus": false, "frame_intervals_ms": [16.7, 16.7],
-            });
-            let path = format!("/api/experiment-sessions/{sid}/trials");
-            let (mut s, mut v) = post_json(d.addr, &path, TOKEN, &body.to_string()).await;
-            // A busy daemon (other tests' renders on two cores) may ask to come back later.
-            for _ in 0..20 {
-                if s != 429 && s != 503 {
-                    break;
-                }
-                tokio::time::sleep(Duration::from_millis(250)).await;
-                (s, v) = post_json(d.addr, &path, TOKEN, &body.to_string()).await;
-            }
-            assert_eq!(s, 200, "trial {}: {v}", next["position"]);
-            view = v;
-        }
+        let view = run_simulated_session(&d, id, &format!("sim{o}"), &shown, &observer, &mut rng).await;
         assert_eq!(view["trials_recorded"], 144);
     }
     let (s, a) = get_json(d.addr, &format!("/api/experiments/{id}/analysis")).await;
@@ -370,6 +388,25 @@ async fn simulated_observers_through_the_api_recover_their_true_d_prime() {
     assert_eq!(s, 200);
     let csv = String::from_utf8(csv).unwrap();
     assert_eq!(csv.lines().count(), 1 + 4 * 5, "{csv}");
+    // The MAT-file, read by the `matfile` crate: the CSV's rows, the JSON's numbers.
+    let (s, mat) = common::request(
+        d.addr,
+        "GET",
+        &format!("/api/experiments/{id}/analysis.mat"),
+        None,
+        None,
+    )
+    .await;
+    assert_eq!(s, 200);
+    let parsed = matfile::MatFile::parse(mat.as_slice()).expect("a MAT-file MATLAB can load");
+    let pc = parsed.find_by_name("proportion_correct").expect("proportion_correct");
+    assert_eq!(pc.size(), &vec![4 * 5, 1]);
+    let matfile::NumericData::Double { real, .. } = pc.data() else {
+        panic!("proportion_correct is not double")
+    };
+    for (r, v) in a["rows"].as_array().unwrap().iter().zip(real) {
+        assert_eq!(r["differencing"]["proportion_correct"].as_f64().unwrap(), *v);
+    }
     let (s, svg) = common::request(
         d.addr,
         "GET",

@@ -394,3 +394,34 @@ pub async fn fresh_postgres_database() -> String {
         format!("{root}/{name}?{query}")
     }
 }
+
+/// A measurement's mean luminance (cd/m²) and its standard error, from its
+/// samples' spread (`GET /api/measurements/{id}`'s `samples[].Y`).
+#[derive(Clone, Copy, Debug)]
+pub struct SampleLuminance {
+    pub mean: f64,
+    pub se: f64,
+}
+
+impl SampleLuminance {
+    pub fn relative_se(self) -> f64 {
+        self.se / self.mean
+    }
+}
+
+pub fn luminance_of_samples(m: &Value) -> SampleLuminance {
+    let y: Vec<f64> = m["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["Y"].as_f64().unwrap())
+        .collect();
+    let n = y.len() as f64;
+    assert!(n >= 2.0, "a standard error needs two samples or more: {m}");
+    let mean = y.iter().sum::<f64>() / n;
+    let var = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    SampleLuminance {
+        mean,
+        se: (var / n).sqrt(),
+    }
+}

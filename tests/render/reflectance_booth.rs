@@ -103,20 +103,6 @@ fn model_standard_error(mean: &[f64], samples: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Relative standard error of a measurement's mean luminance, from its samples.
-fn luminance_relative_se(m: &Value) -> f64 {
-    let y: Vec<f64> = m["samples"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["Y"].as_f64().unwrap())
-        .collect();
-    let n = y.len() as f64;
-    let mean = y.iter().sum::<f64>() / n;
-    let var = y.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (var / n).sqrt() / mean
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectance_and_renders_back() {
     let d = Daemon::start(0.0).await;
@@ -251,8 +237,8 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
     // standard's (ρ was divided by it); the simulated booth's truth (0.1 %).
     let se = [
         rendered.luminance_se_cd_m2,
-        measured_y * luminance_relative_se(&tile),
-        measured_y * luminance_relative_se(&white),
+        measured_y * common::luminance_of_samples(&tile).relative_se(),
+        measured_y * common::luminance_of_samples(&white).relative_se(),
         measured_y * 1e-3,
     ]
     .iter()

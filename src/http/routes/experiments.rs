@@ -17,7 +17,7 @@ use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::experiments::analysis::{analysis_csv, figure, Analysis};
+use crate::lab::experiments::analysis::{analysis_csv, analysis_mat, figure, Analysis};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
 use crate::lab::experiments::verification::{Verification, VerificationRequest};
 use crate::lab::experiments::{ExperimentRequest, Experiments};
@@ -195,6 +195,28 @@ pub async fn experiment_analysis_csv(
             ),
         ],
         analysis_csv(&a),
+    ))
+}
+
+/// The analysis as a MAT-file: the CSV's columns as column vectors, text as
+/// char matrices (`table(cellstr(observer), cellstr(approximation), proportion_correct)`).
+#[utoipa::path(get, path = "/experiments/{id}/analysis.mat", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody)))]
+pub async fn experiment_analysis_mat(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<impl IntoResponse, ApiError> {
+    let a = experiments(&state).analyze(id).await?;
+    let bytes = analysis_mat(&a).map_err(ApiError::Internal)?;
+    Ok((
+        [
+            (header::CONTENT_TYPE, "application/x-matlab-data".to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"experiment-{id}-analysis.mat\""),
+            ),
+        ],
+        bytes,
     ))
 }
 

@@ -112,5 +112,6 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(list_experiment_verifications, create_experiment_verification))
         .routes(routes!(experiment_analysis))
         .routes(routes!(experiment_analysis_csv))
+        .routes(routes!(experiment_analysis_mat))
         .routes(routes!(experiments_figure))
 }

@@ -185,6 +185,56 @@ pub fn analysis_csv(a: &Analysis) -> String {
     out
 }
 
+/// The analysis as a MAT-file (`load('experiment-1-analysis.mat')`): the
+/// same columns as [`analysis_csv`], numbers as column vectors and text
+/// (`observer`, `approximation`, `rule`) as char matrices of one row each,
+/// so `table(cellstr(observer), cellstr(approximation), proportion_correct, ...)`
+/// rebuilds it; `model_differencing` and `model_independent_observation`
+/// name the models of the d′ columns.
+pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
+    let mut mat = crate::export::mat::MatFile::new();
+    let text = |f: fn(&ConditionResult) -> String| a.rows.iter().map(f).collect::<Vec<_>>();
+    mat.text_rows("observer", &text(|r| r.observer.clone()))?;
+    mat.text_rows("approximation", &text(|r| r.approximation.clone()))?;
+    mat.text_rows("rule", &text(|r| r.differencing.rule.unwrap_or("").to_string()))?;
+    mat.text_rows("scene", std::slice::from_ref(&a.scene))?;
+    mat.text_rows("target", std::slice::from_ref(&a.target))?;
+    mat.text_rows("output_method", std::slice::from_ref(&a.output_method))?;
+    mat.text_rows("model_differencing", &["differencing (sensR triangle)".to_string()])?;
+    mat.text_rows(
+        "model_independent_observation",
+        &["independent observation (Versfeld, Dai & Green 1996)".to_string()],
+    )?;
+    mat.scalar("experiment_id", a.experiment_id as f64)?;
+    mat.scalar("confidence", a.confidence)?;
+    mat.scalar("chance", a.chance)?;
+    type Field = (&'static str, fn(&ConditionResult) -> f64);
+    let fields: [Field; 18] = [
+        ("trials", |r| f64::from(r.trials)),
+        ("correct", |r| f64::from(r.correct)),
+        ("excluded", |r| f64::from(r.excluded)),
+        ("proportion_correct", |r| r.differencing.proportion_correct),
+        ("pc_low", |r| r.differencing.proportion_interval.0),
+        ("pc_high", |r| r.differencing.proportion_interval.1),
+        ("dprime_differencing", |r| r.differencing.d_prime),
+        ("dprime_differencing_low", |r| r.differencing.d_prime_interval.0),
+        ("dprime_differencing_high", |r| r.differencing.d_prime_interval.1),
+        ("dprime_independent_observation", |r| r.independent_observation.d_prime),
+        ("dprime_io_low", |r| r.independent_observation.d_prime_interval.0),
+        ("dprime_io_high", |r| r.independent_observation.d_prime_interval.1),
+        ("upper_bounded", |r| f64::from(u8::from(r.differencing.upper_bounded))),
+        ("dE00_intended", |r| r.delta_e00_intended),
+        ("dE00_shown", |r| r.delta_e00_shown),
+        ("distinct", |r| f64::from(u8::from(r.distinct))),
+        ("distinct_at_8bit", |r| f64::from(u8::from(r.distinct_at_8bit))),
+        ("rule_applied", |r| f64::from(u8::from(r.differencing.rule.is_some()))),
+    ];
+    for (name, f) in fields {
+        mat.column(name, &a.rows.iter().map(f).collect::<Vec<_>>())?;
+    }
+    Ok(mat.into_bytes())
+}
+
 /// The study's Fig. 5 (right) for experiments' analyses: per scene and
 /// approximation the pooled row (or the only observer's), d′ under `model`.
 pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabError> {

@@ -241,3 +241,31 @@ async fn a_session_records_every_trial_repeats_dropped_ones_and_resumes() {
     assert_eq!(csv.lines().count(), 3);
     assert!(csv.lines().nth(1).unwrap().contains(",obs1,nstep3,36,36,"), "{csv}");
 }
+
+/// Regression: a trial recorded while another request wrote to the same
+/// SQLite file failed with "database is locked" (SQLITE_BUSY_SNAPSHOT: the
+/// transaction read the session before writing, another writer committed in
+/// between, and SQLite refuses such a write without waiting). Trials and
+/// other writes interleave here; every trial must land.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn trials_recorded_while_another_writer_commits_are_not_refused_as_locked() {
+    let lab = lab().await;
+    let x = lab.experiments.clone();
+    let e = x.create(request(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let view = x.start_session(e.id, "obs01").await.unwrap();
+    let other = x.store().clone();
+    let writer = tokio::spawn(async move {
+        for i in 0..300 {
+            other
+                .insert_verification(e.id, &serde_json::json!({ "i": i }))
+                .await
+                .unwrap();
+        }
+    });
+    for position in 0..72 {
+        x.record_trial(view.session.id, &report(position, 0, false))
+            .await
+            .unwrap_or_else(|err| panic!("trial {position}: {err}"));
+    }
+    writer.await.unwrap();
+}
