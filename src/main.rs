@@ -22,8 +22,11 @@ fn main() -> ExitCode {
     // The daemon logs every instrument command, state change and job (info);
     // one-shot commands only warnings. `LIGHTBOOTH_LOG=debug` (or any tracing
     // filter) overrides both.
+    // Colour codes only on a terminal: a log file or journal gets plain text.
+    let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
+        .with_ansi(ansi)
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_env("LIGHTBOOTH_LOG").unwrap_or_else(|_| {
                 tracing_subscriber::EnvFilter::new(if args.is_daemon() { DAEMON_LOG } else { "warn" })

@@ -294,7 +294,12 @@ function runTrial(next) {
       // The callback after the pie's first draw runs when that frame reached the screen.
       if (onsetCallback && onset === null) onset = now;
       const pie = frame >= fixation && frame < fixation + stimulus;
-      if (pie && shown === 0) onsetCallback = true;
+      if (pie && shown === 0) {
+        onsetCallback = true;
+        // Which trial's pie has been drawn: an observer script (the browser
+        // test) answers once it is, however late it looks.
+        document.body.dataset.pieShown = String(next.position);
+      }
       if (pie !== previousPie || frame === 0) document.body.dataset.phase = pie ? "pie" : "cross";
       draw(pie, !pie);
       if (pie) shown++;

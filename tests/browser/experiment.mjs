@@ -79,7 +79,9 @@ async function runSession(page, experiment, observer, seed, shotName) {
       continue;
     }
     // Wait for the pie (keys before it are ignored), then answer.
-    await page.waitForFunction(() => document.body.dataset.phase === "pie", null, { timeout: 20000, polling: "raf" });
+    // (this trial's pie, which a slow look may have missed on screen: waiting
+    // for the pie phase itself hung under load, the page waiting for a key).
+    await page.waitForFunction((p) => document.body.dataset.pieShown === String(p), position, { timeout: 20000 });
     if (!shot && shots && shotName) {
       await page.screenshot({ path: `${shots}/${shotName}` });
       shot = true;
@@ -111,7 +113,8 @@ try {
   const [experiment] = await apiGet("/api/experiments");
   if (!experiment) throw new Error("the test made no experiment");
 
-  // The setup page: the list, and the check of the colours.
+  // The setup page: the list, and the check of the colours (a desktop window).
+  await page.setViewportSize({ width: 1280, height: 900 });
   await page.goto(`${base}/experiment#token=${token}`);
   await page.waitForFunction(() => document.querySelector("#approximations input"), null, { timeout: 20000 });
   await page.click("#check-button");
@@ -121,6 +124,7 @@ try {
     if (!checkText.includes(want)) failures.push(`the setup page's check lacks "${want}"`);
   }
   if (shots) await page.screenshot({ path: `${shots}/experiment-setup.png`, fullPage: true });
+  await page.setViewportSize({ width: 400, height: 300 });
 
   // The display verified before any observer: every colour full-field and
   // in the pie, drawn by the page, read back and measured by the simulated
@@ -150,7 +154,8 @@ try {
   await runSession(page, experiment, "sim2", 2, null);
   await cdp.send("Emulation.setCPUThrottlingRate", { rate: 1 });
 
-  // The results page.
+  // The results page (a desktop window).
+  await page.setViewportSize({ width: 1280, height: 900 });
   await page.goto(`${base}/experiment/${experiment.id}#token=${token}`);
   await page.waitForFunction(() => document.querySelector("#figure img")?.complete && document.querySelector("#figure img").naturalWidth > 0,
     null, { timeout: 20000 });

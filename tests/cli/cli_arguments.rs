@@ -77,3 +77,20 @@ fn render_study_and_analyze_work_bounds_are_clear_errors() {
         refused(&["analyze", "failure-map", &format!("{flag}={value}")], flag);
     }
 }
+
+/// Regression: the log carried ANSI colour codes (`ESC[2m…`) into files and
+/// pipes; they are for terminals only.
+#[test]
+fn logs_written_to_a_pipe_carry_no_colour_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["experiment", "list", "--db", &db])
+        .env("LIGHTBOOTH_LOG", "debug")
+        .output()
+        .expect("run lightbooth");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("DEBUG"), "the database's queries are logged at debug: {stderr}");
+    assert!(!stderr.contains('\u{1b}'), "colour codes in a piped log: {stderr:?}");
+}

@@ -71,6 +71,9 @@ async fn against_the_reference_spectral_agrees_and_three_steps_do_not() {
     write_report(&result, dir.path()).unwrap();
     let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("nstep3"));
+    // Its own (empty) icon: a browser opening the report asks for no
+    // /favicon.ico, whose 404 was the report's only console error.
+    assert!(html.contains(r#"<link rel="icon" href="data:,">"#));
     let figures = std::fs::read_to_string(dir.path().join("figures.csv")).unwrap();
     assert_eq!(figures.lines().count(), 1 + 4 * 3, "one row per coding and seed");
 }

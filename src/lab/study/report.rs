@@ -215,7 +215,7 @@ pub fn write_report(result: &StudyResult, dir: &Path) -> std::io::Result<()> {
 pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8>)>> {
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let mut html = String::from(
-        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>lightbooth study</title>\
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><link rel=\"icon\" href=\"data:,\"><title>lightbooth study</title>\
          <style>body{font-family:system-ui,sans-serif;margin:2em;max-width:1200px}table{border-collapse:collapse}\
          td,th{border-bottom:1px solid #ddd;padding:.2em .6em;text-align:right}td:first-child,th:first-child{text-align:left}\
          .charts{display:grid;grid-template-columns:repeat(auto-fit,minmax(560px,1fr));gap:1em}figure{margin:0}\
