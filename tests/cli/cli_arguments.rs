@@ -91,6 +91,9 @@ fn logs_written_to_a_pipe_carry_no_colour_codes() {
         .expect("run lightbooth");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("DEBUG"), "the database's queries are logged at debug: {stderr}");
+    assert!(
+        stderr.contains("DEBUG"),
+        "the database's queries are logged at debug: {stderr}"
+    );
     assert!(!stderr.contains('\u{1b}'), "colour codes in a piped log: {stderr:?}");
 }
