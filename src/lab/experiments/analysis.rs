@@ -125,7 +125,7 @@ impl Experiments {
                 "intervals: exact (Clopper–Pearson) {:.0} % intervals of the proportion correct, mapped to d′ through each model",
                 CONFIDENCE * 100.0
             ),
-            "d′ models: differencing (sensR's `triangle`) and independent observation (Versfeld, Dai & Green 1996)".into(),
+            "d′ models: differencing (sensR's triangle link) and independent observation (Versfeld, Dai & Green 1996)".into(),
         ];
         Ok(Analysis {
             experiment_id,
