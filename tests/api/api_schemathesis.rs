@@ -45,6 +45,13 @@ const ALLOWED: &[(&str, &str, &str)] = &[
     ),
     (
         "ST202",
+        "Stateful tests",
+        "the stateful phase follows links into the operations above and meets the same refusals (an integer written \
+         as a float, `-1642.0`, for a measurement id of POST /api/experiments/{id}/verifications); it is still checked \
+         for server errors and undeclared statuses",
+    ),
+    (
+        "ST202",
         "POST /api/mock/display",
         "both or neither of `drive` and `code_counts`, counts not one per code or not the same total per channel",
     ),

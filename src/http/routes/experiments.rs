@@ -13,6 +13,7 @@ use axum::Json;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
+use super::measurements::download;
 use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
@@ -186,15 +187,10 @@ pub async fn experiment_analysis_csv(
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
     let a = experiments(&state).analyze(id).await?;
-    Ok((
-        [
-            (header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()),
-            (
-                header::CONTENT_DISPOSITION,
-                format!("attachment; filename=\"experiment-{id}-analysis.csv\""),
-            ),
-        ],
-        analysis_csv(&a),
+    Ok(download(
+        "text/csv; charset=utf-8",
+        &format!("experiment-{id}-analysis.csv"),
+        analysis_csv(&a).into_bytes(),
     ))
 }
 
@@ -208,14 +204,9 @@ pub async fn experiment_analysis_mat(
 ) -> Result<impl IntoResponse, ApiError> {
     let a = experiments(&state).analyze(id).await?;
     let bytes = analysis_mat(&a).map_err(ApiError::Internal)?;
-    Ok((
-        [
-            (header::CONTENT_TYPE, "application/x-matlab-data".to_string()),
-            (
-                header::CONTENT_DISPOSITION,
-                format!("attachment; filename=\"experiment-{id}-analysis.mat\""),
-            ),
-        ],
+    Ok(download(
+        "application/x-matlab-data",
+        &format!("experiment-{id}-analysis.mat"),
         bytes,
     ))
 }
