@@ -11,7 +11,7 @@ const $ = (id) => document.getElementById(id);
   const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
   if (m) {
     localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname + "#/live");
+    history.replaceState(null, "", location.pathname + "#/home");
   }
 })();
 
@@ -53,16 +53,28 @@ async function api(path, options = {}) {
   return body;
 }
 
+// "12 s", "3 min 05 s", "2 h 03 min": a duration for people.
+function duration(seconds) {
+  if (seconds === null || seconds === undefined || !isFinite(seconds)) return "–";
+  const s = Math.max(0, Math.round(seconds));
+  if (s < 60) return `${s} s`;
+  if (s < 3600) return `${Math.floor(s / 60)} min ${String(s % 60).padStart(2, "0")} s`;
+  return `${Math.floor(s / 3600)} h ${String(Math.floor((s % 3600) / 60)).padStart(2, "0")} min`;
+}
+
 const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v).toPrecision(digits));
 
 // --- views -----------------------------------------------------------------
 
 function showView() {
-  const [, view, arg] = (location.hash || "#/live").split("/");
-  for (const s of document.querySelectorAll(".view")) s.hidden = s.id !== "view-" + (view || "live");
+  const [, hashView, arg] = (location.hash || "#/home").split("/");
+  const view = hashView || "home";
+  for (const s of document.querySelectorAll(".view")) s.hidden = s.id !== "view-" + view;
   for (const a of document.querySelectorAll("nav a")) a.classList.toggle("active", a.dataset.view === view);
+  if (view === "home") showHome(); // web/home.js
   if (view === "measurements") loadMeasurements(arg);
   if (view === "scenes") loadScenes(arg);
+  if (view === "viewer") showViewerView(arg); // web/viewer.js
   if (view === "study") loadStudies(arg);
 }
 window.addEventListener("hashchange", showView);
@@ -71,17 +83,41 @@ window.addEventListener("hashchange", showView);
 
 let current = null; // the measurement this page started and is following
 
+// Other scripts of the page (home.js, viewer.js) follow the same event
+// stream: one connection per page, not one per script.
+const labEventHandlers = new Map();
+function onLabEvent(names, handler) {
+  for (const name of names) {
+    if (!labEventHandlers.has(name)) labEventHandlers.set(name, []);
+    labEventHandlers.get(name).push(handler);
+  }
+}
+
+let badgeStatus = null;
 function setStatus(s) {
+  badgeStatus = s;
   const b = $("instrument");
   b.className = "badge " + s.state;
   if (s.state === "idle") b.textContent = `${s.model} ${s.serial || ""} idle on ${s.port}`;
-  else if (s.state === "measuring") b.textContent = `measuring #${s.measurement_id}: sample ${s.sample} of ${s.of}`;
-  else if (s.state === "disconnected") b.textContent = "disconnected: " + s.reason;
+  else if (s.state === "measuring") {
+    // The sample under way, not the count taken: "sample 0 of 5" read as stuck.
+    const what = s.scene ? ` ${s.scene}/${s.target}` : "";
+    const left = s.expected_finish_at ? ` · about ${duration(s.expected_finish_at - Date.now() / 1000)} left` : "";
+    b.textContent = `measuring #${s.measurement_id}${what}: sample ${Math.min(s.sample + 1, s.of)} of ${s.of}${left}`;
+  } else if (s.state === "disconnected") b.textContent = "disconnected: " + s.reason;
   else b.textContent = "error: " + s.message;
 }
+// The badge's time left counts down between samples.
+setInterval(() => { if (badgeStatus && badgeStatus.state === "measuring") setStatus(badgeStatus); }, 1000);
 
 function follow() {
   const es = new EventSource("/api/events");
+  for (const [name, handlers] of labEventHandlers) {
+    es.addEventListener(name, (e) => {
+      const d = JSON.parse(e.data);
+      for (const h of handlers) h(d);
+    });
+  }
   es.addEventListener("instrument_status", (e) => setStatus(JSON.parse(e.data).status));
   es.addEventListener("measurement_queued", () => {
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
@@ -118,7 +154,6 @@ function follow() {
     }
     // The measurement table follows every state change (queued, cancelled, finished).
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
-    if (scenesQueue.length && d.measurement_id === scenesQueue[0]) scenesQueue.shift();
     updateSceneProgress();
   });
   for (const name of ["render_started", "render_finished"]) {
@@ -133,7 +168,8 @@ function follow() {
   });
   es.addEventListener("study_progress", (e) => {
     const d = JSON.parse(e.data);
-    $("study-progress").textContent = `study ${d.study_id}: ${d.message}`;
+    $("study-progress").textContent = `study ${d.study_id}: ${d.message}` + studyTimeLeft(d.study_id);
+    if (location.hash.startsWith("#/study")) refreshStudyEstimate(d.study_id);
   });
   es.addEventListener("study_finished", (e) => {
     const d = JSON.parse(e.data);
@@ -141,6 +177,29 @@ function follow() {
     if (location.hash.startsWith("#/study")) loadStudies(String(d.study_id));
   });
   es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
+}
+
+// A study's time left, as GET /api/jobs last extrapolated it.
+const studyEstimates = new Map();
+function studyTimeLeft(id) {
+  const e = studyEstimates.get(id);
+  if (!e || e.seconds_left === null) return "";
+  const left = Math.max(0, e.seconds_left - (Date.now() / 1000 - e.at));
+  return ` — ${fmt(e.done, 3)} % of its steps begun; about ${duration(left)} left (steps counted as equal)`;
+}
+let studyEstimateBusy = false;
+async function refreshStudyEstimate(id) {
+  if (studyEstimateBusy) return;
+  studyEstimateBusy = true;
+  try {
+    const q = await api("/api/jobs");
+    const j = q.jobs.find((x) => x.kind === "study" && x.id === id);
+    if (j) studyEstimates.set(id, { seconds_left: j.seconds_left, done: j.done, at: Date.now() / 1000 });
+  } catch (e) {
+    // The estimate is a nicety; the progress message stands without it.
+  } finally {
+    setTimeout(() => (studyEstimateBusy = false), 2000);
+  }
 }
 
 function refreshLiveSpectrum() {
@@ -212,6 +271,12 @@ function stateText(m) {
 
 // Local date and time of a POSIX-seconds timestamp (the API keeps seconds, UTC).
 const localTime = (t) => (t === null || t === undefined ? "" : new Date(t * 1000).toLocaleString());
+// A time after `since`: the time of day only when it is the same day.
+function laterTime(since, t) {
+  if (t === null || t === undefined) return "";
+  const a = new Date(since * 1000), b = new Date(t * 1000);
+  return a.toDateString() === b.toDateString() ? b.toLocaleTimeString() : b.toLocaleString();
+}
 
 async function cancelMeasurement(id) {
   notice("");
@@ -251,7 +316,10 @@ async function loadMeasurements(openId) {
     const tr = tbody.insertRow();
     tr.dataset.id = m.id;
     const instrument = m.instrument_model ? `${m.instrument_model} ${m.instrument_serial || ""}`.trim() : "";
-    for (const v of [m.id, localTime(m.created_at), m.booth, instrument, m.scene || "", m.target || "", stateText(m),
+    const taken = m.started_at ?? m.created_at;
+    const took = m.started_at && m.finished_at ? duration(m.finished_at - m.started_at) : m.started_at ? "running" : "";
+    for (const v of [m.id, (m.started_at ? "" : "queued ") + localTime(taken), laterTime(taken, m.finished_at),
+      took, m.booth, instrument, m.scene || "", m.target || "", stateText(m),
       `${m.samples_taken}/${m.samples_requested}`, fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2),
       m.note]) tr.insertCell().textContent = v;
     const action = tr.insertCell();
@@ -265,6 +333,8 @@ async function loadMeasurements(openId) {
       });
       action.appendChild(b);
     }
+    tr.className = "clickable";
+    tr.title = "open this measurement";
     tr.addEventListener("click", () => (location.hash = `#/measurements/${m.id}`));
   }
   const first = page.total ? page.offset + 1 : 0;
@@ -309,7 +379,9 @@ async function showMeasurement(id) {
   $("detail-summary").textContent = (m.state === "complete" ? average
     : `${m.state}${m.error ? ": " + m.error : ""}` +
       (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +
-    ` · ${localTime(m.created_at)}` + (m.note ? ` · notes: ${m.note}` : "");
+    ` · queued ${localTime(m.created_at)}` +
+    (m.started_at ? `, taken ${localTime(m.started_at)}` + (m.finished_at ? ` to ${localTime(m.finished_at)} (${duration(m.finished_at - m.started_at)})` : "") : "") +
+    (m.note ? ` · notes: ${m.note}` : "");
   for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])
     $(el).href = `/api/measurements/${id}/spectrum.${ext}`;
   $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
@@ -327,20 +399,87 @@ $("cancel-current").addEventListener("click", () => current && cancelMeasurement
 // --- scenes ----------------------------------------------------------------
 
 let openScene = null;
-let scenesQueue = [];
+// The measurements "Measure every target" queued, per scene: its run's total.
+const sceneRuns = new Map();
 
+// The Scenes page: every scene at a glance (GET /api/scene-overview), or
+// one scene's page when the hash names it.
 async function loadScenes(openId) {
-  const list = $("scene-list");
-  list.innerHTML = "";
-  for (const s of sceneInfo) {
-    const li = document.createElement("li");
+  $("scene-overview").hidden = !!openId;
+  $("scene-detail").hidden = !openId;
+  if (openId) return loadSceneDetail(openId);
+  openScene = null;
+  const o = await api("/api/scene-overview");
+  $("scene-overview-note").textContent =
+    `Each scene of the booth: its camera view, how many of its targets are measured in booth ${o.booth}, and how far each ` +
+    `coding's rendering is from the measurements (mean CIEDE2000 ΔE00 and rms_rel of Y over the measured targets; ` +
+    `observer ${observerName(o.observer)}). Click a scene to open it.`;
+  const tbody = document.querySelector("#scene-table tbody");
+  tbody.innerHTML = "";
+  for (const s of o.scenes) {
+    const tr = tbody.insertRow();
+    tr.className = "clickable";
+    tr.dataset.scene = s.scene;
+    const name = tr.insertCell();
     const a = document.createElement("a");
-    a.href = `#/scenes/${s.id}`;
-    a.textContent = `${s.id}: ${s.title} (${s.targets.length} target${s.targets.length > 1 ? "s" : ""})`;
-    li.appendChild(a);
-    list.appendChild(li);
+    a.href = `#/scenes/${s.scene}`;
+    a.textContent = s.title;
+    const id = document.createElement("div");
+    id.className = "hint";
+    id.textContent = s.scene;
+    name.append(a, id);
+    const thumb = tr.insertCell();
+    if (s.preview_render_id) {
+      const img = document.createElement("img");
+      img.className = "thumb";
+      img.alt = `${s.title}: camera view of render ${s.preview_render_id} (sRGB coding)`;
+      img.src = `/api/renders/${s.preview_render_id}/preview.png`;
+      thumb.appendChild(img);
+    } else {
+      thumb.innerHTML = '<span class="hint">not rendered yet</span>';
+    }
+    const measured = tr.insertCell();
+    const bar = document.createElement("progress");
+    bar.max = s.targets.length;
+    bar.value = s.measured.length;
+    bar.className = "small";
+    measured.append(`${s.measured.length} / ${s.targets.length} `, bar);
+    tr.insertCell().textContent = s.last_measured_at ? localTime(s.last_measured_at) : "never";
+    const figures = tr.insertCell();
+    figures.className = "coding-figures";
+    if (s.codings.length) figures.appendChild(codingFiguresTable(s.codings));
+    else figures.innerHTML = '<span class="hint">no comparison yet: measure a target</span>';
+    tr.addEventListener("click", (ev) => {
+      if (ev.target.closest("a")) return;
+      location.hash = `#/scenes/${s.scene}`;
+    });
   }
-  if (openId) loadSceneDetail(openId);
+}
+
+// A compact table: one column per coding (its colour), mean ΔE00 and rms_rel rows.
+function codingFiguresTable(codings) {
+  const t = document.createElement("table");
+  t.className = "compact";
+  const head = t.createTHead().insertRow();
+  head.insertCell().textContent = "";
+  for (const c of codings) {
+    const th = document.createElement("th");
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = c.colour;
+    th.append(swatch, c.coding);
+    head.appendChild(th);
+  }
+  const body = t.createTBody();
+  for (const [label, key, digits] of [["mean ΔE00", "mean_dE00", 3], ["rms_rel", "rms_rel", 2]]) {
+    const tr = body.insertRow();
+    tr.insertCell().textContent = label;
+    for (const c of codings) tr.insertCell().textContent = fmt(c[key], digits);
+  }
+  const n = body.insertRow();
+  n.insertCell().textContent = "targets";
+  for (const c of codings) n.insertCell().textContent = c.points;
+  return t;
 }
 
 async function loadSceneDetail(id) {
@@ -369,7 +508,8 @@ async function loadSceneDetail(id) {
   if (openScene !== id) return;
   showRenderJobs(renders);
   const done = renders.find((r) => r.state === "complete");
-  if (viewerRender?.id !== done?.id) openImageViewer(done || null); // web/viewer.js
+  $("scene-viewer-link").href = `#/viewer/${id}`;
+  updateSceneProgress();
   const preview = $("scene-preview");
   preview.hidden = !done;
   // Never leave the previous scene's caption under this one, nor let its
@@ -429,10 +569,12 @@ $("measure-scene").addEventListener("click", async () => {
   notice("");
   const s = sceneInfo.find((x) => x.id === openScene);
   if (!s) return;
+  const run = { ids: [] };
+  sceneRuns.set(s.id, run);
   try {
     for (const target of s.targets) {
       const r = await startMeasurement({ scene: s.id, target, samples: 5 });
-      scenesQueue.push(r.id);
+      run.ids.push(r.id);
       current = r.id;
     }
   } catch (e) {
@@ -441,24 +583,111 @@ $("measure-scene").addEventListener("click", async () => {
   updateSceneProgress();
 });
 
-function updateSceneProgress() {
-  $("scene-progress").textContent = scenesQueue.length ? `${scenesQueue.length} measurement(s) to go` : "";
+// The scene's measurements waiting or under way (from any page or client,
+// GET /api/jobs), with the time left; the run this page started as a bar.
+let sceneProgressBusy = false;
+async function updateSceneProgress() {
+  const scene = openScene;
+  if (!scene || sceneProgressBusy) return;
+  sceneProgressBusy = true;
+  try {
+    const q = await api("/api/jobs");
+    if (scene !== openScene) return;
+    const mine = q.jobs.filter((j) => j.kind === "measurement" && j.scene === scene);
+    const run = sceneRuns.get(scene);
+    const bar = $("scene-run-progress");
+    $("cancel-scene-run").hidden = mine.length === 0;
+    if (!mine.length) {
+      bar.hidden = true;
+      if (run && run.ids.length && !run.reported) {
+        run.reported = true;
+        $("scene-progress").textContent = run.cancelled
+          ? `cancelled ${run.cancelled} measurement(s) (one under way keeps the samples it took, marked partial); ` +
+            `the ${run.ids.length - run.cancelled} taken before are kept.`
+          : `all ${run.ids.length} targets measured.`;
+      } else if (!run) $("scene-progress").textContent = "";
+      return;
+    }
+    const last = mine[mine.length - 1];
+    const left = last.seconds_left === null ? "" : `; about ${duration(last.seconds_left)} left (${last.estimate})`;
+    const running = mine.find((j) => j.state === "running");
+    if (run && run.ids.length) {
+      const waiting = run.ids.filter((id) => mine.some((j) => j.id === id)).length;
+      bar.hidden = false;
+      bar.max = run.ids.length;
+      bar.value = run.ids.length - waiting;
+      $("scene-progress").textContent = `${run.ids.length - waiting} of ${run.ids.length} targets measured` +
+        (running ? `, now ${running.what.split(",")[0]} (sample ${running.done + 1} of ${running.total})` : "") + left;
+    } else {
+      bar.hidden = true;
+      $("scene-progress").textContent = `${mine.length} measurement(s) of this scene waiting or under way` + left;
+    }
+  } catch (e) {
+    notice(e.message);
+  } finally {
+    sceneProgressBusy = false;
+  }
 }
 
+// Cancels every measurement of the open scene still waiting or under way;
+// the ones taken are kept (and a running one keeps its samples, marked partial).
+$("cancel-scene-run").addEventListener("click", async () => {
+  notice("");
+  const scene = openScene;
+  const q = await api("/api/jobs");
+  const mine = q.jobs.filter((j) => j.kind === "measurement" && j.scene === scene);
+  // The queued ones first, so the instrument does not take the next up meanwhile.
+  mine.sort((a, b) => (a.state === "queued" ? 0 : 1) - (b.state === "queued" ? 0 : 1));
+  let cancelled = 0;
+  for (const j of mine) {
+    try {
+      await api(`/api/measurements/${j.id}/cancel`, { method: "POST", body: "{}" });
+      cancelled += 1;
+    } catch (e) {
+      // It finished meanwhile: kept.
+    }
+  }
+  const run = sceneRuns.get(scene) || { ids: mine.map((j) => j.id) };
+  run.cancelled = cancelled;
+  run.reported = false;
+  sceneRuns.set(scene, run);
+  updateSceneProgress();
+});
+setInterval(() => { if (openScene && !$("cancel-scene-run").hidden) updateSceneProgress(); }, 2000);
+
 // --- study -----------------------------------------------------------------
+
+// The study's five booth scenes (Ruppertsberg & Bloj 2006): the form's default.
+const STUDY_SCENES = ["white", "red", "green", "blue", "cylinder"];
+const STUDY_FORM_KEY = "lightbooth-study-request";
 
 function fillStudyScenes() {
   const box = $("study-scenes");
   for (const s of sceneInfo) {
     const label = document.createElement("label");
-    label.innerHTML = `<input type="checkbox" value="${s.id}" checked> ${s.id}`;
+    const input = document.createElement("input");
+    input.type = "checkbox";
+    input.value = s.id;
+    input.checked = STUDY_SCENES.includes(s.id);
+    label.append(input, ` ${s.id}`);
     box.appendChild(label);
   }
+  // The last request started from this browser, if any.
+  const last = JSON.parse(localStorage.getItem(STUDY_FORM_KEY) || "null");
+  if (last) {
+    const scenes = (last.scenes || "").split(",");
+    for (const i of box.querySelectorAll("input")) i.checked = scenes.includes(i.value);
+    $("study-against").value = last.against || "measurements";
+    $("study-seeds").value = last.seeds || 2;
+    $("study-sweeps").checked = !!last.sweeps;
+    $("study-failure").checked = !!last.failure_map;
+    $("study-auto").value = last.auto || "";
+    $("study-measure-missing").checked = last.measure_missing !== false;
+  }
+  for (const el of $("study-form").querySelectorAll("input, select")) el.addEventListener("change", planStudy);
 }
 
-$("study-form").addEventListener("submit", async (ev) => {
-  ev.preventDefault();
-  notice("");
+function studyRequest() {
   const scenes = [...document.querySelectorAll("#study-scenes input:checked")].map((i) => i.value);
   const body = {
     scenes: scenes.join(","),
@@ -469,8 +698,59 @@ $("study-form").addEventListener("submit", async (ev) => {
   };
   if ($("study-auto").value.trim()) body.auto = $("study-auto").value.trim();
   if (body.against === "measurements" && $("study-measure-missing").checked) body.measure_missing = true;
+  return body;
+}
+
+// Before it starts: what the study will measure first and roughly how long
+// that takes (the instrument's pace, GET /api/jobs), and how long the
+// rendering took last time per scene and seed.
+async function planStudy() {
+  const body = studyRequest();
+  const scenes = body.scenes ? body.scenes.split(",") : [];
+  if (!scenes.length) {
+    $("study-plan").textContent = "Choose at least one scene.";
+    return;
+  }
+  try {
+    const [overview, jobs, health, studies] = await Promise.all([api("/api/scene-overview"), api("/api/jobs"),
+      api("/api/health"), api("/api/studies")]);
+    const parts = [];
+    if (body.against === "measurements") {
+      const missing = overview.scenes.filter((s) => scenes.includes(s.scene))
+        .reduce((n, s) => n + s.targets.length - s.measured.length, 0);
+      if (missing && body.measure_missing) {
+        const pace = jobs.seconds_per_sample;
+        parts.push(`First it measures the ${missing} target(s) with no complete measurement, ${health.default_samples} samples each` +
+          (pace ? `: about ${duration(missing * health.default_samples * pace)} at ${fmt(pace, 2)} s per sample (${jobs.pace_source}).`
+            : " (no measurement yet to time the instrument by)."));
+      } else if (missing) {
+        parts.push(`${missing} target(s) have no complete measurement: the study will refuse to start; tick “measure missing targets first”.`);
+      } else parts.push("Every target of these scenes is measured: it renders at once.");
+    } else parts.push("Against the converged spectral reference: no measurement needed.");
+    // Rendering: the last complete study's seconds per scene and seed.
+    const done = studies.find((st) => st.state === "complete" && st.wall_seconds && st.request && st.request.seeds);
+    const units = scenes.length * body.seeds;
+    if (done) {
+      const doneUnits = (done.request.scenes || "").split(",").filter(Boolean).length * done.request.seeds || 1;
+      const extra = (body.sweeps && !done.request.sweeps) || (body.failure_map && !done.request.failure_map) ? " (more with sweeps or failure maps than that study had)" : "";
+      parts.push(`Then it renders ${scenes.length} scene(s) × ${body.seeds} seed(s): about ${duration(done.wall_seconds / doneUnits * units)}, ` +
+        `from study ${done.id} (${fmt(done.wall_seconds, 3)} s for ${doneUnits} scene-seeds)${extra}.`);
+    } else {
+      parts.push(`Then it renders ${scenes.length} scene(s) × ${body.seeds} seed(s); no earlier study to time that by.`);
+    }
+    $("study-plan").textContent = parts.join(" ");
+  } catch (e) {
+    $("study-plan").textContent = "";
+  }
+}
+
+$("study-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  notice("");
+  const body = studyRequest();
   try {
     const r = await api("/api/studies", { method: "POST", body: JSON.stringify(body) });
+    localStorage.setItem(STUDY_FORM_KEY, JSON.stringify(Object.assign({}, body, { measure_missing: $("study-measure-missing").checked })));
     $("study-progress").textContent = `study ${r.id}: queued`;
     loadStudies();
   } catch (e) {
@@ -504,9 +784,12 @@ async function loadStudies(openId) {
     details.append(summary, pre);
     details.addEventListener("click", (e) => e.stopPropagation());
     tr.insertCell().appendChild(details);
+    tr.className = "clickable";
+    tr.title = "open this study's figures";
     tr.addEventListener("click", () => (location.hash = `#/study/${st.id}`));
   }
   if (openId) showStudy(openId);
+  planStudy();
 }
 
 function chartFigure(src, alt) {

@@ -119,6 +119,8 @@ async function loadSetup() {
   for (const e of list) {
     const tr = row([e.id, e.name, `${e.scene}/${e.target}`, e.output_method, e.request.approximations.join(", "),
       (e.check.testable || []).join(", ") || "none", when(e.created_at)]);
+    tr.className = "clickable";
+    tr.title = "open this experiment";
     tr.addEventListener("click", () => { location.href = `/experiment/${e.id}`; });
     tbody.append(tr);
   }

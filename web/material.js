@@ -156,6 +156,8 @@ async function loadReflectances() {
       td.textContent = v;
       tr.appendChild(td);
     }
+    tr.className = "clickable";
+    tr.title = "show this reflectance";
     tr.addEventListener("click", () => showReflectance(r));
     body.appendChild(tr);
   }

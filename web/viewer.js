@@ -1,31 +1,50 @@
-// The image viewer on a scene's page: camera images of the scene's newest
+// The image viewer (#/viewer/SCENE): camera images of the scene's newest
 // complete render in any coding (src/daemon/images.rs), a pixel probe with
 // the pixel's channels ± SE charted by the daemon, and the per-pixel ΔE00
 // map between two codings with its scale bar. Uses `$`, `api`, `fmt`,
-// `notice` and `observerName` from app.js; app.js calls openImageViewer.
+// `duration`, `notice`, `onLabEvent`, `sceneInfo` and `observerName` from
+// app.js; app.js calls showViewerView.
 "use strict";
 
 let viewerRender = null; // the render whose images are shown
 let viewerShown = null; // ImageInfo of the image on screen
 let viewerWaiting = null;
 const viewerWake = [];
-// The event stream, once app.js has the read cookie (`readCredential`).
-readCredential.then(() => {
-  const viewerProgress = new EventSource("/api/events");
-
-  // Progress of the image being waited for, from the event stream.
-  viewerProgress.addEventListener("image_progress", (e) => {
-    const p = JSON.parse(e.data);
-    if (!viewerWaiting || p.image_id !== viewerWaiting) return;
-    const bar = $("viewer-progress");
-    bar.hidden = false;
-    bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
-    $("viewer-state").textContent =
-      `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
-      `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s`;
-  });
-  viewerProgress.addEventListener("image_finished", () => viewerWake.splice(0).forEach((f) => f()));
+// Progress of the image being waited for, from the page's event stream.
+onLabEvent(["image_progress"], (p) => {
+  if (!viewerWaiting || p.image_id !== viewerWaiting) return;
+  const bar = $("viewer-progress");
+  bar.hidden = false;
+  bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
+  // An upper bound: the image stops at its path cap or its time budget,
+  // earlier once every pixel reaches its noise target.
+  const fraction = p.max_paths ? p.paths / p.max_paths : 0;
+  const left = fraction > 0.01 ? Math.min(p.elapsed_seconds * (1 - fraction) / fraction,
+    Math.max(0, (viewerBudget || Infinity) - p.elapsed_seconds)) : null;
+  $("viewer-state").textContent =
+    `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
+    `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s` +
+    (left === null ? "" : `; at most about ${duration(left)} left`);
 });
+onLabEvent(["image_finished"], () => viewerWake.splice(0).forEach((f) => f()));
+let viewerBudget = null;
+
+// The Viewer view: pick a scene; its newest complete render's images.
+async function showViewerView(sceneId) {
+  const select = $("viewer-scene");
+  if (!select.options.length) {
+    for (const s of sceneInfo) select.add(new Option(`${s.title} (${s.id})`, s.id));
+    select.addEventListener("change", () => (location.hash = `#/viewer/${select.value}`));
+  }
+  const scene = sceneId || select.value || (sceneInfo[0] && sceneInfo[0].id);
+  if (!scene) return;
+  select.value = scene;
+  const renders = await api(`/api/scenes/${scene}/renders`);
+  const done = renders.find((r) => r.state === "complete") || null;
+  $("viewer-scene-state").textContent = done ? ""
+    : "No complete render of this scene yet: measure one of its targets (the daemon renders it to compare), then come back.";
+  if (viewerRender?.id !== done?.id) openImageViewer(done);
+}
 
 function openImageViewer(render) {
   viewerRender = render;
@@ -48,10 +67,13 @@ function openImageViewer(render) {
 async function viewerImage(coding) {
   const r = await api(`/api/renders/${viewerRender.id}/images`, { method: "POST", body: JSON.stringify({ coding }) });
   viewerWaiting = r.image_id;
+  $("viewer-cancel").hidden = false;
+  $("viewer-cancel").dataset.id = r.image_id;
   try {
     for (;;) {
       const info = await api(`/api/images/${r.image_id}`);
       if (info.state === "complete") return info;
+      viewerBudget = info.settings.time_budget_s;
       if (info.state === "failed" || info.state === "cancelled") {
         throw new Error(`image ${info.id} (${coding}) ${info.state}: ${info.error || ""}`);
       }
@@ -60,6 +82,7 @@ async function viewerImage(coding) {
     }
   } finally {
     viewerWaiting = null;
+    $("viewer-cancel").hidden = true;
     $("viewer-progress").hidden = true;
     $("viewer-state").textContent = "";
   }
@@ -154,6 +177,15 @@ $("viewer-de").addEventListener("click", async () => {
       `(observer: ${observerName(m.observer)}). Mean ${fmt(m.mean, 3)}, 95th percentile ${fmt(m.p95, 3)}, ` +
       `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. Each image's own noise adds to ΔE.`;
     $("de-figure").hidden = false;
+  } catch (e) {
+    notice(e.message);
+  }
+});
+
+// Cancels the image being waited for; the daemon keeps nothing of it.
+$("viewer-cancel").addEventListener("click", async (ev) => {
+  try {
+    await api(`/api/images/${ev.currentTarget.dataset.id}/cancel`, { method: "POST", body: "{}" });
   } catch (e) {
     notice(e.message);
   }

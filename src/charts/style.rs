@@ -69,6 +69,11 @@ pub fn coding_style(name: &str) -> Option<Style> {
         .map(|(_, row)| style(row))
 }
 
+/// A coding's colour as CSS writes it (`#rrggbb`), if `name` is a coding.
+pub fn coding_colour_hex(name: &str) -> Option<String> {
+    coding_style(name).map(|s| format!("#{:02x}{:02x}{:02x}", s.colour.0, s.colour.1, s.colour.2))
+}
+
 /// Whether a series is the measurement (or the study's truth).
 pub(super) fn is_measurement(name: &str) -> bool {
     let n = name.to_ascii_lowercase();

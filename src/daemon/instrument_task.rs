@@ -238,6 +238,7 @@ pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
         canceller: canceller.clone(),
         mock: mock.clone(),
         current: None,
+        seconds_per_sample: None,
     };
     let thread = std::thread::Builder::new()
         .name("instrument".into())
@@ -255,6 +256,9 @@ struct Worker {
     mock: Option<Arc<MockSlot>>,
     /// The measurement being taken (to fail it if the task panics).
     current: Option<i64>,
+    /// Seconds per sample of the last measurement that took one: the
+    /// estimate of the next measurement's time before its first sample.
+    seconds_per_sample: Option<f64>,
 }
 
 /// Runs the worker, restarting it after a panic (see the module doc). The
@@ -467,11 +471,18 @@ impl Worker {
             measurement_id: id,
             samples: job.samples,
         });
-        self.set_status(InstrumentStatus::Measuring {
+        let started = Instant::now();
+        let started_at = crate::store::now();
+        let measuring = |sample: usize, seconds_per_sample: Option<f64>| InstrumentStatus::Measuring {
             measurement_id: id,
-            sample: 0,
+            sample,
             of: job.samples,
-        });
+            scene: job.scene.clone(),
+            target: job.target.clone(),
+            started_at,
+            expected_finish_at: seconds_per_sample.map(|pace| started_at + pace * job.samples as f64),
+        };
+        self.set_status(measuring(0, self.seconds_per_sample));
 
         // Re-aim the simulated instrument at the scene target.
         if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
@@ -501,6 +512,7 @@ impl Worker {
         let of = job.samples;
         let observer = self.config.observer;
         let stop = cancel.clone();
+        let mut measured_pace = None;
         let mut on_sample = |s: &Sample| {
             // Blocks this thread until the sample is on disk: the next sample waits.
             let row = match recorder.store_sample(s) {
@@ -519,11 +531,9 @@ impl Worker {
                 "sample stored"
             );
             let done = (s.index + 1).min(of);
-            let st = InstrumentStatus::Measuring {
-                measurement_id: id,
-                sample: done,
-                of,
-            };
+            let pace = started.elapsed().as_secs_f64() / done.max(1) as f64;
+            measured_pace = Some(pace);
+            let st = measuring(done, Some(pace));
             status.send_replace(st.clone());
             let _ = events.send(Event::InstrumentStatus { status: st });
             let _ = events.send(Event::Sample {
@@ -548,6 +558,9 @@ impl Worker {
             });
         };
         let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
+        if measured_pace.is_some() {
+            self.seconds_per_sample = measured_pace;
+        }
         let (taken, usable) = recorder.taken();
         if let Some(why) = recorder.write_failed() {
             // Not every sample is on disk: never `complete`, whatever the instrument said.

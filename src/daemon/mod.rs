@@ -253,7 +253,8 @@ pub async fn run(
         Arc::clone(&comparisons),
         Arc::new(ImageJobs::new(events.clone())),
         workers,
-    ));
+    )
+    .with_progress(crate::lab::progress::ProgressBoard::follow(&events)));
     let job_worker = render_jobs.run();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {
         store: store.clone(),

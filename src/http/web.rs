@@ -15,6 +15,10 @@ const APP_JS: &str = include_str!("../../web/app.js");
 /// The "measure a material" view (reflectance against a white standard).
 const MATERIAL_JS: &str = include_str!("../../web/material.js");
 const VIEWER_JS: &str = include_str!("../../web/viewer.js");
+/// The home page: the instrument, the queue, the booth, what to do next.
+const HOME_JS: &str = include_str!("../../web/home.js");
+/// The navigation bar every page shares.
+const NAV_JS: &str = include_str!("../../web/nav.js");
 const STYLE: &str = include_str!("../../web/style.css");
 /// The display calibration page, opened full-screen on the stimulus monitor.
 const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
@@ -56,6 +60,14 @@ pub fn router() -> Router<AppState> {
         .route(
             "/material.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MATERIAL_JS) }),
+        )
+        .route(
+            "/home.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], HOME_JS) }),
+        )
+        .route(
+            "/nav.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], NAV_JS) }),
         )
         .route(
             "/viewer.js",

@@ -176,6 +176,15 @@ impl ImageJobs {
         self.lock().get(&id).map(|e| e.info.clone())
     }
 
+    /// The images queued or being rendered, oldest first.
+    pub fn unfinished(&self) -> Vec<ImageInfo> {
+        self.lock()
+            .values()
+            .filter(|e| e.info.state == "queued" || e.info.state == "running")
+            .map(|e| e.info.clone())
+            .collect()
+    }
+
     /// The images of a render, oldest first.
     pub fn of_render(&self, render_id: i64) -> Vec<ImageInfo> {
         self.lock()
@@ -249,9 +258,7 @@ impl ImageJobs {
                     error: None,
                     settings,
                     observer: observer.to_string(),
-                    colour: crate::charts::coding_style(&coding.to_string())
-                        .map(|s| format!("#{:02x}{:02x}{:02x}", s.colour.0, s.colour.1, s.colour.2))
-                        .unwrap_or_else(|| "#000000".into()),
+                    colour: crate::charts::coding_colour_hex(&coding.to_string()).unwrap_or_else(|| "#000000".into()),
                     progress: None,
                     quantities: Vec::new(),
                     wavelengths_nm: None,

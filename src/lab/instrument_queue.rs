@@ -29,8 +29,19 @@ pub enum InstrumentStatus {
     },
     Measuring {
         measurement_id: i64,
+        /// Samples taken so far (the one under way is `sample + 1`).
         sample: usize,
         of: usize,
+        /// The scene target measured, if any.
+        scene: Option<String>,
+        target: Option<String>,
+        /// POSIX seconds: when the instrument took this measurement up.
+        started_at: f64,
+        /// POSIX seconds: when it should end if the remaining samples take
+        /// as long as those taken (before the first, as long as the
+        /// previous measurement's); null when nothing is known yet. An
+        /// extrapolation, not a promise.
+        expected_finish_at: Option<f64>,
     },
     /// Last operation failed; the daemon will retry.
     Error { message: String },

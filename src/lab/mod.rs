@@ -9,6 +9,8 @@
 //!   instrument task and by `lightbooth study --measure-simulated`;
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
+//! - [`scene_overview`]: every scene at a glance (targets measured, its
+//!   thumbnail's render, each coding's mean ΔE00 and rms_rel);
 //! - [`scenes`]: the scene catalogue, every scene loaded once at start;
 //! - [`render_runner`]: one recorded render run (settings checked, bundle
 //!   stored, rendered on the rayon pool, each coding's cost);
@@ -28,6 +30,10 @@
 //! - [`jobs`], [`images`], [`worker_queue`], [`study_measurements`]: the
 //!   bounded job queue, camera images, the hand-off to render workers, and
 //!   a study's wait for the measurements it asked for;
+//! - [`progress`]: how far each running render and study has got, and the
+//!   time it extrapolates to still need;
+//! - [`queue`]: every job of the booth waiting or under way, with its
+//!   progress and time left, for the dashboard's home page;
 //! - [`requests`]: the requests those workflows take;
 //! - [`error`]: [`LabError`](error::LabError), the kinds of refusal a caller
 //!   can act on, mapped to HTTP statuses only in `http::error`.
@@ -46,9 +52,12 @@ pub mod instrument_queue;
 pub mod jobs;
 pub mod lease;
 pub mod measurement;
+pub mod progress;
+pub mod queue;
 pub mod render_jobs;
 pub mod render_runner;
 pub mod requests;
+pub mod scene_overview;
 pub mod scenes;
 pub mod services;
 pub mod simulated_truth;

@@ -9,6 +9,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use super::progress::ProgressBoard;
 use super::comparisons::Comparisons;
 use super::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
 use super::jobs::{JobQueue, Queued};
@@ -48,6 +49,8 @@ pub struct RenderJobs {
     images: Arc<ImageJobs>,
     /// Set when renders and studies run on render workers.
     workers: Option<Arc<WorkerQueue>>,
+    /// How far the running render and study have got (see [`Self::with_progress`]).
+    progress: Option<Arc<ProgressBoard>>,
 }
 
 impl RenderJobs {
@@ -69,7 +72,15 @@ impl RenderJobs {
             comparisons,
             images,
             workers,
+            progress: None,
         }
+    }
+
+    /// The same jobs, reporting their progress on `board` (the dashboard's
+    /// queue reads it through [`RenderService::progress`]).
+    pub fn with_progress(mut self, board: Arc<ProgressBoard>) -> RenderJobs {
+        self.progress = Some(board);
+        self
     }
 
     /// Starts the one worker that runs queued renders and studies in turn
@@ -298,6 +309,10 @@ impl RenderService for RenderJobs {
 
     fn images(&self) -> Option<&ImageJobs> {
         Some(&self.images)
+    }
+
+    fn progress(&self) -> Option<&ProgressBoard> {
+        self.progress.as_deref()
     }
 
     fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), LabError>> {

@@ -41,6 +41,11 @@ pub trait RenderService: Send + Sync {
     fn images(&self) -> Option<&crate::lab::images::ImageJobs> {
         None
     }
+    /// How far its running renders and studies have got; `None` when it
+    /// does not follow them.
+    fn progress(&self) -> Option<&crate::lab::progress::ProgressBoard> {
+        None
+    }
     /// The CIELAB white of a scene in a booth now, with its source (see
     /// `lab::comparisons`).
     fn cielab_white(

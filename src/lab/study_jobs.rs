@@ -21,7 +21,7 @@ use crate::colorimetry::Observer;
 use crate::lab::error::LabError;
 use crate::lab::requests::StudyRequest;
 use crate::lab::study::report::report_files;
-use crate::lab::study::run::{run_study, Against, StudyOptions};
+use crate::lab::study::run::{progress_steps, run_study, Against, StudyOptions};
 use crate::render::integrator::{with_cancel, CancelFlag};
 use crate::render::Coding;
 use crate::store::{Job, JobEnd, Store};
@@ -153,6 +153,7 @@ impl StudyRunner {
                 events.send(Event::StudyProgress {
                     study_id: id,
                     message: message.to_string(),
+                    fraction: None,
                 });
             };
             if let Err(e) = wait_for_measurements(&self.store, &measured_first, &progress).await {
@@ -179,10 +180,15 @@ impl StudyRunner {
                         }
                     }
                     let events = this.events.clone();
+                    // The k-th step begun of the study's steps: its fraction done.
+                    let steps = progress_steps(paths.len(), &options).max(1);
+                    let begun = std::sync::atomic::AtomicUsize::new(0);
                     let progress = move |message: &str| {
+                        let k = begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         events.send(Event::StudyProgress {
                             study_id: id,
                             message: message.to_string(),
+                            fraction: Some((k as f64 / steps as f64).min(1.0)),
                         });
                     };
                     this.runtime

@@ -117,6 +117,17 @@ impl Store {
         .flatten())
     }
 
+    /// The newest complete render of `scene` with a preview image, if any.
+    pub async fn latest_preview_render(&self, scene: &str) -> Result<Option<i64>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_scalar::<_, i64>(
+            "SELECT id FROM renders WHERE scene = $1 AND state = 'complete' AND preview_png IS NOT NULL \
+             ORDER BY id DESC LIMIT 1"
+        )
+        .bind(scene)
+        .fetch_optional(pool)
+        .await?))
+    }
+
     pub async fn get_render(&self, id: i64) -> Result<Option<RenderRow>, StoreError> {
         let sql = format!("SELECT {RENDER_COLUMNS} FROM renders WHERE id = $1");
         let record: Option<RenderRecord> =

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use lightbooth::colorimetry::Observer;
 use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::lab::study::report::write_report;
-use lightbooth::lab::study::run::{run_study, Against, StudyOptions};
+use lightbooth::lab::study::run::{progress_steps, run_study, Against, StudyOptions};
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
 
@@ -29,9 +29,18 @@ fn quick(against: Against) -> StudyOptions {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn against_the_reference_spectral_agrees_and_three_steps_do_not() {
-    let result = run_study(&[scene("red")], &quick(Against::Reference), None, &|_| {})
-        .await
-        .unwrap();
+    // Counts its progress reports: the dashboard's fraction done is the
+    // k-th report over `progress_steps`, so the two must agree.
+    let reports = std::sync::Mutex::new(Vec::new());
+    let options = quick(Against::Reference);
+    let result = run_study(&[scene("red")], &options, None, &|m| {
+        reports.lock().unwrap().push(m.to_string())
+    })
+    .await
+    .unwrap();
+    let reports = reports.into_inner().unwrap();
+    assert_eq!(reports.len(), progress_steps(1, &options), "{reports:?}");
+    assert_eq!(reports.len(), 1 + 3, "the truth and three seeds: {reports:?}");
     let s = &result.scenes[0];
     assert_eq!(s.white_source, "reference render (white/patch)");
     assert_eq!(result.observer, Observer::JuddVos);

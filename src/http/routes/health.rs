@@ -33,6 +33,12 @@ pub struct Health {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub database_error: Option<String>,
     pub version: String,
+    /// The observer of every x, y, Y and ΔE this daemon computes
+    /// (`serve --observer`): `judd-vos-1978` or `cie-1931`.
+    pub observer: String,
+    /// Samples per measurement when a request names none (a study's
+    /// `measure_missing` queues that many per target).
+    pub default_samples: usize,
     pub instrument: InstrumentStatus,
     /// The thread that owns the instrument: `running`, `restarting` or `stopped`.
     pub instrument_task: String,
@@ -76,6 +82,8 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
             database: if database_error.is_some() { "unavailable" } else { "ok" }.into(),
             database_error,
             version: env!("CARGO_PKG_VERSION").into(),
+            observer: state.config.observer.name().into(),
+            default_samples: state.config.instrument.default_samples as usize,
             instrument,
             instrument_task: task.into(),
             queued_measurements: state.jobs.max_capacity() - state.jobs.capacity(),

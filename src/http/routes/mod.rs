@@ -15,6 +15,7 @@ mod experiments;
 mod health;
 mod illuminants;
 mod images;
+mod jobs;
 mod measurements;
 mod mock;
 mod reflectances;
@@ -33,6 +34,7 @@ pub use experiments::*;
 pub use health::*;
 pub use illuminants::*;
 pub use images::*;
+pub use jobs::*;
 pub use measurements::*;
 pub use mock::*;
 pub use reflectances::*;
@@ -53,6 +55,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(read_cookie))
         .routes(routes!(instruments))
         .routes(routes!(list_booths))
+        .routes(routes!(list_jobs))
         .routes(routes!(list_sessions, create_session))
         .routes(routes!(list_measurements, start_measurement))
         .routes(routes!(get_measurement))
@@ -62,6 +65,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(measurement_svg))
         .routes(routes!(measurement_comparisons))
         .routes(routes!(list_scenes))
+        .routes(routes!(scene_overview))
         .routes(routes!(get_scene))
         .routes(routes!(scene_targets))
         .routes(routes!(scene_renders, start_render))

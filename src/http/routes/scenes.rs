@@ -15,6 +15,7 @@ use crate::http::input::{Input, Path};
 use crate::http::AppState;
 use crate::lab::requests::RenderRequest;
 use crate::lab::requests::SceneInfo;
+use crate::lab::scene_overview::{scenes_overview, ScenesOverview};
 use crate::store::{Job, RenderRow};
 
 pub(super) fn scenes(state: &AppState) -> Result<Vec<SceneInfo>, ApiError> {
@@ -36,6 +37,18 @@ pub(super) fn find_scene(state: &AppState, id: &str) -> Result<SceneInfo, ApiErr
 #[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
 pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<SceneInfo>>, ApiError> {
     Ok(Json(scenes(&state)?))
+}
+
+/// Every scene at a glance: targets measured in this booth of all, the
+/// newest measurement's end, the render whose camera view is its
+/// thumbnail, and each coding's mean ΔE00 and rms_rel (see
+/// `lab::scene_overview`).
+#[utoipa::path(get, path = "/scene-overview", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = ScenesOverview)))]
+pub async fn scene_overview(State(state): State<AppState>) -> Result<Json<ScenesOverview>, ApiError> {
+    let scenes = scenes(&state)?;
+    Ok(Json(
+        scenes_overview(&state.store, &scenes, &state.config.booth, state.config.observer).await?,
+    ))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),

@@ -375,6 +375,16 @@ async fn measured(
     Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))
 }
 
+/// How many times [`run_study`] calls its `progress` for `scenes` scenes:
+/// per scene its truth, one render per seed, the sweeps and the automatic
+/// settings (when asked for), then the failure maps. A job reports the
+/// k-th call as k / this of the study done (`lab::study_jobs`); the
+/// steps are counted as equal, so the fraction is a rough measure of time.
+pub fn progress_steps(scenes: usize, options: &StudyOptions) -> usize {
+    let per_scene = 1 + options.seeds as usize + usize::from(options.sweeps) + usize::from(options.auto.is_some());
+    scenes * per_scene + usize::from(options.failure_map)
+}
+
 /// Runs the study over `scenes` (paths of scene files; the scene id is the
 /// file stem, as in the daemon). `store` is needed with `Against::Measurements`.
 pub async fn run_study(
