@@ -64,6 +64,46 @@ function duration(seconds) {
 
 const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v).toPrecision(digits));
 
+// A cd/m² scale for an image shown through the daemon's global Reinhard
+// tone map (src/render/sensor.rs): a grey of Y cd/m² is shown at the linear
+// display value d = Yk/(1 + Yk), k = 0.18 / the image's log-average
+// luminance. The bar runs over d (as the eye sees the image), its ticks
+// are luminances.
+function luminanceScale(logAverage, what) {
+  const k = 0.18 / logAverage;
+  const wrap = document.createElement("div");
+  wrap.className = "lum-scale";
+  const bar = document.createElement("div");
+  bar.className = "lum-bar";
+  const encode = (v) => (v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055);
+  const stops = [];
+  for (let i = 0; i <= 20; i++) {
+    const g = Math.round(255 * encode(i / 20));
+    stops.push(`rgb(${g},${g},${g}) ${i * 5}%`);
+  }
+  bar.style.background = `linear-gradient(to right, ${stops.join(", ")})`;
+  const ticks = document.createElement("div");
+  ticks.className = "lum-ticks";
+  let lastPos = -1;
+  for (let e = -4; e <= 6; e++) {
+    for (const m of [1, 2, 5]) {
+      const y = m * Math.pow(10, e);
+      const d = (y * k) / (1 + y * k);
+      if (d < 0.02 || d > 0.98 || d * 100 - lastPos < 7) continue;
+      lastPos = d * 100;
+      const t = document.createElement("span");
+      t.style.left = `${d * 100}%`;
+      t.textContent = y >= 1 ? String(y) : y.toPrecision(1);
+      ticks.appendChild(t);
+    }
+  }
+  const unit = document.createElement("div");
+  unit.className = "lum-unit";
+  unit.textContent = `luminance (cd/m²) of a grey shown at that level — ${what}; tone-mapped, for looking at, not for measuring`;
+  wrap.append(bar, ticks, unit);
+  return wrap;
+}
+
 // --- views -----------------------------------------------------------------
 
 function showView() {
@@ -160,6 +200,7 @@ function follow() {
     es.addEventListener(name, (e) => {
       const d = JSON.parse(e.data);
       if (openScene === d.scene) loadSceneDetail(d.scene);
+      if (name === "render_finished" && location.hash === "#/scenes") loadScenes();
     });
   }
   es.addEventListener("comparison_ready", (e) => {
@@ -436,7 +477,13 @@ async function loadScenes(openId) {
       img.src = `/api/renders/${s.preview_render_id}/preview.png`;
       thumb.appendChild(img);
     } else {
-      thumb.innerHTML = '<span class="hint">not rendered yet</span>';
+      // A render makes the thumbnail (and the comparisons, once a target is measured).
+      const b = jobButton("Render it", `/api/scenes/${s.scene}/renders`, () => loadScenes());
+      b.title = "render the scene in every coding (it joins the queue on the home page)";
+      const queued = document.createElement("div");
+      queued.className = "hint";
+      queued.textContent = "not rendered yet";
+      thumb.append(queued, b);
     }
     const measured = tr.insertCell();
     const bar = document.createElement("progress");
@@ -493,6 +540,7 @@ async function loadSceneDetail(id) {
   $("scene-preview").hidden = true;
   $("scene-preview").onload = null;
   $("preview-caption").textContent = "";
+  $("preview-scale").replaceChildren();
   $("scene-csv").href = `/api/scenes/${id}/comparisons.csv`;
   $("scene-mat").href = `/api/scenes/${id}/comparisons.mat`;
   const c = await api(`/api/scenes/${id}/comparisons`);
@@ -510,6 +558,7 @@ async function loadSceneDetail(id) {
   const done = renders.find((r) => r.state === "complete");
   $("scene-viewer-link").href = `#/viewer/${id}`;
   updateSceneProgress();
+  showMissingTargets(id).catch((e) => notice(e.message));
   const preview = $("scene-preview");
   preview.hidden = !done;
   // Never leave the previous scene's caption under this one, nor let its
@@ -521,6 +570,8 @@ async function loadSceneDetail(id) {
     // preview_spp): a 20 million path budget over the pixels, 16 to 1024.
     preview.onload = () => {
       if (openScene !== id) return;
+      const key = done.result && done.result.preview && done.result.preview.log_average_cd_m2;
+      $("preview-scale").replaceChildren(...(key ? [luminanceScale(key, "sRGB coding")] : []));
       const spp = Math.min(1024, Math.max(16, Math.floor(20e6 / (preview.naturalWidth * preview.naturalHeight))));
       $("preview-caption").textContent =
         `Camera view of render ${done.id} (sRGB coding, ${spp} paths per pixel, not denoised). ` +
@@ -565,14 +616,35 @@ function showRenderJobs(renders) {
   }
 }
 
-$("measure-scene").addEventListener("click", async () => {
-  notice("");
+// The open scene's targets with no complete measurement in this booth.
+let openSceneMissing = [];
+async function showMissingTargets(id) {
+  const s = sceneInfo.find((x) => x.id === id);
+  const booths = await api("/api/booths");
+  const done = await api(`/api/measurements?scene=${encodeURIComponent(id)}&state=complete&limit=1000&booth=${encodeURIComponent(booths.this_daemon)}`);
+  if (openScene !== id || !s) return;
+  openSceneMissing = s.targets.filter((t) => !done.items.some((m) => m.target === t));
+  const b = $("measure-missing");
+  b.hidden = !openSceneMissing.length || openSceneMissing.length === s.targets.length;
+  b.textContent = `Measure the ${openSceneMissing.length} target(s) not yet measured`;
+  $("measure-scene").textContent = openSceneMissing.length && !b.hidden ? "Measure every target again" : "Measure every target";
+}
+
+$("measure-scene").addEventListener("click", () => {
   const s = sceneInfo.find((x) => x.id === openScene);
-  if (!s) return;
+  if (s) measureTargets(s, s.targets);
+});
+$("measure-missing").addEventListener("click", () => {
+  const s = sceneInfo.find((x) => x.id === openScene);
+  if (s) measureTargets(s, openSceneMissing);
+});
+
+async function measureTargets(s, targets) {
+  notice("");
   const run = { ids: [] };
   sceneRuns.set(s.id, run);
   try {
-    for (const target of s.targets) {
+    for (const target of targets) {
       const r = await startMeasurement({ scene: s.id, target, samples: 5 });
       run.ids.push(r.id);
       current = r.id;
@@ -581,7 +653,7 @@ $("measure-scene").addEventListener("click", async () => {
     notice(e.message);
   }
   updateSceneProgress();
-});
+}
 
 // The scene's measurements waiting or under way (from any page or client,
 // GET /api/jobs), with the time left; the run this page started as a bar.
@@ -601,6 +673,7 @@ async function updateSceneProgress() {
       bar.hidden = true;
       if (run && run.ids.length && !run.reported) {
         run.reported = true;
+        showMissingTargets(scene).catch(() => {});
         $("scene-progress").textContent = run.cancelled
           ? `cancelled ${run.cancelled} measurement(s) (one under way keeps the samples it took, marked partial); ` +
             `the ${run.ids.length - run.cancelled} taken before are kept.`

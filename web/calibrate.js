@@ -39,14 +39,25 @@ function notice(text) {
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const css = (d) => `rgb(${d.map((v) => Math.round(v * 255)).join(",")})`;
 
-async function measure(patch, samples) {
+// The calibration under way: its measurement, whether Cancel was pressed.
+const run = { measurementId: null, cancelled: false };
+
+// "12 s", "3 min 05 s": a duration for people.
+function duration(seconds) {
+  const s = Math.max(0, Math.round(seconds));
+  return s < 60 ? `${s} s` : `${Math.floor(s / 60)} min ${String(s % 60).padStart(2, "0")} s`;
+}
+
+async function measure(patch, samples, place) {
   const started = await api("/api/measurements", {
     method: "POST",
-    body: JSON.stringify({ samples, note: `display calibration: ${patch.label}` }),
+    body: JSON.stringify({ samples, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` }),
   });
+  run.measurementId = started.id;
   for (;;) {
     const m = await api(`/api/measurements/${started.id}`);
     if (m.state === "complete") return started.id;
+    if (run.cancelled) return null;
     if (["failed", "cancelled", "interrupted"].includes(m.state)) {
       throw new Error(`measurement ${started.id} of ${patch.label} ${m.state}: ${m.error || ""}`);
     }
@@ -67,9 +78,15 @@ async function calibrate() {
     if (document.documentElement.requestFullscreen) document.documentElement.requestFullscreen().catch(() => {});
     const shown = [];
     $("progress").max = plan.patches.length;
+    run.cancelled = false;
+    $("cancel").hidden = false;
+    const began = Date.now();
     for (const [i, p] of plan.patches.entries()) {
+      if (run.cancelled) break;
       $("patch").style.background = css(p.drive);
-      $("status").textContent = `${i + 1}/${plan.patches.length}: ${p.label} (${p.purpose})`;
+      // Time left: the patches still to measure at the pace of those measured.
+      const left = i ? ` · about ${duration(((Date.now() - began) / 1000 / i) * (plan.patches.length - i))} left` : "";
+      $("status").textContent = `${i + 1}/${plan.patches.length}: ${p.label} (${p.purpose})${left}`;
       if (simulated) {
         try {
           await api("/api/mock/display", { method: "POST", body: JSON.stringify({ drive: p.drive }) });
@@ -79,8 +96,20 @@ async function calibrate() {
         }
       }
       await sleep(100); // let the monitor settle on the new colour
-      shown.push({ drive: p.drive, measurement_id: await measure(p, samples) });
+      const id = await measure(p, samples, `${i + 1} of ${plan.patches.length}`);
+      if (id === null) break;
+      shown.push({ drive: p.drive, measurement_id: id });
       $("progress").value = i + 1;
+    }
+    $("cancel").hidden = true;
+    if (run.cancelled) {
+      document.body.classList.remove("calibrating");
+      if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
+      const ids = shown.map((x) => x.measurement_id);
+      $("status").textContent = `cancelled after ${shown.length} of ${plan.patches.length} patches: no profile was fitted. ` +
+        (ids.length ? `The ${ids.length} complete measurements are kept (ids ${ids[0]}–${ids[ids.length - 1]}, ` +
+          "notes “display calibration …”); the one under way keeps its samples, marked partial." : "Nothing was measured.");
+      return;
     }
     $("status").textContent = "fitting the profile…";
     const row = await api("/api/display-profiles", {
@@ -98,6 +127,7 @@ async function calibrate() {
     $("status").textContent = "stopped";
   } finally {
     $("start").disabled = false;
+    $("cancel").hidden = true;
   }
 }
 
@@ -138,6 +168,15 @@ function showProfile(row) {
 (async function init() {
   await readCredential;
   $("start").addEventListener("click", calibrate);
+  // Cancel: stops the measurement under way and fits nothing; what was measured stays stored.
+  $("cancel").addEventListener("click", async () => {
+    run.cancelled = true;
+    $("cancel").disabled = true;
+    if (run.measurementId) {
+      await api(`/api/measurements/${run.measurementId}/cancel`, { method: "POST", body: "{}" }).catch(() => {});
+    }
+    $("cancel").disabled = false;
+  });
   const m = location.hash.match(/profile=(\d+)/);
   if (m) {
     try {

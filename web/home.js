@@ -41,10 +41,13 @@ function secondsLeftNow(j) {
 }
 
 async function loadHome() {
-  const [jobs, health, instruments, booths, overview, profiles] = await Promise.all([
+  const [jobs, health, instruments, booths, overview, profiles, lastDone] = await Promise.all([
     api("/api/jobs"), api("/api/health").catch((e) => ({ error: e.message })), api("/api/instruments"),
     api("/api/booths"), api("/api/scene-overview").catch(() => null), api("/api/display-profiles").catch(() => []),
+    api("/api/measurements?limit=1&state=complete").catch(() => null),
   ]);
+  homeDefaultSamples = health.default_samples || 5;
+  showLastMeasurement(lastDone && lastDone.items[0]);
   queue = Object.assign(jobs, { receivedAt: Date.now() / 1000 });
   instrumentNow = instruments.status;
   showQueue();
@@ -104,6 +107,23 @@ $("home-current-cancel").addEventListener("click", async (ev) => {
   refreshHomeSoon();
 });
 
+let homeDefaultSamples = 5;
+
+// The newest complete measurement, with what it found.
+function showLastMeasurement(m) {
+  const p = $("home-last");
+  p.replaceChildren();
+  if (!m) {
+    p.textContent = "No complete measurement yet.";
+    return;
+  }
+  const a = document.createElement("a");
+  a.href = `#/measurements/${m.id}`;
+  a.textContent = `#${m.id}` + (m.scene ? ` ${m.scene}/${m.target}` : " (free)");
+  p.append("Last complete: ", a, `, ${laterTime(Date.now() / 1000, m.finished_at)}: Y = ${fmt(m.Y, 4)} cd/m², ` +
+    `x, y = ${fmt(m.x, 4)}, ${fmt(m.y, 4)}`);
+}
+
 function showBoothCard(health, booths, instruments) {
   const dl = $("home-booth-facts");
   dl.innerHTML = "";
@@ -152,8 +172,9 @@ function showNextSteps(overview, profiles) {
     const unmeasured = overview.scenes.filter((s) => s.measured.length < s.targets.length);
     for (const s of unmeasured.slice(0, 6)) {
       const missing = s.targets.length - s.measured.length;
-      const time = pace ? `, about ${duration(missing * 5 * pace)} at 5 samples each` : "";
-      item(`${s.title} (${s.scene}): ${s.measured.length} of ${s.targets.length} targets measured; ${missing} to go${time}.`,
+      const time = pace ? `, about ${duration(missing * homeDefaultSamples * pace)} at ${homeDefaultSamples} samples each` : "";
+      item(`${s.title} (${s.scene}): ${s.measured.length} of ${s.targets.length} target${s.targets.length === 1 ? "" : "s"} measured; ` +
+        `${missing} to go${time}.`,
         `#/scenes/${s.scene}`, "Measure them →");
     }
     if (unmeasured.length > 6) item(`… and ${unmeasured.length - 6} more scenes with targets to measure.`, "#/scenes", "Every scene →");

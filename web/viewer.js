@@ -103,6 +103,8 @@ $("viewer-form").addEventListener("submit", async (ev) => {
     const img = $("viewer-image");
     img.onload = () => {
       const s = info.settings;
+      $("viewer-scale").replaceChildren(...(info.display_log_average_cd_m2
+        ? [luminanceScale(info.display_log_average_cd_m2, `${s.coding} coding`)] : []));
       const spp = info.paths / (s.width * s.height);
       $("viewer-caption").innerHTML =
         `Image ${info.id} of render ${info.render_id}: ${codingLabel(info)} coding, ${s.width} × ${s.height} px, ` +
@@ -167,6 +169,8 @@ $("viewer-de").addEventListener("click", async () => {
     for (const f of [0, 0.25, 0.5, 0.75, 1]) {
       const t = document.createElement("span");
       t.style.left = `${100 * f}%`;
+      // The end ticks sit inside the bar's ends, not half outside (the "0.000" was cut).
+      t.style.transform = f === 0 ? "none" : f === 1 ? "translateX(-100%)" : "translateX(-50%)";
       t.textContent = fmt(f * m.scale_max, 3);
       ticks.appendChild(t);
     }

@@ -128,6 +128,10 @@ pub struct ImageInfo {
     pub elapsed_seconds: Option<f64>,
     #[schema(value_type = Option<String>)]
     pub stop: Option<StopReason>,
+    /// Once complete: the log-average luminance (cd/m²) of its display
+    /// PNG's tone map, for the page's cd/m² scale: a grey of Y cd/m² is
+    /// shown at the linear display value d = Yk/(1 + Yk), k = 0.18 / this.
+    pub display_log_average_cd_m2: Option<f64>,
 }
 
 struct Entry {
@@ -266,6 +270,7 @@ impl ImageJobs {
                     paths: None,
                     elapsed_seconds: None,
                     stop: None,
+                    display_log_average_cd_m2: None,
                 },
                 image: None,
                 cancel: CancelFlag::default(),
@@ -372,6 +377,7 @@ impl ImageJobs {
                     e.info.paths = Some(img.paths);
                     e.info.elapsed_seconds = Some(img.elapsed_seconds);
                     e.info.stop = Some(img.stop);
+                    e.info.display_log_average_cd_m2 = Some(img.to_srgb().log_average_luminance());
                     e.info.quantities = crate::export::image::quantity_names(&img);
                     e.info.wavelengths_nm = img.quantities.wavelengths_nm.clone();
                     e.image = Some(Arc::new(img));

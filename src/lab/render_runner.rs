@@ -295,8 +295,14 @@ impl RenderRunner {
                 json["coding_seconds"] = serde_json::Value::Object(output.coding_seconds);
                 json["coding_cost"] = serde_json::Value::Object(output.coding_cost);
                 json["cost_definition"] = COST_DEFINITION.into();
-                if let Some(png) = output.preview {
+                if let Some((png, log_average)) = output.preview {
                     self.store.set_render_preview(id, &png).await?;
+                    // What a page needs to put a cd/m² scale beside it.
+                    json["preview"] = serde_json::json!({
+                        "coding": "srgb",
+                        "log_average_cd_m2": log_average,
+                        "tone_map": PREVIEW_TONE_MAP,
+                    });
                 }
                 let wall_seconds = output.result.wall_seconds;
                 self.store.finish_render(id, Ok((&json, wall_seconds))).await?;
@@ -349,14 +355,19 @@ impl RenderRunner {
 
 /// What a render stores besides its result: each coding's time alone and
 /// the camera preview.
+/// How the preview's pixels show luminance (see `render::sensor::Image`).
+const PREVIEW_TONE_MAP: &str = "global Reinhard: a grey of Y cd/m² is shown at the linear display value \
+     d = Yk/(1 + Yk), k = 0.18 / the log-average luminance, then sRGB-encoded";
+
 struct RenderOutput {
     result: render::RenderResult,
     /// The median seconds of each coding rendered alone.
     coding_seconds: serde_json::Map<String, serde_json::Value>,
     /// Each coding's paths, rays, median and spread of its timed repeats.
     coding_cost: serde_json::Map<String, serde_json::Value>,
-    /// The camera view as PNG, when the scene has a camera.
-    preview: Option<Vec<u8>>,
+    /// The camera view as PNG, when the scene has a camera, and its
+    /// log-average luminance (cd/m², the tone map's key).
+    preview: Option<(Vec<u8>, f64)>,
 }
 
 /// A render with progress events, then each coding timed alone (same
@@ -416,7 +427,7 @@ fn render_with_timings(
             &transport,
             settings.seed,
         )
-        .and_then(|img| img.png())
+        .and_then(|img| Ok((img.png()?, img.log_average_luminance())))
         .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))
         .ok()
     });

@@ -159,18 +159,19 @@ impl Image {
         Ok(bytes)
     }
 
+    /// The image's log-average luminance (in its own units: cd/m² for a
+    /// camera image), exp(mean ln(10⁻⁴ + Y)) over its pixels: the key of the
+    /// tone map. A grey of luminance Y is shown at the linear display value
+    /// d = Yk / (1 + Yk), k = 0.18 / this; so Y = d / (1 − d) / k, which is
+    /// how a page draws the shown image's cd/m² scale.
+    pub fn log_average_luminance(&self) -> f64 {
+        let n = self.rgb.len().max(1) as f64;
+        (self.rgb.iter().map(|p| (1e-4 + luminance(p).max(0.0)).ln()).sum::<f64>() / n).exp()
+    }
+
     /// 8-bit sRGB after the global Reinhard operator.
     pub fn tone_mapped_srgb8(&self) -> Vec<u8> {
-        let luminance = |p: &[f32; 3]| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
-        let n = self.rgb.len().max(1) as f64;
-        let log_avg = (self
-            .rgb
-            .iter()
-            .map(|p| (1e-4 + luminance(p).max(0.0)).ln())
-            .sum::<f64>()
-            / n)
-            .exp();
-        let k = 0.18 / log_avg;
+        let k = 0.18 / self.log_average_luminance();
         let mut out = Vec::with_capacity(self.rgb.len() * 3);
         for p in &self.rgb {
             let l = luminance(p).max(0.0) * k;
@@ -181,6 +182,11 @@ impl Image {
         }
         out
     }
+}
+
+/// Rec. 709 luminance of a linear sRGB pixel.
+fn luminance(p: &[f32; 3]) -> f64 {
+    0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64
 }
 
 #[cfg(test)]
