@@ -58,7 +58,7 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
         draw_legend(&legend_area, &line_legend(series))?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// A profile along a scene's targets: series' x are target numbers
@@ -121,7 +121,7 @@ pub fn profile_chart(
         draw_legend(&legend_area, &line_legend(series))?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// Series in drawing order: others first, the measurement last.

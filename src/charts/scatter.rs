@@ -60,7 +60,7 @@ pub fn scatter_chart_with_spread(
     loop {
         let (svg, needed) = scatter_page(title, (x_desc, y_desc), series, labels, x_spread, log, height)?;
         if needed <= height || height >= 3 * H {
-            return Ok(svg);
+            return finished(svg);
         }
         height = needed.min(3 * H);
     }

@@ -620,3 +620,18 @@ fn log_axes_label_every_decade() {
         assert!(narrow.contains(&tick.to_string()), "no tick {tick} in {narrow:?}");
     }
 }
+
+/// A chart is no Markdown: a backtick in its text (here a title copied from
+/// an error message) is refused in debug builds, so a test drawing it fails.
+#[test]
+#[cfg(debug_assertions)]
+#[should_panic(expected = "Markdown backtick")]
+fn backticks_in_chart_text_are_refused() {
+    let _ = line_chart("field `coding`", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false);
+}
+
+#[test]
+fn charts_without_backticks_are_drawn() {
+    let svg = line_chart("field coding", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false).unwrap();
+    assert!(svg.contains("field coding") && !svg.contains('`'));
+}
