@@ -635,3 +635,69 @@ fn charts_without_backticks_are_drawn() {
     let svg = line_chart("field coding", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false).unwrap();
     assert!(svg.contains("field coding") && !svg.contains('`'));
 }
+
+/// Whether an element with `points` starts left of the legend column.
+fn in_plot(attrs: &str) -> bool {
+    let points = attr(attrs, "points").unwrap_or_default();
+    let x: f64 = points
+        .split([',', ' '])
+        .next()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(f64::NAN);
+    x < (W - LEGEND_W) as f64
+}
+
+/// A pixel's 401-wavelength spectrum with its ±1 SE: one translucent band
+/// and a line, not 401 error bars with markers; three RGB channels keep
+/// their error bars.
+#[test]
+fn many_point_errors_are_a_band() {
+    let wl: Vec<f64> = (0..401).map(|i| 380.0 + i as f64).collect();
+    let spectrum = LineSeriesData {
+        name: "nstep27".into(),
+        points: wl.iter().map(|w| (*w, 1e-3 * (1.0 + (w / 40.0).sin()))).collect(),
+        errors: Some(vec![1e-4; wl.len()]),
+    };
+    let y = "spectral radiance (W/(sr·m²·nm)), mean ± 1 SE";
+    let svg = line_chart("probe", "wavelength (nm)", y, &[spectrum], false).unwrap();
+    let blue = colour_hex(coding_style("nstep27").unwrap().colour);
+    let bands: Vec<_> = elements(&svg, "polygon")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() == Some(blue.as_str()))
+        .collect();
+    assert_eq!(bands.len(), 1, "one band polygon");
+    let opacity = num(&bands[0].0, "opacity");
+    assert!(opacity > 0.0 && opacity < 0.5, "the band is translucent: {opacity}");
+    // 401 × 2 + 2 vertices: upper edge there, lower edge back.
+    let vertices = attr(&bands[0].0, "points").unwrap().split_whitespace().count();
+    assert_eq!(vertices, 802);
+    // No error bars (2-point paths) and no markers (circles) in its colour.
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(blue.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    assert_eq!(bars, 0, "error bars drawn");
+    assert_eq!(elements(&svg, "circle").len(), 0, "markers drawn");
+    assert!(
+        texts(&svg).iter().any(|t| t.2.contains("±1 SE")),
+        "the legend names the band"
+    );
+
+    let channels = LineSeriesData {
+        name: "rgb".into(),
+        points: vec![(1.0, 0.2), (2.0, 0.3), (3.0, 0.1)],
+        errors: Some(vec![0.01; 3]),
+    };
+    let svg = line_chart("probe", "channel", "linear RGB, mean ± 1 SE", &[channels], false).unwrap();
+    let orange = colour_hex(coding_style("rgb").unwrap().colour);
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(orange.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    // A bar and its two caps per channel.
+    assert_eq!(bars, 9, "three error bars with caps");
+}
