@@ -221,6 +221,11 @@ pub(super) fn label_extent(text: &str) -> (i32, i32) {
     )
 }
 
+/// A text placed at a data point, `offset` px from it: (point, offset, text).
+type PlacedText = ((f64, f64), (i32, i32), String);
+/// A leader line drawn from a data point: (point, pixel path relative to it).
+type Leader = ((f64, f64), Vec<(i32, i32)>);
+
 /// A box in pixels: (left, top, right, bottom).
 pub(super) type PxBox = (i32, i32, i32, i32);
 
@@ -338,8 +343,8 @@ fn draw_labels<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Range
         }
     }
     let font = ("sans-serif", LABEL_PX).into_font().color(&RGBColor(40, 40, 40));
-    let mut texts: Vec<((f64, f64), (i32, i32), String)> = Vec::new();
-    let mut leaders: Vec<((f64, f64), Vec<(i32, i32)>)> = Vec::new();
+    let mut texts: Vec<PlacedText> = Vec::new();
+    let mut leaders: Vec<Leader> = Vec::new();
     let mut place = |p: (f64, f64), r: i32, text: &str, taken: &mut Vec<PxBox>| {
         let px = chart.backend_coord(&p);
         let (b, ring) = label_places(px, r, label_extent(text), within, taken)?;
