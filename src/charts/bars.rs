@@ -57,7 +57,7 @@ pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
         }
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// The colour of a grid cell: green → yellow up to `threshold`, orange →
@@ -166,5 +166,5 @@ pub fn grid_chart(
         }
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }

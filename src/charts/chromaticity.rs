@@ -151,5 +151,5 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
         draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }

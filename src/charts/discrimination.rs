@@ -166,5 +166,5 @@ pub fn discrimination_chart(title: &str, model: &str, bars: &[DiscriminationBar]
         }
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }

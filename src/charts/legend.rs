@@ -33,11 +33,12 @@ pub(super) fn wrap(name: &str, width: usize) -> Vec<String> {
 }
 
 /// The legend in its own column (`area`, beside the plot): entries with an
-/// empty name are skipped, so no legend shows a nameless swatch.
+/// empty name are skipped, so no legend shows a nameless swatch. Returns
+/// the y (px) below its last entry.
 pub(super) fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     entries: &[LegendEntry],
-) -> Result<(), String> {
+) -> Result<i32, String> {
     let font = ("sans-serif", LEGEND_PX).into_font();
     let mut y = 40;
     for e in entries.iter().filter(|e| !e.name.trim().is_empty()) {
@@ -69,5 +70,35 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
         }
         y += 6;
     }
-    Ok(())
+    Ok(y)
+}
+
+/// The font of notes under the legend (a key to numbered points, what a
+/// hollow marker means).
+const NOTE_PX: u32 = 13;
+
+/// Notes in the legend column from `y` down: an optional heading, then each
+/// note wrapped to the column. Returns the y below the last.
+pub(super) fn draw_notes<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    mut y: i32,
+    heading: &str,
+    notes: &[String],
+) -> Result<i32, String> {
+    let font = ("sans-serif", NOTE_PX).into_font();
+    y += 10;
+    let lines = wrap(heading, 26).into_iter().chain(notes.iter().flat_map(|n| {
+        let mut lines = wrap(n, 26);
+        if let Some(last) = lines.last_mut() {
+            last.push('\n');
+        }
+        lines
+    }));
+    for line in lines {
+        let gap = line.ends_with('\n');
+        area.draw(&Text::new(line.trim_end().to_string(), (8, y), font.clone()))
+            .map_err(err)?;
+        y += NOTE_PX as i32 + 1 + if gap { 4 } else { 0 };
+    }
+    Ok(y)
 }

@@ -7,7 +7,8 @@ use super::*;
 pub struct LineSeriesData {
     pub name: String,
     pub points: Vec<(f64, f64)>,
-    /// ±1 SD (or SE) per point, drawn as error bars when present.
+    /// ±1 SD (or SE) per point, drawn as error bars when present (as a band
+    /// for a series of more than [`BAND_ABOVE_POINTS`] points).
     pub errors: Option<Vec<f64>>,
 }
 
@@ -55,10 +56,10 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
         }
-        draw_legend(&legend_area, &line_legend(series))?;
+        draw_legend(&legend_area, &line_legend(series, y_desc))?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// A profile along a scene's targets: series' x are target numbers
@@ -118,10 +119,10 @@ pub fn profile_chart(
                 .map_err(err)?;
             draw_lines(&mut chart, series)?;
         }
-        draw_legend(&legend_area, &line_legend(series))?;
+        draw_legend(&legend_area, &line_legend(series, y_desc))?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// Series in drawing order: others first, the measurement last.
@@ -137,16 +138,55 @@ pub(super) fn styles<T>(series: &[T], name: impl Fn(&T) -> &str) -> Vec<Style> {
     series.iter().map(|s| series_style(name(s), &mut other)).collect()
 }
 
-pub(super) fn line_legend(series: &[LineSeriesData]) -> Vec<LegendEntry> {
+/// A series with more points than this draws its ±1 SD (or SE) as a band
+/// and its mean as a line without markers (a 401-wavelength spectrum's
+/// error bars were a smear of 401 overlapping markers); fewer points (RGB
+/// channels, a sweep) keep their markers and error bars.
+pub const BAND_ABOVE_POINTS: usize = 40;
+
+fn as_band(s: &LineSeriesData) -> bool {
+    s.errors.is_some() && s.points.len() > BAND_ABOVE_POINTS
+}
+
+/// How opaque a band is over white.
+const BAND_OPACITY: f64 = 0.25;
+
+/// A band's colour as it looks on white (the legend's opaque swatch).
+fn band_on_white(RGBColor(r, g, b): RGBColor) -> RGBColor {
+    let mix = |c: u8| (BAND_OPACITY * c as f64 + (1.0 - BAND_OPACITY) * 255.0).round() as u8;
+    RGBColor(mix(r), mix(g), mix(b))
+}
+
+/// The legend of `series`; a band is named after what the y axis says the
+/// errors are (`y_desc` mentioning SE or SD).
+pub(super) fn line_legend(series: &[LineSeriesData], y_desc: &str) -> Vec<LegendEntry> {
+    let spread = if y_desc.contains("SE") {
+        "±1 SE"
+    } else if y_desc.contains("SD") {
+        "±1 SD"
+    } else {
+        "± its error"
+    };
     let st = styles(series, |s| s.name.as_str());
-    series
-        .iter()
-        .zip(st)
-        .map(|(s, style)| LegendEntry {
-            name: s.name.clone(),
-            glyph: Glyph::LineMarker(style),
-        })
-        .collect()
+    let mut entries = Vec::new();
+    for (s, style) in series.iter().zip(st) {
+        if as_band(s) {
+            entries.push(LegendEntry {
+                name: s.name.clone(),
+                glyph: Glyph::Line(style.colour, 2),
+            });
+            entries.push(LegendEntry {
+                name: format!("{} {spread}", s.name),
+                glyph: Glyph::Band(band_on_white(style.colour)),
+            });
+        } else {
+            entries.push(LegendEntry {
+                name: s.name.clone(),
+                glyph: Glyph::LineMarker(style),
+            });
+        }
+    }
+    entries
 }
 
 pub(super) fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
@@ -157,6 +197,31 @@ pub(super) fn draw_lines<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>
     for (i, s) in measurement_last(series, |s| s.name.as_str()) {
         let style = st[i];
         let width = if is_measurement(&s.name) { 3 } else { 2 };
+        if let (true, Some(errors)) = (as_band(s), &s.errors) {
+            // Upper edge left to right, lower edge back: one polygon.
+            let edge: Vec<(f64, f64, f64)> = s
+                .points
+                .iter()
+                .zip(errors)
+                .filter(|(p, e)| p.0.is_finite() && p.1.is_finite() && e.is_finite())
+                .map(|(p, e)| (p.0, p.1 - e, p.1 + e))
+                .collect();
+            let outline: Vec<(f64, f64)> = edge
+                .iter()
+                .map(|&(x, _, hi)| (x, hi))
+                .chain(edge.iter().rev().map(|&(x, lo, _)| (x, lo)))
+                .collect();
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    outline,
+                    style.colour.mix(BAND_OPACITY).filled(),
+                )))
+                .map_err(err)?;
+            chart
+                .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
+                .map_err(err)?;
+            continue;
+        }
         chart
             .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
             .map_err(err)?;

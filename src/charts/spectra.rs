@@ -79,7 +79,7 @@ pub fn spectrum_chart(
         draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }
 
 /// A measured reflectance: ρ(λ) with its ±1 and ±2 standard-uncertainty
@@ -158,5 +158,5 @@ pub fn reflectance_chart(title: &str, wavelength_nm: &[f64], rho: &[f64], u: &[f
         draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
-    Ok(svg)
+    finished(svg)
 }

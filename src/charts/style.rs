@@ -49,24 +49,63 @@ pub const MEASUREMENT: Style = Style {
 pub(super) const OTHER_COLOURS: [RGBColor; 3] =
     [RGBColor(110, 110, 110), RGBColor(240, 200, 40), RGBColor(170, 170, 170)];
 
-/// A coding's style, if `name` is a coding (`nstepN` for an N not in the
-/// table gets the nearest tabulated N's colour and marker).
+/// Colours for the codings `nstepN` whose N is not in [`CODING_STYLES`]
+/// (Paul Tol's muted and dark colours): none is one of the table's, black
+/// (the measurement), a grey or a near-white, so each reads on white.
+const NSTEP_COLOURS: [RGBColor; 7] = [
+    RGBColor(51, 34, 136),
+    RGBColor(136, 34, 85),
+    RGBColor(153, 153, 51),
+    RGBColor(17, 119, 51),
+    RGBColor(170, 68, 153),
+    RGBColor(140, 81, 10),
+    RGBColor(200, 0, 60),
+];
+
+/// The filled or stroked markers a coding may have (the open circle is the
+/// measurement's).
+const NSTEP_MARKERS: [Marker; 7] = [
+    Marker::Circle,
+    Marker::Square,
+    Marker::Diamond,
+    Marker::TriangleUp,
+    Marker::TriangleDown,
+    Marker::Cross,
+    Marker::Plus,
+];
+
+/// The style of `nstepN` for an N not in [`CODING_STYLES`], a function of
+/// N alone: the k-th such N (k = 0 for N = 1) takes colour k mod 7 and
+/// marker (k + ⌊k/7⌋) mod 7, so the first 49 untabulated N (every N up to
+/// 52) have pairwise different (colour, marker), and none shares a colour
+/// with a tabulated coding.
+fn nstep_style(n: u64) -> (RGBColor, Marker) {
+    let tabulated_below = CODING_STYLES
+        .iter()
+        .filter_map(|(c, _, _)| c.strip_prefix("nstep")?.parse::<u64>().ok())
+        .filter(|&t| t < n)
+        .count() as u64;
+    let k = n.saturating_sub(1 + tabulated_below);
+    let (len_c, len_m) = (NSTEP_COLOURS.len() as u64, NSTEP_MARKERS.len() as u64);
+    let colour = NSTEP_COLOURS[(k % len_c) as usize];
+    let marker = NSTEP_MARKERS[((k + k / len_c) % len_m) as usize];
+    (colour, marker)
+}
+
+/// A coding's style, if `name` is a coding: the table's for the codings in
+/// [`CODING_STYLES`], and for any other `nstepN` one of its own, the same in
+/// every chart and page (see [`nstep_style`]).
 pub fn coding_style(name: &str) -> Option<Style> {
     let name = name.trim().to_ascii_lowercase();
-    let style = |(_, colour, marker): (&str, RGBColor, Marker)| Style {
+    let (colour, marker) = match CODING_STYLES.iter().find(|(c, _, _)| *c == name) {
+        Some(&(_, colour, marker)) => (colour, marker),
+        None => nstep_style(name.strip_prefix("nstep")?.parse().ok()?),
+    };
+    Some(Style {
         colour,
         marker,
         size: MARKER_PX,
-    };
-    if let Some(row) = CODING_STYLES.iter().find(|(c, _, _)| *c == name) {
-        return Some(style(*row));
-    }
-    let n: f64 = name.strip_prefix("nstep")?.parse().ok()?;
-    CODING_STYLES
-        .iter()
-        .filter_map(|row| Some((row.0.strip_prefix("nstep")?.parse::<f64>().ok()?, *row)))
-        .min_by(|a, b| (a.0.ln() - n.ln()).abs().total_cmp(&(b.0.ln() - n.ln()).abs()))
-        .map(|(_, row)| style(row))
+    })
 }
 
 /// A coding's colour as CSS writes it (`#rrggbb`), if `name` is a coding.

@@ -315,8 +315,9 @@ fn nstep3_has_the_same_colour_in_every_chart() {
     }
     // The dashboard's and the report's CSS read the same table.
     assert!(coding_css().contains(&format!("--coding-nstep3:{}", pink.to_ascii_lowercase())));
-    // An N not in the table takes the nearest tabulated N's style.
-    assert_eq!(coding_style("nstep4"), coding_style("nstep3"));
+    // An N not in the table has a style of its own, not its neighbour's.
+    assert_ne!(coding_style("nstep4"), coding_style("nstep3"));
+    assert_eq!(coding_style("nstep4"), coding_style("NStep4"));
     assert_eq!(coding_style("cie"), None);
 }
 
@@ -446,4 +447,257 @@ fn chromaticity_locus_and_title_follow_the_observer() {
     assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() > 1e-3, "{a:?} vs {b:?}");
     // Both gamuts are drawn and named, distinctly (one dashed).
     assert!(jv.contains("sRGB gamut") && jv.contains("RADIANCE RGB gamut"));
+}
+
+/// nstep1, nstep2, nstep3 and nstep5 were identical pink triangles (an N
+/// not in the table took the nearest tabulated N's style): every coding of
+/// a sweep must differ from every other in colour or marker, the table's
+/// codings keep their styles, and no colour is too light to read on white.
+#[test]
+fn every_coding_has_its_own_style() {
+    let key = |name: &str| {
+        let s = coding_style(name).unwrap_or_else(|| panic!("{name} is a coding"));
+        (s.colour.0, s.colour.1, s.colour.2, s.marker)
+    };
+    let table = ["rgb", "srgb", "spectral"].map(String::from);
+    let sweep = [1, 2, 3, 4, 5, 7, 9, 15, 27, 81].map(|n| format!("nstep{n}"));
+    let small = (1..=32).map(|n| format!("nstep{n}"));
+    let names: Vec<String> = table
+        .iter()
+        .cloned()
+        .chain(sweep.iter().cloned())
+        .chain(small)
+        .collect();
+    for (i, a) in names.iter().enumerate() {
+        for b in &names[i + 1..] {
+            if a != b {
+                assert_ne!(key(a), key(b), "{a} and {b} are drawn alike");
+            }
+        }
+        let (r, g, b, _) = key(a);
+        let luminance = 0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64;
+        assert!(luminance < 180.0, "{a} ({r}, {g}, {b}) is too light on white");
+        assert_ne!((r, g, b), (0, 0, 0), "{a} takes the measurement's black");
+    }
+    // The table's styles are as they were (the CSS reads them too).
+    assert_eq!(key("nstep3"), (204, 121, 167, Marker::TriangleUp));
+    assert_eq!(key("nstep9"), (86, 180, 233, Marker::TriangleDown));
+    assert_eq!(key("nstep27"), (0, 114, 178, Marker::Circle));
+    assert_eq!(key("nstep81"), (0, 158, 115, Marker::Cross));
+    assert_eq!(key("rgb"), (213, 94, 0, Marker::Square));
+    // An untabulated N never borrows a tabulated coding's colour, so it
+    // differs from it in colour, not only in marker.
+    for n in (1..=100).filter(|n| ![3, 9, 27, 81].contains(n)) {
+        let (r, g, b, _) = key(&format!("nstep{n}"));
+        for (name, c, _) in CODING_STYLES {
+            assert_ne!((r, g, b), (c.0, c.1, c.2), "nstep{n} has {name}'s colour");
+        }
+    }
+}
+
+/// A label's estimated box from a `<text>` the chart wrote (plotters writes
+/// a text's top-left corner and `font-size` px / 1.24).
+fn label_box(x: f64, y: f64, text: &str) -> (f64, f64, f64, f64) {
+    let (w, h) = super::scatter::label_extent(text);
+    (x, y, x + w as f64, y + h as f64)
+}
+
+fn boxes_overlap(a: (f64, f64, f64, f64), b: (f64, f64, f64, f64)) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
+/// A sweep's points crowd each other (nstep3 … nstep81 at nearly the same
+/// time and error): no two labels may overlap, no label may cover another
+/// point's marker, and every label that found no room is in the key.
+#[test]
+fn crowded_point_labels_do_not_overlap() {
+    let mut data = Vec::new();
+    let mut labels = Vec::new();
+    for (k, coding) in ["nstep27", "nstep3", "nstep9"].iter().enumerate() {
+        let points: Vec<(f64, f64)> = (0..12)
+            .map(|j| {
+                let t = 0.1 * 1.08f64.powi(j + 3 * k as i32);
+                (t, 0.5 * 1.06f64.powi(j - 2 * k as i32))
+            })
+            .collect();
+        labels.push((0..points.len()).map(|j| format!("L{k}-{j} p")).collect::<Vec<_>>());
+        data.push(scatter(coding, &points));
+    }
+    // A far point whose label fits beside it.
+    data.push(scatter("nstep81", &[(5.0, 0.01)]));
+    labels.push(vec!["alone".into()]);
+    let svg = scatter_chart_labelled("crowd", "t (s, log scale)", "ΔE", &data, &labels, (true, true)).unwrap();
+    let all = texts(&svg);
+    let drawn: Vec<(f64, f64, f64, f64)> = all
+        .iter()
+        .filter(|(_, _, t)| t.starts_with('L') || t.starts_with('[') || t == "alone")
+        .filter(|(x, _, _)| *x < (W - LEGEND_W) as f64)
+        .map(|(x, y, t)| label_box(*x, *y, t))
+        .collect();
+    assert!(drawn.len() >= 8, "some labels are beside their points: {}", drawn.len());
+    for (i, a) in drawn.iter().enumerate() {
+        for b in &drawn[i + 1..] {
+            assert!(!boxes_overlap(*a, *b), "labels at {a:?} and {b:?} overlap");
+        }
+    }
+    // nstep27's markers are circles: no label covers one.
+    for (attrs, _) in elements(&svg, "circle") {
+        let (cx, cy, r) = (num(&attrs, "cx"), num(&attrs, "cy"), num(&attrs, "r"));
+        let marker = (cx - r, cy - r, cx + r, cy + r);
+        for b in &drawn {
+            assert!(
+                !boxes_overlap(marker, *b),
+                "label {b:?} covers the marker at ({cx}, {cy})"
+            );
+        }
+    }
+    assert!(
+        all.iter().any(|(_, _, t)| t == "alone"),
+        "the lone point keeps its label"
+    );
+    // Every label is on the chart or in the key.
+    let words: String = all.iter().map(|(_, _, t)| t.as_str()).collect::<Vec<_>>().join(" ");
+    for l in labels.iter().flatten() {
+        assert!(words.contains(l.as_str()), "label {l} is nowhere");
+    }
+    assert!(words.contains("did not fit"), "the crowd needs a key");
+}
+
+/// A mean ΔE00 of 0 (a coding that reproduces the reference exactly) has no
+/// place on a log axis: drawn hollow on the lower edge and said so, while
+/// the other values are not clamped (the axis reaches their decades).
+#[test]
+fn zero_values_sit_hollow_on_a_log_axis_edge() {
+    let data = [
+        scatter("spectral", &[(0.5, 0.0), (1.0, 0.0)]),
+        scatter("rgb", &[(0.2, 2e-5), (0.4, 0.3)]),
+    ];
+    let svg = scatter_chart(
+        "zero",
+        "t (s)",
+        "mean ΔE00 (CIEDE2000 units, log scale)",
+        &data,
+        (true, true),
+    )
+    .unwrap();
+    let words: String = texts(&svg).into_iter().map(|t| t.2).collect::<Vec<_>>().join(" ");
+    assert!(words.contains("2 points with mean ΔE00 = 0"), "{words}");
+    assert!(words.contains("hollow on the lower edge"), "{words}");
+    // 2e-5 is drawn where it is, not at a floor of 1e-4.
+    assert!(words.contains("1e-5"), "the axis reaches 2e-5's decade: {words}");
+    // The spectral coding's two points are outlines (paths), not filled squares.
+    let grey = colour_hex(coding_style("spectral").unwrap().colour);
+    assert!(
+        svg.matches(&format!("stroke=\"{grey}\"")).count() >= 2,
+        "hollow markers in {grey}"
+    );
+    // Without zeros there is no note.
+    let positive = [scatter("rgb", &[(0.2, 2e-5), (0.4, 0.3)])];
+    let svg = scatter_chart("zero", "t (s)", "ΔE", &positive, (true, true)).unwrap();
+    assert!(!svg.contains("hollow"));
+}
+
+/// Every decade a log axis covers has a labelled tick; an axis covering
+/// less than a decade labels 1, 2 and 5 steps (not one lonely tick).
+#[test]
+fn log_axes_label_every_decade() {
+    let ticks = |lo: f64, hi: f64| -> Vec<String> {
+        let data = [scatter("rgb", &[(1.0, lo), (2.0, hi)])];
+        let svg = scatter_chart("log", "t (s)", "ΔE", &data, (false, true)).unwrap();
+        texts(&svg).into_iter().map(|t| t.2).collect()
+    };
+    let wide = ticks(3e-4, 40.0);
+    for decade in ["1e-4", "0.001", "0.01", "0.1", "1", "10", "100"] {
+        assert!(wide.contains(&decade.to_string()), "no tick {decade} in {wide:?}");
+    }
+    // Minor ticks are not labelled on a wide axis.
+    assert!(
+        !wide.contains(&"0.2".to_string()) && !wide.contains(&"3".to_string()),
+        "{wide:?}"
+    );
+    let narrow = ticks(0.22, 0.45);
+    for tick in ["0.1", "0.2", "0.5", "1"] {
+        assert!(narrow.contains(&tick.to_string()), "no tick {tick} in {narrow:?}");
+    }
+}
+
+/// A chart is no Markdown: a backtick in its text (here a title copied from
+/// an error message) is refused in debug builds, so a test drawing it fails.
+#[test]
+#[cfg(debug_assertions)]
+#[should_panic(expected = "Markdown backtick")]
+fn backticks_in_chart_text_are_refused() {
+    let _ = line_chart("field `coding`", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false);
+}
+
+#[test]
+fn charts_without_backticks_are_drawn() {
+    let svg = line_chart("field coding", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false).unwrap();
+    assert!(svg.contains("field coding") && !svg.contains('`'));
+}
+
+/// Whether an element with `points` starts left of the legend column.
+fn in_plot(attrs: &str) -> bool {
+    let points = attr(attrs, "points").unwrap_or_default();
+    let x: f64 = points
+        .split([',', ' '])
+        .next()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(f64::NAN);
+    x < (W - LEGEND_W) as f64
+}
+
+/// A pixel's 401-wavelength spectrum with its ±1 SE: one translucent band
+/// and a line, not 401 error bars with markers; three RGB channels keep
+/// their error bars.
+#[test]
+fn many_point_errors_are_a_band() {
+    let wl: Vec<f64> = (0..401).map(|i| 380.0 + i as f64).collect();
+    let spectrum = LineSeriesData {
+        name: "nstep27".into(),
+        points: wl.iter().map(|w| (*w, 1e-3 * (1.0 + (w / 40.0).sin()))).collect(),
+        errors: Some(vec![1e-4; wl.len()]),
+    };
+    let y = "spectral radiance (W/(sr·m²·nm)), mean ± 1 SE";
+    let svg = line_chart("probe", "wavelength (nm)", y, &[spectrum], false).unwrap();
+    let blue = colour_hex(coding_style("nstep27").unwrap().colour);
+    let bands: Vec<_> = elements(&svg, "polygon")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() == Some(blue.as_str()))
+        .collect();
+    assert_eq!(bands.len(), 1, "one band polygon");
+    let opacity = num(&bands[0].0, "opacity");
+    assert!(opacity > 0.0 && opacity < 0.5, "the band is translucent: {opacity}");
+    // 401 × 2 + 2 vertices: upper edge there, lower edge back.
+    let vertices = attr(&bands[0].0, "points").unwrap().split_whitespace().count();
+    assert_eq!(vertices, 802);
+    // No error bars (2-point paths) and no markers (circles) in its colour.
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(blue.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    assert_eq!(bars, 0, "error bars drawn");
+    assert_eq!(elements(&svg, "circle").len(), 0, "markers drawn");
+    assert!(
+        texts(&svg).iter().any(|t| t.2.contains("±1 SE")),
+        "the legend names the band"
+    );
+
+    let channels = LineSeriesData {
+        name: "rgb".into(),
+        points: vec![(1.0, 0.2), (2.0, 0.3), (3.0, 0.1)],
+        errors: Some(vec![0.01; 3]),
+    };
+    let svg = line_chart("probe", "channel", "linear RGB, mean ± 1 SE", &[channels], false).unwrap();
+    let orange = colour_hex(coding_style("rgb").unwrap().colour);
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(orange.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    // A bar and its two caps per channel.
+    assert_eq!(bars, 9, "three error bars with caps");
 }

@@ -182,7 +182,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
             spreads.push(vec![(bound("wall_seconds_min"), bound("wall_seconds_max"))]);
             series.push(ScatterSeries {
                 name: s.coding.clone(),
-                points: vec![(x, s.summary.mean_de76.max(1e-4))],
+                points: vec![(x, s.summary.mean_de76)],
                 connect: false,
             });
             labels.push(vec![s.coding.clone()]);
@@ -197,7 +197,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
     charts::scatter_chart_with_spread(
         &format!("{}: speed against accuracy", c.scene),
         &format!("{x_desc}; {}", crate::render::cost::TIMING_METHOD),
-        "mean ΔE*ab (CIELAB units, log)",
+        "mean ΔE*ab (CIELAB units, log scale)",
         &series,
         &labels,
         &spreads,

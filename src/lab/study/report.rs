@@ -146,7 +146,7 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
         let points: Vec<&SweepPoint> = s.sweeps.iter().filter(|p| p.coding == coding).collect();
         series.push(ScatterSeries {
             name: coding.to_string(),
-            points: points.iter().map(|p| (p.wall_seconds, p.mean_dE00.max(1e-4))).collect(),
+            points: points.iter().map(|p| (p.wall_seconds, p.mean_dE00)).collect(),
             connect: false,
         });
         labels.push(points.iter().map(|p| sweep_label(p)).collect());
@@ -162,7 +162,7 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
         name: "Pareto front".into(),
         points: front
             .iter()
-            .map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00.max(1e-4)))
+            .map(|&i| (s.sweeps[i].wall_seconds, s.sweeps[i].mean_dE00))
             .collect(),
         connect: true,
     });
@@ -172,8 +172,8 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             s.title,
             truncation_suffix(s)
         ),
-        &format!("render time (s), {}", crate::render::cost::TIMING_METHOD),
-        "mean ΔE00 (CIEDE2000 units, floor 1e-4)",
+        &format!("render time (s, log scale), {}", crate::render::cost::TIMING_METHOD),
+        "mean ΔE00 (CIEDE2000 units, log scale)",
         &series,
         &labels,
         &spreads,

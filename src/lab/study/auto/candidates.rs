@@ -215,8 +215,8 @@ pub fn speed_accuracy_svg(
     });
     scatter_chart(
         &format!("{scene}: speed and accuracy"),
-        "wall time (s)",
-        "error / tolerance (log)",
+        "wall time (s, log scale)",
+        "error / tolerance (log scale)",
         &series,
         (true, true),
     )
