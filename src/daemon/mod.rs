@@ -246,15 +246,17 @@ pub async fn run(
         options.mock_world.clone(),
         shutdown_flag,
     ));
-    let render_jobs = Arc::new(RenderJobs::new(
-        store.clone(),
-        runner,
-        studies,
-        Arc::clone(&comparisons),
-        Arc::new(ImageJobs::new(events.clone())),
-        workers,
-    )
-    .with_progress(crate::lab::progress::ProgressBoard::follow(&events)));
+    let render_jobs = Arc::new(
+        RenderJobs::new(
+            store.clone(),
+            runner,
+            studies,
+            Arc::clone(&comparisons),
+            Arc::new(ImageJobs::new(events.clone())),
+            workers,
+        )
+        .with_progress(crate::lab::progress::ProgressBoard::follow(&events)),
+    );
     let job_worker = render_jobs.run();
     let instrument = instrument_task::spawn(instrument_task::TaskConfig {
         store: store.clone(),

@@ -108,11 +108,9 @@ impl ProgressBoard {
     /// Takes one event at `now` (POSIX seconds).
     pub fn record(&self, event: &Event, now: f64) {
         let (key, fraction, message) = match event {
-            Event::RenderProgress { render_id, done, total } if *total > 0 => (
-                (Job::Render, *render_id),
-                Some(*done as f64 / *total as f64),
-                None,
-            ),
+            Event::RenderProgress { render_id, done, total } if *total > 0 => {
+                ((Job::Render, *render_id), Some(*done as f64 / *total as f64), None)
+            }
             Event::StudyProgress {
                 study_id,
                 message,
@@ -208,7 +206,10 @@ mod tests {
         board.record(&study("white: truth", Some(0.0)), 400.0);
         board.record(&study("white: seed 1 of 2", Some(0.25)), 420.0);
         let p = board.get(Job::Study, 3).unwrap();
-        assert_eq!(p.phase_started_at, 400.0, "the measuring phase is not counted as rendering time");
+        assert_eq!(
+            p.phase_started_at, 400.0,
+            "the measuring phase is not counted as rendering time"
+        );
         assert_eq!(p.seconds_left_at(420.0), Some(60.0));
         assert_eq!(p.message.as_deref(), Some("white: seed 1 of 2"));
     }

@@ -118,9 +118,7 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
                 },
                 _,
             ) if *measurement_id == m.id => Some((end - now).max(0.0)),
-            (_, Some(pace)) => {
-                Some(pace * (m.samples_requested - m.samples_taken).max(0) as f64)
-            }
+            (_, Some(pace)) => Some(pace * (m.samples_requested - m.samples_taken).max(0) as f64),
             _ => None,
         };
         let left = match remaining {
@@ -299,10 +297,7 @@ async fn render_and_study_jobs(
     }
     if let Some(images) = renders.images() {
         for i in images.unfinished() {
-            let fraction = i
-                .progress
-                .as_ref()
-                .map(|p| p.paths as f64 / p.max_paths.max(1) as f64);
+            let fraction = i.progress.as_ref().map(|p| p.paths as f64 / p.max_paths.max(1) as f64);
             let elapsed = i.progress.as_ref().map(|p| p.elapsed_seconds);
             // Its time budget bounds it too.
             let budget_left = elapsed.map(|e| (i.settings.time_budget_s - e).max(0.0));
@@ -324,7 +319,9 @@ async fn render_and_study_jobs(
                 unit: fraction.map(|_| "% of its path cap".into()),
                 step: None,
                 seconds_left: left,
-                estimate: left.map(|_| "at most: time so far × paths still allowed / paths traced, within its time budget".into()),
+                estimate: left.map(|_| {
+                    "at most: time so far × paths still allowed / paths traced, within its time budget".into()
+                }),
             });
         }
     }

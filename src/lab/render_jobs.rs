@@ -9,10 +9,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::progress::ProgressBoard;
 use super::comparisons::Comparisons;
 use super::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
 use super::jobs::{JobQueue, Queued};
+use super::progress::ProgressBoard;
 use super::render_runner::RenderRunner;
 use super::study_jobs::StudyRunner;
 use super::worker_queue::WorkerQueue;

@@ -166,7 +166,13 @@ impl Image {
     /// how a page draws the shown image's cd/m² scale.
     pub fn log_average_luminance(&self) -> f64 {
         let n = self.rgb.len().max(1) as f64;
-        (self.rgb.iter().map(|p| (1e-4 + luminance(p).max(0.0)).ln()).sum::<f64>() / n).exp()
+        (self
+            .rgb
+            .iter()
+            .map(|p| (1e-4 + luminance(p).max(0.0)).ln())
+            .sum::<f64>()
+            / n)
+            .exp()
     }
 
     /// 8-bit sRGB after the global Reinhard operator.

@@ -35,6 +35,12 @@ try {
 
   await page.goto(`${base}/#token=${token}`);
   await page.waitForFunction(() => document.getElementById("instrument").textContent.includes("idle"), null, { timeout: 30000 });
+  // The home page first: the instrument, the queue (empty), what to measure next.
+  await page.waitForFunction(() => /idle/.test(document.getElementById("home-instrument-state").textContent)
+    && document.querySelectorAll("#home-next-list li").length > 0 && !document.getElementById("queue-empty").hidden,
+    null, { timeout: 30000 });
+  if (shots) await page.screenshot({ path: `${shots}/home.png`, fullPage: true });
+  await page.goto(`${base}/#/live`);
 
   // Start a measurement of the WHITE scene's patch.
   await page.waitForFunction(() => document.querySelectorAll("#scene-select option").length > 1);
@@ -91,14 +97,24 @@ try {
     const m = document.getElementById("progress-text").textContent.match(/sample (\d+) of 99/);
     return m && Number(m[1]) >= 2;
   }, null, { timeout: 60000 });
+  // The home page shows it under way, with its samples and a time left, in the queue.
+  await page.goto(`${base}/#/home`);
+  await page.waitForFunction(() => !document.getElementById("home-current").hidden
+    && /samples taken/.test(document.getElementById("home-current-what").textContent)
+    && [...document.querySelectorAll("#queue-table tbody tr")].some((tr) => /running/.test(tr.textContent)
+      && /about/.test(tr.querySelector(".time-left").textContent)), null, { timeout: 30000 });
+  if (shots) await page.screenshot({ path: `${shots}/home-measuring.png`, fullPage: true });
+  await page.goto(`${base}/#/live`);
+  await page.waitForFunction(() => !document.getElementById("cancel-current").hidden);
   await page.click("#cancel-current");
   await page.waitForFunction(() => /: cancelled \(cancelled by the operator after \d+ samples/.test(
     document.getElementById("progress-text").textContent), null, { timeout: 30000 });
   await page.goto(`${base}/#/measurements`);
   await page.waitForFunction(() => [...document.querySelectorAll("#measurement-table tbody tr")].some((tr) =>
     /cancelled, partial \(\d+ of 99\)/.test(tr.textContent) && tr.textContent.includes("cancelled from the dashboard")
-    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent) && tr.cells[2].textContent === "default"
-    && /^PR-650 \d+$/.test(tr.cells[3].textContent)), null,
+    && /\d{1,2}:\d{2}/.test(tr.cells[1].textContent) && /\d{1,2}:\d{2}/.test(tr.cells[2].textContent)
+    && tr.cells[4].textContent === "default"
+    && /^PR-650 \d+$/.test(tr.cells[5].textContent)), null,
     { timeout: 30000 });
   const pageInfo = await page.textContent("#page-info");
   if (!/^1–2 of 2$/.test(pageInfo)) failures.push("page info: " + pageInfo);
@@ -135,7 +151,18 @@ try {
   if (shots) await page.screenshot({ path: `${shots}/scene-white.png`, fullPage: true });
 
   // Every other scene's page (no measurements yet: the page still loads cleanly).
-  const sceneIds = await page.$$eval("#scene-list a", (as) => as.map((a) => a.getAttribute("href").split("/").pop()));
+  // The Scenes overview: a row per scene, WHITE measured (1 of 1) with its
+  // thumbnail and a ΔE00 per coding.
+  await page.goto(`${base}/#/scenes`);
+  await page.waitForSelector("#scene-table tbody tr");
+  await page.waitForFunction(() => {
+    const row = document.querySelector("#scene-table tbody tr[data-scene=white]");
+    const img = row && row.querySelector("img.thumb");
+    return row && /1 \/ 1/.test(row.cells[2].textContent) && row.querySelectorAll("table.compact th").length === 7
+      && img && img.complete && img.naturalWidth > 0;
+  }, null, { timeout: 30000 });
+  if (shots) await page.screenshot({ path: `${shots}/scenes.png`, fullPage: true });
+  const sceneIds = await page.$$eval("#scene-table > tbody > tr", (trs) => trs.map((tr) => tr.dataset.scene));
   for (const id of sceneIds.filter((id) => id !== "white")) {
     await page.goto(`${base}/#/scenes/${id}`);
     await page.waitForFunction((id) => document.getElementById("scene-title").textContent.startsWith(id), id);

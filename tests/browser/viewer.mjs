@@ -32,7 +32,7 @@ try {
 
   await page.goto(`${base}/#token=${token}`);
   await page.waitForFunction(() => document.getElementById("instrument").textContent.includes("idle"), null, { timeout: 30000 });
-  await page.goto(`${base}/#/scenes/cylinder`);
+  await page.goto(`${base}/#/viewer/cylinder`);
   await page.waitForFunction(() => !document.getElementById("image-viewer").hidden, null, { timeout: 30000 });
   const codings = await page.$$eval("#viewer-coding option", (o) => o.map((x) => x.value));
   if (!codings.includes("spectral") || !codings.includes("rgb")) failures.push("codings offered: " + codings);
@@ -44,6 +44,9 @@ try {
     const img = document.getElementById("viewer-image");
     return img.complete && img.naturalWidth > 0 && /Reinhard/.test(document.getElementById("viewer-caption").textContent);
   }, null, { timeout: 180000 });
+  // Beside it, its cd/m² scale (the tone map's grey levels as luminances).
+  await page.waitForFunction(() => document.querySelectorAll("#viewer-scale .lum-ticks span").length >= 2
+    && /cd\/m²/.test(document.getElementById("viewer-scale").textContent), null, { timeout: 10000 });
   const caption = await page.textContent("#viewer-caption");
   for (const want of ["spectral coding", "observer: Judd–Vos 1978 2°", "Reinhard global tone map", "sRGB"]) {
     if (!caption.includes(want)) failures.push(`the image caption lacks "${want}": ${caption}`);

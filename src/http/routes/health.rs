@@ -83,7 +83,7 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
             database_error,
             version: env!("CARGO_PKG_VERSION").into(),
             observer: state.config.observer.name().into(),
-            default_samples: state.config.instrument.default_samples as usize,
+            default_samples: state.config.instrument.default_samples,
             instrument,
             instrument_task: task.into(),
             queued_measurements: state.jobs.max_capacity() - state.jobs.capacity(),
