@@ -40,6 +40,8 @@ try {
   await page.waitForFunction(() => document.getElementById("instrument").textContent.includes("idle"), null, { timeout: 30000 });
   // The scene list is a fetch (the Authorization header).
   await page.waitForFunction(() => document.querySelectorAll("#scene-select option").length > 1, null, { timeout: 30000 });
+  // The token URL opens the home page; measurements are taken on Live.
+  await page.goto(`${base}/#/live`);
   await page.selectOption("#scene-select", "white");
   await page.selectOption("#target-select", "patch");
   await page.fill("#samples-input", "2");
