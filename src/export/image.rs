@@ -143,7 +143,7 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
     } else {
         other.push((
             "lightbooth.units.RGB",
-            format!("linear {} with Y in cd/m²", image.coding),
+            format!("linear {} with Y in cd/m^2", image.coding),
         ));
     }
     for (k, v) in other {

@@ -155,6 +155,10 @@ impl RenderRunner {
             s.max_bounces = Some(b);
         }
         if let Some(seed) = request.seed {
+            // The store keeps the seed as a signed 64-bit integer.
+            if seed > i64::MAX as u64 {
+                return Err(LabError::Invalid(format!("field `seed`: {seed} is above {}", i64::MAX)));
+            }
             s.seed = seed;
         }
         Ok(s)
@@ -466,6 +470,13 @@ mod tests {
         assert!(refused(request(None, Some(1), None)).starts_with("field `samples`: 1 is outside"));
         assert!(refused(request(None, Some(MAX_RENDER_SAMPLES + 1), None)).starts_with("field `samples`"));
         assert!(refused(request(None, None, Some(MAX_RENDER_BOUNCES + 1))).starts_with("field `bounces`"));
+        let seeded = |seed: u64| RenderRequest {
+            seed: Some(seed),
+            ..RenderRequest::default()
+        };
+        // Regression: a seed of 2^63 was accepted and stored as a negative number.
+        assert!(refused(seeded(1 << 63)).starts_with("field `seed`"));
+        assert_eq!(runner.settings(&seeded(i64::MAX as u64)).unwrap().seed, i64::MAX as u64);
         // No request: the daemon's codings and `spectral` (the white may
         // come from it), its paths, no bounce cap (unbiased).
         let default = runner.comparison_settings();

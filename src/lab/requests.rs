@@ -59,5 +59,8 @@ pub struct RenderRequest {
     /// `truncated_at_bounces` (`null` when uncapped) and `truncation_note`.
     #[schema(minimum = 0, maximum = 64)]
     pub bounces: Option<u32>,
+    /// The sampler's seed, 0–9223372036854775807 (the store keeps it as a
+    /// signed 64-bit integer); default: the daemon's.
+    #[schema(minimum = 0, maximum = 9_223_372_036_854_775_807_i64)]
     pub seed: Option<u64>,
 }

@@ -92,6 +92,16 @@ const ALLOWED: &[(&str, &str, &str)] = &[
     ),
     (
         "ST202",
+        "GET /api/images/{id}/pixel",
+        "a pixel box that leaves the image: its bounds are the image's size, which the schema cannot know",
+    ),
+    (
+        "ST202",
+        "GET /api/images/{id}/pixel.svg",
+        "the same box rule as GET /api/images/{id}/pixel",
+    ),
+    (
+        "ST202",
         "POST /api/display-profiles",
         "patches that cannot be fitted (too few, or not the plan's colours)",
     ),
@@ -181,6 +191,7 @@ fn schemathesis_finds_no_server_error_and_no_understated_rule() {
     ];
     let mut unexpected = Vec::new();
     let mut outputs = String::new();
+    let mut details = String::new();
     for (name, paths, at_least) in passes {
         let report = dir.path().join(format!("report-{name}.json"));
         let out = Command::new(&st)
@@ -212,6 +223,7 @@ fn schemathesis_finds_no_server_error_and_no_understated_rule() {
                 let operation = operation.as_str().unwrap_or("?");
                 if !ALLOWED.iter().any(|(c, o, _)| *c == code && *o == operation) {
                     unexpected.push(format!("{code} {} on {operation}", failure["title"]));
+                    details.push_str(&section(&text, operation));
                 }
             }
         }
@@ -232,11 +244,30 @@ fn schemathesis_finds_no_server_error_and_no_understated_rule() {
     drop(daemon);
     assert!(
         unexpected.is_empty(),
-        "Schemathesis found {} unexpected failures:\n{}\n\n{}",
+        "Schemathesis found {} unexpected failures:\n{}\n\nTheir reports:\n{}\n\nThe end of its output:\n{}",
         unexpected.len(),
         unexpected.join("\n"),
-        tail(&outputs, 12_000)
+        tail(&details, 12_000),
+        tail(&outputs, 4_000)
     );
+}
+
+/// The part of Schemathesis's text report under the heading
+/// `____ {operation} ____`, up to the next heading: the failure's response and
+/// the `curl` that reproduces it.
+fn section(text: &str, operation: &str) -> String {
+    let mut out = String::new();
+    let mut inside = false;
+    for line in text.lines() {
+        if line.starts_with("___") {
+            inside = line.trim_matches('_').trim() == operation;
+        }
+        if inside {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
 }
 
 fn tail(text: &str, n: usize) -> &str {

@@ -138,6 +138,38 @@ fn tiny_image(coding: Coding, target_se: Option<f64>) -> CameraImage {
     render_camera_image(&scene, &camera, &settings, None).unwrap()
 }
 
+/// Regression: an RGB (or sRGB) image's units attribute was written with a
+/// Latin-1 `²`, which the ASCII check refuses, so every RGB image's
+/// `GET /api/images/{id}/image.exr` answered 500 (Schemathesis found it).
+#[test]
+fn rgb_image_exr_units_are_ascii() {
+    for coding in [Coding::Rgb, Coding::Srgb] {
+        let img = tiny_image(coding, Some(0.5));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rgb.exr");
+        write_camera_image(&img, &path).unwrap_or_else(|e| panic!("{coding}: {e}"));
+        let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let layer = &read.layer_data[0];
+        match layer
+            .attributes
+            .other
+            .get(&exr::prelude::Text::from("lightbooth.units.RGB"))
+        {
+            Some(exr::meta::attribute::AttributeValue::Text(t)) => {
+                assert_eq!(t.to_string(), format!("linear {coding} with Y in cd/m^2"))
+            }
+            other => panic!("{coding}: lightbooth.units.RGB is {other:?}"),
+        }
+        let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        for channel in ["R", "G", "B", "SE.R", "Y", "paths"] {
+            assert!(
+                names.iter().any(|n| n == channel),
+                "{coding}: no channel {channel} in {names:?}"
+            );
+        }
+    }
+}
+
 /// The EXR read back by the `exr` crate's reader: the spectral channel names
 /// of Fichet et al. 2021, X/Y/Z, the SE layer, the units attributes, and
 /// every value equal to the in-memory image.

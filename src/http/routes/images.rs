@@ -140,7 +140,7 @@ fn probe_of(state: &AppState, id: i64, q: &ProbeQuery) -> Result<Probe, ApiError
 
 /// A pixel's (or a box's) channels ± SE, XYZ, x,y and LMS.
 #[utoipa::path(get, path = "/images/{id}/pixel", tag = "images", params(("id" = i64, Path), ProbeQuery),
-    responses((status = 200, body = Probe), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+    responses((status = 200, body = Probe), (status = 400, description = "the box leaves the image", body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_pixel(
     State(state): State<AppState>,
     Path(id): Path<i64>,
@@ -151,7 +151,7 @@ pub async fn image_pixel(
 
 /// The probe as a chart: the spectrum (or the RGB channels) ± 1 SE.
 #[utoipa::path(get, path = "/images/{id}/pixel.svg", tag = "images", params(("id" = i64, Path), ProbeQuery),
-    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+    responses((status = 200, content_type = "image/svg+xml"), (status = 400, description = "the box leaves the image", body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_pixel_svg(
     State(state): State<AppState>,
     Path(id): Path<i64>,
