@@ -8,6 +8,10 @@ use super::*;
 /// scientific notation for very small or large values.
 pub fn tick_label(v: f64, span: f64) -> String {
     let span = span.abs();
+    if v == 0.0 {
+        // Not "0e0" on an axis of small numbers.
+        return "0".to_string();
+    }
     let mag = v.abs().max(span);
     if mag != 0.0 && !(1e-3..1e5).contains(&mag) {
         // Mantissa decimals down to the tick spacing's decade (~10 ticks).

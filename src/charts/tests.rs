@@ -701,3 +701,35 @@ fn many_point_errors_are_a_band() {
     // A bar and its two caps per channel.
     assert_eq!(bars, 9, "three error bars with caps");
 }
+
+#[test]
+fn colour_bar_ticks_start_at_zero_end_at_the_scale_top_and_stay_few() {
+    let colour_bar_ticks =
+        |max: f64| -> Vec<f64> { colour_bar_ticks(max).iter().map(|v| (v * 1e9).round() / 1e9).collect() };
+    assert_eq!(colour_bar_ticks(2.5), [0.0, 0.5, 1.0, 1.5, 2.0, 2.5]);
+    assert_eq!(colour_bar_ticks(1.0), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]);
+    // A nice tick within 8 % of the top gives way to the top itself.
+    assert_eq!(colour_bar_ticks(0.83), [0.0, 0.2, 0.4, 0.6, 0.83]);
+    assert_eq!(colour_bar_ticks(0.0), [0.0]);
+    assert_eq!(colour_bar_ticks(f64::NAN), [0.0]);
+    for max in [0.0123, 0.7, 3.3, 17.0, 4.2e3] {
+        let t = colour_bar_ticks(max);
+        assert!(t.len() <= 7 && t.len() >= 3, "{max}: {t:?}");
+        assert_eq!((t[0], *t.last().unwrap()), (0.0, max));
+        assert!(t.windows(2).all(|w| w[1] > w[0]), "{max}: {t:?}");
+    }
+}
+
+#[test]
+fn false_colour_figure_refuses_an_empty_map() {
+    let m = FalseColourMap {
+        png: &[],
+        width: 0,
+        height: 3,
+        scale_max: 1.0,
+        quantity: "ΔE00",
+        title: "t",
+        notes: &[],
+    };
+    assert!(false_colour_map_svg(&m).unwrap_err().contains("no pixels"));
+}

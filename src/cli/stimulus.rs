@@ -10,6 +10,7 @@ use anyhow::Context;
 use clap::Args;
 use serde::Serialize;
 
+use lightbooth::charts::{false_colour_map_svg, tick_label, FalseColourMap};
 use lightbooth::display::profile::TransferModel;
 use lightbooth::display::stimulus::{convert, quantisation_bound_de00, GamutPolicy, GamutReport, Summary};
 use lightbooth::display::stimulus_files::{write_codes_png, write_codes_raw, write_delta_e_map};
@@ -53,8 +54,10 @@ pub struct StimulusArgs {
     /// The report as JSON.
     #[arg(long)]
     report: Option<PathBuf>,
-    /// A false-colour (viridis) PNG of each pixel's ΔE00, intended against shown.
-    #[arg(long)]
+    /// A false-colour (viridis) PNG of each pixel's ΔE00, intended against
+    /// shown, from 0 (dark) to the image's largest ΔE00 (yellow); beside it
+    /// `<name>.svg`, the map with its colour bar, ticks and notes.
+    #[arg(long, value_parser = png_path)]
     map: Option<PathBuf>,
 }
 
@@ -150,6 +153,20 @@ struct StimulusReport {
     /// The ΔE00 at the map's yellow end (intended vs shown); 0 is its dark end.
     #[serde(skip_serializing_if = "Option::is_none")]
     map_scale_max_delta_e00: Option<f64>,
+    /// The map with its colour bar: `<map>.svg`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    map_figure: Option<String>,
+}
+
+/// `--map` takes a `.png` path: the figure is written beside it as `.svg`.
+fn png_path(s: &str) -> Result<PathBuf, String> {
+    let p = PathBuf::from(s);
+    match p.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("png") => Ok(p),
+        _ => Err(format!(
+            "`{s}` is not a .png path: --map writes the map as PNG and the figure with its colour bar beside it as .svg"
+        )),
+    }
 }
 
 fn default_out(image: &Path, bits: u32) -> PathBuf {
@@ -174,9 +191,46 @@ pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
     };
     let intended = Summary::of(&stim.delta_e00_intended);
     let map_scale = if intended.max > 0.0 { intended.max } else { 1.0 };
-    if let Some(map) = &args.map {
-        write_delta_e_map(map, w, h, &stim.delta_e00_intended, map_scale).map_err(anyhow::Error::msg)?;
-    }
+    let map_figure = match &args.map {
+        Some(map) => {
+            let png = write_delta_e_map(map, w, h, &stim.delta_e00_intended, map_scale).map_err(anyhow::Error::msg)?;
+            let figure = map.with_extension("svg");
+            let notes = [
+                format!(
+                    "CIEDE2000 of each pixel: the colour intended against the colour the {}-bit codes show.",
+                    args.bits
+                ),
+                format!(
+                    "0 is dark, {} (the image's largest) yellow; gamut policy {}.",
+                    tick_label(map_scale, map_scale),
+                    format!("{:?}", args.gamut).to_lowercase()
+                ),
+                format!(
+                    "White: the display's (all channels at full drive). Observer: {}. Display profile: {}.",
+                    profile.observer, profile_name
+                ),
+            ];
+            let svg = false_colour_map_svg(&FalseColourMap {
+                png: &png,
+                width: w,
+                height: h,
+                scale_max: map_scale,
+                quantity: "ΔE00",
+                title: &format!(
+                    "ΔE00 intended vs shown: {} at {} bits",
+                    args.image
+                        .file_name()
+                        .map_or(args.image.display().to_string(), |n| n.to_string_lossy().into_owned()),
+                    args.bits
+                ),
+                notes: &notes,
+            })
+            .map_err(anyhow::Error::msg)?;
+            std::fs::write(&figure, svg).with_context(|| format!("writing {}", figure.display()))?;
+            Some(figure.display().to_string())
+        }
+        None => None,
+    };
     let white = profile.white_xyz()?;
     let report = StimulusReport {
         image: args.image.display().to_string(),
@@ -202,6 +256,7 @@ pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
         raw_sidecar,
         map: args.map.as_ref().map(|p| p.display().to_string()),
         map_scale_max_delta_e00: args.map.as_ref().map(|_| map_scale),
+        map_figure,
     };
     if let Some(path) = &args.report {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
@@ -250,5 +305,6 @@ fn print_summary(r: &StimulusReport) {
     files.extend(r.raw.iter().cloned());
     files.extend(r.raw_sidecar.iter().cloned());
     files.extend(r.map.iter().cloned());
+    files.extend(r.map_figure.iter().cloned());
     println!("wrote {}", files.join(", "));
 }

@@ -14,7 +14,8 @@
 //!   ordered map, matplotlib) from 0 at the dark end to `scale_max` at the
 //!   yellow end, values above clamped; the map is interpolated linearly in
 //!   sRGB between viridis at 11 stops (0, 0.1, …, 1) — an approximation of
-//!   the 256-entry table, within a few code values of it.
+//!   the 256-entry table, within a few code values of it. Its scale (a
+//!   colour bar with ticks) is drawn by `charts::false_colour_map_svg`.
 
 use std::io::BufWriter;
 use std::path::Path;
@@ -22,7 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 /// Viridis at 0, 0.1, …, 1 (matplotlib's table at those points).
-const VIRIDIS: [[u8; 3]; 11] = [
+pub const VIRIDIS: [[u8; 3]; 11] = [
     [0x44, 0x01, 0x54],
     [0x48, 0x24, 0x75],
     [0x41, 0x44, 0x87],
@@ -128,12 +129,26 @@ pub fn write_codes_raw(
 }
 
 /// ΔE00 per pixel as a viridis PNG scaled 0 … `scale_max`.
-pub fn write_delta_e_map(path: &Path, width: u32, height: u32, delta_e: &[f64], scale_max: f64) -> Result<(), String> {
+/// Returns the PNG's bytes (for a figure with its colour bar,
+/// `charts::false_colour_map_svg`).
+pub fn write_delta_e_map(
+    path: &Path,
+    width: u32,
+    height: u32,
+    delta_e: &[f64],
+    scale_max: f64,
+) -> Result<Vec<u8>, String> {
     let data: Vec<u8> = delta_e.iter().flat_map(|&d| viridis(d / scale_max)).collect();
-    let mut w = png_writer(path, width, height, png::BitDepth::Eight)?;
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut w = enc.write_header().map_err(|e| format!("{}: {e}", path.display()))?;
     w.write_image_data(&data)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    w.finish().map_err(|e| format!("{}: {e}", path.display()))
+    w.finish().map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::write(path, &bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(bytes)
 }
 
 #[cfg(test)]

@@ -359,7 +359,27 @@ fn stimulus_writes_the_codes_as_16_bit_png_and_raw_and_reports_the_delta_e_the_d
             (info.info().width, info.info().height)
         };
         assert_eq!((mw, mh), (4, 3));
-        assert!(r["map_scale_max_delta_e00"].as_f64().unwrap() > 0.0);
+        let scale_max = r["map_scale_max_delta_e00"].as_f64().unwrap();
+        assert!(scale_max > 0.0);
+        // The figure beside the map: the map itself embedded, the bar's
+        // viridis ends, and the scale's top labelled with the report's value.
+        let figure = map.with_extension("svg");
+        assert_eq!(r["map_figure"].as_str(), figure.to_str());
+        let svg = std::fs::read_to_string(&figure).unwrap();
+        let embedded = svg
+            .split("data:image/png;base64,")
+            .nth(1)
+            .and_then(|s| s.split('"').next())
+            .expect("the figure embeds the map as a PNG");
+        let embedded = base64::Engine::decode(&base64::engine::general_purpose::STANDARD, embedded).unwrap();
+        assert_eq!(embedded, std::fs::read(&map).unwrap(), "the figure embeds the map file");
+        assert!(svg.contains("stop-color=\"#440154\"") && svg.contains("stop-color=\"#fde725\""));
+        let top = lightbooth::charts::tick_label(scale_max, scale_max);
+        assert!(svg.contains(&format!(">{top}</text>")), "no tick {top} in {svg}");
+        assert!(
+            svg.contains(">0</text>") && svg.contains("Observer: judd-vos-1978"),
+            "{svg}"
+        );
     }
 }
 
@@ -621,4 +641,21 @@ fn a_profile_read_from_a_running_daemons_database_gives_the_same_codes_and_inter
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("no display profile 99"), "{stderr}");
+}
+
+#[test]
+fn stimulus_map_must_be_a_png_path_because_its_figure_goes_beside_it() {
+    let o = lightbooth(&[
+        "stimulus",
+        "image.exr",
+        "--display",
+        "p.json",
+        "--bits",
+        "8",
+        "--map",
+        "map.svg",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("is not a .png path") && err.contains(".svg"), "{err}");
 }
