@@ -359,10 +359,12 @@ async function loadMeasurements(openId) {
     const instrument = m.instrument_model ? `${m.instrument_model} ${m.instrument_serial || ""}`.trim() : "";
     const taken = m.started_at ?? m.created_at;
     const took = m.started_at && m.finished_at ? duration(m.finished_at - m.started_at) : m.started_at ? "running" : "";
-    for (const v of [m.id, (m.started_at ? "" : "queued ") + localTime(taken), laterTime(taken, m.finished_at),
+    // Today's times without the date (the date is in the cell's tooltip).
+    for (const v of [m.id, (m.started_at ? "" : "queued ") + laterTime(Date.now() / 1000, taken), laterTime(taken, m.finished_at),
       took, m.booth, instrument, m.scene || "", m.target || "", stateText(m),
       `${m.samples_taken}/${m.samples_requested}`, fmt(m.Y, 5), fmt(m.x, 4), fmt(m.y, 4), fmt(m.luminance_cv, 2),
       m.note]) tr.insertCell().textContent = v;
+    tr.cells[1].title = localTime(taken);
     const action = tr.insertCell();
     if (m.state === "queued" || m.state === "running") {
       const b = document.createElement("button");

@@ -48,21 +48,12 @@ function duration(seconds) {
   return s < 60 ? `${s} s` : `${Math.floor(s / 60)} min ${String(s % 60).padStart(2, "0")} s`;
 }
 
+// Measures the patch on the screen (web/measure.js); its id, or null when cancelled.
 async function measure(patch, samples, place) {
-  const started = await api("/api/measurements", {
-    method: "POST",
-    body: JSON.stringify({ samples, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` }),
-  });
-  run.measurementId = started.id;
-  for (;;) {
-    const m = await api(`/api/measurements/${started.id}`);
-    if (m.state === "complete") return started.id;
-    if (run.cancelled) return null;
-    if (["failed", "cancelled", "interrupted"].includes(m.state)) {
-      throw new Error(`measurement ${started.id} of ${patch.label} ${m.state}: ${m.error || ""}`);
-    }
-    await sleep(200);
-  }
+  const m = await measureAndWait(api,
+    { samples, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` },
+    { onStarted: (id) => (run.measurementId = id), cancelled: () => run.cancelled });
+  return m && m.id;
 }
 
 async function calibrate() {
@@ -119,6 +110,7 @@ async function calibrate() {
     document.body.classList.remove("calibrating");
     if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
     $("status").textContent = `profile ${row.id} stored`;
+    showStoredProfiles();
     history.replaceState(null, "", `#profile=${row.id}`);
     showProfile(row);
   } catch (e) {
@@ -165,6 +157,31 @@ function showProfile(row) {
     <p><a href="/calibrate">calibrate again</a> · <a href="/">dashboard</a></p>`;
 }
 
+// The newest stored profiles, each a link to its page (#profile=ID), so
+// that this page is not only a white screen to someone who opens it to look.
+async function showStoredProfiles() {
+  const profiles = await api("/api/display-profiles").catch(() => []);
+  const box = $("stored-profiles");
+  box.textContent = "";
+  if (!profiles.length) return;
+  box.append("stored profiles: ");
+  const newest = [...profiles].sort((a, b) => b.created_at - a.created_at).slice(0, 5);
+  newest.forEach((p, i) => {
+    if (i) box.append(" · ");
+    const a = document.createElement("a");
+    a.href = `#profile=${p.id}`;
+    a.textContent = `${p.id}: ${p.name} (${new Date(p.created_at * 1000).toLocaleString()})`;
+    a.addEventListener("click", async (ev) => {
+      ev.preventDefault();
+      history.replaceState(null, "", `#profile=${p.id}`);
+      showProfile(await api(`/api/display-profiles/${p.id}`));
+    });
+    box.appendChild(a);
+  });
+  if (profiles.length > newest.length) box.append(` · and ${profiles.length - newest.length} older`);
+  box.hidden = false;
+}
+
 (async function init() {
   await readCredential;
   $("start").addEventListener("click", calibrate);
@@ -177,6 +194,7 @@ function showProfile(row) {
     }
     $("cancel").disabled = false;
   });
+  showStoredProfiles();
   const m = location.hash.match(/profile=(\d+)/);
   if (m) {
     try {

@@ -413,18 +413,6 @@ function showPatch(linear, geometry, readback) {
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-async function measureShown(samples, note) {
-  const started = await api("/api/measurements", { method: "POST", body: JSON.stringify({ samples, note }) });
-  for (;;) {
-    const m = await api(`/api/measurements/${started.id}`);
-    if (m.state === "complete") return m;
-    if (["failed", "cancelled", "interrupted"].includes(m.state)) {
-      throw new Error(`measurement ${started.id} (${note}) ${m.state}: ${m.error || ""}`);
-    }
-    await sleep(200);
-  }
-}
-
 // Shows one patch and measures it; with the simulated display, tells it
 // what was drawn first. Returns the complete measurement.
 async function showAndMeasure(linear, geometry, samples, note, simulated) {
@@ -440,7 +428,7 @@ async function showAndMeasure(linear, geometry, samples, note, simulated) {
       }
     }
     await sleep(100); // let the monitor settle on the new colour
-    return await measureShown(samples, note);
+    return await measureAndWait(api, { samples, note });
   } finally {
     shown.stop();
   }

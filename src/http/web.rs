@@ -17,6 +17,8 @@ const MATERIAL_JS: &str = include_str!("../../web/material.js");
 const VIEWER_JS: &str = include_str!("../../web/viewer.js");
 /// The home page: the instrument, the queue, the booth, what to do next.
 const HOME_JS: &str = include_str!("../../web/home.js");
+/// Measuring what a page shows and waiting for it (calibration, experiment sessions).
+const MEASURE_JS: &str = include_str!("../../web/measure.js");
 /// The navigation bar every page shares.
 const NAV_JS: &str = include_str!("../../web/nav.js");
 const STYLE: &str = include_str!("../../web/style.css");
@@ -68,6 +70,10 @@ pub fn router() -> Router<AppState> {
         .route(
             "/nav.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], NAV_JS) }),
+        )
+        .route(
+            "/measure.js",
+            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MEASURE_JS) }),
         )
         .route(
             "/viewer.js",

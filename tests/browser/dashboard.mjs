@@ -3,12 +3,14 @@
 // measurement of the WHITE scene, watch its progress, see the spectrum, the
 // comparison table and the charts, every scene's page, a finished study
 // (one section per scene, the request folded away, a report link that
-// answers) and a failed one (no report link). Fails on any console error,
+// answers) and a failed one (no report link); then calibrates the display
+// and opens every page from the navigation bar (every_page.mjs). Fails on any console error,
 // failed request or HTTP error; saves a screenshot of every page into
 // SCREENSHOT_DIR for a reviewer.
 //
 // Usage: node dashboard.mjs BASE_URL TOKEN SCREENSHOT_DIR
 import { chromium } from "playwright-core";
+import { visitEveryPage } from "./every_page.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -219,6 +221,9 @@ try {
   await page.waitForFunction((id) => document.getElementById("study-title").textContent.includes(`Study ${id}: cancelled`), failedId);
   if (await page.isVisible("#study-report")) failures.push("a study that did not complete shows a report link");
   if (shots) await page.screenshot({ path: `${shots}/study-failed.png`, fullPage: true });
+
+  // Measured, compared, studied: now calibrate, and open every page.
+  await visitEveryPage(page, base, shots, failures);
 } catch (e) {
   failures.push(String(e));
 } finally {

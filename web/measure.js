@@ -1,0 +1,26 @@
+// Measuring what a page shows on the screen, shared by the calibration page
+// and an experiment's session page: queue a measurement through the
+// ordinary API and poll it until it is complete.
+//
+//   const m = await measureAndWait(api, { samples: 3, note: "patch 4 of 21" },
+//                                  { onStarted: (id) => …, cancelled: () => false });
+//
+// Returns the complete measurement, or null when `cancelled()` turns true
+// (the caller cancels the measurement itself; what was measured stays
+// stored). A measurement that fails, is cancelled by someone else or is
+// interrupted throws, naming it and its note.
+"use strict";
+
+async function measureAndWait(api, body, { onStarted = () => {}, cancelled = () => false } = {}) {
+  const started = await api("/api/measurements", { method: "POST", body: JSON.stringify(body) });
+  onStarted(started.id);
+  for (;;) {
+    const m = await api(`/api/measurements/${started.id}`);
+    if (m.state === "complete") return m;
+    if (cancelled()) return null;
+    if (["failed", "cancelled", "interrupted"].includes(m.state)) {
+      throw new Error(`measurement ${started.id} (${body.note || "no note"}) ${m.state}: ${m.error || ""}`);
+    }
+    await new Promise((r) => setTimeout(r, 200));
+  }
+}
