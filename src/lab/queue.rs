@@ -33,7 +33,7 @@ use crate::store::{Booth, Job, MeasurementFilter, MeasurementState, MeasurementS
 const PACE_FROM_LAST: i64 = 10;
 
 /// One job waiting or under way.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Default, Serialize, ToSchema)]
 pub struct QueuedJob {
     /// `measurement`, `render`, `study`, `image` or `experiment_session`.
     pub kind: &'static str,
@@ -165,7 +165,7 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
     if let Some(renders) = src.renders {
         render_and_study_jobs(src, renders, now, &mut jobs).await?;
     }
-    experiment_sessions(src.store, &mut jobs).await?;
+    experiment_sessions(src, &mut jobs).await?;
     Ok(Queue {
         booth: src.booth.to_string(),
         at: now,
@@ -224,15 +224,29 @@ async fn instrument_pace(src: &QueueSources<'_>) -> Result<(Option<f64>, Option<
     ))
 }
 
+/// The progress fields of a job counted in percent of `unit` (renders,
+/// studies, images); the caller fills in what the job is.
+fn in_percent(fraction: Option<f64>, unit: &str, seconds_left: Option<f64>, estimate: &str) -> QueuedJob {
+    QueuedJob {
+        done: fraction.map(|f| (f * 100.0).round()),
+        total: fraction.map(|_| 100.0),
+        unit: fraction.map(|_| format!("% of {unit}")),
+        seconds_left,
+        estimate: seconds_left.map(|_| estimate.to_string()),
+        ..QueuedJob::default()
+    }
+}
+
 async fn render_and_study_jobs(
     src: &QueueSources<'_>,
     renders: &dyn RenderService,
     now: f64,
     jobs: &mut Vec<QueuedJob>,
 ) -> Result<(), StoreError> {
-    let from_board = |job: Job, id: i64| {
-        let p = src.progress?.get(job, id)?;
-        Some((p.fraction.max(0.0), p.seconds_left_at(now), p.message))
+    // (fraction, seconds left, the step under way) from the event board.
+    let from_board = |job: Job, id: i64| match src.progress.and_then(|board| board.get(job, id)) {
+        Some(p) => (Some(p.fraction.max(0.0)), p.seconds_left_at(now), p.message),
+        None => (None, None, None),
     };
     let mut rows: Vec<_> = src
         .store
@@ -243,25 +257,20 @@ async fn render_and_study_jobs(
         .collect();
     rows.sort_by_key(|r| r.id);
     for r in rows {
-        let progress = from_board(Job::Render, r.id);
+        let (fraction, left, _) = from_board(Job::Render, r.id);
         jobs.push(QueuedJob {
             kind: "render",
             id: r.id,
             state: r.state.clone(),
             what: format!("render of {} ({})", r.scene, r.codings.join(", ")),
             scene: Some(r.scene.clone()),
-            parent_id: None,
             created_at: Some(r.created_at),
-            started_at: None,
-            done: progress.as_ref().map(|p| (p.0 * 100.0).round()),
-            total: progress.as_ref().map(|_| 100.0),
-            unit: progress.as_ref().map(|_| "% of paths".into()),
-            step: None,
-            seconds_left: progress.as_ref().and_then(|p| p.1),
-            estimate: progress
-                .as_ref()
-                .and_then(|p| p.1)
-                .map(|_| "time so far × paths still to trace / paths traced".into()),
+            ..in_percent(
+                fraction,
+                "paths",
+                left,
+                "time so far × paths still to trace / paths traced",
+            )
         });
     }
     let mut studies: Vec<_> = src
@@ -273,26 +282,21 @@ async fn render_and_study_jobs(
         .collect();
     studies.sort_by_key(|s| s.id);
     for s in studies {
-        let progress = from_board(Job::Study, s.id);
+        let (fraction, left, step) = from_board(Job::Study, s.id);
         let scenes = s.request.get("scenes").and_then(|v| v.as_str()).unwrap_or("all scenes");
         jobs.push(QueuedJob {
             kind: "study",
             id: s.id,
             state: s.state.clone(),
             what: format!("study of {scenes}"),
-            scene: None,
-            parent_id: None,
             created_at: Some(s.created_at),
-            started_at: None,
-            done: progress.as_ref().map(|p| (p.0 * 100.0).round()),
-            total: progress.as_ref().map(|_| 100.0),
-            unit: progress.as_ref().map(|_| "% of steps".into()),
-            step: progress.as_ref().and_then(|p| p.2.clone()),
-            seconds_left: progress.as_ref().and_then(|p| p.1),
-            estimate: progress
-                .as_ref()
-                .and_then(|p| p.1)
-                .map(|_| "time so far × steps still to do / steps done (steps counted as equal)".into()),
+            step,
+            ..in_percent(
+                fraction,
+                "steps",
+                left,
+                "time so far × steps still to do / steps done (steps counted as equal)",
+            )
         });
     }
     if let Some(images) = renders.images() {
@@ -312,47 +316,41 @@ async fn render_and_study_jobs(
                 what: format!("camera image of {} ({})", i.scene, i.settings.coding),
                 scene: Some(i.scene.clone()),
                 parent_id: Some(i.render_id),
-                created_at: None,
-                started_at: None,
-                done: fraction.map(|f| (f * 100.0).round()),
-                total: fraction.map(|_| 100.0),
-                unit: fraction.map(|_| "% of its path cap".into()),
-                step: None,
-                seconds_left: left,
-                estimate: left.map(|_| {
-                    "at most: time so far × paths still allowed / paths traced, within its time budget".into()
-                }),
+                ..in_percent(
+                    fraction,
+                    "its path cap",
+                    left,
+                    "at most: time so far × paths still allowed / paths traced, within its time budget",
+                )
             });
         }
     }
     Ok(())
 }
 
-async fn experiment_sessions(store: &Store, jobs: &mut Vec<QueuedJob>) -> Result<(), StoreError> {
-    let experiments = Experiments::new(store.clone());
-    for e in store.list_experiments().await? {
-        for s in store.sessions_of_experiment(e.id).await? {
-            if s.state != "running" {
-                continue;
-            }
-            let view = experiments.view(s.id).await.ok();
-            jobs.push(QueuedJob {
-                kind: "experiment_session",
-                id: s.id,
-                state: s.state.clone(),
-                what: format!("experiment {} ({}): observer {}", e.id, e.name, s.observer_id),
-                scene: Some(e.scene.clone()),
-                parent_id: Some(e.id),
-                created_at: Some(s.created_at),
-                started_at: Some(s.created_at),
-                done: view.as_ref().map(|v| v.trials_recorded as f64),
-                total: view.as_ref().map(|v| v.trials_total as f64),
-                unit: view.as_ref().map(|_| "trials".into()),
-                step: None,
-                seconds_left: None,
-                estimate: None,
-            });
-        }
+/// The running experiment sessions of this booth's experiments (one query;
+/// then each session's experiment and trial count, as many as are running).
+async fn experiment_sessions(src: &QueueSources<'_>, jobs: &mut Vec<QueuedJob>) -> Result<(), StoreError> {
+    let experiments = Experiments::new(src.store.clone());
+    for s in src.store.running_experiment_sessions(src.booth.as_str()).await? {
+        let Some(e) = src.store.get_experiment(s.experiment_id).await? else {
+            continue;
+        };
+        let view = experiments.view(s.id).await.ok();
+        jobs.push(QueuedJob {
+            kind: "experiment_session",
+            id: s.id,
+            state: s.state.clone(),
+            what: format!("experiment {} ({}): observer {}", e.id, e.name, s.observer_id),
+            scene: Some(e.scene.clone()),
+            parent_id: Some(e.id),
+            created_at: Some(s.created_at),
+            started_at: Some(s.created_at),
+            done: view.as_ref().map(|v| v.trials_recorded as f64),
+            total: view.as_ref().map(|v| v.trials_total as f64),
+            unit: view.as_ref().map(|_| "trials".into()),
+            ..QueuedJob::default()
+        });
     }
     Ok(())
 }

@@ -278,6 +278,17 @@ impl Store {
         .await?))
     }
 
+    /// The running sessions of the experiments of `booth`, oldest first.
+    pub async fn running_experiment_sessions(&self, booth: &str) -> Result<Vec<ExperimentSessionRow>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(
+            "SELECT s.* FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
+             WHERE s.state = 'running' AND e.booth = $1 ORDER BY s.id"
+        )
+        .bind(booth)
+        .fetch_all(pool)
+        .await?))
+    }
+
     /// The refresh the page measured and what it runs on.
     pub async fn set_session_display(&self, id: i64, frame_ms: f64, client: &str) -> Result<(), StoreError> {
         with_pool!(self, |pool| sqlx::query(

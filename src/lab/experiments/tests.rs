@@ -269,3 +269,42 @@ async fn trials_recorded_while_another_writer_commits_are_not_refused_as_locked(
     }
     writer.await.unwrap();
 }
+
+/// `/api/jobs` lists a running session of this booth's experiments with its
+/// trials, and not once it is another booth's queue that is asked.
+#[tokio::test]
+async fn the_queue_lists_a_running_session_of_this_booths_experiments_only() {
+    use crate::lab::instrument_queue::InstrumentStatus;
+    use crate::lab::queue::{queue, QueueSources};
+    use crate::store::Booth;
+    let lab = lab().await;
+    let e = lab.experiments.create(request(&lab, &["nstep3"])).await.unwrap();
+    let session = lab.experiments.start_session(e.id, "obs01").await.unwrap();
+    let status = InstrumentStatus::Disconnected { reason: "test".into() };
+    let jobs_of = |booth: Booth| {
+        let (store, status) = (lab.experiments.store.clone(), status.clone());
+        async move {
+            queue(&QueueSources {
+                store: &store,
+                booth: &booth,
+                status: &status,
+                renders: None,
+                progress: None,
+            })
+            .await
+            .unwrap()
+            .jobs
+        }
+    };
+    let here = jobs_of(Booth::default()).await;
+    assert_eq!(here.len(), 1, "{here:?}");
+    let job = &here[0];
+    assert_eq!(
+        (job.kind, job.id, job.parent_id),
+        ("experiment_session", session.session.id, Some(e.id))
+    );
+    assert_eq!((job.done, job.total), (Some(0.0), Some(session.trials_total as f64)));
+    assert!(job.what.contains("observer obs01"), "{}", job.what);
+    let elsewhere = jobs_of("booth-2".parse().unwrap()).await;
+    assert!(elsewhere.is_empty(), "another booth's queue lists {elsewhere:?}");
+}
