@@ -31,7 +31,7 @@ fn target_number(info: &SceneInfo, target: &str) -> f64 {
 const SPEED_COST: (&str, &str, &str) = (
     "coding_cost",
     "wall_seconds",
-    "render time, each coding alone at the same paths per target (s)",
+    "render time (s, log scale), each coding alone, same paths",
 );
 
 /// Measured points and each coding's results in the x,y diagram of the
@@ -196,7 +196,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
     }
     charts::scatter_chart_with_spread(
         &format!("{}: speed against accuracy", c.scene),
-        &format!("{x_desc}; {}", crate::render::cost::TIMING_METHOD),
+        &format!("{x_desc}: {}", crate::render::cost::TIMING_AXIS),
         "mean ΔE*ab (CIELAB units, log scale)",
         &series,
         &labels,

@@ -43,7 +43,7 @@ fn speed_chart_log_axes_have_at_least_two_labelled_decades() {
         scatter("spectral", &[(0.64, 0.25)]),
     ];
     let spread = vec![vec![(0.9, 1.02)], vec![(0.45, 0.5)], vec![(0.6, 0.7)]];
-    let x_desc = format!("render time (s), {}", lightbooth::render::cost::TIMING_METHOD);
+    let x_desc = format!("render time (s): {}", lightbooth::render::cost::TIMING_AXIS);
     let svg = scatter_chart_with_spread(
         "CYLINDER: speed against accuracy",
         &x_desc,
@@ -79,9 +79,9 @@ fn speed_chart_draws_each_timings_spread() {
     let series = [scatter("rgb", &[(0.5, 0.6)]), scatter("srgb", &[(0.2, 0.3)])];
     let plain = scatter_chart("t", "s", "e", &series, (true, true)).unwrap();
     let spread = vec![vec![(0.4, 0.7)], vec![(0.15, 0.25)]];
-    let x_desc = format!("render time (s), {}", lightbooth::render::cost::TIMING_METHOD);
+    let x_desc = format!("render time (s): {}", lightbooth::render::cost::TIMING_AXIS);
     let with = scatter_chart_with_spread("t", &x_desc, "e", &series, &[], &spread, (true, true)).unwrap();
     let count = |svg: &str| svg.matches("<polyline").count() + svg.matches("<path").count();
     assert_eq!(count(&with), count(&plain) + 2);
-    assert!(with.contains("median of 3 repeats in rotated order"));
+    assert!(with.contains("median of 3 repeats, whiskers fastest–slowest"));
 }

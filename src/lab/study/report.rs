@@ -172,7 +172,7 @@ pub fn speed_chart(s: &SceneStudy) -> Result<String, String> {
             s.title,
             truncation_suffix(s)
         ),
-        &format!("render time (s, log scale), {}", crate::render::cost::TIMING_METHOD),
+        &format!("render time (s, log scale): {}", crate::render::cost::TIMING_AXIS),
         "mean ΔE00 (CIEDE2000 units, log scale)",
         &series,
         &labels,
