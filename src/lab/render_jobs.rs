@@ -316,12 +316,7 @@ impl RenderService for RenderJobs {
     }
 
     fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), LabError>> {
-        Box::pin(async move {
-            self.comparisons
-                .white_xyz(&scene, &booth)
-                .await
-                .map_err(|e| LabError::Internal(format!("the CIELAB white of `{scene}`: {e}")))
-        })
+        Box::pin(async move { self.comparisons.white_xyz(&scene, &booth).await })
     }
 }
 

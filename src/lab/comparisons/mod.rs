@@ -43,6 +43,7 @@ use std::sync::Arc;
 
 use tokio::runtime::Handle;
 
+use super::error::LabError;
 use super::events::{Event, EventSink};
 use super::render_runner::RenderRunner;
 use super::worker_queue::WorkerQueue;
@@ -222,13 +223,18 @@ impl Comparisons {
 
     /// The CIELAB white of `scene` in `booth` now, and where it came from
     /// (see the module doc): a white target's newest complete measurement
-    /// taken in that booth, never another booth's.
-    pub async fn white_xyz(&self, scene: &str, booth: &Booth) -> anyhow::Result<(Xyz, String)> {
+    /// taken in that booth, never another booth's; else the white target in
+    /// a complete render at the comparison settings. It never renders: it
+    /// answers a GET (the viewer's ΔE00 map), and rendering CYLINDER for its
+    /// white there once held a request for 45 s. With neither, it is a
+    /// conflict that says what to measure or render.
+    pub async fn white_xyz(&self, scene: &str, booth: &Booth) -> Result<(Xyz, String), LabError> {
+        let internal = |e: &dyn std::fmt::Display| LabError::Internal(format!("the CIELAB white of `{scene}`: {e}"));
         let entry = self
             .runner
             .catalogue()
             .get(scene)
-            .ok_or_else(|| anyhow::anyhow!("no scene `{scene}`"))?;
+            .ok_or_else(|| LabError::NotFound(format!("no scene `{scene}`")))?;
         let (white_scene, target) = match &entry.white {
             SceneWhite::Fixed { xyz, source } => return Ok((*xyz, source.clone())),
             SceneWhite::Target { scene_id, target, .. } => (scene_id.clone(), target.clone()),
@@ -238,14 +244,32 @@ impl Comparisons {
             .latest_complete_in_booth(&white_scene, &target, booth)
             .await?
         {
-            if let Some(xyz) = measured_xyz(&m, self.runner.observer()).map_err(anyhow::Error::msg)? {
+            if let Some(xyz) = measured_xyz(&m, self.runner.observer()).map_err(|e| internal(&e))? {
                 return Ok((xyz, format!("measurement {} ({white_scene}/{target})", m.summary.id)));
             }
         }
-        let (render_id, result) = self.render_for_comparison(&white_scene).await?;
+        let hash = self
+            .runner
+            .catalogue()
+            .get(&white_scene)
+            .ok_or_else(|| LabError::NotFound(format!("no scene `{white_scene}`")))?
+            .hash
+            .clone();
+        let settings = serde_json::to_value(self.runner.comparison_settings()).map_err(|e| internal(&e))?;
+        let Some((render_id, result)) = self.store.find_render_result(&hash, &settings).await? else {
+            return Err(LabError::Conflict(format!(
+                "the CIELAB white of `{scene}` is {white_scene}/{target}, which is not measured in booth {booth} \
+                 and not yet rendered with the daemon's settings: measure it, or render `{white_scene}` with no \
+                 options (POST /api/scenes/{white_scene}/renders with {{}}), then ask again"
+            )));
+        };
         let (_, xyz, _) = rendered_codings(&result, &target)
             .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
-            .ok_or_else(|| anyhow::anyhow!("no spectral rendering of the white {white_scene}/{target}"))?;
+            .ok_or_else(|| {
+                internal(&format!(
+                    "render {render_id} has no spectral rendering of {white_scene}/{target}"
+                ))
+            })?;
         Ok((
             xyz,
             format!("render {render_id} spectral ({white_scene}/{target}; not yet measured)"),
@@ -333,6 +357,42 @@ mod tests {
     /// A measurement of `scene`/`target` in the default booth, as queued.
     async fn measurement_of(store: &Store, scene: &str, target: &str) -> i64 {
         queued_measurement(store, Some((scene, target))).await
+    }
+
+    /// Regression: the viewer's ΔE00 map (a GET) asked for the white of a
+    /// scene whose white was neither measured nor rendered, and rendered the
+    /// whole scene first (45 s for CYLINDER on a busy machine). Now it says
+    /// what to do; once the scene is rendered at the comparison settings,
+    /// that render's spectral white answers, and nothing new is rendered.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_white_for_a_delta_e_map_is_never_rendered_on_the_request() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (runner, _) = runner(&store);
+        let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
+        match comparisons.white_xyz("white", &Booth::default()).await {
+            Err(LabError::Conflict(m)) => assert!(
+                m.contains("white/patch") && m.contains("POST /api/scenes/white/renders"),
+                "{m}"
+            ),
+            other => panic!("expected a conflict naming what to do, got {other:?}"),
+        }
+        assert!(
+            store.list_renders(Some("white")).await.unwrap().is_empty(),
+            "nothing was rendered"
+        );
+        let settings = runner.comparison_settings();
+        let render_id = runner.record("white", &settings).await.unwrap();
+        runner
+            .execute(render_id, "white", settings, CancelFlag::default())
+            .await
+            .unwrap();
+        let (_, source) = comparisons.white_xyz("white", &Booth::default()).await.unwrap();
+        assert_eq!(
+            source,
+            format!("render {render_id} spectral (white/patch; not yet measured)")
+        );
+        assert_eq!(store.list_renders(Some("white")).await.unwrap().len(), 1);
     }
 
     /// A measurement 10 % brighter than the spectral rendering of WHITE's
