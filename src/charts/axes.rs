@@ -8,12 +8,13 @@ use super::*;
 /// scientific notation for very small or large values.
 pub fn tick_label(v: f64, span: f64) -> String {
     let span = span.abs();
-    if v == 0.0 {
-        // Not "0e0" on an axis of small numbers.
-        return "0".to_string();
-    }
     let mag = v.abs().max(span);
     if mag != 0.0 && !(1e-3..1e5).contains(&mag) {
+        // Zero, or plotters' float residue of it (7e-21 on an axis of 1e-4s),
+        // is "0", not "0e0" or "7e-21".
+        if v.abs() <= span * 1e-9 {
+            return "0".to_string();
+        }
         // Mantissa decimals down to the tick spacing's decade (~10 ticks).
         let step = (span / 10.0).max(mag * 1e-6);
         let digits = if v == 0.0 {

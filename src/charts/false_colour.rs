@@ -134,7 +134,11 @@ pub fn false_colour_map_svg(m: &FalseColourMap) -> ChartResult {
             x + 5.0,
             x + 8.0,
             y + f64::from(TICK_PX) * 0.35,
-            tick_label(v, m.scale_max)
+            if v == 0.0 {
+                "0".to_string()
+            } else {
+                tick_label(v, m.scale_max)
+            }
         ));
     }
     for (i, note) in m.notes.iter().enumerate() {

@@ -200,6 +200,9 @@ fn small_radiance_tick_labels_repeated() {
     assert_eq!(unique, labels, "{labels:?}");
     assert_eq!(tick_label(3.5e-4, span), "3.5e-4");
     assert_eq!(tick_label(2e5, 1e6), "2e5");
+    // The probe chart's lowest tick read 0e0, then 7e-21 (a float residue of 0).
+    assert_eq!(tick_label(0.0, span), "0");
+    assert_eq!(tick_label(7e-21, 4.5e-4), "0");
 }
 
 /// A tick read 0.30000000000000004 (plotters' default f64 formatting).

@@ -55,6 +55,8 @@ try {
 
   // Probe the middle of the image: its spectrum ± SE as a chart, and XYZ, x,y.
   const box = await page.$eval("#viewer-image", (i) => [i.clientWidth, i.clientHeight]);
+  // shown_at_its_96_px_not_the_screens: the image fills the width (up to 900 px), square pixels.
+  if (box[0] < 800 || Math.abs(box[0] / box[1] - 96 / 72) > 0.02) failures.push(`the image is shown ${box[0]} × ${box[1]} px`);
   await page.click("#viewer-image", { position: { x: box[0] * 0.5, y: box[1] * 0.55 } });
   await page.waitForFunction(() => {
     const img = document.getElementById("probe-chart");
