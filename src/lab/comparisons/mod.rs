@@ -354,6 +354,18 @@ mod tests {
     use crate::lab::testing::{drain, queued_measurement, runner, store_in};
     use crate::render::integrator::CancelFlag;
 
+    /// WHITE rendered at the comparison settings (the render comparisons
+    /// and the ΔE map's white reuse); its id.
+    async fn render_white(runner: &RenderRunner) -> i64 {
+        let settings = runner.comparison_settings();
+        let render_id = runner.record("white", &settings).await.unwrap();
+        runner
+            .execute(render_id, "white", settings, CancelFlag::default())
+            .await
+            .unwrap();
+        render_id
+    }
+
     /// A measurement of `scene`/`target` in the default booth, as queued.
     async fn measurement_of(store: &Store, scene: &str, target: &str) -> i64 {
         queued_measurement(store, Some((scene, target))).await
@@ -381,12 +393,7 @@ mod tests {
             store.list_renders(Some("white")).await.unwrap().is_empty(),
             "nothing was rendered"
         );
-        let settings = runner.comparison_settings();
-        let render_id = runner.record("white", &settings).await.unwrap();
-        runner
-            .execute(render_id, "white", settings, CancelFlag::default())
-            .await
-            .unwrap();
+        let render_id = render_white(&runner).await;
         let (_, source) = comparisons.white_xyz("white", &Booth::default()).await.unwrap();
         assert_eq!(
             source,
@@ -406,12 +413,7 @@ mod tests {
         let store = store_in(dir.path()).await;
         let (runner, mut events) = runner(&store);
         // The render the comparison will reuse (same scene content and settings).
-        let settings = runner.comparison_settings();
-        let render_id = runner.record("white", &settings).await.unwrap();
-        runner
-            .execute(render_id, "white", settings, CancelFlag::default())
-            .await
-            .unwrap();
+        let render_id = render_white(&runner).await;
         let result = store.get_render(render_id).await.unwrap().unwrap().result.unwrap();
         let (_, spectral, _) = rendered_codings(&result, "patch")
             .unwrap()
