@@ -248,15 +248,7 @@ async fn render_and_study_jobs(
         Some(p) => (Some(p.fraction.max(0.0)), p.seconds_left_at(now), p.message),
         None => (None, None, None),
     };
-    let mut rows: Vec<_> = src
-        .store
-        .list_renders(None)
-        .await?
-        .into_iter()
-        .filter(|r| r.state == "queued" || r.state == "running")
-        .collect();
-    rows.sort_by_key(|r| r.id);
-    for r in rows {
+    for r in src.store.unfinished_renders().await? {
         let (fraction, left, _) = from_board(Job::Render, r.id);
         jobs.push(QueuedJob {
             kind: "render",
@@ -273,15 +265,7 @@ async fn render_and_study_jobs(
             )
         });
     }
-    let mut studies: Vec<_> = src
-        .store
-        .list_studies()
-        .await?
-        .into_iter()
-        .filter(|s| s.state == "queued" || s.state == "running")
-        .collect();
-    studies.sort_by_key(|s| s.id);
-    for s in studies {
+    for s in src.store.unfinished_studies().await? {
         let (fraction, left, step) = from_board(Job::Study, s.id);
         let scenes = s.request.get("scenes").and_then(|v| v.as_str()).unwrap_or("all scenes");
         jobs.push(QueuedJob {

@@ -148,4 +148,12 @@ impl Store {
         };
         records.into_iter().map(RenderRow::try_from).collect()
     }
+
+    /// The queued and running renders, oldest first (the queue's; not
+    /// capped like the list, which is newest first).
+    pub async fn unfinished_renders(&self) -> Result<Vec<RenderRow>, StoreError> {
+        let sql = format!("SELECT {RENDER_COLUMNS} FROM renders WHERE state IN ('queued', 'running') ORDER BY id");
+        let records: Vec<RenderRecord> = with_pool!(self, |pool| sqlx::query_as(&sql).fetch_all(pool).await?);
+        records.into_iter().map(RenderRow::try_from).collect()
+    }
 }

@@ -79,6 +79,19 @@ impl Store {
         records.into_iter().map(StudyRow::try_from).collect()
     }
 
+    /// The queued and running studies, oldest first, without their results.
+    pub async fn unfinished_studies(&self) -> Result<Vec<StudyRow>, StoreError> {
+        let records: Vec<StudyRecord> = with_pool!(self, |pool| {
+            sqlx::query_as(
+                "SELECT id, request_json, state, error, created_at, finished_at, wall_seconds FROM studies \
+             WHERE state IN ('queued', 'running') ORDER BY id",
+            )
+            .fetch_all(pool)
+            .await?
+        });
+        records.into_iter().map(StudyRow::try_from).collect()
+    }
+
     /// One study with its result and the names of its report files.
     pub async fn get_study(&self, id: i64) -> Result<Option<StudyRow>, StoreError> {
         let (record, files): (Option<StudyRecord>, Vec<String>) = with_pool!(self, |pool| (

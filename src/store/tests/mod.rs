@@ -25,6 +25,7 @@ on_both_engines!(
     comparisons_are_all_or_nothing,
     renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens,
     job_states_move_only_forward,
+    the_queue_reads_only_unfinished_renders_and_studies_oldest_first,
     partial_averages_and_previews_read_back_alike,
     measurements_and_instruments_name_their_booth_and_list_by_booth_and_model,
     recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none,
@@ -613,6 +614,31 @@ async fn job_states_move_only_forward(engine: EngineKind) {
         .await
         .is_err());
     assert!(store.get_study(study).await.unwrap().unwrap().files.is_empty());
+}
+
+/// `/api/jobs` reads the queued and running renders and studies by their
+/// state (once, every render ever listed and filtered in memory, capped at
+/// the newest 200).
+async fn the_queue_reads_only_unfinished_renders_and_studies_oldest_first(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let ended = store.create_render(&new_render()).await.unwrap();
+    let queued = store.create_render(&new_render()).await.unwrap();
+    let running = store.create_render(&new_render()).await.unwrap();
+    store
+        .end_job(Job::Render, ended, JobEnd::Cancelled, "by a test")
+        .await
+        .unwrap();
+    store.start_job(Job::Render, running).await.unwrap();
+    let ids: Vec<i64> = store.unfinished_renders().await.unwrap().iter().map(|r| r.id).collect();
+    assert_eq!(ids, [queued, running]);
+    let done = store.create_study(&serde_json::json!({})).await.unwrap();
+    let waiting = store.create_study(&serde_json::json!({})).await.unwrap();
+    store
+        .end_job(Job::Study, done, JobEnd::Failed, "by a test")
+        .await
+        .unwrap();
+    let ids: Vec<i64> = store.unfinished_studies().await.unwrap().iter().map(|s| s.id).collect();
+    assert_eq!(ids, [waiting]);
 }
 
 /// Reads that go through each engine's own types: the partial average of an
