@@ -13,8 +13,8 @@
 //! The observer's noise, σ = 0.3 ΔE00 per trial, is one number for every
 //! scene, chosen near the study's WHITE N = 9 result (58 % correct); every
 //! other number of the table follows from the display check. The table is
-//! written to `target/experiment-study.md` (the book's table in
-//! `docs/src/experiment.md` is this output).
+//! the book's (`docs/src/experiment-study-table.md`, included in
+//! `docs/src/experiment.md`), and the test fails when it computes another.
 
 use crate::common;
 use crate::experiment::{calibrated_booth, compared_measurement, create, run_simulated_session, shown_delta_e00};
@@ -239,7 +239,28 @@ async fn the_studys_experiment_runs_on_the_simulated_booth_and_display_with_and_
         testable_with_dithering.join(", ")
     );
     eprintln!("{table}");
-    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/experiment-study.md");
-    std::fs::write(&out, &table).unwrap();
     assert!(worst_verification <= 1.0);
+    the_books_table_is(&table);
+}
+
+/// The book shows this test's table (`docs/src/experiment.md`
+/// includes `experiment-study-table.md`), so it cannot go stale: a run that
+/// computes another table fails, saying how to update the book; with
+/// `LIGHTBOOTH_UPDATE_BOOK=1` it writes the new table instead. Every number
+/// in it is seeded, so an unchanged program computes the same table.
+fn the_books_table_is(table: &str) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::write(root.join("target/experiment-study.md"), table).unwrap();
+    let book = root.join("docs/src/experiment-study-table.md");
+    if std::env::var_os("LIGHTBOOTH_UPDATE_BOOK").is_some() {
+        std::fs::write(&book, table).unwrap();
+        return;
+    }
+    let shown = std::fs::read_to_string(&book).unwrap_or_default();
+    assert!(
+        shown == table,
+        "the book's table ({}) is not what this run computed (target/experiment-study.md): if the change is meant, \
+         run `LIGHTBOOTH_UPDATE_BOOK=1 cargo test --release --test api experiment_study` and commit the file",
+        book.display()
+    );
 }
