@@ -584,6 +584,7 @@ async function load() {
 }
 
 async function start() {
+  await loaded; // the verification's state, before deciding to warn
   if (document.body.dataset.verification !== "passed" && !warnedUnverified) {
     warnedUnverified = true;
     notice(document.body.dataset.verification === "failed"
@@ -638,4 +639,4 @@ addEventListener("keydown", (e) => { if (e.key === "Escape") stopRequested = tru
 $("start").addEventListener("click", start);
 $("verify").addEventListener("click", verify);
 $("test-patch").addEventListener("click", testPatch);
-load();
+const loaded = load();

@@ -23,7 +23,13 @@ waits for its comparisons, minutes on a busy machine), then:
   back running with all their trials (stuck), and whether the observer can
   start again.
 
-Each probe prints one line; `--only race,jobs,kill` picks some.
+- bugs: each of the issue's other session findings, one line each:
+  whether it still reproduces (two tabs, a contradictory trial, the display
+  rewritten after the end, a scene measurement verifying the display, a
+  60 KB name, a 4-element drive, a seed over 2⁵³).
+
+Each probe prints one line (bugs: one per finding); `--only race,jobs,kill,bugs`
+picks some.
 """
 
 import argparse
@@ -228,6 +234,58 @@ def kill(d, experiment, tag):
           f"trials; {blocked} observers could not start again")
 
 
+def bugs(d, experiment, tag):
+    def line(name, reproduced, detail):
+        print(f"bugs: {name}: {'REPRODUCED' if reproduced else 'not reproduced'} ({detail})")
+
+    # Two tabs starting one observer at once, 10 tries.
+    doubled = 0
+    for i in range(10):
+        ids = []
+        threads = [threading.Thread(target=lambda: ids.append(d.call(
+            "POST", f"/api/experiments/{experiment}/sessions", {"observer": f"tab{tag}{i}"})[1]["session"]["id"]))
+            for _ in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        doubled += len(set(ids)) > 1
+    line("two tabs, two running sessions", doubled > 0, f"{doubled} of 10 tries")
+    # Contradictory trials.
+    sid = session(d, experiment, f"contra{tag}", 0)
+    stored = []
+    for field, value in [("stimulus_frames", 0), ("stimulus_frames", 4000000000), ("dropped_in_stimulus", True),
+                         ("reaction_ms", 0), ("reaction_ms", 3599999), ("frame_intervals_ms", [])]:
+        t = trial(len(stored))
+        t[field] = value
+        s, v, _ = d.call("POST", f"/api/experiment-sessions/{sid}/trials", t)
+        if s == 200:
+            stored.append(f"{field}={value}")
+    line("contradictory trials stored", bool(stored), ", ".join(stored) or "every one refused")
+    # The display of a completed session.
+    sid = session(d, experiment, f"ended{tag}", 6)
+    s, v, _ = d.call("POST", f"/api/experiment-sessions/{sid}/display", {"frame_ms": 33.3, "client": "changed after the end"})
+    line("display rewritten after the end", s == 200, f"HTTP {s}")
+    # The booth's scene measurement as the display's emission.
+    _, e, _ = d.call("GET", f"/api/experiments/{experiment}")
+    s, v, _ = d.call("POST", f"/api/experiments/{experiment}/verifications", {
+        "patches": [{"colour": "original", "geometry": "full_field", "measurement_id": e["measurement_id"]}]})
+    line("scene measurement verifies the display", s == 201, f"HTTP {s}" + (f", passed {v['passed']}" if s == 201 else ""))
+    # A 60 KB name with NUL and ESC.
+    body = {"name": "x" * 60000 + "\u0000\u001b", "measurement_id": e["measurement_id"],
+            "display_profile_id": e["display_profile_id"], "approximations": ["nstep3"]}
+    s, v, _ = d.call("POST", "/api/experiments", body)
+    line("60 KB name with NUL and ESC stored", s == 201, f"HTTP {s}")
+    # A 4-element drive.
+    s, v, _ = d.call("POST", "/api/mock/display", {"drive": [0.1, 0.2, 0.3, 0.4]})
+    message = (v or {}).get("error", {}).get("message", "")
+    line("4-element drive not named", "drive" not in message, message)
+    # A seed over 2^53.
+    body = dict(body, name="seed", seed=9043539040596399293)
+    s, v, _ = d.call("POST", "/api/experiments", body)
+    line("seed over 2^53 stored", s == 201, f"HTTP {s}")
+
+
 def _quiet(d, sid):
     try:
         d.call("POST", f"/api/experiment-sessions/{sid}/trials", trial(5), timeout=10)
@@ -239,7 +297,7 @@ def main():
     a = argparse.ArgumentParser()
     a.add_argument("binary")
     a.add_argument("folder")
-    a.add_argument("--only", default="race,jobs,kill")
+    a.add_argument("--only", default="race,jobs,kill,bugs")
     args = a.parse_args()
     os.makedirs(args.folder, exist_ok=True)
     d = Daemon(os.path.abspath(args.binary), args.folder)
@@ -248,7 +306,7 @@ def main():
         experiment = set_up(d)
         tag = str(int(time.time()))
         for probe in filter(None, args.only.split(",")):
-            {"race": race, "jobs": jobs, "kill": kill}[probe](d, experiment, tag)
+            {"race": race, "jobs": jobs, "kill": kill, "bugs": bugs}[probe](d, experiment, tag)
     finally:
         d.stop()
 
