@@ -47,6 +47,11 @@ let experiment = null;
 let view = null;
 let frameMs = null;
 let stopRequested = false;
+// Start pressed once on an experiment whose display has no passing verification.
+let warnedUnverified = false;
+const UNVERIFIED = "This experiment's display is not verified: the colours observers see may not be the ones intended. " +
+  "Press “verify the display” below (with the spectroradiometer aimed at the screen) before the first observer; " +
+  "press start again to run without it.";
 
 function notice(text) {
   $("notice").textContent = text;
@@ -277,7 +282,9 @@ function runTrial(next) {
     const onKey = (e) => {
       if (!(e.key in KEYS)) return;
       e.preventDefault();
-      if (onset === null && !onsetCallback) return; // before the pie: ignored
+      // Before the pie's first frame reached the screen: ignored (the daemon
+      // refuses a reaction time of 0 or less as no response to the pie).
+      if (onset === null || e.timeStamp <= onset) return;
       if (response === null) response = { key: KEYS[e.key], at: e.timeStamp };
     };
     addEventListener("keydown", onKey);
@@ -309,7 +316,7 @@ function runTrial(next) {
         removeEventListener("keydown", onKey);
         resolve({
           response: response.key,
-          reaction_ms: Math.max(0, response.at - onset),
+          reaction_ms: response.at - onset,
           stimulus_frames: shown,
           dropped_frames: dropped,
           dropped_in_stimulus: droppedInStimulus,
@@ -519,6 +526,7 @@ function showVerification(v) {
   box.replaceChildren();
   if (!v) {
     box.textContent = "not verified yet: verify the display before the first observer";
+    notice(UNVERIFIED);
     return;
   }
   const head = document.createElement("div");
@@ -537,7 +545,8 @@ function describe() {
   const p = view.presentation;
   const hz = frameMs ? 1000 / frameMs : null;
   fact("observer", view.session.observer_id);
-  fact("trials", `${view.trials_recorded} of ${view.trials_total} recorded` + (view.repeats ? ` (${view.repeats} repeated after a dropped frame)` : ""));
+  fact("trials", `${view.trials_recorded} of ${view.trials_total} recorded` + (view.repeats ? ` (${view.repeats} repeated after a dropped frame)` : "") +
+    (view.excluded ? `; ${view.excluded} not counted (a frame dropped during the pie)` : ""));
   fact("pie", `${p.pie_diameter_deg}° = ${pieDiameterPx().toFixed(0)} px at ${p.viewing_distance_mm} mm and ${p.pixel_pitch_mm} mm per pixel (as stated in the experiment)`);
   if (hz) {
     fact("display", `${hz.toFixed(2)} Hz (median frame ${frameMs.toFixed(3)} ms, measured)`);
@@ -575,6 +584,15 @@ async function load() {
 }
 
 async function start() {
+  await loaded; // the verification's state, before deciding to warn
+  if (document.body.dataset.verification !== "passed" && !warnedUnverified) {
+    warnedUnverified = true;
+    notice(document.body.dataset.verification === "failed"
+      ? "The display's newest verification failed: run observers only once it passes. Press start again to run anyway."
+      : UNVERIFIED);
+    $("start").textContent = "start anyway";
+    return;
+  }
   notice("");
   try {
     view = await api(`/api/experiments/${experimentId}/sessions`, {
@@ -611,6 +629,8 @@ async function start() {
     $("status").textContent = view.next
       ? `paused after trial ${view.trials_recorded}; press start to resume`
       : `session complete: ${view.trials_recorded} trials. Thank you!`;
+    // For the operator: too many trials not counted (the daemon's words).
+    if (view.warning) notice(view.warning);
   }
   stopRequested = false;
 }
@@ -619,4 +639,4 @@ addEventListener("keydown", (e) => { if (e.key === "Escape") stopRequested = tru
 $("start").addEventListener("click", start);
 $("verify").addEventListener("click", verify);
 $("test-patch").addEventListener("click", testPatch);
-load();
+const loaded = load();

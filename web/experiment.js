@@ -258,15 +258,14 @@ async function loadDetail(id) {
   $("detail-facts").textContent = `${e.scene}/${e.target} in booth ${e.booth}; original: ${e.request.original} ` +
     `(measurement ${e.measurement_id}); display profile ${e.display_profile_id}; ${e.output_method}; ` +
     `pie ${p.pie_diameter_deg}° for ${p.stimulus_ms} ms after a ${p.fixation_ms} ms cross, ${p.repeats} repeats of ` +
-    `6 configurations per approximation, ${p.adaptation_s} s adaptation; seed ${e.seed}.`;
+    `6 configurations per approximation, ${p.adaptation_s} s adaptation; seed ${e.seed_text}.`;
   $("run-link").href = `/experiment/${e.id}/run`;
   $("detail-check").replaceChildren(checkView(e.check));
   $("detail-verification").replaceChildren(verificationView(verifications[0]));
   const tbody = $("session-table").tBodies[0];
   tbody.replaceChildren();
   for (const s of sessions) {
-    const done = analysis.rows.filter((r) => r.observer === s.observer_id).reduce((n, r) => n + r.trials + r.excluded, 0);
-    tbody.append(row([s.id, s.observer_id, s.state, done,
+    tbody.append(row([s.id, s.observer_id, s.superseded_by ? `superseded by ${s.superseded_by}` : s.state, s.trials_recorded,
       s.frame_ms ? `${(1000 / s.frame_ms).toFixed(2)} Hz` : "not measured yet", when(s.created_at)]));
   }
   if (!sessions.length) tbody.append(row(["", "no sessions yet", "", "", "", ""]));
@@ -288,6 +287,11 @@ async function loadDetail(id) {
   const dp = (x) => `${x.d_prime.toFixed(2)} [${x.d_prime_interval[0].toFixed(2)}, ${x.upper_bounded ? x.d_prime_interval[1].toFixed(2) : "no bound"}]` + (x.rule ? " *" : "");
   for (const r of analysis.rows) {
     const d = r.differencing;
+    if (!d) {
+      // Every trial of this condition was excluded: the row says so.
+      body.append(row([r.observer, r.approximation, `0/0`, "none counted", "—", "—", r.delta_e00_shown.toFixed(3), r.excluded]));
+      continue;
+    }
     body.append(row([r.observer, r.approximation, `${r.correct}/${r.trials}`,
       `${(100 * d.proportion_correct).toFixed(1)} [${(100 * d.proportion_interval[0]).toFixed(1)}, ${(100 * d.proportion_interval[1]).toFixed(1)}]`,
       dp(d), dp(r.independent_observation), r.delta_e00_shown.toFixed(3), r.excluded]));
@@ -295,7 +299,9 @@ async function loadDetail(id) {
   table.append(body);
   box.append(table);
   for (const n of analysis.notes) box.append(el("p", n, "hint"));
-  if (analysis.rows.some((r) => r.differencing.rule)) box.append(el("p", "* " + analysis.rows.find((r) => r.differencing.rule).differencing.rule, "hint"));
+  for (const w of analysis.warnings) box.append(el("p", "warning: " + w, "notice"));
+  const ruled = analysis.rows.find((r) => r.differencing && r.differencing.rule);
+  if (ruled) box.append(el("p", "* " + ruled.differencing.rule, "hint"));
   const csv = el("a", "analysis as CSV");
   csv.href = `/api/experiments/${id}/analysis.csv`;
   const mat = el("a", "as a MAT-file");

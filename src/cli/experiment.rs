@@ -299,8 +299,13 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
         "observer", "approximation", "correct", "%", "d′ differencing", "d′ indep. obs.", "ΔE00"
     );
     for row in &r.rows {
-        let d = &row.differencing;
-        let io = &row.independent_observation;
+        let (Some(d), Some(io)) = (&row.differencing, &row.independent_observation) else {
+            println!(
+                "{:<10} {:<14} {:>4}/{:<4} none counted ({} excluded for a dropped frame) {:>8.3}",
+                row.observer, row.approximation, row.correct, row.trials, row.excluded, row.delta_e00_shown
+            );
+            continue;
+        };
         let interval = |e: &lightbooth::psychophysics::oddity::OddityEstimate| {
             format!(
                 "{:.2} [{:.2}, {}]",
@@ -329,7 +334,13 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     for n in &r.notes {
         println!("{n}");
     }
-    if r.rows.iter().any(|row| row.differencing.rule.is_some()) {
+    for w in &r.warnings {
+        println!("warning: {w}");
+    }
+    if r.rows
+        .iter()
+        .any(|row| row.differencing.as_ref().is_some_and(|d| d.rule.is_some()))
+    {
         println!("* {}", lightbooth::psychophysics::oddity::ALL_CORRECT_RULE);
     }
     println!("— an upper end of — : every trial or nearly correct, the data set no upper bound");

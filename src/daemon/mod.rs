@@ -168,6 +168,14 @@ pub async fn run(
             "marked the work of this booth's dead previous daemon as interrupted"
         );
     }
+    // Sessions left running with all their trials (issue 32) are complete.
+    let completed = crate::lab::experiments::Experiments::new(store.clone())
+        .complete_finished_sessions(options.booth.as_str())
+        .await
+        .context("completing experiment sessions found with all their trials")?;
+    if !completed.is_empty() {
+        tracing::warn!(sessions = ?completed, "completed experiment sessions found running with all their trials");
+    }
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
     println!("{}", source.describe());

@@ -50,7 +50,14 @@ where
                 let bytes: &[u8] = if bytes.trim_ascii() == b"null" { b"{}" } else { &bytes };
                 let mut de = serde_json::Deserializer::from_slice(bytes);
                 let value = serde_path_to_error::deserialize(&mut de).map_err(|e| {
-                    if e.inner().is_syntax() || e.inner().is_eof() {
+                    let path = e.path().to_string();
+                    let inner = e.inner().to_string();
+                    if inner.starts_with("trailing characters") && path != "." && !path.is_empty() {
+                        // A fixed-size array given too many elements (a 4-element `drive`):
+                        // serde_json calls it trailing characters; name the field (issue 32).
+                        let at = inner.trim_start_matches("trailing characters").trim();
+                        ApiError::BadRequest(format!("field `{path}`: more elements than it takes ({at})"))
+                    } else if e.inner().is_syntax() || e.inner().is_eof() {
                         ApiError::BadRequest(format!("malformed JSON: {}", e.inner()))
                     } else {
                         field_error(&e)

@@ -17,13 +17,17 @@
 //!   the fraction still to do ([`super::progress`]);
 //! - a camera image: its paths traced against its cap, an upper bound (it
 //!   stops earlier once every pixel reaches its noise target);
-//! - an experiment session: trials recorded of those it needs; no time, an
-//!   observer sets the pace.
+//! - an experiment session: trials recorded of those it needs (from
+//!   counts); no time, an observer sets the pace. One untouched for
+//!   [`PAUSED_AFTER_S`] is `paused`, not running.
+
+use std::collections::HashMap;
 
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use super::experiments::Experiments;
+use super::experiments::session::{trials_needed, PAUSED_AFTER_S};
+use super::experiments::ExperimentRequest;
 use super::instrument_queue::InstrumentStatus;
 use super::progress::{seconds_left, ProgressBoard};
 use super::services::RenderService;
@@ -38,7 +42,8 @@ pub struct QueuedJob {
     /// `measurement`, `render`, `study`, `image` or `experiment_session`.
     pub kind: &'static str,
     pub id: i64,
-    /// `queued` or `running`.
+    /// `queued` or `running` (an experiment session: `paused` when
+    /// untouched for a while, see the module doc).
     pub state: String,
     /// What it is, in words (`white/patch, 5 samples`).
     pub what: String,
@@ -312,27 +317,40 @@ async fn render_and_study_jobs(
     Ok(())
 }
 
-/// The running experiment sessions of this booth's experiments (one query;
-/// then each session's experiment and trial count, as many as are running).
+/// The running experiment sessions of this booth's experiments, from one
+/// query of counts (no session's trials are read): a session untouched for
+/// [`PAUSED_AFTER_S`] is listed as `paused` (resumable from where it
+/// stopped, by starting the observer again).
 async fn experiment_sessions(src: &QueueSources<'_>, jobs: &mut Vec<QueuedJob>) -> Result<(), StoreError> {
-    let experiments = Experiments::new(src.store.clone());
+    let at = crate::store::now();
+    let mut requests: HashMap<i64, Option<ExperimentRequest>> = HashMap::new();
     for s in src.store.running_experiment_sessions(src.booth.as_str()).await? {
-        let Some(e) = src.store.get_experiment(s.experiment_id).await? else {
-            continue;
-        };
-        let view = experiments.view(s.id).await.ok();
+        let request = requests
+            .entry(s.experiment_id)
+            .or_insert_with(|| serde_json::from_str(&s.request_json).ok());
+        let total = request.as_ref().map(|r| trials_needed(r, s.dropped as usize) as f64);
+        let paused = at - s.touched_at > PAUSED_AFTER_S;
         jobs.push(QueuedJob {
             kind: "experiment_session",
             id: s.id,
-            state: s.state.clone(),
-            what: format!("experiment {} ({}): observer {}", e.id, e.name, s.observer_id),
-            scene: Some(e.scene.clone()),
-            parent_id: Some(e.id),
+            state: if paused { "paused" } else { "running" }.into(),
+            what: format!(
+                "experiment {} ({}): observer {}",
+                s.experiment_id, s.experiment_name, s.observer_id
+            ),
+            scene: Some(s.scene),
+            parent_id: Some(s.experiment_id),
             created_at: Some(s.created_at),
             started_at: Some(s.created_at),
-            done: view.as_ref().map(|v| v.trials_recorded as f64),
-            total: view.as_ref().map(|v| v.trials_total as f64),
-            unit: view.as_ref().map(|_| "trials".into()),
+            done: Some(s.trials as f64),
+            total,
+            unit: Some("trials".into()),
+            step: paused.then(|| {
+                format!(
+                    "paused: untouched for over {:.0} min; start the observer again to resume",
+                    PAUSED_AFTER_S / 60.0
+                )
+            }),
             ..QueuedJob::default()
         });
     }

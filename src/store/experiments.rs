@@ -40,7 +40,11 @@ pub struct ExperimentRow {
     pub measurement_id: i64,
     pub display_profile_id: i64,
     pub output_method: String,
+    /// The trial orders' seed: at most 2⁵³ − 1 for experiments made since
+    /// issue 32 (exact as a JSON number in JavaScript and MATLAB).
     pub seed: i64,
+    /// The seed as a decimal string: exact in every client, whatever its size.
+    pub seed_text: String,
     /// The request with its defaults filled in.
     #[schema(value_type = Object)]
     pub request: serde_json::Value,
@@ -87,6 +91,7 @@ impl TryFrom<ExperimentRecord> for ExperimentRow {
             display_profile_id: r.display_profile_id,
             output_method: r.output_method,
             seed: r.seed,
+            seed_text: r.seed.to_string(),
         })
     }
 }
@@ -106,6 +111,38 @@ pub struct ExperimentSessionRow {
     pub frame_ms: Option<f64>,
     /// The page's browser and output path, as it reported them.
     pub client: String,
+    /// A duplicate running session from before one running session per
+    /// observer was enforced (`migrations/0016`): the session that holds
+    /// the observer's run instead. Its trials are kept and counted.
+    pub superseded_by: Option<i64>,
+    /// When it was last started, resumed, told the display's refresh or
+    /// given a trial (POSIX seconds, UTC).
+    pub touched_at: Option<f64>,
+    /// Trials recorded, counted or not.
+    pub trials_recorded: i64,
+}
+
+/// A session's columns and its trial count.
+const SESSION_SELECT: &str =
+    "SELECT s.*, (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id) AS trials_recorded \
+     FROM experiment_sessions s";
+
+/// A running session with its counts, for `/api/jobs` and the start-up
+/// repair: no trial is read.
+#[derive(Clone, Debug, PartialEq, sqlx::FromRow)]
+pub struct RunningSessionCounts {
+    pub id: i64,
+    pub experiment_id: i64,
+    pub experiment_name: String,
+    pub scene: String,
+    pub observer_id: String,
+    pub created_at: f64,
+    pub touched_at: f64,
+    /// The experiment's stored request (for its approximations and repeats).
+    pub request_json: String,
+    pub trials: i64,
+    /// Trials with a frame dropped during the pie.
+    pub dropped: i64,
 }
 
 /// A trial as it ended.
@@ -230,82 +267,130 @@ impl Store {
         .collect()
     }
 
-    /// Starts a session of `observer` (recorded on first use) with `seed`.
+    /// Starts a session of `observer` (recorded on first use), its seed
+    /// `seed_of` its id; or, when the observer has a running session of
+    /// the experiment, returns that one. One transaction, and a unique index
+    /// (`migrations/0016`): two starts at once give one session.
+    /// Returns the session's id and whether it was created.
     pub async fn create_experiment_session(
         &self,
         experiment_id: i64,
         observer: &str,
-        seed: i64,
-    ) -> Result<i64, StoreError> {
+        seed_of: impl Fn(i64) -> i64,
+    ) -> Result<(i64, bool), StoreError> {
         Ok(with_pool!(self, |pool| {
             let mut tx = pool.begin().await?;
+            let at = now();
+            // A write first: it takes SQLite's write lock before anything is read.
             sqlx::query("INSERT INTO observers (id, created_at) VALUES ($1, $2) ON CONFLICT (id) DO NOTHING")
                 .bind(observer)
-                .bind(now())
+                .bind(at)
                 .execute(&mut *tx)
                 .await?;
-            let id: i64 = sqlx::query_scalar(
-                "INSERT INTO experiment_sessions (experiment_id, observer_id, seed, created_at, state) \
-                 VALUES ($1, $2, $3, $4, 'running') RETURNING id",
+            let created: Option<i64> = sqlx::query_scalar(
+                "INSERT INTO experiment_sessions (experiment_id, observer_id, seed, created_at, touched_at, state) \
+                 VALUES ($1, $2, 0, $3, $3, 'running') ON CONFLICT DO NOTHING RETURNING id",
             )
             .bind(experiment_id)
             .bind(observer)
-            .bind(seed)
-            .bind(now())
-            .fetch_one(&mut *tx)
+            .bind(at)
+            .fetch_optional(&mut *tx)
             .await?;
+            let found = match created {
+                Some(id) => {
+                    sqlx::query("UPDATE experiment_sessions SET seed = $1 WHERE id = $2")
+                        .bind(seed_of(id))
+                        .bind(id)
+                        .execute(&mut *tx)
+                        .await?;
+                    (id, true)
+                }
+                None => {
+                    let id: i64 = sqlx::query_scalar(
+                        "UPDATE experiment_sessions SET touched_at = $3 WHERE experiment_id = $1 AND observer_id = $2 \
+                         AND state = 'running' AND superseded_by IS NULL RETURNING id",
+                    )
+                    .bind(experiment_id)
+                    .bind(observer)
+                    .bind(at)
+                    .fetch_one(&mut *tx)
+                    .await?;
+                    (id, false)
+                }
+            };
             tx.commit().await?;
-            id
+            found
         }))
     }
 
-    pub async fn get_experiment_session(&self, id: i64) -> Result<Option<ExperimentSessionRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(
-            "SELECT * FROM experiment_sessions WHERE id = $1"
+    /// The running session of `observer` in an experiment, if any.
+    pub async fn running_session_of(&self, experiment_id: i64, observer: &str) -> Result<Option<i64>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "SELECT id FROM experiment_sessions WHERE experiment_id = $1 AND observer_id = $2 \
+             AND state = 'running' AND superseded_by IS NULL"
         )
-        .bind(id)
+        .bind(experiment_id)
+        .bind(observer)
         .fetch_optional(pool)
         .await?))
     }
 
+    pub async fn get_experiment_session(&self, id: i64) -> Result<Option<ExperimentSessionRow>, StoreError> {
+        let sql = format!("{SESSION_SELECT} WHERE s.id = $1");
+        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
+            .bind(id)
+            .fetch_optional(pool)
+            .await?))
+    }
+
     /// An experiment's sessions, oldest first.
     pub async fn sessions_of_experiment(&self, experiment_id: i64) -> Result<Vec<ExperimentSessionRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(
-            "SELECT * FROM experiment_sessions WHERE experiment_id = $1 ORDER BY id"
-        )
-        .bind(experiment_id)
-        .fetch_all(pool)
-        .await?))
+        let sql = format!("{SESSION_SELECT} WHERE s.experiment_id = $1 ORDER BY s.id");
+        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
+            .bind(experiment_id)
+            .fetch_all(pool)
+            .await?))
     }
 
-    /// The running sessions of the experiments of `booth`, oldest first.
-    pub async fn running_experiment_sessions(&self, booth: &str) -> Result<Vec<ExperimentSessionRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(
-            "SELECT s.* FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
-             WHERE s.state = 'running' AND e.booth = $1 ORDER BY s.id"
-        )
-        .bind(booth)
-        .fetch_all(pool)
-        .await?))
+    /// The running sessions of the experiments of `booth`, oldest first,
+    /// with their counts (one query, no trial read).
+    pub async fn running_experiment_sessions(&self, booth: &str) -> Result<Vec<RunningSessionCounts>, StoreError> {
+        const SQL: &str = concat!(
+            "SELECT s.id, s.experiment_id, e.name AS experiment_name, e.scene, s.observer_id, s.created_at, \
+             COALESCE(s.touched_at, s.created_at) AS touched_at, e.request_json, \
+             (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id) AS trials, \
+             (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id AND t.dropped_in_stimulus) AS dropped \
+             FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
+             WHERE s.state = 'running' AND s.superseded_by IS NULL AND e.booth = $1 ORDER BY s.id"
+        );
+        Ok(with_pool!(self, |pool| sqlx::query_as::<_, RunningSessionCounts>(SQL)
+            .bind(booth)
+            .fetch_all(pool)
+            .await?))
     }
 
-    /// The refresh the page measured and what it runs on.
-    pub async fn set_session_display(&self, id: i64, frame_ms: f64, client: &str) -> Result<(), StoreError> {
-        with_pool!(self, |pool| sqlx::query(
-            "UPDATE experiment_sessions SET frame_ms = $1, client = $2 WHERE id = $3"
+    /// The refresh the page measured and what it runs on, while the
+    /// session runs; false (nothing written) once it has ended.
+    pub async fn set_session_display(&self, id: i64, frame_ms: f64, client: &str) -> Result<bool, StoreError> {
+        let changed = with_pool!(self, |pool| sqlx::query(
+            "UPDATE experiment_sessions SET frame_ms = $1, client = $2, touched_at = $3 \
+             WHERE id = $4 AND state = 'running'"
         )
         .bind(frame_ms)
         .bind(client)
+        .bind(now())
         .bind(id)
         .execute(pool)
         .await?
         .rows_affected());
-        Ok(())
+        Ok(changed == 1)
     }
 
     /// Records a trial at `trial.position`, which must be the next one of a
     /// running session; otherwise a [`StoreError::Conflict`] says which is.
-    pub async fn insert_trial(&self, trial: &TrialRow) -> Result<(), StoreError> {
+    /// With `last`, the same transaction marks the session complete: a
+    /// session is never left running with all its trials (issue 32).
+    pub async fn insert_trial(&self, trial: &TrialRow, last: bool) -> Result<(), StoreError> {
         let session = trial.session_id;
         let intervals = serde_json::to_string(&trial.frame_intervals_ms).expect("finite numbers serialise");
         with_pool!(self, |pool| {
@@ -367,12 +452,23 @@ impl Store {
                 }
                 other => other?,
             };
+            sqlx::query(
+                "UPDATE experiment_sessions SET touched_at = $1, state = CASE WHEN $2 THEN 'complete' ELSE state END, \
+                 finished_at = CASE WHEN $2 THEN $1 ELSE finished_at END WHERE id = $3",
+            )
+            .bind(trial.created_at)
+            .bind(last)
+            .bind(session)
+            .execute(&mut *tx)
+            .await?;
             tx.commit().await?;
         });
         Ok(())
     }
 
-    /// Marks a running session complete.
+    /// Marks a running session complete (the start-up repair of a session
+    /// found with all its trials; a trial that ends a session completes it
+    /// itself, [`Store::insert_trial`]).
     pub async fn finish_experiment_session(&self, id: i64) -> Result<(), StoreError> {
         with_pool!(self, |pool| sqlx::query(
             "UPDATE experiment_sessions SET state = 'complete', finished_at = $1 WHERE id = $2 AND state = 'running'"
@@ -461,3 +557,7 @@ impl Store {
             .collect()
     }
 }
+
+#[cfg(test)]
+#[path = "experiments_tests.rs"]
+mod tests;

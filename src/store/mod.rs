@@ -91,7 +91,9 @@ use crate::colorimetry::Observer;
 pub use booth::{Booth, DEFAULT_BOOTH};
 pub use calibrations::*;
 pub use display_profiles::*;
-pub use experiments::{ExperimentRow, ExperimentSessionRow, NewExperiment, ObservedTrial, TrialRow};
+pub use experiments::{
+    ExperimentRow, ExperimentSessionRow, NewExperiment, ObservedTrial, RunningSessionCounts, TrialRow,
+};
 pub use leases::{DaemonRow, InterruptedWork, Recovered, RecoveryScope};
 pub use rows::*;
 pub use worker_jobs::{ClaimedJob, WorkerJobKind, WorkerJobRecord};

@@ -296,6 +296,7 @@ pub(crate) async fn run_simulated_session(
     .await;
     assert_eq!(s, 200, "{view}");
     let sid = view["session"]["id"].as_i64().unwrap();
+    report_display(d, sid).await;
     while let Some(next) = view["next"].as_object().cloned() {
         let name = next["approximation"].as_str().unwrap();
         let de = shown.iter().find(|(n, _)| n == name).unwrap().1;
@@ -304,10 +305,7 @@ pub(crate) async fn run_simulated_session(
             de / observer.sigma(),
             rng,
         );
-        let body = json!({
-            "position": next["position"], "response": response, "reaction_ms": 700.0, "stimulus_frames": 18,
-            "dropped_frames": 0, "dropped_in_stimulus": false, "frame_intervals_ms": [16.7, 16.7],
-        });
+        let body = trial(next["position"].as_u64().unwrap(), response as u8);
         let path = format!("/api/experiment-sessions/{sid}/trials");
         let (mut s, mut v) = post_json(d.addr, &path, TOKEN, &body.to_string()).await;
         // A busy daemon (other tests' renders on two cores) may ask to come back later.
@@ -322,6 +320,32 @@ pub(crate) async fn run_simulated_session(
         view = v;
     }
     view
+}
+
+/// The refresh [`report_display`] reports, ms a frame.
+pub(crate) const FRAME_MS: f64 = 16.7;
+
+/// Reports the session page's measured refresh ([`FRAME_MS`]), as the page
+/// does before its first trial.
+pub(crate) async fn report_display(d: &Daemon, session: i64) {
+    let (s, v) = post_json(
+        d.addr,
+        &format!("/api/experiment-sessions/{session}/display"),
+        TOKEN,
+        &json!({ "frame_ms": FRAME_MS, "client": "test" }).to_string(),
+    )
+    .await;
+    assert_eq!(s, 200, "{v}");
+}
+
+/// A trial as the page reports it at [`FRAME_MS`] with the study's
+/// presentation (the cross's 60 frames, the pie's 18, then the key), no
+/// frame dropped.
+pub(crate) fn trial(position: u64, response: u8) -> Value {
+    json!({
+        "position": position, "response": response, "reaction_ms": 600.0, "stimulus_frames": 18,
+        "dropped_frames": 0, "dropped_in_stimulus": false, "frame_intervals_ms": vec![FRAME_MS; 100],
+    })
 }
 
 /// Each approximation's name and the ΔE00 the display shows it at.

@@ -15,6 +15,7 @@ mod dashboard_viewer;
 mod display_calibration_browser;
 mod display_profile_api;
 mod experiment;
+mod experiment_races;
 mod experiment_study;
 mod http_hardening;
 mod render_requests;

@@ -132,6 +132,17 @@ try {
   // 127, 128 and 127.30 on every gun.
   await page.goto(`${base}/experiment/${experiment.id}/run#token=${token}`);
   await page.waitForFunction(() => /not verified yet/.test(document.getElementById("verification").textContent), null, { timeout: 10000 });
+  // Regression (issue 32): a session started on an unverified experiment
+  // without a word. The page warns and says what to do; start asks twice.
+  const unverified = await page.textContent("#notice");
+  if (!/not verified/.test(unverified) || !/verify the display/.test(unverified)) {
+    failures.push(`an unverified experiment's run page does not warn: "${unverified}"`);
+  }
+  await page.fill("#observer", "nobody");
+  await page.click("#start");
+  if ((await page.textContent("#start")) !== "start anyway" || (await page.evaluate(() => document.body.dataset.state))) {
+    failures.push("start on an unverified experiment did not stop at the warning");
+  }
   await page.fill("#verify-samples", "8");
   await page.click("#verify");
   await page.waitForFunction(() => document.body.dataset.verification, null, { timeout: 120000 });

@@ -115,10 +115,12 @@ pub async fn get_experiment_session(
     Ok(Json(experiments(&state).view(id).await?))
 }
 
-/// The refresh the session page measured before its first trial.
+/// The refresh the session page measured before its first trial; 409 once
+/// the session has ended (a completed session is never rewritten).
 #[utoipa::path(post, path = "/experiment-sessions/{id}/display", tag = "experiments", params(("id" = i64, Path)),
     request_body = DisplayReport,
-    responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)),
+    responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, body = ErrorBody)),
     security(("bearer" = [])))]
 pub async fn report_session_display(
     State(state): State<AppState>,
@@ -128,7 +130,10 @@ pub async fn report_session_display(
     Ok(Json(experiments(&state).report_display(id, &body).await?))
 }
 
-/// Stores one trial as it ended; answers with the next.
+/// Stores one trial as it ended; answers with the next. A trial that
+/// contradicts its own frame intervals or the session's measured refresh is
+/// refused (400, naming the field); one before the refresh is reported, or
+/// for a position outside the session's order, is a 409.
 #[utoipa::path(post, path = "/experiment-sessions/{id}/trials", tag = "experiments", params(("id" = i64, Path)),
     request_body = TrialReport,
     responses((status = 200, body = SessionView), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody),

@@ -5,11 +5,16 @@
 //!
 //! Trials with a frame dropped during the pie are not counted: the pie was
 //! shown for less or more time than the design says, and the trial was
-//! shown again at the end of the block. Their number is reported.
+//! shown again at the end of the block. Their number is reported on every
+//! row, a row with none counted included (it says so, with no estimate),
+//! and the analysis warns when over
+//! [`MAX_EXCLUDED_SHARE`](super::session::MAX_EXCLUDED_SHARE) of an
+//! observer's trials are excluded.
 
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use super::session::excluded_warning;
 use super::{parts, Experiments};
 use crate::lab::error::LabError;
 use crate::psychophysics::oddity::{estimate, OddityEstimate, OddityModel, CHANCE};
@@ -33,11 +38,12 @@ pub struct ConditionResult {
     /// Trials not counted: a frame was dropped during the pie (shown again).
     pub excluded: u32,
     /// Percent correct under the differencing model's estimate, with both
-    /// models' d′ ([`OddityEstimate`] names its model).
-    #[schema(value_type = Object)]
-    pub differencing: OddityEstimate,
-    #[schema(value_type = Object)]
-    pub independent_observation: OddityEstimate,
+    /// models' d′ ([`OddityEstimate`] names its model); none when no trial
+    /// is counted.
+    #[schema(value_type = Option<Object>)]
+    pub differencing: Option<OddityEstimate>,
+    #[schema(value_type = Option<Object>)]
+    pub independent_observation: Option<OddityEstimate>,
     /// ΔE00 (display white) between original and approximation as intended
     /// and as shown with the output method (the experiment's check).
     pub delta_e00_intended: f64,
@@ -65,6 +71,10 @@ pub struct Analysis {
     pub rows: Vec<ConditionResult>,
     /// What is counted, in words.
     pub notes: Vec<String>,
+    /// For the operator: observers with over
+    /// [`MAX_EXCLUDED_SHARE`](super::session::MAX_EXCLUDED_SHARE) of their
+    /// trials excluded, approximations with none counted.
+    pub warnings: Vec<String>,
 }
 
 impl Experiments {
@@ -95,11 +105,15 @@ impl Experiments {
                     .collect();
                 let excluded = trials.iter().filter(of).filter(|t| t.trial.dropped_in_stimulus).count() as u32;
                 let n = counted.len() as u32;
-                if n == 0 {
+                if n == 0 && excluded == 0 {
                     continue;
                 }
                 let k = counted.iter().filter(|t| t.trial.correct).count() as u32;
-                let est = |model| estimate(k, n, model, CONFIDENCE).map_err(|err| LabError::Internal(err.to_string()));
+                let est = |model| {
+                    (n > 0)
+                        .then(|| estimate(k, n, model, CONFIDENCE).map_err(|err| LabError::Internal(err.to_string())))
+                        .transpose()
+                };
                 rows.push(ConditionResult {
                     observer: observer.to_string(),
                     approximation: approximation.clone(),
@@ -115,11 +129,13 @@ impl Experiments {
                 });
             }
         }
-        let excluded: u32 = trials.iter().filter(|t| t.trial.dropped_in_stimulus).count() as u32;
+        let excluded = trials.iter().filter(|t| t.trial.dropped_in_stimulus).count();
         let notes = vec![
             format!(
-                "{} trials stored; {excluded} had a frame dropped during the pie and are not counted (each was shown again)",
-                trials.len()
+                "{} stored; {} had a frame dropped during the pie and {} not counted (each was shown again)",
+                plural(trials.len(), "trial"),
+                excluded,
+                if excluded == 1 { "is" } else { "are" }
             ),
             format!(
                 "intervals: exact (Clopper–Pearson) {:.0} % intervals of the proportion correct, mapped to d′ through each model",
@@ -127,6 +143,20 @@ impl Experiments {
             ),
             "d′ models: differencing (sensR's triangle link) and independent observation (Versfeld, Dai & Green 1996)".into(),
         ];
+        let mut warnings = Vec::new();
+        for observer in &observers {
+            let of: Vec<&ObservedTrial> = trials.iter().filter(|t| t.observer_id == *observer).collect();
+            let excluded = of.iter().filter(|t| t.trial.dropped_in_stimulus).count();
+            if let Some(w) = excluded_warning(excluded, of.len()) {
+                warnings.push(format!("observer {observer}: {w}"));
+            }
+        }
+        for r in rows.iter().filter(|r| r.trials == 0) {
+            warnings.push(format!(
+                "observer {}, {}: no trial counted ({} excluded for a dropped frame)",
+                r.observer, r.approximation, r.excluded
+            ));
+        }
         Ok(Analysis {
             experiment_id,
             name: e.name,
@@ -140,8 +170,14 @@ impl Experiments {
             sessions: sessions.len(),
             rows,
             notes,
+            warnings,
         })
     }
+}
+
+/// `1 trial`, `2 trials`.
+fn plural(n: usize, word: &str) -> String {
+    format!("{n} {word}{}", if n == 1 { "" } else { "s" })
 }
 
 /// The analysis as CSV, one row per condition, every number labelled with its model.
@@ -151,11 +187,13 @@ pub fn analysis_csv(a: &Analysis) -> String {
          proportion_correct,pc_low,pc_high,dprime_differencing,dprime_differencing_low,dprime_differencing_high,\
          dprime_independent_observation,dprime_io_low,dprime_io_high,upper_bounded,rule,dE00_intended,dE00_shown,distinct,distinct_at_8bit\n",
     );
+    // A row with no trial counted has empty estimate cells.
+    let num = |v: Option<f64>, digits: usize| v.map(|v| format!("{v:.digits$}")).unwrap_or_default();
     for r in &a.rows {
-        let d = &r.differencing;
-        let io = &r.independent_observation;
+        let d = r.differencing.as_ref();
+        let io = r.independent_observation.as_ref();
         out += &format!(
-            "{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{:.4},{:.4},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{},{}\n",
             a.experiment_id,
             a.scene,
             a.target,
@@ -165,17 +203,17 @@ pub fn analysis_csv(a: &Analysis) -> String {
             r.trials,
             r.correct,
             r.excluded,
-            d.proportion_correct,
-            d.proportion_interval.0,
-            d.proportion_interval.1,
-            d.d_prime,
-            d.d_prime_interval.0,
-            d.d_prime_interval.1,
-            io.d_prime,
-            io.d_prime_interval.0,
-            io.d_prime_interval.1,
-            d.upper_bounded,
-            d.rule.unwrap_or(""),
+            num(d.map(|d| d.proportion_correct), 6),
+            num(d.map(|d| d.proportion_interval.0), 6),
+            num(d.map(|d| d.proportion_interval.1), 6),
+            num(d.map(|d| d.d_prime), 4),
+            num(d.map(|d| d.d_prime_interval.0), 4),
+            num(d.map(|d| d.d_prime_interval.1), 4),
+            num(io.map(|d| d.d_prime), 4),
+            num(io.map(|d| d.d_prime_interval.0), 4),
+            num(io.map(|d| d.d_prime_interval.1), 4),
+            d.map(|d| d.upper_bounded.to_string()).unwrap_or_default(),
+            d.and_then(|d| d.rule).unwrap_or(""),
             r.delta_e00_intended,
             r.delta_e00_shown,
             r.distinct,
@@ -190,13 +228,17 @@ pub fn analysis_csv(a: &Analysis) -> String {
 /// (`observer`, `approximation`, `rule`) as char matrices of one row each,
 /// so `table(cellstr(observer), cellstr(approximation), proportion_correct, ...)`
 /// rebuilds it; `model_differencing` and `model_independent_observation`
-/// name the models of the d′ columns.
+/// name the models of the d′ columns. A row with no trial counted has NaN
+/// estimates.
 pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
     let mut mat = crate::export::mat::MatFile::new();
     let text = |f: fn(&ConditionResult) -> String| a.rows.iter().map(f).collect::<Vec<_>>();
     mat.text_rows("observer", &text(|r| r.observer.clone()))?;
     mat.text_rows("approximation", &text(|r| r.approximation.clone()))?;
-    mat.text_rows("rule", &text(|r| r.differencing.rule.unwrap_or("").to_string()))?;
+    mat.text_rows(
+        "rule",
+        &text(|r| r.differencing.as_ref().and_then(|d| d.rule).unwrap_or("").to_string()),
+    )?;
     mat.text_rows("scene", std::slice::from_ref(&a.scene))?;
     mat.text_rows("target", std::slice::from_ref(&a.target))?;
     mat.text_rows("output_method", std::slice::from_ref(&a.output_method))?;
@@ -209,25 +251,31 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
     mat.scalar("confidence", a.confidence)?;
     mat.scalar("chance", a.chance)?;
     type Field = (&'static str, fn(&ConditionResult) -> f64);
+    fn d(r: &ConditionResult, f: fn(&OddityEstimate) -> f64) -> f64 {
+        r.differencing.as_ref().map_or(f64::NAN, f)
+    }
+    fn io(r: &ConditionResult, f: fn(&OddityEstimate) -> f64) -> f64 {
+        r.independent_observation.as_ref().map_or(f64::NAN, f)
+    }
     let fields: [Field; 18] = [
         ("trials", |r| f64::from(r.trials)),
         ("correct", |r| f64::from(r.correct)),
         ("excluded", |r| f64::from(r.excluded)),
-        ("proportion_correct", |r| r.differencing.proportion_correct),
-        ("pc_low", |r| r.differencing.proportion_interval.0),
-        ("pc_high", |r| r.differencing.proportion_interval.1),
-        ("dprime_differencing", |r| r.differencing.d_prime),
-        ("dprime_differencing_low", |r| r.differencing.d_prime_interval.0),
-        ("dprime_differencing_high", |r| r.differencing.d_prime_interval.1),
-        ("dprime_independent_observation", |r| r.independent_observation.d_prime),
-        ("dprime_io_low", |r| r.independent_observation.d_prime_interval.0),
-        ("dprime_io_high", |r| r.independent_observation.d_prime_interval.1),
-        ("upper_bounded", |r| f64::from(u8::from(r.differencing.upper_bounded))),
+        ("proportion_correct", |r| d(r, |e| e.proportion_correct)),
+        ("pc_low", |r| d(r, |e| e.proportion_interval.0)),
+        ("pc_high", |r| d(r, |e| e.proportion_interval.1)),
+        ("dprime_differencing", |r| d(r, |e| e.d_prime)),
+        ("dprime_differencing_low", |r| d(r, |e| e.d_prime_interval.0)),
+        ("dprime_differencing_high", |r| d(r, |e| e.d_prime_interval.1)),
+        ("dprime_independent_observation", |r| io(r, |e| e.d_prime)),
+        ("dprime_io_low", |r| io(r, |e| e.d_prime_interval.0)),
+        ("dprime_io_high", |r| io(r, |e| e.d_prime_interval.1)),
+        ("upper_bounded", |r| d(r, |e| f64::from(u8::from(e.upper_bounded)))),
         ("dE00_intended", |r| r.delta_e00_intended),
         ("dE00_shown", |r| r.delta_e00_shown),
         ("distinct", |r| f64::from(u8::from(r.distinct))),
         ("distinct_at_8bit", |r| f64::from(u8::from(r.distinct_at_8bit))),
-        ("rule_applied", |r| f64::from(u8::from(r.differencing.rule.is_some()))),
+        ("rule_applied", |r| d(r, |e| f64::from(u8::from(e.rule.is_some())))),
     ];
     for (name, f) in fields {
         mat.column(name, &a.rows.iter().map(f).collect::<Vec<_>>())?;
@@ -237,8 +285,11 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
 
 /// The study's Fig. 5 (right) for experiments' analyses: per scene and
 /// approximation the pooled row (or the only observer's), d′ under `model`.
+/// A condition with no trial counted has no bar; the title counts the
+/// observers whose counted trials the bars are made of.
 pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabError> {
     let mut bars = Vec::new();
+    let mut drawn: Vec<&str> = Vec::new();
     for a in analyses {
         let mut approximations: Vec<&str> = a.rows.iter().map(|r| r.approximation.as_str()).collect();
         approximations.dedup();
@@ -251,6 +302,19 @@ pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabEr
                 OddityModel::Differencing => &r.differencing,
                 OddityModel::IndependentObservation => &r.independent_observation,
             };
+            let Some(e) = e else {
+                continue;
+            };
+            if r.observer == ALL_OBSERVERS {
+                // The observers with a counted trial of this condition.
+                drawn.extend(
+                    of.iter()
+                        .filter(|o| o.observer != ALL_OBSERVERS && o.trials > 0)
+                        .map(|o| o.observer.as_str()),
+                );
+            } else {
+                drawn.push(&r.observer);
+            }
             bars.push(crate::charts::DiscriminationBar {
                 group: a.scene.clone(),
                 coding: name.to_string(),
@@ -261,17 +325,11 @@ pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabEr
             });
         }
     }
-    let observers: Vec<&str> = analyses
-        .iter()
-        .flat_map(|a| a.observers.iter().map(String::as_str))
-        .collect();
-    let mut unique = observers.clone();
-    unique.sort();
-    unique.dedup();
+    drawn.sort();
+    drawn.dedup();
     let title = format!(
-        "Can observers tell? d′ and percent correct, {} observer{}, {:.0} % intervals",
-        unique.len(),
-        if unique.len() == 1 { "" } else { "s" },
+        "Can observers tell? d′ and percent correct, {}, {:.0} % intervals",
+        plural(drawn.len(), "observer"),
         CONFIDENCE * 100.0
     );
     crate::charts::discrimination_chart(&title, model.name(), &bars).map_err(LabError::Internal)

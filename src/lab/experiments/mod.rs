@@ -38,6 +38,7 @@ use crate::psychophysics::design::MAX_APPROXIMATIONS;
 use crate::psychophysics::presentation::Presentation;
 use crate::random::splitmix64;
 use crate::store::{ExperimentRow, MeasurementState, NewExperiment, Store};
+use session::MAX_SEED;
 
 /// The refresh rate the check at creation assumes for the number of frames
 /// a pie is averaged over; each session page measures its own and reports it.
@@ -72,7 +73,8 @@ pub struct ExperimentRequest {
     pub gamut: GamutPolicy,
     #[serde(default)]
     pub presentation: Presentation,
-    /// The trial orders' seed, 0–2⁶³−1; drawn and stored when absent.
+    /// The trial orders' seed, 0–2⁵³−1 (exact in JavaScript and MATLAB);
+    /// drawn and stored when absent.
     #[serde(default)]
     pub seed: Option<u64>,
 }
@@ -105,6 +107,7 @@ impl Experiments {
     /// The colours of `request` through its display profile, checked (see
     /// the module doc), without storing anything.
     pub async fn check(&self, request: &ExperimentRequest) -> Result<(Checked, ColourCheck), LabError> {
+        check_name(&request.name)?;
         request.presentation.validate().map_err(LabError::Invalid)?;
         let n = request.approximations.len();
         if n == 0 || n > MAX_APPROXIMATIONS {
@@ -125,8 +128,10 @@ impl Experiments {
             }
         }
         if let Some(seed) = request.seed {
-            if seed > i64::MAX as u64 {
-                return Err(LabError::Invalid(format!("seed = {seed}: give 0–{}", i64::MAX)));
+            if seed > MAX_SEED {
+                return Err(LabError::Invalid(format!(
+                    "seed = {seed}: give 0–{MAX_SEED} (2⁵³ − 1: a larger number is not exact in JavaScript or MATLAB)"
+                )));
             }
         }
         let id = request.measurement_id;
@@ -231,7 +236,7 @@ impl Experiments {
                 .duration_since(std::time::UNIX_EPOCH)
                 .map(|d| d.as_nanos() as u64)
                 .unwrap_or_default();
-            splitmix64(nanos) >> 1
+            splitmix64(nanos) & MAX_SEED
         });
         request.seed = Some(seed);
         if request.name.trim().is_empty() {
@@ -263,6 +268,28 @@ impl Experiments {
             .await?
             .ok_or_else(|| LabError::NotFound(format!("there is no experiment {id}")))
     }
+}
+
+/// An experiment's name is at most this many characters.
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// A name for people: at most [`MAX_NAME_CHARS`] characters, no control
+/// characters (NUL, ESC, line breaks…), which no list or terminal shows.
+pub fn check_name(name: &str) -> Result<(), LabError> {
+    let n = name.chars().count();
+    if n > MAX_NAME_CHARS {
+        return Err(LabError::Invalid(format!(
+            "name: {n} characters; give at most {MAX_NAME_CHARS}"
+        )));
+    }
+    if let Some((i, c)) = name.chars().enumerate().find(|(_, c)| c.is_control()) {
+        return Err(LabError::Invalid(format!(
+            "name: character {} is the control character U+{:04X}; give letters, digits, spaces and punctuation",
+            i + 1,
+            c as u32
+        )));
+    }
+    Ok(())
 }
 
 /// What the check found out about the measurement.

@@ -35,6 +35,14 @@
 //!
 //! Drift includes the measurement's own noise: a drift near the tolerance
 //! with few samples is worth measuring again before recalibrating.
+//!
+//! Only a measurement of the display showing that colour verifies it
+//! (issue 32: the booth's own scene measurement was accepted as the
+//! display's emission and the verification passed): a measurement of a
+//! scene's target is the booth, not the display, and is refused; so is one
+//! taken before the experiment existed (it cannot have been of its
+//! colours), and one measurement given for two patches (the display showed
+//! one colour at a time).
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -273,8 +281,18 @@ impl Experiments {
                             .join(", ")
                     ))
                 })?;
+            if let Some(j) = request.patches[..i]
+                .iter()
+                .position(|q| q.measurement_id == p.measurement_id)
+            {
+                return Err(LabError::Invalid(format!(
+                    "patches[{i}].measurement_id = {}: patches[{j}] names the same measurement; the display shows \
+                     one colour at a time, so each patch is its own measurement",
+                    p.measurement_id
+                )));
+            }
             let emitted = self
-                .emitted_xyz(p.measurement_id, profile.observer)
+                .display_xyz(p.measurement_id, profile.observer, e.created_at)
                 .await
                 .map_err(|err| match err {
                     LabError::Invalid(m) | LabError::NotFound(m) | LabError::Conflict(m) => {
@@ -372,6 +390,34 @@ impl Experiments {
             return Ok([r.measured_X, r.measured_Y, r.measured_Z]);
         }
         self.emitted_xyz(measurement_id, observer).await
+    }
+
+    /// The XYZ of a complete measurement of the display (see the module
+    /// doc): not a scene's target, taken after the experiment was created.
+    async fn display_xyz(
+        &self,
+        id: i64,
+        observer: crate::colorimetry::Observer,
+        experiment_created_at: f64,
+    ) -> Result<[f64; 3], LabError> {
+        let m = self
+            .store
+            .get_measurement(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("there is no measurement {id}")))?;
+        if let (Some(scene), Some(target)) = (&m.summary.scene, &m.summary.target) {
+            return Err(LabError::Invalid(format!(
+                "measurement {id} is of the booth's scene {scene}/{target}, not of the display: measure the display \
+                 while it shows the colour (the session page's “verify the display”)"
+            )));
+        }
+        if m.summary.created_at < experiment_created_at {
+            return Err(LabError::Invalid(format!(
+                "measurement {id} was taken before the experiment was created, so not while the display showed its \
+                 colour: measure the display while it shows the colour (the session page's “verify the display”)"
+            )));
+        }
+        self.emitted_xyz(id, observer).await
     }
 
     /// The XYZ of a complete measurement.
