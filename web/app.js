@@ -67,39 +67,44 @@ const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v
 // A cd/m² scale for an image shown through the daemon's global Reinhard
 // tone map (src/render/sensor.rs): a grey of Y cd/m² is shown at the linear
 // display value d = Yk/(1 + Yk), k = 0.18 / the image's log-average
-// luminance. The bar runs over d (as the eye sees the image), its ticks
-// are luminances.
+// luminance. The bar runs over log Y, from the luminance shown at d = 0.01
+// (near black) to the one shown at d = 0.9999 (white), each place in the
+// grey the image shows that luminance in; its ticks are decades of cd/m².
+// (It ran over d, and the tone map crowds everything above a few times the
+// log average into its last percent: the ticks stopped near 2 cd/m² beside
+// a 34.5 cd/m² patch.)
 function luminanceScale(logAverage, what) {
   const k = 0.18 / logAverage;
+  const low = Math.log10(0.01 / 0.99 / k), high = Math.log10(0.9999 / 0.0001 / k);
+  const at = (f) => Math.pow(10, low + f * (high - low)); // the luminance at f (0–1) along the bar
   const wrap = document.createElement("div");
   wrap.className = "lum-scale";
   const bar = document.createElement("div");
   bar.className = "lum-bar";
   const encode = (v) => (v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055);
   const stops = [];
-  for (let i = 0; i <= 20; i++) {
-    const g = Math.round(255 * encode(i / 20));
-    stops.push(`rgb(${g},${g},${g}) ${i * 5}%`);
+  for (let i = 0; i <= 40; i++) {
+    const y = at(i / 40);
+    const g = Math.round(255 * encode((y * k) / (1 + y * k)));
+    stops.push(`rgb(${g},${g},${g}) ${i * 2.5}%`);
   }
   bar.style.background = `linear-gradient(to right, ${stops.join(", ")})`;
   const ticks = document.createElement("div");
   ticks.className = "lum-ticks";
-  let lastPos = -1;
-  for (let e = -4; e <= 6; e++) {
-    for (const m of [1, 2, 5]) {
-      const y = m * Math.pow(10, e);
-      const d = (y * k) / (1 + y * k);
-      if (d < 0.02 || d > 0.98 || d * 100 - lastPos < 7) continue;
-      lastPos = d * 100;
-      const t = document.createElement("span");
-      t.style.left = `${d * 100}%`;
-      t.textContent = y >= 1 ? String(y) : y.toPrecision(1);
-      ticks.appendChild(t);
-    }
+  for (let e = Math.ceil(low); e <= Math.floor(high); e++) {
+    const f = (e - low) / (high - low);
+    const t = document.createElement("span");
+    t.style.left = `${f * 100}%`;
+    // The end ticks sit inside the bar's ends, not half outside.
+    if (f < 0.03) t.style.transform = "none";
+    if (f > 0.97) t.style.transform = "translateX(-100%)";
+    t.textContent = e >= 0 ? String(Math.pow(10, e)) : Math.pow(10, e).toFixed(-e);
+    ticks.appendChild(t);
   }
   const unit = document.createElement("div");
   unit.className = "lum-unit";
-  unit.textContent = `luminance (cd/m²) of a grey shown at that level — ${what}; tone-mapped, for looking at, not for measuring`;
+  unit.textContent = `luminance (cd/m², a tick per factor of 10) shown at that grey — ${what}; tone-mapped ` +
+    `(log average ${fmt(logAverage, 3)} cd/m²), for looking at, not for measuring`;
   wrap.append(bar, ticks, unit);
   return wrap;
 }
@@ -138,14 +143,7 @@ function setStatus(s) {
   badgeStatus = s;
   const b = $("instrument");
   b.className = "badge " + s.state;
-  if (s.state === "idle") b.textContent = `${s.model} ${s.serial || ""} idle on ${s.port}`;
-  else if (s.state === "measuring") {
-    // The sample under way, not the count taken: "sample 0 of 5" read as stuck.
-    const what = s.scene ? ` ${s.scene}/${s.target}` : "";
-    const left = s.expected_finish_at ? ` · about ${duration(s.expected_finish_at - Date.now() / 1000)} left` : "";
-    b.textContent = `measuring #${s.measurement_id}${what}: sample ${Math.min(s.sample + 1, s.of)} of ${s.of}${left}`;
-  } else if (s.state === "disconnected") b.textContent = "disconnected: " + s.reason;
-  else b.textContent = "error: " + s.message;
+  b.textContent = instrumentBadgeText(s); // web/nav.js
 }
 // The badge's time left counts down between samples.
 setInterval(() => { if (badgeStatus && badgeStatus.state === "measuring") setStatus(badgeStatus); }, 1000);
@@ -191,6 +189,7 @@ function follow() {
       $("live-result").textContent = m.state === "complete"
         ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), luminance CV = ${fmt(m.luminance_cv, 2)}`
         : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
+      showComparison($("live-comparison"), m).catch((e) => notice(e.message));
     }
     // The measurement table follows every state change (queued, cancelled, finished).
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
@@ -201,11 +200,13 @@ function follow() {
       const d = JSON.parse(e.data);
       if (openScene === d.scene) loadSceneDetail(d.scene);
       if (name === "render_finished" && location.hash === "#/scenes") loadScenes();
+      refreshComparisons(null, d.scene);
     });
   }
   es.addEventListener("comparison_ready", (e) => {
     const d = JSON.parse(e.data);
     if (openScene === d.scene) loadSceneDetail(d.scene);
+    refreshComparisons(d.measurement_id);
   });
   es.addEventListener("study_progress", (e) => {
     const d = JSON.parse(e.data);
@@ -267,7 +268,7 @@ async function loadSceneChoices() {
 
 function fillTargets() {
   const sel = $("target-select");
-  sel.innerHTML = "";
+  sel.replaceChildren();
   const s = sceneInfo.find((x) => x.id === $("scene-select").value);
   for (const t of s ? s.targets : []) sel.add(new Option(t, t));
   sel.disabled = !s;
@@ -295,6 +296,7 @@ $("measure-form").addEventListener("submit", async (ev) => {
     $("progress-text").textContent = `measurement #${r.id}: queued`;
     $("cancel-current").hidden = false;
     $("live-result").textContent = "";
+    $("live-comparison").hidden = true;
   } catch (e) {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
   }
@@ -352,7 +354,7 @@ async function loadMeasurements(openId) {
       "(the daemon's --observer); the instrument's own CIE 1931 x, y are on each measurement's page."
     : "";
   const tbody = document.querySelector("#measurement-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   for (const m of page.items) {
     const tr = tbody.insertRow();
     tr.dataset.id = m.id;
@@ -425,11 +427,12 @@ async function showMeasurement(id) {
     ` · queued ${localTime(m.created_at)}` +
     (m.started_at ? `, taken ${localTime(m.started_at)}` + (m.finished_at ? ` to ${localTime(m.finished_at)} (${duration(m.finished_at - m.started_at)})` : "") : "") +
     (m.note ? ` · notes: ${m.note}` : "");
+  showComparison($("detail-comparison"), m).catch((e) => notice(e.message));
   for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])
     $(el).href = `/api/measurements/${id}/spectrum.${ext}`;
   $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
   const tbody = document.querySelector("#sample-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   for (const s of m.samples) {
     const tr = tbody.insertRow();
     for (const v of [s.index, new Date(s.time * 1000).toLocaleTimeString(), s.code, s.message, s.usable ? "yes" : "no",
@@ -438,6 +441,94 @@ async function showMeasurement(id) {
 }
 
 $("cancel-current").addEventListener("click", () => current && cancelMeasurement(current));
+
+// --- a measurement's comparison with every colour coding --------------------
+
+// The boxes showing a comparison (Live, a measurement's page): box → measurement.
+const comparisonBoxes = new Map();
+
+// Shows in `box` measurement m's comparison with every colour coding of its
+// scene's render (GET /api/measurements/{id}/comparisons), or, until it is
+// stored, where it is and its state: none for a free measurement or one
+// that did not complete; otherwise computed from the scene's render, which
+// may be queued, running or failed (GET /api/scenes/{scene}/renders).
+async function showComparison(box, m) {
+  comparisonBoxes.set(box, m);
+  box.hidden = false;
+  const el = (tag, text, cls) => {
+    const e = document.createElement(tag);
+    if (text !== undefined) e.textContent = text;
+    if (cls) e.className = cls;
+    return e;
+  };
+  const heading = el("h4", "Comparison with every colour coding");
+  const state = (text) => {
+    const p = el("p", text, "hint");
+    p.dataset.comparisonState = "";
+    return p;
+  };
+  if (!m.scene) {
+    box.replaceChildren(heading, state("None: a free measurement (no scene target) has nothing to be compared with. " +
+      "Choose a scene and target on Live to compare a measurement with every coding's rendering."));
+    return;
+  }
+  if (m.state !== "complete") {
+    box.replaceChildren(heading, state(`None: only a complete measurement is compared; this one is ${m.state}.`));
+    return;
+  }
+  const [rows, renders] = await Promise.all([api(`/api/measurements/${m.id}/comparisons`),
+    // A daemon without the renderer (503) lists no renders: its workers render.
+    api(`/api/scenes/${encodeURIComponent(m.scene)}/renders`).catch(() => [])]);
+  if (comparisonBoxes.get(box) !== m) return; // another measurement was opened meanwhile
+  const sceneLink = el("a", `the scene ${m.scene}: its charts and every target`);
+  sceneLink.href = `#/scenes/${encodeURIComponent(m.scene)}`;
+  if (!rows.length) {
+    const busy = renders.find((r) => r.state === "running") || renders.find((r) => r.state === "queued");
+    const newest = renders[0];
+    let text;
+    if (busy) {
+      text = `Being computed: it waits for render ${busy.id} of ${m.scene} (${busy.codings.join(", ")}), ${busy.state}; ` +
+        "the comparison follows when the render completes.";
+    } else if (newest && newest.state === "failed") {
+      text = `Not computed: the newest render of ${m.scene} (render ${newest.id}) failed` +
+        (newest.error ? `: ${newest.error}` : "") + ". Render the scene again from its page.";
+    } else {
+      text = `Being computed from the stored render of ${m.scene}; it appears here when it is stored.`;
+    }
+    const p = state(text + " ");
+    p.append("See ", sceneLink, ".");
+    box.replaceChildren(heading, p);
+    return;
+  }
+  const t = document.createElement("table");
+  t.className = "comparison-table";
+  const head = t.createTHead().insertRow();
+  for (const h of ["coding", "rendered Y (cd/m²)", "Y rendered / measured", "Δxy", "ΔE*ab", "ΔE00", "Y beyond noise"]) {
+    head.appendChild(el("th", h));
+  }
+  const body = t.createTBody();
+  for (const r of rows) {
+    const tr = body.insertRow();
+    for (const v of [r.coding, fmt(r.rendered_Y, 5), fmt(r.Y_ratio, 4), fmt(r.xy_distance, 3), fmt(r.dE76, 3),
+      fmt(r.dE00, 3), r.Y_beyond_noise === null || r.Y_beyond_noise === undefined ? "–" : r.Y_beyond_noise ? "yes" : "no"]) {
+      tr.insertCell().textContent = v;
+    }
+  }
+  const r0 = rows[0];
+  const note = el("p", `${rows.length} codings of render ${r0.render_id}; CIELAB white: ${r0.white_source} ` +
+    `(observer: ${observerName(r0.observer)}). `, "hint");
+  note.append("See ", sceneLink, ".");
+  box.replaceChildren(heading, t, note);
+}
+
+// A comparison was stored (measurement id) or a render of `scene` moved on:
+// the boxes showing that measurement's comparison follow it.
+function refreshComparisons(measurementId, scene) {
+  for (const [box, m] of comparisonBoxes) {
+    if (box.hidden || box.offsetParent === null) continue;
+    if (m.id === measurementId || (scene && m.scene === scene)) showComparison(box, m).catch((e) => notice(e.message));
+  }
+}
 
 // --- scenes ----------------------------------------------------------------
 
@@ -458,7 +549,7 @@ async function loadScenes(openId) {
     `coding's rendering is from the measurements (mean CIEDE2000 ΔE00 and rms_rel of Y over the measured targets; ` +
     `observer ${observerName(o.observer)}). Click a scene to open it.`;
   const tbody = document.querySelector("#scene-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   for (const s of o.scenes) {
     const tr = tbody.insertRow();
     tr.className = "clickable";
@@ -497,7 +588,12 @@ async function loadScenes(openId) {
     const figures = tr.insertCell();
     figures.className = "coding-figures";
     if (s.codings.length) figures.appendChild(codingFiguresTable(s.codings));
-    else figures.innerHTML = '<span class="hint">no comparison yet: measure a target</span>';
+    else {
+      const none = document.createElement("span");
+      none.className = "hint";
+      none.textContent = "no comparison yet: measure a target";
+      figures.appendChild(none);
+    }
     tr.addEventListener("click", (ev) => {
       if (ev.target.closest("a")) return;
       location.hash = `#/scenes/${s.scene}`;
@@ -548,7 +644,7 @@ async function loadSceneDetail(id) {
   const c = await api(`/api/scenes/${id}/comparisons`);
   if (openScene !== id) return; // another scene was opened meanwhile
   const tbody = document.querySelector("#coding-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   for (const r of c.codings) {
     const tr = tbody.insertRow();
     for (const v of [r.coding, r.points, fmt(r.rms_rel), `${fmt(r.mean_dE76)} ± ${fmt(r.sd_dE76, 2)}`,
@@ -609,7 +705,7 @@ function jobButton(label, path, then) {
 // The scene's renders still queued or running, each with a Cancel button.
 function showRenderJobs(renders) {
   const list = $("scene-jobs");
-  list.innerHTML = "";
+  list.replaceChildren();
   for (const r of renders.filter((r) => r.state === "queued" || r.state === "running")) {
     const li = document.createElement("li");
     li.textContent = `render ${r.id} (${r.codings.join(", ")}): ${r.state} `;
@@ -836,7 +932,7 @@ $("study-form").addEventListener("submit", async (ev) => {
 async function loadStudies(openId) {
   const list = await api("/api/studies");
   const tbody = document.querySelector("#study-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   for (const st of list) {
     const tr = tbody.insertRow();
     for (const v of [st.id, st.state + (st.error ? ": " + st.error : "")]) tr.insertCell().textContent = v;
@@ -889,9 +985,9 @@ async function showStudy(id) {
   $("study-report").href = `/api/studies/${id}/files/index.html`;
   $("study-figures").href = `/api/studies/${id}/files/figures.csv`;
   const summary = $("study-summary");
-  summary.innerHTML = "";
+  summary.replaceChildren();
   const charts = $("study-charts");
-  charts.innerHTML = "";
+  charts.replaceChildren();
   const svgs = files.filter((f) => f.endsWith(".svg"));
   const shown = new Set();
   for (const s of st.result ? st.result.scenes : []) {
@@ -904,7 +1000,13 @@ async function showStudy(id) {
     white.textContent = `CIELAB white: ${s.white_source}.`;
     section.append(h, white);
     const t = document.createElement("table");
-    t.innerHTML = "<thead><tr><th>coding</th><th>rms_rel ± SD (seeds)</th><th>mean ΔE*ab ± SD (seeds)</th><th>SD over targets</th><th>mean ΔE00</th><th>beyond noise</th></tr></thead>";
+    const headRow = t.createTHead().insertRow();
+    for (const label of ["coding", "rms_rel ± SD (seeds)", "mean ΔE*ab ± SD (seeds)", "SD over targets", "mean ΔE00",
+      "beyond noise"]) {
+      const th = document.createElement("th");
+      th.textContent = label;
+      headRow.appendChild(th);
+    }
     const body = t.createTBody();
     for (const c of s.codings) {
       const tr = body.insertRow();

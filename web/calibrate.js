@@ -125,36 +125,56 @@ async function calibrate() {
 
 const f = (v, d = 4) => Number(v).toFixed(d);
 
+// An element with text (never markup: names and notes are stored text).
+function el(tag, text, attrs = {}) {
+  const e = document.createElement(tag);
+  if (text !== undefined && text !== null) e.textContent = String(text);
+  Object.assign(e, attrs);
+  return e;
+}
+
+// A table of a header row and rows of cells, every cell text.
+function table(headers, rows) {
+  const t = el("table");
+  const head = t.createTHead().insertRow();
+  for (const h of headers) head.appendChild(el("th", h));
+  const body = t.createTBody();
+  for (const cells of rows) {
+    const tr = body.insertRow();
+    cells.forEach((c, i) => tr.appendChild(el(i === 0 && cells.header ? "th" : "td", c)));
+  }
+  return t;
+}
+
 function showProfile(row) {
   const p = row.profile;
   const xyz = (v) => { const s = v[0] + v[1] + v[2]; return [v[0] / s, v[1] / s]; };
   const sec = $("profile");
   sec.hidden = false;
   $("controls").hidden = true;
-  const names = ["red", "green", "blue"];
-  const primaryRows = names.map((n, c) => {
+  const primaryRows = ["red", "green", "blue"].map((n, c) => {
     const t = p.transfer[c];
-    return `<tr><th>${n}</th><td>${f(t.gamma, 3)}</td><td>${f(t.rms_residual, 4)}</td></tr>`;
-  }).join("");
+    return Object.assign([n, f(t.gamma, 3), f(t.rms_residual, 4)], { header: true });
+  });
   const validation = (p.validation || []).map((v) =>
-    `<tr><td>${v.drive.map((d) => f(d, 3)).join(", ")}</td><td>${f(v.delta_e00, 3)}</td><td>${v.measurement_id ?? "–"}</td></tr>`).join("");
+    [v.drive.map((d) => f(d, 3)).join(", "), f(v.delta_e00, 3), v.measurement_id ?? "–"]);
   const w = p.additivity.white_xyz;
-  sec.innerHTML = `
-    <h1>Display profile ${row.id}: ${row.name}</h1>
-    <p>Observer: <strong>${p.observer}</strong> (every XYZ and ΔE00 here). White: Y ${f(w[1], 2)} cd/m²,
-       x ${f(xyz(w)[0])}, y ${f(xyz(w)[1])}. Additivity (white against black + R + G + B):
-       <strong id="additivity">ΔE00 ${f(p.additivity.delta_e00, 3)}</strong>.
-       Fitted to ${p.measurement_ids.length} measurements (ids ${p.measurement_ids[0]}–${p.measurement_ids[p.measurement_ids.length - 1]}).
-       Transfer model: t = v<sup>γ</sup> over the black level.</p>
-    <table><tr><th>channel</th><th>γ</th><th>RMS residual</th></tr>${primaryRows}</table>
-    <div>
-      <img alt="primaries" src="/api/display-profiles/${row.id}/primaries.svg">
-      <img alt="transfer" src="/api/display-profiles/${row.id}/transfer.svg">
-      <img alt="additivity" src="/api/display-profiles/${row.id}/additivity.svg">
-    </div>
-    <h2>Validation colours</h2>
-    <table><tr><th>drive (r, g, b)</th><th>ΔE00 predicted vs measured</th><th>measurement</th></tr>${validation}</table>
-    <p><a href="/calibrate">calibrate again</a> · <a href="/">dashboard</a></p>`;
+  const ids = p.measurement_ids;
+  const facts = el("p");
+  facts.append("Observer: ", el("strong", p.observer), ` (every XYZ and ΔE00 here). White: Y ${f(w[1], 2)} cd/m², ` +
+    `x ${f(xyz(w)[0])}, y ${f(xyz(w)[1])}. Additivity (white against black + R + G + B): `,
+  el("strong", `ΔE00 ${f(p.additivity.delta_e00, 3)}`, { id: "additivity" }),
+  `. Fitted to ${ids.length} measurements (ids ${ids[0]}–${ids[ids.length - 1]}). Transfer model: t = v`,
+  el("sup", "γ"), " over the black level.");
+  const charts = el("div");
+  for (const chart of ["primaries", "transfer", "additivity"]) {
+    charts.appendChild(el("img", undefined, { alt: chart, src: `/api/display-profiles/${row.id}/${chart}.svg` }));
+  }
+  const links = el("p");
+  links.append(el("a", "calibrate again", { href: "/calibrate" }), " · ", el("a", "dashboard", { href: "/" }));
+  sec.replaceChildren(el("h1", `Display profile ${row.id}: ${row.name}`), facts,
+    table(["channel", "γ", "RMS residual"], primaryRows), charts, el("h2", "Validation colours"),
+    table(["drive (r, g, b)", "ΔE00 predicted vs measured", "measurement"], validation), links);
 }
 
 // The newest stored profiles, each a link to its page (#profile=ID), so

@@ -63,7 +63,7 @@ function showInstrumentCard(instruments) {
   const model = s.model ? `${s.model} ${s.serial || ""}`.trim() : last ? `${last.model} ${last.serial || ""}`.trim() : "instrument";
   const state = { idle: `idle on ${s.port}`, measuring: "measuring", disconnected: `disconnected: ${s.reason}`,
     error: `error: ${s.message}` }[s.state] || s.state;
-  $("home-instrument-state").innerHTML = "";
+  $("home-instrument-state").replaceChildren();
   const strong = document.createElement("strong");
   strong.textContent = model;
   const badge = document.createElement("span");
@@ -126,7 +126,7 @@ function showLastMeasurement(m) {
 
 function showBoothCard(health, booths, instruments) {
   const dl = $("home-booth-facts");
-  dl.innerHTML = "";
+  dl.replaceChildren();
   const others = booths.booths.map((b) => b.booth).filter((b) => b !== booths.this_daemon);
   const facts = [
     ["booth", `${booths.this_daemon} (this daemon)` + (others.length ? `; also in this database: ${others.join(", ")}` : "")],
@@ -154,7 +154,7 @@ function queueObserver() {
 // booth scenes), a display profile that is missing or stale.
 function showNextSteps(overview, profiles) {
   const list = $("home-next-list");
-  list.innerHTML = "";
+  list.replaceChildren();
   const item = (text, href, label) => {
     const li = document.createElement("li");
     li.append(text + " ");
@@ -196,7 +196,7 @@ function showNextSteps(overview, profiles) {
 
 function showQueue() {
   const tbody = document.querySelector("#queue-table tbody");
-  tbody.innerHTML = "";
+  tbody.replaceChildren();
   $("queue-empty").hidden = queue.jobs.length > 0;
   $("queue-table").hidden = queue.jobs.length === 0;
   for (const j of queue.jobs) {

@@ -8,7 +8,7 @@ let materialScenes = [];
 function fillMaterialTargets(sceneSel, targetSel, preferred) {
   const s = materialScenes.find((x) => x.id === $(sceneSel).value);
   const sel = $(targetSel);
-  sel.innerHTML = "";
+  sel.replaceChildren();
   for (const t of s ? s.targets : []) sel.add(new Option(t, t));
   if (s && s.targets.includes(preferred)) sel.value = preferred;
 }
@@ -146,7 +146,7 @@ async function loadReflectances() {
     notice(e.message);
   }
   const body = document.querySelector("#reflectance-table tbody");
-  body.innerHTML = "";
+  body.replaceChildren();
   for (const r of rows) {
     const tr = document.createElement("tr");
     const flagged = r.flags.above_one_nm.length + r.flags.below_zero_nm.length;

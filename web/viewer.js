@@ -57,7 +57,7 @@ function openImageViewer(render) {
   $("viewer-title").textContent = `Image viewer: render ${render.id}`;
   for (const [select, preferred] of [["viewer-coding", "spectral"], ["viewer-against", "rgb"]]) {
     const s = $(select);
-    s.innerHTML = "";
+    s.replaceChildren();
     for (const c of render.codings) s.add(new Option(c, c, false, c === preferred));
   }
 }
@@ -88,8 +88,14 @@ async function viewerImage(coding) {
   }
 }
 
+// The coding's swatch and name, as nodes (text, never markup).
 function codingLabel(info) {
-  return `<span class="swatch" style="background:${info.colour}"></span>${info.settings.coding}`;
+  const swatch = document.createElement("span");
+  swatch.className = "swatch";
+  swatch.style.background = info.colour;
+  const label = document.createElement("span");
+  label.append(swatch, info.settings.coding);
+  return label;
 }
 
 $("viewer-form").addEventListener("submit", async (ev) => {
@@ -106,13 +112,13 @@ $("viewer-form").addEventListener("submit", async (ev) => {
       $("viewer-scale").replaceChildren(...(info.display_log_average_cd_m2
         ? [luminanceScale(info.display_log_average_cd_m2, `${s.coding} coding`)] : []));
       const spp = info.paths / (s.width * s.height);
-      $("viewer-caption").innerHTML =
-        `Image ${info.id} of render ${info.render_id}: ${codingLabel(info)} coding, ${s.width} × ${s.height} px, ` +
+      $("viewer-caption").replaceChildren(`Image ${info.id} of render ${info.render_id}: `, codingLabel(info),
+        ` coding, ${s.width} × ${s.height} px, ` +
         `${fmt(spp, 3)} paths per pixel on average (${s.min_spp}–${s.max_spp}; ${info.passes} passes, stop: ` +
         `${info.stop.replace("_", " ")}), ${fmt(info.elapsed_seconds, 3)} s. Shown as XYZ (observer: ` +
         `${observerName(info.observer)}) → linear sRGB → Reinhard global tone map (each pixel × 0.18 / the ` +
         `log-average luminance, then v / (1 + v)) → sRGB encoding: for looking at, not for measuring. ` +
-        `Click a pixel to probe it.`;
+        `Click a pixel to probe it.`);
       $("viewer-state").textContent = "";
     };
     img.src = `/api/images/${info.id}/display.png`;
@@ -142,12 +148,12 @@ $("viewer-image").addEventListener("click", async (ev) => {
     const chart = $("probe-chart");
     chart.src = `/api/images/${info.id}/pixel.svg?x=${x}&y=${y}`;
     const pm = (q, d = 4) => `${fmt(q.mean, d)} ± ${fmt(q.se, 2)}`;
-    $("probe-caption").innerHTML =
-      `Pixel (${x}, ${y}) of image ${info.id}, ${codingLabel(info)}, ${fmt(p.paths_per_pixel, 3)} paths: ` +
+    $("probe-caption").replaceChildren(`Pixel (${x}, ${y}) of image ${info.id}, `, codingLabel(info),
+      `, ${fmt(p.paths_per_pixel, 3)} paths: ` +
       `${p.wavelengths_nm ? "spectral radiance (W/(sr·m²·nm)) against wavelength (nm)" : "linear R, G, B"}, ` +
       `mean ± 1 SE. X = ${pm(p.X)}, Y = ${pm(p.Y)} cd/m², Z = ${pm(p.Z)}; x, y = ${fmt(p.chromaticity_x, 4)}, ` +
       `${fmt(p.chromaticity_y, 4)} (observer: ${observerName(p.observer)}); L, M, S = ${fmt(p.L.mean, 4)}, ` +
-      `${fmt(p.M.mean, 4)}, ${fmt(p.S.mean, 4)} (Stockman & Sharpe 2°, L + M in cd/m²).`;
+      `${fmt(p.M.mean, 4)}, ${fmt(p.S.mean, 4)} (Stockman & Sharpe 2°, L + M in cd/m²).`);
     $("probe-figure").hidden = false;
   } catch (e) {
     notice(e.message);
@@ -165,7 +171,7 @@ $("viewer-de").addEventListener("click", async () => {
     const stops = m.stops.map((c, i) => `rgb(${c.join(",")}) ${(100 * i) / (m.stops.length - 1)}%`);
     $("de-bar").style.background = `linear-gradient(to right, ${stops.join(", ")})`;
     const ticks = $("de-ticks");
-    ticks.innerHTML = "";
+    ticks.replaceChildren();
     for (const f of [0, 0.25, 0.5, 0.75, 1]) {
       const t = document.createElement("span");
       t.style.left = `${100 * f}%`;
@@ -175,11 +181,11 @@ $("viewer-de").addEventListener("click", async () => {
       ticks.appendChild(t);
     }
     $("de-map").src = `/api/images/${a.id}/delta-e.png?against=${b.id}`;
-    $("de-caption").innerHTML =
-      `CIEDE2000 ΔE00 per pixel between ${codingLabel(a)} (image ${a.id}) and ${codingLabel(b)} (image ${b.id}), ` +
+    $("de-caption").replaceChildren("CIEDE2000 ΔE00 per pixel between ", codingLabel(a), ` (image ${a.id}) and `,
+      codingLabel(b), ` (image ${b.id}), ` +
       `through CIELAB with the scene's white: ${m.white_source}, XYZ = ${m.white.map((v) => fmt(v, 4)).join(", ")} ` +
       `(observer: ${observerName(m.observer)}). Mean ${fmt(m.mean, 3)}, 95th percentile ${fmt(m.p95, 3)}, ` +
-      `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. Each image's own noise adds to ΔE.`;
+      `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. Each image's own noise adds to ΔE.`);
     $("de-figure").hidden = false;
   } catch (e) {
     notice(e.message);

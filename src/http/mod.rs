@@ -113,6 +113,8 @@ pub fn app(state: AppState) -> Router {
             hosts::require_known_host,
         ))
         .layer(axum::middleware::from_fn(error::refuse_oversized_head))
+        // Outermost: every answer, refusals included, carries the policy.
+        .layer(axum::middleware::map_response(web::security_headers))
         .with_state(state)
 }
 

@@ -1,9 +1,18 @@
 //! The dashboards in `web/`, compiled into the binary. Requests are matched
 //! against this fixed table, so no path from a request reaches the
 //! filesystem.
+//!
+//! Every response of the daemon carries [`CONTENT_SECURITY_POLICY`]
+//! ([`security_headers`]): scripts only from the daemon's own files, never
+//! inline, never from an event-handler attribute or a `javascript:` URL, and
+//! no string may become HTML through `innerHTML` (Trusted Types with no
+//! policy). The pages write stored and requested text (profile, experiment
+//! and scene names, notes) as text nodes only; the policy is the second
+//! line, so that one text written as HTML by mistake cannot run code that
+//! reads the write token from `localStorage`.
 
 use axum::extract::Path;
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use axum::routing::get;
 use axum::Router;
@@ -22,6 +31,8 @@ const MEASURE_JS: &str = include_str!("../../web/measure.js");
 /// The navigation bar every page shares.
 const NAV_JS: &str = include_str!("../../web/nav.js");
 const STYLE: &str = include_str!("../../web/style.css");
+/// The pages' icon, also answered for `/favicon.ico` (browsers ask for it).
+const FAVICON_SVG: &str = include_str!("../../web/favicon.svg");
 /// The display calibration page, opened full-screen on the stimulus monitor.
 const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
 const CALIBRATE_JS: &str = include_str!("../../web/calibrate.js");
@@ -52,9 +63,35 @@ const MATLAB: [(&str, &str); 4] = [
     ),
 ];
 
+/// The daemon's Content-Security-Policy, on every response. `script-src
+/// 'self'` forbids inline `<script>`, `on…=` attributes and `javascript:`
+/// URLs; `require-trusted-types-for 'script'` with no Trusted Types policy
+/// makes a browser that supports it refuse any string assigned to
+/// `innerHTML`, `outerHTML`, `insertAdjacentHTML` or `document.write`.
+/// Styles may be inline (the pages' `<style>` blocks and `style`
+/// attributes); images are the daemon's own (charts, camera views) or
+/// `data:`; nothing may frame the pages.
+pub const CONTENT_SECURITY_POLICY: &str = "default-src 'self'; script-src 'self'; object-src 'none'; \
+     base-uri 'none'; form-action 'self'; frame-ancestors 'none'; img-src 'self' data:; \
+     style-src 'self' 'unsafe-inline'; require-trusted-types-for 'script'; trusted-types 'none'";
+
+/// Adds [`CONTENT_SECURITY_POLICY`] (and `nosniff`, no referrer) to a response.
+pub async fn security_headers(mut response: Response) -> Response {
+    let headers = response.headers_mut();
+    headers.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static(CONTENT_SECURITY_POLICY),
+    );
+    headers.insert(header::X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff"));
+    headers.insert(header::REFERRER_POLICY, HeaderValue::from_static("no-referrer"));
+    response
+}
+
 pub fn router() -> Router<AppState> {
     Router::new()
         .route("/", get(|| async { Html(INDEX) }))
+        .route("/favicon.svg", get(favicon))
+        .route("/favicon.ico", get(favicon))
         .route(
             "/app.js",
             get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }),
@@ -111,6 +148,16 @@ pub fn router() -> Router<AppState> {
         )
         .route("/matlab/", get(matlab_index))
         .route("/matlab/{file}", get(matlab_file))
+}
+
+async fn favicon() -> impl IntoResponse {
+    (
+        [
+            (header::CONTENT_TYPE, "image/svg+xml"),
+            (header::CACHE_CONTROL, "max-age=86400"),
+        ],
+        FAVICON_SVG,
+    )
 }
 
 async fn matlab_index() -> Html<String> {

@@ -11,6 +11,8 @@ mod api_schemathesis;
 mod dashboard_browser;
 mod dashboard_material;
 mod dashboard_off_loopback;
+mod dashboard_page_details;
+mod dashboard_stored_scripts;
 mod dashboard_viewer;
 mod display_calibration_browser;
 mod display_profile_api;

@@ -289,6 +289,106 @@ async fn the_dashboard_and_matlab_examples_are_served() {
     assert_eq!(response.status(), StatusCode::OK);
 }
 
+/// Issue 32: `/favicon.ico` answered 404 (every browser asks for it).
+#[tokio::test]
+async fn the_favicon_ico_is_served_not_404() {
+    let h = harness(1).await;
+    for path in ["/favicon.ico", "/favicon.svg"] {
+        let response = app(h.state.clone()).oneshot(get(path)).await.unwrap();
+        assert_eq!(response.status(), StatusCode::OK, "{path}");
+        let kind = response.headers()["content-type"].to_str().unwrap().to_string();
+        assert_eq!(kind, "image/svg+xml", "{path}");
+        let body = response.into_body().collect().await.unwrap().to_bytes();
+        assert!(std::str::from_utf8(&body).unwrap().starts_with("<svg"), "{path}");
+    }
+}
+
+/// Issue 32: a display profile's name ran as a script on the Calibrate
+/// page. Every answer (pages, scripts, the API, refusals) carries a
+/// Content-Security-Policy that allows only the daemon's own script files:
+/// no inline script, no event-handler attribute, no `javascript:` URL, and
+/// (Trusted Types) no string written as HTML. The pages themselves have no
+/// inline script or handler attribute for the policy to break, and no
+/// script of the pages writes markup from a string.
+#[tokio::test]
+async fn every_answer_carries_a_policy_that_forbids_inline_script_and_no_page_writes_html() {
+    let h = harness(1).await;
+    let pages = [
+        "/",
+        "/calibrate",
+        "/experiment",
+        "/experiment/1",
+        "/experiment/1/run",
+        "/matlab/",
+    ];
+    let scripts = [
+        "/app.js",
+        "/home.js",
+        "/material.js",
+        "/viewer.js",
+        "/nav.js",
+        "/measure.js",
+        "/calibrate.js",
+        "/experiment.js",
+        "/experiment-run.js",
+    ];
+    let others = [
+        "/style.css",
+        "/api/health",
+        "/api/measurements/9999",
+        "/no-such-page",
+        "/favicon.ico",
+    ];
+    for path in pages.iter().chain(&scripts).chain(&others) {
+        let response = app(h.state.clone()).oneshot(get(path)).await.unwrap();
+        let policy = response
+            .headers()
+            .get("content-security-policy")
+            .unwrap_or_else(|| panic!("{path}: no Content-Security-Policy"))
+            .to_str()
+            .unwrap()
+            .to_string();
+        let script_src = policy
+            .split(';')
+            .map(str::trim)
+            .find_map(|d| d.strip_prefix("script-src "))
+            .unwrap_or_else(|| panic!("{path}: the policy names no script-src: {policy}"));
+        assert_eq!(script_src, "'self'", "{path}: {policy}");
+        assert!(policy.contains("object-src 'none'"), "{path}: {policy}");
+        assert!(
+            policy.contains("require-trusted-types-for 'script'"),
+            "{path}: {policy}"
+        );
+        assert_eq!(response.headers()["x-content-type-options"], "nosniff", "{path}");
+        let body = response.into_body().collect().await.unwrap().to_bytes();
+        let text = String::from_utf8_lossy(&body).to_ascii_lowercase();
+        if pages.contains(path) {
+            for (i, _) in text.match_indices("<script") {
+                let tag = &text[i..i + text[i..].find('>').unwrap()];
+                assert!(tag.contains(" src="), "{path}: an inline script: {tag}");
+            }
+            let handler = event_handler_attribute(&text);
+            assert!(handler.is_none(), "{path}: an event-handler attribute: {handler:?}");
+            assert!(!text.contains("javascript:"), "{path}: a javascript: URL");
+        }
+        if scripts.contains(path) {
+            for sink in ["innerhtml", "outerhtml", "insertadjacenthtml", "document.write"] {
+                assert!(!text.contains(sink), "{path} writes markup with {sink}");
+            }
+        }
+    }
+}
+
+/// The first ` on…=` attribute in `html`, if any.
+fn event_handler_attribute(html: &str) -> Option<String> {
+    html.match_indices(" on").find_map(|(i, _)| {
+        let rest = &html[i + 3..];
+        let name: String = rest.chars().take_while(|c| c.is_ascii_alphabetic()).collect();
+        let after = rest[name.len()..].trim_start();
+        (!name.is_empty() && after.starts_with('=')).then(|| html[i..(i + 40).min(html.len())].to_string())
+    })
+}
+
 #[tokio::test]
 async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it_is_gone() {
     let h = harness(4).await;

@@ -184,6 +184,22 @@ impl Daemon {
             None,
             Some(booth),
             lightbooth::lab::worker_queue::RenderPlace::Workers,
+            None,
+        )
+        .await
+    }
+
+    /// Starts it with the scene files of the folder `scenes` (`serve
+    /// --scenes`) instead of the repository's `scenes/`.
+    pub async fn start_with_scenes(mock_speed: f64, scenes: &std::path::Path) -> Daemon {
+        Daemon::start_full(
+            mock_speed,
+            "127.0.0.1:0",
+            None,
+            None,
+            None,
+            Default::default(),
+            Some(scenes.to_path_buf()),
         )
         .await
     }
@@ -200,7 +216,7 @@ impl Daemon {
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
     ) -> Daemon {
-        Daemon::start_full(mock_speed, bind, db_url, instrument, booth, Default::default()).await
+        Daemon::start_full(mock_speed, bind, db_url, instrument, booth, Default::default(), None).await
     }
 
     async fn start_full(
@@ -210,6 +226,7 @@ impl Daemon {
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
         renders: lightbooth::lab::worker_queue::RenderPlace,
+        scenes_dir: Option<PathBuf>,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
@@ -235,7 +252,7 @@ impl Daemon {
             mock_speed,
             mock_faults: Vec::new(),
             instrument: instrument.unwrap_or(lightbooth::instrument::InstrumentSettings::Pr650(settings)),
-            scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes"),
+            scenes_dir: scenes_dir.unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")),
             // Shared across tests: converged spectra are keyed by scene content.
             cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
             token_file: Some(token_file),

@@ -1,0 +1,84 @@
+// Issue 32's small things on the Calibrate and Experiment pages, in
+// headless Chromium against the daemon with --mock: both pages show the
+// instrument badge (idle, the simulated PR-650) in their header, as every
+// page of the index does; the Calibrate page's error notice (a calibration
+// started without the write token) is readable: its text against its
+// background has a WCAG contrast ratio of at least 4.5 (it was white on
+// pink); the pages ask for no icon that is not there. Saves a screenshot
+// of the notice (calibrate-error.png).
+//
+// Usage: node page_details.mjs BASE_URL TOKEN SCREENSHOT_DIR
+import { chromium } from "playwright-core";
+
+const [base, token, shots] = process.argv.slice(2);
+if (!base || !token) {
+  console.error("usage: node page_details.mjs BASE_URL TOKEN [SCREENSHOT_DIR]");
+  process.exit(2);
+}
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  headless: true,
+  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+    "--disable-component-update", "--disable-sync"],
+});
+const failures = [];
+
+// WCAG 2 contrast ratio of two CSS rgb()/rgba() colours (alpha ignored).
+function contrast(a, b) {
+  const lum = (c) => {
+    const [r, g, bl] = c.match(/[\d.]+/g).slice(0, 3).map((v) => {
+      const s = Number(v) / 255;
+      return s <= 0.03928 ? s / 12.92 : Math.pow((s + 0.055) / 1.055, 2.4);
+    });
+    return 0.2126 * r + 0.7152 * g + 0.0722 * bl;
+  };
+  const [hi, lo] = [lum(a), lum(b)].sort((x, y) => y - x);
+  return (hi + 0.05) / (lo + 0.05);
+}
+
+try {
+  // No token on this browser: a calibration's first write is refused.
+  const page = await browser.newPage({ viewport: { width: 1300, height: 900 } });
+  const httpErrors = [];
+  page.on("pageerror", (e) => failures.push("page error: " + e.message));
+  page.on("response", (r) => { if (r.status() >= 400) httpErrors.push(`HTTP ${r.status()} for ${r.url()}`); });
+
+  for (const path of ["/calibrate", "/experiment"]) {
+    await page.goto(base + path);
+    try {
+      await page.waitForFunction(() => /idle/.test(document.querySelector("header #instrument")?.textContent || ""),
+        null, { timeout: 15000 });
+      const badge = await page.$eval("header #instrument", (b) => ({ text: b.textContent, cls: b.className }));
+      if (!/PR-650/.test(badge.text) || !/\bbadge\b/.test(badge.cls)) failures.push(`${path}: badge ${JSON.stringify(badge)}`);
+    } catch (e) {
+      failures.push(`${path} has no instrument badge in its header`);
+    }
+  }
+
+  await page.goto(`${base}/calibrate`);
+  await page.fill("#steps", "2");
+  await page.click("#start");
+  await page.waitForFunction(() => !document.getElementById("notice").hidden, null, { timeout: 30000 });
+  const notice = await page.$eval("#notice", (n) => {
+    const s = getComputedStyle(n);
+    return { text: n.textContent, color: s.color, background: s.backgroundColor };
+  });
+  const ratio = contrast(notice.color, notice.background);
+  if (!(ratio >= 4.5)) {
+    failures.push(`the Calibrate error notice is ${notice.color} on ${notice.background}: contrast ${ratio.toFixed(2)} (at least 4.5)`);
+  }
+  if (!/token/.test(notice.text)) failures.push(`the notice does not say what to do: ${notice.text}`);
+  if (shots) await page.screenshot({ path: `${shots}/calibrate-error.png` });
+  // The only refusal is the write without a token, and every icon is there.
+  for (const e of httpErrors) if (!/HTTP 401/.test(e)) failures.push(e);
+} catch (e) {
+  failures.push("error: " + e.message);
+} finally {
+  await browser.close();
+}
+if (failures.length) {
+  console.error(failures.join("\n"));
+  process.exit(1);
+}
+console.log("page details: badges, a readable notice");
