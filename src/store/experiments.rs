@@ -355,14 +355,13 @@ impl Store {
     /// The running sessions of the experiments of `booth`, oldest first,
     /// with their counts (one query, no trial read).
     pub async fn running_experiment_sessions(&self, booth: &str) -> Result<Vec<RunningSessionCounts>, StoreError> {
-        const SQL: &str = concat!(
+        const SQL: &str =
             "SELECT s.id, s.experiment_id, e.name AS experiment_name, e.scene, s.observer_id, s.created_at, \
              COALESCE(s.touched_at, s.created_at) AS touched_at, e.request_json, \
              (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id) AS trials, \
              (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id AND t.dropped_in_stimulus) AS dropped \
              FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
-             WHERE s.state = 'running' AND s.superseded_by IS NULL AND e.booth = $1 ORDER BY s.id"
-        );
+             WHERE s.state = 'running' AND s.superseded_by IS NULL AND e.booth = $1 ORDER BY s.id";
         Ok(with_pool!(self, |pool| sqlx::query_as::<_, RunningSessionCounts>(SQL)
             .bind(booth)
             .fetch_all(pool)

@@ -550,7 +550,8 @@ async fn a_trial_that_contradicts_its_own_frames_or_the_measured_refresh_is_refu
     );
     let view = started(x, e.id, "obs01").await;
     let sid = view.session.id;
-    let cases: Vec<(&str, Box<dyn Fn(&mut TrialReport)>)> = vec![
+    type Spoil = Box<dyn Fn(&mut TrialReport)>;
+    let cases: Vec<(&str, Spoil)> = vec![
         ("stimulus_frames = 0", Box::new(|r| r.stimulus_frames = 0)),
         (
             "stimulus_frames = 4000000000",
