@@ -134,7 +134,7 @@ pub async fn run(
     );
     // Before registering: a daemon that cannot start leaves no lease behind.
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
-    let store = Store::open(&options.db_url)
+    let store = Store::open_recovering(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?
         .with_observer(options.observer);

@@ -359,7 +359,7 @@ async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_sam
     store.insert_sample(id, &sample(1, true)).await.unwrap();
     let queued = store.create_measurement(&new_measurement()).await.unwrap();
     store.close().await;
-    let store = Store::open(&url).await.unwrap();
+    let store = Store::open_recovering(&url).await.unwrap();
     let m = store.get_measurement(id).await.unwrap().unwrap();
     assert_eq!(m.summary.state, MeasurementState::Interrupted);
     assert_eq!(m.samples.len(), 2);
@@ -567,7 +567,7 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
     assert!(store.start_job(Job::Study, study).await.unwrap());
     store.close().await;
 
-    let store = Store::open(&url).await.unwrap();
+    let store = Store::open_recovering(&url).await.unwrap();
     for id in [running, queued] {
         let r = store.get_render(id).await.unwrap().unwrap();
         assert_eq!(r.state, "interrupted");
