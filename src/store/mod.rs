@@ -220,6 +220,17 @@ impl Job {
     }
 }
 
+/// What a second retry of `job` `id` answers: it was retried as `first`
+/// (one retry per job; retry `first` if it did not complete).
+pub fn already_retried_message(job: Job, id: i64, first: i64) -> String {
+    let noun = job.noun();
+    format!(
+        "{noun} {id} was already retried as {noun} {first} (/api/{}/{first}); one retry per {noun}: \
+         retry {noun} {first} if it did not complete",
+        job.table()
+    )
+}
+
 /// How an unfinished render or study ends when it does not complete.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JobEnd {
