@@ -168,6 +168,10 @@ pub async fn run(
             "marked the work of this booth's dead previous daemon as interrupted"
         );
     }
+    // Image downloads' private folders a killed daemon left behind.
+    for left in crate::export::image::remove_stale_export_folders(&std::env::temp_dir()) {
+        tracing::info!(folder = %left.display(), "removed an image export folder left by a process that is gone");
+    }
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
     println!("{}", source.describe());
@@ -252,7 +256,7 @@ pub async fn run(
             runner,
             studies,
             Arc::clone(&comparisons),
-            Arc::new(ImageJobs::new(events.clone())),
+            Arc::new(ImageJobs::new(events.clone(), daemon_id)),
             workers,
         )
         .with_progress(crate::lab::progress::ProgressBoard::follow(&events)),
