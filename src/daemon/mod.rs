@@ -300,6 +300,7 @@ pub async fn run(
         renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
         measurement_cancel: Some(Arc::new(instrument.canceller())),
+        hold: Default::default(),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

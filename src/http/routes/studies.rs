@@ -287,7 +287,7 @@ async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result
             settings_json: serde_json::json!({ "samples": samples }),
             note: "measured first for a study (measure_missing)".into(),
         };
-        ids.push(enqueue_measurement(state, new).await?);
+        ids.push(enqueue_measurement(state, None, new).await?);
     }
     tracing::info!(count = ids.len(), "missing targets queued for a study");
     Ok(ids)
