@@ -391,6 +391,7 @@ fn main() {
             renders: None,
             mock: None,
             measurement_cancel: None,
+            hold: Default::default(),
             shutting_down,
         };
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

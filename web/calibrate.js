@@ -39,8 +39,10 @@ function notice(text) {
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const css = (d) => `rgb(${d.map((v) => Math.round(v * 255)).join(",")})`;
 
-// The calibration under way: its measurement, whether Cancel was pressed.
-const run = { measurementId: null, cancelled: false };
+// The calibration under way: its hold on the instrument (no one else
+// measures or changes the display until it ends), its measurement, whether
+// Cancel was pressed.
+const run = { hold: null, measurementId: null, cancelled: false };
 
 // "12 s", "3 min 05 s": a duration for people.
 function duration(seconds) {
@@ -51,7 +53,7 @@ function duration(seconds) {
 // Measures the patch on the screen (web/measure.js); its id, or null when cancelled.
 async function measure(patch, samples, place) {
   const m = await measureAndWait(api,
-    { samples, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` },
+    { samples, hold: run.hold, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` },
     { onStarted: (id) => (run.measurementId = id), cancelled: () => run.cancelled });
   return m && m.id;
 }
@@ -62,6 +64,12 @@ async function calibrate() {
   try {
     const steps = Number($("steps").value), samples = Number($("samples").value);
     const plan = await api(`/api/display-profiles/plan?steps=${steps}`);
+    // Hold the instrument first: refused (with who or what) while anything
+    // is measuring or queued, and while held nothing else is measured.
+    run.hold = (await api("/api/instrument/hold", {
+      method: "POST",
+      body: JSON.stringify({ purpose: `display calibration “${$("name").value}”` }),
+    })).id;
     // With --mock the simulated PR-650 looks at a simulated display, which is
     // told each colour; a daemon with a real PR-650 answers 404 here.
     let simulated = true;
@@ -80,7 +88,7 @@ async function calibrate() {
       $("status").textContent = `${i + 1}/${plan.patches.length}: ${p.label} (${p.purpose})${left}`;
       if (simulated) {
         try {
-          await api("/api/mock/display", { method: "POST", body: JSON.stringify({ drive: p.drive }) });
+          await api("/api/mock/display", { method: "POST", body: JSON.stringify({ drive: p.drive, hold: run.hold }) });
         } catch (e) {
           if (!/no simulated display/.test(e.message)) throw e;
           simulated = false;
@@ -109,7 +117,9 @@ async function calibrate() {
     });
     document.body.classList.remove("calibrating");
     if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
-    $("status").textContent = `profile ${row.id} stored`;
+    $("status").textContent = row.state === "failed"
+      ? `profile ${row.id} stored as FAILED, and cannot be chosen for an experiment: ${row.failures.join("; ")}. Calibrate again.`
+      : `profile ${row.id} stored`;
     showStoredProfiles();
     history.replaceState(null, "", `#profile=${row.id}`);
     showProfile(row);
@@ -118,6 +128,10 @@ async function calibrate() {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
     $("status").textContent = "stopped";
   } finally {
+    if (run.hold !== null) {
+      await api(`/api/instrument/hold/${run.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
+      run.hold = null;
+    }
     $("start").disabled = false;
     $("cancel").hidden = true;
   }

@@ -126,8 +126,13 @@ async function loadSetup() {
   }
   if (!list.length) tbody.append(row(["", "no experiments yet", "", "", "", "", ""]));
   $("profile").replaceChildren(...profiles.map((p) => {
-    const o = el("option", `${p.id}: ${p.name} (${p.profile.observer}, ${when(p.created_at)})`);
+    // A failed profile (fit residual or validation ΔE00 over its limit) is
+    // listed, marked, and cannot be chosen.
+    const failed = p.state === "failed";
+    const o = el("option", `${p.id}: ${p.name} (${p.profile.observer}, ${when(p.created_at)})` +
+      (failed ? ` — FAILED: ${p.failures.join("; ")}` : ""));
     o.value = p.id;
+    o.disabled = failed;
     return o;
   }));
   if (!profiles.length) $("profile").append(el("option", "no display profile: calibrate the display first (/calibrate)"));

@@ -110,6 +110,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         auto: args.auto,
         observer: args.observer,
         truth_scene: args.truth_scene.clone(),
+        booth: args.booth.clone(),
         ..StudyOptions::default()
     };
     if let Some(t) = &options.truth_scene {
@@ -156,6 +157,7 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
             let ids = measure_with_simulator(
                 &args.scenes,
                 store,
+                &args.booth,
                 &args.cache_dir,
                 SimulatedPr650 {
                     seed: 1,

@@ -134,7 +134,7 @@ pub async fn run(
     );
     // Before registering: a daemon that cannot start leaves no lease behind.
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
-    let store = Store::open(&options.db_url)
+    let store = Store::open_recovering(&options.db_url)
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?
         .with_observer(options.observer);
@@ -175,6 +175,10 @@ pub async fn run(
         .context("completing experiment sessions found with all their trials")?;
     if !completed.is_empty() {
         tracing::warn!(sessions = ?completed, "completed experiment sessions found running with all their trials");
+    }
+    // Image downloads' private folders a killed daemon left behind.
+    for left in crate::export::image::remove_stale_export_folders(&std::env::temp_dir()) {
+        tracing::info!(folder = %left.display(), "removed an image export folder left by a process that is gone");
     }
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
@@ -260,7 +264,7 @@ pub async fn run(
             runner,
             studies,
             Arc::clone(&comparisons),
-            Arc::new(ImageJobs::new(events.clone())),
+            Arc::new(ImageJobs::new(events.clone(), daemon_id)),
             workers,
         )
         .with_progress(crate::lab::progress::ProgressBoard::follow(&events)),
@@ -304,6 +308,7 @@ pub async fn run(
         renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
         measurement_cancel: Some(Arc::new(instrument.canceller())),
+        hold: Default::default(),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

@@ -37,7 +37,9 @@ pub mod stimulus;
 pub mod stimulus_files;
 
 pub use fit::{fit_profile, CalibrationPlan, MeasuredPatch};
-pub use profile::{Additivity, ChannelTransfer, Converter, DisplayProfile, FrameBuffer};
+pub use profile::{
+    Additivity, ChannelTransfer, Converter, DisplayProfile, FrameBuffer, MAX_TRANSFER_RMS_RESIDUAL, MAX_VALIDATION_DE00,
+};
 pub use simulated::{CodeCounts, SimulatedDisplay};
 
 /// Errors of the display profile and its fit; each names what was wrong.

@@ -19,6 +19,14 @@ use super::DisplayError;
 use crate::colorimetry::{ciede2000, xyz_from_radiance, Lab, Observer, Xyz};
 use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 
+/// The largest RMS residual of a channel's `v^γ` fit a usable profile may
+/// have (normalised output; a good CRT or LCD fits within 0.01).
+pub const MAX_TRANSFER_RMS_RESIDUAL: f64 = 0.03;
+/// The largest CIEDE2000 between a validation colour measured and predicted
+/// (and of the additivity check) a usable profile may have: a good
+/// calibration predicts within 1.
+pub const MAX_VALIDATION_DE00: f64 = 3.0;
+
 /// One channel's transfer: the fitted exponent and the table it was fitted to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct ChannelTransfer {
@@ -163,6 +171,43 @@ impl DisplayProfile {
     /// The instrument grid as a [`Grid`].
     pub fn grid(&self) -> Result<Grid, DisplayError> {
         Ok(Grid::from_wavelengths(self.wavelength_nm.clone())?)
+    }
+
+    /// What makes this profile unfit for experiments, one line each: a
+    /// channel's transfer fitted with an RMS residual over
+    /// [`MAX_TRANSFER_RMS_RESIDUAL`], or a validation colour (or the
+    /// additivity check) off by a CIEDE2000 over [`MAX_VALIDATION_DE00`]
+    /// (a patch measured while the instrument saw something else, a display
+    /// that drifted or is not additive). Empty: it passed.
+    pub fn failures(&self) -> Vec<String> {
+        let mut failures = Vec::new();
+        for (name, t) in ["red", "green", "blue"].iter().zip(&self.transfer) {
+            if !(t.rms_residual <= MAX_TRANSFER_RMS_RESIDUAL) {
+                failures.push(format!(
+                    "{name} transfer: RMS residual {:.3} of the fit (γ {:.3}) is over the limit {MAX_TRANSFER_RMS_RESIDUAL}",
+                    t.rms_residual, t.gamma
+                ));
+            }
+        }
+        if !(self.additivity.delta_e00 <= MAX_VALIDATION_DE00) {
+            failures.push(format!(
+                "additivity: white differs from black + red + green + blue by ΔE00 {:.1}, over the limit {MAX_VALIDATION_DE00}",
+                self.additivity.delta_e00
+            ));
+        }
+        for v in &self.validation {
+            if !(v.delta_e00 <= MAX_VALIDATION_DE00) {
+                failures.push(format!(
+                    "validation drive ({:.2}, {:.2}, {:.2}){}: ΔE00 {:.1} between measured and predicted, over the limit {MAX_VALIDATION_DE00}",
+                    v.drive[0],
+                    v.drive[1],
+                    v.drive[2],
+                    v.measurement_id.map(|id| format!(" (measurement {id})")).unwrap_or_default(),
+                    v.delta_e00
+                ));
+            }
+        }
+        failures
     }
 
     /// Checks the shapes and values of a profile read from outside (a file, the store).

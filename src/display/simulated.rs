@@ -187,6 +187,49 @@ impl SimulatedDisplay {
 mod tests {
     use super::*;
 
+    /// The bug (issue 32): a scene measurement queued between a
+    /// calibration's patches made patch "red 60 %" read the GREEN scene
+    /// patch; the profile was stored (red γ 3.18, RMS residual 0.106, grey
+    /// validation ΔE00 8–12) and offered like any other. Such a profile
+    /// fails its checks, each named; the clean one passes.
+    #[test]
+    fn a_profile_fitted_to_a_corrupted_patch_was_stored_without_a_word() {
+        let d = SimulatedDisplay::crt().unwrap();
+        assert_eq!(
+            d.exact_profile(Observer::JuddVos).unwrap().failures(),
+            Vec::<String>::new()
+        );
+        let plan = CalibrationPlan::new(8).unwrap();
+        let patches: Vec<MeasuredPatch> = plan
+            .patches
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let red_mid = p.drive[1] == 0.0 && p.drive[2] == 0.0 && (0.5..0.7).contains(&p.drive[0]);
+                // What the instrument saw instead: a green scene patch.
+                let seen = if red_mid { [0.05, 0.55, 0.1] } else { p.drive };
+                MeasuredPatch {
+                    drive: p.drive,
+                    wavelength_nm: d.grid.wavelengths().to_vec(),
+                    radiance: d.spectrum(seen).into_values(),
+                    measurement_id: Some(i as i64 + 1),
+                }
+            })
+            .collect();
+        assert!(
+            plan.patches
+                .iter()
+                .any(|p| p.drive[1] == 0.0 && p.drive[2] == 0.0 && (0.5..0.7).contains(&p.drive[0])),
+            "the plan has a red patch near 60 %"
+        );
+        let profile = fit_profile(&patches, Observer::JuddVos).unwrap();
+        let failures = profile.failures();
+        assert!(
+            failures.iter().any(|f| f.starts_with("red transfer: RMS residual")),
+            "{failures:?}"
+        );
+    }
+
     fn counts_at(max_code: u32, code: [usize; 3], n: u64) -> CodeCounts {
         let mut counts = [0, 1, 2].map(|_| vec![0u64; max_code as usize + 1]);
         for c in 0..3 {

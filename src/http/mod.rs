@@ -92,6 +92,9 @@ pub struct AppState {
     pub mock: Option<Arc<dyn MockControl>>,
     /// Stops the running measurement (the instrument task's; None without one).
     pub measurement_cancel: Option<Arc<dyn CancelMeasurement>>,
+    /// The hold a display calibration takes on the instrument (see
+    /// [`crate::lab::instrument_queue::InstrumentHold`]).
+    pub hold: Arc<crate::lab::instrument_queue::InstrumentHold>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
     pub shutting_down: watch::Receiver<bool>,

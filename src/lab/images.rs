@@ -26,6 +26,11 @@
 //!   [`MAX_KEPT_BYTES`] in all (the oldest are forgotten first); a restart
 //!   forgets them all. They are cheap to render again and large to store
 //!   (a spectral image holds 401 + 6 quantities per pixel).
+//! - Ids never repeat across restarts: an image's id is its daemon run's
+//!   number (the daemon's lease id, stored in `daemons` and new at every
+//!   start) × [`IDS_PER_RUN`] + its number in that run, so an id a script
+//!   or the viewer still holds after a restart answers 404 saying the
+//!   image was lost with the restart, and never points at another image.
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -62,6 +67,9 @@ pub const MAX_TIME_BUDGET_S: f64 = 600.0;
 pub const IMAGE_QUEUE_CAPACITY: usize = 4;
 /// Bytes of complete images kept in memory, in all.
 pub const MAX_KEPT_BYTES: u64 = 1 << 30;
+/// Image ids one daemon run may hand out: run r's ids are r × this + 1, + 2,
+/// … (runs up to 9 × 10⁶ keep ids below 2⁵³, exact in JavaScript and MATLAB).
+pub const IDS_PER_RUN: i64 = 1_000_000_000;
 
 /// What to render: `POST /api/renders/{id}/images`.
 #[derive(Clone, Debug, Default, Deserialize, Serialize, ToSchema)]
@@ -157,18 +165,39 @@ pub struct ImageJobs {
     receiver: Mutex<Option<mpsc::Receiver<ImageWork>>>,
     events: broadcast::Sender<Event>,
     next_id: Mutex<(i64, u64)>,
+    /// The daemon run these images belong to (see the module doc).
+    run: i64,
 }
 
 impl ImageJobs {
-    pub fn new(events: broadcast::Sender<Event>) -> ImageJobs {
+    /// The images of daemon run `run` (its lease id; 0 without one, as in
+    /// tests): ids from `run` × [`IDS_PER_RUN`] + 1.
+    pub fn new(events: broadcast::Sender<Event>, run: i64) -> ImageJobs {
         let (tx, rx) = mpsc::channel(IMAGE_QUEUE_CAPACITY);
+        let run = run.clamp(0, i64::MAX / IDS_PER_RUN - 1);
         ImageJobs {
             entries: Mutex::default(),
             sender: Mutex::new(Some(tx)),
             receiver: Mutex::new(Some(rx)),
             events,
-            next_id: Mutex::new((1, 1)),
+            next_id: Mutex::new((run * IDS_PER_RUN + 1, 1)),
+            run,
         }
+    }
+
+    /// The 404 of an image id not (or no longer) here: one of an earlier
+    /// run was lost with the restart; one of this run was forgotten (the
+    /// memory bound) or never existed.
+    pub fn missing(&self, id: i64) -> LabError {
+        let run = id.div_euclid(IDS_PER_RUN);
+        if (0..self.run).contains(&run) && id.rem_euclid(IDS_PER_RUN) != 0 {
+            return LabError::NotFound(format!(
+                "image {id} was lost with the daemon's restart: it was made by run {run}, and this is run {} \
+                 (images are kept in memory); ask for it again with POST /api/renders/{{render}}/images",
+                self.run
+            ));
+        }
+        not_found(id)
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, BTreeMap<i64, Entry>> {
@@ -201,7 +230,7 @@ impl ImageJobs {
     /// A complete image's data; 404 for an unknown id, 409 before it is complete.
     pub fn data(&self, id: i64) -> Result<(ImageInfo, Arc<CameraImage>), LabError> {
         let entries = self.lock();
-        let e = entries.get(&id).ok_or_else(|| not_found(id))?;
+        let e = entries.get(&id).ok_or_else(|| self.missing(id))?;
         match &e.image {
             Some(img) => Ok((e.info.clone(), Arc::clone(img))),
             None => Err(LabError::Conflict(format!(
@@ -285,7 +314,7 @@ impl ImageJobs {
     /// Cancels a queued or running image (409 once it has ended).
     pub fn cancel(&self, id: i64) -> Result<ImageInfo, LabError> {
         let mut entries = self.lock();
-        let e = entries.get_mut(&id).ok_or_else(|| not_found(id))?;
+        let e = entries.get_mut(&id).ok_or_else(|| self.missing(id))?;
         match e.info.state.as_str() {
             "queued" => {
                 e.cancel.cancel();

@@ -22,7 +22,7 @@ use crate::lab::requests::{RenderRequest, SceneInfo, StudyRequest};
 use crate::lab::services::{BoxFuture, RenderService};
 use crate::lab::study::run::StudyOptions;
 use crate::render::RenderSettings;
-use crate::store::{Booth, Job, JobEnd, Store};
+use crate::store::{already_retried_message, Booth, Job, JobEnd, Store};
 
 /// A job's work, as the queue carries it.
 pub enum Work {
@@ -51,6 +51,10 @@ pub struct RenderJobs {
     workers: Option<Arc<WorkerQueue>>,
     /// How far the running render and study have got (see [`Self::with_progress`]).
     progress: Option<Arc<ProgressBoard>>,
+    /// Held by a retry from its look-up to its row: simultaneous retries in
+    /// this daemon take turns, so the second finds the first's retry (and
+    /// never meets a queue the others filled for a moment).
+    retrying: tokio::sync::Mutex<()>,
 }
 
 impl RenderJobs {
@@ -73,6 +77,7 @@ impl RenderJobs {
             images,
             workers,
             progress: None,
+            retrying: tokio::sync::Mutex::new(()),
         }
     }
 
@@ -131,17 +136,18 @@ impl RenderJobs {
         }
     }
 
-    /// Queues a render of a scene with checked settings.
-    async fn queue_render(&self, scene: String, settings: RenderSettings) -> Result<i64, LabError> {
+    /// Queues a render of a scene with checked settings; with `retry_of`,
+    /// as the one retry of that render.
+    async fn queue_render(
+        &self,
+        scene: String,
+        settings: RenderSettings,
+        retry_of: Option<i64>,
+    ) -> Result<i64, LabError> {
         if self.runner.catalogue().get(&scene).is_none() {
             return Err(LabError::NotFound(format!("no scene `{scene}`")));
         }
-        let record = async {
-            self.runner
-                .record(&scene, &settings)
-                .await
-                .map_err(|e| LabError::Internal(e.to_string()))
-        };
+        let record = self.runner.record_retrying(&scene, &settings, retry_of);
         if let Some(workers) = &self.workers {
             workers.check_share().await?;
             let id = record.await?;
@@ -156,12 +162,13 @@ impl RenderJobs {
         self.jobs.enqueue(Job::Render, record, work).await
     }
 
-    /// Queues a study (its request checked field by field).
-    async fn queue_study(&self, request: StudyRequest) -> Result<i64, LabError> {
+    /// Queues a study (its request checked field by field); with
+    /// `retry_of`, as the one retry of that study.
+    async fn queue_study(&self, request: StudyRequest, retry_of: Option<i64>) -> Result<i64, LabError> {
         let (paths, options) = self.studies.plan(&request)?;
         let create = async {
             self.store
-                .create_study(&serde_json::to_value(&request).unwrap_or_default())
+                .create_study_retrying(&serde_json::to_value(&request).unwrap_or_default(), retry_of)
                 .await
                 .map_err(LabError::from)
         };
@@ -182,11 +189,19 @@ impl RenderJobs {
         Ok(id)
     }
 
-    /// A new job with the request of an ended one (see the [jobs](super::jobs) doc).
+    /// A new job with the request of an ended one (see the [jobs](super::jobs)
+    /// doc), once: a job already retried answers 409 naming its retry. The
+    /// look-up first answers the usual case; the store's unique `retry_of`
+    /// settles simultaneous retries (only one INSERT succeeds).
     async fn retry_job(&self, job: Job, id: i64) -> Result<i64, LabError> {
         let noun = job.noun();
         let not_found = || LabError::NotFound(format!("no {noun} {id}"));
+        let _turn = self.retrying.lock().await;
+        let retried = self.store.retried_as(job, id).await?;
         let retryable = |state: &str| -> Result<(), LabError> {
+            if let Some(first) = retried {
+                return Err(LabError::Conflict(already_retried_message(job, id, first)));
+            }
             match state {
                 "interrupted" | "failed" | "cancelled" => Ok(()),
                 other => Err(LabError::Conflict(format!(
@@ -200,7 +215,7 @@ impl RenderJobs {
                 retryable(&row.state)?;
                 let settings: RenderSettings = serde_json::from_value(row.settings.clone())
                     .map_err(|e| LabError::Internal(format!("render {id}'s stored settings: {e}")))?;
-                let new = self.queue_render(row.scene.clone(), settings).await?;
+                let new = self.queue_render(row.scene.clone(), settings, Some(id)).await?;
                 tracing::info!(render_id = new, retry_of = id, "render retried");
                 Ok(new)
             }
@@ -216,7 +231,7 @@ impl RenderJobs {
                 }
                 let request: StudyRequest = serde_json::from_value(stored)
                     .map_err(|e| LabError::Internal(format!("study {id}'s stored request: {e}")))?;
-                let new = self.queue_study(request).await?;
+                let new = self.queue_study(request, Some(id)).await?;
                 tracing::info!(study_id = new, retry_of = id, "study retried");
                 Ok(new)
             }
@@ -276,7 +291,7 @@ impl RenderService for RenderJobs {
                 return Err(LabError::NotFound(format!("no scene `{scene}`")));
             }
             let settings = self.runner.settings(&request)?;
-            self.queue_render(scene, settings).await
+            self.queue_render(scene, settings, None).await
         })
     }
 
@@ -285,7 +300,7 @@ impl RenderService for RenderJobs {
     }
 
     fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, LabError>> {
-        Box::pin(async move { self.queue_study(request).await })
+        Box::pin(async move { self.queue_study(request, None).await })
     }
 
     fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), LabError>> {
@@ -355,7 +370,7 @@ mod tests {
             runner,
             studies,
             comparisons,
-            Arc::new(ImageJobs::new(bus)),
+            Arc::new(ImageJobs::new(bus, 0)),
             None,
         ));
         let worker = jobs.run();

@@ -180,22 +180,40 @@ impl RenderRunner {
     /// Records a render of the catalogue's scene `scene_id` as queued, after
     /// storing its scene's bundle; returns its id.
     pub async fn record(&self, scene_id: &str, settings: &RenderSettings) -> anyhow::Result<i64> {
+        self.record_retrying(scene_id, settings, None)
+            .await
+            .map_err(|e| anyhow::anyhow!(e))
+    }
+
+    /// [`RenderRunner::record`]; with `retry_of`, as the one retry of that
+    /// render (a second is [`StoreError::Conflict`](crate::store::StoreError::Conflict)
+    /// naming the first, see [`Store::create_render_retrying`]).
+    pub async fn record_retrying(
+        &self,
+        scene_id: &str,
+        settings: &RenderSettings,
+        retry_of: Option<i64>,
+    ) -> Result<i64, LabError> {
         let hash = self
             .catalogue
             .get(scene_id)
-            .ok_or_else(|| anyhow::anyhow!("no scene `{scene_id}`"))?
+            .ok_or_else(|| LabError::NotFound(format!("no scene `{scene_id}`")))?
             .hash
             .clone();
         self.store_bundle(scene_id, &hash).await;
+        let settings_json = serde_json::to_value(settings).map_err(|e| LabError::Internal(e.to_string()))?;
         let id = self
             .store
-            .create_render(&NewRender {
-                scene: scene_id.to_string(),
-                scene_hash: hash,
-                settings_json: serde_json::to_value(settings)?,
-                codings: settings.codings.iter().map(|c| c.to_string()).collect(),
-                seed: settings.seed,
-            })
+            .create_render_retrying(
+                &NewRender {
+                    scene: scene_id.to_string(),
+                    scene_hash: hash,
+                    settings_json,
+                    codings: settings.codings.iter().map(|c| c.to_string()).collect(),
+                    seed: settings.seed,
+                },
+                retry_of,
+            )
             .await?;
         tracing::info!(render_id = id, scene = scene_id, "render queued");
         Ok(id)

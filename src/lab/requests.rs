@@ -28,6 +28,11 @@ pub struct StudyRequest {
     /// the study waits for them (reporting progress), then runs. Without it,
     /// a study missing measurements is refused with 409 naming them.
     pub measure_missing: Option<bool>,
+    /// Against measurements: the booth whose measurements (and measured
+    /// CIELAB whites) the study compares with; default: the daemon's own
+    /// booth (`serve --booth`). Another booth's are never used (each booth
+    /// has its own lamps). The daemon stores the booth it chose.
+    pub booth: Option<String>,
     /// The measurements queued for this study by `measure_missing` (set by the daemon).
     #[serde(skip_deserializing, default, skip_serializing_if = "Vec::is_empty")]
     #[schema(read_only)]

@@ -115,8 +115,15 @@ impl StudyRunner {
             .map(|t| t.parse::<crate::lab::study::auto::Tolerance>())
             .transpose()
             .map_err(|e| LabError::Invalid(format!("field `auto`: {e}")))?;
+        let booth = match request.booth.as_deref() {
+            Some(b) => b
+                .parse()
+                .map_err(|e: String| LabError::Invalid(format!("field `booth`: {e}")))?,
+            None => crate::store::Booth::default(),
+        };
         let options = StudyOptions {
             auto,
+            booth,
             codings: self.codings.clone(),
             seeds,
             against,

@@ -1,5 +1,7 @@
 //! Stored display profiles (`migrations/0008`): what
-//! [`crate::display::fit_profile`] fitted, with the measurements it came from.
+//! [`crate::display::fit_profile`] fitted, with the measurements it came from,
+//! and whether it passed its checks ([`crate::display::DisplayProfile::failures`],
+//! judged from the stored fit whenever a row is read).
 
 use serde::Serialize;
 use utoipa::ToSchema;
@@ -15,6 +17,13 @@ pub struct DisplayProfileRow {
     /// POSIX seconds, UTC.
     pub created_at: f64,
     pub note: String,
+    /// `passed`, or `failed`: a fit residual or a validation ΔE00 over its
+    /// stated limit ([`DisplayProfile::failures`]); a failed profile is
+    /// kept (its measurements are evidence) but cannot be chosen for an
+    /// experiment.
+    pub state: &'static str,
+    /// Why it failed, one line per check; empty when it passed.
+    pub failures: Vec<String>,
     pub profile: DisplayProfile,
 }
 
@@ -36,11 +45,14 @@ impl TryFrom<DisplayProfileRecord> for DisplayProfileRow {
         };
         let profile: DisplayProfile = serde_json::from_str(&r.profile_json).map_err(|e| corrupt(e.to_string()))?;
         profile.validate().map_err(|e| corrupt(e.to_string()))?;
+        let failures = profile.failures();
         Ok(DisplayProfileRow {
             id: r.id,
             name: r.name,
             created_at: r.created_at,
             note: r.note,
+            state: if failures.is_empty() { "passed" } else { "failed" },
+            failures,
             profile,
         })
     }

@@ -136,11 +136,22 @@ impl Store {
     }
 
     /// Every (scene, target) with at least one complete measurement.
-    pub async fn measured_targets(&self) -> Result<Vec<(String, String)>, StoreError> {
+    /// The ids of the queued and running measurements of `booth`, oldest first.
+    pub async fn unfinished_measurements_in_booth(&self, booth: &Booth) -> Result<Vec<i64>, StoreError> {
+        Ok(with_pool!(self, |pool| sqlx::query_scalar(
+            "SELECT id FROM measurements WHERE booth = $1 AND state IN ('queued', 'running') ORDER BY id",
+        )
+        .bind(booth.as_str())
+        .fetch_all(pool)
+        .await?))
+    }
+
+    pub async fn measured_targets(&self, booth: &Booth) -> Result<Vec<(String, String)>, StoreError> {
         Ok(with_pool!(self, |pool| sqlx::query_as(
             "SELECT DISTINCT scene, target FROM measurements \
-             WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL",
+             WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL AND booth = $1",
         )
+        .bind(booth.as_str())
         .fetch_all(pool)
         .await?))
     }
@@ -261,23 +272,6 @@ impl Store {
             offset,
             items,
         })
-    }
-
-    /// The newest complete measurement of a scene target.
-    pub async fn latest_complete(&self, scene: &str, target: &str) -> Result<Option<MeasurementDetail>, StoreError> {
-        let id: Option<i64> = with_pool!(self, |pool| {
-            sqlx::query_scalar(
-            "SELECT id FROM measurements WHERE scene = $1 AND target = $2 AND state = 'complete' ORDER BY id DESC LIMIT 1",
-        )
-        .bind(scene)
-        .bind(target)
-        .fetch_optional(pool)
-        .await?
-        });
-        match id {
-            Some(id) => self.get_measurement(id).await,
-            None => Ok(None),
-        }
     }
 
     /// The newest complete measurement of a scene target taken in `booth`:

@@ -29,8 +29,9 @@
 //! - A sample is written when it is taken, so a crash or a pulled cable keeps
 //!   the samples taken; a measurement is `complete` only with its average
 //!   (the schema enforces it), and measurements left `running` or `queued` by
-//!   a crash are marked `interrupted` when the store next opens, as are
-//!   renders and studies left `queued` or `running`.
+//!   a crash are marked `interrupted` when a daemon next opens the store
+//!   ([`Store::open_recovering`]), as are renders and studies left `queued`
+//!   or `running`; any other command's open writes nothing.
 //! - Reflectances and lamp spectra measured against a white standard keep
 //!   their provenance (`calibrations`).
 //! - Times are POSIX seconds (f64, UTC: DOUBLE PRECISION on PostgreSQL);
@@ -41,7 +42,7 @@
 //!   or runs; at start and on every heartbeat a daemon marks interrupted only
 //!   the unfinished work of daemons whose lease expired or that stopped (and,
 //!   at start, rows naming no daemon) — never a live neighbour's. On SQLite
-//!   one daemon owns the file ([`crate::daemon::db_lock`]), so opening it
+//!   one daemon owns the file ([`crate::daemon::db_lock`]), so its opening
 //!   recovers all unfinished work, as before leases.
 //!
 //! ```no_run
@@ -221,6 +222,17 @@ impl Job {
     }
 }
 
+/// What a second retry of `job` `id` answers: it was retried as `first`
+/// (one retry per job; retry `first` if it did not complete).
+pub fn already_retried_message(job: Job, id: i64, first: i64) -> String {
+    let noun = job.noun();
+    format!(
+        "{noun} {id} was already retried as {noun} {first} (/api/{}/{first}); one retry per {noun}: \
+         retry {noun} {first} if it did not complete",
+        job.table()
+    )
+}
+
 /// How an unfinished render or study ends when it does not complete.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JobEnd {
@@ -272,8 +284,12 @@ impl Store {
 
     /// Opens the database at `url` — `sqlite://path` (created if needed),
     /// `sqlite::memory:`, or `postgres://user@host/db` (the database must
-    /// exist) — applies migrations, and marks measurements a crash left
-    /// unfinished as interrupted.
+    /// exist) — and applies migrations. It never recovers, expires or
+    /// otherwise writes work it did not make: a command that opens the
+    /// store beside a running daemon (`lightbooth experiment list`) must
+    /// leave the daemon's measurement under way alone. Only a daemon that
+    /// owns the database or its booth recovers, through
+    /// [`Store::open_recovering`].
     ///
     /// Durability on SQLite: `synchronous = FULL`, so every committed write —
     /// each raw sample, each finished measurement — is on disk (WAL fsynced)
@@ -287,44 +303,14 @@ impl Store {
         Store::open_with_synchronous(url, SqliteSynchronous::Full).await
     }
 
-    /// Opens the store for a one-shot command (`calibrate`, `study`) that
-    /// may run beside daemons: on SQLite exactly [`Store::open`] (the command
-    /// runs alone on the file or holds its lock); on PostgreSQL without
-    /// start-up recovery, since daemons sharing the database may be running
-    /// the work a recovery would mark interrupted.
-    pub async fn open_as_tool(url: &str) -> Result<Store, StoreError> {
-        match engine::EngineKind::of_url(url)? {
-            engine::EngineKind::Sqlite => Store::open(url).await,
-            engine::EngineKind::Postgres => Ok(Store {
-                engine: Engine::connect(url, SqliteSynchronous::Full).await?,
-                daemon_id: None,
-                observer: Observer::default(),
-            }),
-        }
-    }
-
-    /// Opens the store to read from it beside a running daemon (`stimulus
-    /// --display-db`): never start-up recovery, on either engine, since the
-    /// daemon may be running the work a recovery would mark interrupted.
-    pub async fn open_to_read(url: &str) -> Result<Store, StoreError> {
-        Ok(Store {
-            engine: Engine::connect(url, SqliteSynchronous::Full).await?,
-            daemon_id: None,
-            observer: Observer::default(),
-        })
-    }
-
-    /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
-    /// compares FULL with NORMAL); ignored for PostgreSQL.
-    pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
-        let store = Store {
-            engine: Engine::connect(url, synchronous).await?,
-            daemon_id: None,
-            observer: Observer::default(),
-        };
-        // The work of daemons that are gone (leases, `leases.rs`) and rows
-        // that name no daemon. On SQLite the caller holds the file alone, so
-        // every daemon registered in it is gone.
+    /// [`Store::open`], then marks the work left unfinished by daemons that
+    /// are gone interrupted (leases, `leases.rs`), and rows that name no
+    /// daemon. For the daemon's start only: on SQLite it must hold the
+    /// file's lock ([`crate::daemon::db_lock`]), which proves every daemon
+    /// registered in the file gone; on PostgreSQL only daemons whose lease
+    /// has expired or that stopped are gone.
+    pub async fn open_recovering(url: &str) -> Result<Store, StoreError> {
+        let store = Store::open(url).await?;
         let recovered = store
             .recover_abandoned_work(RecoveryScope {
                 rows_without_daemon: true,
@@ -340,6 +326,30 @@ impl Store {
             );
         }
         Ok(store)
+    }
+
+    /// Opens the store for a one-shot command (`calibrate`, `study`, a
+    /// render worker) that may run beside daemons: [`Store::open`], which
+    /// never recovers, on either engine.
+    pub async fn open_as_tool(url: &str) -> Result<Store, StoreError> {
+        Store::open(url).await
+    }
+
+    /// Opens the store to read from it beside a running daemon (`stimulus
+    /// --display-db`): never start-up recovery, on either engine, since the
+    /// daemon may be running the work a recovery would mark interrupted.
+    pub async fn open_to_read(url: &str) -> Result<Store, StoreError> {
+        Store::open(url).await
+    }
+
+    /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
+    /// compares FULL with NORMAL); ignored for PostgreSQL.
+    pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
+        Ok(Store {
+            engine: Engine::connect(url, synchronous).await?,
+            daemon_id: None,
+            observer: Observer::default(),
+        })
     }
 
     /// `"sqlite"` or `"postgres"`.

@@ -5,9 +5,17 @@ use super::*;
 
 impl Store {
     pub async fn create_render(&self, r: &NewRender) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at, daemon_id) \
-             VALUES ($1, $2, $3, $4, $5, 'queued', $6, $7) RETURNING id",
+        self.create_render_retrying(r, None).await
+    }
+
+    /// A new queued render; with `retry_of`, the retry of that render, at
+    /// most one (migration 0017's unique index): a second retry of the same
+    /// render is a [`StoreError::Conflict`] naming the first retry.
+    pub async fn create_render_retrying(&self, r: &NewRender, retry_of: Option<i64>) -> Result<i64, StoreError> {
+        let inserted: Result<i64, sqlx::Error> = with_pool!(self, |pool| {
+            sqlx::query_scalar(
+            "INSERT INTO renders (scene, scene_hash, settings_json, codings, seed, state, created_at, daemon_id, retry_of) \
+             VALUES ($1, $2, $3, $4, $5, 'queued', $6, $7, $8) RETURNING id",
         )
         .bind(&r.scene)
         .bind(&r.scene_hash)
@@ -16,8 +24,35 @@ impl Store {
         .bind(r.seed as i64)
         .bind(now())
         .bind(self.daemon_id)
+        .bind(retry_of)
         .fetch_one(pool)
-        .await?))
+        .await
+        });
+        match (inserted, retry_of) {
+            (Err(sqlx::Error::Database(db)), Some(old)) if db.is_unique_violation() => {
+                Err(self.already_retried(Job::Render, old).await)
+            }
+            (result, _) => Ok(result?),
+        }
+    }
+
+    /// The job that retries `id` (`retry_of`), if it was retried.
+    pub async fn retried_as(&self, job: Job, id: i64) -> Result<Option<i64>, StoreError> {
+        let sql = format!("SELECT id FROM {} WHERE retry_of = $1", job.table());
+        Ok(with_pool!(self, |pool| sqlx::query_scalar::<_, i64>(&sql)
+            .bind(id)
+            .fetch_optional(pool)
+            .await?))
+    }
+
+    /// The conflict of a second retry of `id`: it names the first retry.
+    pub(super) async fn already_retried(&self, job: Job, id: i64) -> StoreError {
+        let noun = job.noun();
+        match self.retried_as(job, id).await {
+            Ok(Some(first)) => StoreError::Conflict(already_retried_message(job, id, first)),
+            Ok(None) => StoreError::Conflict(format!("{noun} {id} is being retried already")),
+            Err(e) => e,
+        }
     }
 
     pub async fn finish_render(

@@ -5,16 +5,34 @@ use super::*;
 impl Store {
     /// Records a study as `queued`.
     pub async fn create_study(&self, request: &serde_json::Value) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| {
+        self.create_study_retrying(request, None).await
+    }
+
+    /// A new queued study; with `retry_of`, the one retry of that study (as
+    /// [`Store::create_render_retrying`]).
+    pub async fn create_study_retrying(
+        &self,
+        request: &serde_json::Value,
+        retry_of: Option<i64>,
+    ) -> Result<i64, StoreError> {
+        let inserted: Result<i64, sqlx::Error> = with_pool!(self, |pool| {
             sqlx::query_scalar(
-            "INSERT INTO studies (request_json, state, created_at, daemon_id) VALUES ($1, 'queued', $2, $3) RETURNING id"
-        )
-        .bind(request.to_string())
-        .bind(now())
-        .bind(self.daemon_id)
-        .fetch_one(pool)
-        .await?
-        }))
+                "INSERT INTO studies (request_json, state, created_at, daemon_id, retry_of) \
+                 VALUES ($1, 'queued', $2, $3, $4) RETURNING id",
+            )
+            .bind(request.to_string())
+            .bind(now())
+            .bind(self.daemon_id)
+            .bind(retry_of)
+            .fetch_one(pool)
+            .await
+        });
+        match (inserted, retry_of) {
+            (Err(sqlx::Error::Database(db)), Some(old)) if db.is_unique_violation() => {
+                Err(self.already_retried(Job::Study, old).await)
+            }
+            (result, _) => Ok(result?),
+        }
     }
 
     /// Stores a finished study with its report files, in one transaction.

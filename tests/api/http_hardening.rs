@@ -63,6 +63,7 @@ async fn harness(loopback_only: bool) -> Harness {
         renders: None,
         mock: None,
         measurement_cancel: None,
+        hold: Default::default(),
         shutting_down: shutdown_rx,
     };
     Harness {

@@ -57,6 +57,7 @@ async fn harness(queue: usize) -> Harness {
         renders: None,
         mock: None,
         measurement_cancel: None,
+        hold: Default::default(),
         shutting_down: shutdown_rx,
     };
     Harness {

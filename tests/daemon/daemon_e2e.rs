@@ -378,3 +378,84 @@ async fn the_cornell_box_is_listed_and_measurable_with_the_simulated_pr650() {
     assert_eq!(c["rows"].as_array().map(Vec::len), Some(7), "{c}");
     d.stop().await;
 }
+
+/// The bug (issue 32): two scene measurements posted during a display
+/// calibration were queued between its patches; patch 4 ("red 60 %") then
+/// read the GREEN scene patch just measured (x 0.3239, y 0.5079), and the
+/// profile was stored with red γ 3.18. The calibration holds the
+/// instrument: measurements and display changes not naming the hold are
+/// refused (409, saying who holds it), so its patches stay clean.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn scene_measurements_posted_during_a_calibration_corrupted_its_patches() {
+    let d = Daemon::start(0.0).await;
+    let (status, hold) = post_json(
+        d.addr,
+        "/api/instrument/hold",
+        TOKEN,
+        r#"{"purpose":"display calibration “lab-lcd”"}"#,
+    )
+    .await;
+    assert_eq!(status, 201, "{hold}");
+    let hold = hold["id"].as_i64().unwrap();
+    let (_, current) = get_json(d.addr, "/api/instrument/hold").await;
+    assert_eq!(current["id"], hold, "{current}");
+    let show = format!(r#"{{"drive":[0.6,0,0],"hold":{hold}}}"#);
+    let (status, v) = post_json(d.addr, "/api/mock/display", TOKEN, &show).await;
+    assert_eq!(status, 204, "{v}");
+
+    // Another client measures the green scene patch and changes the display.
+    let (status, refused) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"green","target":"patch"}"#,
+    )
+    .await;
+    assert_eq!(status, 409, "a scene measurement during the calibration: {refused}");
+    let message = refused["error"]["message"].as_str().unwrap_or_default();
+    assert!(
+        message.starts_with(
+            "a measurement of green/patch refused: the instrument is held by display calibration “lab-lcd”"
+        ),
+        "{refused}"
+    );
+    let (status, v) = post_json(d.addr, "/api/mock/display", TOKEN, r#"{"drive":[0,1,0]}"#).await;
+    assert_eq!(status, 409, "the display is the calibration's: {v}");
+    let (status, v) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":2}"#).await;
+    assert_eq!(status, 409, "a measurement not naming the hold: {v}");
+
+    // The calibration's patch reads the display's red, not the green scene.
+    let body = format!(r#"{{"samples":2,"hold":{hold},"note":"display calibration: patch 4 of 24, red 60 %"}}"#);
+    let (status, m) = post_json(d.addr, "/api/measurements", TOKEN, &body).await;
+    assert_eq!(status, 202, "{m}");
+    let url = m["url"].as_str().unwrap().to_string();
+    let m = poll_until(d.addr, &url, Duration::from_secs(60), |v| {
+        v["state"] != "queued" && v["state"] != "running"
+    })
+    .await;
+    assert_eq!(m["state"], "complete", "{m}");
+    let red = lightbooth::display::SimulatedDisplay::crt()
+        .unwrap()
+        .primary_chromaticities(lightbooth::colorimetry::Observer::JuddVos)
+        .unwrap()[0];
+    let (x, y) = (m["x"].as_f64().unwrap(), m["y"].as_f64().unwrap());
+    assert!(
+        (x - red[0]).abs() < 0.05 && (y - red[1]).abs() < 0.05,
+        "patch red 60 % at x {x}, y {y}; the display's red primary is at {red:?}"
+    );
+
+    // Released: others measure again; the ended hold admits nothing.
+    let (status, v) = post_json(d.addr, &format!("/api/instrument/hold/{hold}/release"), TOKEN, "{}").await;
+    assert_eq!(status, 200, "{v}");
+    let (status, v) = post_json(d.addr, "/api/measurements", TOKEN, &body).await;
+    assert_eq!(status, 409, "a measurement of an ended hold: {v}");
+    let (status, v) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"green","target":"patch","samples":1}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{v}");
+    d.stop().await;
+}

@@ -362,3 +362,64 @@ async fn a_study_that_measured_missing_targets_first_can_be_retried() {
     assert_ne!(again["id"].as_i64().unwrap(), study);
     d.stop().await;
 }
+
+/// The bug (issue 32): two simultaneous `POST /api/renders/{id}/retry`
+/// answered two 202s (renders 3 and 4), and ten retries of one cancelled
+/// render queued 8 renders. One retry per render: every other answers 409
+/// naming the first retry.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ten_simultaneous_retries_of_one_cancelled_render_queued_eight_renders() {
+    let d = Daemon::start(0.0).await;
+    // A long render runs; a short one waits behind it and is cancelled.
+    let (_, r) = post_json(d.addr, "/api/scenes/cylinder/renders", TOKEN, HEAVY).await;
+    let heavy = r["render_id"].as_i64().unwrap();
+    let (_, r) = post_json(
+        d.addr,
+        "/api/scenes/white/renders",
+        TOKEN,
+        r#"{"samples":64,"codings":"rgb"}"#,
+    )
+    .await;
+    let cancelled = r["render_id"].as_i64().unwrap();
+    let (status, r) = post_json(d.addr, &format!("/api/renders/{cancelled}/cancel"), TOKEN, "{}").await;
+    assert_eq!((status, r["state"].as_str()), (202, Some("cancelled")), "{r}");
+    let before = count(d.addr, "/api/scenes/white/renders").await;
+
+    let path = format!("/api/renders/{cancelled}/retry");
+    let answers = futures_util::future::join_all((0..10).map(|_| post_json(d.addr, &path, TOKEN, "{}"))).await;
+    let accepted: Vec<i64> = answers
+        .iter()
+        .filter(|(s, _)| *s == 202)
+        .map(|(_, v)| v["render_id"].as_i64().unwrap())
+        .collect();
+    assert_eq!(accepted.len(), 1, "exactly one retry is queued: {answers:?}");
+    let first = accepted[0];
+    let named = format!("render {cancelled} was already retried as render {first}");
+    for (status, v) in answers.iter().filter(|(s, _)| *s != 202) {
+        assert_eq!(*status, 409, "{v}");
+        let message = v["error"]["message"].as_str().unwrap_or_default();
+        assert!(message.starts_with(&named), "the 409 names the first retry: {v}");
+    }
+    assert_eq!(
+        count(d.addr, "/api/scenes/white/renders").await,
+        before + 1,
+        "one render more, not ten"
+    );
+    // A later retry, one at a time, still names the same first retry.
+    let (status, v) = post_json(d.addr, &path, TOKEN, "{}").await;
+    assert_eq!(status, 409, "{v}");
+    assert!(
+        v["error"]["message"].as_str().unwrap_or_default().starts_with(&named),
+        "{v}"
+    );
+    // Cancelled, the long render stops within a batch of paths (slow on a
+    // busy machine): wait for it, so the daemon's shutdown is quick.
+    for id in [first, heavy] {
+        post_json(d.addr, &format!("/api/renders/{id}/cancel"), TOKEN, "{}").await;
+        poll_until(d.addr, &format!("/api/renders/{id}"), Duration::from_secs(600), |v| {
+            v["state"] != "queued" && v["state"] != "running"
+        })
+        .await;
+    }
+    d.stop().await;
+}

@@ -567,3 +567,47 @@ async fn kill_9_at_arbitrary_moments_loses_no_sample_shown_before_the_kill() {
         ready_ms[ready_ms.len() - 1]
     );
 }
+
+/// The bug (issue 32): `lightbooth experiment list --db sqlite://…`, run
+/// while `serve --mock` was measuring, opened the store with start-up
+/// recovery and, on SQLite, took every registered daemon for gone: the live
+/// daemon's measurement became `interrupted` ("stopped heartbeating"), 2 s
+/// after its last heartbeat. A command that reads writes nothing.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_read_only_cli_command_interrupted_the_live_daemons_measurement() {
+    let d = common::Daemon::start(0.5).await;
+    let mut ev = common::events(d.addr).await;
+    let (status, started) = post_json(d.addr, "/api/measurements", TOKEN, r#"{"samples":8}"#).await;
+    assert_eq!(status, 202, "{started}");
+    let id = started["id"].as_i64().unwrap();
+    common::wait_for(&mut ev, "a first sample", Duration::from_secs(60), |name, v| {
+        name == "sample" && v["measurement_id"] == id
+    })
+    .await;
+    let db = format!("sqlite://{}", d.dir.path().join("lab.sqlite").display());
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["experiment", "list", "--db", &db])
+        .env("RUST_LOG", "info")
+        .output()
+        .expect("lightbooth experiment list runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "experiment list failed: {stderr}");
+    assert!(
+        !stderr.contains("interrupted"),
+        "the read-only command recovered work: {stderr}"
+    );
+    let (_, m) = get_json(d.addr, &format!("/api/measurements/{id}")).await;
+    assert_eq!(
+        m["state"], "running",
+        "a read-only command changed the daemon's measurement: {m}"
+    );
+    let done = poll_until(
+        d.addr,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(120),
+        |v| v["state"] != "running" && v["state"] != "queued",
+    )
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    d.stop().await;
+}

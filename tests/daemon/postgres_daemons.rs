@@ -473,3 +473,77 @@ async fn a_tools_study_was_interrupted_by_a_daemon_starting_on_the_same_database
     assert!(lease.stopped_at.is_some(), "{lease:?}");
     north.stop().await;
 }
+
+/// The bug (issue 32): the study's truth and CIELAB white were the newest
+/// complete measurement of *any* booth (`store.latest_complete`), while the
+/// daemon's comparisons take them from the compared measurement's booth; on
+/// one PostgreSQL database with two booths the same measurement got another
+/// ΔE from the study than from the dashboard. A study of booth north uses
+/// north's measurements, even when south measured the target later.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_of_one_booth_took_the_newer_measurement_of_another_booth() {
+    use lightbooth::colorimetry::Observer;
+    use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
+    use lightbooth::lab::study::run::{run_study, Against, StudyOptions};
+    use lightbooth::render::Coding;
+    use lightbooth::store::{Booth, Store};
+
+    let db = common::fresh_postgres_database().await;
+    let store = Store::open(&db).await.unwrap();
+    let white = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/white.toml");
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
+    let (north, south): (Booth, Booth) = ("north".parse().unwrap(), "south".parse().unwrap());
+    let mut measured = Vec::new();
+    for (booth, seed) in [(&north, 1), (&south, 2)] {
+        let ids = measure_with_simulator(
+            std::slice::from_ref(&white),
+            &store,
+            booth,
+            &cache,
+            SimulatedPr650 { seed, speed: 0.0 },
+            Observer::JuddVos,
+            None,
+            &|_| {},
+        )
+        .await
+        .unwrap();
+        assert_eq!(ids.len(), 1, "WHITE has one target");
+        measured.push(ids[0]);
+    }
+    assert!(measured[1] > measured[0], "south measured last: {measured:?}");
+    for (booth, id) in [(&north, measured[0]), (&south, measured[1])] {
+        let options = StudyOptions {
+            codings: vec![Coding::Rgb, Coding::Spectral],
+            seeds: 1,
+            samples: 256,
+            target_relative_se: None,
+            against: Against::Measurements,
+            booth: booth.clone(),
+            ..StudyOptions::default()
+        };
+        let result = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {})
+            .await
+            .unwrap();
+        let s = &result.scenes[0];
+        assert_eq!(s.truth[0].source, format!("measurement {id}"), "booth {booth}'s truth");
+        assert_eq!(
+            s.white_source,
+            format!("measurement {id} (white/patch)"),
+            "booth {booth}'s CIELAB white"
+        );
+    }
+    // A booth that measured nothing has no truth: never a neighbour's.
+    let options = StudyOptions {
+        against: Against::Measurements,
+        booth: "east".parse().unwrap(),
+        ..StudyOptions::default()
+    };
+    let err = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {})
+        .await
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("no complete measurement of white/patch in booth east"),
+        "{err}"
+    );
+}

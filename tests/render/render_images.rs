@@ -312,3 +312,58 @@ async fn pixel_probe_on_the_white_standard_matches_the_radiometer_render_within_
     assert!((p["chromaticity_x"].as_f64().unwrap() - xx / (xx + yy + zz)).abs() < 1e-12);
     d.stop().await;
 }
+
+/// The bug (issue 32): camera-image ids started again at 1 after a restart,
+/// so image 2 from before answered 404 and the next new image was image 1
+/// again: an id a script or the viewer held silently pointed at another
+/// image. Ids never repeat across restarts, and an image lost with the
+/// restart says so.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn after_a_restart_image_ids_started_again_at_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    let body = r#"{"coding":"rgb","width":8,"max_spp":8}"#;
+    let d = Daemon::start_on(0.0, &db).await;
+    let (status, v) = post_json(
+        d.addr,
+        "/api/scenes/white/renders",
+        TOKEN,
+        r#"{"codings":"rgb","samples":64}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{v}");
+    let render = v["render_id"].as_i64().unwrap();
+    let row = common::poll_until(
+        d.addr,
+        &format!("/api/renders/{render}"),
+        Duration::from_secs(300),
+        |r| r["state"] != "queued" && r["state"] != "running",
+    )
+    .await;
+    assert_eq!(row["state"], "complete", "{row}");
+    let (before, _) = image(&d, render, body).await;
+    d.stop().await;
+
+    let d = Daemon::start_on(0.0, &db).await;
+    let (status, lost) = get_json(d.addr, &format!("/api/images/{before}")).await;
+    assert_eq!(status, 404, "{lost}");
+    let message = lost["error"]["message"].as_str().unwrap_or_default();
+    assert!(
+        message.starts_with(&format!("image {before} was lost with the daemon's restart")),
+        "the 404 says why: {lost}"
+    );
+    let (status, _) = get_json(d.addr, &format!("/api/images/{before}/pixel?x=0&y=0")).await;
+    assert_eq!(status, 404);
+    let (after, _) = image(&d, render, body).await;
+    assert_ne!(
+        after, before,
+        "the same request after the restart is a new image with a new id"
+    );
+    assert!(
+        after < 1 << 53,
+        "ids stay exact as doubles (JavaScript, MATLAB): {after}"
+    );
+    let (status, _) = get_json(d.addr, &format!("/api/images/{after}")).await;
+    assert_eq!(status, 200);
+    d.stop().await;
+}

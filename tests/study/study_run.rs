@@ -97,6 +97,7 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
     let ids = measure_with_simulator(
         &[scene("white")],
         &store,
+        &Default::default(),
         &cache,
         SimulatedPr650 { seed: 1, speed: 0.0 },
         Observer::JuddVos,

@@ -87,10 +87,8 @@ pub async fn render_images(
 #[utoipa::path(get, path = "/images/{id}", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, body = ImageInfo), (status = 404, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn get_image(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<ImageInfo>, ApiError> {
-    images(&state)?
-        .info(id)
-        .map(Json)
-        .ok_or_else(|| ApiError::NotFound(format!("no image {id}")))
+    let images = images(&state)?;
+    images.info(id).map(Json).ok_or_else(|| images.missing(id).into())
 }
 
 /// Cancels a queued image at once, or stops a running one within a row of pixels.
@@ -172,7 +170,7 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_nanos())
             .unwrap_or(0);
-        let dir = std::env::temp_dir().join(format!("lightbooth-image-{}-{id}-{nanos}", std::process::id()));
+        let dir = crate::export::image::export_folder(&std::env::temp_dir(), std::process::id(), id, nanos);
         create_private_dir(&dir)?;
         let path = dir.join(format!("image.{ext}"));
         let bytes = crate::export::image::write_camera_image(&img, &path)

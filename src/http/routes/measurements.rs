@@ -35,6 +35,10 @@ pub struct StartMeasurement {
     /// Free text kept with the measurement and shown in the table (`notes` is accepted too).
     #[serde(alias = "notes")]
     pub note: Option<String>,
+    /// The instrument hold this measurement belongs to (`POST
+    /// /api/instrument/hold`): while the instrument is held, only
+    /// measurements naming the hold are taken; others answer 409.
+    pub hold: Option<i64>,
 }
 
 #[derive(Serialize, ToSchema)]
@@ -91,6 +95,7 @@ pub async fn start_measurement(
     }
     let id = enqueue_measurement(
         &state,
+        body.hold,
         NewMeasurement {
             booth: state.config.booth.clone(),
             session_id: body.session_id,
@@ -224,7 +229,16 @@ pub async fn cancel_measurement(
 /// the queue is held before the row exists: a refused request (409 full,
 /// 503 instrument task gone) leaves nothing behind, and an admitted one
 /// cannot find the queue full.
-pub(super) async fn enqueue_measurement(state: &AppState, new: NewMeasurement) -> Result<i64, ApiError> {
+///
+/// While the instrument is held ([`crate::lab::instrument_queue::InstrumentHold`])
+/// only a measurement naming the hold is queued; the check follows the
+/// reservation, so a hold taken meanwhile either sees the slot reserved
+/// (and is refused) or is seen here.
+pub(super) async fn enqueue_measurement(
+    state: &AppState,
+    hold: Option<i64>,
+    new: NewMeasurement,
+) -> Result<i64, ApiError> {
     let permit = state.jobs.try_reserve().map_err(|e| match e {
         tokio::sync::mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
             "the instrument is busy: {} measurements are already queued; try again when one finishes",
@@ -234,6 +248,11 @@ pub(super) async fn enqueue_measurement(state: &AppState, new: NewMeasurement) -
             ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
         }
     })?;
+    let what = match (&new.scene, &new.target) {
+        (Some(scene), Some(target)) => format!("a measurement of {scene}/{target}"),
+        _ => "a measurement".to_string(),
+    };
+    state.hold.admit(hold, &what)?;
     let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
     let id = state.store.create_measurement(&new).await?;
     permit.send(MeasurementJob {

@@ -51,6 +51,10 @@ pub struct MockDisplay {
     /// 255 (8 bits, the default) or 1023 (10 bits), with `code_counts`.
     #[serde(default)]
     pub max_code: Option<u32>,
+    /// The instrument hold this change belongs to: while the instrument is
+    /// held (`POST /api/instrument/hold`), only the holder changes the display.
+    #[serde(default)]
+    pub hold: Option<i64>,
 }
 
 /// Shows a colour on the simulated display the simulated PR-650 looks at
@@ -68,6 +72,7 @@ pub async fn mock_display(
         .mock
         .as_ref()
         .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real instrument".into()))?;
+    state.hold.admit(body.hold, "a change of the simulated display")?;
     match (body.drive, body.code_counts) {
         (Some(drive), None) if body.max_code.is_none() => mock
             .show_on_display(drive)

@@ -13,6 +13,7 @@ mod credentials;
 mod display_profiles;
 mod experiments;
 mod health;
+mod hold;
 mod illuminants;
 mod images;
 mod jobs;
@@ -32,6 +33,7 @@ pub use credentials::*;
 pub use display_profiles::*;
 pub use experiments::*;
 pub use health::*;
+pub use hold::*;
 pub use illuminants::*;
 pub use images::*;
 pub use jobs::*;
@@ -102,6 +104,8 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(sse::stream))
         .routes(routes!(mock_faults))
         .routes(routes!(mock_display))
+        .routes(routes!(take_instrument_hold, get_instrument_hold))
+        .routes(routes!(release_instrument_hold))
         .routes(routes!(display_calibration_plan))
         .routes(routes!(list_display_profiles, create_display_profile))
         .routes(routes!(get_display_profile))

@@ -15,7 +15,7 @@ use crate::http::input::{Input, Path};
 use crate::http::AppState;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::requests::StudyRequest;
-use crate::store::{Job, NewMeasurement, StudyRow};
+use crate::store::{Booth, Job, NewMeasurement, StudyRow};
 
 #[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
@@ -53,13 +53,30 @@ pub async fn start_study(
         .renders
         .as_ref()
         .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    // The study compares with one booth's measurements: this daemon's unless
+    // the request names another; stored with the request (retries, workers).
+    let booth: Booth = match body.booth.as_deref() {
+        Some(b) => b
+            .parse()
+            .map_err(|e| ApiError::BadRequest(format!("field `booth`: {e}")))?,
+        None => state.config.booth.clone(),
+    };
+    body.booth = Some(booth.to_string());
     service.check_study(&body)?;
     if body.against.as_deref().unwrap_or("measurements") == "measurements" {
-        let missing = missing_targets(&state, body.scenes.as_deref()).await?;
+        let missing = missing_targets(&state, body.scenes.as_deref(), &booth).await?;
+        if !missing.is_empty() && body.measure_missing == Some(true) && booth != state.config.booth {
+            return Err(ApiError::BadRequest(format!(
+                "field `booth`: this daemon measures in booth {}; it cannot measure the missing targets of booth \
+                 {booth} ({}): start the study on that booth's daemon",
+                state.config.booth,
+                describe(&missing)
+            )));
+        }
         if !missing.is_empty() {
             if body.measure_missing != Some(true) {
                 return Err(ApiError::Conflict(format!(
-                    "no complete measurement of {}: measure {} first (POST /api/measurements, or the scene's \
+                    "no complete measurement of {} in booth {booth}: measure {} first (POST /api/measurements, or the scene's \
                      \"Measure every target\" button), start the study with \"measure_missing\": true to have \
                      it measure them first, or compare against \"reference\"",
                     describe(&missing),
@@ -190,11 +207,15 @@ fn check_scene_list(list: &str) -> Result<(), ApiError> {
 }
 
 /// The (scene, target) pairs of the study's scenes (all when `scenes` is
-/// None) with no complete measurement, in the study's order.
-async fn missing_targets(state: &AppState, scenes: Option<&str>) -> Result<Vec<(String, String)>, ApiError> {
+/// None) with no complete measurement in `booth`, in the study's order.
+async fn missing_targets(
+    state: &AppState,
+    scenes: Option<&str>,
+    booth: &Booth,
+) -> Result<Vec<(String, String)>, ApiError> {
     let chosen: Option<Vec<&str>> =
         scenes.map(|list| list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect());
-    let measured = state.store.measured_targets().await?;
+    let measured = state.store.measured_targets(booth).await?;
     let all = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
     Ok(all
         .iter()
@@ -266,7 +287,7 @@ async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result
             settings_json: serde_json::json!({ "samples": samples }),
             note: "measured first for a study (measure_missing)".into(),
         };
-        ids.push(enqueue_measurement(state, new).await?);
+        ids.push(enqueue_measurement(state, None, new).await?);
     }
     tracing::info!(count = ids.len(), "missing targets queued for a study");
     Ok(ids)

@@ -152,16 +152,18 @@ impl Experiments {
             )));
         };
         let profile_id = request.display_profile_id;
-        let profile = self
-            .store
-            .get_display_profile(profile_id)
-            .await?
-            .ok_or_else(|| {
-                LabError::NotFound(format!(
-                    "display_profile_id: there is no display profile {profile_id} (calibrate the display first: /calibrate)"
-                ))
-            })?
-            .profile;
+        let row = self.store.get_display_profile(profile_id).await?.ok_or_else(|| {
+            LabError::NotFound(format!(
+                "display_profile_id: there is no display profile {profile_id} (calibrate the display first: /calibrate)"
+            ))
+        })?;
+        if !row.failures.is_empty() {
+            return Err(LabError::Conflict(format!(
+                "display_profile_id: profile {profile_id} failed its checks ({}); calibrate the display again (/calibrate)",
+                row.failures.join("; ")
+            )));
+        }
+        let profile = row.profile;
         let rows = self.store.comparisons_for_measurement(id).await?;
         if rows.is_empty() {
             return Err(LabError::Conflict(format!(

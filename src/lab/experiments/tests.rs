@@ -747,3 +747,43 @@ async fn results_show_what_was_not_counted_and_the_figure_is_titled_from_what_it
     assert!(svg.contains("1 observer,"), "the figure draws one observer's trials");
     assert!(!svg.contains("2 observers"));
 }
+
+/// The bug (issue 32): a profile fitted to a corrupted patch (red γ 3.18,
+/// RMS residual 0.106, grey validation ΔE00 10.7) was stored without a
+/// word and offered for experiments like any other. It is stored as failed,
+/// says why, and an experiment cannot use it.
+#[tokio::test]
+async fn a_failed_display_profile_was_offered_for_an_experiment_like_any_other() {
+    let lab = lab().await;
+    let mut bad = SimulatedDisplay::crt()
+        .unwrap()
+        .exact_profile(Observer::JuddVos)
+        .unwrap();
+    bad.transfer[0].rms_residual = 0.106;
+    bad.validation[0].delta_e00 = 10.7;
+    let store = &lab.experiments.store;
+    let id = store.insert_display_profile("corrupted", "", &bad).await.unwrap();
+    let row = store.get_display_profile(id).await.unwrap().unwrap();
+    assert_eq!(row.state, "failed");
+    assert_eq!(row.failures.len(), 2, "{:?}", row.failures);
+    assert!(
+        row.failures[0].starts_with("red transfer: RMS residual 0.106"),
+        "{:?}",
+        row.failures
+    );
+    assert!(row.failures[1].contains("ΔE00 10.7"), "{:?}", row.failures);
+    let good = store.get_display_profile(lab.profile).await.unwrap().unwrap();
+    assert_eq!((good.state, good.failures.len()), ("passed", 0));
+
+    let mut r = request(&lab, &["nstep3"]);
+    r.display_profile_id = id;
+    match lab.experiments.create(r).await {
+        Err(LabError::Conflict(m)) => assert!(
+            m.starts_with(&format!(
+                "display_profile_id: profile {id} failed its checks (red transfer"
+            )),
+            "{m}"
+        ),
+        other => panic!("an experiment on a failed profile: {other:?}"),
+    }
+}

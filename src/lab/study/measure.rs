@@ -30,7 +30,7 @@ pub struct SimulatedPr650 {
 }
 
 /// Measures every target of `scenes` (five samples each) with `simulator`
-/// and stores the measurements; returns their ids.
+/// and stores the measurements, taken in `booth`; returns their ids.
 /// `truth_scene` (a scene file or folder, see
 /// [`super::run::StudyOptions::truth_scene`]) is the booth as it is;
 /// `observer` names the XYZ stored with each measurement. Needs a
@@ -38,6 +38,7 @@ pub struct SimulatedPr650 {
 pub async fn measure_with_simulator(
     scenes: &[PathBuf],
     store: &Store,
+    booth: &Booth,
     cache_dir: &Path,
     simulator: SimulatedPr650,
     observer: Observer,
@@ -75,7 +76,7 @@ pub async fn measure_with_simulator(
             mock.set_truth(render::converged_target_spectrum(&truth, target, Some(cache_dir))?)?;
             let id = store
                 .create_measurement(&NewMeasurement {
-                    booth: Booth::default(),
+                    booth: booth.clone(),
                     session_id: None,
                     scene: Some(scene_id.clone()),
                     target: Some(target.to_string()),

@@ -39,7 +39,7 @@ use serde::Serialize;
 use crate::colorimetry::{Observer, Xyz};
 use crate::comparison::{beyond_noise, compare_point, mean_sd, summarize, PointDifference, BEYOND_NOISE_K};
 use crate::render::{self, Coding, RenderResult, RenderSettings, Scene};
-use crate::store::Store;
+use crate::store::{Booth, Store};
 
 use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
@@ -91,6 +91,11 @@ pub struct StudyOptions {
     /// files named like the model scenes. The reference truth and the
     /// simulated measurements come from it; the codings render the model.
     pub truth_scene: Option<PathBuf>,
+    /// Against measurements: the booth whose measurements are the truth and
+    /// whose measured white is the CIELAB white (never another booth's: the
+    /// rule of [`crate::lab::comparisons`], so a study and the dashboard give
+    /// one measurement the same ΔE).
+    pub booth: Booth,
 }
 
 impl StudyOptions {
@@ -134,6 +139,7 @@ impl Default for StudyOptions {
             auto: None,
             observer: Observer::JuddVos,
             truth_scene: None,
+            booth: Booth::default(),
         }
     }
 }
@@ -357,14 +363,16 @@ impl References {
     }
 }
 
-/// The truth for one target from the store: the newest complete measurement.
+/// The truth for one target from the store: the newest complete measurement
+/// taken in `booth`.
 async fn measured(
     store: &Store,
+    booth: &Booth,
     scene_id: &str,
     target: &str,
     observer: Observer,
 ) -> Result<Option<(Xyz, f64, String)>, StudyError> {
-    let Some(m) = store.latest_complete(scene_id, target).await? else {
+    let Some(m) = store.latest_complete_in_booth(scene_id, target, booth).await? else {
         return Ok(None);
     };
     let Some(xyz) = measured_xyz(&m, observer).map_err(StudyError::Truth)? else {
@@ -422,11 +430,15 @@ pub async fn run_study(
                 Against::Measurements => {
                     let store = store
                         .ok_or_else(|| StudyError::Truth("comparing with measurements needs the database".into()))?;
-                    measured(store, &scene_id, t, options.observer).await?.ok_or_else(|| {
-                        StudyError::Truth(format!(
-                            "no complete measurement of {scene_id}/{t}: measure it first (or use --against reference)"
-                        ))
-                    })?
+                    measured(store, &options.booth, &scene_id, t, options.observer)
+                        .await?
+                        .ok_or_else(|| {
+                            StudyError::Truth(format!(
+                                "no complete measurement of {scene_id}/{t} in booth {}: measure it there first \
+                             (or use --against reference)",
+                                options.booth
+                            ))
+                        })?
                 }
             };
             let xy = xyz.chromaticity();
@@ -450,7 +462,7 @@ pub async fn run_study(
                 let white_truth = options.truth_path(white_path);
                 match (options.against, store) {
                     (Against::Measurements, Some(store)) => {
-                        match measured(store, white_scene_id, white_target, options.observer).await? {
+                        match measured(store, &options.booth, white_scene_id, white_target, options.observer).await? {
                             Some((xyz, _, source)) => (xyz, format!("{source} ({white_scene_id}/{white_target})")),
                             None => {
                                 let (xyz, _) = references.xyz(&white_truth, white_target)?;

@@ -24,6 +24,7 @@ on_both_engines!(
     listing_filters_and_pages,
     comparisons_are_all_or_nothing,
     renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_store_reopens,
+    two_retries_of_one_render_both_queued_a_render,
     job_states_move_only_forward,
     the_queue_reads_only_unfinished_renders_and_studies_oldest_first,
     partial_averages_and_previews_read_back_alike,
@@ -359,7 +360,7 @@ async fn reopening_marks_unfinished_measurements_interrupted_and_keeps_their_sam
     store.insert_sample(id, &sample(1, true)).await.unwrap();
     let queued = store.create_measurement(&new_measurement()).await.unwrap();
     store.close().await;
-    let store = Store::open(&url).await.unwrap();
+    let store = Store::open_recovering(&url).await.unwrap();
     let m = store.get_measurement(id).await.unwrap().unwrap();
     assert_eq!(m.summary.state, MeasurementState::Interrupted);
     assert_eq!(m.samples.len(), 2);
@@ -567,7 +568,7 @@ async fn renders_and_studies_left_running_by_a_crash_are_interrupted_when_the_st
     assert!(store.start_job(Job::Study, study).await.unwrap());
     store.close().await;
 
-    let store = Store::open(&url).await.unwrap();
+    let store = Store::open_recovering(&url).await.unwrap();
     for id in [running, queued] {
         let r = store.get_render(id).await.unwrap().unwrap();
         assert_eq!(r.state, "interrupted");
@@ -774,3 +775,56 @@ const CHECKSUMS_BEFORE_THE_MOVE: [(i64, &str); 8] = [
         "5459cd1c2bcfa84a90219e91eeeb42f50733b76dce9047da08b2fafb1c691bc48bd0314321b62b0b2944da1d762bd05a",
     ),
 ];
+
+/// The bug (issue 32): two simultaneous retries of one cancelled render
+/// each queued a render. The store takes one retry per render or study;
+/// the second, even from another process, is a conflict naming the first.
+async fn two_retries_of_one_render_both_queued_a_render(engine: EngineKind) {
+    let (_dir, store, _) = temp_store(engine).await;
+    let old = store.create_render(&new_render()).await.unwrap();
+    store
+        .end_job(Job::Render, old, JobEnd::Cancelled, "cancelled")
+        .await
+        .unwrap();
+    let retry = new_render();
+    let (a, b) = tokio::join!(
+        store.create_render_retrying(&retry, Some(old)),
+        store.create_render_retrying(&retry, Some(old)),
+    );
+    let (first, refused) = match (a, b) {
+        (Ok(first), Err(e)) | (Err(e), Ok(first)) => (first, e),
+        other => panic!("exactly one retry must be stored: {other:?}"),
+    };
+    assert_eq!(
+        refused.to_string(),
+        already_retried_message(Job::Render, old, first),
+        "the second names the first retry"
+    );
+    assert_eq!(store.retried_as(Job::Render, old).await.unwrap(), Some(first));
+    assert_eq!(
+        store.list_renders(None).await.unwrap().len(),
+        2,
+        "one render and its one retry"
+    );
+    // A retry of the retry is its own.
+    store
+        .end_job(Job::Render, first, JobEnd::Failed, "failed")
+        .await
+        .unwrap();
+    assert!(store.create_render_retrying(&new_render(), Some(first)).await.is_ok());
+
+    let study = store.create_study(&serde_json::json!({})).await.unwrap();
+    store
+        .end_job(Job::Study, study, JobEnd::Interrupted, "interrupted")
+        .await
+        .unwrap();
+    let again = store
+        .create_study_retrying(&serde_json::json!({}), Some(study))
+        .await
+        .unwrap();
+    let e = store
+        .create_study_retrying(&serde_json::json!({}), Some(study))
+        .await
+        .unwrap_err();
+    assert_eq!(e.to_string(), already_retried_message(Job::Study, study, again));
+}

@@ -1,0 +1,77 @@
+//! `/api/instrument/hold`: a display calibration (or verification) holds
+//! the instrument while it measures the display patch by patch, so no
+//! other measurement is taken between its patches and nobody else changes
+//! the display (see [`crate::lab::instrument_queue::InstrumentHold`]).
+
+use axum::extract::State;
+use axum::http::StatusCode;
+use axum::Json;
+use serde::Deserialize;
+use utoipa::ToSchema;
+
+use crate::http::error::{ApiError, ErrorBody};
+use crate::http::input::{Input, Path};
+use crate::http::AppState;
+use crate::lab::instrument_queue::{HoldInfo, InstrumentStatus};
+
+#[derive(Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TakeHold {
+    /// What holds the instrument, shown to anyone refused meanwhile
+    /// (1–200 characters), e.g. `display calibration “lab-lcd”`.
+    pub purpose: String,
+}
+
+/// Holds the instrument: granted only while nothing is measuring or
+/// queued; then every measurement and display change must name the hold
+/// (`"hold": id`) until it is released, and everything else answers 409.
+#[utoipa::path(post, path = "/instrument/hold", tag = "instruments", request_body = TakeHold,
+    responses((status = 201, body = HoldInfo), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 409, body = ErrorBody, description = "held already, or a measurement is under way or queued")),
+    security(("bearer" = [])))]
+pub async fn take_instrument_hold(
+    State(state): State<AppState>,
+    Input(body): Input<TakeHold>,
+) -> Result<(StatusCode, Json<HoldInfo>), ApiError> {
+    let mut busy = Vec::new();
+    if let InstrumentStatus::Measuring { measurement_id, .. } = &*state.status.borrow() {
+        busy.push(format!("measurement {measurement_id} under way"));
+    }
+    let reserved = state.jobs.max_capacity() - state.jobs.capacity();
+    if reserved > 0 {
+        busy.push(format!("{reserved} measurement(s) being queued"));
+    }
+    let unfinished = state
+        .store
+        .unfinished_measurements_in_booth(&state.config.booth)
+        .await?;
+    if !unfinished.is_empty() {
+        let ids: Vec<String> = unfinished.iter().map(i64::to_string).collect();
+        busy.push(format!("measurements {} queued or running", ids.join(", ")));
+    }
+    let busy = (!busy.is_empty()).then(|| busy.join("; "));
+    let hold = state.hold.take(&body.purpose, busy, crate::store::now())?;
+    tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument held");
+    Ok((StatusCode::CREATED, Json(hold)))
+}
+
+/// Who holds the instrument now (`null`: nobody).
+#[utoipa::path(get, path = "/instrument/hold", tag = "instruments",
+    responses((status = 200, body = Option<HoldInfo>)))]
+pub async fn get_instrument_hold(State(state): State<AppState>) -> Json<Option<HoldInfo>> {
+    Json(state.hold.current())
+}
+
+/// Ends a hold: by its calibration at its end, or by the operator when the
+/// calibration's page is gone.
+#[utoipa::path(post, path = "/instrument/hold/{id}/release", tag = "instruments", params(("id" = i64, Path)),
+    responses((status = 200, body = HoldInfo), (status = 401, body = ErrorBody), (status = 404, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn release_instrument_hold(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<HoldInfo>, ApiError> {
+    let hold = state.hold.release(id)?;
+    tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument hold released");
+    Ok(Json(hold))
+}
