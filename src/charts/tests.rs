@@ -839,13 +839,16 @@ fn zoomed_chromaticity_panel_draws_no_false_gamut_edges() {
     );
 }
 
+/// A speed chart's series, their labels and their timings' spreads.
+type SpeedChartData = (Vec<ScatterSeries>, Vec<Vec<String>>, Vec<Vec<(f64, f64)>>);
+
 /// The study's speed chart as `lab::study::report::speed_chart` builds it
 /// from a CYLINDER study's sweeps (figures of that shape: the N sweep's
 /// twelve codings at nearly one render time, the bounce sweep's points
 /// crowding the converged end): one series per coding, each point labelled
-/// with what its sweep varied, and the Pareto front. Returns the series
-/// and their labels.
-fn study_speed_series() -> (Vec<ScatterSeries>, Vec<Vec<String>>, Vec<Vec<(f64, f64)>>) {
+/// with what its sweep varied, and the Pareto front. Returns the series,
+/// their labels and their spreads.
+fn study_speed_series() -> SpeedChartData {
     // (sweep label, coding, seconds, mean ΔE00)
     let mut points: Vec<(String, &str, f64, f64)> = Vec::new();
     for (coding, t, de) in [
