@@ -18,6 +18,17 @@ const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug,lightbooth::i
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    // A one-shot command piped into `head` ends quietly when its reader
+    // goes, as every Unix tool does: Rust ignores SIGPIPE, so the next
+    // `println!` panicked ("failed printing to stdout: Broken pipe"). Not
+    // the daemons (`serve`, `worker`), whose sockets and clients come and go.
+    if !args.is_daemon() {
+        // SAFETY: restoring a signal's default action before any thread is
+        // started touches no memory of this program.
+        unsafe {
+            libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+        }
+    }
     // Logs go to stderr, so `--json` output on stdout stays machine-readable.
     // The daemon logs every instrument command, state change and job (info);
     // one-shot commands only warnings. `LIGHTBOOTH_LOG=debug` (or any tracing

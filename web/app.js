@@ -62,6 +62,9 @@ function duration(seconds) {
   return `${Math.floor(s / 3600)} h ${String(Math.floor((s % 3600) / 60)).padStart(2, "0")} min`;
 }
 
+// "1 target", "2 targets": a count with its noun in the right number.
+const count = (n, noun) => `${n} ${noun}${Number(n) === 1 ? "" : "s"}`;
+
 const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v).toPrecision(digits));
 
 // A cd/m² scale for an image shown through the daemon's global Reinhard
@@ -724,7 +727,7 @@ async function showMissingTargets(id) {
   openSceneMissing = s.targets.filter((t) => !done.items.some((m) => m.target === t));
   const b = $("measure-missing");
   b.hidden = !openSceneMissing.length || openSceneMissing.length === s.targets.length;
-  b.textContent = `Measure the ${openSceneMissing.length} target(s) not yet measured`;
+  b.textContent = `Measure the ${count(openSceneMissing.length, "target")} not yet measured`;
   $("measure-scene").textContent = openSceneMissing.length && !b.hidden ? "Measure every target again" : "Measure every target";
 }
 
@@ -773,7 +776,7 @@ async function updateSceneProgress() {
         run.reported = true;
         showMissingTargets(scene).catch(() => {});
         $("scene-progress").textContent = run.cancelled
-          ? `cancelled ${run.cancelled} measurement(s) (one under way keeps the samples it took, marked partial); ` +
+          ? `cancelled ${count(run.cancelled, "measurement")} (one under way keeps the samples it took, marked partial); ` +
             `the ${run.ids.length - run.cancelled} taken before are kept.`
           : `all ${run.ids.length} targets measured.`;
       } else if (!run) $("scene-progress").textContent = "";
@@ -791,7 +794,7 @@ async function updateSceneProgress() {
         (running ? `, now ${running.what.split(",")[0]} (sample ${running.done + 1} of ${running.total})` : "") + left;
     } else {
       bar.hidden = true;
-      $("scene-progress").textContent = `${mine.length} measurement(s) of this scene waiting or under way` + left;
+      $("scene-progress").textContent = `${count(mine.length, "measurement")} of this scene waiting or under way` + left;
     }
   } catch (e) {
     notice(e.message);
@@ -891,11 +894,11 @@ async function planStudy() {
         .reduce((n, s) => n + s.targets.length - s.measured.length, 0);
       if (missing && body.measure_missing) {
         const pace = jobs.seconds_per_sample;
-        parts.push(`First it measures the ${missing} target(s) with no complete measurement, ${health.default_samples} samples each` +
+        parts.push(`First it measures the ${count(missing, "target")} with no complete measurement, ${count(health.default_samples, "sample")} each` +
           (pace ? `: about ${duration(missing * health.default_samples * pace)} at ${fmt(pace, 2)} s per sample (${jobs.pace_source}).`
             : " (no measurement yet to time the instrument by)."));
       } else if (missing) {
-        parts.push(`${missing} target(s) have no complete measurement: the study will refuse to start; tick “measure missing targets first”.`);
+        parts.push(`${count(missing, "target")} ${missing === 1 ? "has" : "have"} no complete measurement: the study will refuse to start; tick “measure missing targets first”.`);
       } else parts.push("Every target of these scenes is measured: it renders at once.");
     } else parts.push("Against the converged spectral reference: no measurement needed.");
     // Rendering: the last complete study's seconds per scene and seed.
@@ -904,10 +907,10 @@ async function planStudy() {
     if (done) {
       const doneUnits = (done.request.scenes || "").split(",").filter(Boolean).length * done.request.seeds || 1;
       const extra = (body.sweeps && !done.request.sweeps) || (body.failure_map && !done.request.failure_map) ? " (more with sweeps or failure maps than that study had)" : "";
-      parts.push(`Then it renders ${scenes.length} scene(s) × ${body.seeds} seed(s): about ${duration(done.wall_seconds / doneUnits * units)}, ` +
+      parts.push(`Then it renders ${count(scenes.length, "scene")} × ${count(body.seeds, "seed")}: about ${duration(done.wall_seconds / doneUnits * units)}, ` +
         `from study ${done.id} (${fmt(done.wall_seconds, 3)} s for ${doneUnits} scene-seeds)${extra}.`);
     } else {
-      parts.push(`Then it renders ${scenes.length} scene(s) × ${body.seeds} seed(s); no earlier study to time that by.`);
+      parts.push(`Then it renders ${count(scenes.length, "scene")} × ${count(body.seeds, "seed")}; no earlier study to time that by.`);
     }
     $("study-plan").textContent = parts.join(" ");
   } catch (e) {

@@ -262,7 +262,7 @@ async function loadDetail(id) {
   const p = e.request.presentation;
   $("detail-facts").textContent = `${e.scene}/${e.target} in booth ${e.booth}; original: ${e.request.original} ` +
     `(measurement ${e.measurement_id}); display profile ${e.display_profile_id}; ${e.output_method}; ` +
-    `pie ${p.pie_diameter_deg}° for ${p.stimulus_ms} ms after a ${p.fixation_ms} ms cross, ${p.repeats} repeats of ` +
+    `pie ${p.pie_diameter_deg}° for ${p.stimulus_ms} ms after a ${p.fixation_ms} ms cross, ${p.repeats} ${p.repeats === 1 ? "repeat" : "repeats"} of ` +
     `6 configurations per approximation, ${p.adaptation_s} s adaptation; seed ${e.seed_text}.`;
   $("run-link").href = `/experiment/${e.id}/run`;
   $("detail-check").replaceChildren(checkView(e.check));

@@ -90,10 +90,13 @@ function updateCurrentMeasurement() {
   $("home-current-progress").value = s.sample;
   const now = Date.now() / 1000;
   const elapsed = now - s.started_at;
-  $("home-current-time").textContent = s.expected_finish_at
+  // Only from this measurement's own samples: the previous measurement may
+  // have been of a brighter target, whose samples take a fraction of the time.
+  $("home-current-time").textContent = s.expected_finish_at && s.sample > 0
     ? `running for ${duration(elapsed)}; about ${duration(s.expected_finish_at - now)} left ` +
-      `(extrapolated from ${s.sample ? "this measurement's" : "the previous measurement's"} seconds per sample)`
-    : `running for ${duration(elapsed)}; no estimate of the time left before the first sample`;
+      `(extrapolated from this measurement's seconds per sample so far)`
+    : `running for ${duration(elapsed)}; no estimate of the time left before its first sample ` +
+      `(a sample takes longer the dimmer the target)`;
   $("home-current-cancel").dataset.id = s.measurement_id;
 }
 

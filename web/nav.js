@@ -19,7 +19,10 @@ function instrumentBadgeText(s) {
   if (s.state === "measuring") {
     // The sample under way, not the count taken: "sample 0 of 5" read as stuck.
     const what = s.scene ? ` ${s.scene}/${s.target}` : "";
-    const remaining = s.expected_finish_at ? ` · about ${left(s.expected_finish_at)} left` : "";
+    // From this measurement's own pace only (after its first sample): another
+    // target's samples may take a fraction of this one's.
+    const remaining = s.expected_finish_at && s.sample > 0
+      ? ` · about ${left(s.expected_finish_at)} left at its pace so far` : "";
     return `measuring #${s.measurement_id}${what}: sample ${Math.min(s.sample + 1, s.of)} of ${s.of}${remaining}`;
   }
   if (s.state === "disconnected") return "disconnected: " + s.reason;

@@ -16,18 +16,15 @@ onLabEvent(["image_progress"], (p) => {
   const bar = $("viewer-progress");
   bar.hidden = false;
   bar.value = p.pixels ? p.pixels_done / p.pixels : 0;
-  // An upper bound: the image stops at its path cap or its time budget,
-  // earlier once every pixel reaches its noise target.
-  const fraction = p.max_paths ? p.paths / p.max_paths : 0;
-  const left = fraction > 0.01 ? Math.min(p.elapsed_seconds * (1 - fraction) / fraction,
-    Math.max(0, (viewerBudget || Infinity) - p.elapsed_seconds)) : null;
+  // The daemon's upper bound (its path cap, its time budget and a pass),
+  // or why there is none (lab::progress::image_time_left).
+  const left = p.seconds_left === null || p.seconds_left === undefined ? null : p.seconds_left;
   $("viewer-state").textContent =
     `image ${p.image_id}: pass ${p.pass}, ${p.pixels_done} of ${p.pixels} pixels done, ` +
     `${p.paths.toLocaleString()} paths, ${fmt(p.elapsed_seconds, 2)} s` +
-    (left === null ? "" : `; at most about ${duration(left)} left`);
+    (left === null ? (p.estimate ? `; ${p.estimate}` : "") : `; about ${duration(left)} left at most (${p.estimate})`);
 });
 onLabEvent(["image_finished"], () => viewerWake.splice(0).forEach((f) => f()));
-let viewerBudget = null;
 
 // The Viewer view: pick a scene; its newest complete render's images.
 async function showViewerView(sceneId) {
@@ -73,7 +70,6 @@ async function viewerImage(coding) {
     for (;;) {
       const info = await api(`/api/images/${r.image_id}`);
       if (info.state === "complete") return info;
-      viewerBudget = info.settings.time_budget_s;
       if (info.state === "failed" || info.state === "cancelled") {
         throw new Error(`image ${info.id} (${coding}) ${info.state}: ${info.error || ""}`);
       }

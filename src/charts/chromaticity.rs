@@ -79,11 +79,11 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
                 .y_label_formatter(&|v| tick_label(*v, y1 - y0))
                 .draw()
                 .map_err(err)?;
+            // Every line clipped to the plot area: the zoomed panel cuts
+            // through the locus and the gamuts (see `clipped_paths`).
             let mut closed: Vec<(f64, f64)> = locus.iter().map(|l| l.1).collect();
             closed.push(locus[0].1);
-            chart
-                .draw_series(LineSeries::new(closed, BLACK.stroke_width(1)))
-                .map_err(err)?;
+            draw_clipped_line(&chart, &closed, BLACK.stroke_width(1), None)?;
             if k == 0 {
                 for &(nm, p) in locus
                     .iter()
@@ -107,23 +107,15 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
                     (space.red.x, space.red.y),
                 ];
                 if dashed {
-                    chart
-                        .draw_series(DashedLineSeries::new(tri, 6, 5, grey.stroke_width(2)))
-                        .map_err(err)?;
+                    draw_clipped_line(&chart, &tri, grey.stroke_width(2), Some((6, 5)))?;
                 } else {
-                    chart
-                        .draw_series(LineSeries::new(tri, grey.stroke_width(1)))
-                        .map_err(err)?;
+                    draw_clipped_line(&chart, &tri, grey.stroke_width(1), None)?;
                 }
             }
             if k == 0 && has_data {
                 // Where the right panel looks.
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(zx.0, zy.0), (zx.1, zy.1)],
-                        RGBColor(200, 0, 0).stroke_width(1),
-                    )))
-                    .map_err(err)?;
+                let corners = [(zx.0, zy.0), (zx.1, zy.0), (zx.1, zy.1), (zx.0, zy.1), (zx.0, zy.0)];
+                draw_clipped_line(&chart, &corners, RGBColor(200, 0, 0).stroke_width(1), None)?;
             }
             draw_scatter(&mut chart, series, None, k == 1)?;
         }

@@ -100,8 +100,152 @@ macro_rules! with_marker {
                 };
                 $body
             }
+            Marker::TriangleLeft => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(-s - 1, 0), (tri, -s - 1), (tri, s + 1)], c.filled())
+                };
+                $body
+            }
+            Marker::TriangleRight => {
+                let $mk = |at| {
+                    EmptyElement::at(at) + Polygon::new(vec![(s + 1, 0), (-tri, -s - 1), (-tri, s + 1)], c.filled())
+                };
+                $body
+            }
+            Marker::Star => {
+                let $mk = |at| EmptyElement::at(at) + Polygon::new(star_points(s), c.filled());
+                $body
+            }
+            Marker::Hexagon => {
+                let $mk = |at| EmptyElement::at(at) + Polygon::new(hexagon_points(s), c.filled());
+                $body
+            }
+            Marker::Asterisk => {
+                let h = (s as f64 * 0.87).round() as i32;
+                let half = (s + 1) / 2;
+                let $mk = |at| {
+                    EmptyElement::at(at)
+                        + PathElement::new(vec![(0, -s - 1), (0, s + 1)], c.stroke_width(2))
+                        + PathElement::new(vec![(-h, -half), (h, half)], c.stroke_width(2))
+                        + PathElement::new(vec![(-h, half), (h, -half)], c.stroke_width(2))
+                };
+                $body
+            }
         }
     }};
+}
+
+/// A filled five-pointed star of outer radius `s + 2` px around (0, 0), point up.
+fn star_points(s: i32) -> Vec<(i32, i32)> {
+    let (outer, inner) = ((s + 2) as f64, (s + 2) as f64 * 0.45);
+    (0..10)
+        .map(|k| {
+            let a = -std::f64::consts::FRAC_PI_2 + k as f64 * std::f64::consts::PI / 5.0;
+            let r = if k % 2 == 0 { outer } else { inner };
+            ((r * a.cos()).round() as i32, (r * a.sin()).round() as i32)
+        })
+        .collect()
+}
+
+/// A filled hexagon of radius `s + 1` px around (0, 0), flat top and bottom.
+fn hexagon_points(s: i32) -> Vec<(i32, i32)> {
+    let r = (s + 1) as f64;
+    (0..6)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::PI / 3.0;
+            ((r * a.cos()).round() as i32, (r * a.sin()).round() as i32)
+        })
+        .collect()
+}
+
+/// The parts of the polyline `points` (data coordinates) that lie inside
+/// the chart's plot area, in the plot area's own pixels (origin at its top
+/// left). Each segment is clipped where it crosses the area's edge
+/// (Liang–Barsky); a vertex outside is never moved onto the edge, which
+/// is what plotters does with a coordinate outside its range (it clamps
+/// each vertex, so a line leaving the area came back along a false edge).
+fn clipped_paths<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    points: &[(f64, f64)],
+) -> Vec<Vec<(i32, i32)>> {
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let rect = (xr.start as f64, yr.start as f64, xr.end as f64, yr.end as f64);
+    let px: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .map(|p| {
+            let (x, y) = chart.as_coord_spec().translate(p);
+            (x as f64, y as f64)
+        })
+        .collect();
+    let mut paths: Vec<Vec<(i32, i32)>> = Vec::new();
+    let mut open = false;
+    let local = |p: (f64, f64)| ((p.0 - rect.0).round() as i32, (p.1 - rect.1).round() as i32);
+    for w in px.windows(2) {
+        match clip_segment(w[0], w[1], rect) {
+            Some((a, b)) => {
+                let (a, b) = (local(a), local(b));
+                match paths.last_mut() {
+                    Some(path) if open && path.last() == Some(&a) => path.push(b),
+                    _ => paths.push(vec![a, b]),
+                }
+                // The path goes on only if the segment's end was not clipped.
+                open = b == local(w[1]);
+            }
+            None => open = false,
+        }
+    }
+    paths
+}
+
+/// The part of the segment `a`–`b` inside `rect` (left, top, right,
+/// bottom), if any (Liang–Barsky).
+pub(super) fn clip_segment(
+    a: (f64, f64),
+    b: (f64, f64),
+    rect: (f64, f64, f64, f64),
+) -> Option<((f64, f64), (f64, f64))> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 - rect.0),
+        (dx, rect.2 - a.0),
+        (-dy, a.1 - rect.1),
+        (dy, rect.3 - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let t = q / p;
+            if p < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    (t0 <= t1).then_some(((a.0 + t0 * dx, a.1 + t0 * dy), (a.0 + t1 * dx, a.1 + t1 * dy)))
+}
+
+/// Draws the polyline `points` (data coordinates) clipped to the plot
+/// area (see [`clipped_paths`]), solid or dashed (`dash`: dash and gap, px).
+fn draw_clipped_line<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    points: &[(f64, f64)],
+    style: ShapeStyle,
+    dash: Option<(i32, i32)>,
+) -> Result<(), String> {
+    let area = chart.plotting_area().strip_coord_spec();
+    for path in clipped_paths(chart, points) {
+        match dash {
+            Some((size, gap)) => area.draw(&plotters::element::DashedPathElement::new(path, size, gap, style)),
+            None => area.draw(&PathElement::new(path, style)),
+        }
+        .map_err(err)?;
+    }
+    Ok(())
 }
 
 /// Draws `points` as markers of `style` into a chart.

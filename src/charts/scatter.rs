@@ -66,6 +66,11 @@ pub fn scatter_chart_with_spread(
     }
 }
 
+/// How far (a factor) a log axis reaches beyond its extreme values before
+/// it is widened to whole decades: 0.05 of a decade, more than a marker's
+/// radius on a chart's few decades.
+const LOG_MARGIN: f64 = 1.122;
+
 /// The scatter chart on a page `height` px tall; also returns the height
 /// its legend column (legend, key, notes) needs.
 fn scatter_page(
@@ -95,11 +100,14 @@ fn scatter_page(
     } else {
         0
     };
+    // Each end a little beyond the extreme value (`LOG_MARGIN`), so that
+    // no marker sits on the axis, half of it outside the plot (spectral's +
+    // on a ΔE just above a decade was).
     let positive = |vals: &mut dyn Iterator<Item = f64>, off: usize| {
         let (lo, hi) = vals
             .filter(|v| *v > 0.0 && v.is_finite())
             .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
-        (if off > 0 { lo * 0.999 } else { lo }, hi)
+        (if off > 0 { lo * 0.999 } else { lo / LOG_MARGIN }, hi * LOG_MARGIN)
     };
     let lx = positive(&mut all_x().chain(spread_x), off_x);
     let ly = positive(&mut all_y(), off_y);
@@ -239,19 +247,58 @@ const LABEL_RINGS: i32 = 4;
 /// How much farther from the point each ring is (px).
 const RING_STEP: i32 = 16;
 
+/// Clearance (px) between a label and any marker but its own, beyond the
+/// label's distance from its own: a label is read as belonging to the
+/// marker nearest to it ("spectral" written beside nstep81's × was read as
+/// nstep81's).
+const OWN_MARKER_MARGIN: i32 = 6;
+
+/// How much nearer (px) its own marker than any other a leader line
+/// starts: it starts just outside its marker, which may touch another.
+const LEADER_MARGIN: i32 = 2;
+
+/// The distance (px) from the point `p` to the box `b` (0 inside it).
+fn distance_to_box(p: (i32, i32), b: PxBox) -> f64 {
+    let dx = (b.0 - p.0).max(p.0 - b.2).max(0) as f64;
+    let dy = (b.1 - p.1).max(p.1 - b.3).max(0) as f64;
+    dx.hypot(dy)
+}
+
 /// Where to put a text of `extent` beside a point at pixel `at` whose
 /// marker has radius `r`: the first of right, left, above, below and the
-/// four diagonals, nearest ring first, whose box lies inside `within` and
-/// meets none of `taken`; that box and its ring (0: beside the marker), or
-/// `None` when every place collides.
+/// four diagonals, nearest ring first, whose box lies inside `within`,
+/// meets none of `taken` and points at its own marker: beside the marker
+/// (ring 0), every other marker of `markers` (centre, radius) is farther
+/// from the box than its own by [`OWN_MARKER_MARGIN`]; away from it (a
+/// leader line joins them), no other marker is that close to the box, and
+/// the leader starts nearer its own marker than any other (by
+/// [`LEADER_MARGIN`]). `markers` are the others (centre, radius): not its
+/// own, nor those its label also serves. Returns that
+/// box and its ring, or `None` when every place fails.
 pub(super) fn label_places(
     at: (i32, i32),
     r: i32,
     extent: (i32, i32),
     within: PxBox,
     taken: &[PxBox],
+    markers: &[((i32, i32), i32)],
 ) -> Option<(PxBox, i32)> {
     let (w, h) = extent;
+    let others = || markers.iter().filter(|(c, _)| *c != at);
+    let points_at_its_own = |b: PxBox, ring: i32| {
+        if ring == 0 {
+            let own = distance_to_box(at, b);
+            others().all(|&(c, _)| distance_to_box(c, b) >= own + OWN_MARKER_MARGIN as f64)
+        } else {
+            let [start, _] = leader(at, r, b);
+            let start = (at.0 + start.0, at.1 + start.1);
+            let own = ((start.0 - at.0) as f64).hypot((start.1 - at.1) as f64);
+            others().all(|&(c, rc)| {
+                distance_to_box(c, b) >= (rc + 4 + OWN_MARKER_MARGIN) as f64
+                    && ((start.0 - c.0) as f64).hypot((start.1 - c.1) as f64) >= own + LEADER_MARGIN as f64
+            })
+        }
+    };
     (0..LABEL_RINGS).find_map(|ring| {
         let gap = r + 4 + ring * RING_STEP;
         let diag = (gap as f64 * 0.75).ceil() as i32;
@@ -278,6 +325,7 @@ pub(super) fn label_places(
                         || leader_dots(at, r, *b)
                             .iter()
                             .all(|d| !taken.iter().any(|t| overlaps(*d, *t))))
+                    && points_at_its_own(*b, ring)
             })
             .map(|b| (b, ring))
     })
@@ -331,11 +379,15 @@ fn draw_labels<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Range
     let within = (xr.start, yr.start, xr.end, yr.end);
     // Every marker and whisker is in the way of a label.
     let mut taken: Vec<PxBox> = Vec::new();
+    // Every marker: (centre, radius, its series and its label).
+    let mut markers: Vec<((i32, i32), i32, usize, &str)> = Vec::new();
     for (i, s) in series.iter().enumerate() {
         let r = st[i].size + 4;
         for (j, p) in s.points.iter().enumerate() {
             let (x, y) = chart.backend_coord(p);
             taken.push((x - r, y - r, x + r, y + r));
+            let label = labels.get(i).and_then(|l| l.get(j)).map_or("", |l| l.as_str());
+            markers.push(((x, y), st[i].size, i, label));
             if let Some(&(a, b)) = spreads.get(i).and_then(|sp| sp.get(j)) {
                 let (xa, xb) = (chart.backend_coord(&(a, p.1)).0, chart.backend_coord(&(b, p.1)).0);
                 taken.push((xa.min(xb) - 1, y - 2, xa.max(xb) + 1, y + 2));
@@ -345,9 +397,16 @@ fn draw_labels<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Range
     let font = ("sans-serif", LABEL_PX).into_font().color(&RGBColor(40, 40, 40));
     let mut texts: Vec<PlacedText> = Vec::new();
     let mut leaders: Vec<Leader> = Vec::new();
-    let mut place = |p: (f64, f64), r: i32, text: &str, taken: &mut Vec<PxBox>| {
+    // A label of series `i` is in the way of no marker of its own series
+    // with the same label (two points of one setting nearly coincide).
+    let mut place = |p: (f64, f64), r: i32, i: usize, label: &str, text: &str, taken: &mut Vec<PxBox>| {
         let px = chart.backend_coord(&p);
-        let (b, ring) = label_places(px, r, label_extent(text), within, taken)?;
+        let others: Vec<((i32, i32), i32)> = markers
+            .iter()
+            .filter(|m| !(m.2 == i && m.3 == label))
+            .map(|m| (m.0, m.1))
+            .collect();
+        let (b, ring) = label_places(px, r, label_extent(text), within, taken, &others)?;
         taken.push(b);
         texts.push((p, (b.0 - px.0, b.1 - px.1), text.to_string()));
         if ring > 0 {
@@ -357,18 +416,36 @@ fn draw_labels<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f64>, Y: Range
         Some(())
     };
     let mut unplaced = Vec::new();
+    // Points already labelled: (series, label, pixel).
+    let mut labelled: Vec<(usize, &str, (i32, i32))> = Vec::new();
     for (i, s) in series.iter().enumerate() {
         for (p, text) in s.points.iter().zip(labels.get(i).into_iter().flatten()) {
-            if !text.is_empty() && place(*p, st[i].size, text, &mut taken).is_none() {
-                unplaced.push((*p, st[i].size, format!("{text} ({})", s.name)));
+            if text.is_empty() {
+                continue;
+            }
+            // One label serves a point of its series with the same label
+            // under the same marker (the coding sweep's nstep3 and the N
+            // sweep's are one setting).
+            let px = chart.backend_coord(p);
+            let r = st[i].size;
+            if labelled
+                .iter()
+                .any(|&(k, l, q)| k == i && l == text.as_str() && (q.0 - px.0).abs().max((q.1 - px.1).abs()) <= r + 2)
+            {
+                continue;
+            }
+            if place(*p, r, i, text, text, &mut taken).is_some() {
+                labelled.push((i, text.as_str(), px));
+            } else {
+                unplaced.push((*p, r, i, text.as_str(), format!("{text} ({})", s.name)));
             }
         }
     }
     let mut key = Vec::new();
     let mut k = 0;
-    for (p, r, text) in unplaced {
+    for (p, r, i, label, text) in unplaced {
         let number = format!("[{}]", k + 1);
-        if place(p, r, &number, &mut taken).is_some() {
+        if place(p, r, i, label, &number, &mut taken).is_some() {
             k += 1;
             key.push(format!("{number} {text}"));
         } else {
@@ -427,9 +504,7 @@ pub(super) fn draw_scatter<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f6
         }
         if s.connect {
             let width = if is_measurement(&s.name) { 2 } else { 1 };
-            chart
-                .draw_series(LineSeries::new(s.points.clone(), style.colour.stroke_width(width)))
-                .map_err(err)?;
+            draw_clipped_line(chart, &s.points, style.colour.stroke_width(width), None)?;
         }
         let flags = hollow.and_then(|h| h.get(i));
         let is_hollow = |j: usize| flags.and_then(|f| f.get(j)).copied().unwrap_or(false);
@@ -474,5 +549,27 @@ pub(super) fn marker_outline(style: Style) -> Vec<Vec<(i32, i32)>> {
             vec![(0, -s - 1), (0, s + 1)],
             ring(s + 3),
         ],
+        Marker::TriangleLeft => vec![vec![(-s - 1, 0), (tri, -s - 1), (tri, s + 1), (-s - 1, 0)]],
+        Marker::TriangleRight => vec![vec![(s + 1, 0), (-tri, -s - 1), (-tri, s + 1), (s + 1, 0)]],
+        Marker::Star => {
+            let mut p = star_points(s);
+            p.push(p[0]);
+            vec![p]
+        }
+        Marker::Hexagon => {
+            let mut p = hexagon_points(s);
+            p.push(p[0]);
+            vec![p]
+        }
+        Marker::Asterisk => {
+            let h = (s as f64 * 0.87).round() as i32;
+            let half = (s + 1) / 2;
+            vec![
+                vec![(0, -s - 1), (0, s + 1)],
+                vec![(-h, -half), (h, half)],
+                vec![(-h, half), (h, -half)],
+                ring(s + 3),
+            ]
+        }
     }
 }

@@ -14,6 +14,11 @@ pub enum Marker {
     TriangleDown,
     Cross,
     Plus,
+    TriangleLeft,
+    TriangleRight,
+    Star,
+    Hexagon,
+    Asterisk,
 }
 
 /// How one series is drawn.
@@ -49,10 +54,27 @@ pub const MEASUREMENT: Style = Style {
 pub(super) const OTHER_COLOURS: [RGBColor; 3] =
     [RGBColor(110, 110, 110), RGBColor(240, 200, 40), RGBColor(170, 170, 170)];
 
-/// Colours for the codings `nstepN` whose N is not in [`CODING_STYLES`]
-/// (Paul Tol's muted and dark colours): none is one of the table's, black
-/// (the measurement), a grey or a near-white, so each reads on white.
-const NSTEP_COLOURS: [RGBColor; 7] = [
+/// The study's other N-step codings (its N sweep: 1, 2, 3, 5, 7, 9, 15, 20,
+/// 27, 40, 54, 81; `lab::study::run`), drawn in one chart with the table's:
+/// with [`CODING_STYLES`]' nstep3, nstep9, nstep27 and nstep81 the twelve
+/// codings of the sweep have twelve different markers and twelve different
+/// colours (Paul Tol's muted and dark colours here, none an Okabe–Ito
+/// colour of the table), so no two are told apart by a shade alone.
+pub const SWEEP_STYLES: [(&str, RGBColor, Marker); 8] = [
+    ("nstep1", RGBColor(51, 34, 136), Marker::Square),
+    ("nstep2", RGBColor(136, 34, 85), Marker::Diamond),
+    ("nstep5", RGBColor(153, 153, 51), Marker::TriangleLeft),
+    ("nstep7", RGBColor(17, 119, 51), Marker::TriangleRight),
+    ("nstep15", RGBColor(170, 68, 153), Marker::Star),
+    ("nstep20", RGBColor(140, 81, 10), Marker::Hexagon),
+    ("nstep40", RGBColor(200, 0, 60), Marker::Asterisk),
+    ("nstep54", RGBColor(68, 170, 153), Marker::Plus),
+];
+
+/// Colours for the codings `nstepN` in neither table (Paul Tol's muted and
+/// dark colours, as [`SWEEP_STYLES`]): none is one of [`CODING_STYLES`]',
+/// black (the measurement), a grey or a near-white, so each reads on white.
+const NSTEP_COLOURS: [RGBColor; 8] = [
     RGBColor(51, 34, 136),
     RGBColor(136, 34, 85),
     RGBColor(153, 153, 51),
@@ -60,11 +82,12 @@ const NSTEP_COLOURS: [RGBColor; 7] = [
     RGBColor(170, 68, 153),
     RGBColor(140, 81, 10),
     RGBColor(200, 0, 60),
+    RGBColor(68, 170, 153),
 ];
 
 /// The filled or stroked markers a coding may have (the open circle is the
 /// measurement's).
-const NSTEP_MARKERS: [Marker; 7] = [
+const NSTEP_MARKERS: [Marker; 12] = [
     Marker::Circle,
     Marker::Square,
     Marker::Diamond,
@@ -72,32 +95,49 @@ const NSTEP_MARKERS: [Marker; 7] = [
     Marker::TriangleDown,
     Marker::Cross,
     Marker::Plus,
+    Marker::TriangleLeft,
+    Marker::TriangleRight,
+    Marker::Star,
+    Marker::Hexagon,
+    Marker::Asterisk,
 ];
 
-/// The style of `nstepN` for an N not in [`CODING_STYLES`], a function of
-/// N alone: the k-th such N (k = 0 for N = 1) takes colour k mod 7 and
-/// marker (k + ⌊k/7⌋) mod 7, so the first 49 untabulated N (every N up to
-/// 52) have pairwise different (colour, marker), and none shares a colour
-/// with a tabulated coding.
-fn nstep_style(n: u64) -> (RGBColor, Marker) {
-    let tabulated_below = CODING_STYLES
+/// The N of the codings `nstepN` in the two tables.
+fn tabulated_n() -> impl Iterator<Item = u64> {
+    CODING_STYLES
         .iter()
+        .chain(SWEEP_STYLES.iter())
         .filter_map(|(c, _, _)| c.strip_prefix("nstep")?.parse::<u64>().ok())
-        .filter(|&t| t < n)
-        .count() as u64;
-    let k = n.saturating_sub(1 + tabulated_below);
-    let (len_c, len_m) = (NSTEP_COLOURS.len() as u64, NSTEP_MARKERS.len() as u64);
-    let colour = NSTEP_COLOURS[(k % len_c) as usize];
-    let marker = NSTEP_MARKERS[((k + k / len_c) % len_m) as usize];
-    (colour, marker)
 }
 
-/// A coding's style, if `name` is a coding: the table's for the codings in
-/// [`CODING_STYLES`], and for any other `nstepN` one of its own, the same in
+/// The style of `nstepN` for an N in neither table, a function of N alone:
+/// the k-th such N (k = 0 for the smallest) takes the k-th (colour, marker)
+/// pair of [`NSTEP_COLOURS`] × [`NSTEP_MARKERS`] that [`SWEEP_STYLES`] does
+/// not use, pair j being (colour j mod 8, marker (⌊j/8⌋ + j mod 8) mod 12). The
+/// first 96 pairs are all different (for each colour, j ↦ marker runs
+/// through the twelve markers), 88 remain after the sweep's, more than the
+/// 69 other N of 1 ≤ N ≤ 81: every N-step coding has its own style.
+fn nstep_style(n: u64) -> (RGBColor, Marker) {
+    let tabulated_below = tabulated_n().filter(|&t| t < n).count() as u64;
+    let k = n.saturating_sub(1 + tabulated_below) as usize;
+    let (len_c, len_m) = (NSTEP_COLOURS.len(), NSTEP_MARKERS.len());
+    let pairs: Vec<(RGBColor, Marker)> = (0..len_c * len_m)
+        .map(|j| (NSTEP_COLOURS[j % len_c], NSTEP_MARKERS[(j / len_c + j % len_c) % len_m]))
+        .filter(|pair| !SWEEP_STYLES.iter().any(|(_, c, m)| (*c, *m) == *pair))
+        .collect();
+    pairs[k % pairs.len()]
+}
+
+/// A coding's style, if `name` is a coding: the tables' for the codings in
+/// [`CODING_STYLES`] and [`SWEEP_STYLES`], and for any other `nstepN` one of its own, the same in
 /// every chart and page (see [`nstep_style`]).
 pub fn coding_style(name: &str) -> Option<Style> {
     let name = name.trim().to_ascii_lowercase();
-    let (colour, marker) = match CODING_STYLES.iter().find(|(c, _, _)| *c == name) {
+    let (colour, marker) = match CODING_STYLES
+        .iter()
+        .chain(SWEEP_STYLES.iter())
+        .find(|(c, _, _)| *c == name)
+    {
         Some(&(_, colour, marker)) => (colour, marker),
         None => nstep_style(name.strip_prefix("nstep")?.parse().ok()?),
     };

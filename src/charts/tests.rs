@@ -736,3 +736,502 @@ fn false_colour_figure_refuses_an_empty_map() {
     };
     assert!(false_colour_map_svg(&m).unwrap_err().contains("no pixels"));
 }
+
+/// The (x, y) pairs of an element's `points` attribute.
+fn points_of(attrs: &str) -> Vec<(f64, f64)> {
+    attr(attrs, "points")
+        .unwrap_or_default()
+        .split_whitespace()
+        .filter_map(|p| {
+            let (x, y) = p.split_once(',')?;
+            Some((x.parse().ok()?, y.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The distance (px) from `p` to the segment `a`–`b`.
+fn distance_to_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 == 0.0 {
+        0.0
+    } else {
+        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
+    };
+    (p.0 - a.0 - t * dx).hypot(p.1 - a.1 - t * dy)
+}
+
+/// The zoomed chromaticity panel clamped every vertex of the gamut
+/// triangles to the zoom box instead of clipping the lines: a diagonal ran
+/// from corner to corner through the data (nstep3 looked as if it sat on
+/// the gamut's edge) and false edges ran along the frame. Here the data sit
+/// on both gamuts' red–green edge, so the box cuts both triangles: every
+/// grey segment the panel draws must lie inside the box and on a true edge
+/// of a gamut.
+#[test]
+fn zoomed_chromaticity_panel_draws_no_false_gamut_edges() {
+    let data = [(0.46, 0.455), (0.48, 0.47)];
+    let svg = chromaticity_chart("WHITE: chromaticity", Observer::JuddVos, &[scatter("measured", &data)]).unwrap();
+    keep_for_a_look("chromaticity-zoom", &svg);
+    // The zoomed panel is the second of two 440 px panels.
+    let (left, right) = (440.0, 880.0);
+    let in_panel = |x: f64| x > left && x < right;
+    // The data's pixels from the measurement's markers (full size there).
+    let mut marks: Vec<(f64, f64)> = elements(&svg, "circle")
+        .iter()
+        .filter(|(a, _)| num(a, "r") == MEASUREMENT_PX as f64 && in_panel(num(a, "cx")))
+        .map(|(a, _)| (num(a, "cx"), num(a, "cy")))
+        .collect();
+    marks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert_eq!(marks.len(), 2, "the two measured points in the zoomed panel");
+    let sx = (marks[1].0 - marks[0].0) / (data[1].0 - data[0].0);
+    let sy = (marks[1].1 - marks[0].1) / (data[1].1 - data[0].1);
+    let to_px = |p: (f64, f64)| (marks[0].0 + sx * (p.0 - data[0].0), marks[0].1 + sy * (p.1 - data[0].1));
+    // The zoom box as the chart computes it: the data's bounds padded 5 %,
+    // made square about their centre.
+    let (xs, ys) = (
+        super::axes::bounds(data.iter().map(|p| p.0)),
+        super::axes::bounds(data.iter().map(|p| p.1)),
+    );
+    let half = ((xs.1 - xs.0).max(ys.1 - ys.0) / 2.0).max(0.005);
+    let (cx, cy) = ((xs.0 + xs.1) / 2.0, (ys.0 + ys.1) / 2.0);
+    let (x0, y1) = to_px((cx - half, cy - half));
+    let (x1, y0) = to_px((cx + half, cy + half));
+    let edges: Vec<((f64, f64), (f64, f64))> = [RgbSpace::SRGB, RgbSpace::RADIANCE]
+        .iter()
+        .flat_map(|s| {
+            let v = [(s.red.x, s.red.y), (s.green.x, s.green.y), (s.blue.x, s.blue.y)];
+            (0..3).map(move |k| (v[k], v[(k + 1) % 3]))
+        })
+        .map(|(a, b)| (to_px(a), to_px(b)))
+        .collect();
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    let mut segments = 0;
+    for (attrs, _) in elements(&svg, "polyline") {
+        if attr(&attrs, "stroke").as_deref() != Some(grey.as_str()) {
+            continue;
+        }
+        let pts = points_of(&attrs);
+        if !pts.iter().all(|p| in_panel(p.0)) {
+            continue;
+        }
+        for w in pts.windows(2) {
+            segments += 1;
+            for p in w {
+                assert!(
+                    p.0 >= x0 - 2.0 && p.0 <= x1 + 2.0 && p.1 >= y0 - 2.0 && p.1 <= y1 + 2.0,
+                    "a gamut line at {p:?} outside the zoom box ({x0:.0}, {y0:.0})–({x1:.0}, {y1:.0})"
+                );
+            }
+            let on_an_edge = edges
+                .iter()
+                .any(|(a, b)| w.iter().all(|p| distance_to_segment(*p, *a, *b) < 3.0));
+            assert!(
+                on_an_edge,
+                "the segment {:?}–{:?} lies on no gamut edge: a false edge",
+                w[0], w[1]
+            );
+        }
+    }
+    assert!(
+        segments >= 2,
+        "the gamuts' red–green edges cross the zoom box: {segments} segments"
+    );
+}
+
+/// A speed chart's series, their labels and their timings' spreads.
+type SpeedChartData = (Vec<ScatterSeries>, Vec<Vec<String>>, Vec<Vec<(f64, f64)>>);
+
+/// The study's speed chart as `lab::study::report::speed_chart` builds it
+/// from a CYLINDER study's sweeps (figures of that shape: the N sweep's
+/// twelve codings at nearly one render time, the bounce sweep's points
+/// crowding the converged end): one series per coding, each point labelled
+/// with what its sweep varied, and the Pareto front. Returns the series,
+/// their labels and their spreads.
+fn study_speed_series() -> SpeedChartData {
+    // (sweep label, coding, seconds, mean ΔE00)
+    let mut points: Vec<(String, &str, f64, f64)> = Vec::new();
+    for (coding, t, de) in [
+        ("rgb", 0.45, 1.5),
+        ("srgb", 0.46, 1.2),
+        ("nstep3", 0.52, 1.8),
+        ("nstep9", 0.58, 0.35),
+        ("nstep27", 0.7, 0.07),
+        ("nstep81", 0.95, 0.04),
+        ("spectral", 1.2, 0.04),
+    ] {
+        points.push((coding.to_string(), coding, t, de));
+    }
+    for (samples, t, de) in [
+        (256, 0.3, 0.12),
+        (1024, 1.2, 0.05),
+        (4096, 4.8, 0.03),
+        (16384, 19.0, 0.02),
+    ] {
+        points.push((format!("{samples} p"), "spectral", t, de));
+    }
+    for (b, t, de) in [
+        (0, 0.3, 5.0),
+        (1, 0.5, 2.0),
+        (2, 0.7, 0.8),
+        (3, 0.85, 0.3),
+        (4, 0.95, 0.12),
+        (5, 1.0, 0.06),
+        (6, 1.05, 0.045),
+        (7, 1.1, 0.042),
+        (8, 1.12, 0.041),
+    ] {
+        points.push((format!("{b} b"), "spectral", t, de));
+    }
+    for (n, t, de) in [
+        (1, 0.44, 8.0),
+        (2, 0.46, 4.0),
+        (3, 0.5, 1.8),
+        (5, 0.5, 0.9),
+        (7, 0.52, 0.5),
+        (9, 0.57, 0.35),
+        (15, 0.6, 0.15),
+        (20, 0.62, 0.1),
+        (27, 0.69, 0.07),
+        (40, 0.75, 0.05),
+        (54, 0.82, 0.045),
+        (81, 0.97, 0.04),
+    ] {
+        let coding = STUDY_N_SWEEP.iter().find(|c| **c == format!("nstep{n}")).unwrap();
+        points.push((coding.to_string(), coding, t, de));
+    }
+    let mut codings: Vec<&str> = Vec::new();
+    for p in &points {
+        if !codings.contains(&p.1) {
+            codings.push(p.1);
+        }
+    }
+    let mut series = Vec::new();
+    let mut labels = Vec::new();
+    let mut spreads = Vec::new();
+    for c in codings {
+        let mine: Vec<_> = points.iter().filter(|p| p.1 == c).collect();
+        series.push(scatter(c, &mine.iter().map(|p| (p.2, p.3)).collect::<Vec<_>>()));
+        labels.push(mine.iter().map(|p| p.0.clone()).collect());
+        spreads.push(mine.iter().map(|p| (p.2 * 0.97, p.2 * 1.04)).collect());
+    }
+    // The front: no other point both faster and more accurate.
+    let mut front: Vec<(f64, f64)> = points
+        .iter()
+        .map(|p| (p.2, p.3))
+        .filter(|&(t, e)| !points.iter().any(|q| q.2 <= t && q.3 <= e && (q.2 < t || q.3 < e)))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    series.push(ScatterSeries {
+        name: "Pareto front".into(),
+        points: front,
+        connect: true,
+    });
+    (series, labels, spreads)
+}
+
+/// The codings of the study's N sweep (`lab::study::run`'s sweeps).
+const STUDY_N_SWEEP: [&str; 12] = [
+    "nstep1", "nstep2", "nstep3", "nstep5", "nstep7", "nstep9", "nstep15", "nstep20", "nstep27", "nstep40", "nstep54",
+    "nstep81",
+];
+
+/// The centre of every marker a chart draws in its plot area (left of the
+/// legend column): circles, squares, filled polygons, and the strokes of
+/// crosses, pluses and asterisks (not whiskers: horizontal, 2 px; not
+/// lines of more than two points; not the grey leaders or black ticks).
+fn marker_centres(svg: &str, plot_right: f64) -> Vec<(f64, f64)> {
+    let mut centres: Vec<(f64, f64)> = Vec::new();
+    let leader = colour_hex(RGBColor(150, 150, 150));
+    let mut add = |c: (f64, f64)| {
+        if c.0 < plot_right
+            && !centres
+                .iter()
+                .any(|d| (d.0 - c.0).abs() <= 2.0 && (d.1 - c.1).abs() <= 2.0)
+        {
+            centres.push(c);
+        }
+    };
+    for (a, _) in elements(svg, "circle") {
+        add((num(&a, "cx"), num(&a, "cy")));
+    }
+    for (a, _) in elements(svg, "rect") {
+        let (w, h) = (num(&a, "width"), num(&a, "height"));
+        if w < 20.0 && h < 20.0 {
+            add((num(&a, "x") + w / 2.0, num(&a, "y") + h / 2.0));
+        }
+    }
+    let bbox_centre = |pts: &[(f64, f64)]| {
+        let (x0, x1) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
+        let (y0, y1) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.1), h.max(p.1)));
+        ((x0 + x1) / 2.0, (y0 + y1) / 2.0, x1 - x0, y1 - y0)
+    };
+    for (a, _) in elements(svg, "polygon") {
+        let (cx, cy, w, h) = bbox_centre(&points_of(&a));
+        if w < 20.0 && h < 20.0 {
+            add((cx, cy));
+        }
+    }
+    for (a, _) in elements(svg, "polyline") {
+        let pts = points_of(&a);
+        let width = num(&a, "stroke-width");
+        let whisker = pts.len() == 2 && pts[0].1 == pts[1].1 && width == 2.0;
+        let stroke = attr(&a, "stroke").unwrap_or_default();
+        // Not the leaders, nor the axes' black tick marks.
+        if pts.len() != 2 || whisker || stroke == leader || stroke == "#000000" {
+            continue;
+        }
+        let (cx, cy, w, h) = bbox_centre(&pts);
+        if w < 20.0 && h < 20.0 {
+            add((cx, cy));
+        }
+    }
+    centres
+}
+
+/// A log axis' pixel of a value, fitted to its labelled ticks: `ticks` are
+/// (value, pixel).
+fn log_axis_map(ticks: &[(f64, f64)]) -> impl Fn(f64) -> f64 {
+    let (a, b) = (
+        ticks.iter().min_by(|p, q| p.0.total_cmp(&q.0)).copied().unwrap(),
+        ticks.iter().max_by(|p, q| p.0.total_cmp(&q.0)).copied().unwrap(),
+    );
+    let slope = (b.1 - a.1) / (b.0.log10() - a.0.log10());
+    move |v: f64| a.1 + slope * (v.log10() - a.0.log10())
+}
+
+/// Writes a chart the tests drew to `target/tmp/charts/NAME.svg`, for a look.
+fn keep_for_a_look(name: &str, svg: &str) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/tmp/charts");
+    if std::fs::create_dir_all(&dir).is_ok() {
+        let _ = std::fs::write(dir.join(format!("{name}.svg")), svg);
+    }
+}
+
+/// The speed-against-accuracy chart labelled the wrong marker: "spectral"
+/// sat beside nstep81's × and spectral's + was half cut off at the axis
+/// (a scene's chart), and in the study's chart labels piled up while
+/// nstep2 and nstep54 were drawn alike (and nstep20 and nstep81 as two
+/// green crosses). Over the study's twelve N-step codings (and the rest of
+/// its speed chart) no two codings share a colour or a marker, and on both
+/// charts every label points at its own point: the marker nearest to it is
+/// its point's, or a leader line from its point's marker ends at it; no
+/// marker reaches beyond the axes.
+#[test]
+fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_style() {
+    // A scene's chart: one point per coding, nstep81 and spectral side by
+    // side, spectral's ΔE just above a decade.
+    let scene: Vec<ScatterSeries> = [
+        ("rgb", 0.5, 2.1),
+        ("srgb", 0.52, 1.6),
+        ("nstep3", 0.55, 2.5),
+        ("nstep9", 0.6, 0.9),
+        ("nstep27", 0.75, 0.45),
+        ("nstep81", 1.05, 0.108),
+        ("spectral", 1.1, 0.102),
+    ]
+    .iter()
+    .map(|&(c, t, de)| scatter(c, &[(t, de)]))
+    .collect();
+    let scene_labels: Vec<Vec<String>> = scene.iter().map(|s| vec![s.name.clone()]).collect();
+    let scene_spreads: Vec<Vec<(f64, f64)>> = scene
+        .iter()
+        .map(|s| vec![(s.points[0].0 * 0.97, s.points[0].0 * 1.04)])
+        .collect();
+    let svg = scatter_chart_with_spread(
+        "cylinder: speed against accuracy",
+        "render time (s, log scale)",
+        "mean ΔE*ab (CIELAB units, log scale)",
+        &scene,
+        &scene_labels,
+        &scene_spreads,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-scene", &svg);
+    let scene_svg = svg;
+
+    let (series, labels, spreads) = study_speed_series();
+    let svg = scatter_chart_with_spread(
+        "CYLINDER: speed against accuracy (p = paths per target, b = bounces)",
+        "render time (s, log scale)",
+        "mean ΔE00 (CIEDE2000 units, log scale)",
+        &series,
+        &labels,
+        &spreads,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-study", &svg);
+    labels_point_at_their_own_points(&scene_svg, &scene, &scene_labels);
+    labels_point_at_their_own_points(&svg, &series, &labels);
+
+    // spectral on the lowest ΔE, nstep81 a marker's width right of it and
+    // nstep27 left: above spectral is the only free place beside it, as
+    // near nstep81's × as its own +.
+    let edge: Vec<ScatterSeries> = [
+        ("rgb", 0.5, 2.1),
+        ("nstep27", 0.88, 0.102),
+        ("spectral", 1.0, 0.102),
+        ("nstep81", 1.07, 0.102),
+    ]
+    .iter()
+    .map(|&(c, t, de)| scatter(c, &[(t, de)]))
+    .collect();
+    let edge_labels: Vec<Vec<String>> = edge.iter().map(|s| vec![s.name.clone()]).collect();
+    let svg = scatter_chart_labelled(
+        "edge",
+        "t (s, log scale)",
+        "ΔE (log scale)",
+        &edge,
+        &edge_labels,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-edge", &svg);
+    labels_point_at_their_own_points(&svg, &edge, &edge_labels);
+
+    // The styles: twelve markers and twelve colours for the N sweep, and
+    // nothing shared with rgb, srgb or spectral.
+    let style = |c: &str| coding_style(c).unwrap_or_else(|| panic!("{c} is a coding"));
+    for (i, a) in STUDY_N_SWEEP.iter().enumerate() {
+        for b in &STUDY_N_SWEEP[i + 1..] {
+            assert_ne!(style(a).marker, style(b).marker, "{a} and {b} share a marker");
+            assert_ne!(style(a).colour, style(b).colour, "{a} and {b} share a colour");
+        }
+    }
+    let all: Vec<&str> = STUDY_N_SWEEP
+        .iter()
+        .copied()
+        .chain(["rgb", "srgb", "spectral"])
+        .collect();
+    for (i, a) in all.iter().enumerate() {
+        for b in &all[i + 1..] {
+            assert!(
+                style(a).colour != style(b).colour || style(a).marker != style(b).marker,
+                "{a} and {b} are drawn alike"
+            );
+        }
+    }
+}
+
+/// On a log–log scatter chart: every label on the chart (or its number
+/// from the key) is nearest to one of its own points' markers, or a leader
+/// from such a marker ends at it; labels do not overlap; at least half are
+/// on the chart; no marker reaches beyond the axes.
+fn labels_point_at_their_own_points(svg: &str, series: &[ScatterSeries], labels: &[Vec<String>]) {
+    let plot_right = (W - LEGEND_W) as f64;
+    // Each point's pixel, from the axes' labelled ticks.
+    let numbers: Vec<(String, f64, f64, f64)> = elements(svg, "text")
+        .into_iter()
+        .filter_map(|(a, c)| {
+            Some((
+                attr(&a, "text-anchor")?,
+                num(&a, "x"),
+                num(&a, "y"),
+                c.parse::<f64>().ok()?,
+            ))
+        })
+        .filter(|t| t.3 > 0.0)
+        .collect();
+    let x_ticks: Vec<(f64, f64)> = numbers.iter().filter(|t| t.0 == "middle").map(|t| (t.3, t.1)).collect();
+    let y_ticks: Vec<(f64, f64)> = numbers.iter().filter(|t| t.0 == "end").map(|t| (t.3, t.2)).collect();
+    assert!(x_ticks.len() >= 2 && y_ticks.len() >= 2, "{x_ticks:?} {y_ticks:?}");
+    let (px, py) = (log_axis_map(&x_ticks), log_axis_map(&y_ticks));
+    // Where each label's points are (a label may be on two points: nstep3
+    // of the coding sweep and of the N sweep).
+    let mut owners: Vec<(String, (f64, f64))> = Vec::new();
+    for (s, ls) in series.iter().zip(labels) {
+        for (p, l) in s.points.iter().zip(ls) {
+            owners.push((l.clone(), (px(p.0), py(p.1))));
+        }
+    }
+    // The numbers in the key: "[k] label (series)".
+    let key: Vec<(String, String)> = texts(svg)
+        .into_iter()
+        .filter(|t| t.0 > plot_right && t.2.starts_with('['))
+        .filter_map(|t| {
+            let (number, rest) = t.2.split_once(' ')?;
+            let label = rest.rsplit_once(" (")?.0;
+            Some((number.to_string(), label.to_string()))
+        })
+        .collect();
+    let markers = marker_centres(svg, plot_right);
+    let leaders: Vec<Vec<(f64, f64)>> = elements(svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(colour_hex(RGBColor(150, 150, 150)).as_str()))
+        .map(|(a, _)| points_of(&a))
+        .collect();
+    let dist = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
+    let box_dist = |p: (f64, f64), b: (f64, f64, f64, f64)| {
+        let dx = (b.0 - p.0).max(p.0 - b.2).max(0.0);
+        let dy = (b.1 - p.1).max(p.1 - b.3).max(0.0);
+        dx.hypot(dy)
+    };
+    let nearest = |from: &dyn Fn((f64, f64)) -> f64| {
+        markers
+            .iter()
+            .copied()
+            .min_by(|a, b| from(*a).total_cmp(&from(*b)))
+            .unwrap()
+    };
+    let all_labels: Vec<&String> = labels.iter().flatten().collect();
+    let mut on_chart = 0;
+    let mut boxes = Vec::new();
+    for (x, y, text) in texts(svg).into_iter().filter(|t| t.0 < plot_right) {
+        let label = if text.starts_with('[') {
+            match key.iter().find(|(n, _)| *n == text) {
+                Some((_, l)) => l.clone(),
+                None => panic!("the number {text} is not in the key"),
+            }
+        } else if all_labels.contains(&&text) {
+            text.clone()
+        } else {
+            continue;
+        };
+        on_chart += 1;
+        let b = label_box(x, y, &text);
+        boxes.push(b);
+        let mine: Vec<(f64, f64)> = owners.iter().filter(|o| o.0 == label).map(|o| o.1).collect();
+        let leader = leaders.iter().find(|l| box_dist(*l.last().unwrap(), b) <= 2.0);
+        let marker = match leader {
+            Some(l) => nearest(&|m| dist(m, l[0])),
+            None => nearest(&|m| box_dist(m, b)),
+        };
+        assert!(
+            mine.iter().any(|p| dist(*p, marker) <= 3.0),
+            "label {text:?} ({label}) at ({x}, {y}) points at the marker at {marker:?}, not at its point {mine:?}{}",
+            if leader.is_some() { " (by its leader)" } else { "" }
+        );
+    }
+    assert!(
+        on_chart * 2 >= all_labels.len(),
+        "{on_chart} of {} labels on the chart",
+        all_labels.len()
+    );
+    for (i, a) in boxes.iter().enumerate() {
+        for b in &boxes[i + 1..] {
+            assert!(!boxes_overlap(*a, *b), "labels at {a:?} and {b:?} overlap");
+        }
+    }
+    // No marker sticks out of the plot: each is inside the axes' range.
+    let (x_lo, x_hi) = (
+        px(x_ticks.iter().map(|t| t.0).fold(f64::INFINITY, f64::min)),
+        px(x_ticks.iter().map(|t| t.0).fold(0.0, f64::max)),
+    );
+    let (y_hi, y_lo) = (
+        py(y_ticks.iter().map(|t| t.0).fold(f64::INFINITY, f64::min)),
+        py(y_ticks.iter().map(|t| t.0).fold(0.0, f64::max)),
+    );
+    for (_, p) in &owners {
+        let r = MARKER_PX as f64 + 1.0;
+        assert!(
+            p.0 - r >= x_lo - 1.0 && p.0 + r <= x_hi + 1.0 && p.1 - r >= y_lo - 1.0 && p.1 + r <= y_hi + 1.0,
+            "the marker at {p:?} reaches beyond the axes ({x_lo}–{x_hi}, {y_lo}–{y_hi})"
+        );
+    }
+}

@@ -11,7 +11,9 @@ use lightbooth::spectrum::{table::SpectraTable, SpectralUnit};
 
 #[derive(Args, Debug)]
 pub struct ColorArgs {
-    /// CSV file: first column `nm`, then one column per spectrum.
+    /// CSV file: first column `nm`, then one column per spectrum; or
+    /// `builtin:NAME`, a table compiled into lightbooth (colorchecker_classic,
+    /// munsell_matt, natural_reflectances, illuminants, …), from any folder.
     file: PathBuf,
     /// Column used as the CIELAB reference white (adds L* a* b*).
     #[arg(long)]
@@ -39,6 +41,28 @@ enum ColumnUnit {
     Radiance,
     Irradiance,
     Reflectance,
+}
+
+/// The table `file` names: `builtin:NAME`, or a CSV file; a file that is
+/// not there says where it was looked for and which tables are built in.
+fn read_table(file: &std::path::Path) -> anyhow::Result<SpectraTable> {
+    use lightbooth::reference_data::{builtin_table, BUILTIN_TABLES};
+    let builtins = || BUILTIN_TABLES.map(|(n, _)| format!("builtin:{n}")).join(", ");
+    if let Some(name) = file.to_str().and_then(|f| f.strip_prefix("builtin:")) {
+        return builtin_table(name)
+            .ok_or_else(|| anyhow::anyhow!("no built-in table `{name}`: the built-in tables are {}", builtins()));
+    }
+    if !file.exists() {
+        let here = std::env::current_dir()
+            .map(|d| d.display().to_string())
+            .unwrap_or_default();
+        anyhow::bail!(
+            "{}: no such file (looked in {here}); the tables of the manual's examples are built in: {}",
+            file.display(),
+            builtins()
+        );
+    }
+    Ok(SpectraTable::read(file)?)
 }
 
 fn parse_observer(s: &str) -> Result<Observer, String> {
@@ -74,7 +98,7 @@ struct Row {
 }
 
 pub fn run(args: ColorArgs) -> anyhow::Result<()> {
-    let table = SpectraTable::read(&args.file)?;
+    let table = read_table(&args.file)?;
     if args.reference.is_some() && args.white.is_none() {
         anyhow::bail!("--reference needs --white: ΔE is computed in CIELAB, which needs a reference white column");
     }

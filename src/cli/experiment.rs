@@ -284,14 +284,14 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     println!(
-        "experiment {} ({}), {}/{}, {}: {} observers, {} sessions ({} complete)",
+        "experiment {} ({}), {}/{}, {}: {}, {} ({} complete)",
         r.experiment_id,
         r.name,
         r.scene,
         r.target,
         r.output_method,
-        r.observers.len(),
-        r.sessions,
+        counted(r.observers.len(), "observer"),
+        counted(r.sessions, "session"),
         r.complete_sessions
     );
     println!(
@@ -343,6 +343,21 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     {
         println!("* {}", lightbooth::psychophysics::oddity::ALL_CORRECT_RULE);
     }
-    println!("— an upper end of — : every trial or nearly correct, the data set no upper bound");
+    // The footnote of the "—" only under a table that shows one.
+    if r.rows
+        .iter()
+        .any(|row| !row.differencing.upper_bounded || !row.independent_observation.upper_bounded)
+    {
+        println!("— an upper end of — : every trial or nearly correct, the data set no upper bound");
+    }
     Ok(())
+}
+
+/// "1 observer", "2 observers".
+fn counted(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }

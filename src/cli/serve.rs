@@ -56,6 +56,12 @@ pub struct ServeArgs {
     /// charts: judd-vos-1978 (the study's; default) or cie-1931.
     #[arg(long)]
     observer: Option<Observer>,
+    /// The folder of scene files the daemon measures, renders and compares
+    /// (default: the config file's `scenes_dir`, else `scenes` in this
+    /// folder, else the `scenes` folder of the repository this binary was
+    /// built in or from).
+    #[arg(long, value_name = "DIR")]
+    scenes: Option<PathBuf>,
     /// With --mock: a folder of scene files with the same ids as the scenes
     /// that the simulated PR-650 measures instead of the model (the booth as
     /// it is, e.g. scenes/truth).
@@ -110,6 +116,52 @@ fn seconds_key(config: &Path, key: &str, value: Option<f64>, default: Duration) 
         Some(s) => anyhow::bail!(
             "{}: key `{key}`: {s} is not a number of seconds between 0 and 86400",
             config.display()
+        ),
+    }
+}
+
+/// The scenes folder: `--scenes`, else the config file's `scenes_dir`
+/// (relative to the folder it is run from, as every path of the file), else
+/// the first of `scenes` in the current folder, the `scenes` folder of the
+/// repository the running binary sits in (`REPO/target/release/lightbooth`)
+/// and that of the repository it was built from. A folder named but not
+/// there is an error naming it and saying what to do; none found, the same.
+fn scenes_folder(flag: Option<PathBuf>, file: Option<PathBuf>, config: &Path) -> anyhow::Result<PathBuf> {
+    let named = |dir: PathBuf, how: String| -> anyhow::Result<PathBuf> {
+        anyhow::ensure!(
+            dir.is_dir(),
+            "cannot read the scenes folder {} ({how}): not a folder; give the folder of the scene files              (the repository's `scenes`) with --scenes DIR",
+            dir.display()
+        );
+        Ok(dir)
+    };
+    if let Some(dir) = flag {
+        return named(dir, "--scenes".into());
+    }
+    if let Some(dir) = file {
+        return named(dir, format!("key `scenes_dir` of {}", config.display()));
+    }
+    let here = PathBuf::from("scenes");
+    let beside_binary = std::env::current_exe().ok().and_then(|exe| {
+        exe.ancestors()
+            .skip(1)
+            .map(|dir| dir.join("scenes"))
+            .find(|dir| dir.join("white.toml").is_file())
+    });
+    let built_from = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let candidates: Vec<PathBuf> = std::iter::once(here)
+        .chain(beside_binary)
+        .chain(std::iter::once(built_from))
+        .collect();
+    match candidates.iter().find(|dir| dir.is_dir()) {
+        Some(dir) => Ok(dir.clone()),
+        None => anyhow::bail!(
+            "no scenes folder: looked in {}; run from the repository's root or give the folder of the scene              files with --scenes DIR",
+            candidates
+                .iter()
+                .map(|d| std::path::absolute(d).unwrap_or_else(|_| d.clone()).display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     }
 }
@@ -191,7 +243,7 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         mock_speed: args.mock_speed.or(file.mock_speed).unwrap_or(1.0),
         mock_faults: args.mock_faults,
         instrument,
-        scenes_dir: file.scenes_dir.unwrap_or_else(|| "scenes".into()),
+        scenes_dir: scenes_folder(args.scenes, file.scenes_dir, &args.config)?,
         cache_dir: file.cache_dir.unwrap_or_else(|| ".lightbooth-cache".into()),
         token_file: args.token_file.or(file.token_file),
         default_token_file: "lightbooth.token".into(),
@@ -217,6 +269,9 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         );
         anyhow::ensure!(world.is_dir(), "--mock-world {}: not a folder", world.display());
     }
+    // Before the daemon prints its URL: a dashboard that dies a moment after
+    // its address was printed sends the user to a page that never answers.
+    lightbooth::lab::scenes::SceneCatalog::from_folder(&options.scenes_dir, options.observer)?;
     anyhow::ensure!(
         options.mock_speed.is_finite() && (0.0..=super::MAX_TIME_SCALE).contains(&options.mock_speed),
         "mock_speed {} must be 0–{}",

@@ -52,8 +52,12 @@ pub enum Event {
     },
     RenderProgress {
         render_id: i64,
+        /// Work done and to do in this step (`total` 0: not counted).
         done: u64,
         total: u64,
+        /// The render's step: `tracing paths`, `timing each coding alone`
+        /// or `camera preview` (`lab::progress::RENDER_STEPS`).
+        step: String,
     },
     RenderFinished {
         render_id: i64,
@@ -86,6 +90,11 @@ pub enum Event {
         paths: u64,
         max_paths: u64,
         elapsed_seconds: f64,
+        /// The most seconds it still needs, if there is an honest bound,
+        /// and how it was made or why there is none
+        /// (`lab::progress::image_time_left`).
+        seconds_left: Option<f64>,
+        estimate: String,
     },
     /// A camera image ended: `complete`, `failed` or `cancelled`.
     ImageFinished {

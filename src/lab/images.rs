@@ -439,10 +439,18 @@ impl ImageJobs {
     }
 
     fn progress(&self, id: i64, render_id: i64, p: CameraProgress) {
+        let mut budget = None;
         if let Some(e) = self.lock().get_mut(&id) {
             e.info.progress = Some(p);
+            budget = Some(e.info.settings.time_budget_s);
         }
+        let (seconds_left, estimate) = match budget {
+            Some(b) => super::progress::image_time_left(&p, b),
+            None => (None, String::new()),
+        };
         let _ = self.events.send(Event::ImageProgress {
+            seconds_left,
+            estimate,
             image_id: id,
             render_id,
             pass: p.pass,

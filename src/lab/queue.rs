@@ -14,7 +14,9 @@
 //!   measurement waits for every measurement ahead of it, so its time left
 //!   includes theirs;
 //! - a render or study: the time its current phase has taken, scaled by
-//!   the fraction still to do ([`super::progress`]);
+//!   the fraction still to do ([`super::progress`]); a render's phase is
+//!   its step (tracing paths, timing each coding alone, the camera
+//!   preview), which it names, and the estimate is that step's alone;
 //! - a camera image: its paths traced against its cap, an upper bound (it
 //!   stops earlier once every pixel reaches its noise target);
 //! - an experiment session: trials recorded of those it needs (from
@@ -29,7 +31,7 @@ use utoipa::ToSchema;
 use super::experiments::session::{trials_needed, PAUSED_AFTER_S};
 use super::experiments::ExperimentRequest;
 use super::instrument_queue::InstrumentStatus;
-use super::progress::{seconds_left, ProgressBoard};
+use super::progress::{image_time_left, ProgressBoard};
 use super::services::RenderService;
 use crate::store::{Booth, Job, MeasurementFilter, MeasurementState, MeasurementSummary, Store, StoreError};
 
@@ -113,27 +115,62 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
     }
     let mut ahead = 0.0; // seconds until the instrument is free of the jobs before this one
     let mut known = true;
+    // Seconds per sample of each target, from its own past measurements.
+    let mut target_paces: std::collections::HashMap<(String, String), Option<(f64, String)>> =
+        std::collections::HashMap::new();
     for m in waiting {
-        let remaining = match (src.status, pace) {
-            (
-                InstrumentStatus::Measuring {
-                    measurement_id,
-                    expected_finish_at: Some(end),
-                    ..
-                },
-                _,
-            ) if *measurement_id == m.id => Some((end - now).max(0.0)),
-            (_, Some(pace)) => Some(pace * (m.samples_requested - m.samples_taken).max(0) as f64),
+        // The running measurement's own pace once it has taken a sample;
+        // before that, and for those queued, the pace of the same target's
+        // last complete measurements: a dim target's samples take several
+        // times a bright one's (another target's pace said "about 6 s" of a
+        // CYLINDER measurement that took 57 s); none known, no estimate. A
+        // free measurement (no target) takes the instrument's recent pace.
+        let own = match src.status {
+            InstrumentStatus::Measuring {
+                measurement_id,
+                sample,
+                expected_finish_at: Some(end),
+                ..
+            } if *measurement_id == m.id && *sample > 0 => {
+                Some(((end - now).max(0.0), "this measurement's own pace so far".to_string()))
+            }
             _ => None,
         };
-        let left = match remaining {
-            Some(r) if known => {
+        let basis = match (own, &m.scene, &m.target) {
+            (Some(own), _, _) => Some(own),
+            (None, Some(scene), Some(target)) => {
+                let key = (scene.clone(), target.clone());
+                if !target_paces.contains_key(&key) {
+                    let pace = target_pace(src, scene, target).await?;
+                    target_paces.insert(key.clone(), pace);
+                }
+                target_paces[&key].clone().map(|(pace, source)| {
+                    let to_take = (m.samples_requested - m.samples_taken).max(0) as f64;
+                    (
+                        pace * to_take,
+                        format!("samples still to take × {pace:.2} s per sample ({source})"),
+                    )
+                })
+            }
+            (None, _, _) => pace.map(|pace| {
+                let to_take = (m.samples_requested - m.samples_taken).max(0) as f64;
+                (
+                    pace * to_take,
+                    format!(
+                        "samples still to take × {pace:.2} s per sample ({})",
+                        pace_source.as_deref().unwrap_or("the instrument's recent pace")
+                    ),
+                )
+            }),
+        };
+        let (left, estimate) = match basis {
+            Some((r, how)) if known => {
                 ahead += r;
-                Some(ahead)
+                (Some(ahead), Some(format!("{how}, after the measurements ahead")))
             }
             _ => {
                 known = false;
-                None
+                (None, None)
             }
         };
         let target = match (&m.scene, &m.target) {
@@ -145,9 +182,9 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
             id: m.id,
             state: m.state.as_str().to_string(),
             what: if m.note.is_empty() {
-                format!("{target}, {} samples", m.samples_requested)
+                format!("{target}, {}", samples_text(m.samples_requested))
             } else {
-                format!("{target}, {} samples: {}", m.samples_requested, m.note)
+                format!("{target}, {}: {}", samples_text(m.samples_requested), m.note)
             },
             scene: m.scene.clone(),
             parent_id: None,
@@ -158,13 +195,7 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
             unit: Some("samples".into()),
             step: None,
             seconds_left: left,
-            estimate: left.map(|_| {
-                format!(
-                    "samples still to take × {:.2} s per sample ({}), after the measurements ahead",
-                    pace.unwrap_or(0.0),
-                    pace_source.as_deref().unwrap_or("this measurement's pace")
-                )
-            }),
+            estimate,
         });
     }
     if let Some(renders) = src.renders {
@@ -178,6 +209,48 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
         pace_source,
         jobs,
     })
+}
+
+/// Seconds per sample of `scene`/`target` in this booth: the median over
+/// its last complete measurements, and where that figure comes from.
+async fn target_pace(src: &QueueSources<'_>, scene: &str, target: &str) -> Result<Option<(f64, String)>, StoreError> {
+    let recent = src
+        .store
+        .list_measurements(&MeasurementFilter {
+            booth: Some(src.booth.clone()),
+            scene: Some(scene.to_string()),
+            target: Some(target.to_string()),
+            state: Some(MeasurementState::Complete),
+            limit: Some(PACE_FROM_LAST),
+            ..MeasurementFilter::default()
+        })
+        .await?;
+    let mut paces: Vec<f64> = recent
+        .items
+        .iter()
+        .filter_map(|m| Some((m.finished_at? - m.started_at?) / m.samples_taken.max(1) as f64))
+        .filter(|p| p.is_finite() && *p >= 0.0)
+        .collect();
+    if paces.is_empty() {
+        return Ok(None);
+    }
+    paces.sort_by(f64::total_cmp);
+    let n = paces.len();
+    let source = if n == 1 {
+        format!("the last complete measurement of {scene}/{target}")
+    } else {
+        format!("median of the last {n} complete measurements of {scene}/{target}")
+    };
+    Ok(Some((paces[n / 2], source)))
+}
+
+/// "1 sample", "5 samples".
+fn samples_text(n: i64) -> String {
+    if n == 1 {
+        "1 sample".into()
+    } else {
+        format!("{n} samples")
+    }
 }
 
 /// Seconds per sample: the running measurement's own pace, else the median
@@ -248,13 +321,21 @@ async fn render_and_study_jobs(
     now: f64,
     jobs: &mut Vec<QueuedJob>,
 ) -> Result<(), StoreError> {
-    // (fraction, seconds left, the step under way) from the event board.
+    // (fraction, seconds left, the step under way, first report) from the
+    // event board; a step with no count has no fraction.
     let from_board = |job: Job, id: i64| match src.progress.and_then(|board| board.get(job, id)) {
-        Some(p) => (Some(p.fraction.max(0.0)), p.seconds_left_at(now), p.message),
-        None => (None, None, None),
+        Some(p) => (
+            (p.fraction >= 0.0).then_some(p.fraction),
+            p.seconds_left_at(now),
+            p.message,
+            Some(p.started_at),
+        ),
+        None => (None, None, None, None),
     };
     for r in src.store.unfinished_renders().await? {
-        let (fraction, left, _) = from_board(Job::Render, r.id);
+        let (fraction, left, step, started_at) = from_board(Job::Render, r.id);
+        let step = step.filter(|_| r.state == "running");
+        let (unit, estimate) = render_step_estimate(step.as_deref());
         jobs.push(QueuedJob {
             kind: "render",
             id: r.id,
@@ -262,16 +343,15 @@ async fn render_and_study_jobs(
             what: format!("render of {} ({})", r.scene, r.codings.join(", ")),
             scene: Some(r.scene.clone()),
             created_at: Some(r.created_at),
-            ..in_percent(
-                fraction,
-                "paths",
-                left,
-                "time so far × paths still to trace / paths traced",
-            )
+            started_at: started_at.filter(|_| r.state == "running"),
+            ..in_percent(fraction.filter(|_| !unit.is_empty()), &unit, left, &estimate)
         });
+        if let Some(job) = jobs.last_mut() {
+            job.step = step;
+        }
     }
     for s in src.store.unfinished_studies().await? {
-        let (fraction, left, step) = from_board(Job::Study, s.id);
+        let (fraction, left, step, _) = from_board(Job::Study, s.id);
         let scenes = s.request.get("scenes").and_then(|v| v.as_str()).unwrap_or("all scenes");
         jobs.push(QueuedJob {
             kind: "study",
@@ -291,12 +371,10 @@ async fn render_and_study_jobs(
     if let Some(images) = renders.images() {
         for i in images.unfinished() {
             let fraction = i.progress.as_ref().map(|p| p.paths as f64 / p.max_paths.max(1) as f64);
-            let elapsed = i.progress.as_ref().map(|p| p.elapsed_seconds);
-            // Its time budget bounds it too.
-            let budget_left = elapsed.map(|e| (i.settings.time_budget_s - e).max(0.0));
-            let left = match (fraction.zip(elapsed).and_then(|(f, e)| seconds_left(e, f)), budget_left) {
-                (Some(l), Some(b)) => Some(l.min(b)),
-                (l, _) => l,
+            // An upper bound under its path cap and its time budget, or none.
+            let (left, estimate) = match &i.progress {
+                Some(p) => image_time_left(p, i.settings.time_budget_s),
+                None => (None, String::new()),
             };
             jobs.push(QueuedJob {
                 kind: "image",
@@ -305,16 +383,33 @@ async fn render_and_study_jobs(
                 what: format!("camera image of {} ({})", i.scene, i.settings.coding),
                 scene: Some(i.scene.clone()),
                 parent_id: Some(i.render_id),
-                ..in_percent(
-                    fraction,
-                    "its path cap",
-                    left,
-                    "at most: time so far × paths still allowed / paths traced, within its time budget",
-                )
+                ..in_percent(fraction, "its path cap", left, &estimate)
             });
         }
     }
     Ok(())
+}
+
+/// A render's unit of progress and how its estimate is made, for its step
+/// (`lab::progress::RENDER_STEPS`): each step's estimate is that step's
+/// alone, and says which steps follow it.
+fn render_step_estimate(step: Option<&str>) -> (String, String) {
+    use super::progress::RENDER_STEPS;
+    let k = step.and_then(|s| RENDER_STEPS.iter().position(|(name, _)| *name == s));
+    let Some(k) = k else {
+        return ("paths".into(), String::new());
+    };
+    let (name, unit) = RENDER_STEPS[k];
+    let after: Vec<&str> = RENDER_STEPS[k + 1..].iter().map(|(n, _)| *n).collect();
+    let then = if after.is_empty() {
+        String::new()
+    } else {
+        format!("; then {}, not counted", after.join(", then "))
+    };
+    (
+        unit.to_string(),
+        format!("{name} only: time so far in it × {unit} still to do / {unit} done{then}"),
+    )
 }
 
 /// The running experiment sessions of this booth's experiments, from one
@@ -355,4 +450,75 @@ async fn experiment_sessions(src: &QueueSources<'_>, jobs: &mut Vec<QueuedJob>) 
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lab::testing::{queued_measurement, store_in};
+    use crate::store::Average;
+
+    async fn measured(store: &Store, scene: &str, target: &str) {
+        let id = queued_measurement(store, Some((scene, target))).await;
+        store.mark_running(id, None).await.unwrap();
+        let average = Average {
+            wavelength_nm: vec![380.0, 780.0],
+            radiance: vec![0.01, 0.01],
+            radiance_sd: vec![0.0; 2],
+            luminance_cd_m2: 0.0,
+            x: 0.0,
+            y: 0.0,
+            luminance_cv: 0.0,
+            xyz: None,
+            observer: None,
+        };
+        store.complete_measurement(id, &average).await.unwrap();
+    }
+
+    async fn jobs(store: &Store) -> Vec<QueuedJob> {
+        let status = InstrumentStatus::Disconnected { reason: "test".into() };
+        queue(&QueueSources {
+            store,
+            booth: &Booth::default(),
+            status: &status,
+            renders: None,
+            progress: None,
+        })
+        .await
+        .unwrap()
+        .jobs
+    }
+
+    /// A CYLINDER target estimated at "about 6 s left" took 57 s: its
+    /// estimate came from the pace of other targets (a bright one's samples
+    /// are several times faster). A target never measured has no estimate,
+    /// nor has anything queued after it; a target measured before is
+    /// estimated from its own measurements, and says so. Its description
+    /// counts "1 sample", not "1 samples".
+    #[tokio::test]
+    async fn a_target_is_never_estimated_from_another_targets_pace() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        measured(&store, "white", "patch").await;
+        let dim = queued_measurement(&store, Some(("cylinder", "h01"))).await;
+        let bright = queued_measurement(&store, Some(("white", "patch"))).await;
+        let q = jobs(&store).await;
+        let job = |id: i64| {
+            q.iter()
+                .find(|j| j.kind == "measurement" && j.id == id)
+                .unwrap()
+                .clone()
+        };
+        assert_eq!(job(dim).seconds_left, None, "{:?}", job(dim).estimate);
+        assert_eq!(job(dim).estimate, None);
+        assert_eq!(job(bright).seconds_left, None, "after a measurement of unknown length");
+        assert_eq!(job(dim).what, "cylinder/h01, 1 sample");
+        // With the dim one out of the way, the bright one is estimated from its own target.
+        assert!(store.cancel_queued(dim, "test").await.unwrap());
+        let q = jobs(&store).await;
+        let job = q.iter().find(|j| j.id == bright).unwrap();
+        assert!(job.seconds_left.is_some(), "{job:?}");
+        let how = job.estimate.as_deref().unwrap();
+        assert!(how.contains("last complete measurement of white/patch"), "{how}");
+    }
 }

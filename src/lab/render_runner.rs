@@ -400,18 +400,22 @@ fn render_with_timings(
     settings: &RenderSettings,
     events: &EventSink,
 ) -> Result<RenderOutput, RenderError> {
+    // Each step reports its own progress (`lab::progress::RENDER_STEPS`).
+    let [tracing, timing, preview_step] = super::progress::RENDER_STEPS.map(|(step, _)| step);
     let last = std::sync::Mutex::new(Instant::now());
-    let progress = |done: u64, total: u64| {
+    let report = |step: &str, done: u64, total: u64| {
         let mut last = last.lock().unwrap_or_else(|p| p.into_inner());
-        if last.elapsed().as_millis() >= 200 || done == total {
+        if last.elapsed().as_millis() >= 200 || done == 0 || done == total {
             *last = Instant::now();
             events.send(Event::RenderProgress {
                 render_id: id,
                 done,
                 total,
+                step: step.to_string(),
             });
         }
     };
+    let progress = |done: u64, total: u64| report(tracing, done, total);
     let result = render::render(scene, settings, Some(&progress))?;
     // Every coding alone at a fixed number of paths per target (no
     // adaptive stop): equal work, comparable costs; timed in rotated
@@ -428,7 +432,8 @@ fn render_with_timings(
             ..settings.clone()
         })
         .collect();
-    match render::cost::time_renders(scene, &alone, render::cost::TIMING_REPEATS) {
+    let timing_progress = |done: u64, total: u64| report(timing, done, total);
+    match render::cost::time_renders_reporting(scene, &alone, render::cost::TIMING_REPEATS, &timing_progress) {
         Ok(timed) => {
             for (coding, t) in settings.codings.iter().zip(&timed) {
                 coding_seconds.insert(coding.to_string(), t.median_seconds().into());
@@ -439,6 +444,9 @@ fn render_with_timings(
     }
     // The camera view for the dashboard: the sRGB coding, few paths per
     // pixel from a fixed budget (a preview, not a measurement).
+    if scene.camera.is_some() {
+        report(preview_step, 0, 0);
+    }
     let preview = scene.camera.as_ref().and_then(|camera| {
         let transport = settings.transport();
         render::sensor::render_camera(

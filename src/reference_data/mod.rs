@@ -33,6 +33,30 @@ fn embedded(text: &str, name: &str) -> SpectraTable {
     SpectraTable::parse(text, name).unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"))
 }
 
+/// Every table compiled in, by its file name without `.csv` (the file
+/// beside this module): what `lightbooth color builtin:NAME` reads, so the
+/// manual's examples need no copy of the source tree.
+pub const BUILTIN_TABLES: [(&str, &str); 8] = [
+    ("colorchecker_classic", COLORCHECKER_CSV),
+    ("munsell_matt", MUNSELL_CSV),
+    ("natural_reflectances", NATURAL_CSV),
+    ("illuminants", ILLUMINANTS_CSV),
+    ("illuminants_1nm", ILLUMINANTS_1NM_CSV),
+    ("judd_vos_1978_cmf", JUDD_VOS_CSV),
+    ("cie1931_2deg_cmf", CIE1931_CSV),
+    ("stockman_sharpe_2deg_cone_fundamentals", CONE_FUNDAMENTALS_CSV),
+];
+
+/// The compiled-in table `name` (see [`BUILTIN_TABLES`]; a trailing `.csv`
+/// is ignored), if there is one.
+pub fn builtin_table(name: &str) -> Option<SpectraTable> {
+    let name = name.strip_suffix(".csv").unwrap_or(name);
+    BUILTIN_TABLES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(n, text)| embedded(text, &format!("builtin:{n}")))
+}
+
 /// Raw CMF tables (x̄, ȳ, z̄ columns) for [`crate::colorimetry::Observer`].
 pub(crate) fn cmf_table_judd_vos() -> &'static SpectraTable {
     static T: OnceLock<SpectraTable> = OnceLock::new();

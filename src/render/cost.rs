@@ -93,9 +93,30 @@ pub fn time_renders(
     settings: &[RenderSettings],
     repeats: usize,
 ) -> Result<Vec<TimedRender>, RenderError> {
+    time_renders_reporting(scene, settings, repeats, &|_, _| {})
+}
+
+/// [`time_renders`], calling `progress(done, total)` before the first
+/// render and after each (the warm-up counted: `total` is 1 + repeats ×
+/// settings).
+pub fn time_renders_reporting(
+    scene: &Scene,
+    settings: &[RenderSettings],
+    repeats: usize,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Vec<TimedRender>, RenderError> {
     let repeats = repeats.max(1);
+    let total = if settings.is_empty() {
+        0
+    } else {
+        1 + (repeats * settings.len()) as u64
+    };
+    let mut done = 0u64;
+    progress(done, total);
     if let Some(first) = settings.first() {
         render(scene, first, None)?;
+        done += 1;
+        progress(done, total);
     }
     let mut seconds: Vec<Vec<f64>> = vec![Vec::with_capacity(repeats); settings.len()];
     let mut places: Vec<Vec<usize>> = vec![Vec::with_capacity(repeats); settings.len()];
@@ -106,6 +127,8 @@ pub fn time_renders(
             seconds[i].push(r.wall_seconds);
             places[i].push(place);
             results[i] = Some(r);
+            done += 1;
+            progress(done, total);
         }
     }
     Ok(results

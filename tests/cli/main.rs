@@ -9,3 +9,4 @@ mod book_examples;
 mod cli_arguments;
 mod cli_colorimetry;
 mod feature_pins;
+mod newcomer;
