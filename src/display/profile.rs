@@ -27,6 +27,11 @@ pub const MAX_TRANSFER_RMS_RESIDUAL: f64 = 0.03;
 /// calibration predicts within 1.
 pub const MAX_VALIDATION_DE00: f64 = 3.0;
 
+/// Whether `value` is at most `limit`; a NaN is not (it fails the check).
+fn within(value: f64, limit: f64) -> bool {
+    value <= limit
+}
+
 /// One channel's transfer: the fitted exponent and the table it was fitted to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct ChannelTransfer {
@@ -182,21 +187,21 @@ impl DisplayProfile {
     pub fn failures(&self) -> Vec<String> {
         let mut failures = Vec::new();
         for (name, t) in ["red", "green", "blue"].iter().zip(&self.transfer) {
-            if !(t.rms_residual <= MAX_TRANSFER_RMS_RESIDUAL) {
+            if !within(t.rms_residual, MAX_TRANSFER_RMS_RESIDUAL) {
                 failures.push(format!(
                     "{name} transfer: RMS residual {:.3} of the fit (γ {:.3}) is over the limit {MAX_TRANSFER_RMS_RESIDUAL}",
                     t.rms_residual, t.gamma
                 ));
             }
         }
-        if !(self.additivity.delta_e00 <= MAX_VALIDATION_DE00) {
+        if !within(self.additivity.delta_e00, MAX_VALIDATION_DE00) {
             failures.push(format!(
                 "additivity: white differs from black + red + green + blue by ΔE00 {:.1}, over the limit {MAX_VALIDATION_DE00}",
                 self.additivity.delta_e00
             ));
         }
         for v in &self.validation {
-            if !(v.delta_e00 <= MAX_VALIDATION_DE00) {
+            if !within(v.delta_e00, MAX_VALIDATION_DE00) {
                 failures.push(format!(
                     "validation drive ({:.2}, {:.2}, {:.2}){}: ΔE00 {:.1} between measured and predicted, over the limit {MAX_VALIDATION_DE00}",
                     v.drive[0],

@@ -62,7 +62,8 @@ pub struct MockDisplay {
 /// shows (`drive`), the experiment's verification with the codes it drew
 /// in the instrument's spot, dithered or not (`code_counts`).
 #[utoipa::path(post, path = "/mock/display", tag = "instruments", request_body = MockDisplay,
-    responses((status = 204), (status = 400, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody)),
+    responses((status = 204), (status = 400, body = crate::http::error::ErrorBody), (status = 404, body = crate::http::error::ErrorBody),
+              (status = 409, body = crate::http::error::ErrorBody, description = "the instrument is held by a calibration this change does not name")),
     security(("bearer" = [])))]
 pub async fn mock_display(
     State(state): State<AppState>,

@@ -35,6 +35,7 @@ pub struct SimulatedPr650 {
 /// [`super::run::StudyOptions::truth_scene`]) is the booth as it is;
 /// `observer` names the XYZ stored with each measurement. Needs a
 /// multi-threaded runtime (the driver and the store writes block a thread).
+#[allow(clippy::too_many_arguments)] // the booth joined seven (issue 32); each is a separate choice
 pub async fn measure_with_simulator(
     scenes: &[PathBuf],
     store: &Store,
