@@ -186,7 +186,13 @@ function showProfile(row) {
   }
   const links = el("p");
   links.append(el("a", "calibrate again", { href: "/calibrate" }), " · ", el("a", "dashboard", { href: "/" }));
-  sec.replaceChildren(el("h1", `Display profile ${row.id}: ${row.name}`), facts,
+  // A profile over its stated limits is shown as failed, above everything
+  // else, with what failed (the daemon's words).
+  const verdict = row.state === "failed"
+    ? el("p", `FAILED, and cannot be chosen for an experiment: ${row.failures.join("; ")}. Calibrate again.`,
+      { className: "notice", id: "profile-state" })
+    : el("p", "Passed its checks (fit residual and validation ΔE00 within their stated limits).", { id: "profile-state" });
+  sec.replaceChildren(el("h1", `Display profile ${row.id}: ${row.name}`), verdict, facts,
     table(["channel", "γ", "RMS residual"], primaryRows), charts, el("h2", "Validation colours"),
     table(["drive (r, g, b)", "ΔE00 predicted vs measured", "measurement"], validation), links);
 }
@@ -204,7 +210,8 @@ async function showStoredProfiles() {
     if (i) box.append(" · ");
     const a = document.createElement("a");
     a.href = `#profile=${p.id}`;
-    a.textContent = `${p.id}: ${p.name} (${new Date(p.created_at * 1000).toLocaleString()})`;
+    a.textContent = `${p.id}: ${p.name} (${new Date(p.created_at * 1000).toLocaleString()})` +
+      (p.state === "failed" ? " FAILED" : "");
     a.addEventListener("click", async (ev) => {
       ev.preventDefault();
       history.replaceState(null, "", `#profile=${p.id}`);

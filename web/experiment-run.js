@@ -420,25 +420,71 @@ function showPatch(linear, geometry, readback) {
 
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
+// The display check under way (verification or test patch): its hold on
+// the instrument (while held, no other measurement is taken and nobody else
+// changes the display), the measurement under way, and whether Esc asked
+// it to stop.
+const check = { hold: null, measurementId: null, cancelled: false };
+
+// Holds the instrument for `purpose`, runs `work`, and releases the hold
+// however `work` ends. Refused (naming who or what) while anything else is
+// measuring or queued.
+async function holdingTheInstrument(purpose, work) {
+  check.hold = (await api("/api/instrument/hold", { method: "POST", body: JSON.stringify({ purpose }) })).id;
+  check.cancelled = false;
+  check.measurementId = null;
+  try {
+    return await work();
+  } finally {
+    await api(`/api/instrument/hold/${check.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
+    check.hold = null;
+  }
+}
+
 // Shows one patch and measures it; with the simulated display, tells it
-// what was drawn first. Returns the complete measurement.
+// what was drawn first. Returns the complete measurement, or null when Esc
+// cancelled it (what was measured stays stored).
 async function showAndMeasure(linear, geometry, samples, note, simulated) {
   const shown = showPatch(linear, geometry, simulated.yes);
   try {
     const codes = await shown.counted;
     if (codes) {
       try {
-        await api("/api/mock/display", { method: "POST", body: JSON.stringify(codes) });
+        await api("/api/mock/display", { method: "POST", body: JSON.stringify({ ...codes, hold: check.hold }) });
       } catch (e) {
         if (!/no simulated display/.test(e.message)) throw e;
         simulated.yes = false; // a real instrument looks at the real screen
       }
     }
     await sleep(100); // let the monitor settle on the new colour
-    return await measureAndWait(api, { samples, note });
+    if (check.cancelled) return null;
+    return await measureAndWait(api, { samples, note, hold: check.hold },
+      { onStarted: (id) => (check.measurementId = id), cancelled: () => check.cancelled });
   } finally {
+    check.measurementId = null;
     shown.stop();
   }
+}
+
+// Esc during a display check: the measurement under way is cancelled, no
+// verification is stored, and what was measured stays stored.
+async function cancelCheck() {
+  if (check.hold === null || check.cancelled) return;
+  check.cancelled = true;
+  $("hud").textContent = "cancelling…";
+  if (check.measurementId !== null) {
+    await api(`/api/measurements/${check.measurementId}/cancel`, { method: "POST", body: "{}" }).catch(() => {});
+  }
+}
+
+// "patch 3 of 9 · about 40 s left at the pace of the 2 measured": the time
+// left only once a patch has been measured, from this check's own pace.
+function checkProgress(done, total, began) {
+  if (done === 0) return `patch 1 of ${total}`;
+  const perPatch = (Date.now() - began) / 1000 / done;
+  const left = Math.round(perPatch * (total - done));
+  const measured = done === 1 ? "the 1 measured" : `the ${done} measured`;
+  return `patch ${done + 1} of ${total} · about ${left} s left at the pace of ${measured}`;
 }
 
 function beginScreen() {
@@ -459,24 +505,39 @@ async function verify() {
   const simulated = { yes: true };
   try {
     view = await verificationView();
-    beginScreen();
-    document.body.dataset.state = "verifying";
     const colours = [view.original, ...view.approximations, view.background];
-    const patches = [];
+    // Every colour full-field, then in the pie (the pie's surround is the
+    // background itself, so the background is not shown as a pie).
+    const plan = [];
     for (const geometry of ["full_field", "pie"]) {
-      for (const c of colours) {
-        if (geometry === "pie" && c.name === "background") continue; // the pie's surround is the background itself
-        $("hud").textContent = `verifying ${c.name} (${geometry.replace("_", " ")})`;
+      for (const c of colours) if (!(geometry === "pie" && c.name === "background")) plan.push({ c, geometry });
+    }
+    const patches = await holdingTheInstrument(`verification of experiment ${experimentId}`, async () => {
+      beginScreen();
+      document.body.dataset.state = "verifying";
+      const measured = [];
+      const began = Date.now();
+      for (const { c, geometry } of plan) {
+        const where = geometry.replace("_", " ");
+        $("hud").textContent = `verifying ${c.name} (${where}): ${checkProgress(measured.length, plan.length, began)} · Esc cancels`;
         const m = await showAndMeasure(c.linear, geometry, samples,
-          `experiment ${experimentId} verification: ${c.name}, ${geometry.replace("_", " ")}`, simulated);
-        patches.push({ colour: c.name, geometry, measurement_id: m.id });
+          `experiment ${experimentId} verification: ${c.name}, ${where}`, simulated);
+        if (m === null) return null;
+        measured.push({ colour: c.name, geometry, measurement_id: m.id });
       }
+      return measured;
+    });
+    endScreen();
+    if (patches === null) {
+      notice(`verification cancelled: nothing was stored as a verification; the patches measured before Esc stay ` +
+        `stored as measurements. Press “verify the display” to start again.`);
+      document.body.dataset.verificationCancelled = "yes";
+      return;
     }
     const v = await api(`/api/experiments/${experimentId}/verifications`, {
       method: "POST",
       body: JSON.stringify({ patches, client: `${navigator.userAgent}; ${screen.outputPath}` + (simulated.yes ? "; simulated display" : "") }),
     });
-    endScreen();
     showVerification(v);
   } catch (e) {
     endScreen();
@@ -502,13 +563,20 @@ async function testPatch() {
   const simulated = { yes: true };
   try {
     view = await verificationView();
-    beginScreen();
-    document.body.dataset.state = "verifying";
-    // γ = 1: the drive is the linear value, so the code drawn is exactly `code`.
-    screen.gl.uniform3fv(screen.u.inverseGamma, [1, 1, 1]);
-    const m = await showAndMeasure([code / 255, code / 255, code / 255], "full_field", Number($("verify-samples").value),
-      `test patch: code ${code.toFixed(2)} on every gun, ${view.output}`, simulated);
+    const m = await holdingTheInstrument(`test patch of experiment ${experimentId}`, async () => {
+      beginScreen();
+      document.body.dataset.state = "verifying";
+      $("hud").textContent = `test patch: code ${code.toFixed(2)} · Esc cancels`;
+      // γ = 1: the drive is the linear value, so the code drawn is exactly `code`.
+      screen.gl.uniform3fv(screen.u.inverseGamma, [1, 1, 1]);
+      return showAndMeasure([code / 255, code / 255, code / 255], "full_field", Number($("verify-samples").value),
+        `test patch: code ${code.toFixed(2)} on every gun, ${view.output}`, simulated);
+    });
     endScreen();
+    if (m === null) {
+      notice("test patch cancelled");
+      return;
+    }
     $("test-result").textContent = `code ${code.toFixed(2)} (${view.output}): measurement ${m.id}, ` +
       `${m.luminance_cd_m2 === undefined ? "" : Number(m.luminance_cd_m2).toFixed(4) + " cd/m²"}`;
     document.body.dataset.testMeasurement = String(m.id);
@@ -635,7 +703,11 @@ async function start() {
   stopRequested = false;
 }
 
-addEventListener("keydown", (e) => { if (e.key === "Escape") stopRequested = true; });
+addEventListener("keydown", (e) => {
+  if (e.key !== "Escape") return;
+  if (check.hold !== null) cancelCheck();
+  else stopRequested = true;
+});
 $("start").addEventListener("click", start);
 $("verify").addEventListener("click", verify);
 $("test-patch").addEventListener("click", testPatch);

@@ -214,12 +214,30 @@ pub async fn queue(src: &QueueSources<'_>) -> Result<Queue, StoreError> {
 /// Seconds per sample of `scene`/`target` in this booth: the median over
 /// its last complete measurements, and where that figure comes from.
 async fn target_pace(src: &QueueSources<'_>, scene: &str, target: &str) -> Result<Option<(f64, String)>, StoreError> {
+    let Some((pace, n)) = median_pace(src, Some((scene, target))).await? else {
+        return Ok(None);
+    };
+    let source = if n == 1 {
+        format!("the last complete measurement of {scene}/{target}")
+    } else {
+        format!("median of the last {n} complete measurements of {scene}/{target}")
+    };
+    Ok(Some((pace, source)))
+}
+
+/// The median seconds per sample over this booth's last
+/// [`PACE_FROM_LAST`] complete measurements (of one scene's target, or of
+/// any), and how many it is the median of; `None` without one.
+async fn median_pace(
+    src: &QueueSources<'_>,
+    scene_target: Option<(&str, &str)>,
+) -> Result<Option<(f64, usize)>, StoreError> {
     let recent = src
         .store
         .list_measurements(&MeasurementFilter {
             booth: Some(src.booth.clone()),
-            scene: Some(scene.to_string()),
-            target: Some(target.to_string()),
+            scene: scene_target.map(|(s, _)| s.to_string()),
+            target: scene_target.map(|(_, t)| t.to_string()),
             state: Some(MeasurementState::Complete),
             limit: Some(PACE_FROM_LAST),
             ..MeasurementFilter::default()
@@ -235,13 +253,7 @@ async fn target_pace(src: &QueueSources<'_>, scene: &str, target: &str) -> Resul
         return Ok(None);
     }
     paces.sort_by(f64::total_cmp);
-    let n = paces.len();
-    let source = if n == 1 {
-        format!("the last complete measurement of {scene}/{target}")
-    } else {
-        format!("median of the last {n} complete measurements of {scene}/{target}")
-    };
-    Ok(Some((paces[n / 2], source)))
+    Ok(Some((paces[paces.len() / 2], paces.len())))
 }
 
 /// "1 sample", "5 samples".
@@ -272,32 +284,14 @@ async fn instrument_pace(src: &QueueSources<'_>) -> Result<(Option<f64>, Option<
         };
         return Ok((Some(pace), Some(source.into())));
     }
-    let recent = src
-        .store
-        .list_measurements(&MeasurementFilter {
-            booth: Some(src.booth.clone()),
-            state: Some(MeasurementState::Complete),
-            limit: Some(PACE_FROM_LAST),
-            ..MeasurementFilter::default()
-        })
-        .await?;
-    let mut paces: Vec<f64> = recent
-        .items
-        .iter()
-        .filter_map(|m| Some((m.finished_at? - m.started_at?) / m.samples_taken.max(1) as f64))
-        .filter(|p| p.is_finite() && *p >= 0.0)
-        .collect();
-    if paces.is_empty() {
+    let Some((median, n)) = median_pace(src, None).await? else {
         return Ok((None, None));
-    }
-    paces.sort_by(f64::total_cmp);
-    let median = paces[paces.len() / 2];
+    };
     Ok((
         Some(median),
         Some(format!(
-            "median of the last {} complete measurement{}",
-            paces.len(),
-            if paces.len() == 1 { "" } else { "s" }
+            "median of the last {n} complete measurement{}",
+            if n == 1 { "" } else { "s" }
         )),
     ))
 }
@@ -455,24 +449,10 @@ async fn experiment_sessions(src: &QueueSources<'_>, jobs: &mut Vec<QueuedJob>) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lab::testing::{queued_measurement, store_in};
-    use crate::store::Average;
+    use crate::lab::testing::{completed_measurement, queued_measurement, store_in};
 
     async fn measured(store: &Store, scene: &str, target: &str) {
-        let id = queued_measurement(store, Some((scene, target))).await;
-        store.mark_running(id, None).await.unwrap();
-        let average = Average {
-            wavelength_nm: vec![380.0, 780.0],
-            radiance: vec![0.01, 0.01],
-            radiance_sd: vec![0.0; 2],
-            luminance_cd_m2: 0.0,
-            x: 0.0,
-            y: 0.0,
-            luminance_cv: 0.0,
-            xyz: None,
-            observer: None,
-        };
-        store.complete_measurement(id, &average).await.unwrap();
+        completed_measurement(store, Some((scene, target))).await;
     }
 
     async fn jobs(store: &Store) -> Vec<QueuedJob> {

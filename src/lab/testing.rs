@@ -11,7 +11,7 @@ use super::scenes::SceneCatalog;
 use crate::colorimetry::Observer;
 use crate::render::integrator::CancelFlag;
 use crate::render::Coding;
-use crate::store::{Booth, NewMeasurement, Store};
+use crate::store::{Average, Booth, NewMeasurement, Store};
 
 /// Paths per target of the tests' renders.
 pub const TEST_SAMPLES: u64 = 64;
@@ -38,6 +38,32 @@ pub async fn queued_measurement(store: &Store, scene_target: Option<(&str, &str)
         })
         .await
         .expect("the store queues a measurement")
+}
+
+/// A measurement of `scene`/`target`, queued, run and completed with a
+/// flat, dark average (for what is recorded about it, not its colour).
+pub async fn completed_measurement(store: &Store, scene_target: Option<(&str, &str)>) -> i64 {
+    let id = queued_measurement(store, scene_target).await;
+    store
+        .mark_running(id, None)
+        .await
+        .expect("the store runs a measurement");
+    let average = Average {
+        wavelength_nm: vec![380.0, 780.0],
+        radiance: vec![0.01, 0.01],
+        radiance_sd: vec![0.0; 2],
+        luminance_cd_m2: 0.0,
+        x: 0.0,
+        y: 0.0,
+        luminance_cv: 0.0,
+        xyz: None,
+        observer: None,
+    };
+    store
+        .complete_measurement(id, &average)
+        .await
+        .expect("the store completes a measurement");
+    id
 }
 
 /// The catalogue of the shipped `scenes/`.

@@ -40,7 +40,9 @@ try {
   await page.waitForFunction(() => !document.getElementById("profile").hidden, null, { timeout: 120000 });
   await page.waitForFunction(() => [...document.querySelectorAll("#profile img")].every((i) => i.complete && i.naturalWidth > 0), null, { timeout: 30000 });
   const text = await page.textContent("#profile");
-  for (const want of ["Display profile", "Additivity", "judd-vos-1978", "Validation colours"]) {
+  // Whether it passed its stated limits is said first (issue 32: a failed
+  // profile was shown like any other).
+  for (const want of ["Display profile", "Passed its checks", "Additivity", "judd-vos-1978", "Validation colours"]) {
     if (!text.includes(want)) failures.push(`the profile page lacks "${want}"`);
   }
   if (shots) await page.screenshot({ path: `${shots}/calibrate-profile.png`, fullPage: true });

@@ -236,3 +236,39 @@ async fn the_cornell_box_runs_through_the_study() {
         }
     }
 }
+
+/// Issue 32: the study report wrote a scene's name from its file into
+/// `index.html` as markup. A scene named with a script is shown as text, in
+/// the page and in its charts.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_name_with_markup_is_text_in_the_study_report() {
+    let scenes = tempfile::tempdir().unwrap();
+    let source = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for folder in ["spectra", "luminaires"] {
+        std::os::unix::fs::symlink(source.join(folder), scenes.path().join(folder)).unwrap();
+    }
+    let payload = r#"<img src=x onerror="alert(1)"> & 'white'"#;
+    let toml = std::fs::read_to_string(source.join("white.toml"))
+        .unwrap()
+        .replace(r#"name = "WHITE""#, &format!("name = {payload:?}"));
+    assert!(toml.contains("onerror"), "the scene's name line moved");
+    let file = scenes.path().join("white.toml");
+    std::fs::write(&file, toml).unwrap();
+    let options = StudyOptions {
+        codings: vec![Coding::Rgb, Coding::Spectral],
+        seeds: 1,
+        samples: 256,
+        target_relative_se: None,
+        against: Against::Reference,
+        ..StudyOptions::default()
+    };
+    let result = run_study(&[file], &options, None, &|_| {}).await.unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_report(&result, dir.path()).unwrap();
+    let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
+    assert!(!html.contains("<img"), "the scene's name is markup in the report");
+    assert!(
+        html.contains("&lt;img src=x onerror=&quot;alert(1)&quot;&gt; &amp; &#39;white&#39;"),
+        "the scene's name is not shown as text"
+    );
+}

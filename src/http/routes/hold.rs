@@ -39,7 +39,11 @@ pub async fn take_instrument_hold(
     }
     let reserved = state.jobs.max_capacity() - state.jobs.capacity();
     if reserved > 0 {
-        busy.push(format!("{reserved} measurement(s) being queued"));
+        busy.push(if reserved == 1 {
+            "1 measurement being queued".to_string()
+        } else {
+            format!("{reserved} measurements being queued")
+        });
     }
     let unfinished = state
         .store

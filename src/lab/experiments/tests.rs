@@ -8,8 +8,8 @@ use crate::colorimetry::Observer;
 use crate::display::profile::TransferModel;
 use crate::display::SimulatedDisplay;
 use crate::lab::error::LabError;
-use crate::lab::testing::{queued_measurement, store_in};
-use crate::store::{Average, NewComparison, NewRender};
+use crate::lab::testing::{completed_measurement, queued_measurement, store_in};
+use crate::store::{NewComparison, NewRender};
 
 struct Lab {
     _dir: tempfile::TempDir,
@@ -28,20 +28,7 @@ async fn lab() -> Lab {
     let crt = SimulatedDisplay::crt().unwrap();
     let profile = crt.exact_profile(Observer::JuddVos).unwrap();
     let at = |v: f64| profile.xyz_of_drive([v; 3], TransferModel::Gamma).unwrap().to_array();
-    let id = queued_measurement(&store, Some(("white", "patch"))).await;
-    store.mark_running(id, None).await.unwrap();
-    let average = Average {
-        wavelength_nm: vec![380.0, 780.0],
-        radiance: vec![0.01, 0.01],
-        radiance_sd: vec![0.0; 2],
-        luminance_cd_m2: 0.0,
-        x: 0.0,
-        y: 0.0,
-        luminance_cv: 0.0,
-        xyz: None,
-        observer: None,
-    };
-    store.complete_measurement(id, &average).await.unwrap();
+    let id = completed_measurement(&store, Some(("white", "patch"))).await;
     let render = store
         .create_render(&NewRender {
             scene: "white".into(),

@@ -251,7 +251,10 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             html,
             "<section class=\"scene\"><h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
              <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets beyond noise (|ΔY| &gt; 3·SE)</th></tr>",
-            s.title, s.scene, s.white_source, s.render_seconds
+            html_text(&s.title),
+            html_text(&s.scene),
+            html_text(&s.white_source),
+            s.render_seconds
         );
         for c in &s.codings {
             let _ = write!(
@@ -333,7 +336,10 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
                     "does NOT meet the tolerance"
                 },
                 auto.candidates.auto_on_front_within_noise,
-                c.reasons.iter().map(|r| format!("<li>{r}</li>")).collect::<String>()
+                c.reasons
+                    .iter()
+                    .map(|r| format!("<li>{}</li>", html_text(r)))
+                    .collect::<String>()
             );
             charts.push(("auto", Ok(auto.svg.clone())));
         }
@@ -399,4 +405,22 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         serde_json::to_vec_pretty(result).map_err(std::io::Error::other)?,
     ));
     Ok(files)
+}
+
+/// `text` as HTML text: a scene's name and white come from its file, and
+/// stored text is never markup (a scene named `<img onerror=…>` is shown as
+/// those characters, not run).
+fn html_text(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
 }
