@@ -346,7 +346,8 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
     // The footnote of the "—" only under a table that shows one.
     if r.rows
         .iter()
-        .any(|row| !row.differencing.upper_bounded || !row.independent_observation.upper_bounded)
+        .flat_map(|row| [&row.differencing, &row.independent_observation])
+        .any(|e| e.as_ref().is_some_and(|e| !e.upper_bounded))
     {
         println!("— an upper end of — : every trial or nearly correct, the data set no upper bound");
     }
