@@ -299,7 +299,11 @@ function runTrial(next) {
       }
       last = now;
       // The callback after the pie's first draw runs when that frame reached the screen.
-      if (onsetCallback && onset === null) onset = now;
+      if (onsetCallback && onset === null) {
+        onset = now;
+        // From now on a key answers this trial (an observer script waits for it).
+        document.body.dataset.pieOnScreen = String(next.position);
+      }
       const pie = frame >= fixation && frame < fixation + stimulus;
       if (pie && shown === 0) {
         onsetCallback = true;

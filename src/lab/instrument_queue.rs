@@ -131,8 +131,11 @@ impl InstrumentHold {
     /// instrument is doing (a measurement under way or queued), which must
     /// end first. 409 when held or busy, 400 for an empty or long purpose.
     pub fn take(&self, purpose: &str, busy: Option<String>, now: f64) -> Result<HoldInfo, LabError> {
+        // The length and characters as given (as the OpenAPI document
+        // states them), then not only white space.
+        let refused = purpose.chars().count() > MAX_HOLD_PURPOSE || purpose.chars().any(char::is_control);
         let purpose = purpose.trim();
-        if purpose.is_empty() || purpose.chars().count() > MAX_HOLD_PURPOSE || purpose.chars().any(char::is_control) {
+        if purpose.is_empty() || refused {
             return Err(LabError::Invalid(format!(
                 "field `purpose`: say what holds the instrument in 1–{MAX_HOLD_PURPOSE} characters, \
                  without control characters"

@@ -82,6 +82,10 @@ async function runSession(page, experiment, observer, seed, shotName) {
     // (this trial's pie, which a slow look may have missed on screen: waiting
     // for the pie phase itself hung under load, the page waiting for a key).
     await page.waitForFunction((p) => document.body.dataset.pieShown === String(p), position, { timeout: 20000 });
+    // Keys count from the pie's first frame on the screen (the frame after
+    // it was drawn): under load that frame came over 200 ms after the draw,
+    // and a key pressed before it was ignored while the page waited for one.
+    await page.waitForFunction((p) => document.body.dataset.pieOnScreen === String(p), position, { timeout: 20000 });
     if (!shot && shots && shotName) {
       await page.screenshot({ path: `${shots}/${shotName}` });
       shot = true;

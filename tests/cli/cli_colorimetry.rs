@@ -103,7 +103,7 @@ fn malformed_csv_fails_with_file_line_and_column() {
         "{stderr}"
     );
     let (ok, _, stderr) = lightbooth(&["color", path.to_str().unwrap().replace("bad", "missing").as_str()]);
-    assert!(!ok && stderr.contains("missing.csv: cannot read the file"), "{stderr}");
+    assert!(!ok && stderr.contains("missing.csv: no such file"), "{stderr}");
 }
 
 #[test]

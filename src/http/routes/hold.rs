@@ -18,7 +18,13 @@ use crate::lab::instrument_queue::{HoldInfo, InstrumentStatus};
 #[serde(deny_unknown_fields)]
 pub struct TakeHold {
     /// What holds the instrument, shown to anyone refused meanwhile
-    /// (1–200 characters), e.g. `display calibration “lab-lcd”`.
+    /// (1–200 characters, not all white space, no control characters),
+    /// e.g. `display calibration “lab-lcd”`.
+    #[schema(
+        min_length = 1,
+        max_length = 200,
+        pattern = "^[^\\u0000-\\u001f\\u007f-\\u009f]*[^\\s\\u0000-\\u001f\\u007f-\\u009f][^\\u0000-\\u001f\\u007f-\\u009f]*$"
+    )]
     pub purpose: String,
 }
 

@@ -62,7 +62,8 @@ pub(super) async fn job_state_migration_keeps_renders_comparisons_and_study_file
         ],
     )
     .await;
-    let store = Store::open(&url).await.unwrap();
+    // Opened as the daemon opens it (only the daemon recovers, issue 32).
+    let store = Store::open_recovering(&url).await.unwrap();
     let kept = store.get_render(7).await.unwrap().unwrap();
     assert_eq!(kept.state, "complete");
     assert_eq!(store.render_preview(7).await.unwrap().unwrap(), b"\x89PNG".to_vec());
@@ -258,7 +259,8 @@ pub(super) async fn a_sqlite_database_migrated_before_migrations_moved_to_migrat
         .map(|(v, c)| (*v, c.to_string()))
         .collect();
     assert_eq!(embedded, before, "an applied SQLite migration was edited");
-    let store = Store::open(&url).await.expect("the old database opens");
+    // Opened as the daemon opens it (only the daemon recovers, issue 32).
+    let store = Store::open_recovering(&url).await.expect("the old database opens");
     let m = store.get_measurement(41).await.unwrap().unwrap();
     assert_eq!(
         m.summary.state,
