@@ -28,12 +28,7 @@ impl Store {
         .fetch_one(pool)
         .await
         });
-        match (inserted, retry_of) {
-            (Err(sqlx::Error::Database(db)), Some(old)) if db.is_unique_violation() => {
-                Err(self.already_retried(Job::Render, old).await)
-            }
-            (result, _) => Ok(result?),
-        }
+        self.unless_retried_already(Job::Render, inserted, retry_of).await
     }
 
     /// The job that retries `id` (`retry_of`), if it was retried.
@@ -46,7 +41,23 @@ impl Store {
     }
 
     /// The conflict of a second retry of `id`: it names the first retry.
-    pub(super) async fn already_retried(&self, job: Job, id: i64) -> StoreError {
+    /// The new job's id, or, when the unique `retry_of` refused a second
+    /// retry of `retry_of`, the 409 naming the first.
+    pub(super) async fn unless_retried_already(
+        &self,
+        job: Job,
+        inserted: Result<i64, sqlx::Error>,
+        retry_of: Option<i64>,
+    ) -> Result<i64, StoreError> {
+        match (inserted, retry_of) {
+            (Err(sqlx::Error::Database(db)), Some(old)) if db.is_unique_violation() => {
+                Err(self.already_retried(job, old).await)
+            }
+            (result, _) => Ok(result?),
+        }
+    }
+
+    async fn already_retried(&self, job: Job, id: i64) -> StoreError {
         let noun = job.noun();
         match self.retried_as(job, id).await {
             Ok(Some(first)) => StoreError::Conflict(already_retried_message(job, id, first)),

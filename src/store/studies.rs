@@ -27,12 +27,7 @@ impl Store {
             .fetch_one(pool)
             .await
         });
-        match (inserted, retry_of) {
-            (Err(sqlx::Error::Database(db)), Some(old)) if db.is_unique_violation() => {
-                Err(self.already_retried(Job::Study, old).await)
-            }
-            (result, _) => Ok(result?),
-        }
+        self.unless_retried_already(Job::Study, inserted, retry_of).await
     }
 
     /// Stores a finished study with its report files, in one transaction.
