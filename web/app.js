@@ -429,6 +429,7 @@ async function showMeasurement(id) {
       (m.partial ? `. Partial average of ${m.good_samples} good samples: ${average}` : "")) +
     ` · queued ${localTime(m.created_at)}` +
     (m.started_at ? `, taken ${localTime(m.started_at)}` + (m.finished_at ? ` to ${localTime(m.finished_at)} (${duration(m.finished_at - m.started_at)})` : "") : "") +
+    (m.hold ? ` · taken for the ${m.hold.purpose} (instrument hold ${m.hold.id})` : "") +
     (m.note ? ` · notes: ${m.note}` : "");
   showComparison($("detail-comparison"), m).catch((e) => notice(e.message));
   for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])

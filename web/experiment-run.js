@@ -516,6 +516,8 @@ async function verify() {
     for (const geometry of ["full_field", "pie"]) {
       for (const c of colours) if (!(geometry === "pie" && c.name === "background")) plan.push({ c, geometry });
     }
+    // The daemon verifies only patches measured under a hold of exactly
+    // this purpose (lab::experiments::verification::hold_purpose).
     const patches = await holdingTheInstrument(`verification of experiment ${experimentId}`, async () => {
       beginScreen();
       document.body.dataset.state = "verifying";

@@ -7,7 +7,7 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use lightbooth::display::output::OutputMethod;
 use lightbooth::display::stimulus::GamutPolicy;
-use lightbooth::lab::experiments::analysis::analysis_csv;
+use lightbooth::lab::experiments::analysis::{analysis_csv, analysis_text};
 use lightbooth::lab::experiments::{ExperimentRequest, Experiments};
 use lightbooth::psychophysics::design::CONFIGURATIONS;
 use lightbooth::psychophysics::observer::SimulatedObserver;
@@ -283,82 +283,6 @@ async fn analyze(a: AnalyzeArgs) -> anyhow::Result<()> {
         print!("{}", analysis_csv(&r));
         return Ok(());
     }
-    println!(
-        "experiment {} ({}), {}/{}, {}: {}, {} ({} complete)",
-        r.experiment_id,
-        r.name,
-        r.scene,
-        r.target,
-        r.output_method,
-        counted(r.observers.len(), "observer"),
-        counted(r.sessions, "session"),
-        r.complete_sessions
-    );
-    println!(
-        "{:<10} {:<14} {:>9} {:>7} {:>17} {:>17} {:>8}",
-        "observer", "approximation", "correct", "%", "d′ differencing", "d′ indep. obs.", "ΔE00"
-    );
-    for row in &r.rows {
-        let (Some(d), Some(io)) = (&row.differencing, &row.independent_observation) else {
-            println!(
-                "{:<10} {:<14} {:>4}/{:<4} none counted ({} excluded for a dropped frame) {:>8.3}",
-                row.observer, row.approximation, row.correct, row.trials, row.excluded, row.delta_e00_shown
-            );
-            continue;
-        };
-        let interval = |e: &lightbooth::psychophysics::oddity::OddityEstimate| {
-            format!(
-                "{:.2} [{:.2}, {}]",
-                e.d_prime,
-                e.d_prime_interval.0,
-                if e.upper_bounded {
-                    format!("{:.2}", e.d_prime_interval.1)
-                } else {
-                    "—".into()
-                }
-            )
-        };
-        println!(
-            "{:<10} {:<14} {:>4}/{:<4} {:>6.1} {:>17} {:>17} {:>8.3}{}",
-            row.observer,
-            row.approximation,
-            row.correct,
-            row.trials,
-            100.0 * d.proportion_correct,
-            interval(d),
-            interval(io),
-            row.delta_e00_shown,
-            if d.rule.is_some() { "  *" } else { "" }
-        );
-    }
-    for n in &r.notes {
-        println!("{n}");
-    }
-    for w in &r.warnings {
-        println!("warning: {w}");
-    }
-    if r.rows
-        .iter()
-        .any(|row| row.differencing.as_ref().is_some_and(|d| d.rule.is_some()))
-    {
-        println!("* {}", lightbooth::psychophysics::oddity::ALL_CORRECT_RULE);
-    }
-    // The footnote of the "—" only under a table that shows one.
-    if r.rows
-        .iter()
-        .flat_map(|row| [&row.differencing, &row.independent_observation])
-        .any(|e| e.as_ref().is_some_and(|e| !e.upper_bounded))
-    {
-        println!("— an upper end of — : every trial or nearly correct, the data set no upper bound");
-    }
+    print!("{}", analysis_text(&r));
     Ok(())
-}
-
-/// "1 observer", "2 observers".
-fn counted(n: usize, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
 }

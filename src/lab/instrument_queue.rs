@@ -175,11 +175,13 @@ impl InstrumentHold {
     /// Whether `what` (a measurement, a display change) may use the
     /// instrument now, naming `hold` (or none): when nothing holds it,
     /// anything without a hold may; when held, only what names that hold.
-    pub fn admit(&self, hold: Option<i64>, what: &str) -> Result<(), LabError> {
+    /// Admitted under a hold, the hold it is part of (its provenance, kept
+    /// with a measurement).
+    pub fn admit(&self, hold: Option<i64>, what: &str) -> Result<Option<HoldInfo>, LabError> {
         let state = self.lock();
         match (&state.current, hold) {
-            (None, None) => Ok(()),
-            (Some(held), Some(id)) if held.id == id => Ok(()),
+            (None, None) => Ok(None),
+            (Some(held), Some(id)) if held.id == id => Ok(Some(held.clone())),
             (Some(held), _) => Err(LabError::Conflict(format!("{what} refused: {}", held_by(held)))),
             (None, Some(id)) => Err(LabError::Conflict(format!(
                 "field `hold`: hold {id} has ended (released, or the daemon restarted): {what} would not be \
@@ -212,7 +214,13 @@ mod tests {
         ));
         assert!(matches!(hold.take("  ", None, 1.0), Err(LabError::Invalid(_))));
         let h = hold.take("display calibration “lcd”", None, 2.0).unwrap();
-        assert!(hold.admit(Some(h.id), "a measurement").is_ok());
+        assert_eq!(
+            hold.admit(Some(h.id), "a measurement")
+                .unwrap()
+                .map(|held| held.purpose),
+            Some("display calibration “lcd”".to_string()),
+            "what is admitted under a hold learns the hold's purpose, kept with a measurement"
+        );
         match hold.admit(None, "a measurement of green/patch") {
             Err(LabError::Conflict(m)) => {
                 assert!(

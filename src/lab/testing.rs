@@ -44,14 +44,43 @@ pub async fn queued_measurement(store: &Store, scene_target: Option<(&str, &str)
 /// flat, dark average (for what is recorded about it, not its colour).
 pub async fn completed_measurement(store: &Store, scene_target: Option<(&str, &str)>) -> i64 {
     let id = queued_measurement(store, scene_target).await;
+    complete(store, id, vec![380.0, 780.0]).await
+}
+
+/// A measurement of nothing in particular taken under the instrument hold
+/// `hold` (its id and purpose), completed with a flat, dark average on the
+/// PR-650's 4 nm grid (fine enough for its XYZ).
+pub async fn completed_held_measurement(store: &Store, hold: (i64, &str)) -> i64 {
+    let id = store
+        .create_held_measurement(
+            &NewMeasurement {
+                booth: Booth::default(),
+                session_id: None,
+                scene: None,
+                target: None,
+                samples: 1,
+                settings_json: serde_json::json!({}),
+                note: String::new(),
+            },
+            Some(hold),
+        )
+        .await
+        .expect("the store queues a measurement");
+    complete(store, id, (0..=100).map(|i| 380.0 + 4.0 * i as f64).collect()).await
+}
+
+/// Runs and completes queued measurement `id` with a flat, dark average on
+/// `wavelength_nm`.
+async fn complete(store: &Store, id: i64, wavelength_nm: Vec<f64>) -> i64 {
     store
         .mark_running(id, None)
         .await
         .expect("the store runs a measurement");
+    let n = wavelength_nm.len();
     let average = Average {
-        wavelength_nm: vec![380.0, 780.0],
-        radiance: vec![0.01, 0.01],
-        radiance_sd: vec![0.0; 2],
+        wavelength_nm,
+        radiance: vec![0.01; n],
+        radiance_sd: vec![0.0; n],
         luminance_cd_m2: 0.0,
         x: 0.0,
         y: 0.0,

@@ -7,10 +7,20 @@ use super::*;
 impl Store {
     /// Records a requested measurement as `queued`.
     pub async fn create_measurement(&self, m: &NewMeasurement) -> Result<i64, StoreError> {
+        self.create_held_measurement(m, None).await
+    }
+
+    /// Records a requested measurement as `queued`, taken under the
+    /// instrument hold `hold` (its id and purpose) when one is given.
+    pub async fn create_held_measurement(
+        &self,
+        m: &NewMeasurement,
+        hold: Option<(i64, &str)>,
+    ) -> Result<i64, StoreError> {
         Ok(with_pool!(self, |pool| {
             sqlx::query_scalar(
-            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at, daemon_id) \
-             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8, $9) RETURNING id",
+            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at, daemon_id, hold_id, hold_purpose) \
+             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8, $9, $10, $11) RETURNING id",
         )
         .bind(m.booth.as_str())
         .bind(m.session_id)
@@ -21,6 +31,8 @@ impl Store {
         .bind(&m.note)
         .bind(now())
         .bind(self.daemon_id)
+        .bind(hold.map(|h| h.0))
+        .bind(hold.map(|h| h.1))
         .fetch_one(pool)
         .await?
         }))

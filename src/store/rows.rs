@@ -147,6 +147,18 @@ pub struct MeasurementSummary {
     /// samples of a measurement that did not complete (interrupted or
     /// cancelled): a partial result, never a complete measurement.
     pub partial: bool,
+    /// The instrument hold it was taken under (a display calibration or
+    /// verification, `POST /api/instrument/hold`); null when taken freely.
+    pub hold: Option<MeasurementHold>,
+}
+
+/// The instrument hold a measurement was taken under: what held the
+/// instrument, so a verification knows the display showed its colour.
+#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+pub struct MeasurementHold {
+    pub id: i64,
+    /// What held it, e.g. `verification of experiment 3`.
+    pub purpose: String,
 }
 
 /// One stored raw sample.
@@ -225,7 +237,8 @@ pub(super) const MEASUREMENT_COLUMNS: &str = "id, booth, session_id, instrument_
     state, error, note, created_at, started_at, finished_at, luminance_cd_m2, x, y, luminance_cv, \
     observer, xyz_x, xyz_y, xyz_z, \
     (SELECT i.model FROM instruments i WHERE i.id = measurements.instrument_id) AS instrument_model, \
-    (SELECT i.serial FROM instruments i WHERE i.id = measurements.instrument_id) AS instrument_serial";
+    (SELECT i.serial FROM instruments i WHERE i.id = measurements.instrument_id) AS instrument_serial, \
+    hold_id, hold_purpose";
 
 /// The columns of [`MEASUREMENT_COLUMNS`], as stored.
 #[derive(sqlx::FromRow)]
@@ -255,6 +268,8 @@ pub(super) struct MeasurementRecord {
     xyz_z: Option<f64>,
     instrument_model: Option<String>,
     instrument_serial: Option<String>,
+    hold_id: Option<i64>,
+    hold_purpose: Option<String>,
 }
 
 /// A measurement's summary columns and its average spectra.
@@ -319,6 +334,10 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
             luminance_cv: r.luminance_cv,
             good_samples: r.good_samples,
             partial: false,
+            hold: r.hold_id.map(|id| MeasurementHold {
+                id,
+                purpose: r.hold_purpose.unwrap_or_default(),
+            }),
         })
     }
 }

@@ -70,13 +70,29 @@ async fn verify(d: &Daemon, e: &Value) -> Value {
     let colours = std::iter::once(&check["original"])
         .chain(check["approximations"].as_array().unwrap())
         .chain(std::iter::once(&check["background"]));
+    // As the session page does: hold the instrument for this verification,
+    // show each colour and measure it under the hold, release.
+    let purpose = lightbooth::lab::experiments::verification::hold_purpose(id);
+    let (s, hold) = post_json(
+        d.addr,
+        "/api/instrument/hold",
+        TOKEN,
+        &json!({ "purpose": purpose }).to_string(),
+    )
+    .await;
+    assert_eq!(s, 201, "{hold}");
+    let hold = hold["id"].as_i64().unwrap();
     let mut patches = Vec::new();
     for c in colours {
-        let (s, v) = post_json(d.addr, "/api/mock/display", TOKEN, &code_counts(c, output).to_string()).await;
+        let mut show = code_counts(c, output);
+        show["hold"] = json!(hold);
+        let (s, v) = post_json(d.addr, "/api/mock/display", TOKEN, &show.to_string()).await;
         assert_eq!(s, 204, "{v}");
-        let m = crate::experiment::measure(d, json!({ "samples": 5, "note": "verification" })).await;
+        let m = crate::experiment::measure(d, json!({ "samples": 5, "note": "verification", "hold": hold })).await;
         patches.push(json!({ "colour": c["name"], "geometry": "full_field", "measurement_id": m }));
     }
+    let (s, v) = post_json(d.addr, &format!("/api/instrument/hold/{hold}/release"), TOKEN, "{}").await;
+    assert_eq!(s, 200, "{v}");
     let (s, v) = post_json(
         d.addr,
         &format!("/api/experiments/{id}/verifications"),

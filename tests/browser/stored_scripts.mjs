@@ -77,9 +77,13 @@ async function makeRecords() {
   if (!scene.title.includes("onerror")) throw new Error(`scene ${sceneId}'s name carries no script: ${scene.title}`);
   shownAs.push(["scenes", scene.title], ["scene", scene.title]);
 
-  // A free measurement with notes.
-  ids.free = await measured({ samples: 2, notes: "notes " + script("measurement notes") });
-  shownAs.push(["measurement", "notes " + script("measurement notes")]);
+  // A measurement with notes, taken under an instrument hold whose purpose
+  // (stored with the measurement, shown on its page) carries a script too.
+  const purpose = "calibration " + script("hold purpose");
+  const hold = await must("POST", "/api/instrument/hold", { purpose }, [201]);
+  ids.free = await measured({ samples: 2, notes: "notes " + script("measurement notes"), hold: hold.id });
+  await must("POST", `/api/instrument/hold/${hold.id}/release`, {}, [200]);
+  shownAs.push(["measurement", "notes " + script("measurement notes")], ["measurement", purpose]);
 
   // A display profile (the simulated display, the 4-level plan).
   const plan = await must("GET", "/api/display-profiles/plan?steps=4", undefined, [200]);

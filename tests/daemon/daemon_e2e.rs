@@ -434,6 +434,11 @@ async fn scene_measurements_posted_during_a_calibration_corrupted_its_patches() 
     })
     .await;
     assert_eq!(m["state"], "complete", "{m}");
+    assert_eq!(
+        m["hold"],
+        serde_json::json!({ "id": hold, "purpose": "display calibration “lab-lcd”" }),
+        "the measurement keeps the hold it was taken under"
+    );
     let red = lightbooth::display::SimulatedDisplay::crt()
         .unwrap()
         .primary_chromaticities(lightbooth::colorimetry::Observer::JuddVos)

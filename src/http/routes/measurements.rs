@@ -252,9 +252,12 @@ pub(super) async fn enqueue_measurement(
         (Some(scene), Some(target)) => format!("a measurement of {scene}/{target}"),
         _ => "a measurement".to_string(),
     };
-    state.hold.admit(hold, &what)?;
+    let held = state.hold.admit(hold, &what)?;
     let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
-    let id = state.store.create_measurement(&new).await?;
+    let id = state
+        .store
+        .create_held_measurement(&new, held.as_ref().map(|h| (h.id, h.purpose.as_str())))
+        .await?;
     permit.send(MeasurementJob {
         id,
         samples,

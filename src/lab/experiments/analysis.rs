@@ -223,6 +223,91 @@ pub fn analysis_csv(a: &Analysis) -> String {
     out
 }
 
+/// The analysis as the command line prints it (`lightbooth experiment
+/// analyze`): a header, one line per condition with both models' d′ and
+/// their intervals, the notes and warnings, and a footnote for each mark
+/// the table shows (`*` the all-correct rule, `—` an unbounded upper end).
+pub fn analysis_text(a: &Analysis) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "experiment {} ({}), {}/{}, {}: {}, {} ({} complete)",
+        a.experiment_id,
+        a.name,
+        a.scene,
+        a.target,
+        a.output_method,
+        plural(a.observers.len(), "observer"),
+        plural(a.sessions, "session"),
+        a.complete_sessions
+    );
+    let _ = writeln!(
+        out,
+        "{:<10} {:<14} {:>9} {:>7} {:>17} {:>17} {:>8}",
+        "observer", "approximation", "correct", "%", "d′ differencing", "d′ indep. obs.", "ΔE00"
+    );
+    for row in &a.rows {
+        let (Some(d), Some(io)) = (&row.differencing, &row.independent_observation) else {
+            let _ = writeln!(
+                out,
+                "{:<10} {:<14} {:>4}/{:<4} none counted ({} excluded for a dropped frame) {:>8.3}",
+                row.observer, row.approximation, row.correct, row.trials, row.excluded, row.delta_e00_shown
+            );
+            continue;
+        };
+        let interval = |e: &OddityEstimate| {
+            format!(
+                "{:.2} [{:.2}, {}]",
+                e.d_prime,
+                e.d_prime_interval.0,
+                if e.upper_bounded {
+                    format!("{:.2}", e.d_prime_interval.1)
+                } else {
+                    "—".into()
+                }
+            )
+        };
+        let _ = writeln!(
+            out,
+            "{:<10} {:<14} {:>4}/{:<4} {:>6.1} {:>17} {:>17} {:>8.3}{}",
+            row.observer,
+            row.approximation,
+            row.correct,
+            row.trials,
+            100.0 * d.proportion_correct,
+            interval(d),
+            interval(io),
+            row.delta_e00_shown,
+            if d.rule.is_some() { "  *" } else { "" }
+        );
+    }
+    for n in &a.notes {
+        let _ = writeln!(out, "{n}");
+    }
+    for w in &a.warnings {
+        let _ = writeln!(out, "warning: {w}");
+    }
+    if a.rows
+        .iter()
+        .any(|row| row.differencing.as_ref().is_some_and(|d| d.rule.is_some()))
+    {
+        let _ = writeln!(out, "* {}", crate::psychophysics::oddity::ALL_CORRECT_RULE);
+    }
+    // The footnote of the "—" only under a table that shows one.
+    if a.rows
+        .iter()
+        .flat_map(|row| [&row.differencing, &row.independent_observation])
+        .any(|e| e.as_ref().is_some_and(|e| !e.upper_bounded))
+    {
+        let _ = writeln!(
+            out,
+            "— an upper end of — : every trial or nearly correct, the data set no upper bound"
+        );
+    }
+    out
+}
+
 /// The analysis as a MAT-file (`load('experiment-1-analysis.mat')`): the
 /// same columns as [`analysis_csv`], numbers as column vectors and text
 /// (`observer`, `approximation`, `rule`) as char matrices of one row each,

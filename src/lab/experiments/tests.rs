@@ -8,7 +8,7 @@ use crate::colorimetry::Observer;
 use crate::display::profile::TransferModel;
 use crate::display::SimulatedDisplay;
 use crate::lab::error::LabError;
-use crate::lab::testing::{completed_measurement, queued_measurement, store_in};
+use crate::lab::testing::{completed_held_measurement, completed_measurement, queued_measurement, store_in};
 use crate::store::{NewComparison, NewRender};
 
 struct Lab {
@@ -255,6 +255,14 @@ async fn a_session_records_every_trial_repeats_dropped_ones_and_resumes() {
         a.warnings
     );
     assert!(row("nstep81").differencing.as_ref().unwrap().d_prime < 0.5);
+    // nstep3's 36 of 36 have no upper end: the table marks it and says why.
+    let text = analysis::analysis_text(&a);
+    let nstep3_line = text.lines().find(|l| l.starts_with("obs1       nstep3")).unwrap();
+    assert!(nstep3_line.contains(", —]") && nstep3_line.ends_with("  *"), "{text}");
+    assert!(
+        text.contains("\n— an upper end of — : every trial or nearly correct"),
+        "{text}"
+    );
     let csv = analysis::analysis_csv(&a);
     assert_eq!(csv.lines().count(), 3);
     assert!(csv.lines().nth(1).unwrap().contains(",obs1,nstep3,36,36,"), "{csv}");
@@ -631,6 +639,44 @@ async fn the_booths_scene_measurement_does_not_verify_the_display() {
     assert!(x.verifications(e.id).await.unwrap().is_empty());
 }
 
+/// Regression (issue 32): a verification accepted any measurement as the
+/// display's emission; only one taken under the hold of this experiment's
+/// verification says the display showed the colour.
+#[tokio::test]
+async fn a_measurement_taken_freely_or_for_another_purpose_does_not_verify_the_display() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let e = x.create(request(&lab, &["nstep3"])).await.unwrap();
+    let other = verification::hold_purpose(e.id + 1);
+    let free = completed_measurement(&x.store, None).await;
+    let calibration = completed_held_measurement(&x.store, (1, "display calibration “crt”")).await;
+    let another = completed_held_measurement(&x.store, (2, &other)).await;
+    let ours = completed_held_measurement(&x.store, (3, &verification::hold_purpose(e.id))).await;
+    let verify = |m: i64| {
+        serde_json::from_value::<verification::VerificationRequest>(serde_json::json!({
+            "patches": [{ "colour": "original", "geometry": "full_field", "measurement_id": m }],
+        }))
+        .unwrap()
+    };
+    for (m, taken) in [
+        (free, "freely, under no instrument hold".to_string()),
+        (calibration, "under hold 1 for “display calibration “crt””".to_string()),
+        (another, format!("under hold 2 for “{other}”")),
+    ] {
+        let err = x.verify(e.id, &verify(m)).await.unwrap_err().to_string();
+        assert!(
+            err.contains(&format!(
+                "patches[0].measurement_id: measurement {m} was taken {taken}, not under the hold"
+            )),
+            "{err}"
+        );
+    }
+    assert!(x.verifications(e.id).await.unwrap().is_empty());
+    let v = x.verify(e.id, &verify(ours)).await.unwrap();
+    assert_eq!(v.colours[0].measurement_id, ours);
+    assert_eq!(x.verifications(e.id).await.unwrap().len(), 1);
+}
+
 /// Regression (issue 32): a 60 KB name, NUL and ESC were stored.
 #[tokio::test]
 async fn an_experiment_name_is_limited_in_length_and_characters() {
@@ -709,6 +755,14 @@ async fn results_show_what_was_not_counted_and_the_figure_is_titled_from_what_it
     let nstep3 = nstep3.expect("a row for nstep3 though none is counted");
     assert_eq!((nstep3.trials, nstep3.excluded), (0, 18));
     assert!(nstep3.differencing.is_none() && nstep3.independent_observation.is_none());
+    // Regression (issue 32): `experiment analyze` footnoted a "—" no row
+    // showed; a row with none counted says so and has no interval.
+    let text = analysis::analysis_text(&a);
+    assert!(
+        text.contains("obs1       nstep3            0/0    none counted (18 excluded for a dropped frame)"),
+        "{text}"
+    );
+    assert!(!text.contains("—"), "no row shows an unbounded upper end: {text}");
     assert!(
         a.warnings
             .iter()

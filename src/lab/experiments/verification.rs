@@ -42,7 +42,13 @@
 //! scene's target is the booth, not the display, and is refused; so is one
 //! taken before the experiment existed (it cannot have been of its
 //! colours), and one measurement given for two patches (the display showed
-//! one colour at a time).
+//! one colour at a time). The daemon cannot see a real display, so what
+//! the display showed is known from the measurement's provenance: a patch
+//! must have been measured under the instrument hold of this experiment's
+//! verification ([`hold_purpose`], taken by the session page's “verify the
+//! display”; the hold is stored with each measurement taken under it). A
+//! measurement taken freely, or under another hold (a calibration, a test
+//! patch, another experiment's verification), is refused.
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -58,6 +64,13 @@ use crate::store::MeasurementState;
 pub const DEFAULT_TOLERANCE_DE00: f64 = 1.0;
 /// A verification names at most this many measured patches.
 pub const MAX_PATCHES: usize = 128;
+
+/// The purpose of the instrument hold a verification's patches are
+/// measured under (see the module doc); the session page takes the hold
+/// with exactly this purpose.
+pub fn hold_purpose(experiment_id: i64) -> String {
+    format!("verification of experiment {experiment_id}")
+}
 
 /// Where on the screen a colour was shown while it was measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -292,7 +305,7 @@ impl Experiments {
                 )));
             }
             let emitted = self
-                .display_xyz(p.measurement_id, profile.observer, e.created_at)
+                .display_xyz(p.measurement_id, profile.observer, experiment_id, e.created_at)
                 .await
                 .map_err(|err| match err {
                     LabError::Invalid(m) | LabError::NotFound(m) | LabError::Conflict(m) => {
@@ -398,6 +411,7 @@ impl Experiments {
         &self,
         id: i64,
         observer: crate::colorimetry::Observer,
+        experiment_id: i64,
         experiment_created_at: f64,
     ) -> Result<[f64; 3], LabError> {
         let m = self
@@ -416,6 +430,22 @@ impl Experiments {
                 "measurement {id} was taken before the experiment was created, so not while the display showed its \
                  colour: measure the display while it shows the colour (the session page's “verify the display”)"
             )));
+        }
+        let wanted = hold_purpose(experiment_id);
+        match &m.summary.hold {
+            Some(h) if h.purpose == wanted => {}
+            held => {
+                let taken = match held {
+                    None => "freely, under no instrument hold".to_string(),
+                    Some(h) => format!("under hold {} for “{}”", h.id, h.purpose),
+                };
+                return Err(LabError::Invalid(format!(
+                    "measurement {id} was taken {taken}, not under the hold “{wanted}”, so nothing says the display \
+                     showed the colour: measure the display while it shows the colour (the session page's “verify \
+                     the display”, or take POST /api/instrument/hold {{\"purpose\": \"{wanted}\"}} and name it in each \
+                     measurement)"
+                )));
+            }
         }
         self.emitted_xyz(id, observer).await
     }
