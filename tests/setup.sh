@@ -98,8 +98,10 @@ fi
 SCHEMATHESIS_VERSION=4.32.5
 MDBOOK_VERSION=0.5.4
 py_missing=()
+# CRS's and Konica Minolta's PsychoPy plugins (pinned: the tests pin their
+# wire behaviour) talk to the simulated ColorCAL MkII, LS-100 and CS-100A.
 for entry in "pyserial=pyserial" "numpy=numpy" "psychopy-photoresearch=psychopy-photoresearch" \
-    "OpenEXR=OpenEXR>=3.2,<4"; do
+    "OpenEXR=OpenEXR>=3.2,<4" "psychopy-crs=psychopy-crs==0.0.2" "psychopy-minolta=psychopy-minolta==0.0.2"; do
   "$PY_VENV/bin/pip" show -q "${entry%%=*}" >/dev/null 2>&1 || py_missing+=("${entry#*=}")
 done
 if [ "$("$PY_VENV/bin/st" --version 2>/dev/null | grep -o '[0-9][0-9.]*$')" != "$SCHEMATHESIS_VERSION" ]; then
@@ -111,6 +113,30 @@ fi
 if [ "${#py_missing[@]}" -gt 0 ]; then
   echo "installing ${py_missing[*]} (PyPI) into $PY_VENV"
   "$PY_VENV/bin/pip" install -q --disable-pip-version-check "${py_missing[@]}"
+fi
+# colour-specio (pinned) drives the simulated Konica Minolta CS-2000 and
+# Colorimetry Research CR-250 as a lab's Python would; it needs Python >= 3.12,
+# so it has its own venv, target/py312, from pyenv's 3.12 (the machines' pyenv
+# has 3.12.1; LIGHTBOOTH_PYTHON312 names another interpreter). It brings
+# colour-science, whose tables are an independent copy of the CIE's.
+SPECIO_VERSION=0.4.1
+PY312_VENV="$PWD/target/py312"
+if [ ! -x "$PY312_VENV/bin/python" ]; then
+  PY312="${LIGHTBOOTH_PYTHON312:-}"
+  if [ -z "$PY312" ] && command -v pyenv >/dev/null 2>&1; then
+    PY312=$(PYENV_VERSION=3.12.1 pyenv which python3.12 2>/dev/null || true)
+  fi
+  [ -n "$PY312" ] || PY312=$(command -v python3.12 || true)
+  if [ -z "$PY312" ]; then
+    echo "no Python 3.12 for colour-specio: install pyenv's 3.12.1 or set LIGHTBOOTH_PYTHON312" >&2
+    exit 1
+  fi
+  echo "creating the colour-specio venv in $PY312_VENV with $PY312"
+  "$PY312" -m venv "$PY312_VENV"
+fi
+if [ "$("$PY312_VENV/bin/pip" show colour-specio 2>/dev/null | sed -n 's/^Version: //p')" != "$SPECIO_VERSION" ]; then
+  echo "installing colour-specio==$SPECIO_VERSION (PyPI) into $PY312_VENV"
+  "$PY312_VENV/bin/pip" install -q --disable-pip-version-check "colour-specio==$SPECIO_VERSION"
 fi
 
 BIN=$(pg_bin)

@@ -121,6 +121,7 @@ mod tests {
             let grid = Grid::uniform(380.0, 2.0, 201);
             let capabilities = Capabilities {
                 model: "scripted",
+                reading: crate::instrument::Reading::Spectrum,
                 native_grid: grid,
                 max_samples: 3,
                 default_samples: 2,
@@ -171,6 +172,7 @@ mod tests {
                 code,
                 radiance,
                 luminance: None,
+                instrument_xyz: None,
             })
         }
         fn after_bad_sample(&mut self, code: &QualityCode, _cancel: &CancelToken) -> Result<(), InstrumentError> {

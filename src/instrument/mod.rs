@@ -128,6 +128,11 @@ pub struct Sample {
     pub radiance: Option<Spectrum>,
     /// Luminance in cd/m² as the instrument reported it (`D2`), when good.
     pub luminance: Option<f64>,
+    /// X, Y, Z (cd/m² scale) as the instrument itself reported them, in the
+    /// observer its [`Reading`] names, when good: a colorimeter's only
+    /// reading, a spectroradiometer's own colorimetry (the CS-2000's); none
+    /// when the instrument sends none.
+    pub instrument_xyz: Option<[f64; 3]>,
 }
 
 /// The result of [`measure_averaged`](averaging::measure_averaged): every sample, and
@@ -304,12 +309,41 @@ impl CancelToken {
     }
 }
 
+/// What an instrument's good sample carries: a spectrum (and maybe its
+/// own XYZ), XYZ only (a colorimeter), or luminance only (a luminance
+/// meter). What needs more than a model reads refuses, naming the reading.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Reading {
+    /// Spectral radiance on the model's native grid.
+    Spectrum,
+    /// X, Y, Z in cd/m², in `observer` (a colorimeter's filters
+    /// approximate one observer's matching functions; its XYZ cannot be
+    /// recomputed in another).
+    Tristimulus { observer: Observer },
+    /// Luminance Y in cd/m² only (with `observer`'s V(λ)).
+    Luminance { observer: Observer },
+}
+
+impl Reading {
+    /// "spectrum", "XYZ", "luminance": what the dashboard's card says it measures.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reading::Spectrum => "spectrum",
+            Reading::Tristimulus { .. } => "XYZ",
+            Reading::Luminance { .. } => "luminance",
+        }
+    }
+}
+
 /// What a model can do and how its settings ask it to be driven, known
 /// before a unit is connected (the API checks requests against it).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Capabilities {
     /// The model's name as the operator knows it ("PR-650").
     pub model: &'static str,
+    /// What a good sample carries.
+    pub reading: Reading,
     /// The grid its spectra come on until the unit says otherwise.
     pub native_grid: Grid,
     /// Most samples one averaged measurement may ask for.
@@ -490,6 +524,7 @@ mod tests {
             code: pr650::codes::quality_code(code as u8),
             radiance: ok.then(|| Spectrum::constant(Grid::pr650(), SpectralUnit::SpectralRadiance, value).unwrap()),
             luminance: None,
+            instrument_xyz: None,
         }
     }
 

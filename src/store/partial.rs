@@ -103,6 +103,7 @@ fn partial_average(
                     Spectrum::new(grid.clone(), SpectralUnit::SpectralRadiance, values).map_err(|e| e.to_string())?,
                 ),
                 luminance,
+                instrument_xyz: None,
             })
         })
         .collect::<Result<Vec<_>, String>>()?;

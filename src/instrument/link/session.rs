@@ -420,6 +420,7 @@ mod tests {
         };
         let capabilities = Capabilities {
             model: "PR-650",
+            reading: crate::instrument::Reading::Spectrum,
             native_grid: Grid::pr650(),
             max_samples: 99,
             default_samples: 1,

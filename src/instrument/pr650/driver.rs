@@ -245,6 +245,7 @@ impl Pr650 {
             code,
             radiance,
             luminance,
+            instrument_xyz: None,
         })
     }
 }

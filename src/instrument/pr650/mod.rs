@@ -116,6 +116,7 @@ impl Pr650Settings {
     pub fn capabilities(&self) -> Capabilities {
         Capabilities {
             model: driver::MODEL,
+            reading: crate::instrument::Reading::Spectrum,
             native_grid: crate::spectrum::Grid::pr650(),
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,

@@ -331,6 +331,7 @@ impl Spectroradiometer for Pr655 {
                     code,
                     radiance: None,
                     luminance: None,
+                    instrument_xyz: None,
                 });
             }
             Err(e) => return Err(self.session.protocol_error(&m5.text(), &e)),
@@ -350,6 +351,7 @@ impl Spectroradiometer for Pr655 {
             code: codes::quality_code(0),
             radiance: Some(spectrum),
             luminance,
+            instrument_xyz: None,
         })
     }
 

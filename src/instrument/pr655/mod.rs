@@ -157,6 +157,7 @@ impl Pr655Settings {
         let model = self.model();
         Capabilities {
             model: model.name(),
+            reading: crate::instrument::Reading::Spectrum,
             native_grid: model.grid(),
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
