@@ -50,6 +50,7 @@ async fn per_sample_ms(mode: SqliteSynchronous) -> Vec<f64> {
             usable: true,
             radiance: Some((0..101).map(|k| 0.01 + 1e-5 * k as f64).collect()),
             luminance_cd_m2: Some(73.1),
+            instrument_xyz: None,
         };
         let t = Instant::now();
         store.insert_sample(id, &sample).await.unwrap();

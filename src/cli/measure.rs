@@ -7,7 +7,7 @@ use std::time::UNIX_EPOCH;
 use clap::Args;
 use serde::Serialize;
 
-use lightbooth::instrument::{AveragedMeasurement, CancelToken, InstrumentSettings};
+use lightbooth::instrument::{AveragedMeasurement, CancelToken, InstrumentSettings, Reading};
 use lightbooth::spectrum::table::write_csv;
 
 #[derive(Args, Debug)]
@@ -52,20 +52,31 @@ struct SampleJson {
     radiance: Option<Vec<f64>>,
     /// cd/m² as the instrument reported it; null for a bad sample.
     luminance: Option<f64>,
+    /// X, Y, Z (cd/m²) as the instrument reported them, when it does.
+    #[serde(rename = "instrument_XYZ")]
+    instrument_xyz: Option<[f64; 3]>,
 }
 
 #[derive(Serialize)]
 struct MeasurementJson {
+    /// What the instrument gave: `spectrum`, `XYZ` or `luminance`.
+    reading: &'static str,
+    /// Empty when the instrument gives no spectrum.
     wavelength_nm: Vec<f64>,
     radiance: Vec<f64>,
     radiance_sd: Vec<f64>,
     samples: Vec<SampleJson>,
     #[serde(rename = "Y")]
     luminance_cd_m2: f64,
-    /// The observer of Y, x, y: CIE 1931 2°, as the PR-650 itself reports.
+    /// The observer of Y, x, y: CIE 1931 2° from a spectrum (as the PR-650
+    /// itself reports), else the observer of the instrument's own reading.
     observer: lightbooth::colorimetry::Observer,
-    x: f64,
-    y: f64,
+    /// Null from a luminance meter.
+    x: Option<f64>,
+    y: Option<f64>,
+    /// The instrument's own mean XYZ, when it gives one.
+    #[serde(rename = "instrument_XYZ")]
+    instrument_xyz: Option<[f64; 3]>,
     luminance_cv: f64,
     instrument: InstrumentJson,
 }
@@ -73,8 +84,13 @@ struct MeasurementJson {
 impl From<&AveragedMeasurement> for MeasurementJson {
     fn from(m: &AveragedMeasurement) -> MeasurementJson {
         MeasurementJson {
-            wavelength_nm: m.mean.grid().wavelengths().to_vec(),
-            radiance: m.mean.values().to_vec(),
+            reading: m.reading.name(),
+            wavelength_nm: m
+                .mean
+                .as_ref()
+                .map(|s| s.grid().wavelengths().to_vec())
+                .unwrap_or_default(),
+            radiance: m.mean.as_ref().map(|s| s.values().to_vec()).unwrap_or_default(),
             radiance_sd: m.sd.clone(),
             samples: m
                 .samples
@@ -90,18 +106,28 @@ impl From<&AveragedMeasurement> for MeasurementJson {
                     message: s.code.message.clone(),
                     radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
                     luminance: s.luminance,
+                    instrument_xyz: s.instrument_xyz,
                 })
                 .collect(),
             luminance_cd_m2: m.luminance_cd_m2,
-            observer: lightbooth::colorimetry::Observer::Cie1931,
+            observer: reading_observer(m.reading),
             x: m.x,
             y: m.y,
+            instrument_xyz: m.instrument_xyz,
             luminance_cv: m.luminance_cv,
             instrument: InstrumentJson {
                 model: m.info.model.clone(),
                 serial: m.info.serial.clone(),
             },
         }
+    }
+}
+
+/// The observer of a measurement's Y, x, y as `measure` reports them.
+fn reading_observer(reading: Reading) -> lightbooth::colorimetry::Observer {
+    match reading {
+        Reading::Spectrum => lightbooth::colorimetry::Observer::Cie1931,
+        Reading::Tristimulus { observer } | Reading::Luminance { observer } => observer,
     }
 }
 
@@ -134,7 +160,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     let cancel = CancelToken::new();
     let samples = settings.capabilities().default_samples;
     // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
-    let m = instrument.measure_averaged(samples, &cancel, &mut |s| match s.luminance {
+    let m = instrument.measure_averaged(samples, &cancel, &mut |s| match s.luminance.or(s.instrument_xyz.map(|v| v[1])) {
         Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
         _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
     })?;
@@ -143,13 +169,20 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
         serde_json::to_writer(out.lock(), &MeasurementJson::from(&m))?;
         println!();
     } else if args.csv {
+        let Some(mean) = &m.mean else {
+            anyhow::bail!(
+                "--csv writes a spectrum, and the {} gives none (it measures {}): use --json",
+                m.info.model,
+                m.reading.name()
+            );
+        };
         let good: Vec<(String, &[f64])> = m
             .good_samples()
             .filter_map(|s| s.radiance.as_ref().map(|r| (format!("sample_{}", s.index), r.values())))
             .collect();
-        let mut columns: Vec<(&str, &[f64])> = vec![("radiance", m.mean.values()), ("radiance_sd", &m.sd)];
+        let mut columns: Vec<(&str, &[f64])> = vec![("radiance", mean.values()), ("radiance_sd", &m.sd)];
         columns.extend(good.iter().map(|(n, v)| (n.as_str(), *v)));
-        write_csv(out.lock(), m.mean.grid(), &columns)?;
+        write_csv(out.lock(), mean.grid(), &columns)?;
     } else {
         let good = m.good_samples().count();
         println!(
@@ -162,12 +195,22 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
         for s in m.samples.iter().filter(|s| !s.code.is_ok()) {
             println!("  sample {} not averaged: {}", s.index, s.code);
         }
-        println!(
-            "Y = {:.4} cd/m²  x = {:.4}  y = {:.4}  (observer cie-1931, as the instrument reports)",
-            m.luminance_cd_m2, m.x, m.y
-        );
+        let observer = reading_observer(m.reading);
+        match (m.x, m.y) {
+            (Some(x), Some(y)) => println!(
+                "Y = {:.4} cd/m²  x = {x:.4}  y = {y:.4}  (observer {observer}, as the instrument reports)",
+                m.luminance_cd_m2
+            ),
+            _ => println!(
+                "Y = {:.4} cd/m²  (observer {observer}; the {} measures luminance only)",
+                m.luminance_cd_m2, m.info.model
+            ),
+        }
         println!("luminance CV = {:.3} %", m.luminance_cv * 100.0);
-        println!("spectrum: {} (use --json or --csv for the values)", m.mean.grid());
+        match &m.mean {
+            Some(mean) => println!("spectrum: {} (use --json or --csv for the values)", mean.grid()),
+            None => println!("no spectrum: the {} measures {}", m.info.model, m.reading.name()),
+        }
     }
     Ok(())
 }

@@ -513,9 +513,10 @@ impl Worker {
         let observer = self.config.observer;
         let stop = cancel.clone();
         let mut measured_pace = None;
+        let reading = instrument.capabilities().reading;
         let mut on_sample = |s: &Sample| {
             // Blocks this thread until the sample is on disk: the next sample waits.
-            let row = match recorder.store_sample(s) {
+            let row = match recorder.store_sample(s, reading) {
                 Ok(row) => row,
                 Err(why) => {
                     // The first sample that could not be written: the measurement stops there.
@@ -543,11 +544,11 @@ impl Worker {
                 code: row.code,
                 message: row.message.clone(),
                 usable: row.usable,
-                luminance_cd_m2: s
-                    .radiance
-                    .as_ref()
-                    .and_then(|r| xyz_from_radiance(r, observer).ok())
-                    .map(|xyz| xyz.y),
+                // A colorimeter's Y is its own, in its reading's observer.
+                luminance_cd_m2: match &s.radiance {
+                    Some(r) => xyz_from_radiance(r, observer).ok().map(|xyz| xyz.y),
+                    None => s.instrument_xyz.map(|v| v[1]).or(s.luminance),
+                },
                 instrument_luminance_cd_m2: row.luminance_cd_m2,
                 wavelength_nm: s
                     .radiance
@@ -595,19 +596,15 @@ impl Worker {
                     error: None,
                 });
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    match xyz_from_radiance(&avg.mean, observer) {
+                    match crate::lab::measurement::comparable_xyz(&avg, observer) {
                         Ok(xyz) => {
-                            let good = avg
-                                .samples
-                                .iter()
-                                .filter(|s| s.code.is_ok() && s.radiance.is_some())
-                                .count();
+                            let good = avg.good_samples().count();
                             let y_se = avg.luminance_cv * xyz.y / (good.max(1) as f64).sqrt();
                             self.config
                                 .comparisons
                                 .compare_later(id, scene.clone(), target.clone(), xyz, y_se)
                         }
-                        Err(e) => tracing::error!(error = %e, "cannot compute XYZ of the mean spectrum"),
+                        Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }
                 }
                 None

@@ -135,32 +135,56 @@ pub struct Sample {
     pub instrument_xyz: Option<[f64; 3]>,
 }
 
+impl Sample {
+    /// Whether this sample enters the mean of a series of `reading`: its
+    /// code is good and it carries that reading (a spectrum, the
+    /// instrument's XYZ, its luminance).
+    pub fn is_usable(&self, reading: Reading) -> bool {
+        self.code.is_ok()
+            && match reading {
+                Reading::Spectrum => self.radiance.is_some(),
+                Reading::Tristimulus { .. } => self.instrument_xyz.is_some(),
+                Reading::Luminance { .. } => self.luminance.is_some(),
+            }
+    }
+}
+
 /// The result of [`measure_averaged`](averaging::measure_averaged): every sample, and
 /// statistics over the good ones only.
 #[derive(Clone, Debug)]
 pub struct AveragedMeasurement {
     pub info: InstrumentInfo,
+    /// What the samples carry (the model's [`Capabilities::reading`]).
+    pub reading: Reading,
     /// Every sample taken, including the bad ones, in order.
     pub samples: Vec<Sample>,
-    /// Mean of the good samples, on the instrument's native grid, per nm.
-    pub mean: Spectrum,
+    /// Mean of the good samples' spectra, on the instrument's native grid,
+    /// per nm; none from a colorimeter or a luminance meter.
+    pub mean: Option<Spectrum>,
     /// Per-wavelength sample standard deviation (n − 1) of the good samples,
-    /// same unit as `mean`; zeros for a single sample.
+    /// same unit as `mean`; zeros for a single sample; empty without spectra.
     pub sd: Vec<f64>,
-    /// Luminance of the mean spectrum, cd/m² (CIE 1931 2°, Km = 683 lm/W, as the PR-650 computes it).
+    /// Luminance, cd/m²: of the mean spectrum (CIE 1931 2°, Km = 683 lm/W,
+    /// as the PR-650 computes it), or the mean of the instrument's own
+    /// readings when it gives no spectrum.
     pub luminance_cd_m2: f64,
-    /// CIE 1931 chromaticity of the mean spectrum.
-    pub x: f64,
-    pub y: f64,
+    /// Chromaticity x, y: CIE 1931 of the mean spectrum, or of the mean of
+    /// the instrument's XYZ (in its reading's observer); none from a
+    /// luminance meter.
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    /// The mean of the good samples' own XYZ, when the instrument gives them.
+    pub instrument_xyz: Option<[f64; 3]>,
     /// Standard deviation over mean of the good samples' luminances, each
-    /// computed from its spectrum like `luminance_cd_m2` (dimensionless).
+    /// computed like `luminance_cd_m2` (dimensionless).
     pub luminance_cv: f64,
 }
 
 impl AveragedMeasurement {
     /// The good samples, those that entered the mean.
     pub fn good_samples(&self) -> impl Iterator<Item = &Sample> {
-        self.samples.iter().filter(|s| s.code.is_ok() && s.radiance.is_some())
+        let reading = self.reading;
+        self.samples.iter().filter(move |s| s.is_usable(reading))
     }
 }
 
@@ -435,22 +459,84 @@ impl dyn Spectroradiometer + '_ {
     }
 }
 
-/// Mean, per-wavelength SD, colorimetry and luminance CV of the good samples.
-/// Bad samples stay in `samples` for the record and are skipped here. Errors
-/// when there is no good sample or the good ones disagree on grid or unit.
-pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<AveragedMeasurement, String> {
-    let good: Vec<&Spectrum> = samples
-        .iter()
-        .filter(|s| s.code.is_ok())
-        .filter_map(|s| s.radiance.as_ref())
-        .collect();
-    let Some(first) = good.first() else {
-        return Err("no good sample to average".into());
+/// Mean, per-wavelength SD, colorimetry and luminance CV of the good
+/// samples of a series of `reading`. Bad samples stay in `samples` for the
+/// record and are skipped here. Errors when there is no good sample or the
+/// good ones disagree on grid or unit.
+pub fn average_samples(
+    info: InstrumentInfo,
+    reading: Reading,
+    samples: Vec<Sample>,
+) -> Result<AveragedMeasurement, String> {
+    let good: Vec<&Sample> = samples.iter().filter(|s| s.is_usable(reading)).collect();
+    if good.is_empty() {
+        return Err(format!("no good sample to average (the instrument reads {})", reading.name()));
+    }
+    let k = good.len() as f64;
+    let mean_of = |v: &dyn Fn(&Sample) -> Option<f64>| -> Option<f64> {
+        let values: Vec<f64> = good.iter().filter_map(|s| v(s)).collect();
+        (values.len() == good.len()).then(|| values.iter().sum::<f64>() / k)
     };
-    let k = good.len();
+    let instrument_xyz = match (
+        mean_of(&|s| s.instrument_xyz.map(|v| v[0])),
+        mean_of(&|s| s.instrument_xyz.map(|v| v[1])),
+        mean_of(&|s| s.instrument_xyz.map(|v| v[2])),
+    ) {
+        (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+        _ => None,
+    };
+    let (mean, sd, luminance_cd_m2, xy, lums) = match reading {
+        Reading::Spectrum => {
+            let spectra: Vec<&Spectrum> = good.iter().filter_map(|s| s.radiance.as_ref()).collect();
+            let (mean, sd) = mean_spectrum(&spectra)?;
+            let xyz = xyz_from_radiance(&mean, Observer::Cie1931).map_err(|e| e.to_string())?;
+            // Per-sample luminance from each spectrum, not the instrument's own Y: that
+            // has four significant digits (`1.009E+02`), too coarse for a CV of 0.1 %.
+            let lums: Vec<f64> = spectra
+                .iter()
+                .map(|s| xyz_from_radiance(s, Observer::Cie1931).map(|x| x.y))
+                .collect::<Result<_, _>>()
+                .map_err(|e| e.to_string())?;
+            let xy = xyz.chromaticity();
+            (Some(mean), sd, xyz.y, Some((xy.x, xy.y)), lums)
+        }
+        Reading::Tristimulus { .. } => {
+            let xyz = instrument_xyz.expect("every good tristimulus sample has its XYZ");
+            let lums: Vec<f64> = good.iter().filter_map(|s| s.instrument_xyz.map(|v| v[1])).collect();
+            let sum = xyz[0] + xyz[1] + xyz[2];
+            let xy = (sum > 0.0 && sum.is_finite()).then(|| (xyz[0] / sum, xyz[1] / sum));
+            (None, Vec::new(), xyz[1], xy, lums)
+        }
+        Reading::Luminance { .. } => {
+            let lums: Vec<f64> = good.iter().filter_map(|s| s.luminance).collect();
+            let y = lums.iter().sum::<f64>() / k;
+            (None, Vec::new(), y, None, lums)
+        }
+    };
+    if !luminance_cd_m2.is_finite() {
+        return Err(format!("the mean luminance is not a number ({luminance_cd_m2})"));
+    }
+    Ok(AveragedMeasurement {
+        info,
+        reading,
+        samples,
+        mean,
+        sd,
+        luminance_cd_m2,
+        x: xy.map(|c| c.0),
+        y: xy.map(|c| c.1),
+        instrument_xyz,
+        luminance_cv: coefficient_of_variation(&lums),
+    })
+}
+
+/// The mean of `spectra` and the per-wavelength SD (n − 1; zeros for one).
+fn mean_spectrum(spectra: &[&Spectrum]) -> Result<(Spectrum, Vec<f64>), String> {
+    let first = spectra[0];
+    let k = spectra.len();
     let len = first.values().len();
     let mut sum = vec![0.0; len];
-    for spectrum in &good {
+    for spectrum in spectra {
         spectrum.require_same_grid(first).map_err(|e| e.to_string())?;
         if spectrum.unit() != first.unit() {
             return Err(format!(
@@ -469,32 +555,13 @@ pub fn average_samples(info: InstrumentInfo, samples: Vec<Sample>) -> Result<Ave
     } else {
         (0..len)
             .map(|i| {
-                let ss: f64 = good.iter().map(|s| (s.values()[i] - mean_values[i]).powi(2)).sum();
+                let ss: f64 = spectra.iter().map(|s| (s.values()[i] - mean_values[i]).powi(2)).sum();
                 (ss / (k - 1) as f64).sqrt()
             })
             .collect()
     };
     let mean = Spectrum::new(first.grid().clone(), first.unit(), mean_values).map_err(|e| e.to_string())?;
-    let xyz = xyz_from_radiance(&mean, Observer::Cie1931).map_err(|e| e.to_string())?;
-    let xy = xyz.chromaticity();
-    // Per-sample luminance from each spectrum, not the instrument's own Y: that
-    // has four significant digits (`1.009E+02`), too coarse for a CV of 0.1 %.
-    let lums: Vec<f64> = good
-        .iter()
-        .map(|s| xyz_from_radiance(s, Observer::Cie1931).map(|x| x.y))
-        .collect::<Result<_, _>>()
-        .map_err(|e| e.to_string())?;
-    let luminance_cv = coefficient_of_variation(&lums);
-    Ok(AveragedMeasurement {
-        info,
-        samples,
-        mean,
-        sd,
-        luminance_cd_m2: xyz.y,
-        x: xy.x,
-        y: xy.y,
-        luminance_cv,
-    })
+    Ok((mean, sd))
 }
 
 /// SD (n − 1) over mean; 0 for fewer than two values or a zero mean.
@@ -537,10 +604,10 @@ mod tests {
             grid: Grid::pr650(),
         };
         let samples = vec![sample(0, 0, 1.0), sample(1, 18, 99.0), sample(2, 0, 3.0)];
-        let m = average_samples(info, samples).unwrap();
+        let m = average_samples(info, Reading::Spectrum, samples).unwrap();
         assert_eq!(m.samples.len(), 3);
         assert_eq!(m.good_samples().count(), 2);
-        assert!(m.mean.values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
         assert!(m.sd.iter().all(|v| (v - 2f64.sqrt()).abs() < 1e-12));
         assert!(m.luminance_cv > 0.0);
     }
@@ -553,6 +620,68 @@ mod tests {
             firmware: None,
             grid: Grid::pr650(),
         };
-        assert!(average_samples(info, vec![sample(0, 10, 1.0)]).is_err());
+        assert!(average_samples(info, Reading::Spectrum, vec![sample(0, 10, 1.0)]).is_err());
+    }
+
+    fn colorimeter_sample(index: usize, code: i32, xyz: [f64; 3]) -> Sample {
+        Sample {
+            index,
+            time: SystemTime::now(),
+            code: pr650::codes::quality_code(code as u8),
+            radiance: None,
+            luminance: Some(xyz[1]),
+            instrument_xyz: Some(xyz),
+        }
+    }
+
+    fn colorimeter() -> InstrumentInfo {
+        InstrumentInfo {
+            model: "ColorCAL MkII".into(),
+            serial: None,
+            firmware: None,
+            grid: Grid::pr650(),
+        }
+    }
+
+    /// A colorimeter's series: the mean of the good samples' own XYZ, x y
+    /// from that mean, the CV of their Y; no spectrum, and the bad sample
+    /// (code 18) kept but not averaged.
+    #[test]
+    fn a_colorimeters_series_averages_its_own_xyz() {
+        let reading = Reading::Tristimulus {
+            observer: Observer::Cie1931,
+        };
+        let samples = vec![
+            colorimeter_sample(0, 0, [40.0, 50.0, 10.0]),
+            colorimeter_sample(1, 18, [999.0, 999.0, 999.0]),
+            colorimeter_sample(2, 0, [44.0, 54.0, 12.0]),
+        ];
+        let m = average_samples(colorimeter(), reading, samples).unwrap();
+        assert!(m.mean.is_none() && m.sd.is_empty());
+        assert_eq!(m.good_samples().count(), 2);
+        assert_eq!(m.instrument_xyz, Some([42.0, 52.0, 11.0]));
+        assert_eq!(m.luminance_cd_m2, 52.0);
+        assert!((m.x.unwrap() - 42.0 / 105.0).abs() < 1e-12);
+        assert!((m.y.unwrap() - 52.0 / 105.0).abs() < 1e-12);
+        // SD of 50 and 54 is 2√2; over the mean 52.
+        assert!((m.luminance_cv - 2.0 * 2f64.sqrt() / 52.0).abs() < 1e-12);
+    }
+
+    /// A luminance meter's series has a Y and no colour; a sample without
+    /// a luminance is not averaged, and no usable sample is an error.
+    #[test]
+    fn a_luminance_meters_series_has_luminance_and_no_chromaticity() {
+        let reading = Reading::Luminance {
+            observer: Observer::Cie1931,
+        };
+        let mut s = colorimeter_sample(0, 0, [0.0, 30.0, 0.0]);
+        s.instrument_xyz = None;
+        let mut t = s.clone();
+        t.index = 1;
+        t.luminance = Some(32.0);
+        let m = average_samples(colorimeter(), reading, vec![s.clone(), t]).unwrap();
+        assert_eq!((m.luminance_cd_m2, m.x, m.y, m.instrument_xyz), (31.0, None, None, None));
+        s.luminance = None;
+        assert!(average_samples(colorimeter(), reading, vec![s]).is_err());
     }
 }

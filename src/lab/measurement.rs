@@ -21,8 +21,8 @@ use std::time::Duration;
 
 use tokio::runtime::Handle;
 
-use crate::colorimetry::{xyz_from_radiance, Observer};
-use crate::instrument::{AveragedMeasurement, Sample};
+use crate::colorimetry::{xyz_from_radiance, Observer, Xyz};
+use crate::instrument::{AveragedMeasurement, Reading, Sample};
 use crate::store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
 
 /// The first wait before writing the end of a measurement again.
@@ -75,11 +75,12 @@ impl Recorder {
         (self.taken, self.usable)
     }
 
-    /// Writes sample `s`, blocking until it is on disk; its row. After a
+    /// Writes sample `s` of an instrument that reads `reading`, blocking
+    /// until it is on disk; its row. After a
     /// failed write the error says which sample and why (also kept for
     /// [`Recorder::write_failed`]); the caller stops the measurement.
-    pub fn store_sample(&mut self, s: &Sample) -> Result<NewSample, String> {
-        let row = sample_row(s);
+    pub fn store_sample(&mut self, s: &Sample, reading: Reading) -> Result<NewSample, String> {
+        let row = sample_row(s, reading);
         self.taken += 1;
         self.usable += usize::from(row.usable);
         match self.runtime.block_on(self.store.insert_sample(self.id, &row)) {
@@ -200,28 +201,74 @@ where
     }
 }
 
-/// A raw sample as the store keeps it.
-pub fn sample_row(s: &Sample) -> NewSample {
+/// A raw sample as the store keeps it; `reading` is what the instrument's
+/// samples carry (a sample is usable when its code is good and it has it).
+pub fn sample_row(s: &Sample, reading: Reading) -> NewSample {
     NewSample {
         index: s.index,
         taken_at: unix_seconds(s.time),
         code: i64::from(s.code.code),
         message: s.code.message.clone(),
-        usable: s.code.is_ok() && s.radiance.is_some(),
+        usable: s.is_usable(reading),
         radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
         luminance_cd_m2: s.luminance,
+        instrument_xyz: s.instrument_xyz,
     }
 }
 
-/// The average of a measurement as the store keeps it, with lightbooth's
-/// XYZ of the mean spectrum for `observer`.
+/// The XYZ of an averaged measurement in `observer`, for comparing it with
+/// renderings: of its mean spectrum; or a colorimeter's own mean XYZ when
+/// it is in `observer` (a colorimeter's XYZ cannot be recomputed in another
+/// observer, and mixing two observers in one ΔE is refused); a luminance
+/// meter's Y alone is no colour and is refused.
+pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<Xyz, String> {
+    match (&avg.mean, avg.reading) {
+        (Some(mean), _) => xyz_from_radiance(mean, observer).map_err(|e| format!("XYZ of the mean spectrum: {e}")),
+        (None, Reading::Tristimulus { observer: own }) if own == observer => avg
+            .instrument_xyz
+            .map(Xyz::from_array)
+            .ok_or_else(|| "the colorimeter gave no XYZ".to_string()),
+        (None, Reading::Tristimulus { observer: own }) => Err(format!(
+            "the {} measures XYZ in the {} observer, and the comparisons are in the {}: a colorimeter's XYZ \
+             cannot be recomputed in another observer. Serve with --observer {} to compare its measurements, \
+             or measure with a spectroradiometer",
+            avg.info.model,
+            own.name(),
+            observer.name(),
+            own.name()
+        )),
+        (None, Reading::Luminance { .. }) => Err(format!(
+            "the {} measures luminance only, no colour: x, y and ΔE need a colorimeter or a spectroradiometer",
+            avg.info.model
+        )),
+        (None, Reading::Spectrum) => Err("the measurement has no spectrum".into()),
+    }
+}
+
+/// The average of a measurement as the store keeps it. With a spectrum:
+/// lightbooth's XYZ of the mean spectrum for `observer`. Without one (a
+/// colorimeter): the instrument's own mean XYZ, in the observer its
+/// reading is in (which may differ from `observer`: the comparisons
+/// refuse to mix them); a luminance meter's has no XYZ.
 pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
-    let xyz = xyz_from_radiance(&avg.mean, observer).ok().map(|x| x.to_array());
+    let (xyz, observer) = match (&avg.mean, avg.reading) {
+        (Some(mean), _) => {
+            let xyz = xyz_from_radiance(mean, observer).ok().map(|x| x.to_array());
+            (xyz, xyz.is_some().then_some(observer))
+        }
+        (None, Reading::Tristimulus { observer }) => (avg.instrument_xyz, Some(observer)),
+        (None, Reading::Luminance { observer }) => (None, Some(observer)),
+        (None, Reading::Spectrum) => (None, None),
+    };
     Average {
         xyz,
-        observer: xyz.is_some().then_some(observer),
-        wavelength_nm: avg.mean.grid().wavelengths().to_vec(),
-        radiance: avg.mean.values().to_vec(),
+        observer,
+        wavelength_nm: avg
+            .mean
+            .as_ref()
+            .map(|m| m.grid().wavelengths().to_vec())
+            .unwrap_or_default(),
+        radiance: avg.mean.as_ref().map(|m| m.values().to_vec()).unwrap_or_default(),
         radiance_sd: avg.sd.clone(),
         luminance_cd_m2: avg.luminance_cd_m2,
         x: avg.x,

@@ -63,8 +63,8 @@ impl Store {
     pub async fn insert_sample(&self, measurement_id: i64, s: &NewSample) -> Result<(), StoreError> {
         with_pool!(self, |pool| {
             sqlx::query(
-            "INSERT INTO samples (measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+            "INSERT INTO samples (measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json) \
+             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
         )
         .bind(measurement_id)
         .bind(s.index as i64)
@@ -74,6 +74,7 @@ impl Store {
         .bind(s.usable)
         .bind(s.radiance.as_ref().map(|r| json_array(r)))
         .bind(s.luminance_cd_m2)
+        .bind(s.instrument_xyz.map(|v| json_array(&v)))
         .execute(pool)
         .await?
         .rows_affected()
@@ -90,9 +91,10 @@ impl Store {
              xyz_y = $11, xyz_z = $12 WHERE id = $13 AND state = 'running'",
         )
         .bind(now())
-        .bind(json_array(&a.wavelength_nm))
-        .bind(json_array(&a.radiance))
-        .bind(json_array(&a.radiance_sd))
+        // No spectrum (a colorimeter's measurement): NULL, not `[]`.
+        .bind((!a.radiance.is_empty()).then(|| json_array(&a.wavelength_nm)))
+        .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance)))
+        .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance_sd)))
         .bind(a.luminance_cd_m2)
         .bind(a.x)
         .bind(a.y)
@@ -181,7 +183,7 @@ impl Store {
         let mut summary = MeasurementSummary::try_from(record.summary)?;
         self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
         let sample_records: Vec<SampleRecord> = with_pool!(self, |pool| sqlx::query_as(
-            "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2 FROM samples \
+            "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json FROM samples \
              WHERE measurement_id = $1 ORDER BY idx",
         )
         .bind(id)
@@ -194,11 +196,13 @@ impl Store {
         // Each sample's Y from its spectrum with the measurement's observer,
         // the same one as the measurement's `Y` (never the instrument's own).
         let observer = summary.observer.unwrap_or(self.observer);
+        // A sample without a spectrum (a colorimeter's) has the Y it reported,
+        // in the observer the measurement names.
         for s in &mut samples {
-            s.luminance_cd_m2 = s
-                .radiance
-                .as_deref()
-                .and_then(|values| sample_luminance(values, observer));
+            s.luminance_cd_m2 = match &s.radiance {
+                Some(values) => sample_luminance(values, observer),
+                None => s.instrument_xyz.map(|v| v[1]).or(s.instrument_luminance_cd_m2),
+            };
         }
         Ok(Some(MeasurementDetail {
             summary,

@@ -46,9 +46,15 @@ impl Store {
                     // `Y`, `x`, `y`, `XYZ` with the observer, as for a
                     // complete measurement.
                     m.instrument_luminance_cd_m2 = Some(avg.luminance_cd_m2);
-                    m.instrument_x = Some(avg.x);
-                    m.instrument_y = Some(avg.y);
-                    match crate::colorimetry::xyz_from_radiance(&avg.mean, observer) {
+                    m.instrument_x = avg.x;
+                    m.instrument_y = avg.y;
+                    match avg
+                        .mean
+                        .as_ref()
+                        .ok_or_else(|| "no spectrum".to_string())
+                        .and_then(|mean| {
+                            crate::colorimetry::xyz_from_radiance(mean, observer).map_err(|e| e.to_string())
+                        }) {
                         Ok(xyz) => {
                             let xy = xyz.chromaticity();
                             m.luminance_cd_m2 = Some(xyz.y);
@@ -113,7 +119,7 @@ fn partial_average(
         firmware: None,
         grid,
     };
-    average_samples(info, samples)
+    average_samples(info, crate::instrument::Reading::Spectrum, samples)
 }
 
 #[cfg(test)]
@@ -129,10 +135,10 @@ mod tests {
             (1, 2.0, vec![3.0; 201], Some(30.0)),
         ];
         let m = partial_average(samples).unwrap();
-        assert_eq!(m.mean.grid().wavelengths()[1], 382.0, "the PR-670's 2 nm grid");
-        assert!(m.mean.values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert_eq!(m.mean.as_ref().unwrap().grid().wavelengths()[1], 382.0, "the PR-670's 2 nm grid");
+        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
         let pr650 = partial_average(vec![(0, 1.0, vec![1.0; 101], None)]).unwrap();
-        assert_eq!(pr650.mean.grid().wavelengths()[1], 384.0);
+        assert_eq!(pr650.mean.as_ref().unwrap().grid().wavelengths()[1], 384.0);
         let e = partial_average(vec![(0, 1.0, vec![1.0; 81], None)]).unwrap_err();
         assert!(e.contains("81"), "{e}");
     }

@@ -70,6 +70,9 @@ pub struct NewSample {
     /// W/(sr·m²·nm) on the instrument's native grid; None when there is no valid spectrum.
     pub radiance: Option<Vec<f64>>,
     pub luminance_cd_m2: Option<f64>,
+    /// X, Y, Z (cd/m²) as the instrument reported them, when it did (a
+    /// colorimeter's only reading).
+    pub instrument_xyz: Option<[f64; 3]>,
 }
 
 /// The average of a complete measurement.
@@ -79,9 +82,10 @@ pub struct Average {
     pub radiance: Vec<f64>,
     pub radiance_sd: Vec<f64>,
     pub luminance_cd_m2: f64,
-    /// CIE 1931 x, y of the mean spectrum: what the instrument itself reports.
-    pub x: f64,
-    pub y: f64,
+    /// CIE 1931 x, y of the mean spectrum (what the instrument itself
+    /// reports), or of a colorimeter's mean XYZ; none from a luminance meter.
+    pub x: Option<f64>,
+    pub y: Option<f64>,
     pub luminance_cv: f64,
     /// XYZ of the mean spectrum computed by lightbooth with `observer` (the
     /// daemon's or the study's), cd/m² scale.
@@ -181,6 +185,10 @@ pub struct SampleRow {
     /// CIE 1931 `Y`, four significant digits on a PR-650); never charted.
     #[serde(rename = "instrument_Y")]
     pub instrument_luminance_cd_m2: Option<f64>,
+    /// X, Y, Z (cd/m²) as the instrument itself reported them for this
+    /// sample (a colorimeter's reading; null when it sent none).
+    #[serde(rename = "instrument_XYZ")]
+    pub instrument_xyz: Option<[f64; 3]>,
 }
 
 /// A measurement with its average spectrum and every raw sample.
@@ -352,6 +360,7 @@ pub(super) struct SampleRecord {
     usable: bool,
     radiance_json: Option<String>,
     luminance_cd_m2: Option<f64>,
+    xyz_json: Option<String>,
 }
 
 impl TryFrom<SampleRecord> for SampleRow {
@@ -368,6 +377,14 @@ impl TryFrom<SampleRecord> for SampleRow {
             // `Store::get_measurement`, which knows it.
             luminance_cd_m2: None,
             instrument_luminance_cd_m2: r.luminance_cd_m2,
+            instrument_xyz: super::parse_opt_array(r.xyz_json, "sample XYZ")?
+                .map(|v: Vec<f64>| {
+                    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| StoreError::Corrupt {
+                        what: "sample XYZ".into(),
+                        err: format!("{} values, not 3", v.len()),
+                    })
+                })
+                .transpose()?,
         })
     }
 }

@@ -473,6 +473,7 @@ async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() 
             usable: true,
             radiance: Some(vec![level; 101]),
             luminance_cd_m2: Some(73.0),
+            instrument_xyz: None,
         };
         store.insert_sample(interrupted, &s).await.unwrap();
     }
@@ -484,6 +485,7 @@ async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() 
         usable: false,
         radiance: None,
         luminance_cd_m2: None,
+        instrument_xyz: None,
     };
     store.insert_sample(interrupted, &bad).await.unwrap();
     store

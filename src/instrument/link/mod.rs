@@ -13,5 +13,5 @@ pub mod serial;
 pub mod session;
 
 pub use lines::Terminator;
-pub use serial::{LinkSettings, SerialLink};
+pub use serial::{Framing, LinkSettings, SerialLink};
 pub use session::{Ping, Request, Session, SessionTiming};

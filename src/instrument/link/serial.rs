@@ -49,6 +49,8 @@ impl LinkSettings {
             terminator,
             write_timeout_ms: command_timeout_ms.min(5_000),
             byte_delay_ms,
+            framing: Framing::EIGHT_N_ONE,
+            flow_control: false,
         }
     }
 }
@@ -60,6 +62,8 @@ impl Default for LinkSettings {
             terminator: Terminator::Lf,
             write_timeout_ms: 2000,
             byte_delay_ms: 0,
+            framing: Framing::EIGHT_N_ONE,
+            flow_control: false,
         }
     }
 }
@@ -77,17 +81,45 @@ impl SerialLink {
     /// logged as a warning, not an error (a unit that needs DTR will then
     /// simply not answer, which the caller reports).
     pub fn open(path: &str, settings: &LinkSettings) -> Result<SerialLink, InstrumentError> {
-        let port = serialport::new(path, settings.baud)
-            .data_bits(DataBits::Eight)
-            .parity(Parity::None)
-            .stop_bits(StopBits::One)
-            .flow_control(FlowControl::None)
-            .timeout(POLL_SLICE)
-            .open()
+        let open = |framing: Framing| {
+            serialport::new(path, settings.baud)
+                .data_bits(framing.data_bits)
+                .parity(framing.parity)
+                .stop_bits(framing.stop_bits)
+                .flow_control(if settings.flow_control {
+                    FlowControl::Hardware
+                } else {
+                    FlowControl::None
+                })
+                .timeout(POLL_SLICE)
+                .open()
+        };
+        let port = match open(settings.framing) {
+            Ok(port) => port,
+            // A Linux pseudo-terminal refuses 7 data bits and parity (EINVAL):
+            // only a simulator is on a pty, so fall back to 8 bits without
+            // parity at the same baud and stop bits, and say so.
+            Err(e) if settings.framing.data_bits != DataBits::Eight && is_pseudo_terminal(path) => {
+                let fallback = Framing {
+                    data_bits: DataBits::Eight,
+                    parity: Parity::None,
+                    ..settings.framing
+                };
+                tracing::warn!(port = path, wanted = %settings.framing, using = %fallback, error = %e,
+                    "a pseudo-terminal cannot take this framing; falling back (a real serial port gets the instrument's)");
+                open(fallback)
+            }
             .map_err(|e| InstrumentError::Open {
                 port: path.to_string(),
                 reason: e.to_string(),
-            })?;
+            })?,
+            Err(e) => {
+                return Err(InstrumentError::Open {
+                    port: path.to_string(),
+                    reason: e.to_string(),
+                })
+            }
+        };
         let mut link = SerialLink {
             port,
             path: path.to_string(),
@@ -100,7 +132,8 @@ impl SerialLink {
         if let Err(e) = link.port.write_request_to_send(true) {
             tracing::warn!(port = path, error = %e, "cannot assert RTS (normal on a pty or some USB adapters); continuing");
         }
-        tracing::info!(port = path, baud = settings.baud, "serial port open");
+        tracing::info!(port = path, baud = settings.baud, framing = %settings.framing,
+            rts_cts = settings.flow_control, "serial port open");
         Ok(link)
     }
 
@@ -420,4 +453,12 @@ fn is_hangup(e: &std::io::Error) -> bool {
     matches!(e.kind(), BrokenPipe | UnexpectedEof | NotConnected | ConnectionReset)
         || e.raw_os_error() == Some(5)
         || e.to_string().contains("Input/output error")
+}
+
+/// Whether `path` is a Unix98 pseudo-terminal's device end (`/dev/pts/N`),
+/// where only a simulator can be.
+pub fn is_pseudo_terminal(path: &str) -> bool {
+    std::fs::canonicalize(path)
+        .map(|p| p.starts_with("/dev/pts"))
+        .unwrap_or(false)
 }

@@ -105,14 +105,29 @@ pub fn scene_id(path: &Path) -> String {
 }
 
 /// The XYZ of a stored measurement's mean spectral radiance with
-/// `observer`; `None` when the row holds no spectrum (a measurement that
-/// never completed). Used for the truth of a study against measurements and
-/// for a comparison's white alike.
+/// `observer`; `None` when the row holds no spectrum and no XYZ (a
+/// measurement that never completed). A colorimeter's measurement (XYZ,
+/// no spectrum) gives its XYZ only in the observer it was made in, and is
+/// an error in another; a luminance meter's is an error. Used for the
+/// truth of a study against measurements and for a comparison's white alike.
 pub fn measured_xyz(m: &MeasurementDetail, observer: Observer) -> Result<Option<Xyz>, String> {
-    let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) else {
-        return Ok(None);
-    };
     let id = m.summary.id;
+    let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) else {
+        let model = m.summary.instrument_model.as_deref().unwrap_or("instrument");
+        return match (m.summary.xyz, m.summary.observer) {
+            (Some(xyz), Some(own)) if own == observer => Ok(Some(Xyz::from_array(xyz))),
+            (Some(_), Some(own)) => Err(format!(
+                "measurement {id}: the {model} measured XYZ in the {own} observer, not in {observer}; a \
+                 colorimeter's XYZ cannot be recomputed in another observer (use {own}, or measure with a \
+                 spectroradiometer)"
+            )),
+            (None, Some(_)) if m.summary.state == crate::store::MeasurementState::Complete => Err(format!(
+                "measurement {id}: the {model} measured luminance only, no colour: this needs a colorimeter or a \
+                 spectroradiometer"
+            )),
+            _ => Ok(None),
+        };
+    };
     let grid = Grid::from_wavelengths(wl.clone()).map_err(|e| format!("measurement {id}: {e}"))?;
     let s = Spectrum::new(grid, SpectralUnit::SpectralRadiance, radiance.clone())
         .map_err(|e| format!("measurement {id}: {e}"))?;
@@ -139,8 +154,8 @@ mod tests {
             radiance,
             radiance_sd: vec![0.0; len],
             luminance_cd_m2: 0.0,
-            x: 0.0,
-            y: 0.0,
+            x: Some(0.0),
+            y: Some(0.0),
             luminance_cv: 0.0,
             xyz: None,
             observer: None,
@@ -192,5 +207,84 @@ mod tests {
         let detail = store.get_measurement(id).await.unwrap().unwrap();
         let error = measured_xyz(&detail, Observer::JuddVos).unwrap_err();
         assert!(error.starts_with(&format!("measurement {id}: ")), "{error}");
+    }
+
+    /// A colorimeter's measurement (issue 33): the samples' own XYZ stored
+    /// as they came, the average's XYZ in the colorimeter's observer (the
+    /// daemon's is another), no spectrum; its XYZ is given in its own
+    /// observer only, and a luminance meter's measurement is no colour.
+    #[tokio::test]
+    async fn a_colorimeters_xyz_is_kept_in_its_observer_and_refused_in_another() {
+        use crate::instrument::{average_samples, InstrumentInfo, Reading, Sample};
+        use crate::lab::measurement::{average_row, comparable_xyz, sample_row};
+        use crate::spectrum::Grid;
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let info = InstrumentInfo {
+            model: "ColorCAL MkII".into(),
+            serial: None,
+            firmware: None,
+            grid: Grid::pr650(),
+        };
+        let reading = Reading::Tristimulus {
+            observer: Observer::Cie1931,
+        };
+        let samples: Vec<Sample> = [[40.0, 50.0, 10.0], [44.0, 54.0, 12.0]]
+            .into_iter()
+            .enumerate()
+            .map(|(index, xyz)| Sample {
+                index,
+                time: std::time::SystemTime::now(),
+                code: crate::instrument::pr650::codes::quality_code(0),
+                radiance: None,
+                luminance: Some(xyz[1]),
+                instrument_xyz: Some(xyz),
+            })
+            .collect();
+        let id = queued_measurement(&store, Some(("white", "patch"))).await;
+        store.mark_running(id, None).await.unwrap();
+        for s in &samples {
+            store.insert_sample(id, &sample_row(s, reading)).await.unwrap();
+        }
+        let avg = average_samples(info, reading, samples).unwrap();
+        assert_eq!(comparable_xyz(&avg, Observer::Cie1931).unwrap().to_array(), [42.0, 52.0, 11.0]);
+        let refused = comparable_xyz(&avg, Observer::JuddVos).unwrap_err();
+        assert!(refused.contains("cannot be recomputed in another observer"), "{refused}");
+        // The daemon's observer is Judd–Vos: the stored XYZ stays CIE 1931's.
+        store.complete_measurement(id, &average_row(&avg, Observer::JuddVos)).await.unwrap();
+        let detail = store.get_measurement(id).await.unwrap().unwrap();
+        assert_eq!(detail.summary.observer, Some(Observer::Cie1931));
+        assert!(detail.radiance.is_none() && detail.wavelength_nm.is_none());
+        assert_eq!(detail.samples[1].instrument_xyz, Some([44.0, 54.0, 12.0]));
+        assert_eq!(detail.samples[1].luminance_cd_m2, Some(54.0));
+        assert!(detail.samples.iter().all(|s| s.usable));
+        assert_eq!(
+            measured_xyz(&detail, Observer::Cie1931).unwrap().map(|x| x.to_array()),
+            Some([42.0, 52.0, 11.0])
+        );
+        let error = measured_xyz(&detail, Observer::JuddVos).unwrap_err();
+        assert!(
+            error.starts_with(&format!("measurement {id}: the instrument measured XYZ in the cie-1931 observer")),
+            "{error}"
+        );
+
+        // A luminance meter's: Y, no colour.
+        let lum = queued_measurement(&store, None).await;
+        store.mark_running(lum, None).await.unwrap();
+        let average = Average {
+            wavelength_nm: vec![],
+            radiance: vec![],
+            radiance_sd: vec![],
+            luminance_cd_m2: 31.0,
+            x: None,
+            y: None,
+            luminance_cv: 0.0,
+            xyz: None,
+            observer: Some(Observer::Cie1931),
+        };
+        store.complete_measurement(lum, &average).await.unwrap();
+        let detail = store.get_measurement(lum).await.unwrap().unwrap();
+        let error = measured_xyz(&detail, Observer::Cie1931).unwrap_err();
+        assert!(error.contains("luminance only"), "{error}");
     }
 }

@@ -100,8 +100,9 @@ pub async fn measure_with_simulator(
                 let never = || false;
                 let mut recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
                 let cancel = CancelToken::new();
+                let reading = instrument.capabilities().reading;
                 let result = instrument.measure_averaged(settings.samples, &cancel, &mut |s| {
-                    if recorder.store_sample(s).is_err() {
+                    if recorder.store_sample(s, reading).is_err() {
                         cancel.cancel(); // the measurement stops at the first sample not written
                     }
                 });

@@ -267,6 +267,7 @@ fn sample(index: usize, usable: bool) -> NewSample {
         usable,
         radiance: usable.then(|| vec![0.01, 0.02, 0.03]),
         luminance_cd_m2: usable.then_some(34.0),
+        instrument_xyz: None,
     }
 }
 
@@ -293,8 +294,8 @@ async fn a_measurement_keeps_every_sample_and_its_average(engine: EngineKind) {
         radiance: vec![0.01, 0.02, 0.03],
         radiance_sd: vec![0.0, 0.001, 0.0],
         luminance_cd_m2: 34.0,
-        x: 0.31,
-        y: 0.33,
+        x: Some(0.31),
+        y: Some(0.33),
         luminance_cv: 0.002,
         xyz: Some([30.0, 34.0, 20.0]),
         observer: Some(crate::colorimetry::Observer::JuddVos),
@@ -463,8 +464,8 @@ async fn a_booths_white_and_comparisons_are_found_in_that_booth_only(engine: Eng
         radiance: vec![0.01, 0.02, 0.03],
         radiance_sd: vec![0.0; 3],
         luminance_cd_m2: 34.0,
-        x: 0.31,
-        y: 0.33,
+        x: Some(0.31),
+        y: Some(0.33),
         luminance_cv: 0.002,
         xyz: None,
         observer: None,
@@ -665,6 +666,7 @@ async fn partial_averages_and_previews_read_back_alike(engine: EngineKind) {
         usable: true,
         radiance: Some(vec![level; 101]),
         luminance_cd_m2: Some(level),
+        instrument_xyz: None,
     };
     store.insert_sample(id, &flat(0.010, 0)).await.unwrap();
     store.insert_sample(id, &sample(1, false)).await.unwrap();
