@@ -160,10 +160,14 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     let cancel = CancelToken::new();
     let samples = settings.capabilities().default_samples;
     // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
-    let m = instrument.measure_averaged(samples, &cancel, &mut |s| match s.luminance.or(s.instrument_xyz.map(|v| v[1])) {
-        Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
-        _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
-    })?;
+    let m = instrument.measure_averaged(
+        samples,
+        &cancel,
+        &mut |s| match s.luminance.or(s.instrument_xyz.map(|v| v[1])) {
+            Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
+            _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
+        },
+    )?;
     let out = std::io::stdout();
     if args.json {
         serde_json::to_writer(out.lock(), &MeasurementJson::from(&m))?;

@@ -91,6 +91,7 @@ impl MockSlot {
         let mut config = match &self.settings.personality {
             crate::instrument::sim::Personality::Pr650 => MockConfig::new(truth),
             crate::instrument::sim::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
+            crate::instrument::sim::Personality::Cs2000(model) => MockConfig::cs2000(truth, *model),
         };
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();

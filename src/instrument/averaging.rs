@@ -86,9 +86,11 @@ pub fn measure_averaged(
             None => InstrumentError::Cancelled,
         });
     }
-    average_samples(instrument.info().clone(), instrument.capabilities().reading, samples).map_err(|detail| InstrumentError::Protocol {
-        command: "the readings of this series".into(),
-        detail,
+    average_samples(instrument.info().clone(), instrument.capabilities().reading, samples).map_err(|detail| {
+        InstrumentError::Protocol {
+            command: "the readings of this series".into(),
+            detail,
+        }
     })
 }
 
@@ -195,8 +197,18 @@ mod tests {
             "every sample reaches the caller, bad codes too"
         );
         assert_eq!(m.samples.len(), 3);
-        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
-        assert_eq!(m.mean.as_ref().unwrap().grid().wavelengths().len(), 201, "the driver's own grid is kept");
+        assert!(m
+            .mean
+            .as_ref()
+            .unwrap()
+            .values()
+            .iter()
+            .all(|v| (v - 2.0).abs() < 1e-12));
+        assert_eq!(
+            m.mean.as_ref().unwrap().grid().wavelengths().len(),
+            201,
+            "the driver's own grid is kept"
+        );
         assert_eq!(instrument.reactions, vec![-1003]);
     }
 

@@ -35,6 +35,7 @@
 //! do not depend on the model.
 
 pub mod averaging;
+pub mod cs2000;
 pub mod link;
 mod models;
 pub mod pr650;
@@ -51,7 +52,7 @@ use serde::Serialize;
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::spectrum::{Grid, Spectrum};
 
-pub use models::{native_grid_of_length, InstrumentSettings};
+pub use models::{native_grid_of_length, InstrumentSettings, MODEL_FLAGS};
 pub use pr650::{open_pr650, Pr650Settings};
 
 /// What an instrument is, as far as it can tell.
@@ -215,8 +216,8 @@ pub enum InstrumentError {
     )]
     Open { port: String, reason: String },
     #[error(
-        "no reply to `{command}` after {waited_ms} ms: check that the instrument is on, the cable switch is on \
-         CTRLR and the port is the right one"
+        "no reply to `{command}` after {waited_ms} ms: check that the instrument is on and in remote mode, its \
+         cable (a PR-650's switch on CTRLR), and that the port is the right one (`lightbooth instruments --probe`)"
     )]
     NoReply { command: String, waited_ms: u64 },
     #[error(
@@ -470,7 +471,10 @@ pub fn average_samples(
 ) -> Result<AveragedMeasurement, String> {
     let good: Vec<&Sample> = samples.iter().filter(|s| s.is_usable(reading)).collect();
     if good.is_empty() {
-        return Err(format!("no good sample to average (the instrument reads {})", reading.name()));
+        return Err(format!(
+            "no good sample to average (the instrument reads {})",
+            reading.name()
+        ));
     }
     let k = good.len() as f64;
     let mean_of = |v: &dyn Fn(&Sample) -> Option<f64>| -> Option<f64> {
@@ -607,7 +611,13 @@ mod tests {
         let m = average_samples(info, Reading::Spectrum, samples).unwrap();
         assert_eq!(m.samples.len(), 3);
         assert_eq!(m.good_samples().count(), 2);
-        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert!(m
+            .mean
+            .as_ref()
+            .unwrap()
+            .values()
+            .iter()
+            .all(|v| (v - 2.0).abs() < 1e-12));
         assert!(m.sd.iter().all(|v| (v - 2f64.sqrt()).abs() < 1e-12));
         assert!(m.luminance_cv > 0.0);
     }
@@ -680,7 +690,10 @@ mod tests {
         t.index = 1;
         t.luminance = Some(32.0);
         let m = average_samples(colorimeter(), reading, vec![s.clone(), t]).unwrap();
-        assert_eq!((m.luminance_cd_m2, m.x, m.y, m.instrument_xyz), (31.0, None, None, None));
+        assert_eq!(
+            (m.luminance_cd_m2, m.x, m.y, m.instrument_xyz),
+            (31.0, None, None, None)
+        );
         s.luminance = None;
         assert!(average_samples(colorimeter(), reading, vec![s]).is_err());
     }

@@ -15,19 +15,29 @@
 
 use std::path::Path;
 
+use super::cs2000::{self, Cs2000Settings};
 use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
 
 /// The native grid of a spectrum from an instrument lightbooth drives, by
-/// its length: 101 points at 4 nm from 380 nm (the PR-650 and the PR-655)
-/// or 201 at 2 nm (the PR-670). Those grids differ in length, so the
-/// length of a stored sample names its grid exactly.
+/// its length: 101 points at 4 nm from 380 nm (the PR-650 and the PR-655),
+/// 201 at 2 nm (the PR-670) or 401 at 1 nm (the CS-2000 family). Those
+/// grids differ in length, so the length of a stored sample names its grid
+/// exactly.
 pub fn native_grid_of_length(len: usize) -> Option<crate::spectrum::Grid> {
     use super::pr655::Model;
-    [crate::spectrum::Grid::pr650(), Model::Pr655.grid(), Model::Pr670.grid()]
-        .into_iter()
-        .find(|g| g.len() == len)
+    [
+        crate::spectrum::Grid::pr650(),
+        Model::Pr655.grid(),
+        Model::Pr670.grid(),
+        cs2000::Model::Cs2000.grid(),
+    ]
+    .into_iter()
+    .find(|g| g.len() == len)
 }
+
+/// Every model lightbooth drives, as `--model` and a settings file's `model` key name it.
+pub const MODEL_FLAGS: &[&str] = &["pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000"];
 
 /// The settings of one instrument, by model.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,6 +45,8 @@ pub enum InstrumentSettings {
     Pr650(Pr650Settings),
     /// A PR-655 or a PR-670 (the model is in the settings).
     Pr655(Pr655Settings),
+    /// A CS-2000, CS-2000A or CS-3000 (the model is in the settings).
+    Cs2000(Cs2000Settings),
 }
 
 impl Default for InstrumentSettings {
@@ -68,14 +80,18 @@ impl InstrumentSettings {
             "pr650" => Pr650Settings::from_toml_str(&rest).map(InstrumentSettings::Pr650),
             "pr655" => Pr655Settings::from_toml_str(&rest, Model::Pr655).map(InstrumentSettings::Pr655),
             "pr670" => Pr655Settings::from_toml_str(&rest, Model::Pr670).map(InstrumentSettings::Pr655),
+            "cs2000" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs2000).map(InstrumentSettings::Cs2000),
+            "cs2000a" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs2000A).map(InstrumentSettings::Cs2000),
+            "cs3000" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs3000).map(InstrumentSettings::Cs2000),
             _ => Err(format!(
-                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\", \"pr655\" or \"pr670\""
+                "key `model`: \"{model}\" is not a model lightbooth drives; use one of {}",
+                MODEL_FLAGS.join(", ")
             )),
         }
     }
 
     /// The defaults of a model named as on the command line (`pr650`,
-    /// `pr655`, `pr670`; `PR-670` too).
+    /// `pr655`, `pr670`, `cs2000`, …; `PR-670` too).
     pub fn defaults_for(model: &str) -> Result<InstrumentSettings, String> {
         InstrumentSettings::from_toml_str(&format!("model = \"{}\"", model.escape_default()))
     }
@@ -87,6 +103,7 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => {
                 super::sim::Personality::Pr655(super::sim::Pr655Switches::for_model(s.model()))
             }
+            InstrumentSettings::Cs2000(s) => super::sim::Personality::Cs2000(s.model()),
         }
     }
 
@@ -95,6 +112,7 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.capabilities(),
             InstrumentSettings::Pr655(s) => s.capabilities(),
+            InstrumentSettings::Cs2000(s) => s.capabilities(),
         }
     }
 
@@ -103,6 +121,7 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.port.as_deref(),
             InstrumentSettings::Pr655(s) => s.port.as_deref(),
+            InstrumentSettings::Cs2000(s) => s.port.as_deref(),
         }
     }
 
@@ -125,6 +144,14 @@ impl InstrumentSettings {
                     s.retries = r;
                 }
             }
+            InstrumentSettings::Cs2000(s) => {
+                if let Some(n) = samples {
+                    s.samples = n;
+                }
+                if let Some(r) = retries {
+                    s.retries = r;
+                }
+            }
         }
     }
 
@@ -133,6 +160,7 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.validate(),
             InstrumentSettings::Pr655(s) => s.validate(),
+            InstrumentSettings::Cs2000(s) => s.validate(),
         }
     }
 
@@ -142,6 +170,7 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => super::open_pr650(port, s),
             InstrumentSettings::Pr655(s) => super::pr655::open_pr655(port, s),
+            InstrumentSettings::Cs2000(s) => cs2000::open_cs2000(port, s),
         }
     }
 }

@@ -31,7 +31,7 @@ pub enum ProtocolError {
 const SHOWN_CHARS: usize = 48;
 
 /// A line as an error shows it: at most [`SHOWN_CHARS`] characters, escaped.
-pub(super) fn show(bytes: &[u8]) -> String {
+pub(crate) fn show(bytes: &[u8]) -> String {
     let s: String = String::from_utf8_lossy(bytes).chars().take(SHOWN_CHARS).collect();
     s.escape_debug().to_string()
 }

@@ -135,8 +135,18 @@ mod tests {
             (1, 2.0, vec![3.0; 201], Some(30.0)),
         ];
         let m = partial_average(samples).unwrap();
-        assert_eq!(m.mean.as_ref().unwrap().grid().wavelengths()[1], 382.0, "the PR-670's 2 nm grid");
-        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert_eq!(
+            m.mean.as_ref().unwrap().grid().wavelengths()[1],
+            382.0,
+            "the PR-670's 2 nm grid"
+        );
+        assert!(m
+            .mean
+            .as_ref()
+            .unwrap()
+            .values()
+            .iter()
+            .all(|v| (v - 2.0).abs() < 1e-12));
         let pr650 = partial_average(vec![(0, 1.0, vec![1.0; 101], None)]).unwrap();
         assert_eq!(pr650.mean.as_ref().unwrap().grid().wavelengths()[1], 384.0);
         let e = partial_average(vec![(0, 1.0, vec![1.0; 81], None)]).unwrap_err();

@@ -80,7 +80,15 @@ fn assert_sound(m: &AveragedMeasurement, mock: &MockHandle, model: Model) {
     }
     let n = m.good_samples().count() as f64;
     let reading = mock.expected_reading().unwrap();
-    for ((mean, e), sigma) in m.mean.as_ref().unwrap().values().iter().zip(&reading.expected).zip(&reading.sigma) {
+    for ((mean, e), sigma) in m
+        .mean
+        .as_ref()
+        .unwrap()
+        .values()
+        .iter()
+        .zip(&reading.expected)
+        .zip(&reading.sigma)
+    {
         let tol = 5.0 * sigma / n.sqrt() + (as_sent(*e) - e).abs() + 5e-4 * e;
         assert!((mean - e).abs() <= tol, "{mean} vs {e} ± {tol}");
     }

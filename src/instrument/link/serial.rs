@@ -37,6 +37,48 @@ pub struct LinkSettings {
     /// Pause between the bytes of a command, for adapters or units that "get
     /// upset if hurried" (PsychoPy). 0 = whole-command writes, which PTB and mgl use.
     pub byte_delay_ms: u64,
+    /// Character framing: 8N1 for every model but the LS-100/CS-100A (7E2).
+    pub framing: Framing,
+    /// RTS/CTS hardware flow control (the CS-2000 and the CR-250 ask for it).
+    pub flow_control: bool,
+}
+
+/// How each character goes on the wire: data bits, parity, stop bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Framing {
+    pub data_bits: DataBits,
+    pub parity: Parity,
+    pub stop_bits: StopBits,
+}
+
+impl Framing {
+    /// 8 data bits, no parity, 1 stop bit: every model but the Minolta meters.
+    pub const EIGHT_N_ONE: Framing = Framing {
+        data_bits: DataBits::Eight,
+        parity: Parity::None,
+        stop_bits: StopBits::One,
+    };
+    /// 7 data bits, even parity, 2 stop bits: the LS-100 and the CS-100A.
+    pub const SEVEN_E_TWO: Framing = Framing {
+        data_bits: DataBits::Seven,
+        parity: Parity::Even,
+        stop_bits: StopBits::Two,
+    };
+}
+
+impl std::fmt::Display for Framing {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let parity = match self.parity {
+            Parity::None => 'N',
+            Parity::Even => 'E',
+            Parity::Odd => 'O',
+        };
+        let stop = match self.stop_bits {
+            StopBits::One => 1,
+            StopBits::Two => 2,
+        };
+        write!(f, "{}{parity}{stop}", u8::from(self.data_bits))
+    }
 }
 
 impl LinkSettings {

@@ -234,6 +234,15 @@ impl Session {
         e
     }
 
+    /// A fault outside [`Session::exchange`] (a driver's own read of a
+    /// reply's later line): the line is out of step, and with
+    /// `may_be_measuring` the next ping waits a whole measurement.
+    pub fn mark_out_of_step(&mut self, command: &str, error: &InstrumentError, may_be_measuring: bool) {
+        self.needs_resync = true;
+        self.may_be_measuring |= may_be_measuring;
+        self.last_fault = Some((command.to_string(), error.to_string()));
+    }
+
     /// True when a fault left the line out of step.
     pub fn needs_resync(&self) -> bool {
         self.needs_resync

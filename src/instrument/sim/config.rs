@@ -32,6 +32,8 @@ pub enum Personality {
     Pr650,
     /// A PR-655 or PR-670, with the protocol's uncertain behaviours chosen.
     Pr655(Pr655Switches),
+    /// A Konica Minolta CS-2000, CS-2000A or CS-3000 (`docs/src/instruments/cs2000.md`).
+    Cs2000(crate::instrument::cs2000::Model),
 }
 
 impl Personality {
@@ -40,6 +42,7 @@ impl Personality {
         match self {
             Personality::Pr650 => "PR-650",
             Personality::Pr655(switches) => switches.model.name(),
+            Personality::Cs2000(model) => model.name(),
         }
     }
 }
@@ -98,6 +101,17 @@ impl MockConfig {
             flicker_hz: None,
             unsyncable: false,
             model: InstrumentModel::default(),
+        }
+    }
+
+    /// A simulated CS-2000, CS-2000A or CS-3000: its 1 nm grid, slit and detector.
+    pub fn cs2000(truth: Spectrum, model: crate::instrument::cs2000::Model) -> MockConfig {
+        MockConfig {
+            personality: Personality::Cs2000(model),
+            model: InstrumentModel::for_cs2000(),
+            serial: "20101234".into(),
+            error_code: 71,
+            ..MockConfig::new(truth)
         }
     }
 

@@ -1,6 +1,7 @@
-//! The simulated instruments: a PR-650, PR-655 or PR-670 on a real
-//! pseudo-terminal, for tests, for the daemon's `serve --mock`, and for
-//! `lightbooth mock-pr650` (`mock-pr655`, `mock-pr670`).
+//! The simulated instruments: a PR-650, PR-655, PR-670 or a Konica Minolta
+//! CS-2000/CS-2000A/CS-3000 on a real pseudo-terminal, for tests, for the
+//! daemon's `serve --mock`, and for `lightbooth mock-pr650` (`mock-pr655`,
+//! `mock-pr670`, `mock-cs2000`).
 //!
 //! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
 //! master end on its own thread, and hands back the path of the device end,
@@ -23,10 +24,11 @@
 //! Layout: [`config`] says what to simulate, [`faults`] what to inject,
 //! [`model`] what the optics and detector make of the target; `unit` is
 //! what both simulated units share (the pty, the read loop, paced or burst
-//! replies, faults on a spectrum reply), `pr650` and `pr655` the two
+//! replies, faults on a spectrum reply), `pr650`, `pr655` and `cs2000` the
 //! firmwares over it.
 
 pub mod config;
+mod cs2000;
 pub mod faults;
 pub mod model;
 mod pr650;
@@ -87,6 +89,9 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
             Personality::Pr655(switches) => std::thread::Builder::new()
                 .name("mock-pr655".into())
                 .spawn(move || unit::run(pr655::Device::new(config, switches, master, slave, shared, stop)))?,
+            Personality::Cs2000(model) => std::thread::Builder::new()
+                .name("mock-cs2000".into())
+                .spawn(move || unit::run(cs2000::Device::new(config, model, master, slave, shared, stop)))?,
         }
     };
     tracing::info!(device = %device_path.display(), "simulated {name} powered on");
@@ -137,6 +142,12 @@ impl MockHandle {
     /// wall time. `None` before the first measurement, and on the PR-650.
     pub fn last_measurement_ms(&self) -> Option<f64> {
         lock(&self.shared).last_measurement_ms
+    }
+
+    /// Settings the simulated unit was told to write to its flash memory
+    /// (the CS-2000's `SPMS`, `SCMS`): a driver must never do it unasked.
+    pub fn flash_writes(&self) -> u64 {
+        lock(&self.shared).flash_writes
     }
 
     /// True once a cable-pull fault has closed the port.

@@ -83,6 +83,25 @@ impl InstrumentModel {
     }
 }
 
+impl InstrumentModel {
+    /// The CS-2000 family: 380–780 nm at 1 nm, a 5 nm slit (the catalogue's
+    /// spectral bandwidth), a detector 10× as sensitive as the PR-650's
+    /// (its range reaches 0.003 cd/m², the PR-650's about 3), integrations
+    /// of 5 ms to 120 s (specio's manual-mode bounds, `konica_minolta.py`
+    /// 131–140), and 1.5 s of shutter and computation per measurement.
+    pub fn for_cs2000() -> InstrumentModel {
+        InstrumentModel {
+            grid: Grid::one_nm(),
+            slit_fwhm_nm: 5.0,
+            counts_per_radiance_s: 3.3e8,
+            min_integration_ms: 5.0,
+            max_integration_ms: 120_000.0,
+            base_time_ms: 1500.0,
+            ..InstrumentModel::default()
+        }
+    }
+}
+
 /// What the instrument will do for a given target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reading {

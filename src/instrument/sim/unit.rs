@@ -44,6 +44,8 @@ pub(super) struct Shared {
     pub(super) integration_ms: u32,
     /// The simulated PR-655/PR-670's last measurement time at speed 1, ms.
     pub(super) last_measurement_ms: Option<f64>,
+    /// Settings written to the simulated unit's flash memory (CS-2000 `SPMS`, `SCMS`).
+    pub(super) flash_writes: u64,
 }
 
 impl Shared {
@@ -59,6 +61,7 @@ impl Shared {
             last_byte_at: None,
             integration_ms: 0,
             last_measurement_ms: None,
+            flash_writes: 0,
         }
     }
 }
@@ -92,6 +95,11 @@ pub(super) trait Firmware {
     fn listening(&mut self) -> bool {
         true
     }
+    /// Called between reads (at least every poll): what the firmware does
+    /// on its own, such as ending a measurement that runs while it listens.
+    fn tick(&mut self) -> Next {
+        Next::Continue
+    }
 }
 
 /// The simulator thread: reads what the host sends and feeds it to
@@ -102,6 +110,9 @@ pub(super) fn run(mut firmware: impl Firmware) {
         if firmware.unit().power_cycle_requested() {
             firmware.unit().power_on();
             firmware.power_on();
+        }
+        if let Next::Unplugged = firmware.tick() {
+            return;
         }
         let Some(n) = firmware.unit().read(&mut buf) else { break };
         // A power cycle requested while the read was blocked comes before these bytes.

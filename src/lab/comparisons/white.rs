@@ -247,11 +247,20 @@ mod tests {
             store.insert_sample(id, &sample_row(s, reading)).await.unwrap();
         }
         let avg = average_samples(info, reading, samples).unwrap();
-        assert_eq!(comparable_xyz(&avg, Observer::Cie1931).unwrap().to_array(), [42.0, 52.0, 11.0]);
+        assert_eq!(
+            comparable_xyz(&avg, Observer::Cie1931).unwrap().to_array(),
+            [42.0, 52.0, 11.0]
+        );
         let refused = comparable_xyz(&avg, Observer::JuddVos).unwrap_err();
-        assert!(refused.contains("cannot be recomputed in another observer"), "{refused}");
+        assert!(
+            refused.contains("cannot be recomputed in another observer"),
+            "{refused}"
+        );
         // The daemon's observer is Judd–Vos: the stored XYZ stays CIE 1931's.
-        store.complete_measurement(id, &average_row(&avg, Observer::JuddVos)).await.unwrap();
+        store
+            .complete_measurement(id, &average_row(&avg, Observer::JuddVos))
+            .await
+            .unwrap();
         let detail = store.get_measurement(id).await.unwrap().unwrap();
         assert_eq!(detail.summary.observer, Some(Observer::Cie1931));
         assert!(detail.radiance.is_none() && detail.wavelength_nm.is_none());
@@ -264,7 +273,9 @@ mod tests {
         );
         let error = measured_xyz(&detail, Observer::JuddVos).unwrap_err();
         assert!(
-            error.starts_with(&format!("measurement {id}: the instrument measured XYZ in the cie-1931 observer")),
+            error.starts_with(&format!(
+                "measurement {id}: the instrument measured XYZ in the cie-1931 observer"
+            )),
             "{error}"
         );
 
