@@ -134,9 +134,12 @@ if [ ! -x "$PY312_VENV/bin/python" ]; then
   echo "creating the colour-specio venv in $PY312_VENV with $PY312"
   "$PY312" -m venv "$PY312_VENV"
 fi
-if [ "$("$PY312_VENV/bin/pip" show colour-specio 2>/dev/null | sed -n 's/^Version: //p')" != "$SPECIO_VERSION" ]; then
-  echo "installing colour-specio==$SPECIO_VERSION (PyPI) into $PY312_VENV"
-  "$PY312_VENV/bin/pip" install -q --disable-pip-version-check "colour-specio==$SPECIO_VERSION"
+# Its package does not declare two modules it imports (bidict, xxhash): pinned here.
+if [ "$("$PY312_VENV/bin/pip" show colour-specio 2>/dev/null | sed -n 's/^Version: //p')" != "$SPECIO_VERSION" ] \
+  || ! "$PY312_VENV/bin/python" -c "import bidict, xxhash" 2>/dev/null; then
+  echo "installing colour-specio==$SPECIO_VERSION bidict xxhash (PyPI) into $PY312_VENV"
+  "$PY312_VENV/bin/pip" install -q --disable-pip-version-check "colour-specio==$SPECIO_VERSION" \
+    "bidict==0.23.1" "xxhash==3.5.0"
 fi
 
 BIN=$(pg_bin)

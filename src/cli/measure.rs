@@ -18,8 +18,8 @@ pub struct MeasureArgs {
     /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml); the model's defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
-    /// The instrument model: pr650, pr655 or pr670 (default: the --config file's, else pr650).
-    #[arg(long, value_parser = ["pr650", "pr655", "pr670"])]
+    /// The instrument model: pr650, pr655, pr670, cs2000, cs2000a or cs3000 (default: the --config file's, else pr650).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(lightbooth::instrument::MODEL_FLAGS))]
     model: Option<String>,
     /// Samples to average, 1–99 (the limit of every model lightbooth drives; the driver checks its own).
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=99))]

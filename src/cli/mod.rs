@@ -7,6 +7,7 @@ mod color;
 mod display_resolution;
 mod experiment;
 mod measure;
+mod mock_cs2000;
 mod mock_pr650;
 mod mock_pr655;
 mod render;
@@ -21,7 +22,7 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "lightbooth",
     version,
-    about = "Measure a lighting booth with a spectroradiometer (PR-650, PR-655, PR-670), render it, and compare"
+    about = "Measure a lighting booth with a spectroradiometer (PR-650, PR-655, PR-670, CS-2000, …), render it, and compare"
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -35,7 +36,7 @@ enum Command {
     /// Analyses of spectra that do not need the instrument or the renderer.
     #[command(subcommand)]
     Analyze(analyze::AnalyzeCommand),
-    /// One averaged measurement from a PR-650, PR-655 or PR-670 (real, or simulated by mock-pr650/655/670).
+    /// One averaged measurement from an instrument (real, or simulated by a mock-… command).
     Measure(measure::MeasureArgs),
     /// A simulated PR-650 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr650")]
@@ -46,6 +47,9 @@ enum Command {
     /// A simulated PR-670 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr670")]
     MockPr670(mock_pr655::MockPr655Args),
+    /// A simulated Konica Minolta CS-2000 (CS-2000A, CS-3000) on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-cs2000")]
+    MockCs2000(mock_cs2000::MockCs2000Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
@@ -83,6 +87,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr650(args) => mock_pr650::run(args),
         Command::MockPr655(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr655),
         Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
+        Command::MockCs2000(args) => mock_cs2000::run(args),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Worker(args) => worker::run(args),

@@ -128,13 +128,15 @@ impl Cs2000 {
                     found.flag()
                 )))
             }
-            None => return Err(InstrumentError::Protocol {
-                command: command.text(),
-                detail: format!(
+            None => {
+                return Err(InstrumentError::Protocol {
+                    command: command.text(),
+                    detail: format!(
                     "the unit calls itself `{}`, not a CS-2000, CS-2000A or CS-3000; is this the instrument's port?",
                     name.escape_debug()
                 ),
-            }),
+                })
+            }
         }
         self.session.info_mut().model = wanted.name().into();
         self.session.info_mut().serial = Some(id.serial);

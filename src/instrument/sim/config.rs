@@ -76,6 +76,9 @@ pub struct MockConfig {
     pub flicker_hz: Option<f64>,
     /// With sync on, every measurement fails with 07 (tests the sync-off path).
     pub unsyncable: bool,
+    /// CS-2000: announce 0 s for `MEAS,1` and send no end line, so a client
+    /// must poll `MEDR,0,0,1` through its `ER02` (not ready) answers.
+    pub short_estimate: bool,
     pub model: InstrumentModel,
 }
 
@@ -100,6 +103,7 @@ impl MockConfig {
             busy_input: BusyInput::Queue,
             flicker_hz: None,
             unsyncable: false,
+            short_estimate: false,
             model: InstrumentModel::default(),
         }
     }

@@ -15,7 +15,8 @@
 //!   ready); then, while it runs, `MEDR,0,0,1` is `ER02`; when it ends, a
 //!   second line `OK00`, or the measurement's error (`ER10` over range, or
 //!   the `error-code` fault's code), which `MEDR,0,0,1` then repeats.
-//!   `MEAS,0` aborts (`OK00`).
+//!   `MEAS,0` aborts (`OK00`). With [`MockConfig::short_estimate`] it
+//!   announces 0 s and sends no end line: a client must poll.
 //! - `MEDR,0,0,1` → `OK00,<speed mode>,<ND mode>,<integration µs>,<sync mode>`
 //!   (specio reads field 2; the others are a choice). `MEDR,1,<1|0>,<1–4>`:
 //!   the spectral blocks (100, 100, 100, 101 values; 1 = hex singles, 0 =
@@ -62,6 +63,8 @@ struct Running {
     result: Stored,
     /// A cable-pull fault: the unit vanishes at this moment.
     pulled_at: Option<Instant>,
+    /// Whether its end is announced with a second line.
+    end_line: bool,
 }
 
 /// The settings the unit keeps in flash (power cycles keep them).
@@ -224,8 +227,13 @@ impl Device {
                 integration_us: reading.integration_ms * 1000.0,
             },
             pulled_at,
+            end_line: !self.cfg.short_estimate,
         });
-        let announced = (wall_ms / 1000.0).ceil() as u64;
+        let announced = if self.cfg.short_estimate {
+            0
+        } else {
+            (wall_ms / 1000.0).ceil() as u64
+        };
         self.reply(&format!("OK00,{announced}"));
     }
 
@@ -338,9 +346,14 @@ impl Firmware for Device {
         if now < running.ends_at {
             return Next::Continue;
         }
-        let result = self.state.running.take().map(|r| r.result);
-        let code = result.as_ref().map_or(0, |r| r.code);
-        self.state.last = result;
+        let Some(Running { result, end_line, .. }) = self.state.running.take() else {
+            return Next::Continue;
+        };
+        let code = result.code;
+        self.state.last = Some(result);
+        if !end_line {
+            return Next::Continue;
+        }
         if code == 0 {
             self.reply("OK00");
         } else {
