@@ -369,6 +369,7 @@ fn main() {
         let (jobs, _jobs_rx) = mpsc::channel(64);
         let (_status_tx, status) = watch::channel(InstrumentStatus::Idle {
             model: "PR-650".into(),
+            measures: "spectrum".into(),
             serial: None,
             port: "-".into(),
         });

@@ -70,6 +70,13 @@ function showInstrumentCard(instruments) {
   badge.className = `state-chip ${s.state}`;
   badge.textContent = state;
   $("home-instrument-state").append(strong, " ", badge);
+  // What a measurement gives: a spectrum, XYZ (a colorimeter) or luminance only.
+  if (s.measures) {
+    const measures = document.createElement("span");
+    measures.className = "instrument-measures";
+    measures.textContent = ` measures ${s.measures}`;
+    $("home-instrument-state").append(measures);
+  }
   updateCurrentMeasurement();
 }
 

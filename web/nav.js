@@ -15,7 +15,9 @@ function instrumentBadgeText(s) {
     if (t < 3600) return `${Math.floor(t / 60)} min ${String(t % 60).padStart(2, "0")} s`;
     return `${Math.floor(t / 3600)} h ${String(Math.floor((t % 3600) / 60)).padStart(2, "0")} min`;
   };
-  if (s.state === "idle") return `${s.model} ${s.serial || ""} idle on ${s.port}`;
+  if (s.state === "idle") {
+    return `${s.model} ${s.serial || ""}`.trim() + (s.measures ? ` (${s.measures})` : "") + ` idle on ${s.port}`;
+  }
   if (s.state === "measuring") {
     // The sample under way, not the count taken: "sample 0 of 5" read as stuck.
     const what = s.scene ? ` ${s.scene}/${s.target}` : "";

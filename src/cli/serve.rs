@@ -20,9 +20,12 @@ pub struct ServeArgs {
     /// Daemon settings (TOML); every key optional. Command-line flags override it.
     #[arg(long, default_value = "lightbooth.toml")]
     config: PathBuf,
-    /// Run a simulated PR-650 on a pseudo-terminal instead of opening the real port.
-    #[arg(long)]
-    mock: bool,
+    /// Run a simulated instrument on a pseudo-terminal instead of opening the real port: the
+    /// model the instrument settings name (a PR-650 without them), or MODEL (pr650, pr655, pr670,
+    /// cs2000, cs2000a, cs3000), e.g. `--mock cs2000`.
+    #[arg(long, value_name = "MODEL", num_args = 0..=1, default_missing_value = "settings",
+          value_parser = mock_model)]
+    mock: Option<String>,
     /// The database: sqlite://lightbooth.sqlite (one booth; created if
     /// missing) or postgres://USER@HOST/DATABASE (a lab's shared server; the
     /// database must exist).
@@ -177,15 +180,39 @@ fn read_config(path: &Path, explicit: bool) -> anyhow::Result<ConfigFile> {
 pub fn run(args: ServeArgs) -> anyhow::Result<()> {
     let explicit = args.config != Path::new("lightbooth.toml");
     let file = read_config(&args.config, explicit)?;
+    let explicit_instrument_file = args.instrument.is_some() || file.instrument.is_some();
     let instrument_path = args
         .instrument
         .or(file.instrument)
         .unwrap_or_else(|| "instruments/pr650.toml".into());
-    let instrument = if instrument_path.exists() {
-        InstrumentSettings::from_toml_file(&instrument_path)?
-    } else {
-        anyhow::ensure!(args.mock, "instrument settings {} not found", instrument_path.display());
-        InstrumentSettings::default()
+    let named_model = args.mock.as_deref().filter(|m| *m != "settings");
+    let instrument = match (instrument_path.exists(), named_model) {
+        (true, None) => InstrumentSettings::from_toml_file(&instrument_path)?,
+        (true, Some(model)) => {
+            let file = InstrumentSettings::from_toml_file(&instrument_path)?;
+            let wanted = InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?;
+            let explicit_file = explicit_instrument_file;
+            if wanted.capabilities().model == file.capabilities().model {
+                file
+            } else {
+                anyhow::ensure!(
+                    !explicit_file,
+                    "--mock {model} but {} is a {} settings file: drop one of them",
+                    instrument_path.display(),
+                    file.capabilities().model
+                );
+                wanted
+            }
+        }
+        (false, Some(model)) => InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?,
+        (false, None) => {
+            anyhow::ensure!(
+                args.mock.is_some(),
+                "instrument settings {} not found",
+                instrument_path.display()
+            );
+            InstrumentSettings::default()
+        }
     };
     let booth = match (args.booth, file.booth) {
         (Some(b), _) => b,
@@ -239,7 +266,7 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
             .db
             .or(file.db)
             .unwrap_or_else(|| "sqlite://lightbooth.sqlite".into()),
-        mock: args.mock,
+        mock: args.mock.is_some(),
         mock_speed: args.mock_speed.or(file.mock_speed).unwrap_or(1.0),
         mock_faults: args.mock_faults,
         instrument,
@@ -285,4 +312,17 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot listen on {}: is another daemon running?", options.bind))?;
         daemon::run(listener, options, daemon::shutdown_signal()).await
     })
+}
+
+/// `--mock`'s model: one lightbooth drives, or `settings` (the flag alone).
+fn mock_model(s: &str) -> Result<String, String> {
+    let flag = s.to_ascii_lowercase().replace('-', "");
+    if flag == "settings" || lightbooth::instrument::MODEL_FLAGS.contains(&flag.as_str()) {
+        Ok(flag)
+    } else {
+        Err(format!(
+            "`{s}` is not a model lightbooth simulates; use one of {}",
+            lightbooth::instrument::MODEL_FLAGS.join(", ")
+        ))
+    }
 }

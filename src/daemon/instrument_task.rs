@@ -393,6 +393,7 @@ impl Worker {
         self.set_status(InstrumentStatus::Idle {
             model: info.model.clone(),
             serial: info.serial.clone(),
+            measures: instrument.capabilities().reading.name().into(),
             port: port.clone(),
         });
         Ok((instrument, port))
@@ -400,6 +401,7 @@ impl Worker {
 
     fn serve_jobs(&mut self, mut instrument: Box<dyn Spectroradiometer>, port: &str) -> Disconnect {
         let info = instrument.info().clone();
+        let measures = instrument.capabilities().reading.name().to_string();
         let instrument_id = self
             .block_on(self.config.store.upsert_instrument(
                 &self.config.booth,
@@ -423,6 +425,7 @@ impl Worker {
             self.set_status(InstrumentStatus::Idle {
                 model: info.model.clone(),
                 serial: info.serial.clone(),
+                measures: measures.clone(),
                 port: port.into(),
             });
         }

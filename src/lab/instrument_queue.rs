@@ -47,6 +47,8 @@ pub enum InstrumentStatus {
     Idle {
         model: String,
         serial: Option<String>,
+        /// What a measurement gives: `spectrum`, `XYZ` or `luminance`.
+        measures: String,
         port: String,
     },
     Measuring {

@@ -40,6 +40,7 @@ async fn harness(loopback_only: bool) -> Harness {
     let (jobs, jobs_rx) = mpsc::channel(4);
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Idle {
         model: "PR-650".into(),
+        measures: "spectrum".into(),
         serial: None,
         port: "/dev/pts/9".into(),
     });

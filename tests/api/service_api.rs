@@ -34,6 +34,7 @@ async fn harness(queue: usize) -> Harness {
     let (tx, rx) = mpsc::channel(queue);
     let (status_tx, status_rx) = watch::channel(InstrumentStatus::Idle {
         model: "PR-650".into(),
+        measures: "spectrum".into(),
         serial: Some("60931502".into()),
         port: "/dev/pts/9".into(),
     });
@@ -245,6 +246,7 @@ async fn a_disconnected_instrument_gets_503_and_a_full_queue_409() {
     h.status
         .send(InstrumentStatus::Idle {
             model: "PR-650".into(),
+            measures: "spectrum".into(),
             serial: None,
             port: "p".into(),
         })
@@ -410,6 +412,7 @@ async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it
     } = h;
     status_tx.send_replace(InstrumentStatus::Idle {
         model: "PR-650".into(),
+        measures: "spectrum".into(),
         serial: None,
         port: "/dev/pts/9".into(),
     });

@@ -9,6 +9,7 @@ mod common;
 
 mod booths_scale;
 mod daemon_crash;
+mod daemon_cs2000;
 mod daemon_e2e;
 mod daemon_jobs;
 mod daemon_mock_faults;

@@ -1,0 +1,91 @@
+//! The daemon driving a (simulated) Konica Minolta CS-2000 as it drives a
+//! PR-650 (`serve --mock cs2000`): a five-sample measurement from the API,
+//! every sample stored with its 1 nm spectrum and the unit's own XYZ, and the
+//! measurement compared with every coding.
+
+use crate::common;
+
+use std::time::Duration;
+
+use common::{events, get_json, post_json, wait_for, Daemon, TOKEN};
+use lightbooth::instrument::cs2000::{Cs2000Settings, Model};
+use lightbooth::instrument::InstrumentSettings;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cs2000_booth_measures_five_samples_stores_each_and_compares_every_coding() {
+    let settings = Cs2000Settings {
+        command_timeout_ms: 2_000,
+        measure_timeout_ms: 10_000,
+        end_margin_ms: 500,
+        gap_timeout_ms: 500,
+        ..Cs2000Settings::for_model(Model::Cs2000)
+    };
+    let d = Daemon::start_instrument(0.0, InstrumentSettings::Cs2000(settings)).await;
+    let mut ev = events(d.addr).await;
+    let (_, health) = get_json(d.addr, "/api/health").await;
+    assert_eq!(health["instrument"]["model"], "CS-2000", "{health}");
+    assert_eq!(health["instrument"]["serial"], "20101234", "{health}");
+    assert_eq!(health["instrument"]["measures"], "spectrum", "{health}");
+
+    let (status, m) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene": "white", "target": "patch", "samples": 5}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let mut sample_events = 0;
+    wait_for(
+        &mut ev,
+        "the measurement to finish",
+        Duration::from_secs(120),
+        |name, v| {
+            if name == "sample" && v["measurement_id"] == id {
+                sample_events += 1;
+                assert_eq!(v["radiance"].as_array().map(Vec::len), Some(401), "{v}");
+            }
+            name == "measurement_finished" && v["measurement_id"] == id
+        },
+    )
+    .await;
+    assert_eq!(sample_events, 5);
+    let (_, done) = get_json(d.addr, &format!("/api/measurements/{id}")).await;
+    assert_eq!(done["state"], "complete", "{done}");
+    assert_eq!(done["instrument_model"], "CS-2000");
+    let nm = done["wavelength_nm"].as_array().unwrap();
+    assert_eq!(nm.len(), 401, "the CS-2000's 1 nm grid, not resampled");
+    let samples = done["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 5, "every sample stored");
+    for s in samples {
+        assert_eq!(s["radiance"].as_array().map(Vec::len), Some(401), "{s}");
+        let xyz = s["instrument_XYZ"]
+            .as_array()
+            .expect("the unit's own XYZ kept with the sample");
+        assert_eq!(xyz.len(), 3, "{s}");
+    }
+    // The WHITE scene's patch reads about 34 cd/m² (booth-scenes.md).
+    let y = done["Y"].as_f64().unwrap();
+    assert!((25.0..45.0).contains(&y), "Y = {y}");
+
+    wait_for(&mut ev, "the comparison", Duration::from_secs(300), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == id
+    })
+    .await;
+    let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    let mut codings: Vec<&str> = c["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["measurement_id"] == id)
+        .map(|r| r["coding"].as_str().unwrap())
+        .collect();
+    codings.sort_unstable();
+    assert_eq!(
+        codings,
+        ["nstep27", "nstep3", "nstep81", "nstep9", "rgb", "spectral", "srgb"],
+        "{c}"
+    );
+    d.stop().await;
+}
