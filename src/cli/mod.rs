@@ -7,6 +7,7 @@ mod color;
 mod display_resolution;
 mod experiment;
 mod measure;
+mod mock_cr250;
 mod mock_cs2000;
 mod mock_pr650;
 mod mock_pr655;
@@ -50,6 +51,9 @@ enum Command {
     /// A simulated Konica Minolta CS-2000 (CS-2000A, CS-3000) on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-cs2000")]
     MockCs2000(mock_cs2000::MockCs2000Args),
+    /// A simulated Colorimetry Research CR-250 (or CR-300) on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-cr250")]
+    MockCr250(mock_cr250::MockCr250Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
@@ -88,6 +92,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr655(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr655),
         Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
         Command::MockCs2000(args) => mock_cs2000::run(args),
+        Command::MockCr250(args) => mock_cr250::run(args),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Worker(args) => worker::run(args),

@@ -92,6 +92,7 @@ impl MockSlot {
             crate::instrument::sim::Personality::Pr650 => MockConfig::new(truth),
             crate::instrument::sim::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
             crate::instrument::sim::Personality::Cs2000(model) => MockConfig::cs2000(truth, *model),
+            crate::instrument::sim::Personality::Cr250(model) => MockConfig::cr250(truth, *model),
         };
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();

@@ -35,6 +35,7 @@
 //! do not depend on the model.
 
 pub mod averaging;
+pub mod cr250;
 pub mod cs2000;
 pub mod link;
 mod models;

@@ -15,6 +15,7 @@
 
 use std::path::Path;
 
+use super::cr250::{self, Cr250Settings};
 use super::cs2000::{self, Cs2000Settings};
 use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
@@ -37,7 +38,9 @@ pub fn native_grid_of_length(len: usize) -> Option<crate::spectrum::Grid> {
 }
 
 /// Every model lightbooth drives, as `--model` and a settings file's `model` key name it.
-pub const MODEL_FLAGS: &[&str] = &["pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000"];
+pub const MODEL_FLAGS: &[&str] = &[
+    "pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000", "cr250", "cr300",
+];
 
 /// The settings of one instrument, by model.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +50,8 @@ pub enum InstrumentSettings {
     Pr655(Pr655Settings),
     /// A CS-2000, CS-2000A or CS-3000 (the model is in the settings).
     Cs2000(Cs2000Settings),
+    /// A CR-250 or CR-300 (the model is in the settings).
+    Cr250(Cr250Settings),
 }
 
 impl Default for InstrumentSettings {
@@ -83,6 +88,8 @@ impl InstrumentSettings {
             "cs2000" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs2000).map(InstrumentSettings::Cs2000),
             "cs2000a" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs2000A).map(InstrumentSettings::Cs2000),
             "cs3000" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs3000).map(InstrumentSettings::Cs2000),
+            "cr250" => Cr250Settings::from_toml_str(&rest, cr250::Model::Cr250).map(InstrumentSettings::Cr250),
+            "cr300" => Cr250Settings::from_toml_str(&rest, cr250::Model::Cr300).map(InstrumentSettings::Cr250),
             _ => Err(format!(
                 "key `model`: \"{model}\" is not a model lightbooth drives; use one of {}",
                 MODEL_FLAGS.join(", ")
@@ -104,6 +111,7 @@ impl InstrumentSettings {
                 super::sim::Personality::Pr655(super::sim::Pr655Switches::for_model(s.model()))
             }
             InstrumentSettings::Cs2000(s) => super::sim::Personality::Cs2000(s.model()),
+            InstrumentSettings::Cr250(s) => super::sim::Personality::Cr250(s.model()),
         }
     }
 
@@ -113,6 +121,7 @@ impl InstrumentSettings {
             InstrumentSettings::Pr650(s) => s.capabilities(),
             InstrumentSettings::Pr655(s) => s.capabilities(),
             InstrumentSettings::Cs2000(s) => s.capabilities(),
+            InstrumentSettings::Cr250(s) => s.capabilities(),
         }
     }
 
@@ -122,6 +131,7 @@ impl InstrumentSettings {
             InstrumentSettings::Pr650(s) => s.port.as_deref(),
             InstrumentSettings::Pr655(s) => s.port.as_deref(),
             InstrumentSettings::Cs2000(s) => s.port.as_deref(),
+            InstrumentSettings::Cr250(s) => s.port.as_deref(),
         }
     }
 
@@ -152,6 +162,14 @@ impl InstrumentSettings {
                     s.retries = r;
                 }
             }
+            InstrumentSettings::Cr250(s) => {
+                if let Some(n) = samples {
+                    s.samples = n;
+                }
+                if let Some(r) = retries {
+                    s.retries = r;
+                }
+            }
         }
     }
 
@@ -161,6 +179,7 @@ impl InstrumentSettings {
             InstrumentSettings::Pr650(s) => s.validate(),
             InstrumentSettings::Pr655(s) => s.validate(),
             InstrumentSettings::Cs2000(s) => s.validate(),
+            InstrumentSettings::Cr250(s) => s.validate(),
         }
     }
 
@@ -171,6 +190,7 @@ impl InstrumentSettings {
             InstrumentSettings::Pr650(s) => super::open_pr650(port, s),
             InstrumentSettings::Pr655(s) => super::pr655::open_pr655(port, s),
             InstrumentSettings::Cs2000(s) => cs2000::open_cs2000(port, s),
+            InstrumentSettings::Cr250(s) => cr250::open_cr250(port, s),
         }
     }
 }

@@ -1,4 +1,4 @@
-//! The spectroradiometers: the PR-650, PR-655/670 and CS-2000 drivers against the simulators on real ptys, faults on the wire, PsychoPy's instrument classes as clients, and `lightbooth measure`.
+//! The spectroradiometers: the PR-650, PR-655/670, CS-2000 and CR-250 drivers against the simulators on real ptys, faults on the wire, PsychoPy's instrument classes as clients, and `lightbooth measure`.
 //!
 //! One test crate (`cargo test --release --test instrument`); each module below
 //! was its own crate before, and keeps its file and its tests' names
@@ -8,6 +8,7 @@
 mod common;
 
 mod cli_measure;
+mod cr250;
 mod cs2000;
 mod instrument_faults;
 mod pr655_driver;

@@ -34,6 +34,8 @@ pub enum Personality {
     Pr655(Pr655Switches),
     /// A Konica Minolta CS-2000, CS-2000A or CS-3000 (`docs/src/instruments/cs2000.md`).
     Cs2000(crate::instrument::cs2000::Model),
+    /// A Colorimetry Research CR-250 or CR-300 (`docs/src/instruments/cr250.md`).
+    Cr250(crate::instrument::cr250::Model),
 }
 
 impl Personality {
@@ -43,6 +45,7 @@ impl Personality {
             Personality::Pr650 => "PR-650",
             Personality::Pr655(switches) => switches.model.name(),
             Personality::Cs2000(model) => model.name(),
+            Personality::Cr250(model) => model.name(),
         }
     }
 }
@@ -64,6 +67,8 @@ pub struct MockConfig {
     pub slow_ms: u64,
     /// Code of a [`FaultKind::ErrorCode`](super::faults::FaultKind::ErrorCode) measurement.
     pub error_code: u8,
+    /// The same for a model with signed codes (the CR-250's 100, −303 … −306).
+    pub error_status: i32,
     /// What `D110` answers (8 characters).
     pub serial: String,
     /// End header line 1 of the spectral report in a bare CR.
@@ -96,6 +101,7 @@ impl MockConfig {
             faults: Vec::new(),
             slow_ms: 12_000,
             error_code: 18,
+            error_status: 100,
             serial: "60954303".into(),
             header_bare_cr: false,
             pace_output: true,
@@ -115,6 +121,17 @@ impl MockConfig {
             model: InstrumentModel::for_cs2000(),
             serial: "20101234".into(),
             error_code: 71,
+            ..MockConfig::new(truth)
+        }
+    }
+
+    /// A simulated CR-250 or CR-300: its grid, slit and detector.
+    pub fn cr250(truth: Spectrum, model: crate::instrument::cr250::Model) -> MockConfig {
+        MockConfig {
+            personality: Personality::Cr250(model),
+            model: InstrumentModel::for_cr250(model),
+            serial: "25010042".into(),
+            pace_output: false,
             ..MockConfig::new(truth)
         }
     }

@@ -1,7 +1,8 @@
 //! The simulated instruments: a PR-650, PR-655, PR-670 or a Konica Minolta
-//! CS-2000/CS-2000A/CS-3000 on a real pseudo-terminal, for tests, for the
+//! CS-2000/CS-2000A/CS-3000 or a Colorimetry Research CR-250/CR-300 on a real
+//! pseudo-terminal, for tests, for the
 //! daemon's `serve --mock`, and for `lightbooth mock-pr650` (`mock-pr655`,
-//! `mock-pr670`, `mock-cs2000`).
+//! `mock-pr670`, `mock-cs2000`, `mock-cr250`).
 //!
 //! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
 //! master end on its own thread, and hands back the path of the device end,
@@ -24,10 +25,11 @@
 //! Layout: [`config`] says what to simulate, [`faults`] what to inject,
 //! [`model`] what the optics and detector make of the target; `unit` is
 //! what both simulated units share (the pty, the read loop, paced or burst
-//! replies, faults on a spectrum reply), `pr650`, `pr655` and `cs2000` the
+//! replies, faults on a spectrum reply), `pr650`, `pr655`, `cs2000` and `cr250` the
 //! firmwares over it.
 
 pub mod config;
+mod cr250;
 mod cs2000;
 pub mod faults;
 pub mod model;
@@ -89,6 +91,9 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
             Personality::Pr655(switches) => std::thread::Builder::new()
                 .name("mock-pr655".into())
                 .spawn(move || unit::run(pr655::Device::new(config, switches, master, slave, shared, stop)))?,
+            Personality::Cr250(model) => std::thread::Builder::new()
+                .name("mock-cr250".into())
+                .spawn(move || unit::run(cr250::Device::new(config, model, master, slave, shared, stop)))?,
             Personality::Cs2000(model) => std::thread::Builder::new()
                 .name("mock-cs2000".into())
                 .spawn(move || unit::run(cs2000::Device::new(config, model, master, slave, shared, stop)))?,

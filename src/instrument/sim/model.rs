@@ -102,6 +102,26 @@ impl InstrumentModel {
     }
 }
 
+impl InstrumentModel {
+    /// The CR-250 (4 nm) or CR-300 (1 nm): a slit of twice the step (the
+    /// PR-650's ratio; a choice), a detector 10× as sensitive as the
+    /// PR-650's, exposures from 1 ms (the longest is the speed's, set by
+    /// the simulator), and 0.3 s of overhead per measurement.
+    pub fn for_cr250(model: crate::instrument::cr250::Model) -> InstrumentModel {
+        let grid = model.grid();
+        let step = grid.step_nm().unwrap_or(1.0);
+        InstrumentModel {
+            grid,
+            slit_fwhm_nm: 2.0 * step,
+            counts_per_radiance_s: 3.3e8,
+            min_integration_ms: 1.0,
+            max_integration_ms: 2_500.0,
+            base_time_ms: 300.0,
+            ..InstrumentModel::default()
+        }
+    }
+}
+
 /// What the instrument will do for a given target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reading {
