@@ -37,6 +37,56 @@ pub struct LinkSettings {
     /// Pause between the bytes of a command, for adapters or units that "get
     /// upset if hurried" (PsychoPy). 0 = whole-command writes, which PTB and mgl use.
     pub byte_delay_ms: u64,
+    /// Data bits, parity and stop bits (8N1 for the Photo Research units,
+    /// 7E2 for the Minolta LS-100/CS-100A).
+    pub framing: Framing,
+    /// RTS/CTS hardware flow control.
+    pub flow_control: bool,
+}
+
+/// The character framing on the wire: data bits, parity, stop bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Framing {
+    pub data_bits: DataBits,
+    pub parity: Parity,
+    pub stop_bits: StopBits,
+}
+
+impl Framing {
+    /// 8 data bits, no parity, 1 stop bit.
+    pub const EIGHT_N_ONE: Framing = Framing {
+        data_bits: DataBits::Eight,
+        parity: Parity::None,
+        stop_bits: StopBits::One,
+    };
+    /// 7 data bits, even parity, 2 stop bits (the Minolta meters).
+    pub const SEVEN_E_TWO: Framing = Framing {
+        data_bits: DataBits::Seven,
+        parity: Parity::Even,
+        stop_bits: StopBits::Two,
+    };
+}
+
+impl std::fmt::Display for Framing {
+    /// `8N1`, `7E2`, `8N2`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let bits = match self.data_bits {
+            DataBits::Five => 5,
+            DataBits::Six => 6,
+            DataBits::Seven => 7,
+            DataBits::Eight => 8,
+        };
+        let parity = match self.parity {
+            Parity::None => 'N',
+            Parity::Odd => 'O',
+            Parity::Even => 'E',
+        };
+        let stop = match self.stop_bits {
+            StopBits::One => 1,
+            StopBits::Two => 2,
+        };
+        write!(f, "{bits}{parity}{stop}")
+    }
 }
 
 impl LinkSettings {
