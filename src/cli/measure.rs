@@ -1,5 +1,6 @@
-//! `lightbooth measure`: one averaged measurement from a PR-650 (real or
-//! simulated), printed as a summary, JSON or CSV.
+//! `lightbooth measure`: one averaged measurement from any model lightbooth
+//! drives (real or simulated), printed as a summary, JSON or CSV (CSV only
+//! from a spectroradiometer).
 
 use std::path::PathBuf;
 use std::time::UNIX_EPOCH;
@@ -15,11 +16,11 @@ pub struct MeasureArgs {
     /// Serial device (a PR-650: /dev/ttyUSB0; a PR-655/PR-670: /dev/ttyACM0; or the path a `mock-…` command prints).
     #[arg(long)]
     port: Option<String>,
-    /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml); the model's defaults apply without it.
+    /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml, colorcal.toml, ls100.toml); the model's defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
-    /// The instrument model: pr650, pr655 or pr670 (default: the --config file's, else pr650).
-    #[arg(long, value_parser = ["pr650", "pr655", "pr670"])]
+    /// The instrument model: pr650, pr655, pr670, colorcal, ls100 or cs100a (default: the --config file's, else pr650).
+    #[arg(long, value_parser = ["pr650", "pr655", "pr670", "colorcal", "ls100", "cs100a"])]
     model: Option<String>,
     /// Samples to average, 1–99 (the limit of every model lightbooth drives; the driver checks its own).
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=99))]
@@ -160,10 +161,14 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
     let cancel = CancelToken::new();
     let samples = settings.capabilities().default_samples;
     // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
-    let m = instrument.measure_averaged(samples, &cancel, &mut |s| match s.luminance.or(s.instrument_xyz.map(|v| v[1])) {
-        Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
-        _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
-    })?;
+    let m = instrument.measure_averaged(
+        samples,
+        &cancel,
+        &mut |s| match s.luminance.or(s.instrument_xyz.map(|v| v[1])) {
+            Some(y) if s.code.is_ok() => eprintln!("sample {}: Y = {y:.4} cd/m²", s.index + 1),
+            _ => eprintln!("sample {}: {} (not averaged)", s.index + 1, s.code),
+        },
+    )?;
     let out = std::io::stdout();
     if args.json {
         serde_json::to_writer(out.lock(), &MeasurementJson::from(&m))?;

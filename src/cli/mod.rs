@@ -7,6 +7,8 @@ mod color;
 mod display_resolution;
 mod experiment;
 mod measure;
+mod mock_colorcal;
+mod mock_ls100;
 mod mock_pr650;
 mod mock_pr655;
 mod render;
@@ -35,7 +37,7 @@ enum Command {
     /// Analyses of spectra that do not need the instrument or the renderer.
     #[command(subcommand)]
     Analyze(analyze::AnalyzeCommand),
-    /// One averaged measurement from a PR-650, PR-655 or PR-670 (real, or simulated by mock-pr650/655/670).
+    /// One averaged measurement from a PR-650, PR-655, PR-670, ColorCAL MkII, LS-100 or CS-100A (real, or simulated by a mock-… command).
     Measure(measure::MeasureArgs),
     /// A simulated PR-650 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr650")]
@@ -46,6 +48,12 @@ enum Command {
     /// A simulated PR-670 on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-pr670")]
     MockPr670(mock_pr655::MockPr655Args),
+    /// A simulated CRS ColorCAL MkII on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-colorcal")]
+    MockColorCal(mock_colorcal::MockColorCalArgs),
+    /// A simulated Konica Minolta LS-100 or CS-100A on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-ls100")]
+    MockLs100(mock_ls100::MockLs100Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
@@ -83,6 +91,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr650(args) => mock_pr650::run(args),
         Command::MockPr655(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr655),
         Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
+        Command::MockColorCal(args) => mock_colorcal::run(args),
+        Command::MockLs100(args) => mock_ls100::run(args),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Worker(args) => worker::run(args),

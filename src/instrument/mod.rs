@@ -35,12 +35,15 @@
 //! do not depend on the model.
 
 pub mod averaging;
+pub mod colorcal;
 pub mod link;
+pub mod ls100;
 mod models;
 pub mod pr650;
 pub mod pr655;
 pub mod reply;
 pub mod sim;
+pub mod status_word;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -268,6 +271,15 @@ pub enum InstrumentError {
         attempts: u32,
         waited_ms: u64,
     },
+    #[error("the {model} did not answer `{command}` in {attempts} attempt(s) of {waited_ms} ms: {advice}")]
+    Silent {
+        model: &'static str,
+        command: String,
+        attempts: u32,
+        waited_ms: u64,
+        /// What to check, in the model's terms (communication mode, USB cable).
+        advice: &'static str,
+    },
     #[error("the instrument refused `{command}` with status {code}. Fix that setting or command")]
     Refused { command: String, code: QualityCode },
     #[error("serial port {port} closed: the cable was pulled, the adapter unplugged or the instrument switched off (a PR-655/670 does after a `ZReset…` command). Reconnect it or switch it on, and start again")]
@@ -470,7 +482,10 @@ pub fn average_samples(
 ) -> Result<AveragedMeasurement, String> {
     let good: Vec<&Sample> = samples.iter().filter(|s| s.is_usable(reading)).collect();
     if good.is_empty() {
-        return Err(format!("no good sample to average (the instrument reads {})", reading.name()));
+        return Err(format!(
+            "no good sample to average (the instrument reads {})",
+            reading.name()
+        ));
     }
     let k = good.len() as f64;
     let mean_of = |v: &dyn Fn(&Sample) -> Option<f64>| -> Option<f64> {
@@ -607,7 +622,13 @@ mod tests {
         let m = average_samples(info, Reading::Spectrum, samples).unwrap();
         assert_eq!(m.samples.len(), 3);
         assert_eq!(m.good_samples().count(), 2);
-        assert!(m.mean.as_ref().unwrap().values().iter().all(|v| (v - 2.0).abs() < 1e-12));
+        assert!(m
+            .mean
+            .as_ref()
+            .unwrap()
+            .values()
+            .iter()
+            .all(|v| (v - 2.0).abs() < 1e-12));
         assert!(m.sd.iter().all(|v| (v - 2f64.sqrt()).abs() < 1e-12));
         assert!(m.luminance_cv > 0.0);
     }
@@ -680,7 +701,10 @@ mod tests {
         t.index = 1;
         t.luminance = Some(32.0);
         let m = average_samples(colorimeter(), reading, vec![s.clone(), t]).unwrap();
-        assert_eq!((m.luminance_cd_m2, m.x, m.y, m.instrument_xyz), (31.0, None, None, None));
+        assert_eq!(
+            (m.luminance_cd_m2, m.x, m.y, m.instrument_xyz),
+            (31.0, None, None, None)
+        );
         s.luminance = None;
         assert!(average_samples(colorimeter(), reading, vec![s]).is_err());
     }

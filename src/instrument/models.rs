@@ -15,6 +15,8 @@
 
 use std::path::Path;
 
+use super::colorcal::ColorCalSettings;
+use super::ls100::Ls100Settings;
 use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
 
@@ -35,6 +37,10 @@ pub enum InstrumentSettings {
     Pr650(Pr650Settings),
     /// A PR-655 or a PR-670 (the model is in the settings).
     Pr655(Pr655Settings),
+    /// A CRS ColorCAL MkII colorimeter.
+    ColorCal(ColorCalSettings),
+    /// A Konica Minolta LS-100 or CS-100A (the model is in the settings).
+    Ls100(Ls100Settings),
 }
 
 impl Default for InstrumentSettings {
@@ -68,14 +74,18 @@ impl InstrumentSettings {
             "pr650" => Pr650Settings::from_toml_str(&rest).map(InstrumentSettings::Pr650),
             "pr655" => Pr655Settings::from_toml_str(&rest, Model::Pr655).map(InstrumentSettings::Pr655),
             "pr670" => Pr655Settings::from_toml_str(&rest, Model::Pr670).map(InstrumentSettings::Pr655),
+            "colorcal" | "colorcalmkii" => ColorCalSettings::from_toml_str(&rest).map(InstrumentSettings::ColorCal),
+            "ls100" => Ls100Settings::from_toml_str(&rest, super::ls100::Model::Ls100).map(InstrumentSettings::Ls100),
+            "cs100a" => Ls100Settings::from_toml_str(&rest, super::ls100::Model::Cs100a).map(InstrumentSettings::Ls100),
             _ => Err(format!(
-                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\", \"pr655\" or \"pr670\""
+                "key `model`: \"{model}\" is not a model lightbooth drives; use \"pr650\", \"pr655\", \"pr670\", \
+                 \"colorcal\", \"ls100\" or \"cs100a\""
             )),
         }
     }
 
     /// The defaults of a model named as on the command line (`pr650`,
-    /// `pr655`, `pr670`; `PR-670` too).
+    /// `pr655`, `pr670`, `colorcal`, `ls100`, `cs100a`; `PR-670` too).
     pub fn defaults_for(model: &str) -> Result<InstrumentSettings, String> {
         InstrumentSettings::from_toml_str(&format!("model = \"{}\"", model.escape_default()))
     }
@@ -87,6 +97,8 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => {
                 super::sim::Personality::Pr655(super::sim::Pr655Switches::for_model(s.model()))
             }
+            InstrumentSettings::ColorCal(_) => super::sim::Personality::ColorCal,
+            InstrumentSettings::Ls100(s) => super::sim::Personality::Ls100(s.model()),
         }
     }
 
@@ -95,6 +107,8 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.capabilities(),
             InstrumentSettings::Pr655(s) => s.capabilities(),
+            InstrumentSettings::ColorCal(s) => s.capabilities(),
+            InstrumentSettings::Ls100(s) => s.capabilities(),
         }
     }
 
@@ -103,28 +117,24 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.port.as_deref(),
             InstrumentSettings::Pr655(s) => s.port.as_deref(),
+            InstrumentSettings::ColorCal(s) => s.port.as_deref(),
+            InstrumentSettings::Ls100(s) => s.port.as_deref(),
         }
     }
 
     /// Overrides the file's samples per measurement and extra attempts.
     pub fn set_samples(&mut self, samples: Option<usize>, retries: Option<usize>) {
-        match self {
-            InstrumentSettings::Pr650(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
-            InstrumentSettings::Pr655(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
+        let (s, r) = match self {
+            InstrumentSettings::Pr650(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Pr655(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::ColorCal(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Ls100(s) => (&mut s.samples, &mut s.retries),
+        };
+        if let Some(n) = samples {
+            *s = n;
+        }
+        if let Some(n) = retries {
+            *r = n;
         }
     }
 
@@ -133,6 +143,8 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => s.validate(),
             InstrumentSettings::Pr655(s) => s.validate(),
+            InstrumentSettings::ColorCal(s) => s.validate(),
+            InstrumentSettings::Ls100(s) => s.validate(),
         }
     }
 
@@ -142,6 +154,8 @@ impl InstrumentSettings {
         match self {
             InstrumentSettings::Pr650(s) => super::open_pr650(port, s),
             InstrumentSettings::Pr655(s) => super::pr655::open_pr655(port, s),
+            InstrumentSettings::ColorCal(s) => super::colorcal::open_colorcal(port, s),
+            InstrumentSettings::Ls100(s) => super::ls100::open_ls100(port, s),
         }
     }
 }

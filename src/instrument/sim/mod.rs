@@ -1,6 +1,9 @@
 //! The simulated instruments: a PR-650, PR-655 or PR-670 on a real
 //! pseudo-terminal, for tests, for the daemon's `serve --mock`, and for
-//! `lightbooth mock-pr650` (`mock-pr655`, `mock-pr670`).
+//! `lightbooth mock-pr650` (`mock-pr655`, `mock-pr670`); and the
+//! colorimeters, a ColorCAL MkII (`colorcal`, `lightbooth mock-colorcal`)
+//! and an LS-100 or CS-100A (`ls100`, `lightbooth mock-ls100`), on the same
+//! unit machinery.
 //!
 //! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
 //! master end on its own thread, and hands back the path of the device end,
@@ -26,8 +29,10 @@
 //! replies, faults on a spectrum reply), `pr650` and `pr655` the two
 //! firmwares over it.
 
+mod colorcal;
 pub mod config;
 pub mod faults;
+mod ls100;
 pub mod model;
 mod pr650;
 mod pr655;
@@ -87,6 +92,12 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
             Personality::Pr655(switches) => std::thread::Builder::new()
                 .name("mock-pr655".into())
                 .spawn(move || unit::run(pr655::Device::new(config, switches, master, slave, shared, stop)))?,
+            Personality::ColorCal => std::thread::Builder::new()
+                .name("mock-colorcal".into())
+                .spawn(move || unit::run(colorcal::Device::new(config, master, slave, shared, stop)))?,
+            Personality::Ls100(model) => std::thread::Builder::new()
+                .name("mock-ls100".into())
+                .spawn(move || unit::run(ls100::Device::new(config, model, master, slave, shared, stop)))?,
         }
     };
     tracing::info!(device = %device_path.display(), "simulated {name} powered on");
