@@ -13,12 +13,13 @@ Rust test makes the assertions; this script only reports (and exits non-zero
 with a message when the client itself fails).
 
 The pty: the classes set 7 data bits and even parity (minolta.py:137-141,
-394-399), which a Linux pseudo-terminal refuses (tcsetattr fails with EINVAL
-on pyserial's reconfigure after open, and the class gives up). This script
-therefore replaces `serial.Serial`, before the class is imported, with a
-subclass that falls back to 8 data bits and no parity, keeping the baud rate
-(4800) and the 2 stop bits, and says so on stderr. A real USB-serial port
-would take 7E2 unchanged.
+394-399), which a Linux pseudo-terminal cannot carry: a plain tcsetattr with
+CS7 or PARENB fails with EINVAL, and where pyserial's reconfigure gets through
+the line silently stays 8N. This script therefore replaces `serial.Serial`,
+before the class is imported, with a subclass that asks for 8 data bits and no
+parity, keeping the baud rate (4800) and the 2 stop bits, and says so on
+stderr; the simulator checks those two. A real USB-serial port would take 7E2
+unchanged.
 """
 
 import csv

@@ -170,6 +170,22 @@ impl SerialLink {
                 })
             }
         };
+        // Some kernels take 7 data bits or parity on a pty without an error
+        // and keep 8N: read the framing back, so a fallback is never silent.
+        let actual = port.data_bits().and_then(|data_bits| {
+            Ok(Framing {
+                data_bits,
+                parity: port.parity()?,
+                stop_bits: port.stop_bits()?,
+            })
+        });
+        match actual {
+            Ok(actual) if actual != settings.framing => tracing::warn!(port = path, wanted = %settings.framing,
+                using = %actual, "the port did not take this framing (a pseudo-terminal keeps 8 bits without \
+                parity; a real serial port gets the instrument's)"),
+            Ok(_) => {}
+            Err(e) => tracing::debug!(port = path, error = %e, "cannot read the framing back"),
+        }
         let mut link = SerialLink {
             port,
             path: path.to_string(),
