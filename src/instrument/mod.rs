@@ -238,7 +238,7 @@ pub enum InstrumentError {
         needed: usize,
         hint: &'static str,
     },
-    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600)")]
+    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600 for the Photo Research units, 4800 for the Minolta meters)")]
     Protocol { command: String, detail: String },
     #[error(
         "the reply to `{command}` stopped after {lines} of {expected} lines (nothing for {gap_ms} ms): \

@@ -95,7 +95,8 @@ impl Measured {
     /// positive (XYZ would be infinite).
     pub fn xyz(&self) -> Option<[f64; 3]> {
         let (x, y) = self.xy?;
-        if !(y > 0.0) {
+        // Also false for a NaN y.
+        if y.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let big_y = self.luminance;
