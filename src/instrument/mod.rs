@@ -23,8 +23,13 @@
 //!   what is particular to the model (entering remote mode, identifying the
 //!   unit, its setup, how one sample is measured and read, and how it reacts
 //!   to a bad code) over the shared session.
+//! - [`colorcal`] (the CRS ColorCAL MkII colorimeter) and [`ls100`] (the
+//!   Konica Minolta LS-100 luminance meter and CS-100A chroma meter): the
+//!   same layers for instruments without a spectrum, whose replies open with
+//!   an `OKnn`/`ERnn` [`status_word`].
 //! - [`averaging`]: the retry-and-average loop above every driver.
-//! - [`sim`]: the simulated PR-650, PR-655 and PR-670 on real pseudo-terminals.
+//! - [`sim`]: the simulated PR-650, PR-655, PR-670, ColorCAL MkII, LS-100 and
+//!   CS-100A on real pseudo-terminals.
 //!
 //! The one loop that owns an instrument for async callers (a dedicated
 //! thread, measurements one at a time, each sample stored as it is taken) is
