@@ -1,5 +1,6 @@
-//! `lightbooth measure`: one averaged measurement from a PR-650 (real or
-//! simulated), printed as a summary, JSON or CSV.
+//! `lightbooth measure`: one averaged measurement from any model lightbooth
+//! drives (real or simulated), printed as a summary, JSON or CSV (CSV only
+//! from a spectroradiometer).
 
 use std::path::PathBuf;
 use std::time::UNIX_EPOCH;
@@ -15,7 +16,7 @@ pub struct MeasureArgs {
     /// Serial device (a PR-650: /dev/ttyUSB0; a PR-655/PR-670: /dev/ttyACM0; or the path a `mock-…` command prints).
     #[arg(long)]
     port: Option<String>,
-    /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml); the model's defaults apply without it.
+    /// Instrument settings (instruments/pr650.toml, pr655.toml, pr670.toml, colorcal.toml, ls100.toml); the model's defaults apply without it.
     #[arg(long, value_name = "FILE.toml")]
     config: Option<PathBuf>,
     /// The instrument model: pr650, pr655, pr670, cs2000, cs2000a or cs3000 (default: the --config file's, else pr650).

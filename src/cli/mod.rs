@@ -7,8 +7,10 @@ mod color;
 mod display_resolution;
 mod experiment;
 mod measure;
+mod mock_colorcal;
 mod mock_cr250;
 mod mock_cs2000;
+mod mock_ls100;
 mod mock_pr650;
 mod mock_pr655;
 mod render;
@@ -54,6 +56,12 @@ enum Command {
     /// A simulated Colorimetry Research CR-250 (or CR-300) on a pseudo-terminal; prints the device path first.
     #[command(name = "mock-cr250")]
     MockCr250(mock_cr250::MockCr250Args),
+    /// A simulated CRS ColorCAL MkII on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-colorcal")]
+    MockColorCal(mock_colorcal::MockColorCalArgs),
+    /// A simulated Konica Minolta LS-100 or CS-100A on a pseudo-terminal; prints the device path first.
+    #[command(name = "mock-ls100")]
+    MockLs100(mock_ls100::MockLs100Args),
     /// Render a scene in every colour coding at once and measure its targets.
     Render(render::RenderArgs),
     /// The lab daemon: instrument, store, renderer, REST API and dashboards.
@@ -93,6 +101,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MockPr670(args) => mock_pr655::run(args, lightbooth::instrument::pr655::Model::Pr670),
         Command::MockCs2000(args) => mock_cs2000::run(args),
         Command::MockCr250(args) => mock_cr250::run(args),
+        Command::MockColorCal(args) => mock_colorcal::run(args),
+        Command::MockLs100(args) => mock_ls100::run(args),
         Command::Render(args) => render::run(args),
         Command::Serve(args) => serve::run(args),
         Command::Worker(args) => worker::run(args),

@@ -88,12 +88,7 @@ impl MockSlot {
     fn power_on(&self) -> std::io::Result<String> {
         let shown = self.shown.lock().unwrap_or_else(|p| p.into_inner()).clone();
         let truth = shown.unwrap_or_else(default_truth);
-        let mut config = match &self.settings.personality {
-            crate::instrument::sim::Personality::Pr650 => MockConfig::new(truth),
-            crate::instrument::sim::Personality::Pr655(switches) => MockConfig::pr655(truth, switches.clone()),
-            crate::instrument::sim::Personality::Cs2000(model) => MockConfig::cs2000(truth, *model),
-            crate::instrument::sim::Personality::Cr250(model) => MockConfig::cr250(truth, *model),
-        };
+        let mut config = MockConfig::for_personality(truth, self.settings.personality.clone());
         config.speed = self.settings.speed;
         config.faults = self.settings.faults.clone();
         // The daemon talks to it at once, so the 5 s remote window is kept as the real one is.
@@ -678,6 +673,7 @@ fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool
         }
         InstrumentError::NotInRemoteMode { .. }
         | InstrumentError::NoBanner { .. }
+        | InstrumentError::Silent { .. }
         | InstrumentError::Unresponsive { .. } => (MeasurementState::Interrupted, true),
         InstrumentError::NoReply { .. }
         | InstrumentError::Timeout { .. }

@@ -23,8 +23,13 @@
 //!   what is particular to the model (entering remote mode, identifying the
 //!   unit, its setup, how one sample is measured and read, and how it reacts
 //!   to a bad code) over the shared session.
+//! - [`colorcal`] (the CRS ColorCAL MkII colorimeter) and [`ls100`] (the
+//!   Konica Minolta LS-100 luminance meter and CS-100A chroma meter): the
+//!   same layers for instruments without a spectrum, whose replies open with
+//!   an `OKnn`/`ERnn` [`status_word`].
 //! - [`averaging`]: the retry-and-average loop above every driver.
-//! - [`sim`]: the simulated PR-650, PR-655 and PR-670 on real pseudo-terminals.
+//! - [`sim`]: the simulated PR-650, PR-655, PR-670, ColorCAL MkII, LS-100 and
+//!   CS-100A on real pseudo-terminals.
 //!
 //! The one loop that owns an instrument for async callers (a dedicated
 //! thread, measurements one at a time, each sample stored as it is taken) is
@@ -35,14 +40,17 @@
 //! do not depend on the model.
 
 pub mod averaging;
+pub mod colorcal;
 pub mod cr250;
 pub mod cs2000;
 pub mod link;
+pub mod ls100;
 mod models;
 pub mod pr650;
 pub mod pr655;
 pub mod reply;
 pub mod sim;
+pub mod status_word;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -237,7 +245,7 @@ pub enum InstrumentError {
         needed: usize,
         hint: &'static str,
     },
-    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600)")]
+    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600 for the Photo Research units, 4800 for the Minolta meters)")]
     Protocol { command: String, detail: String },
     #[error(
         "the reply to `{command}` stopped after {lines} of {expected} lines (nothing for {gap_ms} ms): \
@@ -269,6 +277,15 @@ pub enum InstrumentError {
         model: &'static str,
         attempts: u32,
         waited_ms: u64,
+    },
+    #[error("the {model} did not answer `{command}` in {attempts} attempt(s) of {waited_ms} ms: {advice}")]
+    Silent {
+        model: &'static str,
+        command: String,
+        attempts: u32,
+        waited_ms: u64,
+        /// What to check, in the model's terms (communication mode, USB cable).
+        advice: &'static str,
     },
     #[error("the instrument refused `{command}` with status {code}. Fix that setting or command")]
     Refused { command: String, code: QualityCode },

@@ -15,8 +15,10 @@
 
 use std::path::Path;
 
+use super::colorcal::ColorCalSettings;
 use super::cr250::{self, Cr250Settings};
 use super::cs2000::{self, Cs2000Settings};
+use super::ls100::Ls100Settings;
 use super::pr655::{Model, Pr655Settings};
 use super::{Capabilities, InstrumentError, Pr650Settings, Spectroradiometer};
 
@@ -39,7 +41,7 @@ pub fn native_grid_of_length(len: usize) -> Option<crate::spectrum::Grid> {
 
 /// Every model lightbooth drives, as `--model` and a settings file's `model` key name it.
 pub const MODEL_FLAGS: &[&str] = &[
-    "pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000", "cr250", "cr300",
+    "pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000", "cr250", "cr300", "colorcal", "ls100", "cs100a",
 ];
 
 /// The settings of one instrument, by model.
@@ -52,6 +54,10 @@ pub enum InstrumentSettings {
     Cs2000(Cs2000Settings),
     /// A CR-250 or CR-300 (the model is in the settings).
     Cr250(Cr250Settings),
+    /// A CRS ColorCAL MkII colorimeter.
+    ColorCal(ColorCalSettings),
+    /// A Konica Minolta LS-100 or CS-100A (the model is in the settings).
+    Ls100(Ls100Settings),
 }
 
 impl Default for InstrumentSettings {
@@ -90,6 +96,9 @@ impl InstrumentSettings {
             "cs3000" => Cs2000Settings::from_toml_str(&rest, cs2000::Model::Cs3000).map(InstrumentSettings::Cs2000),
             "cr250" => Cr250Settings::from_toml_str(&rest, cr250::Model::Cr250).map(InstrumentSettings::Cr250),
             "cr300" => Cr250Settings::from_toml_str(&rest, cr250::Model::Cr300).map(InstrumentSettings::Cr250),
+            "colorcal" | "colorcalmkii" => ColorCalSettings::from_toml_str(&rest).map(InstrumentSettings::ColorCal),
+            "ls100" => Ls100Settings::from_toml_str(&rest, super::ls100::Model::Ls100).map(InstrumentSettings::Ls100),
+            "cs100a" => Ls100Settings::from_toml_str(&rest, super::ls100::Model::Cs100a).map(InstrumentSettings::Ls100),
             _ => Err(format!(
                 "key `model`: \"{model}\" is not a model lightbooth drives; use one of {}",
                 MODEL_FLAGS.join(", ")
@@ -98,7 +107,7 @@ impl InstrumentSettings {
     }
 
     /// The defaults of a model named as on the command line (`pr650`,
-    /// `pr655`, `pr670`, `cs2000`, …; `PR-670` too).
+    /// `pr655`, `pr670`, `cs2000`, `colorcal`, …; `PR-670` too).
     pub fn defaults_for(model: &str) -> Result<InstrumentSettings, String> {
         InstrumentSettings::from_toml_str(&format!("model = \"{}\"", model.escape_default()))
     }
@@ -112,6 +121,8 @@ impl InstrumentSettings {
             }
             InstrumentSettings::Cs2000(s) => super::sim::Personality::Cs2000(s.model()),
             InstrumentSettings::Cr250(s) => super::sim::Personality::Cr250(s.model()),
+            InstrumentSettings::ColorCal(_) => super::sim::Personality::ColorCal,
+            InstrumentSettings::Ls100(s) => super::sim::Personality::Ls100(s.model()),
         }
     }
 
@@ -122,6 +133,8 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => s.capabilities(),
             InstrumentSettings::Cs2000(s) => s.capabilities(),
             InstrumentSettings::Cr250(s) => s.capabilities(),
+            InstrumentSettings::ColorCal(s) => s.capabilities(),
+            InstrumentSettings::Ls100(s) => s.capabilities(),
         }
     }
 
@@ -132,44 +145,26 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => s.port.as_deref(),
             InstrumentSettings::Cs2000(s) => s.port.as_deref(),
             InstrumentSettings::Cr250(s) => s.port.as_deref(),
+            InstrumentSettings::ColorCal(s) => s.port.as_deref(),
+            InstrumentSettings::Ls100(s) => s.port.as_deref(),
         }
     }
 
     /// Overrides the file's samples per measurement and extra attempts.
     pub fn set_samples(&mut self, samples: Option<usize>, retries: Option<usize>) {
-        match self {
-            InstrumentSettings::Pr650(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
-            InstrumentSettings::Pr655(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
-            InstrumentSettings::Cs2000(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
-            InstrumentSettings::Cr250(s) => {
-                if let Some(n) = samples {
-                    s.samples = n;
-                }
-                if let Some(r) = retries {
-                    s.retries = r;
-                }
-            }
+        let (s, r) = match self {
+            InstrumentSettings::Pr650(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Pr655(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Cs2000(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Cr250(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::ColorCal(s) => (&mut s.samples, &mut s.retries),
+            InstrumentSettings::Ls100(s) => (&mut s.samples, &mut s.retries),
+        };
+        if let Some(n) = samples {
+            *s = n;
+        }
+        if let Some(n) = retries {
+            *r = n;
         }
     }
 
@@ -180,6 +175,8 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => s.validate(),
             InstrumentSettings::Cs2000(s) => s.validate(),
             InstrumentSettings::Cr250(s) => s.validate(),
+            InstrumentSettings::ColorCal(s) => s.validate(),
+            InstrumentSettings::Ls100(s) => s.validate(),
         }
     }
 
@@ -191,6 +188,8 @@ impl InstrumentSettings {
             InstrumentSettings::Pr655(s) => super::pr655::open_pr655(port, s),
             InstrumentSettings::Cs2000(s) => cs2000::open_cs2000(port, s),
             InstrumentSettings::Cr250(s) => cr250::open_cr250(port, s),
+            InstrumentSettings::ColorCal(s) => super::colorcal::open_colorcal(port, s),
+            InstrumentSettings::Ls100(s) => super::ls100::open_ls100(port, s),
         }
     }
 }

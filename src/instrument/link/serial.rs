@@ -67,17 +67,24 @@ impl Framing {
 }
 
 impl std::fmt::Display for Framing {
+    /// `8N1`, `7E2`, `8N2`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let bits = match self.data_bits {
+            DataBits::Five => 5,
+            DataBits::Six => 6,
+            DataBits::Seven => 7,
+            DataBits::Eight => 8,
+        };
         let parity = match self.parity {
             Parity::None => 'N',
-            Parity::Even => 'E',
             Parity::Odd => 'O',
+            Parity::Even => 'E',
         };
         let stop = match self.stop_bits {
             StopBits::One => 1,
             StopBits::Two => 2,
         };
-        write!(f, "{}{parity}{stop}", u8::from(self.data_bits))
+        write!(f, "{bits}{parity}{stop}")
     }
 }
 
@@ -162,6 +169,22 @@ impl SerialLink {
                 })
             }
         };
+        // Some kernels take 7 data bits or parity on a pty without an error
+        // and keep 8N: read the framing back, so a fallback is never silent.
+        let actual = port.data_bits().and_then(|data_bits| {
+            Ok(Framing {
+                data_bits,
+                parity: port.parity()?,
+                stop_bits: port.stop_bits()?,
+            })
+        });
+        match actual {
+            Ok(actual) if actual != settings.framing => tracing::warn!(port = path, wanted = %settings.framing,
+                using = %actual, "the port did not take this framing (a pseudo-terminal keeps 8 bits without \
+                parity; a real serial port gets the instrument's)"),
+            Ok(_) => {}
+            Err(e) => tracing::debug!(port = path, error = %e, "cannot read the framing back"),
+        }
         let mut link = SerialLink {
             port,
             path: path.to_string(),

@@ -36,6 +36,10 @@ pub enum Personality {
     Cs2000(crate::instrument::cs2000::Model),
     /// A Colorimetry Research CR-250 or CR-300 (`docs/src/instruments/cr250.md`).
     Cr250(crate::instrument::cr250::Model),
+    /// A CRS ColorCAL MkII (`super::colorcal`).
+    ColorCal,
+    /// A Konica Minolta LS-100 or CS-100A (`super::ls100`).
+    Ls100(crate::instrument::ls100::Model),
 }
 
 impl Personality {
@@ -46,6 +50,8 @@ impl Personality {
             Personality::Pr655(switches) => switches.model.name(),
             Personality::Cs2000(model) => model.name(),
             Personality::Cr250(model) => model.name(),
+            Personality::ColorCal => crate::instrument::colorcal::MODEL_NAME,
+            Personality::Ls100(model) => model.name(),
         }
     }
 }
@@ -145,6 +151,44 @@ impl MockConfig {
             model,
             serial: "67065106".into(),
             ..MockConfig::new(truth)
+        }
+    }
+
+    /// A simulated ColorCAL MkII: USB (replies in one write), no power-on
+    /// window, an eight-digit serial.
+    pub fn colorcal(truth: Spectrum) -> MockConfig {
+        MockConfig {
+            personality: Personality::ColorCal,
+            remote_window_ms: None,
+            pace_output: false,
+            serial: "10003154".into(),
+            ..MockConfig::new(truth)
+        }
+    }
+
+    /// A simulated LS-100 or CS-100A in communication mode; an `error-code`
+    /// fault answers `ER` + [`MockConfig::error_code`] (default `ER10`,
+    /// measuring range over).
+    pub fn ls100(truth: Spectrum, model: crate::instrument::ls100::Model) -> MockConfig {
+        MockConfig {
+            personality: Personality::Ls100(model),
+            remote_window_ms: None,
+            pace_output: false,
+            error_code: 10,
+            serial: String::new(),
+            ..MockConfig::new(truth)
+        }
+    }
+
+    /// The default simulator of `personality` aimed at `truth`.
+    pub fn for_personality(truth: Spectrum, personality: Personality) -> MockConfig {
+        match personality {
+            Personality::Pr650 => MockConfig::new(truth),
+            Personality::Pr655(switches) => MockConfig::pr655(truth, switches),
+            Personality::Cs2000(model) => MockConfig::cs2000(truth, model),
+            Personality::Cr250(model) => MockConfig::cr250(truth, model),
+            Personality::ColorCal => MockConfig::colorcal(truth),
+            Personality::Ls100(model) => MockConfig::ls100(truth, model),
         }
     }
 }

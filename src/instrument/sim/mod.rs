@@ -1,8 +1,10 @@
-//! The simulated instruments: a PR-650, PR-655, PR-670 or a Konica Minolta
+//! The simulated instruments: a PR-650, PR-655, PR-670, a Konica Minolta
 //! CS-2000/CS-2000A/CS-3000 or a Colorimetry Research CR-250/CR-300 on a real
-//! pseudo-terminal, for tests, for the
-//! daemon's `serve --mock`, and for `lightbooth mock-pr650` (`mock-pr655`,
-//! `mock-pr670`, `mock-cs2000`, `mock-cr250`).
+//! pseudo-terminal, for tests, for the daemon's `serve --mock`, and for
+//! `lightbooth mock-pr650` (`mock-pr655`, `mock-pr670`, `mock-cs2000`,
+//! `mock-cr250`); and the colorimeters, a ColorCAL MkII (`colorcal`,
+//! `lightbooth mock-colorcal`) and an LS-100 or CS-100A (`ls100`,
+//! `lightbooth mock-ls100`), on the same unit machinery.
 //!
 //! [`spawn_mock`] opens a pty pair, runs the simulated instrument on the
 //! master end on its own thread, and hands back the path of the device end,
@@ -28,10 +30,12 @@
 //! replies, faults on a spectrum reply), `pr650`, `pr655`, `cs2000` and `cr250` the
 //! firmwares over it.
 
+mod colorcal;
 pub mod config;
 mod cr250;
 mod cs2000;
 pub mod faults;
+mod ls100;
 pub mod model;
 mod pr650;
 mod pr655;
@@ -97,6 +101,12 @@ pub fn spawn_mock(config: MockConfig) -> std::io::Result<MockHandle> {
             Personality::Cs2000(model) => std::thread::Builder::new()
                 .name("mock-cs2000".into())
                 .spawn(move || unit::run(cs2000::Device::new(config, model, master, slave, shared, stop)))?,
+            Personality::ColorCal => std::thread::Builder::new()
+                .name("mock-colorcal".into())
+                .spawn(move || unit::run(colorcal::Device::new(config, master, slave, shared, stop)))?,
+            Personality::Ls100(model) => std::thread::Builder::new()
+                .name("mock-ls100".into())
+                .spawn(move || unit::run(ls100::Device::new(config, model, master, slave, shared, stop)))?,
         }
     };
     tracing::info!(device = %device_path.display(), "simulated {name} powered on");

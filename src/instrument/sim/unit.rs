@@ -225,6 +225,14 @@ impl Unit {
         }
     }
 
+    /// The baud rate and stop bits the host set on its end of the pty: all
+    /// a simulator can check of the line (a pty takes neither 7 data bits
+    /// nor parity). `None` when they cannot be read.
+    pub(super) fn host_line(&self) -> Option<(u32, serialport::StopBits)> {
+        let port = self.keepalive.as_ref()?;
+        Some((port.baud_rate().ok()?, port.stop_bits().ok()?))
+    }
+
     /// Discards what the host sent meanwhile.
     fn clear_input(&mut self) {
         if let Some(port) = self.port.as_mut() {
