@@ -56,10 +56,10 @@ async fn measured(store: &Store, field: &str, id: i64) -> Result<(MeasurementDet
             m.summary.state.as_str()
         )));
     }
-    let grid = m
-        .wavelength_nm
-        .clone()
-        .ok_or_else(|| MeasuredError::Invalid(format!("field `{field}`: measurement {id} has no wavelength grid")))?;
+    let grid = crate::lab::measurement::stored_spectrum(&m, "a reflectance or a lamp's spectrum")
+        .map_err(|e| MeasuredError::Invalid(format!("field `{field}`: {e}")))?
+        .0
+        .to_vec();
     let good: Vec<&[f64]> = m
         .samples
         .iter()

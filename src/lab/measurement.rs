@@ -276,3 +276,40 @@ pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
         luminance_cv: avg.luminance_cv,
     }
 }
+
+/// The spectroradiometers lightbooth drives, for a refusal's advice.
+pub const SPECTRORADIOMETERS: &str = "a PR-650, PR-655, PR-670, CS-2000, CS-2000A, CS-3000, CR-250 or CR-300";
+
+/// The grid and mean spectrum of a stored measurement, for `what` (a
+/// reflectance, a display profile, …) that needs one; or why it has none,
+/// with the instrument that took it and what it measures (a colorimeter's
+/// XYZ, a luminance meter's Y), and which instruments would do.
+pub fn stored_spectrum<'a>(
+    m: &'a crate::store::MeasurementDetail,
+    what: &str,
+) -> Result<(&'a [f64], &'a [f64]), String> {
+    if let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) {
+        return Ok((wl, radiance));
+    }
+    let id = m.summary.id;
+    let model = m.summary.instrument_model.as_deref().unwrap_or("instrument");
+    let measures = if m
+        .samples
+        .iter()
+        .any(|s| s.instrument_xyz.is_some() && s.radiance.is_none())
+    {
+        "XYZ"
+    } else if m.samples.iter().all(|s| s.radiance.is_none()) && m.summary.luminance_cd_m2.is_some() {
+        "luminance"
+    } else {
+        "no spectrum that completed"
+    };
+    Err(if measures == "no spectrum that completed" {
+        format!("measurement {id} has no mean spectrum; {what} needs one")
+    } else {
+        format!(
+            "measurement {id} has no spectrum: the {model} that took it measures {measures} only, and {what} needs \
+             a spectral radiance; measure it with a spectroradiometer ({SPECTRORADIOMETERS})"
+        )
+    })
+}

@@ -97,12 +97,11 @@ pub async fn create_display_profile(
                 m.summary.state.as_str()
             )));
         }
-        let (Some(wavelength_nm), Some(radiance)) = (m.wavelength_nm, m.radiance) else {
-            return Err(ApiError::BadRequest(format!(
-                "field `patches[{i}]`: measurement {} has no mean spectrum",
-                p.measurement_id
-            )));
-        };
+        // A profile from a colorimeter's XYZ or a luminance meter's gamma is not built yet.
+        let (wavelength_nm, radiance) =
+            crate::lab::measurement::stored_spectrum(&m, "this display profile (fitted to spectra)")
+                .map(|(wl, r)| (wl.to_vec(), r.to_vec()))
+                .map_err(|e| ApiError::BadRequest(format!("field `patches[{i}]`: {e}")))?;
         patches.push(MeasuredPatch {
             drive: p.drive,
             wavelength_nm,

@@ -292,6 +292,7 @@ pub async fn get_measurement(
     params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv")))]
 pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
+    refuse_without_spectra(&m, "a spectrum CSV")?;
     let wl = sample_grid(&m)?;
     let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
     if let (Some(mean), Some(sd)) = (&m.radiance, &m.radiance_sd) {
@@ -367,6 +368,7 @@ pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>)
     params(("id" = i64, Path)), responses((status = 200, content_type = "image/svg+xml")))]
 pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
+    refuse_without_spectra(&m, "a spectral chart")?;
     let wl = sample_grid(&m).unwrap_or_default();
     let samples: Vec<Vec<f64>> = m.samples.iter().filter_map(|s| s.radiance.clone()).collect();
     let title = match (&m.summary.scene, &m.summary.target) {
@@ -376,6 +378,23 @@ pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>)
     let svg = charts::spectrum_chart(&title, &wl, m.radiance.as_deref(), m.radiance_sd.as_deref(), &samples)
         .map_err(ApiError::Internal)?;
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+}
+
+/// A measurement by an instrument that gives no spectrum (a colorimeter, a
+/// luminance meter), when `what` is a spectral view of it: 409 naming the
+/// instrument and what it measures. A spectroradiometer's measurement with
+/// no good sample yet is still shown (empty).
+fn refuse_without_spectra(m: &MeasurementDetail, what: &str) -> Result<(), ApiError> {
+    let spectral = m.radiance.is_some() || m.samples.iter().any(|s| s.radiance.is_some());
+    let non_spectral = m.samples.iter().any(|s| s.usable && s.radiance.is_none());
+    if spectral || !non_spectral {
+        return Ok(());
+    }
+    Err(ApiError::Conflict(
+        crate::lab::measurement::stored_spectrum(m, what)
+            .err()
+            .unwrap_or_default(),
+    ))
 }
 
 /// The grid of a measurement: stored with the average, or, for one that
