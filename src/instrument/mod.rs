@@ -36,6 +36,7 @@
 
 pub mod averaging;
 pub mod cs2000;
+pub mod discovery;
 pub mod link;
 mod models;
 pub mod pr650;
