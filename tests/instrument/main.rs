@@ -8,6 +8,7 @@
 mod common;
 
 mod cli_measure;
+mod discovery;
 mod instrument_faults;
 mod pr655_driver;
 mod pr655_simulator;
