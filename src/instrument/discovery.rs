@@ -227,7 +227,7 @@ pub fn list_ports(sysfs: &Path) -> Result<Vec<SerialPortInfo>, ListingError> {
         .filter_map(Result::ok)
         .filter_map(|e| describe(sysfs, &e.file_name().to_string_lossy()))
         .collect();
-    ports.sort_by(|a, b| natural_key(&a.name).cmp(&natural_key(&b.name)));
+    ports.sort_by_key(|p| natural_key(&p.name));
     Ok(ports)
 }
 

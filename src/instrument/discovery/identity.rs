@@ -445,7 +445,7 @@ mod tests {
                 .map(|_| {
                     seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                     let r = (seed >> 33) as usize;
-                    if r % 7 == 0 {
+                    if r.is_multiple_of(7) {
                         (r >> 3) as u8
                     } else {
                         alphabet[r % alphabet.len()]
