@@ -368,11 +368,16 @@ fn still_exclusive(port: &TTYPort) -> bool {
 }
 
 fn probe_one(path: &str, deadline: Duration) -> (ProbeResult, Duration) {
+    probe_with(path, Family::UNKNOWN_PORT_ORDER.to_vec(), deadline)
+}
+
+/// One port asked `plan`, within `deadline` and the margin.
+fn probe_with(path: &str, plan: Vec<Family>, deadline: Duration) -> (ProbeResult, Duration) {
     let started = Instant::now();
     let outcome = discovery::probe_ports(
         &[ProbeTarget {
             path: path.to_string(),
-            plan: Ok(Family::UNKNOWN_PORT_ORDER.to_vec()),
+            plan: Ok(plan),
         }],
         deadline,
     )
@@ -591,4 +596,38 @@ fn four_bad_ports_and_a_good_one_are_probed_in_about_one_deadline() {
     assert_eq!(status, ["silent", "unrecognised", "unrecognised", "busy", "identified"]);
     assert_eq!(rows[4]["probe"]["model"], "PR-670");
     assert_eq!(rows[4]["probe"]["serial"], "67065106");
+}
+
+// ---- the simulated CS-2000 (the library's simulator, on a real pty) --------
+
+/// The CS-2000A is found by `IDDR` among every family's questions, and the
+/// probe never writes its flash (the simulator counts every write).
+#[test]
+fn a_simulated_cs2000a_is_found_by_its_identity_without_a_flash_write() {
+    use lightbooth::instrument::cs2000::Model;
+    use lightbooth::instrument::sim::{spawn_mock, MockConfig};
+
+    let mut config = MockConfig::cs2000(crate::common::pr655_wire::d65_radiance(), Model::Cs2000A);
+    config.speed = 0.0;
+    let mock = spawn_mock(config).unwrap();
+    let path = mock.device_path().to_str().unwrap().to_string();
+    for plan in [Family::UNKNOWN_PORT_ORDER.to_vec(), vec![Family::Cs2000]] {
+        let asked = plan.len();
+        let (result, took) = probe_with(&path, plan, Duration::from_secs(2));
+        println!("simulated CS-2000A ({asked} families asked): {took:?}: {result}");
+        match result {
+            ProbeResult::Identified(id) => {
+                assert_eq!(id.family, Family::Cs2000);
+                assert_eq!(id.model, "CS-2000A");
+                assert_eq!(id.serial.as_deref(), Some("20101234"));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert_eq!(
+        mock.flash_writes(),
+        0,
+        "an identity probe must never write the CS-2000's flash"
+    );
+    assert_eq!(mock.measurements(), 0, "an identity probe must never measure");
 }
