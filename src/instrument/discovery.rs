@@ -8,8 +8,9 @@
 //! - this file: the listing. Linux names every serial port under
 //!   `/sys/class/tty`; a port counts when its `device` link resolves:
 //!   `ttyUSB*` (USB-serial adapters), `ttyACM*` (USB CDC-ACM instruments)
-//!   and `ttyS*` only with a driver other than `serial8250`, whose
-//!   placeholders exist whether or not a UART does. From the tty's device
+//!   and `ttyS*` only when a UART is there: its `type` is not 0
+//!   (`PORT_UNKNOWN`), or, on kernels without that file, its driver is not
+//!   `serial8250`, whose placeholders exist whether or not a UART does. From the tty's device
 //!   directory the listing walks up to the USB device directory (the first
 //!   with `idVendor`) and reads `idVendor`, `idProduct`, `serial`,
 //!   `manufacturer` and `product`. [`suggest`] turns those into a family.
@@ -250,7 +251,7 @@ fn describe(sysfs: &Path, name: &str) -> Option<SerialPortInfo> {
     let driver = std::fs::canonicalize(device.join("driver"))
         .ok()
         .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()));
-    if name.starts_with("ttyS") && matches!(driver.as_deref(), None | Some("serial8250")) {
+    if name.starts_with("ttyS") && is_placeholder_uart(&sysfs.join("class/tty").join(name), driver.as_deref()) {
         return None;
     }
     let root = std::fs::canonicalize(sysfs).unwrap_or_else(|_| sysfs.to_path_buf());
@@ -263,6 +264,17 @@ fn describe(sysfs: &Path, name: &str) -> Option<SerialPortInfo> {
         usb,
         suggestion,
     })
+}
+
+/// Whether a `ttyS*` is one of the kernel's placeholders without a UART:
+/// its `type` is 0 (`PORT_UNKNOWN`; since Linux 6.5 every 8250 port's
+/// driver is `port`, placeholders included), or, without a `type` file,
+/// its driver is `serial8250` (older kernels) or none.
+fn is_placeholder_uart(class_dir: &Path, driver: Option<&str>) -> bool {
+    match std::fs::read_to_string(class_dir.join("type")) {
+        Ok(kind) => kind.trim() == "0",
+        Err(_) => matches!(driver, None | Some("serial8250")),
+    }
 }
 
 /// The first directory at or above `device` (inside `root`) with an

@@ -156,7 +156,7 @@ fn fake_sysfs(root: &Path) {
     ] {
         add_usb(root, &fake);
     }
-    // Placeholder UARTs (serial8250) are not ports; a UART with its own driver is.
+    // Placeholder UARTs (serial8250, or type 0) are not ports; a UART is.
     let platform = root.join("devices/platform/serial8250/tty/ttyS0");
     std::fs::create_dir_all(&platform).unwrap();
     std::fs::create_dir_all(root.join("bus/platform/drivers/serial8250")).unwrap();
@@ -167,6 +167,14 @@ fn fake_sysfs(root: &Path) {
     std::fs::create_dir_all(root.join("bus/pci/drivers/exar_serial")).unwrap();
     symlink(root.join("bus/pci/drivers/exar_serial"), pci_uart.join("driver")).unwrap();
     add_tty(root, "ttyS4", Some(&pci_uart));
+    write(&root.join("class/tty/ttyS4/type"), "4\n");
+    // Since Linux 6.5 every 8250 port's driver is `port`; a placeholder's type is 0.
+    let modern = root.join("devices/platform/serial8250/serial8250:0/serial8250:0.1");
+    std::fs::create_dir_all(&modern).unwrap();
+    std::fs::create_dir_all(root.join("bus/serial-base/drivers/port")).unwrap();
+    symlink(root.join("bus/serial-base/drivers/port"), modern.join("driver")).unwrap();
+    add_tty(root, "ttyS1", Some(&modern));
+    write(&root.join("class/tty/ttyS1/type"), "0\n");
     // Virtual consoles have no device; a vanished adapter's link dangles.
     add_tty(root, "tty0", None);
     add_tty(root, "ttyUSB9", Some(&root.join("devices/gone/ttyUSB9")));
