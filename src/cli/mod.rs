@@ -6,6 +6,7 @@ mod calibrate;
 mod color;
 mod display_resolution;
 mod experiment;
+mod instruments;
 mod measure;
 mod mock_colorcal;
 mod mock_cr250;
@@ -82,6 +83,8 @@ enum Command {
     Experiment(experiment::ExperimentCommand),
     /// A render worker: claims the comparisons, renders and studies daemons (`serve --renders workers`) queue in the shared PostgreSQL database.
     Worker(worker::WorkerArgs),
+    /// The serial ports, what their USB ids suggest is attached, and (--probe) who answers, never hanging.
+    Instruments(instruments::InstrumentsArgs),
 }
 
 impl Cli {
@@ -112,6 +115,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Stimulus(args) => stimulus::run(args),
         Command::DisplayResolution(args) => display_resolution::run(args),
         Command::Experiment(cmd) => experiment::run(cmd),
+        Command::Instruments(args) => instruments::run(args),
     }
 }
 

@@ -43,6 +43,7 @@ pub mod averaging;
 pub mod colorcal;
 pub mod cr250;
 pub mod cs2000;
+pub mod discovery;
 pub mod link;
 pub mod ls100;
 mod models;

@@ -12,6 +12,7 @@ mod colorcal;
 mod colorimeter_support;
 mod cr250;
 mod cs2000;
+mod discovery;
 mod instrument_faults;
 mod ls100;
 mod pr655_driver;
