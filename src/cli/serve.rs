@@ -43,9 +43,15 @@ pub struct ServeArgs {
     /// File holding the write token (else LIGHTBOOTH_TOKEN, else one is generated).
     #[arg(long)]
     token_file: Option<PathBuf>,
-    /// Instrument settings (port, timeouts, retries, samples).
-    #[arg(long)]
+    /// Instrument settings (port, timeouts, retries, samples), or `auto`: probe the serial ports
+    /// (as `lightbooth instruments --probe`) and drive the one instrument that identifies itself,
+    /// with its model's defaults.
+    #[arg(long, value_name = "FILE.toml|auto")]
     instrument: Option<PathBuf>,
+    /// With --instrument auto: also probe this port (one sysfs does not list, e.g. a simulator's
+    /// pseudo-terminal). Repeatable.
+    #[arg(long = "probe-port", value_name = "PATH", requires = "instrument")]
+    probe_ports: Vec<String>,
     /// Time scale of the simulated PR-650: 1 = the real instrument's timing, 0 = instant.
     #[arg(long, value_parser = super::time_scale)]
     mock_speed: Option<f64>,
@@ -186,32 +192,49 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
         .or(file.instrument)
         .unwrap_or_else(|| "instruments/pr650.toml".into());
     let named_model = args.mock.as_deref().filter(|m| *m != "settings");
-    let instrument = match (instrument_path.exists(), named_model) {
-        (true, None) => InstrumentSettings::from_toml_file(&instrument_path)?,
-        (true, Some(model)) => {
-            let file = InstrumentSettings::from_toml_file(&instrument_path)?;
-            let wanted = InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?;
-            let explicit_file = explicit_instrument_file;
-            if wanted.capabilities().model == file.capabilities().model {
-                file
-            } else {
-                anyhow::ensure!(
-                    !explicit_file,
-                    "--mock {model} but {} is a {} settings file: drop one of them",
-                    instrument_path.display(),
-                    file.capabilities().model
-                );
-                wanted
+    let instrument = if instrument_path == Path::new("auto") {
+        anyhow::ensure!(
+            args.mock.is_none(),
+            "--instrument auto looks for a real instrument; with --mock, name the model: --mock MODEL"
+        );
+        let (port, flag) = lightbooth::instrument::discovery::find_one_instrument(
+            Path::new("/sys"),
+            &args.probe_ports,
+            std::time::Duration::from_secs(2),
+        )
+        .map_err(|e| anyhow::anyhow!("--instrument auto: {e}"))?;
+        eprintln!("--instrument auto: found a {flag} on {port}; driving it with the model's default settings");
+        let mut settings = InstrumentSettings::defaults_for(flag).map_err(anyhow::Error::msg)?;
+        settings.set_port(port);
+        settings
+    } else {
+        match (instrument_path.exists(), named_model) {
+            (true, None) => InstrumentSettings::from_toml_file(&instrument_path)?,
+            (true, Some(model)) => {
+                let file = InstrumentSettings::from_toml_file(&instrument_path)?;
+                let wanted = InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?;
+                let explicit_file = explicit_instrument_file;
+                if wanted.capabilities().model == file.capabilities().model {
+                    file
+                } else {
+                    anyhow::ensure!(
+                        !explicit_file,
+                        "--mock {model} but {} is a {} settings file: drop one of them",
+                        instrument_path.display(),
+                        file.capabilities().model
+                    );
+                    wanted
+                }
             }
-        }
-        (false, Some(model)) => InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?,
-        (false, None) => {
-            anyhow::ensure!(
-                args.mock.is_some(),
-                "instrument settings {} not found",
-                instrument_path.display()
-            );
-            InstrumentSettings::default()
+            (false, Some(model)) => InstrumentSettings::defaults_for(model).map_err(anyhow::Error::msg)?,
+            (false, None) => {
+                anyhow::ensure!(
+                    args.mock.is_some(),
+                    "instrument settings {} not found",
+                    instrument_path.display()
+                );
+                InstrumentSettings::default()
+            }
         }
     };
     let booth = match (args.booth, file.booth) {

@@ -357,3 +357,80 @@ mod tests {
         assert_eq!(names, ["ttyACM0", "ttyUSB1", "ttyUSB9", "ttyUSB10"]);
     }
 }
+
+impl Identity {
+    /// The `--model` flag of the model this identity names (`pr670`,
+    /// `cs2000a`, `cr250`, `colorcal`), when lightbooth drives it.
+    pub fn model_flag(&self) -> Option<&'static str> {
+        let flag = self
+            .model
+            .to_ascii_lowercase()
+            .replace(['-', ' '], "")
+            .replace("mkii", "");
+        super::MODEL_FLAGS.iter().copied().find(|f| *f == flag)
+    }
+}
+
+/// The one instrument attached, for `serve --instrument auto`: lists the
+/// ports (under `sysfs`, plus `extra` ports), probes them in parallel within
+/// `deadline`, and returns the port and model flag of the single instrument
+/// that identified itself. None, or several, is an error that lists what
+/// each port answered and says what to do.
+pub fn find_one_instrument(
+    sysfs: &Path,
+    extra: &[String],
+    deadline: std::time::Duration,
+) -> Result<(String, &'static str), String> {
+    let mut ports = list_ports(sysfs).or_else(|e| {
+        if extra.is_empty() {
+            Err(e.to_string())
+        } else {
+            Ok(Vec::new())
+        }
+    })?;
+    for path in extra {
+        if !ports.iter().any(|p| &p.path == path) {
+            ports.push(SerialPortInfo::given(path, sysfs));
+        }
+    }
+    let targets: Vec<ProbeTarget> = ports
+        .iter()
+        .map(|p| ProbeTarget {
+            path: p.path.clone(),
+            plan: p.probe_plan(),
+        })
+        .collect();
+    let outcomes = probe_ports(&targets, deadline);
+    let found: Vec<(String, &'static str)> = outcomes
+        .iter()
+        .filter_map(|o| match &o.result {
+            ProbeResult::Identified(id) => id.model_flag().map(|flag| (o.path.clone(), flag)),
+            _ => None,
+        })
+        .collect();
+    let report = || {
+        outcomes
+            .iter()
+            .map(|o| format!("{}: {}", o.path, o.result))
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    match found.as_slice() {
+        [one] => Ok(one.clone()),
+        [] if outcomes.is_empty() => Err(
+            "no serial ports found: connect the instrument (and switch it on), or name \
+                                          its settings file with --instrument FILE"
+                .into(),
+        ),
+        [] => Err(format!(
+            "no instrument identified itself ({}). A PR-650 or an LS-100/CS-100A cannot be found this way (they have \
+             no identity command): name its settings file with --instrument FILE",
+            report()
+        )),
+        several => Err(format!(
+            "{} instruments answered ({}): name the one to use with --instrument FILE",
+            several.len(),
+            report()
+        )),
+    }
+}

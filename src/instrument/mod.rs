@@ -246,7 +246,7 @@ pub enum InstrumentError {
         needed: usize,
         hint: &'static str,
     },
-    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600 for the Photo Research units, 4800 for the Minolta meters)")]
+    #[error("garbled reply to `{command}`: {detail}. The line may be noisy; check the cable and the baud rate (9600 for the Photo Research units, 115200 for the CS-2000 and CR-250/300, 4800 for the Minolta meters)")]
     Protocol { command: String, detail: String },
     #[error(
         "the reply to `{command}` stopped after {lines} of {expected} lines (nothing for {gap_ms} ms): \

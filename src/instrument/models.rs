@@ -150,6 +150,19 @@ impl InstrumentSettings {
         }
     }
 
+    /// Sets the serial device (what `serve --instrument auto` found).
+    pub fn set_port(&mut self, port: String) {
+        let slot = match self {
+            InstrumentSettings::Pr650(s) => &mut s.port,
+            InstrumentSettings::Pr655(s) => &mut s.port,
+            InstrumentSettings::Cs2000(s) => &mut s.port,
+            InstrumentSettings::Cr250(s) => &mut s.port,
+            InstrumentSettings::ColorCal(s) => &mut s.port,
+            InstrumentSettings::Ls100(s) => &mut s.port,
+        };
+        *slot = Some(port);
+    }
+
     /// Overrides the file's samples per measurement and extra attempts.
     pub fn set_samples(&mut self, samples: Option<usize>, retries: Option<usize>) {
         let (s, r) = match self {

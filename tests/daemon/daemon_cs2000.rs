@@ -89,3 +89,79 @@ async fn a_cs2000_booth_measures_five_samples_stores_each_and_compares_every_cod
     );
     d.stop().await;
 }
+
+/// `lightbooth serve` as a lab starts it: `--mock cs2000` simulates the
+/// model named on the command line; `--instrument auto` finds the one
+/// instrument that identifies itself (here a `mock-cr250` on a pty, named
+/// with `--probe-port` because sysfs does not list ptys) and drives it with
+/// its model's defaults.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn serve_mock_cs2000_and_serve_instrument_auto_drive_the_model_they_name_or_find() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+
+    let manifest = env!("CARGO_MANIFEST_DIR");
+    let start = |dir: &std::path::Path, args: &[&str]| {
+        std::fs::write(dir.join("token"), TOKEN).unwrap();
+        std::fs::write(
+            dir.join("lightbooth.toml"),
+            format!("scenes_dir = \"{manifest}/scenes\"\n"),
+        )
+        .unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+            .current_dir(dir)
+            .args([
+                "serve",
+                "--bind",
+                "127.0.0.1:0",
+                "--config",
+                "lightbooth.toml",
+                "--mock-speed",
+                "0",
+            ])
+            .args(["--db", &format!("sqlite://{}", dir.join("lab.sqlite").display())])
+            .args(["--token-file", dir.join("token").to_str().unwrap()])
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let addr: std::net::SocketAddr = loop {
+            let line = lines.next().expect("the daemon printed its address").unwrap();
+            if let Some(rest) = line.strip_prefix("lightbooth listening on http://") {
+                break rest.trim_end_matches('/').parse().unwrap();
+            }
+        };
+        std::thread::spawn(move || for _ in lines {});
+        (child, addr)
+    };
+    let idle = |v: &serde_json::Value| v["instrument"]["state"] == "idle";
+
+    let dir = tempfile::tempdir().unwrap();
+    let (mut child, addr) = start(dir.path(), &["--mock", "cs2000"]);
+    let health = common::poll_until(addr, "/api/health", Duration::from_secs(30), idle).await;
+    assert_eq!(health["instrument"]["model"], "CS-2000", "{health}");
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let mut sim = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["mock-cr250", "--speed", "0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut port = String::new();
+    BufReader::new(sim.stdout.take().unwrap()).read_line(&mut port).unwrap();
+    let port = port.trim().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let (mut child, addr) = start(dir.path(), &["--instrument", "auto", "--probe-port", &port]);
+    let health = common::poll_until(addr, "/api/health", Duration::from_secs(30), idle).await;
+    assert_eq!(health["instrument"]["model"], "CR-250", "{health}");
+    assert_eq!(health["instrument"]["port"], port.as_str(), "{health}");
+    assert_eq!(health["instrument"]["measures"], "spectrum", "{health}");
+    child.kill().unwrap();
+    child.wait().unwrap();
+    sim.kill().unwrap();
+    sim.wait().unwrap();
+}

@@ -547,7 +547,8 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "garbled reply to `D2`: line 1: `0#,0` is not a report. The line may be noisy; check the cable and the \
-             baud rate (9600)"
+             baud rate (9600 for the Photo Research units, 115200 for the CS-2000 and CR-250/300, 4800 for the \
+             Minolta meters)"
         );
         assert!(session.needs_resync());
         far.join().unwrap();
