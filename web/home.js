@@ -117,6 +117,40 @@ $("home-current-cancel").addEventListener("click", async (ev) => {
   refreshHomeSoon();
 });
 
+// Every serial port, asked its identity (POST /api/instruments/scan: at most
+// a few seconds; never a measurement or a settings write).
+$("home-scan").addEventListener("click", async (ev) => {
+  const button = ev.currentTarget;
+  const list = $("home-scan-result");
+  button.disabled = true;
+  button.textContent = "Looking (at most a few seconds)…";
+  notice("");
+  try {
+    const scan = await api("/api/instruments/scan", { method: "POST", body: "{}" });
+    list.replaceChildren();
+    if (!scan.ports.length) {
+      const li = document.createElement("li");
+      li.textContent = "No serial ports on this computer.";
+      list.append(li);
+    }
+    for (const p of scan.ports) {
+      const li = document.createElement("li");
+      li.className = `scan-${p.status}`;
+      const port = document.createElement("code");
+      port.textContent = p.port;
+      const what = p.status === "identified" ? `${p.model} ${p.serial || ""}`.trim() : p.message;
+      li.append(port, `: ${what}` + (p.suggestion ? ` (USB: ${p.suggestion})` : ""));
+      list.append(li);
+    }
+    list.hidden = false;
+  } catch (e) {
+    notice(e.message);
+  } finally {
+    button.disabled = false;
+    button.textContent = "Look for instruments again";
+  }
+});
+
 let homeDefaultSamples = 5;
 
 // The newest complete measurement, with what it found.

@@ -311,53 +311,6 @@ fn read_hex(path: &Path) -> Option<u16> {
     u16::from_str_radix(text.trim().trim_start_matches("0x"), 16).ok()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn usb(vendor_id: u16, product_id: u16, manufacturer: Option<&str>, product: Option<&str>) -> UsbDevice {
-        UsbDevice {
-            vendor_id,
-            product_id,
-            serial: None,
-            manufacturer: manufacturer.map(str::to_string),
-            product: product.map(str::to_string),
-        }
-    }
-
-    #[test]
-    fn each_known_id_suggests_its_family_and_unknown_ids_nothing() {
-        let family = |u: &UsbDevice| suggest(u).and_then(|s| s.family);
-        assert_eq!(family(&usb(0x0861, 0x1001, None, None)), Some(Family::ColorCal));
-        assert_eq!(family(&usb(0x132b, 0x0001, None, None)), Some(Family::Cs2000));
-        assert_eq!(
-            family(&usb(0x1234, 0x5678, None, Some("CS-2000"))),
-            Some(Family::Cs2000)
-        );
-        assert_eq!(
-            family(&usb(0x1234, 0x5678, Some("PHOTO RESEARCH, Inc."), None)),
-            Some(Family::Pr655)
-        );
-        assert_eq!(
-            family(&usb(0x1234, 0x5678, Some("Colorimetry Research, Inc."), None)),
-            Some(Family::ColorimetryResearch)
-        );
-        let adapter = suggest(&usb(0x0403, 0x6001, Some("FTDI"), Some("FT232R USB UART"))).unwrap();
-        assert_eq!(adapter.family, None);
-        assert!(adapter.not_probed.unwrap().contains("no identity command"));
-        assert!(adapter.instruments.contains("PR-650"));
-        assert_eq!(suggest(&usb(0x1d6b, 0x0002, Some("Linux"), None)), None);
-        assert_eq!(suggest(&usb(0x0403, 0x6015, None, None)), None);
-    }
-
-    #[test]
-    fn ports_sort_by_number_not_by_text() {
-        let mut names = ["ttyUSB10", "ttyACM0", "ttyUSB9", "ttyUSB1"];
-        names.sort_by_key(|n| natural_key(n));
-        assert_eq!(names, ["ttyACM0", "ttyUSB1", "ttyUSB9", "ttyUSB10"]);
-    }
-}
-
 impl Identity {
     /// The `--model` flag of the model this identity names (`pr670`,
     /// `cs2000a`, `cr250`, `colorcal`), when lightbooth drives it.
@@ -432,5 +385,52 @@ pub fn find_one_instrument(
             several.len(),
             report()
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn usb(vendor_id: u16, product_id: u16, manufacturer: Option<&str>, product: Option<&str>) -> UsbDevice {
+        UsbDevice {
+            vendor_id,
+            product_id,
+            serial: None,
+            manufacturer: manufacturer.map(str::to_string),
+            product: product.map(str::to_string),
+        }
+    }
+
+    #[test]
+    fn each_known_id_suggests_its_family_and_unknown_ids_nothing() {
+        let family = |u: &UsbDevice| suggest(u).and_then(|s| s.family);
+        assert_eq!(family(&usb(0x0861, 0x1001, None, None)), Some(Family::ColorCal));
+        assert_eq!(family(&usb(0x132b, 0x0001, None, None)), Some(Family::Cs2000));
+        assert_eq!(
+            family(&usb(0x1234, 0x5678, None, Some("CS-2000"))),
+            Some(Family::Cs2000)
+        );
+        assert_eq!(
+            family(&usb(0x1234, 0x5678, Some("PHOTO RESEARCH, Inc."), None)),
+            Some(Family::Pr655)
+        );
+        assert_eq!(
+            family(&usb(0x1234, 0x5678, Some("Colorimetry Research, Inc."), None)),
+            Some(Family::ColorimetryResearch)
+        );
+        let adapter = suggest(&usb(0x0403, 0x6001, Some("FTDI"), Some("FT232R USB UART"))).unwrap();
+        assert_eq!(adapter.family, None);
+        assert!(adapter.not_probed.unwrap().contains("no identity command"));
+        assert!(adapter.instruments.contains("PR-650"));
+        assert_eq!(suggest(&usb(0x1d6b, 0x0002, Some("Linux"), None)), None);
+        assert_eq!(suggest(&usb(0x0403, 0x6015, None, None)), None);
+    }
+
+    #[test]
+    fn ports_sort_by_number_not_by_text() {
+        let mut names = ["ttyUSB10", "ttyACM0", "ttyUSB9", "ttyUSB1"];
+        names.sort_by_key(|n| natural_key(n));
+        assert_eq!(names, ["ttyACM0", "ttyUSB1", "ttyUSB9", "ttyUSB10"]);
     }
 }

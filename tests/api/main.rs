@@ -9,6 +9,7 @@ mod common;
 
 mod api_schemathesis;
 mod dashboard_browser;
+mod dashboard_instrument_card;
 mod dashboard_material;
 mod dashboard_off_loopback;
 mod dashboard_page_details;

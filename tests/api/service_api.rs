@@ -891,3 +891,48 @@ async fn openapi_marks_default_bodies_optional_and_operator_non_blank() {
     assert_eq!(operator["minLength"], 1, "{operator}");
     assert_eq!(operator["pattern"], "\\S", "{operator}");
 }
+
+/// "Look for instruments again": the scan needs the token, answers within
+/// its deadline and a margin, lists every serial port of this machine with
+/// a status from the probe's vocabulary, and never asks the port this
+/// daemon's instrument is on.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_instrument_scan_needs_the_token_is_bounded_and_names_each_port() {
+    let h = harness(4).await;
+    let (status, _) = send(&h.state, post("/api/instruments/scan", "application/json", "{}", None)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let started = std::time::Instant::now();
+    let (status, scan) = send(
+        &h.state,
+        post("/api/instruments/scan", "application/json", "{}", Some(TOKEN)),
+    )
+    .await;
+    let took = started.elapsed();
+    assert_eq!(status, StatusCode::OK, "{scan}");
+    assert!(took < std::time::Duration::from_secs(4), "{took:?}");
+    assert_eq!(scan["deadline_s"], 2.0);
+    let known = [
+        "identified",
+        "not-probed",
+        "busy",
+        "permission-denied",
+        "missing",
+        "not-serial",
+        "open-failed",
+        "io-error",
+        "silent",
+        "unrecognised",
+        "overran",
+        "this-daemon",
+    ];
+    for p in scan["ports"].as_array().unwrap() {
+        let status = p["status"].as_str().unwrap();
+        assert!(known.contains(&status), "{p}");
+        assert!(!p["message"].as_str().unwrap().is_empty(), "{p}");
+        assert_ne!(
+            p["port"], "/dev/pts/9",
+            "a pty is not in sysfs, and this daemon's port is never asked"
+        );
+    }
+    eprintln!("scan in {took:?}: {scan:#}");
+}

@@ -56,6 +56,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(document))
         .routes(routes!(read_cookie))
         .routes(routes!(instruments))
+        .routes(routes!(scan_instruments))
         .routes(routes!(list_booths))
         .routes(routes!(list_jobs))
         .routes(routes!(list_sessions, create_session))
