@@ -23,13 +23,18 @@
 //!   what is particular to the model (entering remote mode, identifying the
 //!   unit, its setup, how one sample is measured and read, and how it reacts
 //!   to a bad code) over the shared session.
+//! - [`cs2000`] (the Konica Minolta CS-2000, CS-2000A, CS-3000) and
+//!   [`cr250`] (the Colorimetry Research CR-250, CR-300): the same layers for
+//!   spectroradiometers on 115200-baud USB ports with RTS/CTS.
 //! - [`colorcal`] (the CRS ColorCAL MkII colorimeter) and [`ls100`] (the
 //!   Konica Minolta LS-100 luminance meter and CS-100A chroma meter): the
 //!   same layers for instruments without a spectrum, whose replies open with
 //!   an `OKnn`/`ERnn` [`status_word`].
 //! - [`averaging`]: the retry-and-average loop above every driver.
-//! - [`sim`]: the simulated PR-650, PR-655, PR-670, ColorCAL MkII, LS-100 and
-//!   CS-100A on real pseudo-terminals.
+//! - [`sim`]: the simulated PR-650, PR-655, PR-670, CS-2000 family, CR-250,
+//!   CR-300, ColorCAL MkII, LS-100 and CS-100A on real pseudo-terminals.
+//! - [`discovery`]: which serial ports exist and who answers on each, under
+//!   a hard deadline (`lightbooth instruments`, `serve --instrument auto`).
 //!
 //! The one loop that owns an instrument for async callers (a dedicated
 //! thread, measurements one at a time, each sample stored as it is taken) is
