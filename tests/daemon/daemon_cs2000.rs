@@ -165,3 +165,68 @@ async fn serve_mock_cs2000_and_serve_instrument_auto_drive_the_model_they_name_o
     sim.kill().unwrap();
     sim.wait().unwrap();
 }
+
+/// A colorimeter booth (`serve --mock colorcal`): a five-sample measurement
+/// from the API keeps each sample's XYZ and no spectrum, its x, y are the
+/// instrument's CIE 1931 ones, named; a spectral view of it (chart, CSV)
+/// and a reflectance from it are refused naming the ColorCAL and what it
+/// measures; and with the daemon in Judd–Vos, no comparison mixes the two
+/// observers.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum() {
+    use lightbooth::instrument::colorcal::ColorCalSettings;
+
+    let d = Daemon::start_instrument(0.0, InstrumentSettings::ColorCal(ColorCalSettings::default())).await;
+    let (_, health) = get_json(d.addr, "/api/health").await;
+    assert_eq!(health["instrument"]["measures"], "XYZ", "{health}");
+    let (status, m) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene": "white", "target": "patch", "samples": 5}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let done = common::poll_until(
+        d.addr,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(60),
+        |v| v["state"] != "queued" && v["state"] != "running",
+    )
+    .await;
+    assert_eq!(done["state"], "complete", "{done}");
+    assert!(done["radiance"].is_null() && done["wavelength_nm"].is_null(), "{done}");
+    let samples = done["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 5);
+    for s in samples {
+        assert!(s["radiance"].is_null(), "{s}");
+        assert_eq!(s["instrument_XYZ"].as_array().map(Vec::len), Some(3), "{s}");
+    }
+    let y = done["Y"].as_f64().unwrap();
+    assert!((25.0..45.0).contains(&y), "Y = {y}");
+    assert_eq!(done["observer"], "cie-1931", "a colorimeter's XYZ stays in its own observer: {done}");
+
+    for view in ["spectrum.svg", "spectrum.csv"] {
+        let (status, body) = get_json(d.addr, &format!("/api/measurements/{id}/{view}")).await;
+        assert_eq!(status, 409, "{view}: {body}");
+        let text = body.to_string();
+        assert!(text.contains("ColorCAL") && text.contains("XYZ only"), "{view}: {text}");
+    }
+    let (status, body) = post_json(
+        d.addr,
+        "/api/reflectances",
+        TOKEN,
+        &format!(r#"{{"sample_measurement_id": {id}, "standard_measurement_id": {id}, "name": "x"}}"#),
+    )
+    .await;
+    assert_eq!(status, 400, "{body}");
+    // Judd–Vos daemon, CIE 1931 instrument: not compared rather than mixed.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let (_, c) = get_json(d.addr, &format!("/api/measurements/{id}/comparisons")).await;
+    assert!(
+        c.as_array().is_none_or(Vec::is_empty) && c["rows"].as_array().is_none_or(Vec::is_empty),
+        "{c}"
+    );
+    d.stop().await;
+}
