@@ -170,16 +170,38 @@ function showProfile(row) {
     const t = p.transfer[c];
     return Object.assign([n, f(t.gamma, 3), f(t.rms_residual, 4)], { header: true });
   });
-  const validation = (p.validation || []).map((v) =>
-    [v.drive.map((d) => f(d, 3)).join(", "), f(v.delta_e00, 3), v.measurement_id ?? "–"]);
-  const w = p.additivity.white_xyz;
   const ids = p.measurement_ids;
   const facts = el("p");
-  facts.append("Observer: ", el("strong", p.observer), ` (every XYZ and ΔE00 here). White: Y ${f(w[1], 2)} cd/m², ` +
-    `x ${f(xyz(w)[0])}, y ${f(xyz(w)[1])}. Additivity (white against black + R + G + B): `,
-  el("strong", `ΔE00 ${f(p.additivity.delta_e00, 3)}`, { id: "additivity" }),
-  `. Fitted to ${ids.length} measurements (ids ${ids[0]}–${ids[ids.length - 1]}). Transfer model: t = v`,
-  el("sup", "γ"), " over the black level.");
+  let validationHead;
+  let validation;
+  if (p.luminance_additivity) {
+    // A luminance meter's profile: γ per channel and luminances, no colour.
+    const a = p.luminance_additivity;
+    facts.append(el("strong", "Measured with a luminance meter: γ per channel only.", { id: "measured-as" }),
+      " The primaries' colours are unknown, so this profile cannot turn a colour into codes and cannot be chosen " +
+      `for an experiment (calibrate with a colorimeter or a spectroradiometer for that). White: Y ${f(a.white_cd_m2, 2)} cd/m². ` +
+      "Additivity (white's luminance against black + R + G + B): ",
+    el("strong", `${f(a.relative_difference * 100, 2)} %`, { id: "additivity" }),
+    `. Fitted to ${ids.length} measurements (ids ${ids[0]}–${ids[ids.length - 1]}). Transfer model: t = v`,
+    el("sup", "γ"), " over the black level, from luminance.");
+    validationHead = ["drive (r, g, b)", "luminance predicted vs measured (%)", "measurement"];
+    validation = (p.luminance_validation || []).map((v) =>
+      [v.drive.map((d) => f(d, 3)).join(", "), f(v.relative_difference * 100, 2), v.measurement_id ?? "–"]);
+  } else {
+    const w = p.additivity.white_xyz;
+    const measuredAs = p.black_xyz
+      ? `Measured as XYZ by a colorimeter, in its ${p.observer} observer; γ from luminance.`
+      : "Measured as spectra by a spectroradiometer.";
+    facts.append(el("strong", measuredAs, { id: "measured-as" }), " Observer: ", el("strong", p.observer),
+      ` (every XYZ and ΔE00 here). White: Y ${f(w[1], 2)} cd/m², ` +
+      `x ${f(xyz(w)[0])}, y ${f(xyz(w)[1])}. Additivity (white against black + R + G + B): `,
+    el("strong", `ΔE00 ${f(p.additivity.delta_e00, 3)}`, { id: "additivity" }),
+    `. Fitted to ${ids.length} measurements (ids ${ids[0]}–${ids[ids.length - 1]}). Transfer model: t = v`,
+    el("sup", "γ"), " over the black level.");
+    validationHead = ["drive (r, g, b)", "ΔE00 predicted vs measured", "measurement"];
+    validation = (p.validation || []).map((v) =>
+      [v.drive.map((d) => f(d, 3)).join(", "), f(v.delta_e00, 3), v.measurement_id ?? "–"]);
+  }
   const charts = el("div");
   for (const chart of ["primaries", "transfer", "additivity"]) {
     charts.appendChild(el("img", undefined, { alt: chart, src: `/api/display-profiles/${row.id}/${chart}.svg` }));
@@ -191,10 +213,11 @@ function showProfile(row) {
   const verdict = row.state === "failed"
     ? el("p", `FAILED, and cannot be chosen for an experiment: ${row.failures.join("; ")}. Calibrate again.`,
       { className: "notice", id: "profile-state" })
-    : el("p", "Passed its checks (fit residual and validation ΔE00 within their stated limits).", { id: "profile-state" });
+    : el("p", `Passed its checks (fit residual and validation ${p.luminance_additivity ? "luminance" : "ΔE00"} ` +
+      "within their stated limits).", { id: "profile-state" });
   sec.replaceChildren(el("h1", `Display profile ${row.id}: ${row.name}`), verdict, facts,
     table(["channel", "γ", "RMS residual"], primaryRows), charts, el("h2", "Validation colours"),
-    table(["drive (r, g, b)", "ΔE00 predicted vs measured", "measurement"], validation), links);
+    table(validationHead, validation), links);
 }
 
 // The newest stored profiles, each a link to its page (#profile=ID), so

@@ -1,12 +1,14 @@
-//! A display measured with the PR-650, and rendered colours turned into the
-//! frame-buffer values that show them.
+//! A display measured with a spectroradiometer, a colorimeter or a
+//! luminance meter, and rendered colours turned into the frame-buffer values
+//! that show them.
 //!
-//! - [`profile`]: the display profile (each primary's spectral radiance at
-//!   full drive, the black level, each channel's transfer function) and its
+//! - [`profile`]: the display profile (each primary at full drive and the
+//!   black level, as spectra, XYZ or luminance; each channel's transfer
+//!   function) and its
 //!   forward (frame buffer → spectrum, XYZ) and inverse (XYZ → linear RGB →
 //!   frame buffer at 8–16 bits) models.
 //! - [`fit`]: the calibration plan (which colours to show) and the fit of a
-//!   profile to the spectra measured while showing them.
+//!   profile to what was measured while showing them.
 //! - [`simulated`]: the display the simulated PR-650 looks at with `--mock`.
 //! - [`stimulus`]: rendered XYZ → gamut policy → frame-buffer codes, what
 //!   the display shows for them, and the quantisation bound.
@@ -36,9 +38,10 @@ pub mod simulated;
 pub mod stimulus;
 pub mod stimulus_files;
 
-pub use fit::{fit_profile, CalibrationPlan, MeasuredPatch};
+pub use fit::{fit_profile, CalibrationPlan, MeasuredPatch, PatchLight};
 pub use profile::{
-    Additivity, ChannelTransfer, Converter, DisplayProfile, FrameBuffer, MAX_TRANSFER_RMS_RESIDUAL, MAX_VALIDATION_DE00,
+    Additivity, ChannelTransfer, Checks, Converter, DisplayProfile, Emission, FrameBuffer, MAX_TRANSFER_RMS_RESIDUAL,
+    MAX_VALIDATION_DE00, MAX_VALIDATION_LUMINANCE,
 };
 pub use simulated::{CodeCounts, SimulatedDisplay};
 

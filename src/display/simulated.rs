@@ -156,11 +156,13 @@ impl SimulatedDisplay {
             .patches
             .iter()
             .enumerate()
-            .map(|(i, p)| MeasuredPatch {
-                drive: p.drive,
-                wavelength_nm: self.grid.wavelengths().to_vec(),
-                radiance: self.spectrum(p.drive).into_values(),
-                measurement_id: Some(i as i64 + 1),
+            .map(|(i, p)| {
+                MeasuredPatch::spectrum(
+                    p.drive,
+                    self.grid.wavelengths().to_vec(),
+                    self.spectrum(p.drive).into_values(),
+                    Some(i as i64 + 1),
+                )
             })
             .collect();
         fit_profile(&patches, observer)
@@ -208,12 +210,12 @@ mod tests {
                 let red_mid = p.drive[1] == 0.0 && p.drive[2] == 0.0 && (0.5..0.7).contains(&p.drive[0]);
                 // What the instrument saw instead: a green scene patch.
                 let seen = if red_mid { [0.05, 0.55, 0.1] } else { p.drive };
-                MeasuredPatch {
-                    drive: p.drive,
-                    wavelength_nm: d.grid.wavelengths().to_vec(),
-                    radiance: d.spectrum(seen).into_values(),
-                    measurement_id: Some(i as i64 + 1),
-                }
+                MeasuredPatch::spectrum(
+                    p.drive,
+                    d.grid.wavelengths().to_vec(),
+                    d.spectrum(seen).into_values(),
+                    Some(i as i64 + 1),
+                )
             })
             .collect();
         assert!(

@@ -313,3 +313,30 @@ pub fn stored_spectrum<'a>(
         )
     })
 }
+
+/// What a stored measurement gives a display calibration: its mean
+/// spectrum (a spectroradiometer's; any observer will do), else the
+/// instrument's own mean XYZ (a colorimeter's) or luminance (a luminance
+/// meter's) with the observer it is in, which the profile must then use.
+pub fn display_patch_light(
+    m: &crate::store::MeasurementDetail,
+) -> Result<(crate::display::PatchLight, Option<Observer>), String> {
+    use crate::display::PatchLight;
+    if let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) {
+        let light = PatchLight::Spectrum {
+            wavelength_nm: wl.clone(),
+            radiance: radiance.clone(),
+        };
+        return Ok((light, None));
+    }
+    let s = &m.summary;
+    let model = s.instrument_model.as_deref().unwrap_or("instrument");
+    match (s.xyz, s.luminance_cd_m2, s.observer) {
+        (Some(xyz), _, Some(observer)) => Ok((PatchLight::Xyz(xyz), Some(observer))),
+        (None, Some(y), Some(observer)) => Ok((PatchLight::Luminance(y), Some(observer))),
+        _ => Err(format!(
+            "measurement {} (the {model}'s) has neither a mean spectrum, XYZ nor a luminance with its observer",
+            s.id
+        )),
+    }
+}

@@ -205,7 +205,10 @@ async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum
     }
     let y = done["Y"].as_f64().unwrap();
     assert!((25.0..45.0).contains(&y), "Y = {y}");
-    assert_eq!(done["observer"], "cie-1931", "a colorimeter's XYZ stays in its own observer: {done}");
+    assert_eq!(
+        done["observer"], "cie-1931",
+        "a colorimeter's XYZ stays in its own observer: {done}"
+    );
 
     for view in ["spectrum.svg", "spectrum.csv"] {
         let (status, body) = get_json(d.addr, &format!("/api/measurements/{id}/{view}")).await;

@@ -35,11 +35,13 @@ fn calibrate(display: &SimulatedDisplay, seed: u64) -> DisplayProfile {
         .patches
         .iter()
         .enumerate()
-        .map(|(i, p)| MeasuredPatch {
-            drive: p.drive,
-            wavelength_nm: Grid::pr650().wavelengths().to_vec(),
-            radiance: measure(display, p.drive, 3, &mut rng),
-            measurement_id: Some(i as i64 + 1),
+        .map(|(i, p)| {
+            MeasuredPatch::spectrum(
+                p.drive,
+                Grid::pr650().wavelengths().to_vec(),
+                measure(display, p.drive, 3, &mut rng),
+                Some(i as i64 + 1),
+            )
         })
         .collect();
     fit_profile(&patches, Observer::JuddVos).unwrap()
@@ -69,14 +71,14 @@ fn calibrating_the_simulated_display_recovers_its_primaries_and_gamma() {
     }
     // The simulated display is additive by construction: white and R+G+B agree to the noise.
     assert!(
-        profile.additivity.delta_e00 < 0.5,
+        profile.additivity().unwrap().delta_e00 < 0.5,
         "additivity ΔE00 {}",
-        profile.additivity.delta_e00
+        profile.additivity().unwrap().delta_e00
     );
     assert!(
-        profile.validation.iter().all(|v| v.delta_e00 < 1.0),
+        profile.validation().iter().all(|v| v.delta_e00 < 1.0),
         "{:?}",
-        profile.validation
+        profile.validation()
     );
     assert_eq!(
         profile.measurement_ids.len(),

@@ -30,11 +30,13 @@ fn exact_profile(display: &SimulatedDisplay) -> DisplayProfile {
         .patches
         .iter()
         .enumerate()
-        .map(|(i, p)| MeasuredPatch {
-            drive: p.drive,
-            wavelength_nm: Grid::one_nm().wavelengths().to_vec(),
-            radiance: display.spectrum(p.drive).into_values(),
-            measurement_id: Some(i as i64 + 1),
+        .map(|(i, p)| {
+            MeasuredPatch::spectrum(
+                p.drive,
+                Grid::one_nm().wavelengths().to_vec(),
+                display.spectrum(p.drive).into_values(),
+                Some(i as i64 + 1),
+            )
         })
         .collect();
     fit_profile(&patches, Observer::JuddVos).unwrap()

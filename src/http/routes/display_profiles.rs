@@ -1,4 +1,5 @@
-//! `/api/display-profiles`: display profiles measured with the PR-650 (see
+//! `/api/display-profiles`: display profiles measured with a
+//! spectroradiometer, a colorimeter or a luminance meter (see
 //! [`crate::display`]). The calibration page (`/calibrate`) asks for the
 //! plan, shows each colour while the instrument measures it (an ordinary
 //! `POST /api/measurements`), then posts the measured patches here; the
@@ -14,10 +15,10 @@ use serde::Deserialize;
 use utoipa::{IntoParams, ToSchema};
 
 use super::measurements::load_measurement;
-use crate::charts::{self, LineSeriesData};
+use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
 use crate::colorimetry::Observer;
 use crate::display::fit::{CalibrationPlan, MeasuredPatch};
-use crate::display::fit_profile;
+use crate::display::{fit_profile, Checks, Emission};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
@@ -61,7 +62,10 @@ pub struct NewDisplayProfile {
     pub name: Option<String>,
     #[serde(default)]
     pub note: String,
-    /// `judd-vos-1978` (default) or `cie-1931`: the observer of every XYZ of the profile.
+    /// `judd-vos-1978` (default) or `cie-1931`: the observer of every XYZ of
+    /// the profile. Patches measured by a colorimeter or a luminance meter
+    /// are in their instrument's observer, which is then the profile's
+    /// (another is refused).
     pub observer: Option<String>,
     pub patches: Vec<ShownPatch>,
 }
@@ -81,13 +85,16 @@ pub async fn create_display_profile(
             body.patches.len()
         )));
     }
-    let observer: Observer = match &body.observer {
-        Some(o) => o
-            .parse()
-            .map_err(|e| ApiError::BadRequest(format!("field `observer`: {e}")))?,
-        None => Observer::default(),
+    let asked: Option<Observer> = match &body.observer {
+        Some(o) => Some(
+            o.parse()
+                .map_err(|e| ApiError::BadRequest(format!("field `observer`: {e}")))?,
+        ),
+        None => None,
     };
     let mut patches = Vec::with_capacity(body.patches.len());
+    // The observer of the first colorimeter's or luminance meter's patch, with where it came from.
+    let mut instrument_observer: Option<(Observer, usize, String)> = None;
     for (i, p) in body.patches.iter().enumerate() {
         let m = load_measurement(&state, p.measurement_id).await?;
         if m.summary.state != MeasurementState::Complete {
@@ -97,23 +104,68 @@ pub async fn create_display_profile(
                 m.summary.state.as_str()
             )));
         }
-        // A profile from a colorimeter's XYZ or a luminance meter's gamma is not built yet.
-        let (wavelength_nm, radiance) =
-            crate::lab::measurement::stored_spectrum(&m, "this display profile (fitted to spectra)")
-                .map(|(wl, r)| (wl.to_vec(), r.to_vec()))
-                .map_err(|e| ApiError::BadRequest(format!("field `patches[{i}]`: {e}")))?;
+        let (light, observer) = crate::lab::measurement::display_patch_light(&m)
+            .map_err(|e| ApiError::BadRequest(format!("field `patches[{i}]`: {e}")))?;
+        if let Some(o) = observer {
+            let model = m
+                .summary
+                .instrument_model
+                .clone()
+                .unwrap_or_else(|| "instrument".into());
+            match &instrument_observer {
+                Some((first, j, _)) if *first != o => {
+                    return Err(ApiError::BadRequest(format!(
+                        "field `patches[{i}]`: measurement {} is in the {o} observer but patches[{j}] in {first}: \
+                         calibrate with one instrument",
+                        p.measurement_id
+                    )))
+                }
+                Some(_) => {}
+                None => instrument_observer = Some((o, i, model)),
+            }
+        }
         patches.push(MeasuredPatch {
             drive: p.drive,
-            wavelength_nm,
-            radiance,
+            light,
             measurement_id: Some(p.measurement_id),
         });
     }
+    // A colorimeter's XYZ stay in the observer of its filters: the profile
+    // takes it, and refuses another rather than mixing two observers.
+    let observer = match (asked, &instrument_observer) {
+        (Some(a), Some((o, _, model))) if a != *o => {
+            return Err(ApiError::BadRequest(format!(
+                "field `observer`: the patches were measured by the {model} in the {o} observer, so the profile is in \
+                 {o}; ask for `{o}` or leave `observer` out"
+            )))
+        }
+        (_, Some((o, _, _))) => *o,
+        (Some(a), None) => a,
+        (None, None) => Observer::default(),
+    };
     let profile = fit_profile(&patches, observer).map_err(|e| ApiError::BadRequest(e.to_string()))?;
     let name = body.name.unwrap_or_else(|| "display".into());
     let id = state.store.insert_display_profile(&name, &body.note, &profile).await?;
     let row = load(&state, id).await?;
     Ok((StatusCode::CREATED, Json(row)))
+}
+
+/// A spectrum as a chart's line.
+fn spectrum(name: &str, wavelength_nm: &[f64], values: &[f64]) -> LineSeriesData {
+    LineSeriesData {
+        name: name.into(),
+        points: wavelength_nm.iter().copied().zip(values.iter().copied()).collect(),
+        errors: None,
+    }
+}
+
+/// A bar without a spread.
+fn bar(label: &str, value: f64) -> Bar {
+    Bar {
+        label: label.into(),
+        value,
+        sd: None,
+    }
 }
 
 async fn load(state: &AppState, id: i64) -> Result<DisplayProfileRow, ApiError> {
@@ -150,26 +202,9 @@ pub async fn display_profile_chart(
 ) -> Result<Response, ApiError> {
     let row = load(&state, id).await?;
     let p = &row.profile;
-    let wl = &p.wavelength_nm;
-    let spectrum = |name: &str, v: &[f64]| LineSeriesData {
-        name: name.into(),
-        points: wl.iter().copied().zip(v.iter().copied()).collect(),
-        errors: None,
-    };
     let names = ["red", "green", "blue"];
-    let svg = match chart.as_str() {
-        "primaries.svg" => {
-            let mut series: Vec<LineSeriesData> = names.iter().zip(&p.primaries).map(|(n, v)| spectrum(n, v)).collect();
-            series.push(spectrum("black", &p.black));
-            charts::line_chart(
-                &format!("display profile {id}: primaries at full drive (increment over black)"),
-                "wavelength (nm)",
-                "spectral radiance (W/(sr·m²·nm))",
-                &series,
-                false,
-            )
-        }
-        "transfer.svg" => {
+    let svg = match (chart.as_str(), &p.emission, &p.checks) {
+        ("transfer.svg", _, _) => {
             let mut series = Vec::new();
             for (n, t) in names.iter().zip(&p.transfer) {
                 series.push(LineSeriesData {
@@ -186,34 +221,123 @@ pub async fn display_profile_chart(
                     errors: None,
                 });
             }
+            let from = match p.emission {
+                Emission::Spectral { .. } => "",
+                _ => ", from luminance",
+            };
             charts::line_chart(
-                &format!("display profile {id}: transfer (normalised output against drive)"),
+                &format!("display profile {id}: transfer (normalised output against drive{from})"),
                 "drive (fraction of the maximum code)",
                 "normalised output t",
                 &series,
                 false,
             )
         }
-        "additivity.svg" => {
-            let sum: Vec<f64> = (0..wl.len())
-                .map(|i| p.black[i] + p.primaries.iter().map(|c| c[i]).sum::<f64>())
+        (
+            "primaries.svg",
+            Emission::Spectral {
+                wavelength_nm,
+                black,
+                primaries,
+            },
+            _,
+        ) => {
+            let mut series: Vec<LineSeriesData> = names
+                .iter()
+                .zip(primaries)
+                .map(|(n, v)| spectrum(n, wavelength_nm, v))
                 .collect();
-            let measured_white = p.additivity.white_xyz;
+            series.push(spectrum("black", wavelength_nm, black));
+            charts::line_chart(
+                &format!("display profile {id}: primaries at full drive (increment over black)"),
+                "wavelength (nm)",
+                "spectral radiance (W/(sr·m²·nm))",
+                &series,
+                false,
+            )
+        }
+        ("primaries.svg", Emission::Tristimulus { .. }, _) => {
+            let xy = p.primary_chromaticities().map_err(|e| ApiError::Internal(e.to_string()))?;
+            let white = p.white_xyz().map_err(|e| ApiError::Internal(e.to_string()))?.chromaticity();
+            let mut triangle: Vec<(f64, f64)> = xy.iter().map(|c| (c[0], c[1])).collect();
+            triangle.push(triangle[0]);
+            charts::chromaticity_chart(
+                &format!("display profile {id}: primaries (red, green, blue) and white, measured as XYZ"),
+                p.observer,
+                &[
+                    ScatterSeries {
+                        name: "the display's gamut (red, green, blue)".into(),
+                        points: triangle,
+                        connect: true,
+                    },
+                    ScatterSeries {
+                        name: "white (all channels at full drive)".into(),
+                        points: vec![(white.x, white.y)],
+                        connect: false,
+                    },
+                ],
+            )
+        }
+        (
+            "primaries.svg",
+            Emission::Luminance {
+                black_cd_m2,
+                primaries_cd_m2,
+            },
+            _,
+        ) => {
+            let mut bars = vec![bar("black", *black_cd_m2)];
+            bars.extend(names.iter().zip(primaries_cd_m2).map(|(n, y)| bar(n, *y)));
+            charts::bar_chart(
+                &format!(
+                    "display profile {id}: luminance at full drive (increment over black); a luminance meter gives no colour"
+                ),
+                "luminance (cd/m²)",
+                &bars,
+            )
+        }
+        ("additivity.svg", Emission::Spectral { wavelength_nm, black, primaries }, Checks::Colour { additivity, .. }) => {
+            let sum: Vec<f64> = (0..wavelength_nm.len())
+                .map(|i| black[i] + primaries.iter().map(|c| c[i]).sum::<f64>())
+                .collect();
             charts::line_chart(
                 &format!(
                     "display profile {id}: additivity, white Y {:.2} cd/m² against R+G+B, ΔE00 {:.3} ({})",
-                    measured_white[1], p.additivity.delta_e00, p.observer
+                    additivity.white_xyz[1], additivity.delta_e00, p.observer
                 ),
                 "wavelength (nm)",
                 "spectral radiance (W/(sr·m²·nm))",
                 &[
-                    spectrum("white, measured", &p.additivity.white),
-                    spectrum("black + R + G + B", &sum),
+                    spectrum("white, measured", wavelength_nm, &additivity.white),
+                    spectrum("black + R + G + B", wavelength_nm, &sum),
                 ],
                 false,
             )
         }
-        other => {
+        ("additivity.svg", _, Checks::Colour { additivity, .. }) => {
+            let mut bars = Vec::new();
+            for (k, name) in ["X", "Y", "Z"].iter().enumerate() {
+                bars.push(bar(&format!("{name}, white measured"), additivity.white_xyz[k]));
+                bars.push(bar(&format!("{name}, black + R + G + B"), additivity.sum_xyz[k]));
+            }
+            charts::bar_chart(
+                &format!(
+                    "display profile {id}: additivity, ΔE00 {:.3} ({})",
+                    additivity.delta_e00, p.observer
+                ),
+                "tristimulus value (cd/m² scale)",
+                &bars,
+            )
+        }
+        ("additivity.svg", _, Checks::Luminance { luminance_additivity: a, .. }) => charts::bar_chart(
+            &format!(
+                "display profile {id}: additivity in luminance, R+G+B {:+.2} % off the white",
+                a.relative_difference * 100.0
+            ),
+            "luminance (cd/m²)",
+            &[bar("white, measured", a.white_cd_m2), bar("black + R + G + B", a.sum_cd_m2)],
+        ),
+        (other, _, _) => {
             return Err(ApiError::NotFound(format!(
                 "no chart `{other}`: choose primaries.svg, transfer.svg or additivity.svg"
             )))

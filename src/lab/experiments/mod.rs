@@ -163,6 +163,12 @@ impl Experiments {
                 row.failures.join("; ")
             )));
         }
+        if let crate::display::Emission::Luminance { .. } = row.profile.emission {
+            return Err(LabError::Conflict(format!(
+                "display_profile_id: profile {profile_id} was calibrated with a luminance meter (γ only, no primaries' \
+                 colour) and cannot show an experiment's colours; calibrate with a colorimeter or a spectroradiometer"
+            )));
+        }
         let profile = row.profile;
         let rows = self.store.comparisons_for_measurement(id).await?;
         if rows.is_empty() {

@@ -801,7 +801,9 @@ async fn a_failed_display_profile_was_offered_for_an_experiment_like_any_other()
         .exact_profile(Observer::JuddVos)
         .unwrap();
     bad.transfer[0].rms_residual = 0.106;
-    bad.validation[0].delta_e00 = 10.7;
+    if let crate::display::Checks::Colour { validation, .. } = &mut bad.checks {
+        validation[0].delta_e00 = 10.7;
+    }
     let store = &lab.experiments.store;
     let id = store.insert_display_profile("corrupted", "", &bad).await.unwrap();
     let row = store.get_display_profile(id).await.unwrap().unwrap();
@@ -826,5 +828,42 @@ async fn a_failed_display_profile_was_offered_for_an_experiment_like_any_other()
             "{m}"
         ),
         other => panic!("an experiment on a failed profile: {other:?}"),
+    }
+}
+
+/// A luminance meter's profile (γ only) passes its own checks, but has no
+/// primaries' colour: an experiment on it is refused, saying why and what
+/// would do.
+#[tokio::test]
+async fn an_experiment_on_a_luminance_meters_profile_is_refused_naming_what_would_do() {
+    use crate::display::{fit_profile, CalibrationPlan, MeasuredPatch, PatchLight};
+    let lab = lab().await;
+    let display = SimulatedDisplay::crt().unwrap();
+    let patches: Vec<MeasuredPatch> = CalibrationPlan::new(8)
+        .unwrap()
+        .patches
+        .iter()
+        .map(|p| MeasuredPatch {
+            drive: p.drive,
+            light: PatchLight::Luminance(
+                crate::colorimetry::xyz_from_radiance(&display.spectrum(p.drive), Observer::JuddVos)
+                    .unwrap()
+                    .y,
+            ),
+            measurement_id: None,
+        })
+        .collect();
+    let profile = fit_profile(&patches, Observer::JuddVos).unwrap();
+    let store = &lab.experiments.store;
+    let id = store.insert_display_profile("LS-100", "", &profile).await.unwrap();
+    assert_eq!(store.get_display_profile(id).await.unwrap().unwrap().state, "passed");
+    let mut r = request(&lab, &["nstep3"]);
+    r.display_profile_id = id;
+    match lab.experiments.create(r).await {
+        Err(LabError::Conflict(m)) => assert!(
+            m.contains("luminance meter") && m.contains("colorimeter or a spectroradiometer"),
+            "{m}"
+        ),
+        other => panic!("an experiment on a luminance-only profile: {other:?}"),
     }
 }
