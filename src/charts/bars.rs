@@ -13,6 +13,11 @@ pub struct Bar {
 /// Bars with ±1 SD error bars (rms_rel and mean ΔE per coding), one slot
 /// per bar and none after the last; a coding's bar has its coding's colour.
 pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
+    labelled_bar_chart(title, "coding", y_desc, bars)
+}
+
+/// [`bar_chart`] with its own x-axis title (bars that are not codings).
+pub fn labelled_bar_chart(title: &str, x_desc: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
     let hi = bars
         .iter()
         .map(|b| b.value + b.sd.unwrap_or(0.0))
@@ -30,7 +35,7 @@ pub fn bar_chart(title: &str, y_desc: &str, bars: &[Bar]) -> ChartResult {
         let mut chart = builder(&body)
             .build_cartesian_2d(Slots::new(-0.5..n as f64 - 0.5, keys), 0.0..hi)
             .map_err(err)?;
-        mesh!(chart, "coding", y_desc)
+        mesh!(chart, x_desc, y_desc)
             .disable_x_mesh()
             .x_label_formatter(&|v| {
                 let i = v.round();

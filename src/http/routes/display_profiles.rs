@@ -288,10 +288,11 @@ pub async fn display_profile_chart(
         ) => {
             let mut bars = vec![bar("black", *black_cd_m2)];
             bars.extend(names.iter().zip(primaries_cd_m2).map(|(n, y)| bar(n, *y)));
-            charts::bar_chart(
+            charts::labelled_bar_chart(
                 &format!(
                     "display profile {id}: luminance at full drive (increment over black); a luminance meter gives no colour"
                 ),
+                "channel at full drive",
                 "luminance (cd/m²)",
                 &bars,
             )
@@ -320,20 +321,22 @@ pub async fn display_profile_chart(
                 bars.push(bar(&format!("{name}, white measured"), additivity.white_xyz[k]));
                 bars.push(bar(&format!("{name}, black + R + G + B"), additivity.sum_xyz[k]));
             }
-            charts::bar_chart(
+            charts::labelled_bar_chart(
                 &format!(
                     "display profile {id}: additivity, ΔE00 {:.3} ({})",
                     additivity.delta_e00, p.observer
                 ),
+                "white measured, and black + R + G + B, per tristimulus value",
                 "tristimulus value (cd/m² scale)",
                 &bars,
             )
         }
-        ("additivity.svg", _, Checks::Luminance { luminance_additivity: a, .. }) => charts::bar_chart(
+        ("additivity.svg", _, Checks::Luminance { luminance_additivity: a, .. }) => charts::labelled_bar_chart(
             &format!(
                 "display profile {id}: additivity in luminance, R+G+B {:+.2} % off the white",
                 a.relative_difference * 100.0
             ),
+            "",
             "luminance (cd/m²)",
             &[bar("white, measured", a.white_cd_m2), bar("black + R + G + B", a.sum_cd_m2)],
         ),
