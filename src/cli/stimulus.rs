@@ -78,13 +78,13 @@ pub(super) fn transfer_model(s: &str) -> Result<TransferModel, String> {
 pub fn parse_profile(text: &str, what: &str) -> anyhow::Result<DisplayProfile> {
     let value: serde_json::Value = serde_json::from_str(text).with_context(|| format!("{what}: not JSON"))?;
     let (inner, key) = match value.get("profile") {
-        Some(p) => (p.clone(), "profile."),
-        None => (value, ""),
+        Some(p) => (p.clone(), "`profile`"),
+        None => (value, "the file"),
     };
-    let profile: DisplayProfile = serde_json::from_value(inner).map_err(|e| {
+    let profile = DisplayProfile::from_json(inner).map_err(|e| {
         anyhow::anyhow!(
             "{what}: not a display profile (the JSON of GET /api/display-profiles/{{id}}, or its `profile`): \
-             {key}{e}"
+             {key}: {e}"
         )
     })?;
     profile.validate().with_context(|| what.to_string())?;

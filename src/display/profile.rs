@@ -272,6 +272,26 @@ impl FrameBuffer {
 }
 
 impl DisplayProfile {
+    /// Reads a profile from its JSON; a missing black level and primaries
+    /// (or checks) are named by the fields each kind of profile has, not by
+    /// serde's "no variant matched".
+    pub fn from_json(value: serde_json::Value) -> Result<DisplayProfile, String> {
+        serde_json::from_value(value).map_err(|e| {
+            let e = e.to_string();
+            if e.contains("untagged enum Emission") {
+                "the black level and the primaries are missing: give `wavelength_nm`, `black` and `primaries` \
+                 (spectra), `black_xyz` and `primaries_xyz` (XYZ), or `black_cd_m2` and `primaries_cd_m2` (luminance)"
+                    .into()
+            } else if e.contains("untagged enum Checks") {
+                "the checks are missing: give `additivity` (and `validation`) or `luminance_additivity` (and \
+                 `luminance_validation`)"
+                    .into()
+            } else {
+                e
+            }
+        })
+    }
+
     /// The instrument grid as a [`Grid`]; a profile measured as XYZ or
     /// luminance has none.
     pub fn grid(&self) -> Result<Grid, DisplayError> {

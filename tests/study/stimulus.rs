@@ -453,7 +453,31 @@ fn stimulus_errors_name_the_file_and_what_is_wrong() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(
-        err.contains("not_profile.json") && err.contains("not a display profile") && err.contains("wavelength_nm"),
+        err.contains("not_profile.json") && err.contains("not a display profile") && err.contains("`transfer`"),
+        "{err}"
+    );
+    // Everything but the black level and the primaries: named by each kind's fields.
+    let t = r#"{"gamma": 2.2, "levels": [0, 1], "measured": [0, 1], "rms_residual": 0}"#;
+    std::fs::write(
+        &not_profile,
+        format!(
+            r#"{{"observer": "cie-1931", "transfer": [{t}, {t}, {t}], "measurement_ids": [],
+               "additivity": {{"white_xyz": [1, 1, 1], "sum_xyz": [1, 1, 1], "delta_e00": 0}}}}"#
+        ),
+    )
+    .unwrap();
+    let o = lightbooth(&[
+        "stimulus",
+        img,
+        "--display",
+        not_profile.to_str().unwrap(),
+        "--bits",
+        "8",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("wavelength_nm") && err.contains("black_xyz") && err.contains("black_cd_m2"),
         "{err}"
     );
 
