@@ -331,8 +331,7 @@ pub fn display_patch_light(
     }
     let s = &m.summary;
     let model = s.instrument_model.as_deref().unwrap_or("instrument");
-    // A luminance meter's Y is the instrument's own (there is no XYZ for lightbooth's `Y`).
-    match (s.xyz, s.luminance_cd_m2.or(s.instrument_luminance_cd_m2), s.observer) {
+    match (s.xyz, s.luminance_cd_m2, s.observer) {
         (Some(xyz), _, Some(observer)) => Ok((PatchLight::Xyz(xyz), Some(observer))),
         (None, Some(y), Some(observer)) => Ok((PatchLight::Luminance(y), Some(observer))),
         _ => Err(format!(

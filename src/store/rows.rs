@@ -118,7 +118,8 @@ pub struct MeasurementSummary {
     pub finished_at: Option<f64>,
     /// Luminance of the mean spectrum, cd/m², computed by lightbooth with
     /// `observer`: always `XYZ[1]` (the same observer as `x`, `y`, `XYZ`
-    /// and every comparison of the measurement).
+    /// and every comparison of the measurement); a colorimeter's is its own
+    /// XYZ's, a luminance meter's its own luminance, in its `observer`.
     #[serde(rename = "Y")]
     pub luminance_cd_m2: Option<f64>,
     /// The instrument's own luminance of the mean spectrum, cd/m² (CIE 1931
@@ -308,6 +309,10 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
             (Some(x), Some(y), Some(z)) => Some([x, y, z]),
             _ => None,
         };
+        let observer = observer_column(r.observer, "observer")?;
+        // A complete measurement without XYZ is a luminance meter's: its Y is
+        // the instrument's own, in the observer stored with it.
+        let luminance = xyz.map(|v| v[1]).or(observer.and(r.luminance_cd_m2));
         Ok(MeasurementSummary {
             id: r.id,
             booth: r.booth,
@@ -331,11 +336,11 @@ impl TryFrom<MeasurementRecord> for MeasurementSummary {
             finished_at: r.finished_at,
             // Lightbooth's Y is the observer's, from the stored XYZ; the
             // stored luminance column is the instrument's CIE 1931 value.
-            luminance_cd_m2: xyz.map(|v| v[1]),
+            luminance_cd_m2: luminance,
             instrument_luminance_cd_m2: r.luminance_cd_m2,
             instrument_x: r.x,
             instrument_y: r.y,
-            observer: observer_column(r.observer, "observer")?,
+            observer,
             x: xyz.map(|v| Xyz::from_array(v).chromaticity().x),
             y: xyz.map(|v| Xyz::from_array(v).chromaticity().y),
             xyz,

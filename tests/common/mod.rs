@@ -140,6 +140,15 @@ pub async fn poll_until(addr: SocketAddr, path: &str, limit: Duration, mut pred:
 /// The write token of [`Daemon`].
 pub const TOKEN: &str = "test-token-0123456789abcdef";
 
+/// The less common settings of [`Daemon`]: `None` is the default.
+#[derive(Default)]
+struct Extra {
+    /// `serve --scenes` (default: the repository's `scenes/`).
+    scenes_dir: Option<PathBuf>,
+    /// `serve --observer` (default: Judd–Vos).
+    observer: Option<lightbooth::colorimetry::Observer>,
+}
+
 /// A whole daemon in-process on loopback with the simulated PR-650, a
 /// fresh SQLite file and the write token [`TOKEN`].
 pub struct Daemon {
@@ -184,7 +193,7 @@ impl Daemon {
             None,
             Some(booth),
             lightbooth::lab::worker_queue::RenderPlace::Workers,
-            None,
+            Extra::default(),
         )
         .await
     }
@@ -199,7 +208,10 @@ impl Daemon {
             None,
             None,
             Default::default(),
-            Some(scenes.to_path_buf()),
+            Extra {
+                scenes_dir: Some(scenes.to_path_buf()),
+                ..Extra::default()
+            },
         )
         .await
     }
@@ -209,6 +221,29 @@ impl Daemon {
         Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument), None).await
     }
 
+    /// Starts it with another instrument model, its comparisons in `observer`
+    /// (`serve --observer`; a colorimeter's XYZ are compared only in its own).
+    pub async fn start_instrument_in(
+        mock_speed: f64,
+        instrument: lightbooth::instrument::InstrumentSettings,
+        observer: lightbooth::colorimetry::Observer,
+    ) -> Daemon {
+        let extra = Extra {
+            observer: Some(observer),
+            ..Extra::default()
+        };
+        Daemon::start_full(
+            mock_speed,
+            "127.0.0.1:0",
+            None,
+            Some(instrument),
+            None,
+            Default::default(),
+            extra,
+        )
+        .await
+    }
+
     async fn start_with(
         mock_speed: f64,
         bind: &str,
@@ -216,7 +251,16 @@ impl Daemon {
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
     ) -> Daemon {
-        Daemon::start_full(mock_speed, bind, db_url, instrument, booth, Default::default(), None).await
+        Daemon::start_full(
+            mock_speed,
+            bind,
+            db_url,
+            instrument,
+            booth,
+            Default::default(),
+            Extra::default(),
+        )
+        .await
     }
 
     async fn start_full(
@@ -226,7 +270,7 @@ impl Daemon {
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
         renders: lightbooth::lab::worker_queue::RenderPlace,
-        scenes_dir: Option<PathBuf>,
+        extra: Extra,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();
         let token_file = dir.path().join("token");
@@ -252,7 +296,9 @@ impl Daemon {
             mock_speed,
             mock_faults: Vec::new(),
             instrument: instrument.unwrap_or(lightbooth::instrument::InstrumentSettings::Pr650(settings)),
-            scenes_dir: scenes_dir.unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")),
+            scenes_dir: extra
+                .scenes_dir
+                .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")),
             // Shared across tests: converged spectra are keyed by scene content.
             cache_dir: PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache"),
             token_file: Some(token_file),
@@ -261,7 +307,7 @@ impl Daemon {
                 .map(String::from)
                 .to_vec(),
             render_samples: 2048,
-            observer: lightbooth::colorimetry::Observer::JuddVos,
+            observer: extra.observer.unwrap_or(lightbooth::colorimetry::Observer::JuddVos),
             mock_world: None,
             heartbeat: daemon::DEFAULT_HEARTBEAT,
             lease: daemon::DEFAULT_LEASE,

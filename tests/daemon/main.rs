@@ -13,6 +13,7 @@ mod daemon_cs2000;
 mod daemon_e2e;
 mod daemon_jobs;
 mod daemon_mock_faults;
+mod daemon_models;
 mod daemon_pr670;
 mod daemon_recovery;
 mod daemon_wire_log;

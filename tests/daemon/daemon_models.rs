@@ -1,0 +1,143 @@
+//! Each model beside the PR-650 and the CS-2000 as a booth's instrument
+//! (`serve --mock colorcal`, `cs100a`, `ls100`, `cr250`, `cr300`): a
+//! five-sample measurement from the API, every sample stored with what the
+//! instrument gives (a spectrum, XYZ or a luminance), and — where it gives
+//! a colour in the daemon's observer — compared with every coding. Truth:
+//! the WHITE scene's patch reads about 34 cd/m² (booth-scenes.md).
+
+use crate::common;
+
+use std::time::Duration;
+
+use common::{events, get_json, post_json, wait_for, Daemon, TOKEN};
+use lightbooth::colorimetry::Observer;
+use lightbooth::instrument::colorcal::ColorCalSettings;
+use lightbooth::instrument::cr250::{self, Cr250Settings};
+use lightbooth::instrument::ls100::{self, Ls100Settings};
+use lightbooth::instrument::InstrumentSettings;
+use serde_json::Value;
+
+/// The daemon's event stream (`/api/events`), as [`events`] reads it.
+type Events = tokio::sync::mpsc::UnboundedReceiver<(String, Value)>;
+
+/// A five-sample measurement of WHITE's patch; the finished measurement.
+async fn five_samples(d: &Daemon) -> (i64, Value, Events) {
+    let mut ev = events(d.addr).await;
+    let (status, m) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene": "white", "target": "patch", "samples": 5}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{m}");
+    let id = m["id"].as_i64().unwrap();
+    let mut sample_events = 0;
+    wait_for(
+        &mut ev,
+        "the measurement to finish",
+        Duration::from_secs(120),
+        |name, v| {
+            if name == "sample" && v["measurement_id"] == id {
+                sample_events += 1;
+            }
+            name == "measurement_finished" && v["measurement_id"] == id
+        },
+    )
+    .await;
+    assert_eq!(sample_events, 5, "a progress event per sample");
+    let (_, done) = get_json(d.addr, &format!("/api/measurements/{id}")).await;
+    assert_eq!(done["state"], "complete", "{done}");
+    let samples = done["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 5, "every sample stored: {done}");
+    let y = done["Y"].as_f64().unwrap_or(f64::NAN);
+    assert!((25.0..45.0).contains(&y), "Y = {y}: {done}");
+    (id, done, ev)
+}
+
+/// Waits for the comparison and checks it has every coding.
+async fn compared_with_every_coding(d: &Daemon, id: i64, ev: &mut Events) {
+    wait_for(ev, "the comparison", Duration::from_secs(300), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == id
+    })
+    .await;
+    let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    let mut codings: Vec<&str> = c["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["measurement_id"] == id)
+        .map(|r| r["coding"].as_str().unwrap())
+        .collect();
+    codings.sort_unstable();
+    assert_eq!(
+        codings,
+        ["nstep27", "nstep3", "nstep81", "nstep9", "rgb", "spectral", "srgb"],
+        "{c}"
+    );
+}
+
+/// The colorimeters in a CIE 1931 booth (their own observer): each
+/// sample's XYZ kept, no spectrum, compared with every coding.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn colorimeter_booths_in_their_observer_compare_every_coding() {
+    for settings in [
+        InstrumentSettings::ColorCal(ColorCalSettings::default()),
+        InstrumentSettings::Ls100(Ls100Settings::for_model(ls100::Model::Cs100a)),
+    ] {
+        let d = Daemon::start_instrument_in(0.0, settings, Observer::Cie1931).await;
+        let (_, health) = get_json(d.addr, "/api/health").await;
+        assert_eq!(health["instrument"]["measures"], "XYZ", "{health}");
+        let (id, done, mut ev) = five_samples(&d).await;
+        assert!(done["radiance"].is_null(), "{done}");
+        assert_eq!(done["observer"], "cie-1931");
+        for s in done["samples"].as_array().unwrap() {
+            assert_eq!(s["instrument_XYZ"].as_array().map(Vec::len), Some(3), "{s}");
+        }
+        compared_with_every_coding(&d, id, &mut ev).await;
+        d.stop().await;
+    }
+}
+
+/// A luminance meter's booth: Y per sample and the measurement's Y (the
+/// meter's own, in its CIE 1931 V(λ)), no x, y; not compared (a luminance
+/// is no colour), and said so in the log rather than silently.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_ls100_booth_keeps_each_samples_luminance() {
+    let settings = InstrumentSettings::Ls100(Ls100Settings::for_model(ls100::Model::Ls100));
+    let d = Daemon::start_instrument_in(0.0, settings, Observer::Cie1931).await;
+    let (_, health) = get_json(d.addr, "/api/health").await;
+    assert_eq!(health["instrument"]["measures"], "luminance", "{health}");
+    let (id, done, _) = five_samples(&d).await;
+    assert!(done["x"].is_null() && done["XYZ"].is_null(), "{done}");
+    assert_eq!(done["observer"], "cie-1931");
+    for s in done["samples"].as_array().unwrap() {
+        assert!(s["instrument_Y"].as_f64().is_some(), "{s}");
+    }
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    assert!(
+        !c["rows"].as_array().unwrap().iter().any(|r| r["measurement_id"] == id),
+        "{c}"
+    );
+    d.stop().await;
+}
+
+/// The Colorimetry Research spectroradiometers in the default (Judd–Vos)
+/// booth: each sample's spectrum on the instrument's own grid.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cr250_and_cr300_booths_measure_five_samples_and_compare_every_coding() {
+    for model in [cr250::Model::Cr250, cr250::Model::Cr300] {
+        let settings = InstrumentSettings::Cr250(Cr250Settings::for_model(model));
+        let d = Daemon::start_instrument(0.0, settings).await;
+        let (_, health) = get_json(d.addr, "/api/health").await;
+        assert_eq!(health["instrument"]["measures"], "spectrum", "{health}");
+        let (id, done, mut ev) = five_samples(&d).await;
+        let n = done["wavelength_nm"].as_array().unwrap().len();
+        for s in done["samples"].as_array().unwrap() {
+            assert_eq!(s["radiance"].as_array().map(Vec::len), Some(n), "{s}");
+        }
+        compared_with_every_coding(&d, id, &mut ev).await;
+        d.stop().await;
+    }
+}
