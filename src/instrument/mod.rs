@@ -67,7 +67,7 @@ use serde::Serialize;
 use crate::colorimetry::{xyz_from_radiance, Observer};
 use crate::spectrum::{Grid, Spectrum};
 
-pub use models::{native_grid_of_length, InstrumentSettings, MODEL_FLAGS};
+pub use models::{native_grid_of_length, reading_of_model, InstrumentSettings, MODEL_FLAGS};
 pub use pr650::{open_pr650, Pr650Settings};
 
 /// What an instrument is, as far as it can tell.

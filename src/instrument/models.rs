@@ -44,6 +44,18 @@ pub const MODEL_FLAGS: &[&str] = &[
     "pr650", "pr655", "pr670", "cs2000", "cs2000a", "cs3000", "cr250", "cr300", "colorcal", "ls100", "cs100a",
 ];
 
+/// What the model stored as `name` (`PR-650`, `ColorCAL MkII`, `LS-100`, …)
+/// reads: a spectrum, XYZ in an observer, or a luminance. `None` for a name
+/// no model lightbooth drives has.
+pub fn reading_of_model(name: &str) -> Option<super::Reading> {
+    MODEL_FLAGS
+        .iter()
+        .filter_map(|flag| InstrumentSettings::defaults_for(flag).ok())
+        .map(|s| s.capabilities())
+        .find(|c| c.model == name)
+        .map(|c| c.reading)
+}
+
 /// The settings of one instrument, by model.
 #[derive(Clone, Debug, PartialEq)]
 pub enum InstrumentSettings {

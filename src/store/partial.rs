@@ -10,12 +10,15 @@
 //! spectrum of the usable samples, its `Y`, `x`, `y`, `XYZ` with the
 //! store's observer ([`Store::with_observer`]), the instrument's own CIE
 //! 1931 values beside them (`instrument_Y`, `instrument_x`,
-//! `instrument_y`), and the luminance CV over those samples.
+//! `instrument_y`), and the luminance CV over those samples. A
+//! colorimeter's or luminance meter's samples (no spectrum) give their mean
+//! XYZ or luminance in the instrument's own observer, as its complete
+//! measurements do.
 
 use std::time::{Duration, UNIX_EPOCH};
 
 use super::{parse_opt_array, MeasurementState, MeasurementSummary, Store, StoreError};
-use crate::instrument::{average_samples, InstrumentInfo, QualityCode, QualityKind, Sample};
+use crate::instrument::{average_samples, InstrumentInfo, QualityCode, QualityKind, Reading, Sample};
 use crate::spectrum::{SpectralUnit, Spectrum};
 
 impl Store {
@@ -25,6 +28,15 @@ impl Store {
         for m in items.iter_mut() {
             let unfinished = matches!(m.state, MeasurementState::Interrupted | MeasurementState::Cancelled);
             if !unfinished || m.good_samples == 0 || m.instrument_luminance_cd_m2.is_some() {
+                continue;
+            }
+            let reading = m
+                .instrument_model
+                .as_deref()
+                .and_then(crate::instrument::reading_of_model)
+                .unwrap_or(Reading::Spectrum);
+            if reading != Reading::Spectrum {
+                self.fill_partial_reading(m, reading).await?;
                 continue;
             }
             let rows: Vec<(i64, f64, Option<String>, Option<f64>)> = with_pool!(self, |pool| sqlx::query_as(
@@ -70,6 +82,62 @@ impl Store {
                 }
                 Err(e) => tracing::warn!(measurement_id = m.id, error = %e, "no partial average"),
             }
+        }
+        Ok(())
+    }
+
+    /// The partial average of a colorimeter's or a luminance meter's
+    /// samples: their mean XYZ (or luminance) and the CV of their
+    /// luminance, in the instrument's own observer, as a complete
+    /// measurement of it has.
+    async fn fill_partial_reading(&self, m: &mut MeasurementSummary, reading: Reading) -> Result<(), StoreError> {
+        let rows: Vec<(i64, f64, Option<String>, Option<f64>)> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT idx, taken_at, xyz_json, luminance_cd_m2 FROM samples \
+             WHERE measurement_id = $1 AND usable = TRUE ORDER BY idx",
+        )
+        .bind(m.id)
+        .fetch_all(pool)
+        .await?);
+        let mut samples = Vec::with_capacity(rows.len());
+        for (idx, taken_at, xyz_json, luminance) in rows {
+            let xyz = parse_opt_array(xyz_json, "sample XYZ")?.and_then(|v| <[f64; 3]>::try_from(v).ok());
+            samples.push(Sample {
+                index: idx as usize,
+                time: UNIX_EPOCH + Duration::from_secs_f64(taken_at.max(0.0)),
+                code: QualityCode {
+                    code: 0,
+                    kind: QualityKind::Ok,
+                    message: "stored as usable".into(),
+                },
+                radiance: None,
+                luminance,
+                instrument_xyz: xyz,
+            });
+        }
+        let info = InstrumentInfo {
+            model: m.instrument_model.clone().unwrap_or_default(),
+            serial: None,
+            firmware: None,
+            grid: crate::spectrum::Grid::one_nm(),
+        };
+        match average_samples(info, reading, samples) {
+            Ok(avg) => {
+                let (xyz, observer) = match reading {
+                    Reading::Tristimulus { observer } => (avg.instrument_xyz, Some(observer)),
+                    Reading::Luminance { observer } => (None, Some(observer)),
+                    Reading::Spectrum => (None, None),
+                };
+                let xy = xyz.map(|v| crate::colorimetry::Xyz::from_array(v).chromaticity());
+                m.instrument_luminance_cd_m2 = Some(avg.luminance_cd_m2);
+                m.luminance_cd_m2 = xyz.map(|v| v[1]).or(Some(avg.luminance_cd_m2));
+                m.xyz = xyz;
+                m.x = xy.map(|c| c.x);
+                m.y = xy.map(|c| c.y);
+                m.observer = observer;
+                m.luminance_cv = Some(avg.luminance_cv);
+                m.partial = true;
+            }
+            Err(e) => tracing::warn!(measurement_id = m.id, error = %e, "no partial average"),
         }
         Ok(())
     }

@@ -28,6 +28,7 @@ on_both_engines!(
     job_states_move_only_forward,
     the_queue_reads_only_unfinished_renders_and_studies_oldest_first,
     partial_averages_and_previews_read_back_alike,
+    a_cancelled_colorimeter_or_luminance_meter_measurement_had_no_partial_average,
     measurements_and_instruments_name_their_booth_and_list_by_booth_and_model,
     recovery_interrupts_only_the_work_of_gone_daemons_and_rows_naming_none,
     two_daemons_recovering_the_same_gone_daemon_at_once_interrupt_each_row_once,
@@ -641,6 +642,64 @@ async fn the_queue_reads_only_unfinished_renders_and_studies_oldest_first(engine
         .unwrap();
     let ids: Vec<i64> = store.unfinished_studies().await.unwrap().iter().map(|s| s.id).collect();
     assert_eq!(ids, [waiting]);
+}
+
+/// The bug (issue 33): a ColorCAL's or an LS-100's cancelled measurement
+/// showed nothing of its good samples (the partial average read only
+/// spectra). Now: their mean XYZ (or luminance) in the instrument's CIE
+/// 1931 observer, the CV of their luminance, marked partial. Truth: the
+/// samples' own numbers, averaged by hand.
+async fn a_cancelled_colorimeter_or_luminance_meter_measurement_had_no_partial_average(engine: EngineKind) {
+    let (_db, store, _) = temp_store(engine).await;
+    for (model, xyz) in [("ColorCAL MkII", true), ("LS-100", false)] {
+        let inst = store
+            .upsert_instrument(&Booth::default(), model, None, "/dev/pts/2")
+            .await
+            .unwrap();
+        let id = store.create_measurement(&new_measurement()).await.unwrap();
+        store.mark_running(id, Some(inst)).await.unwrap();
+        for (index, y) in [(0usize, 30.0), (1, 34.0)] {
+            let sample = NewSample {
+                index,
+                taken_at: 1.0e9 + index as f64,
+                code: 0,
+                message: "OK".into(),
+                usable: true,
+                radiance: None,
+                luminance_cd_m2: Some(y),
+                instrument_xyz: xyz.then_some([0.9 * y, y, 1.1 * y]),
+            };
+            store.insert_sample(id, &sample).await.unwrap();
+        }
+        store
+            .end_measurement(id, MeasurementState::Cancelled, "cancelled by the operator")
+            .await
+            .unwrap();
+        let m = store.get_measurement(id).await.unwrap().unwrap().summary;
+        assert_eq!(m.instrument_model.as_deref(), Some(model));
+        assert!(m.partial, "{model}: {m:?}");
+        assert_eq!(
+            m.observer,
+            Some(Observer::Cie1931),
+            "{model}: the instrument's own observer"
+        );
+        assert!((m.luminance_cd_m2.unwrap() - 32.0).abs() < 1e-9, "{model}: {m:?}");
+        // SD (n − 1) of 30 and 34 is 2√2; CV = 2√2 / 32.
+        assert!(
+            (m.luminance_cv.unwrap() - 8f64.sqrt() / 32.0).abs() < 1e-9,
+            "{model}: {m:?}"
+        );
+        if xyz {
+            let v = m.xyz.unwrap();
+            assert!((v[0] - 28.8).abs() < 1e-9 && (v[2] - 35.2).abs() < 1e-9, "{v:?}");
+            assert!((m.x.unwrap() - 0.9 / 3.0).abs() < 1e-9, "{m:?}");
+        } else {
+            assert!(
+                m.xyz.is_none() && m.x.is_none(),
+                "a luminance meter gives no colour: {m:?}"
+            );
+        }
+    }
 }
 
 /// Reads that go through each engine's own types: the partial average of an
