@@ -180,15 +180,15 @@ function follow() {
     $("progress").value = done;
     $("progress-text").textContent =
       `measurement #${d.measurement_id}: sample ${done} of ${d.of} (code ${d.code}: ${d.message})`;
-    refreshLiveSpectrum();
+    if (d.radiance != null) refreshLiveSpectrum(true); // a bad sample, or a colorimeter's, has none
   });
   es.addEventListener("measurement_finished", async (e) => {
     const d = JSON.parse(e.data);
     if (d.measurement_id === current) {
       $("cancel-current").hidden = true;
       $("progress-text").textContent = `measurement #${d.measurement_id}: ${d.state}` + (d.error ? ` (${d.error})` : "");
-      refreshLiveSpectrum();
       const m = await api(`/api/measurements/${d.measurement_id}`);
+      refreshLiveSpectrum(hasSpectrum(m));
       $("live-result").textContent = m.state === "complete"
         ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), luminance CV = ${fmt(m.luminance_cv, 2)}`
         : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
@@ -247,10 +247,24 @@ async function refreshStudyEstimate(id) {
   }
 }
 
-function refreshLiveSpectrum() {
+// Live's spectrum chart of the running measurement, redrawn after each
+// sample; an instrument that gives no spectrum (a colorimeter's XYZ, a
+// luminance meter's Y) has none to draw, and Live says so instead.
+function refreshLiveSpectrum(hasSpectrum) {
   const img = $("live-spectrum");
-  img.hidden = false;
-  img.src = `/api/measurements/${current}/spectrum.svg?t=${Date.now()}`;
+  img.hidden = !hasSpectrum;
+  $("live-no-spectrum").hidden = hasSpectrum;
+  if (hasSpectrum) img.src = `/api/measurements/${current}/spectrum.svg?t=${Date.now()}`;
+  else $("live-no-spectrum").textContent = NO_SPECTRUM;
+}
+
+// What shows where a spectrum chart would be, for an instrument without spectra.
+const NO_SPECTRUM = "No spectrum to chart: this instrument measures XYZ or luminance only. " +
+  "Each sample's values are in the measurement's table.";
+
+// Whether measurement m (as GET /api/measurements/{id} gives it) has a spectrum to chart.
+function hasSpectrum(m) {
+  return m.wavelength_nm != null || (m.samples || []).some((s) => s.radiance != null);
 }
 
 // --- live: start a measurement ---------------------------------------------
@@ -432,9 +446,16 @@ async function showMeasurement(id) {
     (m.hold ? ` · taken for the ${m.hold.purpose} (instrument hold ${m.hold.id})` : "") +
     (m.note ? ` · notes: ${m.note}` : "");
   showComparison($("detail-comparison"), m).catch((e) => notice(e.message));
+  const spectral = hasSpectrum(m);
+  $("detail-downloads").hidden = !spectral;
+  $("detail-figure").hidden = !spectral;
+  $("detail-no-spectrum").hidden = spectral;
+  $("detail-no-spectrum").textContent = spectral ? "" : `No spectrum to chart: the ${m.instrument_model || "instrument"} ` +
+    `measures ${m.XYZ != null ? "XYZ" : "luminance"} only; each sample's values are in the table below ` +
+    "(CSV, MAT and the chart need a spectroradiometer).";
   for (const [el, ext] of [["detail-csv", "csv"], ["detail-mat", "mat"], ["detail-svg", "svg"]])
     $(el).href = `/api/measurements/${id}/spectrum.${ext}`;
-  $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
+  if (spectral) $("detail-spectrum").src = `/api/measurements/${id}/spectrum.svg?t=${Date.now()}`;
   const tbody = document.querySelector("#sample-table tbody");
   tbody.replaceChildren();
   for (const s of m.samples) {
@@ -480,12 +501,28 @@ async function showComparison(box, m) {
     box.replaceChildren(heading, state(`None: only a complete measurement is compared; this one is ${m.state}.`));
     return;
   }
-  const [rows, renders] = await Promise.all([api(`/api/measurements/${m.id}/comparisons`),
+  // A luminance meter's measurement has Y and no colour: it is compared in
+  // luminance alone (GET /api/measurements/{id}/luminance-comparisons).
+  const luminanceOnly = m.XYZ == null && m.x == null && m.Y != null;
+  const [rows, renders, health] = await Promise.all([
+    api(`/api/measurements/${m.id}/${luminanceOnly ? "luminance-comparisons" : "comparisons"}`),
     // A daemon without the renderer (503) lists no renders: its workers render.
-    api(`/api/scenes/${encodeURIComponent(m.scene)}/renders`).catch(() => [])]);
+    api(`/api/scenes/${encodeURIComponent(m.scene)}/renders`).catch(() => []),
+    api("/api/health").catch(() => ({}))]);
   if (comparisonBoxes.get(box) !== m) return; // another measurement was opened meanwhile
   const sceneLink = el("a", `the scene ${m.scene}: its charts and every target`);
   sceneLink.href = `#/scenes/${encodeURIComponent(m.scene)}`;
+  const model = m.instrument_model || "instrument";
+  if (!rows.length && m.observer && health.observer && m.wavelength_nm == null &&
+      m.observer !== health.observer) {
+    // A colorimeter's XYZ or a luminance meter's Y cannot be recomputed in the daemon's observer.
+    const p = state(`Not compared: the ${model} measures in the ${observerName(m.observer)} observer and the ` +
+      `daemon compares in the ${observerName(health.observer)}; serve with --observer ${m.observer} to compare ` +
+      "its measurements. ");
+    p.append("See ", sceneLink, ".");
+    box.replaceChildren(heading, p);
+    return;
+  }
   if (!rows.length) {
     const busy = renders.find((r) => r.state === "running") || renders.find((r) => r.state === "queued");
     const newest = renders[0];
@@ -502,6 +539,10 @@ async function showComparison(box, m) {
     const p = state(text + " ");
     p.append("See ", sceneLink, ".");
     box.replaceChildren(heading, p);
+    return;
+  }
+  if (luminanceOnly) {
+    box.replaceChildren(heading, luminanceTable(rows, el), luminanceNote(rows, model, sceneLink, el));
     return;
   }
   const t = document.createElement("table");
@@ -523,6 +564,35 @@ async function showComparison(box, m) {
     `(observer: ${observerName(r0.observer)}). `, "hint");
   note.append("See ", sceneLink, ".");
   box.replaceChildren(heading, t, note);
+}
+
+// A luminance meter's comparison rows: luminances and their ratio only.
+function luminanceTable(rows, el) {
+  const t = document.createElement("table");
+  t.className = "comparison-table";
+  const head = t.createTHead().insertRow();
+  for (const h of ["coding", "rendered Y (cd/m²)", "Y rendered / measured", "Y beyond noise"]) {
+    head.appendChild(el("th", h));
+  }
+  const body = t.createTBody();
+  for (const r of rows) {
+    const tr = body.insertRow();
+    for (const v of [r.coding, fmt(r.rendered_Y, 5), fmt(r.Y_ratio, 4), r.Y_beyond_noise ? "yes" : "no"]) {
+      tr.insertCell().textContent = v;
+    }
+  }
+  return t;
+}
+
+// What a luminance-only comparison is, under its table.
+function luminanceNote(rows, model, sceneLink, el) {
+  const r0 = rows[0];
+  const note = el("p", `${rows.length} codings of render ${r0.render_id}, in luminance only: the ${model} ` +
+    `measures luminance (${observerName(r0.observer)} ȳ), no colour, so there is no x, y or ΔE; a colorimeter ` +
+    "or a spectroradiometer gives them. ", "hint");
+  note.dataset.luminanceOnly = "";
+  note.append("See ", sceneLink, ".");
+  return note;
 }
 
 // A comparison was stored (measurement id) or a render of `scene` moved on:

@@ -595,14 +595,23 @@ impl Worker {
                     state: MeasurementState::Complete,
                     error: None,
                 });
-                if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
+                let comparisons = &self.config.comparisons;
+                let luminance_only = crate::lab::measurement::comparable_luminance(&avg, observer);
+                if let (Some(scene), Some(target), Some(luminance)) = (&job.scene, &job.target, luminance_only) {
+                    // A luminance meter's: compared in luminance alone.
+                    match luminance {
+                        Ok(y) => {
+                            let y_se = avg.luminance_cv * y / (avg.good_samples().count().max(1) as f64).sqrt();
+                            comparisons.compare_luminance_later(id, scene.clone(), target.clone(), y, y_se)
+                        }
+                        Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
+                    }
+                } else if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
                     match crate::lab::measurement::comparable_xyz(&avg, observer) {
                         Ok(xyz) => {
                             let good = avg.good_samples().count();
                             let y_se = avg.luminance_cv * xyz.y / (good.max(1) as f64).sqrt();
-                            self.config
-                                .comparisons
-                                .compare_later(id, scene.clone(), target.clone(), xyz, y_se)
+                            comparisons.compare_later(id, scene.clone(), target.clone(), xyz, y_se)
                         }
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }

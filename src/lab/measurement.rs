@@ -245,6 +245,34 @@ pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<X
     }
 }
 
+/// The luminance of a luminance meter's averaged measurement, for comparing
+/// it with renderings in luminance alone: its mean Y, when the meter's
+/// spectral weighting (V(λ), CIE 1931's ȳ) is `observer`'s ȳ. Another
+/// observer's ȳ weights the rendered spectra differently, so that
+/// comparison would mix two luminances and is refused, saying what to do.
+/// `None` for a measurement that is not a luminance meter's (see
+/// [`comparable_xyz`]).
+pub fn comparable_luminance(avg: &AveragedMeasurement, observer: Observer) -> Option<Result<f64, String>> {
+    let Reading::Luminance { observer: own } = avg.reading else {
+        return None;
+    };
+    if avg.mean.is_some() {
+        return None;
+    }
+    Some(if own == observer {
+        Ok(avg.luminance_cd_m2)
+    } else {
+        Err(format!(
+            "the {} measures luminance weighted by the {} observer's ȳ, and the comparisons are in the {}: \
+             serve with --observer {} to compare its measurements in luminance",
+            avg.info.model,
+            own.name(),
+            observer.name(),
+            own.name()
+        ))
+    })
+}
+
 /// The average of a measurement as the store keeps it. With a spectrum:
 /// lightbooth's XYZ of the mean spectrum for `observer`. Without one (a
 /// colorimeter): the instrument's own mean XYZ, in the observer its

@@ -128,6 +128,51 @@ impl Store {
         Ok(records.into_iter().map(ComparisonRow::from).collect())
     }
 
+    /// Stores a luminance meter's comparisons with every coding of one
+    /// render, in one transaction (all or nothing).
+    pub async fn insert_luminance_comparisons(&self, rows: &[NewLuminanceComparison]) -> Result<(), StoreError> {
+        with_pool!(self, |pool| {
+            let mut tx = pool.begin().await?;
+            for c in rows {
+                sqlx::query(
+                    "INSERT INTO luminance_comparisons (measurement_id, render_id, scene, target, coding, observer, \
+                     measured_y, measured_y_se, rendered_y, rendered_y_se, y_ratio, created_at) \
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+                )
+                .bind(c.measurement_id)
+                .bind(c.render_id)
+                .bind(&c.scene)
+                .bind(&c.target)
+                .bind(&c.coding)
+                .bind(c.observer.name())
+                .bind(c.measured_y)
+                .bind(c.measured_y_se)
+                .bind(c.rendered_y)
+                .bind(c.rendered_y_se)
+                .bind(c.y_ratio)
+                .bind(now())
+                .execute(&mut *tx)
+                .await?;
+            }
+            tx.commit().await?;
+        });
+        Ok(())
+    }
+
+    /// The luminance-only comparisons of one measurement, oldest first.
+    pub async fn luminance_comparisons_for_measurement(
+        &self,
+        measurement_id: i64,
+    ) -> Result<Vec<LuminanceComparisonRow>, StoreError> {
+        let records: Vec<LuminanceComparisonRecord> = with_pool!(self, |pool| sqlx::query_as(
+            "SELECT * FROM luminance_comparisons WHERE measurement_id = $1 ORDER BY id"
+        )
+        .bind(measurement_id)
+        .fetch_all(pool)
+        .await?);
+        Ok(records.into_iter().map(LuminanceComparisonRow::from).collect())
+    }
+
     /// Runs one statement with one integer argument (`$1`), for tests that
     /// reach past the store's API (a schema constraint, a forced state).
     #[cfg(test)]

@@ -609,6 +609,98 @@ impl From<ComparisonRecord> for ComparisonRow {
     }
 }
 
+/// A luminance meter's measurement against one coding, to be stored: the
+/// luminances alone (a luminance meter gives no colour, so no x, y or ΔE).
+#[derive(Clone, Debug)]
+pub struct NewLuminanceComparison {
+    pub measurement_id: i64,
+    pub render_id: i64,
+    pub scene: String,
+    pub target: String,
+    pub coding: String,
+    /// The observer whose ȳ weights both luminances.
+    pub observer: Observer,
+    /// Measured Y and its standard error (samples' SD/√n), cd/m².
+    pub measured_y: f64,
+    pub measured_y_se: f64,
+    /// Rendered Y and its Monte Carlo standard error, cd/m².
+    pub rendered_y: f64,
+    pub rendered_y_se: f64,
+    pub y_ratio: f64,
+}
+
+/// A stored luminance-only comparison (a luminance meter's measurement
+/// against one coding), as the API gives it: the luminance ratio, whether
+/// the difference is beyond noise, and no colour.
+#[allow(non_snake_case)]
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct LuminanceComparisonRow {
+    pub id: i64,
+    pub measurement_id: i64,
+    pub render_id: i64,
+    pub scene: String,
+    pub target: String,
+    pub coding: String,
+    /// The observer whose ȳ weights both luminances.
+    #[schema(value_type = String)]
+    pub observer: Observer,
+    pub measured_Y: f64,
+    /// Standard error of the measured Y (samples' SD/√n).
+    pub measured_Y_se: f64,
+    pub rendered_Y: f64,
+    pub rendered_Y_se: f64,
+    /// Rendered Y over measured Y.
+    pub Y_ratio: f64,
+    /// |rendered Y − measured Y| > k·√(rendered_Y_se² + measured_Y_se²),
+    /// k = 3 ([`crate::comparison::BEYOND_NOISE_K`]).
+    pub Y_beyond_noise: bool,
+    pub created_at: f64,
+}
+
+/// A row of `luminance_comparisons`, as stored.
+#[derive(sqlx::FromRow)]
+pub(super) struct LuminanceComparisonRecord {
+    id: i64,
+    measurement_id: i64,
+    render_id: i64,
+    scene: String,
+    target: String,
+    coding: String,
+    observer: String,
+    measured_y: f64,
+    measured_y_se: f64,
+    rendered_y: f64,
+    rendered_y_se: f64,
+    y_ratio: f64,
+    created_at: f64,
+}
+
+impl From<LuminanceComparisonRecord> for LuminanceComparisonRow {
+    fn from(r: LuminanceComparisonRecord) -> LuminanceComparisonRow {
+        LuminanceComparisonRow {
+            // Rows are written by this program (see ComparisonRow's).
+            observer: r.observer.parse().unwrap_or_default(),
+            Y_beyond_noise: crate::comparison::beyond_noise(
+                r.rendered_y - r.measured_y,
+                r.rendered_y_se,
+                r.measured_y_se,
+            ),
+            id: r.id,
+            measurement_id: r.measurement_id,
+            render_id: r.render_id,
+            scene: r.scene,
+            target: r.target,
+            coding: r.coding,
+            measured_Y: r.measured_y,
+            measured_Y_se: r.measured_y_se,
+            rendered_Y: r.rendered_y,
+            rendered_Y_se: r.rendered_y_se,
+            Y_ratio: r.y_ratio,
+            created_at: r.created_at,
+        }
+    }
+}
+
 /// A study run as the API lists it.
 #[derive(Clone, Debug, Serialize, ToSchema)]
 pub struct StudyRow {

@@ -100,26 +100,58 @@ async fn colorimeter_booths_in_their_observer_compare_every_coding() {
 }
 
 /// A luminance meter's booth: Y per sample and the measurement's Y (the
-/// meter's own, in its CIE 1931 V(λ)), no x, y; not compared (a luminance
-/// is no colour), and said so in the log rather than silently.
+/// meter's own, in its CIE 1931 V(λ)), no x, y; compared with every coding
+/// in luminance alone (its own rows: no colour, so no x, y or ΔE), each
+/// ratio the rendered Y over the meter's. The WHITE scene's renders agree
+/// with the simulator's 34 cd/m² patch to a few per cent (booth-scenes.md),
+/// so every coding's ratio is near 1.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_ls100_booth_keeps_each_samples_luminance() {
+async fn an_ls100_booth_keeps_each_samples_luminance_and_compares_it() {
     let settings = InstrumentSettings::Ls100(Ls100Settings::for_model(ls100::Model::Ls100));
     let d = Daemon::start_instrument_in(0.0, settings, Observer::Cie1931).await;
     let (_, health) = get_json(d.addr, "/api/health").await;
     assert_eq!(health["instrument"]["measures"], "luminance", "{health}");
-    let (id, done, _) = five_samples(&d).await;
+    let (id, done, mut ev) = five_samples(&d).await;
     assert!(done["x"].is_null() && done["XYZ"].is_null(), "{done}");
     assert_eq!(done["observer"], "cie-1931");
     for s in done["samples"].as_array().unwrap() {
         assert!(s["instrument_Y"].as_f64().is_some(), "{s}");
     }
-    tokio::time::sleep(Duration::from_secs(1)).await;
+    wait_for(
+        &mut ev,
+        "the luminance comparison",
+        Duration::from_secs(300),
+        |name, v| name == "comparison_ready" && v["measurement_id"] == id,
+    )
+    .await;
     let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
     assert!(
         !c["rows"].as_array().unwrap().iter().any(|r| r["measurement_id"] == id),
-        "{c}"
+        "no colour comparison: {c}"
     );
+    let (status, rows) = get_json(d.addr, &format!("/api/measurements/{id}/luminance-comparisons")).await;
+    assert_eq!(status, 200, "{rows}");
+    let rows = rows.as_array().unwrap();
+    let mut codings: Vec<&str> = rows.iter().map(|r| r["coding"].as_str().unwrap()).collect();
+    codings.sort_unstable();
+    assert_eq!(
+        codings,
+        ["nstep27", "nstep3", "nstep81", "nstep9", "rgb", "spectral", "srgb"],
+        "{rows:?}"
+    );
+    let measured = done["Y"].as_f64().unwrap();
+    for r in rows {
+        assert_eq!(r["observer"], "cie-1931", "{r}");
+        assert_eq!(r["measured_Y"].as_f64(), Some(measured), "{r}");
+        let (rendered, ratio) = (r["rendered_Y"].as_f64().unwrap(), r["Y_ratio"].as_f64().unwrap());
+        assert!((ratio - rendered / measured).abs() < 1e-12, "{r}");
+        assert!((0.8..1.2).contains(&ratio), "{r}");
+        assert!(r["Y_beyond_noise"].is_boolean() && r.get("dE00").is_none(), "{r}");
+    }
+    // The measurement's page shows these rows, luminances only.
+    common::run_browser_script("luminance_comparison.mjs", d.addr, common::screenshot_dir())
+        .await
+        .unwrap_or_else(|e| panic!("{e}"));
     d.stop().await;
 }
 

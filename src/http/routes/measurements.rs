@@ -17,8 +17,8 @@ use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::instrument_queue::MeasurementJob;
 use crate::store::{
-    ComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState, MeasurementSummary,
-    NewMeasurement,
+    ComparisonRow, LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState,
+    MeasurementSummary, NewMeasurement,
 };
 
 #[derive(Deserialize, ToSchema, Default)]
@@ -436,4 +436,17 @@ pub async fn measurement_comparisons(
 ) -> Result<Json<Vec<ComparisonRow>>, ApiError> {
     load_measurement(&state, id).await?;
     Ok(Json(state.store.comparisons_for_measurement(id).await?))
+}
+
+/// A luminance meter's measurement compared with every coding in luminance
+/// alone (it gives no colour): empty for any other measurement, whose
+/// comparisons are at `/measurements/{id}/comparisons`.
+#[utoipa::path(get, path = "/measurements/{id}/luminance-comparisons", tag = "comparisons",
+    params(("id" = i64, Path)), responses((status = 200, body = Vec<LuminanceComparisonRow>)))]
+pub async fn measurement_luminance_comparisons(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<LuminanceComparisonRow>>, ApiError> {
+    load_measurement(&state, id).await?;
+    Ok(Json(state.store.luminance_comparisons_for_measurement(id).await?))
 }

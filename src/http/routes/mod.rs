@@ -67,6 +67,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(measurement_mat))
         .routes(routes!(measurement_svg))
         .routes(routes!(measurement_comparisons))
+        .routes(routes!(measurement_luminance_comparisons))
         .routes(routes!(list_scenes))
         .routes(routes!(scene_overview))
         .routes(routes!(get_scene))

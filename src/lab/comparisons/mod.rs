@@ -49,7 +49,7 @@ use super::render_runner::RenderRunner;
 use super::worker_queue::WorkerQueue;
 use crate::colorimetry::{Lab, Xyz};
 use crate::comparison::{compare_point, delta_e_pair};
-use crate::store::{Booth, NewComparison, Store};
+use crate::store::{Booth, NewComparison, NewLuminanceComparison, Store};
 use white::{measured_xyz, SceneWhite};
 
 /// Compares measurements with every coding of their scene's render.
@@ -184,6 +184,78 @@ impl Comparisons {
         for other in dependent {
             self.refresh_white(&other, &booth).await?;
         }
+        self.events.send(Event::ComparisonReady {
+            measurement_id,
+            scene: scene.to_string(),
+            target: target.to_string(),
+        });
+        Ok(())
+    }
+
+    /// After a luminance meter's measurement of a scene target completes:
+    /// compare its luminance with every coding, in the background.
+    pub fn compare_luminance_later(
+        self: &Arc<Self>,
+        measurement_id: i64,
+        scene: String,
+        target: String,
+        measured_y: f64,
+        measured_y_se: f64,
+    ) {
+        let this = Arc::clone(self);
+        self.runtime.spawn(async move {
+            if let Err(e) = this
+                .compare_luminance(measurement_id, &scene, &target, measured_y, measured_y_se)
+                .await
+            {
+                tracing::error!(measurement_id, scene, target, error = %e, "luminance comparison failed");
+            }
+        });
+    }
+
+    /// Compares a luminance meter's measurement `measurement_id` of
+    /// `scene`/`target` (luminance `measured_y`, cd/m², weighted by the
+    /// runner's observer's ȳ; `measured_y_se` its standard error) with
+    /// every coding of the scene's render, in luminance alone, and stores
+    /// the rows. No white is involved: the luminance ratio needs none, and
+    /// x, y and ΔE need a colour the meter does not give. Render workers do
+    /// not take these: the daemon renders, or reuses the stored render.
+    pub async fn compare_luminance(
+        &self,
+        measurement_id: i64,
+        scene: &str,
+        target: &str,
+        measured_y: f64,
+        measured_y_se: f64,
+    ) -> anyhow::Result<()> {
+        let (render_id, result) = self.render_for_comparison(scene).await?;
+        let rendered = rendered_codings(&result, target)
+            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let observer = self.runner.observer();
+        let rows: Vec<NewLuminanceComparison> = rendered
+            .into_iter()
+            .map(|(coding, rendered, y_se)| NewLuminanceComparison {
+                measurement_id,
+                render_id,
+                scene: scene.to_string(),
+                target: target.to_string(),
+                coding,
+                observer,
+                measured_y,
+                measured_y_se,
+                rendered_y: rendered.y,
+                rendered_y_se: y_se,
+                y_ratio: rendered.y / measured_y,
+            })
+            .collect();
+        self.store.insert_luminance_comparisons(&rows).await?;
+        tracing::info!(
+            measurement_id,
+            scene,
+            target,
+            codings = rows.len(),
+            "luminance comparison stored"
+        );
         self.events.send(Event::ComparisonReady {
             measurement_id,
             scene: scene.to_string(),
@@ -465,6 +537,82 @@ mod tests {
             .await
             .unwrap();
         assert!(other.rows.is_empty() && other.codings.is_empty());
+    }
+
+    /// A luminance meter's measurement (issue 33): its Y is comparable in
+    /// the observer whose ȳ is its V(λ) only, a colorimeter's is not a
+    /// luminance-only one, and the rows are the luminance ratio alone.
+    /// Truth: a measured Y 10 % above the spectral rendering's gives the
+    /// ratio 1/1.1 exactly; with a standard error of 1 % of Y on the
+    /// measurement the difference (9.1 % of the rendered Y) is beyond
+    /// 3 · √(SE_S² + SE_M²) unless the render's own SE is larger.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_luminance_meters_measurement_is_compared_in_luminance_alone() {
+        use crate::instrument::{average_samples, InstrumentInfo, Reading, Sample};
+        use crate::lab::measurement::comparable_luminance;
+        use crate::spectrum::Grid;
+        let info = InstrumentInfo {
+            model: "LS-100".into(),
+            serial: None,
+            firmware: None,
+            grid: Grid::pr650(),
+        };
+        let sample = |index: usize, y: f64, xyz: Option<[f64; 3]>| Sample {
+            index,
+            time: std::time::SystemTime::now(),
+            code: crate::instrument::pr650::codes::quality_code(0),
+            radiance: None,
+            luminance: Some(y),
+            instrument_xyz: xyz,
+        };
+        let reading = Reading::Luminance {
+            observer: Observer::Cie1931,
+        };
+        let avg = average_samples(
+            info.clone(),
+            reading,
+            vec![sample(0, 30.0, None), sample(1, 32.0, None)],
+        )
+        .unwrap();
+        assert_eq!(comparable_luminance(&avg, Observer::Cie1931), Some(Ok(31.0)));
+        let refused = comparable_luminance(&avg, Observer::JuddVos).unwrap().unwrap_err();
+        assert!(refused.contains("serve with --observer cie-1931"), "{refused}");
+        let colorimeter = Reading::Tristimulus {
+            observer: Observer::Cie1931,
+        };
+        let avg = average_samples(info, colorimeter, vec![sample(0, 30.0, Some([28.0, 30.0, 20.0]))]).unwrap();
+        assert_eq!(comparable_luminance(&avg, Observer::Cie1931), None);
+
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (runner, _) = runner(&store);
+        let render_id = render_white(&runner).await;
+        let result = store.get_render(render_id).await.unwrap().unwrap().result.unwrap();
+        let (_, spectral, spectral_se) = rendered_codings(&result, "patch")
+            .unwrap()
+            .into_iter()
+            .find(|(c, _, _)| c == "spectral")
+            .unwrap();
+        let id = measurement_of(&store, "white", "patch").await;
+        let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
+        let measured = 1.1 * spectral.y;
+        comparisons
+            .compare_luminance(id, "white", "patch", measured, 0.01 * measured)
+            .await
+            .unwrap();
+        let rows = store.luminance_comparisons_for_measurement(id).await.unwrap();
+        assert_eq!(rows.len(), 2, "every coding of the render: {rows:?}");
+        let row = rows.iter().find(|r| r.coding == "spectral").unwrap();
+        assert_eq!(row.render_id, render_id);
+        assert_eq!(row.observer, Observer::JuddVos);
+        assert!((row.Y_ratio - 1.0 / 1.1).abs() < 1e-12, "{}", row.Y_ratio);
+        assert_eq!(row.measured_Y, measured);
+        let combined = 3.0 * spectral_se.hypot(0.01 * measured);
+        assert_eq!(row.Y_beyond_noise, measured - spectral.y > combined, "{row:?}");
+        assert!(
+            store.comparisons_for_measurement(id).await.unwrap().is_empty(),
+            "no colour comparison"
+        );
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
