@@ -134,9 +134,7 @@ impl Comparisons {
         measured: Xyz,
         measured_y_se: f64,
     ) -> anyhow::Result<()> {
-        let (render_id, result) = self.render_for_comparison(scene).await?;
-        let rendered = rendered_codings(&result, target)
-            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let (render_id, rendered) = self.rendered_target(scene, target).await?;
         let _serial = self.compare_lock.lock().await;
         // The white is the one of the booth this measurement was taken in.
         let booth = self
@@ -228,9 +226,7 @@ impl Comparisons {
         measured_y: f64,
         measured_y_se: f64,
     ) -> anyhow::Result<()> {
-        let (render_id, result) = self.render_for_comparison(scene).await?;
-        let rendered = rendered_codings(&result, target)
-            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        let (render_id, rendered) = self.rendered_target(scene, target).await?;
         let observer = self.runner.observer();
         let rows: Vec<NewLuminanceComparison> = rendered
             .into_iter()
@@ -346,6 +342,15 @@ impl Comparisons {
             xyz,
             format!("render {render_id} spectral ({white_scene}/{target}; not yet measured)"),
         ))
+    }
+
+    /// The render of `scene` comparisons use ([`Self::render_for_comparison`])
+    /// and every coding's XYZ and standard error of Y at `target` in it.
+    async fn rendered_target(&self, scene: &str, target: &str) -> anyhow::Result<(i64, Vec<(String, Xyz, f64)>)> {
+        let (render_id, result) = self.render_for_comparison(scene).await?;
+        let rendered = rendered_codings(&result, target)
+            .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
+        Ok((render_id, rendered))
     }
 
     /// The render comparisons use: reused when the store has one of the same
