@@ -11,7 +11,10 @@
 //!
 //! # Where things live
 //!
-//! Science, pure and without I/O:
+//! Science, pure and without I/O, is a crate of its own,
+//! `lightbooth-science` (`crates/science`), whose modules this crate
+//! re-exports under their names; it depends on no other part of
+//! lightbooth, and Cargo refuses a build where it would:
 //!
 //! - [`spectrum`]: spectra with their grid and unit; CSV in and out.
 //! - [`reference_data`]: CIE matching functions, illuminants and reflectance
@@ -69,7 +72,9 @@
 //!
 //! # The layer rule
 //!
-//! A module may use modules on its own level or below, never above; the
+//! Level 0 is the science crate: the compiler keeps it below everything
+//! else. Above it, inside this crate, a module may use modules on its own
+//! level or below, never above; the
 //! architecture test (`tests/cli/architecture.rs`) reads this table and
 //! every `crate::…` path under `src/`, and fails naming the file, the line
 //! and the forbidden edge. No two files import each other, directly or
@@ -89,21 +94,18 @@
 //! | 1 | instrument, render |
 //! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display, psychophysics, random |
 
-pub mod calibration;
 pub mod charts;
-pub mod colorimetry;
-pub mod comparison;
 pub mod daemon;
-pub mod display;
 pub mod export;
 pub mod http;
 pub mod instrument;
 pub mod lab;
-pub mod nstep;
-pub mod psychophysics;
-pub mod random;
-pub mod reference_data;
 pub mod render;
-pub mod spectrum;
 pub mod store;
 pub mod worker;
+
+// The science layer, a crate of its own (`crates/science`), under the
+// names its modules had here.
+pub use lightbooth_science::{
+    calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum,
+};

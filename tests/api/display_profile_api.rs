@@ -162,7 +162,7 @@ async fn charts_of(d: &Daemon, id: i64) -> Vec<String> {
 /// the daemon's simulated display shows. The profile is in the ColorCAL's
 /// CIE 1931 observer (another observer is refused rather than mixed), its
 /// primaries are the display's own within 0.003 in x, y and its γ within
-/// 2 %. Truth: the simulated CRT's spectra and γ (src/display/simulated.rs).
+/// 2 %. Truth: the simulated CRT's spectra and γ (crates/science/src/display/simulated.rs).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_display_is_calibrated_through_the_colorcal_simulator() {
     use lightbooth::instrument::colorcal::ColorCalSettings;

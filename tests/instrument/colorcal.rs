@@ -23,7 +23,7 @@ fn psychopy_colorcal_class_measures_through_mock_colorcal_with_default_flags() {
     let dir = tempfile::tempdir().unwrap();
     let target_csv = write_target(dir.path());
     let sim = start_simulator("mock-colorcal", &target_csv, &[]);
-    let cmf = root().join("src/reference_data/cie1931_2deg_cmf.csv");
+    let cmf = root().join("crates/science/src/reference_data/cie1931_2deg_cmf.csv");
     let report = python_client(
         "colorcal_client.py",
         &[&sim.port, target_csv.to_str().unwrap(), cmf.to_str().unwrap()],

@@ -39,9 +39,9 @@ pub fn write_target(dir: &Path) -> PathBuf {
 }
 
 /// The target's X, Y, Z (cd/m²): 683 lm/W · Σ x̄ȳz̄(λ) L(λ) · 1 nm, read
-/// from `src/reference_data/cie1931_2deg_cmf.csv` here.
+/// from `crates/science/src/reference_data/cie1931_2deg_cmf.csv` here.
 pub fn truth_xyz(scale: f64) -> [f64; 3] {
-    let text = std::fs::read_to_string(root().join("src/reference_data/cie1931_2deg_cmf.csv")).unwrap();
+    let text = std::fs::read_to_string(root().join("crates/science/src/reference_data/cie1931_2deg_cmf.csv")).unwrap();
     let mut xyz = [0.0; 3];
     for line in text.lines().skip(1).filter(|l| !l.trim().is_empty()) {
         let v: Vec<f64> = line.split(',').map(|f| f.trim().parse().unwrap()).collect();

@@ -21,7 +21,7 @@ fn psychopy_measures(class: &str, model_flag: &str) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let target_csv = write_target(dir.path());
     let sim = start_simulator("mock-ls100", &target_csv, &["--model", model_flag]);
-    let cmf = root().join("src/reference_data/cie1931_2deg_cmf.csv");
+    let cmf = root().join("crates/science/src/reference_data/cie1931_2deg_cmf.csv");
     let report = python_client(
         "minolta_client.py",
         &[class, &sim.port, target_csv.to_str().unwrap(), cmf.to_str().unwrap()],

@@ -1,5 +1,5 @@
 //! The display profile against a display whose truth is known: the
-//! simulated CRT of `serve --mock` (src/display/simulated.rs), measured by
+//! simulated CRT of `serve --mock` (crates/science/src/display/simulated.rs), measured by
 //! the simulated PR-650's instrument model (8 nm slit, 4 nm grid, shot and
 //! read noise). The truth is the simulated display's own spectra and γ, never
 //! the fit's code path.

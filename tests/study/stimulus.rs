@@ -1,5 +1,5 @@
 //! `lightbooth stimulus` and `lightbooth display-resolution` against a
-//! display whose truth is known: the simulated CRT (src/display/simulated.rs).
+//! display whose truth is known: the simulated CRT (crates/science/src/display/simulated.rs).
 //! The profile is fitted to the CRT's exact spectra (no instrument noise),
 //! so what is tested is the conversion; the truth is always the simulated
 //! display's own spectra integrated with the CMFs, never the converter's

@@ -4,7 +4,7 @@
 //! converts the measurement and every rendering with the same white per scene.
 //!
 //! ```
-//! use lightbooth::colorimetry::{ciede2000, delta_e76, Lab};
+//! use lightbooth_science::colorimetry::{ciede2000, delta_e76, Lab};
 //! let a = Lab { l: 50.0, a: 2.6772, b: -79.7751 };
 //! let b = Lab { l: 50.0, a: 0.0, b: -82.7485 };
 //! assert!((ciede2000(a, b) - 2.0425).abs() < 1e-4); // Sharma et al. (2005), pair 1

@@ -2,7 +2,7 @@
 //! numbers from the same seed in every version: SplitMix64 (Steele, Lea &
 //! Flood 2014, "Fast splittable pseudorandom number generators", OOPSLA),
 //! its output function as a hash that decorrelates nearby seeds (the
-//! renderer's [`crate::render::sampling`] seeds its streams with it) and as
+//! renderer's `lightbooth::render::sampling` seeds its streams with it) and as
 //! a stream (the trial order of an experiment, [`crate::psychophysics`]).
 //! `rand`'s `StdRng` says its algorithm may change between releases, which
 //! a stored seed cannot allow; SplitMix64 is a few lines, pinned below to

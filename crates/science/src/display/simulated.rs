@@ -2,7 +2,7 @@
 //! while the calibration page shows a colour.
 //!
 //! Primaries: a typical CRT's (Brainard 1997, via colour-science; see
-//! `src/reference_data/PROVENANCE.md`), relative spectra resampled linearly
+//! `crates/science/src/reference_data/PROVENANCE.md`), relative spectra resampled linearly
 //! from 5 nm to 1 nm and scaled so that white (all channels at full drive,
 //! black included) has a luminance of [`WHITE_CD_M2`] (CIE 1931 ȳ). Black:
 //! [`BLACK_FRACTION`] of the primaries' sum (a CRT's glow and room

@@ -30,8 +30,8 @@
 //! never beyond noise, whatever the SEs.
 //!
 //! ```
-//! use lightbooth::colorimetry::{Observer, Xyz};
-//! use lightbooth::comparison::{compare_point, summarize};
+//! use lightbooth_science::colorimetry::{Observer, Xyz};
+//! use lightbooth_science::comparison::{compare_point, summarize};
 //! let white = Xyz::new(32.5, 34.2, 37.2);
 //! let m = Xyz::new(10.0, 11.0, 5.0);
 //! let d = compare_point(m, m.scaled(1.1), white, Observer::JuddVos);

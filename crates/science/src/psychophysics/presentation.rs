@@ -16,7 +16,7 @@
 //! frames really lasts.
 //!
 //! ```
-//! use lightbooth::psychophysics::presentation::Presentation;
+//! use lightbooth_science::psychophysics::presentation::Presentation;
 //!
 //! let p = Presentation::default();
 //! // 5.7° at 570 mm is 56.7 mm: 227 pixels of 0.25 mm.

@@ -21,7 +21,7 @@
 //! - [`presentation`]: the pie's size and the trial's timeline in frames.
 //!
 //! ```
-//! use lightbooth::psychophysics::oddity::{estimate, OddityModel};
+//! use lightbooth_science::psychophysics::oddity::{estimate, OddityModel};
 //!
 //! // 30 of 36 trials right, as one observer and condition of the study.
 //! let e = estimate(30, 36, OddityModel::Differencing, 0.95).unwrap();

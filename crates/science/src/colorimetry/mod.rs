@@ -32,9 +32,9 @@
 //! The default observer is Judd–Vos (1978), as in the study.
 //!
 //! ```
-//! use lightbooth::colorimetry::{xyz_relative, Observer};
-//! use lightbooth::reference_data::{illuminant, Illuminant};
-//! use lightbooth::spectrum::{Grid, Spectrum, SpectralUnit};
+//! use lightbooth_science::colorimetry::{xyz_relative, Observer};
+//! use lightbooth_science::reference_data::{illuminant, Illuminant};
+//! use lightbooth_science::spectrum::{Grid, Spectrum, SpectralUnit};
 //! let white = Spectrum::constant(Grid::analysis(), SpectralUnit::Reflectance, 1.0).unwrap();
 //! let xyz = xyz_relative(&white, &illuminant(Illuminant::D65), Observer::Cie1931).unwrap();
 //! let xy = xyz.chromaticity();

@@ -26,7 +26,7 @@ use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 pub const SHIPPED: &[(&str, &str, &str)] = &[(
     "spectralon_99",
     "spectralon_99.csv",
-    include_str!("../../scenes/spectra/spectralon_99.csv"),
+    include_str!("../../../../scenes/spectra/spectralon_99.csv"),
 )];
 
 /// A parsed calibration.

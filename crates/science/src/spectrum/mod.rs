@@ -14,7 +14,7 @@
 //!   converted to per-nm before colorimetry, and light × light is refused.
 //!
 //! ```
-//! use lightbooth::spectrum::{Grid, Spectrum, SpectralUnit};
+//! use lightbooth_science::spectrum::{Grid, Spectrum, SpectralUnit};
 //! let grid = Grid::analysis();
 //! let white = Spectrum::constant(grid.clone(), SpectralUnit::Reflectance, 0.9).unwrap();
 //! let light = Spectrum::constant(grid, SpectralUnit::SpectralRadiance, 0.01).unwrap();
@@ -496,7 +496,7 @@ impl Spectrum {
 
 /// Linear interpolation of (x, y) at `at`, holding the end values beyond the
 /// ends. `x` is strictly increasing.
-pub(crate) fn interpolate_clamped(x: &[f64], y: &[f64], at: f64) -> f64 {
+pub fn interpolate_clamped(x: &[f64], y: &[f64], at: f64) -> f64 {
     let n = x.len();
     if at <= x[0] {
         return y[0];

@@ -7,7 +7,7 @@
 //! so the embedded data obeys the same checks.
 //!
 //! ```
-//! use lightbooth::reference_data::{illuminant, Illuminant};
+//! use lightbooth_science::reference_data::{illuminant, Illuminant};
 //! let d65 = illuminant(Illuminant::D65);
 //! assert_eq!(d65.value_at(560.0), Some(100.0));
 //! ```

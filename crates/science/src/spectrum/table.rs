@@ -1,6 +1,6 @@
 //! Spectra as CSV: first column `nm`, then one column per named spectrum.
 //!
-//! This is the exchange format of the lab (and of the tables in `src/reference_data/`
+//! This is the exchange format of the lab (and of the tables in `crates/science/src/reference_data/`
 //! and `scenes/spectra/`): MATLAB's `writetable`, spreadsheets and instrument
 //! exports all produce it. A CSV
 //! carries no unit, so reading gives a [`SpectraTable`] of plain numbers and
@@ -19,7 +19,7 @@
 //! open the file and fix it:
 //!
 //! ```
-//! use lightbooth::spectrum::table::SpectraTable;
+//! use lightbooth_science::spectrum::table::SpectraTable;
 //! let err = SpectraTable::parse("nm,white\n380,0.5\n385,abc\n", "patch.csv").unwrap_err();
 //! assert_eq!(err.to_string(), "patch.csv:3: column 2 (white): `abc` is not a number");
 //! ```

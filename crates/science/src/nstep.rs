@@ -14,7 +14,7 @@
 //! 650–780 nm, N = 81 gives one sample per band (exact).
 //!
 //! ```
-//! use lightbooth::nstep::Bands;
+//! use lightbooth_science::nstep::Bands;
 //! let b = Bands::new(81, 3).unwrap();
 //! assert_eq!(b.range(1), 27..54);
 //! let v: Vec<f64> = (0..81).map(|i| i as f64).collect();

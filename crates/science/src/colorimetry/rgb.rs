@@ -6,7 +6,7 @@
 //! and scale each column by s. Then RGB (1, 1, 1) is the white with Y = 1.
 //!
 //! ```
-//! use lightbooth::colorimetry::rgb::RgbSpace;
+//! use lightbooth_science::colorimetry::rgb::RgbSpace;
 //! let m = RgbSpace::SRGB.rgb_to_xyz();
 //! assert!((m.row(1).x - 0.2126).abs() < 1e-4); // Rec. 709 luminance weights
 //! ```
