@@ -1,4 +1,4 @@
-//! Benchmark of the bounding volume hierarchy (`src/render/bvh.rs`): build
+//! Benchmark of the bounding volume hierarchy (`crates/render/src/bvh.rs`): build
 //! time and nearest-hit rays per second on generated meshes of 1 k, 100 k
 //! and 1 M triangles, and where it overtakes the linear scan.
 //!

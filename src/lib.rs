@@ -33,17 +33,23 @@
 //!   its exact interval, and d′ of the study's oddity task under the
 //!   differencing and independent-observation models.
 //!
-//! The two instruments of the lab, a real one and a simulated one:
+//! The two instruments of the lab, a real one and a simulated one, are a
+//! crate each above the science (`crates/instrument`, `crates/render`),
+//! re-exported here under their names:
 //!
 //! - [`instrument`]: the `Spectroradiometer` trait; one serial link session
 //!   (`instrument::link`: exchange, resync, timeouts) and one reply error
-//!   (`instrument::reply`) under the PR-650 and PR-655/670 drivers; their
-//!   simulators on ptys (`instrument::sim`).
+//!   (`instrument::reply`) under the drivers of every model; their
+//!   simulators on ptys (`instrument::sim`); discovery under a deadline.
 //! - [`render`]: the built-in spectral renderer, every coding in one pass.
+//!   **It samples a light in [`render::integrator`]** (`estimate_direct`,
+//!   over the lights of [`render::lights`]).
 //!
 //! Keeping and showing results:
 //!
-//! - [`store`]: the database (SQLite or PostgreSQL), every raw sample.
+//! - [`store`]: the database (SQLite or PostgreSQL), every raw sample; a
+//!   crate of its own above those two (`crates/store`, with the top-level
+//!   `migrations/` embedded).
 //! - [`charts`]: the charts as SVG; [`export`]: CSV, MAT, EXR and ENVI files.
 //!
 //! The workflows:
@@ -60,6 +66,11 @@
 //!   study too.
 //! - [`lab::study`]: the study (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings).
+//! - [`lab::experiments`]: the oddity experiment. **An experiment's trial
+//!   is stored by `Experiments::record_trial`** ([`lab::experiments::session`]:
+//!   it checks the trial against the session's next position and its
+//!   frames, then [`store`]'s `insert_trial` writes it, the session's last
+//!   one ending the session in the same transaction).
 //!
 //! Serving them:
 //!
@@ -72,9 +83,10 @@
 //!
 //! # The layer rule
 //!
-//! Level 0 is the science crate: the compiler keeps it below everything
-//! else. Above it, inside this crate, a module may use modules on its own
-//! level or below, never above; the
+//! Levels 0 to 2 are crates (science; instrument and render; store): the
+//! compiler keeps the science below everything else, the instruments and
+//! the renderer out of each other, and all of them below this crate. Above them, inside this crate, a module may use
+//! modules on its own level or below, never above; the
 //! architecture test (`tests/cli/architecture.rs`) reads this table and
 //! every `crate::…` path under `src/`, and fails naming the file, the line
 //! and the forbidden edge. No two files import each other, directly or
@@ -98,14 +110,16 @@ pub mod charts;
 pub mod daemon;
 pub mod export;
 pub mod http;
-pub mod instrument;
 pub mod lab;
-pub mod render;
-pub mod store;
 pub mod worker;
 
-// The science layer, a crate of its own (`crates/science`), under the
-// names its modules had here.
+// The layers below this crate, each a crate of its own, under the names
+// their modules had here: the store (`crates/store`), the instruments and
+// the renderer under it (`crates/instrument`, `crates/render`), and the
+// science under them all (`crates/science`).
+pub use lightbooth_instrument as instrument;
+pub use lightbooth_render as render;
 pub use lightbooth_science::{
     calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum,
 };
+pub use lightbooth_store as store;

@@ -13,8 +13,8 @@ use clap::Parser;
 /// sends it (the shared link session logs the wire traffic at debug, `→ PR-650
 /// command`, `← PR-670 reply`, and the serial port its discarded input; each
 /// driver logs its own details at debug).
-const DAEMON_LOG: &str = "info,lightbooth::instrument::pr650=debug,lightbooth::instrument::pr655=debug,\
-                          lightbooth::instrument::link=debug";
+const DAEMON_LOG: &str = "info,lightbooth_instrument::pr650=debug,lightbooth_instrument::pr655=debug,\
+                          lightbooth_instrument::link=debug";
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();

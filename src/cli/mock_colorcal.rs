@@ -2,7 +2,7 @@
 //! pseudo-terminal, for trying `measure --model colorcal` (and PsychoPy's
 //! `ColorCAL` class) without the instrument. A thin wrapper around
 //! [`lightbooth::instrument::sim::spawn_mock`]; what the simulator does and
-//! chooses is in `src/instrument/sim/colorcal.rs`.
+//! chooses is in `crates/instrument/src/sim/colorcal.rs`.
 
 use std::io::Write;
 

@@ -3,7 +3,7 @@
 //! for trying `measure --model ls100|cs100a` (and PsychoPy's `LS100` and
 //! `CS100A` classes) without the meter. A thin wrapper around
 //! [`lightbooth::instrument::sim::spawn_mock`]; what the simulator does and
-//! chooses is in `src/instrument/sim/ls100.rs`. The meters report no serial
+//! chooses is in `crates/instrument/src/sim/ls100.rs`. The meters report no serial
 //! number, so there is no `--serial`.
 
 use std::io::Write;

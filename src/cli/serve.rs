@@ -103,6 +103,8 @@ struct ConfigFile {
     cache_dir: Option<PathBuf>,
     codings: Option<Vec<String>>,
     render_samples: Option<u64>,
+    /// Camera paths in all of a render's dashboard preview.
+    preview_paths: Option<u64>,
     mock_speed: Option<f64>,
     observer: Option<String>,
     mock_world: Option<PathBuf>,
@@ -303,6 +305,14 @@ pub fn run(args: ServeArgs) -> anyhow::Result<()> {
                 .to_vec()
         }),
         render_samples: file.render_samples.unwrap_or(16_384),
+        preview_paths: match file.preview_paths {
+            Some(0) => anyhow::bail!(
+                "{}: key `preview_paths`: 0; give 1 or more paths",
+                args.config.display()
+            ),
+            Some(n) => n,
+            None => lightbooth::render::sensor::PREVIEW_PATH_BUDGET,
+        },
         observer: match (args.observer, file.observer) {
             (Some(o), _) => o,
             (None, Some(name)) => name

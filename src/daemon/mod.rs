@@ -85,6 +85,9 @@ pub struct DaemonOptions {
     pub codings: Vec<String>,
     /// Radiometer samples per target of a comparison render.
     pub render_samples: u64,
+    /// Camera paths in all of a render's dashboard preview
+    /// (`render::sensor::PREVIEW_PATH_BUDGET` unless configured).
+    pub preview_paths: u64,
     /// The one colorimetric observer of every x,y, XYZ, CIELAB and ΔE this
     /// daemon computes (comparisons, charts); the study's Judd–Vos by default.
     pub observer: Observer,
@@ -223,6 +226,7 @@ pub async fn run(
                 &catalogue,
                 &codings,
                 options.render_samples,
+                options.preview_paths,
                 options.observer,
             )
             .await?;
@@ -234,15 +238,18 @@ pub async fn run(
         .map(|queue| AbortOnDrop(tokio::spawn(Arc::clone(queue).watch(WORKER_JOB_POLL))));
     let lab_events = EventSink::bus(events.clone());
     let shutdown_flag = CancelFlag::default();
-    let runner = Arc::new(RenderRunner::new(
-        store.clone(),
-        Arc::clone(&catalogue),
-        lab_events.clone(),
-        codings.clone(),
-        options.render_samples,
-        options.observer,
-        shutdown_flag.clone(),
-    ));
+    let runner = Arc::new(
+        RenderRunner::new(
+            store.clone(),
+            Arc::clone(&catalogue),
+            lab_events.clone(),
+            codings.clone(),
+            options.render_samples,
+            options.observer,
+            shutdown_flag.clone(),
+        )
+        .with_preview_paths(options.preview_paths),
+    );
     let comparisons = Arc::new(Comparisons::new(
         store.clone(),
         Arc::clone(&runner),

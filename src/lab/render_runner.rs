@@ -56,6 +56,9 @@ pub struct RenderRunner {
     codings: Vec<Coding>,
     /// Paths per target when a request does not say.
     samples: u64,
+    /// Camera paths of a render's dashboard preview, in all
+    /// ([`render::sensor::preview_spp`]).
+    preview_paths: u64,
     observer: Observer,
     /// Set at shutdown: stops the renders comparisons run under it, and
     /// makes a stopped render `interrupted` rather than `cancelled`.
@@ -80,9 +83,18 @@ impl RenderRunner {
             events,
             codings,
             samples,
+            preview_paths: render::sensor::PREVIEW_PATH_BUDGET,
             observer,
             shutdown,
         }
+    }
+
+    /// The same runner with `paths` camera paths in all for each render's
+    /// dashboard preview instead of [`render::sensor::PREVIEW_PATH_BUDGET`]
+    /// (the daemon's `preview_paths`).
+    pub fn with_preview_paths(mut self, paths: u64) -> RenderRunner {
+        self.preview_paths = paths;
+        self
     }
 
     /// The observer of every XYZ, x,y, CIELAB and ΔE.
@@ -282,6 +294,7 @@ impl RenderRunner {
         });
         tracing::info!(render_id = id, scene = scene_id, "render started");
         let events = self.events.clone();
+        let preview_paths = self.preview_paths;
         let (tx, rx) = tokio::sync::oneshot::channel();
         let flag = cancel.clone();
         let panic_scene = jobs::test_panic_requested(scene_id).then(|| scene_id.to_string());
@@ -291,7 +304,7 @@ impl RenderRunner {
                     if let Some(scene) = &panic_scene {
                         jobs::panic_on_the_pool(scene);
                     }
-                    render_with_timings(id, &scene, &settings, &events).and_then(|done| {
+                    render_with_timings(id, &scene, &settings, preview_paths, &events).and_then(|done| {
                         // Cancelled while the codings were timed: the timings are incomplete.
                         if flag.is_cancelled() {
                             Err(RenderError::Cancelled)
@@ -398,6 +411,7 @@ fn render_with_timings(
     id: i64,
     scene: &Scene,
     settings: &RenderSettings,
+    preview_paths: u64,
     events: &EventSink,
 ) -> Result<RenderOutput, RenderError> {
     // Each step reports its own progress (`lab::progress::RENDER_STEPS`).
@@ -453,7 +467,7 @@ fn render_with_timings(
             scene,
             camera,
             Coding::Srgb,
-            render::sensor::preview_spp(camera),
+            render::sensor::preview_spp(camera, preview_paths),
             &transport,
             settings.seed,
         )

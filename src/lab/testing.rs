@@ -114,7 +114,9 @@ pub fn runner(store: &Store) -> (Arc<RenderRunner>, tokio::sync::broadcast::Rece
         TEST_SAMPLES,
         Observer::JuddVos,
         CancelFlag::default(),
-    );
+    )
+    // The camera preview at its least, 16 paths per pixel: never a number.
+    .with_preview_paths(1);
     (Arc::new(runner), events)
 }
 

@@ -76,8 +76,16 @@ pub struct PublishedScene {
 pub struct RenderConfig {
     pub codings: Vec<String>,
     pub samples: u64,
+    /// Camera paths of a render's dashboard preview, in all (published
+    /// since the daemon's `preview_paths`; a row without it has the default).
+    #[serde(default = "default_preview_paths")]
+    pub preview_paths: u64,
     pub observer: Observer,
     pub scenes: Vec<PublishedScene>,
+}
+
+fn default_preview_paths() -> u64 {
+    crate::render::sensor::PREVIEW_PATH_BUDGET
 }
 
 /// What a comparison job carries beyond its measurement's id.
@@ -132,7 +140,7 @@ impl WorkerQueue {
     /// Leaves a daemon's comparisons, renders and studies to render
     /// workers: stores every scene of `catalogue` as a bundle and publishes
     /// the [`RenderConfig`] workers render with (`codings`, `samples`,
-    /// `observer`) on the daemon's row. Returns the queue, whose
+    /// `preview_paths`, `observer`) on the daemon's row. Returns the queue, whose
     /// [`WorkerQueue::watch`] the daemon runs.
     pub async fn publish(
         store: Store,
@@ -140,6 +148,7 @@ impl WorkerQueue {
         catalogue: &SceneCatalog,
         codings: &[Coding],
         samples: u64,
+        preview_paths: u64,
         observer: Observer,
     ) -> anyhow::Result<WorkerQueue> {
         let mut scenes = Vec::new();
@@ -168,6 +177,7 @@ impl WorkerQueue {
         let config = RenderConfig {
             codings: codings.iter().map(|c| c.to_string()).collect(),
             samples,
+            preview_paths,
             observer,
             scenes,
         };

@@ -362,15 +362,18 @@ impl Worker {
         // The worker's own shutdown flag: set when it stops, so the render
         // a comparison runs stops too.
         let shutdown = CancelFlag::default();
-        let runner = Arc::new(RenderRunner::new(
-            self.store.clone(),
-            Arc::clone(&catalogue),
-            EventSink::nowhere(),
-            codings.clone(),
-            config.samples,
-            observer,
-            shutdown.clone(),
-        ));
+        let runner = Arc::new(
+            RenderRunner::new(
+                self.store.clone(),
+                Arc::clone(&catalogue),
+                EventSink::nowhere(),
+                codings.clone(),
+                config.samples,
+                observer,
+                shutdown.clone(),
+            )
+            .with_preview_paths(config.preview_paths),
+        );
         let renderer = DaemonRenders {
             comparisons: Arc::new(Comparisons::new(
                 self.store.clone(),

@@ -105,7 +105,7 @@ pub async fn spawn_serve(db: &str, booth: &str, options: &ServeOptions) -> Serve
     std::fs::write(
         &config,
         format!(
-            "scenes_dir = {:?}\ncache_dir = {:?}\nheartbeat_seconds = {}\nlease_seconds = {}\nrender_samples = {}\ncodings = {:?}\n",
+            "scenes_dir = {:?}\ncache_dir = {:?}\nheartbeat_seconds = {}\nlease_seconds = {}\nrender_samples = {}\npreview_paths = 1\ncodings = {:?}\n",
             root.join("scenes").display().to_string(),
             cache.display().to_string(),
             options.heartbeat_seconds,

@@ -307,6 +307,10 @@ impl Daemon {
                 .map(String::from)
                 .to_vec(),
             render_samples: 2048,
+            // The dashboard's camera preview at 16 paths per pixel (the
+            // least it takes): a preview, never a measured number; the
+            // default's 20 M paths cost each render about 30 s of CPU.
+            preview_paths: 1,
             observer: extra.observer.unwrap_or(lightbooth::colorimetry::Observer::JuddVos),
             mock_world: None,
             heartbeat: daemon::DEFAULT_HEARTBEAT,
