@@ -52,7 +52,8 @@
 //!   `migrations/` embedded).
 //! - [`charts`]: the charts as SVG; [`export`]: CSV, MAT, EXR and ENVI files.
 //!
-//! The workflows:
+//! The workflows, a crate of their own above the store (`crates/lab`,
+//! with the charts and exports):
 //!
 //! - [`lab`]: measurements (one recorder), the instrument queue, events,
 //!   renders, comparisons, jobs, camera images, calibrations, leases, the
@@ -83,9 +84,10 @@
 //!
 //! # The layer rule
 //!
-//! Levels 0 to 2 are crates (science; instrument and render; store): the
-//! compiler keeps the science below everything else, the instruments and
-//! the renderer out of each other, and all of them below this crate. Above them, inside this crate, a module may use
+//! Levels 0 to 3 are crates (science; instrument and render; store; lab
+//! with charts and export): the compiler keeps the science below
+//! everything else, the instruments and the renderer out of each other,
+//! and all of them below this crate. Above them, inside this crate, a module may use
 //! modules on its own level or below, never above; the
 //! architecture test (`tests/cli/architecture.rs`) reads this table and
 //! every `crate::…` path under `src/`, and fails naming the file, the line
@@ -106,18 +108,18 @@
 //! | 1 | instrument, render |
 //! | 0 | spectrum, reference_data, colorimetry, nstep, comparison, calibration, display, psychophysics, random |
 
-pub mod charts;
 pub mod daemon;
-pub mod export;
 pub mod http;
-pub mod lab;
 pub mod worker;
 
 // The layers below this crate, each a crate of its own, under the names
-// their modules had here: the store (`crates/store`), the instruments and
+// their modules had here: the lab with its charts and exports
+// (`crates/lab`), the store under it (`crates/store`), the instruments and
 // the renderer under it (`crates/instrument`, `crates/render`), and the
 // science under them all (`crates/science`).
 pub use lightbooth_instrument as instrument;
+pub use lightbooth_lab as lab;
+pub use lightbooth_lab::{charts, export};
 pub use lightbooth_render as render;
 pub use lightbooth_science::{
     calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum,

@@ -1,0 +1,1237 @@
+//! The charts drawn and read back: every chart's SVG checked for its
+//! axes, legend, markers and colours.
+
+use super::*;
+use lightbooth_science::spectrum::Grid;
+
+/// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
+fn elements(svg: &str, tag: &str) -> Vec<(String, String)> {
+    let open = format!("<{tag} ");
+    let mut out = Vec::new();
+    let mut rest = svg;
+    while let Some(i) = rest.find(&open) {
+        rest = &rest[i + open.len()..];
+        let end = rest.find('>').unwrap();
+        let attrs = rest[..end].to_string();
+        let content = if attrs.ends_with('/') {
+            String::new()
+        } else {
+            let close = format!("</{tag}>");
+            let c = rest.find(&close).unwrap();
+            rest[end + 1..c].trim().to_string()
+        };
+        out.push((attrs, content));
+    }
+    out
+}
+
+fn attr(attrs: &str, name: &str) -> Option<String> {
+    let key = format!(" {name}=\"");
+    let i = format!(" {attrs}").find(&key)? + key.len() - 1;
+    let v = &attrs[i..];
+    Some(v[..v.find('"')?].to_string())
+}
+
+fn num(attrs: &str, name: &str) -> f64 {
+    attr(attrs, name).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
+}
+
+fn texts(svg: &str) -> Vec<(f64, f64, String)> {
+    elements(svg, "text")
+        .into_iter()
+        .map(|(a, c)| (num(&a, "x"), num(&a, "y"), c))
+        .collect()
+}
+
+fn series(name: &str, points: &[(f64, f64)]) -> LineSeriesData {
+    LineSeriesData {
+        name: name.into(),
+        points: points.to_vec(),
+        errors: None,
+    }
+}
+
+fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
+    ScatterSeries {
+        name: name.into(),
+        points: points.to_vec(),
+        connect: false,
+    }
+}
+
+#[test]
+fn charts_are_svg_with_their_labels() {
+    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+    let sd = vec![1e-5; wl.len()];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
+    let xy = chromaticity_chart(
+        "chromaticity",
+        Observer::JuddVos,
+        &[scatter("measured", &[(0.31, 0.33)])],
+    )
+    .unwrap();
+    assert!(xy.contains("spectral locus") && xy.contains("sRGB gamut") && xy.contains("RADIANCE RGB gamut"));
+    let bars = bar_chart(
+        "rms",
+        "rms_rel",
+        &[Bar {
+            label: "rgb".into(),
+            value: 0.1,
+            sd: Some(0.02),
+        }],
+    )
+    .unwrap();
+    assert!(bars.contains("rgb"));
+    let mut pareto = series("pareto", &[(0.1, 3.0), (1.0, 1.0)]);
+    pareto.errors = Some(vec![0.1, 0.1]);
+    let lines = line_chart("speed", "s", "dE", &[pareto], true).unwrap();
+    assert!(lines.contains("pareto"));
+    let grid = grid_chart(
+        "map",
+        &["red".into(), "grey".into()],
+        &["A rgb".into()],
+        &[vec![5.0], vec![0.5]],
+        2.0,
+    )
+    .unwrap();
+    assert!(grid.starts_with("<svg") && grid.contains("A rgb") && grid.contains("5.0"));
+    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
+}
+
+#[test]
+fn scatter_chart_draws_every_series_name() {
+    let series = [
+        scatter("candidates", &[(0.1, 2.0), (1.0, 0.5)]),
+        ScatterSeries {
+            name: "front".into(),
+            points: vec![(0.1, 2.0), (1.0, 0.5)],
+            connect: true,
+        },
+    ];
+    for log in [(true, true), (true, false), (false, true), (false, false)] {
+        let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
+    }
+}
+
+/// The CYLINDER profile plotted target k at x = k − 1 under an axis that
+/// said 1–21: the first point must sit on the first target's tick.
+#[test]
+fn profile_ticks_are_not_shifted_by_one() {
+    let targets: Vec<String> = ["h01", "h02", "h03"].map(String::from).to_vec();
+    let svg = profile_chart(
+        "profile",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("measured", &[(1.0, 1.0), (2.0, 4.0), (3.0, 9.0)])],
+    )
+    .unwrap();
+    let t = texts(&svg);
+    let tick = |id: &str| {
+        t.iter()
+            .find(|(_, _, c)| c == id)
+            .unwrap_or_else(|| panic!("no tick {id}"))
+            .0
+    };
+    // The measurement's markers: black open circles, in x order.
+    let marks: Vec<f64> = elements(&svg, "circle")
+        .iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000") && num(a, "r") == MEASUREMENT_PX as f64)
+        .map(|(a, _)| num(a, "cx"))
+        .filter(|x| *x < (W - LEGEND_W) as f64)
+        .collect();
+    assert_eq!(marks.len(), 3, "{svg}");
+    for (id, x) in ["h01", "h02", "h03"].iter().zip(&marks) {
+        assert!(
+            (tick(id) - x).abs() <= 1.0,
+            "{id} tick at {} but its point at {x}",
+            tick(id)
+        );
+    }
+}
+
+/// One target (WHITE's patch) made a zero-width x range whose ticks all read "0.0".
+#[test]
+fn single_target_scene_ticks_are_not_all_zero() {
+    let targets = vec!["patch".to_string()];
+    let svg = profile_chart(
+        "white",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("measured", &[(1.0, 34.48)]), series("rgb", &[(1.0, 34.55)])],
+    )
+    .unwrap();
+    let t = texts(&svg);
+    assert!(
+        t.iter().any(|(_, _, c)| c == "patch"),
+        "the target is named on its tick"
+    );
+    let numbers: Vec<&String> = t
+        .iter()
+        .map(|(_, _, c)| c)
+        .filter(|c| c.parse::<f64>().is_ok())
+        .collect();
+    let distinct: std::collections::BTreeSet<&String> = numbers.iter().copied().collect();
+    assert!(distinct.len() >= 3, "y ticks {numbers:?}");
+    assert!(!numbers.iter().any(|c| c.as_str() == "0.0"), "{numbers:?}");
+    // A line chart of one point: distinct ticks on both axes too.
+    let one = line_chart("one", "x (s)", "y (cd/m²)", &[series("rgb", &[(0.0, 0.0)])], false).unwrap();
+    let numbers: std::collections::BTreeSet<String> = texts(&one)
+        .into_iter()
+        .map(|t| t.2)
+        .filter(|c| c.parse::<f64>().is_ok())
+        .collect();
+    assert!(numbers.len() >= 3, "{numbers:?}");
+}
+
+/// The image viewer's pixel-probe chart (radiances of a few 1e-4
+/// W/(sr·m²·nm)) labelled its ticks 3e-4, 3e-4, 2e-4, 2e-4, …: one
+/// mantissa digit for ticks 5e-5 apart.
+#[test]
+fn small_radiance_tick_labels_repeated() {
+    let span = 5.5e-4;
+    let labels: Vec<String> = (0..=11).map(|i| tick_label(i as f64 * 5e-5, span)).collect();
+    let mut unique = labels.clone();
+    unique.dedup();
+    assert_eq!(unique, labels, "{labels:?}");
+    assert_eq!(tick_label(3.5e-4, span), "3.5e-4");
+    assert_eq!(tick_label(2e5, 1e6), "2e5");
+    // The probe chart's lowest tick read 0e0, then 7e-21 (a float residue of 0).
+    assert_eq!(tick_label(0.0, span), "0");
+    assert_eq!(tick_label(7e-21, 4.5e-4), "0");
+}
+
+/// A tick read 0.30000000000000004 (plotters' default f64 formatting).
+#[test]
+fn tick_labels_have_no_float_noise() {
+    assert_eq!(tick_label(0.30000000000000004, 0.5), "0.30");
+    assert_eq!(tick_label(0.1 + 0.2, 0.05), "0.300");
+    assert_eq!(tick_label(-1e-17, 0.5), "0.00");
+    assert_eq!(log_tick_label(0.30000000000000004), "0.3");
+    assert_eq!(log_tick_label(20.000000000000004), "20");
+    let data = [
+        scatter("measured", &[(0.3, 0.3), (0.33, 0.36)]),
+        scatter("rgb", &[(0.31, 0.34)]),
+    ];
+    let charts = [
+        chromaticity_chart("xy", Observer::JuddVos, &data).unwrap(),
+        scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+        scatter_chart("s", "t (s)", "ΔE", &data, (true, true)).unwrap(),
+        line_chart(
+            "l",
+            "x",
+            "y",
+            &[series("rgb", &[(0.1, 0.3), (0.2, 0.30000000000000004)])],
+            false,
+        )
+        .unwrap(),
+    ];
+    for svg in &charts {
+        for (_, _, c) in texts(svg) {
+            if let Some((_, decimals)) = c.split_once('.') {
+                if c.parse::<f64>().is_ok() {
+                    assert!(decimals.len() <= 4, "tick `{c}`");
+                }
+            }
+        }
+    }
+}
+
+fn colour_hex(c: RGBColor) -> String {
+    format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+}
+
+/// The Cornell box's light (9e5 cd/m²) flattened its walls (2e3–2e4)
+/// to a line at zero on a linear axis: beyond two decades the profile's
+/// y axis is logarithmic, and says so.
+#[test]
+fn cornell_light_beside_its_walls_gets_a_log_axis() {
+    let targets: Vec<String> = ["wall", "ceiling", "light"].map(String::from).to_vec();
+    let wide = profile_chart(
+        "p",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e5)])],
+    )
+    .unwrap();
+    assert!(wide.contains("Y (cd/m²) (log scale)"), "{wide}");
+    let narrow = profile_chart(
+        "p",
+        &targets,
+        "target",
+        "Y (cd/m²)",
+        &[series("spectral", &[(1.0, 3.0e3), (2.0, 5.0e2), (3.0, 9.0e3)])],
+    )
+    .unwrap();
+    assert!(!narrow.contains("log scale"));
+}
+
+/// nstep3 was pink in one chart and green in the next: colours went by
+/// series position.
+#[test]
+fn nstep3_has_the_same_colour_in_every_chart() {
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    let rgb = colour_hex(coding_style("rgb").unwrap().colour);
+    let alone = [scatter("measured", &[(0.31, 0.33)]), scatter("nstep3", &[(0.32, 0.34)])];
+    let behind = [
+        scatter("measured", &[(0.31, 0.33)]),
+        scatter("srgb", &[(0.30, 0.33)]),
+        scatter("nstep9", &[(0.31, 0.32)]),
+        scatter("nstep3", &[(0.32, 0.34)]),
+    ];
+    let bars = |names: &[&str]| -> Vec<Bar> {
+        names
+            .iter()
+            .map(|n| Bar {
+                label: n.to_string(),
+                value: 1.0,
+                sd: None,
+            })
+            .collect()
+    };
+    let charts = [
+        chromaticity_chart("a", Observer::JuddVos, &alone).unwrap(),
+        chromaticity_chart("b", Observer::Cie1931, &behind).unwrap(),
+        scatter_chart("c", "t (s)", "ΔE", &alone, (true, true)).unwrap(),
+        scatter_chart("d", "t (s)", "ΔE", &behind, (false, false)).unwrap(),
+        bar_chart("e", "ΔE", &bars(&["nstep3"])).unwrap(),
+        bar_chart("f", "ΔE", &bars(&["srgb", "nstep81", "nstep3"])).unwrap(),
+        profile_chart("g", &["patch".into()], "t", "Y", &[series("nstep3", &[(1.0, 1.0)])]).unwrap(),
+        line_chart(
+            "h",
+            "s",
+            "y",
+            &[series("spectral", &[(0.0, 1.0)]), series("nstep3", &[(1.0, 2.0)])],
+            false,
+        )
+        .unwrap(),
+    ];
+    for (i, svg) in charts.iter().enumerate() {
+        assert!(svg.contains(&pink), "chart {i} draws nstep3 without {pink}");
+        // No chart here has rgb: its colour must not be handed to another series.
+        assert!(!svg.contains(&rgb), "chart {i} uses rgb's {rgb} for another series");
+    }
+    // The dashboard's and the report's CSS read the same table.
+    assert!(coding_css().contains(&format!("--coding-nstep3:{}", pink.to_ascii_lowercase())));
+    // An N not in the table has a style of its own, not its neighbour's.
+    assert_ne!(coding_style("nstep4"), coding_style("nstep3"));
+    assert_eq!(coding_style("nstep4"), coding_style("NStep4"));
+    assert_eq!(coding_style("cie"), None);
+}
+
+/// The measurement is drawn after every coding, larger and in black.
+#[test]
+fn measurement_is_drawn_last_and_largest() {
+    let data = [
+        scatter("measured", &[(0.31, 0.33)]),
+        scatter("nstep27", &[(0.311, 0.331)]),
+        scatter("spectral", &[(0.312, 0.332)]),
+    ];
+    let svg = scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap();
+    let plot_right = (W - LEGEND_W) as f64;
+    let circles: Vec<(String, String)> = elements(&svg, "circle")
+        .into_iter()
+        .filter(|(a, _)| num(a, "cx") < plot_right)
+        .collect();
+    let last = circles.last().expect("markers");
+    assert_eq!(attr(&last.0, "stroke").as_deref(), Some("#000000"));
+    assert!(circles.iter().all(|(a, _)| num(a, "r") <= num(&last.0, "r")));
+    assert!(num(&last.0, "r") > MARKER_PX as f64);
+}
+
+/// Legends were drawn inside the plot, over the data.
+#[test]
+fn legend_is_outside_the_plot_area() {
+    let data = [
+        scatter("measured", &[(0.31, 0.33), (0.40, 0.45)]),
+        scatter("nstep3", &[(0.32, 0.34), (0.41, 0.44)]),
+    ];
+    for svg in [
+        scatter_chart("s", "t (s)", "ΔE", &data, (false, false)).unwrap(),
+        line_chart("l", "x", "y", &[series("nstep3", &[(0.0, 1.0), (1.0, 2.0)])], false).unwrap(),
+    ] {
+        let plot_right = (W - LEGEND_W) as f64;
+        let legend = texts(&svg).into_iter().find(|t| t.2 == "nstep3").expect("legend entry");
+        assert!(legend.0 > plot_right, "legend text at x = {}", legend.0);
+        // Every grid line (the plot area) ends left of the legend column.
+        for (a, _) in elements(&svg, "line") {
+            assert!(
+                num(&a, "x2").max(num(&a, "x1")) <= plot_right,
+                "grid line into the legend: {a}"
+            );
+        }
+    }
+    let xy = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+    let width = num(&elements(&xy, "svg")[0].0, "width");
+    let legend = texts(&xy).into_iter().find(|t| t.2 == "nstep3").unwrap();
+    assert!(legend.0 > width - LEGEND_W as f64);
+}
+
+/// The spectrum chart added one legend entry per raw sample, all but the
+/// first with an empty name.
+#[test]
+fn no_empty_legend_entries() {
+    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
+    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
+    let sd = vec![1e-5; wl.len()];
+    let samples = vec![mean.clone(), mean.clone(), mean.clone()];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), &samples).unwrap();
+    let t = texts(&svg);
+    assert!(t.iter().all(|(_, _, c)| !c.is_empty()), "an empty text element");
+    assert_eq!(t.iter().filter(|(_, _, c)| c.starts_with("raw samples")).count(), 1);
+    // The legend column holds exactly the three entries' swatches.
+    let swatches = elements(&svg, "polyline")
+        .iter()
+        .chain(elements(&svg, "rect").iter())
+        .filter(|(a, _)| {
+            num(a, "x") > (W - LEGEND_W) as f64
+                || attr(a, "points").is_some_and(|p| {
+                    p.split(',')
+                        .next()
+                        .and_then(|x| x.parse::<f64>().ok())
+                        .is_some_and(|x| x > (W - LEGEND_W) as f64)
+                })
+        })
+        .count();
+    assert_eq!(swatches, 3, "{svg}");
+}
+
+/// Bar charts had an empty slot after the last bar.
+#[test]
+fn bar_chart_has_no_trailing_empty_slot() {
+    let bars: Vec<Bar> = ["rgb", "srgb", "nstep3"]
+        .iter()
+        .map(|n| Bar {
+            label: n.to_string(),
+            value: 1.0,
+            sd: Some(0.1),
+        })
+        .collect();
+    let svg = bar_chart("b", "ΔE*ab (CIELAB units)", &bars).unwrap();
+    let rects: Vec<(f64, f64)> = elements(&svg, "rect")
+        .iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| (num(a, "x"), num(a, "x") + num(a, "width")))
+        .collect();
+    assert_eq!(rects.len(), 3);
+    let lines = elements(&svg, "line");
+    let left = lines.iter().map(|(a, _)| num(a, "x1")).fold(f64::INFINITY, f64::min);
+    let right = lines.iter().map(|(a, _)| num(a, "x2")).fold(0.0, f64::max);
+    let (gap_left, gap_right) = (rects[0].0 - left, right - rects[2].1);
+    assert!(
+        (gap_left - gap_right).abs() <= 3.0,
+        "margins {gap_left} and {gap_right} px"
+    );
+}
+
+/// The x,y diagram drew Judd–Vos points on the CIE 1931 locus under a
+/// "CIE 1931" title: the locus and the title follow the observer.
+#[test]
+fn chromaticity_locus_and_title_follow_the_observer() {
+    let data = [scatter("measured", &[(0.33, 0.48)])];
+    let jv = chromaticity_chart("xy", Observer::JuddVos, &data).unwrap();
+    let c31 = chromaticity_chart("xy", Observer::Cie1931, &data).unwrap();
+    assert!(jv.contains("Judd–Vos 1978 2°") && !jv.contains("CIE 1931 2°"));
+    assert!(c31.contains("CIE 1931 2°") && !c31.contains("Judd–Vos"));
+    let locus_jv = spectral_locus(Observer::JuddVos);
+    let locus_31 = spectral_locus(Observer::Cie1931);
+    // The whole locus, 380 (or the table's first row) to 700 nm.
+    for l in [&locus_jv, &locus_31] {
+        assert!(l.first().unwrap().0 <= 385.0 && l.last().unwrap().0 >= 695.0);
+    }
+    // The observers differ most in the blue (Judd's correction below 460 nm).
+    let at = |l: &[(f64, (f64, f64))], nm: f64| l.iter().find(|p| p.0 == nm).unwrap().1;
+    let (a, b) = (at(&locus_jv, 420.0), at(&locus_31, 420.0));
+    assert!((a.0 - b.0).abs() + (a.1 - b.1).abs() > 1e-3, "{a:?} vs {b:?}");
+    // Both gamuts are drawn and named, distinctly (one dashed).
+    assert!(jv.contains("sRGB gamut") && jv.contains("RADIANCE RGB gamut"));
+}
+
+/// nstep1, nstep2, nstep3 and nstep5 were identical pink triangles (an N
+/// not in the table took the nearest tabulated N's style): every coding of
+/// a sweep must differ from every other in colour or marker, the table's
+/// codings keep their styles, and no colour is too light to read on white.
+#[test]
+fn every_coding_has_its_own_style() {
+    let key = |name: &str| {
+        let s = coding_style(name).unwrap_or_else(|| panic!("{name} is a coding"));
+        (s.colour.0, s.colour.1, s.colour.2, s.marker)
+    };
+    let table = ["rgb", "srgb", "spectral"].map(String::from);
+    let sweep = [1, 2, 3, 4, 5, 7, 9, 15, 27, 81].map(|n| format!("nstep{n}"));
+    let small = (1..=32).map(|n| format!("nstep{n}"));
+    let names: Vec<String> = table
+        .iter()
+        .cloned()
+        .chain(sweep.iter().cloned())
+        .chain(small)
+        .collect();
+    for (i, a) in names.iter().enumerate() {
+        for b in &names[i + 1..] {
+            if a != b {
+                assert_ne!(key(a), key(b), "{a} and {b} are drawn alike");
+            }
+        }
+        let (r, g, b, _) = key(a);
+        let luminance = 0.2126 * r as f64 + 0.7152 * g as f64 + 0.0722 * b as f64;
+        assert!(luminance < 180.0, "{a} ({r}, {g}, {b}) is too light on white");
+        assert_ne!((r, g, b), (0, 0, 0), "{a} takes the measurement's black");
+    }
+    // The table's styles are as they were (the CSS reads them too).
+    assert_eq!(key("nstep3"), (204, 121, 167, Marker::TriangleUp));
+    assert_eq!(key("nstep9"), (86, 180, 233, Marker::TriangleDown));
+    assert_eq!(key("nstep27"), (0, 114, 178, Marker::Circle));
+    assert_eq!(key("nstep81"), (0, 158, 115, Marker::Cross));
+    assert_eq!(key("rgb"), (213, 94, 0, Marker::Square));
+    // An untabulated N never borrows a tabulated coding's colour, so it
+    // differs from it in colour, not only in marker.
+    for n in (1..=100).filter(|n| ![3, 9, 27, 81].contains(n)) {
+        let (r, g, b, _) = key(&format!("nstep{n}"));
+        for (name, c, _) in CODING_STYLES {
+            assert_ne!((r, g, b), (c.0, c.1, c.2), "nstep{n} has {name}'s colour");
+        }
+    }
+}
+
+/// A label's estimated box from a `<text>` the chart wrote (plotters writes
+/// a text's top-left corner and `font-size` px / 1.24).
+fn label_box(x: f64, y: f64, text: &str) -> (f64, f64, f64, f64) {
+    let (w, h) = super::scatter::label_extent(text);
+    (x, y, x + w as f64, y + h as f64)
+}
+
+fn boxes_overlap(a: (f64, f64, f64, f64), b: (f64, f64, f64, f64)) -> bool {
+    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+}
+
+/// A sweep's points crowd each other (nstep3 … nstep81 at nearly the same
+/// time and error): no two labels may overlap, no label may cover another
+/// point's marker, and every label that found no room is in the key.
+#[test]
+fn crowded_point_labels_do_not_overlap() {
+    let mut data = Vec::new();
+    let mut labels = Vec::new();
+    for (k, coding) in ["nstep27", "nstep3", "nstep9"].iter().enumerate() {
+        let points: Vec<(f64, f64)> = (0..12)
+            .map(|j| {
+                let t = 0.1 * 1.08f64.powi(j + 3 * k as i32);
+                (t, 0.5 * 1.06f64.powi(j - 2 * k as i32))
+            })
+            .collect();
+        labels.push((0..points.len()).map(|j| format!("L{k}-{j} p")).collect::<Vec<_>>());
+        data.push(scatter(coding, &points));
+    }
+    // A far point whose label fits beside it.
+    data.push(scatter("nstep81", &[(5.0, 0.01)]));
+    labels.push(vec!["alone".into()]);
+    let svg = scatter_chart_labelled("crowd", "t (s, log scale)", "ΔE", &data, &labels, (true, true)).unwrap();
+    let all = texts(&svg);
+    let drawn: Vec<(f64, f64, f64, f64)> = all
+        .iter()
+        .filter(|(_, _, t)| t.starts_with('L') || t.starts_with('[') || t == "alone")
+        .filter(|(x, _, _)| *x < (W - LEGEND_W) as f64)
+        .map(|(x, y, t)| label_box(*x, *y, t))
+        .collect();
+    assert!(drawn.len() >= 8, "some labels are beside their points: {}", drawn.len());
+    for (i, a) in drawn.iter().enumerate() {
+        for b in &drawn[i + 1..] {
+            assert!(!boxes_overlap(*a, *b), "labels at {a:?} and {b:?} overlap");
+        }
+    }
+    // nstep27's markers are circles: no label covers one.
+    for (attrs, _) in elements(&svg, "circle") {
+        let (cx, cy, r) = (num(&attrs, "cx"), num(&attrs, "cy"), num(&attrs, "r"));
+        let marker = (cx - r, cy - r, cx + r, cy + r);
+        for b in &drawn {
+            assert!(
+                !boxes_overlap(marker, *b),
+                "label {b:?} covers the marker at ({cx}, {cy})"
+            );
+        }
+    }
+    assert!(
+        all.iter().any(|(_, _, t)| t == "alone"),
+        "the lone point keeps its label"
+    );
+    // Every label is on the chart or in the key.
+    let words: String = all.iter().map(|(_, _, t)| t.as_str()).collect::<Vec<_>>().join(" ");
+    for l in labels.iter().flatten() {
+        assert!(words.contains(l.as_str()), "label {l} is nowhere");
+    }
+    assert!(words.contains("did not fit"), "the crowd needs a key");
+}
+
+/// A mean ΔE00 of 0 (a coding that reproduces the reference exactly) has no
+/// place on a log axis: drawn hollow on the lower edge and said so, while
+/// the other values are not clamped (the axis reaches their decades).
+#[test]
+fn zero_values_sit_hollow_on_a_log_axis_edge() {
+    let data = [
+        scatter("spectral", &[(0.5, 0.0), (1.0, 0.0)]),
+        scatter("rgb", &[(0.2, 2e-5), (0.4, 0.3)]),
+    ];
+    let svg = scatter_chart(
+        "zero",
+        "t (s)",
+        "mean ΔE00 (CIEDE2000 units, log scale)",
+        &data,
+        (true, true),
+    )
+    .unwrap();
+    let words: String = texts(&svg).into_iter().map(|t| t.2).collect::<Vec<_>>().join(" ");
+    assert!(words.contains("2 points with mean ΔE00 = 0"), "{words}");
+    assert!(words.contains("hollow on the lower edge"), "{words}");
+    // 2e-5 is drawn where it is, not at a floor of 1e-4.
+    assert!(words.contains("1e-5"), "the axis reaches 2e-5's decade: {words}");
+    // The spectral coding's two points are outlines (paths), not filled squares.
+    let grey = colour_hex(coding_style("spectral").unwrap().colour);
+    assert!(
+        svg.matches(&format!("stroke=\"{grey}\"")).count() >= 2,
+        "hollow markers in {grey}"
+    );
+    // Without zeros there is no note.
+    let positive = [scatter("rgb", &[(0.2, 2e-5), (0.4, 0.3)])];
+    let svg = scatter_chart("zero", "t (s)", "ΔE", &positive, (true, true)).unwrap();
+    assert!(!svg.contains("hollow"));
+}
+
+/// Every decade a log axis covers has a labelled tick; an axis covering
+/// less than a decade labels 1, 2 and 5 steps (not one lonely tick).
+#[test]
+fn log_axes_label_every_decade() {
+    let ticks = |lo: f64, hi: f64| -> Vec<String> {
+        let data = [scatter("rgb", &[(1.0, lo), (2.0, hi)])];
+        let svg = scatter_chart("log", "t (s)", "ΔE", &data, (false, true)).unwrap();
+        texts(&svg).into_iter().map(|t| t.2).collect()
+    };
+    let wide = ticks(3e-4, 40.0);
+    for decade in ["1e-4", "0.001", "0.01", "0.1", "1", "10", "100"] {
+        assert!(wide.contains(&decade.to_string()), "no tick {decade} in {wide:?}");
+    }
+    // Minor ticks are not labelled on a wide axis.
+    assert!(
+        !wide.contains(&"0.2".to_string()) && !wide.contains(&"3".to_string()),
+        "{wide:?}"
+    );
+    let narrow = ticks(0.22, 0.45);
+    for tick in ["0.1", "0.2", "0.5", "1"] {
+        assert!(narrow.contains(&tick.to_string()), "no tick {tick} in {narrow:?}");
+    }
+}
+
+/// A chart is no Markdown: a backtick in its text (here a title copied from
+/// an error message) is refused in debug builds, so a test drawing it fails.
+#[test]
+#[cfg(debug_assertions)]
+#[should_panic(expected = "Markdown backtick")]
+fn backticks_in_chart_text_are_refused() {
+    let _ = line_chart("field `coding`", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false);
+}
+
+#[test]
+fn charts_without_backticks_are_drawn() {
+    let svg = line_chart("field coding", "x", "y", &[series("rgb", &[(0.0, 1.0)])], false).unwrap();
+    assert!(svg.contains("field coding") && !svg.contains('`'));
+}
+
+/// Whether an element with `points` starts left of the legend column.
+fn in_plot(attrs: &str) -> bool {
+    let points = attr(attrs, "points").unwrap_or_default();
+    let x: f64 = points
+        .split([',', ' '])
+        .next()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(f64::NAN);
+    x < (W - LEGEND_W) as f64
+}
+
+/// A pixel's 401-wavelength spectrum with its ±1 SE: one translucent band
+/// and a line, not 401 error bars with markers; three RGB channels keep
+/// their error bars.
+#[test]
+fn many_point_errors_are_a_band() {
+    let wl: Vec<f64> = (0..401).map(|i| 380.0 + i as f64).collect();
+    let spectrum = LineSeriesData {
+        name: "nstep27".into(),
+        points: wl.iter().map(|w| (*w, 1e-3 * (1.0 + (w / 40.0).sin()))).collect(),
+        errors: Some(vec![1e-4; wl.len()]),
+    };
+    let y = "spectral radiance (W/(sr·m²·nm)), mean ± 1 SE";
+    let svg = line_chart("probe", "wavelength (nm)", y, &[spectrum], false).unwrap();
+    let blue = colour_hex(coding_style("nstep27").unwrap().colour);
+    let bands: Vec<_> = elements(&svg, "polygon")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() == Some(blue.as_str()))
+        .collect();
+    assert_eq!(bands.len(), 1, "one band polygon");
+    let opacity = num(&bands[0].0, "opacity");
+    assert!(opacity > 0.0 && opacity < 0.5, "the band is translucent: {opacity}");
+    // 401 × 2 + 2 vertices: upper edge there, lower edge back.
+    let vertices = attr(&bands[0].0, "points").unwrap().split_whitespace().count();
+    assert_eq!(vertices, 802);
+    // No error bars (2-point paths) and no markers (circles) in its colour.
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(blue.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    assert_eq!(bars, 0, "error bars drawn");
+    assert_eq!(elements(&svg, "circle").len(), 0, "markers drawn");
+    assert!(
+        texts(&svg).iter().any(|t| t.2.contains("±1 SE")),
+        "the legend names the band"
+    );
+
+    let channels = LineSeriesData {
+        name: "rgb".into(),
+        points: vec![(1.0, 0.2), (2.0, 0.3), (3.0, 0.1)],
+        errors: Some(vec![0.01; 3]),
+    };
+    let svg = line_chart("probe", "channel", "linear RGB, mean ± 1 SE", &[channels], false).unwrap();
+    let orange = colour_hex(coding_style("rgb").unwrap().colour);
+    let bars = elements(&svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(orange.as_str()))
+        .filter(|(a, _)| attr(a, "points").unwrap_or_default().split_whitespace().count() == 2)
+        .filter(|(a, _)| in_plot(a))
+        .count();
+    // A bar and its two caps per channel.
+    assert_eq!(bars, 9, "three error bars with caps");
+}
+
+#[test]
+fn colour_bar_ticks_start_at_zero_end_at_the_scale_top_and_stay_few() {
+    let colour_bar_ticks =
+        |max: f64| -> Vec<f64> { colour_bar_ticks(max).iter().map(|v| (v * 1e9).round() / 1e9).collect() };
+    assert_eq!(colour_bar_ticks(2.5), [0.0, 0.5, 1.0, 1.5, 2.0, 2.5]);
+    assert_eq!(colour_bar_ticks(1.0), [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]);
+    // A nice tick within 8 % of the top gives way to the top itself.
+    assert_eq!(colour_bar_ticks(0.83), [0.0, 0.2, 0.4, 0.6, 0.83]);
+    assert_eq!(colour_bar_ticks(0.0), [0.0]);
+    assert_eq!(colour_bar_ticks(f64::NAN), [0.0]);
+    for max in [0.0123, 0.7, 3.3, 17.0, 4.2e3] {
+        let t = colour_bar_ticks(max);
+        assert!(t.len() <= 7 && t.len() >= 3, "{max}: {t:?}");
+        assert_eq!((t[0], *t.last().unwrap()), (0.0, max));
+        assert!(t.windows(2).all(|w| w[1] > w[0]), "{max}: {t:?}");
+    }
+}
+
+#[test]
+fn false_colour_figure_refuses_an_empty_map() {
+    let m = FalseColourMap {
+        png: &[],
+        width: 0,
+        height: 3,
+        scale_max: 1.0,
+        quantity: "ΔE00",
+        title: "t",
+        notes: &[],
+    };
+    assert!(false_colour_map_svg(&m).unwrap_err().contains("no pixels"));
+}
+
+/// The (x, y) pairs of an element's `points` attribute.
+fn points_of(attrs: &str) -> Vec<(f64, f64)> {
+    attr(attrs, "points")
+        .unwrap_or_default()
+        .split_whitespace()
+        .filter_map(|p| {
+            let (x, y) = p.split_once(',')?;
+            Some((x.parse().ok()?, y.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The distance (px) from `p` to the segment `a`–`b`.
+fn distance_to_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let t = if len2 == 0.0 {
+        0.0
+    } else {
+        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / len2).clamp(0.0, 1.0)
+    };
+    (p.0 - a.0 - t * dx).hypot(p.1 - a.1 - t * dy)
+}
+
+/// The zoomed chromaticity panel clamped every vertex of the gamut
+/// triangles to the zoom box instead of clipping the lines: a diagonal ran
+/// from corner to corner through the data (nstep3 looked as if it sat on
+/// the gamut's edge) and false edges ran along the frame. Here the data sit
+/// on both gamuts' red–green edge, so the box cuts both triangles: every
+/// grey segment the panel draws must lie inside the box and on a true edge
+/// of a gamut.
+#[test]
+fn zoomed_chromaticity_panel_draws_no_false_gamut_edges() {
+    let data = [(0.46, 0.455), (0.48, 0.47)];
+    let svg = chromaticity_chart("WHITE: chromaticity", Observer::JuddVos, &[scatter("measured", &data)]).unwrap();
+    keep_for_a_look("chromaticity-zoom", &svg);
+    // The zoomed panel is the second of two 440 px panels.
+    let (left, right) = (440.0, 880.0);
+    let in_panel = |x: f64| x > left && x < right;
+    // The data's pixels from the measurement's markers (full size there).
+    let mut marks: Vec<(f64, f64)> = elements(&svg, "circle")
+        .iter()
+        .filter(|(a, _)| num(a, "r") == MEASUREMENT_PX as f64 && in_panel(num(a, "cx")))
+        .map(|(a, _)| (num(a, "cx"), num(a, "cy")))
+        .collect();
+    marks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert_eq!(marks.len(), 2, "the two measured points in the zoomed panel");
+    let sx = (marks[1].0 - marks[0].0) / (data[1].0 - data[0].0);
+    let sy = (marks[1].1 - marks[0].1) / (data[1].1 - data[0].1);
+    let to_px = |p: (f64, f64)| (marks[0].0 + sx * (p.0 - data[0].0), marks[0].1 + sy * (p.1 - data[0].1));
+    // The zoom box as the chart computes it: the data's bounds padded 5 %,
+    // made square about their centre.
+    let (xs, ys) = (
+        super::axes::bounds(data.iter().map(|p| p.0)),
+        super::axes::bounds(data.iter().map(|p| p.1)),
+    );
+    let half = ((xs.1 - xs.0).max(ys.1 - ys.0) / 2.0).max(0.005);
+    let (cx, cy) = ((xs.0 + xs.1) / 2.0, (ys.0 + ys.1) / 2.0);
+    let (x0, y1) = to_px((cx - half, cy - half));
+    let (x1, y0) = to_px((cx + half, cy + half));
+    let edges: Vec<((f64, f64), (f64, f64))> = [RgbSpace::SRGB, RgbSpace::RADIANCE]
+        .iter()
+        .flat_map(|s| {
+            let v = [(s.red.x, s.red.y), (s.green.x, s.green.y), (s.blue.x, s.blue.y)];
+            (0..3).map(move |k| (v[k], v[(k + 1) % 3]))
+        })
+        .map(|(a, b)| (to_px(a), to_px(b)))
+        .collect();
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    let mut segments = 0;
+    for (attrs, _) in elements(&svg, "polyline") {
+        if attr(&attrs, "stroke").as_deref() != Some(grey.as_str()) {
+            continue;
+        }
+        let pts = points_of(&attrs);
+        if !pts.iter().all(|p| in_panel(p.0)) {
+            continue;
+        }
+        for w in pts.windows(2) {
+            segments += 1;
+            for p in w {
+                assert!(
+                    p.0 >= x0 - 2.0 && p.0 <= x1 + 2.0 && p.1 >= y0 - 2.0 && p.1 <= y1 + 2.0,
+                    "a gamut line at {p:?} outside the zoom box ({x0:.0}, {y0:.0})–({x1:.0}, {y1:.0})"
+                );
+            }
+            let on_an_edge = edges
+                .iter()
+                .any(|(a, b)| w.iter().all(|p| distance_to_segment(*p, *a, *b) < 3.0));
+            assert!(
+                on_an_edge,
+                "the segment {:?}–{:?} lies on no gamut edge: a false edge",
+                w[0], w[1]
+            );
+        }
+    }
+    assert!(
+        segments >= 2,
+        "the gamuts' red–green edges cross the zoom box: {segments} segments"
+    );
+}
+
+/// A speed chart's series, their labels and their timings' spreads.
+type SpeedChartData = (Vec<ScatterSeries>, Vec<Vec<String>>, Vec<Vec<(f64, f64)>>);
+
+/// The study's speed chart as `lab::study::report::speed_chart` builds it
+/// from a CYLINDER study's sweeps (figures of that shape: the N sweep's
+/// twelve codings at nearly one render time, the bounce sweep's points
+/// crowding the converged end): one series per coding, each point labelled
+/// with what its sweep varied, and the Pareto front. Returns the series,
+/// their labels and their spreads.
+fn study_speed_series() -> SpeedChartData {
+    // (sweep label, coding, seconds, mean ΔE00)
+    let mut points: Vec<(String, &str, f64, f64)> = Vec::new();
+    for (coding, t, de) in [
+        ("rgb", 0.45, 1.5),
+        ("srgb", 0.46, 1.2),
+        ("nstep3", 0.52, 1.8),
+        ("nstep9", 0.58, 0.35),
+        ("nstep27", 0.7, 0.07),
+        ("nstep81", 0.95, 0.04),
+        ("spectral", 1.2, 0.04),
+    ] {
+        points.push((coding.to_string(), coding, t, de));
+    }
+    for (samples, t, de) in [
+        (256, 0.3, 0.12),
+        (1024, 1.2, 0.05),
+        (4096, 4.8, 0.03),
+        (16384, 19.0, 0.02),
+    ] {
+        points.push((format!("{samples} p"), "spectral", t, de));
+    }
+    for (b, t, de) in [
+        (0, 0.3, 5.0),
+        (1, 0.5, 2.0),
+        (2, 0.7, 0.8),
+        (3, 0.85, 0.3),
+        (4, 0.95, 0.12),
+        (5, 1.0, 0.06),
+        (6, 1.05, 0.045),
+        (7, 1.1, 0.042),
+        (8, 1.12, 0.041),
+    ] {
+        points.push((format!("{b} b"), "spectral", t, de));
+    }
+    for (n, t, de) in [
+        (1, 0.44, 8.0),
+        (2, 0.46, 4.0),
+        (3, 0.5, 1.8),
+        (5, 0.5, 0.9),
+        (7, 0.52, 0.5),
+        (9, 0.57, 0.35),
+        (15, 0.6, 0.15),
+        (20, 0.62, 0.1),
+        (27, 0.69, 0.07),
+        (40, 0.75, 0.05),
+        (54, 0.82, 0.045),
+        (81, 0.97, 0.04),
+    ] {
+        let coding = STUDY_N_SWEEP.iter().find(|c| **c == format!("nstep{n}")).unwrap();
+        points.push((coding.to_string(), coding, t, de));
+    }
+    let mut codings: Vec<&str> = Vec::new();
+    for p in &points {
+        if !codings.contains(&p.1) {
+            codings.push(p.1);
+        }
+    }
+    let mut series = Vec::new();
+    let mut labels = Vec::new();
+    let mut spreads = Vec::new();
+    for c in codings {
+        let mine: Vec<_> = points.iter().filter(|p| p.1 == c).collect();
+        series.push(scatter(c, &mine.iter().map(|p| (p.2, p.3)).collect::<Vec<_>>()));
+        labels.push(mine.iter().map(|p| p.0.clone()).collect());
+        spreads.push(mine.iter().map(|p| (p.2 * 0.97, p.2 * 1.04)).collect());
+    }
+    // The front: no other point both faster and more accurate.
+    let mut front: Vec<(f64, f64)> = points
+        .iter()
+        .map(|p| (p.2, p.3))
+        .filter(|&(t, e)| !points.iter().any(|q| q.2 <= t && q.3 <= e && (q.2 < t || q.3 < e)))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    series.push(ScatterSeries {
+        name: "Pareto front".into(),
+        points: front,
+        connect: true,
+    });
+    (series, labels, spreads)
+}
+
+/// The codings of the study's N sweep (`lab::study::run`'s sweeps).
+const STUDY_N_SWEEP: [&str; 12] = [
+    "nstep1", "nstep2", "nstep3", "nstep5", "nstep7", "nstep9", "nstep15", "nstep20", "nstep27", "nstep40", "nstep54",
+    "nstep81",
+];
+
+/// The centre of every marker a chart draws in its plot area (left of the
+/// legend column): circles, squares, filled polygons, and the strokes of
+/// crosses, pluses and asterisks (not whiskers: horizontal, 2 px; not
+/// lines of more than two points; not the grey leaders or black ticks).
+fn marker_centres(svg: &str, plot_right: f64) -> Vec<(f64, f64)> {
+    let mut centres: Vec<(f64, f64)> = Vec::new();
+    let leader = colour_hex(RGBColor(150, 150, 150));
+    let mut add = |c: (f64, f64)| {
+        if c.0 < plot_right
+            && !centres
+                .iter()
+                .any(|d| (d.0 - c.0).abs() <= 2.0 && (d.1 - c.1).abs() <= 2.0)
+        {
+            centres.push(c);
+        }
+    };
+    for (a, _) in elements(svg, "circle") {
+        add((num(&a, "cx"), num(&a, "cy")));
+    }
+    for (a, _) in elements(svg, "rect") {
+        let (w, h) = (num(&a, "width"), num(&a, "height"));
+        if w < 20.0 && h < 20.0 {
+            add((num(&a, "x") + w / 2.0, num(&a, "y") + h / 2.0));
+        }
+    }
+    let bbox_centre = |pts: &[(f64, f64)]| {
+        let (x0, x1) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.0), h.max(p.0)));
+        let (y0, y1) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| (l.min(p.1), h.max(p.1)));
+        ((x0 + x1) / 2.0, (y0 + y1) / 2.0, x1 - x0, y1 - y0)
+    };
+    for (a, _) in elements(svg, "polygon") {
+        let (cx, cy, w, h) = bbox_centre(&points_of(&a));
+        if w < 20.0 && h < 20.0 {
+            add((cx, cy));
+        }
+    }
+    for (a, _) in elements(svg, "polyline") {
+        let pts = points_of(&a);
+        let width = num(&a, "stroke-width");
+        let whisker = pts.len() == 2 && pts[0].1 == pts[1].1 && width == 2.0;
+        let stroke = attr(&a, "stroke").unwrap_or_default();
+        // Not the leaders, nor the axes' black tick marks.
+        if pts.len() != 2 || whisker || stroke == leader || stroke == "#000000" {
+            continue;
+        }
+        let (cx, cy, w, h) = bbox_centre(&pts);
+        if w < 20.0 && h < 20.0 {
+            add((cx, cy));
+        }
+    }
+    centres
+}
+
+/// A log axis' pixel of a value, fitted to its labelled ticks: `ticks` are
+/// (value, pixel).
+fn log_axis_map(ticks: &[(f64, f64)]) -> impl Fn(f64) -> f64 {
+    let (a, b) = (
+        ticks.iter().min_by(|p, q| p.0.total_cmp(&q.0)).copied().unwrap(),
+        ticks.iter().max_by(|p, q| p.0.total_cmp(&q.0)).copied().unwrap(),
+    );
+    let slope = (b.1 - a.1) / (b.0.log10() - a.0.log10());
+    move |v: f64| a.1 + slope * (v.log10() - a.0.log10())
+}
+
+/// Writes a chart the tests drew to `target/tmp/charts/NAME.svg`, for a look.
+fn keep_for_a_look(name: &str, svg: &str) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/tmp/charts");
+    if std::fs::create_dir_all(&dir).is_ok() {
+        let _ = std::fs::write(dir.join(format!("{name}.svg")), svg);
+    }
+}
+
+/// The speed-against-accuracy chart labelled the wrong marker: "spectral"
+/// sat beside nstep81's × and spectral's + was half cut off at the axis
+/// (a scene's chart), and in the study's chart labels piled up while
+/// nstep2 and nstep54 were drawn alike (and nstep20 and nstep81 as two
+/// green crosses). Over the study's twelve N-step codings (and the rest of
+/// its speed chart) no two codings share a colour or a marker, and on both
+/// charts every label points at its own point: the marker nearest to it is
+/// its point's, or a leader line from its point's marker ends at it; no
+/// marker reaches beyond the axes.
+#[test]
+fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_style() {
+    // A scene's chart: one point per coding, nstep81 and spectral side by
+    // side, spectral's ΔE just above a decade.
+    let scene: Vec<ScatterSeries> = [
+        ("rgb", 0.5, 2.1),
+        ("srgb", 0.52, 1.6),
+        ("nstep3", 0.55, 2.5),
+        ("nstep9", 0.6, 0.9),
+        ("nstep27", 0.75, 0.45),
+        ("nstep81", 1.05, 0.108),
+        ("spectral", 1.1, 0.102),
+    ]
+    .iter()
+    .map(|&(c, t, de)| scatter(c, &[(t, de)]))
+    .collect();
+    let scene_labels: Vec<Vec<String>> = scene.iter().map(|s| vec![s.name.clone()]).collect();
+    let scene_spreads: Vec<Vec<(f64, f64)>> = scene
+        .iter()
+        .map(|s| vec![(s.points[0].0 * 0.97, s.points[0].0 * 1.04)])
+        .collect();
+    let svg = scatter_chart_with_spread(
+        "cylinder: speed against accuracy",
+        "render time (s, log scale)",
+        "mean ΔE*ab (CIELAB units, log scale)",
+        &scene,
+        &scene_labels,
+        &scene_spreads,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-scene", &svg);
+    let scene_svg = svg;
+
+    let (series, labels, spreads) = study_speed_series();
+    let svg = scatter_chart_with_spread(
+        "CYLINDER: speed against accuracy (p = paths per target, b = bounces)",
+        "render time (s, log scale)",
+        "mean ΔE00 (CIEDE2000 units, log scale)",
+        &series,
+        &labels,
+        &spreads,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-study", &svg);
+    labels_point_at_their_own_points(&scene_svg, &scene, &scene_labels);
+    labels_point_at_their_own_points(&svg, &series, &labels);
+
+    // spectral on the lowest ΔE, nstep81 a marker's width right of it and
+    // nstep27 left: above spectral is the only free place beside it, as
+    // near nstep81's × as its own +.
+    let edge: Vec<ScatterSeries> = [
+        ("rgb", 0.5, 2.1),
+        ("nstep27", 0.88, 0.102),
+        ("spectral", 1.0, 0.102),
+        ("nstep81", 1.07, 0.102),
+    ]
+    .iter()
+    .map(|&(c, t, de)| scatter(c, &[(t, de)]))
+    .collect();
+    let edge_labels: Vec<Vec<String>> = edge.iter().map(|s| vec![s.name.clone()]).collect();
+    let svg = scatter_chart_labelled(
+        "edge",
+        "t (s, log scale)",
+        "ΔE (log scale)",
+        &edge,
+        &edge_labels,
+        (true, true),
+    )
+    .unwrap();
+    keep_for_a_look("speed-edge", &svg);
+    labels_point_at_their_own_points(&svg, &edge, &edge_labels);
+
+    // The styles: twelve markers and twelve colours for the N sweep, and
+    // nothing shared with rgb, srgb or spectral.
+    let style = |c: &str| coding_style(c).unwrap_or_else(|| panic!("{c} is a coding"));
+    for (i, a) in STUDY_N_SWEEP.iter().enumerate() {
+        for b in &STUDY_N_SWEEP[i + 1..] {
+            assert_ne!(style(a).marker, style(b).marker, "{a} and {b} share a marker");
+            assert_ne!(style(a).colour, style(b).colour, "{a} and {b} share a colour");
+        }
+    }
+    let all: Vec<&str> = STUDY_N_SWEEP
+        .iter()
+        .copied()
+        .chain(["rgb", "srgb", "spectral"])
+        .collect();
+    for (i, a) in all.iter().enumerate() {
+        for b in &all[i + 1..] {
+            assert!(
+                style(a).colour != style(b).colour || style(a).marker != style(b).marker,
+                "{a} and {b} are drawn alike"
+            );
+        }
+    }
+}
+
+/// On a log–log scatter chart: every label on the chart (or its number
+/// from the key) is nearest to one of its own points' markers, or a leader
+/// from such a marker ends at it; labels do not overlap; at least half are
+/// on the chart; no marker reaches beyond the axes.
+fn labels_point_at_their_own_points(svg: &str, series: &[ScatterSeries], labels: &[Vec<String>]) {
+    let plot_right = (W - LEGEND_W) as f64;
+    // Each point's pixel, from the axes' labelled ticks.
+    let numbers: Vec<(String, f64, f64, f64)> = elements(svg, "text")
+        .into_iter()
+        .filter_map(|(a, c)| {
+            Some((
+                attr(&a, "text-anchor")?,
+                num(&a, "x"),
+                num(&a, "y"),
+                c.parse::<f64>().ok()?,
+            ))
+        })
+        .filter(|t| t.3 > 0.0)
+        .collect();
+    let x_ticks: Vec<(f64, f64)> = numbers.iter().filter(|t| t.0 == "middle").map(|t| (t.3, t.1)).collect();
+    let y_ticks: Vec<(f64, f64)> = numbers.iter().filter(|t| t.0 == "end").map(|t| (t.3, t.2)).collect();
+    assert!(x_ticks.len() >= 2 && y_ticks.len() >= 2, "{x_ticks:?} {y_ticks:?}");
+    let (px, py) = (log_axis_map(&x_ticks), log_axis_map(&y_ticks));
+    // Where each label's points are (a label may be on two points: nstep3
+    // of the coding sweep and of the N sweep).
+    let mut owners: Vec<(String, (f64, f64))> = Vec::new();
+    for (s, ls) in series.iter().zip(labels) {
+        for (p, l) in s.points.iter().zip(ls) {
+            owners.push((l.clone(), (px(p.0), py(p.1))));
+        }
+    }
+    // The numbers in the key: "[k] label (series)".
+    let key: Vec<(String, String)> = texts(svg)
+        .into_iter()
+        .filter(|t| t.0 > plot_right && t.2.starts_with('['))
+        .filter_map(|t| {
+            let (number, rest) = t.2.split_once(' ')?;
+            let label = rest.rsplit_once(" (")?.0;
+            Some((number.to_string(), label.to_string()))
+        })
+        .collect();
+    let markers = marker_centres(svg, plot_right);
+    let leaders: Vec<Vec<(f64, f64)>> = elements(svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some(colour_hex(RGBColor(150, 150, 150)).as_str()))
+        .map(|(a, _)| points_of(&a))
+        .collect();
+    let dist = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).hypot(a.1 - b.1);
+    let box_dist = |p: (f64, f64), b: (f64, f64, f64, f64)| {
+        let dx = (b.0 - p.0).max(p.0 - b.2).max(0.0);
+        let dy = (b.1 - p.1).max(p.1 - b.3).max(0.0);
+        dx.hypot(dy)
+    };
+    let nearest = |from: &dyn Fn((f64, f64)) -> f64| {
+        markers
+            .iter()
+            .copied()
+            .min_by(|a, b| from(*a).total_cmp(&from(*b)))
+            .unwrap()
+    };
+    let all_labels: Vec<&String> = labels.iter().flatten().collect();
+    let mut on_chart = 0;
+    let mut boxes = Vec::new();
+    for (x, y, text) in texts(svg).into_iter().filter(|t| t.0 < plot_right) {
+        let label = if text.starts_with('[') {
+            match key.iter().find(|(n, _)| *n == text) {
+                Some((_, l)) => l.clone(),
+                None => panic!("the number {text} is not in the key"),
+            }
+        } else if all_labels.contains(&&text) {
+            text.clone()
+        } else {
+            continue;
+        };
+        on_chart += 1;
+        let b = label_box(x, y, &text);
+        boxes.push(b);
+        let mine: Vec<(f64, f64)> = owners.iter().filter(|o| o.0 == label).map(|o| o.1).collect();
+        let leader = leaders.iter().find(|l| box_dist(*l.last().unwrap(), b) <= 2.0);
+        let marker = match leader {
+            Some(l) => nearest(&|m| dist(m, l[0])),
+            None => nearest(&|m| box_dist(m, b)),
+        };
+        assert!(
+            mine.iter().any(|p| dist(*p, marker) <= 3.0),
+            "label {text:?} ({label}) at ({x}, {y}) points at the marker at {marker:?}, not at its point {mine:?}{}",
+            if leader.is_some() { " (by its leader)" } else { "" }
+        );
+    }
+    assert!(
+        on_chart * 2 >= all_labels.len(),
+        "{on_chart} of {} labels on the chart",
+        all_labels.len()
+    );
+    for (i, a) in boxes.iter().enumerate() {
+        for b in &boxes[i + 1..] {
+            assert!(!boxes_overlap(*a, *b), "labels at {a:?} and {b:?} overlap");
+        }
+    }
+    // No marker sticks out of the plot: each is inside the axes' range.
+    let (x_lo, x_hi) = (
+        px(x_ticks.iter().map(|t| t.0).fold(f64::INFINITY, f64::min)),
+        px(x_ticks.iter().map(|t| t.0).fold(0.0, f64::max)),
+    );
+    let (y_hi, y_lo) = (
+        py(y_ticks.iter().map(|t| t.0).fold(f64::INFINITY, f64::min)),
+        py(y_ticks.iter().map(|t| t.0).fold(0.0, f64::max)),
+    );
+    for (_, p) in &owners {
+        let r = MARKER_PX as f64 + 1.0;
+        assert!(
+            p.0 - r >= x_lo - 1.0 && p.0 + r <= x_hi + 1.0 && p.1 - r >= y_lo - 1.0 && p.1 + r <= y_hi + 1.0,
+            "the marker at {p:?} reaches beyond the axes ({x_lo}–{x_hi}, {y_lo}–{y_hi})"
+        );
+    }
+}

@@ -1,0 +1,594 @@
+//! Camera images of a render, as the daemon runs them: the scene's camera
+//! view rendered by the measuring camera ([`lightbooth_render::camera`]) in one
+//! coding, with every channel's mean and standard error plus XYZ and LMS,
+//! for the dashboard's image viewer and for downloads.
+//!
+//! - An image belongs to a render: it uses the render's scene (the file
+//!   must still hash to the render's `scene_hash`, else 409), its bounces,
+//!   Russian roulette and seed, and the daemon's observer.
+//! - Requests are bounded before any work: `width` up to the scene's
+//!   camera width (height follows the camera's aspect; default
+//!   [`DEFAULT_WIDTH`] px wide, small so an image takes seconds), `max_spp`
+//!   up to [`MAX_IMAGE_SPP`], and the work width × height × max_spp ×
+//!   quantities (the coding's channels + X, Y, Z, L, M, S) at most
+//!   [`MAX_IMAGE_WORK`]; the time budget at most [`MAX_TIME_BUDGET_S`].
+//!   A request beyond a limit is refused with 400 naming the field and the
+//!   limit, and leaves nothing behind.
+//! - At most [`IMAGE_QUEUE_CAPACITY`] images wait (more answer 409); one
+//!   worker renders them in turn on the global rayon pool, each under its
+//!   own [`CancelFlag`] (`POST /api/images/{id}/cancel`; shutdown cancels
+//!   them) and inside `catch_unwind`, with an `image_progress` event after
+//!   every pass and `image_finished` at the end.
+//! - One image per (render, request): asking again for the same render
+//!   and settings returns the image already queued, running or complete.
+//! - Images are kept in memory, not in the database: the `f32` means and
+//!   squared deviations of the newest complete images up to
+//!   [`MAX_KEPT_BYTES`] in all (the oldest are forgotten first); a restart
+//!   forgets them all. They are cheap to render again and large to store
+//!   (a spectral image holds 401 + 6 quantities per pixel).
+//! - Ids never repeat across restarts: an image's id is its daemon run's
+//!   number (the daemon's lease id, stored in `daemons` and new at every
+//!   start) × [`IDS_PER_RUN`] + its number in that run, so an id a script
+//!   or the viewer still holds after a restart answers 404 saying the
+//!   image was lost with the restart, and never points at another image.
+
+use std::collections::BTreeMap;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+use tokio::sync::{broadcast, mpsc};
+use utoipa::ToSchema;
+
+use super::jobs;
+use crate::error::LabError;
+use crate::events::Event;
+use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
+use lightbooth_render::integrator::{with_cancel, CancelFlag, Transport};
+use lightbooth_render::scene::Camera;
+use lightbooth_render::{Coding, RenderError, Scene};
+use lightbooth_science::colorimetry::Observer;
+
+/// Image width (pixels) when a request does not say: the scene camera's
+/// aspect kept, 96 px wide (or the camera's width when smaller).
+pub const DEFAULT_WIDTH: u32 = 96;
+/// Paths per pixel at most when a request does not say, and at least per pass.
+pub const DEFAULT_MAX_SPP: u32 = 32;
+pub const DEFAULT_MIN_SPP: u32 = 8;
+/// Paths per pixel a request may ask for.
+pub const MAX_IMAGE_SPP: u32 = 65_536;
+/// Width × height × max_spp × quantities per pixel a request may ask for
+/// (2²⁸: a 96 × 72 spectral image at 32 paths per pixel is 9 × 10⁷).
+pub const MAX_IMAGE_WORK: u64 = 1 << 28;
+/// Seconds of time budget a request may ask for (and the default).
+pub const MAX_TIME_BUDGET_S: f64 = 600.0;
+/// Images that may wait for the worker; more get 409.
+pub const IMAGE_QUEUE_CAPACITY: usize = 4;
+/// Bytes of complete images kept in memory, in all.
+pub const MAX_KEPT_BYTES: u64 = 1 << 30;
+/// Image ids one daemon run may hand out: run r's ids are r × this + 1, + 2,
+/// … (runs up to 9 × 10⁶ keep ids below 2⁵³, exact in JavaScript and MATLAB).
+pub const IDS_PER_RUN: i64 = 1_000_000_000;
+
+/// What to render: `POST /api/renders/{id}/images`.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ImageRequest {
+    /// `rgb`, `srgb`, `nstepN` or `spectral`.
+    pub coding: String,
+    /// Pixels across, 8 up to the scene camera's width (height keeps the
+    /// camera's aspect); default 96 (or the camera's width when smaller).
+    pub width: Option<u32>,
+    /// Paths per pixel before a pixel may stop, and per pass (default 8).
+    pub min_spp: Option<u32>,
+    /// Paths per pixel at most, up to 65536 (default 32).
+    pub max_spp: Option<u32>,
+    /// Stop a pixel when SE(Y)/Y is below this (0 < t ≤ 1); default: every
+    /// pixel gets `max_spp`.
+    pub target_relative_se: Option<f64>,
+    /// Stop starting passes after this many seconds (0 < t ≤ 600, default 600).
+    pub time_budget_s: Option<f64>,
+}
+
+/// A request with every default filled in and checked: what keys reuse.
+#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+pub struct ImageSettings {
+    pub coding: String,
+    pub width: u32,
+    pub height: u32,
+    pub min_spp: u32,
+    pub max_spp: u32,
+    pub target_relative_se: Option<f64>,
+    pub time_budget_s: f64,
+    /// The render's seed, bounces and Russian roulette.
+    pub seed: u64,
+    /// The bounce cap; `null`: none (Russian roulette, unbiased).
+    pub max_bounces: Option<u32>,
+    pub russian_roulette_from: Option<u32>,
+}
+
+/// Where an image is and what it holds, as the API answers it.
+#[derive(Clone, Debug, Serialize, ToSchema)]
+pub struct ImageInfo {
+    pub id: i64,
+    pub render_id: i64,
+    pub scene: String,
+    /// `queued`, `running`, `complete`, `failed` or `cancelled`.
+    pub state: String,
+    pub error: Option<String>,
+    pub settings: ImageSettings,
+    /// The observer of its XYZ (and of every x,y, CIELAB and ΔE drawn from it).
+    pub observer: String,
+    /// The coding's colour in every chart and page (`charts::CODING_STYLES`), `#rrggbb`.
+    pub colour: String,
+    /// After each pass.
+    #[schema(value_type = Option<Object>)]
+    pub progress: Option<CameraProgress>,
+    /// Per pixel, once complete: the coding's channels (`S0.<λ>nm` bands,
+    /// or R, G, B), then X, Y, Z, L, M, S.
+    pub quantities: Vec<String>,
+    /// Band centres of the coding's channels (nm); `null` for `rgb`/`srgb`.
+    pub wavelengths_nm: Option<Vec<f64>>,
+    /// Once complete.
+    pub passes: Option<u32>,
+    pub paths: Option<u64>,
+    pub elapsed_seconds: Option<f64>,
+    #[schema(value_type = Option<String>)]
+    pub stop: Option<StopReason>,
+    /// Once complete: the log-average luminance (cd/m²) of its display
+    /// PNG's tone map, for the page's cd/m² scale: a grey of Y cd/m² is
+    /// shown at the linear display value d = Yk/(1 + Yk), k = 0.18 / this.
+    pub display_log_average_cd_m2: Option<f64>,
+}
+
+struct Entry {
+    info: ImageInfo,
+    image: Option<Arc<CameraImage>>,
+    cancel: CancelFlag,
+    /// Finish order of complete images, for forgetting the oldest.
+    finished_seq: u64,
+}
+
+/// An admitted image, as the worker receives it.
+pub struct ImageWork {
+    pub id: i64,
+    pub scene: Arc<Scene>,
+    pub camera: Camera,
+    pub settings: CameraSettings,
+}
+
+/// The images of this daemon, their queue and worker.
+pub struct ImageJobs {
+    entries: Mutex<BTreeMap<i64, Entry>>,
+    sender: Mutex<Option<mpsc::Sender<ImageWork>>>,
+    receiver: Mutex<Option<mpsc::Receiver<ImageWork>>>,
+    events: broadcast::Sender<Event>,
+    next_id: Mutex<(i64, u64)>,
+    /// The daemon run these images belong to (see the module doc).
+    run: i64,
+}
+
+impl ImageJobs {
+    /// The images of daemon run `run` (its lease id; 0 without one, as in
+    /// tests): ids from `run` × [`IDS_PER_RUN`] + 1.
+    pub fn new(events: broadcast::Sender<Event>, run: i64) -> ImageJobs {
+        let (tx, rx) = mpsc::channel(IMAGE_QUEUE_CAPACITY);
+        let run = run.clamp(0, i64::MAX / IDS_PER_RUN - 1);
+        ImageJobs {
+            entries: Mutex::default(),
+            sender: Mutex::new(Some(tx)),
+            receiver: Mutex::new(Some(rx)),
+            events,
+            next_id: Mutex::new((run * IDS_PER_RUN + 1, 1)),
+            run,
+        }
+    }
+
+    /// The 404 of an image id not (or no longer) here: one of an earlier
+    /// run was lost with the restart; one of this run was forgotten (the
+    /// memory bound) or never existed.
+    pub fn missing(&self, id: i64) -> LabError {
+        let run = id.div_euclid(IDS_PER_RUN);
+        if (0..self.run).contains(&run) && id.rem_euclid(IDS_PER_RUN) != 0 {
+            return LabError::NotFound(format!(
+                "image {id} was lost with the daemon's restart: it was made by run {run}, and this is run {} \
+                 (images are kept in memory); ask for it again with POST /api/renders/{{render}}/images",
+                self.run
+            ));
+        }
+        not_found(id)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, BTreeMap<i64, Entry>> {
+        self.entries.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// One image's state.
+    pub fn info(&self, id: i64) -> Option<ImageInfo> {
+        self.lock().get(&id).map(|e| e.info.clone())
+    }
+
+    /// The images queued or being rendered, oldest first.
+    pub fn unfinished(&self) -> Vec<ImageInfo> {
+        self.lock()
+            .values()
+            .filter(|e| e.info.state == "queued" || e.info.state == "running")
+            .map(|e| e.info.clone())
+            .collect()
+    }
+
+    /// The images of a render, oldest first.
+    pub fn of_render(&self, render_id: i64) -> Vec<ImageInfo> {
+        self.lock()
+            .values()
+            .filter(|e| e.info.render_id == render_id)
+            .map(|e| e.info.clone())
+            .collect()
+    }
+
+    /// A complete image's data; 404 for an unknown id, 409 before it is complete.
+    pub fn data(&self, id: i64) -> Result<(ImageInfo, Arc<CameraImage>), LabError> {
+        let entries = self.lock();
+        let e = entries.get(&id).ok_or_else(|| self.missing(id))?;
+        match &e.image {
+            Some(img) => Ok((e.info.clone(), Arc::clone(img))),
+            None => Err(LabError::Conflict(format!(
+                "image {id} is {}{}; its pixels exist once it is complete",
+                e.info.state,
+                e.info.error.as_deref().map(|m| format!(" ({m})")).unwrap_or_default()
+            ))),
+        }
+    }
+
+    /// Admits an image: the same render and settings give the image already
+    /// queued, running or complete (`reused` true); otherwise a slot is
+    /// reserved (409 when full) and the image queued.
+    pub fn enqueue(
+        &self,
+        render_id: i64,
+        scene_id: &str,
+        observer: Observer,
+        settings: ImageSettings,
+        work: impl FnOnce(i64) -> ImageWork,
+    ) -> Result<(i64, bool), LabError> {
+        let mut entries = self.lock();
+        if let Some(e) = entries.values().find(|e| {
+            e.info.render_id == render_id
+                && e.info.settings == settings
+                && matches!(e.info.state.as_str(), "queued" | "running" | "complete")
+        }) {
+            return Ok((e.info.id, true));
+        }
+        let sender = self
+            .sender
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+            .ok_or_else(|| LabError::Unavailable("the daemon is shutting down".into()))?;
+        let permit = sender.try_reserve().map_err(|e| match e {
+            mpsc::error::TrySendError::Full(()) => LabError::Conflict(format!(
+                "the image queue is full: {IMAGE_QUEUE_CAPACITY} images are already waiting; \
+                 try again when one finishes, or cancel one"
+            )),
+            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable("the daemon is shutting down".into()),
+        })?;
+        let id = {
+            let mut next = self.next_id.lock().unwrap_or_else(|p| p.into_inner());
+            next.0 += 1;
+            next.0 - 1
+        };
+        let work = work(id);
+        let coding = work.settings.coding;
+        entries.insert(
+            id,
+            Entry {
+                info: ImageInfo {
+                    id,
+                    render_id,
+                    scene: scene_id.to_string(),
+                    state: "queued".into(),
+                    error: None,
+                    settings,
+                    observer: observer.to_string(),
+                    colour: crate::charts::coding_colour_hex(&coding.to_string()).unwrap_or_else(|| "#000000".into()),
+                    progress: None,
+                    quantities: Vec::new(),
+                    wavelengths_nm: None,
+                    passes: None,
+                    paths: None,
+                    elapsed_seconds: None,
+                    stop: None,
+                    display_log_average_cd_m2: None,
+                },
+                image: None,
+                cancel: CancelFlag::default(),
+                finished_seq: 0,
+            },
+        );
+        permit.send(work);
+        tracing::info!(image_id = id, render_id, coding = %coding, "image queued");
+        Ok((id, false))
+    }
+
+    /// Cancels a queued or running image (409 once it has ended).
+    pub fn cancel(&self, id: i64) -> Result<ImageInfo, LabError> {
+        let mut entries = self.lock();
+        let e = entries.get_mut(&id).ok_or_else(|| self.missing(id))?;
+        match e.info.state.as_str() {
+            "queued" => {
+                e.cancel.cancel();
+                e.info.state = "cancelled".into();
+                e.info.error = Some("cancelled by a client before it started".into());
+            }
+            "running" => e.cancel.cancel(),
+            other => {
+                return Err(LabError::Conflict(format!(
+                    "image {id} is already {other}; nothing to cancel"
+                )))
+            }
+        }
+        Ok(e.info.clone())
+    }
+
+    /// Refuses new images and cancels every admitted one.
+    pub fn shutdown(&self) {
+        self.sender.lock().unwrap_or_else(|p| p.into_inner()).take();
+        for e in self.lock().values() {
+            e.cancel.cancel();
+        }
+    }
+
+    /// Starts the one worker that renders queued images in turn.
+    pub fn run(self: &Arc<Self>) -> tokio::task::JoinHandle<()> {
+        let this = Arc::clone(self);
+        let receiver = self.receiver.lock().unwrap_or_else(|p| p.into_inner()).take();
+        tokio::spawn(async move {
+            let Some(mut receiver) = receiver else { return };
+            while let Some(work) = receiver.recv().await {
+                this.run_one(work).await;
+            }
+        })
+    }
+
+    async fn run_one(self: &Arc<Self>, work: ImageWork) {
+        let id = work.id;
+        let (cancel, render_id) = {
+            let mut entries = self.lock();
+            let Some(e) = entries.get_mut(&id) else { return };
+            if e.info.state != "queued" {
+                return; // cancelled while queued
+            }
+            if e.cancel.is_cancelled() {
+                e.info.state = "cancelled".into();
+                e.info.error = Some("the daemon shut down before this image ran".into());
+                return;
+            }
+            e.info.state = "running".into();
+            (e.cancel.clone(), e.info.render_id)
+        };
+        tracing::info!(image_id = id, render_id, "image started");
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let this = Arc::clone(self);
+        let flag = cancel.clone();
+        rayon::spawn(move || {
+            let caught = catch_unwind(AssertUnwindSafe(|| {
+                with_cancel(&flag, || {
+                    if jobs::test_panic_requested(&this.scene_of(id)) {
+                        jobs::panic_on_the_pool(&this.scene_of(id));
+                    }
+                    let progress = |p: CameraProgress| this.progress(id, render_id, p);
+                    render_camera_image(&work.scene, &work.camera, &work.settings, Some(&progress))
+                })
+            }))
+            .map_err(|panic| format!("the renderer panicked: {}", jobs::panic_message(&*panic)));
+            let _ = tx.send(caught);
+        });
+        let outcome = match rx.await {
+            Ok(Ok(Ok(img))) if !cancel.is_cancelled() => Ok(img),
+            Ok(Ok(Err(RenderError::Cancelled))) | Ok(Ok(Ok(_))) => Err(None),
+            Ok(Ok(Err(e))) => Err(Some(e.to_string())),
+            Ok(Err(panic)) => Err(Some(panic)),
+            Err(_) => Err(Some("the image's worker ended without an answer".into())),
+        };
+        let (state, error) = {
+            let mut entries = self.lock();
+            let seq = {
+                let mut next = self.next_id.lock().unwrap_or_else(|p| p.into_inner());
+                next.1 += 1;
+                next.1
+            };
+            let Some(e) = entries.get_mut(&id) else { return };
+            match outcome {
+                Ok(img) => {
+                    e.info.state = "complete".into();
+                    e.info.passes = Some(img.passes);
+                    e.info.paths = Some(img.paths);
+                    e.info.elapsed_seconds = Some(img.elapsed_seconds);
+                    e.info.stop = Some(img.stop);
+                    e.info.display_log_average_cd_m2 = Some(img.to_srgb().log_average_luminance());
+                    e.info.quantities = crate::export::image::quantity_names(&img);
+                    e.info.wavelengths_nm = img.quantities.wavelengths_nm.clone();
+                    e.image = Some(Arc::new(img));
+                    e.finished_seq = seq;
+                }
+                Err(None) => {
+                    e.info.state = "cancelled".into();
+                    e.info.error = Some("cancelled".into());
+                }
+                Err(Some(message)) => {
+                    e.info.state = "failed".into();
+                    e.info.error = Some(message);
+                }
+            }
+            let out = (e.info.state.clone(), e.info.error.clone());
+            forget_oldest(&mut entries);
+            out
+        };
+        tracing::info!(image_id = id, render_id, state, "image ended");
+        let _ = self.events.send(Event::ImageFinished {
+            image_id: id,
+            render_id,
+            state,
+            error,
+        });
+    }
+
+    fn scene_of(&self, id: i64) -> String {
+        self.lock().get(&id).map(|e| e.info.scene.clone()).unwrap_or_default()
+    }
+
+    fn progress(&self, id: i64, render_id: i64, p: CameraProgress) {
+        let mut budget = None;
+        if let Some(e) = self.lock().get_mut(&id) {
+            e.info.progress = Some(p);
+            budget = Some(e.info.settings.time_budget_s);
+        }
+        let (seconds_left, estimate) = match budget {
+            Some(b) => super::progress::image_time_left(&p, b),
+            None => (None, String::new()),
+        };
+        let _ = self.events.send(Event::ImageProgress {
+            seconds_left,
+            estimate,
+            image_id: id,
+            render_id,
+            pass: p.pass,
+            pixels_done: p.pixels_done,
+            pixels: p.pixels,
+            paths: p.paths,
+            max_paths: p.max_paths,
+            elapsed_seconds: p.elapsed_seconds,
+        });
+    }
+}
+
+/// Forgets the oldest complete images until those kept fit [`MAX_KEPT_BYTES`].
+fn forget_oldest(entries: &mut BTreeMap<i64, Entry>) {
+    // Means and squared deviations, f32 each, per pixel and quantity.
+    let bytes = |e: &Entry| {
+        e.image
+            .as_ref()
+            .map_or(0, |i| i.width as u64 * i.height as u64 * i.stride() as u64 * 8)
+    };
+    let mut total: u64 = entries.values().map(bytes).sum();
+    while total > MAX_KEPT_BYTES {
+        let Some((&oldest, _)) = entries
+            .iter()
+            .filter(|(_, e)| e.image.is_some())
+            .min_by_key(|(_, e)| e.finished_seq)
+        else {
+            break;
+        };
+        if let Some(e) = entries.remove(&oldest) {
+            total -= bytes(&e);
+            tracing::info!(image_id = oldest, "image forgotten (images kept in memory are bounded)");
+        }
+    }
+}
+
+fn not_found(id: i64) -> LabError {
+    LabError::NotFound(format!(
+        "no image {id} (images are kept in memory: a restart, or newer images beyond {} MB, forget them)",
+        MAX_KEPT_BYTES >> 20
+    ))
+}
+
+/// The request checked field by field against the limits (see the module
+/// doc) for a scene camera, with the render's transport and seed.
+pub fn check_request(
+    request: &ImageRequest,
+    camera: &Camera,
+    transport: &Transport,
+    seed: u64,
+) -> Result<(ImageSettings, Coding), LabError> {
+    let coding: Coding = request
+        .coding
+        .parse()
+        .map_err(|e| LabError::Invalid(format!("field `coding`: {e}")))?;
+    let width = request.width.unwrap_or(DEFAULT_WIDTH.min(camera.width));
+    if !(8..=camera.width).contains(&width) {
+        return Err(LabError::Invalid(format!(
+            "field `width`: {width} is outside 8–{} (the scene camera's width)",
+            camera.width
+        )));
+    }
+    let height = ((width as f64 * camera.height as f64 / camera.width as f64).round() as u32).max(1);
+    let max_spp = request.max_spp.unwrap_or(DEFAULT_MAX_SPP);
+    if !(1..=MAX_IMAGE_SPP).contains(&max_spp) {
+        return Err(LabError::Invalid(format!(
+            "field `max_spp`: {max_spp} is outside 1–{MAX_IMAGE_SPP} (paths per pixel)"
+        )));
+    }
+    let min_spp = request.min_spp.unwrap_or(DEFAULT_MIN_SPP.min(max_spp));
+    if !(1..=max_spp).contains(&min_spp) {
+        return Err(LabError::Invalid(format!(
+            "field `min_spp`: {min_spp} is outside 1–{max_spp} (`max_spp`)"
+        )));
+    }
+    if let Some(t) = request.target_relative_se {
+        if !(t > 0.0 && t <= 1.0) {
+            return Err(LabError::Invalid(format!(
+                "field `target_relative_se`: {t} is outside (0, 1]"
+            )));
+        }
+    }
+    let time_budget_s = request.time_budget_s.unwrap_or(MAX_TIME_BUDGET_S);
+    if !(time_budget_s > 0.0 && time_budget_s <= MAX_TIME_BUDGET_S) {
+        return Err(LabError::Invalid(format!(
+            "field `time_budget_s`: {time_budget_s} is outside (0, {MAX_TIME_BUDGET_S}] seconds"
+        )));
+    }
+    let quantities = coding.channels() as u64 + 6;
+    let work = width as u64 * height as u64 * max_spp as u64 * quantities;
+    if work > MAX_IMAGE_WORK {
+        return Err(LabError::Invalid(format!(
+            "fields `width`, `max_spp`, `coding`: width × height × max_spp × quantities = {width} × {height} × \
+             {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (lab::images::MAX_IMAGE_WORK); \
+             ask for fewer pixels, fewer paths per pixel or fewer bands"
+        )));
+    }
+    Ok((
+        ImageSettings {
+            coding: coding.to_string(),
+            width,
+            height,
+            min_spp,
+            max_spp,
+            target_relative_se: request.target_relative_se,
+            time_budget_s,
+            seed,
+            max_bounces: transport.max_bounces,
+            russian_roulette_from: transport.russian_roulette_from,
+        },
+        coding,
+    ))
+}
+
+/// The camera settings and the scaled camera of checked settings.
+pub fn camera_settings(
+    s: &ImageSettings,
+    coding: Coding,
+    camera: &Camera,
+    observer: Observer,
+) -> (Camera, CameraSettings) {
+    let mut scaled = camera.clone();
+    scaled.width = s.width;
+    scaled.height = s.height;
+    (
+        scaled,
+        CameraSettings {
+            coding,
+            observer,
+            transport: Transport {
+                max_bounces: s.max_bounces,
+                russian_roulette_from: s.russian_roulette_from,
+            },
+            seed: s.seed,
+            min_spp: s.min_spp,
+            max_spp: s.max_spp,
+            target_relative_se: s.target_relative_se,
+            time_budget: Some(Duration::from_secs_f64(s.time_budget_s)),
+        },
+    )
+}

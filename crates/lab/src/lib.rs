@@ -1,0 +1,79 @@
+//! The lab's workflows, below the daemon and the HTTP layer and knowing
+//! neither: what happens between a request ("measure this target", "render
+//! this scene in these codings", "run the study") and the rows in the store.
+//!
+//! A layer of the workspace above `lightbooth-store`, `lightbooth-instrument`,
+//! `lightbooth-render` and `lightbooth-science`; Cargo refuses a build where
+//! it would name the daemon, the HTTP layer or the command line.
+//! `lightbooth` re-exports it as `lightbooth::lab`, and its [`charts`] and
+//! [`export`] as `lightbooth::charts` and `lightbooth::export`.
+//!
+//! - [`charts`]: the charts of the results as SVG; [`export`]: CSV, MAT,
+//!   EXR and ENVI files;
+//! - [`events`]: every [`Event`](events::Event) on one bus, for `/api/events`
+//!   and the dashboards;
+//! - [`measurement`]: the one recorder of a measurement (create, store each
+//!   raw sample before the next is taken, average), used by the daemon's
+//!   instrument task and by `lightbooth study --measure-simulated`;
+//! - [`instrument_queue`]: the queue of measurements the instrument task
+//!   takes, its live status, and the handles it lends out;
+//! - [`scene_overview`]: every scene at a glance (targets measured, its
+//!   thumbnail's render, each coding's mean ΔE00 and rms_rel);
+//! - [`scenes`]: the scene catalogue, every scene loaded once at start;
+//! - [`render_runner`]: one recorded render run (settings checked, bundle
+//!   stored, rendered on the rayon pool, each coding's cost);
+//! - [`comparisons`]: **where a measurement's comparison with every coding
+//!   is computed** (the render, the booth's CIELAB white, the rows, the
+//!   whites kept current) and a scene's comparisons summarised per coding;
+//! - [`render_jobs`]: the daemon's renders, studies and camera images as
+//!   the API asks for them, behind [`services::RenderService`];
+//! - [`study`]: the study itself (every coding against measurements or a
+//!   reference, sweeps, failure maps, the automatic choice of settings,
+//!   the report);
+//! - [`experiments`]: the study's oddity experiment: set up from a
+//!   measurement and checked on its display, observers' sessions trial by
+//!   trial, and the analysis (percent correct, d′);
+//! - [`study_jobs`]: a study planned from a request and run as a job;
+//! - [`simulated_truth`]: what the simulated PR-650 measures;
+//! - [`jobs`], [`images`], [`worker_queue`], [`study_measurements`]: the
+//!   bounded job queue, camera images, the hand-off to render workers, and
+//!   a study's wait for the measurements it asked for;
+//! - [`progress`]: how far each running render and study has got, and the
+//!   time it extrapolates to still need;
+//! - [`queue`]: every job of the booth waiting or under way, with its
+//!   progress and time left, for the dashboard's home page;
+//! - [`requests`]: the requests those workflows take;
+//! - [`error`]: [`LabError`](error::LabError), the kinds of refusal a caller
+//!   can act on, mapped to HTTP statuses only in `http::error`.
+//!
+//! The rule (see `lightbooth`'s `lib.rs`): the lab uses the store, the
+//! renderer, the instruments and the science below them; nothing here names
+//! axum or the HTTP layer.
+
+pub mod calibration;
+pub mod charts;
+pub mod comparisons;
+pub mod error;
+pub mod events;
+pub mod experiments;
+pub mod export;
+pub mod images;
+pub mod instrument_queue;
+pub mod jobs;
+pub mod lease;
+pub mod measurement;
+pub mod progress;
+pub mod queue;
+pub mod render_jobs;
+pub mod render_runner;
+pub mod requests;
+pub mod scene_overview;
+pub mod scenes;
+pub mod services;
+pub mod simulated_truth;
+pub mod study;
+pub mod study_jobs;
+pub mod study_measurements;
+#[cfg(test)]
+mod testing;
+pub mod worker_queue;

@@ -1,0 +1,370 @@
+//! Records one measurement in the store while the instrument takes it: the
+//! one path of the daemon's instrument task and of `lightbooth study
+//! --measure-simulated`. It marks the measurement running, writes each raw
+//! sample *before* the next is taken (the driver's thread blocks on the
+//! write, so a crash keeps every sample taken), completes it with its
+//! average, or ends it with the true reason.
+//!
+//! Ending a measurement must not be lost to a database that is briefly
+//! away: the end (`complete`, `failed`, …) is written again with backoff
+//! (0.5 s doubling to 10 s) for as long as the database is unavailable
+//! ([`StoreError::is_unavailable`]), until it answers or the caller gives
+//! up (the daemon shutting down: its lease then hands the measurement to
+//! recovery). A sample that could not be written stops the measurement: it
+//! ends `failed`, saying which sample and why, never `complete`.
+//!
+//! It knows nothing of HTTP or events; callers publish those from what it
+//! returns. Blocking: call it from the instrument's thread (or inside
+//! `tokio::task::block_in_place`), never from an async task.
+
+use std::time::Duration;
+
+use tokio::runtime::Handle;
+
+use lightbooth_instrument::{AveragedMeasurement, Reading, Sample};
+use lightbooth_science::colorimetry::{xyz_from_radiance, Observer, Xyz};
+use lightbooth_store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
+
+/// The first wait before writing the end of a measurement again.
+const FIRST_RETRY: Duration = Duration::from_millis(500);
+/// The longest wait between two tries.
+const LONGEST_RETRY: Duration = Duration::from_secs(10);
+
+/// One measurement being recorded (see the module doc).
+pub struct Recorder {
+    store: Store,
+    runtime: Handle,
+    id: i64,
+    taken: usize,
+    usable: usize,
+    /// Why the first sample that could not be written was not.
+    write_failed: Option<String>,
+}
+
+impl Recorder {
+    /// Marks queued measurement `id` running on `instrument_id` and starts
+    /// recording it, retrying while the database is away. An error when it
+    /// is no longer queued (cancelled, or taken by another) or the database
+    /// refused.
+    pub fn start(
+        store: &Store,
+        runtime: &Handle,
+        id: i64,
+        instrument_id: Option<i64>,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<Recorder, StoreError> {
+        retry_while_unavailable(runtime, id, "its start", give_up, || {
+            store.mark_running(id, instrument_id)
+        })?;
+        Ok(Recorder {
+            store: store.clone(),
+            runtime: runtime.clone(),
+            id,
+            taken: 0,
+            usable: 0,
+            write_failed: None,
+        })
+    }
+
+    pub fn id(&self) -> i64 {
+        self.id
+    }
+
+    /// Samples taken so far (written or not), and how many of them were usable.
+    pub fn taken(&self) -> (usize, usize) {
+        (self.taken, self.usable)
+    }
+
+    /// Writes sample `s` of an instrument that reads `reading`, blocking
+    /// until it is on disk; its row. After a
+    /// failed write the error says which sample and why (also kept for
+    /// [`Recorder::write_failed`]); the caller stops the measurement.
+    pub fn store_sample(&mut self, s: &Sample, reading: Reading) -> Result<NewSample, String> {
+        let row = sample_row(s, reading);
+        self.taken += 1;
+        self.usable += usize::from(row.usable);
+        match self.runtime.block_on(self.store.insert_sample(self.id, &row)) {
+            Ok(()) => Ok(row),
+            Err(e) => {
+                let why = format!("sample {} could not be written to the database: {e}", s.index);
+                self.write_failed.get_or_insert_with(|| why.clone());
+                Err(why)
+            }
+        }
+    }
+
+    /// Why the first sample that could not be written was not, if one was not.
+    pub fn write_failed(&self) -> Option<&str> {
+        self.write_failed.as_deref()
+    }
+
+    /// Completes the measurement with its average (lightbooth's XYZ for
+    /// `observer`), retrying while the database is away. Refused (an error)
+    /// when a sample could not be written: a measurement without all its
+    /// samples on disk is never complete.
+    pub fn complete(
+        &self,
+        avg: &AveragedMeasurement,
+        observer: Observer,
+        give_up: &dyn Fn() -> bool,
+    ) -> Result<(), String> {
+        if let Some(why) = &self.write_failed {
+            return Err(format!(
+                "{why}; a measurement without all its samples on disk is not complete"
+            ));
+        }
+        let average = average_row(avg, observer);
+        self.retry("its average", give_up, || {
+            self.store.complete_measurement(self.id, &average)
+        })
+        .map_err(|e| format!("cannot store the average: {e}"))
+    }
+
+    /// Ends the measurement `state` with `message`, retrying while the
+    /// database is away (see the module doc).
+    pub fn end(&self, state: MeasurementState, message: &str, give_up: &dyn Fn() -> bool) -> Result<(), StoreError> {
+        end_measurement(&self.store, &self.runtime, self.id, state, message, give_up)
+    }
+
+    fn retry<F, Fut>(&self, what: &str, give_up: &dyn Fn() -> bool, write: F) -> Result<(), StoreError>
+    where
+        F: Fn() -> Fut,
+        Fut: std::future::Future<Output = Result<(), StoreError>>,
+    {
+        retry_while_unavailable(&self.runtime, self.id, what, give_up, write)
+    }
+}
+
+/// Ends measurement `id` `state` with `message`, retrying while the
+/// database is away (the module doc); for a measurement that failed before
+/// it was recorded (a panic, a scene that cannot be rendered) as for one a
+/// [`Recorder`] records.
+pub fn end_measurement(
+    store: &Store,
+    runtime: &Handle,
+    id: i64,
+    state: MeasurementState,
+    message: &str,
+    give_up: &dyn Fn() -> bool,
+) -> Result<(), StoreError> {
+    retry_while_unavailable(runtime, id, "its end", give_up, || {
+        store.end_measurement(id, state, message)
+    })
+}
+
+/// Runs `write` until it succeeds, fails for a reason other than an
+/// unavailable database, or `give_up` says so; logs each retry.
+fn retry_while_unavailable<F, Fut>(
+    runtime: &Handle,
+    id: i64,
+    what: &str,
+    give_up: &dyn Fn() -> bool,
+    write: F,
+) -> Result<(), StoreError>
+where
+    F: Fn() -> Fut,
+    Fut: std::future::Future<Output = Result<(), StoreError>>,
+{
+    let mut wait = FIRST_RETRY;
+    let mut tries = 0u32;
+    loop {
+        match runtime.block_on(write()) {
+            Ok(()) => {
+                if tries > 0 {
+                    tracing::info!(
+                        measurement_id = id,
+                        tries = tries + 1,
+                        "recorded {what} once the database answered again"
+                    );
+                }
+                return Ok(());
+            }
+            Err(e) if e.is_unavailable() && !give_up() => {
+                tries += 1;
+                tracing::warn!(
+                    measurement_id = id,
+                    error = %e,
+                    retry_in_ms = wait.as_millis() as u64,
+                    "the database is unavailable: cannot record {what} of the measurement yet; retrying"
+                );
+                let deadline = std::time::Instant::now() + wait;
+                while std::time::Instant::now() < deadline && !give_up() {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                wait = (wait * 2).min(LONGEST_RETRY);
+            }
+            Err(e) => {
+                tracing::error!(measurement_id = id, error = %e, "cannot record {what} of the measurement");
+                return Err(e);
+            }
+        }
+    }
+}
+
+/// A raw sample as the store keeps it; `reading` is what the instrument's
+/// samples carry (a sample is usable when its code is good and it has it).
+pub fn sample_row(s: &Sample, reading: Reading) -> NewSample {
+    NewSample {
+        index: s.index,
+        taken_at: unix_seconds(s.time),
+        code: i64::from(s.code.code),
+        message: s.code.message.clone(),
+        usable: s.is_usable(reading),
+        radiance: s.radiance.as_ref().map(|r| r.values().to_vec()),
+        luminance_cd_m2: s.luminance,
+        instrument_xyz: s.instrument_xyz,
+    }
+}
+
+/// The XYZ of an averaged measurement in `observer`, for comparing it with
+/// renderings: of its mean spectrum; or a colorimeter's own mean XYZ when
+/// it is in `observer` (a colorimeter's XYZ cannot be recomputed in another
+/// observer, and mixing two observers in one ΔE is refused); a luminance
+/// meter's Y alone is no colour and is refused.
+pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<Xyz, String> {
+    match (&avg.mean, avg.reading) {
+        (Some(mean), _) => xyz_from_radiance(mean, observer).map_err(|e| format!("XYZ of the mean spectrum: {e}")),
+        (None, Reading::Tristimulus { observer: own }) if own == observer => avg
+            .instrument_xyz
+            .map(Xyz::from_array)
+            .ok_or_else(|| "the colorimeter gave no XYZ".to_string()),
+        (None, Reading::Tristimulus { observer: own }) => Err(format!(
+            "the {} measures XYZ in the {} observer, and the comparisons are in the {}: a colorimeter's XYZ \
+             cannot be recomputed in another observer. Serve with --observer {} to compare its measurements, \
+             or measure with a spectroradiometer",
+            avg.info.model,
+            own.name(),
+            observer.name(),
+            own.name()
+        )),
+        (None, Reading::Luminance { .. }) => Err(format!(
+            "the {} measures luminance only, no colour: x, y and ΔE need a colorimeter or a spectroradiometer",
+            avg.info.model
+        )),
+        (None, Reading::Spectrum) => Err("the measurement has no spectrum".into()),
+    }
+}
+
+/// The luminance of a luminance meter's averaged measurement, for comparing
+/// it with renderings in luminance alone: its mean Y, when the meter's
+/// spectral weighting (V(λ), CIE 1931's ȳ) is `observer`'s ȳ. Another
+/// observer's ȳ weights the rendered spectra differently, so that
+/// comparison would mix two luminances and is refused, saying what to do.
+/// `None` for a measurement that is not a luminance meter's (see
+/// [`comparable_xyz`]).
+pub fn comparable_luminance(avg: &AveragedMeasurement, observer: Observer) -> Option<Result<f64, String>> {
+    let Reading::Luminance { observer: own } = avg.reading else {
+        return None;
+    };
+    if avg.mean.is_some() {
+        return None;
+    }
+    Some(if own == observer {
+        Ok(avg.luminance_cd_m2)
+    } else {
+        Err(format!(
+            "the {} measures luminance weighted by the {} observer's ȳ, and the comparisons are in the {}: \
+             serve with --observer {} to compare its measurements in luminance",
+            avg.info.model,
+            own.name(),
+            observer.name(),
+            own.name()
+        ))
+    })
+}
+
+/// The average of a measurement as the store keeps it. With a spectrum:
+/// lightbooth's XYZ of the mean spectrum for `observer`. Without one (a
+/// colorimeter): the instrument's own mean XYZ, in the observer its
+/// reading is in (which may differ from `observer`: the comparisons
+/// refuse to mix them); a luminance meter's has no XYZ.
+pub fn average_row(avg: &AveragedMeasurement, observer: Observer) -> Average {
+    let (xyz, observer) = match (&avg.mean, avg.reading) {
+        (Some(mean), _) => {
+            let xyz = xyz_from_radiance(mean, observer).ok().map(|x| x.to_array());
+            (xyz, xyz.is_some().then_some(observer))
+        }
+        (None, Reading::Tristimulus { observer }) => (avg.instrument_xyz, Some(observer)),
+        (None, Reading::Luminance { observer }) => (None, Some(observer)),
+        (None, Reading::Spectrum) => (None, None),
+    };
+    Average {
+        xyz,
+        observer,
+        wavelength_nm: avg
+            .mean
+            .as_ref()
+            .map(|m| m.grid().wavelengths().to_vec())
+            .unwrap_or_default(),
+        radiance: avg.mean.as_ref().map(|m| m.values().to_vec()).unwrap_or_default(),
+        radiance_sd: avg.sd.clone(),
+        luminance_cd_m2: avg.luminance_cd_m2,
+        x: avg.x,
+        y: avg.y,
+        luminance_cv: avg.luminance_cv,
+    }
+}
+
+/// The spectroradiometers lightbooth drives, for a refusal's advice.
+pub const SPECTRORADIOMETERS: &str = "a PR-650, PR-655, PR-670, CS-2000, CS-2000A, CS-3000, CR-250 or CR-300";
+
+/// The grid and mean spectrum of a stored measurement, for `what` (a
+/// reflectance, a display profile, …) that needs one; or why it has none,
+/// with the instrument that took it and what it measures (a colorimeter's
+/// XYZ, a luminance meter's Y), and which instruments would do.
+pub fn stored_spectrum<'a>(
+    m: &'a lightbooth_store::MeasurementDetail,
+    what: &str,
+) -> Result<(&'a [f64], &'a [f64]), String> {
+    if let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) {
+        return Ok((wl, radiance));
+    }
+    let id = m.summary.id;
+    let model = m.summary.instrument_model.as_deref().unwrap_or("instrument");
+    let measures = if m
+        .samples
+        .iter()
+        .any(|s| s.instrument_xyz.is_some() && s.radiance.is_none())
+    {
+        "XYZ"
+    } else if m.samples.iter().all(|s| s.radiance.is_none()) && m.summary.luminance_cd_m2.is_some() {
+        "luminance"
+    } else {
+        "no spectrum that completed"
+    };
+    Err(if measures == "no spectrum that completed" {
+        format!("measurement {id} has no mean spectrum; {what} needs one")
+    } else {
+        format!(
+            "measurement {id} has no spectrum: the {model} that took it measures {measures} only, and {what} needs \
+             a spectral radiance; measure it with a spectroradiometer ({SPECTRORADIOMETERS})"
+        )
+    })
+}
+
+/// What a stored measurement gives a display calibration: its mean
+/// spectrum (a spectroradiometer's; any observer will do), else the
+/// instrument's own mean XYZ (a colorimeter's) or luminance (a luminance
+/// meter's) with the observer it is in, which the profile must then use.
+pub fn display_patch_light(
+    m: &lightbooth_store::MeasurementDetail,
+) -> Result<(lightbooth_science::display::PatchLight, Option<Observer>), String> {
+    use lightbooth_science::display::PatchLight;
+    if let (Some(wl), Some(radiance)) = (&m.wavelength_nm, &m.radiance) {
+        let light = PatchLight::Spectrum {
+            wavelength_nm: wl.clone(),
+            radiance: radiance.clone(),
+        };
+        return Ok((light, None));
+    }
+    let s = &m.summary;
+    let model = s.instrument_model.as_deref().unwrap_or("instrument");
+    match (s.xyz, s.luminance_cd_m2, s.observer) {
+        (Some(xyz), _, Some(observer)) => Ok((PatchLight::Xyz(xyz), Some(observer))),
+        (None, Some(y), Some(observer)) => Ok((PatchLight::Luminance(y), Some(observer))),
+        _ => Err(format!(
+            "measurement {} (the {model}'s) has neither a mean spectrum, XYZ nor a luminance with its observer",
+            s.id
+        )),
+    }
+}
