@@ -9,13 +9,13 @@
 //!   For looking at, never for measuring.
 //! - Probe of a box of pixels: the mean of the pixels' means, and its
 //!   standard error √(Σ SEᵢ²) / n (the pixels' paths are independent).
-//! - ΔE map: both images through CIELAB with the scene's white (the one the
-//!   daemon's comparisons use, see `lab::comparisons`), CIEDE2000 per pixel,
-//!   drawn with the viridis colour map from 0 to a rounded-up maximum.
+//! - ΔE map: computed in the lab (`lab::comparisons::image_map`); here only
+//!   encoded as a PNG.
 
 use crate::charts::{self, LineSeriesData};
-use crate::colorimetry::{ciede2000, Lab, Xyz};
+use crate::colorimetry::Xyz;
 use crate::http::error::ApiError;
+use crate::lab::comparisons::image_map::{self, DeltaEMap};
 use crate::render::camera::{CameraImage, L, M, S, X, Y, Z};
 
 /// The tone-mapped display image as PNG bytes (see the module doc).
@@ -188,122 +188,9 @@ pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
     charts::line_chart(&title, x_desc, y_desc, &[series], false).map_err(ApiError::Internal)
 }
 
-/// The ΔE00 map between two images of one render.
-#[derive(Clone, Debug, serde::Serialize, utoipa::ToSchema)]
-pub struct DeltaEMap {
-    pub image_id: i64,
-    pub against: i64,
-    pub codings: [String; 2],
-    pub width: u32,
-    pub height: u32,
-    pub observer: String,
-    /// The CIELAB white (XYZ, Y in cd/m²) and where it came from.
-    pub white: [f64; 3],
-    pub white_source: String,
-    pub mean: f64,
-    pub p95: f64,
-    pub max: f64,
-    /// The colour map runs from 0 (its first stop) to this (its last).
-    pub scale_max: f64,
-    /// The colour map's stops, evenly spaced from 0 to `scale_max` (sRGB 0–255).
-    pub colour_map: &'static str,
-    pub stops: Vec<[u8; 3]>,
-    /// ΔE00 per pixel, rows top to bottom.
-    pub values: Vec<f32>,
-}
-
-/// Viridis (matplotlib, van der Walt & Smith 2015) at nine even stops.
-const VIRIDIS: [[u8; 3]; 9] = [
-    [68, 1, 84],
-    [71, 44, 122],
-    [59, 81, 139],
-    [44, 113, 142],
-    [33, 144, 141],
-    [39, 173, 129],
-    [92, 200, 99],
-    [170, 220, 50],
-    [253, 231, 37],
-];
-
-fn viridis(t: f64) -> [u8; 3] {
-    let t = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
-    let i = (t.floor() as usize).min(VIRIDIS.len() - 2);
-    let f = t - i as f64;
-    let (a, b) = (VIRIDIS[i], VIRIDIS[i + 1]);
-    [0, 1, 2].map(|c| (a[c] as f64 + (b[c] as f64 - a[c] as f64) * f).round() as u8)
-}
-
-/// The smallest of 1, 2, 2.5, 5 × 10ᵏ at or above `v` (1 for v ≤ 0).
-fn nice_ceiling(v: f64) -> f64 {
-    if v <= 0.0 || !v.is_finite() {
-        return 1.0;
-    }
-    let p = 10f64.powf(v.log10().floor());
-    [1.0, 2.0, 2.5, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * p)
-        .find(|c| *c >= v * (1.0 - 1e-12))
-        .unwrap_or(10.0 * p)
-}
-
-/// ΔE00 per pixel between `a` and `b` (same size) with the white `white`.
-#[allow(clippy::too_many_arguments)]
-pub fn delta_e_map(
-    a: &CameraImage,
-    a_id: i64,
-    b: &CameraImage,
-    b_id: i64,
-    white: Xyz,
-    white_source: String,
-) -> Result<DeltaEMap, ApiError> {
-    if (a.width, a.height) != (b.width, b.height) {
-        return Err(ApiError::Conflict(format!(
-            "image {a_id} is {} × {} and image {b_id} is {} × {}: a ΔE map needs two images of one size",
-            a.width, a.height, b.width, b.height
-        )));
-    }
-    let (w, h) = (a.width as usize, a.height as usize);
-    let lab = |img: &CameraImage, x: usize, y: usize| {
-        let k = img.xyz_index();
-        Lab::from_xyz(
-            Xyz::new(img.mean(x, y, k + X), img.mean(x, y, k + Y), img.mean(x, y, k + Z)),
-            white,
-        )
-    };
-    let values: Vec<f32> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| ciede2000(lab(a, x, y), lab(b, x, y)) as f32)
-        .collect();
-    let mut sorted: Vec<f64> = values.iter().map(|v| *v as f64).collect();
-    sorted.sort_by(|p, q| p.total_cmp(q));
-    let n = sorted.len().max(1);
-    let max = sorted.last().copied().unwrap_or(0.0);
-    Ok(DeltaEMap {
-        image_id: a_id,
-        against: b_id,
-        codings: [a.coding.to_string(), b.coding.to_string()],
-        width: a.width,
-        height: a.height,
-        observer: a.observer.to_string(),
-        white: white.to_array(),
-        white_source,
-        mean: sorted.iter().sum::<f64>() / n as f64,
-        p95: sorted[((0.95 * (n - 1) as f64).round() as usize).min(n - 1)],
-        max,
-        scale_max: nice_ceiling(max),
-        colour_map: "viridis",
-        stops: VIRIDIS.to_vec(),
-        values,
-    })
-}
-
 /// The map as a false-colour PNG (viridis, 0 to `scale_max`).
 pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, ApiError> {
-    let rgb: Vec<u8> = map
-        .values
-        .iter()
-        .flat_map(|v| viridis(*v as f64 / map.scale_max))
-        .collect();
+    let rgb = image_map::false_colour_rgb(map);
     let png_err = |e: png::EncodingError| ApiError::Internal(format!("PNG encoding: {e}"));
     let mut bytes = Vec::new();
     let mut enc = png::Encoder::new(&mut bytes, map.width, map.height);
@@ -313,49 +200,4 @@ pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, ApiError> {
     writer.write_image_data(&rgb).map_err(png_err)?;
     writer.finish().map_err(png_err)?;
     Ok(bytes)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Regression: `?x=1&y=0&w=4294967295` wrapped in u32 and was answered
-    /// 200 with nulls.
-    #[test]
-    fn pixel_box_width_that_wraps_u32_is_refused_naming_w() {
-        for (x, y, w, h, field) in [
-            (1, 0, u32::MAX, 1, "`w`"),
-            (0, 1, 1, u32::MAX, "`h`"),
-            (2, 0, u32::MAX - 1, 1, "`w`"),
-            (0, 0, 0, 1, "`w`"),
-            (u32::MAX, 0, 1, 1, "`x`"),
-            (0, 40, 1, 1, "`y`"),
-        ] {
-            let e = check_box(x, y, w, h, 64, 40).unwrap_err();
-            assert!(matches!(e, ApiError::BadRequest(_)), "{e}");
-            assert!(e.to_string().contains(field), "{x},{y},{w},{h}: {e}");
-        }
-        assert!(check_box(0, 0, 64, 40, 64, 40).is_ok());
-        assert!(check_box(63, 39, 1, 1, 64, 40).is_ok());
-    }
-
-    #[test]
-    fn nice_ceiling_rounds_up_to_1_2_2_5_5() {
-        assert_eq!(nice_ceiling(0.0), 1.0);
-        assert_eq!(nice_ceiling(0.7), 1.0);
-        assert_eq!(nice_ceiling(1.0), 1.0);
-        assert_eq!(nice_ceiling(1.3), 2.0);
-        assert_eq!(nice_ceiling(2.2), 2.5);
-        assert_eq!(nice_ceiling(3.1), 5.0);
-        assert_eq!(nice_ceiling(7.0), 10.0);
-        assert_eq!(nice_ceiling(0.031), 0.05);
-    }
-
-    #[test]
-    fn viridis_ends_are_its_first_and_last_stops() {
-        assert_eq!(viridis(0.0), VIRIDIS[0]);
-        assert_eq!(viridis(1.0), VIRIDIS[8]);
-        assert_eq!(viridis(2.0), VIRIDIS[8]);
-        assert_eq!(viridis(0.5), VIRIDIS[4]);
-    }
 }

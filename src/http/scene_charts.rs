@@ -8,17 +8,6 @@ use crate::colorimetry::{Observer, Xyz};
 use crate::lab::comparisons::summary::{coding_order, SceneComparisons as SceneComparison};
 use crate::lab::requests::SceneInfo;
 
-/// Targets in the scene's own order (the cylinder's 21 heights bottom to top).
-fn target_index(info: &SceneInfo, target: &str) -> usize {
-    info.targets.iter().position(|t| t == target).unwrap_or(usize::MAX)
-}
-
-/// A target's number on a profile's x axis: 1 for the scene's first target,
-/// where the axis prints the first target's id.
-fn target_number(info: &SceneInfo, target: &str) -> f64 {
-    target_index(info, target) as f64 + 1.0
-}
-
 /// The cost on the speed chart's x axis: the wall time of each coding
 /// rendered alone at the same fixed number of paths per target
 /// (`coding_cost.CODING.wall_seconds` of a stored render, see
@@ -38,13 +27,13 @@ const SPEED_COST: (&str, &str, &str) = (
 /// daemon's `observer`; profiles (more than one target) are drawn as lines.
 pub fn chromaticity(c: &SceneComparison, info: &SceneInfo, observer: Observer) -> Result<String, String> {
     let mut rows = c.rows.clone();
-    rows.sort_by_key(|r| (coding_order(&r.coding), target_index(info, &r.target)));
+    rows.sort_by_key(|r| (coding_order(&r.coding), info.target_index(&r.target)));
     let profile = info.targets.len() > 1;
     let mut series = Vec::new();
     // The measurement, once per target (every coding row carries it).
     let mut measured: Vec<(usize, (f64, f64))> = Vec::new();
     for r in &rows {
-        let i = target_index(info, &r.target);
+        let i = info.target_index(&r.target);
         if !measured.iter().any(|(j, _)| *j == i) {
             let xy = Xyz::new(r.measured_X, r.measured_Y, r.measured_Z).chromaticity();
             measured.push((i, (xy.x, xy.y)));
@@ -79,7 +68,7 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
     let mut series = Vec::new();
     let mut measured: Vec<(f64, f64)> = Vec::new();
     for r in &c.rows {
-        let i = target_number(info, &r.target);
+        let i = info.target_number(&r.target);
         if !measured.iter().any(|(j, _)| *j == i) {
             measured.push((i, r.measured_Y));
         }
@@ -95,14 +84,14 @@ pub fn profile(c: &SceneComparison, info: &SceneInfo) -> Result<String, String> 
             .rows
             .iter()
             .filter(|r| r.coding == coding)
-            .map(|r| (target_number(info, &r.target), r.rendered_Y))
+            .map(|r| (info.target_number(&r.target), r.rendered_Y))
             .collect();
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         let errors = Some(
             c.rows
                 .iter()
                 .filter(|r| r.coding == coding)
-                .map(|r| (target_index(info, &r.target), r.rendered_Y_se))
+                .map(|r| (info.target_index(&r.target), r.rendered_Y_se))
                 .collect::<std::collections::BTreeMap<_, _>>()
                 .into_values()
                 .collect(),
@@ -207,23 +196,4 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
 
 fn codings(c: &SceneComparison) -> Vec<String> {
     c.codings.iter().map(|s| s.coding.clone()).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The profile put the first target at x = 0 under an axis reading
-    /// "height 1–21 cm": target numbers start at 1, where the axis prints
-    /// the first target's id.
-    #[test]
-    fn profile_ticks_are_not_shifted_by_one() {
-        let info = SceneInfo {
-            id: "cylinder".into(),
-            title: "CYLINDER".into(),
-            targets: (1..=21).map(|h| format!("h{h:02}")).collect(),
-        };
-        assert_eq!(target_number(&info, "h01"), 1.0);
-        assert_eq!(target_number(&info, "h21"), 21.0);
-    }
 }

@@ -21,5 +21,6 @@ mod experiment;
 mod experiment_races;
 mod experiment_study;
 mod http_hardening;
+mod http_parts;
 mod render_requests;
 mod service_api;

@@ -17,6 +17,7 @@ mod daemon_models;
 mod daemon_pr670;
 mod daemon_recovery;
 mod daemon_wire_log;
+mod db_lock;
 mod operator;
 mod postgres_daemons;
 mod render_workers;

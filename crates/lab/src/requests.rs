@@ -47,6 +47,21 @@ pub struct SceneInfo {
     pub targets: Vec<String>,
 }
 
+impl SceneInfo {
+    /// The target's place in the scene's own order (the cylinder's 21
+    /// heights bottom to top) from 0; `usize::MAX` for a target not in it,
+    /// which sorts last.
+    pub fn target_index(&self, target: &str) -> usize {
+        self.targets.iter().position(|t| t == target).unwrap_or(usize::MAX)
+    }
+
+    /// A target's number on a profile's x axis: 1 for the scene's first
+    /// target, where the axis prints the first target's id.
+    pub fn target_number(&self, target: &str) -> f64 {
+        self.target_index(target) as f64 + 1.0
+    }
+}
+
 /// Options of a render request.
 #[derive(Clone, Debug, Default, serde::Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -68,4 +83,24 @@ pub struct RenderRequest {
     /// signed 64-bit integer); default: the daemon's.
     #[schema(minimum = 0, maximum = 9_223_372_036_854_775_807_i64)]
     pub seed: Option<u64>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The profile put the first target at x = 0 under an axis reading
+    /// "height 1–21 cm": target numbers start at 1, where the axis prints
+    /// the first target's id.
+    #[test]
+    fn profile_ticks_are_not_shifted_by_one() {
+        let info = SceneInfo {
+            id: "cylinder".into(),
+            title: "CYLINDER".into(),
+            targets: (1..=21).map(|h| format!("h{h:02}")).collect(),
+        };
+        assert_eq!(info.target_number("h01"), 1.0);
+        assert_eq!(info.target_number("h21"), 21.0);
+        assert_eq!(info.target_index("h99"), usize::MAX);
+    }
 }

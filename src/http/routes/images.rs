@@ -15,9 +15,10 @@ use utoipa::{IntoParams, ToSchema};
 
 use super::measurements::download;
 use crate::http::error::{ApiError, ErrorBody};
-use crate::http::image_views::{self, DeltaEMap, Probe};
+use crate::http::image_views::{self, Probe};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
+use crate::lab::comparisons::image_map::{self, DeltaEMap};
 use crate::lab::images::{ImageInfo, ImageJobs, ImageRequest};
 use crate::render::camera::CameraImage;
 
@@ -171,7 +172,7 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
             .map(|d| d.as_nanos())
             .unwrap_or(0);
         let dir = crate::export::image::export_folder(&std::env::temp_dir(), std::process::id(), id, nanos);
-        create_private_dir(&dir)?;
+        crate::export::image::create_private_folder(&dir).map_err(ApiError::Internal)?;
         let path = dir.join(format!("image.{ext}"));
         let bytes = crate::export::image::write_camera_image(&img, &path)
             .map_err(ApiError::Internal)
@@ -181,17 +182,6 @@ async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<V
     })
     .await
     .map_err(|e| ApiError::Internal(e.to_string()))?
-}
-
-/// Creates `dir` readable only by its owner (0700): the system's temporary
-/// folder is shared by every user, and an export holds a whole image.
-fn create_private_dir(dir: &std::path::Path) -> Result<(), ApiError> {
-    let mut private = std::fs::DirBuilder::new();
-    #[cfg(unix)]
-    std::os::unix::fs::DirBuilderExt::mode(&mut private, 0o700);
-    private
-        .create(dir)
-        .map_err(|e| ApiError::Internal(format!("{}: {e}", dir.display())))
 }
 
 /// The image as multi-channel OpenEXR: spectral channels `S0.<λ>nm`
@@ -244,9 +234,10 @@ async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap
     let (white, source) = Arc::clone(service(state)?)
         .cielab_white(a_info.scene.clone(), state.config.booth.clone())
         .await?;
-    tokio::task::spawn_blocking(move || image_views::delta_e_map(&a, id, &b, against, white, source))
+    let map = tokio::task::spawn_blocking(move || image_map::delta_e_map(&a, id, &b, against, white, source))
         .await
-        .map_err(|e| ApiError::Internal(e.to_string()))?
+        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    Ok(map)
 }
 
 /// CIELAB ΔE00 per pixel between this image and `against` (two codings of
@@ -273,21 +264,4 @@ pub async fn image_delta_e_png(
     let map = delta_e_of(&state, id, q.against).await?;
     let png = image_views::delta_e_png(&map)?;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
-}
-
-#[cfg(test)]
-mod tests {
-    /// Regression: the folder an image is exported into (EXR, MAT) was
-    /// created with the umask's mode (0755) under the shared temporary
-    /// folder, although the code said private.
-    #[cfg(unix)]
-    #[test]
-    fn image_export_folder_created_world_readable() {
-        use std::os::unix::fs::PermissionsExt;
-        let parent = tempfile::tempdir().unwrap();
-        let dir = parent.path().join("export");
-        super::create_private_dir(&dir).unwrap();
-        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
-        assert_eq!(mode, 0o700, "{mode:04o}");
-    }
 }

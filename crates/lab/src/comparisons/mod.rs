@@ -35,6 +35,7 @@
 //! No scene file is read here: the scenes, their render keys and whites
 //! are the catalogue's.
 
+pub mod image_map;
 pub mod summary;
 pub mod white;
 

@@ -281,6 +281,15 @@ pub fn export_folder(parent: &Path, pid: u32, id: i64, nanos: u128) -> PathBuf {
     parent.join(format!("{EXPORT_FOLDER_PREFIX}{pid}-{id}-{nanos}"))
 }
 
+/// Creates `dir` readable only by its owner (0700): the system's temporary
+/// folder is shared by every user, and an export holds a whole image.
+pub fn create_private_folder(dir: &Path) -> Result<(), String> {
+    let mut private = std::fs::DirBuilder::new();
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut private, 0o700);
+    private.create(dir).map_err(|e| format!("{}: {e}", dir.display()))
+}
+
 /// Removes from `parent` the export folders ([`export_folder`]) of
 /// processes that no longer exist (a daemon killed during an export leaves
 /// its folder: 20 and 29 in two runs of the kill test of issue 32); returns
@@ -318,6 +327,20 @@ pub fn remove_stale_export_folders(parent: &Path) -> Vec<PathBuf> {
 
 #[cfg(test)]
 mod tests {
+    /// Regression: the folder an image is exported into (EXR, MAT) was
+    /// created with the umask's mode (0755) under the shared temporary
+    /// folder, although the code said private.
+    #[cfg(unix)]
+    #[test]
+    fn image_export_folder_created_world_readable() {
+        use std::os::unix::fs::PermissionsExt;
+        let parent = tempfile::tempdir().unwrap();
+        let dir = parent.path().join("export");
+        create_private_folder(&dir).unwrap();
+        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700, "{mode:04o}");
+    }
+
     use super::*;
 
     /// The bug (issue 32): a daemon killed during EXR exports left its
