@@ -97,3 +97,43 @@ fn logs_written_to_a_pipe_carry_no_colour_codes() {
     );
     assert!(!stderr.contains('\u{1b}'), "colour codes in a piped log: {stderr:?}");
 }
+
+/// `preview_paths = 0` in the daemon's config file is refused naming the
+/// file and the key (a preview of no paths would be a black picture shown
+/// as the scene), before any port or database is opened.
+#[test]
+fn a_config_file_with_preview_paths_0_is_refused_naming_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("daemon.toml");
+    std::fs::write(&config, "preview_paths = 0\n").unwrap();
+    let db = dir.path().join("lab.sqlite");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["serve", "--mock", "--bind", "127.0.0.1:0", "--config"])
+        .arg(&config)
+        .arg("--db")
+        .arg(format!("sqlite://{}", db.display()))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run lightbooth");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("the daemon started with preview_paths = 0");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(!status.success(), "{stderr}");
+    assert!(
+        stderr.contains("daemon.toml") && stderr.contains("key `preview_paths`: 0"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!db.exists(), "the database was opened before the config was checked");
+}

@@ -393,3 +393,30 @@ fn worker_kind(job: Job) -> WorkerJobKind {
         Job::Study => WorkerJobKind::Study,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A daemon started before `preview_paths` existed published a row
+    /// without it: a worker reads it as the default budget, and a row that
+    /// names a budget keeps it (the worker renders its previews with it).
+    #[test]
+    fn a_daemons_row_without_preview_paths_reads_as_the_default_budget() {
+        let old = serde_json::json!({
+            "codings": ["rgb", "spectral"],
+            "samples": 1024,
+            "observer": Observer::Cie1931,
+            "scenes": [],
+        });
+        let config: RenderConfig = serde_json::from_value(old.clone()).unwrap();
+        assert_eq!(config.preview_paths, 20_000_000);
+        assert_eq!(config.preview_paths, lightbooth_render::sensor::PREVIEW_PATH_BUDGET);
+        let mut new = old;
+        new["preview_paths"] = serde_json::json!(7);
+        let config: RenderConfig = serde_json::from_value(new).unwrap();
+        assert_eq!(config.preview_paths, 7);
+        let again: RenderConfig = serde_json::from_value(serde_json::to_value(&config).unwrap()).unwrap();
+        assert_eq!(again, config);
+    }
+}
