@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use lightbooth::render::scene::Camera;
 use lightbooth::render::sensor::render_camera;
-use lightbooth::render::{load_scene, render, Coding, RenderSettings, SamplerKind, Transport};
+use lightbooth::render::{load_scene, render, Coding, LightSampling, RenderSettings, SamplerKind, Transport};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
@@ -121,6 +121,7 @@ fn current_pins() -> String {
             let transport = Transport {
                 max_bounces: None,
                 russian_roulette_from: Some(3),
+                light_sampler: LightSampling::Power,
             };
             for coding in [Coding::Spectral, Coding::Rgb] {
                 let img = render_camera(&scene, &small, coding, 4, &transport, 11)
