@@ -17,7 +17,7 @@ use lightbooth::render::scene::{
 };
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{
-    load_scene, render, Coding, RenderResult, RenderSettings, SamplerKind, DEFAULT_ROULETTE_FROM,
+    load_scene, render, Coding, LightSampling, RenderResult, RenderSettings, SamplerKind, DEFAULT_ROULETTE_FROM,
 };
 
 #[derive(Args, Debug)]
@@ -92,6 +92,10 @@ pub struct RenderArgs {
     /// Random numbers: sobol (scrambled, stratified; SE from batch means) or independent.
     #[arg(long, default_value = "sobol", value_parser = parse_sampler)]
     sampler: SamplerKind,
+    /// How each vertex's direct-light estimate chooses its one light: power
+    /// (probability proportional to luminous flux) or uniform (1/n).
+    #[arg(long, default_value = "power", value_parser = parse_light_sampler)]
+    light_sampler: LightSampling,
     /// Keep sampling each target until the standard error of Y is below this
     /// fraction of Y in every coding, up to --max-samples; 0: exactly --samples.
     #[arg(long, default_value_t = 0.003, value_parser = super::fraction)]
@@ -158,6 +162,10 @@ fn parse_coding(s: &str) -> Result<Coding, String> {
     s.parse()
 }
 
+fn parse_light_sampler(s: &str) -> Result<LightSampling, String> {
+    s.parse()
+}
+
 fn parse_sampler(s: &str) -> Result<SamplerKind, String> {
     match s {
         "sobol" => Ok(SamplerKind::Sobol),
@@ -212,6 +220,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         targets: args.targets.clone(),
         threads: args.threads,
         sampler: args.sampler,
+        light_sampler: args.light_sampler,
         target_relative_se: (args.target_se > 0.0).then_some(args.target_se),
         max_samples: args.max_samples,
         observer: args.observer,

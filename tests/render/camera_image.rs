@@ -10,7 +10,7 @@ use lightbooth::export::image::{spectral_channel_name, write_camera_image, EMISS
 use lightbooth::render::camera::{render_camera_image, CameraImage, CameraSettings, View, Y};
 use lightbooth::render::integrator::{radiometer_batch, Prepared, Transport};
 use lightbooth::render::scene::Camera;
-use lightbooth::render::{load_scene, ChannelLayout, Coding, SamplerKind, Scene};
+use lightbooth::render::{load_scene, ChannelLayout, Coding, LightSampling, SamplerKind, Scene};
 
 fn cylinder() -> Scene {
     load_scene(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cylinder.toml"))).unwrap()
@@ -19,6 +19,7 @@ fn cylinder() -> Scene {
 const TRANSPORT: Transport = Transport {
     max_bounces: Some(5),
     russian_roulette_from: None,
+    light_sampler: LightSampling::Power,
 };
 
 /// The radiometer's field mean per channel and its standard error, from 16

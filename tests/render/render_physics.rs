@@ -213,6 +213,7 @@ fn the_camera_sees_the_uniform_sphere_wall() {
     let transport = Transport {
         max_bounces: Some(2),
         russian_roulette_from: None,
+        light_sampler: lightbooth::render::LightSampling::Power,
     };
     let img = render_camera(&scene, scene.camera.as_ref().unwrap(), Coding::Srgb, 2, &transport, 1).unwrap();
     let truth = 0.5 / PI * 100.0 / 4.0 * (1.0 + 0.5 + 0.25);

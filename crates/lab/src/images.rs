@@ -583,6 +583,8 @@ pub fn camera_settings(
             transport: Transport {
                 max_bounces: s.max_bounces,
                 russian_roulette_from: s.russian_roulette_from,
+                // The API's images take the renderer's default light sampler.
+                light_sampler: Default::default(),
             },
             seed: s.seed,
             min_spp: s.min_spp,

@@ -7,18 +7,25 @@
 //!
 //! 1. **emission**: a ray that hits an emitting triangle adds β ⊙ Le ·
 //!    w_bsdf, w_bsdf = p_bsdf²/(p_bsdf² + p_light²) (Veach & Guibas 1995,
-//!    the power heuristic), where p_light is the area-light strategy's
-//!    density of that point ([`Light::pdf_li`]). The sensor's own ray and
-//!    an ideal reflection have no BSDF density: the emitter counts fully;
+//!    the power heuristic), where p_light = P(light)·p_light(y) is the
+//!    light strategy's density of that point: the light sampler's
+//!    probability of that emitter times its density of the point
+//!    ([`SceneLights::emission_pdf`]). The sensor's own ray and an ideal
+//!    reflection have no BSDF density: the emitter counts fully;
 //! 2. **the BSDF at the vertex** ([`VertexBsdf`], [`super::bsdf`]): f = ρ/π
 //!    for a Lambertian surface, RADIANCE's `plastic`, `metal` and `mirror`
 //!    otherwise, a·ρ + b per channel (scalars a, b per direction pair);
-//! 3. **one direct-light estimate** (`estimate_direct`): every point light
-//!    exactly (a delta light has no area: L = β ⊙ f ⊙ I(ω)·cos θᵢ / d², I
-//!    the luminaire's spectral intensity in W/(sr·nm) toward xⱼ), then one
-//!    point y on the area lights ([`super::lights`], density p_light in
-//!    solid angle) adding β ⊙ f ⊙ Le·cos θᵢ / p_light · w_light, each with
-//!    an unblocked shadow ray. At the last vertex (no bounce follows) the
+//! 3. **one direct-light estimate** (`estimate_direct`, pbrt's `SampleLd`):
+//!    one light ℓ of the scene's one collection ([`SceneLights`]: point
+//!    luminaires and area lights), chosen by the light sampler with
+//!    probability P(ℓ) ([`super::lights::sampler`]: ∝ luminous flux by
+//!    default, or 1/n; P = 1 and no random number for a scene with one
+//!    light), and one sample of it, with an unblocked shadow ray: a delta
+//!    light (no area) adds β ⊙ f ⊙ I(ω)·cos θᵢ / (d²·P), I the luminaire's
+//!    spectral intensity in W/(sr·nm) toward xⱼ, with no MIS weight; a
+//!    point y on an area light (density p_ℓ in solid angle) adds β ⊙ f ⊙
+//!    Le·cos θᵢ / (P·p_ℓ) · w_light, w_light the power heuristic of P·p_ℓ
+//!    against the BSDF's density. At the last vertex (no bounce follows) the
 //!    light sample counts fully;
 //! 4. **one Russian roulette** (`russian_roulette`) from the bounce the
 //!    settings ask for (by default the third): survival q = max channel of
@@ -43,7 +50,9 @@
 //!
 //! The order of every product is fixed: the renderer gives the same bits
 //! for a fixed seed as before the materials and lights shared this one
-//! loop (`tests/render/fixed_seed_pins.rs`).
+//! loop in scenes with one light (`tests/render/fixed_seed_pins.rs`); in
+//! scenes with several, choosing one light by probability replaced the
+//! exact sum over the point lights, with the same expectation.
 //!
 //! The channel arithmetic works on contiguous `f32` slices whose length is a
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
@@ -62,8 +71,9 @@ use super::bsdf::{Bsdf, VertexBsdf};
 use super::bvh::{Bvh, LINEAR_SCAN_BELOW};
 use super::coding::ChannelLayout;
 use super::geometry::Ray;
-use super::lights::point::Luminaire;
-use super::lights::{power_heuristic, AreaLights, EmitterHit, LiSample, Light, LightContext, ShadowRay, SpectrumOf};
+use super::lights::{
+    power_heuristic, EmitterHit, LiSample, LightContext, LightSampling, SceneLights, ShadowRay, SpectrumOf,
+};
 use super::sampling::{cone_direction, PathSampler, SamplerKind, REPLICATES};
 use super::scene::Scene;
 
@@ -121,6 +131,9 @@ pub struct Transport {
     pub max_bounces: Option<u32>,
     /// Russian roulette from this bounce on; `None` = never.
     pub russian_roulette_from: Option<u32>,
+    /// How the direct-light estimate chooses its one light
+    /// ([`super::lights::sampler`]): by power (the default) or uniformly.
+    pub light_sampler: LightSampling,
 }
 
 /// The scene with every material and light converted to channels once.
@@ -138,10 +151,10 @@ pub struct Prepared<'a> {
     material_black: Vec<bool>,
     /// Per material: its reflection model ([`super::bsdf`]).
     bsdfs: Vec<Bsdf>,
-    /// The point lights, for next-event estimation.
-    luminaires: Vec<Luminaire<'a>>,
-    /// The emitting triangles, for next-event estimation.
-    area_lights: AreaLights,
+    /// Every light (point luminaires and area lights) and the light
+    /// samplers over them, for next-event estimation and the MIS weight of
+    /// emission.
+    pub lights: SceneLights<'a>,
     /// The BVH over `scene.primitives`; `None` below
     /// [`LINEAR_SCAN_BELOW`] primitives, where a linear scan is faster.
     bvh: Option<Arc<Bvh>>,
@@ -209,13 +222,7 @@ impl<'a> Prepared<'a> {
             emitter_channels,
             material_black,
             bsdfs,
-            luminaires: scene
-                .lights
-                .iter()
-                .enumerate()
-                .map(|(index, light)| Luminaire { index, light })
-                .collect(),
-            area_lights: AreaLights::new(scene)?,
+            lights: SceneLights::new(scene)?,
             bvh,
         })
     }
@@ -349,7 +356,7 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
                     dir: ray.dir,
                     from_sensor: depth == 0,
                 };
-                add_emission(prep, &at, bsdf_pdf, state);
+                add_emission(prep, transport.light_sampler, &at, bsdf_pdf, state);
             }
         }
         if prep.material_black[prim.material] {
@@ -365,7 +372,17 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
         let origin = p + n * SPAWN_OFFSET_M;
         let vertex = VertexBsdf::at(bsdf, n, -ray.dir, prep.material(prim.material), &mut state.beta);
         let last_vertex = transport.max_bounces.is_some_and(|m| depth >= m);
-        estimate_direct(prep, &vertex, LightContext { p, n }, origin, last_vertex, rng, state);
+        let ctx = LightContext { p, n };
+        estimate_direct(
+            prep,
+            transport.light_sampler,
+            &vertex,
+            ctx,
+            origin,
+            last_vertex,
+            rng,
+            state,
+        );
         if last_vertex || !russian_roulette(transport, depth, rng, &mut state.beta) {
             break;
         }
@@ -380,15 +397,22 @@ pub fn trace_path(prep: &Prepared, transport: &Transport, mut ray: Ray, rng: &mu
 }
 
 /// Le reached by a ray, weighted against the light strategy's density of
-/// the same point (`bsdf_pdf`: the density of the direction that led here;
-/// `None` counts it fully), times a spotlight's factor.
+/// the same point, p_light = P(light)·p_light(y) (`bsdf_pdf`: the density of
+/// the direction that led here; `None` counts it fully), times a
+/// spotlight's factor.
 #[inline(always)]
-fn add_emission(prep: &Prepared, hit: &EmitterHit, bsdf_pdf: Option<f64>, state: &mut PathState) {
+fn add_emission(
+    prep: &Prepared,
+    light_sampler: LightSampling,
+    hit: &EmitterHit,
+    bsdf_pdf: Option<f64>,
+    state: &mut PathState,
+) {
     let w = match bsdf_pdf {
         None => 1.0,
-        Some(p_bsdf) => power_heuristic(p_bsdf, prep.area_lights.pdf_li(hit)),
+        Some(p_bsdf) => power_heuristic(p_bsdf, prep.lights.emission_pdf(light_sampler, hit)),
     } as f32;
-    let w = w * prep.area_lights.le_factor(hit) as f32;
+    let w = w * prep.lights.le_factor(hit) as f32;
     state.lit = true;
     for ((l, b), le) in state
         .radiance
@@ -400,13 +424,16 @@ fn add_emission(prep: &Prepared, hit: &EmitterHit, bsdf_pdf: Option<f64>, state:
     }
 }
 
-/// The one direct-light estimate at a vertex, for every material: each
-/// point light exactly, then one point on the area lights (one 2D number
-/// when the scene has any), MIS-weighted against the BSDF's density except
-/// at the last vertex, where no bounce could find it.
+/// The one direct-light estimate at a vertex, for every material: one
+/// sample of one light chosen by the light sampler
+/// ([`SceneLights::sample_ld`]), divided by its probability; an area
+/// light's sample MIS-weighted against the BSDF's density except at the
+/// last vertex, where no bounce could find it; a delta light's unweighted.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn estimate_direct(
     prep: &Prepared,
+    light_sampler: LightSampling,
     vertex: &VertexBsdf,
     ctx: LightContext,
     origin: DVec3,
@@ -414,16 +441,8 @@ fn estimate_direct(
     rng: &mut PathSampler,
     state: &mut PathState,
 ) {
-    for luminaire in &prep.luminaires {
-        if let Some(sample) = luminaire.sample_li(&ctx, (0.0, 0.0)) {
-            add_light_sample(prep, vertex, &sample, origin, last_vertex, state);
-        }
-    }
-    if !prep.area_lights.is_empty() {
-        let u = rng.next_2d();
-        if let Some(sample) = prep.area_lights.sample_li(&ctx, u) {
-            add_light_sample(prep, vertex, &sample, origin, last_vertex, state);
-        }
+    if let Some(sample) = prep.lights.sample_ld(light_sampler, &ctx, rng) {
+        add_light_sample(prep, vertex, &sample, origin, last_vertex, state);
     }
 }
 

@@ -12,7 +12,8 @@
 //! - [`coding`]: the channel layout that carries rgb, srgb, nstepN and
 //!   spectral in one vector per path.
 //! - [`integrator`]: path tracing with next-event estimation;
-//!   [`lights`]: point and area lights behind one interface, for it;
+//!   [`lights`]: point and area lights behind one interface, in one
+//!   collection with a light sampler, for it;
 //!   [`bsdf`]: every material's reflection model, Lambertian included.
 //! - [`sensor`]: the camera image for the dashboard; [`camera`]: the
 //!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors).
@@ -75,6 +76,7 @@ pub use scene::{load_scene, Scene, SceneError};
 
 pub use integrator::Transport;
 use integrator::{radiometer_batch, BatchSums, Prepared};
+pub use lights::LightSampling;
 
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_science::spectrum::table::{write_csv, SpectraTable};
@@ -127,6 +129,9 @@ pub struct RenderSettings {
     pub threads: Option<usize>,
     /// Random numbers: scrambled Sobol (default) or independent.
     pub sampler: SamplerKind,
+    /// How the direct-light estimate chooses one light: `power` (the
+    /// default, probability ∝ luminous flux) or `uniform` ([`lights::sampler`]).
+    pub light_sampler: LightSampling,
     /// Keep sampling each target until the relative standard error of Y is
     /// below this in every coding (or `max_samples` is reached); the default
     /// is the performance goal, 0.3 %. `None`: exactly `samples` paths.
@@ -161,6 +166,7 @@ impl RenderSettings {
         Transport {
             max_bounces: self.max_bounces,
             russian_roulette_from: self.russian_roulette_from,
+            light_sampler: self.light_sampler,
         }
     }
 }
@@ -184,6 +190,7 @@ impl Default for RenderSettings {
             targets: None,
             threads: None,
             sampler: SamplerKind::Sobol,
+            light_sampler: LightSampling::Power,
             target_relative_se: Some(0.003),
             max_samples: 1 << 22,
             observer: Observer::JuddVos,

@@ -1,27 +1,33 @@
-//! Area lights: choosing a point on the scene's emitting triangles for
-//! next-event estimation, and the density of that choice for multiple
-//! importance sampling.
+//! Area lights: choosing a point on an emitter's triangles for next-event
+//! estimation, and the density of that choice for multiple importance
+//! sampling.
 //!
 //! Every primitive with an [`Emitter`](crate::scene::Emitter) is a triangle
-//! (the scene loader only lets `[[polygon]]` and `[[mesh]]` emit). A light
-//! sample picks one triangle with probability proportional to its power
-//! (area × luminance of its radiance × emitting sides: bright small panels
-//! and dim large ones each get samples in proportion to the light they send
-//! out), then a point uniform in its area. The density of the chosen point
-//! y, seen from x in solid angle, is
+//! (the scene loader only lets `[[polygon]]` and `[[mesh]]` emit). One
+//! [`AreaLight`] is one emitter — every triangle of one `[[polygon]]` or
+//! `[[mesh]]` with `emission`, or of one RADIANCE light source material —
+//! and one light of the scene's collection ([`super::SceneLights`]), which
+//! the light sampler ([`super::sampler`]) chooses among the others by its
+//! flux Φ = π·L·A (a Lambertian emitter). Within it, a light sample picks
+//! one triangle with probability proportional to its power (area ×
+//! luminance × emitting sides, the same luminance and sides for all of one
+//! emitter's triangles, so proportional to area), then a point uniform in
+//! its area. The density of the chosen point y, seen from x in solid
+//! angle, is
 //!
 //! ```text
 //! p_ω(y) = P(triangle) / A(triangle) · |x − y|² / |cos θ_y|
 //! ```
 //!
-//! (pbrt-v4 §4.2.3, converting area to solid-angle density), which the
-//! integrator compares with the BSDF's density to weight the two strategies
-//! (Veach & Guibas 1995, the power heuristic with β = 2).
+//! (pbrt-v4 §4.2.3, converting area to solid-angle density), times the
+//! light sampler's P(light) in the integrator, which compares it with the
+//! BSDF's density to weight the two strategies (Veach & Guibas 1995, the
+//! power heuristic with β = 2).
 //!
-//! Approximation stated: selection by power uses the luminance of each
-//! emitter's spectrum, not each coding's own channels, so it is the same
-//! choice (the same paths) for every coding; any positive selection
-//! probability keeps the estimator unbiased.
+//! Approximation stated: power uses the luminance of each emitter's
+//! spectrum, not each coding's own channels, so it is the same choice (the
+//! same paths) for every coding; any positive selection probability keeps
+//! the estimator unbiased.
 
 use glam::DVec3;
 
@@ -59,22 +65,31 @@ pub struct LightSample {
     pub pdf_area: f64,
 }
 
-/// The scene's emitting triangles and the power distribution over them.
-#[derive(Clone, Debug, Default)]
-pub struct AreaLights {
+/// One area light: the emitting triangles of one emitter (`Scene::emitters`:
+/// one `[[polygon]]` or `[[mesh]]` with `emission`, or one RADIANCE light
+/// source material and every surface it modifies), and the distribution
+/// over them by power.
+#[derive(Clone, Debug)]
+pub struct AreaLight {
+    /// Index into `Scene::emitters`.
+    pub emitter: usize,
     triangles: Vec<EmittingTriangle>,
+    /// The scene primitive of each triangle, ascending (the triangles are
+    /// in the scene's primitive order).
+    primitives: Vec<usize>,
     /// Cumulative selection probabilities: `cdf[i]` = P(triangle < i); `cdf[n]` = 1.
     cdf: Vec<f64>,
-    /// Per primitive of the scene, its index in `triangles` (`u32::MAX`: none).
-    of_primitive: Vec<u32>,
-    /// Per emitter (`Scene::emitters`), a RADIANCE spotlight's cone.
-    spots: Vec<Option<Spot>>,
+    /// A RADIANCE spotlight's cone.
+    spot: Option<Spot>,
+    /// Luminous flux, lm, for the light sampler ([`super::sampler`]).
+    phi: f64,
 }
 
-impl AreaLights {
-    /// Collects the emitting triangles of `scene`; an emitting primitive that
-    /// is not a triangle, or an emitter without luminous power, is an error.
-    pub fn new(scene: &Scene) -> Result<AreaLights, String> {
+impl AreaLight {
+    /// The area lights of `scene`, one per emitter with at least one
+    /// triangle, in emitter order; an emitting primitive that is not a
+    /// triangle, or an emitter without luminous power, is an error.
+    pub fn of_scene(scene: &Scene) -> Result<Vec<AreaLight>, String> {
         let ybar = &Cmf::of(OBSERVER).on_grid(&Grid::one_nm())[1];
         let luminance: Vec<f64> = scene
             .emitters
@@ -85,14 +100,9 @@ impl AreaLights {
             })
             .collect::<Result<_, _>>()
             .map_err(|e| e.to_string())?;
-        let mut triangles = Vec::new();
-        let mut weights = Vec::new();
-        // Only scenes with emitters pay for the per-primitive table.
-        let mut of_primitive = if scene.emitters.is_empty() {
-            Vec::new()
-        } else {
-            vec![u32::MAX; scene.primitives.len()]
-        };
+        let mut triangles: Vec<Vec<EmittingTriangle>> = vec![Vec::new(); scene.emitters.len()];
+        let mut primitives: Vec<Vec<usize>> = vec![Vec::new(); scene.emitters.len()];
+        let mut weights: Vec<Vec<f64>> = vec![Vec::new(); scene.emitters.len()];
         for (i, p) in scene.primitives.iter().enumerate() {
             let Some(e) = p.emitter else {
                 continue;
@@ -106,9 +116,13 @@ impl AreaLights {
             }
             let (e1, e2) = (p1 - p0, p2 - p0);
             let area = 0.5 * e1.cross(e2).length();
-            of_primitive[i] = triangles.len() as u32;
-            weights.push(area * luminance[e] * if emitter.two_sided { 2.0 } else { 1.0 });
-            triangles.push(EmittingTriangle {
+            // The same weight for every triangle of one emitter up to its
+            // area (one radiance, one number of sides): kept as the product
+            // the collection of all emitting triangles used, so a scene with
+            // one emitter chooses its triangles with the same bits.
+            weights[e].push(area * luminance[e] * if emitter.two_sided { 2.0 } else { 1.0 });
+            primitives[e].push(i);
+            triangles[e].push(EmittingTriangle {
                 p0,
                 e1,
                 e2,
@@ -118,27 +132,35 @@ impl AreaLights {
                 two_sided: emitter.two_sided,
             });
         }
-        let total: f64 = weights.iter().sum();
-        let mut cdf = Vec::with_capacity(weights.len() + 1);
-        let mut acc = 0.0;
-        cdf.push(0.0);
-        for w in &weights {
-            acc += w / total;
-            cdf.push(acc);
+        let mut lights = Vec::new();
+        for (e, ((triangles, primitives), weights)) in triangles.into_iter().zip(primitives).zip(weights).enumerate() {
+            if triangles.is_empty() {
+                continue;
+            }
+            let total: f64 = weights.iter().sum();
+            let mut cdf = Vec::with_capacity(weights.len() + 1);
+            let mut acc = 0.0;
+            cdf.push(0.0);
+            for w in &weights {
+                acc += w / total;
+                cdf.push(acc);
+            }
+            if let Some(last) = cdf.last_mut() {
+                *last = 1.0;
+            }
+            let emitter = &scene.emitters[e];
+            let area: f64 = triangles.iter().map(|t| t.area).sum();
+            let sides = if emitter.two_sided { 2.0 } else { 1.0 };
+            lights.push(AreaLight {
+                emitter: e,
+                triangles,
+                primitives,
+                cdf,
+                spot: emitter.spot,
+                phi: lambertian_flux(luminance[e], area, sides, emitter.spot.as_ref()),
+            });
         }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
-        }
-        Ok(AreaLights {
-            triangles,
-            cdf,
-            of_primitive,
-            spots: scene.emitters.iter().map(|e| e.spot).collect(),
-        })
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
+        Ok(lights)
     }
 
     /// Selection probability of emitting triangle `i`.
@@ -147,7 +169,12 @@ impl AreaLights {
         self.cdf[i + 1] - self.cdf[i]
     }
 
-    /// A point on the lights from two uniform numbers: u1 chooses the
+    /// Luminous flux Φ, lm ([`lambertian_flux`]).
+    pub fn phi(&self) -> f64 {
+        self.phi
+    }
+
+    /// A point on the light from two uniform numbers: u1 chooses the
     /// triangle (and is then rescaled within its interval, so it stays
     /// stratified), (u1', u2) a point uniform in its area (the square-root
     /// map, pbrt-v4 `SampleUniformTriangle`).
@@ -170,19 +197,39 @@ impl AreaLights {
     }
 
     /// For primitive `primitive` (an emitter hit by a sampled direction), the
-    /// light strategy's density of choosing that point, per m² of area.
+    /// density of choosing that point on this light, per m² of area; 0 when
+    /// the primitive is not one of its triangles.
     #[inline]
     pub fn pdf_area_of_primitive(&self, primitive: usize) -> f64 {
-        match self.of_primitive.get(primitive) {
-            Some(&i) if i != u32::MAX => self.pmf(i as usize) / self.triangles[i as usize].area,
-            _ => 0.0,
+        match self.primitives.binary_search(&primitive) {
+            Ok(i) => self.pmf(i) / self.triangles[i].area,
+            Err(_) => 0.0,
         }
     }
 }
 
-impl Light for AreaLights {
-    /// One point on all the emitting triangles ([`AreaLights::sample`]),
-    /// with its density in solid angle at the surface point.
+/// The luminous flux of a Lambertian emitter of luminance `luminance`
+/// (cd/m²), area `area` (m²) and `sides` emitting sides: Φ = π·L·A·sides
+/// (lm). A RADIANCE spotlight's cone keeps the fraction 1 − max(cos(angle/2), 0)²
+/// of it: the share of a Lambertian emitter's flux inside a cone around its
+/// normal. Approximation, used only for the light sampler's probabilities:
+/// the cone's axis is taken to be the normal, and the focal-length falloff
+/// d²/(d + flen)² (which depends on the receiver) is left out; at least
+/// 10⁻⁶ of the flux stays, so a narrow cone is still chosen.
+pub fn lambertian_flux(luminance: f64, area: f64, sides: f64, spot: Option<&Spot>) -> f64 {
+    let cone = match spot {
+        None => 1.0,
+        Some(s) => {
+            let c = s.cos_half_angle.clamp(0.0, 1.0);
+            (1.0 - c * c).max(1e-6)
+        }
+    };
+    std::f64::consts::PI * luminance * area * sides * cone
+}
+
+impl Light for AreaLight {
+    /// One point on the light's triangles ([`AreaLight::sample`]), with
+    /// its density in solid angle at the surface point.
     #[inline]
     fn sample_li(&self, ctx: &LightContext, u: (f64, f64)) -> Option<LiSample> {
         let s = self.sample(u.0, u.1);
@@ -195,7 +242,7 @@ impl Light for AreaLights {
         if !(cos_i > 0.0 && cos_l > 0.0) {
             return None;
         }
-        let spot = match &self.spots[s.emitter] {
+        let spot = match &self.spot {
             None => 1.0,
             Some(spot) => spot.factor(-wi, Some(s.point.distance(ctx.p))),
         };
@@ -208,6 +255,7 @@ impl Light for AreaLights {
             },
             shadow: ShadowRay::ToPoint(s.point),
             spectrum: SpectrumOf::Emitter(s.emitter),
+            pmf: 1.0,
         })
     }
 
@@ -221,10 +269,18 @@ impl Light for AreaLights {
     /// lamp's radiance, a surface the radiance scaled by d²/(d + flen)².
     #[inline]
     fn le_factor(&self, hit: &EmitterHit) -> f64 {
-        match &self.spots[hit.emitter] {
+        match &self.spot {
             None => 1.0,
             Some(spot) => spot.factor(-hit.dir, (!hit.from_sensor).then_some(hit.distance)),
         }
+    }
+
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    fn phi(&self) -> f64 {
+        self.phi
     }
 }
 
@@ -233,7 +289,7 @@ mod tests {
     use super::*;
 
     /// Two triangles making the square [−½, ½]² at z = 1, emitting down.
-    fn panel() -> AreaLights {
+    fn panel() -> AreaLight {
         let tri = |p0: DVec3, p1: DVec3, p2: DVec3| EmittingTriangle {
             p0,
             e1: p1 - p0,
@@ -249,11 +305,13 @@ mod tests {
             DVec3::new(0.5, 0.5, 1.0),
             DVec3::new(0.5, -0.5, 1.0),
         );
-        AreaLights {
+        AreaLight {
+            emitter: 0,
             triangles: vec![tri(a, b, c), tri(a, c, d)],
+            primitives: vec![0, 1],
             cdf: vec![0.0, 0.5, 1.0],
-            of_primitive: vec![0, 1],
-            spots: vec![None],
+            spot: None,
+            phi: lambertian_flux(1.0, 1.0, 1.0, None),
         }
     }
 

@@ -1,5 +1,7 @@
-//! The scene's light sources behind one interface, [`Light`], for the
-//! integrator's one direct-light estimate.
+//! The scene's light sources behind one interface, [`Light`], in one
+//! collection, [`SceneLights`], from which the integrator's one
+//! direct-light estimate takes one sample of one light chosen by the light
+//! sampler ([`sampler`]).
 //!
 //! pbrt-v4's `Light` (`src/pbrt/base/light.h`) is the model: `SampleLi`
 //! chooses incident light at a surface point, `PDF_Li` gives the density of
@@ -11,28 +13,40 @@
 //!   `GoniometricLight` and `SpotLight` in one type) is a delta light: its
 //!   sample is the one direction to it, with no density, and no ray can hit
 //!   it;
-//! - [`AreaLights`] (every emitting triangle, RADIANCE `light`, `glow` and
-//!   `spotlight`; [`area`]) chooses one point on all of them by power, with
-//!   its solid-angle density, and weighs a RADIANCE spotlight's cone and
-//!   focal falloff into the radiance ([`Spot`](super::scene::Spot)) in both
+//! - [`AreaLight`] (one emitter's triangles, RADIANCE `light`, `glow` and
+//!   `spotlight`; [`area`]) chooses one point on them by power, with its
+//!   solid-angle density, and weighs a RADIANCE spotlight's cone and focal
+//!   falloff into the radiance ([`Spot`](super::scene::Spot)) in both
 //!   strategies alike.
 //!
-//! The integrator gathers every point light at every vertex (each is one
-//! exact evaluation) and one sample of the area lights, which it weighs
-//! against the BSDF's sampling of the same point by multiple importance
-//! sampling ([`power_heuristic`]).
+//! [`SceneLights`] holds every light of a scene, point luminaires first (in
+//! file order), then one area light per emitter (in emitter order), and the
+//! two light samplers over them (power and uniform, [`sampler`]). Its
+//! [`SceneLights::sample_ld`] is pbrt's light choice in `SampleLd`: one
+//! light ℓ with probability P(ℓ), one sample of it, its density scaled by
+//! P(ℓ) ([`LiSample::pmf`]); [`SceneLights::emission_pdf`] is the density
+//! P(ℓ)·p_ℓ(y) of the same strategy for a point y a BSDF-sampled ray found,
+//! which the integrator weighs against the BSDF's density by multiple
+//! importance sampling ([`power_heuristic`]). A delta light takes no MIS
+//! weight.
 //!
 //! A sample keeps the factors of its contribution apart ([`Arrival`]) so
-//! that the integrator forms each product in one fixed order: the renderer's
-//! results are bit-identical to the ones before this interface existed
-//! (`tests/render/fixed_seed_pins.rs`).
+//! that the integrator forms each product in one fixed order: with one light
+//! (P = 1) the renderer's results are bit-identical to the ones before the
+//! light sampler existed (`tests/render/fixed_seed_pins.rs`).
 
 pub mod area;
 pub mod point;
+pub mod sampler;
 
 use glam::DVec3;
 
-pub use area::{AreaLights, EmittingTriangle};
+pub use area::{AreaLight, EmittingTriangle};
+pub use point::Luminaire;
+pub use sampler::{LightSampler, LightSampling};
+
+use crate::sampling::PathSampler;
+use crate::scene::Scene;
 
 /// The surface point light arrives at: the point itself and its unit
 /// normal on the side the path came from. Distances and cosines are taken
@@ -85,30 +99,34 @@ pub struct LiSample {
     pub arrival: Arrival,
     pub shadow: ShadowRay,
     pub spectrum: SpectrumOf,
+    /// The probability P(ℓ) with which the light sampler chose this light
+    /// (1 from a [`Light`] itself, and when the scene has one light).
+    pub pmf: f64,
 }
 
 impl LiSample {
     /// The scalar by which the light's spectrum (per cd, or radiance) and
-    /// the path's throughput are multiplied: cos θᵢ·I/(k·d²) for a delta
-    /// light, cos θᵢ/(k·p)·w·spot for an area light, with `k` the constant
+    /// the path's throughput are multiplied: cos θᵢ·I/(k·d²·P) for a delta
+    /// light, cos θᵢ/(k·P·p)·w·spot for an area light, with `k` the constant
     /// divisor of the BSDF (π for a Lambertian surface whose ρ is already in
-    /// the throughput, 1 otherwise) and `w` the MIS weight (ignored by a
-    /// delta light, which only one strategy can find).
+    /// the throughput, 1 otherwise), P the light's choice probability
+    /// ([`LiSample::pmf`]) and `w` the MIS weight (ignored by a delta light,
+    /// which only one strategy can find).
     #[inline]
     pub fn scale(&self, k: f64, w: f64) -> f64 {
         match self.arrival {
-            Arrival::Delta { candela, distance2 } => candela * self.cos_i / (k * distance2),
-            Arrival::Area { pdf, spot } => self.cos_i / (k * pdf) * w * spot,
+            Arrival::Delta { candela, distance2 } => candela * self.cos_i / (k * distance2 * self.pmf),
+            Arrival::Area { pdf, spot } => self.cos_i / (k * (pdf * self.pmf)) * w * spot,
         }
     }
 
-    /// The density of this sample's strategy, for the MIS weight; `None` for
-    /// a delta light.
+    /// The density of this sample's strategy, P(ℓ)·p_ℓ, for the MIS weight;
+    /// `None` for a delta light.
     #[inline]
     pub fn pdf(&self) -> Option<f64> {
         match self.arrival {
             Arrival::Delta { .. } => None,
-            Arrival::Area { pdf, .. } => Some(pdf),
+            Arrival::Area { pdf, .. } => Some(pdf * self.pmf),
         }
     }
 }
@@ -142,6 +160,169 @@ pub trait Light {
     /// spotlight's cone and falloff; 1 for a plain emitter, 0 for delta
     /// lights).
     fn le_factor(&self, hit: &EmitterHit) -> f64;
+
+    /// True for a light no ray can hit (a point), whose sample needs no
+    /// random numbers and takes no MIS weight.
+    fn is_delta(&self) -> bool;
+
+    /// Luminous flux Φ in lm, for the power light sampler ([`sampler`]).
+    fn phi(&self) -> f64;
+}
+
+/// One light of the scene's collection.
+#[derive(Clone, Debug)]
+pub enum SceneLight<'a> {
+    /// A point luminaire (`[[light]]`), a delta light.
+    Point(Luminaire<'a>),
+    /// One emitter's triangles.
+    Area(AreaLight),
+}
+
+impl Light for SceneLight<'_> {
+    #[inline]
+    fn sample_li(&self, ctx: &LightContext, u: (f64, f64)) -> Option<LiSample> {
+        match self {
+            SceneLight::Point(l) => l.sample_li(ctx, u),
+            SceneLight::Area(l) => l.sample_li(ctx, u),
+        }
+    }
+
+    #[inline]
+    fn pdf_li(&self, hit: &EmitterHit) -> f64 {
+        match self {
+            SceneLight::Point(l) => l.pdf_li(hit),
+            SceneLight::Area(l) => l.pdf_li(hit),
+        }
+    }
+
+    #[inline]
+    fn le_factor(&self, hit: &EmitterHit) -> f64 {
+        match self {
+            SceneLight::Point(l) => l.le_factor(hit),
+            SceneLight::Area(l) => l.le_factor(hit),
+        }
+    }
+
+    #[inline]
+    fn is_delta(&self) -> bool {
+        matches!(self, SceneLight::Point(_))
+    }
+
+    fn phi(&self) -> f64 {
+        match self {
+            SceneLight::Point(l) => l.phi(),
+            SceneLight::Area(l) => l.phi(),
+        }
+    }
+}
+
+/// Every light of a scene, and the light samplers over them.
+#[derive(Clone, Debug)]
+pub struct SceneLights<'a> {
+    lights: Vec<SceneLight<'a>>,
+    /// P(ℓ) ∝ Φ(ℓ).
+    power: LightSampler,
+    /// P(ℓ) = 1/n.
+    uniform: LightSampler,
+    /// Per emitter (`Scene::emitters`), the index of its area light in
+    /// `lights` (`u32::MAX`: an emitter without triangles).
+    of_emitter: Vec<u32>,
+}
+
+impl<'a> SceneLights<'a> {
+    /// The point luminaires of `scene` (file order), then one area light per
+    /// emitter with triangles (emitter order); errors as [`AreaLight::of_scene`].
+    pub fn new(scene: &'a Scene) -> Result<SceneLights<'a>, String> {
+        let mut lights: Vec<SceneLight<'a>> = scene
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(index, light)| SceneLight::Point(Luminaire { index, light }))
+            .collect();
+        let mut of_emitter = vec![u32::MAX; scene.emitters.len()];
+        for area in AreaLight::of_scene(scene)? {
+            of_emitter[area.emitter] = lights.len() as u32;
+            lights.push(SceneLight::Area(area));
+        }
+        let phi: Vec<f64> = lights.iter().map(Light::phi).collect();
+        Ok(SceneLights {
+            power: LightSampler::power(&phi),
+            uniform: LightSampler::uniform(lights.len()),
+            lights,
+            of_emitter,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// The lights, point luminaires first.
+    pub fn lights(&self) -> &[SceneLight<'a>] {
+        &self.lights
+    }
+
+    /// The sampler of `kind` over these lights.
+    #[inline]
+    pub fn sampler(&self, kind: LightSampling) -> &LightSampler {
+        match kind {
+            LightSampling::Power => &self.power,
+            LightSampling::Uniform => &self.uniform,
+        }
+    }
+
+    /// One sample of one light at `ctx` (pbrt-v4 `SampleLd`'s light choice
+    /// and `SampleLi`), its [`LiSample::pmf`] the probability of that light.
+    /// No light: `None`, drawing nothing. One light: P = 1, and a 2D number
+    /// only for an area light (a point light needs none). Several: one 2D
+    /// number, whose first coordinate chooses the light and is rescaled for
+    /// the light's own use ([`LightSampler::sample`]).
+    #[inline]
+    pub fn sample_ld(&self, kind: LightSampling, ctx: &LightContext, rng: &mut PathSampler) -> Option<LiSample> {
+        match self.lights.len() {
+            0 => None,
+            1 => {
+                let light = &self.lights[0];
+                let u = if light.is_delta() { (0.0, 0.0) } else { rng.next_2d() };
+                light.sample_li(ctx, u)
+            }
+            _ => {
+                let (u0, u1) = rng.next_2d();
+                let (i, pmf, u0) = self.sampler(kind).sample(u0);
+                let mut sample = self.lights[i].sample_li(ctx, (u0, u1))?;
+                sample.pmf = pmf;
+                Some(sample)
+            }
+        }
+    }
+
+    /// The density P(ℓ)·p_ℓ(y) with which [`SceneLights::sample_ld`] would
+    /// have chosen the point y on an emitter that a ray hit (p in solid
+    /// angle at the ray's origin), for the MIS weight of its emission.
+    #[inline]
+    pub fn emission_pdf(&self, kind: LightSampling, hit: &EmitterHit) -> f64 {
+        match self.of_emitter.get(hit.emitter) {
+            Some(&l) if l != u32::MAX => {
+                let l = l as usize;
+                self.sampler(kind).pmf(l) * self.lights[l].pdf_li(hit)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// The factor on the radiance of the emitter a ray hit
+    /// ([`Light::le_factor`]: a spotlight's cone and falloff, else 1).
+    #[inline]
+    pub fn le_factor(&self, hit: &EmitterHit) -> f64 {
+        match self.of_emitter.get(hit.emitter) {
+            Some(&l) if l != u32::MAX => self.lights[l as usize].le_factor(hit),
+            _ => 1.0,
+        }
+    }
 }
 
 /// The power heuristic with β = 2 (Veach & Guibas 1995): the weight of the
@@ -179,8 +360,11 @@ mod tests {
             },
             shadow: ShadowRay::Along { t_max: 2.0 },
             spectrum: SpectrumOf::Luminaire(0),
+            pmf: 1.0,
         };
         assert_eq!(s.scale(1.0, 0.25), 12.5, "a delta light takes no MIS weight");
         assert_eq!(s.pdf(), None);
+        let chosen = LiSample { pmf: 0.25, ..s };
+        assert_eq!(chosen.scale(1.0, 0.25), 50.0, "divided by the light's probability");
     }
 }
