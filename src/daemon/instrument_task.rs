@@ -596,22 +596,15 @@ impl Worker {
                     error: None,
                 });
                 let comparisons = &self.config.comparisons;
-                let luminance_only = crate::lab::measurement::comparable_luminance(&avg, observer);
-                if let (Some(scene), Some(target), Some(luminance)) = (&job.scene, &job.target, luminance_only) {
-                    // A luminance meter's: compared in luminance alone.
-                    match luminance {
-                        Ok(y) => {
-                            let y_se = avg.luminance_cv * y / (avg.good_samples().count().max(1) as f64).sqrt();
-                            comparisons.compare_luminance_later(id, scene.clone(), target.clone(), y, y_se)
-                        }
-                        Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
-                    }
-                } else if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    match crate::lab::measurement::comparable_xyz(&avg, observer) {
-                        Ok(xyz) => {
-                            let good = avg.good_samples().count();
-                            let y_se = avg.luminance_cv * xyz.y / (good.max(1) as f64).sqrt();
+                if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
+                    use crate::lab::measurement::{comparable, Comparable};
+                    match comparable(&avg, observer) {
+                        Ok(Comparable::Colour { xyz, y_se }) => {
                             comparisons.compare_later(id, scene.clone(), target.clone(), xyz, y_se)
+                        }
+                        // A luminance meter's: compared in luminance alone.
+                        Ok(Comparable::Luminance { y, y_se }) => {
+                            comparisons.compare_luminance_later(id, scene.clone(), target.clone(), y, y_se)
                         }
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }

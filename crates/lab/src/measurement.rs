@@ -216,6 +216,45 @@ pub fn sample_row(s: &Sample, reading: Reading) -> NewSample {
     }
 }
 
+/// What a complete measurement is compared with the renderings as, with the
+/// standard error of its Y: the one place a measurement becomes the
+/// comparisons' input, for the daemon's instrument task and the render
+/// workers alike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Comparable {
+    /// A spectroradiometer's (XYZ of the mean spectrum) or a colorimeter's
+    /// (its own mean XYZ) colour, compared in x, y, Y and ΔE.
+    Colour { xyz: Xyz, y_se: f64 },
+    /// A luminance meter's mean Y, compared in luminance alone.
+    Luminance { y: f64, y_se: f64 },
+}
+
+/// The measurement as the comparisons take it in `observer` ([`Comparable`]),
+/// or why it cannot be compared (see [`comparable_xyz`] and
+/// [`comparable_luminance`]).
+pub fn comparable(avg: &AveragedMeasurement, observer: Observer) -> Result<Comparable, String> {
+    let usable = avg.good_samples().count();
+    if let Some(luminance) = comparable_luminance(avg, observer) {
+        let y = luminance?;
+        return Ok(Comparable::Luminance {
+            y,
+            y_se: mean_y_standard_error(avg.luminance_cv, y, usable),
+        });
+    }
+    let xyz = comparable_xyz(avg, observer)?;
+    Ok(Comparable::Colour {
+        xyz,
+        y_se: mean_y_standard_error(avg.luminance_cv, xyz.y, usable),
+    })
+}
+
+/// The standard error of a measurement's mean Y from the coefficient of
+/// variation of its `usable` samples' luminance: CV · Y / √n (the samples
+/// are independent readings; one sample, or none, counts as one).
+pub fn mean_y_standard_error(luminance_cv: f64, y: f64, usable: usize) -> f64 {
+    luminance_cv * y / (usable.max(1) as f64).sqrt()
+}
+
 /// The XYZ of an averaged measurement in `observer`, for comparing it with
 /// renderings: of its mean spectrum; or a colorimeter's own mean XYZ when
 /// it is in `observer` (a colorimeter's XYZ cannot be recomputed in another

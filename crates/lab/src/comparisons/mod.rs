@@ -583,6 +583,16 @@ mod tests {
         assert_eq!(comparable_luminance(&avg, Observer::Cie1931), Some(Ok(31.0)));
         let refused = comparable_luminance(&avg, Observer::JuddVos).unwrap().unwrap_err();
         assert!(refused.contains("serve with --observer cie-1931"), "{refused}");
+        // What the daemon hands the comparisons: Y = 31 and the standard
+        // error of the mean of 30 and 32, s/√n = √2/√2 = 1 cd/m².
+        match crate::measurement::comparable(&avg, Observer::Cie1931) {
+            Ok(crate::measurement::Comparable::Luminance { y, y_se }) => {
+                assert_eq!(y, 31.0);
+                assert!((y_se - 1.0).abs() < 1e-12, "{y_se}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(crate::measurement::comparable(&avg, Observer::JuddVos).is_err());
         let colorimeter = Reading::Tristimulus {
             observer: Observer::Cie1931,
         };

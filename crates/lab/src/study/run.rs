@@ -380,8 +380,8 @@ async fn measured(
     let Some(xyz) = measured_xyz(&m, observer).map_err(StudyError::Truth)? else {
         return Ok(None);
     };
-    let good = m.samples.iter().filter(|s| s.usable).count().max(1) as f64;
-    let y_se = m.summary.luminance_cv.unwrap_or(0.0) * xyz.y / good.sqrt();
+    let usable = m.samples.iter().filter(|s| s.usable).count();
+    let y_se = crate::measurement::mean_y_standard_error(m.summary.luminance_cv.unwrap_or(0.0), xyz.y, usable);
     Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))
 }
 
