@@ -42,8 +42,9 @@
 //!   (`instrument::reply`) under the drivers of every model; their
 //!   simulators on ptys (`instrument::sim`); discovery under a deadline.
 //! - [`render`]: the built-in spectral renderer, every coding in one pass.
-//!   **It samples a light in [`render::integrator`]** (`estimate_direct`,
-//!   over the lights of [`render::lights`]).
+//!   **It samples a light in [`render::integrator`]** (`estimate_direct`:
+//!   one light of the scene's one collection, chosen by the light sampler
+//!   of [`render::lights`]`::sampler`, by luminous flux by default).
 //!
 //! Keeping and showing results:
 //!
