@@ -26,7 +26,9 @@ const FLUX_STEPS_C: usize = 72;
 ///   steps of cos γ and [`FLUX_STEPS_C`] of C (one for a rotationally
 ///   symmetric table) of the intensity the renderer uses
 ///   ([`PointLight::candela_toward`]), an approximation that moves only the
-///   sampler's probabilities, never the estimate's mean.
+///   sampler's probabilities, never the estimate's mean; a beam the rule's
+///   midpoints miss counts as its peak over one step's solid angle, so
+///   that no emitting luminaire reads 0 lm.
 pub fn luminous_flux(light: &PointLight) -> f64 {
     match &light.distribution {
         LightDistribution::Cone {
@@ -60,7 +62,19 @@ pub fn luminous_flux(light: &PointLight) -> f64 {
                 }
             }
             // Each cell is 2/N of cos γ by 2π/M of C.
-            sum * (2.0 / FLUX_STEPS_COS_GAMMA as f64) * (2.0 * PI / n_c as f64)
+            let flux = sum * (2.0 / FLUX_STEPS_COS_GAMMA as f64) * (2.0 * PI / n_c as f64);
+            // A beam narrower than one step of cos γ (under about 4.3° from
+            // the aim) falls between the midpoints and would read 0 lm: a
+            // light the sampler then never chose although it emits, a
+            // biased estimate. Such a beam counts as its peak over one
+            // cell's solid angle (4π/N sr), so every emitting table gets
+            // P > 0.
+            let peak = table.peak_cd() * light.intensity_scale;
+            if flux > 0.0 || peak <= 0.0 {
+                flux
+            } else {
+                peak * 4.0 * PI / FLUX_STEPS_COS_GAMMA as f64
+            }
         }
     }
 }
@@ -191,6 +205,28 @@ mod tests {
         l.distribution = LightDistribution::Ies(iso);
         l.intensity_scale = 2.0;
         assert!((luminous_flux(&l) - 4.0 * PI * 100.0).abs() < 1e-9);
+    }
+
+    /// A 1° beam falls between the midpoint rule's first two midpoints
+    /// (cos γ = 1 − 1/360 is γ ≈ 4.3°): its flux read 0 lm, and the power
+    /// sampler would never have chosen a lamp that lights the scene.
+    #[test]
+    fn a_beam_narrower_than_the_flux_rule_step_still_has_flux() {
+        let mut l = lamp(DVec3::ZERO);
+        let narrow = crate::ies::IesDistribution::parse(
+            &crate::ies::write_symmetric_lm63(
+                &[("TEST", "narrow")],
+                &[0.0, 1.0, 90.0, 180.0],
+                &[1000.0, 0.0, 0.0, 0.0],
+            ),
+            "narrow.ies",
+        )
+        .unwrap();
+        l.distribution = LightDistribution::Ies(narrow);
+        let phi = luminous_flux(&l);
+        assert!(phi > 0.0, "{phi}");
+        let sampler = super::super::LightSampler::power(&[4.0 * PI * 100.0, phi]);
+        assert!(sampler.pmf(1) > 0.0);
     }
 
     #[test]
