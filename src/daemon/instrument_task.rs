@@ -30,15 +30,15 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
+use crate::instrument::{CancelToken, InstrumentSettings, Sample, Spectroradiometer};
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::instrument_queue::MeasurementJob;
 use crate::lab::instrument_queue::MockControl;
-use crate::lab::measurement::{self as recorder, Recorder};
+use crate::lab::measurement::{self as recorder, Comparable, Outcome, Recorder};
 use crate::lab::simulated_truth::SimulatedTruth;
-use crate::store::{Booth, MeasurementState, Store};
+use crate::store::{Booth, MeasurementState, NewSample, Store};
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
@@ -462,7 +462,7 @@ impl Worker {
     fn take_running(
         &mut self,
         instrument: &mut dyn Spectroradiometer,
-        mut recorder: Recorder,
+        recorder: Recorder,
         job: &MeasurementJob,
         cancel: CancelToken,
     ) -> Option<String> {
@@ -485,52 +485,18 @@ impl Worker {
         self.set_status(measuring(0, self.seconds_per_sample));
 
         // Re-aim the simulated instrument at the scene target.
-        if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
-            match self.config.truth.spectrum(scene, target, &mock.settings.cache_dir) {
-                Ok(truth) => {
-                    if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
-                        return self.finish_failed(
-                            id,
-                            MeasurementState::Failed,
-                            &format!("cannot aim the simulated PR-650: {e}"),
-                        );
-                    }
-                    tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
-                }
-                Err(e) => {
-                    return self.finish_failed(
-                        id,
-                        MeasurementState::Failed,
-                        &format!("cannot render {scene}/{target}: {e}"),
-                    )
-                }
-            }
+        if let Err(why) = self.aim_simulator(job) {
+            let canceller = self.canceller.clone();
+            let outcome = recorder.fail(why, &|| canceller.is_shutting_down());
+            return self.published(id, job, outcome);
         }
 
         let events = self.config.events.clone();
         let status = self.config.status.clone();
         let of = job.samples;
         let observer = self.config.observer;
-        let stop = cancel.clone();
         let mut measured_pace = None;
-        let reading = instrument.capabilities().reading;
-        let mut on_sample = |s: &Sample| {
-            // Blocks this thread until the sample is on disk: the next sample waits.
-            let row = match recorder.store_sample(s, reading) {
-                Ok(row) => row,
-                Err(why) => {
-                    // The first sample that could not be written: the measurement stops there.
-                    tracing::error!(error = %why, index = s.index, "cannot store a sample; stopping the measurement");
-                    stop.cancel();
-                    return;
-                }
-            };
-            tracing::info!(
-                index = s.index,
-                code = s.code.code,
-                usable = row.usable,
-                "sample stored"
-            );
+        let mut on_sample = |s: &Sample, row: &NewSample| {
             let done = (s.index + 1).min(of);
             let pace = started.elapsed().as_secs_f64() / done.max(1) as f64;
             measured_pace = Some(pace);
@@ -558,47 +524,51 @@ impl Worker {
                 radiance: row.radiance.clone(),
             });
         };
-        let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
+        // The comparison uses the daemon's observer on both sides; the
+        // stored instrument_x, instrument_y are the instrument's own (CIE
+        // 1931, as the PR-650 reports), never compared or charted.
+        let canceller = self.canceller.clone();
+        let shutting_down = || canceller.is_shutting_down();
+        let outcome = recorder.take(
+            instrument,
+            job.samples,
+            observer,
+            &cancel,
+            &shutting_down,
+            &mut on_sample,
+        );
         if measured_pace.is_some() {
             self.seconds_per_sample = measured_pace;
         }
-        let (taken, usable) = recorder.taken();
-        if let Some(why) = recorder.write_failed() {
-            // Not every sample is on disk: never `complete`, whatever the instrument said.
-            tracing::error!(error = %why, "measurement failed: a sample was not stored");
-            return self.finish_failed(
-                id,
-                MeasurementState::Failed,
-                &format!("{why}; a measurement without all its samples on disk is not complete"),
-            );
-        }
+        self.published(id, job, outcome)
+    }
 
-        match result {
-            Ok(avg) => {
-                // The comparison uses the daemon's observer on both sides; the
-                // stored instrument_x, instrument_y are the instrument's own
-                // (CIE 1931, as the PR-650 reports), never compared or charted.
-                let observer = self.config.observer;
-                let canceller = self.canceller.clone();
-                if let Err(why) = recorder.complete(&avg, observer, &|| canceller.is_shutting_down()) {
-                    tracing::error!(error = %why, "cannot store the average");
-                    return self.finish_failed(id, MeasurementState::Failed, &why);
-                }
-                tracing::info!(
-                    luminance_cd_m2 = avg.luminance_cd_m2,
-                    x = avg.x,
-                    y = avg.y,
-                    "measurement complete"
-                );
-                let _ = self.config.events.send(Event::MeasurementFinished {
-                    measurement_id: id,
-                    state: MeasurementState::Complete,
-                    error: None,
-                });
-                let comparisons = &self.config.comparisons;
+    /// Aims the simulated instrument (with `--mock`) at the job's scene
+    /// target, as an operator re-aims the real one; why it could not.
+    fn aim_simulator(&self, job: &MeasurementJob) -> Result<(), String> {
+        let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) else {
+            return Ok(());
+        };
+        let truth = self
+            .config
+            .truth
+            .spectrum(scene, target, &mock.settings.cache_dir)
+            .map_err(|e| format!("cannot render {scene}/{target}: {e}"))?;
+        if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
+            return Err(format!("cannot aim the simulated PR-650: {e}"));
+        }
+        tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
+        Ok(())
+    }
+
+    /// Publishes how measurement `id` ended and, when complete, hands it to
+    /// the comparisons. Returns the lost port's reason, if the port was lost.
+    fn published(&self, id: i64, job: &MeasurementJob, outcome: Outcome) -> Option<String> {
+        let (state, error, port_lost) = match outcome {
+            Outcome::Complete { comparable, .. } => {
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    use crate::lab::measurement::{comparable, Comparable};
-                    match comparable(&avg, observer) {
+                    let comparisons = &self.config.comparisons;
+                    match comparable {
                         Ok(Comparable::Colour { xyz, y_se }) => {
                             comparisons.compare_later(id, scene.clone(), target.clone(), xyz, y_se)
                         }
@@ -609,22 +579,20 @@ impl Worker {
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }
                 }
-                None
+                (MeasurementState::Complete, None, None)
             }
-            Err(e) => {
-                let (state, lost) = classify(&e, self.canceller.is_shutting_down());
-                let message = if self.canceller.is_shutting_down() {
-                    format!("the daemon shut down during the measurement ({e})")
-                } else if state == MeasurementState::Cancelled {
-                    cancelled_message(taken, usable, of)
-                } else {
-                    e.to_string()
-                };
-                tracing::warn!(error = %e, state = state.as_str(), "measurement did not complete");
-                self.finish_failed(id, state, &message);
-                lost.then_some(e.to_string())
-            }
-        }
+            Outcome::Ended {
+                state,
+                message,
+                port_lost,
+            } => (state, Some(message), port_lost),
+        };
+        let _ = self.config.events.send(Event::MeasurementFinished {
+            measurement_id: id,
+            state,
+            error,
+        });
+        port_lost
     }
 
     /// Ends measurement `id` `state` with `message`, writing it again while
@@ -643,47 +611,5 @@ impl Worker {
             error: Some(message.to_string()),
         });
         None
-    }
-}
-
-/// What a measurement cancelled by the operator says: how many samples it kept.
-fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
-    if taken == 0 {
-        return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
-    }
-    let (plural, kept) = if taken == 1 {
-        ("", "kept it".to_string())
-    } else {
-        ("s", format!("kept all {taken}"))
-    };
-    let averaged = match usable {
-        0 => "none usable, so no average".to_string(),
-        n => format!("{n} usable, averaged as a partial result"),
-    };
-    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
-}
-
-/// The state a failed measurement ends in, and whether the port is lost.
-/// Link faults interrupt a measurement (its samples stay, it can be
-/// repeated); an instrument that cannot give enough good samples fails it.
-fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool) {
-    match e {
-        InstrumentError::Cancelled if shutting_down => (MeasurementState::Interrupted, false),
-        InstrumentError::Cancelled => (MeasurementState::Cancelled, false),
-        InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
-            (MeasurementState::Interrupted, true)
-        }
-        InstrumentError::NotInRemoteMode { .. }
-        | InstrumentError::NoBanner { .. }
-        | InstrumentError::Silent { .. }
-        | InstrumentError::Unresponsive { .. } => (MeasurementState::Interrupted, true),
-        InstrumentError::NoReply { .. }
-        | InstrumentError::Timeout { .. }
-        | InstrumentError::Truncated { .. }
-        | InstrumentError::Protocol { .. } => (MeasurementState::Interrupted, false),
-        InstrumentError::Quality { .. }
-        | InstrumentError::Setup { .. }
-        | InstrumentError::Refused { .. }
-        | InstrumentError::Settings(_) => (MeasurementState::Failed, false),
     }
 }

@@ -37,6 +37,7 @@ use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
+use crate::lab::booth_instrument::BoothInstrument;
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::EventSink;
 use crate::lab::images::ImageJobs;
@@ -306,16 +307,20 @@ pub async fn run(
             allowed_hosts,
             scenes_dir: options.scenes_dir.clone(),
             codings: options.codings.clone(),
-            instrument: options.instrument.capabilities(),
             observer: options.observer,
         }),
-        jobs: jobs_tx,
-        status: status_rx,
+        instrument: BoothInstrument::new(
+            store.clone(),
+            jobs_tx,
+            status_rx,
+            events.clone(),
+            Some(Arc::new(instrument.canceller())),
+            options.instrument.capabilities(),
+            options.booth.clone(),
+        ),
         events,
         renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
-        measurement_cancel: Some(Arc::new(instrument.canceller())),
-        hold: Default::default(),
         shutting_down,
     };
     let cancel_running = instrument.canceller();

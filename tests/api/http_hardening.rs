@@ -15,6 +15,7 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
 use lightbooth::http::{app, serve_with_limits, AppState, ServeLimits, ServiceConfig};
+use lightbooth::lab::booth_instrument::BoothInstrument;
 use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -47,7 +48,7 @@ async fn harness(loopback_only: bool) -> Harness {
     let (events, _) = broadcast::channel(64);
     let (shutdown_tx, shutdown_rx) = watch::channel(false);
     let state = AppState {
-        store,
+        store: store.clone(),
         config: Arc::new(ServiceConfig {
             booth: Default::default(),
             token: TOKEN.into(),
@@ -55,16 +56,20 @@ async fn harness(loopback_only: bool) -> Harness {
             allowed_hosts: Default::default(),
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
-            instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
             observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
-        jobs,
-        status: status_rx,
+        instrument: BoothInstrument::new(
+            store.clone(),
+            jobs,
+            status_rx,
+            events.clone(),
+            None,
+            lightbooth::instrument::Pr650Settings::default().capabilities(),
+            Default::default(),
+        ),
         events,
         renders: None,
         mock: None,
-        measurement_cancel: None,
-        hold: Default::default(),
         shutting_down: shutdown_rx,
     };
     Harness {
