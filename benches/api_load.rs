@@ -373,7 +373,7 @@ fn main() {
             serial: None,
             port: "-".into(),
         });
-        let (_down_tx, shutting_down) = watch::channel(false);
+        let shutting_down = tokio_util::sync::CancellationToken::new();
         let events = broadcast::channel(16).0;
         let state = AppState {
             store: store.clone(),

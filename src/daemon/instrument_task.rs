@@ -30,7 +30,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{CancelToken, InstrumentSettings, Sample, Spectroradiometer};
+use crate::instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
@@ -66,6 +66,9 @@ pub struct TaskConfig {
     pub booth: Booth,
     pub mock: Option<MockSettings>,
     pub runtime: Handle,
+    /// The daemon's shutdown: cancelling it stops the running measurement
+    /// (`interrupted`) and ends the task once the job queue closes.
+    pub shutdown: CancellationToken,
 }
 
 /// The simulated PR-650, shared between the instrument thread (which re-aims
@@ -161,29 +164,28 @@ fn default_truth() -> crate::spectrum::Spectrum {
     .expect("a flat spectrum is valid")
 }
 
-/// Cancels the running measurement when the daemon shuts down, or when the
-/// operator cancels it (`POST /api/measurements/{id}/cancel`).
-#[derive(Clone, Default)]
+/// Cancels the running measurement when the operator cancels it (`POST
+/// /api/measurements/{id}/cancel`) or the daemon shuts down: each
+/// measurement's token is a child of the daemon's shutdown token.
+#[derive(Clone)]
 pub struct Canceller {
     /// The measurement the instrument has taken, with its token.
-    current: Arc<Mutex<Option<(i64, CancelToken)>>>,
-    shutting_down: Arc<std::sync::atomic::AtomicBool>,
+    current: Arc<Mutex<Option<(i64, CancellationToken)>>>,
+    shutdown: CancellationToken,
 }
 
 impl Canceller {
-    pub fn shutdown(&self) {
-        self.shutting_down.store(true, std::sync::atomic::Ordering::SeqCst);
-        if let Some((_, t)) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-            t.cancel();
-        }
+    /// A token for the next measurement: cancelled alone, or with the daemon.
+    fn next_measurement(&self) -> CancellationToken {
+        self.shutdown.child_token()
     }
 
-    fn set_current(&self, current: Option<(i64, CancelToken)>) {
+    fn set_current(&self, current: Option<(i64, CancellationToken)>) {
         *self.current.lock().unwrap_or_else(|p| p.into_inner()) = current;
     }
 
     fn is_shutting_down(&self) -> bool {
-        self.shutting_down.load(std::sync::atomic::Ordering::SeqCst)
+        self.shutdown.is_cancelled()
     }
 }
 
@@ -222,7 +224,10 @@ impl InstrumentTask {
 }
 
 pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
-    let canceller = Canceller::default();
+    let canceller = Canceller {
+        current: Arc::default(),
+        shutdown: config.shutdown.clone(),
+    };
     let mock = config.mock.clone().map(|settings| {
         Arc::new(MockSlot {
             handle: Mutex::new(None),
@@ -440,7 +445,7 @@ impl Worker {
         let store = self.config.store.clone();
         // Registered before the store says `running`, so a cancel request that
         // finds the measurement no longer queued always finds its token.
-        let cancel = CancelToken::new();
+        let cancel = self.canceller.next_measurement();
         self.canceller.set_current(Some((id, cancel.clone())));
         let canceller = self.canceller.clone();
         let recorder = match Recorder::start(&store, &self.config.runtime, id, instrument_id, &|| {
@@ -464,7 +469,7 @@ impl Worker {
         instrument: &mut dyn Spectroradiometer,
         recorder: Recorder,
         job: &MeasurementJob,
-        cancel: CancelToken,
+        cancel: CancellationToken,
     ) -> Option<String> {
         let id = recorder.id();
         let _ = self.config.events.send(Event::MeasurementStarted {

@@ -48,7 +48,7 @@ use crate::lab::scenes::SceneCatalog;
 use crate::lab::simulated_truth::SimulatedTruth;
 use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{RenderPlace, WorkerQueue};
-use crate::render::integrator::CancelFlag;
+use crate::render::integrator::CancellationToken;
 use crate::render::Coding;
 use crate::store::{Booth, Store};
 
@@ -238,7 +238,9 @@ pub async fn run(
         .as_ref()
         .map(|queue| AbortOnDrop(tokio::spawn(Arc::clone(queue).watch(WORKER_JOB_POLL))));
     let lab_events = EventSink::bus(events.clone());
-    let shutdown_flag = CancelFlag::default();
+    // The daemon's one shutdown token: the renders, studies, jobs, the
+    // running measurement and the event streams take children of it or wait on it.
+    let shutdown_flag = CancellationToken::new();
     let runner = Arc::new(
         RenderRunner::new(
             store.clone(),
@@ -264,7 +266,7 @@ pub async fn run(
         codings,
         options.observer,
         options.mock_world.clone(),
-        shutdown_flag,
+        shutdown_flag.clone(),
     ));
     let render_jobs = Arc::new(
         RenderJobs::new(
@@ -295,9 +297,9 @@ pub async fn run(
             cache_dir: options.cache_dir.clone(),
         }),
         runtime: tokio::runtime::Handle::current(),
+        shutdown: shutdown_flag.clone(),
     })?;
 
-    let (shutting_down_tx, shutting_down) = watch::channel(false);
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
@@ -321,18 +323,17 @@ pub async fn run(
         events,
         renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
-        shutting_down,
+        shutting_down: shutdown_flag.clone(),
     };
-    let cancel_running = instrument.canceller();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(http::serve(listener, state, async move {
         let _ = stop_rx.await;
     }));
     shutdown.await;
     tracing::info!("shutting down: cancelling the running measurement, render and study; closing the HTTP server");
-    cancel_running.shutdown();
+    // Stops the running measurement, render and study, and ends the event streams.
+    shutdown_flag.cancel();
     render_jobs.shutdown();
-    let _ = shutting_down_tx.send(true);
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;
     // The server's state (and so the job sender) is gone: the instrument

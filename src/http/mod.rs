@@ -34,7 +34,8 @@ use std::sync::Arc;
 use axum::extract::DefaultBodyLimit;
 use axum::Router;
 use tokio::net::TcpListener;
-use tokio::sync::{broadcast, watch};
+use tokio::sync::broadcast;
+use tokio_util::sync::CancellationToken;
 
 pub use limits::ServeLimits;
 
@@ -88,7 +89,7 @@ pub struct AppState {
     pub mock: Option<Arc<dyn MockControl>>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
-    pub shutting_down: watch::Receiver<bool>,
+    pub shutting_down: CancellationToken,
 }
 
 /// The whole HTTP application.

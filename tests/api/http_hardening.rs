@@ -21,6 +21,7 @@ use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{broadcast, mpsc, watch};
+use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
 const TOKEN: &str = "0123456789abcdef0123456789abcdef";
@@ -29,7 +30,7 @@ struct Harness {
     state: AppState,
     _jobs: mpsc::Receiver<lightbooth::lab::instrument_queue::MeasurementJob>,
     _status: watch::Sender<InstrumentStatus>,
-    shutdown: watch::Sender<bool>,
+    shutdown: CancellationToken,
     _dir: tempfile::TempDir,
 }
 
@@ -46,7 +47,7 @@ async fn harness(loopback_only: bool) -> Harness {
         port: "/dev/pts/9".into(),
     });
     let (events, _) = broadcast::channel(64);
-    let (shutdown_tx, shutdown_rx) = watch::channel(false);
+    let shutdown = CancellationToken::new();
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
@@ -70,13 +71,13 @@ async fn harness(loopback_only: bool) -> Harness {
         events,
         renders: None,
         mock: None,
-        shutting_down: shutdown_rx,
+        shutting_down: shutdown.clone(),
     };
     Harness {
         state,
         _jobs: jobs_rx,
         _status: status_tx,
-        shutdown: shutdown_tx,
+        shutdown,
         _dir: dir,
     }
 }
@@ -108,7 +109,7 @@ async fn start(limits: ServeLimits) -> Server {
 impl Server {
     /// Graceful shutdown, bounded.
     async fn stop(mut self) {
-        let _ = self.harness.shutdown.send(true);
+        self.harness.shutdown.cancel();
         let _ = self.stop.take().unwrap().send(());
         tokio::time::timeout(Duration::from_secs(20), self.task)
             .await

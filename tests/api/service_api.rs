@@ -15,6 +15,7 @@ use lightbooth::lab::instrument_queue::MeasurementJob;
 use lightbooth::store::Store;
 use serde_json::Value;
 use tokio::sync::{broadcast, mpsc, watch};
+use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
 const TOKEN: &str = "0123456789abcdef0123456789abcdef";
@@ -23,7 +24,7 @@ struct Harness {
     state: AppState,
     jobs: mpsc::Receiver<MeasurementJob>,
     status: watch::Sender<InstrumentStatus>,
-    _shutdown: watch::Sender<bool>,
+    _shutdown: CancellationToken,
     _dir: tempfile::TempDir,
 }
 
@@ -40,7 +41,7 @@ async fn harness(queue: usize) -> Harness {
         port: "/dev/pts/9".into(),
     });
     let (events, _) = broadcast::channel(64);
-    let (shutdown_tx, shutdown_rx) = watch::channel(false);
+    let shutdown = CancellationToken::new();
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
@@ -64,13 +65,13 @@ async fn harness(queue: usize) -> Harness {
         events,
         renders: None,
         mock: None,
-        shutting_down: shutdown_rx,
+        shutting_down: shutdown.clone(),
     };
     Harness {
         state,
         jobs: rx,
         status: status_tx,
-        _shutdown: shutdown_tx,
+        _shutdown: shutdown,
         _dir: dir,
     }
 }

@@ -25,7 +25,9 @@ use std::time::Duration;
 
 use tokio::runtime::Handle;
 
-use lightbooth_instrument::{AveragedMeasurement, CancelToken, InstrumentError, Reading, Sample, Spectroradiometer};
+use lightbooth_instrument::{
+    AveragedMeasurement, CancellationToken, InstrumentError, Reading, Sample, Spectroradiometer,
+};
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use lightbooth_store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
 
@@ -143,7 +145,7 @@ impl Recorder {
         instrument: &mut dyn Spectroradiometer,
         samples: usize,
         observer: Observer,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
         shutting_down: &dyn Fn() -> bool,
         on_sample: &mut dyn FnMut(&Sample, &NewSample),
     ) -> Outcome {
@@ -614,7 +616,7 @@ mod tests {
         id: i64,
         mock: &MockHandle,
         samples: usize,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
         on_sample: &mut dyn FnMut(&Sample, usize),
     ) -> Outcome {
         let port = mock.device_path().display().to_string();
@@ -647,7 +649,7 @@ mod tests {
         let store = store_in(dir.path()).await;
         let (id, mock) = queued(&store, 3, "").await;
         let mut seen = Vec::new();
-        let outcome = take(&store, id, &mock, 3, &CancelToken::new(), &mut |s, stored| {
+        let outcome = take(&store, id, &mock, 3, &CancellationToken::new(), &mut |s, stored| {
             seen.push((s.index, stored))
         });
         assert_eq!(
@@ -675,7 +677,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let store = store_in(dir.path()).await;
         let (id, mock) = queued(&store, 3, "").await;
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         let operator = cancel.clone();
         let outcome = take(&store, id, &mock, 3, &cancel, &mut |s, _| {
             if s.index == 1 {
@@ -707,7 +709,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let store = store_in(dir.path()).await;
         let (id, mock) = queued(&store, 3, "cable-pull").await;
-        let outcome = take(&store, id, &mock, 3, &CancelToken::new(), &mut |_, _| {});
+        let outcome = take(&store, id, &mock, 3, &CancellationToken::new(), &mut |_, _| {});
         let Outcome::Ended { state, port_lost, .. } = outcome else {
             panic!("a measurement whose cable was pulled completed")
         };

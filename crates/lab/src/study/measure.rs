@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use crate::measurement::{Outcome, Recorder};
 use crate::study::run::truth_path;
 use lightbooth_instrument::sim::{spawn_mock, MockConfig};
-use lightbooth_instrument::{open_pr650, CancelToken, Pr650Settings};
+use lightbooth_instrument::{open_pr650, CancellationToken, Pr650Settings};
 use lightbooth_render as render;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, NewMeasurement, Store};
@@ -99,7 +99,7 @@ pub async fn measure_with_simulator(
                 let runtime = tokio::runtime::Handle::current();
                 let never = || false;
                 let recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
-                let cancel = CancelToken::new();
+                let cancel = CancellationToken::new();
                 Ok(recorder.take(
                     instrument.as_mut(),
                     settings.samples,
