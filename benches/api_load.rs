@@ -373,7 +373,8 @@ fn main() {
             serial: None,
             port: "-".into(),
         });
-        let (_down_tx, shutting_down) = watch::channel(false);
+        let shutting_down = tokio_util::sync::CancellationToken::new();
+        let events = broadcast::channel(16).0;
         let state = AppState {
             store: store.clone(),
             config: Arc::new(ServiceConfig {
@@ -383,16 +384,20 @@ fn main() {
                 allowed_hosts: Default::default(),
                 scenes_dir: "scenes".into(),
                 codings: vec![],
-                instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
                 observer: lightbooth::colorimetry::Observer::JuddVos,
             }),
-            jobs,
-            status,
-            events: broadcast::channel(16).0,
+            instrument: lightbooth::lab::booth_instrument::BoothInstrument::new(
+                store.clone(),
+                jobs,
+                status,
+                events.clone(),
+                None,
+                lightbooth::instrument::Pr650Settings::default().capabilities(),
+                "north".parse().unwrap(),
+            ),
+            events,
             renders: None,
             mock: None,
-            measurement_cancel: None,
-            hold: Default::default(),
             shutting_down,
         };
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

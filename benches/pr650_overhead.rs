@@ -14,7 +14,7 @@
 use std::time::{Duration, Instant};
 
 use lightbooth::instrument::sim::{spawn_mock, MockConfig};
-use lightbooth::instrument::{open_pr650, CancelToken, Pr650Settings};
+use lightbooth::instrument::{open_pr650, CancellationToken, Pr650Settings};
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{SpectralUnit, Spectrum};
 
@@ -33,7 +33,7 @@ fn main() {
     cfg.remote_window_ms = None;
     let mock = spawn_mock(cfg).expect("pty");
     let mut pr650 = open_pr650(mock.device_path().to_str().unwrap(), &Pr650Settings::default()).expect("open");
-    let cancel = CancelToken::new();
+    let cancel = CancellationToken::new();
     pr650.measure_averaged(SAMPLES, &cancel, &mut |_| {}).expect("warm-up");
 
     let mut times: Vec<Duration> = (0..RUNS)

@@ -56,9 +56,14 @@
 //! The workflows, a crate of their own above the store (`crates/lab`,
 //! with the charts and exports):
 //!
-//! - [`lab`]: measurements (one recorder), the instrument queue, events,
-//!   renders, comparisons, jobs, camera images, calibrations, leases, the
-//!   hand-off to render workers. **A measurement's comparison with every
+//! - [`lab`]: measurements, the instrument queue, events, renders,
+//!   comparisons, jobs, camera images, calibrations, leases, the hand-off
+//!   to render workers. **A measurement is asked for in
+//!   [`lab::booth_instrument`]** (`BoothInstrument::request`: checked,
+//!   recorded, queued; the HTTP handlers' one way to the instrument) **and
+//!   taken in [`lab::measurement`]** (`Recorder::take`: each sample stored
+//!   before the next, completed or ended with its reason; the daemon's
+//!   instrument task and the simulated study both call it). **A measurement's comparison with every
 //!   coding is computed in [`lab::comparisons`]** (`Comparisons::compare`:
 //!   it takes the render of the scene from the store, or has
 //!   [`lab::render_runner`] render it once, resolves the booth's CIELAB

@@ -8,7 +8,7 @@ use std::time::UNIX_EPOCH;
 use clap::Args;
 use serde::Serialize;
 
-use lightbooth::instrument::{AveragedMeasurement, CancelToken, InstrumentSettings, Reading};
+use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentSettings, Reading};
 use lightbooth::spectrum::table::write_csv;
 
 #[derive(Args, Debug)]
@@ -158,7 +158,7 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
             anyhow::anyhow!("no port: pass --port PATH (e.g. /dev/ttyUSB0) or set `port` in the --config file")
         })?;
     let mut instrument = settings.open(&port)?;
-    let cancel = CancelToken::new();
+    let cancel = CancellationToken::new();
     let samples = settings.capabilities().default_samples;
     // Progress on stderr (stdout stays machine-readable): a measurement takes seconds per sample.
     let m = instrument.measure_averaged(

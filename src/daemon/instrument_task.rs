@@ -30,15 +30,15 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::colorimetry::xyz_from_radiance;
 use crate::instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{CancelToken, InstrumentError, InstrumentSettings, Sample, Spectroradiometer};
+use crate::instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::instrument_queue::MeasurementJob;
 use crate::lab::instrument_queue::MockControl;
-use crate::lab::measurement::{self as recorder, Recorder};
+use crate::lab::measurement::{self as recorder, Comparable, Outcome, Recorder};
 use crate::lab::simulated_truth::SimulatedTruth;
-use crate::store::{Booth, MeasurementState, Store};
+use crate::store::{Booth, MeasurementState, NewSample, Store};
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
@@ -66,6 +66,9 @@ pub struct TaskConfig {
     pub booth: Booth,
     pub mock: Option<MockSettings>,
     pub runtime: Handle,
+    /// The daemon's shutdown: cancelling it stops the running measurement
+    /// (`interrupted`) and ends the task once the job queue closes.
+    pub shutdown: CancellationToken,
 }
 
 /// The simulated PR-650, shared between the instrument thread (which re-aims
@@ -161,29 +164,28 @@ fn default_truth() -> crate::spectrum::Spectrum {
     .expect("a flat spectrum is valid")
 }
 
-/// Cancels the running measurement when the daemon shuts down, or when the
-/// operator cancels it (`POST /api/measurements/{id}/cancel`).
-#[derive(Clone, Default)]
+/// Cancels the running measurement when the operator cancels it (`POST
+/// /api/measurements/{id}/cancel`) or the daemon shuts down: each
+/// measurement's token is a child of the daemon's shutdown token.
+#[derive(Clone)]
 pub struct Canceller {
     /// The measurement the instrument has taken, with its token.
-    current: Arc<Mutex<Option<(i64, CancelToken)>>>,
-    shutting_down: Arc<std::sync::atomic::AtomicBool>,
+    current: Arc<Mutex<Option<(i64, CancellationToken)>>>,
+    shutdown: CancellationToken,
 }
 
 impl Canceller {
-    pub fn shutdown(&self) {
-        self.shutting_down.store(true, std::sync::atomic::Ordering::SeqCst);
-        if let Some((_, t)) = self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
-            t.cancel();
-        }
+    /// A token for the next measurement: cancelled alone, or with the daemon.
+    fn next_measurement(&self) -> CancellationToken {
+        self.shutdown.child_token()
     }
 
-    fn set_current(&self, current: Option<(i64, CancelToken)>) {
+    fn set_current(&self, current: Option<(i64, CancellationToken)>) {
         *self.current.lock().unwrap_or_else(|p| p.into_inner()) = current;
     }
 
     fn is_shutting_down(&self) -> bool {
-        self.shutting_down.load(std::sync::atomic::Ordering::SeqCst)
+        self.shutdown.is_cancelled()
     }
 }
 
@@ -222,7 +224,10 @@ impl InstrumentTask {
 }
 
 pub fn spawn(config: TaskConfig) -> std::io::Result<InstrumentTask> {
-    let canceller = Canceller::default();
+    let canceller = Canceller {
+        current: Arc::default(),
+        shutdown: config.shutdown.clone(),
+    };
     let mock = config.mock.clone().map(|settings| {
         Arc::new(MockSlot {
             handle: Mutex::new(None),
@@ -440,7 +445,7 @@ impl Worker {
         let store = self.config.store.clone();
         // Registered before the store says `running`, so a cancel request that
         // finds the measurement no longer queued always finds its token.
-        let cancel = CancelToken::new();
+        let cancel = self.canceller.next_measurement();
         self.canceller.set_current(Some((id, cancel.clone())));
         let canceller = self.canceller.clone();
         let recorder = match Recorder::start(&store, &self.config.runtime, id, instrument_id, &|| {
@@ -462,9 +467,9 @@ impl Worker {
     fn take_running(
         &mut self,
         instrument: &mut dyn Spectroradiometer,
-        mut recorder: Recorder,
+        recorder: Recorder,
         job: &MeasurementJob,
-        cancel: CancelToken,
+        cancel: CancellationToken,
     ) -> Option<String> {
         let id = recorder.id();
         let _ = self.config.events.send(Event::MeasurementStarted {
@@ -485,52 +490,18 @@ impl Worker {
         self.set_status(measuring(0, self.seconds_per_sample));
 
         // Re-aim the simulated instrument at the scene target.
-        if let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) {
-            match self.config.truth.spectrum(scene, target, &mock.settings.cache_dir) {
-                Ok(truth) => {
-                    if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
-                        return self.finish_failed(
-                            id,
-                            MeasurementState::Failed,
-                            &format!("cannot aim the simulated PR-650: {e}"),
-                        );
-                    }
-                    tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
-                }
-                Err(e) => {
-                    return self.finish_failed(
-                        id,
-                        MeasurementState::Failed,
-                        &format!("cannot render {scene}/{target}: {e}"),
-                    )
-                }
-            }
+        if let Err(why) = self.aim_simulator(job) {
+            let canceller = self.canceller.clone();
+            let outcome = recorder.fail(why, &|| canceller.is_shutting_down());
+            return self.published(id, job, outcome);
         }
 
         let events = self.config.events.clone();
         let status = self.config.status.clone();
         let of = job.samples;
         let observer = self.config.observer;
-        let stop = cancel.clone();
         let mut measured_pace = None;
-        let reading = instrument.capabilities().reading;
-        let mut on_sample = |s: &Sample| {
-            // Blocks this thread until the sample is on disk: the next sample waits.
-            let row = match recorder.store_sample(s, reading) {
-                Ok(row) => row,
-                Err(why) => {
-                    // The first sample that could not be written: the measurement stops there.
-                    tracing::error!(error = %why, index = s.index, "cannot store a sample; stopping the measurement");
-                    stop.cancel();
-                    return;
-                }
-            };
-            tracing::info!(
-                index = s.index,
-                code = s.code.code,
-                usable = row.usable,
-                "sample stored"
-            );
+        let mut on_sample = |s: &Sample, row: &NewSample| {
             let done = (s.index + 1).min(of);
             let pace = started.elapsed().as_secs_f64() / done.max(1) as f64;
             measured_pace = Some(pace);
@@ -558,47 +529,51 @@ impl Worker {
                 radiance: row.radiance.clone(),
             });
         };
-        let result = instrument.measure_averaged(job.samples, &cancel, &mut on_sample);
+        // The comparison uses the daemon's observer on both sides; the
+        // stored instrument_x, instrument_y are the instrument's own (CIE
+        // 1931, as the PR-650 reports), never compared or charted.
+        let canceller = self.canceller.clone();
+        let shutting_down = || canceller.is_shutting_down();
+        let outcome = recorder.take(
+            instrument,
+            job.samples,
+            observer,
+            &cancel,
+            &shutting_down,
+            &mut on_sample,
+        );
         if measured_pace.is_some() {
             self.seconds_per_sample = measured_pace;
         }
-        let (taken, usable) = recorder.taken();
-        if let Some(why) = recorder.write_failed() {
-            // Not every sample is on disk: never `complete`, whatever the instrument said.
-            tracing::error!(error = %why, "measurement failed: a sample was not stored");
-            return self.finish_failed(
-                id,
-                MeasurementState::Failed,
-                &format!("{why}; a measurement without all its samples on disk is not complete"),
-            );
-        }
+        self.published(id, job, outcome)
+    }
 
-        match result {
-            Ok(avg) => {
-                // The comparison uses the daemon's observer on both sides; the
-                // stored instrument_x, instrument_y are the instrument's own
-                // (CIE 1931, as the PR-650 reports), never compared or charted.
-                let observer = self.config.observer;
-                let canceller = self.canceller.clone();
-                if let Err(why) = recorder.complete(&avg, observer, &|| canceller.is_shutting_down()) {
-                    tracing::error!(error = %why, "cannot store the average");
-                    return self.finish_failed(id, MeasurementState::Failed, &why);
-                }
-                tracing::info!(
-                    luminance_cd_m2 = avg.luminance_cd_m2,
-                    x = avg.x,
-                    y = avg.y,
-                    "measurement complete"
-                );
-                let _ = self.config.events.send(Event::MeasurementFinished {
-                    measurement_id: id,
-                    state: MeasurementState::Complete,
-                    error: None,
-                });
-                let comparisons = &self.config.comparisons;
+    /// Aims the simulated instrument (with `--mock`) at the job's scene
+    /// target, as an operator re-aims the real one; why it could not.
+    fn aim_simulator(&self, job: &MeasurementJob) -> Result<(), String> {
+        let (Some(mock), Some(scene), Some(target)) = (&self.mock, &job.scene, &job.target) else {
+            return Ok(());
+        };
+        let truth = self
+            .config
+            .truth
+            .spectrum(scene, target, &mock.settings.cache_dir)
+            .map_err(|e| format!("cannot render {scene}/{target}: {e}"))?;
+        if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
+            return Err(format!("cannot aim the simulated PR-650: {e}"));
+        }
+        tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
+        Ok(())
+    }
+
+    /// Publishes how measurement `id` ended and, when complete, hands it to
+    /// the comparisons. Returns the lost port's reason, if the port was lost.
+    fn published(&self, id: i64, job: &MeasurementJob, outcome: Outcome) -> Option<String> {
+        let (state, error, port_lost) = match outcome {
+            Outcome::Complete { comparable, .. } => {
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    use crate::lab::measurement::{comparable, Comparable};
-                    match comparable(&avg, observer) {
+                    let comparisons = &self.config.comparisons;
+                    match comparable {
                         Ok(Comparable::Colour { xyz, y_se }) => {
                             comparisons.compare_later(id, scene.clone(), target.clone(), xyz, y_se)
                         }
@@ -609,22 +584,20 @@ impl Worker {
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }
                 }
-                None
+                (MeasurementState::Complete, None, None)
             }
-            Err(e) => {
-                let (state, lost) = classify(&e, self.canceller.is_shutting_down());
-                let message = if self.canceller.is_shutting_down() {
-                    format!("the daemon shut down during the measurement ({e})")
-                } else if state == MeasurementState::Cancelled {
-                    cancelled_message(taken, usable, of)
-                } else {
-                    e.to_string()
-                };
-                tracing::warn!(error = %e, state = state.as_str(), "measurement did not complete");
-                self.finish_failed(id, state, &message);
-                lost.then_some(e.to_string())
-            }
-        }
+            Outcome::Ended {
+                state,
+                message,
+                port_lost,
+            } => (state, Some(message), port_lost),
+        };
+        let _ = self.config.events.send(Event::MeasurementFinished {
+            measurement_id: id,
+            state,
+            error,
+        });
+        port_lost
     }
 
     /// Ends measurement `id` `state` with `message`, writing it again while
@@ -643,47 +616,5 @@ impl Worker {
             error: Some(message.to_string()),
         });
         None
-    }
-}
-
-/// What a measurement cancelled by the operator says: how many samples it kept.
-fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
-    if taken == 0 {
-        return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
-    }
-    let (plural, kept) = if taken == 1 {
-        ("", "kept it".to_string())
-    } else {
-        ("s", format!("kept all {taken}"))
-    };
-    let averaged = match usable {
-        0 => "none usable, so no average".to_string(),
-        n => format!("{n} usable, averaged as a partial result"),
-    };
-    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
-}
-
-/// The state a failed measurement ends in, and whether the port is lost.
-/// Link faults interrupt a measurement (its samples stay, it can be
-/// repeated); an instrument that cannot give enough good samples fails it.
-fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool) {
-    match e {
-        InstrumentError::Cancelled if shutting_down => (MeasurementState::Interrupted, false),
-        InstrumentError::Cancelled => (MeasurementState::Cancelled, false),
-        InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
-            (MeasurementState::Interrupted, true)
-        }
-        InstrumentError::NotInRemoteMode { .. }
-        | InstrumentError::NoBanner { .. }
-        | InstrumentError::Silent { .. }
-        | InstrumentError::Unresponsive { .. } => (MeasurementState::Interrupted, true),
-        InstrumentError::NoReply { .. }
-        | InstrumentError::Timeout { .. }
-        | InstrumentError::Truncated { .. }
-        | InstrumentError::Protocol { .. } => (MeasurementState::Interrupted, false),
-        InstrumentError::Quality { .. }
-        | InstrumentError::Setup { .. }
-        | InstrumentError::Refused { .. }
-        | InstrumentError::Settings(_) => (MeasurementState::Failed, false),
     }
 }

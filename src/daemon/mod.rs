@@ -37,6 +37,7 @@ use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
+use crate::lab::booth_instrument::BoothInstrument;
 use crate::lab::comparisons::Comparisons;
 use crate::lab::events::EventSink;
 use crate::lab::images::ImageJobs;
@@ -47,7 +48,7 @@ use crate::lab::scenes::SceneCatalog;
 use crate::lab::simulated_truth::SimulatedTruth;
 use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{RenderPlace, WorkerQueue};
-use crate::render::integrator::CancelFlag;
+use crate::render::integrator::CancellationToken;
 use crate::render::Coding;
 use crate::store::{Booth, Store};
 
@@ -237,7 +238,9 @@ pub async fn run(
         .as_ref()
         .map(|queue| AbortOnDrop(tokio::spawn(Arc::clone(queue).watch(WORKER_JOB_POLL))));
     let lab_events = EventSink::bus(events.clone());
-    let shutdown_flag = CancelFlag::default();
+    // The daemon's one shutdown token: the renders, studies, jobs, the
+    // running measurement and the event streams take children of it or wait on it.
+    let shutdown_flag = CancellationToken::new();
     let runner = Arc::new(
         RenderRunner::new(
             store.clone(),
@@ -263,7 +266,7 @@ pub async fn run(
         codings,
         options.observer,
         options.mock_world.clone(),
-        shutdown_flag,
+        shutdown_flag.clone(),
     ));
     let render_jobs = Arc::new(
         RenderJobs::new(
@@ -294,9 +297,9 @@ pub async fn run(
             cache_dir: options.cache_dir.clone(),
         }),
         runtime: tokio::runtime::Handle::current(),
+        shutdown: shutdown_flag.clone(),
     })?;
 
-    let (shutting_down_tx, shutting_down) = watch::channel(false);
     let state = AppState {
         store: store.clone(),
         config: Arc::new(ServiceConfig {
@@ -306,28 +309,31 @@ pub async fn run(
             allowed_hosts,
             scenes_dir: options.scenes_dir.clone(),
             codings: options.codings.clone(),
-            instrument: options.instrument.capabilities(),
             observer: options.observer,
         }),
-        jobs: jobs_tx,
-        status: status_rx,
+        instrument: BoothInstrument::new(
+            store.clone(),
+            jobs_tx,
+            status_rx,
+            events.clone(),
+            Some(Arc::new(instrument.canceller())),
+            options.instrument.capabilities(),
+            options.booth.clone(),
+        ),
         events,
         renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
-        measurement_cancel: Some(Arc::new(instrument.canceller())),
-        hold: Default::default(),
-        shutting_down,
+        shutting_down: shutdown_flag.clone(),
     };
-    let cancel_running = instrument.canceller();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let server = tokio::spawn(http::serve(listener, state, async move {
         let _ = stop_rx.await;
     }));
     shutdown.await;
     tracing::info!("shutting down: cancelling the running measurement, render and study; closing the HTTP server");
-    cancel_running.shutdown();
+    // Stops the running measurement, render and study, and ends the event streams.
+    shutdown_flag.cancel();
     render_jobs.shutdown();
-    let _ = shutting_down_tx.send(true);
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;
     // The server's state (and so the job sender) is gone: the instrument

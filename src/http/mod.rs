@@ -10,10 +10,10 @@
 //! and a body announced larger than [`MAX_BODY_BYTES`] is refused before it
 //! is read.
 //!
-//! The service never touches the instrument itself: it queues
-//! [`MeasurementJob`]s for the task that owns the instrument and reads that
-//! task's live [`InstrumentStatus`]; everything that happens is broadcast as
-//! [`Event`]s.
+//! The service never touches the instrument itself: its handlers ask the
+//! lab's [`BoothInstrument`] to queue a measurement for the task that owns
+//! the instrument, to cancel one, or for that task's live status;
+//! everything that happens is broadcast as [`Event`]s.
 
 pub mod auth;
 pub mod error;
@@ -34,12 +34,14 @@ use std::sync::Arc;
 use axum::extract::DefaultBodyLimit;
 use axum::Router;
 use tokio::net::TcpListener;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::broadcast;
+use tokio_util::sync::CancellationToken;
 
 pub use limits::ServeLimits;
 
+use crate::lab::booth_instrument::BoothInstrument;
 use crate::lab::events::Event;
-use crate::lab::instrument_queue::{CancelMeasurement, InstrumentStatus, MeasurementJob, MockControl};
+use crate::lab::instrument_queue::MockControl;
 use crate::lab::services::RenderService;
 use crate::store::Store;
 
@@ -64,9 +66,6 @@ pub struct ServiceConfig {
     pub scenes_dir: PathBuf,
     /// Colour codings rendered for comparisons.
     pub codings: Vec<String>,
-    /// What the booth's instrument model can do: its samples per measurement
-    /// when a request does not say, and the most it may be asked for.
-    pub instrument: crate::instrument::Capabilities,
     /// The observer of every x,y, XYZ, CIELAB and ΔE the service computes or
     /// charts (`serve --observer`; Judd–Vos 1978 by default, the study's).
     pub observer: crate::colorimetry::Observer,
@@ -78,11 +77,9 @@ pub struct ServiceConfig {
 pub struct AppState {
     pub store: Store,
     pub config: Arc<ServiceConfig>,
-    /// Queue of measurements for the instrument task (bounded: a full queue
-    /// answers 409 rather than growing without limit).
-    pub jobs: mpsc::Sender<MeasurementJob>,
-    /// The instrument task's live status (written only by that task).
-    pub status: watch::Receiver<InstrumentStatus>,
+    /// The booth's instrument: measurements asked for and cancelled, its
+    /// live status, its queue and the calibration's hold.
+    pub instrument: BoothInstrument,
     /// Everything that happens, for `/api/events`. Lagging subscribers miss
     /// events (and are told so) rather than slowing the daemon.
     pub events: broadcast::Sender<Event>,
@@ -90,14 +87,9 @@ pub struct AppState {
     pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
-    /// Stops the running measurement (the instrument task's; None without one).
-    pub measurement_cancel: Option<Arc<dyn CancelMeasurement>>,
-    /// The hold a display calibration takes on the instrument (see
-    /// [`crate::lab::instrument_queue::InstrumentHold`]).
-    pub hold: Arc<crate::lab::instrument_queue::InstrumentHold>,
     /// Turns true when the daemon shuts down: endless responses (the event
     /// stream) end then, so graceful shutdown does not wait on them forever.
-    pub shutting_down: watch::Receiver<bool>,
+    pub shutting_down: CancellationToken,
 }
 
 /// The whole HTTP application.

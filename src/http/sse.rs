@@ -19,7 +19,7 @@ use crate::lab::events::Event;
     responses((status = 200, description = "text/event-stream of Event objects; the SSE event name is the `type` field")))]
 pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Result<sse::Event, Infallible>>> {
     let first = Event::InstrumentStatus {
-        status: state.status.borrow().clone(),
+        status: state.instrument.status(),
     };
     let rx = state.events.subscribe();
     let live = BroadcastStream::new(rx).map(|item| match item {
@@ -28,11 +28,11 @@ pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Res
             .event("lagged")
             .data(format!("{{\"type\":\"lagged\",\"missed\":{n}}}"))),
     });
-    let mut shutting_down = state.shutting_down.clone();
+    let shutting_down = state.shutting_down.clone();
     let stream = futures_util::stream::once(async move { to_sse(&first) })
         .chain(live)
         .take_until(async move {
-            let _ = shutting_down.wait_for(|down| *down).await;
+            shutting_down.cancelled().await;
         });
     Sse::new(stream).keep_alive(KeepAlive::new().interval(Duration::from_secs(15)))
 }

@@ -43,7 +43,7 @@ use crate::lab::scenes::SceneCatalog;
 use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::render::bundle::SceneBundle;
-use crate::render::integrator::CancelFlag;
+use crate::render::integrator::CancellationToken;
 use crate::render::Coding;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
 
@@ -181,7 +181,7 @@ impl Worker {
             requested_by = job.requested_by,
             "job claimed"
         );
-        let cancel = CancelFlag::default();
+        let cancel = CancellationToken::new();
         let (store, poll) = (self.store.clone(), self.options.poll);
         let renderers = self.renderers.clone();
         let mut stopping = false;
@@ -239,7 +239,7 @@ impl Worker {
     }
 
     /// The job's work with the asking daemon's renderer.
-    async fn execute(&mut self, job: &ClaimedJob, cancel: CancelFlag) -> Result<(), String> {
+    async fn execute(&mut self, job: &ClaimedJob, cancel: CancellationToken) -> Result<(), String> {
         let renderer = self.renderer_for(job.requested_by).await?;
         match job.kind {
             WorkerJobKind::Comparison => {
@@ -361,7 +361,7 @@ impl Worker {
             .collect::<Result<Vec<_>, _>>()?;
         // The worker's own shutdown flag: set when it stops, so the render
         // a comparison runs stops too.
-        let shutdown = CancelFlag::default();
+        let shutdown = CancellationToken::new();
         let runner = Arc::new(
             RenderRunner::new(
                 self.store.clone(),

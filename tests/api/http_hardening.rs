@@ -15,11 +15,13 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
 use lightbooth::http::{app, serve_with_limits, AppState, ServeLimits, ServiceConfig};
+use lightbooth::lab::booth_instrument::BoothInstrument;
 use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{broadcast, mpsc, watch};
+use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
 const TOKEN: &str = "0123456789abcdef0123456789abcdef";
@@ -28,7 +30,7 @@ struct Harness {
     state: AppState,
     _jobs: mpsc::Receiver<lightbooth::lab::instrument_queue::MeasurementJob>,
     _status: watch::Sender<InstrumentStatus>,
-    shutdown: watch::Sender<bool>,
+    shutdown: CancellationToken,
     _dir: tempfile::TempDir,
 }
 
@@ -45,9 +47,9 @@ async fn harness(loopback_only: bool) -> Harness {
         port: "/dev/pts/9".into(),
     });
     let (events, _) = broadcast::channel(64);
-    let (shutdown_tx, shutdown_rx) = watch::channel(false);
+    let shutdown = CancellationToken::new();
     let state = AppState {
-        store,
+        store: store.clone(),
         config: Arc::new(ServiceConfig {
             booth: Default::default(),
             token: TOKEN.into(),
@@ -55,23 +57,27 @@ async fn harness(loopback_only: bool) -> Harness {
             allowed_hosts: Default::default(),
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
-            instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
             observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
-        jobs,
-        status: status_rx,
+        instrument: BoothInstrument::new(
+            store.clone(),
+            jobs,
+            status_rx,
+            events.clone(),
+            None,
+            lightbooth::instrument::Pr650Settings::default().capabilities(),
+            Default::default(),
+        ),
         events,
         renders: None,
         mock: None,
-        measurement_cancel: None,
-        hold: Default::default(),
-        shutting_down: shutdown_rx,
+        shutting_down: shutdown.clone(),
     };
     Harness {
         state,
         _jobs: jobs_rx,
         _status: status_tx,
-        shutdown: shutdown_tx,
+        shutdown,
         _dir: dir,
     }
 }
@@ -103,7 +109,7 @@ async fn start(limits: ServeLimits) -> Server {
 impl Server {
     /// Graceful shutdown, bounded.
     async fn stop(mut self) {
-        let _ = self.harness.shutdown.send(true);
+        self.harness.shutdown.cancel();
         let _ = self.stop.take().unwrap().send(());
         tokio::time::timeout(Duration::from_secs(20), self.task)
             .await

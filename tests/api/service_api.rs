@@ -9,11 +9,13 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
 use lightbooth::http::{app, AppState, ServiceConfig};
+use lightbooth::lab::booth_instrument::BoothInstrument;
 use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::lab::instrument_queue::MeasurementJob;
 use lightbooth::store::Store;
 use serde_json::Value;
 use tokio::sync::{broadcast, mpsc, watch};
+use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
 const TOKEN: &str = "0123456789abcdef0123456789abcdef";
@@ -22,7 +24,7 @@ struct Harness {
     state: AppState,
     jobs: mpsc::Receiver<MeasurementJob>,
     status: watch::Sender<InstrumentStatus>,
-    _shutdown: watch::Sender<bool>,
+    _shutdown: CancellationToken,
     _dir: tempfile::TempDir,
 }
 
@@ -39,9 +41,9 @@ async fn harness(queue: usize) -> Harness {
         port: "/dev/pts/9".into(),
     });
     let (events, _) = broadcast::channel(64);
-    let (shutdown_tx, shutdown_rx) = watch::channel(false);
+    let shutdown = CancellationToken::new();
     let state = AppState {
-        store,
+        store: store.clone(),
         config: Arc::new(ServiceConfig {
             booth: Default::default(),
             token: TOKEN.into(),
@@ -49,23 +51,27 @@ async fn harness(queue: usize) -> Harness {
             allowed_hosts: Default::default(),
             scenes_dir: "scenes".into(),
             codings: vec!["rgb".into(), "spectral".into()],
-            instrument: lightbooth::instrument::Pr650Settings::default().capabilities(),
             observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
-        jobs: tx,
-        status: status_rx,
+        instrument: BoothInstrument::new(
+            store.clone(),
+            tx,
+            status_rx,
+            events.clone(),
+            None,
+            lightbooth::instrument::Pr650Settings::default().capabilities(),
+            Default::default(),
+        ),
         events,
         renders: None,
         mock: None,
-        measurement_cancel: None,
-        hold: Default::default(),
-        shutting_down: shutdown_rx,
+        shutting_down: shutdown.clone(),
     };
     Harness {
         state,
         jobs: rx,
         status: status_tx,
-        _shutdown: shutdown_tx,
+        _shutdown: shutdown,
         _dir: dir,
     }
 }

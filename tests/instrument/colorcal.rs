@@ -11,7 +11,7 @@ use lightbooth::instrument::colorcal::protocol::{self, Command};
 use lightbooth::instrument::colorcal::{codes, open_colorcal, ColorCalSettings};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::{
-    AveragedMeasurement, CancelToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
+    AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
 };
 use serialport::SerialPort;
 
@@ -80,7 +80,7 @@ fn open(mock: &MockHandle, settings: &ColorCalSettings) -> Result<Box<dyn Spectr
 }
 
 fn measure(unit: &mut dyn Spectroradiometer, n: usize) -> Result<AveragedMeasurement, InstrumentError> {
-    unit.measure_averaged(n, &CancelToken::new(), &mut |_| {})
+    unit.measure_averaged(n, &CancellationToken::new(), &mut |_| {})
 }
 
 /// The mean is the target's XYZ within 3 % (x, y within 0.003), from good

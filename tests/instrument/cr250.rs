@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use lightbooth::instrument::cr250::{open_cr250, Cr250Settings, Model};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::{AveragedMeasurement, CancelToken, InstrumentError, QualityKind, Spectroradiometer};
+use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Spectroradiometer};
 use lightbooth::spectrum::SpectralUnit;
 
 use crate::common::pr655_wire::d65_radiance;
@@ -42,7 +42,7 @@ fn open(mock: &MockHandle, settings: &Cr250Settings) -> Result<Box<dyn Spectrora
 }
 
 fn measure(unit: &mut dyn Spectroradiometer, n: usize) -> Result<AveragedMeasurement, InstrumentError> {
-    unit.measure_averaged(n, &CancelToken::new(), &mut |_| {})
+    unit.measure_averaged(n, &CancellationToken::new(), &mut |_| {})
 }
 
 /// The mean agrees with the simulator's noise-free reading within 5σ/√n
@@ -99,7 +99,7 @@ fn every_light_level_and_sync_code_is_typed_with_its_meaning_and_never_averaged(
         let mut unit = open(&mock, &settings(Model::Cr250)).unwrap();
         let mut seen = Vec::new();
         let m = unit
-            .measure_averaged(1, &CancelToken::new(), &mut |s| seen.push(s.code.clone()))
+            .measure_averaged(1, &CancellationToken::new(), &mut |s| seen.push(s.code.clone()))
             .unwrap();
         assert_eq!((seen[0].code, seen[0].kind), (code, kind), "{code}");
         assert!(seen[0].message.contains(words), "{code}: {}", seen[0].message);

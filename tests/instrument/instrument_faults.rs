@@ -12,7 +12,7 @@ use lightbooth::instrument::link::Terminator;
 use lightbooth::instrument::pr650::protocol::as_sent;
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::{
-    open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, QualityKind, Sample,
+    open_pr650, AveragedMeasurement, CancellationToken, InstrumentError, Pr650Settings, QualityKind, Sample,
     Spectroradiometer,
 };
 use lightbooth::reference_data::{illuminant, Illuminant};
@@ -58,7 +58,7 @@ fn open(mock: &MockHandle, settings: &Pr650Settings) -> Box<dyn Spectroradiomete
 
 fn measure(pr650: &mut dyn Spectroradiometer, n: usize) -> (Result<AveragedMeasurement, InstrumentError>, Vec<Sample>) {
     let mut seen = Vec::new();
-    let result = pr650.measure_averaged(n, &CancelToken::new(), &mut |s| seen.push(s.clone()));
+    let result = pr650.measure_averaged(n, &CancellationToken::new(), &mut |s| seen.push(s.clone()));
     (result, seen)
 }
 
@@ -327,7 +327,7 @@ fn cancelling_mid_measurement_leaves_the_port_usable() {
     let mut settings = test_settings();
     settings.measure_timeout_ms = 3000;
     let mut pr650 = open(&mock, &settings);
-    let cancel = CancelToken::new();
+    let cancel = CancellationToken::new();
     let canceller = {
         let cancel = cancel.clone();
         std::thread::spawn(move || {
@@ -445,7 +445,7 @@ fn a_link_that_dies_mid_reply_is_reported_within_10_s_of_its_last_byte() {
         mock.set_faults(vec![Fault::times(kind, 1)]);
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
-            let result = pr650.measure_averaged(5, &CancelToken::new(), &mut |_| {});
+            let result = pr650.measure_averaged(5, &CancellationToken::new(), &mut |_| {});
             let _ = tx.send((result.map(|_| ()), Instant::now()));
         });
         // Bounded: a driver that still waits minutes fails here, not by hanging.

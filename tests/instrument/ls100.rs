@@ -12,7 +12,7 @@ use serialport::SerialPort;
 use lightbooth::instrument::ls100::{open_ls100, Ls100Settings, Model};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::{
-    AveragedMeasurement, CancelToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
+    AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
 };
 
 use crate::colorimeter_support::*;
@@ -81,7 +81,7 @@ fn open(mock: &MockHandle, settings: &Ls100Settings) -> Result<Box<dyn Spectrora
 }
 
 fn measure(unit: &mut dyn Spectroradiometer, n: usize) -> Result<AveragedMeasurement, InstrumentError> {
-    unit.measure_averaged(n, &CancelToken::new(), &mut |_| {})
+    unit.measure_averaged(n, &CancellationToken::new(), &mut |_| {})
 }
 
 fn assert_true_to_target(m: &AveragedMeasurement, model: Model) {

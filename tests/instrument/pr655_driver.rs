@@ -14,7 +14,7 @@ use lightbooth::instrument::sim::{
     spawn_mock, AfterFailure, Fault, FaultKind, MockConfig, MockHandle, Pr655Switches, StrayTerminator, SyncFailure,
 };
 use lightbooth::instrument::{
-    open_pr650, AveragedMeasurement, CancelToken, InstrumentError, Pr650Settings, QualityKind, Spectroradiometer,
+    open_pr650, AveragedMeasurement, CancellationToken, InstrumentError, Pr650Settings, QualityKind, Spectroradiometer,
 };
 use lightbooth::spectrum::SpectralUnit;
 
@@ -62,7 +62,7 @@ fn open(mock: &MockHandle, settings: &Pr655Settings) -> Result<Box<dyn Spectrora
 }
 
 fn measure(unit: &mut dyn Spectroradiometer, n: usize) -> Result<AveragedMeasurement, InstrumentError> {
-    unit.measure_averaged(n, &CancelToken::new(), &mut |_| {})
+    unit.measure_averaged(n, &CancellationToken::new(), &mut |_| {})
 }
 
 /// Every good sample agrees with the model's truth within its noise, on the
@@ -323,7 +323,7 @@ fn error_statuses_are_typed_never_averaged_and_the_series_goes_on() {
     let mut unit = open(&mock, &settings(Model::Pr670)).unwrap();
     let mut seen = Vec::new();
     let m = unit
-        .measure_averaged(2, &CancelToken::new(), &mut |s| seen.push(s.code.clone()))
+        .measure_averaged(2, &CancellationToken::new(), &mut |s| seen.push(s.code.clone()))
         .unwrap();
     assert_eq!(seen[0].code, -8);
     assert_eq!(seen[0].kind, QualityKind::LowLight);
@@ -552,7 +552,7 @@ fn an_unsyncable_source_under_auto_sync_is_a_typed_sync_failure_and_the_port_sta
         let mut unit = open(&mock, &synced).unwrap();
         let mut seen = Vec::new();
         let m = unit
-            .measure_averaged(2, &CancelToken::new(), &mut |s| seen.push(s.code.clone()))
+            .measure_averaged(2, &CancellationToken::new(), &mut |s| seen.push(s.code.clone()))
             .unwrap_or_else(|e| panic!("{failure:?}: {e}"));
         assert_eq!(seen[0].code, failure.status(), "{failure:?}");
         assert_eq!(seen[0].kind, QualityKind::Sync, "{failure:?}: {}", seen[0].message);

@@ -16,7 +16,7 @@
 //! means is decided here, the same for every model.
 
 use super::{
-    average_samples, AveragedMeasurement, CancelToken, InstrumentError, QualityCode, Sample, Spectroradiometer,
+    average_samples, AveragedMeasurement, CancellationToken, InstrumentError, QualityCode, Sample, Spectroradiometer,
 };
 
 /// Why one sample could not be taken (the last reason is reported if the series fails).
@@ -30,7 +30,7 @@ enum Failure {
 pub fn measure_averaged(
     instrument: &mut dyn Spectroradiometer,
     n: usize,
-    cancel: &CancelToken,
+    cancel: &CancellationToken,
     on_sample: &mut dyn FnMut(&Sample),
 ) -> Result<AveragedMeasurement, InstrumentError> {
     let n = n.max(1);
@@ -141,7 +141,7 @@ mod tests {
         fn identity(&self) -> &Identity {
             &self.identity
         }
-        fn take_sample(&mut self, index: usize, _cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+        fn take_sample(&mut self, index: usize, _cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
             let (code, radiance) = match self.steps.pop_front().expect("the loop asked for one sample too many") {
                 Step::Good(v) => (
                     QualityCode {
@@ -177,7 +177,7 @@ mod tests {
                 instrument_xyz: None,
             })
         }
-        fn after_bad_sample(&mut self, code: &QualityCode, _cancel: &CancelToken) -> Result<(), InstrumentError> {
+        fn after_bad_sample(&mut self, code: &QualityCode, _cancel: &CancellationToken) -> Result<(), InstrumentError> {
             self.reactions.push(code.code);
             Ok(())
         }
@@ -190,7 +190,10 @@ mod tests {
             vec![Step::Good(1.0), Step::Bad(-1003), Step::LinkFault, Step::Good(3.0)],
         );
         let mut seen = Vec::new();
-        let m = measure_averaged(&mut instrument, 2, &CancelToken::new(), &mut |s| seen.push(s.code.code)).unwrap();
+        let m = measure_averaged(&mut instrument, 2, &CancellationToken::new(), &mut |s| {
+            seen.push(s.code.code)
+        })
+        .unwrap();
         assert_eq!(
             seen,
             vec![0, -1003, 0],
@@ -215,7 +218,7 @@ mod tests {
     #[test]
     fn too_few_good_samples_fail_with_the_drivers_hint() {
         let mut instrument = Scripted::new(1, vec![Step::Good(1.0), Step::Bad(-1003), Step::Bad(-1003)]);
-        let e = measure_averaged(&mut instrument, 2, &CancelToken::new(), &mut |_| {}).unwrap_err();
+        let e = measure_averaged(&mut instrument, 2, &CancellationToken::new(), &mut |_| {}).unwrap_err();
         match e {
             InstrumentError::Quality {
                 code,
@@ -232,7 +235,7 @@ mod tests {
     #[test]
     fn more_samples_than_the_model_allows_is_refused_before_any_is_taken() {
         let mut instrument = Scripted::new(0, vec![]);
-        let e = measure_averaged(&mut instrument, 4, &CancelToken::new(), &mut |_| {}).unwrap_err();
+        let e = measure_averaged(&mut instrument, 4, &CancellationToken::new(), &mut |_| {}).unwrap_err();
         assert!(e.to_string().contains("at most 3"), "{e}");
     }
 }

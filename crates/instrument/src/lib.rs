@@ -63,8 +63,6 @@ pub mod reply;
 pub mod sim;
 pub mod status_word;
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::time::SystemTime;
 
 use serde::Serialize;
@@ -342,26 +340,11 @@ impl InstrumentError {
     }
 }
 
-/// A cheap-to-clone cancellation flag shared between the thread that runs a
-/// measurement and whoever may stop it. The `Arc<AtomicBool>` is the only
-/// shared state; `Relaxed` ordering is enough because the flag guards no
-/// other data, it is only polled between reads.
-#[derive(Clone, Debug, Default)]
-pub struct CancelToken(Arc<AtomicBool>);
-
-impl CancelToken {
-    pub fn new() -> CancelToken {
-        CancelToken::default()
-    }
-
-    pub fn cancel(&self) {
-        self.0.store(true, Ordering::Relaxed);
-    }
-
-    pub fn is_cancelled(&self) -> bool {
-        self.0.load(Ordering::Relaxed)
-    }
-}
+/// Stops a measurement: shared between the thread that runs it and whoever
+/// may stop it, polled between instrument commands and while a reply is
+/// read. The workspace's one cancellation primitive (tokio-util's; the
+/// daemon's measurement token is a child of its shutdown token).
+pub use tokio_util::sync::CancellationToken;
 
 /// What an instrument's good sample carries: a spectrum (and maybe its
 /// own XYZ), XYZ only (a colorimeter), or luminance only (a luminance
@@ -451,11 +434,11 @@ pub trait Spectroradiometer: Send {
     /// good. A link fault (no reply, a cut-off or garbled report) is an
     /// `Err` with [`InstrumentError::is_retryable_link_fault`]; the driver
     /// resynchronises before its next command.
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError>;
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError>;
 
     /// Called after a sample with a bad code, before the next attempt (the
     /// PR-650 turns flicker sync off after a sync failure).
-    fn after_bad_sample(&mut self, _code: &QualityCode, _cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn after_bad_sample(&mut self, _code: &QualityCode, _cancel: &CancellationToken) -> Result<(), InstrumentError> {
         Ok(())
     }
 
@@ -482,7 +465,7 @@ impl dyn Spectroradiometer + '_ {
     pub fn measure_averaged(
         &mut self,
         n: usize,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
         on_sample: &mut dyn FnMut(&Sample),
     ) -> Result<AveragedMeasurement, InstrumentError> {
         averaging::measure_averaged(self, n, cancel, on_sample)

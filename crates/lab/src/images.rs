@@ -16,7 +16,7 @@
 //!   limit, and leaves nothing behind.
 //! - At most [`IMAGE_QUEUE_CAPACITY`] images wait (more answer 409); one
 //!   worker renders them in turn on the global rayon pool, each under its
-//!   own [`CancelFlag`] (`POST /api/images/{id}/cancel`; shutdown cancels
+//!   own [`CancellationToken`] (`POST /api/images/{id}/cancel`; shutdown cancels
 //!   them) and inside `catch_unwind`, with an `image_progress` event after
 //!   every pass and `image_finished` at the end.
 //! - One image per (render, request): asking again for the same render
@@ -45,7 +45,7 @@ use super::jobs;
 use crate::error::LabError;
 use crate::events::Event;
 use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
-use lightbooth_render::integrator::{with_cancel, CancelFlag, Transport};
+use lightbooth_render::integrator::{with_cancel, CancellationToken, Transport};
 use lightbooth_render::scene::Camera;
 use lightbooth_render::{Coding, RenderError, Scene};
 use lightbooth_science::colorimetry::Observer;
@@ -145,7 +145,7 @@ pub struct ImageInfo {
 struct Entry {
     info: ImageInfo,
     image: Option<Arc<CameraImage>>,
-    cancel: CancelFlag,
+    cancel: CancellationToken,
     /// Finish order of complete images, for forgetting the oldest.
     finished_seq: u64,
 }
@@ -302,7 +302,7 @@ impl ImageJobs {
                     display_log_average_cd_m2: None,
                 },
                 image: None,
-                cancel: CancelFlag::default(),
+                cancel: CancellationToken::new(),
                 finished_seq: 0,
             },
         );

@@ -5,7 +5,7 @@
 //!   is written only once the slot is held, so a refused request leaves
 //!   nothing behind.
 //! - One worker runs the jobs one at a time, on the global rayon pool, each
-//!   under its own [`CancelFlag`] (checked by the renderer between batches
+//!   under its own [`CancellationToken`] (checked by the renderer between batches
 //!   of paths) and inside `catch_unwind`: a panic fails that job with the
 //!   panic's message instead of aborting the daemon.
 //! - `POST /api/{renders,studies}/{id}/cancel` ends a queued job at once and
@@ -21,13 +21,12 @@
 //! the instrument thread waiting behind its batches.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 use tokio::sync::mpsc;
 
 use crate::error::LabError;
-use lightbooth_render::integrator::CancelFlag;
+use lightbooth_render::integrator::CancellationToken;
 use lightbooth_store::{Job, JobEnd, Store};
 
 /// Renders and studies that may wait for the worker; more get 409.
@@ -74,26 +73,28 @@ pub struct Queued<W> {
     pub job: Job,
     pub id: i64,
     pub work: W,
-    pub cancel: CancelFlag,
+    pub cancel: CancellationToken,
 }
 
 /// The queue and the cancellation flags of every admitted, unfinished job.
 pub struct JobQueue<W> {
     sender: Mutex<Option<mpsc::Sender<Queued<W>>>>,
     receiver: Mutex<Option<mpsc::Receiver<Queued<W>>>>,
-    flags: Mutex<HashMap<(Job, i64), CancelFlag>>,
-    shutting_down: AtomicBool,
+    flags: Mutex<HashMap<(Job, i64), CancellationToken>>,
+    /// The daemon's shutdown: every job's token is a child of it.
+    shutdown: CancellationToken,
     store: Store,
 }
 
 impl<W: Send + 'static> JobQueue<W> {
-    pub fn new(store: Store) -> JobQueue<W> {
+    /// A queue whose jobs stop when `shutdown` is cancelled.
+    pub fn new(store: Store, shutdown: CancellationToken) -> JobQueue<W> {
         let (tx, rx) = mpsc::channel(JOB_QUEUE_CAPACITY);
         JobQueue {
             sender: Mutex::new(Some(tx)),
             receiver: Mutex::new(Some(rx)),
             flags: Mutex::default(),
-            shutting_down: AtomicBool::new(false),
+            shutdown,
             store,
         }
     }
@@ -124,10 +125,8 @@ impl<W: Send + 'static> JobQueue<W> {
             mpsc::error::TrySendError::Closed(()) => LabError::Unavailable("the daemon is shutting down".into()),
         })?;
         let id = create.await?;
-        let cancel = CancelFlag::default();
-        if self.shutting_down.load(Ordering::SeqCst) {
-            cancel.cancel();
-        }
+        // Cancelled with the daemon's shutdown, or alone by a client.
+        let cancel = self.shutdown.child_token();
         self.flags
             .lock()
             .unwrap_or_else(|p| p.into_inner())
@@ -193,17 +192,15 @@ impl<W: Send + 'static> JobQueue<W> {
     }
 
     pub fn is_shutting_down(&self) -> bool {
-        self.shutting_down.load(Ordering::SeqCst)
+        self.shutdown.is_cancelled()
     }
 
     /// Refuses new jobs and cancels every admitted one; the worker then
     /// marks them `interrupted` and stops once the queue is empty.
     pub fn shutdown(&self) {
-        self.shutting_down.store(true, Ordering::SeqCst);
         self.sender.lock().unwrap_or_else(|p| p.into_inner()).take();
-        for f in self.flags.lock().unwrap_or_else(|p| p.into_inner()).values() {
-            f.cancel();
-        }
+        // Cancels every admitted job's token, its children.
+        self.shutdown.cancel();
     }
 
     /// How a job that did not complete ends, and why ([`job_end`], with

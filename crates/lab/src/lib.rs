@@ -12,9 +12,14 @@
 //!   EXR and ENVI files;
 //! - [`events`]: every [`Event`](events::Event) on one bus, for `/api/events`
 //!   and the dashboards;
-//! - [`measurement`]: the one recorder of a measurement (create, store each
-//!   raw sample before the next is taken, average), used by the daemon's
-//!   instrument task and by `lightbooth study --measure-simulated`;
+//! - [`booth_instrument`]: **where a measurement is asked for**
+//!   ([`BoothInstrument::request`](booth_instrument::BoothInstrument::request):
+//!   checked, recorded, queued), cancelled, and where the calibration
+//!   takes its hold; the HTTP layer's one way to the instrument;
+//! - [`measurement`]: **where a measurement is taken**
+//!   ([`Recorder::take`](measurement::Recorder::take): each raw sample
+//!   stored before the next, the average, the end classified), used by the
+//!   daemon's instrument task and by `lightbooth study --measure-simulated`;
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
 //! - [`scene_overview`]: every scene at a glance (targets measured, its
@@ -50,6 +55,7 @@
 //! renderer, the instruments and the science below them; nothing here names
 //! axum or the HTTP layer.
 
+pub mod booth_instrument;
 pub mod calibration;
 pub mod charts;
 pub mod comparisons;

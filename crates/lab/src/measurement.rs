@@ -1,9 +1,13 @@
-//! Records one measurement in the store while the instrument takes it: the
-//! one path of the daemon's instrument task and of `lightbooth study
-//! --measure-simulated`. It marks the measurement running, writes each raw
+//! Takes and records one measurement: the one workflow of the daemon's
+//! instrument task and of `lightbooth study --measure-simulated`.
+//! [`Recorder::start`] marks the queued measurement running;
+//! [`Recorder::take`] has the instrument take its samples, writes each raw
 //! sample *before* the next is taken (the driver's thread blocks on the
-//! write, so a crash keeps every sample taken), completes it with its
-//! average, or ends it with the true reason.
+//! write, so a crash keeps every sample taken), and completes it with its
+//! average or ends it with the true reason — cancelled, interrupted (a link
+//! fault: the port may need reopening) or failed ([`classify`]) — returning
+//! the [`Outcome`]: a complete one carries what the comparisons take
+//! ([`Comparable`]).
 //!
 //! Ending a measurement must not be lost to a database that is briefly
 //! away: the end (`complete`, `failed`, …) is written again with backoff
@@ -21,7 +25,9 @@ use std::time::Duration;
 
 use tokio::runtime::Handle;
 
-use lightbooth_instrument::{AveragedMeasurement, Reading, Sample};
+use lightbooth_instrument::{
+    AveragedMeasurement, CancellationToken, InstrumentError, Reading, Sample, Spectroradiometer,
+};
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use lightbooth_store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
 
@@ -126,12 +132,168 @@ impl Recorder {
         end_measurement(&self.store, &self.runtime, self.id, state, message, give_up)
     }
 
+    /// Takes the measurement: `samples` samples from `instrument`, each
+    /// written before the next is taken and then handed to `on_sample` (the
+    /// daemon publishes it); then completes it with its average in
+    /// `observer`, or ends it with the reason (see the module doc). The
+    /// first sample that cannot be written stops it, `failed`. `cancel`
+    /// stops it between instrument commands; `shutting_down` tells an
+    /// operator's cancel from a daemon shutting down (`interrupted`) and
+    /// stops retrying a database that is away.
+    pub fn take(
+        mut self,
+        instrument: &mut dyn Spectroradiometer,
+        samples: usize,
+        observer: Observer,
+        cancel: &CancellationToken,
+        shutting_down: &dyn Fn() -> bool,
+        on_sample: &mut dyn FnMut(&Sample, &NewSample),
+    ) -> Outcome {
+        let reading = instrument.capabilities().reading;
+        let stop = cancel.clone();
+        let result = instrument.measure_averaged(samples, cancel, &mut |s| match self.store_sample(s, reading) {
+            Ok(row) => {
+                tracing::info!(
+                    index = s.index,
+                    code = s.code.code,
+                    usable = row.usable,
+                    "sample stored"
+                );
+                on_sample(s, &row);
+            }
+            Err(why) => {
+                tracing::error!(error = %why, index = s.index, "cannot store a sample; stopping the measurement");
+                stop.cancel();
+            }
+        });
+        if let Some(why) = self.write_failed.clone() {
+            // Not every sample is on disk: never `complete`, whatever the instrument said.
+            let message = format!("{why}; a measurement without all its samples on disk is not complete");
+            return self.ended(MeasurementState::Failed, message, None, shutting_down);
+        }
+        match result {
+            Ok(average) => match self.complete(&average, observer, shutting_down) {
+                Ok(()) => {
+                    tracing::info!(
+                        luminance_cd_m2 = average.luminance_cd_m2,
+                        x = average.x,
+                        y = average.y,
+                        "measurement complete"
+                    );
+                    let comparable = comparable(&average, observer);
+                    Outcome::Complete {
+                        average: Box::new(average),
+                        comparable,
+                    }
+                }
+                Err(why) => self.ended(MeasurementState::Failed, why, None, shutting_down),
+            },
+            Err(e) => {
+                let shutting = shutting_down();
+                let (state, lost) = classify(&e, shutting);
+                let message = if shutting {
+                    format!("the daemon shut down during the measurement ({e})")
+                } else if state == MeasurementState::Cancelled {
+                    cancelled_message(self.taken, self.usable, samples)
+                } else {
+                    e.to_string()
+                };
+                self.ended(state, message, lost.then(|| e.to_string()), shutting_down)
+            }
+        }
+    }
+
+    /// Ends the measurement `failed` with `message` before the instrument
+    /// took a sample (a simulated instrument that could not be aimed).
+    pub fn fail(self, message: String, shutting_down: &dyn Fn() -> bool) -> Outcome {
+        self.ended(MeasurementState::Failed, message, None, shutting_down)
+    }
+
+    fn ended(
+        self,
+        state: MeasurementState,
+        message: String,
+        port_lost: Option<String>,
+        shutting_down: &dyn Fn() -> bool,
+    ) -> Outcome {
+        tracing::warn!(error = %message, state = state.as_str(), "measurement did not complete");
+        // A failure to write the end is logged by the retry; recovery ends it later.
+        let _ = self.end(state, &message, shutting_down);
+        Outcome::Ended {
+            state,
+            message,
+            port_lost,
+        }
+    }
+
     fn retry<F, Fut>(&self, what: &str, give_up: &dyn Fn() -> bool, write: F) -> Result<(), StoreError>
     where
         F: Fn() -> Fut,
         Fut: std::future::Future<Output = Result<(), StoreError>>,
     {
         retry_while_unavailable(&self.runtime, self.id, what, give_up, write)
+    }
+}
+
+/// How a measurement taken by [`Recorder::take`] ended; its row already says so.
+#[derive(Debug)]
+pub enum Outcome {
+    /// Every sample is on disk and the average is stored. `comparable` is
+    /// what the comparisons take, or why the measurement cannot be compared.
+    Complete {
+        average: Box<AveragedMeasurement>,
+        comparable: Result<Comparable, String>,
+    },
+    /// It ended `state` (failed, cancelled, interrupted) saying `message`.
+    /// `port_lost` is the link fault that ended it when the port must be
+    /// reopened before the next measurement.
+    Ended {
+        state: MeasurementState,
+        message: String,
+        port_lost: Option<String>,
+    },
+}
+
+/// What a measurement cancelled by the operator says: how many samples it kept.
+pub fn cancelled_message(taken: usize, usable: usize, requested: usize) -> String {
+    if taken == 0 {
+        return format!("cancelled by the operator before the first of {requested} samples; no sample taken");
+    }
+    let (plural, kept) = if taken == 1 {
+        ("", "kept it".to_string())
+    } else {
+        ("s", format!("kept all {taken}"))
+    };
+    let averaged = match usable {
+        0 => "none usable, so no average".to_string(),
+        n => format!("{n} usable, averaged as a partial result"),
+    };
+    format!("cancelled by the operator after {taken} sample{plural} of the {requested} requested; {kept} ({averaged})")
+}
+
+/// The state a measurement the instrument could not finish ends in, and
+/// whether the port is lost. Link faults interrupt a measurement (its
+/// samples stay, it can be repeated); an instrument that cannot give enough
+/// good samples fails it. A cancel while `shutting_down` is an interruption.
+pub fn classify(e: &InstrumentError, shutting_down: bool) -> (MeasurementState, bool) {
+    match e {
+        InstrumentError::Cancelled if shutting_down => (MeasurementState::Interrupted, false),
+        InstrumentError::Cancelled => (MeasurementState::Cancelled, false),
+        InstrumentError::PortClosed { .. } | InstrumentError::Io { .. } | InstrumentError::Open { .. } => {
+            (MeasurementState::Interrupted, true)
+        }
+        InstrumentError::NotInRemoteMode { .. }
+        | InstrumentError::NoBanner { .. }
+        | InstrumentError::Silent { .. }
+        | InstrumentError::Unresponsive { .. } => (MeasurementState::Interrupted, true),
+        InstrumentError::NoReply { .. }
+        | InstrumentError::Timeout { .. }
+        | InstrumentError::Truncated { .. }
+        | InstrumentError::Protocol { .. } => (MeasurementState::Interrupted, false),
+        InstrumentError::Quality { .. }
+        | InstrumentError::Setup { .. }
+        | InstrumentError::Refused { .. }
+        | InstrumentError::Settings(_) => (MeasurementState::Failed, false),
     }
 }
 
@@ -405,5 +567,155 @@ pub fn display_patch_light(
             "measurement {} (the {model}'s) has neither a mean spectrum, XYZ nor a luminance with its observer",
             s.id
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! [`Recorder::take`] with the simulated PR-650 on a pty, through the
+    //! real driver: the ends of a measurement (its last sample, an
+    //! operator's cancel, a pulled cable) as the store records them.
+    use super::*;
+    use crate::testing::store_in;
+    use lightbooth_instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
+    use lightbooth_instrument::{open_pr650, Pr650Settings};
+    use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
+    use lightbooth_store::{Booth, NewMeasurement};
+
+    /// A queued measurement of `samples` samples, and the simulated PR-650
+    /// (instant, seeded, with `faults`) looking at a flat spectrum.
+    async fn queued(store: &Store, samples: usize, faults: &str) -> (i64, MockHandle) {
+        let id = store
+            .create_measurement(&NewMeasurement {
+                booth: Booth::default(),
+                session_id: None,
+                scene: None,
+                target: None,
+                samples,
+                settings_json: serde_json::json!({}),
+                note: String::new(),
+            })
+            .await
+            .unwrap();
+        let flat = Spectrum::constant(Grid::one_nm(), SpectralUnit::SpectralRadiance, 0.01).unwrap();
+        let mut config = MockConfig::new(flat);
+        config.speed = 0.0;
+        config.seed = 7;
+        config.faults = faults
+            .split(',')
+            .filter(|f| !f.is_empty())
+            .map(|f| f.parse::<Fault>().unwrap())
+            .collect();
+        (id, spawn_mock(config).unwrap())
+    }
+
+    /// Takes measurement `id` (`samples` samples) with the simulator,
+    /// calling `on_sample` with the store's sample count at each sample.
+    fn take(
+        store: &Store,
+        id: i64,
+        mock: &MockHandle,
+        samples: usize,
+        cancel: &CancellationToken,
+        on_sample: &mut dyn FnMut(&Sample, usize),
+    ) -> Outcome {
+        let port = mock.device_path().display().to_string();
+        let mut instrument = open_pr650(&port, &Pr650Settings::default()).unwrap();
+        tokio::task::block_in_place(|| {
+            let runtime = Handle::current();
+            let recorder = Recorder::start(store, &runtime, id, None, &|| false).unwrap();
+            recorder.take(
+                instrument.as_mut(),
+                samples,
+                Observer::Cie1931,
+                cancel,
+                &|| false,
+                &mut |s, _| {
+                    let stored = runtime
+                        .block_on(store.get_measurement(id))
+                        .unwrap()
+                        .unwrap()
+                        .samples
+                        .len();
+                    on_sample(s, stored)
+                },
+            )
+        })
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn every_sample_is_stored_before_the_next_and_the_last_before_complete() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (id, mock) = queued(&store, 3, "").await;
+        let mut seen = Vec::new();
+        let outcome = take(&store, id, &mock, 3, &CancellationToken::new(), &mut |s, stored| {
+            seen.push((s.index, stored))
+        });
+        assert_eq!(
+            seen,
+            [(0, 1), (1, 2), (2, 3)],
+            "(sample, rows stored when it is handed on)"
+        );
+        let Outcome::Complete {
+            comparable: Ok(Comparable::Colour { xyz, y_se }),
+            ..
+        } = outcome
+        else {
+            panic!("not complete with a colour: {outcome:?}")
+        };
+        let m = store.get_measurement(id).await.unwrap().unwrap();
+        assert_eq!(m.summary.state, MeasurementState::Complete);
+        assert_eq!(m.samples.len(), 3);
+        // What the comparisons take is the stored average's colour.
+        assert!((xyz.y - m.summary.luminance_cd_m2.unwrap()).abs() < 1e-9 * xyz.y);
+        assert!(y_se > 0.0 && y_se < 0.05 * xyz.y, "y_se {y_se} of Y {}", xyz.y);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_cancel_after_the_second_of_three_samples_keeps_both_and_says_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (id, mock) = queued(&store, 3, "").await;
+        let cancel = CancellationToken::new();
+        let operator = cancel.clone();
+        let outcome = take(&store, id, &mock, 3, &cancel, &mut |s, _| {
+            if s.index == 1 {
+                operator.cancel();
+            }
+        });
+        let Outcome::Ended {
+            state,
+            message,
+            port_lost,
+        } = outcome
+        else {
+            panic!("a cancelled measurement completed")
+        };
+        assert_eq!((state, port_lost), (MeasurementState::Cancelled, None));
+        assert_eq!(
+            message,
+            "cancelled by the operator after 2 samples of the 3 requested; kept all 2 (2 usable, averaged as a \
+             partial result)"
+        );
+        let m = store.get_measurement(id).await.unwrap().unwrap();
+        assert_eq!(m.summary.state, MeasurementState::Cancelled);
+        assert_eq!(m.samples.len(), 2);
+        assert_eq!(m.summary.error.as_deref(), Some(message.as_str()));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_pulled_cable_interrupts_the_measurement_and_asks_for_the_port_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let (id, mock) = queued(&store, 3, "cable-pull").await;
+        let outcome = take(&store, id, &mock, 3, &CancellationToken::new(), &mut |_, _| {});
+        let Outcome::Ended { state, port_lost, .. } = outcome else {
+            panic!("a measurement whose cable was pulled completed")
+        };
+        assert_eq!(state, MeasurementState::Interrupted);
+        assert!(port_lost.is_some(), "the port must be reopened");
+        let m = store.get_measurement(id).await.unwrap().unwrap();
+        assert_eq!(m.summary.state, MeasurementState::Interrupted);
     }
 }

@@ -69,7 +69,7 @@ impl RenderJobs {
         workers: Option<Arc<WorkerQueue>>,
     ) -> RenderJobs {
         RenderJobs {
-            jobs: JobQueue::new(store.clone()),
+            jobs: JobQueue::new(store.clone(), runner.shutdown_flag()),
             store,
             runner,
             studies,
@@ -340,7 +340,7 @@ mod tests {
     use super::*;
     use crate::events::EventSink;
     use crate::testing::{runner, shipped_scenes, store_in};
-    use lightbooth_render::integrator::CancelFlag;
+    use lightbooth_render::integrator::CancellationToken;
     use lightbooth_render::Coding;
     use lightbooth_science::colorimetry::Observer;
 
@@ -356,7 +356,7 @@ mod tests {
             vec![Coding::Rgb],
             Observer::JuddVos,
             None,
-            CancelFlag::default(),
+            CancellationToken::new(),
         ));
         let comparisons = Arc::new(Comparisons::new(
             store.clone(),

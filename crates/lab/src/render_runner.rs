@@ -42,7 +42,7 @@ use super::scenes::SceneCatalog;
 use crate::error::LabError;
 use crate::requests::RenderRequest;
 use crate::study::run::COST_DEFINITION;
-use lightbooth_render::integrator::{with_cancel, CancelFlag};
+use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::{self as render, Coding, RenderError, RenderSettings, Scene};
 use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{Job, JobEnd, NewRender, Store};
@@ -62,7 +62,7 @@ pub struct RenderRunner {
     observer: Observer,
     /// Set at shutdown: stops the renders comparisons run under it, and
     /// makes a stopped render `interrupted` rather than `cancelled`.
-    shutdown: CancelFlag,
+    shutdown: CancellationToken,
 }
 
 impl RenderRunner {
@@ -75,7 +75,7 @@ impl RenderRunner {
         codings: Vec<Coding>,
         samples: u64,
         observer: Observer,
-        shutdown: CancelFlag,
+        shutdown: CancellationToken,
     ) -> RenderRunner {
         RenderRunner {
             store,
@@ -108,7 +108,7 @@ impl RenderRunner {
     }
 
     /// The daemon's shutdown flag (set by [`RenderRunner::shutdown`]).
-    pub fn shutdown_flag(&self) -> CancelFlag {
+    pub fn shutdown_flag(&self) -> CancellationToken {
         self.shutdown.clone()
     }
 
@@ -275,7 +275,7 @@ impl RenderRunner {
         id: i64,
         scene_id: &str,
         settings: RenderSettings,
-        cancel: CancelFlag,
+        cancel: CancellationToken,
     ) -> anyhow::Result<()> {
         let scene = Arc::clone(
             &self
@@ -363,7 +363,7 @@ impl RenderRunner {
     /// Runs the queued render row `id` (another daemon's, for a render
     /// worker) under `cancel`. Its scene must be the content the row was
     /// recorded for (same render key), else the row fails saying so.
-    pub async fn run_row(&self, id: i64, cancel: CancelFlag) -> anyhow::Result<()> {
+    pub async fn run_row(&self, id: i64, cancel: CancellationToken) -> anyhow::Result<()> {
         let row = self
             .store
             .get_render(id)
@@ -617,7 +617,7 @@ mod tests {
         assert_eq!(row.state, "queued");
         assert_eq!(row.scene_hash, runner.catalogue().get("white").unwrap().hash);
         runner
-            .execute(id, "white", settings, CancelFlag::default())
+            .execute(id, "white", settings, CancellationToken::new())
             .await
             .unwrap();
         let row = store.get_render(id).await.unwrap().unwrap();
@@ -644,7 +644,7 @@ mod tests {
         let store = store_in(dir.path()).await;
         let (runner, _) = runner(&store);
         let settings = runner.comparison_settings();
-        let stopped = CancelFlag::default();
+        let stopped = CancellationToken::new();
         stopped.cancel();
         let by_client = runner.record("white", &settings).await.unwrap();
         runner
@@ -683,7 +683,11 @@ mod tests {
             })
             .await
             .unwrap();
-        let err = runner.run_row(id, CancelFlag::default()).await.unwrap_err().to_string();
+        let err = runner
+            .run_row(id, CancellationToken::new())
+            .await
+            .unwrap_err()
+            .to_string();
         let ours = &runner.catalogue().get("white").unwrap().hash;
         assert!(err.contains("0123456789abcdef") && err.contains(ours.as_str()), "{err}");
         let row = store.get_render(id).await.unwrap().unwrap();

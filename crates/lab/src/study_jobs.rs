@@ -21,7 +21,7 @@ use crate::error::LabError;
 use crate::requests::StudyRequest;
 use crate::study::report::report_files;
 use crate::study::run::{progress_steps, run_study, Against, StudyOptions};
-use lightbooth_render::integrator::{with_cancel, CancelFlag};
+use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Job, JobEnd, Store};
@@ -38,7 +38,7 @@ pub struct StudyRunner {
     /// of the model (`serve --mock-world`).
     truth_scene: Option<PathBuf>,
     /// The daemon's shutdown flag: a study it stops ends `interrupted`.
-    shutdown: CancelFlag,
+    shutdown: CancellationToken,
     runtime: Handle,
 }
 
@@ -53,7 +53,7 @@ impl StudyRunner {
         codings: Vec<Coding>,
         observer: Observer,
         truth_scene: Option<PathBuf>,
-        shutdown: CancelFlag,
+        shutdown: CancellationToken,
     ) -> StudyRunner {
         StudyRunner {
             store,
@@ -146,7 +146,7 @@ impl StudyRunner {
         paths: Vec<PathBuf>,
         options: StudyOptions,
         measured_first: Vec<i64>,
-        cancel: CancelFlag,
+        cancel: CancellationToken,
     ) -> anyhow::Result<()> {
         if !self.store.start_job(Job::Study, id).await? {
             tracing::info!(study_id = id, "study no longer queued (cancelled); not run");
@@ -246,7 +246,7 @@ impl StudyRunner {
     /// Runs the queued study row `id` (another daemon's, for a render
     /// worker) under `cancel`, from its stored request and the
     /// measurements its daemon queued for it first.
-    pub async fn run_row(self: &Arc<Self>, id: i64, cancel: CancelFlag) -> anyhow::Result<()> {
+    pub async fn run_row(self: &Arc<Self>, id: i64, cancel: CancellationToken) -> anyhow::Result<()> {
         let row = self
             .store
             .get_study(id)
@@ -294,7 +294,7 @@ mod tests {
             vec![Coding::Rgb, Coding::Spectral],
             Observer::JuddVos,
             None,
-            CancelFlag::default(),
+            CancellationToken::new(),
         );
         let with = |f: fn(&mut StudyRequest)| {
             let mut r = StudyRequest::default();

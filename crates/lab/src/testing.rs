@@ -8,7 +8,7 @@ use std::sync::Arc;
 use super::events::{Event, EventSink};
 use super::render_runner::RenderRunner;
 use super::scenes::SceneCatalog;
-use lightbooth_render::integrator::CancelFlag;
+use lightbooth_render::integrator::CancellationToken;
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Average, Booth, NewMeasurement, Store};
@@ -113,7 +113,7 @@ pub fn runner(store: &Store) -> (Arc<RenderRunner>, tokio::sync::broadcast::Rece
         vec![Coding::Rgb, Coding::Spectral],
         TEST_SAMPLES,
         Observer::JuddVos,
-        CancelFlag::default(),
+        CancellationToken::new(),
     )
     // The camera preview at its least, 16 paths per pixel: never a number.
     .with_preview_paths(1);

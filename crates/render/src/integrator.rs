@@ -58,11 +58,10 @@
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
 //!
 //! A render can be stopped between batches of paths: [`with_cancel`] gives
-//! every render started on the calling thread a [`CancelFlag`] (the daemon's
+//! every render started on the calling thread a [`CancellationToken`] (the daemon's
 //! jobs do; the command line's renders have none and always finish).
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -78,30 +77,21 @@ use super::sampling::{cone_direction, PathSampler, SamplerKind, REPLICATES};
 use super::scene::Scene;
 
 /// Asks the renders of one job to stop: checked before each batch of
-/// [`BATCH_SAMPLES`](super::sampling::BATCH_SAMPLES) paths, so a cancelled render stops within one batch per
-/// worker thread.
-#[derive(Clone, Debug, Default)]
-pub struct CancelFlag(Arc<AtomicBool>);
-
-impl CancelFlag {
-    pub fn cancel(&self) {
-        self.0.store(true, Ordering::SeqCst);
-    }
-
-    pub fn is_cancelled(&self) -> bool {
-        self.0.load(Ordering::Relaxed)
-    }
-}
+/// [`BATCH_SAMPLES`](super::sampling::BATCH_SAMPLES) paths, so a cancelled
+/// render stops within one batch per worker thread. The workspace's one
+/// cancellation primitive (tokio-util's; a job's token is a child of the
+/// daemon's shutdown token, so shutdown stops every render).
+pub use tokio_util::sync::CancellationToken;
 
 thread_local! {
-    static CANCEL: RefCell<Option<CancelFlag>> = const { RefCell::new(None) };
+    static CANCEL: RefCell<Option<CancellationToken>> = const { RefCell::new(None) };
 }
 
 /// Runs `f` with `flag` as the cancellation of every render `f` starts on
 /// this thread (a thread-local, so the study's many renders need no extra
 /// argument each); the previous flag is restored afterwards, even on panic.
-pub fn with_cancel<R>(flag: &CancelFlag, f: impl FnOnce() -> R) -> R {
-    struct Restore(Option<CancelFlag>);
+pub fn with_cancel<R>(flag: &CancellationToken, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<CancellationToken>);
     impl Drop for Restore {
         fn drop(&mut self) {
             let previous = self.0.take();
@@ -113,7 +103,7 @@ pub fn with_cancel<R>(flag: &CancelFlag, f: impl FnOnce() -> R) -> R {
 }
 
 /// The cancellation flag of renders started on this thread, if any.
-pub fn current_cancel() -> Option<CancelFlag> {
+pub fn current_cancel() -> Option<CancellationToken> {
     CANCEL.with(|c| c.borrow().clone())
 }
 

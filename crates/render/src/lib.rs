@@ -97,7 +97,7 @@ pub enum RenderError {
     Settings(String),
     #[error("{0}")]
     Io(String),
-    /// Its job's [`CancelFlag`](integrator::CancelFlag) was set.
+    /// Its job's [`CancellationToken`](integrator::CancellationToken) was set.
     #[error("the render was cancelled")]
     Cancelled,
 }
@@ -331,7 +331,7 @@ fn render_in_pool(
     scene: &Scene,
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
-    cancel: Option<&integrator::CancelFlag>,
+    cancel: Option<&integrator::CancellationToken>,
 ) -> Result<RenderResult, RenderError> {
     let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
     if cancelled() {

@@ -63,9 +63,9 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
             DATABASE_ANSWER.as_secs()
         )),
     };
-    let instrument = state.status.borrow().clone();
+    let instrument = state.instrument.status();
     // The task holds the receiving end of the queue for as long as it runs.
-    let task_stopped = state.jobs.is_closed();
+    let task_stopped = state.instrument.task_stopped();
     let (code, status, task) = if task_stopped || database_error.is_some() {
         let task = if task_stopped { "stopped" } else { "running" };
         (StatusCode::SERVICE_UNAVAILABLE, "down", task)
@@ -83,10 +83,10 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
             database_error,
             version: env!("CARGO_PKG_VERSION").into(),
             observer: state.config.observer.name().into(),
-            default_samples: state.config.instrument.default_samples,
+            default_samples: state.instrument.capabilities().default_samples,
             instrument,
             instrument_task: task.into(),
-            queued_measurements: state.jobs.max_capacity() - state.jobs.capacity(),
+            queued_measurements: state.instrument.queued(),
         }),
     ))
 }
@@ -103,7 +103,7 @@ pub struct Instruments {
 
 #[utoipa::path(get, path = "/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
 pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instruments>, ApiError> {
-    let status = state.status.borrow().clone();
+    let status = state.instrument.status();
     Ok(Json(Instruments {
         booth: state.config.booth.to_string(),
         status,
@@ -173,7 +173,7 @@ pub async fn scan_instruments(State(state): State<AppState>) -> Result<Json<Inst
             SCANNING.store(false, Ordering::Release);
         }
     }
-    let own_port = match &*state.status.borrow() {
+    let own_port = match &state.instrument.status() {
         InstrumentStatus::Idle { port, .. } => Some(port.clone()),
         _ => None,
     };

@@ -12,7 +12,7 @@ use utoipa::ToSchema;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::instrument_queue::{HoldInfo, InstrumentStatus};
+use crate::lab::instrument_queue::HoldInfo;
 
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
@@ -39,29 +39,7 @@ pub async fn take_instrument_hold(
     State(state): State<AppState>,
     Input(body): Input<TakeHold>,
 ) -> Result<(StatusCode, Json<HoldInfo>), ApiError> {
-    let mut busy = Vec::new();
-    if let InstrumentStatus::Measuring { measurement_id, .. } = &*state.status.borrow() {
-        busy.push(format!("measurement {measurement_id} under way"));
-    }
-    let reserved = state.jobs.max_capacity() - state.jobs.capacity();
-    if reserved > 0 {
-        busy.push(if reserved == 1 {
-            "1 measurement being queued".to_string()
-        } else {
-            format!("{reserved} measurements being queued")
-        });
-    }
-    let unfinished = state
-        .store
-        .unfinished_measurements_in_booth(&state.config.booth)
-        .await?;
-    if !unfinished.is_empty() {
-        let ids: Vec<String> = unfinished.iter().map(i64::to_string).collect();
-        busy.push(format!("measurements {} queued or running", ids.join(", ")));
-    }
-    let busy = (!busy.is_empty()).then(|| busy.join("; "));
-    let hold = state.hold.take(&body.purpose, busy, crate::store::now())?;
-    tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument held");
+    let hold = state.instrument.take_hold(&body.purpose).await?;
     Ok((StatusCode::CREATED, Json(hold)))
 }
 
@@ -69,7 +47,7 @@ pub async fn take_instrument_hold(
 #[utoipa::path(get, path = "/instrument/hold", tag = "instruments",
     responses((status = 200, body = Option<HoldInfo>)))]
 pub async fn get_instrument_hold(State(state): State<AppState>) -> Json<Option<HoldInfo>> {
-    Json(state.hold.current())
+    Json(state.instrument.hold().current())
 }
 
 /// Ends a hold: by its calibration at its end, or by the operator when the
@@ -81,7 +59,7 @@ pub async fn release_instrument_hold(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<HoldInfo>, ApiError> {
-    let hold = state.hold.release(id)?;
+    let hold = state.instrument.hold().release(id)?;
     tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument hold released");
     Ok(Json(hold))
 }

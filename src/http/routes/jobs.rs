@@ -15,7 +15,7 @@ use crate::lab::queue::{queue, Queue, QueueSources};
 /// was made).
 #[utoipa::path(get, path = "/jobs", tag = "service", responses((status = 200, body = Queue)))]
 pub async fn list_jobs(State(state): State<AppState>) -> Result<Json<Queue>, ApiError> {
-    let status = state.status.borrow().clone();
+    let status = state.instrument.status();
     let renders = state.renders.as_deref();
     Ok(Json(
         queue(&QueueSources {

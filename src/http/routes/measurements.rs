@@ -13,12 +13,10 @@ use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
 use crate::http::input::{check_paging, Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::events::Event;
-use crate::lab::instrument_queue::InstrumentStatus;
-use crate::lab::instrument_queue::MeasurementJob;
+use crate::lab::booth_instrument::{Cancelled, MeasurementRequest};
 use crate::store::{
     ComparisonRow, LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState,
-    MeasurementSummary, NewMeasurement,
+    MeasurementSummary,
 };
 
 #[derive(Deserialize, ToSchema, Default)]
@@ -58,55 +56,16 @@ pub async fn start_measurement(
     State(state): State<AppState>,
     Input(body): Input<StartMeasurement>,
 ) -> Result<(StatusCode, Json<Accepted>), ApiError> {
-    let capabilities = &state.config.instrument;
-    let samples = body.samples.unwrap_or(capabilities.default_samples);
-    if !(1..=capabilities.max_samples).contains(&samples) {
-        return Err(ApiError::BadRequest(format!(
-            "field `samples`: {samples} is outside 1–{}, what the {} averages per measurement",
-            capabilities.max_samples, capabilities.model
-        )));
-    }
-    match (&body.scene, &body.target) {
-        (Some(scene), target) => check_scene_target(&state, scene, target.as_deref())?,
-        (None, Some(_)) => {
-            return Err(ApiError::BadRequest(
-                "field `target`: a target needs its `scene`".into(),
-            ))
-        }
-        (None, None) => {}
-    }
-    match &*state.status.borrow() {
-        InstrumentStatus::Disconnected { reason } => {
-            return Err(ApiError::Unavailable(format!(
-                "the instrument is unavailable: {reason}"
-            )))
-        }
-        InstrumentStatus::Error { message } => {
-            return Err(ApiError::Unavailable(format!("the instrument is in error: {message}")))
-        }
-        _ => {}
-    }
-    if let Some(session) = body.session_id {
-        if !state.store.list_sessions().await?.iter().any(|s| s.id == session) {
-            return Err(ApiError::BadRequest(format!(
-                "field `session_id`: no session {session}; create one with POST /api/sessions"
-            )));
-        }
-    }
-    let id = enqueue_measurement(
-        &state,
-        body.hold,
-        NewMeasurement {
-            booth: state.config.booth.clone(),
-            session_id: body.session_id,
-            scene: body.scene,
-            target: body.target,
-            samples,
-            settings_json: serde_json::json!({ "samples": samples }),
-            note: body.note.unwrap_or_default(),
-        },
-    )
-    .await?;
+    let scenes = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
+    let request = MeasurementRequest {
+        scene: body.scene,
+        target: body.target,
+        samples: body.samples,
+        session_id: body.session_id,
+        note: body.note.unwrap_or_default(),
+        hold: body.hold,
+    };
+    let id = state.instrument.request(request, &scenes).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(Accepted {
@@ -115,28 +74,6 @@ pub async fn start_measurement(
             url: format!("/api/measurements/{id}"),
         }),
     ))
-}
-
-pub(super) fn check_scene_target(state: &AppState, scene: &str, target: Option<&str>) -> Result<(), ApiError> {
-    let scenes = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
-    let Some(info) = scenes.iter().find(|s| s.id == scene) else {
-        let names: Vec<&str> = scenes.iter().map(|s| s.id.as_str()).collect();
-        return Err(ApiError::BadRequest(format!(
-            "field `scene`: no scene `{scene}`; available: {}",
-            names.join(", ")
-        )));
-    };
-    match target {
-        None => Err(ApiError::BadRequest(format!(
-            "field `target`: measuring scene `{scene}` needs a target; available: {}",
-            info.targets.join(", ")
-        ))),
-        Some(t) if !info.targets.iter().any(|x| x == t) => Err(ApiError::BadRequest(format!(
-            "field `target`: scene `{scene}` has no target `{t}`; available: {}",
-            info.targets.join(", ")
-        ))),
-        Some(_) => Ok(()),
-    }
 }
 
 #[utoipa::path(get, path = "/measurements", tag = "measurements", params(MeasurementFilter),
@@ -148,10 +85,6 @@ pub async fn list_measurements(
     check_paging(filter.limit, filter.offset)?;
     Ok(Json(state.store.list_measurements(&filter).await?))
 }
-
-/// How long a cancel request waits for a running measurement to stop before
-/// answering 202 (it stops within one poll slice of the instrument's reply).
-const CANCEL_WAIT: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// Cancels a queued or running measurement. A queued one never starts; a
 /// running one stops at once (between instrument commands, or while a reply
@@ -171,102 +104,10 @@ pub async fn cancel_measurement(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<MeasurementSummary>), ApiError> {
-    let m = load_measurement(&state, id).await?;
-    let already = |m: &MeasurementSummary| {
-        ApiError::Conflict(format!(
-            "measurement {id} is already {}{}; only a queued or running measurement can be cancelled",
-            m.state.as_str(),
-            m.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
-        ))
-    };
-    if m.summary.state.is_final() {
-        return Err(already(&m.summary));
+    match state.instrument.cancel(id).await? {
+        Cancelled::Done(m) => Ok((StatusCode::OK, Json(m))),
+        Cancelled::Stopping(m) => Ok((StatusCode::ACCEPTED, Json(m))),
     }
-    let queued_message = format!(
-        "cancelled by the operator before it started; no sample taken ({} requested)",
-        m.summary.samples_requested
-    );
-    if state.store.cancel_queued(id, &queued_message).await? {
-        tracing::info!(measurement_id = id, "queued measurement cancelled");
-        let _ = state.events.send(Event::MeasurementFinished {
-            measurement_id: id,
-            state: MeasurementState::Cancelled,
-            error: Some(queued_message),
-        });
-        return Ok((StatusCode::OK, Json(load_measurement(&state, id).await?.summary)));
-    }
-    // The instrument has taken it: stop it there.
-    let signalled = state.measurement_cancel.as_ref().is_some_and(|c| c.cancel(id));
-    if signalled {
-        tracing::info!(measurement_id = id, "cancel requested for the running measurement");
-    }
-    let deadline = tokio::time::Instant::now() + CANCEL_WAIT;
-    loop {
-        let now = load_measurement(&state, id).await?.summary;
-        match now.state {
-            MeasurementState::Cancelled => return Ok((StatusCode::OK, Json(now))),
-            s if s.is_final() => {
-                return Err(ApiError::Conflict(format!(
-                    "measurement {id} ended {} before it could be cancelled{}",
-                    s.as_str(),
-                    now.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
-                )))
-            }
-            _ if !signalled && state.measurement_cancel.is_none() => {
-                return Err(ApiError::Unavailable(format!(
-                    "measurement {id} is {} and no instrument task runs here to stop it",
-                    now.state.as_str()
-                )))
-            }
-            _ if tokio::time::Instant::now() >= deadline => return Ok((StatusCode::ACCEPTED, Json(now))),
-            _ => tokio::time::sleep(std::time::Duration::from_millis(50)).await,
-        }
-    }
-}
-
-/// Records and queues one measurement for the instrument (`POST
-/// /api/measurements`, and the targets a study measures first). A slot in
-/// the queue is held before the row exists: a refused request (409 full,
-/// 503 instrument task gone) leaves nothing behind, and an admitted one
-/// cannot find the queue full.
-///
-/// While the instrument is held ([`crate::lab::instrument_queue::InstrumentHold`])
-/// only a measurement naming the hold is queued; the check follows the
-/// reservation, so a hold taken meanwhile either sees the slot reserved
-/// (and is refused) or is seen here.
-pub(super) async fn enqueue_measurement(
-    state: &AppState,
-    hold: Option<i64>,
-    new: NewMeasurement,
-) -> Result<i64, ApiError> {
-    let permit = state.jobs.try_reserve().map_err(|e| match e {
-        tokio::sync::mpsc::error::TrySendError::Full(()) => ApiError::Conflict(format!(
-            "the instrument is busy: {} measurements are already queued; try again when one finishes",
-            state.jobs.max_capacity()
-        )),
-        tokio::sync::mpsc::error::TrySendError::Closed(()) => {
-            ApiError::Unavailable("the instrument task has stopped; no measurement can run (see /api/health)".into())
-        }
-    })?;
-    let what = match (&new.scene, &new.target) {
-        (Some(scene), Some(target)) => format!("a measurement of {scene}/{target}"),
-        _ => "a measurement".to_string(),
-    };
-    let held = state.hold.admit(hold, &what)?;
-    let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
-    let id = state
-        .store
-        .create_held_measurement(&new, held.as_ref().map(|h| (h.id, h.purpose.as_str())))
-        .await?;
-    permit.send(MeasurementJob {
-        id,
-        samples,
-        scene,
-        target,
-    });
-    tracing::info!(measurement_id = id, samples, "measurement queued");
-    let _ = state.events.send(Event::MeasurementQueued { measurement_id: id });
-    Ok(id)
 }
 
 pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<MeasurementDetail, ApiError> {

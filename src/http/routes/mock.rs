@@ -73,7 +73,10 @@ pub async fn mock_display(
         .mock
         .as_ref()
         .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real instrument".into()))?;
-    state.hold.admit(body.hold, "a change of the simulated display")?;
+    state
+        .instrument
+        .hold()
+        .admit(body.hold, "a change of the simulated display")?;
     match (body.drive, body.code_counts) {
         (Some(drive), None) if body.max_code.is_none() => mock
             .show_on_display(drive)

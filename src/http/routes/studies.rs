@@ -9,13 +9,12 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use super::measurements::enqueue_measurement;
 use crate::http::error::ApiError;
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::booth_instrument::describe_targets;
 use crate::lab::requests::StudyRequest;
-use crate::store::{Booth, Job, NewMeasurement, StudyRow};
+use crate::store::{Booth, Job, StudyRow};
 
 #[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
@@ -70,7 +69,7 @@ pub async fn start_study(
                 "field `booth`: this daemon measures in booth {}; it cannot measure the missing targets of booth \
                  {booth} ({}): start the study on that booth's daemon",
                 state.config.booth,
-                describe(&missing)
+                describe_targets(&missing)
             )));
         }
         if !missing.is_empty() {
@@ -79,11 +78,14 @@ pub async fn start_study(
                     "no complete measurement of {} in booth {booth}: measure {} first (POST /api/measurements, or the scene's \
                      \"Measure every target\" button), start the study with \"measure_missing\": true to have \
                      it measure them first, or compare against \"reference\"",
-                    describe(&missing),
+                    describe_targets(&missing),
                     if missing.len() == 1 { "it" } else { "them" }
                 )));
             }
-            body.measured_first = measure_first(&state, &missing).await?;
+            body.measured_first = state
+                .instrument
+                .request_targets(&missing, "measured first for a study (measure_missing)")
+                .await?;
         }
     }
     let id = Arc::clone(service).start_study(body).await?;
@@ -223,72 +225,4 @@ async fn missing_targets(
         .flat_map(|s| s.targets.iter().map(move |t| (s.id.clone(), t.clone())))
         .filter(|pair| !measured.contains(pair))
         .collect())
-}
-
-/// `cylinder (h00, h01, h02), red/patch`, in plain words.
-fn describe(missing: &[(String, String)]) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < missing.len() {
-        let scene = &missing[i].0;
-        let targets: Vec<&str> = missing[i..]
-            .iter()
-            .take_while(|(s, _)| s == scene)
-            .map(|(_, t)| t.as_str())
-            .collect();
-        i += targets.len();
-        parts.push(match targets.as_slice() {
-            [one] => format!("{scene}/{one}"),
-            many => format!("{scene} ({})", many.join(", ")),
-        });
-    }
-    parts.join(", ")
-}
-
-/// Queues one measurement (default samples) per missing target. The
-/// instrument must be available and the queue must have room for every one
-/// before the first is queued; should a concurrent request fill the queue
-/// meanwhile, the study is refused and the ones already queued stay ordinary
-/// measurements.
-async fn measure_first(state: &AppState, missing: &[(String, String)]) -> Result<Vec<i64>, ApiError> {
-    match &*state.status.borrow() {
-        InstrumentStatus::Disconnected { reason } => {
-            return Err(ApiError::Unavailable(format!(
-                "no complete measurement of {}, and the instrument is unavailable to take them: {reason}",
-                describe(missing)
-            )))
-        }
-        InstrumentStatus::Error { message } => {
-            return Err(ApiError::Unavailable(format!(
-                "no complete measurement of {}, and the instrument is in error: {message}",
-                describe(missing)
-            )))
-        }
-        _ => {}
-    }
-    if state.jobs.capacity() < missing.len() {
-        return Err(ApiError::Conflict(format!(
-            "measuring the {} missing targets needs {} places in the instrument queue and {} are free; \
-             try again when the queued measurements have finished",
-            missing.len(),
-            missing.len(),
-            state.jobs.capacity()
-        )));
-    }
-    let samples = state.config.instrument.default_samples;
-    let mut ids = Vec::with_capacity(missing.len());
-    for (scene, target) in missing {
-        let new = NewMeasurement {
-            booth: state.config.booth.clone(),
-            session_id: None,
-            scene: Some(scene.clone()),
-            target: Some(target.clone()),
-            samples,
-            settings_json: serde_json::json!({ "samples": samples }),
-            note: "measured first for a study (measure_missing)".into(),
-        };
-        ids.push(enqueue_measurement(state, None, new).await?);
-    }
-    tracing::info!(count = ids.len(), "missing targets queued for a study");
-    Ok(ids)
 }

@@ -20,7 +20,7 @@ use std::time::SystemTime;
 
 use crate::link::{Ping, Request, Session};
 use crate::status_word::StatusWord;
-use crate::{CancelToken, Identity, InstrumentError, Sample, Spectroradiometer};
+use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer};
 
 use super::codes;
 use super::protocol::{self, Command, Matrix};
@@ -80,7 +80,7 @@ impl ColorCal {
         let command = Command::Identify;
         match self
             .session
-            .query(&command, &CancelToken::new(), protocol::parse_identification)
+            .query(&command, &CancellationToken::new(), protocol::parse_identification)
             .map_err(|e| not_a_colorcal(e, &command))?
         {
             Ok(id) => {
@@ -103,7 +103,7 @@ impl ColorCal {
             let command = Command::MatrixRow(n);
             match self
                 .session
-                .query(&command, &CancelToken::new(), protocol::parse_matrix_row)?
+                .query(&command, &CancellationToken::new(), protocol::parse_matrix_row)?
             {
                 Ok(values) => *row = values,
                 Err(status) => {
@@ -131,7 +131,7 @@ impl ColorCal {
         let command = Command::ZeroCalibrate;
         let status = self
             .session
-            .query(&command, &CancelToken::new(), protocol::parse_status_reply)?;
+            .query(&command, &CancellationToken::new(), protocol::parse_status_reply)?;
         tracing::info!(%status, "zero calibration");
         if status != StatusWord::SUCCESS {
             return Err(InstrumentError::Refused {
@@ -169,7 +169,7 @@ impl Spectroradiometer for ColorCal {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         let command = Command::Measure;
         let reply = self.session.measure(&command, cancel)?;
         let time = SystemTime::now();

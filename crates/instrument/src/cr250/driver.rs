@@ -16,7 +16,7 @@ use std::time::SystemTime;
 
 use crate::link::{lines, Ping, Request, Session};
 use crate::reply::ProtocolError;
-use crate::{CancelToken, Identity, InstrumentError, Sample, Spectroradiometer};
+use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
@@ -62,7 +62,7 @@ impl Cr250 {
         };
         unit.session.drain()?;
         unit.identify()?;
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         unit.ordinary(&Command::AutoExposure, &cancel)?;
         unit.ordinary(&Command::Speed(unit.settings.speed), &cancel)?;
         unit.ordinary(&Command::ExposureX(1), &cancel)?;
@@ -72,7 +72,7 @@ impl Cr250 {
     }
 
     /// A one-line command whose reply must be `OK`: its argument.
-    fn ordinary(&mut self, command: &Command, cancel: &CancelToken) -> Result<String, InstrumentError> {
+    fn ordinary(&mut self, command: &Command, cancel: &CancellationToken) -> Result<String, InstrumentError> {
         let reply: Reply = self.session.query(command, cancel, protocol::parse_reply)?;
         if reply.ok {
             Ok(reply.argument)
@@ -85,7 +85,7 @@ impl Cr250 {
     }
 
     fn identify(&mut self) -> Result<(), InstrumentError> {
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         let kind = self.ordinary(&Command::InstrumentType, &cancel)?;
         if kind.trim() != "2" {
             let what = match kind.trim() {
@@ -131,7 +131,7 @@ impl Cr250 {
     }
 
     /// `RM Spectrum`: the header's grid must be the model's.
-    fn read_spectrum(&mut self, cancel: &CancelToken) -> Result<Spectrum, InstrumentError> {
+    fn read_spectrum(&mut self, cancel: &CancellationToken) -> Result<Spectrum, InstrumentError> {
         let command = Command::Spectrum;
         let grid = self.session.info().grid.clone();
         let values = self.session.query(&command, cancel, |bytes| {
@@ -177,7 +177,7 @@ impl Spectroradiometer for Cr250 {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         let command = Command::Measure;
         let bytes = self.session.measure(&command, cancel)?;
         let time = SystemTime::now();

@@ -28,7 +28,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use crate::link::{Ping, Request, Session};
 use crate::reply::ProtocolError;
-use crate::{CancelToken, Identity, InstrumentError, Sample, Spectroradiometer, WaitPhase};
+use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer, WaitPhase};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
@@ -98,7 +98,8 @@ impl Cs2000 {
 
     /// One command and its parsed reply line, whatever its status.
     fn reply(&mut self, command: &Command) -> Result<Reply, InstrumentError> {
-        self.session.query(command, &CancelToken::new(), protocol::parse_reply)
+        self.session
+            .query(command, &CancellationToken::new(), protocol::parse_reply)
     }
 
     /// `IDDR` must name the model the settings name.
@@ -154,13 +155,13 @@ impl Cs2000 {
                 Err(e) => tracing::warn!(command = %command.text(), error = %e, "cannot read the unit's setting"),
             }
         }
-        if let Err(e) = self.session.resync_if_needed(&CancelToken::new()) {
+        if let Err(e) = self.session.resync_if_needed(&CancellationToken::new()) {
             tracing::warn!(error = %e, "resynchronising after reading the settings");
         }
     }
 
     /// Sleeps `d`, or less if cancelled.
-    fn pause(d: Duration, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn pause(d: Duration, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         let end = Instant::now() + d;
         while Instant::now() < end {
             if cancel.is_cancelled() {
@@ -177,7 +178,7 @@ impl Cs2000 {
         &mut self,
         seconds: u32,
         started: Instant,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<Option<u8>, InstrumentError> {
         let text = Command::Measure.text();
         let wait = Duration::from_secs(u64::from(seconds)) + Duration::from_millis(self.settings.end_margin_ms);
@@ -254,7 +255,7 @@ impl Cs2000 {
     }
 
     /// Step 3: the ended measurement's data.
-    fn read_data(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn read_data(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         let conditions = Command::Conditions;
         let integration_us = self.session.query(&conditions, cancel, |bytes| {
             let reply = protocol::parse_reply(bytes)?;
@@ -302,7 +303,7 @@ impl Spectroradiometer for Cs2000 {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         self.session.resync_if_needed(cancel)?;
         let started = Instant::now();
         let measure = Command::Measure;

@@ -9,7 +9,7 @@
 //! measures), then read until the expected number of lines has arrived,
 //! giving up only when no byte comes for a gap timeout. A fixed short
 //! per-read timeout truncates spectra when the link pauses mid-reply
-//! (PsychoPy's bug). Reads poll in short slices so a [`CancelToken`] is
+//! (PsychoPy's bug). Reads poll in short slices so a [`CancellationToken`] is
 //! honoured promptly.
 
 use std::io::{Read, Write};
@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use serialport::{ClearBuffer, DataBits, FlowControl, Parity, SerialPort, StopBits};
 
 use super::lines::{complete_lines, split_lines, trim_to_lines, Terminator};
-use crate::{CancelToken, InstrumentError, WaitPhase};
+use crate::{CancellationToken, InstrumentError, WaitPhase};
 
 /// Longest slice of a blocking read, so cancellation and deadlines are
 /// checked at least this often.
@@ -339,7 +339,7 @@ impl SerialLink {
         expected_lines: &dyn Fn(&[u8]) -> usize,
         first_byte_timeout: Duration,
         gap_timeout: Duration,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<Vec<u8>, InstrumentError> {
         let mut reply = Vec::with_capacity(2048);
         let mut buf = [0u8; 512];
@@ -403,7 +403,7 @@ impl SerialLink {
         max_bytes: usize,
         first_byte_timeout: Duration,
         quiet: Duration,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<Vec<u8>, InstrumentError> {
         let mut reply = Vec::with_capacity(max_bytes);
         let mut buf = [0u8; 64];
@@ -447,7 +447,7 @@ impl SerialLink {
         is_answer: &dyn Fn(&[u8]) -> bool,
         silence: Duration,
         overall: Duration,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<(), InstrumentError> {
         let start = Instant::now();
         let mut last_byte: Option<Instant> = None;

@@ -25,7 +25,7 @@ use std::fmt::Display;
 use std::time::Duration;
 
 use super::serial::{LinkSettings, SerialLink};
-use crate::{CancelToken, Identity, InstrumentError, InstrumentInfo, WaitPhase};
+use crate::{CancellationToken, Identity, InstrumentError, InstrumentInfo, WaitPhase};
 
 /// A command as the session sends it; each model's command type says this
 /// of itself.
@@ -152,7 +152,7 @@ impl Session {
         &mut self,
         command: &dyn Request,
         first_byte_timeout: Duration,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<Vec<u8>, InstrumentError> {
         let text = command.text();
         let grid_len = self.identity.info.grid.len();
@@ -203,7 +203,7 @@ impl Session {
     /// The start of every sample: resynchronise if a fault left the line out
     /// of step, then send the measuring `command` (`M0`, `M5`) and wait up
     /// to a whole measurement for its reply.
-    pub fn measure(&mut self, command: &dyn Request, cancel: &CancelToken) -> Result<Vec<u8>, InstrumentError> {
+    pub fn measure(&mut self, command: &dyn Request, cancel: &CancellationToken) -> Result<Vec<u8>, InstrumentError> {
         self.resync_if_needed(cancel)?;
         self.exchange(command, self.timing.measure, cancel)
     }
@@ -215,7 +215,7 @@ impl Session {
     pub fn query<T, E: Display>(
         &mut self,
         command: &dyn Request,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
         parse: impl FnOnce(&[u8]) -> Result<T, E>,
     ) -> Result<T, InstrumentError> {
         let reply = self.exchange(command, self.timing.command, cancel)?;
@@ -256,7 +256,7 @@ impl Session {
     }
 
     /// [`Session::resync`] when a fault left the line out of step.
-    pub fn resync_if_needed(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    pub fn resync_if_needed(&mut self, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         if self.needs_resync {
             self.resync(cancel)?;
         }
@@ -268,7 +268,7 @@ impl Session {
     /// ping it until its answer comes back, then drain again. A ping met by
     /// silence for the command timeout (a whole measurement while the unit
     /// may still be measuring) is [`InstrumentError::Unresponsive`].
-    pub fn resync(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    pub fn resync(&mut self, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         let model = self.identity.info.model.clone();
         tracing::info!("{model}: resynchronising");
         self.drain()?;
@@ -468,7 +468,7 @@ mod tests {
         });
         std::thread::sleep(Duration::from_millis(200)); // the stale bytes arrive first
         let reply = session
-            .exchange(&D5, Duration::from_secs(1), &CancelToken::new())
+            .exchange(&D5, Duration::from_secs(1), &CancellationToken::new())
             .unwrap();
         assert_eq!(reply, b"00,0\r\n1.000E-03\r\n0380.,1.203E-05\r\n");
         assert!(!session.needs_resync());
@@ -487,7 +487,7 @@ mod tests {
         });
         let start = Instant::now();
         let e = session
-            .exchange(&B1, Duration::from_millis(300), &CancelToken::new())
+            .exchange(&B1, Duration::from_millis(300), &CancellationToken::new())
             .unwrap_err();
         assert!(
             matches!(&e, InstrumentError::NoReply { command, waited_ms } if command == "B1" && *waited_ms >= 300),
@@ -496,7 +496,7 @@ mod tests {
         assert!(start.elapsed() < Duration::from_secs(2));
         assert!(session.needs_resync(), "a fault puts the line out of step");
         let e = session
-            .exchange(&M0, Duration::from_millis(300), &CancelToken::new())
+            .exchange(&M0, Duration::from_millis(300), &CancellationToken::new())
             .unwrap_err();
         assert!(
             matches!(&e, InstrumentError::Timeout { command, phase: WaitPhase::FirstByte, .. } if command == "M0"),
@@ -516,7 +516,7 @@ mod tests {
             far.say(b"000\r\n");
         });
         let e = session
-            .exchange(&D5, Duration::from_secs(1), &CancelToken::new())
+            .exchange(&D5, Duration::from_secs(1), &CancellationToken::new())
             .unwrap_err();
         assert!(
             matches!(
@@ -531,10 +531,10 @@ mod tests {
             "{e:?}"
         );
         assert!(session.needs_resync());
-        session.resync_if_needed(&CancelToken::new()).unwrap();
+        session.resync_if_needed(&CancellationToken::new()).unwrap();
         assert!(!session.needs_resync(), "back in step");
         let reply = session
-            .exchange(&B1, Duration::from_secs(1), &CancelToken::new())
+            .exchange(&B1, Duration::from_secs(1), &CancellationToken::new())
             .unwrap();
         assert_eq!(reply, b"000\r\n");
         assert_eq!(far.join().unwrap().heard, b"D5\nB1\nB1\n");
@@ -561,10 +561,10 @@ mod tests {
             let _ = far.command(Duration::from_secs(3));
         });
         let _ = session
-            .exchange(&D5, Duration::from_millis(300), &CancelToken::new())
+            .exchange(&D5, Duration::from_millis(300), &CancellationToken::new())
             .unwrap_err();
         let start = Instant::now();
-        let e = session.resync_if_needed(&CancelToken::new()).unwrap_err();
+        let e = session.resync_if_needed(&CancellationToken::new()).unwrap_err();
         match &e {
             InstrumentError::Unresponsive {
                 after,
@@ -602,12 +602,12 @@ mod tests {
     fn after_a_cancelled_measurement_the_ping_waits_a_whole_measurement() {
         let late = Duration::from_millis(900);
         let (mut session, far, _keep) = session_with(timing(300, 4000), still_measuring(late));
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         cancel.cancel();
         let e = session.exchange(&M0, Duration::from_secs(4), &cancel).unwrap_err();
         assert!(matches!(e, InstrumentError::Cancelled), "{e:?}");
         let start = Instant::now();
-        session.resync_if_needed(&CancelToken::new()).unwrap();
+        session.resync_if_needed(&CancellationToken::new()).unwrap();
         assert!(start.elapsed() >= late, "the ping's late answer was awaited");
         assert_eq!(far.join().unwrap().heard, b"M0\nB1\n");
     }
@@ -621,10 +621,10 @@ mod tests {
             };
             let (mut session, far, _keep) = session_with(timing, still_measuring(Duration::from_millis(900)));
             let e = session
-                .exchange(&M0, Duration::from_millis(300), &CancelToken::new())
+                .exchange(&M0, Duration::from_millis(300), &CancellationToken::new())
                 .unwrap_err();
             assert!(matches!(e, InstrumentError::Timeout { .. }), "{e:?}");
-            let resynced = session.resync_if_needed(&CancelToken::new());
+            let resynced = session.resync_if_needed(&CancellationToken::new());
             if measuring_after_timeout {
                 resynced.unwrap();
             } else {

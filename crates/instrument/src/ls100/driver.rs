@@ -18,7 +18,7 @@ use std::time::SystemTime;
 
 use crate::link::{Ping, Request, Session};
 use crate::status_word::StatusWord;
-use crate::{CancelToken, Identity, InstrumentError, Sample, Spectroradiometer};
+use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer};
 
 use super::codes;
 use super::protocol::{self, Command};
@@ -70,7 +70,7 @@ impl Ls100 {
     /// `MDS,04` until it is answered; an `ERnn` is a typed refusal.
     fn handshake(&mut self, attempts: u32) -> Result<(), InstrumentError> {
         let command = Command::SetMode(protocol::ABSOLUTE_MODE);
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         let mut waited_ms = 0;
         for attempt in 1..=attempts {
             match self.session.query(&command, &cancel, protocol::parse_status_reply) {
@@ -111,7 +111,7 @@ impl Spectroradiometer for Ls100 {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         let command = Command::Measure;
         let reply = self.session.measure(&command, cancel)?;
         let time = SystemTime::now();

@@ -26,7 +26,7 @@
 use std::time::SystemTime;
 
 use crate::link::{Ping, Request, Session};
-use crate::{CancelToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
+use crate::{CancellationToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
@@ -83,7 +83,7 @@ impl Pr650 {
             },
         };
         pr650.enter_remote_mode()?;
-        pr650.send_setup(&CancelToken::new())?;
+        pr650.send_setup(&CancellationToken::new())?;
         if settings.sync {
             pr650.find_sync_frequency()?;
         }
@@ -101,7 +101,7 @@ impl Pr650 {
         let timeout = self.session.timing().command;
         for attempt in 1..=attempts {
             tracing::info!(attempt, attempts, "PR-650: remote-mode handshake");
-            match self.session.exchange(&ping, timeout, &CancelToken::new()) {
+            match self.session.exchange(&ping, timeout, &CancellationToken::new()) {
                 Ok(reply) => match protocol::parse_ack(&reply) {
                     Ok(status) => {
                         if status != 0 {
@@ -121,7 +121,7 @@ impl Pr650 {
         Err(InstrumentError::NotInRemoteMode { attempts })
     }
 
-    fn send_setup(&mut self, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn send_setup(&mut self, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         let command = Command::Setup(self.setup);
         let status = self.session.query(&command, cancel, protocol::parse_setup_status)?;
         tracing::info!(setup = %command.text(), status, "PR-650 setup");
@@ -140,12 +140,12 @@ impl Pr650 {
         let command = Command::SyncFrequency;
         let reply = self
             .session
-            .exchange(&command, self.session.timing().measure, &CancelToken::new())?;
+            .exchange(&command, self.session.timing().measure, &CancellationToken::new())?;
         match protocol::parse_sync_frequency(&reply) {
             Ok((0, Some(hz))) => {
                 tracing::info!(hz, "PR-650: source flicker found; measuring with sync");
                 self.setup.sync = SyncSetting::LastF;
-                self.send_setup(&CancelToken::new())
+                self.send_setup(&CancellationToken::new())
             }
             Ok((code, _)) => {
                 tracing::info!(code, "PR-650: no sync frequency; measuring without sync");
@@ -158,7 +158,7 @@ impl Pr650 {
     /// `D110` (serial) and `D120` (spectral configuration). Neither is
     /// essential: on a failure the session keeps its defaults and resynchronises.
     fn identify(&mut self) {
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         let timeout = self.session.timing().command;
         match self
             .session
@@ -198,7 +198,7 @@ impl Pr650 {
         &mut self,
         index: usize,
         time: SystemTime,
-        cancel: &CancelToken,
+        cancel: &CancellationToken,
     ) -> Result<Sample, InstrumentError> {
         let d5 = Command::Report(protocol::REPORT_SPECTRUM);
         let grid = self.session.info().grid.clone();
@@ -255,7 +255,7 @@ impl Spectroradiometer for Pr650 {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         // One measurement: `M0`, then `D5` and `D2` of the same measurement.
         let ack = self.session.measure(&Command::MeasureAndHold, cancel)?;
         // What M0 answers on failure is [uncertain]; PTB only waits for any
@@ -271,7 +271,7 @@ impl Spectroradiometer for Pr650 {
     }
 
     /// §4 (PTB): codes 7/8 with sync on → sync off for the rest of the session.
-    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         if code.kind == QualityKind::Sync && self.setup.sync != SyncSetting::Off {
             tracing::info!(code = code.code, "PR-650: sync failed; turning sync off");
             self.setup.sync = SyncSetting::Off;

@@ -29,7 +29,7 @@
 use std::time::{Duration, SystemTime};
 
 use crate::link::{Ping, Request, Session};
-use crate::{CancelToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
+use crate::{CancellationToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
 
 use super::codes;
@@ -118,7 +118,7 @@ impl Pr655 {
                 protocol::BANNER.len(),
                 Duration::from_millis(self.settings.banner_timeout_ms),
                 quiet,
-                &CancelToken::new(),
+                &CancellationToken::new(),
             ) {
                 Ok(reply) if protocol::is_banner(&reply) => {
                     // A CR LF after the banner (as on the PR-705) must not be taken as a reply.
@@ -155,7 +155,7 @@ impl Pr655 {
         let command = Command::Report(code);
         match self
             .session
-            .query(&command, &CancelToken::new(), protocol::parse_text_report)?
+            .query(&command, &CancellationToken::new(), protocol::parse_text_report)?
         {
             Ok(text) => Ok(text),
             Err(status) => Err(InstrumentError::Refused {
@@ -203,7 +203,7 @@ impl Pr655 {
         }
         let command = Command::Report(protocol::REPORT_HARDWARE);
         let timeout = self.session.timing().command;
-        match self.session.exchange(&command, timeout, &CancelToken::new()) {
+        match self.session.exchange(&command, timeout, &CancellationToken::new()) {
             Ok(reply) => {
                 let grid = &self.session.info().grid;
                 match protocol::parse_hardware_config(&reply) {
@@ -223,11 +223,11 @@ impl Pr655 {
             Ok(_) => {}
             Err(e) => tracing::warn!(error = %e, "no setup report"),
         }
-        self.session.resync_if_needed(&CancelToken::new())
+        self.session.resync_if_needed(&CancellationToken::new())
     }
 
     /// One setup command; a non-zero status is a typed refusal.
-    fn set(&mut self, param: SetupParam, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn set(&mut self, param: SetupParam, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         let command = Command::Setup(param);
         let status = self.session.query(&command, cancel, protocol::parse_status_reply)?;
         tracing::info!(setup = %command.text(), status, "setup");
@@ -243,7 +243,7 @@ impl Pr655 {
     /// SI units, the exposure, one cycle per measurement (lightbooth
     /// averages itself and keeps every sample), the 2° observer, sync.
     fn send_setup(&mut self) -> Result<(), InstrumentError> {
-        let cancel = CancelToken::new();
+        let cancel = CancellationToken::new();
         self.set(SetupParam::Units(1), &cancel)?;
         self.set(SetupParam::Exposure(self.settings.exposure_ms), &cancel)?;
         self.set(SetupParam::Cycles(1), &cancel)?;
@@ -269,7 +269,7 @@ impl Pr655 {
     }
 
     /// `D2` of the measurement whose good spectrum `M5` just sent: its Y.
-    fn read_luminance(&mut self, cancel: &CancelToken) -> Result<f64, InstrumentError> {
+    fn read_luminance(&mut self, cancel: &CancellationToken) -> Result<f64, InstrumentError> {
         let d2 = Command::Report(protocol::REPORT_XYZ);
         // The spectrum came with a good status: an error to `D2` of the
         // same measurement means the link or the unit is confused.
@@ -315,7 +315,7 @@ impl Spectroradiometer for Pr655 {
         self.session.identity()
     }
 
-    fn take_sample(&mut self, index: usize, cancel: &CancelToken) -> Result<Sample, InstrumentError> {
+    fn take_sample(&mut self, index: usize, cancel: &CancellationToken) -> Result<Sample, InstrumentError> {
         // One measurement: `M5` (the spectrum), then `D2` of the same measurement.
         let m5 = Command::Measure(protocol::REPORT_SPECTRUM);
         let reply = self.session.measure(&m5, cancel)?;
@@ -356,7 +356,7 @@ impl Spectroradiometer for Pr655 {
     }
 
     /// PTB: after a sync failure with sync on, measure without sync from now on.
-    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancelToken) -> Result<(), InstrumentError> {
+    fn after_bad_sample(&mut self, code: &QualityCode, cancel: &CancellationToken) -> Result<(), InstrumentError> {
         let sync_failure = code.kind == QualityKind::Sync || code.code == -1;
         if sync_failure && self.synced {
             tracing::info!(code = code.code, "sync failed; turning sync off");

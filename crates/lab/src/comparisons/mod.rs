@@ -412,7 +412,7 @@ impl Comparisons {
 mod tests {
     use super::*;
     use crate::testing::{drain, queued_measurement, runner, store_in};
-    use lightbooth_render::integrator::CancelFlag;
+    use lightbooth_render::integrator::CancellationToken;
     use lightbooth_science::colorimetry::Observer;
 
     /// WHITE rendered at the comparison settings (the render comparisons
@@ -421,7 +421,7 @@ mod tests {
         let settings = runner.comparison_settings();
         let render_id = runner.record("white", &settings).await.unwrap();
         runner
-            .execute(render_id, "white", settings, CancelFlag::default())
+            .execute(render_id, "white", settings, CancellationToken::new())
             .await
             .unwrap();
         render_id

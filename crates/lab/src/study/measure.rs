@@ -7,18 +7,18 @@
 //! truncation and sampling of the renderings under test, the instrument
 //! model (slit, noise) and any truth-scene perturbation are what make these
 //! "measurements" differ from the renderings. Each measurement is recorded
-//! as the daemon records one ([`crate::measurement::Recorder`]): every
-//! sample is stored before the next is taken.
+//! and taken as the daemon takes one ([`Recorder::take`]): every sample is
+//! stored before the next is taken.
 
 use std::path::{Path, PathBuf};
 
-use crate::measurement::Recorder;
+use crate::measurement::{Outcome, Recorder};
 use crate::study::run::truth_path;
 use lightbooth_instrument::sim::{spawn_mock, MockConfig};
-use lightbooth_instrument::{open_pr650, CancelToken, Pr650Settings};
+use lightbooth_instrument::{open_pr650, CancellationToken, Pr650Settings};
 use lightbooth_render as render;
 use lightbooth_science::colorimetry::Observer;
-use lightbooth_store::{Booth, MeasurementState, NewMeasurement, Store};
+use lightbooth_store::{Booth, NewMeasurement, Store};
 
 /// The simulated PR-650 a study measures with.
 #[derive(Clone, Copy, Debug)]
@@ -91,34 +91,26 @@ pub async fn measure_with_simulator(
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;
-            // The daemon's path (`lab::measurement`): each sample is on disk
-            // before the next is taken, so a study killed mid-measurement
-            // keeps every sample it took. The driver and the recorder block:
-            // this runtime thread is handed over to them meanwhile.
-            let outcome = tokio::task::block_in_place(|| -> anyhow::Result<Option<String>> {
+            // The daemon's workflow (`lab::measurement`): each sample is on
+            // disk before the next is taken, so a study killed
+            // mid-measurement keeps every sample it took. The driver and the
+            // recorder block: this runtime thread is handed over to them meanwhile.
+            let outcome = tokio::task::block_in_place(|| -> anyhow::Result<Outcome> {
                 let runtime = tokio::runtime::Handle::current();
                 let never = || false;
-                let mut recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
-                let cancel = CancelToken::new();
-                let reading = instrument.capabilities().reading;
-                let result = instrument.measure_averaged(settings.samples, &cancel, &mut |s| {
-                    if recorder.store_sample(s, reading).is_err() {
-                        cancel.cancel(); // the measurement stops at the first sample not written
-                    }
-                });
-                let failure = match (recorder.write_failed(), result) {
-                    (Some(why), _) => format!("{why}; a measurement without all its samples on disk is not complete"),
-                    (None, Ok(avg)) => match recorder.complete(&avg, observer, &never) {
-                        Ok(()) => return Ok(None),
-                        Err(why) => why,
-                    },
-                    (None, Err(e)) => e.to_string(),
-                };
-                recorder.end(MeasurementState::Failed, &failure, &never)?;
-                Ok(Some(failure))
+                let recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
+                let cancel = CancellationToken::new();
+                Ok(recorder.take(
+                    instrument.as_mut(),
+                    settings.samples,
+                    observer,
+                    &cancel,
+                    &never,
+                    &mut |_, _| {},
+                ))
             })?;
-            if let Some(failure) = outcome {
-                anyhow::bail!("measuring {scene_id}/{target}: {failure}");
+            if let Outcome::Ended { message, .. } = outcome {
+                anyhow::bail!("measuring {scene_id}/{target}: {message}");
             }
             ids.push(id);
         }

@@ -1,0 +1,391 @@
+//! The lab's handle on the booth's instrument, for everything that is not
+//! the instrument task itself: asking for a measurement
+//! ([`BoothInstrument::request`], the validation and the enqueueing),
+//! cancelling one, taking and releasing the calibration's hold, and reading
+//! the live status and the queue. The HTTP handlers call these methods and
+//! never the queue's channels or the store for it; the instrument task
+//! takes the jobs at the other end and records each through
+//! [`crate::measurement::Recorder::take`].
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::{broadcast, mpsc, watch};
+
+use crate::error::LabError;
+use crate::events::Event;
+use crate::instrument_queue::{CancelMeasurement, HoldInfo, InstrumentHold, InstrumentStatus, MeasurementJob};
+use crate::requests::SceneInfo;
+use lightbooth_instrument::Capabilities;
+use lightbooth_store::{Booth, MeasurementState, MeasurementSummary, NewMeasurement, Store};
+
+/// How long a cancel waits for a running measurement to stop before
+/// answering that it is still stopping (it stops within one poll slice of
+/// the instrument's reply).
+const CANCEL_WAIT: Duration = Duration::from_secs(5);
+
+/// A measurement to take, as an operator or a script asks for it.
+#[derive(Clone, Debug, Default)]
+pub struct MeasurementRequest {
+    /// With `target`: the scene target measured, rendered and compared.
+    pub scene: Option<String>,
+    pub target: Option<String>,
+    /// Samples to average; `None`: the instrument model's default.
+    pub samples: Option<usize>,
+    pub session_id: Option<i64>,
+    /// Free text kept with the measurement.
+    pub note: String,
+    /// The instrument hold this measurement belongs to (see [`InstrumentHold`]).
+    pub hold: Option<i64>,
+}
+
+/// How a cancel ended (see [`BoothInstrument::cancel`]).
+#[derive(Debug)]
+pub enum Cancelled {
+    /// The measurement is cancelled; its row as it is now.
+    Done(MeasurementSummary),
+    /// The running measurement was asked to stop and has not yet.
+    Stopping(MeasurementSummary),
+}
+
+/// The booth's instrument as the lab sees it (see the module doc). Cheap to clone.
+#[derive(Clone)]
+pub struct BoothInstrument {
+    store: Store,
+    jobs: mpsc::Sender<MeasurementJob>,
+    status: watch::Receiver<InstrumentStatus>,
+    events: broadcast::Sender<Event>,
+    hold: Arc<InstrumentHold>,
+    /// Stops the running measurement (the instrument task's; None without one).
+    running: Option<Arc<dyn CancelMeasurement>>,
+    capabilities: Capabilities,
+    booth: Booth,
+}
+
+impl BoothInstrument {
+    /// The handle on the instrument task at the other end of `jobs`, whose
+    /// live status is `status`, measuring in `booth` with `capabilities`.
+    pub fn new(
+        store: Store,
+        jobs: mpsc::Sender<MeasurementJob>,
+        status: watch::Receiver<InstrumentStatus>,
+        events: broadcast::Sender<Event>,
+        running: Option<Arc<dyn CancelMeasurement>>,
+        capabilities: Capabilities,
+        booth: Booth,
+    ) -> BoothInstrument {
+        BoothInstrument {
+            store,
+            jobs,
+            status,
+            events,
+            hold: Arc::default(),
+            running,
+            capabilities,
+            booth,
+        }
+    }
+
+    /// What the instrument is doing now.
+    pub fn status(&self) -> InstrumentStatus {
+        self.status.borrow().clone()
+    }
+
+    /// A receiver of the live status, for a stream of its changes.
+    pub fn watch_status(&self) -> watch::Receiver<InstrumentStatus> {
+        self.status.clone()
+    }
+
+    /// Measurements queued (or being queued) and not yet taken by the task.
+    pub fn queued(&self) -> usize {
+        self.jobs.max_capacity() - self.jobs.capacity()
+    }
+
+    /// True when the instrument task has stopped: nothing queued will run.
+    pub fn task_stopped(&self) -> bool {
+        self.jobs.is_closed()
+    }
+
+    /// What the instrument model can do.
+    pub fn capabilities(&self) -> &Capabilities {
+        &self.capabilities
+    }
+
+    /// The booth it measures in.
+    pub fn booth(&self) -> &Booth {
+        &self.booth
+    }
+
+    /// The calibration's hold (see [`InstrumentHold`]).
+    pub fn hold(&self) -> &InstrumentHold {
+        &self.hold
+    }
+
+    /// Checks `request` against the instrument model, the `scenes` the
+    /// daemon can render, the instrument's status and the sessions, then
+    /// records and queues it; its id. `Invalid` names the field.
+    pub async fn request(&self, request: MeasurementRequest, scenes: &[SceneInfo]) -> Result<i64, LabError> {
+        let capabilities = &self.capabilities;
+        let samples = request.samples.unwrap_or(capabilities.default_samples);
+        if !(1..=capabilities.max_samples).contains(&samples) {
+            return Err(LabError::Invalid(format!(
+                "field `samples`: {samples} is outside 1–{}, what the {} averages per measurement",
+                capabilities.max_samples, capabilities.model
+            )));
+        }
+        match (&request.scene, &request.target) {
+            (Some(scene), target) => check_scene_target(scenes, scene, target.as_deref())?,
+            (None, Some(_)) => return Err(LabError::Invalid("field `target`: a target needs its `scene`".into())),
+            (None, None) => {}
+        }
+        self.refuse_unavailable("")?;
+        if let Some(session) = request.session_id {
+            if !self.store.list_sessions().await?.iter().any(|s| s.id == session) {
+                return Err(LabError::Invalid(format!(
+                    "field `session_id`: no session {session}; create one with POST /api/sessions"
+                )));
+            }
+        }
+        self.enqueue(
+            request.hold,
+            NewMeasurement {
+                booth: self.booth.clone(),
+                session_id: request.session_id,
+                scene: request.scene,
+                target: request.target,
+                samples,
+                settings_json: serde_json::json!({ "samples": samples }),
+                note: request.note,
+            },
+        )
+        .await
+    }
+
+    /// Queues a measurement of each scene target in `missing` (a study's
+    /// first measurements), with the default samples and `note`; their ids.
+    /// Refused as a whole when the queue has not room for all of them
+    /// before the first is queued; should a concurrent request fill the
+    /// queue meanwhile, the ones already queued stay ordinary measurements.
+    pub async fn request_targets(&self, missing: &[(String, String)], note: &str) -> Result<Vec<i64>, LabError> {
+        let what = format!("no complete measurement of {}, and ", describe_targets(missing));
+        self.refuse_unavailable(&what)?;
+        if self.jobs.capacity() < missing.len() {
+            return Err(LabError::Conflict(format!(
+                "measuring the {} missing targets needs {} places in the instrument queue and {} are free; \
+                 try again when the queued measurements have finished",
+                missing.len(),
+                missing.len(),
+                self.jobs.capacity()
+            )));
+        }
+        let samples = self.capabilities.default_samples;
+        let mut ids = Vec::with_capacity(missing.len());
+        for (scene, target) in missing {
+            let new = NewMeasurement {
+                booth: self.booth.clone(),
+                session_id: None,
+                scene: Some(scene.clone()),
+                target: Some(target.clone()),
+                samples,
+                settings_json: serde_json::json!({ "samples": samples }),
+                note: note.into(),
+            };
+            ids.push(self.enqueue(None, new).await?);
+        }
+        tracing::info!(count = ids.len(), "missing targets queued for a study");
+        Ok(ids)
+    }
+
+    /// 503 when the instrument is disconnected or in error; `context`
+    /// (empty, or ending in ", and ") says what was asked.
+    fn refuse_unavailable(&self, context: &str) -> Result<(), LabError> {
+        let (what, why) = match &*self.status.borrow() {
+            InstrumentStatus::Disconnected { reason } => ("unavailable", reason.clone()),
+            InstrumentStatus::Error { message } => ("in error", message.clone()),
+            _ => return Ok(()),
+        };
+        Err(LabError::Unavailable(if context.is_empty() {
+            format!("the instrument is {what}: {why}")
+        } else if what == "unavailable" {
+            format!("{context}the instrument is unavailable to take them: {why}")
+        } else {
+            format!("{context}the instrument is in error: {why}")
+        }))
+    }
+
+    /// Records and queues one measurement for the instrument. A slot in the
+    /// queue is held before the row exists: a refused request (queue full,
+    /// instrument task gone) leaves nothing behind, and an admitted one
+    /// cannot find the queue full.
+    ///
+    /// While the instrument is held only a measurement naming the hold is
+    /// queued; the check follows the reservation, so a hold taken meanwhile
+    /// either sees the slot reserved (and is refused) or is seen here.
+    async fn enqueue(&self, hold: Option<i64>, new: NewMeasurement) -> Result<i64, LabError> {
+        let permit = self.jobs.try_reserve().map_err(|e| match e {
+            mpsc::error::TrySendError::Full(()) => LabError::Conflict(format!(
+                "the instrument is busy: {} measurements are already queued; try again when one finishes",
+                self.jobs.max_capacity()
+            )),
+            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable(
+                "the instrument task has stopped; no measurement can run (see /api/health)".into(),
+            ),
+        })?;
+        let what = match (&new.scene, &new.target) {
+            (Some(scene), Some(target)) => format!("a measurement of {scene}/{target}"),
+            _ => "a measurement".to_string(),
+        };
+        let held = self.hold.admit(hold, &what)?;
+        let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
+        let id = self
+            .store
+            .create_held_measurement(&new, held.as_ref().map(|h| (h.id, h.purpose.as_str())))
+            .await?;
+        permit.send(MeasurementJob {
+            id,
+            samples,
+            scene,
+            target,
+        });
+        tracing::info!(measurement_id = id, samples, "measurement queued");
+        let _ = self.events.send(Event::MeasurementQueued { measurement_id: id });
+        Ok(id)
+    }
+
+    /// Cancels a queued or running measurement. A queued one never starts;
+    /// a running one stops at once (between instrument commands, or while
+    /// a reply is read), keeping every sample already taken. `Stopping`
+    /// when it has not stopped within 5 s; `NotFound`, `Conflict` when it
+    /// had already finished (or ended otherwise meanwhile), `Unavailable`
+    /// when it runs and no instrument task here can stop it.
+    pub async fn cancel(&self, id: i64) -> Result<Cancelled, LabError> {
+        let m = self.summary(id).await?;
+        if m.state.is_final() {
+            return Err(LabError::Conflict(format!(
+                "measurement {id} is already {}{}; only a queued or running measurement can be cancelled",
+                m.state.as_str(),
+                m.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
+            )));
+        }
+        let queued_message = format!(
+            "cancelled by the operator before it started; no sample taken ({} requested)",
+            m.samples_requested
+        );
+        if self.store.cancel_queued(id, &queued_message).await? {
+            tracing::info!(measurement_id = id, "queued measurement cancelled");
+            let _ = self.events.send(Event::MeasurementFinished {
+                measurement_id: id,
+                state: MeasurementState::Cancelled,
+                error: Some(queued_message),
+            });
+            return Ok(Cancelled::Done(self.summary(id).await?));
+        }
+        // The instrument has taken it: stop it there.
+        let signalled = self.running.as_ref().is_some_and(|c| c.cancel(id));
+        if signalled {
+            tracing::info!(measurement_id = id, "cancel requested for the running measurement");
+        }
+        let deadline = tokio::time::Instant::now() + CANCEL_WAIT;
+        loop {
+            let now = self.summary(id).await?;
+            match now.state {
+                MeasurementState::Cancelled => return Ok(Cancelled::Done(now)),
+                s if s.is_final() => {
+                    return Err(LabError::Conflict(format!(
+                        "measurement {id} ended {} before it could be cancelled{}",
+                        s.as_str(),
+                        now.error.as_ref().map(|e| format!(" ({e})")).unwrap_or_default()
+                    )))
+                }
+                _ if !signalled && self.running.is_none() => {
+                    return Err(LabError::Unavailable(format!(
+                        "measurement {id} is {} and no instrument task runs here to stop it",
+                        now.state.as_str()
+                    )))
+                }
+                _ if tokio::time::Instant::now() >= deadline => return Ok(Cancelled::Stopping(now)),
+                _ => tokio::time::sleep(Duration::from_millis(50)).await,
+            }
+        }
+    }
+
+    /// Takes the hold for `purpose`: granted only while nothing is
+    /// measuring, being queued, or queued or running in the store for this
+    /// booth (see [`InstrumentHold::take`]).
+    pub async fn take_hold(&self, purpose: &str) -> Result<HoldInfo, LabError> {
+        let mut busy = Vec::new();
+        if let InstrumentStatus::Measuring { measurement_id, .. } = &*self.status.borrow() {
+            busy.push(format!("measurement {measurement_id} under way"));
+        }
+        let reserved = self.queued();
+        if reserved > 0 {
+            busy.push(if reserved == 1 {
+                "1 measurement being queued".to_string()
+            } else {
+                format!("{reserved} measurements being queued")
+            });
+        }
+        let unfinished = self.store.unfinished_measurements_in_booth(&self.booth).await?;
+        if !unfinished.is_empty() {
+            let ids: Vec<String> = unfinished.iter().map(i64::to_string).collect();
+            busy.push(format!("measurements {} queued or running", ids.join(", ")));
+        }
+        let busy = (!busy.is_empty()).then(|| busy.join("; "));
+        let hold = self.hold.take(purpose, busy, lightbooth_store::now())?;
+        tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument held");
+        Ok(hold)
+    }
+
+    async fn summary(&self, id: i64) -> Result<MeasurementSummary, LabError> {
+        Ok(self
+            .store
+            .get_measurement(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no measurement {id}")))?
+            .summary)
+    }
+}
+
+/// `scene` is one of `scenes` and `target` one of its targets; else
+/// `Invalid`, naming the field and what is available.
+pub fn check_scene_target(scenes: &[SceneInfo], scene: &str, target: Option<&str>) -> Result<(), LabError> {
+    let Some(info) = scenes.iter().find(|s| s.id == scene) else {
+        let names: Vec<&str> = scenes.iter().map(|s| s.id.as_str()).collect();
+        return Err(LabError::Invalid(format!(
+            "field `scene`: no scene `{scene}`; available: {}",
+            names.join(", ")
+        )));
+    };
+    match target {
+        None => Err(LabError::Invalid(format!(
+            "field `target`: measuring scene `{scene}` needs a target; available: {}",
+            info.targets.join(", ")
+        ))),
+        Some(t) if !info.targets.iter().any(|x| x == t) => Err(LabError::Invalid(format!(
+            "field `target`: scene `{scene}` has no target `{t}`; available: {}",
+            info.targets.join(", ")
+        ))),
+        Some(_) => Ok(()),
+    }
+}
+
+/// `cylinder (h00, h01, h02), red/patch`, in plain words: scene targets
+/// for a refusal, grouped by scene.
+pub fn describe_targets(missing: &[(String, String)]) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < missing.len() {
+        let scene = &missing[i].0;
+        let targets: Vec<&str> = missing[i..]
+            .iter()
+            .take_while(|(s, _)| s == scene)
+            .map(|(_, t)| t.as_str())
+            .collect();
+        i += targets.len();
+        parts.push(match targets.as_slice() {
+            [one] => format!("{scene}/{one}"),
+            many => format!("{scene} ({})", many.join(", ")),
+        });
+    }
+    parts.join(", ")
+}
