@@ -76,6 +76,9 @@ fn code_only(text: &str) -> String {
             i += 1;
             while i < b.len() {
                 if !raw && b[i] == b'\\' {
+                    if b.get(i + 1) == Some(&b'\n') {
+                        out.push('\n'); // a line continuation
+                    }
                     i += 2;
                     continue;
                 }
@@ -572,4 +575,144 @@ fn a_planted_import_cycle_is_named_with_each_file_and_line() {
         ["src/a.rs:3 → src/b.rs:2 → src/c/mod.rs:4 → src/a.rs"],
         "{graph:?}"
     );
+}
+
+// --- the OpenAPI document stays in the app ------------------------------
+
+/// The lines of the crates' `Cargo.toml` files under `crates` (outside
+/// comments) that name `axum`, or `utoipa` other than as an optional
+/// dependency or `"dep:utoipa"` (the `openapi` feature), as `file:line: text`.
+fn http_dependencies(crates: &Path) -> Vec<String> {
+    let mut manifests: Vec<PathBuf> = std::fs::read_dir(crates)
+        .unwrap()
+        .map(|e| e.unwrap().path().join("Cargo.toml"))
+        .filter(|m| m.is_file())
+        .collect();
+    manifests.sort();
+    let mut bad = Vec::new();
+    for manifest in manifests {
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let toml = line.split(" #").next().unwrap();
+            let toml = if toml.trim_start().starts_with('#') { "" } else { toml };
+            let named = toml.replace("\"dep:utoipa\"", "");
+            if named.contains("axum") || (named.contains("utoipa") && !named.contains("optional = true")) {
+                let rel = manifest.strip_prefix(crates).unwrap();
+                bad.push(format!("crates/{}:{}: {}", rel.display(), n + 1, line.trim()));
+            }
+        }
+    }
+    bad
+}
+
+/// The lines of the Rust files under `src` whose code names `utoipa`,
+/// `ToSchema` or `IntoParams` outside a `#[cfg_attr(feature = "openapi", …)]`
+/// attribute or an item under `#[cfg(feature = "openapi")]`, as `file:line`
+/// (the file relative to `src`).
+fn ungated_openapi(src: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    files.sort();
+    let mut bad = Vec::new();
+    for file in files {
+        let text = std::fs::read_to_string(&file).unwrap();
+        // Inside a gate: whether it is a whole item (ends at its `;` or
+        // closing brace) and how many brackets are open in it.
+        let (mut gate, mut depth): (Option<bool>, i32) = (None, 0);
+        for (n, (line, code)) in text.lines().zip(code_only(&text).lines()).enumerate() {
+            let start = line.trim_start();
+            if gate.is_none() && start.starts_with("#[cfg(feature = \"openapi\")]") {
+                (gate, depth) = (Some(true), 0);
+            } else if gate.is_none() && start.starts_with("#[cfg_attr(feature = \"openapi\",") {
+                (gate, depth) = (Some(false), 0);
+            }
+            let Some(item) = gate else {
+                if ["utoipa", "ToSchema", "IntoParams"].iter().any(|w| code.contains(w)) {
+                    bad.push(format!("{}:{}", file.strip_prefix(src).unwrap().display(), n + 1));
+                }
+                continue;
+            };
+            for c in code.chars() {
+                match c {
+                    '(' | '[' | '{' => depth += 1,
+                    ')' | ']' | '}' => {
+                        depth -= 1;
+                        if depth == 0 && (!item || c == '}') {
+                            gate = None;
+                        }
+                    }
+                    ';' if depth == 0 && item => gate = None,
+                    _ => {}
+                }
+            }
+        }
+    }
+    bad
+}
+
+#[test]
+fn no_crate_below_the_app_needs_utoipa_or_axum() {
+    let crates = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("crates");
+    let bad = http_dependencies(&crates);
+    assert!(
+        bad.is_empty(),
+        "a crate below the app depends on axum, or on utoipa without `optional = true` (the app's `openapi` feature turns it on):\n{}",
+        bad.join("\n")
+    );
+    for name in ["science", "render", "instrument", "store", "lab"] {
+        let bad = ungated_openapi(&crates.join(name).join("src"));
+        assert!(
+            bad.is_empty(),
+            "utoipa named outside `cfg_attr(feature = \"openapi\", …)` / `#[cfg(feature = \"openapi\")]`:\n{}",
+            bad.iter()
+                .map(|b| format!("crates/{name}/src/{b}"))
+                .collect::<Vec<_>>()
+                .join("\n")
+        );
+    }
+}
+
+/// The checks themselves: a planted unconditional utoipa and axum are
+/// named with their lines; the gated forms and comments are not.
+#[test]
+fn a_planted_ungated_utoipa_is_named_with_its_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let crates = dir.path();
+    std::fs::create_dir_all(crates.join("low/src")).unwrap();
+    std::fs::write(
+        crates.join("low/Cargo.toml"),
+        "# no utoipa, no axum here\n[dependencies]\nutoipa = { workspace = true, optional = true }\naxum = \"0.8\"\n\
+         utoipa-gen = \"5\"\n[features]\nopenapi = [\"dep:utoipa\"]\n",
+    )
+    .unwrap();
+    assert_eq!(
+        http_dependencies(crates),
+        [
+            "crates/low/Cargo.toml:4: axum = \"0.8\"",
+            "crates/low/Cargo.toml:5: utoipa-gen = \"5\""
+        ]
+    );
+    let src = crates.join("low/src");
+    let lib = [
+        "//! utoipa in a comment",
+        "const T: &str = \"a line continuation: \\",
+        "    ToSchema\";",
+        "#[cfg(feature = \"openapi\")]",
+        "use utoipa::IntoParams;",
+        "#[derive(Debug)]",
+        "#[cfg_attr(feature = \"openapi\", derive(utoipa::ToSchema))]",
+        "pub struct A {",
+        "    #[cfg_attr(feature = \"openapi\", schema(value_type = String))]",
+        "    pub a: &'static str,",
+        "}",
+        "#[cfg(feature = \"openapi\")]",
+        "impl IntoParams for B {",
+        "    fn into_params() -> Vec<u8> { vec![] }",
+        "}",
+        "#[derive(utoipa::IntoParams)]",
+        "pub struct B;",
+        "const S: &str = \"ToSchema\";",
+    ];
+    std::fs::write(src.join("lib.rs"), lib.join("\n")).unwrap();
+    assert_eq!(ungated_openapi(&src), ["lib.rs:16"]);
 }

@@ -6,12 +6,12 @@
 //! and the data is the whole event as JSON.
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::instrument_queue::InstrumentStatus;
 use lightbooth_store::MeasurementState;
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Event {
     InstrumentStatus {

@@ -39,7 +39,6 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
-use utoipa::ToSchema;
 
 use super::jobs;
 use crate::error::LabError;
@@ -72,7 +71,8 @@ pub const MAX_KEPT_BYTES: u64 = 1 << 30;
 pub const IDS_PER_RUN: i64 = 1_000_000_000;
 
 /// What to render: `POST /api/renders/{id}/images`.
-#[derive(Clone, Debug, Default, Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ImageRequest {
     /// `rgb`, `srgb`, `nstepN` or `spectral`.
@@ -92,7 +92,8 @@ pub struct ImageRequest {
 }
 
 /// A request with every default filled in and checked: what keys reuse.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ImageSettings {
     pub coding: String,
     pub width: u32,
@@ -109,7 +110,8 @@ pub struct ImageSettings {
 }
 
 /// Where an image is and what it holds, as the API answers it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ImageInfo {
     pub id: i64,
     pub render_id: i64,
@@ -123,7 +125,7 @@ pub struct ImageInfo {
     /// The coding's colour in every chart and page (`charts::CODING_STYLES`), `#rrggbb`.
     pub colour: String,
     /// After each pass.
-    #[schema(value_type = Option<Object>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub progress: Option<CameraProgress>,
     /// Per pixel, once complete: the coding's channels (`S0.<λ>nm` bands,
     /// or R, G, B), then X, Y, Z, L, M, S.
@@ -134,7 +136,7 @@ pub struct ImageInfo {
     pub passes: Option<u32>,
     pub paths: Option<u64>,
     pub elapsed_seconds: Option<f64>,
-    #[schema(value_type = Option<String>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<String>))]
     pub stop: Option<StopReason>,
     /// Once complete: the log-average luminance (cd/m²) of its display
     /// PNG's tone map, for the page's cd/m² scale: a grey of Y cd/m² is

@@ -25,7 +25,6 @@
 use std::sync::Mutex;
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use crate::error::LabError;
 
@@ -39,7 +38,8 @@ pub struct MeasurementJob {
 }
 
 /// What the instrument is doing, as the dashboard shows it.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(tag = "state", rename_all = "snake_case")]
 pub enum InstrumentStatus {
     /// No port open; `reason` says why and what the daemon is doing about it.
@@ -97,7 +97,8 @@ pub trait MockControl: Send + Sync {
 pub const MAX_HOLD_PURPOSE: usize = 200;
 
 /// Who holds the instrument, as the API shows it.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct HoldInfo {
     /// Name it in every measurement and display change while it holds.
     pub id: i64,

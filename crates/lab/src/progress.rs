@@ -32,7 +32,6 @@ use std::sync::{Arc, Mutex};
 
 use serde::Serialize;
 use tokio::sync::broadcast;
-use utoipa::ToSchema;
 
 use super::events::Event;
 use lightbooth_store::Job;
@@ -109,7 +108,8 @@ pub const RENDER_STEPS: [(&str, &str); 3] = [
 ];
 
 /// Where a running job is.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct JobProgress {
     /// 0–1: paths traced of those planned (a render), steps begun of the
     /// study's steps (a study); -1 when the step has no count.

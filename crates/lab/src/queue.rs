@@ -26,7 +26,6 @@
 use std::collections::HashMap;
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::experiments::session::{trials_needed, PAUSED_AFTER_S};
 use super::experiments::ExperimentRequest;
@@ -39,7 +38,8 @@ use lightbooth_store::{Booth, Job, MeasurementFilter, MeasurementState, Measurem
 const PACE_FROM_LAST: i64 = 10;
 
 /// One job waiting or under way.
-#[derive(Clone, Debug, Default, Serialize, ToSchema)]
+#[derive(Clone, Debug, Default, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct QueuedJob {
     /// `measurement`, `render`, `study`, `image` or `experiment_session`.
     pub kind: &'static str,
@@ -71,7 +71,8 @@ pub struct QueuedJob {
 }
 
 /// This booth's jobs, the instrument's first in queue order.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Queue {
     pub booth: String,
     /// POSIX seconds at which the list was made (the `seconds_left` are from then).

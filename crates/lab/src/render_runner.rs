@@ -44,7 +44,7 @@ use crate::requests::RenderRequest;
 use crate::study::run::COST_DEFINITION;
 use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::{self as render, Coding, RenderError, RenderSettings, Scene};
-use lightbooth_science::colorimetry::Observer;
+use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{Job, JobEnd, NewRender, Store};
 
 /// Records and runs renders of the catalogue's scenes.
@@ -405,6 +405,56 @@ struct RenderOutput {
     preview: Option<(Vec<u8>, f64)>,
 }
 
+/// What comparisons read of a stored render result: the JSON
+/// [`RenderRunner::execute`] stores in the render row — a
+/// [`render::RenderResult`] serialized (`targets[]`, each with its `id` and
+/// its `codings` as a map of coding name to [`render::CodingResult`]), plus
+/// `coding_seconds`, `coding_cost`, `cost_definition` and `preview` — of
+/// which this reads every target's codings' `XYZ` and `Y_se` only.
+/// `RenderResult` is written from lists and `&'static str`s and is never
+/// read back, so this is a view of exactly the fields needed.
+#[derive(Debug, serde::Deserialize)]
+pub(crate) struct StoredRenderResult {
+    targets: Vec<StoredTarget>,
+}
+
+#[derive(Debug, serde::Deserialize)]
+struct StoredTarget {
+    id: String,
+    /// By coding name, in name order (as `serde_json::Map` gave them).
+    codings: std::collections::BTreeMap<String, StoredCoding>,
+}
+
+#[derive(Debug, serde::Deserialize)]
+struct StoredCoding {
+    #[serde(rename = "XYZ")]
+    xyz: [f64; 3],
+    #[serde(rename = "Y_se")]
+    y_se: f64,
+}
+
+impl StoredRenderResult {
+    /// The stored result `json` of render `render_id`; an error naming the
+    /// render when the JSON is not that of a render result.
+    pub(crate) fn parse(render_id: i64, json: &serde_json::Value) -> Result<Self, String> {
+        use serde::Deserialize;
+        Self::deserialize(json)
+            .map_err(|e| format!("render {render_id}: its stored result is not a render result's JSON: {e}"))
+    }
+
+    /// Every coding's XYZ and standard error of Y (cd/m²) at `target`, in
+    /// coding-name order; `None` when the render has no target `target`.
+    pub(crate) fn codings(&self, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
+        let t = self.targets.iter().find(|t| t.id == target)?;
+        Some(
+            t.codings
+                .iter()
+                .map(|(name, c)| (name.clone(), Xyz::from_array(c.xyz), c.y_se))
+                .collect(),
+        )
+    }
+}
+
 /// A render with progress events, then each coding timed alone (same
 /// settings) and the camera preview. Runs on the rayon pool.
 fn render_with_timings(
@@ -486,6 +536,32 @@ fn render_with_timings(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stored result is read by its fields; one that is not a render
+    /// result's JSON is an error naming the render, not "no such target".
+    #[test]
+    fn a_stored_result_is_read_typed_and_a_malformed_one_names_its_render() {
+        let stored = serde_json::json!({
+            "targets": [{"id": "patch", "paths": 4, "codings": {
+                "spectral": {"XYZ": [1.0, 2.0, 3.0], "Y_se": 0.5, "Y": 2.0},
+                "rgb": {"XYZ": [4.0, 5.0, 6.0], "Y_se": 0.25},
+            }}],
+            "coding_seconds": {},
+        });
+        let r = StoredRenderResult::parse(7, &stored).unwrap();
+        assert_eq!(
+            r.codings("patch").unwrap(),
+            vec![
+                ("rgb".to_string(), Xyz::new(4.0, 5.0, 6.0), 0.25),
+                ("spectral".to_string(), Xyz::new(1.0, 2.0, 3.0), 0.5),
+            ]
+        );
+        assert_eq!(r.codings("h21"), None);
+        let malformed =
+            serde_json::json!({"targets": [{"id": "patch", "codings": {"spectral": {"XYZ": [1.0, 2.0, 3.0]}}}]});
+        let e = StoredRenderResult::parse(7, &malformed).unwrap_err();
+        assert!(e.starts_with("render 7: ") && e.contains("Y_se"), "{e}");
+    }
     use crate::testing::{drain, runner, store_in, TEST_SAMPLES};
 
     fn request(codings: Option<&str>, samples: Option<u32>, bounces: Option<u32>) -> RenderRequest {

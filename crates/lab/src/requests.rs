@@ -3,10 +3,10 @@
 //! share (deserialised from JSON by the HTTP layer, checked here).
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 /// Options of a study started through the API (see `lightbooth study`).
-#[derive(Clone, Debug, Default, serde::Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Default, serde::Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct StudyRequest {
     /// Comma-separated scene ids, each named once, at most 64
@@ -15,7 +15,7 @@ pub struct StudyRequest {
     /// `measurements` (default) or `reference` (a converged spectral rendering).
     pub against: Option<String>,
     /// Seeds, 1–64 (default 8).
-    #[schema(minimum = 1, maximum = 64)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 1, maximum = 64))]
     pub seeds: Option<u32>,
     /// Also sweep samples, bounces and N for the speed-against-accuracy chart.
     pub sweeps: Option<bool>,
@@ -35,12 +35,13 @@ pub struct StudyRequest {
     pub booth: Option<String>,
     /// The measurements queued for this study by `measure_missing` (set by the daemon).
     #[serde(skip_deserializing, default, skip_serializing_if = "Vec::is_empty")]
-    #[schema(read_only)]
+    #[cfg_attr(feature = "openapi", schema(read_only))]
     pub measured_first: Vec<i64>,
 }
 
 /// A scene as the API lists it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SceneInfo {
     pub id: String,
     pub title: String,
@@ -63,7 +64,8 @@ impl SceneInfo {
 }
 
 /// Options of a render request.
-#[derive(Clone, Debug, Default, serde::Deserialize, ToSchema)]
+#[derive(Clone, Debug, Default, serde::Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct RenderRequest {
     /// Comma-separated codings, e.g. `rgb,srgb,nstep3,spectral`; default: the daemon's.
@@ -71,17 +73,17 @@ pub struct RenderRequest {
     /// Radiometer paths per target, 2–4194304 (`lab::jobs::MAX_RENDER_SAMPLES`:
     /// two paths at least for a standard error; the renderer's own cap on
     /// adaptive sampling at most).
-    #[schema(minimum = 2, maximum = 4_194_304)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 2, maximum = 4_194_304))]
     pub samples: Option<u32>,
     /// A cap on indirect bounces, 0–64 (`lab::jobs::MAX_RENDER_BOUNCES`;
     /// 5 emulates RADIANCE `-ab 5`). Absent: no cap, Russian roulette ends
     /// the paths (unbiased). A capped render's result says so:
     /// `truncated_at_bounces` (`null` when uncapped) and `truncation_note`.
-    #[schema(minimum = 0, maximum = 64)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 0, maximum = 64))]
     pub bounces: Option<u32>,
     /// The sampler's seed, 0–9223372036854775807 (the store keeps it as a
     /// signed 64-bit integer); default: the daemon's.
-    #[schema(minimum = 0, maximum = 9_223_372_036_854_775_807_i64)]
+    #[cfg_attr(feature = "openapi", schema(minimum = 0, maximum = 9_223_372_036_854_775_807_i64))]
     pub seed: Option<u64>,
 }
 

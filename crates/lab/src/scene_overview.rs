@@ -6,7 +6,6 @@
 //! [`super::comparisons::summary`], with the daemon's observer).
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::comparisons::summary::scene_comparisons;
 use super::requests::SceneInfo;
@@ -17,7 +16,8 @@ use lightbooth_store::{Booth, MeasurementFilter, MeasurementState, Store, StoreE
 const MEASUREMENTS_READ: i64 = 1000;
 
 /// One coding's figures over a scene's measured targets.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CodingFigures {
     pub coding: String,
     /// The coding's colour in every chart and page (`charts::coding_style`), `#rrggbb`.
@@ -32,7 +32,8 @@ pub struct CodingFigures {
 }
 
 /// One scene's state.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SceneStatus {
     pub scene: String,
     pub title: String,
@@ -50,11 +51,12 @@ pub struct SceneStatus {
 }
 
 /// Every scene of `scenes`, in their order.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ScenesOverview {
     pub booth: String,
     /// The observer of every ΔE00 (`judd-vos-1978` or `cie-1931`).
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub observer: Observer,
     pub scenes: Vec<SceneStatus>,
 }

@@ -3,14 +3,14 @@
 //! the standard's calibration file and SHA-256, the time.
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::{json_array, now, Store, StoreError};
 use lightbooth_science::calibration::illuminant::Illuminant;
 use lightbooth_science::calibration::reflectance::{Reflectance, ReflectanceFlags};
 
 /// The white standard's calibration a result was computed with.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StandardProvenance {
     /// The calibration's file name (or the shipped standard's).
     pub file: String,
@@ -21,7 +21,8 @@ pub struct StandardProvenance {
 }
 
 /// A stored reflectance, as the API sends it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ReflectanceRow {
     pub id: i64,
     /// The column name of its scene CSV.
@@ -41,7 +42,8 @@ pub struct ReflectanceRow {
 }
 
 /// A stored lamp SPD, as the API sends it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct IlluminantRow {
     pub id: i64,
     pub name: String,

@@ -4,13 +4,13 @@
 //! judged from the stored fit whenever a row is read).
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::{now, Store, StoreError};
 use lightbooth_science::display::DisplayProfile;
 
 /// A stored display profile, as the API sends it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DisplayProfileRow {
     pub id: i64,
     pub name: String,

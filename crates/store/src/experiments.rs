@@ -9,7 +9,6 @@
 //! session cannot both record trial 12.
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::{now, Store, StoreError};
 
@@ -28,7 +27,8 @@ pub struct NewExperiment<'a> {
 }
 
 /// A stored experiment.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ExperimentRow {
     pub id: i64,
     pub name: String,
@@ -46,10 +46,10 @@ pub struct ExperimentRow {
     /// The seed as a decimal string: exact in every client, whatever its size.
     pub seed_text: String,
     /// The request with its defaults filled in.
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub request: serde_json::Value,
     /// Every colour through the display profile at creation.
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub check: serde_json::Value,
 }
 
@@ -97,7 +97,8 @@ impl TryFrom<ExperimentRecord> for ExperimentRow {
 }
 
 /// One observer's session of an experiment.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema, sqlx::FromRow)]
+#[derive(Clone, Debug, PartialEq, Serialize, sqlx::FromRow)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ExperimentSessionRow {
     pub id: i64,
     pub experiment_id: i64,
@@ -146,7 +147,8 @@ pub struct RunningSessionCounts {
 }
 
 /// A trial as it ended.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct TrialRow {
     pub session_id: i64,
     /// 0, 1, … in the order shown.

@@ -152,7 +152,8 @@ pub fn now() -> f64 {
 
 /// The measurement lifecycle. Only `queued → running → complete|failed|
 /// interrupted|cancelled` transitions happen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum MeasurementState {
     Queued,

@@ -7,12 +7,12 @@
 //! records by `TryFrom`, which parses stored JSON and names what is corrupt.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::{Booth, MeasurementState, StoreError};
 use lightbooth_science::colorimetry::{Observer, Xyz};
 
-#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
+#[derive(Clone, Debug, Serialize, sqlx::FromRow)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct InstrumentRow {
     pub id: i64,
     pub model: String,
@@ -26,7 +26,8 @@ pub struct InstrumentRow {
 }
 
 /// A booth as the database knows it: from its measurements and instruments.
-#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
+#[derive(Clone, Debug, Serialize, sqlx::FromRow)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct BoothRow {
     pub booth: String,
     /// Measurements taken (or queued) in it.
@@ -37,7 +38,8 @@ pub struct BoothRow {
     pub last_measurement_at: Option<f64>,
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema, sqlx::FromRow)]
+#[derive(Clone, Debug, Serialize, sqlx::FromRow)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SessionRow {
     pub id: i64,
     pub operator: String,
@@ -94,7 +96,8 @@ pub struct Average {
 }
 
 /// A measurement without its spectra: what listings show.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasurementSummary {
     pub id: i64,
     /// The booth it was taken in (`serve --booth`; `default` for one booth).
@@ -135,7 +138,7 @@ pub struct MeasurementSummary {
     pub instrument_y: Option<f64>,
     /// The observer of `x`, `y` and `XYZ`: `judd-vos-1978` or `cie-1931`
     /// (the daemon's `--observer` when the measurement completed).
-    #[schema(value_type = Option<String>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<String>))]
     pub observer: Option<Observer>,
     /// x of the mean spectrum computed by lightbooth with `observer`.
     pub x: Option<f64>,
@@ -159,7 +162,8 @@ pub struct MeasurementSummary {
 
 /// The instrument hold a measurement was taken under: what held the
 /// instrument, so a verification knows the display showed its colour.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasurementHold {
     pub id: i64,
     /// What held it, e.g. `verification of experiment 3`.
@@ -167,7 +171,8 @@ pub struct MeasurementHold {
 }
 
 /// One stored raw sample.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SampleRow {
     pub index: usize,
     /// POSIX seconds, UTC.
@@ -193,7 +198,8 @@ pub struct SampleRow {
 }
 
 /// A measurement with its average spectrum and every raw sample.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasurementDetail {
     #[serde(flatten)]
     pub summary: MeasurementSummary,
@@ -207,13 +213,14 @@ pub struct MeasurementDetail {
 }
 
 /// Filters and paging for listing measurements.
-#[derive(Clone, Debug, Default, Deserialize, ToSchema, utoipa::IntoParams)]
-#[into_params(parameter_in = Query)]
+#[derive(Clone, Debug, Default, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema, utoipa::IntoParams))]
+#[cfg_attr(feature = "openapi", into_params(parameter_in = Query))]
 #[serde(deny_unknown_fields)]
 pub struct MeasurementFilter {
     /// One booth's measurements only.
-    #[schema(value_type = Option<String>)]
-    #[param(value_type = Option<String>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<String>))]
+    #[cfg_attr(feature = "openapi", param(value_type = Option<String>))]
     pub booth: Option<Booth>,
     /// Only those taken by this instrument model (`PR-650`, `PR-655`, `PR-670`).
     pub instrument_model: Option<String>,
@@ -221,9 +228,9 @@ pub struct MeasurementFilter {
     pub target: Option<String>,
     pub state: Option<MeasurementState>,
     /// 1–1000, default 50.
-    #[param(minimum = 1, maximum = 1000)]
+    #[cfg_attr(feature = "openapi", param(minimum = 1, maximum = 1000))]
     pub limit: Option<i64>,
-    #[param(minimum = 0)]
+    #[cfg_attr(feature = "openapi", param(minimum = 0))]
     pub offset: Option<i64>,
     /// Only measurements with an id below this one: the page after a page
     /// whose last (oldest) item has this id. Unlike `offset`, it costs the
@@ -231,7 +238,8 @@ pub struct MeasurementFilter {
     pub before_id: Option<i64>,
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasurementPage {
     pub total: i64,
     pub limit: i64,
@@ -404,12 +412,13 @@ pub struct NewRender {
     pub seed: u64,
 }
 
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct RenderRow {
     pub id: i64,
     pub scene: String,
     pub scene_hash: String,
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub settings: serde_json::Value,
     pub codings: Vec<String>,
     pub seed: i64,
@@ -420,7 +429,7 @@ pub struct RenderRow {
     pub wall_seconds: Option<f64>,
     /// The renderer's JSON result (per target and coding), once complete;
     /// null before.
-    #[schema(value_type = Option<Object>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub result: Option<serde_json::Value>,
 }
 
@@ -506,7 +515,8 @@ pub struct NewComparison {
 /// A stored comparison, as the API and the CSV/MAT downloads give it. Field
 /// names follow the colorimetric symbols (X, Y, Z) so MATLAB tables read well.
 #[allow(non_snake_case)]
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ComparisonRow {
     pub id: i64,
     pub measurement_id: i64,
@@ -515,7 +525,7 @@ pub struct ComparisonRow {
     pub target: String,
     pub coding: String,
     /// The observer of every XYZ, x,y and ΔE of the row.
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub observer: Observer,
     /// The CIELAB reference white the scene declares (`[cielab_white]` in
     /// its file) and where its value came from (a measurement, the rendering
@@ -633,7 +643,8 @@ pub struct NewLuminanceComparison {
 /// against one coding), as the API gives it: the luminance ratio, whether
 /// the difference is beyond noise, and no colour.
 #[allow(non_snake_case)]
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LuminanceComparisonRow {
     pub id: i64,
     pub measurement_id: i64,
@@ -642,7 +653,7 @@ pub struct LuminanceComparisonRow {
     pub target: String,
     pub coding: String,
     /// The observer whose ȳ weights both luminances.
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub observer: Observer,
     pub measured_Y: f64,
     /// Standard error of the measured Y (samples' SD/√n).
@@ -702,10 +713,11 @@ impl From<LuminanceComparisonRecord> for LuminanceComparisonRow {
 }
 
 /// A study run as the API lists it.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StudyRow {
     pub id: i64,
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub request: serde_json::Value,
     pub state: String,
     pub error: Option<String>,
@@ -714,7 +726,7 @@ pub struct StudyRow {
     pub wall_seconds: Option<f64>,
     /// Every figure (only in the detail).
     #[serde(skip_serializing_if = "Option::is_none")]
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub result: Option<serde_json::Value>,
     /// The report's files, served at `/api/studies/{id}/files/{name}`.
     pub files: Vec<String>,

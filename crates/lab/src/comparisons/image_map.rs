@@ -14,7 +14,8 @@ use lightbooth_science::display::stimulus_files::{viridis, VIRIDIS};
 use crate::error::LabError;
 
 /// The ΔE00 map between two images of one render.
-#[derive(Clone, Debug, serde::Serialize, utoipa::ToSchema)]
+#[derive(Clone, Debug, serde::Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DeltaEMap {
     pub image_id: i64,
     pub against: i64,

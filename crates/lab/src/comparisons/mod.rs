@@ -40,18 +40,19 @@ pub mod summary;
 pub mod white;
 
 use std::collections::HashMap;
+use std::path::Path;
 use std::sync::Arc;
 
 use tokio::runtime::Handle;
 
 use super::error::LabError;
 use super::events::{Event, EventSink};
-use super::render_runner::RenderRunner;
+use super::render_runner::{RenderRunner, StoredRenderResult};
 use super::worker_queue::WorkerQueue;
 use lightbooth_science::colorimetry::{Lab, Xyz};
 use lightbooth_science::comparison::{compare_point, delta_e_pair};
 use lightbooth_store::{Booth, NewComparison, NewLuminanceComparison, Store};
-use white::{measured_xyz, SceneWhite};
+use white::{resolve_white, RenderedWhite};
 
 /// Compares measurements with every coding of their scene's render.
 pub struct Comparisons {
@@ -304,52 +305,52 @@ impl Comparisons {
             .catalogue()
             .get(scene)
             .ok_or_else(|| LabError::NotFound(format!("no scene `{scene}`")))?;
-        let (white_scene, target) = match &entry.white {
-            SceneWhite::Fixed { xyz, source } => return Ok((*xyz, source.clone())),
-            SceneWhite::Target { scene_id, target, .. } => (scene_id.clone(), target.clone()),
+        // Not measured in the booth: the latest render at the comparison
+        // settings, never one rendered for this.
+        let latest_render = async |white_scene: &str, _: &Path, target: &str| {
+            let hash = self
+                .runner
+                .catalogue()
+                .get(white_scene)
+                .ok_or_else(|| LabError::NotFound(format!("no scene `{white_scene}`")))?
+                .hash
+                .clone();
+            let settings = serde_json::to_value(self.runner.comparison_settings()).map_err(|e| internal(&e))?;
+            let Some((render_id, result)) = self.store.find_render_result(&hash, &settings).await? else {
+                return Err(LabError::Conflict(format!(
+                    "the CIELAB white of `{scene}` is {white_scene}/{target}, which is not measured in booth {booth} \
+                     and not yet rendered with the daemon's settings: measure it, or render `{white_scene}` with no \
+                     options (POST /api/scenes/{white_scene}/renders with {{}}), then ask again"
+                )));
+            };
+            let (_, xyz, _) = StoredRenderResult::parse(render_id, &result)
+                .map_err(|e| internal(&e))?
+                .codings(target)
+                .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
+                .ok_or_else(|| {
+                    internal(&format!(
+                        "render {render_id} has no spectral rendering of {white_scene}/{target}"
+                    ))
+                })?;
+            Ok::<_, LabError>(RenderedWhite::Render { render_id, xyz })
         };
-        if let Some(m) = self
-            .store
-            .latest_complete_in_booth(&white_scene, &target, booth)
-            .await?
-        {
-            if let Some(xyz) = measured_xyz(&m, self.runner.observer()).map_err(|e| internal(&e))? {
-                return Ok((xyz, format!("measurement {} ({white_scene}/{target})", m.summary.id)));
-            }
-        }
-        let hash = self
-            .runner
-            .catalogue()
-            .get(&white_scene)
-            .ok_or_else(|| LabError::NotFound(format!("no scene `{white_scene}`")))?
-            .hash
-            .clone();
-        let settings = serde_json::to_value(self.runner.comparison_settings()).map_err(|e| internal(&e))?;
-        let Some((render_id, result)) = self.store.find_render_result(&hash, &settings).await? else {
-            return Err(LabError::Conflict(format!(
-                "the CIELAB white of `{scene}` is {white_scene}/{target}, which is not measured in booth {booth} \
-                 and not yet rendered with the daemon's settings: measure it, or render `{white_scene}` with no \
-                 options (POST /api/scenes/{white_scene}/renders with {{}}), then ask again"
-            )));
-        };
-        let (_, xyz, _) = rendered_codings(&result, &target)
-            .and_then(|codings| codings.into_iter().find(|(c, _, _)| c == "spectral"))
-            .ok_or_else(|| {
-                internal(&format!(
-                    "render {render_id} has no spectral rendering of {white_scene}/{target}"
-                ))
-            })?;
-        Ok((
-            xyz,
-            format!("render {render_id} spectral ({white_scene}/{target}; not yet measured)"),
-        ))
+        resolve_white(
+            &entry.white,
+            Some((&self.store, booth)),
+            self.runner.observer(),
+            latest_render,
+        )
+        .await
+        .map_err(|e| e.into_error(|m| internal(&m)))
     }
 
     /// The render of `scene` comparisons use ([`Self::render_for_comparison`])
     /// and every coding's XYZ and standard error of Y at `target` in it.
     async fn rendered_target(&self, scene: &str, target: &str) -> anyhow::Result<(i64, Vec<(String, Xyz, f64)>)> {
         let (render_id, result) = self.render_for_comparison(scene).await?;
-        let rendered = rendered_codings(&result, target)
+        let rendered = StoredRenderResult::parse(render_id, &result)
+            .map_err(anyhow::Error::msg)?
+            .codings(target)
             .ok_or_else(|| anyhow::anyhow!("the render of {scene} has no target {target}"))?;
         Ok((render_id, rendered))
     }
@@ -405,24 +406,6 @@ impl Comparisons {
             .ok_or_else(|| anyhow::anyhow!("render {id} failed: {}", row.error.unwrap_or_default()))?;
         Ok((id, result))
     }
-}
-
-/// Every coding's XYZ and standard error of Y at `target` in a stored
-/// render result.
-fn rendered_codings(result: &serde_json::Value, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
-    let t = result
-        .get("targets")?
-        .as_array()?
-        .iter()
-        .find(|t| t.get("id").and_then(|i| i.as_str()) == Some(target))?;
-    let codings = t.get("codings")?.as_object()?;
-    codings
-        .iter()
-        .map(|(name, c)| {
-            let xyz: [f64; 3] = serde_json::from_value(c.get("XYZ")?.clone()).ok()?;
-            Some((name.clone(), Xyz::from_array(xyz), c.get("Y_se")?.as_f64()?))
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -493,7 +476,9 @@ mod tests {
         // The render the comparison will reuse (same scene content and settings).
         let render_id = render_white(&runner).await;
         let result = store.get_render(render_id).await.unwrap().unwrap().result.unwrap();
-        let (_, spectral, _) = rendered_codings(&result, "patch")
+        let (_, spectral, _) = StoredRenderResult::parse(render_id, &result)
+            .unwrap()
+            .codings("patch")
             .unwrap()
             .into_iter()
             .find(|(c, _, _)| c == "spectral")
@@ -604,7 +589,9 @@ mod tests {
         let (runner, _) = runner(&store);
         let render_id = render_white(&runner).await;
         let result = store.get_render(render_id).await.unwrap().unwrap().result.unwrap();
-        let (_, spectral, spectral_se) = rendered_codings(&result, "patch")
+        let (_, spectral, spectral_se) = StoredRenderResult::parse(render_id, &result)
+            .unwrap()
+            .codings("patch")
             .unwrap()
             .into_iter()
             .find(|(c, _, _)| c == "spectral")

@@ -4,8 +4,9 @@
 //! measurement order; and a stored measurement's XYZ, for both.
 //!
 //! - A target white (`target`, optionally `scene`) names a scene file and a
-//!   target; the caller finds its newest complete measurement (or, until
-//!   there is one, the converged rendering of it, and says so).
+//!   target; [`resolve_white`] finds its newest complete measurement in the
+//!   caller's booth (or, until there is one, the caller's rendering of it,
+//!   and says so) — the one white policy of the daemon and the study.
 //! - A diffuser white (`light_on_perfect_diffuser`) and an explicit `xyz`
 //!   are computed here from the scene alone.
 
@@ -15,7 +16,7 @@ use lightbooth_render::scene::CielabWhite;
 use lightbooth_render::{self as render, Scene};
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
-use lightbooth_store::MeasurementDetail;
+use lightbooth_store::{Booth, MeasurementDetail, Store, StoreError};
 
 /// Where a scene's white comes from, resolved.
 #[derive(Clone, Debug, PartialEq)]
@@ -94,6 +95,116 @@ pub fn scene_white(scene_path: &Path, scene: &Scene, observer: Observer) -> Resu
             source: format!("XYZ stated in the scene file ({})", scene_id(scene_path)),
         }),
     }
+}
+
+/// A rendering of a target white: what a caller of [`resolve_white`] falls
+/// back on while the white is not measured in its booth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RenderedWhite {
+    /// The daemon's: the `spectral` coding of render `render_id`, a complete
+    /// render at the daemon's comparison settings (never one rendered for
+    /// the asking).
+    Render { render_id: i64, xyz: Xyz },
+    /// The study's: its converged reference rendering.
+    Reference(Xyz),
+}
+
+/// Why [`resolve_white`] (or [`measured_in_booth`]) found no white.
+#[derive(Debug)]
+pub enum WhiteError<E> {
+    /// The store failed looking for the white's measurement.
+    Store(StoreError),
+    /// The white's newest measurement in the booth gives no XYZ in the
+    /// observer ([`measured_xyz`]'s error, naming the measurement).
+    Measurement(String),
+    /// The caller's fallback failed (its own error, e.g. "render it first").
+    Fallback(E),
+}
+
+impl<E: From<StoreError>> WhiteError<E> {
+    /// The caller's error: a store error through `From`, a measurement's
+    /// through `measurement`, the fallback's as it was.
+    pub fn into_error(self, measurement: impl FnOnce(String) -> E) -> E {
+        match self {
+            WhiteError::Store(e) => e.into(),
+            WhiteError::Measurement(m) => measurement(m),
+            WhiteError::Fallback(e) => e,
+        }
+    }
+}
+
+/// The newest complete measurement of `scene_id`/`target` taken in `booth`
+/// (never another booth's) and its XYZ with `observer`; `None` when there
+/// is none, or the newest holds no colour yet ([`measured_xyz`]).
+pub async fn measured_in_booth<E>(
+    store: &Store,
+    booth: &Booth,
+    scene_id: &str,
+    target: &str,
+    observer: Observer,
+) -> Result<Option<(MeasurementDetail, Xyz)>, WhiteError<E>> {
+    let Some(m) = store
+        .latest_complete_in_booth(scene_id, target, booth)
+        .await
+        .map_err(WhiteError::Store)?
+    else {
+        return Ok(None);
+    };
+    Ok(measured_xyz(&m, observer)
+        .map_err(WhiteError::Measurement)?
+        .map(|xyz| (m, xyz)))
+}
+
+/// The CIELAB white `white` resolves to now, and its source (the
+/// `white_source` of a comparison row and of a study's scene): the one
+/// white policy of the daemon's comparisons and of the study.
+///
+/// - A fixed white (a diffuser's, an explicit XYZ) is its own.
+/// - A target white is its newest complete measurement taken in the booth
+///   of `measured_in` (never another booth's): "measurement ID
+///   (SCENE/TARGET)".
+/// - Else the caller's `rendered(scene id, scene file, target)`: "render ID
+///   spectral (SCENE/TARGET; not yet measured)" (the daemon's latest
+///   render), "reference render (SCENE/TARGET; not measured)" (the study's
+///   reference render). With `measured_in` `None` (the study against its
+///   reference renders: no measurement is consulted) the fallback answers
+///   alone and its source does not mention measuring: "reference render
+///   (SCENE/TARGET)".
+pub async fn resolve_white<E>(
+    white: &SceneWhite,
+    measured_in: Option<(&Store, &Booth)>,
+    observer: Observer,
+    rendered: impl AsyncFnOnce(&str, &Path, &str) -> Result<RenderedWhite, E>,
+) -> Result<(Xyz, String), WhiteError<E>> {
+    let (scene_id, scene_path, target) = match white {
+        SceneWhite::Fixed { xyz, source } => return Ok((*xyz, source.clone())),
+        SceneWhite::Target {
+            scene_id,
+            scene_path,
+            target,
+        } => (scene_id, scene_path, target),
+    };
+    if let Some((store, booth)) = measured_in {
+        if let Some((m, xyz)) = measured_in_booth(store, booth, scene_id, target, observer).await? {
+            return Ok((xyz, format!("measurement {} ({scene_id}/{target})", m.summary.id)));
+        }
+    }
+    let unmeasured = measured_in.is_some();
+    Ok(
+        match rendered(scene_id, scene_path, target)
+            .await
+            .map_err(WhiteError::Fallback)?
+        {
+            RenderedWhite::Render { render_id, xyz } => {
+                let note = if unmeasured { "; not yet measured" } else { "" };
+                (xyz, format!("render {render_id} spectral ({scene_id}/{target}{note})"))
+            }
+            RenderedWhite::Reference(xyz) => {
+                let note = if unmeasured { "; not measured" } else { "" };
+                (xyz, format!("reference render ({scene_id}/{target}{note})"))
+            }
+        },
+    )
 }
 
 /// A scene's id: its file stem (as the daemon names scenes).

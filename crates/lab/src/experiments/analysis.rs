@@ -12,7 +12,6 @@
 //! observer's trials are excluded.
 
 use serde::Serialize;
-use utoipa::ToSchema;
 
 use super::session::excluded_warning;
 use super::{parts, Experiments};
@@ -27,7 +26,8 @@ pub const CONFIDENCE: f64 = 0.95;
 pub const ALL_OBSERVERS: &str = "all";
 
 /// One observer (or all) and one approximation.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ConditionResult {
     /// An observer id, or `all` pooled over observers.
     pub observer: String,
@@ -40,9 +40,9 @@ pub struct ConditionResult {
     /// Percent correct under the differencing model's estimate, with both
     /// models' d′ ([`OddityEstimate`] names its model); none when no trial
     /// is counted.
-    #[schema(value_type = Option<Object>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub differencing: Option<OddityEstimate>,
-    #[schema(value_type = Option<Object>)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub independent_observation: Option<OddityEstimate>,
     /// ΔE00 (display white) between original and approximation as intended
     /// and as shown with the output method (the experiment's check).
@@ -54,7 +54,8 @@ pub struct ConditionResult {
 }
 
 /// Every condition of an experiment.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Analysis {
     pub experiment_id: i64,
     pub name: String,

@@ -29,7 +29,6 @@ mod tests;
 pub mod verification;
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::error::LabError;
 use lightbooth_science::display::output::{check_colours, ColourCheck, OutputMethod};
@@ -46,7 +45,8 @@ pub const NOMINAL_REFRESH_HZ: f64 = 60.0;
 
 /// An experiment as a client asks for it (`POST /api/experiments`,
 /// `lightbooth experiment create`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ExperimentRequest {
     /// A name for people; `"<scene>/<target>"` when empty.
@@ -64,12 +64,12 @@ pub struct ExperimentRequest {
     pub display_profile_id: i64,
     /// `8bit`, `noisy_bit` (the default) or `10bit`.
     #[serde(default = "noisy_bit")]
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub output: OutputMethod,
     /// `scale` (the default: every colour darkened by one factor until all
     /// fit, so their differences keep their proportions), `clip` or `fail`.
     #[serde(default = "scale")]
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub gamut: GamutPolicy,
     #[serde(default)]
     pub presentation: Presentation,
@@ -348,7 +348,8 @@ impl Default for StoredGamut {
 }
 
 /// One colour of a stored check.
-#[derive(Clone, Debug, Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StoredColour {
     pub name: String,
     /// The colour asked for, XYZ cd/m² (before the gamut policy).

@@ -10,7 +10,6 @@
 //! screen is lost.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::{parts, Experiments, StoredColour};
 use crate::error::LabError;
@@ -65,13 +64,14 @@ pub fn check_observer_id(id: &str) -> Result<(), LabError> {
 }
 
 /// Everything the session page needs to show the next trial.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct SessionView {
     pub session: ExperimentSessionRow,
     pub experiment_id: i64,
     pub experiment_name: String,
     pub presentation: Presentation,
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub output: OutputMethod,
     /// The display profile's fitted γ of red, green, blue: the page turns
     /// linear RGB into drive per pixel with them.
@@ -94,7 +94,8 @@ pub struct SessionView {
 }
 
 /// The trial to show.
-#[derive(Clone, Debug, Serialize, ToSchema)]
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct NextTrial {
     pub position: usize,
     /// Index into the experiment's approximations.
@@ -105,7 +106,8 @@ pub struct NextTrial {
 }
 
 /// What happened in one trial, as the page reports it.
-#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct TrialReport {
     /// The trial's position (the `next.position` the page was given).
@@ -231,7 +233,8 @@ pub fn check_trial(report: &TrialReport, frame_ms: f64, p: &Presentation) -> Res
 pub const MAX_FRAME_INTERVALS: usize = 60_000;
 
 /// What the page measured of the display before the first trial.
-#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct DisplayReport {
     /// Median `requestAnimationFrame` interval, ms.

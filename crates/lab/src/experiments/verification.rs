@@ -51,7 +51,6 @@
 //! patch, another experiment's verification), is refused.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::{parts, Experiments, StoredColour};
 use crate::comparisons::white::measured_xyz;
@@ -73,7 +72,8 @@ pub fn hold_purpose(experiment_id: i64) -> String {
 }
 
 /// Where on the screen a colour was shown while it was measured.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum Geometry {
     /// The whole screen in the colour.
@@ -93,7 +93,8 @@ impl Geometry {
 }
 
 /// One measured patch, as the page reports it.
-#[derive(Clone, Debug, Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct VerifiedPatch {
     /// `original`, an approximation's coding, or `background`.
@@ -104,7 +105,8 @@ pub struct VerifiedPatch {
 }
 
 /// `POST /api/experiments/{id}/verifications`.
-#[derive(Clone, Debug, Deserialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct VerificationRequest {
     /// 1–128 patches.
@@ -122,7 +124,8 @@ fn default_tolerance() -> f64 {
 }
 
 /// A stored verification.
-#[derive(Clone, Debug, Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Verification {
     pub id: i64,
     pub experiment_id: i64,
@@ -141,7 +144,8 @@ pub struct Verification {
 }
 
 /// One colour in one geometry, measured on the display.
-#[derive(Clone, Debug, Deserialize, Serialize, ToSchema)]
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct VerifiedColour {
     pub colour: String,
     pub geometry: Geometry,

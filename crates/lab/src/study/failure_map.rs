@@ -54,7 +54,7 @@ use serde::Serialize;
 use crate::charts::{grid_chart, line_chart, LineSeriesData};
 use lightbooth_render::coding::OBSERVER;
 use lightbooth_render::{load_scene, render, ChannelLayout, Coding, RenderError, RenderSettings, SceneError};
-use lightbooth_science::colorimetry::{ciede2000, delta_e76, Cmf, Lab, Xyz, KM_LM_PER_W};
+use lightbooth_science::colorimetry::{Cmf, Lab, Xyz, KM_LM_PER_W};
 use lightbooth_science::comparison::{compare_point, mean_sd, summarize};
 use lightbooth_science::reference_data::{illuminant, illuminant_1nm, reflectances, Illuminant, ReflectanceSet};
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
@@ -231,20 +231,20 @@ pub fn illuminant_patch_map(
         let mut rows = Vec::new();
         for (k, (name, reflectance)) in patches.iter().enumerate() {
             let xyz = direct_xyz(&layout, &light, reflectance)?;
-            let reference = Lab::from_xyz(xyz[spectral], white);
+            let reference_xyz = xyz[spectral];
+            let reference = Lab::from_xyz(reference_xyz, white);
             let cells = names
                 .iter()
                 .zip(&xyz)
                 .map(|(coding, &xyz)| {
-                    let lab = Lab::from_xyz(xyz, white);
-                    let de76 = delta_e76(reference, lab);
+                    let d = compare_point(reference_xyz, xyz, white, OBSERVER);
                     PatchCell {
                         coding: coding.clone(),
                         xyz,
-                        lab,
-                        de76,
-                        de00: ciede2000(reference, lab),
-                        fails: de76 > DELTA_E_THRESHOLD,
+                        lab: Lab::from_xyz(xyz, white),
+                        de76: d.de76,
+                        de00: d.de00,
+                        fails: d.de76 > DELTA_E_THRESHOLD,
                     }
                 })
                 .collect();

@@ -47,7 +47,7 @@ use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
 };
 use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
-use crate::comparisons::white::{measured_xyz, scene_id, scene_white, SceneWhite};
+use crate::comparisons::white::{measured_in_booth, resolve_white, scene_id, scene_white, RenderedWhite};
 
 /// Relative standard error of Y of the reference rendering.
 pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
@@ -374,10 +374,10 @@ async fn measured(
     target: &str,
     observer: Observer,
 ) -> Result<Option<(Xyz, f64, String)>, StudyError> {
-    let Some(m) = store.latest_complete_in_booth(scene_id, target, booth).await? else {
-        return Ok(None);
-    };
-    let Some(xyz) = measured_xyz(&m, observer).map_err(StudyError::Truth)? else {
+    let Some((m, xyz)) = measured_in_booth(store, booth, scene_id, target, observer)
+        .await
+        .map_err(|e| e.into_error(StudyError::Truth))?
+    else {
         return Ok(None);
     };
     let usable = m.samples.iter().filter(|s| s.usable).count();
@@ -454,34 +454,19 @@ pub async fn run_study(
                 scene_file: truth_file.display().to_string(),
             });
         }
-        let (white, white_source) = match &white_spec {
-            SceneWhite::Fixed { xyz, source } => (*xyz, source.clone()),
-            SceneWhite::Target {
-                scene_id: white_scene_id,
-                scene_path: white_path,
-                target: white_target,
-            } => {
-                let white_truth = options.truth_path(white_path);
-                match (options.against, store) {
-                    (Against::Measurements, Some(store)) => {
-                        match measured(store, &options.booth, white_scene_id, white_target, options.observer).await? {
-                            Some((xyz, _, source)) => (xyz, format!("{source} ({white_scene_id}/{white_target})")),
-                            None => {
-                                let (xyz, _) = references.xyz(&white_truth, white_target)?;
-                                (
-                                    xyz,
-                                    format!("reference render ({white_scene_id}/{white_target}; not measured)"),
-                                )
-                            }
-                        }
-                    }
-                    _ => {
-                        let (xyz, _) = references.xyz(&white_truth, white_target)?;
-                        (xyz, format!("reference render ({white_scene_id}/{white_target})"))
-                    }
-                }
-            }
+        // Measured in the booth first (against measurements), else the
+        // converged reference render of the white target.
+        let measured_in = match (options.against, store) {
+            (Against::Measurements, Some(store)) => Some((store, &options.booth)),
+            _ => None,
         };
+        let reference_render = async |_: &str, white_path: &Path, white_target: &str| {
+            let (xyz, _) = references.xyz(&options.truth_path(white_path), white_target)?;
+            Ok::<_, StudyError>(RenderedWhite::Reference(xyz))
+        };
+        let (white, white_source) = resolve_white(&white_spec, measured_in, options.observer, reference_render)
+            .await
+            .map_err(|e| e.into_error(StudyError::Truth))?;
 
         // Every seed renders every coding in one pass.
         let render_start = Instant::now();

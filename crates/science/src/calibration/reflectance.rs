@@ -28,7 +28,8 @@ use crate::spectrum::table::write_csv;
 use crate::spectrum::Grid;
 
 /// Where a reflectance leaves [0, 1].
-#[derive(Clone, Debug, Default, PartialEq, Serialize, utoipa::ToSchema)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ReflectanceFlags {
     /// Wavelengths (nm) where ρ > 1.
     pub above_one_nm: Vec<f64>,

@@ -22,7 +22,6 @@
 //! values are what the fit sees.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::profile::{
     Additivity, ChannelTransfer, Checks, DisplayProfile, Emission, LuminanceAdditivity, LuminanceValidation,
@@ -35,7 +34,8 @@ use crate::spectrum::{Grid, SpectralUnit, Spectrum};
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];
 
 /// One colour the calibration page shows.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct PlanPatch {
     /// What it is, for the operator: `black`, `red 50 %`, `grey 25 %`, ….
     pub label: String,
@@ -46,7 +46,8 @@ pub struct PlanPatch {
 }
 
 /// The colours of a calibration, in the order shown.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct CalibrationPlan {
     pub patches: Vec<PlanPatch>,
 }
@@ -112,7 +113,8 @@ impl CalibrationPlan {
 }
 
 /// What the instrument gave for a colour shown.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum PatchLight {
     /// A spectroradiometer's mean spectral radiance, W/(sr·m²·nm).
@@ -147,7 +149,8 @@ impl PatchLight {
 }
 
 /// A colour as shown and measured.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasuredPatch {
     /// Drive per channel, 0–1.
     pub drive: [f64; 3],

@@ -34,14 +34,14 @@
 //! the session page applies the same γ per pixel.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::profile::{DisplayProfile, FrameBuffer, TransferModel};
 use super::stimulus::{apply_gamut, delta_e00, excess, GamutPolicy, GamutReport, GAMUT_TOLERANCE};
 use super::{Converter, DisplayError};
 
 /// How frame-buffer values reach the screen (see the module doc).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum OutputMethod {
     /// 8 bits per gun, each colour rounded to its nearest code (the study's).
     #[serde(rename = "8bit")]
@@ -112,7 +112,8 @@ impl std::str::FromStr for OutputMethod {
 }
 
 /// The smallest difference an output method shows (see the module doc).
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Resolution {
     pub method: OutputMethod,
     /// Bits of the codes sent to the display.
@@ -137,7 +138,8 @@ pub fn mean_dithered_output(profile: &DisplayProfile, channel: usize, v: f64) ->
 }
 
 /// One colour on the display.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ColourOnDisplay {
     /// `original`, or the approximation's coding.
     pub name: String,
@@ -173,10 +175,11 @@ pub struct ColourOnDisplay {
 }
 
 /// Every colour of an experiment on one display.
-#[derive(Clone, Debug, PartialEq, Serialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ColourCheck {
     pub resolution: Resolution,
-    #[schema(value_type = Object)]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
     pub gamut: GamutReport,
     pub original: ColourOnDisplay,
     pub approximations: Vec<ColourOnDisplay>,

@@ -22,7 +22,6 @@
 
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::DisplayError;
 use crate::colorimetry::{ciede2000, xyz_from_radiance, Lab, Observer, Xyz};
@@ -46,7 +45,8 @@ fn within(value: f64, limit: f64) -> bool {
 }
 
 /// One channel's transfer: the fitted exponent and the table it was fitted to.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ChannelTransfer {
     /// γ of `t(v) = v^γ`, least squares over the measured levels.
     pub gamma: f64,
@@ -108,7 +108,8 @@ fn interpolate(xs: &[f64], ys: &[f64], x: f64) -> f64 {
 }
 
 /// White against the sum of the three primaries: the additivity check.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Additivity {
     /// XYZ of the measured white (all channels at full drive), cd/m².
     pub white_xyz: [f64; 3],
@@ -123,7 +124,8 @@ pub struct Additivity {
 }
 
 /// A validation colour: measured against what the profile predicts.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Validation {
     /// The drive shown, 0–1 per channel.
     pub drive: [f64; 3],
@@ -139,7 +141,8 @@ pub struct Validation {
 /// Serialised without a tag: each kind has its own field names
 /// (`wavelength_nm`, `black`, `primaries`; `black_xyz`, `primaries_xyz`;
 /// `black_cd_m2`, `primaries_cd_m2`) beside the profile's other fields.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(untagged)]
 pub enum Emission {
     /// A spectroradiometer's: spectra on its grid.
@@ -180,7 +183,8 @@ impl Emission {
 
 /// A luminance meter's additivity check: the white's luminance against
 /// black + R + G + B.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LuminanceAdditivity {
     /// Luminance of the measured white (all channels at full drive), cd/m².
     pub white_cd_m2: f64,
@@ -192,7 +196,8 @@ pub struct LuminanceAdditivity {
 
 /// A validation colour measured by a luminance meter: its luminance against
 /// the profile's prediction.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LuminanceValidation {
     /// The drive shown, 0–1 per channel.
     pub drive: [f64; 3],
@@ -205,7 +210,8 @@ pub struct LuminanceValidation {
 
 /// The checks of a profile: in colour (CIEDE2000) where the instrument
 /// measured colour, in luminance where it measured luminance only.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(untagged)]
 pub enum Checks {
     Colour {
@@ -224,10 +230,11 @@ pub enum Checks {
 
 /// A display as measured: everything the forward and inverse models need,
 /// with where it came from.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct DisplayProfile {
     /// The observer of every XYZ in the profile and its models.
-    #[schema(value_type = String)]
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub observer: Observer,
     /// The black level and the primaries, as the instrument measured them.
     #[serde(flatten)]

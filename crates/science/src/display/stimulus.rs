@@ -49,7 +49,8 @@ use crate::colorimetry::{ciede2000, Lab, Xyz};
 pub const GAMUT_TOLERANCE: f64 = 1e-5;
 
 /// What to do with colours the display cannot show.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize, utoipa::ToSchema)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(rename_all = "snake_case")]
 pub enum GamutPolicy {
     /// Clamp each channel of linear RGB to 0–1 (hue and lightness may shift).

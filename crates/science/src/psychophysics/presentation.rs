@@ -27,12 +27,12 @@
 //! ```
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use super::design::MAX_REPEATS;
 
 /// The pie and the timeline of every trial (see the module doc).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields, default)]
 pub struct Presentation {
     /// Diameter of the disc the three pieces form, degrees of visual angle (study: 5.7).
