@@ -151,6 +151,21 @@ function setStatus(s) {
 // The badge's time left counts down between samples.
 setInterval(() => { if (badgeStatus && badgeStatus.state === "measuring") setStatus(badgeStatus); }, 1000);
 
+// Shows the end of the measurement this page started (`current`): from its
+// `measurement_finished` event, or, when it ended before the page knew its id
+// (a fast instrument answers before the POST does), from the POST's own check.
+async function showFinished(id) {
+  const m = await api(`/api/measurements/${id}`);
+  if (id !== current || ["queued", "running"].includes(m.state)) return;
+  $("cancel-current").hidden = true;
+  $("progress-text").textContent = `measurement #${id}: ${m.state}` + (m.error ? ` (${m.error})` : "");
+  refreshLiveSpectrum(hasSpectrum(m));
+  $("live-result").textContent = m.state === "complete"
+    ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), luminance CV = ${fmt(m.luminance_cv, 2)}`
+    : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
+  showComparison($("live-comparison"), m).catch((e) => notice(e.message));
+}
+
 function follow() {
   const es = new EventSource("/api/events");
   for (const [name, handlers] of labEventHandlers) {
@@ -184,16 +199,7 @@ function follow() {
   });
   es.addEventListener("measurement_finished", async (e) => {
     const d = JSON.parse(e.data);
-    if (d.measurement_id === current) {
-      $("cancel-current").hidden = true;
-      $("progress-text").textContent = `measurement #${d.measurement_id}: ${d.state}` + (d.error ? ` (${d.error})` : "");
-      const m = await api(`/api/measurements/${d.measurement_id}`);
-      refreshLiveSpectrum(hasSpectrum(m));
-      $("live-result").textContent = m.state === "complete"
-        ? `Y = ${fmt(m.Y, 5)} cd/m², x = ${fmt(m.x, 4)}, y = ${fmt(m.y, 4)} (${observerName(m.observer)}), luminance CV = ${fmt(m.luminance_cv, 2)}`
-        : `${m.state}: ${m.error || ""}` + (m.partial ? ` (partial average of ${m.good_samples}: Y = ${fmt(m.Y, 5)} cd/m²)` : "");
-      showComparison($("live-comparison"), m).catch((e) => notice(e.message));
-    }
+    if (d.measurement_id === current) await showFinished(d.measurement_id);
     // The measurement table follows every state change (queued, cancelled, finished).
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
     updateSceneProgress();
@@ -314,6 +320,8 @@ $("measure-form").addEventListener("submit", async (ev) => {
     $("cancel-current").hidden = false;
     $("live-result").textContent = "";
     $("live-comparison").hidden = true;
+    // Its `measurement_finished` may have come before its id did.
+    await showFinished(r.id);
   } catch (e) {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
   }
