@@ -158,6 +158,9 @@ async function showFinished(id) {
   const m = await api(`/api/measurements/${id}`);
   if (id !== current || ["queued", "running"].includes(m.state)) return;
   $("cancel-current").hidden = true;
+  // Its samples' events may have come before its id did, too.
+  $("progress").max = m.samples_requested;
+  $("progress").value = m.samples_taken;
   $("progress-text").textContent = `measurement #${id}: ${m.state}` + (m.error ? ` (${m.error})` : "");
   refreshLiveSpectrum(hasSpectrum(m));
   $("live-result").textContent = m.state === "complete"
