@@ -91,11 +91,6 @@ impl BoothInstrument {
         self.status.borrow().clone()
     }
 
-    /// A receiver of the live status, for a stream of its changes.
-    pub fn watch_status(&self) -> watch::Receiver<InstrumentStatus> {
-        self.status.clone()
-    }
-
     /// Measurements queued (or being queued) and not yet taken by the task.
     pub fn queued(&self) -> usize {
         self.jobs.max_capacity() - self.jobs.capacity()
@@ -109,11 +104,6 @@ impl BoothInstrument {
     /// What the instrument model can do.
     pub fn capabilities(&self) -> &Capabilities {
         &self.capabilities
-    }
-
-    /// The booth it measures in.
-    pub fn booth(&self) -> &Booth {
-        &self.booth
     }
 
     /// The calibration's hold (see [`InstrumentHold`]).
@@ -199,18 +189,16 @@ impl BoothInstrument {
     /// 503 when the instrument is disconnected or in error; `context`
     /// (empty, or ending in ", and ") says what was asked.
     fn refuse_unavailable(&self, context: &str) -> Result<(), LabError> {
-        let (what, why) = match &*self.status.borrow() {
-            InstrumentStatus::Disconnected { reason } => ("unavailable", reason.clone()),
+        let (state, why) = match &*self.status.borrow() {
+            // A study's first measurements: "unavailable to take them".
+            InstrumentStatus::Disconnected { reason } if context.is_empty() => ("unavailable", reason.clone()),
+            InstrumentStatus::Disconnected { reason } => ("unavailable to take them", reason.clone()),
             InstrumentStatus::Error { message } => ("in error", message.clone()),
             _ => return Ok(()),
         };
-        Err(LabError::Unavailable(if context.is_empty() {
-            format!("the instrument is {what}: {why}")
-        } else if what == "unavailable" {
-            format!("{context}the instrument is unavailable to take them: {why}")
-        } else {
-            format!("{context}the instrument is in error: {why}")
-        }))
+        Err(LabError::Unavailable(format!(
+            "{context}the instrument is {state}: {why}"
+        )))
     }
 
     /// Records and queues one measurement for the instrument. A slot in the
