@@ -375,28 +375,28 @@ fn main() {
         });
         let shutting_down = tokio_util::sync::CancellationToken::new();
         let events = broadcast::channel(16).0;
+        let instrument = lightbooth::lab::booth_instrument::BoothInstrument::new(
+            store.clone(),
+            jobs,
+            status,
+            events.clone(),
+            None,
+            lightbooth::instrument::Pr650Settings::default().capabilities(),
+            "north".parse().unwrap(),
+        );
         let state = AppState {
-            store: store.clone(),
+            lab: lightbooth::lab::Lab::new(
+                store.clone(),
+                lightbooth::colorimetry::Observer::JuddVos,
+                instrument,
+                None,
+            ),
             config: Arc::new(ServiceConfig {
-                booth: "north".parse().unwrap(),
                 token: "0123456789abcdef0123".into(),
                 loopback_only: true,
                 allowed_hosts: Default::default(),
-                scenes_dir: "scenes".into(),
-                codings: vec![],
-                observer: lightbooth::colorimetry::Observer::JuddVos,
             }),
-            instrument: lightbooth::lab::booth_instrument::BoothInstrument::new(
-                store.clone(),
-                jobs,
-                status,
-                events.clone(),
-                None,
-                lightbooth::instrument::Pr650Settings::default().capabilities(),
-                "north".parse().unwrap(),
-            ),
             events,
-            renders: None,
             mock: None,
             shutting_down,
         };

@@ -48,6 +48,7 @@ use crate::lab::scenes::SceneCatalog;
 use crate::lab::simulated_truth::SimulatedTruth;
 use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{RenderPlace, WorkerQueue};
+use crate::lab::Lab;
 use crate::render::integrator::CancellationToken;
 use crate::render::Coding;
 use crate::store::{Booth, Store};
@@ -300,28 +301,28 @@ pub async fn run(
         shutdown: shutdown_flag.clone(),
     })?;
 
+    let instrument_handle = BoothInstrument::new(
+        store.clone(),
+        jobs_tx,
+        status_rx,
+        events.clone(),
+        Some(Arc::new(instrument.canceller())),
+        options.instrument.capabilities(),
+        options.booth.clone(),
+    );
     let state = AppState {
-        store: store.clone(),
+        lab: Lab::new(
+            store.clone(),
+            options.observer,
+            instrument_handle,
+            Some(Arc::clone(&render_jobs)),
+        ),
         config: Arc::new(ServiceConfig {
-            booth: options.booth.clone(),
             token,
             loopback_only,
             allowed_hosts,
-            scenes_dir: options.scenes_dir.clone(),
-            codings: options.codings.clone(),
-            observer: options.observer,
         }),
-        instrument: BoothInstrument::new(
-            store.clone(),
-            jobs_tx,
-            status_rx,
-            events.clone(),
-            Some(Arc::new(instrument.canceller())),
-            options.instrument.capabilities(),
-            options.booth.clone(),
-        ),
         events,
-        renders: Some(Arc::clone(&render_jobs) as Arc<dyn crate::lab::services::RenderService>),
         mock: instrument.mock_control(),
         shutting_down: shutdown_flag.clone(),
     };

@@ -22,8 +22,6 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use crate::store::StoreError;
-
 #[derive(Debug, thiserror::Error)]
 pub enum ApiError {
     /// The request body or query is malformed; the message names the field.
@@ -134,15 +132,6 @@ impl IntoResponse for ApiError {
     }
 }
 
-impl From<StoreError> for ApiError {
-    fn from(e: StoreError) -> Self {
-        match e {
-            StoreError::Conflict(m) => ApiError::Conflict(m),
-            other => ApiError::Internal(other.to_string()),
-        }
-    }
-}
-
 /// The one place a workflow's refusal becomes a status.
 impl From<crate::lab::error::LabError> for ApiError {
     fn from(e: crate::lab::error::LabError) -> Self {
@@ -153,17 +142,6 @@ impl From<crate::lab::error::LabError> for ApiError {
             LabError::Conflict(m) => ApiError::Conflict(m),
             LabError::Unavailable(m) => ApiError::Unavailable(m),
             LabError::Internal(m) => ApiError::Internal(m),
-        }
-    }
-}
-
-impl From<crate::lab::calibration::MeasuredError> for ApiError {
-    fn from(e: crate::lab::calibration::MeasuredError) -> Self {
-        use crate::lab::calibration::MeasuredError;
-        match e {
-            MeasuredError::Invalid(m) => ApiError::BadRequest(m),
-            MeasuredError::WrongState(m) => ApiError::Conflict(m),
-            MeasuredError::Store(e) => e.into(),
         }
     }
 }

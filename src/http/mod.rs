@@ -10,10 +10,12 @@
 //! and a body announced larger than [`MAX_BODY_BYTES`] is refused before it
 //! is read.
 //!
-//! The service never touches the instrument itself: its handlers ask the
-//! lab's [`BoothInstrument`] to queue a measurement for the task that owns
-//! the instrument, to cancel one, or for that task's live status;
-//! everything that happens is broadcast as [`Event`]s.
+//! The service never touches the instrument, the renderer or the store
+//! itself: its handlers call the methods of the [`Lab`] handle (which asks
+//! the task that owns the instrument to queue or cancel a measurement,
+//! queues renders and studies, and reads the records), and turn its
+//! answers and refusals into responses; everything that happens is
+//! broadcast as [`Event`]s.
 
 pub mod auth;
 pub mod error;
@@ -28,7 +30,6 @@ mod sse;
 mod web;
 
 use std::future::Future;
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use axum::extract::DefaultBodyLimit;
@@ -39,11 +40,9 @@ use tokio_util::sync::CancellationToken;
 
 pub use limits::ServeLimits;
 
-use crate::lab::booth_instrument::BoothInstrument;
 use crate::lab::events::Event;
 use crate::lab::instrument_queue::MockControl;
-use crate::lab::services::RenderService;
-use crate::store::Store;
+use crate::lab::Lab;
 
 /// Requests larger than this are refused with 413; no legitimate body
 /// (a measurement request, a render request) comes near it.
@@ -52,9 +51,6 @@ pub const MAX_BODY_BYTES: usize = 64 * 1024;
 /// Settings the service needs, fixed at start-up.
 #[derive(Clone, Debug)]
 pub struct ServiceConfig {
-    /// The booth this daemon measures in (`serve --booth`): every measurement
-    /// it takes records it.
-    pub booth: crate::store::Booth,
     /// The bearer token for writes (and for reads when not on loopback).
     pub token: String,
     /// True when the daemon listens on loopback only: reads need no token.
@@ -62,29 +58,20 @@ pub struct ServiceConfig {
     /// The `Host` names requests may use besides `localhost` and loopback
     /// addresses, and the address the daemon listens on (see [`hosts`]).
     pub allowed_hosts: hosts::AllowedHosts,
-    /// Where scene files live; nothing outside it is read on a request's behalf.
-    pub scenes_dir: PathBuf,
-    /// Colour codings rendered for comparisons.
-    pub codings: Vec<String>,
-    /// The observer of every x,y, XYZ, CIELAB and ΔE the service computes or
-    /// charts (`serve --observer`; Judd–Vos 1978 by default, the study's).
-    pub observer: crate::colorimetry::Observer,
 }
 
 /// Shared state of every handler. Cheap to clone: everything is behind an
 /// `Arc` or is itself a handle.
 #[derive(Clone)]
 pub struct AppState {
-    pub store: Store,
+    /// The lab: the booth (`serve --booth`) and its instrument, the renders,
+    /// the experiments, every record, and the observer of every colour
+    /// (`serve --observer`); the handlers' one way to all of them.
+    pub lab: Lab,
     pub config: Arc<ServiceConfig>,
-    /// The booth's instrument: measurements asked for and cancelled, its
-    /// live status, its queue and the calibration's hold.
-    pub instrument: BoothInstrument,
     /// Everything that happens, for `/api/events`. Lagging subscribers miss
     /// events (and are told so) rather than slowing the daemon.
     pub events: broadcast::Sender<Event>,
-    /// Renders requested through the API (run off the async runtime).
-    pub renders: Option<Arc<dyn RenderService>>,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
     /// Turns true when the daemon shuts down: endless responses (the event

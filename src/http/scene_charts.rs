@@ -155,11 +155,7 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
 /// the same fixed paths per target) against its mean ΔE*ab ± 1 SD over targets, each
 /// point labelled with its coding; read from the newest render that has it.
 pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
-    let renders = state
-        .store
-        .list_renders(Some(&c.scene))
-        .await
-        .map_err(|e| e.to_string())?;
+    let renders = state.lab.renders_of_scene(&c.scene).await.map_err(|e| e.to_string())?;
     let (key, field, x_desc) = SPEED_COST;
     let mut series = Vec::new();
     let mut labels = Vec::new();

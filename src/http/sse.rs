@@ -19,7 +19,7 @@ use crate::lab::events::Event;
     responses((status = 200, description = "text/event-stream of Event objects; the SSE event name is the `type` field")))]
 pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Result<sse::Event, Infallible>>> {
     let first = Event::InstrumentStatus {
-        status: state.instrument.status(),
+        status: state.lab.instrument().status(),
     };
     let rx = state.events.subscribe();
     let live = BroadcastStream::new(rx).map(|item| match item {

@@ -17,6 +17,7 @@ use http_body_util::BodyExt;
 use lightbooth::http::{app, serve_with_limits, AppState, ServeLimits, ServiceConfig};
 use lightbooth::lab::booth_instrument::BoothInstrument;
 use lightbooth::lab::instrument_queue::InstrumentStatus;
+use lightbooth::lab::Lab;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
@@ -48,28 +49,28 @@ async fn harness(loopback_only: bool) -> Harness {
     });
     let (events, _) = broadcast::channel(64);
     let shutdown = CancellationToken::new();
+    let instrument = BoothInstrument::new(
+        store.clone(),
+        jobs,
+        status_rx,
+        events.clone(),
+        None,
+        lightbooth::instrument::Pr650Settings::default().capabilities(),
+        Default::default(),
+    );
     let state = AppState {
-        store: store.clone(),
+        lab: Lab::new(
+            store.clone(),
+            lightbooth::colorimetry::Observer::JuddVos,
+            instrument,
+            None,
+        ),
         config: Arc::new(ServiceConfig {
-            booth: Default::default(),
             token: TOKEN.into(),
             loopback_only,
             allowed_hosts: Default::default(),
-            scenes_dir: "scenes".into(),
-            codings: vec!["rgb".into(), "spectral".into()],
-            observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
-        instrument: BoothInstrument::new(
-            store.clone(),
-            jobs,
-            status_rx,
-            events.clone(),
-            None,
-            lightbooth::instrument::Pr650Settings::default().capabilities(),
-            Default::default(),
-        ),
         events,
-        renders: None,
         mock: None,
         shutting_down: shutdown.clone(),
     };

@@ -12,6 +12,7 @@ use lightbooth::http::{app, AppState, ServiceConfig};
 use lightbooth::lab::booth_instrument::BoothInstrument;
 use lightbooth::lab::instrument_queue::InstrumentStatus;
 use lightbooth::lab::instrument_queue::MeasurementJob;
+use lightbooth::lab::Lab;
 use lightbooth::store::Store;
 use serde_json::Value;
 use tokio::sync::{broadcast, mpsc, watch};
@@ -22,6 +23,8 @@ const TOKEN: &str = "0123456789abcdef0123456789abcdef";
 
 struct Harness {
     state: AppState,
+    /// The store under the lab, for what the test checks behind the API.
+    store: Store,
     jobs: mpsc::Receiver<MeasurementJob>,
     status: watch::Sender<InstrumentStatus>,
     _shutdown: CancellationToken,
@@ -42,33 +45,34 @@ async fn harness(queue: usize) -> Harness {
     });
     let (events, _) = broadcast::channel(64);
     let shutdown = CancellationToken::new();
+    let instrument = BoothInstrument::new(
+        store.clone(),
+        tx,
+        status_rx,
+        events.clone(),
+        None,
+        lightbooth::instrument::Pr650Settings::default().capabilities(),
+        Default::default(),
+    );
     let state = AppState {
-        store: store.clone(),
+        lab: Lab::new(
+            store.clone(),
+            lightbooth::colorimetry::Observer::JuddVos,
+            instrument,
+            None,
+        ),
         config: Arc::new(ServiceConfig {
-            booth: Default::default(),
             token: TOKEN.into(),
             loopback_only: true,
             allowed_hosts: Default::default(),
-            scenes_dir: "scenes".into(),
-            codings: vec!["rgb".into(), "spectral".into()],
-            observer: lightbooth::colorimetry::Observer::JuddVos,
         }),
-        instrument: BoothInstrument::new(
-            store.clone(),
-            tx,
-            status_rx,
-            events.clone(),
-            None,
-            lightbooth::instrument::Pr650Settings::default().capabilities(),
-            Default::default(),
-        ),
         events,
-        renders: None,
         mock: None,
         shutting_down: shutdown.clone(),
     };
     Harness {
         state,
+        store,
         jobs: rx,
         status: status_tx,
         _shutdown: shutdown,
@@ -415,6 +419,7 @@ async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it
         status: status_tx,
         _shutdown,
         _dir,
+        ..
     } = h;
     status_tx.send_replace(InstrumentStatus::Idle {
         model: "PR-650".into(),
@@ -439,7 +444,7 @@ async fn health_says_degraded_while_the_instrument_task_restarts_and_503_when_it
 async fn the_measurement_list_had_no_paging_filters_notes_or_partial_averages() {
     use lightbooth::store::{MeasurementState, NewMeasurement, NewSample};
     let h = harness(4).await;
-    let store = &h.state.store;
+    let store = &h.store;
     let new = |scene: Option<&str>| NewMeasurement {
         booth: Default::default(),
         session_id: None,
@@ -597,7 +602,7 @@ async fn a_queued_measurement_could_not_be_cancelled() {
     }
     // The instrument task then finds it no longer queued and skips it.
     let job = h.jobs.try_recv().unwrap();
-    assert!(h.state.store.mark_running(job.id, None).await.is_err());
+    assert!(h.store.mark_running(job.id, None).await.is_err());
     let (status, body) = send(&h.state, post(&cancel, "application/json", "{}", Some(TOKEN))).await;
     assert_eq!(status, StatusCode::CONFLICT, "{body}");
     assert!(error_message(&body).contains("already cancelled"), "{body}");

@@ -716,3 +716,60 @@ fn a_planted_ungated_utoipa_is_named_with_its_file_and_line() {
     std::fs::write(src.join("lib.rs"), lib.join("\n")).unwrap();
     assert_eq!(ungated_openapi(&src), ["lib.rs:16"]);
 }
+
+/// The lines of the Rust files under `dir` whose code names the store's
+/// handle or its error (`Store`, `StoreError`), as `file:line` (the file
+/// relative to `dir`). The HTTP layer's rows and ids come through the
+/// lab's [`Lab`](lightbooth::lab::Lab) handle; the rows' types
+/// (`store::MeasurementDetail`…) may be named, the store may not.
+fn store_handles(dir: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(dir, &mut files);
+    files.sort();
+    let mut bad = Vec::new();
+    for file in files {
+        let text = std::fs::read_to_string(&file).unwrap();
+        for (n, code) in code_only(&text).lines().enumerate() {
+            let words = code.split(|c: char| !(c.is_alphanumeric() || c == '_'));
+            if words.into_iter().any(|w| w == "Store" || w == "StoreError") {
+                bad.push(format!("{}:{}", file.strip_prefix(dir).unwrap().display(), n + 1));
+            }
+        }
+    }
+    bad
+}
+
+#[test]
+fn the_http_layer_reaches_the_store_only_through_the_lab() {
+    let http = src().join("http");
+    let bad = store_handles(&http);
+    assert!(
+        bad.is_empty(),
+        "the HTTP layer names the store; call a method of `state.lab` (crates/lab/src/handle.rs) instead, \
+         adding one there if none fits:\n{}",
+        bad.iter()
+            .map(|b| format!("src/http/{b}"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+}
+
+/// The check itself: a planted `Store` and `StoreError` are named with
+/// their lines; row types, an atomic's `.store(…)`, comments and strings are not.
+#[test]
+fn a_planted_store_in_a_handler_is_named_with_its_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let routes = dir.path().join("routes");
+    std::fs::create_dir_all(&routes).unwrap();
+    let handler = [
+        "//! Store in a comment",
+        "use crate::store::{MeasurementDetail, RenderRow};",
+        "use crate::store::Store;",
+        "fn f(flag: &AtomicBool) { flag.store(true, Ordering::Release); }",
+        "const S: &str = \"StoreError\";",
+        "fn g(e: crate::store::StoreError) {}",
+        "struct StoreErrors;",
+    ];
+    std::fs::write(routes.join("x.rs"), handler.join("\n")).unwrap();
+    assert_eq!(store_handles(dir.path()), ["routes/x.rs:3", "routes/x.rs:6"]);
+}

@@ -106,7 +106,12 @@ impl BoothInstrument {
         &self.capabilities
     }
 
-    /// The calibration's hold (see [`InstrumentHold`]).
+    /// The booth it measures in.
+    pub fn booth(&self) -> &Booth {
+        &self.booth
+    }
+
+    /// The calibration's hold on the instrument.
     pub fn hold(&self) -> &InstrumentHold {
         &self.hold
     }

@@ -10,6 +10,8 @@
 //!
 //! - [`charts`]: the charts of the results as SVG; [`export`]: CSV, MAT,
 //!   EXR and ENVI files;
+//! - [`handle`]: **the HTTP layer's one way to the lab**, the [`Lab`]
+//!   handle (the instrument, the renders, the experiments and every record);
 //! - [`events`]: every [`Event`](events::Event) on one bus, for `/api/events`
 //!   and the dashboards;
 //! - [`booth_instrument`]: **where a measurement is asked for**
@@ -31,7 +33,7 @@
 //!   is computed** (the render, the booth's CIELAB white, the rows, the
 //!   whites kept current) and a scene's comparisons summarised per coding;
 //! - [`render_jobs`]: the daemon's renders, studies and camera images as
-//!   the API asks for them, behind [`services::RenderService`];
+//!   the API asks for them;
 //! - [`study`]: the study itself (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings,
 //!   the report);
@@ -63,6 +65,7 @@ pub mod error;
 pub mod events;
 pub mod experiments;
 pub mod export;
+pub mod handle;
 pub mod images;
 pub mod instrument_queue;
 pub mod jobs;
@@ -75,7 +78,6 @@ pub mod render_runner;
 pub mod requests;
 pub mod scene_overview;
 pub mod scenes;
-pub mod services;
 pub mod simulated_truth;
 pub mod study;
 pub mod study_jobs;
@@ -83,3 +85,5 @@ pub mod study_measurements;
 #[cfg(test)]
 mod testing;
 pub mod worker_queue;
+
+pub use handle::Lab;

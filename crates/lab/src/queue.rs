@@ -31,7 +31,7 @@ use super::experiments::session::{trials_needed, PAUSED_AFTER_S};
 use super::experiments::ExperimentRequest;
 use super::instrument_queue::InstrumentStatus;
 use super::progress::{image_time_left, ProgressBoard};
-use super::services::RenderService;
+use super::render_jobs::RenderJobs;
 use lightbooth_store::{Booth, Job, MeasurementFilter, MeasurementState, MeasurementSummary, Store, StoreError};
 
 /// Complete measurements the instrument's recent pace is the median of.
@@ -89,7 +89,7 @@ pub struct QueueSources<'a> {
     pub store: &'a Store,
     pub booth: &'a Booth,
     pub status: &'a InstrumentStatus,
-    pub renders: Option<&'a dyn RenderService>,
+    pub renders: Option<&'a RenderJobs>,
     pub progress: Option<&'a ProgressBoard>,
 }
 
@@ -312,7 +312,7 @@ fn in_percent(fraction: Option<f64>, unit: &str, seconds_left: Option<f64>, esti
 
 async fn render_and_study_jobs(
     src: &QueueSources<'_>,
-    renders: &dyn RenderService,
+    renders: &RenderJobs,
     now: f64,
     jobs: &mut Vec<QueuedJob>,
 ) -> Result<(), StoreError> {
@@ -363,7 +363,8 @@ async fn render_and_study_jobs(
             )
         });
     }
-    if let Some(images) = renders.images() {
+    {
+        let images = renders.images();
         for i in images.unfinished() {
             let fraction = i.progress.as_ref().map(|p| p.paths as f64 / p.max_paths.max(1) as f64);
             // An upper bound under its path cap and its time budget, or none.

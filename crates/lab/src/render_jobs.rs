@@ -18,7 +18,6 @@ use super::study_jobs::StudyRunner;
 use super::worker_queue::WorkerQueue;
 use crate::error::LabError;
 use crate::requests::{RenderRequest, SceneInfo, StudyRequest};
-use crate::services::{BoxFuture, RenderService};
 use crate::study::run::StudyOptions;
 use lightbooth_render::RenderSettings;
 use lightbooth_science::colorimetry::Xyz;
@@ -280,58 +279,69 @@ impl RenderJobs {
     }
 }
 
-impl RenderService for RenderJobs {
-    fn scenes(&self) -> Vec<SceneInfo> {
+/// The renders, studies and camera images as the lab's handle asks for
+/// them (see [`crate::handle::Lab`]).
+impl RenderJobs {
+    /// The scenes available under the daemon's `scenes_dir`, in the study's order.
+    pub fn scenes(&self) -> Vec<SceneInfo> {
         self.runner.catalogue().infos()
     }
 
-    fn start_render(self: Arc<Self>, scene: String, request: RenderRequest) -> BoxFuture<Result<i64, LabError>> {
-        Box::pin(async move {
-            if self.runner.catalogue().get(&scene).is_none() {
-                return Err(LabError::NotFound(format!("no scene `{scene}`")));
-            }
-            let settings = self.runner.settings(&request)?;
-            self.queue_render(scene, settings, None).await
-        })
+    /// Records a render of a scene and queues it; its id at once.
+    pub async fn start_render(&self, scene: &str, request: RenderRequest) -> Result<i64, LabError> {
+        if self.runner.catalogue().get(scene).is_none() {
+            return Err(LabError::NotFound(format!("no scene `{scene}`")));
+        }
+        let settings = self.runner.settings(&request)?;
+        self.queue_render(scene.to_string(), settings, None).await
     }
 
-    fn check_study(&self, request: &StudyRequest) -> Result<(), LabError> {
+    /// Checks a study request field by field without starting anything.
+    pub fn check_study(&self, request: &StudyRequest) -> Result<(), LabError> {
         self.studies.plan(request).map(|_| ())
     }
 
-    fn start_study(self: Arc<Self>, request: StudyRequest) -> BoxFuture<Result<i64, LabError>> {
-        Box::pin(async move { self.queue_study(request, None).await })
+    /// Records a study and queues it; its id at once.
+    pub async fn start_study(&self, request: StudyRequest) -> Result<i64, LabError> {
+        self.queue_study(request, None).await
     }
 
-    fn cancel(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<(), LabError>> {
-        Box::pin(async move {
-            if let Some(workers) = &self.workers {
-                if workers.cancel(job, id).await? {
-                    return Ok(());
-                }
+    /// Cancels a queued or running render or study (a conflict once it has ended).
+    pub async fn cancel(&self, job: Job, id: i64) -> Result<(), LabError> {
+        if let Some(workers) = &self.workers {
+            if workers.cancel(job, id).await? {
+                return Ok(());
             }
-            self.jobs.cancel(job, id).await
-        })
+        }
+        self.jobs.cancel(job, id).await
     }
 
-    fn retry(self: Arc<Self>, job: Job, id: i64) -> BoxFuture<Result<i64, LabError>> {
-        Box::pin(async move { self.retry_job(job, id).await })
+    /// Queues a new render or study with the request of an interrupted,
+    /// failed or cancelled one; the new id.
+    pub async fn retry(&self, job: Job, id: i64) -> Result<i64, LabError> {
+        self.retry_job(job, id).await
     }
 
-    fn start_image(self: Arc<Self>, render_id: i64, request: ImageRequest) -> BoxFuture<Result<(i64, bool), LabError>> {
-        Box::pin(async move { self.queue_image(render_id, request).await })
+    /// Queues a camera image of a render (or finds the one already made
+    /// with the same settings): its id and whether it was reused.
+    pub async fn start_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), LabError> {
+        self.queue_image(render_id, request).await
     }
 
-    fn images(&self) -> Option<&ImageJobs> {
-        Some(&self.images)
+    /// The camera images this daemon keeps (see [`crate::images`]).
+    pub fn images(&self) -> &ImageJobs {
+        &self.images
     }
 
-    fn progress(&self) -> Option<&ProgressBoard> {
+    /// How far the running renders and studies have got, when followed.
+    pub fn progress(&self) -> Option<&ProgressBoard> {
         self.progress.as_deref()
     }
 
-    fn cielab_white(self: Arc<Self>, scene: String, booth: Booth) -> BoxFuture<Result<(Xyz, String), LabError>> {
-        Box::pin(async move { self.comparisons.white_xyz(&scene, &booth).await })
+    /// The CIELAB white of a scene in a booth now, with its source (see
+    /// [`crate::comparisons::white`]).
+    pub async fn cielab_white(&self, scene: &str, booth: &Booth) -> Result<(Xyz, String), LabError> {
+        self.comparisons.white_xyz(scene, booth).await
     }
 }
 
@@ -375,15 +385,13 @@ mod tests {
         ));
         let worker = jobs.run();
 
-        let unknown = Arc::clone(&jobs)
-            .start_render("attic".into(), RenderRequest::default())
-            .await;
+        let unknown = jobs.start_render("attic", RenderRequest::default()).await;
         assert_eq!(unknown, Err(LabError::NotFound("no scene `attic`".into())));
         let request = RenderRequest {
             samples: Some(16),
             ..RenderRequest::default()
         };
-        let id = Arc::clone(&jobs).start_render("white".into(), request).await.unwrap();
+        let id = jobs.start_render("white", request).await.unwrap();
         let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
         loop {
             let row = store.get_render(id).await.unwrap().unwrap();
@@ -397,7 +405,7 @@ mod tests {
             assert!(std::time::Instant::now() < deadline, "render {id} still {}", row.state);
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
         }
-        match Arc::clone(&jobs).retry(Job::Render, id).await {
+        match jobs.retry(Job::Render, id).await {
             Err(LabError::Conflict(m)) => assert_eq!(
                 m,
                 format!("render {id} is complete; only an interrupted, failed or cancelled render can be retried")
@@ -411,16 +419,13 @@ mod tests {
             max_spp: Some(8),
             ..ImageRequest::default()
         };
-        let (first, reused) = Arc::clone(&jobs).start_image(id, image.clone()).await.unwrap();
+        let (first, reused) = jobs.start_image(id, image.clone()).await.unwrap();
         assert!(!reused);
-        assert_eq!(Arc::clone(&jobs).start_image(id, image).await.unwrap(), (first, true));
+        assert_eq!(jobs.start_image(id, image).await.unwrap(), (first, true));
 
         jobs.shutdown();
         worker.await.unwrap();
-        let refused = Arc::clone(&jobs)
-            .start_render("white".into(), RenderRequest::default())
-            .await
-            .unwrap_err();
+        let refused = jobs.start_render("white", RenderRequest::default()).await.unwrap_err();
         assert_eq!(refused, LabError::Unavailable("the daemon is shutting down".into()));
         assert_eq!(
             store.list_renders(None).await.unwrap().len(),

@@ -23,7 +23,7 @@ pub struct Booths {
 #[utoipa::path(get, path = "/booths", tag = "instruments", responses((status = 200, body = Booths)))]
 pub async fn list_booths(State(state): State<AppState>) -> Result<Json<Booths>, ApiError> {
     Ok(Json(Booths {
-        this_daemon: state.config.booth.to_string(),
-        booths: state.store.list_booths().await?,
+        this_daemon: state.lab.booth().to_string(),
+        booths: state.lab.booths().await?,
     }))
 }

@@ -8,13 +8,13 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
-use super::{download, find_scene};
+use super::download;
 use crate::comparison::SceneSummary;
 use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
 use crate::http::input::Path;
 use crate::http::AppState;
-use crate::lab::comparisons::summary::{self, SceneComparisons};
+use crate::lab::comparisons::summary::SceneComparisons;
 use crate::store::ComparisonRow;
 
 /// A coding's figures of merit over a scene's targets.
@@ -74,8 +74,7 @@ pub struct SceneComparison {
 /// The scene's newest comparisons with the daemon's observer, summarised
 /// per coding ([`crate::lab::comparisons::summary`]).
 async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparisons, ApiError> {
-    find_scene(state, scene)?;
-    Ok(summary::scene_comparisons(&state.store, scene, state.config.observer).await?)
+    Ok(state.lab.scene_comparisons(scene).await?)
 }
 
 impl From<SceneComparisons> for SceneComparison {
@@ -179,14 +178,14 @@ pub async fn scene_chart(
     Path((scene, chart)): Path<(String, String)>,
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
-    let info = find_scene(&state, &scene)?;
+    let info = state.lab.scene(&scene)?;
     if c.rows.is_empty() {
         return Err(ApiError::NotFound(format!(
             "scene `{scene}` has no comparisons yet: measure its targets first"
         )));
     }
     let svg = match chart.as_str() {
-        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, state.config.observer),
+        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, state.lab.observer()),
         "profile.svg" => crate::http::scene_charts::profile(&c, &info),
         "rms.svg" => crate::http::scene_charts::rms(&c),
         "de.svg" => crate::http::scene_charts::delta_e(&c),

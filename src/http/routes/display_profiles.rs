@@ -145,8 +145,7 @@ pub async fn create_display_profile(
     };
     let profile = fit_profile(&patches, observer).map_err(|e| ApiError::BadRequest(e.to_string()))?;
     let name = body.name.unwrap_or_else(|| "display".into());
-    let id = state.store.insert_display_profile(&name, &body.note, &profile).await?;
-    let row = load(&state, id).await?;
+    let row = state.lab.add_display_profile(&name, &body.note, &profile).await?;
     Ok((StatusCode::CREATED, Json(row)))
 }
 
@@ -169,18 +168,14 @@ fn bar(label: &str, value: f64) -> Bar {
 }
 
 async fn load(state: &AppState, id: i64) -> Result<DisplayProfileRow, ApiError> {
-    state
-        .store
-        .get_display_profile(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no display profile {id}")))
+    Ok(state.lab.display_profile(id).await?)
 }
 
 /// Every stored profile, newest first.
 #[utoipa::path(get, path = "/display-profiles", tag = "display",
     responses((status = 200, body = Vec<DisplayProfileRow>)))]
 pub async fn list_display_profiles(State(state): State<AppState>) -> Result<Json<Vec<DisplayProfileRow>>, ApiError> {
-    Ok(Json(state.store.list_display_profiles().await?))
+    Ok(Json(state.lab.display_profiles().await?))
 }
 
 #[utoipa::path(get, path = "/display-profiles/{id}", tag = "display", params(("id" = i64, Path)),

@@ -21,19 +21,15 @@ use crate::http::AppState;
 use crate::lab::experiments::analysis::{analysis_csv, analysis_mat, figure, Analysis};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
 use crate::lab::experiments::verification::{Verification, VerificationRequest};
-use crate::lab::experiments::{ExperimentRequest, Experiments};
+use crate::lab::experiments::ExperimentRequest;
 use crate::psychophysics::oddity::OddityModel;
 use crate::store::{ExperimentRow, ExperimentSessionRow};
-
-fn experiments(state: &AppState) -> Experiments {
-    Experiments::new(state.store.clone())
-}
 
 /// Every experiment, newest first.
 #[utoipa::path(get, path = "/experiments", tag = "experiments",
     responses((status = 200, body = Vec<ExperimentRow>)))]
 pub async fn list_experiments(State(state): State<AppState>) -> Result<Json<Vec<ExperimentRow>>, ApiError> {
-    Ok(Json(state.store.list_experiments().await?))
+    Ok(Json(state.lab.experiment_list().await?))
 }
 
 /// Sets up an experiment: every colour through the display profile, the
@@ -46,7 +42,7 @@ pub async fn create_experiment(
     State(state): State<AppState>,
     Input(body): Input<ExperimentRequest>,
 ) -> Result<(StatusCode, Json<ExperimentRow>), ApiError> {
-    Ok((StatusCode::CREATED, Json(experiments(&state).create(body).await?)))
+    Ok((StatusCode::CREATED, Json(state.lab.experiments().create(body).await?)))
 }
 
 /// What an experiment's display would show: per colour the codes at 8 bits
@@ -60,7 +56,7 @@ pub async fn check_experiment(
     State(state): State<AppState>,
     Input(body): Input<ExperimentRequest>,
 ) -> Result<Json<ColourCheck>, ApiError> {
-    Ok(Json(experiments(&state).check(&body).await?.1))
+    Ok(Json(state.lab.experiments().check(&body).await?.1))
 }
 
 #[utoipa::path(get, path = "/experiments/{id}", tag = "experiments", params(("id" = i64, Path)),
@@ -69,7 +65,7 @@ pub async fn get_experiment(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<ExperimentRow>, ApiError> {
-    Ok(Json(experiments(&state).get(id).await?))
+    Ok(Json(state.lab.experiments().get(id).await?))
 }
 
 /// An experiment's sessions, oldest first.
@@ -79,8 +75,7 @@ pub async fn list_experiment_sessions(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<ExperimentSessionRow>>, ApiError> {
-    experiments(&state).get(id).await?;
-    Ok(Json(state.store.sessions_of_experiment(id).await?))
+    Ok(Json(state.lab.sessions_of_experiment(id).await?))
 }
 
 #[derive(Deserialize, ToSchema)]
@@ -102,7 +97,7 @@ pub async fn start_experiment_session(
     Path(id): Path<i64>,
     Input(body): Input<NewExperimentSession>,
 ) -> Result<Json<SessionView>, ApiError> {
-    Ok(Json(experiments(&state).start_session(id, &body.observer).await?))
+    Ok(Json(state.lab.experiments().start_session(id, &body.observer).await?))
 }
 
 /// A session's state and the trial to show next.
@@ -112,7 +107,7 @@ pub async fn get_experiment_session(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<SessionView>, ApiError> {
-    Ok(Json(experiments(&state).view(id).await?))
+    Ok(Json(state.lab.experiments().view(id).await?))
 }
 
 /// The refresh the session page measured before its first trial; 409 once
@@ -127,7 +122,7 @@ pub async fn report_session_display(
     Path(id): Path<i64>,
     Input(body): Input<DisplayReport>,
 ) -> Result<Json<SessionView>, ApiError> {
-    Ok(Json(experiments(&state).report_display(id, &body).await?))
+    Ok(Json(state.lab.experiments().report_display(id, &body).await?))
 }
 
 /// Stores one trial as it ended; answers with the next. A trial that
@@ -144,7 +139,7 @@ pub async fn record_experiment_trial(
     Path(id): Path<i64>,
     Input(body): Input<TrialReport>,
 ) -> Result<Json<SessionView>, ApiError> {
-    Ok(Json(experiments(&state).record_trial(id, &body).await?))
+    Ok(Json(state.lab.experiments().record_trial(id, &body).await?))
 }
 
 /// Stores a verification: the experiment's colours as the display emitted
@@ -161,7 +156,10 @@ pub async fn create_experiment_verification(
     Path(id): Path<i64>,
     Input(body): Input<VerificationRequest>,
 ) -> Result<(StatusCode, Json<Verification>), ApiError> {
-    Ok((StatusCode::CREATED, Json(experiments(&state).verify(id, &body).await?)))
+    Ok((
+        StatusCode::CREATED,
+        Json(state.lab.experiments().verify(id, &body).await?),
+    ))
 }
 
 /// An experiment's verifications, newest first.
@@ -171,7 +169,7 @@ pub async fn list_experiment_verifications(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<Verification>>, ApiError> {
-    Ok(Json(experiments(&state).verifications(id).await?))
+    Ok(Json(state.lab.experiments().verifications(id).await?))
 }
 
 /// Percent correct and d′ (both oddity models) per observer and approximation.
@@ -181,7 +179,7 @@ pub async fn experiment_analysis(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Analysis>, ApiError> {
-    Ok(Json(experiments(&state).analyze(id).await?))
+    Ok(Json(state.lab.experiments().analyze(id).await?))
 }
 
 /// The analysis as CSV, one row per observer and approximation.
@@ -191,7 +189,7 @@ pub async fn experiment_analysis_csv(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let a = experiments(&state).analyze(id).await?;
+    let a = state.lab.experiments().analyze(id).await?;
     Ok(download(
         "text/csv; charset=utf-8",
         &format!("experiment-{id}-analysis.csv"),
@@ -207,7 +205,7 @@ pub async fn experiment_analysis_mat(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let a = experiments(&state).analyze(id).await?;
+    let a = state.lab.experiments().analyze(id).await?;
     let bytes = analysis_mat(&a).map_err(ApiError::Internal)?;
     Ok(download(
         "application/x-matlab-data",
@@ -253,7 +251,7 @@ pub async fn experiments_figure(
     if ids.is_empty() || ids.len() > 24 {
         return Err(ApiError::BadRequest("query `ids`: give 1–24 experiment ids".into()));
     }
-    let x = experiments(&state);
+    let x = state.lab.experiments();
     let mut analyses = Vec::new();
     for id in ids {
         analyses.push(x.analyze(id).await?);

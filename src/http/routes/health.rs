@@ -55,17 +55,16 @@ pub struct Health {
 pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<Health>), ApiError> {
     // Bounded: a database that is away may hold a connection attempt for
     // its pool's whole acquire timeout.
-    let database_error = match tokio::time::timeout(DATABASE_ANSWER, state.store.ping()).await {
-        Ok(Ok(())) => None,
-        Ok(Err(e)) => Some(e.to_string()),
+    let database_error = match tokio::time::timeout(DATABASE_ANSWER, state.lab.database_error()).await {
+        Ok(answer) => answer,
         Err(_) => Some(format!(
             "the database did not answer within {} s",
             DATABASE_ANSWER.as_secs()
         )),
     };
-    let instrument = state.instrument.status();
+    let instrument = state.lab.instrument().status();
     // The task holds the receiving end of the queue for as long as it runs.
-    let task_stopped = state.instrument.task_stopped();
+    let task_stopped = state.lab.instrument().task_stopped();
     let (code, status, task) = if task_stopped || database_error.is_some() {
         let task = if task_stopped { "stopped" } else { "running" };
         (StatusCode::SERVICE_UNAVAILABLE, "down", task)
@@ -77,16 +76,16 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
     Ok((
         code,
         Json(Health {
-            booth: state.config.booth.to_string(),
+            booth: state.lab.booth().to_string(),
             status: status.into(),
             database: if database_error.is_some() { "unavailable" } else { "ok" }.into(),
             database_error,
             version: env!("CARGO_PKG_VERSION").into(),
-            observer: state.config.observer.name().into(),
-            default_samples: state.instrument.capabilities().default_samples,
+            observer: state.lab.observer().name().into(),
+            default_samples: state.lab.instrument().capabilities().default_samples,
             instrument,
             instrument_task: task.into(),
-            queued_measurements: state.instrument.queued(),
+            queued_measurements: state.lab.instrument().queued(),
         }),
     ))
 }
@@ -103,11 +102,11 @@ pub struct Instruments {
 
 #[utoipa::path(get, path = "/instruments", tag = "instruments", responses((status = 200, body = Instruments)))]
 pub async fn instruments(State(state): State<AppState>) -> Result<Json<Instruments>, ApiError> {
-    let status = state.instrument.status();
+    let status = state.lab.instrument().status();
     Ok(Json(Instruments {
-        booth: state.config.booth.to_string(),
+        booth: state.lab.booth().to_string(),
         status,
-        known: state.store.list_instruments().await?,
+        known: state.lab.instruments().await?,
     }))
 }
 
@@ -173,7 +172,7 @@ pub async fn scan_instruments(State(state): State<AppState>) -> Result<Json<Inst
             SCANNING.store(false, Ordering::Release);
         }
     }
-    let own_port = match &state.instrument.status() {
+    let own_port = match &state.lab.instrument().status() {
         InstrumentStatus::Idle { port, .. } => Some(port.clone()),
         _ => None,
     };

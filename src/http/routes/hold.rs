@@ -39,7 +39,7 @@ pub async fn take_instrument_hold(
     State(state): State<AppState>,
     Input(body): Input<TakeHold>,
 ) -> Result<(StatusCode, Json<HoldInfo>), ApiError> {
-    let hold = state.instrument.take_hold(&body.purpose).await?;
+    let hold = state.lab.instrument().take_hold(&body.purpose).await?;
     Ok((StatusCode::CREATED, Json(hold)))
 }
 
@@ -47,7 +47,7 @@ pub async fn take_instrument_hold(
 #[utoipa::path(get, path = "/instrument/hold", tag = "instruments",
     responses((status = 200, body = Option<HoldInfo>)))]
 pub async fn get_instrument_hold(State(state): State<AppState>) -> Json<Option<HoldInfo>> {
-    Json(state.instrument.hold().current())
+    Json(state.lab.instrument().hold().current())
 }
 
 /// Ends a hold: by its calibration at its end, or by the operator when the
@@ -59,7 +59,7 @@ pub async fn release_instrument_hold(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<HoldInfo>, ApiError> {
-    let hold = state.instrument.hold().release(id)?;
+    let hold = state.lab.instrument().hold().release(id)?;
     tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument hold released");
     Ok(Json(hold))
 }

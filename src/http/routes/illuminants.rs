@@ -15,7 +15,6 @@ use super::reflectances::requested_standard;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::calibration::{self as measured, create_illuminant};
 use crate::store::IlluminantRow;
 
 #[derive(Deserialize, ToSchema)]
@@ -54,22 +53,21 @@ pub async fn create_illuminant_route(
         body.standard_file.as_deref(),
     )?;
     let name = body.name.unwrap_or_else(|| format!("lamp_{}", body.measurement_id));
-    let row = create_illuminant(&state.store, body.measurement_id, &standard, &name, &body.note).await?;
+    let row = state
+        .lab
+        .create_illuminant(body.measurement_id, &standard, &name, &body.note)
+        .await?;
     Ok((StatusCode::CREATED, Json(row)))
 }
 
 #[utoipa::path(get, path = "/illuminants", tag = "illuminants",
     responses((status = 200, body = Vec<IlluminantRow>)))]
 pub async fn list_illuminants(State(state): State<AppState>) -> Result<Json<Vec<IlluminantRow>>, ApiError> {
-    Ok(Json(state.store.list_illuminants().await?))
+    Ok(Json(state.lab.illuminants().await?))
 }
 
 async fn load(state: &AppState, id: i64) -> Result<IlluminantRow, ApiError> {
-    state
-        .store
-        .get_illuminant(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no illuminant {id}")))
+    Ok(state.lab.illuminant(id).await?)
 }
 
 #[utoipa::path(get, path = "/illuminants/{id}", tag = "illuminants", params(("id" = i64, Path)),
@@ -86,6 +84,6 @@ pub async fn get_illuminant(
     responses((status = 200, content_type = "text/csv"), (status = 404, body = ErrorBody)))]
 pub async fn illuminant_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let row = load(&state, id).await?;
-    let text = measured::illuminant_csv(&state.store, &row).await?;
+    let text = state.lab.illuminant_csv(&row).await?;
     Ok(download("text/csv", &format!("{}.csv", row.name), text.into_bytes()))
 }

@@ -22,17 +22,8 @@ use crate::lab::comparisons::image_map::{self, DeltaEMap};
 use crate::lab::images::{ImageInfo, ImageJobs, ImageRequest};
 use crate::render::camera::CameraImage;
 
-fn service(state: &AppState) -> Result<&Arc<dyn crate::lab::services::RenderService>, ApiError> {
-    state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("this daemon runs without the renderer".into()))
-}
-
 fn images(state: &AppState) -> Result<&ImageJobs, ApiError> {
-    service(state)?
-        .images()
-        .ok_or_else(|| ApiError::Unavailable("this daemon renders no camera images".into()))
+    Ok(state.lab.renders()?.images())
 }
 
 #[derive(Serialize, ToSchema)]
@@ -59,7 +50,7 @@ pub async fn start_image(
     Path(id): Path<i64>,
     Input(body): Input<ImageRequest>,
 ) -> Result<(StatusCode, Json<ImageAccepted>), ApiError> {
-    let (image_id, reused) = Arc::clone(service(&state)?).start_image(id, body).await?;
+    let (image_id, reused) = state.lab.renders()?.start_image(id, body).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(ImageAccepted {
@@ -79,9 +70,7 @@ pub async fn render_images(
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<ImageInfo>>, ApiError> {
     let jobs = images(&state)?;
-    if state.store.get_render(id).await?.is_none() {
-        return Err(ApiError::NotFound(format!("no render {id}")));
-    }
+    state.lab.render(id).await?;
     Ok(Json(jobs.of_render(id)))
 }
 
@@ -231,9 +220,7 @@ async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap
             a_info.render_id, b_info.render_id
         )));
     }
-    let (white, source) = Arc::clone(service(state)?)
-        .cielab_white(a_info.scene.clone(), state.config.booth.clone())
-        .await?;
+    let (white, source) = state.lab.cielab_white(&a_info.scene).await?;
     let map = tokio::task::spawn_blocking(move || image_map::delta_e_map(&a, id, &b, against, white, source))
         .await
         .map_err(|e| ApiError::Internal(e.to_string()))??;

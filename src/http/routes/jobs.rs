@@ -7,7 +7,7 @@ use axum::Json;
 
 use crate::http::error::ApiError;
 use crate::http::AppState;
-use crate::lab::queue::{queue, Queue, QueueSources};
+use crate::lab::queue::Queue;
 
 /// Every job of this booth waiting or under way, the instrument's first in
 /// the order it takes them; each with its progress and, where its pace is
@@ -15,16 +15,5 @@ use crate::lab::queue::{queue, Queue, QueueSources};
 /// was made).
 #[utoipa::path(get, path = "/jobs", tag = "service", responses((status = 200, body = Queue)))]
 pub async fn list_jobs(State(state): State<AppState>) -> Result<Json<Queue>, ApiError> {
-    let status = state.instrument.status();
-    let renders = state.renders.as_deref();
-    Ok(Json(
-        queue(&QueueSources {
-            store: &state.store,
-            booth: &state.config.booth,
-            status: &status,
-            renders,
-            progress: renders.and_then(|r| r.progress()),
-        })
-        .await?,
-    ))
+    Ok(Json(state.lab.queue().await?))
 }

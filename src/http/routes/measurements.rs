@@ -56,7 +56,6 @@ pub async fn start_measurement(
     State(state): State<AppState>,
     Input(body): Input<StartMeasurement>,
 ) -> Result<(StatusCode, Json<Accepted>), ApiError> {
-    let scenes = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
     let request = MeasurementRequest {
         scene: body.scene,
         target: body.target,
@@ -65,7 +64,11 @@ pub async fn start_measurement(
         note: body.note.unwrap_or_default(),
         hold: body.hold,
     };
-    let id = state.instrument.request(request, &scenes).await?;
+    let id = state
+        .lab
+        .instrument()
+        .request(request, &state.lab.scenes_if_any())
+        .await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(Accepted {
@@ -83,7 +86,7 @@ pub async fn list_measurements(
     Query(filter): Query<MeasurementFilter>,
 ) -> Result<Json<MeasurementPage>, ApiError> {
     check_paging(filter.limit, filter.offset)?;
-    Ok(Json(state.store.list_measurements(&filter).await?))
+    Ok(Json(state.lab.measurements(&filter).await?))
 }
 
 /// Cancels a queued or running measurement. A queued one never starts; a
@@ -104,18 +107,14 @@ pub async fn cancel_measurement(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<MeasurementSummary>), ApiError> {
-    match state.instrument.cancel(id).await? {
+    match state.lab.instrument().cancel(id).await? {
         Cancelled::Done(m) => Ok((StatusCode::OK, Json(m))),
         Cancelled::Stopping(m) => Ok((StatusCode::ACCEPTED, Json(m))),
     }
 }
 
 pub(super) async fn load_measurement(state: &AppState, id: i64) -> Result<MeasurementDetail, ApiError> {
-    state
-        .store
-        .get_measurement(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no measurement {id}")))
+    Ok(state.lab.measurement(id).await?)
 }
 
 #[utoipa::path(get, path = "/measurements/{id}", tag = "measurements",
@@ -275,8 +274,7 @@ pub async fn measurement_comparisons(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<ComparisonRow>>, ApiError> {
-    load_measurement(&state, id).await?;
-    Ok(Json(state.store.comparisons_for_measurement(id).await?))
+    Ok(Json(state.lab.comparisons_of_measurement(id).await?))
 }
 
 /// A luminance meter's measurement compared with every coding in luminance
@@ -288,6 +286,5 @@ pub async fn measurement_luminance_comparisons(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Vec<LuminanceComparisonRow>>, ApiError> {
-    load_measurement(&state, id).await?;
-    Ok(Json(state.store.luminance_comparisons_for_measurement(id).await?))
+    Ok(Json(state.lab.luminance_comparisons_of_measurement(id).await?))
 }

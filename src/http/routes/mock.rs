@@ -74,7 +74,8 @@ pub async fn mock_display(
         .as_ref()
         .ok_or_else(|| ApiError::NotFound("no simulated display: the daemon runs a real instrument".into()))?;
     state
-        .instrument
+        .lab
+        .instrument()
         .hold()
         .admit(body.hold, "a change of the simulated display")?;
     match (body.drive, body.code_counts) {

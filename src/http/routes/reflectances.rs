@@ -16,7 +16,6 @@ use crate::calibration::standard::{WhiteStandard, SHIPPED};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::calibration::{self as measured, create_reflectance};
 use crate::store::ReflectanceRow;
 
 #[derive(Deserialize, ToSchema)]
@@ -90,30 +89,27 @@ pub async fn create_reflectance_route(
     let name = body
         .name
         .unwrap_or_else(|| format!("sample_{}", body.sample_measurement_id));
-    let row = create_reflectance(
-        &state.store,
-        body.sample_measurement_id,
-        body.standard_measurement_id,
-        &standard,
-        &name,
-        &body.note,
-    )
-    .await?;
+    let row = state
+        .lab
+        .create_reflectance(
+            body.sample_measurement_id,
+            body.standard_measurement_id,
+            &standard,
+            &name,
+            &body.note,
+        )
+        .await?;
     Ok((StatusCode::CREATED, Json(row)))
 }
 
 #[utoipa::path(get, path = "/reflectances", tag = "reflectances",
     responses((status = 200, body = Vec<ReflectanceRow>)))]
 pub async fn list_reflectances(State(state): State<AppState>) -> Result<Json<Vec<ReflectanceRow>>, ApiError> {
-    Ok(Json(state.store.list_reflectances().await?))
+    Ok(Json(state.lab.reflectances().await?))
 }
 
 async fn load(state: &AppState, id: i64) -> Result<ReflectanceRow, ApiError> {
-    state
-        .store
-        .get_reflectance(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no reflectance {id}")))
+    Ok(state.lab.reflectance(id).await?)
 }
 
 #[utoipa::path(get, path = "/reflectances/{id}", tag = "reflectances", params(("id" = i64, Path)),
@@ -150,7 +146,7 @@ pub async fn reflectance_csv(
     } else {
         OutOfRange::Refuse
     };
-    let text = measured::reflectance_csv(&state.store, &row, rule).await?;
+    let text = state.lab.reflectance_csv(&row, rule).await?;
     Ok(download("text/csv", &format!("{}.csv", row.name), text.into_bytes()))
 }
 

@@ -1,8 +1,6 @@
 //! `/api/scenes` and `/api/renders`: the scenes the daemon knows, their
 //! targets, and renders of them (with a preview image).
 
-use std::sync::Arc;
-
 use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -15,28 +13,12 @@ use crate::http::input::{Input, Path};
 use crate::http::AppState;
 use crate::lab::requests::RenderRequest;
 use crate::lab::requests::SceneInfo;
-use crate::lab::scene_overview::{scenes_overview, ScenesOverview};
+use crate::lab::scene_overview::ScenesOverview;
 use crate::store::{Job, RenderRow};
-
-pub(super) fn scenes(state: &AppState) -> Result<Vec<SceneInfo>, ApiError> {
-    Ok(state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("this daemon runs without the renderer".into()))?
-        .scenes())
-}
-
-pub(super) fn find_scene(state: &AppState, id: &str) -> Result<SceneInfo, ApiError> {
-    let all = scenes(state)?;
-    all.iter().find(|s| s.id == id).cloned().ok_or_else(|| {
-        let names: Vec<&str> = all.iter().map(|s| s.id.as_str()).collect();
-        ApiError::NotFound(format!("no scene `{id}`; available: {}", names.join(", ")))
-    })
-}
 
 #[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
 pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<SceneInfo>>, ApiError> {
-    Ok(Json(scenes(&state)?))
+    Ok(Json(state.lab.scenes()?))
 }
 
 /// Every scene at a glance: targets measured in this booth of all, the
@@ -45,16 +27,13 @@ pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<Scene
 /// `lab::scene_overview`).
 #[utoipa::path(get, path = "/scene-overview", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = ScenesOverview)))]
 pub async fn scene_overview(State(state): State<AppState>) -> Result<Json<ScenesOverview>, ApiError> {
-    let scenes = scenes(&state)?;
-    Ok(Json(
-        scenes_overview(&state.store, &scenes, &state.config.booth, state.config.observer).await?,
-    ))
+    Ok(Json(state.lab.scenes_overview().await?))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),
     responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = SceneInfo), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_scene(State(state): State<AppState>, Path(scene): Path<String>) -> Result<Json<SceneInfo>, ApiError> {
-    Ok(Json(find_scene(&state, &scene)?))
+    Ok(Json(state.lab.scene(&scene)?))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/targets", tag = "scenes", params(("scene" = String, Path)),
@@ -63,7 +42,7 @@ pub async fn scene_targets(
     State(state): State<AppState>,
     Path(scene): Path<String>,
 ) -> Result<Json<Vec<String>>, ApiError> {
-    Ok(Json(find_scene(&state, &scene)?.targets))
+    Ok(Json(state.lab.scene(&scene)?.targets))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/renders", tag = "renders", params(("scene" = String, Path)),
@@ -72,8 +51,7 @@ pub async fn scene_renders(
     State(state): State<AppState>,
     Path(scene): Path<String>,
 ) -> Result<Json<Vec<RenderRow>>, ApiError> {
-    find_scene(&state, &scene)?;
-    Ok(Json(state.store.list_renders(Some(&scene)).await?))
+    Ok(Json(state.lab.renders_of_scene(&scene).await?))
 }
 
 #[derive(Serialize, ToSchema)]
@@ -94,12 +72,8 @@ pub async fn start_render(
     Path(scene): Path<String>,
     Input(body): Input<RenderRequest>,
 ) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
-    find_scene(&state, &scene)?;
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    let render_id = Arc::clone(service).start_render(scene, body).await?;
+    state.lab.scene(&scene)?;
+    let render_id = state.lab.renders()?.start_render(&scene, body).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(RenderAccepted {
@@ -112,12 +86,7 @@ pub async fn start_render(
 #[utoipa::path(get, path = "/renders/{id}", tag = "renders", params(("id" = i64, Path)),
     responses((status = 200, body = RenderRow), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_render(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<RenderRow>, ApiError> {
-    state
-        .store
-        .get_render(id)
-        .await?
-        .map(Json)
-        .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))
+    Ok(Json(state.lab.render(id).await?))
 }
 
 /// Cancels a queued render at once, or stops a running one within a batch
@@ -131,17 +100,8 @@ pub async fn cancel_render(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<RenderRow>), ApiError> {
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    Arc::clone(service).cancel(Job::Render, id).await?;
-    let row = state
-        .store
-        .get_render(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no render {id}")))?;
-    Ok((StatusCode::ACCEPTED, Json(row)))
+    state.lab.renders()?.cancel(Job::Render, id).await?;
+    Ok((StatusCode::ACCEPTED, Json(state.lab.render(id).await?)))
 }
 
 /// Queues a new render (a new id) with the scene and settings of an
@@ -156,11 +116,7 @@ pub async fn retry_render(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<RenderAccepted>), ApiError> {
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    let render_id = Arc::clone(service).retry(Job::Render, id).await?;
+    let render_id = state.lab.renders()?.retry(Job::Render, id).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(RenderAccepted {
@@ -174,10 +130,6 @@ pub async fn retry_render(
 #[utoipa::path(get, path = "/renders/{id}/preview.png", tag = "renders", params(("id" = i64, Path)),
     responses((status = 200, content_type = "image/png"), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn render_preview(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let png = state.store.render_preview(id).await?.ok_or_else(|| {
-        ApiError::NotFound(format!(
-            "render {id} has no preview (not finished, or no [camera] in its scene)"
-        ))
-    })?;
+    let png = state.lab.render_preview(id).await?;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }

@@ -23,7 +23,7 @@ pub struct NewSession {
 
 #[utoipa::path(get, path = "/sessions", tag = "sessions", responses((status = 200, body = Vec<SessionRow>)))]
 pub async fn list_sessions(State(state): State<AppState>) -> Result<Json<Vec<SessionRow>>, ApiError> {
-    Ok(Json(state.store.list_sessions().await?))
+    Ok(Json(state.lab.sessions().await?))
 }
 
 #[derive(Serialize, ToSchema)]
@@ -38,9 +38,6 @@ pub async fn create_session(
     State(state): State<AppState>,
     Input(body): Input<NewSession>,
 ) -> Result<(StatusCode, Json<Created>), ApiError> {
-    if body.operator.trim().is_empty() {
-        return Err(ApiError::BadRequest("field `operator`: must not be empty".into()));
-    }
-    let id = state.store.create_session(body.operator.trim(), &body.notes).await?;
+    let id = state.lab.create_session(&body.operator, &body.notes).await?;
     Ok((StatusCode::CREATED, Json(Created { id })))
 }

@@ -1,7 +1,5 @@
 //! `/api/studies`: start a study, follow it, and fetch its report files.
 
-use std::sync::Arc;
-
 use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -18,7 +16,7 @@ use crate::store::{Booth, Job, StudyRow};
 
 #[utoipa::path(get, path = "/studies", tag = "studies", responses((status = 200, body = Vec<StudyRow>)))]
 pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<StudyRow>>, ApiError> {
-    Ok(Json(state.store.list_studies().await?))
+    Ok(Json(state.lab.studies().await?))
 }
 
 #[derive(Serialize, ToSchema)]
@@ -48,27 +46,28 @@ pub async fn start_study(
     if let Some(list) = &body.scenes {
         check_scene_list(list)?;
     }
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
+    let renders = state.lab.renders()?;
     // The study compares with one booth's measurements: this daemon's unless
     // the request names another; stored with the request (retries, workers).
     let booth: Booth = match body.booth.as_deref() {
         Some(b) => b
             .parse()
             .map_err(|e| ApiError::BadRequest(format!("field `booth`: {e}")))?,
-        None => state.config.booth.clone(),
+        None => state.lab.booth().clone(),
     };
     body.booth = Some(booth.to_string());
-    service.check_study(&body)?;
+    renders.check_study(&body)?;
     if body.against.as_deref().unwrap_or("measurements") == "measurements" {
-        let missing = missing_targets(&state, body.scenes.as_deref(), &booth).await?;
-        if !missing.is_empty() && body.measure_missing == Some(true) && booth != state.config.booth {
+        let chosen: Option<Vec<&str>> = body
+            .scenes
+            .as_deref()
+            .map(|list| list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect());
+        let missing = state.lab.unmeasured_targets(chosen.as_deref(), &booth).await?;
+        if !missing.is_empty() && body.measure_missing == Some(true) && &booth != state.lab.booth() {
             return Err(ApiError::BadRequest(format!(
                 "field `booth`: this daemon measures in booth {}; it cannot measure the missing targets of booth \
                  {booth} ({}): start the study on that booth's daemon",
-                state.config.booth,
+                state.lab.booth(),
                 describe_targets(&missing)
             )));
         }
@@ -83,12 +82,13 @@ pub async fn start_study(
                 )));
             }
             body.measured_first = state
-                .instrument
+                .lab
+                .instrument()
                 .request_targets(&missing, "measured first for a study (measure_missing)")
                 .await?;
         }
     }
-    let id = Arc::clone(service).start_study(body).await?;
+    let id = renders.start_study(body).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(StudyAccepted {
@@ -101,12 +101,7 @@ pub async fn start_study(
 #[utoipa::path(get, path = "/studies/{id}", tag = "studies", params(("id" = i64, Path)),
     responses((status = 200, body = StudyRow), (status = 404, body = crate::http::error::ErrorBody)))]
 pub async fn get_study(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Json<StudyRow>, ApiError> {
-    state
-        .store
-        .get_study(id)
-        .await?
-        .map(Json)
-        .ok_or_else(|| ApiError::NotFound(format!("no study {id}")))
+    Ok(Json(state.lab.study(id).await?))
 }
 
 /// Cancels a queued study at once, or stops a running one at its next
@@ -120,17 +115,8 @@ pub async fn cancel_study(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<StudyRow>), ApiError> {
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    Arc::clone(service).cancel(Job::Study, id).await?;
-    let row = state
-        .store
-        .get_study(id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no study {id}")))?;
-    Ok((StatusCode::ACCEPTED, Json(row)))
+    state.lab.renders()?.cancel(Job::Study, id).await?;
+    Ok((StatusCode::ACCEPTED, Json(state.lab.study(id).await?)))
 }
 
 /// Queues a new study (a new id) with the request of an interrupted,
@@ -145,11 +131,7 @@ pub async fn retry_study(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<(StatusCode, Json<StudyAccepted>), ApiError> {
-    let service = state
-        .renders
-        .as_ref()
-        .ok_or_else(|| ApiError::Unavailable("no renderer".into()))?;
-    let new = Arc::clone(service).retry(Job::Study, id).await?;
+    let new = state.lab.renders()?.retry(Job::Study, id).await?;
     Ok((
         StatusCode::ACCEPTED,
         Json(StudyAccepted {
@@ -168,11 +150,7 @@ pub async fn study_file(
     State(state): State<AppState>,
     Path((id, name)): Path<(i64, String)>,
 ) -> Result<Response, ApiError> {
-    let content = state
-        .store
-        .study_file(id, &name)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("study {id} has no file `{name}`")))?;
+    let content = state.lab.study_file(id, &name).await?;
     let content_type = match name.rsplit('.').next() {
         Some("html") => "text/html; charset=utf-8",
         Some("svg") => "image/svg+xml",
@@ -206,23 +184,4 @@ fn check_scene_list(list: &str) -> Result<(), ApiError> {
         }
     }
     Ok(())
-}
-
-/// The (scene, target) pairs of the study's scenes (all when `scenes` is
-/// None) with no complete measurement in `booth`, in the study's order.
-async fn missing_targets(
-    state: &AppState,
-    scenes: Option<&str>,
-    booth: &Booth,
-) -> Result<Vec<(String, String)>, ApiError> {
-    let chosen: Option<Vec<&str>> =
-        scenes.map(|list| list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect());
-    let measured = state.store.measured_targets(booth).await?;
-    let all = state.renders.as_ref().map(|r| r.scenes()).unwrap_or_default();
-    Ok(all
-        .iter()
-        .filter(|s| chosen.as_ref().is_none_or(|c| c.contains(&s.id.as_str())))
-        .flat_map(|s| s.targets.iter().map(move |t| (s.id.clone(), t.clone())))
-        .filter(|pair| !measured.contains(pair))
-        .collect())
 }

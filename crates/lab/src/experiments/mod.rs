@@ -100,7 +100,9 @@ impl Experiments {
         Experiments { store }
     }
 
-    pub fn store(&self) -> &Store {
+    /// The store under it, for the tests' checks behind it.
+    #[cfg(test)]
+    pub(crate) fn store(&self) -> &Store {
         &self.store
     }
 

@@ -1,0 +1,364 @@
+//! [`Lab`]: the lab as a daemon's front ends see it, one handle whose
+//! methods the HTTP handlers call, and never the store, the queues or the
+//! renderer directly.
+//!
+//! It holds the daemon's booth instrument ([`BoothInstrument`]: asking
+//! for, cancelling and holding measurements), its renders, studies and
+//! camera images ([`RenderJobs`], absent when the daemon runs without the
+//! renderer), the oddity experiments ([`Experiments`]) and the store the
+//! records are read from. A record asked for by id that does not exist is
+//! [`LabError::NotFound`] naming it; what this daemon cannot do at all is
+//! [`LabError::Unavailable`]. Cheap to clone.
+
+use std::sync::Arc;
+
+use lightbooth_science::colorimetry::{Observer, Xyz};
+use lightbooth_store::{
+    Booth, BoothRow, ComparisonRow, DisplayProfileRow, ExperimentSessionRow, IlluminantRow, InstrumentRow,
+    LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, ReflectanceRow, RenderRow,
+    SessionRow, Store, StudyRow,
+};
+
+use crate::booth_instrument::BoothInstrument;
+use crate::calibration::{self, MeasuredError};
+use crate::comparisons::summary::{self, SceneComparisons};
+use crate::error::LabError;
+use crate::experiments::Experiments;
+use crate::queue::{Queue, QueueSources};
+use crate::render_jobs::RenderJobs;
+use crate::requests::SceneInfo;
+use crate::scene_overview::ScenesOverview;
+use lightbooth_science::calibration::reflectance::OutOfRange;
+use lightbooth_science::calibration::standard::WhiteStandard;
+
+/// What a daemon without the renderer answers when asked to render.
+const NO_RENDERER: &str = "this daemon runs without the renderer";
+
+/// The lab of one daemon (see the module doc).
+#[derive(Clone)]
+pub struct Lab {
+    store: Store,
+    observer: Observer,
+    instrument: BoothInstrument,
+    renders: Option<Arc<RenderJobs>>,
+    experiments: Experiments,
+}
+
+impl Lab {
+    /// The lab on `store`, measuring with `instrument` (in its booth),
+    /// rendering with `renders` when given, and computing every colour
+    /// it reports in `observer`.
+    pub fn new(store: Store, observer: Observer, instrument: BoothInstrument, renders: Option<Arc<RenderJobs>>) -> Lab {
+        Lab {
+            experiments: Experiments::new(store.clone()),
+            store,
+            observer,
+            instrument,
+            renders,
+        }
+    }
+
+    /// The booth this daemon measures in.
+    pub fn booth(&self) -> &Booth {
+        self.instrument.booth()
+    }
+
+    /// The observer of every x,y, XYZ, CIELAB and ΔE this lab computes.
+    pub fn observer(&self) -> Observer {
+        self.observer
+    }
+
+    /// The booth's instrument: measurements asked for and cancelled, its
+    /// live status, its queue and the calibration's hold.
+    pub fn instrument(&self) -> &BoothInstrument {
+        &self.instrument
+    }
+
+    /// The renders, studies and camera images, or why there are none.
+    pub fn renders(&self) -> Result<&RenderJobs, LabError> {
+        self.renders
+            .as_deref()
+            .ok_or_else(|| LabError::Unavailable(NO_RENDERER.into()))
+    }
+
+    /// The oddity experiments and their sessions.
+    pub fn experiments(&self) -> &Experiments {
+        &self.experiments
+    }
+
+    /// Whether the database answers (`None`) or why not.
+    pub async fn database_error(&self) -> Option<String> {
+        self.store.ping().await.err().map(|e| e.to_string())
+    }
+
+    // ---- scenes ----
+
+    /// The scenes, in the study's order (an error without the renderer).
+    pub fn scenes(&self) -> Result<Vec<SceneInfo>, LabError> {
+        Ok(self.renders()?.scenes())
+    }
+
+    /// The scenes, or none without the renderer (a measurement may name no scene).
+    pub fn scenes_if_any(&self) -> Vec<SceneInfo> {
+        self.renders.as_deref().map(RenderJobs::scenes).unwrap_or_default()
+    }
+
+    /// One scene, or [`LabError::NotFound`] listing the available ones.
+    pub fn scene(&self, id: &str) -> Result<SceneInfo, LabError> {
+        let all = self.scenes()?;
+        all.iter().find(|s| s.id == id).cloned().ok_or_else(|| {
+            let names: Vec<&str> = all.iter().map(|s| s.id.as_str()).collect();
+            LabError::NotFound(format!("no scene `{id}`; available: {}", names.join(", ")))
+        })
+    }
+
+    /// Every scene at a glance in this booth (see [`crate::scene_overview`]).
+    pub async fn scenes_overview(&self) -> Result<ScenesOverview, LabError> {
+        let scenes = self.scenes()?;
+        Ok(crate::scene_overview::scenes_overview(&self.store, &scenes, self.booth(), self.observer).await?)
+    }
+
+    /// A scene's newest comparisons in this lab's observer, per coding.
+    pub async fn scene_comparisons(&self, scene: &str) -> Result<SceneComparisons, LabError> {
+        self.scene(scene)?;
+        Ok(summary::scene_comparisons(&self.store, scene, self.observer).await?)
+    }
+
+    /// The CIELAB white of a scene in this booth now, with its source.
+    pub async fn cielab_white(&self, scene: &str) -> Result<(Xyz, String), LabError> {
+        self.renders()?.cielab_white(scene, self.booth()).await
+    }
+
+    /// The (scene, target) pairs of `scenes` (every scene when `None`) with
+    /// no complete measurement in `booth`, in the study's order.
+    pub async fn unmeasured_targets(
+        &self,
+        scenes: Option<&[&str]>,
+        booth: &Booth,
+    ) -> Result<Vec<(String, String)>, LabError> {
+        let measured = self.store.measured_targets(booth).await?;
+        Ok(self
+            .scenes_if_any()
+            .iter()
+            .filter(|s| scenes.is_none_or(|c| c.contains(&s.id.as_str())))
+            .flat_map(|s| s.targets.iter().map(move |t| (s.id.clone(), t.clone())))
+            .filter(|pair| !measured.contains(pair))
+            .collect())
+    }
+
+    // ---- renders ----
+
+    /// A scene's renders, newest first.
+    pub async fn renders_of_scene(&self, scene: &str) -> Result<Vec<RenderRow>, LabError> {
+        self.scene(scene)?;
+        Ok(self.store.list_renders(Some(scene)).await?)
+    }
+
+    pub async fn render(&self, id: i64) -> Result<RenderRow, LabError> {
+        self.store
+            .get_render(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no render {id}")))
+    }
+
+    /// A complete render's camera view (a PNG).
+    pub async fn render_preview(&self, id: i64) -> Result<Vec<u8>, LabError> {
+        self.store.render_preview(id).await?.ok_or_else(|| {
+            LabError::NotFound(format!(
+                "render {id} has no preview (not finished, or no [camera] in its scene)"
+            ))
+        })
+    }
+
+    // ---- measurements ----
+
+    pub async fn measurements(&self, filter: &MeasurementFilter) -> Result<MeasurementPage, LabError> {
+        Ok(self.store.list_measurements(filter).await?)
+    }
+
+    /// A measurement with every raw sample.
+    pub async fn measurement(&self, id: i64) -> Result<MeasurementDetail, LabError> {
+        self.store
+            .get_measurement(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no measurement {id}")))
+    }
+
+    /// A measurement's comparisons with every coding.
+    pub async fn comparisons_of_measurement(&self, id: i64) -> Result<Vec<ComparisonRow>, LabError> {
+        self.measurement(id).await?;
+        Ok(self.store.comparisons_for_measurement(id).await?)
+    }
+
+    /// A luminance meter's measurement compared in luminance alone.
+    pub async fn luminance_comparisons_of_measurement(&self, id: i64) -> Result<Vec<LuminanceComparisonRow>, LabError> {
+        self.measurement(id).await?;
+        Ok(self.store.luminance_comparisons_for_measurement(id).await?)
+    }
+
+    // ---- the booth's records ----
+
+    /// Every booth sharing this database.
+    pub async fn booths(&self) -> Result<Vec<BoothRow>, LabError> {
+        Ok(self.store.list_booths().await?)
+    }
+
+    /// Every instrument this database has seen.
+    pub async fn instruments(&self) -> Result<Vec<InstrumentRow>, LabError> {
+        Ok(self.store.list_instruments().await?)
+    }
+
+    pub async fn sessions(&self) -> Result<Vec<SessionRow>, LabError> {
+        Ok(self.store.list_sessions().await?)
+    }
+
+    /// Records a measuring session of `operator` (not blank; trimmed).
+    pub async fn create_session(&self, operator: &str, notes: &str) -> Result<i64, LabError> {
+        let operator = operator.trim();
+        if operator.is_empty() {
+            return Err(LabError::Invalid("field `operator`: must not be empty".into()));
+        }
+        Ok(self.store.create_session(operator, notes).await?)
+    }
+
+    /// Every job of this booth waiting or under way (see [`crate::queue`]).
+    pub async fn queue(&self) -> Result<Queue, LabError> {
+        let status = self.instrument.status();
+        let renders = self.renders.as_deref();
+        Ok(crate::queue::queue(&QueueSources {
+            store: &self.store,
+            booth: self.booth(),
+            status: &status,
+            renders,
+            progress: renders.and_then(RenderJobs::progress),
+        })
+        .await?)
+    }
+
+    // ---- studies ----
+
+    pub async fn studies(&self) -> Result<Vec<StudyRow>, LabError> {
+        Ok(self.store.list_studies().await?)
+    }
+
+    pub async fn study(&self, id: i64) -> Result<StudyRow, LabError> {
+        self.store
+            .get_study(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no study {id}")))
+    }
+
+    /// A file of a study's report.
+    pub async fn study_file(&self, id: i64, name: &str) -> Result<Vec<u8>, LabError> {
+        self.store
+            .study_file(id, name)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("study {id} has no file `{name}`")))
+    }
+
+    // ---- experiments ----
+
+    /// Every experiment, newest first.
+    pub async fn experiment_list(&self) -> Result<Vec<lightbooth_store::ExperimentRow>, LabError> {
+        Ok(self.store.list_experiments().await?)
+    }
+
+    /// An experiment's sessions, oldest first.
+    pub async fn sessions_of_experiment(&self, id: i64) -> Result<Vec<ExperimentSessionRow>, LabError> {
+        self.experiments.get(id).await?;
+        Ok(self.store.sessions_of_experiment(id).await?)
+    }
+
+    // ---- display profiles ----
+
+    pub async fn display_profiles(&self) -> Result<Vec<DisplayProfileRow>, LabError> {
+        Ok(self.store.list_display_profiles().await?)
+    }
+
+    pub async fn display_profile(&self, id: i64) -> Result<DisplayProfileRow, LabError> {
+        self.store
+            .get_display_profile(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no display profile {id}")))
+    }
+
+    /// Stores a fitted display profile; its row.
+    pub async fn add_display_profile(
+        &self,
+        name: &str,
+        note: &str,
+        profile: &lightbooth_science::display::DisplayProfile,
+    ) -> Result<DisplayProfileRow, LabError> {
+        let id = self.store.insert_display_profile(name, note, profile).await?;
+        self.display_profile(id).await
+    }
+
+    // ---- reflectances and illuminants measured in the booth ----
+
+    /// A sample's reflectance from its measurement and a white standard's
+    /// (see [`calibration::create_reflectance`]).
+    pub async fn create_reflectance(
+        &self,
+        sample_id: i64,
+        standard_id: i64,
+        standard: &WhiteStandard,
+        name: &str,
+        note: &str,
+    ) -> Result<ReflectanceRow, LabError> {
+        Ok(calibration::create_reflectance(&self.store, sample_id, standard_id, standard, name, note).await?)
+    }
+
+    pub async fn reflectances(&self) -> Result<Vec<ReflectanceRow>, LabError> {
+        Ok(self.store.list_reflectances().await?)
+    }
+
+    pub async fn reflectance(&self, id: i64) -> Result<ReflectanceRow, LabError> {
+        self.store
+            .get_reflectance(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no reflectance {id}")))
+    }
+
+    /// A reflectance as a scene spectrum CSV.
+    pub async fn reflectance_csv(&self, row: &ReflectanceRow, out_of_range: OutOfRange) -> Result<String, LabError> {
+        Ok(calibration::reflectance_csv(&self.store, row, out_of_range).await?)
+    }
+
+    /// A lamp's relative SPD from its measurement on a white standard (see
+    /// [`calibration::create_illuminant`]).
+    pub async fn create_illuminant(
+        &self,
+        measurement_id: i64,
+        standard: &WhiteStandard,
+        name: &str,
+        note: &str,
+    ) -> Result<IlluminantRow, LabError> {
+        Ok(calibration::create_illuminant(&self.store, measurement_id, standard, name, note).await?)
+    }
+
+    pub async fn illuminants(&self) -> Result<Vec<IlluminantRow>, LabError> {
+        Ok(self.store.list_illuminants().await?)
+    }
+
+    pub async fn illuminant(&self, id: i64) -> Result<IlluminantRow, LabError> {
+        self.store
+            .get_illuminant(id)
+            .await?
+            .ok_or_else(|| LabError::NotFound(format!("no illuminant {id}")))
+    }
+
+    /// An illuminant as a scene spectrum CSV.
+    pub async fn illuminant_csv(&self, row: &IlluminantRow) -> Result<String, LabError> {
+        Ok(calibration::illuminant_csv(&self.store, row).await?)
+    }
+}
+
+impl From<MeasuredError> for LabError {
+    fn from(e: MeasuredError) -> Self {
+        match e {
+            MeasuredError::Invalid(m) => LabError::Invalid(m),
+            MeasuredError::WrongState(m) => LabError::Conflict(m),
+            MeasuredError::Store(e) => e.into(),
+        }
+    }
+}
