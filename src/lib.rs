@@ -82,6 +82,10 @@
 //! Serving them:
 //!
 //! - [`http`]: the REST API, server-sent events and dashboards (axum).
+//!   **Its handlers reach the lab only through [`lab::Lab`]** (the app
+//!   state's handle on the instrument, the renders, the experiments and
+//!   every record); the architecture test fails on a handler that names
+//!   the store.
 //! - [`worker`]: `lightbooth worker`, a render worker on PostgreSQL.
 //! - [`daemon`]: `lightbooth serve`, wiring it all: [`daemon::run`] starts
 //!   the instrument task, the lab's workflows and the HTTP server.
