@@ -447,10 +447,7 @@ impl Worker {
         // finds the measurement no longer queued always finds its token.
         let cancel = self.canceller.next_measurement();
         self.canceller.set_current(Some((id, cancel.clone())));
-        let canceller = self.canceller.clone();
-        let recorder = match Recorder::start(&store, &self.config.runtime, id, instrument_id, &|| {
-            canceller.is_shutting_down()
-        }) {
+        let recorder = match Recorder::start(&store, &self.config.runtime, id, instrument_id, &self.config.shutdown) {
             Ok(recorder) => recorder,
             Err(e) => {
                 tracing::warn!(error = %e, "measurement no longer queued; skipped");
@@ -491,8 +488,7 @@ impl Worker {
 
         // Re-aim the simulated instrument at the scene target.
         if let Err(why) = self.aim_simulator(job) {
-            let canceller = self.canceller.clone();
-            let outcome = recorder.fail(why, &|| canceller.is_shutting_down());
+            let outcome = recorder.fail(why, &self.config.shutdown);
             return self.published(id, job, outcome);
         }
 
@@ -532,14 +528,12 @@ impl Worker {
         // The comparison uses the daemon's observer on both sides; the
         // stored instrument_x, instrument_y are the instrument's own (CIE
         // 1931, as the PR-650 reports), never compared or charted.
-        let canceller = self.canceller.clone();
-        let shutting_down = || canceller.is_shutting_down();
         let outcome = recorder.take(
             instrument,
             job.samples,
             observer,
             &cancel,
-            &shutting_down,
+            &self.config.shutdown,
             &mut on_sample,
         );
         if measured_pace.is_some() {
@@ -604,10 +598,14 @@ impl Worker {
     /// the database is away ([`recorder::end_measurement`]) unless the
     /// daemon shuts down meanwhile.
     fn finish_failed(&self, id: i64, state: MeasurementState, message: &str) -> Option<String> {
-        let canceller = self.canceller.clone();
-        if let Err(e) = recorder::end_measurement(&self.config.store, &self.config.runtime, id, state, message, &|| {
-            canceller.is_shutting_down()
-        }) {
+        if let Err(e) = recorder::end_measurement(
+            &self.config.store,
+            &self.config.runtime,
+            id,
+            state,
+            message,
+            &self.config.shutdown,
+        ) {
             tracing::error!(error = %e, measurement_id = id, "cannot record the end of a measurement");
         }
         let _ = self.config.events.send(Event::MeasurementFinished {

@@ -57,9 +57,9 @@ impl Recorder {
         runtime: &Handle,
         id: i64,
         instrument_id: Option<i64>,
-        give_up: &dyn Fn() -> bool,
+        shutdown: &CancellationToken,
     ) -> Result<Recorder, StoreError> {
-        retry_while_unavailable(runtime, id, "its start", give_up, || {
+        retry_while_unavailable(runtime, id, "its start", shutdown, || {
             store.mark_running(id, instrument_id)
         })?;
         Ok(Recorder {
@@ -112,7 +112,7 @@ impl Recorder {
         &self,
         avg: &AveragedMeasurement,
         observer: Observer,
-        give_up: &dyn Fn() -> bool,
+        shutdown: &CancellationToken,
     ) -> Result<(), String> {
         if let Some(why) = &self.write_failed {
             return Err(format!(
@@ -120,7 +120,7 @@ impl Recorder {
             ));
         }
         let average = average_row(avg, observer);
-        self.retry("its average", give_up, || {
+        self.retry("its average", shutdown, || {
             self.store.complete_measurement(self.id, &average)
         })
         .map_err(|e| format!("cannot store the average: {e}"))
@@ -128,8 +128,8 @@ impl Recorder {
 
     /// Ends the measurement `state` with `message`, retrying while the
     /// database is away (see the module doc).
-    pub fn end(&self, state: MeasurementState, message: &str, give_up: &dyn Fn() -> bool) -> Result<(), StoreError> {
-        end_measurement(&self.store, &self.runtime, self.id, state, message, give_up)
+    pub fn end(&self, state: MeasurementState, message: &str, shutdown: &CancellationToken) -> Result<(), StoreError> {
+        end_measurement(&self.store, &self.runtime, self.id, state, message, shutdown)
     }
 
     /// Takes the measurement: `samples` samples from `instrument`, each
@@ -137,16 +137,17 @@ impl Recorder {
     /// daemon publishes it); then completes it with its average in
     /// `observer`, or ends it with the reason (see the module doc). The
     /// first sample that cannot be written stops it, `failed`. `cancel`
-    /// stops it between instrument commands; `shutting_down` tells an
-    /// operator's cancel from a daemon shutting down (`interrupted`) and
-    /// stops retrying a database that is away.
+    /// stops it between instrument commands; `shutdown` (the daemon's
+    /// token, whose child `cancel` is) tells an operator's cancel from a
+    /// daemon shutting down (`interrupted`) and stops retrying a database
+    /// that is away.
     pub fn take(
         mut self,
         instrument: &mut dyn Spectroradiometer,
         samples: usize,
         observer: Observer,
         cancel: &CancellationToken,
-        shutting_down: &dyn Fn() -> bool,
+        shutdown: &CancellationToken,
         on_sample: &mut dyn FnMut(&Sample, &NewSample),
     ) -> Outcome {
         let reading = instrument.capabilities().reading;
@@ -169,10 +170,10 @@ impl Recorder {
         if let Some(why) = self.write_failed.clone() {
             // Not every sample is on disk: never `complete`, whatever the instrument said.
             let message = format!("{why}; a measurement without all its samples on disk is not complete");
-            return self.ended(MeasurementState::Failed, message, None, shutting_down);
+            return self.ended(MeasurementState::Failed, message, None, shutdown);
         }
         match result {
-            Ok(average) => match self.complete(&average, observer, shutting_down) {
+            Ok(average) => match self.complete(&average, observer, shutdown) {
                 Ok(()) => {
                     tracing::info!(
                         luminance_cd_m2 = average.luminance_cd_m2,
@@ -186,10 +187,10 @@ impl Recorder {
                         comparable,
                     }
                 }
-                Err(why) => self.ended(MeasurementState::Failed, why, None, shutting_down),
+                Err(why) => self.ended(MeasurementState::Failed, why, None, shutdown),
             },
             Err(e) => {
-                let shutting = shutting_down();
+                let shutting = shutdown.is_cancelled();
                 let (state, lost) = classify(&e, shutting);
                 let message = if shutting {
                     format!("the daemon shut down during the measurement ({e})")
@@ -198,15 +199,15 @@ impl Recorder {
                 } else {
                     e.to_string()
                 };
-                self.ended(state, message, lost.then(|| e.to_string()), shutting_down)
+                self.ended(state, message, lost.then(|| e.to_string()), shutdown)
             }
         }
     }
 
     /// Ends the measurement `failed` with `message` before the instrument
     /// took a sample (a simulated instrument that could not be aimed).
-    pub fn fail(self, message: String, shutting_down: &dyn Fn() -> bool) -> Outcome {
-        self.ended(MeasurementState::Failed, message, None, shutting_down)
+    pub fn fail(self, message: String, shutdown: &CancellationToken) -> Outcome {
+        self.ended(MeasurementState::Failed, message, None, shutdown)
     }
 
     fn ended(
@@ -214,11 +215,11 @@ impl Recorder {
         state: MeasurementState,
         message: String,
         port_lost: Option<String>,
-        shutting_down: &dyn Fn() -> bool,
+        shutdown: &CancellationToken,
     ) -> Outcome {
         tracing::warn!(error = %message, state = state.as_str(), "measurement did not complete");
         // A failure to write the end is logged by the retry; recovery ends it later.
-        let _ = self.end(state, &message, shutting_down);
+        let _ = self.end(state, &message, shutdown);
         Outcome::Ended {
             state,
             message,
@@ -226,12 +227,12 @@ impl Recorder {
         }
     }
 
-    fn retry<F, Fut>(&self, what: &str, give_up: &dyn Fn() -> bool, write: F) -> Result<(), StoreError>
+    fn retry<F, Fut>(&self, what: &str, shutdown: &CancellationToken, write: F) -> Result<(), StoreError>
     where
         F: Fn() -> Fut,
         Fut: std::future::Future<Output = Result<(), StoreError>>,
     {
-        retry_while_unavailable(&self.runtime, self.id, what, give_up, write)
+        retry_while_unavailable(&self.runtime, self.id, what, shutdown, write)
     }
 }
 
@@ -307,20 +308,20 @@ pub fn end_measurement(
     id: i64,
     state: MeasurementState,
     message: &str,
-    give_up: &dyn Fn() -> bool,
+    shutdown: &CancellationToken,
 ) -> Result<(), StoreError> {
-    retry_while_unavailable(runtime, id, "its end", give_up, || {
+    retry_while_unavailable(runtime, id, "its end", shutdown, || {
         store.end_measurement(id, state, message)
     })
 }
 
 /// Runs `write` until it succeeds, fails for a reason other than an
-/// unavailable database, or `give_up` says so; logs each retry.
+/// unavailable database, or `shutdown` is cancelled; logs each retry.
 fn retry_while_unavailable<F, Fut>(
     runtime: &Handle,
     id: i64,
     what: &str,
-    give_up: &dyn Fn() -> bool,
+    shutdown: &CancellationToken,
     write: F,
 ) -> Result<(), StoreError>
 where
@@ -341,7 +342,7 @@ where
                 }
                 return Ok(());
             }
-            Err(e) if e.is_unavailable() && !give_up() => {
+            Err(e) if e.is_unavailable() && !shutdown.is_cancelled() => {
                 tries += 1;
                 tracing::warn!(
                     measurement_id = id,
@@ -349,10 +350,12 @@ where
                     retry_in_ms = wait.as_millis() as u64,
                     "the database is unavailable: cannot record {what} of the measurement yet; retrying"
                 );
-                let deadline = std::time::Instant::now() + wait;
-                while std::time::Instant::now() < deadline && !give_up() {
-                    std::thread::sleep(Duration::from_millis(50));
-                }
+                // The wait ends early when the daemon shuts down. (The
+                // timer is made inside the runtime: `timeout` called out
+                // here panics, "there is no reactor running".)
+                runtime.block_on(async {
+                    let _ = tokio::time::timeout(wait, shutdown.cancelled()).await;
+                });
                 wait = (wait * 2).min(LONGEST_RETRY);
             }
             Err(e) => {
@@ -582,6 +585,39 @@ mod tests {
     use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
     use lightbooth_store::{Booth, NewMeasurement};
 
+    /// The retry of a write while the database is away waits for the next
+    /// try with a tokio timer, on the instrument task's own thread: the
+    /// timer made outside the runtime panicked ("there is no reactor
+    /// running") and killed the task mid-measurement, which stayed
+    /// `running` (daemon_recovery's PostgreSQL outage test found it). A
+    /// closed pool is an unavailable database; a shutdown ends the wait.
+    #[test]
+    fn a_retry_while_the_database_is_away_panicked_without_a_reactor() {
+        let runtime = tokio::runtime::Runtime::new().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let store = runtime.block_on(store_in(dir.path()));
+        runtime.block_on(store.close());
+        let shutdown = CancellationToken::new();
+        let stop = shutdown.clone();
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(700));
+            stop.cancel();
+        });
+        // Fails (pool closed), waits 0.5 s, fails, waits until the shutdown
+        // at 0.7 s, fails once more and gives up with the error.
+        let result = end_measurement(
+            &store,
+            runtime.handle(),
+            1,
+            MeasurementState::Failed,
+            "the cable was pulled",
+            &shutdown,
+        );
+        stopper.join().unwrap();
+        let error = result.unwrap_err();
+        assert!(error.is_unavailable(), "{error}");
+    }
+
     /// A queued measurement of `samples` samples, and the simulated PR-650
     /// (instant, seeded, with `faults`) looking at a flat spectrum.
     async fn queued(store: &Store, samples: usize, faults: &str) -> (i64, MockHandle) {
@@ -623,13 +659,13 @@ mod tests {
         let mut instrument = open_pr650(&port, &Pr650Settings::default()).unwrap();
         tokio::task::block_in_place(|| {
             let runtime = Handle::current();
-            let recorder = Recorder::start(store, &runtime, id, None, &|| false).unwrap();
+            let recorder = Recorder::start(store, &runtime, id, None, &CancellationToken::new()).unwrap();
             recorder.take(
                 instrument.as_mut(),
                 samples,
                 Observer::Cie1931,
                 cancel,
-                &|| false,
+                &CancellationToken::new(),
                 &mut |s, _| {
                     let stored = runtime
                         .block_on(store.get_measurement(id))

@@ -2,6 +2,7 @@
 //! [`lightbooth_science::calibration`] computed, with its provenance — the measurements,
 //! the standard's calibration file and SHA-256, the time.
 
+use crate::BoxFuture;
 use serde::Serialize;
 
 use super::{json_array, now, Store, StoreError};
@@ -164,110 +165,122 @@ impl TryFrom<IlluminantRecord> for IlluminantRow {
 
 impl Store {
     /// Stores a reflectance computed from `sample_id` against `standard_id`.
-    pub async fn insert_reflectance(
-        &self,
+    pub fn insert_reflectance<'a>(
+        &'a self,
         sample_id: i64,
         standard_id: i64,
-        c: &NewCalibration<'_>,
-        r: &Reflectance,
-    ) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO reflectances (name, sample_measurement_id, standard_measurement_id, standard_file, \
-             standard_sha256, standard_uncertainty_stated, created_at, wavelength_json, reflectance_json, \
-             uncertainty_json, above_one_json, below_zero_json, max_reflectance, min_reflectance, note) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15) RETURNING id",
-        )
-        .bind(c.name)
-        .bind(sample_id)
-        .bind(standard_id)
-        .bind(&c.standard.file)
-        .bind(&c.standard.sha256)
-        .bind(c.standard.uncertainty_stated)
-        .bind(now())
-        .bind(json_array(&r.wavelength_nm))
-        .bind(json_array(&r.reflectance))
-        .bind(json_array(&r.uncertainty))
-        .bind(json_array(&r.flags.above_one_nm))
-        .bind(json_array(&r.flags.below_zero_nm))
-        .bind(r.flags.max)
-        .bind(r.flags.min)
-        .bind(c.note)
-        .fetch_one(pool)
-        .await?))
+        c: &'a NewCalibration<'a>,
+        r: &'a Reflectance,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "INSERT INTO reflectances (name, sample_measurement_id, standard_measurement_id, standard_file, \
+                 standard_sha256, standard_uncertainty_stated, created_at, wavelength_json, reflectance_json, \
+                 uncertainty_json, above_one_json, below_zero_json, max_reflectance, min_reflectance, note) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15) RETURNING id",
+            )
+            .bind(c.name)
+            .bind(sample_id)
+            .bind(standard_id)
+            .bind(&c.standard.file)
+            .bind(&c.standard.sha256)
+            .bind(c.standard.uncertainty_stated)
+            .bind(now())
+            .bind(json_array(&r.wavelength_nm))
+            .bind(json_array(&r.reflectance))
+            .bind(json_array(&r.uncertainty))
+            .bind(json_array(&r.flags.above_one_nm))
+            .bind(json_array(&r.flags.below_zero_nm))
+            .bind(r.flags.max)
+            .bind(r.flags.min)
+            .bind(c.note)
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
-    pub async fn get_reflectance(&self, id: i64) -> Result<Option<ReflectanceRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
-            "SELECT * FROM reflectances WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?)
-        .map(ReflectanceRow::try_from)
-        .transpose()
+    pub fn get_reflectance<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<ReflectanceRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
+                "SELECT * FROM reflectances WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?)
+            .map(ReflectanceRow::try_from)
+            .transpose()
+        })
     }
 
     /// Every stored reflectance, newest first.
-    pub async fn list_reflectances(&self) -> Result<Vec<ReflectanceRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
-            "SELECT * FROM reflectances ORDER BY id DESC"
-        )
-        .fetch_all(pool)
-        .await?)
-        .into_iter()
-        .map(ReflectanceRow::try_from)
-        .collect()
+    pub fn list_reflectances<'a>(&'a self) -> BoxFuture<'a, Result<Vec<ReflectanceRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, ReflectanceRecord>(
+                "SELECT * FROM reflectances ORDER BY id DESC"
+            )
+            .fetch_all(pool)
+            .await?)
+            .into_iter()
+            .map(ReflectanceRow::try_from)
+            .collect()
+        })
     }
 
     /// Stores a lamp SPD computed from the white standard's measurement `measurement_id`.
-    pub async fn insert_illuminant(
-        &self,
+    pub fn insert_illuminant<'a>(
+        &'a self,
         measurement_id: i64,
         luminance_cd_m2: f64,
-        c: &NewCalibration<'_>,
-        s: &Illuminant,
-    ) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO illuminants (name, measurement_id, standard_file, standard_sha256, \
-             standard_uncertainty_stated, created_at, wavelength_json, spd_json, uncertainty_json, \
-             luminance_cd_m2, note) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) RETURNING id",
-        )
-        .bind(c.name)
-        .bind(measurement_id)
-        .bind(&c.standard.file)
-        .bind(&c.standard.sha256)
-        .bind(c.standard.uncertainty_stated)
-        .bind(now())
-        .bind(json_array(&s.wavelength_nm))
-        .bind(json_array(&s.spd))
-        .bind(json_array(&s.uncertainty))
-        .bind(luminance_cd_m2)
-        .bind(c.note)
-        .fetch_one(pool)
-        .await?))
+        c: &'a NewCalibration<'a>,
+        s: &'a Illuminant,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "INSERT INTO illuminants (name, measurement_id, standard_file, standard_sha256, \
+                 standard_uncertainty_stated, created_at, wavelength_json, spd_json, uncertainty_json, \
+                 luminance_cd_m2, note) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) RETURNING id",
+            )
+            .bind(c.name)
+            .bind(measurement_id)
+            .bind(&c.standard.file)
+            .bind(&c.standard.sha256)
+            .bind(c.standard.uncertainty_stated)
+            .bind(now())
+            .bind(json_array(&s.wavelength_nm))
+            .bind(json_array(&s.spd))
+            .bind(json_array(&s.uncertainty))
+            .bind(luminance_cd_m2)
+            .bind(c.note)
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
-    pub async fn get_illuminant(&self, id: i64) -> Result<Option<IlluminantRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
-            "SELECT * FROM illuminants WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?)
-        .map(IlluminantRow::try_from)
-        .transpose()
+    pub fn get_illuminant<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<IlluminantRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
+                "SELECT * FROM illuminants WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?)
+            .map(IlluminantRow::try_from)
+            .transpose()
+        })
     }
 
     /// Every stored illuminant, newest first.
-    pub async fn list_illuminants(&self) -> Result<Vec<IlluminantRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
-            "SELECT * FROM illuminants ORDER BY id DESC"
-        )
-        .fetch_all(pool)
-        .await?)
-        .into_iter()
-        .map(IlluminantRow::try_from)
-        .collect()
+    pub fn list_illuminants<'a>(&'a self) -> BoxFuture<'a, Result<Vec<IlluminantRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, IlluminantRecord>(
+                "SELECT * FROM illuminants ORDER BY id DESC"
+            )
+            .fetch_all(pool)
+            .await?)
+            .into_iter()
+            .map(IlluminantRow::try_from)
+            .collect()
+        })
     }
 }
 

@@ -3,6 +3,7 @@
 //! and whether it passed its checks ([`lightbooth_science::display::DisplayProfile::failures`],
 //! judged from the stored fit whenever a row is read).
 
+use crate::BoxFuture;
 use serde::Serialize;
 
 use super::{now, Store, StoreError};
@@ -60,46 +61,52 @@ impl TryFrom<DisplayProfileRecord> for DisplayProfileRow {
 
 impl Store {
     /// Stores a fitted profile; returns its id.
-    pub async fn insert_display_profile(
-        &self,
-        name: &str,
-        note: &str,
-        profile: &DisplayProfile,
-    ) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO display_profiles (name, created_at, observer, measurement_ids_json, profile_json, note) \
-             VALUES ($1, $2, $3, $4, $5, $6) RETURNING id",
-        )
-        .bind(name)
-        .bind(now())
-        .bind(profile.observer.name())
-        .bind(serde_json::to_string(&profile.measurement_ids).expect("integers serialise"))
-        .bind(serde_json::to_string(profile).expect("a profile of finite numbers serialises"))
-        .bind(note)
-        .fetch_one(pool)
-        .await?))
+    pub fn insert_display_profile<'a>(
+        &'a self,
+        name: &'a str,
+        note: &'a str,
+        profile: &'a DisplayProfile,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "INSERT INTO display_profiles (name, created_at, observer, measurement_ids_json, profile_json, note) \
+                 VALUES ($1, $2, $3, $4, $5, $6) RETURNING id",
+            )
+            .bind(name)
+            .bind(now())
+            .bind(profile.observer.name())
+            .bind(serde_json::to_string(&profile.measurement_ids).expect("integers serialise"))
+            .bind(serde_json::to_string(profile).expect("a profile of finite numbers serialises"))
+            .bind(note)
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
-    pub async fn get_display_profile(&self, id: i64) -> Result<Option<DisplayProfileRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
-            "SELECT id, name, created_at, profile_json, note FROM display_profiles WHERE id = $1",
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?)
-        .map(DisplayProfileRow::try_from)
-        .transpose()
+    pub fn get_display_profile<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<DisplayProfileRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
+                "SELECT id, name, created_at, profile_json, note FROM display_profiles WHERE id = $1",
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?)
+            .map(DisplayProfileRow::try_from)
+            .transpose()
+        })
     }
 
     /// Every stored profile, newest first.
-    pub async fn list_display_profiles(&self) -> Result<Vec<DisplayProfileRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
-            "SELECT id, name, created_at, profile_json, note FROM display_profiles ORDER BY id DESC",
-        )
-        .fetch_all(pool)
-        .await?)
-        .into_iter()
-        .map(DisplayProfileRow::try_from)
-        .collect()
+    pub fn list_display_profiles<'a>(&'a self) -> BoxFuture<'a, Result<Vec<DisplayProfileRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, DisplayProfileRecord>(
+                "SELECT id, name, created_at, profile_json, note FROM display_profiles ORDER BY id DESC",
+            )
+            .fetch_all(pool)
+            .await?)
+            .into_iter()
+            .map(DisplayProfileRow::try_from)
+            .collect()
+        })
     }
 }

@@ -4,6 +4,7 @@
 //! Everything else — every query — is shared, through `with_pool!` in the
 //! store's module.
 
+use crate::BoxFuture;
 use std::str::FromStr;
 use std::time::Duration;
 
@@ -74,39 +75,41 @@ fn create_private(path: &std::path::Path) {
 
 impl Engine {
     /// Connects to `url` and applies that engine's migrations.
-    pub async fn connect(url: &str, synchronous: SqliteSynchronous) -> Result<Engine, StoreError> {
-        match EngineKind::of_url(url)? {
-            EngineKind::Sqlite => {
-                let options = SqliteConnectOptions::from_str(url)?;
-                if !url.contains(":memory:") && !url.contains("mode=memory") {
-                    create_private(options.get_filename());
+    pub fn connect<'a>(url: &'a str, synchronous: SqliteSynchronous) -> BoxFuture<'a, Result<Engine, StoreError>> {
+        Box::pin(async move {
+            match EngineKind::of_url(url)? {
+                EngineKind::Sqlite => {
+                    let options = SqliteConnectOptions::from_str(url)?;
+                    if !url.contains(":memory:") && !url.contains("mode=memory") {
+                        create_private(options.get_filename());
+                    }
+                    let options = options
+                        .create_if_missing(true)
+                        .journal_mode(SqliteJournalMode::Wal)
+                        .synchronous(synchronous)
+                        .foreign_keys(true)
+                        .busy_timeout(Duration::from_secs(5));
+                    // An in-memory database lives per connection: keep exactly one.
+                    let max = if url.contains(":memory:") { 1 } else { 8 };
+                    let pool = SqlitePoolOptions::new()
+                        .max_connections(max)
+                        .connect_with(options)
+                        .await?;
+                    SQLITE_MIGRATIONS.run(&pool).await?;
+                    Ok(Engine::Sqlite(pool))
                 }
-                let options = options
-                    .create_if_missing(true)
-                    .journal_mode(SqliteJournalMode::Wal)
-                    .synchronous(synchronous)
-                    .foreign_keys(true)
-                    .busy_timeout(Duration::from_secs(5));
-                // An in-memory database lives per connection: keep exactly one.
-                let max = if url.contains(":memory:") { 1 } else { 8 };
-                let pool = SqlitePoolOptions::new()
-                    .max_connections(max)
-                    .connect_with(options)
-                    .await?;
-                SQLITE_MIGRATIONS.run(&pool).await?;
-                Ok(Engine::Sqlite(pool))
+                EngineKind::Postgres => {
+                    let options = PgConnectOptions::from_str(url)?.application_name("lightbooth");
+                    let pool = PgPoolOptions::new()
+                        .max_connections(8)
+                        .acquire_timeout(Duration::from_secs(10))
+                        .connect_with(options)
+                        .await?;
+                    POSTGRES_MIGRATIONS.run(&pool).await?;
+                    Ok(Engine::Postgres(pool))
+                }
             }
-            EngineKind::Postgres => {
-                let options = PgConnectOptions::from_str(url)?.application_name("lightbooth");
-                let pool = PgPoolOptions::new()
-                    .max_connections(8)
-                    .acquire_timeout(Duration::from_secs(10))
-                    .connect_with(options)
-                    .await?;
-                POSTGRES_MIGRATIONS.run(&pool).await?;
-                Ok(Engine::Postgres(pool))
-            }
-        }
+        })
     }
 
     pub fn name(&self) -> &'static str {

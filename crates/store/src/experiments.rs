@@ -8,7 +8,11 @@
 //! position at a time, and only while the session runs, so two tabs of one
 //! session cannot both record trial 12.
 
+use crate::BoxFuture;
 use serde::Serialize;
+
+/// A stored verification of an experiment: (id, created_at, result).
+pub type StoredVerification = (i64, f64, serde_json::Value);
 
 use super::{now, Store, StoreError};
 
@@ -225,48 +229,54 @@ const TRIAL_COLUMNS: &str = "t.session_id, t.position, t.approximation, t.config
 
 impl Store {
     /// Stores an experiment; returns its id.
-    pub async fn insert_experiment(&self, e: &NewExperiment<'_>) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO experiments (name, created_at, scene, target, booth, measurement_id, display_profile_id, \
-             output_method, seed, request_json, check_json) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) \
-             RETURNING id",
-        )
-        .bind(e.name)
-        .bind(now())
-        .bind(e.scene)
-        .bind(e.target)
-        .bind(e.booth)
-        .bind(e.measurement_id)
-        .bind(e.display_profile_id)
-        .bind(e.output_method)
-        .bind(e.seed)
-        .bind(e.request.to_string())
-        .bind(e.check.to_string())
-        .fetch_one(pool)
-        .await?))
+    pub fn insert_experiment<'a>(&'a self, e: &'a NewExperiment<'a>) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "INSERT INTO experiments (name, created_at, scene, target, booth, measurement_id, display_profile_id, \
+                 output_method, seed, request_json, check_json) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11) \
+                 RETURNING id",
+            )
+            .bind(e.name)
+            .bind(now())
+            .bind(e.scene)
+            .bind(e.target)
+            .bind(e.booth)
+            .bind(e.measurement_id)
+            .bind(e.display_profile_id)
+            .bind(e.output_method)
+            .bind(e.seed)
+            .bind(e.request.to_string())
+            .bind(e.check.to_string())
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
-    pub async fn get_experiment(&self, id: i64) -> Result<Option<ExperimentRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, ExperimentRecord>(
-            "SELECT * FROM experiments WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?)
-        .map(ExperimentRow::try_from)
-        .transpose()
+    pub fn get_experiment<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<ExperimentRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, ExperimentRecord>(
+                "SELECT * FROM experiments WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?)
+            .map(ExperimentRow::try_from)
+            .transpose()
+        })
     }
 
     /// Every experiment, newest first.
-    pub async fn list_experiments(&self) -> Result<Vec<ExperimentRow>, StoreError> {
-        with_pool!(self, |pool| sqlx::query_as::<_, ExperimentRecord>(
-            "SELECT * FROM experiments ORDER BY id DESC"
-        )
-        .fetch_all(pool)
-        .await?)
-        .into_iter()
-        .map(ExperimentRow::try_from)
-        .collect()
+    pub fn list_experiments<'a>(&'a self) -> BoxFuture<'a, Result<Vec<ExperimentRow>, StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query_as::<_, ExperimentRecord>(
+                "SELECT * FROM experiments ORDER BY id DESC"
+            )
+            .fetch_all(pool)
+            .await?)
+            .into_iter()
+            .map(ExperimentRow::try_from)
+            .collect()
+        })
     }
 
     /// Starts a session of `observer` (recorded on first use), its seed
@@ -326,236 +336,285 @@ impl Store {
     }
 
     /// The running session of `observer` in an experiment, if any.
-    pub async fn running_session_of(&self, experiment_id: i64, observer: &str) -> Result<Option<i64>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT id FROM experiment_sessions WHERE experiment_id = $1 AND observer_id = $2 \
-             AND state = 'running' AND superseded_by IS NULL"
-        )
-        .bind(experiment_id)
-        .bind(observer)
-        .fetch_optional(pool)
-        .await?))
-    }
-
-    pub async fn get_experiment_session(&self, id: i64) -> Result<Option<ExperimentSessionRow>, StoreError> {
-        let sql = format!("{SESSION_SELECT} WHERE s.id = $1");
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
-            .bind(id)
+    pub fn running_session_of<'a>(
+        &'a self,
+        experiment_id: i64,
+        observer: &'a str,
+    ) -> BoxFuture<'a, Result<Option<i64>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT id FROM experiment_sessions WHERE experiment_id = $1 AND observer_id = $2 \
+                 AND state = 'running' AND superseded_by IS NULL"
+            )
+            .bind(experiment_id)
+            .bind(observer)
             .fetch_optional(pool)
             .await?))
+        })
+    }
+
+    pub fn get_experiment_session<'a>(
+        &'a self,
+        id: i64,
+    ) -> BoxFuture<'a, Result<Option<ExperimentSessionRow>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("{SESSION_SELECT} WHERE s.id = $1");
+            Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
+                .bind(id)
+                .fetch_optional(pool)
+                .await?))
+        })
     }
 
     /// An experiment's sessions, oldest first.
-    pub async fn sessions_of_experiment(&self, experiment_id: i64) -> Result<Vec<ExperimentSessionRow>, StoreError> {
-        let sql = format!("{SESSION_SELECT} WHERE s.experiment_id = $1 ORDER BY s.id");
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
-            .bind(experiment_id)
-            .fetch_all(pool)
-            .await?))
+    pub fn sessions_of_experiment<'a>(
+        &'a self,
+        experiment_id: i64,
+    ) -> BoxFuture<'a, Result<Vec<ExperimentSessionRow>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("{SESSION_SELECT} WHERE s.experiment_id = $1 ORDER BY s.id");
+            Ok(with_pool!(self, |pool| sqlx::query_as::<_, ExperimentSessionRow>(&sql)
+                .bind(experiment_id)
+                .fetch_all(pool)
+                .await?))
+        })
     }
 
     /// The running sessions of the experiments of `booth`, oldest first,
     /// with their counts (one query, no trial read).
-    pub async fn running_experiment_sessions(&self, booth: &str) -> Result<Vec<RunningSessionCounts>, StoreError> {
-        const SQL: &str =
-            "SELECT s.id, s.experiment_id, e.name AS experiment_name, e.scene, s.observer_id, s.created_at, \
-             COALESCE(s.touched_at, s.created_at) AS touched_at, e.request_json, \
-             (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id) AS trials, \
-             (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id AND t.dropped_in_stimulus) AS dropped \
-             FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
-             WHERE s.state = 'running' AND s.superseded_by IS NULL AND e.booth = $1 ORDER BY s.id";
-        Ok(with_pool!(self, |pool| sqlx::query_as::<_, RunningSessionCounts>(SQL)
-            .bind(booth)
-            .fetch_all(pool)
-            .await?))
+    pub fn running_experiment_sessions<'a>(
+        &'a self,
+        booth: &'a str,
+    ) -> BoxFuture<'a, Result<Vec<RunningSessionCounts>, StoreError>> {
+        Box::pin(async move {
+            const SQL: &str =
+                "SELECT s.id, s.experiment_id, e.name AS experiment_name, e.scene, s.observer_id, s.created_at, \
+                 COALESCE(s.touched_at, s.created_at) AS touched_at, e.request_json, \
+                 (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id) AS trials, \
+                 (SELECT COUNT(*) FROM trials t WHERE t.session_id = s.id AND t.dropped_in_stimulus) AS dropped \
+                 FROM experiment_sessions s JOIN experiments e ON e.id = s.experiment_id \
+                 WHERE s.state = 'running' AND s.superseded_by IS NULL AND e.booth = $1 ORDER BY s.id";
+            Ok(with_pool!(self, |pool| sqlx::query_as::<_, RunningSessionCounts>(SQL)
+                .bind(booth)
+                .fetch_all(pool)
+                .await?))
+        })
     }
 
     /// The refresh the page measured and what it runs on, while the
     /// session runs; false (nothing written) once it has ended.
-    pub async fn set_session_display(&self, id: i64, frame_ms: f64, client: &str) -> Result<bool, StoreError> {
-        let changed = with_pool!(self, |pool| sqlx::query(
-            "UPDATE experiment_sessions SET frame_ms = $1, client = $2, touched_at = $3 \
-             WHERE id = $4 AND state = 'running'"
-        )
-        .bind(frame_ms)
-        .bind(client)
-        .bind(now())
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected());
-        Ok(changed == 1)
+    pub fn set_session_display<'a>(
+        &'a self,
+        id: i64,
+        frame_ms: f64,
+        client: &'a str,
+    ) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let changed = with_pool!(self, |pool| sqlx::query(
+                "UPDATE experiment_sessions SET frame_ms = $1, client = $2, touched_at = $3 \
+                 WHERE id = $4 AND state = 'running'"
+            )
+            .bind(frame_ms)
+            .bind(client)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected());
+            Ok(changed == 1)
+        })
     }
 
     /// Records a trial at `trial.position`, which must be the next one of a
     /// running session; otherwise a [`StoreError::Conflict`] says which is.
     /// With `last`, the same transaction marks the session complete: a
     /// session is never left running with all its trials (issue 32).
-    pub async fn insert_trial(&self, trial: &TrialRow, last: bool) -> Result<(), StoreError> {
-        let session = trial.session_id;
-        let intervals = serde_json::to_string(&trial.frame_intervals_ms).expect("finite numbers serialise");
-        with_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            // A write first: it takes SQLite's write lock (waiting out a busy
-            // database) and PostgreSQL's row lock before anything is read. A
-            // read first would let another writer commit in between, and
-            // SQLite would then refuse this transaction's write outright
-            // (SQLITE_BUSY_SNAPSHOT, "database is locked", no retry).
-            let state: Option<String> =
-                sqlx::query_scalar("UPDATE experiment_sessions SET state = state WHERE id = $1 RETURNING state")
+    pub fn insert_trial<'a>(&'a self, trial: &'a TrialRow, last: bool) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let session = trial.session_id;
+            let intervals = serde_json::to_string(&trial.frame_intervals_ms).expect("finite numbers serialise");
+            with_pool!(self, |pool| {
+                let mut tx = pool.begin().await?;
+                // A write first: it takes SQLite's write lock (waiting out a busy
+                // database) and PostgreSQL's row lock before anything is read. A
+                // read first would let another writer commit in between, and
+                // SQLite would then refuse this transaction's write outright
+                // (SQLITE_BUSY_SNAPSHOT, "database is locked", no retry).
+                let state: Option<String> =
+                    sqlx::query_scalar("UPDATE experiment_sessions SET state = state WHERE id = $1 RETURNING state")
+                        .bind(session)
+                        .fetch_optional(&mut *tx)
+                        .await?;
+                match state.as_deref() {
+                    None => return Err(StoreError::Conflict(format!("there is no session {session}"))),
+                    Some("running") => {}
+                    Some(s) => {
+                        return Err(StoreError::Conflict(format!(
+                            "session {session} is {s}: it takes no more trials"
+                        )))
+                    }
+                }
+                let recorded: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM trials WHERE session_id = $1")
                     .bind(session)
-                    .fetch_optional(&mut *tx)
+                    .fetch_one(&mut *tx)
                     .await?;
-            match state.as_deref() {
-                None => return Err(StoreError::Conflict(format!("there is no session {session}"))),
-                Some("running") => {}
-                Some(s) => {
+                if recorded != trial.position {
                     return Err(StoreError::Conflict(format!(
-                        "session {session} is {s}: it takes no more trials"
-                    )))
-                }
-            }
-            let recorded: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM trials WHERE session_id = $1")
-                .bind(session)
-                .fetch_one(&mut *tx)
-                .await?;
-            if recorded != trial.position {
-                return Err(StoreError::Conflict(format!(
-                    "session {session} has {recorded} trials recorded: the next is trial {recorded}, not {}",
-                    trial.position
-                )));
-            }
-            let inserted = sqlx::query(
-                "INSERT INTO trials (session_id, position, approximation, configuration, response, correct, reaction_ms, \
-                 stimulus_frames, dropped_frames, dropped_in_stimulus, frame_intervals_json, created_at) \
-                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
-            )
-            .bind(session)
-            .bind(trial.position)
-            .bind(&trial.approximation)
-            .bind(&trial.configuration)
-            .bind(trial.response)
-            .bind(trial.correct)
-            .bind(trial.reaction_ms)
-            .bind(trial.stimulus_frames)
-            .bind(trial.dropped_frames)
-            .bind(trial.dropped_in_stimulus)
-            .bind(&intervals)
-            .bind(trial.created_at)
-            .execute(&mut *tx)
-            .await;
-            match inserted {
-                Err(sqlx::Error::Database(db)) if db.is_unique_violation() => {
-                    return Err(StoreError::Conflict(format!(
-                        "trial {} of session {session} is already recorded",
+                        "session {session} has {recorded} trials recorded: the next is trial {recorded}, not {}",
                         trial.position
-                    )))
+                    )));
                 }
-                other => other?,
-            };
-            sqlx::query(
-                "UPDATE experiment_sessions SET touched_at = $1, state = CASE WHEN $2 THEN 'complete' ELSE state END, \
-                 finished_at = CASE WHEN $2 THEN $1 ELSE finished_at END WHERE id = $3",
-            )
-            .bind(trial.created_at)
-            .bind(last)
-            .bind(session)
-            .execute(&mut *tx)
-            .await?;
-            tx.commit().await?;
-        });
-        Ok(())
+                let inserted = sqlx::query(
+                    "INSERT INTO trials (session_id, position, approximation, configuration, response, correct, reaction_ms, \
+                     stimulus_frames, dropped_frames, dropped_in_stimulus, frame_intervals_json, created_at) \
+                     VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+                )
+                .bind(session)
+                .bind(trial.position)
+                .bind(&trial.approximation)
+                .bind(&trial.configuration)
+                .bind(trial.response)
+                .bind(trial.correct)
+                .bind(trial.reaction_ms)
+                .bind(trial.stimulus_frames)
+                .bind(trial.dropped_frames)
+                .bind(trial.dropped_in_stimulus)
+                .bind(&intervals)
+                .bind(trial.created_at)
+                .execute(&mut *tx)
+                .await;
+                match inserted {
+                    Err(sqlx::Error::Database(db)) if db.is_unique_violation() => {
+                        return Err(StoreError::Conflict(format!(
+                            "trial {} of session {session} is already recorded",
+                            trial.position
+                        )))
+                    }
+                    other => other?,
+                };
+                sqlx::query(
+                    "UPDATE experiment_sessions SET touched_at = $1, state = CASE WHEN $2 THEN 'complete' ELSE state END, \
+                     finished_at = CASE WHEN $2 THEN $1 ELSE finished_at END WHERE id = $3",
+                )
+                .bind(trial.created_at)
+                .bind(last)
+                .bind(session)
+                .execute(&mut *tx)
+                .await?;
+                tx.commit().await?;
+            });
+            Ok(())
+        })
     }
 
     /// Marks a running session complete (the start-up repair of a session
     /// found with all its trials; a trial that ends a session completes it
     /// itself, [`Store::insert_trial`]).
-    pub async fn finish_experiment_session(&self, id: i64) -> Result<(), StoreError> {
-        with_pool!(self, |pool| sqlx::query(
-            "UPDATE experiment_sessions SET state = 'complete', finished_at = $1 WHERE id = $2 AND state = 'running'"
-        )
-        .bind(now())
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected());
-        Ok(())
+    pub fn finish_experiment_session<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| {
+                sqlx::query(
+                "UPDATE experiment_sessions SET state = 'complete', finished_at = $1 WHERE id = $2 AND state = 'running'"
+            )
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()
+            });
+            Ok(())
+        })
     }
 
     /// A session's trials in the order shown.
-    pub async fn trials_of_session(&self, session_id: i64) -> Result<Vec<TrialRow>, StoreError> {
-        let sql = format!("SELECT {TRIAL_COLUMNS} FROM trials t WHERE t.session_id = $1 ORDER BY t.position");
-        with_pool!(self, |pool| sqlx::query_as::<_, TrialRecord>(&sql)
-            .bind(session_id)
-            .fetch_all(pool)
-            .await?)
-        .into_iter()
-        .map(TrialRow::try_from)
-        .collect()
+    pub fn trials_of_session<'a>(&'a self, session_id: i64) -> BoxFuture<'a, Result<Vec<TrialRow>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("SELECT {TRIAL_COLUMNS} FROM trials t WHERE t.session_id = $1 ORDER BY t.position");
+            with_pool!(self, |pool| sqlx::query_as::<_, TrialRecord>(&sql)
+                .bind(session_id)
+                .fetch_all(pool)
+                .await?)
+            .into_iter()
+            .map(TrialRow::try_from)
+            .collect()
+        })
     }
 
     /// Every trial of an experiment with its observer, by session and position.
-    pub async fn trials_of_experiment(&self, experiment_id: i64) -> Result<Vec<ObservedTrial>, StoreError> {
-        #[derive(sqlx::FromRow)]
-        struct Observed {
-            observer_id: String,
-            #[sqlx(flatten)]
-            trial: TrialRecord,
-        }
-        let sql = format!(
-            "SELECT s.observer_id, {TRIAL_COLUMNS} FROM trials t JOIN experiment_sessions s ON s.id = t.session_id \
-             WHERE s.experiment_id = $1 ORDER BY t.session_id, t.position"
-        );
-        let rows: Vec<Observed> = with_pool!(self, |pool| sqlx::query_as(&sql)
-            .bind(experiment_id)
-            .fetch_all(pool)
-            .await?);
-        rows.into_iter()
-            .map(|o| {
-                Ok(ObservedTrial {
-                    observer_id: o.observer_id,
-                    trial: TrialRow::try_from(o.trial)?,
+    pub fn trials_of_experiment<'a>(
+        &'a self,
+        experiment_id: i64,
+    ) -> BoxFuture<'a, Result<Vec<ObservedTrial>, StoreError>> {
+        Box::pin(async move {
+            #[derive(sqlx::FromRow)]
+            struct Observed {
+                observer_id: String,
+                #[sqlx(flatten)]
+                trial: TrialRecord,
+            }
+            let sql = format!(
+                "SELECT s.observer_id, {TRIAL_COLUMNS} FROM trials t JOIN experiment_sessions s ON s.id = t.session_id \
+                 WHERE s.experiment_id = $1 ORDER BY t.session_id, t.position"
+            );
+            let rows: Vec<Observed> = with_pool!(self, |pool| sqlx::query_as(&sql)
+                .bind(experiment_id)
+                .fetch_all(pool)
+                .await?);
+            rows.into_iter()
+                .map(|o| {
+                    Ok(ObservedTrial {
+                        observer_id: o.observer_id,
+                        trial: TrialRow::try_from(o.trial)?,
+                    })
                 })
-            })
-            .collect()
+                .collect()
+        })
     }
 
     /// Stores a verification of an experiment's colours; returns its id.
-    pub async fn insert_verification(&self, experiment_id: i64, result: &serde_json::Value) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| {
-            sqlx::query_scalar(
-            "INSERT INTO experiment_verifications (experiment_id, created_at, result_json) VALUES ($1, $2, $3) RETURNING id"
-        )
-        .bind(experiment_id)
-        .bind(now())
-        .bind(result.to_string())
-        .fetch_one(pool)
-        .await?
-        }))
+    pub fn insert_verification<'a>(
+        &'a self,
+        experiment_id: i64,
+        result: &'a serde_json::Value,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                "INSERT INTO experiment_verifications (experiment_id, created_at, result_json) VALUES ($1, $2, $3) RETURNING id"
+            )
+            .bind(experiment_id)
+            .bind(now())
+            .bind(result.to_string())
+            .fetch_one(pool)
+            .await?
+            }))
+        })
     }
 
     /// An experiment's verifications, newest first: (id, created_at, result).
-    pub async fn verifications_of_experiment(
-        &self,
+    pub fn verifications_of_experiment<'a>(
+        &'a self,
         experiment_id: i64,
-    ) -> Result<Vec<(i64, f64, serde_json::Value)>, StoreError> {
-        let rows: Vec<(i64, f64, String)> = with_pool!(self, |pool| {
-            sqlx::query_as(
-            "SELECT id, created_at, result_json FROM experiment_verifications WHERE experiment_id = $1 ORDER BY id DESC"
-        )
-        .bind(experiment_id)
-        .fetch_all(pool)
-        .await?
-        });
-        rows.into_iter()
-            .map(|(id, at, text)| {
-                let v = serde_json::from_str(&text).map_err(|e| StoreError::Corrupt {
-                    what: format!("experiment_verifications.result_json of verification {id}"),
-                    err: e.to_string(),
-                })?;
-                Ok((id, at, v))
-            })
-            .collect()
+    ) -> BoxFuture<'a, Result<Vec<StoredVerification>, StoreError>> {
+        Box::pin(async move {
+            let rows: Vec<(i64, f64, String)> = with_pool!(self, |pool| {
+                sqlx::query_as(
+                "SELECT id, created_at, result_json FROM experiment_verifications WHERE experiment_id = $1 ORDER BY id DESC"
+            )
+            .bind(experiment_id)
+            .fetch_all(pool)
+            .await?
+            });
+            rows.into_iter()
+                .map(|(id, at, text)| {
+                    let v = serde_json::from_str(&text).map_err(|e| StoreError::Corrupt {
+                        what: format!("experiment_verifications.result_json of verification {id}"),
+                        err: e.to_string(),
+                    })?;
+                    Ok((id, at, v))
+                })
+                .collect()
+        })
     }
 }
 

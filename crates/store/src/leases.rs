@@ -59,6 +59,7 @@
 //!   open every registered daemon is known to be gone, so recovery there
 //!   marks all unfinished work interrupted at once, exactly as before leases.
 
+use crate::BoxFuture;
 use std::time::Duration;
 
 use super::engine::Engine;
@@ -241,37 +242,41 @@ impl Store {
 
     /// Registers this process as a daemon of `booth` holding a lease of
     /// `lease` (renewed by [`Store::heartbeat`]); returns its id.
-    pub async fn register_daemon(&self, booth: &Booth, lease: Duration) -> Result<i64, StoreError> {
-        let clock = self.clock_sql();
-        let sql = format!(
-            "INSERT INTO daemons (booth, host, pid, lease_seconds, started_at, heartbeat_at) \
-             VALUES ($1, $2, $3, $4, {clock}, {clock}) RETURNING id"
-        );
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
-            .bind(booth.as_str())
-            .bind(host_name())
-            .bind(i64::from(std::process::id()))
-            .bind(lease.as_secs_f64())
-            .fetch_one(pool)
-            .await?))
+    pub fn register_daemon<'a>(&'a self, booth: &'a Booth, lease: Duration) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            let clock = self.clock_sql();
+            let sql = format!(
+                "INSERT INTO daemons (booth, host, pid, lease_seconds, started_at, heartbeat_at) \
+                 VALUES ($1, $2, $3, $4, {clock}, {clock}) RETURNING id"
+            );
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
+                .bind(booth.as_str())
+                .bind(host_name())
+                .bind(i64::from(std::process::id()))
+                .bind(lease.as_secs_f64())
+                .fetch_one(pool)
+                .await?))
+        })
     }
 
     /// Renews daemon `id`'s lease. False when it has been marked stopped.
-    pub async fn heartbeat(&self, id: i64) -> Result<bool, StoreError> {
-        Ok(self.renew_lease(id).await?.is_some())
+    pub fn heartbeat<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move { Ok(self.renew_lease(id).await?.is_some()) })
     }
 
     /// Renews daemon `id`'s lease; the database's time of the renewal
     /// (POSIX seconds), or `None` when it has been marked stopped.
-    pub async fn renew_lease(&self, id: i64) -> Result<Option<f64>, StoreError> {
-        let sql = format!(
-            "UPDATE daemons SET heartbeat_at = {} WHERE id = $1 AND stopped_at IS NULL RETURNING heartbeat_at",
-            self.clock_sql()
-        );
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
-            .bind(id)
-            .fetch_optional(pool)
-            .await?))
+    pub fn renew_lease<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<f64>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE daemons SET heartbeat_at = {} WHERE id = $1 AND stopped_at IS NULL RETURNING heartbeat_at",
+                self.clock_sql()
+            );
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
+                .bind(id)
+                .fetch_optional(pool)
+                .await?))
+        })
     }
 
     /// The database's time, POSIX seconds, from which leases count (see the
@@ -287,189 +292,200 @@ impl Store {
     /// Recovers at once the unfinished work of this booth's earlier daemons
     /// (and tools) registered on this host whose process is gone (see the
     /// module doc), and marks them stopped; never this handle's own daemon's.
-    pub async fn recover_dead_predecessors(&self, booth: &Booth) -> Result<Recovered, StoreError> {
-        let me = self.daemon_id.unwrap_or(-1);
-        let host = host_name();
-        let candidates: Vec<DaemonRow> = with_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at \
-             FROM daemons WHERE booth = $1 AND host = $2 AND stopped_at IS NULL AND id <> $3 ORDER BY id"
-        )
-        .bind(booth.as_str())
-        .bind(&host)
-        .bind(me)
-        .fetch_all(pool)
-        .await?);
-        let clock = self.clock_sql();
-        let mut recovered = Recovered::default();
-        for daemon in candidates.iter().filter(|d| !process_may_be_alive(d.pid)) {
-            for table in OWNED_TABLES {
-                let why = format!(
-                    "the daemon of booth `{}` (host {}, pid {}, daemon {}) died before this {} finished: \
-                     its process is gone, found by the next daemon of the booth on the same host{}",
-                    daemon.booth,
-                    daemon.host,
-                    daemon.pid,
-                    daemon.id,
-                    noun(table),
-                    retry_hint(table)
-                );
-                let sql = format!(
-                    "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
-                     WHERE daemon_id = $2 AND state IN ('queued', 'running'){} {}",
-                    not_a_worker_job(table),
-                    returning(table)
-                );
-                let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
-                    .bind(&why)
-                    .bind(daemon.id)
-                    .fetch_all(pool)
-                    .await?);
-                if !rows.is_empty() {
-                    tracing::warn!(
-                        daemon = daemon.id,
-                        pid = daemon.pid,
-                        count = rows.len(),
-                        "marked the {table} of this booth's dead predecessor as interrupted"
+    pub fn recover_dead_predecessors<'a>(&'a self, booth: &'a Booth) -> BoxFuture<'a, Result<Recovered, StoreError>> {
+        Box::pin(async move {
+            let me = self.daemon_id.unwrap_or(-1);
+            let host = host_name();
+            let candidates: Vec<DaemonRow> = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at \
+                 FROM daemons WHERE booth = $1 AND host = $2 AND stopped_at IS NULL AND id <> $3 ORDER BY id"
+            )
+            .bind(booth.as_str())
+            .bind(&host)
+            .bind(me)
+            .fetch_all(pool)
+            .await?);
+            let clock = self.clock_sql();
+            let mut recovered = Recovered::default();
+            for daemon in candidates.iter().filter(|d| !process_may_be_alive(d.pid)) {
+                for table in OWNED_TABLES {
+                    let why = format!(
+                        "the daemon of booth `{}` (host {}, pid {}, daemon {}) died before this {} finished: \
+                         its process is gone, found by the next daemon of the booth on the same host{}",
+                        daemon.booth,
+                        daemon.host,
+                        daemon.pid,
+                        daemon.id,
+                        noun(table),
+                        retry_hint(table)
                     );
+                    let sql = format!(
+                        "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
+                         WHERE daemon_id = $2 AND state IN ('queued', 'running'){} {}",
+                        not_a_worker_job(table),
+                        returning(table)
+                    );
+                    let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
+                        .bind(&why)
+                        .bind(daemon.id)
+                        .fetch_all(pool)
+                        .await?);
+                    if !rows.is_empty() {
+                        tracing::warn!(
+                            daemon = daemon.id,
+                            pid = daemon.pid,
+                            count = rows.len(),
+                            "marked the {table} of this booth's dead predecessor as interrupted"
+                        );
+                    }
+                    recovered.add(table, rows, &why);
                 }
-                recovered.add(table, rows, &why);
+                self.mark_daemon_stopped(daemon.id).await?;
             }
-            self.mark_daemon_stopped(daemon.id).await?;
-        }
-        Ok(recovered)
+            Ok(recovered)
+        })
     }
 
     /// Marks daemon `id` stopped (a graceful shutdown, after it marked its
     /// own unfinished work).
-    pub async fn mark_daemon_stopped(&self, id: i64) -> Result<(), StoreError> {
-        let sql = format!(
-            "UPDATE daemons SET stopped_at = {} WHERE id = $1 AND stopped_at IS NULL",
-            self.clock_sql()
-        );
-        with_pool!(self, |pool| sqlx::query(&sql)
-            .bind(id)
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(())
+    pub fn mark_daemon_stopped<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE daemons SET stopped_at = {} WHERE id = $1 AND stopped_at IS NULL",
+                self.clock_sql()
+            );
+            with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(id)
+                .execute(pool)
+                .await?
+                .rows_affected());
+            Ok(())
+        })
     }
 
     /// Daemon `id`'s row.
-    pub async fn daemon(&self, id: i64) -> Result<Option<DaemonRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at \
-             FROM daemons WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?))
+    pub fn daemon<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<DaemonRow>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, booth, host, pid, lease_seconds, started_at, heartbeat_at, stopped_at \
+                 FROM daemons WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?))
+        })
     }
 
     /// Marks the unfinished work of gone daemons interrupted (and, with
     /// `scope.rows_without_daemon`, the unfinished rows naming no daemon),
     /// never this handle's own daemon's. See the module doc for what *gone*
     /// means and why the UPDATEs are race-safe.
-    pub async fn recover_abandoned_work(&self, scope: RecoveryScope) -> Result<Recovered, StoreError> {
-        self.recover_abandoned_work_seen_since(scope, None).await
+    pub fn recover_abandoned_work<'a>(&'a self, scope: RecoveryScope) -> BoxFuture<'a, Result<Recovered, StoreError>> {
+        Box::pin(async move { self.recover_abandoned_work_seen_since(scope, None).await })
     }
 
     /// [`Store::recover_abandoned_work`] by a daemon that has seen the
     /// database answer continuously only since `seen_since` (the database's
     /// time of its first renewal after a failed one): no lease counts time
     /// before it (the module doc's outage rule).
-    pub async fn recover_abandoned_work_seen_since(
-        &self,
+    pub fn recover_abandoned_work_seen_since<'a>(
+        &'a self,
         scope: RecoveryScope,
         seen_since: Option<f64>,
-    ) -> Result<Recovered, StoreError> {
-        let clock = self.clock_sql();
-        let counts_from = format!(
-            "{}({}, {:?})",
-            match self.engine {
-                Engine::Sqlite(_) => "MAX",
-                Engine::Postgres(_) => "GREATEST",
-            },
-            self.leases_count_from_sql(),
-            seen_since.filter(|t| t.is_finite()).unwrap_or(0.0)
-        );
-        let gone = if scope.every_daemon_is_gone {
-            "TRUE".to_string()
-        } else {
-            let last_sign_of_life = match self.engine {
-                Engine::Sqlite(_) => format!("MAX(d.heartbeat_at, {counts_from})"),
-                Engine::Postgres(_) => format!("GREATEST(d.heartbeat_at, {counts_from})"),
+    ) -> BoxFuture<'a, Result<Recovered, StoreError>> {
+        Box::pin(async move {
+            let clock = self.clock_sql();
+            let counts_from = format!(
+                "{}({}, {:?})",
+                match self.engine {
+                    Engine::Sqlite(_) => "MAX",
+                    Engine::Postgres(_) => "GREATEST",
+                },
+                self.leases_count_from_sql(),
+                seen_since.filter(|t| t.is_finite()).unwrap_or(0.0)
+            );
+            let gone = if scope.every_daemon_is_gone {
+                "TRUE".to_string()
+            } else {
+                let last_sign_of_life = match self.engine {
+                    Engine::Sqlite(_) => format!("MAX(d.heartbeat_at, {counts_from})"),
+                    Engine::Postgres(_) => format!("GREATEST(d.heartbeat_at, {counts_from})"),
+                };
+                format!("(d.stopped_at IS NOT NULL OR {last_sign_of_life} + d.lease_seconds < {clock})")
             };
-            format!("(d.stopped_at IS NOT NULL OR {last_sign_of_life} + d.lease_seconds < {clock})")
-        };
-        let has_work = OWNED_TABLES
-            .iter()
-            .map(|t| {
-                format!("EXISTS (SELECT 1 FROM {t} w WHERE w.daemon_id = d.id AND w.state IN ('queued', 'running'))")
-            })
-            .collect::<Vec<_>>()
-            .join(" OR ");
-        let find = format!(
-            "SELECT d.id, d.booth, d.host, d.pid, d.lease_seconds, d.started_at, d.heartbeat_at, d.stopped_at \
-             FROM daemons d WHERE d.id <> $1 AND {gone} AND ({has_work}) ORDER BY d.id"
-        );
-        let me = self.daemon_id.unwrap_or(-1);
-        let daemons: Vec<DaemonRow> = with_pool!(self, |pool| sqlx::query_as(&find).bind(me).fetch_all(pool).await?);
-        let mut recovered = Recovered::default();
-        for daemon in &daemons {
-            for table in OWNED_TABLES {
-                let sql = format!(
-                    "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
-                     WHERE daemon_id = $2 AND state IN ('queued', 'running') \
-                     AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone}){} {}",
-                    not_a_worker_job(table),
-                    returning(table)
-                );
-                let why = daemon.interruption(table);
-                let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
-                    .bind(&why)
-                    .bind(daemon.id)
-                    .fetch_all(pool)
-                    .await?);
-                let n = rows.len();
-                if n > 0 {
-                    tracing::warn!(
-                        daemon = daemon.id,
-                        booth = %daemon.booth,
-                        host = %daemon.host,
-                        pid = daemon.pid,
-                        count = n,
-                        "marked the {table} of a daemon that is gone as interrupted"
+            let has_work = OWNED_TABLES
+                .iter()
+                .map(|t| {
+                    format!(
+                        "EXISTS (SELECT 1 FROM {t} w WHERE w.daemon_id = d.id AND w.state IN ('queued', 'running'))"
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(" OR ");
+            let find = format!(
+                "SELECT d.id, d.booth, d.host, d.pid, d.lease_seconds, d.started_at, d.heartbeat_at, d.stopped_at \
+                 FROM daemons d WHERE d.id <> $1 AND {gone} AND ({has_work}) ORDER BY d.id"
+            );
+            let me = self.daemon_id.unwrap_or(-1);
+            let daemons: Vec<DaemonRow> =
+                with_pool!(self, |pool| sqlx::query_as(&find).bind(me).fetch_all(pool).await?);
+            let mut recovered = Recovered::default();
+            for daemon in &daemons {
+                for table in OWNED_TABLES {
+                    let sql = format!(
+                        "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
+                         WHERE daemon_id = $2 AND state IN ('queued', 'running') \
+                         AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = $2 AND {gone}){} {}",
+                        not_a_worker_job(table),
+                        returning(table)
                     );
+                    let why = daemon.interruption(table);
+                    let rows: Vec<(i64, Option<String>)> = with_pool!(self, |pool| sqlx::query_as(&sql)
+                        .bind(&why)
+                        .bind(daemon.id)
+                        .fetch_all(pool)
+                        .await?);
+                    let n = rows.len();
+                    if n > 0 {
+                        tracing::warn!(
+                            daemon = daemon.id,
+                            booth = %daemon.booth,
+                            host = %daemon.host,
+                            pid = daemon.pid,
+                            count = n,
+                            "marked the {table} of a daemon that is gone as interrupted"
+                        );
+                    }
+                    recovered.add(table, rows, &why);
                 }
-                recovered.add(table, rows, &why);
             }
-        }
-        if scope.rows_without_daemon {
-            for table in OWNED_TABLES {
-                let why = format!(
-                    "the daemon stopped before this {} finished{}",
-                    noun(table),
-                    retry_hint(table)
-                );
-                let sql = format!(
-                    "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
-                     WHERE daemon_id IS NULL AND state IN ('queued', 'running'){} {}",
-                    not_a_worker_job(table),
-                    returning(table)
-                );
-                let rows: Vec<(i64, Option<String>)> =
-                    with_pool!(self, |pool| sqlx::query_as(&sql).bind(&why).fetch_all(pool).await?);
-                let n = rows.len();
-                if n > 0 {
-                    tracing::warn!(
-                        count = n,
-                        "marked {table} left unfinished by the last run as interrupted"
+            if scope.rows_without_daemon {
+                for table in OWNED_TABLES {
+                    let why = format!(
+                        "the daemon stopped before this {} finished{}",
+                        noun(table),
+                        retry_hint(table)
                     );
+                    let sql = format!(
+                        "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = {clock} \
+                         WHERE daemon_id IS NULL AND state IN ('queued', 'running'){} {}",
+                        not_a_worker_job(table),
+                        returning(table)
+                    );
+                    let rows: Vec<(i64, Option<String>)> =
+                        with_pool!(self, |pool| sqlx::query_as(&sql).bind(&why).fetch_all(pool).await?);
+                    let n = rows.len();
+                    if n > 0 {
+                        tracing::warn!(
+                            count = n,
+                            "marked {table} left unfinished by the last run as interrupted"
+                        );
+                    }
+                    recovered.add(table, rows, &why);
                 }
-                recovered.add(table, rows, &why);
             }
-        }
-        Ok(recovered)
+            Ok(recovered)
+        })
     }
 
     /// Marks this handle's daemon's queued and running rows of `table`
@@ -477,22 +493,28 @@ impl Store {
     /// own work at shutdown, never a neighbour's. Without a daemon (a
     /// one-shot tool's handle) it marks every unfinished row, as before
     /// leases.
-    pub async fn interrupt_own_unfinished(&self, table: &str, why: &str) -> Result<u64, StoreError> {
-        let table = OWNED_TABLES
-            .into_iter()
-            .find(|t| *t == table)
-            .ok_or_else(|| StoreError::Conflict(format!("no daemon-owned table `{table}`")))?;
-        let sql = format!(
-            "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = $2 \
-             WHERE state IN ('queued', 'running') AND ($3 IS NULL OR daemon_id = $3)"
-        );
-        Ok(with_pool!(self, |pool| sqlx::query(&sql)
-            .bind(why)
-            .bind(super::now())
-            .bind(self.daemon_id)
-            .execute(pool)
-            .await?
-            .rows_affected()))
+    pub fn interrupt_own_unfinished<'a>(
+        &'a self,
+        table: &'a str,
+        why: &'a str,
+    ) -> BoxFuture<'a, Result<u64, StoreError>> {
+        Box::pin(async move {
+            let table = OWNED_TABLES
+                .into_iter()
+                .find(|t| *t == table)
+                .ok_or_else(|| StoreError::Conflict(format!("no daemon-owned table `{table}`")))?;
+            let sql = format!(
+                "UPDATE {table} SET state = 'interrupted', error = $1, finished_at = $2 \
+                 WHERE state IN ('queued', 'running') AND ($3 IS NULL OR daemon_id = $3)"
+            );
+            Ok(with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(why)
+                .bind(super::now())
+                .bind(self.daemon_id)
+                .execute(pool)
+                .await?
+                .rows_affected()))
+        })
     }
 }
 

@@ -90,6 +90,14 @@ use engine::Engine;
 use lightbooth_science::colorimetry::Observer;
 
 pub use booth::{Booth, DEFAULT_BOOTH};
+
+/// The future every public method of [`Store`] returns: its body boxed
+/// here, so that it is compiled once, in this crate. An `async fn`'s body
+/// is compiled in each crate that awaits it (the lab, the app, the binary
+/// and every test binary: `get_measurement`'s body was in the binary ten
+/// times over); behind a `Box<dyn Future>` the crates above call it
+/// through one vtable. The price is one allocation per database call.
+pub type BoxFuture<'a, T> = std::pin::Pin<Box<dyn std::future::Future<Output = T> + Send + 'a>>;
 pub use calibrations::*;
 pub use display_profiles::*;
 pub use experiments::{
@@ -300,8 +308,8 @@ impl Store {
     /// commit; `cargo bench --bench sample_durability` measures it (see the
     /// README). PostgreSQL's default (`synchronous_commit = on`) gives the
     /// same promise.
-    pub async fn open(url: &str) -> Result<Store, StoreError> {
-        Store::open_with_synchronous(url, SqliteSynchronous::Full).await
+    pub fn open<'a>(url: &'a str) -> BoxFuture<'a, Result<Store, StoreError>> {
+        Box::pin(async move { Store::open_with_synchronous(url, SqliteSynchronous::Full).await })
     }
 
     /// [`Store::open`], then marks the work left unfinished by daemons that
@@ -310,46 +318,53 @@ impl Store {
     /// file's lock (`lightbooth::daemon::db_lock`), which proves every daemon
     /// registered in the file gone; on PostgreSQL only daemons whose lease
     /// has expired or that stopped are gone.
-    pub async fn open_recovering(url: &str) -> Result<Store, StoreError> {
-        let store = Store::open(url).await?;
-        let recovered = store
-            .recover_abandoned_work(RecoveryScope {
-                rows_without_daemon: true,
-                every_daemon_is_gone: matches!(store.engine, Engine::Sqlite(_)),
-            })
-            .await?;
-        if recovered.total() > 0 {
-            tracing::warn!(
-                measurements = recovered.measurements,
-                renders = recovered.renders,
-                studies = recovered.studies,
-                "marked work left unfinished by daemons that are gone as interrupted"
-            );
-        }
-        Ok(store)
+    pub fn open_recovering<'a>(url: &'a str) -> BoxFuture<'a, Result<Store, StoreError>> {
+        Box::pin(async move {
+            let store = Store::open(url).await?;
+            let recovered = store
+                .recover_abandoned_work(RecoveryScope {
+                    rows_without_daemon: true,
+                    every_daemon_is_gone: matches!(store.engine, Engine::Sqlite(_)),
+                })
+                .await?;
+            if recovered.total() > 0 {
+                tracing::warn!(
+                    measurements = recovered.measurements,
+                    renders = recovered.renders,
+                    studies = recovered.studies,
+                    "marked work left unfinished by daemons that are gone as interrupted"
+                );
+            }
+            Ok(store)
+        })
     }
 
     /// Opens the store for a one-shot command (`calibrate`, `study`, a
     /// render worker) that may run beside daemons: [`Store::open`], which
     /// never recovers, on either engine.
-    pub async fn open_as_tool(url: &str) -> Result<Store, StoreError> {
-        Store::open(url).await
+    pub fn open_as_tool<'a>(url: &'a str) -> BoxFuture<'a, Result<Store, StoreError>> {
+        Box::pin(async move { Store::open(url).await })
     }
 
     /// Opens the store to read from it beside a running daemon (`stimulus
     /// --display-db`): never start-up recovery, on either engine, since the
     /// daemon may be running the work a recovery would mark interrupted.
-    pub async fn open_to_read(url: &str) -> Result<Store, StoreError> {
-        Store::open(url).await
+    pub fn open_to_read<'a>(url: &'a str) -> BoxFuture<'a, Result<Store, StoreError>> {
+        Box::pin(async move { Store::open(url).await })
     }
 
     /// [`Store::open`] with another SQLite `synchronous` mode (the benchmark
     /// compares FULL with NORMAL); ignored for PostgreSQL.
-    pub async fn open_with_synchronous(url: &str, synchronous: SqliteSynchronous) -> Result<Store, StoreError> {
-        Ok(Store {
-            engine: Engine::connect(url, synchronous).await?,
-            daemon_id: None,
-            observer: Observer::default(),
+    pub fn open_with_synchronous<'a>(
+        url: &'a str,
+        synchronous: SqliteSynchronous,
+    ) -> BoxFuture<'a, Result<Store, StoreError>> {
+        Box::pin(async move {
+            Ok(Store {
+                engine: Engine::connect(url, synchronous).await?,
+                daemon_id: None,
+                observer: Observer::default(),
+            })
         })
     }
 
@@ -368,162 +383,190 @@ impl Store {
     }
 
     /// Does the database answer (`SELECT 1`).
-    pub async fn ping(&self) -> Result<(), StoreError> {
-        with_pool!(self, |pool| sqlx::query("SELECT 1")
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(())
+    pub fn ping<'a>(&'a self) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| sqlx::query("SELECT 1")
+                .execute(pool)
+                .await?
+                .rows_affected());
+            Ok(())
+        })
     }
 
     /// Closes every connection (waits for those in use).
-    pub async fn close(&self) {
-        with_pool!(self, |pool| pool.close().await)
+    pub fn close<'a>(&'a self) -> BoxFuture<'a, ()> {
+        Box::pin(async move { with_pool!(self, |pool| pool.close().await) })
     }
 
     /// Marks every queued or running measurement interrupted (start-up after a crash).
-    pub async fn interrupt_unfinished(&self, why: &str) -> Result<u64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query(
-            "UPDATE measurements SET state = 'interrupted', error = $1, finished_at = $2 \
-             WHERE state IN ('queued', 'running')",
-        )
-        .bind(why)
-        .bind(now())
-        .execute(pool)
-        .await?
-        .rows_affected()))
-    }
-
-    /// Marks every queued or running render (or study) interrupted, with
-    /// `why` as its error: at start-up after a crash, and at shutdown.
-    pub async fn interrupt_unfinished_jobs(&self, job: Job, why: &str) -> Result<u64, StoreError> {
-        let sql = format!(
-            "UPDATE {} SET state = 'interrupted', error = $1, finished_at = $2 WHERE state IN ('queued', 'running')",
-            job.table()
-        );
-        Ok(with_pool!(self, |pool| sqlx::query(&sql)
+    pub fn interrupt_unfinished<'a>(&'a self, why: &'a str) -> BoxFuture<'a, Result<u64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query(
+                "UPDATE measurements SET state = 'interrupted', error = $1, finished_at = $2 \
+                 WHERE state IN ('queued', 'running')",
+            )
             .bind(why)
             .bind(now())
             .execute(pool)
             .await?
             .rows_affected()))
+        })
+    }
+
+    /// Marks every queued or running render (or study) interrupted, with
+    /// `why` as its error: at start-up after a crash, and at shutdown.
+    pub fn interrupt_unfinished_jobs<'a>(&'a self, job: Job, why: &'a str) -> BoxFuture<'a, Result<u64, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE {} SET state = 'interrupted', error = $1, finished_at = $2 WHERE state IN ('queued', 'running')",
+                job.table()
+            );
+            Ok(with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(why)
+                .bind(now())
+                .execute(pool)
+                .await?
+                .rows_affected()))
+        })
     }
 
     /// `queued → running` for a render or study. False when it is no longer
     /// queued (cancelled while it waited): it must not run.
-    pub async fn start_job(&self, job: Job, id: i64) -> Result<bool, StoreError> {
-        let sql = format!(
-            "UPDATE {} SET state = 'running', daemon_id = COALESCE($2, daemon_id) WHERE id = $1 AND state = 'queued'",
-            job.table()
-        );
-        let n = with_pool!(self, |pool| sqlx::query(&sql)
-            .bind(id)
-            .bind(self.daemon_id)
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(n == 1)
+    pub fn start_job<'a>(&'a self, job: Job, id: i64) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE {} SET state = 'running', daemon_id = COALESCE($2, daemon_id) WHERE id = $1 AND state = 'queued'",
+                job.table()
+            );
+            let n = with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(id)
+                .bind(self.daemon_id)
+                .execute(pool)
+                .await?
+                .rows_affected());
+            Ok(n == 1)
+        })
     }
 
     /// Ends an unfinished render or study as failed, interrupted or
     /// cancelled; false when it had already ended.
-    pub async fn end_job(&self, job: Job, id: i64, state: JobEnd, error: &str) -> Result<bool, StoreError> {
-        let sql = format!(
-            "UPDATE {} SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
-            job.table()
-        );
-        let n = with_pool!(self, |pool| sqlx::query(&sql)
-            .bind(state.as_str())
-            .bind(error)
-            .bind(now())
-            .bind(id)
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(n == 1)
+    pub fn end_job<'a>(
+        &'a self,
+        job: Job,
+        id: i64,
+        state: JobEnd,
+        error: &'a str,
+    ) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE {} SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
+                job.table()
+            );
+            let n = with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(state.as_str())
+                .bind(error)
+                .bind(now())
+                .bind(id)
+                .execute(pool)
+                .await?
+                .rows_affected());
+            Ok(n == 1)
+        })
     }
 
     /// The state of a render or study (`None`: no such id).
-    pub async fn job_state(&self, job: Job, id: i64) -> Result<Option<String>, StoreError> {
-        let sql = format!("SELECT state FROM {} WHERE id = $1", job.table());
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
-            .bind(id)
-            .fetch_optional(pool)
-            .await?))
+    pub fn job_state<'a>(&'a self, job: Job, id: i64) -> BoxFuture<'a, Result<Option<String>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("SELECT state FROM {} WHERE id = $1", job.table());
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
+                .bind(id)
+                .fetch_optional(pool)
+                .await?))
+        })
     }
 
     // --- instruments and sessions ---------------------------------------
 
     /// The id of an instrument, recording it the first time it is seen and
     /// the booth and port it is seen at now.
-    pub async fn upsert_instrument(
-        &self,
-        booth: &Booth,
-        model: &str,
-        serial: Option<&str>,
-        port: &str,
-    ) -> Result<i64, StoreError> {
-        let t = now();
-        Ok(with_pool!(self, |pool| {
-            sqlx::query_scalar(
-            "INSERT INTO instruments (booth, model, serial, port, first_seen, last_seen) VALUES ($1, $2, $3, $4, $5, $6) \
-             ON CONFLICT (model, serial) DO UPDATE SET booth = excluded.booth, port = excluded.port, \
-             last_seen = excluded.last_seen RETURNING id",
-        )
-        .bind(booth.as_str())
-        .bind(model)
-        .bind(serial.unwrap_or(""))
-        .bind(port)
-        .bind(t)
-        .bind(t)
-        .fetch_one(pool)
-        .await?
-        }))
+    pub fn upsert_instrument<'a>(
+        &'a self,
+        booth: &'a Booth,
+        model: &'a str,
+        serial: Option<&'a str>,
+        port: &'a str,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            let t = now();
+            Ok(with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                "INSERT INTO instruments (booth, model, serial, port, first_seen, last_seen) VALUES ($1, $2, $3, $4, $5, $6) \
+                 ON CONFLICT (model, serial) DO UPDATE SET booth = excluded.booth, port = excluded.port, \
+                 last_seen = excluded.last_seen RETURNING id",
+            )
+            .bind(booth.as_str())
+            .bind(model)
+            .bind(serial.unwrap_or(""))
+            .bind(port)
+            .bind(t)
+            .bind(t)
+            .fetch_one(pool)
+            .await?
+            }))
+        })
     }
 
     /// Every booth with a measurement or an instrument, by name. The counts
     /// and newest time come from `booth_measurement_counts` (kept by
     /// triggers, migration 0014), the unfinished ones from the state index:
     /// nothing here reads every measurement.
-    pub async fn list_booths(&self) -> Result<Vec<BoothRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT b.booth, COALESCE(c.measurements, 0) AS measurements, \
-                    (SELECT COUNT(*) FROM measurements m WHERE m.state IN ('queued', 'running') \
-                       AND m.booth = b.booth) AS unfinished, \
-                    c.last_measurement_at \
-             FROM (SELECT booth FROM booth_measurement_counts WHERE measurements > 0 \
-                   UNION SELECT booth FROM instruments) b \
-             LEFT JOIN booth_measurement_counts c ON c.booth = b.booth ORDER BY b.booth"
-        )
-        .fetch_all(pool)
-        .await?))
+    pub fn list_booths<'a>(&'a self) -> BoxFuture<'a, Result<Vec<BoothRow>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_as(
+                "SELECT b.booth, COALESCE(c.measurements, 0) AS measurements, \
+                        (SELECT COUNT(*) FROM measurements m WHERE m.state IN ('queued', 'running') \
+                           AND m.booth = b.booth) AS unfinished, \
+                        c.last_measurement_at \
+                 FROM (SELECT booth FROM booth_measurement_counts WHERE measurements > 0 \
+                       UNION SELECT booth FROM instruments) b \
+                 LEFT JOIN booth_measurement_counts c ON c.booth = b.booth ORDER BY b.booth"
+            )
+            .fetch_all(pool)
+            .await?))
+        })
     }
 
-    pub async fn list_instruments(&self) -> Result<Vec<InstrumentRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, model, booth, serial, port, first_seen, last_seen FROM instruments ORDER BY id"
-        )
-        .fetch_all(pool)
-        .await?))
+    pub fn list_instruments<'a>(&'a self) -> BoxFuture<'a, Result<Vec<InstrumentRow>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, model, booth, serial, port, first_seen, last_seen FROM instruments ORDER BY id"
+            )
+            .fetch_all(pool)
+            .await?))
+        })
     }
 
-    pub async fn create_session(&self, operator: &str, notes: &str) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "INSERT INTO sessions (operator, notes, started_at) VALUES ($1, $2, $3) RETURNING id"
-        )
-        .bind(operator)
-        .bind(notes)
-        .bind(now())
-        .fetch_one(pool)
-        .await?))
+    pub fn create_session<'a>(&'a self, operator: &'a str, notes: &'a str) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "INSERT INTO sessions (operator, notes, started_at) VALUES ($1, $2, $3) RETURNING id"
+            )
+            .bind(operator)
+            .bind(notes)
+            .bind(now())
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
-    pub async fn list_sessions(&self) -> Result<Vec<SessionRow>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT id, operator, notes, started_at FROM sessions ORDER BY id DESC"
-        )
-        .fetch_all(pool)
-        .await?))
+    pub fn list_sessions<'a>(&'a self) -> BoxFuture<'a, Result<Vec<SessionRow>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, operator, notes, started_at FROM sessions ORDER BY id DESC"
+            )
+            .fetch_all(pool)
+            .await?))
+        })
     }
 }
 

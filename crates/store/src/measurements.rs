@@ -3,335 +3,377 @@
 //! cancelled, with what was kept).
 
 use super::*;
+use crate::BoxFuture;
 
 impl Store {
     /// Records a requested measurement as `queued`.
-    pub async fn create_measurement(&self, m: &NewMeasurement) -> Result<i64, StoreError> {
-        self.create_held_measurement(m, None).await
+    pub fn create_measurement<'a>(&'a self, m: &'a NewMeasurement) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move { self.create_held_measurement(m, None).await })
     }
 
     /// Records a requested measurement as `queued`, taken under the
     /// instrument hold `hold` (its id and purpose) when one is given.
-    pub async fn create_held_measurement(
-        &self,
-        m: &NewMeasurement,
-        hold: Option<(i64, &str)>,
-    ) -> Result<i64, StoreError> {
-        Ok(with_pool!(self, |pool| {
-            sqlx::query_scalar(
-            "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at, daemon_id, hold_id, hold_purpose) \
-             VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8, $9, $10, $11) RETURNING id",
-        )
-        .bind(m.booth.as_str())
-        .bind(m.session_id)
-        .bind(&m.scene)
-        .bind(&m.target)
-        .bind(m.samples as i64)
-        .bind(m.settings_json.to_string())
-        .bind(&m.note)
-        .bind(now())
-        .bind(self.daemon_id)
-        .bind(hold.map(|h| h.0))
-        .bind(hold.map(|h| h.1))
-        .fetch_one(pool)
-        .await?
-        }))
+    pub fn create_held_measurement<'a>(
+        &'a self,
+        m: &'a NewMeasurement,
+        hold: Option<(i64, &'a str)>,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                "INSERT INTO measurements (booth, session_id, scene, target, samples_requested, settings_json, state, note, created_at, daemon_id, hold_id, hold_purpose) \
+                 VALUES ($1, $2, $3, $4, $5, $6, 'queued', $7, $8, $9, $10, $11) RETURNING id",
+            )
+            .bind(m.booth.as_str())
+            .bind(m.session_id)
+            .bind(&m.scene)
+            .bind(&m.target)
+            .bind(m.samples as i64)
+            .bind(m.settings_json.to_string())
+            .bind(&m.note)
+            .bind(now())
+            .bind(self.daemon_id)
+            .bind(hold.map(|h| h.0))
+            .bind(hold.map(|h| h.1))
+            .fetch_one(pool)
+            .await?
+            }))
+        })
     }
 
     /// `queued → running`, naming the instrument that takes it.
-    pub async fn mark_running(&self, id: i64, instrument_id: Option<i64>) -> Result<(), StoreError> {
-        let n = with_pool!(self, |pool| {
-            sqlx::query(
-                "UPDATE measurements SET state = 'running', instrument_id = $1, started_at = $2, \
-             daemon_id = COALESCE($4, daemon_id) WHERE id = $3 AND state = 'queued'",
-            )
-            .bind(instrument_id)
-            .bind(now())
-            .bind(id)
-            .bind(self.daemon_id)
-            .execute(pool)
-            .await?
-            .rows_affected()
-        });
-        if n != 1 {
-            return Err(StoreError::Conflict(format!("measurement {id} is not queued")));
-        }
-        Ok(())
+    pub fn mark_running<'a>(&'a self, id: i64, instrument_id: Option<i64>) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let n = with_pool!(self, |pool| {
+                sqlx::query(
+                    "UPDATE measurements SET state = 'running', instrument_id = $1, started_at = $2, \
+                 daemon_id = COALESCE($4, daemon_id) WHERE id = $3 AND state = 'queued'",
+                )
+                .bind(instrument_id)
+                .bind(now())
+                .bind(id)
+                .bind(self.daemon_id)
+                .execute(pool)
+                .await?
+                .rows_affected()
+            });
+            if n != 1 {
+                return Err(StoreError::Conflict(format!("measurement {id} is not queued")));
+            }
+            Ok(())
+        })
     }
 
     /// Writes one raw sample, as it is taken.
-    pub async fn insert_sample(&self, measurement_id: i64, s: &NewSample) -> Result<(), StoreError> {
-        with_pool!(self, |pool| {
-            sqlx::query(
-            "INSERT INTO samples (measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json) \
-             VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
-        )
-        .bind(measurement_id)
-        .bind(s.index as i64)
-        .bind(s.taken_at)
-        .bind(s.code)
-        .bind(&s.message)
-        .bind(s.usable)
-        .bind(s.radiance.as_ref().map(|r| json_array(r)))
-        .bind(s.luminance_cd_m2)
-        .bind(s.instrument_xyz.map(|v| json_array(&v)))
-        .execute(pool)
-        .await?
-        .rows_affected()
-        });
-        Ok(())
+    pub fn insert_sample<'a>(&'a self, measurement_id: i64, s: &'a NewSample) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            with_pool!(self, |pool| {
+                sqlx::query(
+                "INSERT INTO samples (measurement_id, idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json) \
+                 VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)",
+            )
+            .bind(measurement_id)
+            .bind(s.index as i64)
+            .bind(s.taken_at)
+            .bind(s.code)
+            .bind(&s.message)
+            .bind(s.usable)
+            .bind(s.radiance.as_ref().map(|r| json_array(r)))
+            .bind(s.luminance_cd_m2)
+            .bind(s.instrument_xyz.map(|v| json_array(&v)))
+            .execute(pool)
+            .await?
+            .rows_affected()
+            });
+            Ok(())
+        })
     }
 
     /// `running → complete` with the average; one transaction.
-    pub async fn complete_measurement(&self, id: i64, a: &Average) -> Result<(), StoreError> {
-        let n = with_pool!(self, |pool| {
-            sqlx::query(
-            "UPDATE measurements SET state = 'complete', finished_at = $1, wavelength_json = $2, radiance_json = $3, \
-             radiance_sd_json = $4, luminance_cd_m2 = $5, x = $6, y = $7, luminance_cv = $8, observer = $9, xyz_x = $10, \
-             xyz_y = $11, xyz_z = $12 WHERE id = $13 AND state = 'running'",
-        )
-        .bind(now())
-        // No spectrum (a colorimeter's measurement): NULL, not `[]`.
-        .bind((!a.radiance.is_empty()).then(|| json_array(&a.wavelength_nm)))
-        .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance)))
-        .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance_sd)))
-        .bind(a.luminance_cd_m2)
-        .bind(a.x)
-        .bind(a.y)
-        .bind(a.luminance_cv)
-        .bind(a.observer.map(|o| o.name()))
-        .bind(a.xyz.map(|v| v[0]))
-        .bind(a.xyz.map(|v| v[1]))
-        .bind(a.xyz.map(|v| v[2]))
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected()
-        });
-        if n != 1 {
-            return Err(StoreError::Conflict(format!("measurement {id} is not running")));
-        }
-        Ok(())
+    pub fn complete_measurement<'a>(&'a self, id: i64, a: &'a Average) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let n = with_pool!(self, |pool| {
+                sqlx::query(
+                "UPDATE measurements SET state = 'complete', finished_at = $1, wavelength_json = $2, radiance_json = $3, \
+                 radiance_sd_json = $4, luminance_cd_m2 = $5, x = $6, y = $7, luminance_cv = $8, observer = $9, xyz_x = $10, \
+                 xyz_y = $11, xyz_z = $12 WHERE id = $13 AND state = 'running'",
+            )
+            .bind(now())
+            // No spectrum (a colorimeter's measurement): NULL, not `[]`.
+            .bind((!a.radiance.is_empty()).then(|| json_array(&a.wavelength_nm)))
+            .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance)))
+            .bind((!a.radiance.is_empty()).then(|| json_array(&a.radiance_sd)))
+            .bind(a.luminance_cd_m2)
+            .bind(a.x)
+            .bind(a.y)
+            .bind(a.luminance_cv)
+            .bind(a.observer.map(|o| o.name()))
+            .bind(a.xyz.map(|v| v[0]))
+            .bind(a.xyz.map(|v| v[1]))
+            .bind(a.xyz.map(|v| v[2]))
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()
+            });
+            if n != 1 {
+                return Err(StoreError::Conflict(format!("measurement {id} is not running")));
+            }
+            Ok(())
+        })
     }
 
     /// Ends an unfinished measurement as failed, interrupted or cancelled.
-    pub async fn end_measurement(&self, id: i64, state: MeasurementState, error: &str) -> Result<(), StoreError> {
-        debug_assert!(state.is_final() && state != MeasurementState::Complete);
-        with_pool!(self, |pool| {
-            sqlx::query(
-            "UPDATE measurements SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
-        )
-        .bind(state.as_str())
-        .bind(error)
-        .bind(now())
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected()
-        });
-        Ok(())
+    pub fn end_measurement<'a>(
+        &'a self,
+        id: i64,
+        state: MeasurementState,
+        error: &'a str,
+    ) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            debug_assert!(state.is_final() && state != MeasurementState::Complete);
+            with_pool!(self, |pool| {
+                sqlx::query(
+                "UPDATE measurements SET state = $1, error = $2, finished_at = $3 WHERE id = $4 AND state IN ('queued', 'running')",
+            )
+            .bind(state.as_str())
+            .bind(error)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()
+            });
+            Ok(())
+        })
     }
 
     /// `queued → cancelled`, only while it is still queued (so a measurement
     /// the instrument has started is never ended here). True when it was.
-    pub async fn cancel_queued(&self, id: i64, message: &str) -> Result<bool, StoreError> {
-        let n = with_pool!(self, |pool| {
-            sqlx::query(
-            "UPDATE measurements SET state = 'cancelled', error = $1, finished_at = $2 WHERE id = $3 AND state = 'queued'",
-        )
-        .bind(message)
-        .bind(now())
-        .bind(id)
-        .execute(pool)
-        .await?
-        .rows_affected()
-        });
-        Ok(n == 1)
+    pub fn cancel_queued<'a>(&'a self, id: i64, message: &'a str) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let n = with_pool!(self, |pool| {
+                sqlx::query(
+                "UPDATE measurements SET state = 'cancelled', error = $1, finished_at = $2 WHERE id = $3 AND state = 'queued'",
+            )
+            .bind(message)
+            .bind(now())
+            .bind(id)
+            .execute(pool)
+            .await?
+            .rows_affected()
+            });
+            Ok(n == 1)
+        })
     }
 
     /// Every (scene, target) with at least one complete measurement.
     /// The ids of the queued and running measurements of `booth`, oldest first.
-    pub async fn unfinished_measurements_in_booth(&self, booth: &Booth) -> Result<Vec<i64>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT id FROM measurements WHERE booth = $1 AND state IN ('queued', 'running') ORDER BY id",
-        )
-        .bind(booth.as_str())
-        .fetch_all(pool)
-        .await?))
+    pub fn unfinished_measurements_in_booth<'a>(
+        &'a self,
+        booth: &'a Booth,
+    ) -> BoxFuture<'a, Result<Vec<i64>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT id FROM measurements WHERE booth = $1 AND state IN ('queued', 'running') ORDER BY id",
+            )
+            .bind(booth.as_str())
+            .fetch_all(pool)
+            .await?))
+        })
     }
 
-    pub async fn measured_targets(&self, booth: &Booth) -> Result<Vec<(String, String)>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_as(
-            "SELECT DISTINCT scene, target FROM measurements \
-             WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL AND booth = $1",
-        )
-        .bind(booth.as_str())
-        .fetch_all(pool)
-        .await?))
+    pub fn measured_targets<'a>(
+        &'a self,
+        booth: &'a Booth,
+    ) -> BoxFuture<'a, Result<Vec<(String, String)>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_as(
+                "SELECT DISTINCT scene, target FROM measurements \
+                 WHERE state = 'complete' AND scene IS NOT NULL AND target IS NOT NULL AND booth = $1",
+            )
+            .bind(booth.as_str())
+            .fetch_all(pool)
+            .await?))
+        })
     }
 
     /// One measurement with all its samples.
-    pub async fn get_measurement(&self, id: i64) -> Result<Option<MeasurementDetail>, StoreError> {
-        let sql = format!(
-            "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = $1"
-        );
-        let record: Option<MeasurementDetailRecord> =
-            with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?);
-        let Some(record) = record else {
-            return Ok(None);
-        };
-        let mut summary = MeasurementSummary::try_from(record.summary)?;
-        self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
-        let sample_records: Vec<SampleRecord> = with_pool!(self, |pool| sqlx::query_as(
-            "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json FROM samples \
-             WHERE measurement_id = $1 ORDER BY idx",
-        )
-        .bind(id)
-        .fetch_all(pool)
-        .await?);
-        let mut samples = sample_records
-            .into_iter()
-            .map(SampleRow::try_from)
-            .collect::<Result<Vec<_>, StoreError>>()?;
-        // Each sample's Y from its spectrum with the measurement's observer,
-        // the same one as the measurement's `Y` (never the instrument's own).
-        let observer = summary.observer.unwrap_or(self.observer);
-        // A sample without a spectrum (a colorimeter's) has the Y it reported,
-        // in the observer the measurement names.
-        for s in &mut samples {
-            s.luminance_cd_m2 = match &s.radiance {
-                Some(values) => sample_luminance(values, observer),
-                None => s.instrument_xyz.map(|v| v[1]).or(s.instrument_luminance_cd_m2),
+    pub fn get_measurement<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<MeasurementDetail>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = $1"
+            );
+            let record: Option<MeasurementDetailRecord> =
+                with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?);
+            let Some(record) = record else {
+                return Ok(None);
             };
-        }
-        Ok(Some(MeasurementDetail {
-            summary,
-            wavelength_nm: parse_opt_array(record.wavelength_json, "wavelengths")?,
-            radiance: parse_opt_array(record.radiance_json, "mean radiance")?,
-            radiance_sd: parse_opt_array(record.radiance_sd_json, "radiance SD")?,
-            samples,
-        }))
+            let mut summary = MeasurementSummary::try_from(record.summary)?;
+            self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
+            let sample_records: Vec<SampleRecord> =
+                with_pool!(self, |pool| {
+                    sqlx::query_as(
+                "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json FROM samples \
+                 WHERE measurement_id = $1 ORDER BY idx",
+            )
+            .bind(id)
+            .fetch_all(pool)
+            .await?
+                });
+            let mut samples = sample_records
+                .into_iter()
+                .map(SampleRow::try_from)
+                .collect::<Result<Vec<_>, StoreError>>()?;
+            // Each sample's Y from its spectrum with the measurement's observer,
+            // the same one as the measurement's `Y` (never the instrument's own).
+            let observer = summary.observer.unwrap_or(self.observer);
+            // A sample without a spectrum (a colorimeter's) has the Y it reported,
+            // in the observer the measurement names.
+            for s in &mut samples {
+                s.luminance_cd_m2 = match &s.radiance {
+                    Some(values) => sample_luminance(values, observer),
+                    None => s.instrument_xyz.map(|v| v[1]).or(s.instrument_luminance_cd_m2),
+                };
+            }
+            Ok(Some(MeasurementDetail {
+                summary,
+                wavelength_nm: parse_opt_array(record.wavelength_json, "wavelengths")?,
+                radiance: parse_opt_array(record.radiance_json, "mean radiance")?,
+                radiance_sd: parse_opt_array(record.radiance_sd_json, "radiance SD")?,
+                samples,
+            }))
+        })
     }
 
     /// A page of measurements, newest first, with optional filters.
-    pub async fn list_measurements(&self, f: &MeasurementFilter) -> Result<MeasurementPage, StoreError> {
-        // The filters' values, in the order of their `$N` placeholders.
-        let mut values: Vec<String> = Vec::new();
-        let mut conditions = Vec::new();
-        for (column, value) in [
-            ("booth", f.booth.as_ref().map(|b| b.as_str().to_string())),
-            ("scene", f.scene.clone()),
-            ("target", f.target.clone()),
-            ("state", f.state.map(|s| s.as_str().to_string())),
-        ] {
-            if let Some(v) = value {
-                values.push(v);
-                conditions.push(format!("{column} = ${}", values.len()));
+    pub fn list_measurements<'a>(
+        &'a self,
+        f: &'a MeasurementFilter,
+    ) -> BoxFuture<'a, Result<MeasurementPage, StoreError>> {
+        Box::pin(async move {
+            // The filters' values, in the order of their `$N` placeholders.
+            let mut values: Vec<String> = Vec::new();
+            let mut conditions = Vec::new();
+            for (column, value) in [
+                ("booth", f.booth.as_ref().map(|b| b.as_str().to_string())),
+                ("scene", f.scene.clone()),
+                ("target", f.target.clone()),
+                ("state", f.state.map(|s| s.as_str().to_string())),
+            ] {
+                if let Some(v) = value {
+                    values.push(v);
+                    conditions.push(format!("{column} = ${}", values.len()));
+                }
             }
-        }
-        if let Some(model) = &f.instrument_model {
-            values.push(model.clone());
-            conditions.push(format!(
-                "instrument_id IN (SELECT i.id FROM instruments i WHERE i.model = ${})",
-                values.len()
-            ));
-        }
-        // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
-        let where_sql = if conditions.is_empty() {
-            String::new()
-        } else {
-            format!(" WHERE {}", conditions.join(" AND "))
-        };
-        // Unfiltered or by booth alone, the total is the booths' counts
-        // (migration 0014): counting the rows costs O(rows) per request.
-        let count_sql = match (&f.booth, values.len()) {
-            (_, 0) => "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts".to_string(),
-            (Some(_), 1) => {
-                "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts WHERE booth = $1"
-                    .into()
+            if let Some(model) = &f.instrument_model {
+                values.push(model.clone());
+                conditions.push(format!(
+                    "instrument_id IN (SELECT i.id FROM instruments i WHERE i.model = ${})",
+                    values.len()
+                ));
             }
-            _ => format!("SELECT COUNT(*) FROM measurements{where_sql}"),
-        };
-        let limit = f.limit.unwrap_or(50).clamp(1, 1000);
-        let offset = f.offset.unwrap_or(0).max(0);
-        // The page's ids come from the primary key alone; only those rows'
-        // columns (and sample counts) are computed. With the columns in the
-        // paging query itself, SQLite evaluates them for every skipped row.
-        // `before_id` pages by the primary key (an index range, the same
-        // cost at any depth); the total ignores it, as it ignores `offset`.
-        let page_where = match (f.before_id, where_sql.is_empty()) {
-            (None, _) => where_sql.clone(),
-            (Some(before), true) => format!(" WHERE id < {before}"),
-            (Some(before), false) => format!("{where_sql} AND id < {before}"),
-        };
-        let list_sql = format!(
-            "SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id IN (\
-             SELECT id FROM measurements{page_where} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
-        );
-        let (total, records): (i64, Vec<MeasurementRecord>) = with_pool!(self, |pool| {
-            let mut count = sqlx::query_scalar(&count_sql);
-            let mut list = sqlx::query_as(&list_sql);
-            for v in &values {
-                count = count.bind(v.as_str());
-                list = list.bind(v.as_str());
-            }
-            (count.fetch_one(pool).await?, list.fetch_all(pool).await?)
-        });
-        let mut items = records
-            .into_iter()
-            .map(MeasurementSummary::try_from)
-            .collect::<Result<Vec<_>, _>>()?;
-        self.fill_partial_averages(&mut items).await?;
-        Ok(MeasurementPage {
-            total,
-            limit,
-            offset,
-            items,
+            // No `WHERE 1 = 1`: an unfiltered COUNT(*) then uses SQLite's fast path.
+            let where_sql = if conditions.is_empty() {
+                String::new()
+            } else {
+                format!(" WHERE {}", conditions.join(" AND "))
+            };
+            // Unfiltered or by booth alone, the total is the booths' counts
+            // (migration 0014): counting the rows costs O(rows) per request.
+            let count_sql = match (&f.booth, values.len()) {
+                (_, 0) => "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts".to_string(),
+                (Some(_), 1) => {
+                    "SELECT CAST(COALESCE(SUM(measurements), 0) AS BIGINT) FROM booth_measurement_counts WHERE booth = $1"
+                        .into()
+                }
+                _ => format!("SELECT COUNT(*) FROM measurements{where_sql}"),
+            };
+            let limit = f.limit.unwrap_or(50).clamp(1, 1000);
+            let offset = f.offset.unwrap_or(0).max(0);
+            // The page's ids come from the primary key alone; only those rows'
+            // columns (and sample counts) are computed. With the columns in the
+            // paging query itself, SQLite evaluates them for every skipped row.
+            // `before_id` pages by the primary key (an index range, the same
+            // cost at any depth); the total ignores it, as it ignores `offset`.
+            let page_where = match (f.before_id, where_sql.is_empty()) {
+                (None, _) => where_sql.clone(),
+                (Some(before), true) => format!(" WHERE id < {before}"),
+                (Some(before), false) => format!("{where_sql} AND id < {before}"),
+            };
+            let list_sql = format!(
+                "SELECT {MEASUREMENT_COLUMNS} FROM measurements WHERE id IN (\
+                 SELECT id FROM measurements{page_where} ORDER BY id DESC LIMIT {limit} OFFSET {offset}) ORDER BY id DESC"
+            );
+            let (total, records): (i64, Vec<MeasurementRecord>) = with_pool!(self, |pool| {
+                let mut count = sqlx::query_scalar(&count_sql);
+                let mut list = sqlx::query_as(&list_sql);
+                for v in &values {
+                    count = count.bind(v.as_str());
+                    list = list.bind(v.as_str());
+                }
+                (count.fetch_one(pool).await?, list.fetch_all(pool).await?)
+            });
+            let mut items = records
+                .into_iter()
+                .map(MeasurementSummary::try_from)
+                .collect::<Result<Vec<_>, _>>()?;
+            self.fill_partial_averages(&mut items).await?;
+            Ok(MeasurementPage {
+                total,
+                limit,
+                offset,
+                items,
+            })
         })
     }
 
     /// The newest complete measurement of a scene target taken in `booth`:
     /// the CIELAB white of that booth's comparisons (each booth has its own
     /// lamps, so another booth's white never stands in for it).
-    pub async fn latest_complete_in_booth(
-        &self,
-        scene: &str,
-        target: &str,
-        booth: &Booth,
-    ) -> Result<Option<MeasurementDetail>, StoreError> {
-        let id: Option<i64> = with_pool!(self, |pool| {
-            sqlx::query_scalar(
-                "SELECT id FROM measurements WHERE scene = $1 AND target = $2 AND booth = $3 AND state = 'complete' \
-                 ORDER BY id DESC LIMIT 1",
-            )
-            .bind(scene)
-            .bind(target)
-            .bind(booth.as_str())
-            .fetch_optional(pool)
-            .await?
-        });
-        match id {
-            Some(id) => self.get_measurement(id).await,
-            None => Ok(None),
-        }
+    pub fn latest_complete_in_booth<'a>(
+        &'a self,
+        scene: &'a str,
+        target: &'a str,
+        booth: &'a Booth,
+    ) -> BoxFuture<'a, Result<Option<MeasurementDetail>, StoreError>> {
+        Box::pin(async move {
+            let id: Option<i64> = with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                    "SELECT id FROM measurements WHERE scene = $1 AND target = $2 AND booth = $3 AND state = 'complete' \
+                     ORDER BY id DESC LIMIT 1",
+                )
+                .bind(scene)
+                .bind(target)
+                .bind(booth.as_str())
+                .fetch_optional(pool)
+                .await?
+            });
+            match id {
+                Some(id) => self.get_measurement(id).await,
+                None => Ok(None),
+            }
+        })
     }
 
     /// The booth a measurement was taken in; `None` when there is no such
     /// measurement.
-    pub async fn measurement_booth(&self, id: i64) -> Result<Option<Booth>, StoreError> {
-        let booth: Option<String> = with_pool!(self, |pool| {
-            sqlx::query_scalar("SELECT booth FROM measurements WHERE id = $1")
-                .bind(id)
-                .fetch_optional(pool)
-                .await?
-        });
-        booth
-            .map(|b| {
-                b.parse().map_err(|e: String| StoreError::Corrupt {
-                    what: format!("measurement {id}'s booth"),
-                    err: e,
+    pub fn measurement_booth<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<Booth>, StoreError>> {
+        Box::pin(async move {
+            let booth: Option<String> = with_pool!(self, |pool| {
+                sqlx::query_scalar("SELECT booth FROM measurements WHERE id = $1")
+                    .bind(id)
+                    .fetch_optional(pool)
+                    .await?
+            });
+            booth
+                .map(|b| {
+                    b.parse().map_err(|e: String| StoreError::Corrupt {
+                        what: format!("measurement {id}'s booth"),
+                        err: e,
+                    })
                 })
-            })
-            .transpose()
+                .transpose()
+        })
     }
 }

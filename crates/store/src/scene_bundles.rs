@@ -5,6 +5,7 @@
 //! in one transaction, or not at all; storing one already there is a no-op.
 
 use super::{now, Store, StoreError};
+use crate::BoxFuture;
 use lightbooth_render::bundle::{BundleFile, SceneBundle};
 
 /// A stored bundle and what the store knows of it.
@@ -43,114 +44,125 @@ impl Store {
     /// `scene_hash`. All its files or nothing (one transaction); a bundle of
     /// the same hash already stored is left as it is. Returns whether it was
     /// new.
-    pub async fn put_scene_bundle(
-        &self,
-        scene_id: &str,
-        scene_hash: &str,
-        bundle: &SceneBundle,
-    ) -> Result<bool, StoreError> {
-        let hash = bundle.hash();
-        let total = i64::try_from(bundle.total_bytes())
-            .map_err(|_| StoreError::Conflict(format!("scene bundle {hash} is too large to store")))?;
-        with_pool!(self, |pool| {
-            let mut tx = pool.begin().await?;
-            let inserted = sqlx::query(
-                "INSERT INTO scene_bundles (hash, scene_id, scene_file, scene_hash, created_at, total_bytes) \
-                 VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (hash) DO NOTHING",
-            )
-            .bind(&hash)
-            .bind(scene_id)
-            .bind(bundle.scene_file())
-            .bind(scene_hash)
-            .bind(now())
-            .bind(total)
-            .execute(&mut *tx)
-            .await?
-            .rows_affected();
-            if inserted == 0 {
-                return Ok(false);
-            }
-            for f in bundle.files() {
-                sqlx::query("INSERT INTO scene_bundle_files (hash, path, content) VALUES ($1, $2, $3)")
-                    .bind(&hash)
-                    .bind(&f.path)
-                    .bind(&f.content)
-                    .execute(&mut *tx)
-                    .await?;
-            }
-            tx.commit().await?;
-        });
-        Ok(true)
+    pub fn put_scene_bundle<'a>(
+        &'a self,
+        scene_id: &'a str,
+        scene_hash: &'a str,
+        bundle: &'a SceneBundle,
+    ) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let hash = bundle.hash();
+            let total = i64::try_from(bundle.total_bytes())
+                .map_err(|_| StoreError::Conflict(format!("scene bundle {hash} is too large to store")))?;
+            with_pool!(self, |pool| {
+                let mut tx = pool.begin().await?;
+                let inserted = sqlx::query(
+                    "INSERT INTO scene_bundles (hash, scene_id, scene_file, scene_hash, created_at, total_bytes) \
+                     VALUES ($1, $2, $3, $4, $5, $6) ON CONFLICT (hash) DO NOTHING",
+                )
+                .bind(&hash)
+                .bind(scene_id)
+                .bind(bundle.scene_file())
+                .bind(scene_hash)
+                .bind(now())
+                .bind(total)
+                .execute(&mut *tx)
+                .await?
+                .rows_affected();
+                if inserted == 0 {
+                    return Ok(false);
+                }
+                for f in bundle.files() {
+                    sqlx::query("INSERT INTO scene_bundle_files (hash, path, content) VALUES ($1, $2, $3)")
+                        .bind(&hash)
+                        .bind(&f.path)
+                        .bind(&f.content)
+                        .execute(&mut *tx)
+                        .await?;
+                }
+                tx.commit().await?;
+            });
+            Ok(true)
+        })
     }
 
     /// The bundle of `hash` with its files, checked: files that do not hash
     /// to `hash` are a corrupt store, never handed out.
-    pub async fn scene_bundle(&self, hash: &str) -> Result<Option<StoredSceneBundle>, StoreError> {
-        let (record, files) = with_pool!(self, |pool| {
-            let Some(record) = sqlx::query_as::<_, BundleRecord>("SELECT * FROM scene_bundles WHERE hash = $1")
+    pub fn scene_bundle<'a>(&'a self, hash: &'a str) -> BoxFuture<'a, Result<Option<StoredSceneBundle>, StoreError>> {
+        Box::pin(async move {
+            let (record, files) = with_pool!(self, |pool| {
+                let Some(record) = sqlx::query_as::<_, BundleRecord>("SELECT * FROM scene_bundles WHERE hash = $1")
+                    .bind(hash)
+                    .fetch_optional(pool)
+                    .await?
+                else {
+                    return Ok(None);
+                };
+                let files = sqlx::query_as::<_, FileRecord>(
+                    "SELECT path, content FROM scene_bundle_files WHERE hash = $1 ORDER BY path",
+                )
                 .bind(hash)
-                .fetch_optional(pool)
-                .await?
-            else {
-                return Ok(None);
+                .fetch_all(pool)
+                .await?;
+                (record, files)
+            });
+            let corrupt = |err: String| StoreError::Corrupt {
+                what: format!("scene bundle {hash}"),
+                err,
             };
-            let files = sqlx::query_as::<_, FileRecord>(
-                "SELECT path, content FROM scene_bundle_files WHERE hash = $1 ORDER BY path",
+            let bundle = SceneBundle::from_parts(
+                record.scene_file,
+                files
+                    .into_iter()
+                    .map(|f| BundleFile {
+                        path: f.path,
+                        content: f.content,
+                    })
+                    .collect(),
             )
-            .bind(hash)
-            .fetch_all(pool)
-            .await?;
-            (record, files)
-        });
-        let corrupt = |err: String| StoreError::Corrupt {
-            what: format!("scene bundle {hash}"),
-            err,
-        };
-        let bundle = SceneBundle::from_parts(
-            record.scene_file,
-            files
-                .into_iter()
-                .map(|f| BundleFile {
-                    path: f.path,
-                    content: f.content,
-                })
-                .collect(),
-        )
-        .map_err(|e| corrupt(e.to_string()))?;
-        let actual = bundle.hash();
-        if actual != record.hash {
-            return Err(corrupt(format!("its files hash to {actual}")));
-        }
-        Ok(Some(StoredSceneBundle {
-            hash: record.hash,
-            scene_id: record.scene_id,
-            scene_hash: record.scene_hash,
-            created_at: record.created_at,
-            total_bytes: record.total_bytes,
-            bundle,
-        }))
+            .map_err(|e| corrupt(e.to_string()))?;
+            let actual = bundle.hash();
+            if actual != record.hash {
+                return Err(corrupt(format!("its files hash to {actual}")));
+            }
+            Ok(Some(StoredSceneBundle {
+                hash: record.hash,
+                scene_id: record.scene_id,
+                scene_hash: record.scene_hash,
+                created_at: record.created_at,
+                total_bytes: record.total_bytes,
+                bundle,
+            }))
+        })
     }
 
     /// Whether the bundle of `hash` is stored.
-    pub async fn has_scene_bundle(&self, hash: &str) -> Result<bool, StoreError> {
-        let found: Option<i32> = with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT 1 FROM scene_bundles WHERE hash = $1"
-        )
-        .bind(hash)
-        .fetch_optional(pool)
-        .await?);
-        Ok(found.is_some())
+    pub fn has_scene_bundle<'a>(&'a self, hash: &'a str) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let found: Option<i32> = with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT 1 FROM scene_bundles WHERE hash = $1"
+            )
+            .bind(hash)
+            .fetch_optional(pool)
+            .await?);
+            Ok(found.is_some())
+        })
     }
 
     /// The hash of the newest bundle whose files have the render key
     /// `scene_hash` (a render row's `scene_hash`), if one is stored.
-    pub async fn scene_bundle_for_render_key(&self, scene_hash: &str) -> Result<Option<String>, StoreError> {
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT hash FROM scene_bundles WHERE scene_hash = $1 ORDER BY created_at DESC, hash LIMIT 1"
-        )
-        .bind(scene_hash)
-        .fetch_optional(pool)
-        .await?))
+    pub fn scene_bundle_for_render_key<'a>(
+        &'a self,
+        scene_hash: &'a str,
+    ) -> BoxFuture<'a, Result<Option<String>, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT hash FROM scene_bundles WHERE scene_hash = $1 ORDER BY created_at DESC, hash LIMIT 1"
+            )
+            .bind(scene_hash)
+            .fetch_optional(pool)
+            .await?))
+        })
     }
 }
 

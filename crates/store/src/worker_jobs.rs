@@ -23,6 +23,7 @@
 //! - Cancelling ([`Store::cancel_worker_job`]) ends a queued job at once and
 //!   asks a running one to stop; the worker sees the request within a poll.
 
+use crate::BoxFuture;
 use serde::{Deserialize, Serialize};
 
 use super::engine::Engine;
@@ -112,86 +113,97 @@ impl Store {
 
     /// Queues a job for the workers, asked by this handle's daemon; its id.
     /// A second job of the same kind and subject is refused by the schema.
-    pub async fn queue_worker_job(
-        &self,
+    pub fn queue_worker_job<'a>(
+        &'a self,
         kind: WorkerJobKind,
         subject_id: i64,
-        payload: &serde_json::Value,
-    ) -> Result<i64, StoreError> {
-        let me = self.registered_id("queueing a worker job")?;
-        let scene = payload.get("scene").and_then(|s| s.as_str()).unwrap_or_default();
-        let sql = format!(
-            "INSERT INTO worker_jobs (kind, subject_id, requested_by, payload_json, scene, state, created_at) \
-             VALUES ($1, $2, $3, $4, $5, 'queued', {}) RETURNING id",
-            self.clock_sql()
-        );
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
-            .bind(kind.as_str())
-            .bind(subject_id)
-            .bind(me)
-            .bind(payload.to_string())
-            .bind(scene)
-            .fetch_one(pool)
-            .await?))
+        payload: &'a serde_json::Value,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("queueing a worker job")?;
+            let scene = payload.get("scene").and_then(|s| s.as_str()).unwrap_or_default();
+            let sql = format!(
+                "INSERT INTO worker_jobs (kind, subject_id, requested_by, payload_json, scene, state, created_at) \
+                 VALUES ($1, $2, $3, $4, $5, 'queued', {}) RETURNING id",
+                self.clock_sql()
+            );
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(&sql)
+                .bind(kind.as_str())
+                .bind(subject_id)
+                .bind(me)
+                .bind(payload.to_string())
+                .bind(scene)
+                .fetch_one(pool)
+                .await?))
+        })
     }
 
     /// Claims a queued job for this handle's worker, if any: the oldest,
     /// except that a comparison of a scene another worker's comparison is
     /// rendering comes after the rest (it would only wait for that render),
     /// so a second worker renders another scene meanwhile.
-    pub async fn claim_worker_job(&self) -> Result<Option<ClaimedJob>, StoreError> {
-        let me = self.registered_id("claiming a worker job")?;
-        let lock = match self.engine {
-            Engine::Postgres(_) => "FOR UPDATE SKIP LOCKED",
-            Engine::Sqlite(_) => "",
-        };
-        let sql = format!(
-            "UPDATE worker_jobs SET state = 'running', worker_id = $1, attempts = attempts + 1, started_at = {clock} \
-             WHERE state = 'queued' AND id = (SELECT j.id FROM worker_jobs j WHERE j.state = 'queued' \
-             ORDER BY (j.kind = 'comparison' AND j.scene <> '' AND EXISTS (SELECT 1 FROM worker_jobs r \
-             WHERE r.state = 'running' AND r.kind = 'comparison' AND r.scene = j.scene)), j.id LIMIT 1 {lock}) \
-             RETURNING {JOB_COLUMNS}",
-            clock = self.clock_sql()
-        );
-        let row: Option<WorkerJobRecord> =
-            with_pool!(self, |pool| sqlx::query_as(&sql).bind(me).fetch_optional(pool).await?);
-        row.map(|r| {
-            Ok(ClaimedJob {
-                kind: WorkerJobKind::parse(&r.kind)?,
-                payload: serde_json::from_str(&r.payload_json).map_err(|e| StoreError::Corrupt {
-                    what: format!("worker_jobs.payload_json of job {}", r.id),
-                    err: e.to_string(),
-                })?,
-                id: r.id,
-                subject_id: r.subject_id,
-                requested_by: r.requested_by,
-                attempts: r.attempts,
+    pub fn claim_worker_job<'a>(&'a self) -> BoxFuture<'a, Result<Option<ClaimedJob>, StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("claiming a worker job")?;
+            let lock = match self.engine {
+                Engine::Postgres(_) => "FOR UPDATE SKIP LOCKED",
+                Engine::Sqlite(_) => "",
+            };
+            let sql = format!(
+                "UPDATE worker_jobs SET state = 'running', worker_id = $1, attempts = attempts + 1, started_at = {clock} \
+                 WHERE state = 'queued' AND id = (SELECT j.id FROM worker_jobs j WHERE j.state = 'queued' \
+                 ORDER BY (j.kind = 'comparison' AND j.scene <> '' AND EXISTS (SELECT 1 FROM worker_jobs r \
+                 WHERE r.state = 'running' AND r.kind = 'comparison' AND r.scene = j.scene)), j.id LIMIT 1 {lock}) \
+                 RETURNING {JOB_COLUMNS}",
+                clock = self.clock_sql()
+            );
+            let row: Option<WorkerJobRecord> =
+                with_pool!(self, |pool| sqlx::query_as(&sql).bind(me).fetch_optional(pool).await?);
+            row.map(|r| {
+                Ok(ClaimedJob {
+                    kind: WorkerJobKind::parse(&r.kind)?,
+                    payload: serde_json::from_str(&r.payload_json).map_err(|e| StoreError::Corrupt {
+                        what: format!("worker_jobs.payload_json of job {}", r.id),
+                        err: e.to_string(),
+                    })?,
+                    id: r.id,
+                    subject_id: r.subject_id,
+                    requested_by: r.requested_by,
+                    attempts: r.attempts,
+                })
             })
+            .transpose()
         })
-        .transpose()
     }
 
     /// Ends a job this handle's worker holds: `state` is `done`, `failed`
     /// or `cancelled`, with the error of the last two. False when the job is
     /// no longer this worker's (it was queued again because the worker was
     /// counted gone).
-    pub async fn finish_worker_job(&self, id: i64, state: &str, error: Option<&str>) -> Result<bool, StoreError> {
-        let me = self.registered_id("finishing a worker job")?;
-        debug_assert!(matches!(state, "done" | "failed" | "cancelled"));
-        let sql = format!(
-            "UPDATE worker_jobs SET state = $1, error = $2, finished_at = {} \
-             WHERE id = $3 AND worker_id = $4 AND state = 'running'",
-            self.clock_sql()
-        );
-        let n = with_pool!(self, |pool| sqlx::query(&sql)
-            .bind(state)
-            .bind(error)
-            .bind(id)
-            .bind(me)
-            .execute(pool)
-            .await?
-            .rows_affected());
-        Ok(n == 1)
+    pub fn finish_worker_job<'a>(
+        &'a self,
+        id: i64,
+        state: &'a str,
+        error: Option<&'a str>,
+    ) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("finishing a worker job")?;
+            debug_assert!(matches!(state, "done" | "failed" | "cancelled"));
+            let sql = format!(
+                "UPDATE worker_jobs SET state = $1, error = $2, finished_at = {} \
+                 WHERE id = $3 AND worker_id = $4 AND state = 'running'",
+                self.clock_sql()
+            );
+            let n = with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(state)
+                .bind(error)
+                .bind(id)
+                .bind(me)
+                .execute(pool)
+                .await?
+                .rows_affected());
+            Ok(n == 1)
+        })
     }
 
     /// Hands job `id`, held by this handle's worker, back to the queue (the
@@ -199,250 +211,272 @@ impl Store {
     /// from wherever stopping it left it, and another worker takes it
     /// without waiting for a lease to run out. False when the job is no
     /// longer this worker's.
-    pub async fn release_worker_job(&self, id: i64) -> Result<bool, StoreError> {
-        let me = self.registered_id("releasing a worker job")?;
-        let Some(job) = self.worker_job(id).await? else {
-            return Ok(false);
-        };
-        if job.state != "running" || job.worker_id != Some(me) {
-            return Ok(false);
-        }
-        if let Some(table) = WorkerJobKind::parse(&job.kind)?.subject_table() {
-            let sql = format!(
-                "UPDATE {table} SET state = 'queued', error = NULL, finished_at = NULL, daemon_id = $1 \
-                 WHERE id = $2 AND daemon_id = $3 AND state IN ('running', 'cancelled', 'interrupted')"
-            );
-            with_pool!(self, |pool| sqlx::query(&sql)
-                .bind(job.requested_by)
-                .bind(job.subject_id)
-                .bind(me)
-                .execute(pool)
-                .await?
-                .rows_affected());
-        }
-        let n = with_pool!(self, |pool| sqlx::query(
-            "UPDATE worker_jobs SET state = 'queued', worker_id = NULL, started_at = NULL \
-             WHERE id = $1 AND worker_id = $2 AND state = 'running'"
-        )
-        .bind(id)
-        .bind(me)
-        .execute(pool)
-        .await?
-        .rows_affected());
-        Ok(n == 1)
+    pub fn release_worker_job<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("releasing a worker job")?;
+            let Some(job) = self.worker_job(id).await? else {
+                return Ok(false);
+            };
+            if job.state != "running" || job.worker_id != Some(me) {
+                return Ok(false);
+            }
+            if let Some(table) = WorkerJobKind::parse(&job.kind)?.subject_table() {
+                let sql = format!(
+                    "UPDATE {table} SET state = 'queued', error = NULL, finished_at = NULL, daemon_id = $1 \
+                     WHERE id = $2 AND daemon_id = $3 AND state IN ('running', 'cancelled', 'interrupted')"
+                );
+                with_pool!(self, |pool| sqlx::query(&sql)
+                    .bind(job.requested_by)
+                    .bind(job.subject_id)
+                    .bind(me)
+                    .execute(pool)
+                    .await?
+                    .rows_affected());
+            }
+            let n = with_pool!(self, |pool| sqlx::query(
+                "UPDATE worker_jobs SET state = 'queued', worker_id = NULL, started_at = NULL \
+                 WHERE id = $1 AND worker_id = $2 AND state = 'running'"
+            )
+            .bind(id)
+            .bind(me)
+            .execute(pool)
+            .await?
+            .rows_affected());
+            Ok(n == 1)
+        })
     }
 
     /// Job `id`'s row.
-    pub async fn worker_job(&self, id: i64) -> Result<Option<WorkerJobRecord>, StoreError> {
-        let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE id = $1");
-        Ok(with_pool!(self, |pool| sqlx::query_as(&sql)
-            .bind(id)
-            .fetch_optional(pool)
-            .await?))
+    pub fn worker_job<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<WorkerJobRecord>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE id = $1");
+            Ok(with_pool!(self, |pool| sqlx::query_as(&sql)
+                .bind(id)
+                .fetch_optional(pool)
+                .await?))
+        })
     }
 
     /// The job of `kind` about `subject_id`, if one was queued.
-    pub async fn worker_job_of(
-        &self,
+    pub fn worker_job_of<'a>(
+        &'a self,
         kind: WorkerJobKind,
         subject_id: i64,
-    ) -> Result<Option<WorkerJobRecord>, StoreError> {
-        let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE kind = $1 AND subject_id = $2");
-        Ok(with_pool!(self, |pool| sqlx::query_as(&sql)
-            .bind(kind.as_str())
-            .bind(subject_id)
-            .fetch_optional(pool)
-            .await?))
+    ) -> BoxFuture<'a, Result<Option<WorkerJobRecord>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!("SELECT {JOB_COLUMNS} FROM worker_jobs WHERE kind = $1 AND subject_id = $2");
+            Ok(with_pool!(self, |pool| sqlx::query_as(&sql)
+                .bind(kind.as_str())
+                .bind(subject_id)
+                .fetch_optional(pool)
+                .await?))
+        })
     }
 
     /// How many of this handle's daemon's render and study jobs wait or run
     /// (its share of the queue is bounded as its own queue is).
-    pub async fn unfinished_worker_jobs_requested(&self) -> Result<i64, StoreError> {
-        let me = self.registered_id("counting worker jobs")?;
-        Ok(with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT COUNT(*) FROM worker_jobs WHERE requested_by = $1 AND kind <> 'comparison' \
-             AND state IN ('queued', 'running')"
-        )
-        .bind(me)
-        .fetch_one(pool)
-        .await?))
+    pub fn unfinished_worker_jobs_requested<'a>(&'a self) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("counting worker jobs")?;
+            Ok(with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT COUNT(*) FROM worker_jobs WHERE requested_by = $1 AND kind <> 'comparison' \
+                 AND state IN ('queued', 'running')"
+            )
+            .bind(me)
+            .fetch_one(pool)
+            .await?))
+        })
     }
 
     /// Asks the job of `kind` about `subject_id` to stop: a queued job ends
     /// `cancelled` at once (true); a running one is flagged for its worker
     /// (false). `None` when there is no unfinished job.
-    pub async fn cancel_worker_job(&self, kind: WorkerJobKind, subject_id: i64) -> Result<Option<bool>, StoreError> {
-        let sql = format!(
-            "UPDATE worker_jobs SET state = 'cancelled', error = 'cancelled before a worker took it', \
-             finished_at = {} WHERE kind = $1 AND subject_id = $2 AND state = 'queued'",
-            self.clock_sql()
-        );
-        let ended = with_pool!(self, |pool| sqlx::query(&sql)
+    pub fn cancel_worker_job<'a>(
+        &'a self,
+        kind: WorkerJobKind,
+        subject_id: i64,
+    ) -> BoxFuture<'a, Result<Option<bool>, StoreError>> {
+        Box::pin(async move {
+            let sql = format!(
+                "UPDATE worker_jobs SET state = 'cancelled', error = 'cancelled before a worker took it', \
+                 finished_at = {} WHERE kind = $1 AND subject_id = $2 AND state = 'queued'",
+                self.clock_sql()
+            );
+            let ended = with_pool!(self, |pool| sqlx::query(&sql)
+                .bind(kind.as_str())
+                .bind(subject_id)
+                .execute(pool)
+                .await?
+                .rows_affected());
+            if ended == 1 {
+                return Ok(Some(true));
+            }
+            let flagged = with_pool!(self, |pool| {
+                sqlx::query(
+                "UPDATE worker_jobs SET cancel_requested = TRUE WHERE kind = $1 AND subject_id = $2 AND state = 'running'"
+            )
             .bind(kind.as_str())
             .bind(subject_id)
             .execute(pool)
             .await?
-            .rows_affected());
-        if ended == 1 {
-            return Ok(Some(true));
-        }
-        let flagged = with_pool!(self, |pool| {
-            sqlx::query(
-            "UPDATE worker_jobs SET cancel_requested = TRUE WHERE kind = $1 AND subject_id = $2 AND state = 'running'"
-        )
-        .bind(kind.as_str())
-        .bind(subject_id)
-        .execute(pool)
-        .await?
-        .rows_affected()
-        });
-        Ok((flagged == 1).then_some(false))
+            .rows_affected()
+            });
+            Ok((flagged == 1).then_some(false))
+        })
     }
 
     /// True when job `id` was asked to stop (or is no longer running).
-    pub async fn worker_job_cancel_requested(&self, id: i64) -> Result<bool, StoreError> {
-        let row: Option<(bool, String)> = with_pool!(self, |pool| sqlx::query_as(
-            "SELECT cancel_requested, state FROM worker_jobs WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?);
-        Ok(row.is_none_or(|(flag, state)| flag || state != "running"))
+    pub fn worker_job_cancel_requested<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<bool, StoreError>> {
+        Box::pin(async move {
+            let row: Option<(bool, String)> = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT cancel_requested, state FROM worker_jobs WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?);
+            Ok(row.is_none_or(|(flag, state)| flag || state != "running"))
+        })
     }
 
     /// Queues again the running jobs of workers that are gone (lease
     /// expired or stopped), with their render or study rows back to
     /// `queued`; a job claimed [`MAX_ATTEMPTS`] times fails instead.
     /// Returns how many jobs were re-queued or failed.
-    pub async fn requeue_abandoned_jobs(&self) -> Result<u64, StoreError> {
-        let clock = self.clock_sql();
-        let gone = format!("(d.stopped_at IS NOT NULL OR d.heartbeat_at + d.lease_seconds < {clock})");
-        let me = self.daemon_id.unwrap_or(-1);
-        let find = format!(
-            "SELECT {JOB_COLUMNS} FROM worker_jobs j WHERE j.state = 'running' AND j.worker_id <> $1 \
-             AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = j.worker_id AND {gone}) ORDER BY j.id"
-        );
-        let abandoned: Vec<WorkerJobRecord> =
-            with_pool!(self, |pool| sqlx::query_as(&find).bind(me).fetch_all(pool).await?);
-        let mut count = 0;
-        for job in abandoned {
-            let kind = WorkerJobKind::parse(&job.kind)?;
-            let worker = job.worker_id.unwrap_or(-1);
-            let give_up = job.attempts >= MAX_ATTEMPTS;
-            let why = format!(
-                "{} workers stopped while running this {} (the last: worker {worker}); \
-                 see their logs before retrying it",
-                job.attempts,
-                kind.as_str()
+    pub fn requeue_abandoned_jobs<'a>(&'a self) -> BoxFuture<'a, Result<u64, StoreError>> {
+        Box::pin(async move {
+            let clock = self.clock_sql();
+            let gone = format!("(d.stopped_at IS NOT NULL OR d.heartbeat_at + d.lease_seconds < {clock})");
+            let me = self.daemon_id.unwrap_or(-1);
+            let find = format!(
+                "SELECT {JOB_COLUMNS} FROM worker_jobs j WHERE j.state = 'running' AND j.worker_id <> $1 \
+                 AND EXISTS (SELECT 1 FROM daemons d WHERE d.id = j.worker_id AND {gone}) ORDER BY j.id"
             );
-            // The subject first: once the job is queued again another worker
-            // may claim it at once, and must find its row `queued`.
-            if let Some(table) = kind.subject_table() {
-                if give_up {
+            let abandoned: Vec<WorkerJobRecord> =
+                with_pool!(self, |pool| sqlx::query_as(&find).bind(me).fetch_all(pool).await?);
+            let mut count = 0;
+            for job in abandoned {
+                let kind = WorkerJobKind::parse(&job.kind)?;
+                let worker = job.worker_id.unwrap_or(-1);
+                let give_up = job.attempts >= MAX_ATTEMPTS;
+                let why = format!(
+                    "{} workers stopped while running this {} (the last: worker {worker}); \
+                     see their logs before retrying it",
+                    job.attempts,
+                    kind.as_str()
+                );
+                // The subject first: once the job is queued again another worker
+                // may claim it at once, and must find its row `queued`.
+                if let Some(table) = kind.subject_table() {
+                    if give_up {
+                        let sql = format!(
+                            "UPDATE {table} SET state = 'failed', error = $1, finished_at = {clock} \
+                             WHERE id = $2 AND state IN ('queued', 'running')"
+                        );
+                        with_pool!(self, |pool| sqlx::query(&sql)
+                            .bind(&why)
+                            .bind(job.subject_id)
+                            .execute(pool)
+                            .await?
+                            .rows_affected());
+                    } else {
+                        let sql = format!(
+                            "UPDATE {table} SET state = 'queued', daemon_id = $1 WHERE id = $2 AND state = 'running' \
+                             AND (daemon_id = $3 OR daemon_id IS NULL)"
+                        );
+                        with_pool!(self, |pool| sqlx::query(&sql)
+                            .bind(job.requested_by)
+                            .bind(job.subject_id)
+                            .bind(worker)
+                            .execute(pool)
+                            .await?
+                            .rows_affected());
+                    }
+                }
+                let n = if give_up {
                     let sql = format!(
-                        "UPDATE {table} SET state = 'failed', error = $1, finished_at = {clock} \
-                         WHERE id = $2 AND state IN ('queued', 'running')"
+                        "UPDATE worker_jobs SET state = 'failed', error = $1, finished_at = {clock} \
+                         WHERE id = $2 AND state = 'running' AND worker_id = $3"
                     );
                     with_pool!(self, |pool| sqlx::query(&sql)
                         .bind(&why)
-                        .bind(job.subject_id)
-                        .execute(pool)
-                        .await?
-                        .rows_affected());
-                } else {
-                    let sql = format!(
-                        "UPDATE {table} SET state = 'queued', daemon_id = $1 WHERE id = $2 AND state = 'running' \
-                         AND (daemon_id = $3 OR daemon_id IS NULL)"
-                    );
-                    with_pool!(self, |pool| sqlx::query(&sql)
-                        .bind(job.requested_by)
-                        .bind(job.subject_id)
+                        .bind(job.id)
                         .bind(worker)
                         .execute(pool)
                         .await?
-                        .rows_affected());
-                }
-            }
-            let n = if give_up {
-                let sql = format!(
-                    "UPDATE worker_jobs SET state = 'failed', error = $1, finished_at = {clock} \
-                     WHERE id = $2 AND state = 'running' AND worker_id = $3"
-                );
-                with_pool!(self, |pool| sqlx::query(&sql)
-                    .bind(&why)
+                        .rows_affected())
+                } else {
+                    with_pool!(self, |pool| sqlx::query(
+                        "UPDATE worker_jobs SET state = 'queued', worker_id = NULL, started_at = NULL, \
+                         cancel_requested = FALSE WHERE id = $1 AND state = 'running' AND worker_id = $2"
+                    )
                     .bind(job.id)
                     .bind(worker)
                     .execute(pool)
                     .await?
                     .rows_affected())
-            } else {
-                with_pool!(self, |pool| sqlx::query(
-                    "UPDATE worker_jobs SET state = 'queued', worker_id = NULL, started_at = NULL, \
-                     cancel_requested = FALSE WHERE id = $1 AND state = 'running' AND worker_id = $2"
-                )
-                .bind(job.id)
-                .bind(worker)
-                .execute(pool)
-                .await?
-                .rows_affected())
-            };
-            if n == 1 {
-                tracing::warn!(
-                    job = job.id,
-                    kind = kind.as_str(),
-                    subject = job.subject_id,
-                    worker,
-                    attempts = job.attempts,
-                    "{}",
-                    if give_up {
-                        "a worker job's workers keep vanishing: failed"
-                    } else {
-                        "a gone worker's job queued again"
-                    }
-                );
-                count += 1;
+                };
+                if n == 1 {
+                    tracing::warn!(
+                        job = job.id,
+                        kind = kind.as_str(),
+                        subject = job.subject_id,
+                        worker,
+                        attempts = job.attempts,
+                        "{}",
+                        if give_up {
+                            "a worker job's workers keep vanishing: failed"
+                        } else {
+                            "a gone worker's job queued again"
+                        }
+                    );
+                    count += 1;
+                }
             }
-        }
-        Ok(count)
+            Ok(count)
+        })
     }
 
     /// Marks this handle's process as a render worker, or publishes (as a
     /// daemon leaving its renders to workers) what a worker needs to render
     /// for it.
-    pub async fn set_daemon_role(
-        &self,
-        role: &str,
-        render_config: Option<&serde_json::Value>,
-    ) -> Result<(), StoreError> {
-        let me = self.registered_id("setting a role")?;
-        with_pool!(self, |pool| sqlx::query(
-            "UPDATE daemons SET role = $1, render_config_json = $2 WHERE id = $3"
-        )
-        .bind(role)
-        .bind(render_config.map(|c| c.to_string()))
-        .bind(me)
-        .execute(pool)
-        .await?
-        .rows_affected());
-        Ok(())
+    pub fn set_daemon_role<'a>(
+        &'a self,
+        role: &'a str,
+        render_config: Option<&'a serde_json::Value>,
+    ) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let me = self.registered_id("setting a role")?;
+            with_pool!(self, |pool| sqlx::query(
+                "UPDATE daemons SET role = $1, render_config_json = $2 WHERE id = $3"
+            )
+            .bind(role)
+            .bind(render_config.map(|c| c.to_string()))
+            .bind(me)
+            .execute(pool)
+            .await?
+            .rows_affected());
+            Ok(())
+        })
     }
 
     /// The render configuration daemon `id` published for workers.
-    pub async fn render_config(&self, id: i64) -> Result<Option<serde_json::Value>, StoreError> {
-        let text: Option<Option<String>> = with_pool!(self, |pool| sqlx::query_scalar(
-            "SELECT render_config_json FROM daemons WHERE id = $1"
-        )
-        .bind(id)
-        .fetch_optional(pool)
-        .await?);
-        text.flatten()
-            .map(|t| {
-                serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
-                    what: format!("daemons.render_config_json of daemon {id}"),
-                    err: e.to_string(),
+    pub fn render_config<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<serde_json::Value>, StoreError>> {
+        Box::pin(async move {
+            let text: Option<Option<String>> = with_pool!(self, |pool| sqlx::query_scalar(
+                "SELECT render_config_json FROM daemons WHERE id = $1"
+            )
+            .bind(id)
+            .fetch_optional(pool)
+            .await?);
+            text.flatten()
+                .map(|t| {
+                    serde_json::from_str(&t).map_err(|e| StoreError::Corrupt {
+                        what: format!("daemons.render_config_json of daemon {id}"),
+                        err: e.to_string(),
+                    })
                 })
-            })
-            .transpose()
+                .transpose()
+        })
     }
 }
 

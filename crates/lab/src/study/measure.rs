@@ -97,7 +97,7 @@ pub async fn measure_with_simulator(
             // recorder block: this runtime thread is handed over to them meanwhile.
             let outcome = tokio::task::block_in_place(|| -> anyhow::Result<Outcome> {
                 let runtime = tokio::runtime::Handle::current();
-                let never = || false;
+                let never = CancellationToken::new();
                 let recorder = Recorder::start(store, &runtime, id, Some(instrument_id), &never)?;
                 let cancel = CancellationToken::new();
                 Ok(recorder.take(
