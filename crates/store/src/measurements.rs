@@ -211,16 +211,15 @@ impl Store {
             };
             let mut summary = MeasurementSummary::try_from(record.summary)?;
             self.fill_partial_averages(std::slice::from_mut(&mut summary)).await?;
-            let sample_records: Vec<SampleRecord> =
-                with_pool!(self, |pool| {
-                    sqlx::query_as(
+            let sample_records: Vec<SampleRecord> = with_pool!(self, |pool| {
+                sqlx::query_as(
                 "SELECT idx, taken_at, code, message, usable, radiance_json, luminance_cd_m2, xyz_json FROM samples \
                  WHERE measurement_id = $1 ORDER BY idx",
             )
             .bind(id)
             .fetch_all(pool)
             .await?
-                });
+            });
             let mut samples = sample_records
                 .into_iter()
                 .map(SampleRow::try_from)
