@@ -371,7 +371,10 @@ function measurementQuery() {
 
 // The observer of lightbooth's x, y as a person reads it.
 function observerName(o) {
-  return { "judd-vos-1978": "Judd–Vos 1978 2°", "cie-1931": "CIE 1931 2°" }[o] || "observer not recorded";
+  return {
+    "judd-vos-1978": "Judd–Vos 1978 2°", "cie-1931": "CIE 1931 2°", "cie-1964-10": "CIE 1964 10°",
+    "cie-2015-2": "CIE 2015 2°", "cie-2015-10": "CIE 2015 10°",
+  }[o] || "observer not recorded";
 }
 
 async function loadMeasurements(openId) {

@@ -21,7 +21,7 @@ pub struct ColorArgs {
     /// Column every other column is compared with (adds ΔE*ab and ΔE00; needs --white).
     #[arg(long)]
     reference: Option<String>,
-    /// Colour-matching functions (the observer): judd-vos-1978 or cie-1931.
+    /// Colour-matching functions (the observer): judd-vos-1978, cie-1931, cie-1964-10, cie-2015-2 or cie-2015-10.
     #[arg(long, visible_alias = "observer", default_value = "judd-vos-1978", value_parser = parse_observer)]
     cmf: Observer,
     /// What the columns hold: absolute spectral radiance W/(sr·m²·nm) (Y in cd/m²),

@@ -104,7 +104,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = RenderSettings::default().max_samples,
           value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     max_samples: u64,
-    /// The observer of every XYZ, x,y and Y: judd-vos-1978 (the study's) or cie-1931.
+    /// The observer of every XYZ, x,y and Y: judd-vos-1978 (the study's), cie-1931, cie-1964-10, cie-2015-2 or cie-2015-10.
     #[arg(long, default_value = "judd-vos-1978")]
     observer: Observer,
     /// Print the results as JSON.

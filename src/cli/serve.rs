@@ -62,7 +62,7 @@ pub struct ServeArgs {
     #[arg(long = "mock-fault", value_name = "KIND[@DELAY][:RATE]")]
     mock_faults: Vec<Fault>,
     /// The observer of every x,y, XYZ, CIELAB and ΔE the daemon computes and
-    /// charts: judd-vos-1978 (the study's; default) or cie-1931.
+    /// charts: judd-vos-1978 (the study's; default), cie-1931, cie-1964-10, cie-2015-2 or cie-2015-10.
     #[arg(long)]
     observer: Option<Observer>,
     /// The folder of scene files the daemon measures, renders and compares

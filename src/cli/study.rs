@@ -75,7 +75,7 @@ pub struct StudyArgs {
     #[arg(long)]
     report: Option<PathBuf>,
     /// The observer of every XYZ, x,y, CIELAB and ΔE: judd-vos-1978 (the
-    /// study's) or cie-1931.
+    /// study's), cie-1931, cie-1964-10, cie-2015-2 or cie-2015-10.
     #[arg(long, default_value = "judd-vos-1978")]
     observer: Observer,
     /// The booth as it is, when it differs from the model: a scene file (for

@@ -261,3 +261,109 @@ fn radiance_csv_used_as_reflectance_is_named_as_light() {
     // The same files are fine as radiance.
     assert!(lightbooth(&["color", &by_size, "--unit", "radiance"]).0);
 }
+
+/// The embedded tables of the CIE observers and the Stockman & Sharpe cone
+/// fundamentals agree with colour-science's copies (an independent
+/// transcription of the same CVRL files, in the colour-specio venv that
+/// `tests/setup.sh` makes) to 1e-6 at every row they ship, and each
+/// observer's embedded grid is what `PROVENANCE.md` says (380 or 390 nm to
+/// 780 nm at 1 nm; Judd–Vos at 5 nm is CVRL's own and not in colour-science).
+#[test]
+fn the_observers_tables_agree_with_colour_science_to_1e_6() {
+    use lightbooth::colorimetry::{Cmf, ConeFundamentals, Observer};
+    let python = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/py312/bin/python");
+    assert!(
+        python.exists(),
+        "{} is missing: run `bash tests/setup.sh`, which makes the colour-specio venv with colour-science",
+        python.display()
+    );
+    let out = Command::new(&python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/colour_observers.py"))
+        .output()
+        .expect("run colour_observers.py");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let tables: Value = serde_json::from_slice(&out.stdout).unwrap();
+    // colour-science's value at `nm` (null, CVRL's blank, is 0).
+    let theirs = |key: &str, nm: f64| -> [f64; 3] {
+        let t = &tables[key];
+        let i = t["wavelength_nm"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|w| (w.as_f64().unwrap() - nm).abs() < 1e-9)
+            .unwrap_or_else(|| panic!("{key}: colour-science has no row at {nm} nm"));
+        std::array::from_fn(|c| t["values"][i][c].as_f64().unwrap_or(0.0))
+    };
+    let mut checked = 0;
+    for (observer, first_nm) in [
+        (Observer::Cie1931, 380.0),
+        (Observer::Cie1964Ten, 380.0),
+        (Observer::Cie2015Two, 390.0),
+        (Observer::Cie2015Ten, 390.0),
+    ] {
+        let cmf = Cmf::of(observer);
+        let w = cmf.grid().wavelengths();
+        assert_eq!(
+            (w[0], w[w.len() - 1], w.len()),
+            (first_nm, 780.0, (781.0 - first_nm) as usize),
+            "{observer}"
+        );
+        for &nm in w {
+            let (ours, theirs) = (cmf.at(nm), theirs(observer.name(), nm));
+            for c in 0..3 {
+                assert!(
+                    (ours[c] - theirs[c]).abs() <= 1e-6,
+                    "{observer} at {nm} nm, column {c}: {ours:?} vs {theirs:?}"
+                );
+            }
+            checked += 1;
+        }
+    }
+    for (cones, key) in [
+        (ConeFundamentals::StockmanSharpe2, "stockman-sharpe-2"),
+        (ConeFundamentals::StockmanSharpe10, "stockman-sharpe-10"),
+    ] {
+        let ours = cones.on_1nm_grid();
+        for (i, nm) in (390..=780).enumerate() {
+            let theirs = theirs(key, nm as f64);
+            for c in 0..3 {
+                let v = ours[c][i + 10];
+                assert!(
+                    (v - theirs[c]).abs() <= 1e-6,
+                    "{key} at {nm} nm, cone {c}: {v} vs {}",
+                    theirs[c]
+                );
+            }
+            checked += 1;
+        }
+        assert_eq!(ours[0][..10], [0.0; 10], "{key}: below 390 nm is 0");
+    }
+    println!("{checked} rows agree with colour-science {}", tables["colour_version"]);
+}
+
+/// `color --observer` takes every observer by its name, and each gives its
+/// own white point (CIE 15:2018 Table 9.1: D65 is x₁₀ = 0.31382, y₁₀ =
+/// 0.33100 in the 1964 10° observer; x = 0.31272 in CIE 1931 2°).
+#[test]
+fn color_takes_every_observer_by_name_and_names_it_in_the_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write_fixture(dir.path());
+    let mut white_x = Vec::new();
+    for name in ["judd-vos-1978", "cie-1931", "cie-1964-10", "cie-2015-2", "cie-2015-10"] {
+        let (ok, stdout, stderr) = lightbooth(&["color", csv.to_str().unwrap(), "--observer", name, "--json"]);
+        assert!(ok, "{name}: {stderr}");
+        let rows: Value = serde_json::from_str(&stdout).unwrap();
+        let rows = rows.as_array().unwrap();
+        assert!(rows.iter().all(|r| r["observer"] == name), "{stdout}");
+        let white = rows
+            .iter()
+            .find(|r| r["name"] == "white")
+            .unwrap_or_else(|| panic!("{stdout}"));
+        white_x.push((name, white["x"].as_f64().unwrap()));
+    }
+    let x = |n: &str| white_x.iter().find(|(m, _)| *m == n).unwrap().1;
+    assert!((x("cie-1931") - 0.31272).abs() < 2e-4, "{white_x:?}");
+    assert!((x("cie-1964-10") - 0.31382).abs() < 2e-4, "{white_x:?}");
+    let (ok, _, stderr) = lightbooth(&["color", csv.to_str().unwrap(), "--observer", "cie-2006"]);
+    assert!(!ok && stderr.contains("cie-2015-10"), "{stderr}");
+}

@@ -105,6 +105,33 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
     // `instrument_Y`.
     let xyz_y = m["XYZ"][1].as_f64().unwrap();
     assert_eq!(y, xyz_y, "Y is XYZ[1] of the observer: {m}");
+    // The stored spectrum's colorimetry in any observer: the daemon's own
+    // gives the stored x, y; the 10° observers another white point.
+    let colorimetry = |observer: &'static str| async move {
+        get_json(
+            d.addr,
+            &format!("/api/measurements/{id}/colorimetry?observer={observer}"),
+        )
+        .await
+    };
+    let (status, own) = colorimetry("judd-vos-1978").await;
+    assert_eq!(status, 200, "{own}");
+    for k in ["x", "y"] {
+        assert!(
+            (own[k].as_f64().unwrap() - m[k].as_f64().unwrap()).abs() < 1e-12,
+            "{own} vs {m}"
+        );
+    }
+    assert_eq!(own["recomputed_from_spectrum"], true);
+    for observer in ["cie-1931", "cie-1964-10", "cie-2015-2", "cie-2015-10"] {
+        let (status, c) = colorimetry(observer).await;
+        assert_eq!(status, 200, "{c}");
+        assert_eq!(c["observer"], observer);
+        let dx = (c["x"].as_f64().unwrap() - x).abs();
+        assert!(dx > 1e-5 && dx < 0.02, "{observer}: x {} vs Judd–Vos {x}", c["x"]);
+    }
+    let (status, e) = colorimetry("cie-2006").await;
+    assert_eq!(status, 400, "{e}");
     let instrument_y = m["instrument_Y"].as_f64().unwrap();
     assert!(
         (instrument_y - y).abs() > 1e-6 && (instrument_y / y - 1.0).abs() < 0.05,

@@ -94,6 +94,23 @@ async fn colorimeter_booths_in_their_observer_compare_every_coding() {
         for s in done["samples"].as_array().unwrap() {
             assert_eq!(s["instrument_XYZ"].as_array().map(Vec::len), Some(3), "{s}");
         }
+        // A colorimeter's XYZ stays in its observer: asked in its own, its
+        // own XYZ; in another, refused, saying why.
+        let (status, own) = get_json(d.addr, &format!("/api/measurements/{id}/colorimetry?observer=cie-1931")).await;
+        assert_eq!(status, 200, "{own}");
+        assert_eq!(own["recomputed_from_spectrum"], false);
+        assert_eq!(own["x"], done["x"], "{own}");
+        let (status, refused) = get_json(
+            d.addr,
+            &format!("/api/measurements/{id}/colorimetry?observer=cie-2015-10"),
+        )
+        .await;
+        assert_eq!(status, 409, "{refused}");
+        let message = refused["error"]["message"].as_str().unwrap_or_default();
+        assert!(
+            message.contains("cannot be recomputed in another observer"),
+            "{refused}"
+        );
         compared_with_every_coding(&d, id, &mut ev).await;
         d.stop().await;
     }

@@ -34,6 +34,25 @@ use lightbooth_science::calibration::standard::WhiteStandard;
 /// What a daemon without the renderer answers when asked to render.
 const NO_RENDERER: &str = "this daemon runs without the renderer";
 
+/// A measurement's XYZ and chromaticity in one observer
+/// ([`Lab::measurement_colorimetry`]).
+#[derive(Clone, Debug, serde::Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct MeasuredColorimetry {
+    pub id: i64,
+    /// The observer of `XYZ`, `x` and `y`.
+    #[cfg_attr(feature = "openapi", schema(value_type = String, example = "cie-2015-10"))]
+    pub observer: Observer,
+    /// `true`: computed now from the stored mean spectrum; `false`: the
+    /// colorimeter's own XYZ, in the observer it measured in.
+    pub recomputed_from_spectrum: bool,
+    #[serde(rename = "XYZ")]
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub xyz: Xyz,
+    pub x: f64,
+    pub y: f64,
+}
+
 /// The lab of one daemon (see the module doc).
 #[derive(Clone)]
 pub struct Lab {
@@ -182,6 +201,33 @@ impl Lab {
             .get_measurement(id)
             .await?
             .ok_or_else(|| LabError::NotFound(format!("no measurement {id}")))
+    }
+
+    /// A measurement's colorimetry in `observer`: recomputed from its mean
+    /// spectrum (a spectroradiometer's, in any observer), or a
+    /// colorimeter's own XYZ in the observer it was made in. Another
+    /// observer for a colorimeter's XYZ, or a luminance meter's
+    /// measurement, is refused ([`LabError::Conflict`], saying why): an XYZ
+    /// cannot be turned into another observer's.
+    pub async fn measurement_colorimetry(&self, id: i64, observer: Observer) -> Result<MeasuredColorimetry, LabError> {
+        let m = self.measurement(id).await?;
+        let xyz = crate::comparisons::white::measured_xyz(&m, observer)
+            .map_err(LabError::Conflict)?
+            .ok_or_else(|| {
+                LabError::Conflict(format!(
+                    "measurement {id} is {}: it has no spectrum and no XYZ yet",
+                    m.summary.state.as_str()
+                ))
+            })?;
+        let xy = xyz.chromaticity();
+        Ok(MeasuredColorimetry {
+            id,
+            observer,
+            recomputed_from_spectrum: m.radiance.is_some(),
+            xyz,
+            x: xy.x,
+            y: xy.y,
+        })
     }
 
     /// A measurement's comparisons with every coding.

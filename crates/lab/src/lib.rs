@@ -86,4 +86,4 @@ pub mod study_measurements;
 mod testing;
 pub mod worker_queue;
 
-pub use handle::Lab;
+pub use handle::{Lab, MeasuredColorimetry};

@@ -55,7 +55,7 @@ pub struct SceneStatus {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ScenesOverview {
     pub booth: String,
-    /// The observer of every ΔE00 (`judd-vos-1978` or `cie-1931`).
+    /// The observer of every ΔE00 (`judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or `cie-2015-10`).
     #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub observer: Observer,
     pub scenes: Vec<SceneStatus>,

@@ -54,15 +54,10 @@ use super::sensor::Image;
 use super::RenderError;
 use lightbooth_science::colorimetry::rgb::{apply, RgbSpace};
 use lightbooth_science::colorimetry::{Cmf, Observer, KM_LM_PER_W};
-use lightbooth_science::reference_data::cone_fundamentals_1nm;
 use lightbooth_science::spectrum::Grid;
 
 /// Largest storage a camera image may take (means and squared deviations).
 pub const MAX_IMAGE_BYTES: u64 = 2 << 30;
-
-/// V(λ) of the CIE 2006 2° observer from the cone fundamentals: weights of l̄ and m̄.
-pub const V2006_L: f64 = 0.689_902_72;
-pub const V2006_M: f64 = 0.348_321_89;
 
 /// How to render a camera image.
 #[derive(Clone, Debug)]
@@ -153,8 +148,12 @@ impl Colorimetry {
         let n = coding.channels();
         let mut rows = vec![vec![0.0; n]; 6];
         let mut unit = vec![0.0; layout.len()];
-        let fundamentals = cone_fundamentals_1nm();
-        let lms_scale = [KM_LM_PER_W * V2006_L, KM_LM_PER_W * V2006_M, KM_LM_PER_W];
+        // The cone fundamentals of the observer's field (2° or 10°), scaled
+        // so that L + M is the CIE 2006 luminous efficiency of that field.
+        let cones = observer.cone_fundamentals();
+        let fundamentals = cones.on_1nm_grid();
+        let [v_l, v_m] = cones.luminance_weights();
+        let lms_scale = [KM_LM_PER_W * v_l, KM_LM_PER_W * v_m, KM_LM_PER_W];
         for k in 0..n {
             unit.fill(0.0);
             unit[k] = 1.0;
@@ -199,10 +198,11 @@ impl Colorimetry {
     }
 }
 
-/// The 3 × 3 matrix A minimising Σλ |A·(x̄, ȳ, z̄)(λ) − (l̄, m̄, s̄)(λ)|² at 1 nm.
+/// The 3 × 3 matrix A minimising Σλ |A·(x̄, ȳ, z̄)(λ) − (l̄, m̄, s̄)(λ)|² at 1 nm,
+/// with the cone fundamentals of the observer's field.
 pub fn lms_from_xyz_fit(observer: Observer) -> DMat3 {
     let cmf = Cmf::of(observer).on_grid(&Grid::one_nm());
-    let f = cone_fundamentals_1nm();
+    let f = observer.cone_fundamentals().on_1nm_grid();
     // Normal equations: A = (F Xᵀ)(X Xᵀ)⁻¹ with X the 3 × 401 CMF matrix.
     let mut xxt = DMat3::ZERO;
     let mut fxt = DMat3::ZERO;
@@ -570,6 +570,7 @@ impl CameraImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightbooth_science::colorimetry::ConeFundamentals;
 
     /// The least-squares fit reproduces the fundamentals' L and M closely
     /// (cones are nearly a linear transform of any 2° CMFs); S is worse with
@@ -578,7 +579,7 @@ mod tests {
     fn lms_fit_from_xyz_matches_the_fundamentals() {
         let a = lms_from_xyz_fit(Observer::JuddVos);
         let cmf = Cmf::of(Observer::JuddVos).on_grid(&Grid::one_nm());
-        let f = cone_fundamentals_1nm();
+        let f = ConeFundamentals::StockmanSharpe2.on_1nm_grid();
         let mut worst = [0.0f64; 3];
         for i in 0..401 {
             let lms = a * DVec3::new(cmf[0][i], cmf[1][i], cmf[2][i]);
@@ -590,15 +591,19 @@ mod tests {
         assert!(worst[0] < 0.05 && worst[1] < 0.05 && worst[2] < 0.25, "{worst:?}");
     }
 
-    /// The weights of V(λ) 2006: 0.68990272 l̄ + 0.34832189 m̄ peaks at 1
-    /// near 555 nm (CIE 170-1:2006 normalises V to a peak of 1).
+    /// The weights of V(λ) 2006: 0.68990272 l̄ + 0.34832189 m̄ (2°) and
+    /// 0.69283932 l̄ + 0.34967567 m̄ (10°) peak at 1 near 555 nm (CIE
+    /// 170-1:2006 normalises V to a peak of 1).
     #[test]
     fn v2006_from_the_fundamentals_peaks_at_one() {
-        let f = cone_fundamentals_1nm();
-        let (i, peak) = (0..401)
-            .map(|i| (i, V2006_L * f[0][i] + V2006_M * f[1][i]))
-            .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-        assert!((peak - 1.0).abs() < 2e-3, "{peak}");
-        assert!((380 + i as i32 - 556).abs() <= 3, "{i}");
+        for cones in [ConeFundamentals::StockmanSharpe2, ConeFundamentals::StockmanSharpe10] {
+            let f = cones.on_1nm_grid();
+            let [v_l, v_m] = cones.luminance_weights();
+            let (i, peak) = (0..401)
+                .map(|i| (i, v_l * f[0][i] + v_m * f[1][i]))
+                .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+            assert!((peak - 1.0).abs() < 2e-3, "{cones:?}: {peak}");
+            assert!((380 + i as i32 - 556).abs() <= 3, "{cones:?}: {i}");
+        }
     }
 }

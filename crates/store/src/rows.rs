@@ -136,7 +136,7 @@ pub struct MeasurementSummary {
     pub instrument_x: Option<f64>,
     /// The instrument's own CIE 1931 2° y (see `instrument_x`).
     pub instrument_y: Option<f64>,
-    /// The observer of `x`, `y` and `XYZ`: `judd-vos-1978` or `cie-1931`
+    /// The observer of `x`, `y` and `XYZ`: `judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or `cie-2015-10`
     /// (the daemon's `--observer` when the measurement completed).
     #[cfg_attr(feature = "openapi", schema(value_type = Option<String>))]
     pub observer: Option<Observer>,

@@ -62,7 +62,7 @@ pub struct NewDisplayProfile {
     pub name: Option<String>,
     #[serde(default)]
     pub note: String,
-    /// `judd-vos-1978` (default) or `cie-1931`: the observer of every XYZ of
+    /// `judd-vos-1978` (default), `cie-1931`, `cie-1964-10`, `cie-2015-2` or `cie-2015-10`: the observer of every XYZ of
     /// the profile. Patches measured by a colorimeter or a luminance meter
     /// are in their instrument's observer, which is then the profile's
     /// (another is refused).

@@ -34,7 +34,7 @@ pub struct Health {
     pub database_error: Option<String>,
     pub version: String,
     /// The observer of every x, y, Y and ΔE this daemon computes
-    /// (`serve --observer`): `judd-vos-1978` or `cie-1931`.
+    /// (`serve --observer`): `judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or `cie-2015-10`.
     pub observer: String,
     /// Samples per measurement when a request names none (a study's
     /// `measure_missing` queues that many per target).

@@ -127,6 +127,34 @@ pub async fn get_measurement(
     Ok(Json(load_measurement(&state, id).await?))
 }
 
+/// The observer a measurement's colorimetry is recomputed in.
+#[derive(Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+pub struct ObserverQuery {
+    /// `judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or
+    /// `cie-2015-10` (default: the daemon's `--observer`).
+    #[param(value_type = Option<String>, nullable = false)]
+    pub observer: Option<crate::colorimetry::Observer>,
+}
+
+/// A measurement's XYZ and x, y in any observer, recomputed from its stored
+/// mean spectrum. A colorimeter's XYZ stays in the observer it was made in:
+/// asking for another is refused (409), as is a luminance meter's
+/// measurement (it has no colour).
+#[utoipa::path(get, path = "/measurements/{id}/colorimetry", tag = "measurements",
+    params(("id" = i64, Path), ObserverQuery),
+    responses((status = 200, body = crate::lab::MeasuredColorimetry),
+        (status = 404, body = crate::http::error::ErrorBody), (status = 409, body = crate::http::error::ErrorBody)))]
+pub async fn measurement_colorimetry(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<ObserverQuery>,
+) -> Result<Json<crate::lab::MeasuredColorimetry>, ApiError> {
+    let observer = q.observer.unwrap_or(state.lab.observer());
+    Ok(Json(state.lab.measurement_colorimetry(id, observer).await?))
+}
+
 /// Wavelength, mean, SD and every sample as columns (values as the instrument gave them, per nm).
 #[utoipa::path(get, path = "/measurements/{id}/spectrum.csv", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv")))]

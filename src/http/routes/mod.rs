@@ -62,6 +62,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(list_sessions, create_session))
         .routes(routes!(list_measurements, start_measurement))
         .routes(routes!(get_measurement))
+        .routes(routes!(measurement_colorimetry))
         .routes(routes!(cancel_measurement))
         .routes(routes!(measurement_csv))
         .routes(routes!(measurement_mat))

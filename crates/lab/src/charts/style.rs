@@ -222,8 +222,5 @@ pub fn coding_css() -> String {
 
 /// The observer's name as charts print it.
 pub fn observer_name(observer: Observer) -> &'static str {
-    match observer {
-        Observer::JuddVos => "Judd–Vos 1978 2°",
-        Observer::Cie1931 => "CIE 1931 2°",
-    }
+    observer.label()
 }

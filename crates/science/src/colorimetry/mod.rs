@@ -15,7 +15,10 @@
 //! - x̄(λᵢ) is the matching-function table's own row where it has one, and a
 //!   linear interpolation between its two neighbouring rows otherwise (a
 //!   PR-650's 384 nm under the 5 nm Judd–Vos table). Outside the table
-//!   (380–780 nm for both shipped observers) the matching functions are zero.
+//!   the matching functions are zero. The tables cover 380–780 nm, except
+//!   the CIE 2015 2° and 10° observers', which start at 390 nm as CVRL
+//!   publishes them (x̄ there is below 0.4 % of its peak; what is left out
+//!   below 390 nm is said in `reference_data/PROVENANCE.md`).
 //! - No trapezoid end weights, no ASTM E308 weighting tables.
 //! - The grid must cover what the sum needs: all of 380–780 nm
 //!   ([`INTEGRATION_RANGE_NM`]) at a step of at most
@@ -60,9 +63,11 @@ pub const KM_LM_PER_W: f64 = 683.0;
 
 /// The standard observer whose matching functions turn spectra into XYZ.
 ///
-/// Serialised (JSON, CSV/MAT headers, store columns) as `"judd-vos-1978"` or
-/// `"cie-1931"`; parsing also accepts the older spellings `judd-vos`,
-/// `juddvos`, `cie1931` and `1931`.
+/// Serialised (JSON, CSV/MAT headers, store columns) by [`Observer::name`]:
+/// `judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or
+/// `cie-2015-10`; parsing also accepts the older spellings `judd-vos`,
+/// `juddvos`, `cie1931` and `1931`, and `cie-2012-2`/`cie-2012-10` (CVRL's
+/// name for the 2015 observers).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Observer {
     /// CIE 1931 2° modified by Judd (1951) and Vos (1978): the study's observer.
@@ -70,6 +75,15 @@ pub enum Observer {
     JuddVos,
     /// CIE 1931 2° standard observer.
     Cie1931,
+    /// CIE 1964 10° supplementary standard observer.
+    Cie1964Ten,
+    /// CIE 170-2:2015 2° "physiologically relevant" observer (CVRL's "CIE
+    /// 2012"), a linear transform of the Stockman & Sharpe 2° cone
+    /// fundamentals. Its table starts at 390 nm.
+    Cie2015Two,
+    /// CIE 170-2:2015 10° observer, from the 10° cone fundamentals. Its
+    /// table starts at 390 nm.
+    Cie2015Ten,
 }
 
 impl FromStr for Observer {
@@ -78,18 +92,117 @@ impl FromStr for Observer {
         match s.to_ascii_lowercase().as_str() {
             "judd-vos" | "juddvos" | "judd-vos-1978" => Ok(Observer::JuddVos),
             "cie1931" | "cie-1931" | "1931" => Ok(Observer::Cie1931),
-            _ => Err(format!("unknown observer `{s}`: choose judd-vos-1978 or cie-1931")),
+            "cie-1964-10" => Ok(Observer::Cie1964Ten),
+            "cie-2015-2" | "cie-2012-2" => Ok(Observer::Cie2015Two),
+            "cie-2015-10" | "cie-2012-10" => Ok(Observer::Cie2015Ten),
+            _ => Err(format!(
+                "unknown observer `{s}`: choose one of {}",
+                Observer::ALL.map(Observer::name).join(", ")
+            )),
         }
     }
 }
 
 impl Observer {
-    /// The name every output uses: `judd-vos-1978` or `cie-1931`.
+    /// Every observer lightbooth ships, the default first.
+    pub const ALL: [Observer; 5] = [
+        Observer::JuddVos,
+        Observer::Cie1931,
+        Observer::Cie1964Ten,
+        Observer::Cie2015Two,
+        Observer::Cie2015Ten,
+    ];
+
+    /// The name every output uses: `judd-vos-1978`, `cie-1931`,
+    /// `cie-1964-10`, `cie-2015-2` or `cie-2015-10`.
     pub fn name(self) -> &'static str {
         match self {
             Observer::JuddVos => "judd-vos-1978",
             Observer::Cie1931 => "cie-1931",
+            Observer::Cie1964Ten => "cie-1964-10",
+            Observer::Cie2015Two => "cie-2015-2",
+            Observer::Cie2015Ten => "cie-2015-10",
         }
+    }
+
+    /// The observer as a person reads it in a figure or a table:
+    /// `Judd–Vos 1978 2°`, `CIE 1964 10°`…
+    pub fn label(self) -> &'static str {
+        match self {
+            Observer::JuddVos => "Judd–Vos 1978 2°",
+            Observer::Cie1931 => "CIE 1931 2°",
+            Observer::Cie1964Ten => "CIE 1964 10°",
+            Observer::Cie2015Two => "CIE 2015 2°",
+            Observer::Cie2015Ten => "CIE 2015 10°",
+        }
+    }
+
+    /// The visual field the observer's matching functions are for, in
+    /// degrees: 2 or 10.
+    pub fn field_degrees(self) -> u32 {
+        match self {
+            Observer::JuddVos | Observer::Cie1931 | Observer::Cie2015Two => 2,
+            Observer::Cie1964Ten | Observer::Cie2015Ten => 10,
+        }
+    }
+
+    /// The cone fundamentals of the observer's field (Stockman & Sharpe 2°
+    /// or 10°): what an LMS beside this observer's XYZ is computed with.
+    pub fn cone_fundamentals(self) -> ConeFundamentals {
+        if self.field_degrees() == 10 {
+            ConeFundamentals::StockmanSharpe10
+        } else {
+            ConeFundamentals::StockmanSharpe2
+        }
+    }
+}
+
+/// The Stockman & Sharpe (2000) cone fundamentals l̄, m̄, s̄ (linear energy
+/// units, each peaking at 1), the basis of the CIE 170-1:2006 and 170-2:2015
+/// observers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ConeFundamentals {
+    /// 2° field.
+    StockmanSharpe2,
+    /// 10° field.
+    StockmanSharpe10,
+}
+
+impl ConeFundamentals {
+    /// The weights a_L, a_M of CIE 170-1:2006's luminous efficiency
+    /// V_F(λ) = a_L·l̄(λ) + a_M·m̄(λ) (S cones do not contribute), for
+    /// fundamentals each peaking at 1. CIE 170-2:2015, table 4 (2°:
+    /// 0.68990272, 0.34832189; 10°: 0.69283932, 0.34967567).
+    pub fn luminance_weights(self) -> [f64; 2] {
+        match self {
+            ConeFundamentals::StockmanSharpe2 => [0.689_902_72, 0.348_321_89],
+            ConeFundamentals::StockmanSharpe10 => [0.692_839_32, 0.349_675_67],
+        }
+    }
+
+    /// l̄, m̄, s̄ on the 380–780 nm, 1 nm grid. The tables start at 390 nm;
+    /// 380–389 nm are taken as 0 (an approximation: at 390 nm l̄ is 4·10⁻⁴
+    /// of its peak and s̄ 1·10⁻² (2°) or 6·10⁻³ (10°)). CVRL leaves the 10°
+    /// s̄ blank above 615 nm (below 3·10⁻⁶ of its peak): 0 here.
+    pub fn on_1nm_grid(self) -> &'static [Vec<f64>; 3] {
+        static CELLS: [OnceLock<[Vec<f64>; 3]>; 2] = [const { OnceLock::new() }; 2];
+        let (cell, table) = match self {
+            ConeFundamentals::StockmanSharpe2 => (&CELLS[0], "stockman_sharpe_2deg_cone_fundamentals"),
+            ConeFundamentals::StockmanSharpe10 => (&CELLS[1], "stockman_sharpe_10deg_cone_fundamentals"),
+        };
+        cell.get_or_init(|| {
+            let t = reference_data::builtin_table(table).expect("the fundamentals are embedded");
+            ["l", "m", "s"].map(|name| {
+                let s = t
+                    .spectrum(name, SpectralUnit::RelativePower)
+                    .unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"));
+                Grid::one_nm()
+                    .wavelengths()
+                    .iter()
+                    .map(|&nm| s.value_at(nm).unwrap_or(0.0))
+                    .collect()
+            })
+        })
     }
 }
 
@@ -123,14 +236,21 @@ pub struct Cmf {
 impl Cmf {
     /// The shipped table of an observer, parsed once.
     pub fn of(observer: Observer) -> &'static Cmf {
-        static JV: OnceLock<Cmf> = OnceLock::new();
-        static C31: OnceLock<Cmf> = OnceLock::new();
-        let (cell, table) = match observer {
-            Observer::JuddVos => (&JV, reference_data::cmf_table_judd_vos()),
-            Observer::Cie1931 => (&C31, reference_data::cmf_table_cie1931()),
-        };
-        cell.get_or_init(|| {
-            let col = |name| {
+        static CELLS: [OnceLock<Cmf>; 5] = [const { OnceLock::new() }; 5];
+        let index = Observer::ALL
+            .iter()
+            .position(|o| *o == observer)
+            .expect("every observer is in ALL");
+        CELLS[index].get_or_init(|| {
+            let file = match observer {
+                Observer::JuddVos => "judd_vos_1978_cmf",
+                Observer::Cie1931 => "cie1931_2deg_cmf",
+                Observer::Cie1964Ten => "cie1964_10deg_cmf",
+                Observer::Cie2015Two => "cie2015_2deg_cmf",
+                Observer::Cie2015Ten => "cie2015_10deg_cmf",
+            };
+            let table = reference_data::builtin_table(file).expect("every observer's table is embedded");
+            let col = |name: &str| {
                 table
                     .spectrum(name, SpectralUnit::RelativePower)
                     .expect("embedded CMF")
@@ -459,6 +579,72 @@ mod tests {
             assert_eq!(serde_json::from_str::<Observer>(&format!("\"{old}\"")).unwrap(), o);
         }
         assert!("cie1964".parse::<Observer>().is_err());
+        for o in Observer::ALL {
+            assert_eq!(o.name().parse::<Observer>().unwrap(), o);
+            assert_eq!(
+                serde_json::from_str::<Observer>(&serde_json::to_string(&o).unwrap()).unwrap(),
+                o
+            );
+        }
+        assert_eq!("cie-2012-10".parse::<Observer>().unwrap(), Observer::Cie2015Ten);
+        let e = "cie-2006".parse::<Observer>().unwrap_err();
+        assert!(e.contains("cie-1964-10, cie-2015-2, cie-2015-10"), "{e}");
+    }
+
+    /// CIE 15:2018 Table 9.1 (also CIE 15:2004 Table T.3): D65 with the CIE
+    /// 1964 10° observer has x₁₀ = 0.31382, y₁₀ = 0.33100.
+    #[test]
+    fn d65_white_point_in_the_1964_ten_degree_observer_matches_cie_15() {
+        let white = Spectrum::constant(Grid::one_nm(), SpectralUnit::Reflectance, 1.0).unwrap();
+        let d65 = illuminant_1nm(Illuminant::D65).unwrap();
+        let xy = xyz_relative(&white, &d65, Observer::Cie1964Ten).unwrap().chromaticity();
+        assert!((xy.x - 0.31382).abs() < 5e-5 && (xy.y - 0.33100).abs() < 5e-5, "{xy:?}");
+    }
+
+    /// CIE 170-2:2015 defines its 2° and 10° observers as a linear
+    /// transform of the Stockman & Sharpe cone fundamentals, x̄ȳz̄_F = M·l̄m̄s̄
+    /// (the matrices of CIE 170-2:2015, eq. 8.2 and 8.3; ȳ_F is the 2006
+    /// V_F). The shipped 2015 tables (CVRL `lin2012xyz*e_1_7sf`, 7
+    /// significant figures) and the shipped fundamentals (CVRL
+    /// `linss*e_1`, 6 figures) are two tables: this checks one against the
+    /// other through the standard's own definition.
+    #[test]
+    fn the_2015_observers_are_the_cie_170_2_transform_of_the_cone_fundamentals() {
+        let cases = [
+            (
+                Observer::Cie2015Two,
+                [
+                    [1.947_354_69, -1.414_451_23, 0.364_763_27],
+                    [0.689_902_72, 0.348_321_89, 0.0],
+                    [0.0, 0.0, 1.934_853_43],
+                ],
+            ),
+            (
+                Observer::Cie2015Ten,
+                [
+                    [1.939_864_43, -1.346_643_59, 0.430_449_35],
+                    [0.692_839_32, 0.349_675_67, 0.0],
+                    [0.0, 0.0, 2.146_879_45],
+                ],
+            ),
+        ];
+        for (observer, m) in cases {
+            let cones = observer.cone_fundamentals().on_1nm_grid();
+            let cmf = Cmf::of(observer).on_grid(&Grid::one_nm());
+            let mut worst = 0.0f64;
+            for i in 10..401 {
+                for r in 0..3 {
+                    let from_cones: f64 = (0..3).map(|c| m[r][c] * cones[c][i]).sum();
+                    worst = worst.max((from_cones - cmf[r][i]).abs());
+                }
+            }
+            // The fundamentals' 6 figures: a rounding of 5·10⁻⁶ of values up
+            // to 1, times matrix entries up to 2.
+            assert!(worst < 3e-5, "{observer}: worst |M·lms − xyz| = {worst:e}");
+            // Below 390 nm the 2015 tables have no rows: zero.
+            assert_eq!(Cmf::of(observer).at(385.0), [0.0; 3]);
+            assert!(Cmf::of(observer).at(390.0)[2] > 0.0);
+        }
     }
 
     #[test]

@@ -25,7 +25,11 @@ const ILLUMINANTS_1NM_CSV: &str = include_str!("illuminants_1nm.csv");
 const COLORCHECKER_CSV: &str = include_str!("colorchecker_classic.csv");
 const MUNSELL_CSV: &str = include_str!("munsell_matt.csv");
 const NATURAL_CSV: &str = include_str!("natural_reflectances.csv");
+const CIE1964_10_CSV: &str = include_str!("cie1964_10deg_cmf.csv");
+const CIE2015_2_CSV: &str = include_str!("cie2015_2deg_cmf.csv");
+const CIE2015_10_CSV: &str = include_str!("cie2015_10deg_cmf.csv");
 const CONE_FUNDAMENTALS_CSV: &str = include_str!("stockman_sharpe_2deg_cone_fundamentals.csv");
+const CONE_FUNDAMENTALS_10_CSV: &str = include_str!("stockman_sharpe_10deg_cone_fundamentals.csv");
 
 /// Parses an embedded table; these files ship with the binary and are tested,
 /// so a failure here is a build defect, not user error.
@@ -36,7 +40,7 @@ fn embedded(text: &str, name: &str) -> SpectraTable {
 /// Every table compiled in, by its file name without `.csv` (the file
 /// beside this module): what `lightbooth color builtin:NAME` reads, so the
 /// manual's examples need no copy of the source tree.
-pub const BUILTIN_TABLES: [(&str, &str); 8] = [
+pub const BUILTIN_TABLES: [(&str, &str); 12] = [
     ("colorchecker_classic", COLORCHECKER_CSV),
     ("munsell_matt", MUNSELL_CSV),
     ("natural_reflectances", NATURAL_CSV),
@@ -44,7 +48,11 @@ pub const BUILTIN_TABLES: [(&str, &str); 8] = [
     ("illuminants_1nm", ILLUMINANTS_1NM_CSV),
     ("judd_vos_1978_cmf", JUDD_VOS_CSV),
     ("cie1931_2deg_cmf", CIE1931_CSV),
+    ("cie1964_10deg_cmf", CIE1964_10_CSV),
+    ("cie2015_2deg_cmf", CIE2015_2_CSV),
+    ("cie2015_10deg_cmf", CIE2015_10_CSV),
     ("stockman_sharpe_2deg_cone_fundamentals", CONE_FUNDAMENTALS_CSV),
+    ("stockman_sharpe_10deg_cone_fundamentals", CONE_FUNDAMENTALS_10_CSV),
 ];
 
 /// The compiled-in table `name` (see [`BUILTIN_TABLES`]; a trailing `.csv`
@@ -55,17 +63,6 @@ pub fn builtin_table(name: &str) -> Option<SpectraTable> {
         .iter()
         .find(|(n, _)| *n == name)
         .map(|(n, text)| embedded(text, &format!("builtin:{n}")))
-}
-
-/// Raw CMF tables (x̄, ȳ, z̄ columns) for [`crate::colorimetry::Observer`].
-pub(crate) fn cmf_table_judd_vos() -> &'static SpectraTable {
-    static T: OnceLock<SpectraTable> = OnceLock::new();
-    T.get_or_init(|| embedded(JUDD_VOS_CSV, "judd_vos_1978_cmf.csv"))
-}
-
-pub(crate) fn cmf_table_cie1931() -> &'static SpectraTable {
-    static T: OnceLock<SpectraTable> = OnceLock::new();
-    T.get_or_init(|| embedded(CIE1931_CSV, "cie1931_2deg_cmf.csv"))
 }
 
 /// The CIE illuminants lightbooth ships.
@@ -132,28 +129,6 @@ pub fn illuminant_1nm(which: Illuminant) -> Option<Spectrum> {
     static T: OnceLock<SpectraTable> = OnceLock::new();
     let t = T.get_or_init(|| embedded(ILLUMINANTS_1NM_CSV, "illuminants_1nm.csv"));
     t.spectrum(which.name(), SpectralUnit::RelativePower).ok()
-}
-
-/// The Stockman & Sharpe (2000) 2° cone fundamentals l̄, m̄, s̄ (linear
-/// energy units, each peaking at 1) on the 380–780 nm, 1 nm grid.
-///
-/// The table starts at 390 nm; 380–389 nm are taken as 0 (an approximation:
-/// at 390 nm l̄ is 4·10⁻⁴ and s̄ 1·10⁻² of their peaks).
-pub fn cone_fundamentals_1nm() -> &'static [Vec<f64>; 3] {
-    static T: OnceLock<[Vec<f64>; 3]> = OnceLock::new();
-    T.get_or_init(|| {
-        let t = embedded(CONE_FUNDAMENTALS_CSV, "stockman_sharpe_2deg_cone_fundamentals.csv");
-        let grid = crate::spectrum::Grid::one_nm();
-        ["l", "m", "s"].map(|name| {
-            let s = t
-                .spectrum(name, SpectralUnit::RelativePower)
-                .unwrap_or_else(|e| panic!("embedded data is corrupt: {e}"));
-            grid.wavelengths()
-                .iter()
-                .map(|&nm| s.value_at(nm).unwrap_or(0.0))
-                .collect()
-        })
-    })
 }
 
 /// The reflectance sets lightbooth ships.
@@ -227,7 +202,7 @@ mod tests {
         }
         assert!(illuminant_1nm(Illuminant::D65).unwrap().grid().same_as(&Grid::one_nm()));
         assert!(illuminant_1nm(Illuminant::F11).is_none());
-        let lms = cone_fundamentals_1nm();
+        let lms = crate::colorimetry::ConeFundamentals::StockmanSharpe2.on_1nm_grid();
         assert!(lms.iter().all(|c| c.len() == 401));
         // Peaks of 1 (the table's normalisation) at the published wavelengths:
         // L 570 nm, M 543 nm, S 442 nm (Stockman & Sharpe 2000, 2°).
