@@ -18,6 +18,11 @@
 //! - [`observer`]: a simulated observer whose true d′ is known (ΔE*ab over
 //!   its stated noise), for tests and for planning.
 //! - [`plan`]: how many trials tell one d′ from another with a given power.
+//! - [`threshold`]: each observer's threshold from all its conditions:
+//!   σ of d′ = ΔE00/σ by maximum likelihood, its profile-likelihood
+//!   interval (unbounded ends reported as such), the ΔE00 at 2/3 correct,
+//!   the deviance's goodness of fit, and the proportion correct predicted
+//!   at any ΔE00, under either oddity model.
 //! - [`presentation`]: the pie's size and the trial's timeline in frames.
 //!
 //! ```
@@ -36,6 +41,7 @@ pub mod observer;
 pub mod oddity;
 pub mod plan;
 pub mod presentation;
+pub mod threshold;
 
 /// The standard normal distribution function Φ(x), from `libm`'s `erfc`
 /// (a port of musl's, accurate to about one unit in the last place):

@@ -1,0 +1,1074 @@
+//! Each observer's threshold: the colour difference it tells from the
+//! original at 2/3 correct, fitted to its oddity trials over all the
+//! conditions it saw.
+//!
+//! **Model.** An observer's d′ for an approximation is proportional to the
+//! approximation's colour difference from the original,
+//! d′ = ΔE00 / σ, with one parameter σ > 0 (ΔE00 units) per observer, or
+//! one for a pool (pass the pooled observers' conditions together). That d′
+//! grows linearly with ΔE00 is an assumption of this fit, not a property of
+//! CIEDE2000 (Luo, Cui & Rigg 2001, *Color Res. Appl.* 26(5)), whose
+//! differences are only approximately uniform in perceived size. A
+//! condition i, shown n_i times with k_i correct, has proportion correct
+//! p_i = Pc(ΔE_i / σ) under the caller's [`OddityModel`].
+//!
+//! **Fit.** σ̂ maximises the binomial log-likelihood
+//! ℓ(σ) = Σ_i [ln C(n_i, k_i) + k_i ln p_i + (n_i − k_i) ln(1 − p_i)]
+//! (the binomial coefficients included, so ℓ is the log of the data's
+//! probability). The search is over the sensitivity s = 1/σ, which
+//! includes both ends: s = 0 (σ = ∞, every p_i at chance) and s → ∞
+//! (σ → 0, every p_i → 1). ℓ is evaluated at s = 0 and on a grid of s
+//! spaced 5 % apart, from where the largest d′ is 10⁻³ to where the
+//! smallest positive one reaches [`MAX_D_PRIME`] (beyond it Pc is held at
+//! its value there, so ℓ is flat); the best grid point is refined by
+//! golden-section search (Press et al. 2007, *Numerical Recipes*, 3rd ed.,
+//! §10.2) on the grid steps either side of it. A grid, not a bracket from
+//! one start, because nothing guarantees that ℓ has a single maximum; a
+//! second maximum within 5 % of the first would not be told apart.
+//!
+//! **The ends,** reported as they are ([`Maximum`]), with no number made up:
+//! - every trial at a positive ΔE00 correct: ℓ rises as σ falls, its
+//!   supremum is at σ → 0. σ̂ = 0 and the threshold 0, the interval's lower
+//!   end 0 and its upper end finite.
+//! - the data no better than chance (ℓ largest at s = 0, which is where
+//!   every count at or below one third correct puts it): σ̂ is unbounded,
+//!   there is no finite threshold, and the interval has a finite lower end
+//!   and no upper one.
+//!
+//! **Interval.** The profile-likelihood interval (Pawitan 2001, *In All
+//! Likelihood*, §2.6 and §3.4; with one parameter the profile is ℓ itself):
+//! {σ : 2(ℓ̂ − ℓ(σ)) ≤ χ²₁(c)}, χ²₁(0.95) = 3.841458820694124, whose
+//! coverage tends to c as the trials grow (Wilks 1938, *Ann. Math. Stat.*
+//! 9). Its ends are found by bisection on the grid step where ℓ crosses the
+//! cut; if ℓ has several maxima the interval reported is the hull of the
+//! set (from the lowest σ to the highest at which ℓ reaches the cut), which
+//! can only be wider than the set. Where ℓ stays above the cut all the way
+//! to s = 0 the interval has no upper end; where it stays above it up to
+//! the flat end of the grid, its lower end is 0. The threshold ΔE00 at
+//! 2/3 correct is σ · d′(2/3) under the same model, so its interval is σ's
+//! scaled.
+//!
+//! **Goodness of fit.** The deviance against the saturated model (one p per
+//! condition, p = k/n), D = 2 Σ [k ln(k/(n p̂)) + (n − k) ln((n − k)/(n(1 − p̂)))]
+//! with 0 · ln 0 = 0, on df = (conditions with trials) − 1, and its
+//! p-value from the χ² distribution (McCullagh & Nelder 1989, *Generalized
+//! Linear Models*, 2nd ed., §4.4.3). The χ² reference is asymptotic: with
+//! few trials per condition, or p̂ near 1, the deviance's distribution
+//! departs from it (Wichmann & Hill 2001, *Perception & Psychophysics*
+//! 63(8), 1293–1313, who recommend Monte Carlo for the study's sizes), so
+//! the p-value is a guide, not an exact test. It is also so when σ̂ is at
+//! an end. With one condition, df = 0 and there is no p-value: the fit has
+//! no degrees of freedom left.
+//!
+//! **Approximation.** Pc(d′) is an integral (see [`super::oddity`]); the
+//! independent-observation one costs about a millisecond, and a fit
+//! evaluates ℓ some hundreds of times. The fit therefore evaluates Pc from a
+//! clamped cubic spline (Press et al. 2007, §3.3) through the model's
+//! values at d′ = 0, 0.05, …, [`MAX_D_PRIME`], built once per model (about
+//! 0.3 s for independent observation). Its slope is 0 at d′ = 0 (Pc is even
+//! in d′) and at the top end is taken from a three-point difference. A
+//! clamped spline's error is at most (5/384) h⁴ max|Pc⁗| (Hall & Meyer
+//! 1976, *J. Approx. Theory* 16); measured against the integrals here it
+//! is below 10⁻⁶ in Pc under both models (a test), far below what a count
+//! resolves. ℓ̂ and the deviance are the spline's; the threshold (through
+//! d′(2/3)) and the predictions use the model's integral itself.
+//!
+//! ```
+//! use lightbooth_science::psychophysics::oddity::OddityModel;
+//! use lightbooth_science::psychophysics::threshold::{fit, Condition, Maximum};
+//!
+//! // One observer: four approximations, 36 trials each.
+//! let seen = [(0.6, 14), (1.2, 17), (2.4, 26), (4.8, 35)];
+//! let conditions: Vec<Condition> = seen
+//!     .iter()
+//!     .map(|&(delta_e00, correct)| Condition { delta_e00, correct, trials: 36 })
+//!     .collect();
+//! let f = fit(&conditions, OddityModel::Differencing, 0.95).unwrap();
+//! assert_eq!(f.maximum, Maximum::Interior);
+//! let (threshold, (lo, hi)) = (f.threshold.unwrap(), f.threshold_interval);
+//! assert!(lo < threshold && threshold < hi.unwrap());
+//! // An approximation that could not be shown, at ΔE00 = 0.3:
+//! let p = f.predict(0.3).unwrap();
+//! assert!(p.interval.0 <= p.proportion_correct && p.proportion_correct <= p.interval.1);
+//! ```
+
+use std::sync::OnceLock;
+
+use super::oddity::{OddityModel, CHANCE, MAX_D_PRIME};
+
+/// The proportion correct at which the threshold is taken: halfway from
+/// chance (1/3) to perfect.
+pub const THRESHOLD_PROPORTION: f64 = 2.0 / 3.0;
+
+/// One condition of an observer: an approximation shown `trials` times,
+/// `correct` of them right, at colour difference `delta_e00` (CIEDE2000)
+/// from the original.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Condition {
+    pub delta_e00: f64,
+    pub correct: u32,
+    pub trials: u32,
+}
+
+/// Why there is no fit.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ThresholdError {
+    #[error("no conditions: give at least one (ΔE00, correct, trials)")]
+    NoConditions,
+    #[error("condition {index}: ΔE00 = {delta_e00}: give a finite colour difference, 0 or a positive normal number")]
+    ColourDifference { index: usize, delta_e00: f64 },
+    #[error(
+        "condition {index}: {correct} correct of {trials} trials: there cannot be more correct trials than trials"
+    )]
+    MoreCorrectThanTrials { index: usize, correct: u32, trials: u32 },
+    #[error("no trials in any condition: a threshold needs at least one")]
+    NoTrials,
+    #[error(
+        "no trials at a colour difference above 0: d′ = ΔE00/σ is 0 whatever σ is, so the trials say nothing of σ"
+    )]
+    NoColourDifference,
+    #[error("ΔE00 = {0}: give a finite colour difference ≥ 0 to predict at")]
+    PredictAt(f64),
+    #[error("confidence {0}: give a level strictly between 0 and 1 (0.95 for a 95 % interval)")]
+    Confidence(f64),
+}
+
+/// Where the likelihood is largest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Maximum {
+    /// At a finite, positive σ̂.
+    Interior,
+    /// As σ → 0: every trial at a positive ΔE00 was right. σ̂ = 0; the
+    /// interval's lower end is 0, its upper end finite.
+    SigmaZero,
+    /// As σ → ∞ (sensitivity 0): the data are no better than chance. No
+    /// finite σ̂ or threshold; the interval has a finite lower end and no
+    /// upper one.
+    SigmaUnbounded,
+}
+
+/// The deviance of the fit against the saturated model.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GoodnessOfFit {
+    /// D = 2(ℓ_saturated − ℓ̂) ≥ 0.
+    pub deviance: f64,
+    /// Conditions with trials, less the one parameter fitted.
+    pub degrees_of_freedom: u32,
+    /// P(χ²_df ≥ D); `None` when df = 0: the fit has no degrees of freedom
+    /// left to test.
+    pub p_value: Option<f64>,
+}
+
+/// σ of one observer (or a pool), its threshold, and how well d′ = ΔE00/σ fits.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ThresholdFit {
+    pub model: OddityModel,
+    /// The confidence of the intervals (0.95 for 95 %).
+    pub confidence: f64,
+    pub maximum: Maximum,
+    /// σ̂ in ΔE00 units; 0 at [`Maximum::SigmaZero`], `None` (unbounded)
+    /// at [`Maximum::SigmaUnbounded`].
+    pub sigma: Option<f64>,
+    /// The profile-likelihood interval of σ: (lower end ≥ 0, upper end),
+    /// the upper end `None` when the data set no finite bound.
+    pub sigma_interval: (f64, Option<f64>),
+    /// d′ at [`THRESHOLD_PROPORTION`] under `model`.
+    pub d_prime_at_threshold: f64,
+    /// The ΔE00 at 2/3 correct, σ̂ · d′(2/3); `None` when σ̂ is unbounded.
+    pub threshold: Option<f64>,
+    /// σ's interval times d′(2/3).
+    pub threshold_interval: (f64, Option<f64>),
+    /// ℓ̂, the log-likelihood at σ̂ (its supremum at the ends).
+    pub log_likelihood: f64,
+    pub goodness_of_fit: GoodnessOfFit,
+}
+
+/// The proportion correct the fit predicts at a colour difference.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Prediction {
+    pub delta_e00: f64,
+    /// Pc(ΔE00 / σ̂) (1/3 when σ̂ is unbounded, 1 when it is 0 and ΔE00 > 0).
+    pub proportion_correct: f64,
+    /// Pc at σ's interval's ends: (Pc(ΔE00/σ_upper), Pc(ΔE00/σ_lower)).
+    /// Pc falls with σ, so this is the interval σ's interval induces.
+    pub interval: (f64, f64),
+}
+
+impl ThresholdFit {
+    /// The proportion correct (percent = 100 ×) predicted at `delta_e00`,
+    /// with the interval σ's interval induces, e.g. for an approximation
+    /// that could not be shown.
+    pub fn predict(&self, delta_e00: f64) -> Result<Prediction, ThresholdError> {
+        if !(delta_e00.is_finite() && delta_e00 >= 0.0) {
+            return Err(ThresholdError::PredictAt(delta_e00));
+        }
+        // No difference, or σ unbounded: chance; σ = 0: the limit, 1.
+        let pc = |sigma: Option<f64>| -> f64 {
+            match sigma {
+                Some(s) if delta_e00 > 0.0 => {
+                    if s == 0.0 {
+                        1.0
+                    } else {
+                        self.model.proportion_correct(delta_e00 / s)
+                    }
+                }
+                _ => CHANCE,
+            }
+        };
+        Ok(Prediction {
+            delta_e00,
+            proportion_correct: pc(self.sigma),
+            interval: (pc(self.sigma_interval.1), pc(Some(self.sigma_interval.0))),
+        })
+    }
+}
+
+/// σ of d′ = ΔE00/σ fitted to `conditions` under `model` by maximum
+/// likelihood, with profile-likelihood intervals at `confidence` (0.95 for
+/// 95 %).
+pub fn fit(conditions: &[Condition], model: OddityModel, confidence: f64) -> Result<ThresholdFit, ThresholdError> {
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(ThresholdError::Confidence(confidence));
+    }
+    let data = Prepared::new(conditions, model)?;
+    let cut = chi_square_1_quantile(confidence) / 2.0;
+    let grid = data.grid();
+
+    // The maximum, in u = ln s (u = −∞ is s = 0, σ = ∞).
+    let (u_hat, ell_hat, maximum) = if data.all_correct() {
+        (f64::INFINITY, data.ell_sup_all_correct(), Maximum::SigmaZero)
+    } else {
+        let mut best = 0;
+        for (i, &(_, l)) in grid.iter().enumerate() {
+            if l > grid[best].1 {
+                best = i;
+            }
+        }
+        if best == 0 {
+            (f64::NEG_INFINITY, grid[0].1, Maximum::SigmaUnbounded)
+        } else {
+            let (mut u, mut l) = grid[best];
+            let sides = [(best - 1, best), (best, (best + 1).min(grid.len() - 1))];
+            for (a, b) in sides {
+                if a < b {
+                    let (u_side, l_side) = golden_section_max(|t| data.ell(along(grid[a].0, grid[b].0, t)));
+                    let u_side = along(grid[a].0, grid[b].0, u_side);
+                    if l_side > l {
+                        (u, l) = (u_side, l_side);
+                    }
+                }
+            }
+            (u, l, Maximum::Interior)
+        }
+    };
+
+    // The points in order, with the maximum among them.
+    let mut points: Vec<(f64, f64)> = grid.iter().copied().filter(|&(u, _)| u != u_hat).collect();
+    let at = points.partition_point(|&(u, _)| u < u_hat);
+    points.insert(at, (u_hat, ell_hat));
+    let target = ell_hat - cut;
+    let crossing = |lo: usize, hi: usize, rising: bool| -> f64 {
+        let (a, b) = (points[lo].0, points[hi].0);
+        let t = bisect(|t| {
+            let above = data.ell(along(a, b, t)) >= target;
+            above == rising
+        });
+        along(a, b, t)
+    };
+    // Lower end of u (upper end of σ): the first point from below at the cut.
+    let first = points.iter().position(|&(_, l)| l >= target).unwrap_or(at);
+    let u_lower = if first == 0 {
+        f64::NEG_INFINITY
+    } else if points[first].0 == f64::INFINITY {
+        points[first - 1].0
+    } else {
+        crossing(first - 1, first, true)
+    };
+    // Upper end of u (lower end of σ): the last point from above at the cut.
+    let last = points.iter().rposition(|&(_, l)| l >= target).unwrap_or(at);
+    let u_upper = if last == points.len() - 1 {
+        f64::INFINITY
+    } else {
+        crossing(last, last + 1, false)
+    };
+
+    let sigma_of = |u: f64| (-u).exp();
+    let sigma = (maximum != Maximum::SigmaUnbounded).then(|| sigma_of(u_hat));
+    let sigma_interval = (
+        sigma_of(u_upper),
+        (u_lower > f64::NEG_INFINITY).then(|| sigma_of(u_lower)),
+    );
+    let d_thr = data.curve.d_prime_at_threshold;
+    Ok(ThresholdFit {
+        model,
+        confidence,
+        maximum,
+        sigma,
+        sigma_interval,
+        d_prime_at_threshold: d_thr,
+        threshold: sigma.map(|s| s * d_thr),
+        threshold_interval: (sigma_interval.0 * d_thr, sigma_interval.1.map(|s| s * d_thr)),
+        log_likelihood: ell_hat,
+        goodness_of_fit: data.goodness_of_fit(u_hat),
+    })
+}
+
+/// [`fit`] under both oddity models, in the order of [`OddityModel::ALL`].
+pub fn fit_both(conditions: &[Condition], confidence: f64) -> Result<[ThresholdFit; 2], ThresholdError> {
+    Ok([
+        fit(conditions, OddityModel::ALL[0], confidence)?,
+        fit(conditions, OddityModel::ALL[1], confidence)?,
+    ])
+}
+
+/// A condition ready for ℓ: ln ΔE00 (−∞ at 0), the counts, ln C(n, k).
+struct Row {
+    ln_delta_e: f64,
+    correct: f64,
+    trials: f64,
+    ln_choose: f64,
+}
+
+/// The checked conditions with trials, and the model's curve.
+struct Prepared {
+    curve: &'static Curve,
+    rows: Vec<Row>,
+    /// The smallest and largest positive ΔE00 with trials.
+    delta_e_range: (f64, f64),
+}
+
+/// ln Γ(x + 1) = ln x!.
+fn ln_factorial(x: f64) -> f64 {
+    libm::lgamma(x + 1.0)
+}
+
+impl Prepared {
+    fn new(conditions: &[Condition], model: OddityModel) -> Result<Prepared, ThresholdError> {
+        if conditions.is_empty() {
+            return Err(ThresholdError::NoConditions);
+        }
+        let mut rows = Vec::with_capacity(conditions.len());
+        let mut range = (f64::INFINITY, 0.0f64);
+        let mut any_trials = false;
+        for (index, c) in conditions.iter().enumerate() {
+            let d = c.delta_e00;
+            // Subnormal differences are refused: 1/ΔE would overflow.
+            if !(d == 0.0 || (d.is_normal() && d > 0.0)) {
+                return Err(ThresholdError::ColourDifference { index, delta_e00: d });
+            }
+            if c.correct > c.trials {
+                return Err(ThresholdError::MoreCorrectThanTrials {
+                    index,
+                    correct: c.correct,
+                    trials: c.trials,
+                });
+            }
+            if c.trials == 0 {
+                continue;
+            }
+            any_trials = true;
+            if d > 0.0 {
+                range = (range.0.min(d), range.1.max(d));
+            }
+            let (k, n) = (f64::from(c.correct), f64::from(c.trials));
+            rows.push(Row {
+                ln_delta_e: d.ln(),
+                correct: k,
+                trials: n,
+                ln_choose: ln_factorial(n) - ln_factorial(k) - ln_factorial(n - k),
+            });
+        }
+        if !any_trials {
+            return Err(ThresholdError::NoTrials);
+        }
+        if range.1 == 0.0 {
+            return Err(ThresholdError::NoColourDifference);
+        }
+        Ok(Prepared {
+            curve: Curve::of(model),
+            rows,
+            delta_e_range: range,
+        })
+    }
+
+    /// d′ of a row at u = ln s: ΔE · s, 0 when either is 0.
+    fn d_prime(row: &Row, u: f64) -> f64 {
+        if row.ln_delta_e == f64::NEG_INFINITY || u == f64::NEG_INFINITY {
+            0.0
+        } else {
+            (row.ln_delta_e + u).exp()
+        }
+    }
+
+    /// ℓ at u = ln s = −ln σ (u = −∞: σ = ∞).
+    fn ell(&self, u: f64) -> f64 {
+        self.rows
+            .iter()
+            .map(|r| {
+                let p = self.curve.pc(Self::d_prime(r, u));
+                r.ln_choose + xlny(r.correct, p) + xlny(r.trials - r.correct, 1.0 - p)
+            })
+            .sum()
+    }
+
+    /// Every trial at a positive ΔE00 correct.
+    fn all_correct(&self) -> bool {
+        self.rows
+            .iter()
+            .all(|r| r.ln_delta_e == f64::NEG_INFINITY || r.correct == r.trials)
+    }
+
+    /// ℓ's supremum (σ → 0) when [`Self::all_correct`]: the rows at ΔE00 > 0
+    /// have p → 1 and contribute ln C(n, n) + n ln 1 = 0, those at 0 stay at chance.
+    fn ell_sup_all_correct(&self) -> f64 {
+        self.rows
+            .iter()
+            .filter(|r| r.ln_delta_e == f64::NEG_INFINITY)
+            .map(|r| r.ln_choose + xlny(r.correct, CHANCE) + xlny(r.trials - r.correct, 1.0 - CHANCE))
+            .sum()
+    }
+
+    /// (u, ℓ(u)) at s = 0 and on the grid: s spaced 5 % (0.05 in ln s) from
+    /// where the largest d′ is 10⁻³ to where the smallest is [`MAX_D_PRIME`].
+    fn grid(&self) -> Vec<(f64, f64)> {
+        const STEP: f64 = 0.05;
+        let (lo, hi) = self.delta_e_range;
+        let u_start = 1e-3f64.ln() - hi.ln();
+        let u_end = MAX_D_PRIME.ln() - lo.ln();
+        let steps = ((u_end - u_start) / STEP).ceil().max(1.0) as usize;
+        let mut grid = Vec::with_capacity(steps + 2);
+        grid.push((f64::NEG_INFINITY, self.ell(f64::NEG_INFINITY)));
+        for i in 0..=steps {
+            let u = u_start + (u_end - u_start) * i as f64 / steps as f64;
+            grid.push((u, self.ell(u)));
+        }
+        grid
+    }
+
+    fn goodness_of_fit(&self, u_hat: f64) -> GoodnessOfFit {
+        let deviance: f64 = self
+            .rows
+            .iter()
+            .map(|r| {
+                let p = if r.ln_delta_e == f64::NEG_INFINITY || u_hat == f64::NEG_INFINITY {
+                    CHANCE
+                } else if u_hat == f64::INFINITY {
+                    1.0
+                } else {
+                    self.curve.pc(Self::d_prime(r, u_hat))
+                };
+                let (k, n) = (r.correct, r.trials);
+                let failures = n - k;
+                let term = |count: f64, expected: f64| {
+                    if count == 0.0 {
+                        0.0
+                    } else {
+                        count * (count / expected).ln()
+                    }
+                };
+                2.0 * (term(k, n * p) + term(failures, n * (1.0 - p)))
+            })
+            .sum();
+        // D ≥ 0 exactly; rounding can leave a few ulps below.
+        let deviance = deviance.max(0.0);
+        let degrees_of_freedom = (self.rows.len() - 1) as u32;
+        GoodnessOfFit {
+            deviance,
+            degrees_of_freedom,
+            p_value: (degrees_of_freedom > 0).then(|| chi_square_survival(deviance, degrees_of_freedom)),
+        }
+    }
+}
+
+/// x ln y with 0 · ln 0 = 0.
+fn xlny(x: f64, y: f64) -> f64 {
+    if x == 0.0 {
+        0.0
+    } else {
+        x * y.ln()
+    }
+}
+
+/// The point at fraction t ∈ [0, 1] of the way from u = a to u = b. From
+/// u = −∞ (s = 0) the way is linear in s, elsewhere in u = ln s. An
+/// infinite b (σ → 0, whose ℓ is flat) stays at a.
+fn along(a: f64, b: f64, t: f64) -> f64 {
+    if b == f64::INFINITY {
+        a
+    } else if a == f64::NEG_INFINITY {
+        (t * b.exp()).ln()
+    } else {
+        a + t * (b - a)
+    }
+}
+
+/// The maximum of f on [0, 1] by golden-section search (Press et al. 2007,
+/// §10.2), with the ends as candidates: (t, f(t)).
+fn golden_section_max(f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let ratio = (5.0f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (0.0f64, 1.0f64);
+    let mut c = b - ratio * (b - a);
+    let mut d = a + ratio * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..80 {
+        if fc >= fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - ratio * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + ratio * (b - a);
+            fd = f(d);
+        }
+        if b - a < 1e-13 {
+            break;
+        }
+    }
+    let mut best = if fc >= fd { (c, fc) } else { (d, fd) };
+    for t in [0.0, 1.0] {
+        let ft = f(t);
+        if ft > best.1 {
+            best = (t, ft);
+        }
+    }
+    best
+}
+
+/// The t ∈ [0, 1] where `past(t)` turns from false to true (`past(0)`
+/// false, `past(1)` true), by bisection to the last bits of a double.
+fn bisect(past: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if past(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Pc(d′) of one model as a clamped cubic spline (module doc,
+/// "Approximation"), and d′ at the threshold.
+struct Curve {
+    values: Vec<f64>,
+    /// The spline's second derivatives at the knots.
+    second: Vec<f64>,
+    d_prime_at_threshold: f64,
+}
+
+/// Knot spacing in d′.
+const KNOT_SPACING: f64 = 0.05;
+
+/// The largest p the fit uses. It keeps ln(1 − p) finite; 1 − Pc below it
+/// is not resolved by the integrals (see [`super::oddity`]'s accuracy). A
+/// failure where the model says 1 − Pc < 10⁻⁹ costs ln 10⁻⁹ ≈ −20.7 in ℓ,
+/// ten times the 95 % interval's cut of 1.92, so no σ̂ or interval end can
+/// lie where the ceiling acts unless the data allow it anyway.
+const P_CEILING: f64 = 1.0 - 1e-9;
+
+impl Curve {
+    fn of(model: OddityModel) -> &'static Curve {
+        static DIFFERENCING: OnceLock<Curve> = OnceLock::new();
+        static INDEPENDENT: OnceLock<Curve> = OnceLock::new();
+        let cell = match model {
+            OddityModel::Differencing => &DIFFERENCING,
+            OddityModel::IndependentObservation => &INDEPENDENT,
+        };
+        cell.get_or_init(|| Curve::build(model))
+    }
+
+    fn build(model: OddityModel) -> Curve {
+        let n = (MAX_D_PRIME / KNOT_SPACING).round() as usize + 1;
+        let h = KNOT_SPACING;
+        // Pc(0) is chance exactly (the three stimuli are alike).
+        let values: Vec<f64> = (0..n)
+            .map(|i| {
+                if i == 0 {
+                    CHANCE
+                } else {
+                    model.proportion_correct(i as f64 * h)
+                }
+            })
+            .collect();
+        let slope_end = (3.0 * values[n - 1] - 4.0 * values[n - 2] + values[n - 3]) / (2.0 * h);
+        // The clamped spline's equations (Press et al. 2007, §3.3) for the
+        // second derivatives M, tridiagonal: diagonal 2, 4, …, 4, 2, off
+        // diagonals 1; solved by the Thomas algorithm.
+        let mut rhs = vec![0.0; n];
+        rhs[0] = 6.0 / h * ((values[1] - values[0]) / h);
+        for i in 1..n - 1 {
+            rhs[i] = 6.0 * (values[i + 1] - 2.0 * values[i] + values[i - 1]) / (h * h);
+        }
+        rhs[n - 1] = 6.0 / h * (slope_end - (values[n - 1] - values[n - 2]) / h);
+        let diagonal = |i: usize| if i == 0 || i == n - 1 { 2.0 } else { 4.0 };
+        let mut upper = vec![0.0; n];
+        let mut second = vec![0.0; n];
+        upper[0] = 1.0 / diagonal(0);
+        second[0] = rhs[0] / diagonal(0);
+        for i in 1..n {
+            let m = diagonal(i) - upper[i - 1];
+            upper[i] = 1.0 / m;
+            second[i] = (rhs[i] - second[i - 1]) / m;
+        }
+        for i in (0..n - 1).rev() {
+            second[i] -= upper[i] * second[i + 1];
+        }
+        Curve {
+            values,
+            second,
+            d_prime_at_threshold: model.d_prime(THRESHOLD_PROPORTION),
+        }
+    }
+
+    /// Pc(d) (d ≥ 0), held at its value at [`MAX_D_PRIME`] beyond it, and
+    /// within [1/3, [`P_CEILING`]].
+    fn pc(&self, d: f64) -> f64 {
+        let n = self.values.len();
+        let h = KNOT_SPACING;
+        let x = d.abs() / h;
+        let p = if x.is_nan() || x >= (n - 1) as f64 {
+            self.values[n - 1]
+        } else {
+            let j = (x.floor() as usize).min(n - 2);
+            let t = x - j as f64;
+            let a = 1.0 - t;
+            a * self.values[j]
+                + t * self.values[j + 1]
+                + ((a * a * a - a) * self.second[j] + (t * t * t - t) * self.second[j + 1]) * h * h / 6.0
+        };
+        p.clamp(CHANCE, P_CEILING)
+    }
+}
+
+/// χ²₁'s quantile at `confidence`: the q with P(χ²₁ > q) = 1 − confidence,
+/// using P(χ²₁ > q) = erfc(√(q/2)) (Abramowitz & Stegun 1964, 26.4.4), by
+/// bisection.
+fn chi_square_1_quantile(confidence: f64) -> f64 {
+    let alpha = 1.0 - confidence;
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    while libm::erfc((hi / 2.0).sqrt()) > alpha && hi < 1e4 {
+        hi *= 2.0;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if libm::erfc((mid / 2.0).sqrt()) > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// P(χ²_df ≥ x) = Q(df/2, x/2), the regularised upper incomplete gamma
+/// function, by Numerical Recipes' series (x < a + 1, for P = 1 − Q) and
+/// continued fraction (x ≥ a + 1, modified Lentz) (Press et al. 2007, §6.2),
+/// with ln Γ from `libm`. 1 at x ≤ 0, NaN for NaN or df = 0.
+fn chi_square_survival(x: f64, df: u32) -> f64 {
+    if x.is_nan() || df == 0 {
+        return f64::NAN;
+    }
+    if x <= 0.0 {
+        return 1.0;
+    }
+    if x == f64::INFINITY {
+        return 0.0;
+    }
+    let (a, x) = (f64::from(df) / 2.0, x / 2.0);
+    let prefactor = (a * x.ln() - x - libm::lgamma(a)).exp();
+    const MAX_ITERATIONS: usize = 100_000;
+    if x < a + 1.0 {
+        // P(a, x) = e^{−x} x^a / Γ(a + 1) · Σ x^j / ((a + 1)…(a + j)).
+        let mut term = 1.0 / a;
+        let mut sum = term;
+        let mut ap = a;
+        for _ in 0..MAX_ITERATIONS {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+            if term.abs() < sum.abs() * f64::EPSILON {
+                break;
+            }
+        }
+        (1.0 - sum * prefactor).clamp(0.0, 1.0)
+    } else {
+        let tiny = f64::MIN_POSITIVE / f64::EPSILON;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..MAX_ITERATIONS {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let delta = d * c;
+            h *= delta;
+            if (delta - 1.0).abs() < f64::EPSILON {
+                break;
+            }
+        }
+        (prefactor * h).clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::SplitMix64;
+
+    fn condition(delta_e00: f64, correct: u32, trials: u32) -> Condition {
+        Condition {
+            delta_e00,
+            correct,
+            trials,
+        }
+    }
+
+    /// The study's design: six colour differences, 36 trials each.
+    const STUDY_LEVELS: [f64; 6] = [0.5, 1.0, 1.5, 2.0, 3.0, 4.0];
+
+    /// Counts drawn at `levels`, each trial correct with probability
+    /// `pc[i]` (the model's Pc(ΔE_i/σ), computed once by the caller), from a
+    /// uniform draw.
+    fn simulate(levels: &[f64], pc: &[f64], trials: u32, rng: &mut SplitMix64) -> Vec<Condition> {
+        levels
+            .iter()
+            .zip(pc)
+            .map(|(&de, &p)| {
+                let correct = (0..trials).filter(|_| rng.uniform() < p).count() as u32;
+                condition(de, correct, trials)
+            })
+            .collect()
+    }
+
+    /// ℓ at σ, from the fit's own objective.
+    fn ell_at(conditions: &[Condition], model: OddityModel, sigma: f64) -> f64 {
+        Prepared::new(conditions, model).unwrap().ell(-sigma.ln())
+    }
+
+    /// Two conditions and one at ΔE = 0, the probability of the data
+    /// written out: C(3,2) p₁²(1 − p₁) · C(5,4) p₂⁴(1 − p₂) · C(3,1)(1/3)(2/3)²,
+    /// with p from the model's integral, against the fit's ℓ (which uses the
+    /// spline); and the fit's ℓ̂ against the same product at σ̂.
+    #[test]
+    fn the_log_likelihood_is_the_binomial_probability_of_the_data() {
+        let data = [condition(1.0, 2, 3), condition(2.0, 4, 5), condition(0.0, 1, 3)];
+        for model in OddityModel::ALL {
+            let direct = |sigma: f64| {
+                let p1 = model.proportion_correct(1.0 / sigma);
+                let p2 = model.proportion_correct(2.0 / sigma);
+                let chance_part = 3.0 * (1.0 / 3.0) * (2.0 / 3.0) * (2.0 / 3.0);
+                assert!((chance_part - 4.0 / 9.0f64).abs() < 1e-15);
+                (3.0 * p1 * p1 * (1.0 - p1) * 5.0 * p2 * p2 * p2 * p2 * (1.0 - p2) * chance_part).ln()
+            };
+            for sigma in [0.4, 0.8, 2.0] {
+                let ours = ell_at(&data, model, sigma);
+                assert!(
+                    (ours - direct(sigma)).abs() < 1e-6,
+                    "{model} σ {sigma}: {ours} against {}",
+                    direct(sigma)
+                );
+            }
+            let f = fit(&data, model, 0.95).unwrap();
+            let s = f.sigma.unwrap();
+            assert!((f.log_likelihood - direct(s)).abs() < 1e-6, "{model}: {f:?}");
+            // A maximum: 1 % either side is lower.
+            assert!(direct(s * 1.01) < f.log_likelihood && direct(s / 1.01) < f.log_likelihood);
+        }
+    }
+
+    #[test]
+    fn the_spline_follows_the_integrals_to_a_millionth() {
+        for model in OddityModel::ALL {
+            let curve = Curve::of(model);
+            let mut worst = 0.0f64;
+            // Midway between knots, where a spline errs most, across [0, 15].
+            for i in (0..300).step_by(7) {
+                let d = (i as f64 + 0.5) * KNOT_SPACING;
+                worst = worst.max((curve.pc(d) - model.proportion_correct(d)).abs());
+            }
+            println!("{model}: largest spline error {worst:e}");
+            assert!(worst < 1e-6, "{model}: {worst}");
+            assert!(
+                (curve.d_prime_at_threshold - model.d_prime(THRESHOLD_PROPORTION)).abs() < 1e-12
+                    && (model.proportion_correct(curve.d_prime_at_threshold) - 2.0 / 3.0).abs() < 1e-9
+            );
+        }
+    }
+
+    /// Published χ² table values (upper-tail 5 % and 1 % points, e.g.
+    /// Abramowitz & Stegun 1964, Table 26.8), the lower 5 % point of 10 df
+    /// (3.94030, the series branch), and df = 2, where Q = e^{−x/2} exactly.
+    #[test]
+    fn chi_square_survival_matches_the_tables() {
+        let table = [
+            (3.841_459, 1, 0.05, 1e-7),
+            (11.0705, 5, 0.05, 1e-6),
+            (20.0902, 8, 0.01, 1e-6),
+            (6.634_897, 1, 0.01, 1e-7),
+            (3.940_299, 10, 0.95, 1e-6),
+        ];
+        for (x, df, q, tolerance) in table {
+            let ours = chi_square_survival(x, df);
+            println!("Q(χ² = {x}, df = {df}) = {ours:.8} (table {q})");
+            assert!((ours - q).abs() < tolerance, "χ² {x}, df {df}: {ours}, table {q}");
+        }
+        for x in [0.1, 1.0, 3.0, 10.0, 100.0] {
+            let ours = chi_square_survival(x, 2);
+            let exact = (-x / 2.0f64).exp();
+            assert!((ours / exact - 1.0).abs() < 1e-12, "x {x}: {ours} against {exact}");
+        }
+        assert_eq!(chi_square_survival(0.0, 3), 1.0);
+        assert_eq!(chi_square_survival(f64::INFINITY, 3), 0.0);
+        assert!(chi_square_survival(f64::NAN, 3).is_nan());
+        let q95 = chi_square_1_quantile(0.95);
+        assert!((q95 - 3.841_458_820_694_124).abs() < 1e-12, "{q95}");
+        assert!((chi_square_1_quantile(0.99) - 6.634_896_601_021_214).abs() < 1e-11);
+    }
+
+    /// Simulated observers of known σ, through the simulated observer's own
+    /// decision rule (not the integral), 3 600 trials at each of six
+    /// differences: σ̂ within 4 % of the truth, the truth inside the interval,
+    /// and the interval's ends where ℓ has fallen by χ²₁(0.95)/2.
+    #[test]
+    fn simulated_observers_of_known_sigma_are_recovered() {
+        use super::super::design::block_order;
+        use super::super::observer::SimulatedObserver;
+        let sigma = 0.8;
+        for (model, seed) in OddityModel::ALL.into_iter().zip([61u64, 62]) {
+            let observer = SimulatedObserver::new(sigma, model).unwrap();
+            let mut rng = SplitMix64(seed);
+            let conditions: Vec<Condition> = STUDY_LEVELS
+                .iter()
+                .enumerate()
+                .map(|(i, &de)| {
+                    let correct = (0..6)
+                        .map(|b| {
+                            let block = block_order(seed * 100 + (i * 6 + b) as u64, 100).unwrap();
+                            observer.run_block(&block, de / observer.sigma(), &mut rng)
+                        })
+                        .sum();
+                    condition(de, correct, 3_600)
+                })
+                .collect();
+            let f = fit(&conditions, model, 0.95).unwrap();
+            let s = f.sigma.unwrap();
+            let (lo, hi) = (f.sigma_interval.0, f.sigma_interval.1.unwrap());
+            println!(
+                "{model}: σ̂ = {s:.4} ({lo:.4}–{hi:.4}), threshold {:.4} ΔE00, D = {:.2} on {} df, p = {:.3}",
+                f.threshold.unwrap(),
+                f.goodness_of_fit.deviance,
+                f.goodness_of_fit.degrees_of_freedom,
+                f.goodness_of_fit.p_value.unwrap()
+            );
+            assert_eq!(f.maximum, Maximum::Interior);
+            assert!((s / sigma - 1.0).abs() < 0.04, "{model}: σ̂ {s}");
+            assert!(lo < sigma && sigma < hi && hi / lo < 1.1, "{model}: {lo}–{hi}");
+            for end in [lo, hi] {
+                let drop = 2.0 * (f.log_likelihood - ell_at(&conditions, model, end));
+                assert!((drop - 3.841_458_820_694_124).abs() < 1e-6, "{model}: {drop}");
+            }
+            let thr = f.threshold.unwrap();
+            assert!((thr - s * model.d_prime(2.0 / 3.0)).abs() < 1e-9);
+            assert!((f.threshold_interval.0 - lo * f.d_prime_at_threshold).abs() < 1e-12);
+            // At the threshold the prediction is 2/3, its interval around it.
+            let at = f.predict(thr).unwrap();
+            assert!((at.proportion_correct - 2.0 / 3.0).abs() < 1e-7, "{at:?}");
+            assert!(at.interval.0 < 2.0 / 3.0 && 2.0 / 3.0 < at.interval.1);
+        }
+    }
+
+    /// Coverage of the 95 % profile interval: 1 000 simulated observers per
+    /// model, the study's six differences × 36 trials, σ = 1 (d′ 0.5–4).
+    /// The fraction whose interval holds the true σ is near 0.95 (binomial
+    /// sd of the fraction: 0.007).
+    #[test]
+    fn profile_intervals_cover_the_true_sigma_at_their_level() {
+        let sigma = 1.0;
+        let observers = 1_000;
+        for (model, seed) in OddityModel::ALL.into_iter().zip([2006u64, 2007]) {
+            let mut rng = SplitMix64(seed);
+            let pc: Vec<f64> = STUDY_LEVELS
+                .iter()
+                .map(|de| model.proportion_correct(de / sigma))
+                .collect();
+            let mut covered = 0;
+            let mut unbounded = 0;
+            for _ in 0..observers {
+                let data = simulate(&STUDY_LEVELS, &pc, 36, &mut rng);
+                let f = fit(&data, model, 0.95).unwrap();
+                let (lo, hi) = f.sigma_interval;
+                if hi.is_none() {
+                    unbounded += 1;
+                }
+                if lo <= sigma && hi.is_none_or(|hi| sigma <= hi) {
+                    covered += 1;
+                }
+            }
+            let coverage = f64::from(covered) / f64::from(observers);
+            println!(
+                "{model}: {covered} of {observers} intervals cover σ = {sigma} ({coverage:.3}); {unbounded} unbounded"
+            );
+            assert!((0.92..=0.975).contains(&coverage), "{model}: coverage {coverage}");
+        }
+    }
+
+    #[test]
+    fn at_chance_sigma_is_unbounded_and_so_is_the_threshold() {
+        for model in OddityModel::ALL {
+            for data in [
+                vec![condition(1.0, 12, 36), condition(2.0, 12, 36), condition(4.0, 12, 36)],
+                vec![condition(1.0, 5, 36), condition(3.0, 10, 36)],
+            ] {
+                let f = fit(&data, model, 0.95).unwrap();
+                assert_eq!(f.maximum, Maximum::SigmaUnbounded, "{model}: {f:?}");
+                assert_eq!((f.sigma, f.threshold), (None, None));
+                assert_eq!((f.sigma_interval.1, f.threshold_interval.1), (None, None));
+                let lower = f.sigma_interval.0;
+                assert!(lower > 0.0 && lower.is_finite(), "{model}: {f:?}");
+                let drop = 2.0 * (f.log_likelihood - ell_at(&data, model, lower));
+                assert!((drop - 3.841_458_820_694_124).abs() < 1e-6, "{model}: {drop}");
+                let p = f.predict(2.0).unwrap();
+                assert_eq!(p.proportion_correct, CHANCE);
+                assert!(
+                    p.interval.0 == CHANCE && p.interval.1 > CHANCE && p.interval.1 < 1.0,
+                    "{p:?}"
+                );
+            }
+        }
+    }
+
+    /// Every trial right: σ̂ = 0, the interval from 0 to where
+    /// Σ n ln Pc(ΔE/σ) = −χ²₁(0.95)/2, checked with the integral.
+    #[test]
+    fn all_correct_puts_sigma_at_zero_with_a_finite_upper_end() {
+        let data = [condition(1.0, 36, 36), condition(2.0, 36, 36), condition(0.0, 12, 36)];
+        for model in OddityModel::ALL {
+            let f = fit(&data, model, 0.95).unwrap();
+            assert_eq!(f.maximum, Maximum::SigmaZero, "{model}: {f:?}");
+            assert_eq!((f.sigma, f.threshold), (Some(0.0), Some(0.0)));
+            assert_eq!(f.sigma_interval.0, 0.0);
+            let hi = f.sigma_interval.1.unwrap();
+            let fall = 36.0 * (model.proportion_correct(1.0 / hi).ln() + model.proportion_correct(2.0 / hi).ln());
+            assert!(
+                (fall + 3.841_458_820_694_124 / 2.0).abs() < 1e-5,
+                "{model}: σ ≤ {hi}, fall {fall}"
+            );
+            let p = f.predict(1.0).unwrap();
+            assert_eq!((p.proportion_correct, p.interval.1), (1.0, 1.0));
+            assert!(p.interval.0 > 0.9 && p.interval.0 < 1.0, "{p:?}");
+        }
+    }
+
+    #[test]
+    fn impossible_inputs_are_refused_with_what_to_do() {
+        let m = OddityModel::Differencing;
+        assert_eq!(fit(&[], m, 0.95), Err(ThresholdError::NoConditions));
+        assert_eq!(fit(&[condition(1.0, 0, 0)], m, 0.95), Err(ThresholdError::NoTrials));
+        assert_eq!(
+            fit(&[condition(0.0, 10, 30), condition(2.0, 0, 0)], m, 0.95),
+            Err(ThresholdError::NoColourDifference)
+        );
+        for bad in [f64::NAN, f64::INFINITY, -1.0, 1e-310] {
+            let e = fit(&[condition(1.0, 20, 36), condition(bad, 20, 36)], m, 0.95).unwrap_err();
+            assert!(matches!(e, ThresholdError::ColourDifference { index: 1, .. }), "{e}");
+        }
+        assert!(matches!(
+            fit(&[condition(1.0, 37, 36)], m, 0.95),
+            Err(ThresholdError::MoreCorrectThanTrials { index: 0, .. })
+        ));
+        for bad in [0.0, 1.0, 95.0, f64::NAN] {
+            let e = fit(&[condition(1.0, 20, 36)], m, bad).unwrap_err();
+            assert!(e.to_string().contains("0.95"), "{e}");
+        }
+        let f = fit(&[condition(1.0, 20, 36)], m, 0.95).unwrap();
+        for bad in [f64::NAN, -0.5, f64::INFINITY] {
+            assert!(f.predict(bad).is_err());
+        }
+        // One condition: nothing left to test the fit with.
+        assert_eq!(f.goodness_of_fit.degrees_of_freedom, 0);
+        assert_eq!(f.goodness_of_fit.p_value, None);
+        assert!(f.goodness_of_fit.deviance < 1e-9, "{:?}", f.goodness_of_fit);
+    }
+
+    /// Counts at their expectation under σ = 1.25 (10⁶ trials each, the
+    /// expected counts rounded to whole trials): D ≈ 0, p ≈ 1, σ̂ ≈ 1.25.
+    #[test]
+    fn expected_counts_fit_perfectly() {
+        for model in OddityModel::ALL {
+            let n = 1_000_000u32;
+            let data: Vec<Condition> = STUDY_LEVELS
+                .iter()
+                .map(|&de| {
+                    let k = (f64::from(n) * model.proportion_correct(de / 1.25)).round() as u32;
+                    condition(de, k, n)
+                })
+                .collect();
+            let f = fit(&data, model, 0.95).unwrap();
+            let g = f.goodness_of_fit;
+            println!(
+                "{model}: σ̂ {:?}, D = {:e}, df {}, p = {:?}",
+                f.sigma, g.deviance, g.degrees_of_freedom, g.p_value
+            );
+            assert!(g.deviance < 1e-4 && g.degrees_of_freedom == 5, "{model}: {g:?}");
+            assert!(g.p_value.unwrap() > 0.999_999, "{model}: {g:?}");
+            assert!((f.sigma.unwrap() - 1.25).abs() < 1e-4, "{model}: {f:?}");
+        }
+    }
+
+    /// The study's N = 27 and 81 approximations could not be shown at
+    /// 8 bits; their percent correct is predicted from the others.
+    #[test]
+    fn predictions_rise_with_the_colour_difference_and_hold_the_fit() {
+        let data = [
+            condition(0.6, 14, 36),
+            condition(1.2, 17, 36),
+            condition(2.4, 26, 36),
+            condition(4.8, 35, 36),
+        ];
+        let both = fit_both(&data, 0.95).unwrap();
+        assert_eq!(both.each_ref().map(|f| f.model), OddityModel::ALL);
+        assert_eq!(both[1], fit(&data, OddityModel::IndependentObservation, 0.95).unwrap());
+        for f in both {
+            let mut last = CHANCE;
+            for de in [0.0, 0.2, 0.6, 1.2, 2.4, 4.8] {
+                let p = f.predict(de).unwrap();
+                assert!(p.interval.0 <= p.proportion_correct && p.proportion_correct <= p.interval.1);
+                assert!(p.proportion_correct >= last, "{}: {p:?}", f.model);
+                last = p.proportion_correct;
+            }
+            assert_eq!(f.predict(0.0).unwrap().interval, (CHANCE, CHANCE));
+            // A higher confidence, a wider interval around the same σ̂.
+            let wider = fit(&data, f.model, 0.99).unwrap();
+            let (lo, hi) = (f.sigma_interval.0, f.sigma_interval.1.unwrap());
+            assert_eq!(wider.sigma, f.sigma);
+            assert!(
+                wider.sigma_interval.0 < lo && hi < wider.sigma_interval.1.unwrap(),
+                "{wider:?}"
+            );
+            let drop = 2.0 * (wider.log_likelihood - ell_at(&data, f.model, wider.sigma_interval.0));
+            assert!((drop - 6.634_896_601_021_214).abs() < 1e-6, "{drop}");
+        }
+    }
+}
