@@ -128,6 +128,7 @@ mod tests {
                 max_samples: 3,
                 default_samples: 2,
                 retries,
+                stated_accuracy: crate::StatedAccuracy::unstated("a test double"),
             };
             Scripted {
                 identity: Identity::new(capabilities, |_| "the scripted hint"),

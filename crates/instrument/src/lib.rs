@@ -8,7 +8,8 @@
 //!
 //! An instrument is a [`Spectroradiometer`]: it says what it is
 //! ([`InstrumentInfo`], with its native wavelength grid), what it can do
-//! ([`Capabilities`]: sample limits, retries) and takes one sample at a time.
+//! ([`Capabilities`]: sample limits, retries, the manufacturer's stated
+//! accuracy from [`accuracy`]) and takes one sample at a time.
 //! The [`averaging`] loop above every driver takes an averaged measurement
 //! that keeps every raw [`Sample`] with its time and quality code. Bad
 //! samples (an instrument error code, a stale spectral buffer) are reported
@@ -49,6 +50,7 @@
 //! [`InstrumentInfo`] the native grid, so the daemon, the store and the API
 //! do not depend on the model.
 
+pub mod accuracy;
 pub mod averaging;
 pub mod colorcal;
 pub mod cr250;
@@ -69,6 +71,7 @@ use serde::Serialize;
 
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer};
 use lightbooth_science::spectrum::{Grid, Spectrum};
+pub use lightbooth_science::uncertainty::StatedAccuracy;
 
 pub use models::{native_grid_of_length, reading_of_model, InstrumentSettings, MODEL_FLAGS};
 pub use pr650::{open_pr650, Pr650Settings};
@@ -390,6 +393,9 @@ pub struct Capabilities {
     /// Extra attempts allowed over one series, for samples lost to a bad
     /// quality code or a link fault (settings file).
     pub retries: usize,
+    /// The manufacturer's stated accuracy with its source ([`accuracy`]);
+    /// a figure no source was found for is `None`.
+    pub stated_accuracy: StatedAccuracy,
 }
 
 /// Everything a caller asks of a connected unit besides its samples: what

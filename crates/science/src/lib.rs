@@ -10,6 +10,9 @@
 //! - [`nstep`]: the N-step spectral approximation and its error analysis.
 //! - [`comparison`]: the figures of merit of a rendering against a
 //!   measurement (ΔE, luminance ratio, rms_rel, significance).
+//! - [`uncertainty`]: those figures with 95 % coverage intervals by a GUM
+//!   Supplement 1 Monte Carlo propagation of the measurement's repeatability
+//!   and the instrument's stated accuracy ([`uncertainty::StatedAccuracy`]).
 //! - [`calibration`]: reflectances and lamp spectra from measurements
 //!   against a white standard.
 //! - [`display`]: a display profile, and rendered colours turned into
@@ -33,3 +36,4 @@ pub mod psychophysics;
 pub mod random;
 pub mod reference_data;
 pub mod spectrum;
+pub mod uncertainty;

@@ -52,6 +52,12 @@ impl SplitMix64 {
         let (u, v) = (self.uniform(), self.uniform());
         (-2.0 * (1.0 - u).ln()).sqrt() * (std::f64::consts::TAU * v).cos()
     }
+
+    /// Uniform in [−half_width, +half_width): the rectangular distribution
+    /// GUM 4.3.7 assigns to a quantity known only to lie within ±half_width.
+    pub fn rectangular(&mut self, half_width: f64) -> f64 {
+        half_width * (2.0 * self.uniform() - 1.0)
+    }
 }
 
 #[cfg(test)]

@@ -104,6 +104,7 @@ impl ColorCalSettings {
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
             retries: self.retries,
+            stated_accuracy: crate::accuracy::stated_accuracy_of(MODEL_NAME),
         }
     }
 

@@ -166,6 +166,7 @@ impl Cs2000Settings {
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
             retries: self.retries,
+            stated_accuracy: crate::accuracy::stated_accuracy_of(model.name()),
         }
     }
 

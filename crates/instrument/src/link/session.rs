@@ -434,6 +434,7 @@ mod tests {
             max_samples: 99,
             default_samples: 1,
             retries: 0,
+            stated_accuracy: crate::StatedAccuracy::unstated("a test double"),
         };
         let identity = Identity::new(capabilities, |_| "");
         let ping = Ping {

@@ -154,6 +154,7 @@ impl Ls100Settings {
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
             retries: self.retries,
+            stated_accuracy: crate::accuracy::stated_accuracy_of(model.name()),
         }
     }
 

@@ -121,6 +121,7 @@ impl Pr650Settings {
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
             retries: self.retries,
+            stated_accuracy: crate::accuracy::stated_accuracy_of(driver::MODEL),
         }
     }
 

@@ -162,6 +162,7 @@ impl Pr655Settings {
             max_samples: MAX_SAMPLES,
             default_samples: self.samples,
             retries: self.retries,
+            stated_accuracy: crate::accuracy::stated_accuracy_of(model.name()),
         }
     }
 
