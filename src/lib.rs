@@ -132,6 +132,6 @@ pub use lightbooth_lab as lab;
 pub use lightbooth_lab::{charts, export};
 pub use lightbooth_render as render;
 pub use lightbooth_science::{
-    calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum,
+    calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum, uncertainty,
 };
 pub use lightbooth_store as store;

@@ -689,6 +689,44 @@ async function loadScenes(openId) {
   }
 }
 
+// The three claims of a coding's figures, one cell each: whether its
+// rms_rel is beyond the render's noise, the measurement's repeatability
+// and the instrument's stated accuracy, and of how many targets the ΔE00
+// is. "not stated" where the instrument has no accuracy on record.
+function claimCells(u) {
+  if (!u) return ["—", "—", "—"];
+  const stated = (v) => v !== null && v !== undefined;
+  return ["beyond_noise", "beyond_repeatability", "beyond_stated_accuracy"].map((claim) => {
+    const rms = u.rms_rel.claims[claim];
+    const made = u.targets.filter((t) => stated(t.dE00.claims[claim]));
+    const beyond = made.filter((t) => t.dE00.claims[claim]).length;
+    const rmsText = stated(rms) ? `rms_rel ${rms ? "yes" : "no"}` : "rms_rel: not stated";
+    const deText = made.length ? `ΔE00 ${beyond} of ${u.targets.length}` : "ΔE00: not stated";
+    return `${rmsText}; ${deText}`;
+  });
+}
+
+// Under the coding table: how the claims were made and from what.
+function uncertaintyNote(codings) {
+  const u = codings.map((c) => c.uncertainty).find((x) => x);
+  const why = codings.map((c) => c.uncertainty_not_propagated).find((x) => x);
+  if (!u) return why ? `No intervals: ${why}.` : "";
+  const a = u.stated_accuracy;
+  const stated = [
+    a.luminance_bound_percent != null ? `luminance ±${a.luminance_bound_percent} %` : null,
+    a.chromaticity_bound_x != null ? `x ±${a.chromaticity_bound_x}` : null,
+    a.chromaticity_bound_y != null ? `y ±${a.chromaticity_bound_y}` : null,
+    a.wavelength_bound_nm != null ? `wavelength ±${a.wavelength_bound_nm} nm` : null,
+  ].filter((x) => x);
+  const rms = u.rms_rel;
+  return `Beyond: the observed figure against what the measurement's error alone gives (95 %), from ${u.draws} ` +
+    `seeded Monte Carlo draws (GUM Supplement 1) of each measured spectrum within its repeatability and of the ` +
+    `${u.instrument_model}'s stated accuracy: ${stated.length ? stated.join(", ") : "no figure on record, so no " +
+    "claim about it"}; the rest unset (source: ${a.source}). Measurement error alone gives ` +
+    `rms_rel up to ${fmt(rms.null_95th_repeatability, 3)} (repeatability) and ${fmt(rms.null_95th_stated_accuracy, 3)} ` +
+    "(with the stated accuracy)." + (why ? ` Some codings have no intervals: ${why}.` : "");
+}
+
 // A compact table: one column per coding (its colour), mean ΔE00 and rms_rel rows.
 function codingFiguresTable(codings) {
   const t = document.createElement("table");
@@ -736,8 +774,10 @@ async function loadSceneDetail(id) {
   for (const r of c.codings) {
     const tr = tbody.insertRow();
     for (const v of [r.coding, r.points, fmt(r.rms_rel), `${fmt(r.mean_dE76)} ± ${fmt(r.sd_dE76, 2)}`,
-      `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4)]) tr.insertCell().textContent = v;
+      `${fmt(r.mean_dE00)} ± ${fmt(r.sd_dE00, 2)}`, fmt(r.mean_Y_ratio, 4),
+      ...claimCells(r.uncertainty)]) tr.insertCell().textContent = v;
   }
+  $("coding-uncertainty-note").textContent = uncertaintyNote(c.codings);
   const renders = await api(`/api/scenes/${id}/renders`);
   if (openScene !== id) return;
   showRenderJobs(renders);

@@ -307,16 +307,60 @@ async function loadDetail(id) {
   for (const w of analysis.warnings) box.append(el("p", "warning: " + w, "notice"));
   const ruled = analysis.rows.find((r) => r.differencing && r.differencing.rule);
   if (ruled) box.append(el("p", "* " + ruled.differencing.rule, "hint"));
+  box.append(thresholdTable(analysis));
   const csv = el("a", "analysis as CSV");
   csv.href = `/api/experiments/${id}/analysis.csv`;
-  const mat = el("a", "as a MAT-file");
+  const thresholds = el("a", "thresholds as CSV");
+  thresholds.href = `/api/experiments/${id}/thresholds.csv`;
+  const mat = el("a", "both as a MAT-file");
   mat.href = `/api/experiments/${id}/analysis.mat`;
-  box.append(csv, " · ", mat);
+  box.append(csv, " · ", thresholds, " · ", mat);
   await readCredential;
   const img = el("img");
   img.alt = "d′ and percent correct per approximation";
   img.src = `/api/experiments/figure.svg?ids=${id}`;
-  $("figure").replaceChildren(img, el("figcaption", "d′ under the differencing model (bars, 95 % intervals), percent correct (◆) on the right axis; chance is 33 %.", "hint"));
+  const curve = el("img");
+  curve.alt = "percent correct against ΔE00 with each observer's fitted psychometric function";
+  curve.src = `/api/experiments/${id}/psychometric.svg`;
+  $("figure").replaceChildren(img, el("figcaption", "d′ under the differencing model (bars, 95 % intervals), percent correct (◆) on the right axis; chance is 33 %.", "hint"),
+    curve, el("figcaption", `Percent correct against ΔE00 (${analysis.delta_e00_basis}) with the fitted d′ = ΔE00/σ ` +
+      "(differencing model); chance is the line at 33 %; open points: the percent the fit predicts for approximations the " +
+      "display could not show apart at 8 bits.", "hint"));
+}
+
+// Each observer's threshold: σ and the ΔE00 at 2/3 correct with their
+// profile-likelihood intervals, and how well one σ explains every
+// approximation (deviance, p), under both oddity models.
+function thresholdTable(analysis) {
+  const wrap = el("div");
+  wrap.append(el("h3", "Thresholds"));
+  const table = el("table");
+  table.className = "threshold-table";
+  const head = el("tr");
+  for (const h of ["observer", "model", "σ (ΔE00) [95 %]", "threshold ΔE00 at 2/3 [95 %]", "deviance (df)", "p"]) {
+    head.append(el("th", h));
+  }
+  table.append(el("thead"));
+  table.tHead.append(head);
+  const body = el("tbody");
+  const end = (v) => (v === null || v === undefined ? "∞" : v.toFixed(3));
+  for (const t of analysis.thresholds) {
+    const f = t.fit;
+    if (!f) {
+      body.append(row([t.observer, t.model, `no fit: ${t.not_fitted}`, "", "", ""]));
+      continue;
+    }
+    const g = f.goodness_of_fit;
+    body.append(row([t.observer, t.model, `${end(f.sigma)} [${end(f.sigma_interval[0])}, ${end(f.sigma_interval[1])}]`,
+      `${end(f.threshold)} [${end(f.threshold_interval[0])}, ${end(f.threshold_interval[1])}]`,
+      `${g.deviance.toFixed(2)} (${g.degrees_of_freedom})`, g.p_value === null ? "no df left" : g.p_value.toFixed(3)]));
+  }
+  table.append(body);
+  wrap.append(table, el("p", `One σ per observer over all approximations, d′ = ΔE00/σ, ΔE00 ${analysis.delta_e00_basis === "verified" ?
+    "as the display was measured to show it (the newest passing verification)" :
+    "as the display profile predicts it is shown (no passing verification yet)"}; a small p says one σ does not ` +
+    "explain every approximation.", "hint"));
+  return wrap;
 }
 
 const parts = location.pathname.split("/").filter(Boolean);

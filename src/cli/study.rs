@@ -208,13 +208,13 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
             println!("{}", serde_json::to_string_pretty(&result)?);
         } else {
             println!(
-                "{:<10} {:<9} {:>16} {:>16} {:>16} {:>12}",
+                "{:<10} {:<9} {:>16} {:>16} {:>16} {:>12}  distinguishable within the instrument's stated accuracy",
                 "scene", "coding", "rms_rel", "mean dE*ab", "mean dE00", "sig. targets"
             );
             for s in &result.scenes {
                 for c in &s.codings {
                     println!(
-                        "{:<10} {:<9} {:>8.4} ±{:>6.4} {:>8.3} ±{:>6.3} {:>8.3} ±{:>6.3} {:>6} of {:<3}",
+                        "{:<10} {:<9} {:>8.4} ±{:>6.4} {:>8.3} ±{:>6.3} {:>8.3} ±{:>6.3} {:>6} of {:<3}  {}",
                         s.scene,
                         c.coding,
                         c.rms_rel.mean,
@@ -224,7 +224,8 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
                         c.mean_dE00.mean,
                         c.mean_dE00.sd,
                         c.significant_targets,
-                        s.targets.len()
+                        s.targets.len(),
+                        lightbooth::lab::study::report::distinguishable_cell(c)
                     );
                 }
             }

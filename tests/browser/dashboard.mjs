@@ -148,6 +148,14 @@ try {
   }, null, { timeout: 30000 });
   const codings = await page.$$eval("#coding-table tbody tr td:first-child", (tds) => tds.map((t) => t.textContent));
   if (codings.join(",") !== "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral") failures.push("codings: " + codings);
+  // Each coding's three claims, and under the table what they rest on.
+  const claims = await page.$$eval("#coding-table tbody tr", (trs) => trs.map((tr) => [...tr.cells].slice(6).map((c) => c.textContent)));
+  for (const [i, row] of claims.entries()) {
+    if (row.length !== 3 || !row.every((c) => /^rms_rel/.test(c))) failures.push(`coding ${codings[i]}'s claims: ${row}`);
+    if (!/ΔE00: not stated/.test(row[2])) failures.push(`the PR-650 states no colour accuracy, yet ${codings[i]}: ${row[2]}`);
+  }
+  const claimNote = await page.textContent("#coding-uncertainty-note");
+  if (!/PR-650's stated accuracy: luminance ±4 %/.test(claimNote)) failures.push("the claims' note: " + claimNote);
   const caption = await page.textContent("#preview-caption");
   if (!/paths per pixel/.test(caption)) failures.push("preview caption does not say its paths per pixel: " + caption);
   if (shots) await page.screenshot({ path: `${shots}/scene-white.png`, fullPage: true });

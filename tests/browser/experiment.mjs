@@ -200,9 +200,19 @@ try {
   await page.goto(`${base}/experiment/${experiment.id}#token=${token}`);
   await page.waitForFunction(() => document.querySelector("#figure img")?.complete && document.querySelector("#figure img").naturalWidth > 0,
     null, { timeout: 20000 });
+  // The psychometric figure (the second image) and the thresholds table.
+  await page.waitForFunction(() => {
+    const imgs = document.querySelectorAll("#figure img");
+    return imgs.length === 2 && [...imgs].every((i) => i.complete && i.naturalWidth > 0);
+  }, null, { timeout: 20000 });
   const results = await page.textContent("#analysis");
-  for (const want of ["sim1", "sim2", "d′ differencing", "independent observation"]) {
+  for (const want of ["sim1", "sim2", "d′ differencing", "independent observation", "Thresholds",
+    "threshold ΔE00 at 2/3", "deviance", "thresholds as CSV"]) {
     if (!results.includes(want)) failures.push(`the results page lacks "${want}"`);
+  }
+  const thresholdRows = await page.$$eval(".threshold-table tbody tr", (trs) => trs.map((tr) => tr.cells[0].textContent));
+  for (const who of ["sim1", "sim2", "all"]) {
+    if (thresholdRows.filter((o) => o === who).length !== 2) failures.push(`thresholds of ${who}: ${thresholdRows}`);
   }
   const measured = await page.textContent("#detail-verification");
   for (const want of ["passed", "ΔE00 booth → emitted", "full field", "pie"]) {

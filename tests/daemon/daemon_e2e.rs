@@ -178,6 +178,52 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         .find(|r| r["coding"] == "spectral")
         .unwrap();
     assert!(spectral["mean_dE00"].as_f64().unwrap() < 2.0, "{spectral}");
+    // Every coding's figures against the PR-650's stated ±4 % (the one
+    // figure on record): rms_rel's null — what a systematic scale error
+    // drawn from R(−4 %, +4 %) alone gives — has its 95th percentile at
+    // 0.95 × 4 % = 3.8 % (closed form of |R(−a, a)|'s quantile); ΔE needs a
+    // colour figure, which is not stated, so its third claim is not made.
+    for coding in c["codings"].as_array().unwrap() {
+        let u = &coding["uncertainty"];
+        assert_eq!(u["instrument_model"], "PR-650", "{coding}");
+        assert_eq!(u["stated_accuracy"]["luminance_bound_percent"], 4.0, "{u}");
+        assert!(u["draws"].as_u64().unwrap() >= 1000, "{u}");
+        let null = u["rms_rel"]["null_95th_stated_accuracy"].as_f64().unwrap();
+        assert!((null - 0.038).abs() < 0.002, "{null}");
+        for t in u["targets"].as_array().unwrap() {
+            assert!(t["dE00"]["claims"]["beyond_stated_accuracy"].is_null(), "{t}");
+            assert!(t["relative_dY"]["claims"]["beyond_stated_accuracy"].is_boolean(), "{t}");
+        }
+    }
+    assert_eq!(
+        spectral["uncertainty"]["rms_rel"]["claims"]["beyond_stated_accuracy"],
+        false
+    );
+    let nstep3 = c["codings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["coding"] == "nstep3")
+        .unwrap();
+    // Three steps miss WHITE by ΔE*ab 13.6 (the study's table): far beyond
+    // the measurement's repeatability.
+    assert_eq!(
+        nstep3["uncertainty"]["targets"][0]["dE00"]["claims"]["beyond_repeatability"],
+        true
+    );
+    let (status, csv) = common::request(d.addr, "GET", "/api/scenes/white/comparisons.csv", None, None).await;
+    assert_eq!(status, 200);
+    let csv = String::from_utf8(csv).unwrap();
+    let header = csv.lines().next().unwrap();
+    for column in [
+        "dE00_beyond_stated_accuracy",
+        "relative_dY_low95",
+        "relative_dY_beyond_repeatability",
+        "accuracy_of",
+    ] {
+        assert!(header.split(',').any(|h| h == column), "{column} not in {header}");
+    }
+    assert!(csv.lines().skip(1).all(|l| l.contains("PR-650")), "{csv}");
 
     for chart in ["chromaticity", "profile", "rms", "de", "speed"] {
         let (status, body) = common::request(

@@ -291,8 +291,12 @@ pub struct Claims {
     pub beyond_noise: bool,
     /// Beyond what the measurement's repeatability alone explains (95 %).
     pub beyond_repeatability: bool,
-    /// Beyond repeatability and the instrument's stated accuracy together (95 %).
-    pub beyond_stated_accuracy: bool,
+    /// Beyond repeatability and the instrument's stated accuracy together
+    /// (95 %); `None` when the figures this difference depends on are not
+    /// on record (luminance for relative ΔY and rms_rel, chromaticity or
+    /// wavelength for Δx and Δy, both for ΔE): then the draws hold only part
+    /// of the instrument's error and the claim cannot be made either way.
+    pub beyond_stated_accuracy: Option<bool>,
 }
 
 /// One figure of merit with its uncertainty and its claims.
@@ -527,7 +531,7 @@ impl FigureDraws {
             claims: Claims {
                 beyond_noise: beyond_noise(observed, u_render, repeatability.standard_uncertainty),
                 beyond_repeatability: excludes_zero(&repeatability),
-                beyond_stated_accuracy: excludes_zero(&stated_accuracy),
+                beyond_stated_accuracy: Some(excludes_zero(&stated_accuracy)),
             },
         }
     }
@@ -546,7 +550,7 @@ impl FigureDraws {
             claims: Claims {
                 beyond_noise: observed > null_noise,
                 beyond_repeatability: observed > null_rep,
-                beyond_stated_accuracy: observed > null_stated,
+                beyond_stated_accuracy: Some(observed > null_stated),
             },
         }
     }
@@ -689,7 +693,7 @@ fn validate(
 /// let four_percent = StatedAccuracy { luminance_bound_percent: Some(4.0), ..StatedAccuracy::unstated("example") };
 /// let r = propagate(&scene, &four_percent, MonteCarloDraws::default()).unwrap();
 /// let claims = r.points[0].relative_dy.claims;
-/// assert!(claims.beyond_repeatability && !claims.beyond_stated_accuracy);
+/// assert!(claims.beyond_repeatability && claims.beyond_stated_accuracy == Some(false));
 /// ```
 pub fn propagate(
     scene: &SceneComparison,
@@ -836,13 +840,36 @@ pub fn propagate(
             }
         })
         .collect();
-    Ok(SceneUncertainty {
+    let mut result = SceneUncertainty {
         observer: scene.observer,
         monte_carlo: mc,
         accuracy: accuracy.clone(),
         points,
         rms_rel: rms_draws.non_negative(rms(observed.iter().map(|f| f.relative_dy), n_points)),
-    })
+    };
+    // A claim about the stated accuracy needs the figures the difference
+    // depends on: the luminance bound for relative ΔY and rms_rel; a
+    // chromaticity or wavelength bound for Δx and Δy; both for ΔE. Without
+    // them the draws hold only part of the instrument's error, and a
+    // "beyond" would be a guess: no claim either way.
+    let luminance = accuracy.luminance_bound_percent.is_some();
+    let chromaticity = accuracy.chromaticity_bound_x.is_some()
+        || accuracy.chromaticity_bound_y.is_some()
+        || accuracy.wavelength_bound_nm.is_some();
+    let unknown = |d: &mut PropagatedDifference, known: bool| {
+        if !known {
+            d.claims.beyond_stated_accuracy = None;
+        }
+    };
+    for p in &mut result.points {
+        unknown(&mut p.relative_dy, luminance);
+        unknown(&mut p.dx, chromaticity);
+        unknown(&mut p.dy, chromaticity);
+        unknown(&mut p.de76, luminance && chromaticity);
+        unknown(&mut p.de00, luminance && chromaticity);
+    }
+    unknown(&mut result.rms_rel, luminance);
+    Ok(result)
 }
 
 #[cfg(test)]
@@ -1038,10 +1065,10 @@ mod tests {
             let r = propagate(&scene(points), &stated, mc).unwrap();
             let p = &r.points[0];
             y_in += usize::from(p.measured_luminance.stated_accuracy.interval_95.contains(true_xyz[0].y));
-            dx_in += usize::from(!p.dx.claims.beyond_stated_accuracy);
-            dy_rel_in += usize::from(!p.relative_dy.claims.beyond_stated_accuracy);
-            de_ok += usize::from(!p.de00.claims.beyond_stated_accuracy);
-            rms_ok += usize::from(!r.rms_rel.claims.beyond_stated_accuracy);
+            dx_in += usize::from(p.dx.claims.beyond_stated_accuracy != Some(true));
+            dy_rel_in += usize::from(p.relative_dy.claims.beyond_stated_accuracy != Some(true));
+            de_ok += usize::from(p.de00.claims.beyond_stated_accuracy != Some(true));
+            rms_ok += usize::from(r.rms_rel.claims.beyond_stated_accuracy != Some(true));
         }
         let f = |n: usize| n as f64 / trials as f64;
         println!(
@@ -1112,13 +1139,13 @@ mod tests {
         let r = propagate(&two_point_scene(1.03), &acc, MonteCarloDraws::default()).unwrap();
         let d = r.points[0].relative_dy;
         assert!(
-            d.claims.beyond_repeatability && !d.claims.beyond_stated_accuracy,
+            d.claims.beyond_repeatability && d.claims.beyond_stated_accuracy != Some(true),
             "{d:?}"
         );
-        assert!(r.rms_rel.claims.beyond_repeatability && !r.rms_rel.claims.beyond_stated_accuracy);
+        assert!(r.rms_rel.claims.beyond_repeatability && r.rms_rel.claims.beyond_stated_accuracy != Some(true));
         let r = propagate(&two_point_scene(1.08), &acc, MonteCarloDraws::default()).unwrap();
-        assert!(r.points[0].relative_dy.claims.beyond_stated_accuracy);
-        assert!(r.rms_rel.claims.beyond_stated_accuracy && r.rms_rel.claims.beyond_noise);
+        assert!(r.points[0].relative_dy.claims.beyond_stated_accuracy == Some(true));
+        assert!(r.rms_rel.claims.beyond_stated_accuracy == Some(true) && r.rms_rel.claims.beyond_noise);
     }
 
     /// A chromaticity bound alone: Δx is spread rectangularly over ±b_x
@@ -1171,7 +1198,9 @@ mod tests {
                 assert_eq!(disp.interval_95.low, d.observed);
             }
         }
-        assert!(p.relative_dy.claims.beyond_stated_accuracy && p.de00.claims.beyond_stated_accuracy);
+        // Beyond an exact measurement; no accuracy on record, no claim about it.
+        assert!(p.relative_dy.claims.beyond_repeatability && p.de00.claims.beyond_repeatability);
+        assert_eq!(p.relative_dy.claims.beyond_stated_accuracy, None);
         // And no difference at all is beyond nothing.
         let s = warm(0.01);
         let same = xyz(&s);
@@ -1182,8 +1211,56 @@ mod tests {
         )
         .unwrap();
         let c = r.points[0].relative_dy.claims;
-        assert!(!c.beyond_noise && !c.beyond_repeatability && !c.beyond_stated_accuracy);
-        assert!(!r.points[0].de76.claims.beyond_stated_accuracy);
+        assert!(!c.beyond_noise && !c.beyond_repeatability && c.beyond_stated_accuracy != Some(true));
+        assert!(r.points[0].de76.claims.beyond_stated_accuracy != Some(true));
+    }
+
+    /// An instrument with no accuracy on record gets no stated-accuracy
+    /// claim at all (neither "beyond" nor "within"), even for a difference
+    /// far beyond its repeatability; one with a figure gets one.
+    #[test]
+    fn without_a_stated_figure_the_stated_accuracy_claim_is_not_made() {
+        let s = warm(0.01);
+        let rendered = Xyz {
+            y: xyz(&s).y * 1.3,
+            ..xyz(&s)
+        };
+        let unstated = StatedAccuracy::unstated("nothing found");
+        let r = propagate(
+            &scene(vec![point(s.clone(), 0.001, rendered)]),
+            &unstated,
+            MonteCarloDraws::default(),
+        )
+        .unwrap();
+        let c = r.points[0].relative_dy.claims;
+        assert!(c.beyond_repeatability, "{c:?}");
+        assert_eq!(c.beyond_stated_accuracy, None);
+        assert_eq!(r.rms_rel.claims.beyond_stated_accuracy, None);
+        let stated = accuracy(Some(4.0), None);
+        let r = propagate(
+            &scene(vec![point(s, 0.001, rendered)]),
+            &stated,
+            MonteCarloDraws::default(),
+        )
+        .unwrap();
+        assert_eq!(r.points[0].relative_dy.claims.beyond_stated_accuracy, Some(true));
+        // A luminance bound alone says nothing of the instrument's colour
+        // error: no claim for Δx, Δy or ΔE (a colour difference would
+        // otherwise be called beyond an accuracy nobody stated).
+        let p = &r.points[0];
+        assert_eq!(
+            (p.dx.claims.beyond_stated_accuracy, p.de00.claims.beyond_stated_accuracy),
+            (None, None)
+        );
+        let both = accuracy(Some(4.0), Some(2.0));
+        let r = propagate(
+            &scene(vec![point(warm(0.01), 0.001, rendered)]),
+            &both,
+            MonteCarloDraws::default(),
+        )
+        .unwrap();
+        let p = &r.points[0];
+        assert!(p.dx.claims.beyond_stated_accuracy.is_some() && p.de00.claims.beyond_stated_accuracy.is_some());
     }
 
     #[test]

@@ -16,6 +16,7 @@ use crate::http::input::Path;
 use crate::http::AppState;
 use crate::lab::comparisons::summary::SceneComparisons;
 use crate::store::ComparisonRow;
+use crate::uncertainty::{PointUncertainty, PropagatedDifference};
 
 /// A coding's figures of merit over a scene's targets.
 #[allow(non_snake_case)]
@@ -27,6 +28,55 @@ pub struct CodingSummary {
     pub summary: SceneSummaryDto,
     /// Mean Y ratio rendered/measured.
     pub mean_Y_ratio: f64,
+    /// The figures' 95 % intervals and their three claims (beyond the
+    /// render's noise, the measurement's repeatability, the instrument's
+    /// stated accuracy); null when they could not be propagated, and then
+    /// `uncertainty_not_propagated` says why.
+    pub uncertainty: Option<CodingUncertaintyDto>,
+    pub uncertainty_not_propagated: Option<String>,
+}
+
+/// A coding's propagated uncertainty (GUM Supplement 1 Monte Carlo,
+/// [`crate::lab::comparisons::summary`]).
+#[derive(Serialize, ToSchema)]
+pub struct CodingUncertaintyDto {
+    /// The model whose stated accuracy was propagated.
+    pub instrument_model: String,
+    /// Its stated accuracy as propagated, with the source of each figure;
+    /// an unset figure added nothing, and with none set the stated-accuracy
+    /// claims are null (not made).
+    #[schema(value_type = Object)]
+    pub stated_accuracy: crate::uncertainty::StatedAccuracy,
+    pub draws: usize,
+    pub seed: u64,
+    /// rms_rel with its intervals and claims.
+    #[schema(value_type = Object)]
+    pub rms_rel: crate::uncertainty::PropagatedDifference,
+    /// One per target, in the order of the coding's rows.
+    pub targets: Vec<TargetUncertaintyDto>,
+}
+
+/// One target's figures with their intervals and claims.
+#[allow(non_snake_case)]
+#[derive(Serialize, ToSchema)]
+pub struct TargetUncertaintyDto {
+    /// The comparison row (`rows[].id`).
+    pub comparison_id: i64,
+    pub target: String,
+    pub measurement_id: i64,
+    #[schema(value_type = Object)]
+    pub measured_Y: crate::uncertainty::MeasuredLuminance,
+    #[schema(value_type = Object)]
+    pub dE00: crate::uncertainty::PropagatedDifference,
+    #[schema(value_type = Object)]
+    pub dE76: crate::uncertainty::PropagatedDifference,
+    #[schema(value_type = Object)]
+    pub dx: crate::uncertainty::PropagatedDifference,
+    #[schema(value_type = Object)]
+    pub dy: crate::uncertainty::PropagatedDifference,
+    /// rendered Y / measured Y − 1.
+    #[schema(value_type = Object)]
+    pub relative_dY: crate::uncertainty::PropagatedDifference,
 }
 
 /// [`SceneSummary`] as the API gives it (MATLAB-friendly field names).
@@ -79,19 +129,56 @@ async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparis
 
 impl From<SceneComparisons> for SceneComparison {
     fn from(c: SceneComparisons) -> Self {
-        SceneComparison {
-            scene: c.scene,
-            observer: c.observer,
-            codings: c
-                .codings
-                .into_iter()
-                .map(|s| CodingSummary {
+        let rows = c.rows;
+        let row = |id: i64| rows.iter().find(|r| r.id == id);
+        let codings = c
+            .codings
+            .into_iter()
+            .map(|s| {
+                let (uncertainty, uncertainty_not_propagated) = match s.uncertainty {
+                    Ok(u) => {
+                        let targets = u
+                            .row_ids
+                            .iter()
+                            .zip(&u.propagated.points)
+                            .map(|(&id, p)| TargetUncertaintyDto {
+                                comparison_id: id,
+                                target: row(id).map(|r| r.target.clone()).unwrap_or_default(),
+                                measurement_id: row(id).map(|r| r.measurement_id).unwrap_or_default(),
+                                measured_Y: p.measured_luminance,
+                                dE00: p.de00,
+                                dE76: p.de76,
+                                dx: p.dx,
+                                dy: p.dy,
+                                relative_dY: p.relative_dy,
+                            })
+                            .collect();
+                        let dto = CodingUncertaintyDto {
+                            instrument_model: u.instrument_model,
+                            stated_accuracy: u.propagated.accuracy,
+                            draws: u.propagated.monte_carlo.draws,
+                            seed: u.propagated.monte_carlo.seed,
+                            rms_rel: u.propagated.rms_rel,
+                            targets,
+                        };
+                        (Some(dto), None)
+                    }
+                    Err(why) => (None, Some(why)),
+                };
+                CodingSummary {
                     coding: s.coding,
                     summary: s.summary.into(),
                     mean_Y_ratio: s.mean_y_ratio,
-                })
-                .collect(),
-            rows: c.rows,
+                    uncertainty,
+                    uncertainty_not_propagated,
+                }
+            })
+            .collect();
+        SceneComparison {
+            scene: c.scene,
+            observer: c.observer,
+            codings,
+            rows,
         }
     }
 }
@@ -112,13 +199,101 @@ pub async fn scene_comparisons_csv(
     Path(scene): Path<String>,
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
-    // Every row names its observer (the `observer` column).
+    let internal = |e: &dyn std::fmt::Display| ApiError::Internal(e.to_string());
+    // Every row names its observer (the `observer` column); the stored
+    // columns first, as serialised, then each row's uncertainty columns.
     let mut w = csv::Writer::from_writer(Vec::new());
     for row in &c.rows {
-        w.serialize(row).map_err(|e| ApiError::Internal(e.to_string()))?;
+        w.serialize(row).map_err(|e| internal(&e))?;
     }
-    let bytes = w.into_inner().map_err(|e| ApiError::Internal(e.to_string()))?;
+    let stored = w.into_inner().map_err(|e| internal(&e))?;
+    let mut r = csv::Reader::from_reader(stored.as_slice());
+    let by_row = uncertainty_by_row(&c);
+    let mut out = csv::Writer::from_writer(Vec::new());
+    let mut header = r.headers().map_err(|e| internal(&e))?.clone();
+    let extra = uncertainty_columns(None);
+    for (name, _) in &extra {
+        header.push_field(name);
+    }
+    if !c.rows.is_empty() {
+        out.write_record(&header).map_err(|e| internal(&e))?;
+    }
+    for (record, row) in r.records().zip(&c.rows) {
+        let mut record = record.map_err(|e| internal(&e))?;
+        for (_, value) in uncertainty_columns(by_row.get(&row.id).copied()) {
+            record.push_field(&value);
+        }
+        out.write_record(&record).map_err(|e| internal(&e))?;
+    }
+    let bytes = out.into_inner().map_err(|e| internal(&e))?;
     Ok(download("text/csv", &format!("comparisons_{scene}.csv"), bytes))
+}
+
+/// Each comparison row's propagated figures, by the row's id.
+fn uncertainty_by_row(c: &SceneComparisons) -> std::collections::HashMap<i64, (&PointUncertainty, &str)> {
+    c.codings
+        .iter()
+        .filter_map(|s| s.uncertainty.as_ref().ok())
+        .flat_map(|u| {
+            u.row_ids
+                .iter()
+                .copied()
+                .zip(u.propagated.points.iter().map(|p| (p, u.instrument_model.as_str())))
+        })
+        .collect()
+}
+
+/// A row's uncertainty columns, named as in the CSV and the MAT file
+/// (empty, or NaN in the MAT file, where nothing was propagated): for
+/// ΔE00 the 95th percentile of what the measurement's error alone gives
+/// (repeatability; with the stated accuracy), for Δx, Δy and relative ΔY
+/// the 95 % interval with the stated accuracy; and each figure's three
+/// claims (`true`/`false`; empty where not made).
+fn uncertainty_columns(p: Option<(&PointUncertainty, &str)>) -> Vec<(String, String)> {
+    let num = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
+    let flag = |v: Option<bool>| v.map(|v| v.to_string()).unwrap_or_default();
+    let mut out = vec![(
+        "accuracy_of".to_string(),
+        p.map(|p| p.1.to_string()).unwrap_or_default(),
+    )];
+    let figures: [(&str, fn(&PointUncertainty) -> &PropagatedDifference, bool); 4] = [
+        ("dE00", |p| &p.de00, false),
+        ("relative_dY", |p| &p.relative_dy, true),
+        ("dx", |p| &p.dx, true),
+        ("dy", |p| &p.dy, true),
+    ];
+    for (name, figure, signed) in figures {
+        let d = p.map(|p| figure(p.0));
+        if signed {
+            out.push((
+                format!("{name}_low95"),
+                num(d.map(|d| d.stated_accuracy.interval_95.low)),
+            ));
+            out.push((
+                format!("{name}_high95"),
+                num(d.map(|d| d.stated_accuracy.interval_95.high)),
+            ));
+        } else {
+            out.push((
+                format!("{name}_null95_repeatability"),
+                num(d.and_then(|d| d.null_95th_repeatability)),
+            ));
+            out.push((
+                format!("{name}_null95_stated_accuracy"),
+                num(d.and_then(|d| d.null_95th_stated_accuracy)),
+            ));
+        }
+        out.push((format!("{name}_beyond_noise"), flag(d.map(|d| d.claims.beyond_noise))));
+        out.push((
+            format!("{name}_beyond_repeatability"),
+            flag(d.map(|d| d.claims.beyond_repeatability)),
+        ));
+        out.push((
+            format!("{name}_beyond_stated_accuracy"),
+            flag(d.and_then(|d| d.claims.beyond_stated_accuracy)),
+        ));
+    }
+    out
 }
 
 /// `load('comparisons_cylinder.mat')`: one column vector per numeric field
@@ -159,6 +334,30 @@ pub async fn scene_comparisons_mat(
     ];
     for (name, f) in fields {
         mat.column(name, &col(f)).map_err(internal)?;
+    }
+    // Each row's uncertainty columns (NaN where not propagated or not
+    // made; claims 1 or 0), named as in the CSV.
+    let by_row = uncertainty_by_row(&c);
+    let per_row: Vec<Vec<(String, String)>> = c
+        .rows
+        .iter()
+        .map(|r| uncertainty_columns(by_row.get(&r.id).copied()))
+        .collect();
+    for (k, (name, _)) in uncertainty_columns(None).iter().enumerate() {
+        if name == "accuracy_of" {
+            mat.text_rows(name, &per_row.iter().map(|cols| cols[k].1.clone()).collect::<Vec<_>>())
+                .map_err(internal)?;
+            continue;
+        }
+        let values: Vec<f64> = per_row
+            .iter()
+            .map(|cols| match cols[k].1.as_str() {
+                "true" => 1.0,
+                "false" => 0.0,
+                v => v.parse().unwrap_or(f64::NAN),
+            })
+            .collect();
+        mat.column(name, &values).map_err(internal)?;
     }
     Ok(download(
         "application/x-matlab-data",

@@ -18,7 +18,9 @@ use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::experiments::analysis::{analysis_csv, analysis_mat, figure, Analysis};
+use crate::lab::experiments::analysis::{
+    analysis_csv, analysis_mat, figure, psychometric_figure, thresholds_csv, Analysis,
+};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
 use crate::lab::experiments::verification::{Verification, VerificationRequest};
 use crate::lab::experiments::ExperimentRequest;
@@ -214,6 +216,62 @@ pub async fn experiment_analysis_mat(
     ))
 }
 
+/// Each observer's (and the pooled) threshold as CSV: per observer and
+/// oddity model a `fit` row (σ, the ΔE00 at 2/3 correct, their intervals,
+/// the deviance and its p-value) and a `prediction` row per approximation.
+#[utoipa::path(get, path = "/experiments/{id}/thresholds.csv", tag = "experiments", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "text/csv"), (status = 404, body = ErrorBody)))]
+pub async fn experiment_thresholds_csv(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<impl IntoResponse, ApiError> {
+    let a = state.lab.experiments().analyze(id).await?;
+    Ok(download(
+        "text/csv; charset=utf-8",
+        &format!("experiment-{id}-thresholds.csv"),
+        thresholds_csv(&a).into_bytes(),
+    ))
+}
+
+/// The oddity model a figure is drawn under.
+#[derive(Deserialize, utoipa::IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+pub struct ModelQuery {
+    /// `differencing` (default) or `independent-observation`.
+    pub model: Option<String>,
+}
+
+/// The oddity model a query names (differencing by default).
+fn model_of(name: Option<&str>) -> Result<OddityModel, ApiError> {
+    match name {
+        None | Some("differencing") => Ok(OddityModel::Differencing),
+        Some("independent-observation") => Ok(OddityModel::IndependentObservation),
+        Some(other) => Err(ApiError::BadRequest(format!(
+            "query `model`: `{other}`; give differencing or independent-observation"
+        ))),
+    }
+}
+
+/// The psychometric figure: percent correct against ΔE00 per observer, the
+/// fitted d′ = ΔE00/σ curve, chance marked, and the percent predicted for
+/// the approximations the display could not show apart at 8 bits.
+#[utoipa::path(get, path = "/experiments/{id}/psychometric.svg", tag = "experiments",
+    params(("id" = i64, Path), ModelQuery),
+    responses((status = 200, content_type = "image/svg+xml"), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody)))]
+pub async fn experiment_psychometric_figure(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<ModelQuery>,
+) -> Result<impl IntoResponse, ApiError> {
+    let model = model_of(q.model.as_deref())?;
+    let a = state.lab.experiments().analyze(id).await?;
+    Ok((
+        [(header::CONTENT_TYPE, "image/svg+xml")],
+        psychometric_figure(&a, model)?,
+    ))
+}
+
 #[derive(Deserialize, utoipa::IntoParams)]
 #[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
@@ -233,15 +291,7 @@ pub async fn experiments_figure(
     State(state): State<AppState>,
     Query(q): Query<FigureQuery>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let model = match q.model.as_deref() {
-        None | Some("differencing") => OddityModel::Differencing,
-        Some("independent-observation") => OddityModel::IndependentObservation,
-        Some(other) => {
-            return Err(ApiError::BadRequest(format!(
-                "query `model`: `{other}`; give differencing or independent-observation"
-            )))
-        }
-    };
+    let model = model_of(q.model.as_deref())?;
     let ids: Vec<i64> = q
         .ids
         .split(',')

@@ -124,5 +124,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(experiment_analysis))
         .routes(routes!(experiment_analysis_csv))
         .routes(routes!(experiment_analysis_mat))
+        .routes(routes!(experiment_thresholds_csv))
+        .routes(routes!(experiment_psychometric_figure))
         .routes(routes!(experiments_figure))
 }

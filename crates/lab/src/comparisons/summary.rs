@@ -5,10 +5,28 @@
 //!
 //! Only rows of the asked observer are summarised: rows of another (from a
 //! run with another `--observer`) are never summarised or charted with them.
+//!
+//! Each coding's figures also carry their uncertainty
+//! ([`lightbooth_science::uncertainty::propagate`]): the measurements' own
+//! spectra drawn within their repeatability (the samples' SD/√n per
+//! wavelength) and within the stated accuracy of the instrument that took
+//! them ([`lightbooth_instrument::accuracy`]), the render's noise from its
+//! standard error, so every ΔE, Δx, Δy, relative ΔY and rms_rel says
+//! whether it is beyond the render's noise, beyond the measurement's
+//! repeatability and beyond the instrument's stated accuracy. The draws
+//! are seeded by the scene and coding, so a page shows the same intervals
+//! on every load.
 
+use std::collections::HashMap;
+
+use lightbooth_instrument::accuracy::stated_accuracy_of;
 use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_science::comparison::{mean_sd, summarize, PointDifference, SceneSummary};
-use lightbooth_store::{ComparisonRow, Store, StoreError};
+use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
+use lightbooth_science::uncertainty::{
+    propagate, MeasuredRenderedPoint, MonteCarloDraws, SceneComparison, SceneUncertainty,
+};
+use lightbooth_store::{ComparisonRow, MeasurementDetail, Store, StoreError};
 
 /// One coding's figures of merit over a scene's targets.
 pub struct CodingSummary {
@@ -17,6 +35,20 @@ pub struct CodingSummary {
     pub summary: SceneSummary,
     /// Mean Y ratio rendered/measured.
     pub mean_y_ratio: f64,
+    /// The figures' uncertainty and claims, its points in the order of
+    /// [`CodingSummary::rows`]; or why it could not be propagated (a
+    /// colorimeter's measurement has no spectrum, measurements by two models
+    /// share no stated accuracy…).
+    pub uncertainty: Result<CodingUncertainty, String>,
+}
+
+/// A coding's propagated uncertainty, with what its points are.
+pub struct CodingUncertainty {
+    /// The instrument model whose stated accuracy was propagated.
+    pub instrument_model: String,
+    pub propagated: SceneUncertainty,
+    /// The comparison row (`rows`' id) of each point of `propagated`.
+    pub row_ids: Vec<i64>,
 }
 
 /// A scene's newest comparisons and their summary per coding.
@@ -38,23 +70,40 @@ pub async fn scene_comparisons(store: &Store, scene: &str, observer: Observer) -
         .into_iter()
         .filter(|r| r.observer == observer)
         .collect();
-    Ok(summarise(scene, observer, rows))
+    let mut measurements = HashMap::new();
+    for r in &rows {
+        if !measurements.contains_key(&r.measurement_id) {
+            if let Some(m) = store.get_measurement(r.measurement_id).await? {
+                measurements.insert(r.measurement_id, m);
+            }
+        }
+    }
+    Ok(summarise(scene, observer, rows, &measurements))
 }
 
-/// The summary per coding of `rows` (all of `observer`).
-fn summarise(scene: &str, observer: Observer, rows: Vec<ComparisonRow>) -> SceneComparisons {
+/// The summary per coding of `rows` (all of `observer`), each with its
+/// uncertainty from the `measurements` the rows compare.
+fn summarise(
+    scene: &str,
+    observer: Observer,
+    rows: Vec<ComparisonRow>,
+    measurements: &HashMap<i64, MeasurementDetail>,
+) -> SceneComparisons {
     let mut codings: Vec<String> = rows.iter().map(|r| r.coding.clone()).collect();
     codings.sort_by_key(|c| coding_order(c));
     codings.dedup();
     let codings = codings
         .into_iter()
         .map(|coding| {
-            let points: Vec<PointDifference> = rows.iter().filter(|r| r.coding == coding).map(point_of).collect();
+            let of_coding: Vec<&ComparisonRow> = rows.iter().filter(|r| r.coding == coding).collect();
+            let points: Vec<PointDifference> = of_coding.iter().map(|r| point_of(r)).collect();
             let (mean_y_ratio, _) = mean_sd(points.iter().map(|p| p.y_ratio));
+            let uncertainty = coding_uncertainty(scene, &coding, observer, &of_coding, measurements);
             CodingSummary {
                 coding,
                 summary: summarize(&points),
                 mean_y_ratio,
+                uncertainty,
             }
         })
         .collect();
@@ -64,6 +113,132 @@ fn summarise(scene: &str, observer: Observer, rows: Vec<ComparisonRow>) -> Scene
         codings,
         rows,
     }
+}
+
+/// The Monte Carlo propagation of one coding's rows (see the module doc).
+fn coding_uncertainty(
+    scene: &str,
+    coding: &str,
+    observer: Observer,
+    rows: &[&ComparisonRow],
+    measurements: &HashMap<i64, MeasurementDetail>,
+) -> Result<CodingUncertainty, String> {
+    let white = rows
+        .first()
+        .map(|r| Xyz::new(r.white_X, r.white_Y, r.white_Z))
+        .ok_or("no rows")?;
+    let mut points = Vec::with_capacity(rows.len());
+    for r in rows {
+        let id = r.measurement_id;
+        let m = measurements
+            .get(&id)
+            .ok_or_else(|| format!("measurement {id} is gone"))?;
+        points.push((m, Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z), r.rendered_Y_se));
+    }
+    let (instrument_model, propagated) = propagate_measured(scene, coding, observer, white, &points)?;
+    Ok(CodingUncertainty {
+        instrument_model,
+        propagated,
+        row_ids: rows.iter().map(|r| r.id).collect(),
+    })
+}
+
+/// Propagates one coding's points, each (the measurement, the rendered XYZ,
+/// its Y standard error), with the stated accuracy of the one model that
+/// measured them all; seeded by the scene and coding ([`seed_of`]). Gives
+/// the model's name and the propagation, or why there is none.
+pub fn propagate_measured(
+    scene: &str,
+    coding: &str,
+    observer: Observer,
+    white: Xyz,
+    points: &[(&MeasurementDetail, Xyz, f64)],
+) -> Result<(String, SceneUncertainty), String> {
+    let mut model: Option<String> = None;
+    let mut drawn = Vec::with_capacity(points.len());
+    for (m, rendered, rendered_y_se) in points {
+        let this_model = m
+            .summary
+            .instrument_model
+            .clone()
+            .unwrap_or_else(|| "unknown instrument".into());
+        match &model {
+            Some(first) if *first != this_model => {
+                return Err(format!(
+                    "the targets were measured with two models ({first} and {this_model}), whose stated \
+                     accuracies are not one systematic error"
+                ))
+            }
+            _ => model = Some(this_model),
+        }
+        drawn.push(measured_rendered_point(m, *rendered, *rendered_y_se)?);
+    }
+    let instrument_model = model.ok_or("no points")?;
+    let accuracy = stated_accuracy_of(&instrument_model);
+    let draws = MonteCarloDraws {
+        seed: seed_of(scene, coding),
+        ..MonteCarloDraws::default()
+    };
+    let scene = SceneComparison {
+        points: drawn,
+        white,
+        observer,
+    };
+    let propagated = propagate(&scene, &accuracy, draws).map_err(|e| e.to_string())?;
+    Ok((instrument_model, propagated))
+}
+
+/// One point of a propagation: the measurement's mean spectrum with the
+/// standard uncertainty of that mean per wavelength (the usable samples'
+/// SD/√n), and the rendering with its standard error. The render's
+/// standard error is known for Y; X and Z are given the same relative
+/// error (an approximation: a path tracer's X, Y, Z errors are of one size
+/// relative to their values when the light is near white). Used by the
+/// scene pages and the study alike.
+pub fn measured_rendered_point(
+    m: &MeasurementDetail,
+    rendered: Xyz,
+    rendered_y_se: f64,
+) -> Result<MeasuredRenderedPoint, String> {
+    let id = m.summary.id;
+    let (Some(wl), Some(mean), Some(sd)) = (&m.wavelength_nm, &m.radiance, &m.radiance_sd) else {
+        return Err(format!(
+            "measurement {id} has no spectrum with its spread (the {} measures no spectrum), so its \
+             colorimetry cannot be drawn within its uncertainty",
+            m.summary.instrument_model.as_deref().unwrap_or("instrument")
+        ));
+    };
+    let n = m
+        .samples
+        .iter()
+        .filter(|s| s.usable && s.radiance.is_some())
+        .count()
+        .max(1) as f64;
+    let grid = Grid::from_wavelengths(wl.clone()).map_err(|e| format!("measurement {id}: {e}"))?;
+    let measured = Spectrum::new(grid, SpectralUnit::SpectralRadiance, mean.clone())
+        .map_err(|e| format!("measurement {id}: {e}"))?;
+    let relative_se = if rendered.y > 0.0 {
+        rendered_y_se / rendered.y
+    } else {
+        0.0
+    };
+    Ok(MeasuredRenderedPoint {
+        measured,
+        measured_standard_uncertainty: sd.iter().map(|v| v / n.sqrt()).collect(),
+        rendered,
+        rendered_standard_error: Xyz::new(rendered.x * relative_se, rendered_y_se, rendered.z * relative_se),
+    })
+}
+
+/// A fixed seed per scene and coding (FNV-1a of their names, cut to 53
+/// bits so that JSON readers keep it exactly): the same draws on every
+/// load of a page.
+pub fn seed_of(scene: &str, coding: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in scene.bytes().chain([0]).chain(coding.bytes()) {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    h & ((1 << 53) - 1)
 }
 
 /// A stored comparison row as the figures of merit it holds.

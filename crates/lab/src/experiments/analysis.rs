@@ -10,13 +10,28 @@
 //! and the analysis warns when over
 //! [`MAX_EXCLUDED_SHARE`](super::session::MAX_EXCLUDED_SHARE) of an
 //! observer's trials are excluded.
+//!
+//! Each observer's **threshold** (and the pooled one) is fitted over all
+//! approximations' counted trials with the one-parameter model
+//! d′ = ΔE00/σ under both oddity models
+//! ([`lightbooth_science::psychophysics::threshold`]): σ, the ΔE00 at 2/3
+//! correct with their profile-likelihood intervals, the deviance against
+//! the saturated model, and the percent correct predicted for every
+//! approximation at the ΔE00 it was meant to have (the ones the display
+//! could not show apart included). The ΔE00 of each condition is the one
+//! the display was *measured* to show (the newest passing verification:
+//! ΔE00 between the emitted original and approximation, each the mean over
+//! the geometries measured) or, without one, the one the display profile
+//! predicts the output method shows; `delta_e00_basis` says which.
 
 use serde::Serialize;
 
 use super::session::excluded_warning;
 use super::{parts, Experiments};
 use crate::error::LabError;
+use lightbooth_science::colorimetry::{ciede2000, Lab, Xyz};
 use lightbooth_science::psychophysics::oddity::{estimate, OddityEstimate, OddityModel, CHANCE};
+use lightbooth_science::psychophysics::threshold::{self, Condition, Prediction, ThresholdFit};
 use lightbooth_store::ObservedTrial;
 
 /// The confidence of every interval of the analysis.
@@ -76,6 +91,45 @@ pub struct Analysis {
     /// [`MAX_EXCLUDED_SHARE`](super::session::MAX_EXCLUDED_SHARE) of their
     /// trials excluded, approximations with none counted.
     pub warnings: Vec<String>,
+    /// `verified` (ΔE00 as the display was measured to show them) or
+    /// `predicted` (as its profile predicts the output method shows them,
+    /// no passing verification yet): the ΔE00 of every threshold fit.
+    pub delta_e00_basis: String,
+    /// Each observer's (then the pooled) threshold under each model.
+    pub thresholds: Vec<ObserverThreshold>,
+}
+
+/// One observer's (or the pool's) threshold under one oddity model.
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ObserverThreshold {
+    /// An observer id, or `all`.
+    pub observer: String,
+    /// The oddity model, as [`OddityModel::name`] names it.
+    pub model: String,
+    /// The fit (σ, threshold, intervals, deviance); none when the trials
+    /// cannot fit one (`not_fitted` says why).
+    #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
+    pub fit: Option<ThresholdFit>,
+    pub not_fitted: Option<String>,
+    /// The conditions fitted: (ΔE00 on `delta_e00_basis`, correct, trials).
+    #[cfg_attr(feature = "openapi", schema(value_type = Vec<Object>))]
+    pub conditions: Vec<Condition>,
+    /// Percent correct predicted per approximation at its intended ΔE00.
+    pub predictions: Vec<ThresholdPrediction>,
+}
+
+/// The fit's percent correct for one approximation.
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct ThresholdPrediction {
+    pub approximation: String,
+    /// The ΔE00 the approximation was meant to have (before the display).
+    pub delta_e00_intended: f64,
+    /// Whether the display showed it apart from the original at 8 bits.
+    pub distinct_at_8bit: bool,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub predicted: Prediction,
 }
 
 impl Experiments {
@@ -158,7 +212,65 @@ impl Experiments {
                 r.observer, r.approximation, r.excluded
             ));
         }
+        let (delta_e00_basis, shown) = self
+            .delta_e00_shown(experiment_id, &request.approximations, &check)
+            .await?;
+        let mut thresholds = Vec::new();
+        let pools = observers
+            .iter()
+            .map(String::as_str)
+            .chain((observers.len() > 1).then_some(ALL_OBSERVERS));
+        for observer in pools {
+            let conditions: Vec<Condition> = request
+                .approximations
+                .iter()
+                .zip(&shown)
+                .filter_map(|(approximation, &delta_e00)| {
+                    let r = rows
+                        .iter()
+                        .find(|r| r.observer == observer && r.approximation == *approximation)?;
+                    (r.trials > 0).then_some(Condition {
+                        delta_e00,
+                        correct: r.correct,
+                        trials: r.trials,
+                    })
+                })
+                .collect();
+            for model in OddityModel::ALL {
+                let fit = threshold::fit(&conditions, model, CONFIDENCE);
+                let predictions = match &fit {
+                    Ok(f) => request
+                        .approximations
+                        .iter()
+                        .zip(&check.approximations)
+                        .filter_map(|(name, c)| {
+                            Some(ThresholdPrediction {
+                                approximation: name.clone(),
+                                delta_e00_intended: c.delta_e00_intended,
+                                distinct_at_8bit: c.distinct_at_8bit,
+                                predicted: f.predict(c.delta_e00_intended).ok()?,
+                            })
+                        })
+                        .collect(),
+                    Err(_) => Vec::new(),
+                };
+                let (fit, not_fitted) = match fit {
+                    Ok(f) => (Some(f), None),
+                    Err(e) => (None, Some(e.to_string())),
+                };
+                thresholds.push(ObserverThreshold {
+                    observer: observer.to_string(),
+                    model: model.name().to_string(),
+                    fit,
+                    not_fitted,
+                    conditions: conditions.clone(),
+                    predictions,
+                });
+            }
+        }
         Ok(Analysis {
+            delta_e00_basis,
+            thresholds,
             experiment_id,
             name: e.name,
             scene: e.scene,
@@ -173,6 +285,62 @@ impl Experiments {
             notes,
             warnings,
         })
+    }
+}
+
+impl Experiments {
+    /// The ΔE00 each approximation was shown at, and on what basis: the
+    /// newest passing verification's (emitted original against emitted
+    /// approximation, each the mean XYZ over the geometries measured,
+    /// relative to the verification's display white), else the display
+    /// profile's prediction for the output method (the experiment's check).
+    async fn delta_e00_shown(
+        &self,
+        experiment_id: i64,
+        approximations: &[String],
+        check: &super::StoredCheck,
+    ) -> Result<(String, Vec<f64>), LabError> {
+        let predicted = || {
+            check
+                .approximations
+                .iter()
+                .map(|c| c.delta_e00_shown)
+                .collect::<Vec<f64>>()
+        };
+        let verifications = self.verifications(experiment_id).await?;
+        let Some(v) = verifications
+            .iter()
+            .filter(|v| v.passed)
+            .max_by(|a, b| a.created_at.total_cmp(&b.created_at))
+        else {
+            return Ok(("predicted".into(), predicted()));
+        };
+        let white = Xyz::from_array(v.white_xyz);
+        let mean_emitted = |name: &str| -> Option<Xyz> {
+            let of: Vec<[f64; 3]> = v
+                .colours
+                .iter()
+                .filter(|c| c.colour == name)
+                .map(|c| c.emitted_xyz)
+                .collect();
+            (!of.is_empty()).then(|| {
+                let n = of.len() as f64;
+                Xyz::from_array(std::array::from_fn(|k| of.iter().map(|x| x[k]).sum::<f64>() / n))
+            })
+        };
+        let Some(original) = mean_emitted("original") else {
+            return Ok(("predicted".into(), predicted()));
+        };
+        let mut shown = Vec::with_capacity(approximations.len());
+        for name in approximations {
+            match mean_emitted(name) {
+                Some(xyz) => shown.push(ciede2000(Lab::from_xyz(original, white), Lab::from_xyz(xyz, white))),
+                // A verification that did not measure every approximation
+                // is not the basis of the fit.
+                None => return Ok(("predicted".into(), predicted())),
+            }
+        }
+        Ok(("verified".into(), shown))
     }
 }
 
@@ -283,6 +451,15 @@ pub fn analysis_text(a: &Analysis) -> String {
             if d.rule.is_some() { "  *" } else { "" }
         );
     }
+    let _ = writeln!(
+        out,
+        "thresholds (d′ = ΔE00/σ, ΔE00 {}; {:.0} % profile-likelihood intervals; ΔE00 at 2/3 correct):",
+        a.delta_e00_basis,
+        CONFIDENCE * 100.0
+    );
+    for t in &a.thresholds {
+        let _ = writeln!(out, "  {}", threshold_line(t));
+    }
     for n in &a.notes {
         let _ = writeln!(out, "{n}");
     }
@@ -307,6 +484,192 @@ pub fn analysis_text(a: &Analysis) -> String {
         );
     }
     out
+}
+
+/// One threshold as a line: observer, model, σ and the threshold with
+/// their intervals, the deviance and its p-value (or why there is no fit).
+pub fn threshold_line(t: &ObserverThreshold) -> String {
+    let Some(f) = &t.fit else {
+        return format!(
+            "{:<10} {:<24} no fit: {}",
+            t.observer,
+            t.model,
+            t.not_fitted.as_deref().unwrap_or("")
+        );
+    };
+    let end = |v: Option<f64>| v.map(|v| format!("{v:.3}")).unwrap_or_else(|| "∞".into());
+    let gof = &f.goodness_of_fit;
+    format!(
+        "{:<10} {:<24} σ = {} [{:.3}, {}], threshold ΔE00 = {} [{:.3}, {}], deviance {:.2} on {} df{}",
+        t.observer,
+        f.model.name(),
+        end(f.sigma),
+        f.sigma_interval.0,
+        end(f.sigma_interval.1),
+        end(f.threshold),
+        f.threshold_interval.0,
+        end(f.threshold_interval.1),
+        gof.deviance,
+        gof.degrees_of_freedom,
+        gof.p_value
+            .map(|p| format!(", p = {p:.3}"))
+            .unwrap_or_else(|| " (none left to test)".into())
+    )
+}
+
+/// The thresholds as CSV: one row per observer (then `all`) and model,
+/// with the fit and, per approximation, the predicted percent correct in
+/// its own rows (`kind` = `fit` or `prediction`).
+pub fn thresholds_csv(a: &Analysis) -> String {
+    let mut out = String::from(
+        "experiment,scene,observer,model,kind,dE00_basis,sigma,sigma_low,sigma_high,threshold_dE00,threshold_low,\
+         threshold_high,deviance,df,p_value,maximum,approximation,dE00_intended,distinct_at_8bit,\
+         predicted_pc,predicted_pc_low,predicted_pc_high,not_fitted\n",
+    );
+    let num = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
+    for t in &a.thresholds {
+        let model = &t.model;
+        let Some(f) = &t.fit else {
+            out += &format!(
+                "{},{},{},{},fit,{},,,,,,,,,,,,,,,,,\"{}\"\n",
+                a.experiment_id,
+                a.scene,
+                t.observer,
+                model,
+                a.delta_e00_basis,
+                t.not_fitted.as_deref().unwrap_or("").replace('"', "'")
+            );
+            continue;
+        };
+        let g = &f.goodness_of_fit;
+        out += &format!(
+            "{},{},{},{},fit,{},{},{},{},{},{},{},{:.6},{},{},{},,,,,,,\n",
+            a.experiment_id,
+            a.scene,
+            t.observer,
+            model,
+            a.delta_e00_basis,
+            num(f.sigma),
+            num(Some(f.sigma_interval.0)),
+            num(f.sigma_interval.1),
+            num(f.threshold),
+            num(Some(f.threshold_interval.0)),
+            num(f.threshold_interval.1),
+            g.deviance,
+            g.degrees_of_freedom,
+            num(g.p_value),
+            serde_json::to_value(f.maximum)
+                .ok()
+                .and_then(|v| v.as_str().map(String::from))
+                .unwrap_or_default(),
+        );
+        for p in &t.predictions {
+            out += &format!(
+                "{},{},{},{},prediction,{},,,,,,,,,,,{},{:.4},{},{:.6},{:.6},{:.6},\n",
+                a.experiment_id,
+                a.scene,
+                t.observer,
+                model,
+                a.delta_e00_basis,
+                p.approximation,
+                p.delta_e00_intended,
+                p.distinct_at_8bit,
+                p.predicted.proportion_correct,
+                p.predicted.interval.0,
+                p.predicted.interval.1
+            );
+        }
+    }
+    out
+}
+
+/// The psychometric figure of an analysis under `model`: percent correct
+/// against ΔE00 (on the analysis' basis) per observer, the fitted curve of
+/// each (the pooled one when there are several), chance (1/3) as a line,
+/// and the percent predicted for approximations the display could not
+/// show apart at 8 bits (open markers, at their intended ΔE00).
+pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, LabError> {
+    use crate::charts::ScatterSeries;
+    let of_model: Vec<&ObserverThreshold> = a.thresholds.iter().filter(|t| t.model == model.name()).collect();
+    let x_max = of_model
+        .iter()
+        .flat_map(|t| t.conditions.iter().map(|c| c.delta_e00))
+        .chain(
+            a.thresholds
+                .iter()
+                .flat_map(|t| t.predictions.iter().map(|p| p.delta_e00_intended)),
+        )
+        .fold(0.0f64, f64::max)
+        .max(0.5)
+        * 1.05;
+    let mut series = Vec::new();
+    let mut labels = Vec::new();
+    let pooled = a.observers.len() > 1;
+    for t in &of_model {
+        series.push(ScatterSeries {
+            name: format!("{}: observed", t.observer),
+            points: t
+                .conditions
+                .iter()
+                .map(|c| (c.delta_e00, 100.0 * f64::from(c.correct) / f64::from(c.trials)))
+                .collect(),
+            connect: false,
+        });
+        labels.push(Vec::new());
+        let curve_wanted = !pooled || t.observer == ALL_OBSERVERS;
+        if let (true, Some(f)) = (curve_wanted, &t.fit) {
+            let curve: Vec<(f64, f64)> = (0..=60)
+                .filter_map(|i| {
+                    let x = x_max * f64::from(i) / 60.0;
+                    f.predict(x).ok().map(|p| (x, 100.0 * p.proportion_correct))
+                })
+                .collect();
+            let thr = f
+                .threshold
+                .map(|v| format!(", threshold ΔE00 {v:.2}"))
+                .unwrap_or_default();
+            series.push(ScatterSeries {
+                name: format!("{}: fit{thr}", t.observer),
+                points: curve,
+                connect: true,
+            });
+            labels.push(Vec::new());
+            let unseen: Vec<&ThresholdPrediction> = t.predictions.iter().filter(|p| !p.distinct_at_8bit).collect();
+            if !unseen.is_empty() {
+                series.push(ScatterSeries {
+                    name: format!("{}: predicted, not distinct at 8 bits", t.observer),
+                    points: unseen
+                        .iter()
+                        .map(|p| (p.delta_e00_intended, 100.0 * p.predicted.proportion_correct))
+                        .collect(),
+                    connect: false,
+                });
+                labels.push(unseen.iter().map(|p| p.approximation.clone()).collect());
+            }
+        }
+    }
+    series.push(ScatterSeries {
+        name: "chance (1/3)".into(),
+        points: vec![(0.0, 100.0 * CHANCE), (x_max, 100.0 * CHANCE)],
+        connect: true,
+    });
+    labels.push(Vec::new());
+    let title = format!(
+        "{} ({}): percent correct against ΔE00 ({}), d′ = ΔE00/σ, {} model",
+        a.name,
+        a.scene,
+        a.delta_e00_basis,
+        model.name()
+    );
+    crate::charts::scatter_chart_labelled(
+        &title,
+        "ΔE00 (display white)",
+        "percent correct",
+        &series,
+        &labels,
+        (false, false),
+    )
+    .map_err(LabError::Internal)
 }
 
 /// The analysis as a MAT-file (`load('experiment-1-analysis.mat')`): the
@@ -365,6 +728,39 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
     ];
     for (name, f) in fields {
         mat.column(name, &a.rows.iter().map(f).collect::<Vec<_>>())?;
+    }
+    // The thresholds, one entry per observer and model (NaN where there is
+    // no fit or no finite end), prefixed `threshold_`.
+    let t = &a.thresholds;
+    mat.text_rows(
+        "threshold_observer",
+        &t.iter().map(|t| t.observer.clone()).collect::<Vec<_>>(),
+    )?;
+    mat.text_rows(
+        "threshold_model",
+        &t.iter().map(|t| t.model.clone()).collect::<Vec<_>>(),
+    )?;
+    mat.text_rows("threshold_dE00_basis", std::slice::from_ref(&a.delta_e00_basis))?;
+    type ThresholdField = (&'static str, fn(&ThresholdFit) -> Option<f64>);
+    let threshold_fields: [ThresholdField; 9] = [
+        ("threshold_sigma", |f| f.sigma),
+        ("threshold_sigma_low", |f| Some(f.sigma_interval.0)),
+        ("threshold_sigma_high", |f| f.sigma_interval.1),
+        ("threshold_dE00", |f| f.threshold),
+        ("threshold_dE00_low", |f| Some(f.threshold_interval.0)),
+        ("threshold_dE00_high", |f| f.threshold_interval.1),
+        ("threshold_deviance", |f| Some(f.goodness_of_fit.deviance)),
+        ("threshold_df", |f| {
+            Some(f64::from(f.goodness_of_fit.degrees_of_freedom))
+        }),
+        ("threshold_p_value", |f| f.goodness_of_fit.p_value),
+    ];
+    for (name, field) in threshold_fields {
+        let values: Vec<f64> = t
+            .iter()
+            .map(|t| t.fit.as_ref().and_then(field).unwrap_or(f64::NAN))
+            .collect();
+        mat.column(name, &values)?;
     }
     Ok(mat.into_bytes())
 }

@@ -250,7 +250,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         let _ = write!(
             html,
             "<section class=\"scene\"><h2>{} ({})</h2><p>CIELAB white: {}. Renders of all seeds: {:.2} s.</p><table><tr><th>coding</th>\
-             <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets beyond noise (|ΔY| &gt; 3·SE)</th></tr>",
+             <th>rms_rel</th><th>mean ΔE*ab</th><th>SD over targets</th><th>mean ΔE00</th><th>targets beyond noise (|ΔY| &gt; 3·SE)</th><th>distinguishable within the instrument's stated accuracy</th></tr>",
             html_text(&s.title),
             html_text(&s.scene),
             html_text(&s.white_source),
@@ -259,7 +259,7 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         for c in &s.codings {
             let _ = write!(
                 html,
-                "<tr><td class=\"coding-{}\">{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td></tr>",
+                "<tr><td class=\"coding-{}\">{}</td><td>{:.4} ± {:.4}</td><td>{:.3} ± {:.3}</td><td>{:.3}</td><td>{:.3} ± {:.3}</td><td>{} of {}</td><td>{}</td></tr>",
                 c.coding,
                 c.coding,
                 c.rms_rel.mean,
@@ -270,7 +270,8 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
                 c.mean_dE00.mean,
                 c.mean_dE00.sd,
                 c.significant_targets,
-                s.targets.len()
+                s.targets.len(),
+                html_text(&distinguishable_cell(c))
             );
             for (seed, f) in c.per_seed.iter().enumerate() {
                 let _ = writeln!(
@@ -410,6 +411,27 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
 /// `text` as HTML text: a scene's name and white come from its file, and
 /// stored text is never markup (a scene named `<img onerror=…>` is shown as
 /// those characters, not run).
+/// The report's last column: whether the coding is told apart from the
+/// measurements within the instrument's stated accuracy, with rms_rel's
+/// 95th percentile of what measurement error alone gives.
+pub fn distinguishable_cell(c: &super::run::CodingStudy) -> String {
+    match (&c.uncertainty, &c.uncertainty_not_propagated) {
+        (Some(u), _) => format!(
+            "{} (rms_rel from measurement error alone ≤ {}; ΔE00 beyond at {} targets)",
+            u.distinguishable(),
+            u.rms_rel
+                .null_95th_stated_accuracy
+                .map(|v| format!("{v:.4}"))
+                .unwrap_or_else(|| "—".into()),
+            u.dE00_targets_beyond_stated_accuracy
+                .map(|n| n.to_string())
+                .unwrap_or_else(|| "—".into())
+        ),
+        (None, Some(why)) => format!("not propagated: {why}"),
+        (None, None) => "against the reference: no instrument".into(),
+    }
+}
+
 fn html_text(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {

@@ -41,7 +41,7 @@ use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_science::comparison::{
     beyond_noise, compare_point, mean_sd, summarize, PointDifference, BEYOND_NOISE_K,
 };
-use lightbooth_store::{Booth, Store};
+use lightbooth_store::{Booth, MeasurementDetail, Store};
 
 use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
@@ -214,6 +214,93 @@ pub struct CodingStudy {
     pub profile: Vec<TargetProfile>,
     /// Targets whose luminance differs from the truth by more than the noise.
     pub significant_targets: usize,
+    /// Against measurements: rms_rel and ΔE00 against what the
+    /// measurements' error alone gives ([`study_claims`]); none against
+    /// the reference, or when it cannot be propagated
+    /// (`uncertainty_not_propagated` then says why).
+    pub uncertainty: Option<StudyClaims>,
+    pub uncertainty_not_propagated: Option<String>,
+}
+
+/// A coding's figures against the measurement's uncertainty: the
+/// propagation of [`lightbooth_science::uncertainty`] with the seed-mean
+/// rendering and its standard error, and the measurements of the truth.
+#[derive(Clone, Debug, Serialize)]
+#[allow(non_snake_case)]
+pub struct StudyClaims {
+    /// The model whose stated accuracy was propagated, and its source.
+    pub instrument_model: String,
+    pub accuracy: lightbooth_science::uncertainty::StatedAccuracy,
+    pub draws: usize,
+    /// rms_rel (of the seed-mean rendering) with its intervals and claims.
+    pub rms_rel: lightbooth_science::uncertainty::PropagatedDifference,
+    /// Targets whose ΔE00 is beyond the render's noise, the repeatability,
+    /// and the stated accuracy (`None`: no accuracy on record).
+    pub dE00_targets_beyond_noise: usize,
+    pub dE00_targets_beyond_repeatability: usize,
+    pub dE00_targets_beyond_stated_accuracy: Option<usize>,
+}
+
+impl StudyClaims {
+    /// Whether the coding is told apart from the measurement beyond the
+    /// instrument's stated accuracy, in words, in luminance (rms_rel) and in
+    /// colour (any target's ΔE00): `yes in luminance`, `not in colour`, or
+    /// `colour: no accuracy on record` where the figures it needs are not
+    /// stated.
+    pub fn distinguishable(&self) -> String {
+        let luminance = match self.rms_rel.claims.beyond_stated_accuracy {
+            Some(true) => "yes in luminance".to_string(),
+            Some(false) => "not in luminance".to_string(),
+            None => "luminance: no accuracy on record".to_string(),
+        };
+        let colour = match self.dE00_targets_beyond_stated_accuracy {
+            Some(0) => "not in colour".to_string(),
+            Some(n) => format!("yes in colour ({n} targets)"),
+            None => "colour: no accuracy on record".to_string(),
+        };
+        format!("{luminance}; {colour}")
+    }
+}
+
+/// The claims of one coding (see [`StudyClaims`]): the seed-mean rendering
+/// of each target against its measurement.
+fn study_claims(
+    scene_id: &str,
+    study: &CodingStudy,
+    measurements: &[Option<MeasurementDetail>],
+    white: Xyz,
+    observer: Observer,
+) -> Result<StudyClaims, String> {
+    let mut points = Vec::with_capacity(study.profile.len());
+    for (p, m) in study.profile.iter().zip(measurements) {
+        let m = m.as_ref().ok_or("a target's truth is no measurement")?;
+        let (x, y) = (p.x.mean, p.y.mean);
+        if !(y > 0.0) {
+            return Err(format!("{}: the rendering has no chromaticity", p.target));
+        }
+        let big_y = p.Y.mean;
+        let rendered = Xyz::new(x / y * big_y, big_y, (1.0 - x - y) / y * big_y);
+        let mean_se = p.Y_se.max(p.Y.sd) / (study.per_seed.len().max(1) as f64).sqrt();
+        points.push((m, rendered, mean_se));
+    }
+    let (instrument_model, u) =
+        crate::comparisons::summary::propagate_measured(scene_id, &study.coding, observer, white, &points)?;
+    let count =
+        |f: fn(&lightbooth_science::uncertainty::Claims) -> bool| u.points.iter().filter(|p| f(&p.de00.claims)).count();
+    Ok(StudyClaims {
+        instrument_model,
+        draws: u.monte_carlo.draws,
+        dE00_targets_beyond_noise: count(|c| c.beyond_noise),
+        dE00_targets_beyond_repeatability: count(|c| c.beyond_repeatability),
+        dE00_targets_beyond_stated_accuracy: u
+            .points
+            .iter()
+            .map(|p| p.de00.claims.beyond_stated_accuracy)
+            .collect::<Option<Vec<bool>>>()
+            .map(|v| v.into_iter().filter(|b| *b).count()),
+        rms_rel: u.rms_rel,
+        accuracy: u.accuracy,
+    })
 }
 
 /// The truth at one target.
@@ -373,7 +460,7 @@ async fn measured(
     scene_id: &str,
     target: &str,
     observer: Observer,
-) -> Result<Option<(Xyz, f64, String)>, StudyError> {
+) -> Result<Option<(Xyz, f64, String, MeasurementDetail)>, StudyError> {
     let Some((m, xyz)) = measured_in_booth(store, booth, scene_id, target, observer)
         .await
         .map_err(|e| e.into_error(StudyError::Truth))?
@@ -382,7 +469,7 @@ async fn measured(
     };
     let usable = m.samples.iter().filter(|s| s.usable).count();
     let y_se = crate::measurement::mean_y_standard_error(m.summary.luminance_cv.unwrap_or(0.0), xyz.y, usable);
-    Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id))))
+    Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id), m)))
 }
 
 /// How many times [`run_study`] calls its `progress` for `scenes` scenes:
@@ -423,17 +510,20 @@ pub async fn run_study(
 
         // The truth per target, and the CIELAB white.
         let mut truth = Vec::new();
+        // The measurement behind each target's truth (against measurements).
+        let mut truth_measurements = Vec::new();
         for t in &targets {
-            let (xyz, y_se, source) = match options.against {
+            let (xyz, y_se, source, measurement) = match options.against {
                 Against::Reference => {
                     let (xyz, se) = references.xyz(&truth_file, t)?;
-                    (xyz, se, "reference render".to_string())
+                    (xyz, se, "reference render".to_string(), None)
                 }
                 Against::Measurements => {
                     let store = store
                         .ok_or_else(|| StudyError::Truth("comparing with measurements needs the database".into()))?;
                     measured(store, &options.booth, &scene_id, t, options.observer)
                         .await?
+                        .map(|(xyz, se, source, m)| (xyz, se, source, Some(m)))
                         .ok_or_else(|| {
                             StudyError::Truth(format!(
                                 "no complete measurement of {scene_id}/{t} in booth {}: measure it there first \
@@ -443,6 +533,7 @@ pub async fn run_study(
                         })?
                 }
             };
+            truth_measurements.push(measurement);
             let xy = xyz.chromaticity();
             truth.push(Truth {
                 target: t.clone(),
@@ -488,7 +579,16 @@ pub async fn run_study(
         let codings = options
             .codings
             .iter()
-            .map(|c| coding_study(&c.to_string(), &per_seed, &truth, white, options.observer))
+            .map(|c| {
+                let mut study = coding_study(&c.to_string(), &per_seed, &truth, white, options.observer);
+                if options.against == Against::Measurements {
+                    match study_claims(&scene_id, &study, &truth_measurements, white, options.observer) {
+                        Ok(claims) => study.uncertainty = Some(claims),
+                        Err(why) => study.uncertainty_not_propagated = Some(why),
+                    }
+                }
+                study
+            })
             .collect();
 
         let sweeps = if options.sweeps {
@@ -643,6 +743,8 @@ fn coding_study(
         significant_targets: profile.iter().filter(|p| p.Y_differs_significantly).count(),
         profile,
         per_seed: figs,
+        uncertainty: None,
+        uncertainty_not_propagated: None,
     }
 }
 
