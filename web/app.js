@@ -700,7 +700,11 @@ function claimCells(u) {
     const rms = u.rms_rel.claims[claim];
     const made = u.targets.filter((t) => stated(t.dE00.claims[claim]));
     const beyond = made.filter((t) => t.dE00.claims[claim]).length;
-    const rmsText = stated(rms) ? `rms_rel ${rms ? "yes" : "no"}` : "rms_rel: not stated";
+    // The 95th percentile of what measurement error alone gives, beside the claim.
+    const bound = { beyond_repeatability: u.rms_rel.null_95th_repeatability,
+      beyond_stated_accuracy: u.rms_rel.null_95th_stated_accuracy }[claim];
+    const rmsText = stated(rms) ? `rms_rel ${rms ? "yes" : "no"}` +
+      (bound != null ? ` (${fmt(u.rms_rel.observed, 4)} vs ≤ ${fmt(bound, 4)})` : "") : "rms_rel: not stated";
     const deText = made.length ? `ΔE00 ${beyond} of ${u.targets.length}` : "ΔE00: not stated";
     return `${rmsText}; ${deText}`;
   });

@@ -324,8 +324,8 @@ async function loadDetail(id) {
   curve.src = `/api/experiments/${id}/psychometric.svg`;
   $("figure").replaceChildren(img, el("figcaption", "d′ under the differencing model (bars, 95 % intervals), percent correct (◆) on the right axis; chance is 33 %.", "hint"),
     curve, el("figcaption", `Percent correct against ΔE00 (${analysis.delta_e00_basis}) with the fitted d′ = ΔE00/σ ` +
-      "(differencing model); chance is the line at 33 %; open points: the percent the fit predicts for approximations the " +
-      "display could not show apart at 8 bits.", "hint"));
+      "(differencing model), each observer's percent with its exact 95 % interval; chance is the dashed line at 33 %; " +
+      "hollow diamonds: the percent the fit predicts for approximations the display could not show apart at 8 bits.", "hint"));
 }
 
 // Each observer's threshold: σ and the ΔE00 at 2/3 correct with their

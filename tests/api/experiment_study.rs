@@ -209,7 +209,7 @@ async fn the_studys_experiment_runs_on_the_simulated_booth_and_display_with_and_
                 assert_eq!(status, 200);
                 let svg = String::from_utf8(svg).unwrap();
                 assert!(
-                    svg.starts_with("<svg") && svg.contains("chance (1/3)") && svg.contains("all: fit"),
+                    svg.starts_with("<svg") && svg.contains("chance (33 %)") && svg.contains("all: d′ = ΔE00/σ"),
                     "{svg}"
                 );
             }

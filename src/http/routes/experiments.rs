@@ -239,6 +239,7 @@ pub async fn experiment_thresholds_csv(
 #[serde(deny_unknown_fields)]
 pub struct ModelQuery {
     /// `differencing` (default) or `independent-observation`.
+    #[param(nullable = false, pattern = "^(differencing|independent-observation)$")]
     pub model: Option<String>,
 }
 

@@ -134,7 +134,11 @@ pub async fn get_measurement(
 pub struct ObserverQuery {
     /// `judd-vos-1978`, `cie-1931`, `cie-1964-10`, `cie-2015-2` or
     /// `cie-2015-10` (default: the daemon's `--observer`).
-    #[param(value_type = Option<String>, nullable = false)]
+    #[param(
+        value_type = Option<String>,
+        nullable = false,
+        pattern = "^(judd-vos-1978|cie-1931|cie-1964-10|cie-2015-2|cie-2015-10)$"
+    )]
     pub observer: Option<crate::colorimetry::Observer>,
 }
 
@@ -145,6 +149,7 @@ pub struct ObserverQuery {
 #[utoipa::path(get, path = "/measurements/{id}/colorimetry", tag = "measurements",
     params(("id" = i64, Path), ObserverQuery),
     responses((status = 200, body = crate::lab::MeasuredColorimetry),
+        (status = 400, description = "an observer lightbooth does not know", body = crate::http::error::ErrorBody),
         (status = 404, body = crate::http::error::ErrorBody), (status = 409, body = crate::http::error::ErrorBody)))]
 pub async fn measurement_colorimetry(
     State(state): State<AppState>,

@@ -14,8 +14,8 @@
 //! standard error, so every ΔE, Δx, Δy, relative ΔY and rms_rel says
 //! whether it is beyond the render's noise, beyond the measurement's
 //! repeatability and beyond the instrument's stated accuracy. The draws
-//! are seeded by the scene and coding, so a page shows the same intervals
-//! on every load.
+//! are seeded by the scene, so a page shows the same intervals on every
+//! load and every coding is judged against the same draws.
 
 use std::collections::HashMap;
 
@@ -98,7 +98,7 @@ fn summarise(
             let of_coding: Vec<&ComparisonRow> = rows.iter().filter(|r| r.coding == coding).collect();
             let points: Vec<PointDifference> = of_coding.iter().map(|r| point_of(r)).collect();
             let (mean_y_ratio, _) = mean_sd(points.iter().map(|p| p.y_ratio));
-            let uncertainty = coding_uncertainty(scene, &coding, observer, &of_coding, measurements);
+            let uncertainty = coding_uncertainty(scene, observer, &of_coding, measurements);
             CodingSummary {
                 coding,
                 summary: summarize(&points),
@@ -118,7 +118,6 @@ fn summarise(
 /// The Monte Carlo propagation of one coding's rows (see the module doc).
 fn coding_uncertainty(
     scene: &str,
-    coding: &str,
     observer: Observer,
     rows: &[&ComparisonRow],
     measurements: &HashMap<i64, MeasurementDetail>,
@@ -135,7 +134,7 @@ fn coding_uncertainty(
             .ok_or_else(|| format!("measurement {id} is gone"))?;
         points.push((m, Xyz::new(r.rendered_X, r.rendered_Y, r.rendered_Z), r.rendered_Y_se));
     }
-    let (instrument_model, propagated) = propagate_measured(scene, coding, observer, white, &points)?;
+    let (instrument_model, propagated) = propagate_measured(scene, observer, white, &points)?;
     Ok(CodingUncertainty {
         instrument_model,
         propagated,
@@ -145,11 +144,10 @@ fn coding_uncertainty(
 
 /// Propagates one coding's points, each (the measurement, the rendered XYZ,
 /// its Y standard error), with the stated accuracy of the one model that
-/// measured them all; seeded by the scene and coding ([`seed_of`]). Gives
+/// measured them all; seeded by the scene ([`seed_of`]). Gives
 /// the model's name and the propagation, or why there is none.
 pub fn propagate_measured(
     scene: &str,
-    coding: &str,
     observer: Observer,
     white: Xyz,
     points: &[(&MeasurementDetail, Xyz, f64)],
@@ -176,7 +174,7 @@ pub fn propagate_measured(
     let instrument_model = model.ok_or("no points")?;
     let accuracy = stated_accuracy_of(&instrument_model);
     let draws = MonteCarloDraws {
-        seed: seed_of(scene, coding),
+        seed: seed_of(scene),
         ..MonteCarloDraws::default()
     };
     let scene = SceneComparison {
@@ -230,12 +228,15 @@ pub fn measured_rendered_point(
     })
 }
 
-/// A fixed seed per scene and coding (FNV-1a of their names, cut to 53
-/// bits so that JSON readers keep it exactly): the same draws on every
-/// load of a page.
-pub fn seed_of(scene: &str, coding: &str) -> u64 {
+/// A fixed seed per scene (FNV-1a of its name, cut to 53 bits so that JSON
+/// readers keep it exactly): the same draws on every load of a page, and
+/// the same draws of the measurements for every coding of the scene, so
+/// codings whose renderings are equal get equal claims (common random
+/// numbers; a seed per coding once called one of two equal rms_rel beyond
+/// the repeatability and the other not).
+pub fn seed_of(scene: &str) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in scene.bytes().chain([0]).chain(coding.bytes()) {
+    for b in scene.bytes() {
         h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
     }
     h & ((1 << 53) - 1)

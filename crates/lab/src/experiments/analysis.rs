@@ -589,87 +589,83 @@ pub fn thresholds_csv(a: &Analysis) -> String {
 /// and the percent predicted for approximations the display could not
 /// show apart at 8 bits (open markers, at their intended ΔE00).
 pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, LabError> {
-    use crate::charts::ScatterSeries;
+    use crate::charts::{psychometric_chart, Psychometric, PsychometricPoints};
+    use lightbooth_science::psychophysics::binomial::Count;
     let of_model: Vec<&ObserverThreshold> = a.thresholds.iter().filter(|t| t.model == model.name()).collect();
+    // The individual observers' points; the pooled curve (or the one
+    // observer's) with its predictions.
+    let pooled = a.observers.len() > 1;
+    let observed = of_model
+        .iter()
+        .filter(|t| !pooled || t.observer != ALL_OBSERVERS)
+        .map(|t| PsychometricPoints {
+            name: format!("{}: observed, exact 95 %", t.observer),
+            points: t
+                .conditions
+                .iter()
+                .filter_map(|c| {
+                    let (lo, hi) = Count::new(c.correct, c.trials).ok()?.clopper_pearson(CONFIDENCE).ok()?;
+                    let pc = f64::from(c.correct) / f64::from(c.trials);
+                    Some((c.delta_e00, 100.0 * pc, 100.0 * lo, 100.0 * hi))
+                })
+                .collect(),
+        })
+        .collect();
+    let fitted = of_model
+        .iter()
+        .find(|t| !pooled || t.observer == ALL_OBSERVERS)
+        .and_then(|t| t.fit.as_ref().map(|f| (*t, f)));
     let x_max = of_model
         .iter()
         .flat_map(|t| t.conditions.iter().map(|c| c.delta_e00))
         .chain(
-            a.thresholds
+            of_model
                 .iter()
                 .flat_map(|t| t.predictions.iter().map(|p| p.delta_e00_intended)),
         )
-        .fold(0.0f64, f64::max)
-        .max(0.5)
-        * 1.05;
-    let mut series = Vec::new();
-    let mut labels = Vec::new();
-    let pooled = a.observers.len() > 1;
-    for t in &of_model {
-        series.push(ScatterSeries {
-            name: format!("{}: observed", t.observer),
-            points: t
-                .conditions
-                .iter()
-                .map(|c| (c.delta_e00, 100.0 * f64::from(c.correct) / f64::from(c.trials)))
-                .collect(),
-            connect: false,
-        });
-        labels.push(Vec::new());
-        let curve_wanted = !pooled || t.observer == ALL_OBSERVERS;
-        if let (true, Some(f)) = (curve_wanted, &t.fit) {
-            let curve: Vec<(f64, f64)> = (0..=60)
-                .filter_map(|i| {
-                    let x = x_max * f64::from(i) / 60.0;
-                    f.predict(x).ok().map(|p| (x, 100.0 * p.proportion_correct))
-                })
-                .collect();
-            let thr = f
-                .threshold
-                .map(|v| format!(", threshold ΔE00 {v:.2}"))
-                .unwrap_or_default();
-            series.push(ScatterSeries {
-                name: format!("{}: fit{thr}", t.observer),
-                points: curve,
-                connect: true,
-            });
-            labels.push(Vec::new());
-            let unseen: Vec<&ThresholdPrediction> = t.predictions.iter().filter(|p| !p.distinct_at_8bit).collect();
-            if !unseen.is_empty() {
-                series.push(ScatterSeries {
-                    name: format!("{}: predicted, not distinct at 8 bits", t.observer),
-                    points: unseen
-                        .iter()
-                        .map(|p| (p.delta_e00_intended, 100.0 * p.predicted.proportion_correct))
-                        .collect(),
-                    connect: false,
-                });
-                labels.push(unseen.iter().map(|p| p.approximation.clone()).collect());
-            }
-        }
-    }
-    series.push(ScatterSeries {
-        name: "chance (1/3)".into(),
-        points: vec![(0.0, 100.0 * CHANCE), (x_max, 100.0 * CHANCE)],
-        connect: true,
+        .fold(0.5f64, f64::max);
+    let curve = fitted.map(|(t, f)| {
+        let points = (0..=200)
+            .filter_map(|i| {
+                let x = x_max * f64::from(i) / 200.0;
+                f.predict(x).ok().map(|p| (x, 100.0 * p.proportion_correct))
+            })
+            .collect();
+        let threshold = f
+            .threshold
+            .map(|v| format!(", threshold ΔE00 {v:.2}"))
+            .unwrap_or_default();
+        (format!("{}: d′ = ΔE00/σ fitted{threshold}", t.observer), points)
     });
-    labels.push(Vec::new());
-    let title = format!(
-        "{} ({}): percent correct against ΔE00 ({}), d′ = ΔE00/σ, {} model",
-        a.name,
-        a.scene,
-        a.delta_e00_basis,
-        model.name()
-    );
-    crate::charts::scatter_chart_labelled(
-        &title,
-        "ΔE00 (display white)",
-        "percent correct",
-        &series,
-        &labels,
-        (false, false),
-    )
-    .map_err(LabError::Internal)
+    let predicted = fitted
+        .map(|(t, _)| {
+            t.predictions
+                .iter()
+                .filter(|p| !p.distinct_at_8bit)
+                .map(|p| {
+                    (
+                        p.delta_e00_intended,
+                        100.0 * p.predicted.proportion_correct,
+                        p.approximation.clone(),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let figure = Psychometric {
+        title: format!(
+            "{} ({}): percent correct against ΔE00 ({}), {} model",
+            a.name,
+            a.scene,
+            a.delta_e00_basis,
+            model.name()
+        ),
+        observed,
+        curve,
+        predicted,
+        chance_percent: 100.0 * CHANCE,
+    };
+    psychometric_chart(&figure).map_err(LabError::Internal)
 }
 
 /// The analysis as a MAT-file (`load('experiment-1-analysis.mat')`): the

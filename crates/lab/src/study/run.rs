@@ -283,8 +283,7 @@ fn study_claims(
         let mean_se = p.Y_se.max(p.Y.sd) / (study.per_seed.len().max(1) as f64).sqrt();
         points.push((m, rendered, mean_se));
     }
-    let (instrument_model, u) =
-        crate::comparisons::summary::propagate_measured(scene_id, &study.coding, observer, white, &points)?;
+    let (instrument_model, u) = crate::comparisons::summary::propagate_measured(scene_id, observer, white, &points)?;
     let count =
         |f: fn(&lightbooth_science::uncertainty::Claims) -> bool| u.points.iter().filter(|p| f(&p.de00.claims)).count();
     Ok(StudyClaims {
