@@ -256,7 +256,9 @@ fn uncertainty_columns(p: Option<(&PointUncertainty, &str)>) -> Vec<(String, Str
         "accuracy_of".to_string(),
         p.map(|p| p.1.to_string()).unwrap_or_default(),
     )];
-    let figures: [(&str, fn(&PointUncertainty) -> &PropagatedDifference, bool); 4] = [
+    /// A figure's column prefix, where it is in a point, and whether it is signed.
+    type Figure = (&'static str, fn(&PointUncertainty) -> &PropagatedDifference, bool);
+    let figures: [Figure; 4] = [
         ("dE00", |p| &p.de00, false),
         ("relative_dY", |p| &p.relative_dy, true),
         ("dx", |p| &p.dx, true),

@@ -72,9 +72,9 @@ pub async fn scene_comparisons(store: &Store, scene: &str, observer: Observer) -
         .collect();
     let mut measurements = HashMap::new();
     for r in &rows {
-        if !measurements.contains_key(&r.measurement_id) {
+        if let std::collections::hash_map::Entry::Vacant(slot) = measurements.entry(r.measurement_id) {
             if let Some(m) = store.get_measurement(r.measurement_id).await? {
-                measurements.insert(r.measurement_id, m);
+                slot.insert(m);
             }
         }
     }

@@ -275,7 +275,7 @@ fn study_claims(
     for (p, m) in study.profile.iter().zip(measurements) {
         let m = m.as_ref().ok_or("a target's truth is no measurement")?;
         let (x, y) = (p.x.mean, p.y.mean);
-        if !(y > 0.0) {
+        if y.is_nan() || y <= 0.0 {
             return Err(format!("{}: the rendering has no chromaticity", p.target));
         }
         let big_y = p.Y.mean;
