@@ -21,7 +21,8 @@
 //!   for seeds that are stored.
 //! - [`psychophysics`]: whether an observer can tell: percent correct with
 //!   its exact interval, and d′ of the study's oddity task under the
-//!   differencing and independent-observation models.
+//!   differencing and independent-observation models, and each observer's
+//!   threshold (σ of d′ = ΔE00/σ) fitted from the trials.
 //!
 //! The `lightbooth` crate re-exports each module under its own name
 //! (`lightbooth_science::colorimetry`, …), so the rest of lightbooth and its users

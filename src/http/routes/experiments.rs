@@ -8,7 +8,7 @@
 
 use axum::extract::State;
 use axum::http::{header, StatusCode};
-use axum::response::IntoResponse;
+use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde::Deserialize;
 use utoipa::ToSchema;
@@ -191,11 +191,22 @@ pub async fn experiment_analysis_csv(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
+    analysis_as_csv(&state, id, "analysis", analysis_csv).await
+}
+
+/// The analysis of experiment `id` written by `write`, as the download
+/// `experiment-{id}-{what}.csv`.
+async fn analysis_as_csv(
+    state: &AppState,
+    id: i64,
+    what: &str,
+    write: fn(&Analysis) -> String,
+) -> Result<Response, ApiError> {
     let a = state.lab.experiments().analyze(id).await?;
     Ok(download(
         "text/csv; charset=utf-8",
-        &format!("experiment-{id}-analysis.csv"),
-        analysis_csv(&a).into_bytes(),
+        &format!("experiment-{id}-{what}.csv"),
+        write(&a).into_bytes(),
     ))
 }
 
@@ -225,12 +236,7 @@ pub async fn experiment_thresholds_csv(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let a = state.lab.experiments().analyze(id).await?;
-    Ok(download(
-        "text/csv; charset=utf-8",
-        &format!("experiment-{id}-thresholds.csv"),
-        thresholds_csv(&a).into_bytes(),
-    ))
+    analysis_as_csv(&state, id, "thresholds", thresholds_csv).await
 }
 
 /// The oddity model a figure is drawn under.
