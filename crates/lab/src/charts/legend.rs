@@ -8,6 +8,8 @@ pub(super) enum Glyph {
     Line(RGBColor, u32),
     Dashed(RGBColor),
     Marker(Style),
+    /// The marker's outline only: what a hollow point in the plot means.
+    HollowMarker(Style),
     LineMarker(Style),
     Band(RGBColor),
 }
@@ -56,6 +58,14 @@ pub(super) fn draw_legend<DB: DrawingBackend>(
                 Ok(())
             }
             Glyph::Marker(s) => with_marker!(s, |mk| area.draw(&mk(((x0 + x1) / 2, ym)))),
+            Glyph::HollowMarker(s) => {
+                for path in marker_outline(s) {
+                    let at: Vec<(i32, i32)> = path.iter().map(|&(dx, dy)| ((x0 + x1) / 2 + dx, ym + dy)).collect();
+                    area.draw(&PathElement::new(at, s.colour.stroke_width(2)))
+                        .map_err(err)?;
+                }
+                Ok(())
+            }
             Glyph::LineMarker(s) => {
                 area.draw(&PathElement::new(vec![(x0, ym), (x1, ym)], s.colour.stroke_width(2)))
                     .map_err(err)?;

@@ -98,11 +98,46 @@ pub fn psychometric_chart(f: &Psychometric) -> ChartResult {
                     "predicted, not shown apart at 8 bits: {}",
                     f.predicted.iter().map(|p| p.2.as_str()).collect::<Vec<_>>().join(", ")
                 ),
-                glyph: Glyph::Marker(style),
+                glyph: Glyph::HollowMarker(style),
             });
         }
         draw_legend(&legend_area, &legend)?;
         root.present().map_err(err)?;
     }
     finished(svg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The figure draws what its legend says: the predictions hollow in the
+    /// plot *and* in the legend (the first version's legend showed a filled
+    /// diamond beside hollow points), the fitted curve as one line, chance
+    /// dashed.
+    #[test]
+    fn a_hollow_prediction_has_a_hollow_legend_entry() {
+        let f = Psychometric {
+            title: "t".into(),
+            observed: vec![PsychometricPoints {
+                name: "sim1: observed".into(),
+                points: vec![(0.5, 40.0, 30.0, 50.0), (2.0, 90.0, 80.0, 97.0)],
+            }],
+            curve: Some((
+                "fit".into(),
+                (0..=20)
+                    .map(|i| (0.1 * f64::from(i), 33.3 + 3.0 * f64::from(i)))
+                    .collect(),
+            )),
+            predicted: vec![(0.05, 34.0, "nstep81".into())],
+            chance_percent: 100.0 / 3.0,
+        };
+        let svg = psychometric_chart(&f).unwrap();
+        // A filled black polygon would be a filled diamond (plot or legend).
+        assert!(
+            !svg.contains(r##"<polygon opacity="1" fill="#000000""##),
+            "a filled black diamond: {svg}"
+        );
+        assert!(svg.contains("chance (33 %)") && svg.contains("nstep81"), "{svg}");
+    }
 }
