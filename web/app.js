@@ -125,7 +125,12 @@ function showView() {
   if (view === "viewer") showViewerView(arg); // web/viewer.js
   if (view === "study") loadStudies(arg);
 }
-window.addEventListener("hashchange", showView);
+// Every view is defined by a deferred script of its own (home.js,
+// viewer.js, …) that runs after this one: route only once all of them have
+// run. DOMContentLoaded fires after the last deferred script; a hash change
+// handled before it found `showHome` undefined (a CI run's dashboard test).
+const scriptsLoaded = new Promise((resolve) => document.addEventListener("DOMContentLoaded", resolve));
+scriptsLoaded.then(() => window.addEventListener("hashchange", showView));
 
 // --- instrument status and events ------------------------------------------
 
@@ -1178,7 +1183,7 @@ async function showStudy(id) {
 // --- start -----------------------------------------------------------------
 
 // After the read cookie (off loopback, <img>s and the event stream need it).
-readCredential.then(() => {
+Promise.all([readCredential, scriptsLoaded]).then(() => {
   follow();
   loadSceneChoices().then(() => {
     fillStudyScenes();
