@@ -272,3 +272,35 @@ async fn a_scene_name_with_markup_is_text_in_the_study_report() {
         "the scene's name is not shown as text"
     );
 }
+
+/// The bug (issue 46): the study filed its simulated PR-650 under the
+/// default booth (`Booth::default()` in `measure_with_simulator`) while its
+/// measurements went to `--booth`, and the instruments table's `ON
+/// CONFLICT` then moved an instrument already seen in another booth. The
+/// instrument is recorded in the booth it measures in.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_study_filed_its_simulated_instrument_under_the_default_booth() {
+    let dir = tempfile::tempdir().unwrap();
+    let store = Store::open(&format!("sqlite://{}", dir.path().join("s.sqlite").display()))
+        .await
+        .unwrap();
+    let cache = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("converged-cache");
+    let north: lightbooth::store::Booth = "north".parse().unwrap();
+    let ids = measure_with_simulator(
+        &[scene("white")],
+        &store,
+        &north,
+        &cache,
+        SimulatedPr650 { seed: 1, speed: 0.0 },
+        Observer::JuddVos,
+        None,
+        &|_| {},
+    )
+    .await
+    .unwrap();
+    let m = store.get_measurement(ids[0]).await.unwrap().unwrap();
+    let instruments = store.list_instruments().await.unwrap();
+    assert_eq!(instruments.len(), 1, "{instruments:?}");
+    assert_eq!(instruments[0].booth, "north", "{instruments:?}");
+    assert_eq!(m.summary.booth, "north");
+}

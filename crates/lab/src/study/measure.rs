@@ -61,7 +61,7 @@ pub async fn measure_with_simulator(
     let mut instrument = open_pr650(&port, &settings)?;
     let info = instrument.info().clone();
     let instrument_id = store
-        .upsert_instrument(&Booth::default(), &info.model, info.serial.as_deref(), &port)
+        .upsert_instrument(booth, &info.model, info.serial.as_deref(), &port)
         .await?;
     let mut ids = Vec::new();
     for path in scenes {
