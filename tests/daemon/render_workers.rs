@@ -53,9 +53,22 @@ async fn a_booth_leaving_renders_to_workers_gets_its_comparisons_from_a_worker_w
         .unwrap()
         .expect("queued");
     assert_eq!(job.state, "queued");
-    tokio::time::sleep(Duration::from_millis(500)).await;
-    let (_, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
-    assert_eq!(rows.as_array().map_or(0, Vec::len), 0, "{rows}");
+    // A negative claim, watched over a window (the bug, issue 46: this was
+    // a bare sleep that ignored the status and passed on any body that was
+    // not an array): no render starts and no comparison arrives, the job
+    // stays queued, and the API answers 200 with an empty array.
+    let window = tokio::time::Instant::now() + Duration::from_secs(1);
+    while let Ok(Some((name, v))) = tokio::time::timeout_at(window, events.recv()).await {
+        assert!(
+            name != "render_started" && !(name == "comparison_ready" && v["measurement_id"] == m),
+            "the daemon rendered without a worker: {name} {v}"
+        );
+    }
+    let still = store.worker_job_of(WorkerJobKind::Comparison, m).await.unwrap().expect("queued");
+    assert_eq!(still.state, "queued", "claimed without a worker: {still:?}");
+    let (status, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
+    assert_eq!(status, 200, "{rows}");
+    assert_eq!(rows.as_array().expect("an array of comparisons").len(), 0, "{rows}");
 
     let worker = booths::spawn_worker(&db, 2.0, 10.0).await;
     let ready = common::wait_for(&mut events, "comparison_ready", Duration::from_secs(120), |name, v| {
