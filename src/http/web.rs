@@ -43,23 +43,40 @@ const EXPERIMENT_JS: &str = include_str!("../../web/experiment.js");
 const EXPERIMENT_RUN_HTML: &str = include_str!("../../web/experiment-run.html");
 const EXPERIMENT_RUN_JS: &str = include_str!("../../web/experiment-run.js");
 
-/// MATLAB examples, served under `/matlab/`.
-const MATLAB: [(&str, &str); 4] = [
+/// MATLAB examples, served under `/matlab/`, each with its GNU Octave
+/// version (`*_octave.m`, run by `tests/api/octave_examples.rs`).
+const MATLAB: [(&str, &str); 8] = [
     (
         "list_measurements.m",
         include_str!("../../web/matlab/list_measurements.m"),
+    ),
+    (
+        "list_measurements_octave.m",
+        include_str!("../../web/matlab/list_measurements_octave.m"),
     ),
     (
         "measure_and_poll.m",
         include_str!("../../web/matlab/measure_and_poll.m"),
     ),
     (
+        "measure_and_poll_octave.m",
+        include_str!("../../web/matlab/measure_and_poll_octave.m"),
+    ),
+    (
         "fetch_comparison.m",
         include_str!("../../web/matlab/fetch_comparison.m"),
     ),
     (
+        "fetch_comparison_octave.m",
+        include_str!("../../web/matlab/fetch_comparison_octave.m"),
+    ),
+    (
         "oddity_experiment.m",
         include_str!("../../web/matlab/oddity_experiment.m"),
+    ),
+    (
+        "oddity_experiment_octave.m",
+        include_str!("../../web/matlab/oddity_experiment_octave.m"),
     ),
 ];
 
@@ -166,7 +183,8 @@ async fn matlab_index() -> Html<String> {
         .map(|(n, _)| format!("<li><a href=\"/matlab/{n}\">{n}</a></li>"))
         .collect();
     Html(format!(
-        "<!doctype html><title>MATLAB examples</title><h1>MATLAB examples</h1><ul>{items}</ul>"
+        "<!doctype html><title>MATLAB and GNU Octave examples</title><h1>MATLAB and GNU Octave examples</h1>\
+         <p>Each <code>NAME.m</code> needs MATLAB R2016b or later; <code>NAME_octave.m</code> is the same in GNU Octave 6 or later.</p><ul>{items}</ul>"
     ))
 }
 

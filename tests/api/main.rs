@@ -22,5 +22,6 @@ mod experiment_races;
 mod experiment_study;
 mod http_hardening;
 mod http_parts;
+mod octave_examples;
 mod render_requests;
 mod service_api;

@@ -64,7 +64,11 @@ async fn a_booth_leaving_renders_to_workers_gets_its_comparisons_from_a_worker_w
             "the daemon rendered without a worker: {name} {v}"
         );
     }
-    let still = store.worker_job_of(WorkerJobKind::Comparison, m).await.unwrap().expect("queued");
+    let still = store
+        .worker_job_of(WorkerJobKind::Comparison, m)
+        .await
+        .unwrap()
+        .expect("queued");
     assert_eq!(still.state, "queued", "claimed without a worker: {still:?}");
     let (status, rows) = get_json(booth.addr, &format!("/api/measurements/{m}/comparisons")).await;
     assert_eq!(status, 200, "{rows}");

@@ -8,5 +8,6 @@ mod display_calibration;
 mod speed_chart;
 mod stimulus;
 mod study_auto;
+mod study_book_tables;
 mod study_failure_map;
 mod study_run;

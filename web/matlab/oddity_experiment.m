@@ -2,8 +2,14 @@
 % display check and verification, and fetch the analysis (percent correct
 % and d' under both oddity models) as a table and as a MAT-file.
 % Writes need the daemon's token (printed when it starts, in lightbooth.token).
-base  = 'http://127.0.0.1:8650';
-token = strtrim(fileread('lightbooth.token'));
+% Needs MATLAB R2016b or later: webread, webwrite, websave and weboptions
+% (R2014b), weboptions' HeaderFields for the token (R2016b), struct2table and
+% table (R2013b). In GNU Octave (6 or later) run oddity_experiment_octave.m instead.
+% The daemon's address: $LIGHTBOOTH_URL, else serve's default --bind.
+base = getenv('LIGHTBOOTH_URL');
+if isempty(base), base = 'http://127.0.0.1:8650'; end
+token = getenv('LIGHTBOOTH_TOKEN');   % or the file serve writes beside its database
+if isempty(token), token = strtrim(fileread('lightbooth.token')); end
 opts  = weboptions('HeaderFields', {'Authorization', ['Bearer ' token]}, ...
                    'MediaType', 'application/json', 'Timeout', 30);
 
