@@ -231,9 +231,14 @@ fn tables(model: &Value, perturbed: &Value) -> String {
 
 fn timing(model: (&Value, f64), perturbed: (&Value, f64)) -> String {
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    // What else the machine was doing: the 1-minute load average at the end.
+    let load = std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_string))
+        .unwrap_or_else(|| "unknown".into());
     format!(
         "<!-- Written by tests/study/study_book_tables.rs with LIGHTBOOTH_UPDATE_BOOK=1. -->\n\
-         Measured by `tests/study/study_book_tables.rs` on a {cores}-core machine (the release build, a fresh \
+         Measured by `tests/study/study_book_tables.rs` on a {cores}-core machine with a load average of {load} (the release build, a fresh \
          database and converged-truth cache, so each target's truth is converged first): the study against \
          the model {:.1} s wall in all ({:.1} s for the study itself, after measuring); with \
          `--truth-scene scenes/truth` {:.1} s ({:.1} s for the study).\n",
