@@ -106,18 +106,35 @@ fn percentile(latencies: &[Duration], p: f64) -> f64 {
     sorted[i].as_secs_f64() * 1e3
 }
 
-/// A measurement posted now, its seconds from creation to its end (as the
-/// daemon recorded them).
-async fn measurement_seconds(addr: SocketAddr, samples: u32) -> f64 {
-    let (s, started) = post_json(addr, "/api/measurements", TOKEN, &json!({ "samples": samples }).to_string()).await;
-    assert_eq!(s, 202, "{started}");
-    let id = started["id"].as_i64().unwrap();
-    let m = poll_until(addr, &format!("/api/measurements/{id}"), Duration::from_secs(900), |v| {
-        !matches!(v["state"].as_str(), Some("queued") | Some("running"))
-    })
+/// A measurement of `samples` posted now: its seconds from creation to
+/// its end (as the daemon recorded them), or what went wrong (an
+/// overloaded daemon refuses the request: "pool timed out").
+async fn measurement_seconds(addr: SocketAddr, samples: u32) -> Result<f64, String> {
+    let (s, started) = post_json(
+        addr,
+        "/api/measurements",
+        TOKEN,
+        &json!({ "samples": samples }).to_string(),
+    )
     .await;
-    assert_eq!(m["state"], "complete", "{m}");
-    m["finished_at"].as_f64().unwrap() - m["created_at"].as_f64().unwrap()
+    if s != 202 {
+        return Err(format!("POST /api/measurements: {s} {started}"));
+    }
+    let id = started["id"].as_i64().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(900);
+    loop {
+        let (s, m) = get_json(addr, &format!("/api/measurements/{id}")).await;
+        if s == 200 && !matches!(m["state"].as_str(), Some("queued") | Some("running")) {
+            if m["state"] != "complete" {
+                return Err(format!("measurement {id}: {m}"));
+            }
+            return Ok(m["finished_at"].as_f64().unwrap() - m["created_at"].as_f64().unwrap());
+        }
+        if Instant::now() > deadline {
+            return Err(format!("measurement {id} did not end in 900 s"));
+        }
+        tokio::time::sleep(Duration::from_millis(250)).await;
+    }
 }
 
 /// A measurement with `body`, once complete; its id.
@@ -125,9 +142,12 @@ async fn measure(d: &Daemon, body: Value) -> i64 {
     let (s, started) = post_json(d.addr, "/api/measurements", TOKEN, &body.to_string()).await;
     assert_eq!(s, 202, "{started}");
     let id = started["id"].as_i64().unwrap();
-    let m = poll_until(d.addr, &format!("/api/measurements/{id}"), Duration::from_secs(300), |v| {
-        !matches!(v["state"].as_str(), Some("queued") | Some("running"))
-    })
+    let m = poll_until(
+        d.addr,
+        &format!("/api/measurements/{id}"),
+        Duration::from_secs(300),
+        |v| !matches!(v["state"].as_str(), Some("queued") | Some("running")),
+    )
     .await;
     assert_eq!(m["state"], "complete", "{m}");
     id
@@ -140,7 +160,13 @@ async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
     assert_eq!(s, 200, "{plan}");
     let mut patches = Vec::new();
     for p in plan["patches"].as_array().unwrap() {
-        let (s, _) = post_json(d.addr, "/api/mock/display", TOKEN, &json!({ "drive": p["drive"] }).to_string()).await;
+        let (s, _) = post_json(
+            d.addr,
+            "/api/mock/display",
+            TOKEN,
+            &json!({ "drive": p["drive"] }).to_string(),
+        )
+        .await;
         assert_eq!(s, 204);
         let id = measure(d, json!({ "samples": 2 })).await;
         patches.push(json!({ "drive": p["drive"], "measurement_id": id }));
@@ -176,7 +202,13 @@ fn configuration(letters: &str) -> Configuration {
 }
 
 /// Every trial of one simulated observer (σ = 0.3 ΔE00) through the API.
-async fn run_session(addr: SocketAddr, experiment: i64, observer_id: String, shown: Arc<Vec<(String, f64)>>, seed: u64) {
+async fn run_session(
+    addr: SocketAddr,
+    experiment: i64,
+    observer_id: String,
+    shown: Arc<Vec<(String, f64)>>,
+    seed: u64,
+) {
     let observer = SimulatedObserver::new(0.3, OddityModel::Differencing).unwrap();
     let mut rng = SplitMix64(seed);
     let (s, mut view) = post_json(
@@ -209,7 +241,13 @@ async fn run_session(addr: SocketAddr, experiment: i64, observer_id: String, sho
             "stimulus_frames": 18, "dropped_frames": 0, "dropped_in_stimulus": false,
             "frame_intervals_ms": vec![16.7; 100],
         });
-        let (s, v) = post_json(addr, &format!("/api/experiment-sessions/{sid}/trials"), TOKEN, &body.to_string()).await;
+        let (s, v) = post_json(
+            addr,
+            &format!("/api/experiment-sessions/{sid}/trials"),
+            TOKEN,
+            &body.to_string(),
+        )
+        .await;
         assert_eq!(s, 200, "{v}");
         view = v;
     }
@@ -219,6 +257,8 @@ async fn run_session(addr: SocketAddr, experiment: i64, observer_id: String, sho
 #[derive(Default)]
 struct PathFigures {
     cold_ms: f64,
+    /// The first answer's status (`None`: none within [`GIVE_UP`]).
+    cold_status: Option<u16>,
     latencies: Vec<Duration>,
     not_200: usize,
     unanswered: usize,
@@ -269,7 +309,7 @@ fn main() {
         let setup_seconds = t.elapsed().as_secs_f64();
         eprintln!("set up {} observers × 3 approximations in {setup_seconds:.0} s", o.observers);
 
-        let alone = measurement_seconds(addr, 40).await;
+        let alone = measurement_seconds(addr, 40).await.expect("a measurement with nothing else to do");
         eprintln!("a 40-sample measurement alone: {alone:.1} s");
 
         let paths: Vec<String> = vec![
@@ -290,8 +330,10 @@ fn main() {
         // results: the one computation; without: a computation like every other).
         for p in &paths {
             let (latency, status) = get(addr, p).await;
-            assert_eq!(status, Some(200), "GET {p}");
-            figures.lock().unwrap().entry(p.clone()).or_default().cold_ms = latency.as_secs_f64() * 1e3;
+            let mut f = figures.lock().unwrap();
+            let f = f.entry(p.clone()).or_default();
+            f.cold_ms = latency.as_secs_f64() * 1e3;
+            f.cold_status = status;
         }
 
         let stop = Arc::new(AtomicBool::new(false));
@@ -353,10 +395,15 @@ fn main() {
                 "p99_ms": percentile(&health, 0.99),
                 "max_ms": percentile(&health, 1.0),
             },
-            "measurement_40_samples_seconds": { "alone": alone, "under_load": under_load },
+            "measurement_40_samples_seconds": {
+                "alone": alone,
+                "under_load": under_load.as_ref().ok(),
+                "under_load_error": under_load.as_ref().err(),
+            },
             "heavy_gets": figures.iter().map(|(p, f)| json!({
                 "path": p,
                 "cold_ms": f.cold_ms,
+                "cold_status": f.cold_status,
                 "answers": f.latencies.len(),
                 "p50_ms": percentile(&f.latencies, 0.5),
                 "p99_ms": percentile(&f.latencies, 0.99),
@@ -376,12 +423,16 @@ fn main() {
                 "/api/health: {} requests, p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms, {} failed",
                 h["requests"], h["p50_ms"], h["p99_ms"], h["max_ms"], h["failed"]
             );
-            println!("40-sample measurement: {alone:.1} s alone, {under_load:.1} s under load");
+            match &under_load {
+                Ok(t) => println!("40-sample measurement: {alone:.1} s alone, {t:.1} s under load"),
+                Err(e) => println!("40-sample measurement: {alone:.1} s alone; under load: {e}"),
+            }
             for f in report["heavy_gets"].as_array().unwrap() {
                 println!(
-                    "{:<48} cold {:>9.1} ms; {:>6} answers, p50 {:>9.1} ms, p99 {:>9.1} ms; {} not 200, {} unanswered",
+                    "{:<48} cold {:>9.1} ms ({}); {:>6} answers, p50 {:>9.1} ms, p99 {:>9.1} ms; {} not 200, {} unanswered",
                     f["path"].as_str().unwrap(),
                     f["cold_ms"].as_f64().unwrap(),
+                    f["cold_status"],
                     f["answers"],
                     f["p50_ms"].as_f64().unwrap_or(f64::NAN),
                     f["p99_ms"].as_f64().unwrap_or(f64::NAN),

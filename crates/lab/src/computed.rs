@@ -148,8 +148,13 @@ impl Computed {
     pub async fn analysis(&self, id: i64) -> Result<Arc<Analysis>, LabError> {
         let version = self.version(self.store.experiment_inputs(id)).await?;
         let experiments = self.experiments.clone();
-        self.get(&self.analyses, &id, version, async move { experiments.analyze(id).await })
-            .await
+        self.get(
+            &self.analyses,
+            &id,
+            version,
+            async move { experiments.analyze(id).await },
+        )
+        .await
     }
 
     /// The analyses of experiments `ids` in their order, each once (a

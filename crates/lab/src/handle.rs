@@ -160,7 +160,10 @@ impl Lab {
         for s in &scenes {
             comparisons.push(self.computed.scene_comparisons(&s.id).await?);
         }
-        Ok(crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.observer).await?)
+        Ok(
+            crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.observer)
+                .await?,
+        )
     }
 
     /// A scene's newest comparisons in this lab's observer, per coding,

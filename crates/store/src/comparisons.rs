@@ -70,7 +70,10 @@ impl Store {
     /// (the measurements they compare are complete, so never rewritten):
     /// their number, the newest id, and the sum of the columns a new
     /// CIELAB white rewrites in place ([`Store::update_comparison_whites`]).
-    pub fn scene_comparison_inputs<'a>(&'a self, scene: &'a str) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
+    pub fn scene_comparison_inputs<'a>(
+        &'a self,
+        scene: &'a str,
+    ) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
         Box::pin(async move {
             let (count, newest, de00, white_y): (i64, i64, f64, f64) = with_pool!(self, |pool| sqlx::query_as(
                 "SELECT COUNT(*), COALESCE(MAX(id), 0), COALESCE(SUM(de00), 0.0), COALESCE(SUM(white_y), 0.0) \
@@ -79,7 +82,12 @@ impl Store {
             .bind(scene)
             .fetch_one(pool)
             .await?);
-            Ok(crate::InputsVersion([count, newest, de00.to_bits() as i64, white_y.to_bits() as i64]))
+            Ok(crate::InputsVersion([
+                count,
+                newest,
+                de00.to_bits() as i64,
+                white_y.to_bits() as i64,
+            ]))
         })
     }
 

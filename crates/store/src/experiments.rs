@@ -574,7 +574,10 @@ impl Store {
     /// The version of everything an experiment's analysis reads: its
     /// sessions, complete sessions, trials, and newest verification (an
     /// experiment itself is never rewritten).
-    pub fn experiment_inputs<'a>(&'a self, experiment_id: i64) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
+    pub fn experiment_inputs<'a>(
+        &'a self,
+        experiment_id: i64,
+    ) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
         Box::pin(async move {
             let (sessions, complete, trials, verification): (i64, i64, i64, i64) = with_pool!(self, |pool| {
                 sqlx::query_as(

@@ -191,7 +191,9 @@ pub async fn scene_comparisons(
     State(state): State<AppState>,
     Path(scene): Path<String>,
 ) -> Result<Json<SceneComparison>, ApiError> {
-    Ok(Json(Arc::unwrap_or_clone(scene_comparison(&state, &scene).await?).into()))
+    Ok(Json(
+        Arc::unwrap_or_clone(scene_comparison(&state, &scene).await?).into(),
+    ))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
