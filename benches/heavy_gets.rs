@@ -379,8 +379,9 @@ fn main() {
         for p in pollers {
             p.await.unwrap();
         }
-        let figures = figures.lock().unwrap();
-        let report = json!({
+        let report = {
+            let figures = figures.lock().unwrap();
+            json!({
             "engine": "sqlite",
             "observers": o.observers,
             "approximations": 3,
@@ -410,7 +411,8 @@ fn main() {
                 "not_200": f.not_200,
                 "unanswered": f.unanswered,
             })).collect::<Vec<_>>(),
-        });
+        })
+        };
         if o.json {
             println!("{}", serde_json::to_string_pretty(&report).unwrap());
         } else {
