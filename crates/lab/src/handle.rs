@@ -21,8 +21,10 @@ use lightbooth_store::{
 
 use crate::booth_instrument::BoothInstrument;
 use crate::calibration::{self, MeasuredError};
-use crate::comparisons::summary::{self, SceneComparisons};
+use crate::comparisons::summary::SceneComparisons;
+use crate::computed::Computed;
 use crate::error::LabError;
+use crate::experiments::analysis::Analysis;
 use crate::experiments::Experiments;
 use crate::queue::{Queue, QueueSources};
 use crate::render_jobs::RenderJobs;
@@ -61,6 +63,7 @@ pub struct Lab {
     instrument: BoothInstrument,
     renders: Option<Arc<RenderJobs>>,
     experiments: Experiments,
+    computed: Arc<Computed>,
 }
 
 impl Lab {
@@ -70,6 +73,7 @@ impl Lab {
     pub fn new(store: Store, observer: Observer, instrument: BoothInstrument, renders: Option<Arc<RenderJobs>>) -> Lab {
         Lab {
             experiments: Experiments::new(store.clone()),
+            computed: Arc::new(Computed::new(store.clone(), observer)),
             store,
             observer,
             instrument,
@@ -105,6 +109,24 @@ impl Lab {
         &self.experiments
     }
 
+    /// The heavy results, computed once per version of what they read
+    /// (see [`crate::computed`]).
+    pub fn computed(&self) -> &Computed {
+        &self.computed
+    }
+
+    /// An experiment's analysis of every trial stored so far, computed
+    /// once for them ([`crate::computed`]).
+    pub async fn experiment_analysis(&self, id: i64) -> Result<Arc<Analysis>, LabError> {
+        self.computed.analysis(id).await
+    }
+
+    /// The analyses of experiments `ids` for one figure, each id once, at
+    /// most [`MAX_FIGURE_EXPERIMENTS`](crate::computed::MAX_FIGURE_EXPERIMENTS).
+    pub async fn experiment_analyses(&self, ids: &[i64]) -> Result<Vec<Arc<Analysis>>, LabError> {
+        self.computed.analyses(ids).await
+    }
+
     /// Whether the database answers (`None`) or why not.
     pub async fn database_error(&self) -> Option<String> {
         self.store.ping().await.err().map(|e| e.to_string())
@@ -134,13 +156,21 @@ impl Lab {
     /// Every scene at a glance in this booth (see [`crate::scene_overview`]).
     pub async fn scenes_overview(&self) -> Result<ScenesOverview, LabError> {
         let scenes = self.scenes()?;
-        Ok(crate::scene_overview::scenes_overview(&self.store, &scenes, self.booth(), self.observer).await?)
+        let mut comparisons = Vec::with_capacity(scenes.len());
+        for s in &scenes {
+            comparisons.push(self.computed.scene_comparisons(&s.id).await?);
+        }
+        Ok(
+            crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.observer)
+                .await?,
+        )
     }
 
-    /// A scene's newest comparisons in this lab's observer, per coding.
-    pub async fn scene_comparisons(&self, scene: &str) -> Result<SceneComparisons, LabError> {
+    /// A scene's newest comparisons in this lab's observer, per coding,
+    /// computed once for them ([`crate::computed`]).
+    pub async fn scene_comparisons(&self, scene: &str) -> Result<Arc<SceneComparisons>, LabError> {
         self.scene(scene)?;
-        Ok(summary::scene_comparisons(&self.store, scene, self.observer).await?)
+        self.computed.scene_comparisons(scene).await
     }
 
     /// The CIELAB white of a scene in this booth now, with its source.

@@ -24,6 +24,9 @@
 //!   daemon's instrument task and by `lightbooth study --measure-simulated`;
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
+//! - [`computed`]: the heavy results the pages poll (an experiment's
+//!   analysis, a scene's comparison summary) computed once per version of
+//!   what they read, off the async runtime, a bounded number at a time;
 //! - [`scene_overview`]: every scene at a glance (targets measured, its
 //!   thumbnail's render, each coding's mean ΔE00 and rms_rel);
 //! - [`scenes`]: the scene catalogue, every scene loaded once at start;
@@ -61,6 +64,7 @@ pub mod booth_instrument;
 pub mod calibration;
 pub mod charts;
 pub mod comparisons;
+pub mod computed;
 pub mod error;
 pub mod events;
 pub mod experiments;

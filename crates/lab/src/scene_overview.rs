@@ -3,11 +3,14 @@
 //! booth out of all, when the newest measurement ended, the render whose
 //! camera view is its thumbnail, and each coding's mean ΔE00 and rms_rel
 //! against the measurements (the same summary the scene's own page shows,
-//! [`super::comparisons::summary`], with the daemon's observer).
+//! [`super::comparisons::summary`], with the daemon's observer, as the
+//! lab keeps it computed: [`super::computed`]).
+
+use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::comparisons::summary::scene_comparisons;
+use super::comparisons::summary::SceneComparisons;
 use super::requests::SceneInfo;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, MeasurementFilter, MeasurementState, Store, StoreError};
@@ -61,15 +64,17 @@ pub struct ScenesOverview {
     pub scenes: Vec<SceneStatus>,
 }
 
-/// The overview of `scenes` in `booth`, with `observer`.
+/// The overview of `scenes` in `booth`, with `observer`, each scene's
+/// codings from its summary in `comparisons` (one per scene, in order).
 pub async fn scenes_overview(
     store: &Store,
     scenes: &[SceneInfo],
+    comparisons: &[Arc<SceneComparisons>],
     booth: &Booth,
     observer: Observer,
 ) -> Result<ScenesOverview, StoreError> {
     let mut out = Vec::with_capacity(scenes.len());
-    for s in scenes {
+    for (s, summary) in scenes.iter().zip(comparisons) {
         let complete = store
             .list_measurements(&MeasurementFilter {
                 booth: Some(booth.clone()),
@@ -90,13 +95,12 @@ pub async fn scenes_overview(
             .iter()
             .filter_map(|m| m.finished_at)
             .fold(None, |a: Option<f64>, t| Some(a.map_or(t, |a| a.max(t))));
-        let codings = scene_comparisons(store, &s.id, observer)
-            .await?
+        let codings = summary
             .codings
-            .into_iter()
+            .iter()
             .map(|c| CodingFigures {
                 colour: crate::charts::coding_colour_hex(&c.coding).unwrap_or_else(|| "#6e6e6e".into()),
-                coding: c.coding,
+                coding: c.coding.clone(),
                 points: c.summary.points,
                 mean_de00: c.summary.mean_de00,
                 rms_rel: c.summary.rms_rel,

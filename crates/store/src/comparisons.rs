@@ -66,6 +66,31 @@ impl Store {
         })
     }
 
+    /// The version of a scene's comparisons, all that its summary reads
+    /// (the measurements they compare are complete, so never rewritten):
+    /// their number, the newest id, and the sum of the columns a new
+    /// CIELAB white rewrites in place ([`Store::update_comparison_whites`]).
+    pub fn scene_comparison_inputs<'a>(
+        &'a self,
+        scene: &'a str,
+    ) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
+        Box::pin(async move {
+            let (count, newest, de00, white_y): (i64, i64, f64, f64) = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT COUNT(*), COALESCE(MAX(id), 0), COALESCE(SUM(de00), 0.0), COALESCE(SUM(white_y), 0.0) \
+                 FROM comparisons WHERE scene = $1"
+            )
+            .bind(scene)
+            .fetch_one(pool)
+            .await?);
+            Ok(crate::InputsVersion([
+                count,
+                newest,
+                de00.to_bits() as i64,
+                white_y.to_bits() as i64,
+            ]))
+        })
+    }
+
     /// Every comparison of a scene, oldest first.
     pub fn comparisons_of_scene<'a>(&'a self, scene: &'a str) -> BoxFuture<'a, Result<Vec<ComparisonRow>, StoreError>> {
         Box::pin(async move {

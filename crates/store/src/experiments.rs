@@ -571,6 +571,30 @@ impl Store {
         })
     }
 
+    /// The version of everything an experiment's analysis reads: its
+    /// sessions, complete sessions, trials, and newest verification (an
+    /// experiment itself is never rewritten).
+    pub fn experiment_inputs<'a>(
+        &'a self,
+        experiment_id: i64,
+    ) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
+        Box::pin(async move {
+            let (sessions, complete, trials, verification): (i64, i64, i64, i64) = with_pool!(self, |pool| {
+                sqlx::query_as(
+                    "SELECT (SELECT COUNT(*) FROM experiment_sessions WHERE experiment_id = $1), \
+                     (SELECT COUNT(*) FROM experiment_sessions WHERE experiment_id = $1 AND state = 'complete'), \
+                     (SELECT COUNT(*) FROM trials t JOIN experiment_sessions s ON s.id = t.session_id \
+                      WHERE s.experiment_id = $1), \
+                     (SELECT COALESCE(MAX(id), 0) FROM experiment_verifications WHERE experiment_id = $1)",
+                )
+                .bind(experiment_id)
+                .fetch_one(pool)
+                .await?
+            });
+            Ok(crate::InputsVersion([sessions, complete, trials, verification]))
+        })
+    }
+
     /// Stores a verification of an experiment's colours; returns its id.
     pub fn insert_verification<'a>(
         &'a self,

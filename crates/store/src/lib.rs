@@ -263,6 +263,15 @@ impl JobEnd {
     }
 }
 
+/// What a result computed from stored rows read, in a few numbers that
+/// change whenever those rows do (counts, newest ids, a sum over a column
+/// that is rewritten in place): the key under which the lab keeps the
+/// result ([`Store::experiment_inputs`], [`Store::scene_comparison_inputs`]).
+/// Read in one cheap query, so every daemon sharing the database sees
+/// another's writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct InputsVersion(pub [i64; 4]);
+
 /// A handle on the database; cheap to clone (a connection pool).
 #[derive(Clone, Debug)]
 pub struct Store {

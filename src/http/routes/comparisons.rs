@@ -1,6 +1,8 @@
 //! `/api/scenes/{scene}/comparisons[.csv|.mat]` and the scene's charts:
 //! every coding against the measurements, summarised per coding.
 
+use std::sync::Arc;
+
 use axum::extract::State;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
@@ -123,7 +125,7 @@ pub struct SceneComparison {
 
 /// The scene's newest comparisons with the daemon's observer, summarised
 /// per coding ([`crate::lab::comparisons::summary`]).
-async fn scene_comparison(state: &AppState, scene: &str) -> Result<SceneComparisons, ApiError> {
+async fn scene_comparison(state: &AppState, scene: &str) -> Result<Arc<SceneComparisons>, ApiError> {
     Ok(state.lab.scene_comparisons(scene).await?)
 }
 
@@ -189,7 +191,9 @@ pub async fn scene_comparisons(
     State(state): State<AppState>,
     Path(scene): Path<String>,
 ) -> Result<Json<SceneComparison>, ApiError> {
-    Ok(Json(scene_comparison(&state, &scene).await?.into()))
+    Ok(Json(
+        Arc::unwrap_or_clone(scene_comparison(&state, &scene).await?).into(),
+    ))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),

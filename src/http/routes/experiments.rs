@@ -6,6 +6,8 @@
 //! (`POST /api/experiment-sessions/{id}/trials`), and the analysis gives
 //! percent correct and d′ per observer and approximation.
 
+use std::sync::Arc;
+
 use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -181,7 +183,7 @@ pub async fn experiment_analysis(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<Json<Analysis>, ApiError> {
-    Ok(Json(state.lab.experiments().analyze(id).await?))
+    Ok(Json(Arc::unwrap_or_clone(state.lab.experiment_analysis(id).await?)))
 }
 
 /// The analysis as CSV, one row per observer and approximation.
@@ -202,7 +204,7 @@ async fn analysis_as_csv(
     what: &str,
     write: fn(&Analysis) -> String,
 ) -> Result<Response, ApiError> {
-    let a = state.lab.experiments().analyze(id).await?;
+    let a = state.lab.experiment_analysis(id).await?;
     Ok(download(
         "text/csv; charset=utf-8",
         &format!("experiment-{id}-{what}.csv"),
@@ -218,7 +220,7 @@ pub async fn experiment_analysis_mat(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let a = state.lab.experiments().analyze(id).await?;
+    let a = state.lab.experiment_analysis(id).await?;
     let bytes = analysis_mat(&a).map_err(ApiError::Internal)?;
     Ok(download(
         "application/x-matlab-data",
@@ -272,7 +274,7 @@ pub async fn experiment_psychometric_figure(
     Query(q): Query<ModelQuery>,
 ) -> Result<impl IntoResponse, ApiError> {
     let model = model_of(q.model.as_deref())?;
-    let a = state.lab.experiments().analyze(id).await?;
+    let a = state.lab.experiment_analysis(id).await?;
     Ok((
         [(header::CONTENT_TYPE, "image/svg+xml")],
         psychometric_figure(&a, model)?,
@@ -283,7 +285,8 @@ pub async fn experiment_psychometric_figure(
 #[into_params(parameter_in = Query)]
 #[serde(deny_unknown_fields)]
 pub struct FigureQuery {
-    /// Experiments (comma-separated ids, at most 24), one group of bars each.
+    /// Experiments (comma-separated ids, at most 24 distinct; a repeated id
+    /// is drawn once), one group of bars each.
     pub ids: String,
     /// `differencing` (default) or `independent-observation`.
     pub model: Option<String>,
@@ -305,13 +308,12 @@ pub async fn experiments_figure(
         .map(|s| s.trim().parse::<i64>())
         .collect::<Result<_, _>>()
         .map_err(|_| ApiError::BadRequest(format!("query `ids`: `{}` is not a list of experiment ids", q.ids)))?;
-    if ids.is_empty() || ids.len() > 24 {
-        return Err(ApiError::BadRequest("query `ids`: give 1–24 experiment ids".into()));
-    }
-    let x = state.lab.experiments();
-    let mut analyses = Vec::new();
-    for id in ids {
-        analyses.push(x.analyze(id).await?);
-    }
+    let analyses: Vec<Analysis> = state
+        .lab
+        .experiment_analyses(&ids)
+        .await?
+        .into_iter()
+        .map(Arc::unwrap_or_clone)
+        .collect();
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], figure(&analyses, model)?))
 }

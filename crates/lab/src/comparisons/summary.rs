@@ -29,6 +29,7 @@ use lightbooth_science::uncertainty::{
 use lightbooth_store::{ComparisonRow, MeasurementDetail, Store, StoreError};
 
 /// One coding's figures of merit over a scene's targets.
+#[derive(Clone)]
 pub struct CodingSummary {
     /// The coding, as the rows name it (`rgb`, `nstep9`, …).
     pub coding: String,
@@ -43,6 +44,7 @@ pub struct CodingSummary {
 }
 
 /// A coding's propagated uncertainty, with what its points are.
+#[derive(Clone)]
 pub struct CodingUncertainty {
     /// The instrument model whose stated accuracy was propagated.
     pub instrument_model: String,
@@ -52,6 +54,7 @@ pub struct CodingUncertainty {
 }
 
 /// A scene's newest comparisons and their summary per coding.
+#[derive(Clone)]
 pub struct SceneComparisons {
     pub scene: String,
     /// The observer of every row and summary.

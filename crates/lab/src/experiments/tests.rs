@@ -867,3 +867,140 @@ async fn an_experiment_on_a_luminance_meters_profile_is_refused_naming_what_woul
         other => panic!("an experiment on a luminance-only profile: {other:?}"),
     }
 }
+
+// ---- computed once (issue 46: the daemon under load) ----
+
+/// Regression (issue 46): every GET of an experiment's analysis ran the
+/// whole analysis again on the async runtime (≈0.4 s of CPU each), so 200
+/// pollers starved the daemon. Polled twice it is computed once; a new
+/// trial (a new version of what it reads) computes it again.
+#[tokio::test]
+async fn an_analysis_polled_twice_is_computed_once_and_again_after_a_new_trial() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = crate::computed::Computed::new(x.store().clone(), Observer::JuddVos);
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let view = started(x, e.id, "obs1").await;
+    let first = computed.analysis(e.id).await.unwrap();
+    let again = computed.analysis(e.id).await.unwrap();
+    assert_eq!(computed.computations(), 1, "the second GET was served from the first");
+    assert!(std::sync::Arc::ptr_eq(&first, &again));
+    assert_eq!(first.rows.len(), 0);
+
+    let next = view.next.clone().unwrap();
+    x.record_trial(view.session.id, &report(next.position, 0, false))
+        .await
+        .unwrap();
+    let after = computed.analysis(e.id).await.unwrap();
+    assert_eq!(computed.computations(), 2, "a new trial is a new version");
+    assert_eq!(after.rows.iter().map(|r| r.trials).sum::<u32>(), 1);
+    computed.analysis(e.id).await.unwrap();
+    assert_eq!(computed.computations(), 2);
+
+    // A second observer's session is a new version too.
+    started(x, e.id, "obs2").await;
+    assert_eq!(computed.analysis(e.id).await.unwrap().sessions, 2);
+    assert_eq!(computed.computations(), 3);
+}
+
+/// Regression (issue 46): requests arriving while an analysis is computed
+/// each started their own; now they wait for the one under way.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn concurrent_requests_for_one_analysis_share_one_computation() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = std::sync::Arc::new(crate::computed::Computed::new(x.store().clone(), Observer::JuddVos));
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    started(x, e.id, "obs1").await;
+    let polls: Vec<_> = (0..16)
+        .map(|_| {
+            let computed = computed.clone();
+            tokio::spawn(async move { computed.analysis(e.id).await.map(|a| a.experiment_id) })
+        })
+        .collect();
+    for p in polls {
+        assert_eq!(p.await.unwrap().unwrap(), e.id);
+    }
+    assert_eq!(computed.computations(), 1);
+}
+
+/// Regression (issue 46): `figure.svg?ids=1,1,…,1` analysed experiment 1
+/// once per copy (24 copies, 24 analyses). A repeated id is analysed once;
+/// more distinct ids than a figure draws are refused, saying how many.
+#[tokio::test]
+async fn a_figure_analyses_a_repeated_experiment_once_and_refuses_too_many() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = crate::computed::Computed::new(x.store().clone(), Observer::JuddVos);
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let analyses = computed.analyses(&[e.id; 24]).await.unwrap();
+    assert_eq!(analyses.len(), 1);
+    assert_eq!(computed.computations(), 1);
+    let many: Vec<i64> = (1..=25).collect();
+    match computed.analyses(&many).await {
+        Err(LabError::Invalid(m)) => assert!(m.contains("query `ids`: 25 distinct experiment ids; give 1–24"), "{m}"),
+        other => panic!("expected a refusal, got {:?}", other.map(|v| v.len())),
+    }
+    assert!(matches!(computed.analyses(&[]).await, Err(LabError::Invalid(_))));
+    assert_eq!(computed.computations(), 1, "nothing was computed for a refused figure");
+}
+
+/// Regression (issue 46): a scene's summary (every compared measurement
+/// read with its samples, a Monte Carlo per coding) was computed again for
+/// its JSON, CSV, MAT, every chart and the scenes' overview on every
+/// request. Computed once; a new comparison or a rewritten white computes
+/// it again.
+#[tokio::test]
+async fn a_scene_summary_is_computed_once_and_again_after_a_new_comparison_or_white() {
+    let lab = lab().await;
+    let store = lab.experiments.store().clone();
+    let computed = crate::computed::Computed::new(store.clone(), Observer::JuddVos);
+    let first = computed.scene_comparisons("white").await.unwrap();
+    let again = computed.scene_comparisons("white").await.unwrap();
+    assert_eq!(computed.computations(), 1);
+    assert!(std::sync::Arc::ptr_eq(&first, &again));
+    assert_eq!(first.rows.len(), 3);
+
+    // A new measurement of the target, compared with nstep3.
+    let id = completed_measurement(&store, Some(("white", "patch"))).await;
+    let row = NewComparison {
+        measurement_id: id,
+        render_id: first.rows[0].render_id,
+        scene: "white".into(),
+        target: "patch".into(),
+        coding: "nstep3".into(),
+        observer: Observer::JuddVos,
+        white_source: "test".into(),
+        white: [95.0, 100.0, 108.0],
+        measured: [40.0, 42.0, 45.0],
+        measured_y_se: 0.01,
+        rendered: [41.0, 43.0, 46.0],
+        rendered_y_se: 0.01,
+        y_ratio: 43.0 / 42.0,
+        xy_distance: 0.0,
+        de76: 1.0,
+        de00: 0.5,
+    };
+    store.insert_comparisons(std::slice::from_ref(&row)).await.unwrap();
+    let after = computed.scene_comparisons("white").await.unwrap();
+    assert_eq!(computed.computations(), 2);
+    let nstep3 = after.rows.iter().find(|r| r.coding == "nstep3").unwrap();
+    assert_eq!(nstep3.measurement_id, id, "the newest comparison is summarised");
+
+    // The booth's white rewritten in place: same rows, new ΔE.
+    let newest = nstep3.id;
+    store
+        .update_comparison_whites(&[(newest, "new white".into(), [96.0, 100.0, 109.0], 1.5, 0.7)])
+        .await
+        .unwrap();
+    let rewritten = computed.scene_comparisons("white").await.unwrap();
+    assert_eq!(computed.computations(), 3);
+    let nstep3 = rewritten.rows.iter().find(|r| r.coding == "nstep3").unwrap();
+    assert_eq!((nstep3.white_source.as_str(), nstep3.dE00), ("new white", 0.7));
+
+    // Another scene is kept apart.
+    computed.scene_comparisons("red").await.unwrap();
+    assert_eq!(computed.computations(), 4);
+    computed.scene_comparisons("white").await.unwrap();
+    assert_eq!(computed.computations(), 4);
+}
