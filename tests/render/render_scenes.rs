@@ -40,13 +40,14 @@ fn every_scene_declares_its_cielab_white() {
         assert_eq!(load_scene(&scenes().join(f)).unwrap().cielab_white, own("h21"), "{f}");
     }
     // A diffuser white is computed from the scene: the WHITE spotlight
-    // (110 cd along the normal from 1 m) on ρ = 1 gives 110/π cd/m².
+    // (110 cd along the normal from 1 m) on ρ = 1 gives 110/π cd/m² in
+    // V(λ), the CIE 1931 ȳ that defines the candela (issue 46).
     let w = load_scene(&scenes().join("white.toml")).unwrap();
     let l = w.light_on_perfect_diffuser(
         glam::DVec3::new(0.0, 1.0, -0.6),
         glam::DVec3::new(0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
     );
-    let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::JuddVos)
+    let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::Cie1931)
         .unwrap()
         .y;
     assert!((y / (110.0 / std::f64::consts::PI) - 1.0).abs() < 1e-3, "{y}");
