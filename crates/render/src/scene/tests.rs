@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use super::*;
-use lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER;
 use lightbooth_science::colorimetry::xyz_from_radiance;
+use lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER;
 
 /// A flat 380–780 nm grey and a 400–700 nm spectrum (as the Cornell box's).
 const SPECTRA: &str = "nm,grey,shiny\n380,0.5,0.9\n780,0.5,0.9\n";
