@@ -733,7 +733,11 @@ function uncertaintyNote(codings) {
     `${u.instrument_model}'s stated accuracy: ${stated.length ? stated.join(", ") : "no figure on record, so no " +
     "claim about it"}; the rest unset (source: ${a.source}). Measurement error alone gives ` +
     `rms_rel up to ${fmt(rms.null_95th_repeatability, 3)} (repeatability) and ${fmt(rms.null_95th_stated_accuracy, 3)} ` +
-    "(with the stated accuracy)." + (why ? ` Some codings have no intervals: ${why}.` : "");
+    "(with the stated accuracy)." +
+    (u.simulated_truth_relative_se != null ? ` The simulated instrument's truth is itself a render, of relative ` +
+      `standard error up to ${fmt(100 * u.simulated_truth_relative_se, 2)} % in Y: counted with the repeatability ` +
+      "in every claim." : "") +
+    (why ? ` Some codings have no intervals: ${why}.` : "");
 }
 
 // A compact table: one column per coding (its colour), mean ΔE00 and rms_rel rows.

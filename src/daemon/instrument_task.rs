@@ -551,9 +551,13 @@ impl Worker {
         let truth = self
             .config
             .truth
-            .spectrum(scene, target, &mock.settings.cache_dir)
+            .truth(scene, target, &mock.settings.cache_dir)
             .map_err(|e| format!("cannot render {scene}/{target}: {e}"))?;
-        if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
+        // The truth is a render, an estimate too: its standard error goes
+        // with the measurement into every comparison's error budget.
+        self.block_on(self.config.store.record_simulated_truth(job.id, truth.relative_se_y))
+            .map_err(|e| format!("cannot record the simulated truth's standard error: {e}"))?;
+        if let Some(Err(e)) = mock.with(|h| h.set_truth(truth.spectrum)) {
             return Err(format!("cannot aim the simulated PR-650: {e}"));
         }
         tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");

@@ -211,6 +211,10 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         nstep3["uncertainty"]["targets"][0]["dE00"]["claims"]["beyond_repeatability"],
         true
     );
+    // The simulated PR-650 measured a converged render: its own standard
+    // error is in the budget and named (issue 46).
+    let truth_se = nstep3["uncertainty"]["simulated_truth_relative_se"].as_f64();
+    assert!(truth_se.is_some_and(|se| se > 0.0 && se <= 1e-3), "{truth_se:?}");
     let (status, csv) = common::request(d.addr, "GET", "/api/scenes/white/comparisons.csv", None, None).await;
     assert_eq!(status, 200);
     let csv = String::from_utf8(csv).unwrap();
@@ -220,6 +224,7 @@ async fn a_measurement_streams_its_samples_and_is_compared_with_every_coding() {
         "relative_dY_low95",
         "relative_dY_beyond_repeatability",
         "accuracy_of",
+        "truth_se_Y",
     ] {
         assert!(header.split(',').any(|h| h == column), "{column} not in {header}");
     }

@@ -343,3 +343,70 @@ fn a_fixed_seed_is_bit_identical_on_one_and_two_threads() {
     let other_seed = render(&scene, &RenderSettings { seed: 43, ..base }, None).unwrap();
     assert_ne!(json(&one), json(&other_seed), "the seed must matter");
 }
+
+/// Issue 46: every booth lamp rendered 0.435 % too dim, because a lamp's
+/// candela were turned into W/(sr·nm) with the renderer's analysis observer
+/// (Judd–Vos ȳ) instead of V(λ), the function that defines the candela
+/// (CIE 1924 photopic, tabulated as CIE 1931 ȳ: CIE S 017, ISO 23539).
+///
+/// A plain luminaire of I0 cd with a 2856 K blackbody spectrum (not flat,
+/// so the two functions differ) at d m straight above a Lambertian plane of
+/// reflectance ρ: the plane's radiance is ρ·E/π with E = I0/d², so its
+/// V(λ)-weighted luminance, 683 lm/W · Σ L(λ)·V(λ)·1 nm of the `spectral`
+/// coding's 1 nm radiance, is exactly ρ·I0/(π·d²). The plane is alone (no
+/// interreflection) and the radiometer's field 0.01°, so the only error is
+/// the render's own: its relative SE must be ≤ 0.01 %, and the luminance
+/// within 4 of those SEs of the truth, plus 1e-6 for the rounding of the
+/// bands' single-precision sums (the estimate here is exact: SE 0; before
+/// the fix it was 0.146 % low).
+#[test]
+fn a_lamps_candela_are_v_lambda_so_a_booth_lamp_is_not_0_44_percent_dim() {
+    use lightbooth::colorimetry::{Cmf, Observer, KM_LM_PER_W};
+    let dir = tempfile::tempdir().unwrap();
+    let (i0, d, rho) = (250.0, 1.5, 0.8);
+    let text = format!(
+        r#"
+name = "one lamp over a white patch"
+[radiometer]
+position = [0.7, 1.0, 0.4]
+field_deg = 0.01
+[[target]]
+id = "patch"
+point = [0.0, 0.0, 0.0]
+[materials]
+white = {{ reflectance = {rho} }}
+[[light]]
+id = "lamp"
+position = [0.0, {d}, 0.0]
+intensity_cd = {i0}
+blackbody_k = 2856
+[[quad]]
+corner = [-2.0, 0.0, -2.0]
+edge_u = [4.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, 4.0]
+material = "white"
+"#
+    );
+    let path = dir.path().join("lamp.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = load_scene(&path).unwrap();
+    let r = render(&scene, &settings(&[Coding::Spectral], 4096), None).unwrap();
+    let (_, c) = &r.targets[0].codings[0];
+    let relative_se = c.luminance_se_cd_m2 / c.luminance_cd_m2;
+    assert!(
+        relative_se <= 1e-4,
+        "the render's relative SE is {relative_se:e}, above 0.01 %"
+    );
+    let v_lambda = &Cmf::of(Observer::Cie1931).on_grid(&Grid::one_nm())[1];
+    assert_eq!(c.bands.len(), v_lambda.len(), "the spectral coding's 1 nm bands");
+    let luminance_v: f64 = KM_LM_PER_W * c.bands.iter().zip(v_lambda).map(|(l, v)| l * v).sum::<f64>();
+    let truth = rho * i0 / (PI * d * d);
+    let allowed_standard_errors = 4.0;
+    assert!(
+        (luminance_v / truth - 1.0).abs() <= allowed_standard_errors * relative_se + 1e-6,
+        "V(λ)-weighted luminance {luminance_v} cd/m², analytic ρ·I0/(π·d²) = {truth} cd/m²: off by {:.4} % \
+         at a relative SE of {:.5} %",
+        100.0 * (luminance_v / truth - 1.0),
+        100.0 * relative_se
+    );
+}

@@ -40,13 +40,14 @@ fn every_scene_declares_its_cielab_white() {
         assert_eq!(load_scene(&scenes().join(f)).unwrap().cielab_white, own("h21"), "{f}");
     }
     // A diffuser white is computed from the scene: the WHITE spotlight
-    // (110 cd along the normal from 1 m) on ρ = 1 gives 110/π cd/m².
+    // (110 cd along the normal from 1 m) on ρ = 1 gives 110/π cd/m² in
+    // V(λ), the CIE 1931 ȳ that defines the candela (issue 46).
     let w = load_scene(&scenes().join("white.toml")).unwrap();
     let l = w.light_on_perfect_diffuser(
         glam::DVec3::new(0.0, 1.0, -0.6),
         glam::DVec3::new(0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2),
     );
-    let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::JuddVos)
+    let y = lightbooth::colorimetry::xyz_from_radiance(&l, lightbooth::colorimetry::Observer::Cie1931)
         .unwrap()
         .y;
     assert!((y / (110.0 / std::f64::consts::PI) - 1.0).abs() < 1e-3, "{y}");
@@ -278,10 +279,13 @@ fn converged_spectrum_is_cached_by_scene_content() {
         "centre",
     );
     assert!(file.exists());
+    // The cache keeps the truth's relative SE of Y beside it (issue 46).
+    let cached = std::fs::read_to_string(&file).unwrap();
+    assert!(cached.starts_with("nm,radiance,y_relative_se\n"), "{}", &cached[..40]);
     // Overwrite the cached values: the second call must return them.
-    let mut text = String::from("nm,radiance\n");
+    let mut text = String::from("nm,radiance,y_relative_se\n");
     for nm in 380..=780 {
-        text.push_str(&format!("{nm},0.125\n"));
+        text.push_str(&format!("{nm},0.125,0.0009\n"));
     }
     std::fs::write(&file, text).unwrap();
     let again = converged_target_spectrum(&scene_path, "centre", Some(&cache)).unwrap();
@@ -289,6 +293,12 @@ fn converged_spectrum_is_cached_by_scene_content() {
         again.values().iter().all(|&v| v == 0.125),
         "the second call reads the cache"
     );
+    let truth = lightbooth::render::converged_target_truth(&scene_path, "centre", Some(&cache)).unwrap();
+    assert_eq!(truth.relative_se_y, 0.0009, "the truth's SE is read from the cache");
+    // A cache file from before the SE was kept is a miss, not an SE of 0.
+    std::fs::write(&file, "nm,radiance\n380,0.125\n780,0.125\n").unwrap();
+    let recomputed = lightbooth::render::converged_target_truth(&scene_path, "centre", Some(&cache)).unwrap();
+    assert!(recomputed.relative_se_y > 0.0 && recomputed.relative_se_y <= lightbooth::render::CONVERGED_RELATIVE_SE);
 
     // Editing the scene (or a file it references) changes the hash.
     let edited = scene_with(dir.path(), |t| t.replace("blackbody_k = 3200", "blackbody_k = 3000"));

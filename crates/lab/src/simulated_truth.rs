@@ -64,13 +64,21 @@ impl SimulatedTruth {
     /// in `cache_dir` by scene content and truth settings. Blocks: call it
     /// from the instrument thread, not the async runtime.
     pub fn spectrum(&self, scene: &str, target: &str, cache_dir: &Path) -> Result<Spectrum, String> {
+        self.truth(scene, target, cache_dir).map(|t| t.spectrum)
+    }
+
+    /// [`SimulatedTruth::spectrum`] with the truth's own relative standard
+    /// error of Y, which the measurement records
+    /// ([`lightbooth_store::Store::record_simulated_truth`]) for the error
+    /// budget of its comparisons.
+    pub fn truth(&self, scene: &str, target: &str, cache_dir: &Path) -> Result<render::ConvergedTruth, String> {
         let entry = self.catalogue.get(scene).ok_or_else(|| format!("no scene `{scene}`"))?;
         std::fs::create_dir_all(cache_dir).map_err(|e| format!("cache folder {}: {e}", cache_dir.display()))?;
         self.pool.install(|| {
             if jobs::test_panic_requested(scene) {
                 jobs::panic_on_the_pool(scene);
             }
-            render::converged_target_spectrum(&self.world_path(&entry.path), target, Some(cache_dir))
+            render::converged_target_truth(&self.world_path(&entry.path), target, Some(cache_dir))
                 .map_err(|e| e.to_string())
         })
     }

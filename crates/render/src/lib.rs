@@ -640,8 +640,8 @@ pub fn scene_hash_of<'a>(contents: impl IntoIterator<Item = &'a [u8]>) -> String
     format!("{h:016x}")
 }
 
-fn memory_cache() -> &'static Mutex<HashMap<(String, String), Spectrum>> {
-    static C: OnceLock<Mutex<HashMap<(String, String), Spectrum>>> = OnceLock::new();
+fn memory_cache() -> &'static Mutex<HashMap<(String, String), ConvergedTruth>> {
+    static C: OnceLock<Mutex<HashMap<(String, String), ConvergedTruth>>> = OnceLock::new();
     C.get_or_init(|| Mutex::new(HashMap::new()))
 }
 
@@ -656,23 +656,35 @@ pub fn cache_file(cache_dir: &Path, hash: &str, target_id: &str) -> PathBuf {
 /// A cached converged spectrum, or `None` (with the reason logged) when the
 /// file is missing or unreadable: a torn or corrupt file is a cache miss,
 /// recomputed and replaced, never an error.
-fn read_cached(file: &Path) -> Option<Spectrum> {
+fn read_cached(file: &Path) -> Option<ConvergedTruth> {
     if !file.exists() {
         return None;
     }
     let read = SpectraTable::read(file)
         .map_err(|e| e.to_string())
         .and_then(|t| {
-            t.spectrum("radiance", SpectralUnit::SpectralRadiance)
-                .map_err(|e| e.to_string())
+            let s = t
+                .spectrum("radiance", SpectralUnit::SpectralRadiance)
+                .map_err(|e| e.to_string())?;
+            let se = t
+                .spectrum(SE_COLUMN, SpectralUnit::RelativePower)
+                .map_err(|e| format!("{e} (a cache file from before the truth kept its standard error)"))?;
+            Ok((s, se.values().first().copied().unwrap_or(f64::NAN)))
         })
-        .and_then(|s| {
+        .and_then(|(s, relative_se_y)| {
             if !s.grid().same_as(&Grid::one_nm()) {
                 Err("not on the 1 nm grid".to_string())
             } else if !s.values().iter().all(|v| v.is_finite()) {
                 Err("a value is not a finite number".to_string())
+            } else if !(relative_se_y.is_finite() && relative_se_y >= 0.0) {
+                Err(format!(
+                    "its standard error {relative_se_y} is not a finite, non-negative number"
+                ))
             } else {
-                Ok(s)
+                Ok(ConvergedTruth {
+                    spectrum: s,
+                    relative_se_y,
+                })
             }
         });
     match read {
@@ -687,7 +699,7 @@ fn read_cached(file: &Path) -> Option<Spectrum> {
 /// Writes `spectrum` to `file` atomically: a temporary file in the same
 /// folder, flushed to disk, then renamed over `file`, so a reader sees the
 /// old file or the whole new one, never a torn one.
-fn write_cached(file: &Path, spectrum: &Spectrum) -> Result<(), RenderError> {
+fn write_cached(file: &Path, truth: &ConvergedTruth) -> Result<(), RenderError> {
     use std::sync::atomic::AtomicUsize;
     static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let io = |e: &dyn std::fmt::Display| RenderError::Io(format!("{}: {e}", file.display()));
@@ -700,7 +712,13 @@ fn write_cached(file: &Path, spectrum: &Spectrum) -> Result<(), RenderError> {
     let tmp = PathBuf::from(tmp_name);
     let written = (|| {
         let out = std::fs::File::create(&tmp).map_err(|e| io(&e))?;
-        write_csv(&out, spectrum.grid(), &[("radiance", spectrum.values())]).map_err(|e| io(&e))?;
+        let se = vec![truth.relative_se_y; truth.spectrum.values().len()];
+        write_csv(
+            &out,
+            truth.spectrum.grid(),
+            &[("radiance", truth.spectrum.values()), (SE_COLUMN, &se)],
+        )
+        .map_err(|e| io(&e))?;
         out.sync_all().map_err(|e| io(&e))?;
         std::fs::rename(&tmp, file).map_err(|e| io(&e))
     })();
@@ -710,17 +728,45 @@ fn write_cached(file: &Path, spectrum: &Spectrum) -> Result<(), RenderError> {
     written
 }
 
+/// The cache file's column of the truth's relative standard error of Y (the
+/// same number on every row).
+const SE_COLUMN: &str = "y_relative_se";
+
+/// The simulated booth's truth for one target: its converged spectral
+/// radiance and the render's own relative standard error of Y (analysis
+/// observer), which a comparison with a simulated measurement counts in its
+/// error budget (the truth is an estimate too).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConvergedTruth {
+    /// W/(sr·m²·nm) on [`Grid::one_nm`].
+    pub spectrum: Spectrum,
+    /// The truth render's standard error of Y over Y (≤ [`CONVERGED_RELATIVE_SE`]
+    /// unless it stopped at its path cap).
+    pub relative_se_y: f64,
+}
+
 /// The converged `spectral` radiance of a target, W/(sr·m²·nm) on
-/// [`Grid::one_nm`]: rendered until the standard error of Y is below
-/// [`CONVERGED_RELATIVE_SE`], and cached by [`truth_hash`] (the scene's
-/// content and the truth's settings) and the target id — as a CSV in
-/// `cache_dir`, or in memory for this process when `cache_dir` is `None` —
-/// so it is computed once per scene content.
+/// [`Grid::one_nm`] ([`converged_target_truth`] without its standard error).
 pub fn converged_target_spectrum(
     scene_path: &Path,
     target_id: &str,
     cache_dir: Option<&Path>,
 ) -> Result<Spectrum, RenderError> {
+    converged_target_truth(scene_path, target_id, cache_dir).map(|t| t.spectrum)
+}
+
+/// The converged `spectral` radiance of a target, W/(sr·m²·nm) on
+/// [`Grid::one_nm`], with its relative standard error of Y: rendered until
+/// that is below [`CONVERGED_RELATIVE_SE`], and cached by [`truth_hash`]
+/// (the scene's content and the truth's settings) and the target id — as a
+/// CSV in `cache_dir` (columns `radiance` and `y_relative_se`), or in
+/// memory for this process when `cache_dir` is `None` — so it is computed
+/// once per scene content.
+pub fn converged_target_truth(
+    scene_path: &Path,
+    target_id: &str,
+    cache_dir: Option<&Path>,
+) -> Result<ConvergedTruth, RenderError> {
     let scene = load_scene(scene_path)?;
     if scene.target(target_id).is_none() {
         return Err(RenderError::UnknownTarget(target_id.into(), scene.targets().join(", ")));
@@ -735,17 +781,17 @@ pub fn converged_target_spectrum(
     } else if let Some(s) = memory_cache().lock().expect("cache lock").get(&key) {
         return Ok(s.clone());
     }
-    let spectrum = converge(&scene, &settings)?;
+    let truth = converge(&scene, &settings)?;
     match cache_dir {
         Some(dir) => {
             std::fs::create_dir_all(dir).map_err(|e| RenderError::Io(format!("{}: {e}", dir.display())))?;
-            write_cached(&cache_file(dir, &hash, target_id), &spectrum)?;
+            write_cached(&cache_file(dir, &hash, target_id), &truth)?;
         }
         None => {
-            memory_cache().lock().expect("cache lock").insert(key, spectrum.clone());
+            memory_cache().lock().expect("cache lock").insert(key, truth.clone());
         }
     }
-    Ok(spectrum)
+    Ok(truth)
 }
 
 /// The cache key of a truth spectrum: the scene's content hash and the
@@ -761,9 +807,18 @@ pub fn truth_hash(scene: &Scene, settings: &RenderSettings) -> Result<String, Re
     Ok(format!("{h:016x}"))
 }
 
-fn converge(scene: &Scene, settings: &RenderSettings) -> Result<Spectrum, RenderError> {
+fn converge(scene: &Scene, settings: &RenderSettings) -> Result<ConvergedTruth, RenderError> {
     let r = render(scene, settings, None)?;
-    let bands = r.targets[0].codings[0].1.bands.clone();
-    Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, bands)
-        .map_err(|e| RenderError::Prepare(e.to_string()))
+    let c = &r.targets[0].codings[0].1;
+    let spectrum = Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, c.bands.clone())
+        .map_err(|e| RenderError::Prepare(e.to_string()))?;
+    let relative_se_y = if c.luminance_cd_m2 > 0.0 {
+        c.luminance_se_cd_m2 / c.luminance_cd_m2
+    } else {
+        0.0
+    };
+    Ok(ConvergedTruth {
+        spectrum,
+        relative_se_y,
+    })
 }

@@ -72,6 +72,7 @@ pub mod engine;
 mod experiments;
 mod leases;
 mod measurements;
+pub use measurements::SIMULATED_TRUTH_KEY;
 mod partial;
 mod renders;
 mod rows;

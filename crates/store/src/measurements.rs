@@ -5,6 +5,10 @@
 use super::*;
 use crate::BoxFuture;
 
+/// The key of a measurement's settings that records a simulated truth's
+/// relative standard error of Y ([`Store::record_simulated_truth`]).
+pub const SIMULATED_TRUTH_KEY: &str = "simulated_truth_relative_se";
+
 impl Store {
     /// Records a requested measurement as `queued`.
     pub fn create_measurement<'a>(&'a self, m: &'a NewMeasurement) -> BoxFuture<'a, Result<i64, StoreError>> {
@@ -84,6 +88,38 @@ impl Store {
             .execute(pool)
             .await?
             .rows_affected()
+            });
+            Ok(())
+        })
+    }
+
+    /// Records on measurement `id` that a simulated instrument took it, aimed
+    /// at a truth of relative standard error of Y `relative_se` (kept in its
+    /// settings, read back as [`MeasurementDetail::simulated_truth_relative_se`]).
+    pub fn record_simulated_truth<'a>(&'a self, id: i64, relative_se: f64) -> BoxFuture<'a, Result<(), StoreError>> {
+        Box::pin(async move {
+            let settings: Option<String> = with_pool!(self, |pool| {
+                sqlx::query_scalar("SELECT settings_json FROM measurements WHERE id = $1")
+                    .bind(id)
+                    .fetch_optional(pool)
+                    .await?
+            });
+            let Some(settings) = settings else {
+                return Err(StoreError::Conflict(format!("no measurement {id}")));
+            };
+            let mut value: serde_json::Value =
+                serde_json::from_str(&settings).unwrap_or_else(|_| serde_json::json!({}));
+            if !value.is_object() {
+                value = serde_json::json!({});
+            }
+            value[SIMULATED_TRUTH_KEY] = serde_json::json!(relative_se);
+            with_pool!(self, |pool| {
+                sqlx::query("UPDATE measurements SET settings_json = $1 WHERE id = $2")
+                    .bind(value.to_string())
+                    .bind(id)
+                    .execute(pool)
+                    .await?
+                    .rows_affected()
             });
             Ok(())
         })
@@ -202,7 +238,8 @@ impl Store {
     pub fn get_measurement<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<MeasurementDetail>, StoreError>> {
         Box::pin(async move {
             let sql = format!(
-                "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json FROM measurements WHERE id = $1"
+                "SELECT {MEASUREMENT_COLUMNS}, wavelength_json, radiance_json, radiance_sd_json, settings_json \
+                 FROM measurements WHERE id = $1"
             );
             let record: Option<MeasurementDetailRecord> =
                 with_pool!(self, |pool| sqlx::query_as(&sql).bind(id).fetch_optional(pool).await?);
@@ -240,6 +277,9 @@ impl Store {
                 wavelength_nm: parse_opt_array(record.wavelength_json, "wavelengths")?,
                 radiance: parse_opt_array(record.radiance_json, "mean radiance")?,
                 radiance_sd: parse_opt_array(record.radiance_sd_json, "radiance SD")?,
+                simulated_truth_relative_se: serde_json::from_str::<serde_json::Value>(&record.settings_json)
+                    .ok()
+                    .and_then(|v| v.get(SIMULATED_TRUTH_KEY).and_then(|v| v.as_f64())),
                 samples,
             }))
         })

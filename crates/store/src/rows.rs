@@ -209,6 +209,11 @@ pub struct MeasurementDetail {
     pub radiance: Option<Vec<f64>>,
     /// Per-wavelength standard deviation of the usable samples, W/(sr·m²·nm).
     pub radiance_sd: Option<Vec<f64>>,
+    /// When a simulated instrument took it: the relative standard error of
+    /// Y of the truth it was aimed at (a converged render, itself an
+    /// estimate; 0.001 = 0.1 %), which comparisons count in their error
+    /// budget. Null for a real instrument.
+    pub simulated_truth_relative_se: Option<f64>,
     pub samples: Vec<SampleRow>,
 }
 
@@ -297,6 +302,7 @@ pub(super) struct MeasurementDetailRecord {
     pub wavelength_json: Option<String>,
     pub radiance_json: Option<String>,
     pub radiance_sd_json: Option<String>,
+    pub settings_json: String,
 }
 
 /// An observer name stored in a column (NULL → `None`).

@@ -51,6 +51,11 @@ pub struct CodingUncertaintyDto {
     pub stated_accuracy: crate::uncertainty::StatedAccuracy,
     pub draws: usize,
     pub seed: u64,
+    /// When a simulated instrument took the measurements: the largest
+    /// relative standard error of Y (0.001 = 0.1 %) of the converged render
+    /// it measured as the truth, counted with the repeatability in every
+    /// claim; null for a real instrument.
+    pub simulated_truth_relative_se: Option<f64>,
     /// rms_rel with its intervals and claims.
     #[schema(value_type = Object)]
     pub rms_rel: crate::uncertainty::PropagatedDifference,
@@ -160,6 +165,7 @@ impl From<SceneComparisons> for SceneComparison {
                             stated_accuracy: u.propagated.accuracy,
                             draws: u.propagated.monte_carlo.draws,
                             seed: u.propagated.monte_carlo.seed,
+                            simulated_truth_relative_se: u.propagated.simulated_truth_relative_se,
                             rms_rel: u.propagated.rms_rel,
                             targets,
                         };
@@ -248,8 +254,9 @@ fn uncertainty_by_row(c: &SceneComparisons) -> std::collections::HashMap<i64, (&
 }
 
 /// A row's uncertainty columns, named as in the CSV and the MAT file
-/// (empty, or NaN in the MAT file, where nothing was propagated): for
-/// ΔE00 the 95th percentile of what the measurement's error alone gives
+/// (empty, or NaN in the MAT file, where nothing was propagated): the
+/// simulated truth's standard error of Y in the budget (`truth_se_Y`,
+/// cd/m²; empty for a real instrument); for ΔE00 the 95th percentile of what the measurement's error alone gives
 /// (repeatability; with the stated accuracy), for Δx, Δy and relative ΔY
 /// the 95 % interval with the stated accuracy; and each figure's three
 /// claims (`true`/`false`; empty where not made).
@@ -260,6 +267,10 @@ fn uncertainty_columns(p: Option<(&PointUncertainty, &str)>) -> Vec<(String, Str
         "accuracy_of".to_string(),
         p.map(|p| p.1.to_string()).unwrap_or_default(),
     )];
+    out.push((
+        "truth_se_Y".to_string(),
+        num(p.and_then(|p| p.0.measured_luminance.truth_standard_error_cd_m2)),
+    ));
     /// A figure's column prefix, where it is in a point, and whether it is signed.
     type Figure = (&'static str, fn(&PointUncertainty) -> &PropagatedDifference, bool);
     let figures: [Figure; 4] = [

@@ -13,7 +13,11 @@
 //! them ([`lightbooth_instrument::accuracy`]), the render's noise from its
 //! standard error, so every ΔE, Δx, Δy, relative ΔY and rms_rel says
 //! whether it is beyond the render's noise, beyond the measurement's
-//! repeatability and beyond the instrument's stated accuracy. The draws
+//! repeatability and beyond the instrument's stated accuracy. On the
+//! simulated booth the measurement's truth is a converged render whose own
+//! standard error (recorded with each measurement,
+//! [`MeasurementDetail::simulated_truth_relative_se`]) is counted with the
+//! repeatability and named in the result. The draws
 //! are seeded by the scene, so a page shows the same intervals on every
 //! load and every coding is judged against the same draws.
 
@@ -194,8 +198,10 @@ pub fn propagate_measured(
 /// SD/√n), and the rendering with its standard error. The render's
 /// standard error is known for Y; X and Z are given the same relative
 /// error (an approximation: a path tracer's X, Y, Z errors are of one size
-/// relative to their values when the light is near white). Used by the
-/// scene pages and the study alike.
+/// relative to their values when the light is near white). A measurement
+/// a simulated instrument took carries its truth's relative SE, counted
+/// with the repeatability ([`lightbooth_science::uncertainty`], "The
+/// simulated truth"). Used by the scene pages and the study alike.
 pub fn measured_rendered_point(
     m: &MeasurementDetail,
     rendered: Xyz,
@@ -228,6 +234,9 @@ pub fn measured_rendered_point(
         measured_standard_uncertainty: sd.iter().map(|v| v / n.sqrt()).collect(),
         rendered,
         rendered_standard_error: Xyz::new(rendered.x * relative_se, rendered_y_se, rendered.z * relative_se),
+        // A simulated instrument's truth is a render: its SE, recorded with
+        // the measurement, joins the budget (none for a real instrument).
+        truth_relative_se: m.simulated_truth_relative_se,
     })
 }
 
@@ -278,6 +287,80 @@ pub fn coding_order(c: &str) -> (u32, u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{queued_measurement, store_in};
+    use lightbooth_science::colorimetry::xyz_from_radiance;
+    use lightbooth_store::Average;
+
+    /// A measurement of WHITE's patch completed at once with a flat spectrum
+    /// and no spread (a noiseless instrument), on the PR-650's 4 nm grid.
+    async fn noiseless_measurement(store: &Store, truth_relative_se: Option<f64>) -> (i64, Xyz) {
+        let id = queued_measurement(store, Some(("white", "patch"))).await;
+        if let Some(se) = truth_relative_se {
+            store.record_simulated_truth(id, se).await.unwrap();
+        }
+        store.mark_running(id, None).await.unwrap();
+        let wavelength_nm: Vec<f64> = (0..101).map(|i| 380.0 + 4.0 * f64::from(i)).collect();
+        let radiance = vec![0.01; 101];
+        let s = Spectrum::new(
+            Grid::from_wavelengths(wavelength_nm.clone()).unwrap(),
+            SpectralUnit::SpectralRadiance,
+            radiance.clone(),
+        )
+        .unwrap();
+        let average = Average {
+            wavelength_nm,
+            radiance,
+            radiance_sd: vec![0.0; 101],
+            luminance_cd_m2: 0.0,
+            x: Some(0.0),
+            y: Some(0.0),
+            luminance_cv: 0.0,
+            xyz: None,
+            observer: None,
+        };
+        store.complete_measurement(id, &average).await.unwrap();
+        (id, xyz_from_radiance(&s, Observer::JuddVos).unwrap())
+    }
+
+    /// Issue 46, through the store and the lab: a noiseless simulated
+    /// instrument's measurement of a truth converged to 0.1 %, and a
+    /// rendering 0.15 % brighter (1.5 of the truth's SEs, the "Y ratio
+    /// 1.001" of the report): with the truth's SE recorded it is within the
+    /// repeatability and the noise, and the result names the SE; the same
+    /// measurement without the record (as every simulated one was) calls
+    /// the exact rendering beyond both.
+    #[tokio::test]
+    async fn a_simulated_measurements_truth_se_keeps_an_exact_rendering_within_the_budget() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let white = Xyz::new(95.0, 100.0, 108.9);
+        let propagated = |id: i64, xyz: Xyz| {
+            let store = store.clone();
+            async move {
+                let m = store.get_measurement(id).await.unwrap().unwrap();
+                let rendered = xyz.scaled(1.0015);
+                propagate_measured("white", Observer::JuddVos, white, &[(&m, rendered, 1e-5 * rendered.y)])
+                    .unwrap()
+                    .1
+            }
+        };
+        let (simulated, xyz) = noiseless_measurement(&store, Some(1e-3)).await;
+        let detail = store.get_measurement(simulated).await.unwrap().unwrap();
+        assert_eq!(detail.simulated_truth_relative_se, Some(1e-3));
+        let u = propagated(simulated, xyz).await;
+        assert_eq!(u.simulated_truth_relative_se, Some(1e-3));
+        let (noise, repeat) = (u.rms_rel.claims.beyond_noise, u.rms_rel.claims.beyond_repeatability);
+        assert!(
+            !noise && !repeat,
+            "rms_rel beyond noise {noise}, repeatability {repeat}"
+        );
+        assert!(!u.points[0].de00.claims.beyond_repeatability);
+
+        let (real, xyz) = noiseless_measurement(&store, None).await;
+        let u = propagated(real, xyz).await;
+        assert_eq!(u.simulated_truth_relative_se, None);
+        assert!(u.rms_rel.claims.beyond_noise && u.rms_rel.claims.beyond_repeatability);
+    }
 
     #[test]
     fn codings_sort_as_the_study_lists_them_with_n_step_by_its_number() {

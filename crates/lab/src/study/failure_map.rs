@@ -27,8 +27,8 @@
 //!    narrower than 5 nm), so `spectral` under F2/F11 is the reference *for
 //!    that interpolated spectrum* (and `nstep81`, which samples it at the
 //!    5 nm table's own wavelengths, differs from it only by the integration
-//!    rule). Each light is normalised to 1 cd (Judd–Vos
-//!    ȳ, as the scene loader does); the scale cancels in CIELAB.
+//!    rule). Each light is normalised to 1 cd (V(λ), CIE
+//!    1931 ȳ, as the scene loader does: a candela is defined by V(λ)); the scale cancels in CIELAB.
 //!
 //! 2. **Interreflection strength** ([`interreflection_map`]): the CYLINDER
 //!    scene with its card's reflectance scaled by s ∈ {0.25, 0.5, 0.75, 1}
@@ -54,7 +54,7 @@ use serde::Serialize;
 use crate::charts::{grid_chart, line_chart, LineSeriesData};
 use lightbooth_render::coding::OBSERVER;
 use lightbooth_render::{load_scene, render, ChannelLayout, Coding, RenderError, RenderSettings, SceneError};
-use lightbooth_science::colorimetry::{Cmf, Lab, Xyz, KM_LM_PER_W};
+use lightbooth_science::colorimetry::{luminous_1nm, Lab, Xyz};
 use lightbooth_science::comparison::{compare_point, mean_sd, summarize};
 use lightbooth_science::reference_data::{illuminant, illuminant_1nm, reflectances, Illuminant, ReflectanceSet};
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
@@ -177,8 +177,9 @@ fn light_per_cd(which: Illuminant) -> Result<(Spectrum, bool), FailureMapError> 
         Some(s) => (s.resample(&Grid::one_nm()).map_err(spe)?, false),
         None => (illuminant(which).resample(&Grid::one_nm()).map_err(spe)?, true),
     };
-    let ybar = &Cmf::of(OBSERVER).on_grid(&Grid::one_nm())[1];
-    let lum: f64 = KM_LM_PER_W * spd.values().iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>();
+    // "1 cd" is a photometric input: V(λ) (CIE 1931 ȳ), as the renderer
+    // normalises a lamp, not the analysis observer (issue 46).
+    let lum = luminous_1nm(spd.values());
     if lum.is_nan() || lum <= 0.0 {
         return Err(FailureMapError::Spectrum(format!(
             "illuminant {} has no luminous power",

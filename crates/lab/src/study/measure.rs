@@ -74,7 +74,18 @@ pub async fn measure_with_simulator(
         let truth = truth_path(truth_scene, path);
         for target in scene.targets() {
             progress(&format!("measuring {scene_id}/{target} with the simulated PR-650"));
-            mock.set_truth(render::converged_target_spectrum(&truth, target, Some(cache_dir))?)?;
+            let converged = render::converged_target_truth(&truth, target, Some(cache_dir))?;
+            let truth_relative_se = converged.relative_se_y;
+            mock.set_truth(converged.spectrum)?;
+            let mut settings_json = serde_json::json!({
+                "samples": settings.samples,
+                "simulated": true,
+                "seed": seed,
+                "truth_scene": truth.display().to_string(),
+            });
+            // The truth is a render, an estimate too: its SE joins the
+            // error budget of every comparison with this measurement.
+            settings_json[lightbooth_store::SIMULATED_TRUTH_KEY] = serde_json::json!(truth_relative_se);
             let id = store
                 .create_measurement(&NewMeasurement {
                     booth: booth.clone(),
@@ -82,12 +93,7 @@ pub async fn measure_with_simulator(
                     scene: Some(scene_id.clone()),
                     target: Some(target.to_string()),
                     samples: settings.samples,
-                    settings_json: serde_json::json!({
-                        "samples": settings.samples,
-                        "simulated": true,
-                        "seed": seed,
-                        "truth_scene": truth.display().to_string(),
-                    }),
+                    settings_json,
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;

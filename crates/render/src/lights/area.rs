@@ -90,6 +90,9 @@ impl AreaLight {
     /// triangle, in emitter order; an emitting primitive that is not a
     /// triangle, or an emitter without luminous power, is an error.
     pub fn of_scene(scene: &Scene) -> Result<Vec<AreaLight>, String> {
+        // Computed from the emitters' spectra, for the light sampler's
+        // weights only (any positive weight leaves the estimate unbiased):
+        // the analysis observer, not an input's V(λ).
         let ybar = &Cmf::of(OBSERVER).on_grid(&Grid::one_nm())[1];
         let luminance: Vec<f64> = scene
             .emitters

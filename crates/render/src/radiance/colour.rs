@@ -175,7 +175,13 @@ pub fn fit_reflectance(rgb: [f64; 3]) -> (SmoothSpectrum, f64) {
     (SmoothSpectrum::Sigmoid(c.to_array()), r.abs().max_element())
 }
 
-/// Luminance of a flat 1 W/(sr·m²·nm) spectrum, cd/m² (683 · Σ ȳ · 1 nm).
+/// Luminance of a flat 1 W/(sr·m²·nm) spectrum, cd/m² (683 · Σ ȳ · 1 nm),
+/// in the renderer's analysis observer, not V(λ): a RADIANCE light is RGB
+/// radiance, and its synthesised spectrum must give the `rgb` coding's
+/// channels (computed in the analysis observer) 179·(r, g, b), so the
+/// `spectral` and `rgb` codings of an imported scene agree. Its 179 cd/m²
+/// per unit are therefore in the analysis observer (a RADIANCE file states
+/// no observer); a lamp given in candela in a scene file is in V(λ).
 fn flat_luminance() -> f64 {
     static Y: OnceLock<f64> = OnceLock::new();
     *Y.get_or_init(|| {

@@ -3,10 +3,16 @@
 //! optional cone) and the emission of area lights (`emission = { … }` on a
 //! `[[polygon]]` or `[[mesh]]`).
 //!
-//! Point-luminaire spectra are normalised to 1 cd: 683 lm/W · Σ S(λ)·ȳ(λ)·1 nm
-//! = 1 with the renderer's observer, so the luminaire's candela hold. An
-//! emission given as `luminance_cd_m2 = L` is normalised the same way to
-//! 683 · Σ L(λ)·ȳ(λ)·1 nm = L; `radiance` is taken as it is.
+//! Point-luminaire spectra are normalised to 1 cd: 683 lm/W · Σ S(λ)·V(λ)·1 nm
+//! = 1, so the luminaire's candela (`intensity_cd`, an IES file's table)
+//! hold. An emission given as `luminance_cd_m2 = L` is normalised the same
+//! way to 683 · Σ L(λ)·V(λ)·1 nm = L; `radiance` is taken as it is.
+//!
+//! V(λ) is the CIE 1924 photopic function, tabulated as CIE 1931's ȳ: the
+//! function that defines the candela, the lumen and the cd/m² (CIE S 017,
+//! ISO 23539), whatever observer the analysis uses (the renderer's XYZ of a
+//! target are in the analysis observer, Judd–Vos by default; a lamp's
+//! candela are not).
 
 use glam::DVec3;
 
@@ -140,7 +146,8 @@ pub(super) fn load_light(l: &mut Loader, lf: &LightFile, i: usize) -> Result<Poi
             *s *= f;
         }
     }
-    // Normalise to 1 cd: 683 · Σ S(λ) ȳ(λ) Δλ = 1, Δλ = 1 nm, Judd–Vos ȳ.
+    // Normalise to 1 cd: 683 · Σ S(λ) V(λ) Δλ = 1, Δλ = 1 nm. A photometric
+    // input: V(λ) (CIE 1931 ȳ), not the analysis observer.
     let lum = luminous_1nm(&spd);
     if lum.is_nan() || lum <= 0.0 {
         return Err(l.err(key("spd"), "the spectrum has no luminous power"));
@@ -190,7 +197,8 @@ pub(super) fn load_emitter(
         (None, Some(lum)) => {
             let lum = positive(lum, l, &key("luminance_cd_m2"))?;
             let shape = l.spd_1nm(e.blackbody_k, e.spd.as_ref(), &key)?;
-            // Scale so that 683 · Σ L(λ) ȳ(λ) · 1 nm = the luminance.
+            // Scale so that 683 · Σ L(λ) V(λ) · 1 nm = the luminance: a
+            // photometric input, in V(λ) (CIE 1931 ȳ), not the analysis observer.
             let y = luminous_1nm(&shape);
             if y.is_nan() || y <= 0.0 {
                 return Err(l.err(key("spd"), "the spectrum has no luminous power"));

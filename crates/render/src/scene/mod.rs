@@ -114,8 +114,8 @@
 //! Any polygon or mesh may emit: `emission = { radiance = SPECTRUM }`, the
 //! spectral radiance of its emitting side in W/(sr·m²·nm), or
 //! `emission = { luminance_cd_m2 = L, spd = SPECTRUM }` (or `blackbody_k = T`
-//! for the shape), scaled so that 683 lm/W · Σ L(λ)·ȳ(λ)·1 nm = L with the
-//! renderer's observer. The emitter is Lambertian (the same radiance in
+//! for the shape), scaled so that 683 lm/W · Σ L(λ)·V(λ)·1 nm = L, V(λ) the
+//! CIE 1931 ȳ (see "Which function each number is in" below). The emitter is Lambertian (the same radiance in
 //! every direction) on its front side, the side the vertex order's normal
 //! points to, or on both with `two_sided = true`. Without a `material` an
 //! emitting surface reflects nothing.
@@ -185,9 +185,23 @@
 //!
 //! Light spectra: the SPD (a blackbody by Planck's law, or a CSV column, times
 //! an optional filter transmittance) is resampled to 1 nm and scaled so that
-//! 683 lm/W · Σ S(λ)·ȳ(λ)·1 nm = 1 cd, with the Judd–Vos ȳ (the renderer's
-//! observer). The luminaire's intensity in W/(sr·nm) toward a direction is
-//! then I_cd(direction) · S(λ), so the IES file's candela hold on the axis.
+//! 683 lm/W · Σ S(λ)·V(λ)·1 nm = 1 cd. The luminaire's intensity in
+//! W/(sr·nm) toward a direction is then I_cd(direction) · S(λ), so the IES
+//! file's candela hold on the axis.
+//!
+//! # Which function each number is in
+//!
+//! - Photometric inputs — `intensity_cd`, an IES file's candela,
+//!   `luminance_cd_m2`, a RADIANCE light's 179 lm/W — are in V(λ), the CIE
+//!   1924 photopic function tabulated as CIE 1931's ȳ
+//!   ([`PHOTOMETRIC_OBSERVER`](lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER)):
+//!   the function that defines the candela (CIE S 017, ISO 23539), whatever
+//!   observer the analysis uses.
+//! - What is computed from the rendered spectra — every coding's XYZ, x,y,
+//!   Y and its standard error — is in the analysis observer (Judd–Vos by
+//!   default, [`crate::coding::OBSERVER`], or the render settings' observer).
+//!   A lamp of 1 cd (V(λ)) therefore has a Judd–Vos Y that differs from 1
+//!   by a fraction depending on its spectrum (+0.15 % for a 2856 K blackbody).
 //!
 //! # RADIANCE files: `[[radiance]]`
 //!

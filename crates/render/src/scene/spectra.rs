@@ -14,7 +14,6 @@
 use super::file::{ExtendedRef, Outside, SpectrumRef};
 use super::{Loader, SceneError};
 use crate::input_file::{read_text, unquoted};
-use lightbooth_science::colorimetry::{Cmf, KM_LM_PER_W};
 use lightbooth_science::spectrum::table::{SpectraTable, TableError};
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum, SpectrumError};
 
@@ -126,12 +125,14 @@ fn blackbody_1nm(t: f64) -> Vec<f64> {
         .collect()
 }
 
-/// 683 lm/W · Σ S(λ)·ȳ(λ)·1 nm of a spectrum on the 1 nm grid, with the
-/// renderer's observer (Judd–Vos ȳ): luminance for a radiance, candela for
-/// an intensity.
+/// 683 lm/W · Σ S(λ)·V(λ)·1 nm of a spectrum on the 1 nm grid: luminance
+/// for a radiance, candela for an intensity. A photometric input (a lamp's
+/// cd, an IES file, an emission's cd/m²) is in V(λ) (CIE 1931 ȳ,
+/// [`PHOTOMETRIC_OBSERVER`](lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER)),
+/// never in the renderer's analysis observer (issue 46: Judd–Vos ȳ here left
+/// every booth lamp 0.44 % dim).
 pub(super) fn luminous_1nm(values: &[f64]) -> f64 {
-    let ybar = &Cmf::of(crate::coding::OBSERVER).on_grid(&Grid::one_nm())[1];
-    KM_LM_PER_W * values.iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>()
+    lightbooth_science::colorimetry::luminous_1nm(values)
 }
 
 /// The error for a column that stops short of 380–780 nm: its range, and

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use super::*;
-use crate::coding::OBSERVER;
 use lightbooth_science::colorimetry::xyz_from_radiance;
+use lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER;
 
 /// A flat 380–780 nm grey and a 400–700 nm spectrum (as the Cornell box's).
 const SPECTRA: &str = "nm,grey,shiny\n380,0.5,0.9\n780,0.5,0.9\n";
@@ -383,9 +383,10 @@ fn emission_by_luminance_is_normalised_to_that_luminance() {
          [[polygon]]\n{SQUARE}\nemission = {{ luminance_cd_m2 = 40.0, spd = {{ csv = \"short.csv:light\", outside = \"zero\" }} }}\n"
     ))
     .unwrap();
-    // L = 683 lm/W · Σ L(λ) ȳ(λ) Δλ, computed by the colorimetry module.
+    // L = 683 lm/W · Σ L(λ) V(λ) Δλ, computed by the colorimetry module
+    // with V(λ) (CIE 1931 ȳ): a cd/m² is defined by it (issue 46).
     for (e, lum) in s.emitters.iter().zip([250.0, 40.0]) {
-        let y = xyz_from_radiance(&e.radiance, OBSERVER).unwrap().y;
+        let y = xyz_from_radiance(&e.radiance, PHOTOMETRIC_OBSERVER).unwrap().y;
         assert!((y / lum - 1.0).abs() < 1e-12, "{y} vs {lum}");
     }
     // The blackbody's shape is Planck's: L(λ₁)/L(λ₂) = (λ₂/λ₁)⁵ (e^{c₂/λ₂T} − 1)/(e^{c₂/λ₁T} − 1).
@@ -481,7 +482,7 @@ fn a_plain_luminaire_is_isotropic_or_a_cone_with_a_smooth_edge() {
         light.spectrum_per_cd.values().to_vec(),
     )
     .unwrap();
-    assert!((xyz_from_radiance(&per_cd, OBSERVER).unwrap().y - 1.0).abs() < 1e-12);
+    assert!((xyz_from_radiance(&per_cd, PHOTOMETRIC_OBSERVER).unwrap().y - 1.0).abs() < 1e-12);
 }
 
 #[test]

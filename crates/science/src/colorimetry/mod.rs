@@ -61,6 +61,27 @@ pub use cielab::{ciede2000, delta_e76, Lab};
 /// The maximum luminous efficacy of radiation for photopic vision, lm/W.
 pub const KM_LM_PER_W: f64 = 683.0;
 
+/// The observer of every photometric *input*: a candela, a lumen, a cd/m²
+/// and every IES file are defined by V(λ), the CIE 1924 photopic luminous
+/// efficiency function, tabulated as CIE 1931's ȳ (CIE S 017, ISO 23539),
+/// whatever observer the analysis uses. Turn a number given in cd, lm or
+/// cd/m² into W with it ([`luminous_1nm`]); weight what is computed from
+/// spectra with the analysis observer.
+pub const PHOTOMETRIC_OBSERVER: Observer = Observer::Cie1931;
+
+/// 683 lm/W · Σ S(λ)·V(λ)·1 nm of `values` on [`Grid::one_nm`], V(λ) the
+/// [`PHOTOMETRIC_OBSERVER`]'s ȳ: the luminance (cd/m²) of a spectral
+/// radiance, the candela of a spectral intensity, as photometric inputs
+/// are stated. Values beyond the grid's length are ignored.
+pub fn luminous_1nm(values: &[f64]) -> f64 {
+    static V: OnceLock<Vec<f64>> = OnceLock::new();
+    let v = V.get_or_init(|| {
+        let [_, y, _] = Cmf::of(PHOTOMETRIC_OBSERVER).on_grid(&Grid::one_nm());
+        y
+    });
+    KM_LM_PER_W * values.iter().zip(v).map(|(s, y)| s * y).sum::<f64>()
+}
+
 /// The standard observer whose matching functions turn spectra into XYZ.
 ///
 /// Serialised (JSON, CSV/MAT headers, store columns) by [`Observer::name`]:
