@@ -147,7 +147,9 @@ fn named_host(req: &Request) -> Result<Option<String>, ApiError> {
     }
     if let Some(authority) = req.uri().authority() {
         // Absolute form (RFC 9112 §3.2.2): the target's authority is the host; `Host` is ignored.
-        return Ok(Some(authority.as_str().rsplit('@').next().unwrap_or_default().to_string()));
+        return Ok(Some(
+            authority.as_str().rsplit('@').next().unwrap_or_default().to_string(),
+        ));
     }
     match hosts.first() {
         None => Ok(None),

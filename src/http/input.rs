@@ -24,11 +24,11 @@ use axum::body::Bytes;
 use axum::extract::path::ErrorKind;
 use axum::extract::rejection::PathRejection;
 use axum::extract::{FromRequest, FromRequestParts, MatchedPath, RawPathParams, Request};
+use axum::http::header::CONTENT_TYPE;
+use axum::http::request::Parts;
 use axum::http::Method;
 use axum::middleware::Next;
 use axum::response::Response;
-use axum::http::header::CONTENT_TYPE;
-use axum::http::request::Parts;
 use serde::de::DeserializeOwned;
 
 use super::error::{from_rejection, ApiError};
@@ -108,7 +108,9 @@ where
 /// which names the field and the type it takes.
 fn wrong_type_in_valid_json<T: DeserializeOwned>(bytes: &[u8]) -> Option<ApiError> {
     let value: serde_json::Value = serde_json::from_slice(bytes).ok()?;
-    serde_path_to_error::deserialize::<_, T>(value).err().map(|e| field_error(&e))
+    serde_path_to_error::deserialize::<_, T>(value)
+        .err()
+        .map(|e| field_error(&e))
 }
 
 /// A query string deserialised into `T`, with the same field-naming errors.
@@ -194,9 +196,8 @@ where
 /// leading zeros (`-1`, `+3`, `007` are refused, as in a path: one
 /// resource, one URL); `None` otherwise.
 pub fn plain_id(text: &str) -> Option<i64> {
-    let plain = !text.is_empty()
-        && text.bytes().all(|b| b.is_ascii_digit())
-        && !(text.len() > 1 && text.starts_with('0'));
+    let plain =
+        !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) && !(text.len() > 1 && text.starts_with('0'));
     plain.then(|| text.parse().ok()).flatten()
 }
 
@@ -206,7 +207,10 @@ fn query_keys() -> &'static HashMap<(String, String), Vec<String>> {
     static KEYS: OnceLock<HashMap<(String, String), Vec<String>>> = OnceLock::new();
     KEYS.get_or_init(|| {
         let mut keys = HashMap::new();
-        let paths = super::openapi::served_document()["paths"].as_object().cloned().unwrap_or_default();
+        let paths = super::openapi::served_document()["paths"]
+            .as_object()
+            .cloned()
+            .unwrap_or_default();
         for (path, item) in paths {
             for (method, operation) in item.as_object().into_iter().flatten() {
                 let names = operation["parameters"]
@@ -242,7 +246,9 @@ pub async fn refuse_unknown_query_keys(req: Request, next: Next) -> Result<Respo
             req.method().as_str().to_string()
         };
         if let Some(accepted) = query_keys().get(&(method.clone(), template.clone())) {
-            if let Some((key, _)) = form_urlencoded::parse(query.as_bytes()).find(|(k, _)| !accepted.iter().any(|a| a == k)) {
+            if let Some((key, _)) =
+                form_urlencoded::parse(query.as_bytes()).find(|(k, _)| !accepted.iter().any(|a| a == k))
+            {
                 let takes = if accepted.is_empty() {
                     "takes no query parameters; remove it".to_string()
                 } else {

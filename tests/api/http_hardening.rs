@@ -723,14 +723,19 @@ async fn requests_without_host_or_with_two_were_answered_200() {
     let addr = server.addr;
     let port = addr.port();
     for (what, head) in [
-        ("no Host", "GET /api/health HTTP/1.1\r\nConnection: close\r\n\r\n".to_string()),
+        (
+            "no Host",
+            "GET /api/health HTTP/1.1\r\nConnection: close\r\n\r\n".to_string(),
+        ),
         (
             "two Hosts",
             format!("GET /api/health HTTP/1.1\r\nHost: {addr}\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
         ),
         (
             "two different Hosts",
-            format!("GET /api/measurements HTTP/1.1\r\nHost: {addr}\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"),
+            format!(
+                "GET /api/measurements HTTP/1.1\r\nHost: {addr}\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"
+            ),
         ),
         (
             "absolute form without Host",
@@ -753,7 +758,9 @@ async fn requests_without_host_or_with_two_were_answered_200() {
     assert!(raw.contains("attacker.example"), "{raw}");
     let (status, raw) = raw_request(
         addr,
-        &format!("GET http://localhost:{port}/api/health HTTP/1.1\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"),
+        &format!(
+            "GET http://localhost:{port}/api/health HTTP/1.1\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"
+        ),
     )
     .await;
     assert_eq!(status, 200, "{raw}");

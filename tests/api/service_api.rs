@@ -964,7 +964,10 @@ async fn hold_ids_started_again_at_1_after_a_restart() {
     let d = Daemon::start_on(0.0, &format!("sqlite://{}", dir.path().join("lab.sqlite").display())).await;
     let (s, second) = post_json(d.addr, "/api/instrument/hold", TOKEN, purpose).await;
     assert_eq!(s, 201, "{second}");
-    assert_ne!(first["id"], second["id"], "a new hold after the restart: {first} then {second}");
+    assert_ne!(
+        first["id"], second["id"],
+        "a new hold after the restart: {first} then {second}"
+    );
     // The page left open across the restart names its old hold: refused,
     // not taken into the new one.
     let old = serde_json::json!({ "samples": 1, "hold": first["id"] }).to_string();
@@ -989,8 +992,12 @@ async fn a_hold_stated_no_expiry_and_could_not_be_renewed() {
     assert_eq!(status, StatusCode::CREATED, "{hold}");
     let id = hold["id"].as_i64().unwrap();
     let since = hold["since"].as_f64().unwrap();
-    let within = hold["renew_within_s"].as_f64().unwrap_or_else(|| panic!("no renew_within_s: {hold}"));
-    let expires = hold["expires_at"].as_f64().unwrap_or_else(|| panic!("no expires_at: {hold}"));
+    let within = hold["renew_within_s"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no renew_within_s: {hold}"));
+    let expires = hold["expires_at"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no expires_at: {hold}"));
     assert!((60.0..=600.0).contains(&within), "{hold}");
     assert!((expires - (since + within)).abs() < 1e-6, "{hold}");
     let renew = format!("/api/instrument/hold/{id}/renew");
@@ -1055,7 +1062,12 @@ async fn a_wrong_typed_geometry_was_answered_malformed_json() {
         let body = format!(r#"{{"patches": [{{"colour": "original", "geometry": {geometry}, "measurement_id": 1}}]}}"#);
         let (status, v) = send(
             &h.state,
-            post("/api/experiments/1/verifications", "application/json", body, Some(TOKEN)),
+            post(
+                "/api/experiments/1/verifications",
+                "application/json",
+                body,
+                Some(TOKEN),
+            ),
         )
         .await;
         assert_eq!(status, StatusCode::BAD_REQUEST, "{geometry}: {v}");
@@ -1083,7 +1095,13 @@ async fn a_wrong_typed_geometry_was_answered_malformed_json() {
 #[tokio::test]
 async fn figure_ids_of_minus_1_answered_404() {
     let h = harness(4).await;
-    for (ids, bad) in [("-1", "-1"), ("1,-2", "-2"), ("%2B3", "+3"), ("007", "007"), ("1,x", "x")] {
+    for (ids, bad) in [
+        ("-1", "-1"),
+        ("1,-2", "-2"),
+        ("%2B3", "+3"),
+        ("007", "007"),
+        ("1,x", "x"),
+    ] {
         let (status, v) = send(&h.state, get(&format!("/api/experiments/figure.svg?ids={ids}"))).await;
         assert_eq!(status, StatusCode::BAD_REQUEST, "ids={ids}: {v}");
         let m = error_message(&v);
@@ -1104,7 +1122,10 @@ async fn unknown_query_keys_were_ignored_silently() {
     let (status, v) = send(&h.state, get("/api/measurements?limt=5")).await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     let m = error_message(&v);
-    assert!(m.contains("`limt`") && m.contains("`limit`") && m.contains("`offset`"), "{m}");
+    assert!(
+        m.contains("`limt`") && m.contains("`limit`") && m.contains("`offset`"),
+        "{m}"
+    );
     let (status, v) = send(&h.state, get("/api/experiments/1/analysis?x=1")).await;
     assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
     assert!(error_message(&v).contains("`x`"), "{v}");
@@ -1113,7 +1134,11 @@ async fn unknown_query_keys_were_ignored_silently() {
     let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
     let spectrum = &doc["paths"]["/api/measurements/{id}/spectrum.svg"]["get"]["parameters"];
     assert!(
-        spectrum.as_array().unwrap().iter().any(|p| p["name"] == "t" && p["in"] == "query"),
+        spectrum
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|p| p["name"] == "t" && p["in"] == "query"),
         "{spectrum}"
     );
     let (status, v) = send(&h.state, get("/api/measurements/1/spectrum.svg?t=1765000000")).await;

@@ -337,7 +337,8 @@ impl BoothInstrument {
         }
         let busy = (!busy.is_empty()).then(|| busy.join("; "));
         // Refused before an id is drawn when it would be; checked again on taking it.
-        self.hold.check_take(purpose, busy.as_deref(), lightbooth_store::now())?;
+        self.hold
+            .check_take(purpose, busy.as_deref(), lightbooth_store::now())?;
         let id = self.store.record_instrument_hold(&self.booth, purpose.trim()).await?;
         let hold = self.hold.take(id, purpose, busy, lightbooth_store::now())?;
         tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument held");

@@ -379,8 +379,15 @@ mod tests {
             hold.renew(11, gone).unwrap_err().to_string(),
             hold.release(11, gone).unwrap_err().to_string(),
         ] {
-            assert!(refused.contains("hold 11 expired") && refused.contains("not renewed within 120 s"), "{refused}");
+            assert!(
+                refused.contains("hold 11 expired") && refused.contains("not renewed within 120 s"),
+                "{refused}"
+            );
         }
-        assert_eq!(hold.take(12, "another", None, gone).unwrap().id, 12, "and a new hold can be taken");
+        assert_eq!(
+            hold.take(12, "another", None, gone).unwrap().id,
+            12,
+            "and a new hold can be taken"
+        );
     }
 }
