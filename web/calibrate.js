@@ -42,7 +42,7 @@ const css = (d) => `rgb(${d.map((v) => Math.round(v * 255)).join(",")})`;
 // The calibration under way: its hold on the instrument (no one else
 // measures or changes the display until it ends), its measurement, whether
 // Cancel was pressed.
-const run = { hold: null, measurementId: null, cancelled: false };
+const run = { hold: null, stopRenewing: () => {}, measurementId: null, cancelled: false };
 
 // "12 s", "3 min 05 s": a duration for people.
 function duration(seconds) {
@@ -66,10 +66,13 @@ async function calibrate() {
     const plan = await api(`/api/display-profiles/plan?steps=${steps}`);
     // Hold the instrument first: refused (with who or what) while anything
     // is measuring or queued, and while held nothing else is measured.
-    run.hold = (await api("/api/instrument/hold", {
+    const held = await api("/api/instrument/hold", {
       method: "POST",
       body: JSON.stringify({ purpose: `display calibration “${$("name").value}”` }),
-    })).id;
+    });
+    run.hold = held.id;
+    // Renewed while the page is open; it expires if the page goes away.
+    run.stopRenewing = keepHold(api, held);
     // With --mock the simulated PR-650 looks at a simulated display, which is
     // told each colour; a daemon with a real PR-650 answers 404 here.
     let simulated = true;
@@ -128,6 +131,7 @@ async function calibrate() {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
     $("status").textContent = "stopped";
   } finally {
+    run.stopRenewing();
     if (run.hold !== null) {
       await api(`/api/instrument/hold/${run.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
       run.hold = null;

@@ -434,12 +434,16 @@ const check = { hold: null, measurementId: null, cancelled: false };
 // however `work` ends. Refused (naming who or what) while anything else is
 // measuring or queued.
 async function holdingTheInstrument(purpose, work) {
-  check.hold = (await api("/api/instrument/hold", { method: "POST", body: JSON.stringify({ purpose }) })).id;
+  const held = await api("/api/instrument/hold", { method: "POST", body: JSON.stringify({ purpose }) });
+  check.hold = held.id;
   check.cancelled = false;
   check.measurementId = null;
+  // Renewed while the page is open; it expires if the page goes away.
+  const stopRenewing = keepHold(api, held);
   try {
     return await work();
   } finally {
+    stopRenewing();
     await api(`/api/instrument/hold/${check.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
     check.hold = null;
   }

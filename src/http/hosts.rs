@@ -15,14 +15,24 @@
 //!   when the daemon is reached by it.
 //!
 //! Anything else is answered 421 (Misdirected Request) naming the host and
-//! how to allow it. A request without `Host` (HTTP/1.0, a test calling the
-//! router directly) passes: browsers always send it. The port is not
-//! checked: a rebound name is refused whatever port it names.
+//! how to allow it. The port is not checked: a rebound name is refused
+//! whatever port it names.
+//!
+//! Which host a request names follows RFC 9112 §3.2: an HTTP/1.1 request
+//! without `Host`, and any request with more than one `Host` or an invalid
+//! one, is answered 400 (the RFC's "MUST respond with a 400"). A request in
+//! absolute form (`GET http://host/path`) names the host of its target:
+//! §3.2.2 requires a server to accept the absolute form and to ignore
+//! `Host` then, so that authority, not `Host`, is what is checked. An
+//! HTTP/1.0 request without `Host` passes (HTTP/1.0 has no `Host`
+//! requirement), and so does a request the router is called with directly
+//! (tests with `oneshot`, not read from a connection).
 
 use std::net::{IpAddr, SocketAddr};
 
 use axum::extract::{Request, State};
 use axum::http::header::HOST;
+use axum::http::Version;
 use axum::middleware::Next;
 use axum::response::Response;
 
@@ -115,11 +125,56 @@ pub fn parse_allowed_host(entry: &str) -> Result<String, String> {
     }
 }
 
-/// Middleware: refuses, with 421, a request whose `Host` this daemon does not answer.
+/// The host `req` names (see the module doc): its target's authority in
+/// absolute form, else its one `Host`; `None` when it names none. A 400
+/// citing RFC 9112 when it breaks §3.2's rules.
+fn named_host(req: &Request) -> Result<Option<String>, ApiError> {
+    let hosts: Vec<_> = req.headers().get_all(HOST).iter().collect();
+    if hosts.len() > 1 {
+        return Err(ApiError::BadRequest(format!(
+            "the request has {} `Host` header fields; send exactly one (RFC 9112 §3.2: a server must answer 400 \
+             to a request with more than one)",
+            hosts.len()
+        )));
+    }
+    let from_a_connection = req.extensions().get::<super::limits::ClientAddr>().is_some();
+    if hosts.is_empty() && from_a_connection && req.version() == Version::HTTP_11 {
+        return Err(ApiError::BadRequest(
+            "the HTTP/1.1 request has no `Host` header field; send `Host: <the address you reach the daemon by>` \
+             (RFC 9112 §3.2: a server must answer 400 to an HTTP/1.1 request lacking Host)"
+                .into(),
+        ));
+    }
+    if let Some(authority) = req.uri().authority() {
+        // Absolute form (RFC 9112 §3.2.2): the target's authority is the host; `Host` is ignored.
+        return Ok(Some(
+            authority.as_str().rsplit('@').next().unwrap_or_default().to_string(),
+        ));
+    }
+    match hosts.first() {
+        None => Ok(None),
+        Some(value) => {
+            let valid = value
+                .to_str()
+                .ok()
+                .filter(|v| !v.contains('@') && v.parse::<axum::http::uri::Authority>().is_ok());
+            match valid {
+                Some(v) => Ok(Some(v.to_string())),
+                None => Err(ApiError::BadRequest(format!(
+                    "the `Host` header field `{}` is not a host and optional port (RFC 9112 §3.2: a server must \
+                     answer 400 to an invalid Host)",
+                    String::from_utf8_lossy(value.as_bytes())
+                ))),
+            }
+        }
+    }
+}
+
+/// Middleware: refuses, with 421, a request naming a host this daemon does
+/// not answer, and with 400 one that breaks RFC 9112 §3.2 (see the module doc).
 pub async fn require_known_host(State(state): State<AppState>, req: Request, next: Next) -> Result<Response, ApiError> {
     let allowed = &state.config.allowed_hosts;
-    if let Some(host) = req.headers().get(HOST) {
-        let host = String::from_utf8_lossy(host.as_bytes());
+    if let Some(host) = named_host(&req)? {
         if !allowed.allows(&host) {
             tracing::warn!(%host, "request for a host this daemon does not answer (DNS rebinding?)");
             return Err(ApiError::MisdirectedRequest(format!(

@@ -8,14 +8,27 @@
 //! (trailing bytes are refused, not ignored). [`Path`] names the path
 //! parameter that does not parse, in the same JSON error shape, and refuses
 //! numbers written with a sign or leading zeros (`/api/images/+1`): ids are
-//! plain digits.
+//! plain digits ([`plain_id`], also for ids in a query).
+//!
+//! Valid JSON of the wrong type for a field (`"geometry": 5` where a name
+//! is taken) is named as such, with the field, not called malformed JSON
+//! (serde_json reports some of those as syntax errors). A query key a
+//! route does not take is refused, not ignored
+//! ([`refuse_unknown_query_keys`], on every route, from the keys the
+//! OpenAPI document lists for it).
+
+use std::collections::HashMap;
+use std::sync::OnceLock;
 
 use axum::body::Bytes;
 use axum::extract::path::ErrorKind;
 use axum::extract::rejection::PathRejection;
-use axum::extract::{FromRequest, FromRequestParts, RawPathParams, Request};
+use axum::extract::{FromRequest, FromRequestParts, MatchedPath, RawPathParams, Request};
 use axum::http::header::CONTENT_TYPE;
 use axum::http::request::Parts;
+use axum::http::Method;
+use axum::middleware::Next;
+use axum::response::Response;
 use serde::de::DeserializeOwned;
 
 use super::error::{from_rejection, ApiError};
@@ -58,7 +71,8 @@ where
                         let at = inner.trim_start_matches("trailing characters").trim();
                         ApiError::BadRequest(format!("field `{path}`: more elements than it takes ({at})"))
                     } else if e.inner().is_syntax() || e.inner().is_eof() {
-                        ApiError::BadRequest(format!("malformed JSON: {}", e.inner()))
+                        wrong_type_in_valid_json::<T>(bytes)
+                            .unwrap_or_else(|| ApiError::BadRequest(format!("malformed JSON: {}", e.inner())))
                     } else {
                         field_error(&e)
                     }
@@ -86,6 +100,17 @@ where
             ))),
         }
     }
+}
+
+/// When `bytes` is valid JSON that `T` refused as a syntax error (serde_json
+/// answers "expected value" for an enum given a number, an array, `true`
+/// or `null`, issue 46): the refusal of the same value read as a JSON tree,
+/// which names the field and the type it takes.
+fn wrong_type_in_valid_json<T: DeserializeOwned>(bytes: &[u8]) -> Option<ApiError> {
+    let value: serde_json::Value = serde_json::from_slice(bytes).ok()?;
+    serde_path_to_error::deserialize::<_, T>(value)
+        .err()
+        .map(|e| field_error(&e))
 }
 
 /// A query string deserialised into `T`, with the same field-naming errors.
@@ -165,6 +190,78 @@ where
         };
         Err(from_rejection(e.status(), message))
     }
+}
+
+/// An id as written in a path or a query: plain digits, without a sign or
+/// leading zeros (`-1`, `+3`, `007` are refused, as in a path: one
+/// resource, one URL); `None` otherwise.
+pub fn plain_id(text: &str) -> Option<i64> {
+    let plain =
+        !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) && !(text.len() > 1 && text.starts_with('0'));
+    plain.then(|| text.parse().ok()).flatten()
+}
+
+/// The query keys each operation of the API takes, from the OpenAPI
+/// document: (method, path template) → keys.
+fn query_keys() -> &'static HashMap<(String, String), Vec<String>> {
+    static KEYS: OnceLock<HashMap<(String, String), Vec<String>>> = OnceLock::new();
+    KEYS.get_or_init(|| {
+        let mut keys = HashMap::new();
+        let paths = super::openapi::served_document()["paths"]
+            .as_object()
+            .cloned()
+            .unwrap_or_default();
+        for (path, item) in paths {
+            for (method, operation) in item.as_object().into_iter().flatten() {
+                let names = operation["parameters"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter(|p| p["in"] == "query")
+                    .filter_map(|p| p["name"].as_str().map(String::from))
+                    .collect();
+                keys.insert((method.to_ascii_uppercase(), path.clone()), names);
+            }
+        }
+        keys
+    })
+}
+
+/// Middleware on every API route: a query key the route does not take is
+/// answered 400 naming it and the keys the route takes (issue 46: a
+/// misspelt `limt=5`, or any key on a route without a query, was ignored
+/// silently). The keys are those the OpenAPI document lists for the
+/// operation, so what is refused and what is documented cannot differ.
+pub async fn refuse_unknown_query_keys(req: Request, next: Next) -> Result<Response, ApiError> {
+    if let (Some(query), Some(matched)) = (req.uri().query(), req.extensions().get::<MatchedPath>()) {
+        let template = matched.as_str();
+        let template = if template.starts_with("/api/") {
+            template.to_string()
+        } else {
+            format!("/api{template}")
+        };
+        let method = if req.method() == Method::HEAD {
+            "GET".to_string()
+        } else {
+            req.method().as_str().to_string()
+        };
+        if let Some(accepted) = query_keys().get(&(method.clone(), template.clone())) {
+            if let Some((key, _)) =
+                form_urlencoded::parse(query.as_bytes()).find(|(k, _)| !accepted.iter().any(|a| a == k))
+            {
+                let takes = if accepted.is_empty() {
+                    "takes no query parameters; remove it".to_string()
+                } else {
+                    let listed: Vec<String> = accepted.iter().map(|k| format!("`{k}`")).collect();
+                    format!("does not take it; it takes {}", listed.join(", "))
+                };
+                return Err(ApiError::BadRequest(format!(
+                    "query key `{key}`: {method} {template} {takes}"
+                )));
+            }
+        }
+    }
+    Ok(next.run(req).await)
 }
 
 /// A number with a sign or leading zeros (`+1`, `-0`, `007`), which Rust's

@@ -82,6 +82,7 @@ pub struct AppState {
 /// The whole HTTP application.
 pub fn app(state: AppState) -> Router {
     let api = Router::from(routes::api_router())
+        .route_layer(axum::middleware::from_fn(input::refuse_unknown_query_keys))
         .method_not_allowed_fallback(error::method_not_allowed)
         .layer(axum::middleware::from_fn_with_state(state.clone(), auth::require_token))
         .layer(DefaultBodyLimit::max(MAX_BODY_BYTES));

@@ -93,13 +93,17 @@ impl Modify for CommonResponses {
                 let in_path = params.iter().any(|p| matches!(p.parameter_in, ParameterIn::Path));
                 let in_query = params.iter().any(|p| matches!(p.parameter_in, ParameterIn::Query));
                 let has_body = operation.request_body.is_some();
-                if in_path || in_query || has_body {
-                    Self::add(
-                        operation,
-                        "400",
-                        "a parameter or the body is malformed; the message names it",
-                    );
-                }
+                // Every operation: a query key it does not take (`input::refuse_unknown_query_keys`).
+                Self::add(
+                    operation,
+                    "400",
+                    if in_path || in_query || has_body {
+                        "a parameter or the body is malformed, or a query key is one the operation does not \
+                         take; the message names it"
+                    } else {
+                        "a query key the operation does not take (it takes none); the message names it"
+                    },
+                );
                 if in_path {
                     Self::add(operation, "404", "no such resource");
                 }
@@ -147,8 +151,39 @@ pub fn served_document() -> &'static serde_json::Value {
     DOCUMENT.get_or_init(|| {
         let mut doc = serde_json::to_value(api_document()).expect("the OpenAPI document serialises");
         state_request_rules(&mut doc);
+        image_refresh_key(&mut doc);
         doc
     })
+}
+
+/// Gives every GET of an image (SVG, PNG) that takes no other query the
+/// query key `t`, ignored: a page that redraws a changed image (the live
+/// spectrum, a scene's charts) adds `?t=<time>` so the browser fetches it
+/// again. Unknown query keys are refused (`input::refuse_unknown_query_keys`),
+/// so the document says this one is taken.
+fn image_refresh_key(doc: &mut serde_json::Value) {
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    for item in paths.values_mut() {
+        let Some(get) = item.get_mut("get") else {
+            continue;
+        };
+        let image = get["responses"]["200"]["content"]
+            .as_object()
+            .is_some_and(|c| c.keys().any(|k| k.starts_with("image/")));
+        let params = get["parameters"].as_array().cloned().unwrap_or_default();
+        if !image || params.iter().any(|p| p["in"] == "query") {
+            continue;
+        }
+        let mut params = params;
+        params.push(serde_json::json!({
+            "name": "t", "in": "query", "required": false,
+            "description": "ignored: a page adds it (e.g. the time) to fetch a changed image again",
+            "schema": {"type": "string"},
+        }));
+        get["parameters"] = serde_json::Value::Array(params);
+    }
 }
 
 /// A coding: `rgb`, `srgb`, `spectral` or `nstepN` with 1 ≤ N ≤ 81.

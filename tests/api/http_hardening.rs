@@ -700,3 +700,73 @@ async fn database_file_created_world_readable() {
         }
     }
 }
+
+/// One raw request, as written, on a fresh connection; the status and the whole answer.
+async fn raw_request(addr: SocketAddr, head: &str) -> (u16, String) {
+    let mut s = TcpStream::connect(addr).await.unwrap();
+    s.write_all(head.as_bytes()).await.unwrap();
+    let raw = String::from_utf8_lossy(&read_until_closed(&mut s).await).into_owned();
+    let status = raw.split_whitespace().nth(1).and_then(|s| s.parse().ok()).unwrap_or(0);
+    (status, raw)
+}
+
+/// Regression (issue 46): an HTTP/1.1 request without `Host`, or with two,
+/// was answered 200, and one in absolute form was answered by its `Host`
+/// (`localhost`) although it asked for another authority. RFC 9112 §3.2: a
+/// server MUST answer 400 to an HTTP/1.1 request lacking `Host` and to any
+/// with more than one; §3.2.2: a server MUST accept the absolute form, and
+/// its target's authority, not `Host`, is the host asked for (so it is
+/// what the DNS-rebinding check judges).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn requests_without_host_or_with_two_were_answered_200() {
+    let server = start(limits(16)).await;
+    let addr = server.addr;
+    let port = addr.port();
+    for (what, head) in [
+        (
+            "no Host",
+            "GET /api/health HTTP/1.1\r\nConnection: close\r\n\r\n".to_string(),
+        ),
+        (
+            "two Hosts",
+            format!("GET /api/health HTTP/1.1\r\nHost: {addr}\r\nHost: {addr}\r\nConnection: close\r\n\r\n"),
+        ),
+        (
+            "two different Hosts",
+            format!(
+                "GET /api/measurements HTTP/1.1\r\nHost: {addr}\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"
+            ),
+        ),
+        (
+            "absolute form without Host",
+            format!("GET http://{addr}/api/health HTTP/1.1\r\nConnection: close\r\n\r\n"),
+        ),
+    ] {
+        let (status, raw) = raw_request(addr, &head).await;
+        assert_eq!(status, 400, "{what}: {raw}");
+        assert!(raw.contains("Host") && raw.contains("RFC 9112"), "{what}: {raw}");
+    }
+    // The target's authority is the host asked for: a rebound name is
+    // refused whatever `Host` says, and an address of this daemon answered
+    // whatever it says.
+    let (status, raw) = raw_request(
+        addr,
+        "GET http://attacker.example/api/measurements HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n",
+    )
+    .await;
+    assert_eq!(status, 421, "{raw}");
+    assert!(raw.contains("attacker.example"), "{raw}");
+    let (status, raw) = raw_request(
+        addr,
+        &format!(
+            "GET http://localhost:{port}/api/health HTTP/1.1\r\nHost: attacker.example\r\nConnection: close\r\n\r\n"
+        ),
+    )
+    .await;
+    assert_eq!(status, 200, "{raw}");
+    // HTTP/1.0 has no Host requirement; one Host is the ordinary case.
+    let (status, raw) = raw_request(addr, "GET /api/health HTTP/1.0\r\n\r\n").await;
+    assert_eq!(status, 200, "{raw}");
+    assert_eq!(get_status(addr, "/api/health").await, 200);
+    server.stop().await;
+}

@@ -947,3 +947,204 @@ async fn an_instrument_scan_needs_the_token_is_bounded_and_names_each_port() {
     }
     eprintln!("scan in {took:?}: {scan:#}");
 }
+
+/// Regression (issue 46): hold ids were counted in memory from 1, so after
+/// a restart a calibration page left open posted into another client's new
+/// hold 1, and stored measurements carried ambiguous hold ids. They differ
+/// across a daemon restart on the same SQLite file, and the old hold stays
+/// ended.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hold_ids_started_again_at_1_after_a_restart() {
+    use crate::common::{post_json, Daemon, TOKEN};
+    let purpose = r#"{"purpose": "display calibration “crt”"}"#;
+    let d = Daemon::start(0.0).await;
+    let (s, first) = post_json(d.addr, "/api/instrument/hold", TOKEN, purpose).await;
+    assert_eq!(s, 201, "{first}");
+    let dir = d.stop_keeping_files().await;
+    let d = Daemon::start_on(0.0, &format!("sqlite://{}", dir.path().join("lab.sqlite").display())).await;
+    let (s, second) = post_json(d.addr, "/api/instrument/hold", TOKEN, purpose).await;
+    assert_eq!(s, 201, "{second}");
+    assert_ne!(
+        first["id"], second["id"],
+        "a new hold after the restart: {first} then {second}"
+    );
+    // The page left open across the restart names its old hold: refused,
+    // not taken into the new one.
+    let old = serde_json::json!({ "samples": 1, "hold": first["id"] }).to_string();
+    let (s, v) = post_json(d.addr, "/api/measurements", TOKEN, &old).await;
+    assert_eq!(s, 409, "{v}");
+    d.stop().await;
+}
+
+/// Regression (issue 46): a hold lasted until released, so a vanished
+/// client blocked every measurement until an operator stepped in. A hold
+/// says when it expires and how often to renew it; a renewal moves the
+/// expiry on; an ended hold cannot be renewed.
+#[tokio::test]
+async fn a_hold_stated_no_expiry_and_could_not_be_renewed() {
+    let h = harness(4).await;
+    let take = r#"{"purpose": "display calibration “crt”"}"#;
+    let (status, hold) = send(
+        &h.state,
+        post("/api/instrument/hold", "application/json", take, Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::CREATED, "{hold}");
+    let id = hold["id"].as_i64().unwrap();
+    let since = hold["since"].as_f64().unwrap();
+    let within = hold["renew_within_s"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no renew_within_s: {hold}"));
+    let expires = hold["expires_at"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no expires_at: {hold}"));
+    assert!((60.0..=600.0).contains(&within), "{hold}");
+    assert!((expires - (since + within)).abs() < 1e-6, "{hold}");
+    let renew = format!("/api/instrument/hold/{id}/renew");
+    let (status, renewed) = send(&h.state, post(&renew, "application/json", "{}", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::OK, "{renewed}");
+    assert_eq!(renewed["id"], id);
+    assert!(renewed["expires_at"].as_f64().unwrap() >= expires, "{renewed}");
+    let (status, current) = send(&h.state, get("/api/instrument/hold")).await;
+    assert_eq!(status, StatusCode::OK);
+    assert_eq!(current["expires_at"], renewed["expires_at"], "{current}");
+    // Renewing needs the token, as taking and releasing do.
+    let (status, _) = send(&h.state, post(&renew, "application/json", "{}", None)).await;
+    assert_eq!(status, StatusCode::UNAUTHORIZED);
+    let release = format!("/api/instrument/hold/{id}/release");
+    let (status, v) = send(&h.state, post(&release, "application/json", "{}", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+    let (status, v) = send(&h.state, post(&renew, "application/json", "{}", Some(TOKEN))).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "{v}");
+    assert!(error_message(&v).contains(&format!("hold {id}")), "{v}");
+}
+
+/// Regression (issue 46): `/api/health` said `ok` while the instrument was
+/// `starting` and a measurement answered 503. It says measurements are
+/// refused, in the words a measurement POST answers, and `degraded`.
+#[tokio::test]
+async fn health_said_ok_while_the_instrument_was_starting_and_measurements_answered_503() {
+    let h = harness(4).await;
+    h.status.send_replace(InstrumentStatus::Disconnected {
+        reason: "starting".into(),
+    });
+    let (status, refused) = send(
+        &h.state,
+        post("/api/measurements", "application/json", r#"{"samples":2}"#, Some(TOKEN)),
+    )
+    .await;
+    assert_eq!(status, StatusCode::SERVICE_UNAVAILABLE, "{refused}");
+    let (status, body) = send(&h.state, get("/api/health")).await;
+    assert_eq!(status, StatusCode::OK, "the daemon itself runs: {body}");
+    assert_eq!(body["status"], "degraded", "{body}");
+    assert_eq!(body["measurements"], "refused", "{body}");
+    assert_eq!(body["measurements_refused"], error_message(&refused), "{body}");
+    // Once the instrument is idle, both say yes.
+    h.status.send_replace(InstrumentStatus::Idle {
+        model: "PR-650".into(),
+        measures: "spectrum".into(),
+        serial: None,
+        port: "/dev/pts/9".into(),
+    });
+    let (_, body) = send(&h.state, get("/api/health")).await;
+    assert_eq!(body["status"], "ok", "{body}");
+    assert_eq!(body["measurements"], "accepted", "{body}");
+    assert!(body.get("measurements_refused").is_none(), "{body}");
+}
+
+/// Regression (issue 46): a verification whose `geometry` had the wrong
+/// type (valid JSON) was answered "malformed JSON: expected value"; the
+/// answer names the field and the type it takes.
+#[tokio::test]
+async fn a_wrong_typed_geometry_was_answered_malformed_json() {
+    let h = harness(4).await;
+    for geometry in ["5", r#"["pie"]"#, "true", "null"] {
+        let body = format!(r#"{{"patches": [{{"colour": "original", "geometry": {geometry}, "measurement_id": 1}}]}}"#);
+        let (status, v) = send(
+            &h.state,
+            post(
+                "/api/experiments/1/verifications",
+                "application/json",
+                body,
+                Some(TOKEN),
+            ),
+        )
+        .await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "{geometry}: {v}");
+        let m = error_message(&v);
+        assert!(m.starts_with("field `patches[0].geometry`: "), "{geometry}: {m}");
+        assert!(!m.contains("malformed") && m.contains("string"), "{geometry}: {m}");
+    }
+    // What is not JSON is still called so.
+    let (status, v) = send(
+        &h.state,
+        post(
+            "/api/experiments/1/verifications",
+            "application/json",
+            r#"{"patches": [{"geometry": }]}"#,
+            Some(TOKEN),
+        ),
+    )
+    .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    assert!(error_message(&v).starts_with("malformed JSON"), "{v}");
+}
+
+/// Regression (issue 46): `figure.svg?ids=-1` answered 404 where a path id
+/// `-1` answers 400; an id in `ids` is plain digits, as in a path.
+#[tokio::test]
+async fn figure_ids_of_minus_1_answered_404() {
+    let h = harness(4).await;
+    for (ids, bad) in [
+        ("-1", "-1"),
+        ("1,-2", "-2"),
+        ("%2B3", "+3"),
+        ("007", "007"),
+        ("1,x", "x"),
+    ] {
+        let (status, v) = send(&h.state, get(&format!("/api/experiments/figure.svg?ids={ids}"))).await;
+        assert_eq!(status, StatusCode::BAD_REQUEST, "ids={ids}: {v}");
+        let m = error_message(&v);
+        assert!(m.contains("`ids`") && m.contains(&format!("`{bad}`")), "ids={ids}: {m}");
+    }
+}
+
+/// Regression (issue 46): a query key a route does not take was ignored
+/// silently on the routes without a query (`/api/health?verbose=1`); every
+/// route answers 400 naming the key and the keys it takes.
+#[tokio::test]
+async fn unknown_query_keys_were_ignored_silently() {
+    let h = harness(4).await;
+    let (status, v) = send(&h.state, get("/api/health?verbose=1")).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    let m = error_message(&v);
+    assert!(m.contains("`verbose`") && m.contains("no query"), "{m}");
+    let (status, v) = send(&h.state, get("/api/measurements?limt=5")).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    let m = error_message(&v);
+    assert!(
+        m.contains("`limt`") && m.contains("`limit`") && m.contains("`offset`"),
+        "{m}"
+    );
+    let (status, v) = send(&h.state, get("/api/experiments/1/analysis?x=1")).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST, "{v}");
+    assert!(error_message(&v).contains("`x`"), "{v}");
+    // The keys a route takes are still taken, and the document lists them:
+    // `t`, with which pages fetch a changed image again, on image GETs.
+    let (_, doc) = send(&h.state, get("/api/openapi.json")).await;
+    let spectrum = &doc["paths"]["/api/measurements/{id}/spectrum.svg"]["get"]["parameters"];
+    assert!(
+        spectrum
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|p| p["name"] == "t" && p["in"] == "query"),
+        "{spectrum}"
+    );
+    let (status, v) = send(&h.state, get("/api/measurements/1/spectrum.svg?t=1765000000")).await;
+    assert_eq!(status, StatusCode::NOT_FOUND, "no measurement 1, but `t` is taken: {v}");
+    let (status, v) = send(&h.state, get("/api/measurements?limit=5")).await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+    let (status, v) = send(&h.state, get("/api/health")).await;
+    assert_eq!(status, StatusCode::OK, "{v}");
+}

@@ -24,6 +24,9 @@ use lightbooth_store::{Booth, MeasurementState, MeasurementSummary, NewMeasureme
 /// the instrument's reply).
 const CANCEL_WAIT: Duration = Duration::from_secs(5);
 
+/// Why no measurement is queued once the instrument task has stopped.
+const TASK_STOPPED: &str = "the instrument task has stopped; no measurement can run (see /api/health)";
+
 /// A measurement to take, as an operator or a script asks for it.
 #[derive(Clone, Debug, Default)]
 pub struct MeasurementRequest {
@@ -191,6 +194,17 @@ impl BoothInstrument {
         Ok(ids)
     }
 
+    /// Why a measurement asked for now would be refused with 503 (the
+    /// instrument starting, disconnected or in error, or its task stopped),
+    /// in the words of that refusal; `None` when it would be queued. What
+    /// `/api/health` says of measurements.
+    pub fn unavailable(&self) -> Option<String> {
+        match self.refuse_unavailable("") {
+            Err(e) => Some(e.to_string()),
+            Ok(()) => self.task_stopped().then(|| TASK_STOPPED.to_string()),
+        }
+    }
+
     /// 503 when the instrument is disconnected or in error; `context`
     /// (empty, or ending in ", and ") says what was asked.
     fn refuse_unavailable(&self, context: &str) -> Result<(), LabError> {
@@ -220,15 +234,13 @@ impl BoothInstrument {
                 "the instrument is busy: {} measurements are already queued; try again when one finishes",
                 self.jobs.max_capacity()
             )),
-            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable(
-                "the instrument task has stopped; no measurement can run (see /api/health)".into(),
-            ),
+            mpsc::error::TrySendError::Closed(()) => LabError::Unavailable(TASK_STOPPED.into()),
         })?;
         let what = match (&new.scene, &new.target) {
             (Some(scene), Some(target)) => format!("a measurement of {scene}/{target}"),
             _ => "a measurement".to_string(),
         };
-        let held = self.hold.admit(hold, &what)?;
+        let held = self.hold.admit(hold, &what, lightbooth_store::now())?;
         let (scene, target, samples) = (new.scene.clone(), new.target.clone(), new.samples);
         let id = self
             .store
@@ -324,7 +336,11 @@ impl BoothInstrument {
             busy.push(format!("measurements {} queued or running", ids.join(", ")));
         }
         let busy = (!busy.is_empty()).then(|| busy.join("; "));
-        let hold = self.hold.take(purpose, busy, lightbooth_store::now())?;
+        // Refused before an id is drawn when it would be; checked again on taking it.
+        self.hold
+            .check_take(purpose, busy.as_deref(), lightbooth_store::now())?;
+        let id = self.store.record_instrument_hold(&self.booth, purpose.trim()).await?;
+        let hold = self.hold.take(id, purpose, busy, lightbooth_store::now())?;
         tracing::info!(hold = hold.id, purpose = %hold.purpose, "instrument held");
         Ok(hold)
     }

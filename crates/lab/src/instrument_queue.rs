@@ -19,8 +19,26 @@
 //! holds the instrument, since when, and how to release a hold whose
 //! calibration is gone. A measurement naming a hold that has ended is
 //! refused too, so a calibration that lost its hold stops instead of
-//! fitting patches it did not own. The hold ends when released; a daemon
-//! restart ends every hold.
+//! fitting patches it did not own.
+//!
+//! A hold ends when released, when a daemon restarts, or when its holder
+//! stops renewing it: a hold lasts [`HOLD_LEASE_S`] from when it was taken
+//! or last renewed (`POST /api/instrument/hold/{id}/renew`, or any
+//! measurement or display change that names it), and its JSON says until
+//! when (`expires_at`) and how often to renew (`renew_within_s`). A client
+//! that vanished (a closed tab, a crashed script) so blocks measurements
+//! for at most that long, not until an operator steps in. The lease is
+//! longer than a browser's slowest timer in a background tab (once a
+//! minute), so an open page keeps its hold.
+//!
+//! Hold ids are drawn from the store (one row per hold,
+//! `Store::record_instrument_hold`), not counted in memory: they never
+//! repeat, across daemon restarts (a calibration page left open across one
+//! would otherwise post into another client's new hold 1) and across the
+//! daemons of one PostgreSQL database (a measurement keeps its `hold_id`).
+//! A database sequence gives small integers, which JavaScript and MATLAB
+//! read exactly and MATLAB's `webwrite` sends in full (a random 63-bit id
+//! would not survive a double; a string id would change the API's type).
 
 use std::sync::Mutex;
 
@@ -96,56 +114,107 @@ pub trait MockControl: Send + Sync {
 /// The longest description of what holds the instrument, in characters.
 pub const MAX_HOLD_PURPOSE: usize = 200;
 
+/// How long a hold lasts without a renewal, in seconds (see the module doc).
+pub const HOLD_LEASE_S: f64 = 120.0;
+
 /// Who holds the instrument, as the API shows it.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct HoldInfo {
     /// Name it in every measurement and display change while it holds.
+    /// Never repeats (drawn from the database).
     pub id: i64,
     /// What holds it, e.g. `display calibration “lab-lcd”`.
     pub purpose: String,
     /// POSIX seconds: when it was taken.
     pub since: f64,
+    /// POSIX seconds: when it ends unless renewed before (by
+    /// `POST /api/instrument/hold/{id}/renew`, or a measurement or display
+    /// change naming it).
+    pub expires_at: f64,
+    /// Seconds each renewal gives: renew well within this.
+    pub renew_within_s: f64,
 }
 
 /// The one hold on the instrument (see the module doc).
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct InstrumentHold {
     state: Mutex<HoldState>,
+    lease_s: f64,
+}
+
+impl Default for InstrumentHold {
+    fn default() -> InstrumentHold {
+        InstrumentHold::with_lease(HOLD_LEASE_S)
+    }
 }
 
 #[derive(Debug, Default)]
 struct HoldState {
     current: Option<HoldInfo>,
-    last_id: i64,
+    /// The last hold that expired, to say so to whoever names it.
+    expired: Option<HoldInfo>,
+}
+
+impl HoldState {
+    /// Ends the current hold if it has expired by `now`.
+    fn expire(&mut self, now: f64) {
+        if self.current.as_ref().is_some_and(|h| now >= h.expires_at) {
+            let h = self.current.take().expect("checked");
+            tracing::warn!(
+                hold = h.id,
+                purpose = %h.purpose,
+                "instrument hold expired: not renewed within {} s",
+                h.renew_within_s
+            );
+            self.expired = Some(h);
+        }
+    }
+
+    fn ended(&self, id: i64) -> String {
+        match &self.expired {
+            Some(h) if h.id == id => format!(
+                "hold {id} expired at {:.0} POSIX s: not renewed within {:.0} s",
+                h.expires_at, h.renew_within_s
+            ),
+            _ => format!("hold {id} has ended (released, expired, or the daemon restarted)"),
+        }
+    }
 }
 
 impl InstrumentHold {
-    fn lock(&self) -> std::sync::MutexGuard<'_, HoldState> {
-        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    /// A hold lasting `lease_s` seconds past each renewal.
+    pub fn with_lease(lease_s: f64) -> InstrumentHold {
+        InstrumentHold {
+            state: Mutex::default(),
+            lease_s,
+        }
     }
 
-    /// The current hold, if any.
-    pub fn current(&self) -> Option<HoldInfo> {
-        self.lock().current.clone()
+    fn lock(&self, now: f64) -> std::sync::MutexGuard<'_, HoldState> {
+        let mut state = self.state.lock().unwrap_or_else(|p| p.into_inner());
+        state.expire(now);
+        state
     }
 
-    /// Takes the hold for `purpose` at time `now`; `busy` says what the
-    /// instrument is doing (a measurement under way or queued), which must
-    /// end first. 409 when held or busy, 400 for an empty or long purpose.
-    pub fn take(&self, purpose: &str, busy: Option<String>, now: f64) -> Result<HoldInfo, LabError> {
+    /// The current hold at time `now`, if any.
+    pub fn current(&self, now: f64) -> Option<HoldInfo> {
+        self.lock(now).current.clone()
+    }
+
+    /// Whether [`InstrumentHold::take`] would grant a hold now (see there),
+    /// before an id is drawn for it.
+    pub fn check_take(&self, purpose: &str, busy: Option<&str>, now: f64) -> Result<(), LabError> {
         // The length and characters as given (as the OpenAPI document
         // states them), then not only white space.
         let refused = purpose.chars().count() > MAX_HOLD_PURPOSE || purpose.chars().any(char::is_control);
-        let purpose = purpose.trim();
-        if purpose.is_empty() || refused {
+        if purpose.trim().is_empty() || refused {
             return Err(LabError::Invalid(format!(
                 "field `purpose`: say what holds the instrument in 1–{MAX_HOLD_PURPOSE} characters, \
                  without control characters"
             )));
         }
-        let mut state = self.lock();
-        if let Some(held) = &state.current {
+        if let Some(held) = &self.lock(now).current {
             return Err(held_by(held));
         }
         if let Some(busy) = busy {
@@ -154,41 +223,75 @@ impl InstrumentHold {
                  queued; wait for it, or cancel it"
             )));
         }
-        state.last_id += 1;
+        Ok(())
+    }
+
+    /// Takes the hold `id` (drawn from the store, never repeating) for
+    /// `purpose` at time `now`; `busy` says what the instrument is doing (a
+    /// measurement under way or queued), which must end first. 409 when
+    /// held or busy, 400 for an empty or long purpose.
+    pub fn take(&self, id: i64, purpose: &str, busy: Option<String>, now: f64) -> Result<HoldInfo, LabError> {
+        self.check_take(purpose, busy.as_deref(), now)?;
+        let mut state = self.lock(now);
+        if let Some(held) = &state.current {
+            return Err(held_by(held));
+        }
         let hold = HoldInfo {
-            id: state.last_id,
-            purpose: purpose.to_string(),
+            id,
+            purpose: purpose.trim().to_string(),
             since: now,
+            expires_at: now + self.lease_s,
+            renew_within_s: self.lease_s,
         };
         state.current = Some(hold.clone());
         Ok(hold)
     }
 
+    /// Renews hold `id` at `now`: it lasts another `renew_within_s`.
+    /// 404 when it is not the current hold (released, or expired).
+    pub fn renew(&self, id: i64, now: f64) -> Result<HoldInfo, LabError> {
+        let mut state = self.lock(now);
+        match &mut state.current {
+            Some(h) if h.id == id => {
+                h.expires_at = now + self.lease_s;
+                Ok(h.clone())
+            }
+            _ => Err(LabError::NotFound(format!(
+                "no hold {id} on the instrument: {}; take a new one",
+                state.ended(id)
+            ))),
+        }
+    }
+
     /// Ends hold `id`. 404 when it is not the current hold.
-    pub fn release(&self, id: i64) -> Result<HoldInfo, LabError> {
-        let mut state = self.lock();
+    pub fn release(&self, id: i64, now: f64) -> Result<HoldInfo, LabError> {
+        let mut state = self.lock(now);
         match &state.current {
             Some(h) if h.id == id => Ok(state.current.take().expect("checked")),
             _ => Err(LabError::NotFound(format!(
-                "no hold {id} on the instrument (it has ended)"
+                "no hold {id} on the instrument: {}",
+                state.ended(id)
             ))),
         }
     }
 
     /// Whether `what` (a measurement, a display change) may use the
-    /// instrument now, naming `hold` (or none): when nothing holds it,
-    /// anything without a hold may; when held, only what names that hold.
-    /// Admitted under a hold, the hold it is part of (its provenance, kept
-    /// with a measurement).
-    pub fn admit(&self, hold: Option<i64>, what: &str) -> Result<Option<HoldInfo>, LabError> {
-        let state = self.lock();
-        match (&state.current, hold) {
+    /// instrument at `now`, naming `hold` (or none): when nothing holds
+    /// it, anything without a hold may; when held, only what names that
+    /// hold, which renews it. Admitted under a hold, the hold it is part
+    /// of (its provenance, kept with a measurement).
+    pub fn admit(&self, hold: Option<i64>, what: &str, now: f64) -> Result<Option<HoldInfo>, LabError> {
+        let mut state = self.lock(now);
+        match (&mut state.current, hold) {
             (None, None) => Ok(None),
-            (Some(held), Some(id)) if held.id == id => Ok(Some(held.clone())),
+            (Some(held), Some(id)) if held.id == id => {
+                held.expires_at = now + self.lease_s;
+                Ok(Some(held.clone()))
+            }
             (Some(held), _) => Err(LabError::Conflict(format!("{what} refused: {}", held_by(held)))),
             (None, Some(id)) => Err(LabError::Conflict(format!(
-                "field `hold`: hold {id} has ended (released, or the daemon restarted): {what} would not be \
-                 part of it; start the calibration again"
+                "field `hold`: {}: {what} would not be part of it; start the calibration again",
+                state.ended(id)
             ))),
         }
     }
@@ -196,10 +299,10 @@ impl InstrumentHold {
 
 fn held_by(held: &HoldInfo) -> LabError {
     LabError::Conflict(format!(
-        "the instrument is held by {} (hold {}, since {:.0} POSIX s), and measures only for it until it ends; \
-         wait for it to end, or, if that is gone (its page closed), release it with \
-         POST /api/instrument/hold/{}/release",
-        held.purpose, held.id, held.since, held.id
+        "the instrument is held by {} (hold {}, since {:.0} POSIX s, until {:.0} unless renewed), and measures \
+         only for it until it ends; wait for it to end, or, if that is gone (its page closed), release it with \
+         POST /api/instrument/hold/{}/release (or let it expire)",
+        held.purpose, held.id, held.since, held.expires_at, held.id
     ))
 }
 
@@ -210,21 +313,22 @@ mod tests {
     #[test]
     fn a_hold_admits_only_what_names_it_and_is_taken_only_when_idle() {
         let hold = InstrumentHold::default();
-        assert!(hold.admit(None, "a measurement").is_ok());
+        assert!(hold.admit(None, "a measurement", 1.0).is_ok());
         assert!(matches!(
-            hold.take("display calibration", Some("measurement 3 under way".into()), 1.0),
+            hold.take(7, "display calibration", Some("measurement 3 under way".into()), 1.0),
             Err(LabError::Conflict(m)) if m.contains("measurement 3 under way")
         ));
-        assert!(matches!(hold.take("  ", None, 1.0), Err(LabError::Invalid(_))));
-        let h = hold.take("display calibration “lcd”", None, 2.0).unwrap();
+        assert!(matches!(hold.take(7, "  ", None, 1.0), Err(LabError::Invalid(_))));
+        let h = hold.take(7, "display calibration “lcd”", None, 2.0).unwrap();
+        assert_eq!(h.id, 7, "the id drawn from the store");
         assert_eq!(
-            hold.admit(Some(h.id), "a measurement")
+            hold.admit(Some(h.id), "a measurement", 3.0)
                 .unwrap()
                 .map(|held| held.purpose),
             Some("display calibration “lcd”".to_string()),
             "what is admitted under a hold learns the hold's purpose, kept with a measurement"
         );
-        match hold.admit(None, "a measurement of green/patch") {
+        match hold.admit(None, "a measurement of green/patch", 3.0) {
             Err(LabError::Conflict(m)) => {
                 assert!(
                     m.starts_with(
@@ -236,17 +340,54 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert!(matches!(hold.take("another", None, 3.0), Err(LabError::Conflict(_))));
-        assert!(matches!(hold.release(h.id + 1), Err(LabError::NotFound(_))));
-        assert_eq!(hold.release(h.id).unwrap().id, h.id);
+        assert!(matches!(hold.take(8, "another", None, 3.0), Err(LabError::Conflict(_))));
+        assert!(matches!(hold.release(h.id + 1, 3.0), Err(LabError::NotFound(_))));
+        assert_eq!(hold.release(h.id, 3.0).unwrap().id, h.id);
         assert!(
-            matches!(hold.admit(Some(h.id), "a measurement"), Err(LabError::Conflict(m)) if m.contains("has ended"))
+            matches!(hold.admit(Some(h.id), "a measurement", 3.0), Err(LabError::Conflict(m)) if m.contains("has ended"))
         );
-        assert!(hold.admit(None, "a measurement").is_ok());
+        assert!(hold.admit(None, "a measurement", 3.0).is_ok());
+    }
+
+    /// Regression (issue 46): a hold lasted until released, so a client
+    /// that vanished (a closed tab) blocked every measurement until an
+    /// operator released it by hand. A hold not renewed expires and the
+    /// queue moves on; one renewed (or used) does not.
+    #[test]
+    fn a_vanished_holder_blocked_every_measurement_until_an_operator_stepped_in() {
+        let hold = InstrumentHold::default();
+        let h = hold.take(11, "display calibration “lcd”", None, 100.0).unwrap();
+        assert_eq!((h.expires_at, h.renew_within_s), (100.0 + HOLD_LEASE_S, HOLD_LEASE_S));
+        // Renewed just before it would end, and used later: it holds on.
+        let renewed = hold.renew(11, 100.0 + HOLD_LEASE_S - 1.0).unwrap();
+        assert_eq!(renewed.expires_at, 99.0 + 2.0 * HOLD_LEASE_S);
+        let used_at = 98.0 + 2.0 * HOLD_LEASE_S;
+        assert!(hold.admit(Some(11), "a measurement", used_at).unwrap().is_some());
+        let still = used_at + HOLD_LEASE_S - 1.0;
+        assert!(
+            matches!(hold.admit(None, "a measurement", still), Err(LabError::Conflict(_))),
+            "a hold renewed by its use is still held"
+        );
+        assert_eq!(hold.current(still).map(|h| h.expires_at), Some(used_at + HOLD_LEASE_S));
+        // Its holder gone, nothing renews it: at its expiry the queue moves on.
+        let gone = used_at + HOLD_LEASE_S;
+        assert_eq!(hold.current(gone), None);
+        assert!(hold.admit(None, "a measurement", gone).unwrap().is_none());
+        // The vanished holder, should it come back, is told its hold expired.
+        for refused in [
+            hold.admit(Some(11), "a measurement", gone).unwrap_err().to_string(),
+            hold.renew(11, gone).unwrap_err().to_string(),
+            hold.release(11, gone).unwrap_err().to_string(),
+        ] {
+            assert!(
+                refused.contains("hold 11 expired") && refused.contains("not renewed within 120 s"),
+                "{refused}"
+            );
+        }
         assert_eq!(
-            hold.take("again", None, 4.0).unwrap().id,
-            h.id + 1,
-            "hold ids do not repeat"
+            hold.take(12, "another", None, gone).unwrap().id,
+            12,
+            "and a new hold can be taken"
         );
     }
 }

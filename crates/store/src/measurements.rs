@@ -15,6 +15,30 @@ impl Store {
         Box::pin(async move { self.create_held_measurement(m, None).await })
     }
 
+    /// Records an instrument hold taken in `booth` for `purpose`; its id,
+    /// drawn from the database so that no two holds share one, across
+    /// daemon restarts and the daemons of one database (issue 46).
+    pub fn record_instrument_hold<'a>(
+        &'a self,
+        booth: &'a Booth,
+        purpose: &'a str,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                    "INSERT INTO instrument_holds (booth, purpose, taken_at, daemon_id) VALUES ($1, $2, $3, $4) \
+                     RETURNING id",
+                )
+                .bind(booth.as_str())
+                .bind(purpose)
+                .bind(now())
+                .bind(self.daemon_id)
+                .fetch_one(pool)
+                .await?
+            }))
+        })
+    }
+
     /// Records a requested measurement as `queued`, taken under the
     /// instrument hold `hold` (its id and purpose) when one is given.
     pub fn create_held_measurement<'a>(

@@ -305,9 +305,16 @@ pub async fn experiments_figure(
     let ids: Vec<i64> = q
         .ids
         .split(',')
-        .map(|s| s.trim().parse::<i64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| ApiError::BadRequest(format!("query `ids`: `{}` is not a list of experiment ids", q.ids)))?;
+        .map(|s| {
+            crate::http::input::plain_id(s.trim()).ok_or_else(|| {
+                ApiError::BadRequest(format!(
+                    "query `ids`: `{}` is not an experiment id: give ids as plain digits, comma-separated, \
+                     without a sign or leading zeros",
+                    s.trim()
+                ))
+            })
+        })
+        .collect::<Result<_, _>>()?;
     let analyses: Vec<Analysis> = state
         .lab
         .experiment_analyses(&ids)

@@ -20,11 +20,19 @@ const DATABASE_ANSWER: std::time::Duration = std::time::Duration::from_secs(2);
 pub struct Health {
     /// The booth this daemon measures in (`serve --booth`).
     pub booth: String,
-    /// `ok`; `degraded` while the instrument task restarts after a panic
-    /// (measurements are refused meanwhile); `down` (with 503) when the
-    /// instrument task has stopped or the database does not answer, and no
-    /// measurement can be recorded.
+    /// `ok`: measurements are taken; `degraded`: the daemon answers but
+    /// refuses measurements with 503 for now (`measurements_refused` says
+    /// why: the instrument is starting, disconnected, or in error while its
+    /// task restarts); `down` (with 503) when the instrument task has
+    /// stopped or the database does not answer, and no measurement can be
+    /// recorded.
     pub status: String,
+    /// `accepted` or `refused`: what `POST /api/measurements` answers now
+    /// (202, or 503).
+    pub measurements: String,
+    /// Why a measurement would be refused now, in the words of that 503.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measurements_refused: Option<String>,
     /// `ok`, or `unavailable` (with 503 and `down`) when the database does
     /// not answer; the daemon keeps retrying, and ends every measurement
     /// once it answers again.
@@ -45,9 +53,10 @@ pub struct Health {
     pub queued_measurements: usize,
 }
 
-/// Is the daemon alive: the database answers and the instrument task runs.
-/// 503 (with the same body, `down`) when the instrument task is gone or the
-/// database does not answer.
+/// Is the daemon alive: the database answers and the instrument task runs;
+/// and would a measurement be taken now (`status` `degraded` when it would
+/// be refused, with why). 503 (with the same body, `down`) when the
+/// instrument task is gone or the database does not answer.
 #[utoipa::path(get, path = "/health", tag = "service",
     responses((status = 200, body = Health),
               (status = 503, description = "the instrument task has stopped, or the database does not answer",
@@ -65,19 +74,34 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
     let instrument = state.lab.instrument().status();
     // The task holds the receiving end of the queue for as long as it runs.
     let task_stopped = state.lab.instrument().task_stopped();
-    let (code, status, task) = if task_stopped || database_error.is_some() {
-        let task = if task_stopped { "stopped" } else { "running" };
-        (StatusCode::SERVICE_UNAVAILABLE, "down", task)
+    // What a measurement POST would answer now (issue 46: health said `ok`
+    // while the instrument was `starting` and measurements answered 503).
+    let refused = state.lab.instrument().unavailable().or_else(|| {
+        database_error
+            .as_ref()
+            .map(|e| format!("the database does not answer ({e}); nothing can be recorded"))
+    });
+    let task = if task_stopped {
+        "stopped"
     } else if matches!(instrument, InstrumentStatus::Error { .. }) {
-        (StatusCode::OK, "degraded", "restarting")
+        "restarting"
     } else {
-        (StatusCode::OK, "ok", "running")
+        "running"
+    };
+    let (code, status) = if task_stopped || database_error.is_some() {
+        (StatusCode::SERVICE_UNAVAILABLE, "down")
+    } else if refused.is_some() {
+        (StatusCode::OK, "degraded")
+    } else {
+        (StatusCode::OK, "ok")
     };
     Ok((
         code,
         Json(Health {
             booth: state.lab.booth().to_string(),
             status: status.into(),
+            measurements: if refused.is_some() { "refused" } else { "accepted" }.into(),
+            measurements_refused: refused,
             database: if database_error.is_some() { "unavailable" } else { "ok" }.into(),
             database_error,
             version: env!("CARGO_PKG_VERSION").into(),

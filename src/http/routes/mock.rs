@@ -77,7 +77,7 @@ pub async fn mock_display(
         .lab
         .instrument()
         .hold()
-        .admit(body.hold, "a change of the simulated display")?;
+        .admit(body.hold, "a change of the simulated display", crate::store::now())?;
     match (body.drive, body.code_counts) {
         (Some(drive), None) if body.max_code.is_none() => mock
             .show_on_display(drive)

@@ -109,6 +109,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(mock_display))
         .routes(routes!(take_instrument_hold, get_instrument_hold))
         .routes(routes!(release_instrument_hold))
+        .routes(routes!(renew_instrument_hold))
         .routes(routes!(display_calibration_plan))
         .routes(routes!(list_display_profiles, create_display_profile))
         .routes(routes!(get_display_profile))
