@@ -934,6 +934,99 @@ mod tests {
         }
     }
 
+    /// Issue 46: an observer right on every trial but one at every
+    /// visible ΔE00 of the study's BLUE scene (8 bits; 35 of 36 at 2.151,
+    /// 36 of 36 at 0.324, 0.326, 0.689 and 7.047) and near chance where the
+    /// display shows the original's codes (ΔE00 0). Without a lapse rate
+    /// the one miss must be a sensory one, Pc is held below 1 − 10⁻⁹ beyond
+    /// d′ = 15, and ℓ is flat for every σ below 0.324/15 = 0.0216: the
+    /// fit called that floor an interior σ̂ = 0.0216 [0, 0.060], a
+    /// threshold of 0.050 ΔE00 set by the floor, not by the trials. With
+    /// the lapse fitted the miss is a lapse (λ̂ = 1/180), σ's likelihood is
+    /// flat as σ → 0, and the fit says so: σ̂ = 0, the threshold bounded
+    /// above only, where the profile has fallen by χ²₁(0.95)/2.
+    #[test]
+    fn one_lapse_does_not_set_the_threshold() {
+        let data = [
+            condition(7.047, 36, 36),
+            condition(2.151, 35, 36),
+            condition(0.0, 12, 36),
+            condition(0.326, 36, 36),
+            condition(0.689, 36, 36),
+            condition(0.324, 36, 36),
+        ];
+        for model in OddityModel::ALL {
+            let f = fit(&data, model, 0.95).unwrap();
+            println!(
+                "{model}: {:?}, σ̂ {:?} [{}, {:?}], threshold {:?} [{}, {:?}]",
+                f.maximum, f.sigma, f.sigma_interval.0, f.sigma_interval.1, f.threshold, f.threshold_interval.0, f.threshold_interval.1
+            );
+            assert_eq!(f.maximum, Maximum::SigmaZero, "{model}: {f:?}");
+            assert_eq!((f.sigma, f.threshold, f.sigma_interval.0), (Some(0.0), Some(0.0), 0.0));
+            let hi = f.sigma_interval.1.unwrap();
+            // The upper end is where the trials put it, far above the floor.
+            assert!(hi > 2.0 * 0.324 / MAX_D_PRIME, "{model}: σ ≤ {hi}");
+            let drop = 2.0 * (f.log_likelihood - ell_at(&data, model, hi));
+            assert!((drop - 3.841_458_820_694_124).abs() < 1e-6, "{model}: {drop}");
+        }
+    }
+
+    /// Counts of an observer who lapses: on a fraction 3λ/2 of trials it
+    /// guesses (right one time in three), on the others it decides as
+    /// `model` says, so P(correct) = (1 − 3λ/2)·Pc + λ/2 = 1/3 + (2/3 − λ)F,
+    /// whose ceiling is 1 − λ. Drawn trial by trial: the lapse, then the guess
+    /// or the model's own decision (from a uniform draw against Pc).
+    fn simulate_lapsing(levels: &[f64], pc: &[f64], lapse: f64, trials: u32, rng: &mut SplitMix64) -> Vec<Condition> {
+        levels
+            .iter()
+            .zip(pc)
+            .map(|(&de, &p)| {
+                let correct = (0..trials)
+                    .filter(|_| {
+                        if rng.uniform() < 1.5 * lapse {
+                            rng.uniform() < 1.0 / 3.0
+                        } else {
+                            rng.uniform() < p
+                        }
+                    })
+                    .count() as u32;
+                condition(de, correct, trials)
+            })
+            .collect()
+    }
+
+    /// Observers who lapse at a known rate: 400 simulated observers per
+    /// model and λ (0.02, 0.05), σ = 0.4 at the study's six differences
+    /// × 36 trials (d′ 1.25–10, so the largest differences show the
+    /// ceiling). σ's 95 % profile interval, λ profiled out, covers the
+    /// true σ near 95 % of the time (binomial sd of the fraction: 0.011).
+    #[test]
+    fn lapsing_observers_sigma_intervals_cover_the_truth() {
+        let sigma = 0.4;
+        let observers = 400;
+        for (model, seed) in OddityModel::ALL.into_iter().zip([4602u64, 4603]) {
+            let pc: Vec<f64> = STUDY_LEVELS
+                .iter()
+                .map(|de| model.proportion_correct(de / sigma))
+                .collect();
+            for lapse in [0.02, 0.05] {
+                let mut rng = SplitMix64(seed + (lapse * 1000.0) as u64);
+                let mut covered = 0;
+                for _ in 0..observers {
+                    let data = simulate_lapsing(&STUDY_LEVELS, &pc, lapse, 36, &mut rng);
+                    let f = fit(&data, model, 0.95).unwrap();
+                    let (lo, hi) = f.sigma_interval;
+                    if lo <= sigma && hi.is_none_or(|hi| sigma <= hi) {
+                        covered += 1;
+                    }
+                }
+                let coverage = f64::from(covered) / f64::from(observers);
+                println!("{model}, λ = {lapse}: {covered} of {observers} intervals cover σ = {sigma} ({coverage:.3})");
+                assert!((0.92..=0.98).contains(&coverage), "{model}, λ {lapse}: coverage {coverage}");
+            }
+        }
+    }
+
     #[test]
     fn at_chance_sigma_is_unbounded_and_so_is_the_threshold() {
         for model in OddityModel::ALL {
