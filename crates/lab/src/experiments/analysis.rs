@@ -644,10 +644,12 @@ pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, L
         )
         .fold(0.5f64, f64::max);
     let curve = fitted.map(|(t, f)| {
-        let threshold = f
-            .threshold
-            .map(|v| format!(", threshold ΔE00 {v:.2}"))
-            .unwrap_or_default();
+        // A threshold at a bound is said as the bound the trials set.
+        let threshold = match (f.threshold, f.threshold_interval) {
+            (Some(_), (lo, Some(hi))) if lo == 0.0 => format!(", threshold ΔE00 ≤ {hi:.2}"),
+            (Some(v), _) => format!(", threshold ΔE00 {v:.2}"),
+            (None, (lo, _)) => format!(", threshold ΔE00 ≥ {lo:.2}"),
+        };
         (
             format!(
                 "{}: d′ = ΔE00/σ fitted{threshold}, lapse λ {:.3} (ceiling {:.1} %)",
@@ -981,7 +983,22 @@ mod tests {
             assert!((top - 100.0 * (1.0 - f.lapse)).abs() < 1e-9, "{model}: top {top}");
             assert!((curve[0].1 - 100.0 / 3.0).abs() < 1e-9);
             let svg = psychometric_figure(&a, model).unwrap();
-            assert!(svg.contains("lapse λ 0.006 (ceiling 99.4 %)"), "{svg}");
+            // The legend's words, however its lines wrap them.
+            let words: Vec<&str> = svg
+                .split("<text")
+                .skip(1)
+                .filter_map(|t| t.split_once('>').and_then(|(_, rest)| rest.split_once("</text>")))
+                .flat_map(|(inside, _)| inside.split_whitespace())
+                .collect();
+            let words = words.join(" ");
+            let bound = 100.0 * f.threshold_interval.1.unwrap();
+            assert!(
+                words.contains(&format!(
+                    "sim1: d′ = ΔE00/σ fitted, threshold ΔE00 ≤ {:.2}, lapse λ 0.006 (ceiling 99.4 %)",
+                    bound.round() / 100.0
+                )),
+                "{model}: {words}"
+            );
         }
     }
 }
