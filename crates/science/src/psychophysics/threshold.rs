@@ -979,7 +979,9 @@ mod tests {
 
     /// ℓ at σ and a fixed lapse rate λ, from the fit's own objective.
     fn ell_at_lapse(conditions: &[Condition], model: OddityModel, sigma: f64, lapse: f64) -> f64 {
-        Prepared::new(conditions, model).unwrap().ell_at_lapse(-sigma.ln(), lapse)
+        Prepared::new(conditions, model)
+            .unwrap()
+            .ell_at_lapse(-sigma.ln(), lapse)
     }
 
     /// Two conditions and one at ΔE = 0, the probability of the data
@@ -1011,9 +1013,14 @@ mod tests {
             }
             let f = fit(&data, model, 0.95).unwrap();
             let (s, lapse) = (f.sigma.unwrap(), f.lapse);
-            assert!((f.log_likelihood - direct_lapse(s, lapse)).abs() < 1e-6, "{model}: {f:?}");
+            assert!(
+                (f.log_likelihood - direct_lapse(s, lapse)).abs() < 1e-6,
+                "{model}: {f:?}"
+            );
             // A maximum: 1 % either side in σ, and a step in λ within its bounds, are lower.
-            assert!(direct_lapse(s * 1.01, lapse) < f.log_likelihood && direct_lapse(s / 1.01, lapse) < f.log_likelihood);
+            assert!(
+                direct_lapse(s * 1.01, lapse) < f.log_likelihood && direct_lapse(s / 1.01, lapse) < f.log_likelihood
+            );
             for other in [lapse - 0.005, lapse + 0.005] {
                 if (0.0..=LAPSE_MAX).contains(&other) {
                     assert!(direct_lapse(s, other) < f.log_likelihood, "{model}: λ {other}");
@@ -1187,7 +1194,13 @@ mod tests {
             let f = fit(&data, model, 0.95).unwrap();
             println!(
                 "{model}: {:?}, σ̂ {:?} [{}, {:?}], threshold {:?} [{}, {:?}]",
-                f.maximum, f.sigma, f.sigma_interval.0, f.sigma_interval.1, f.threshold, f.threshold_interval.0, f.threshold_interval.1
+                f.maximum,
+                f.sigma,
+                f.sigma_interval.0,
+                f.sigma_interval.1,
+                f.threshold,
+                f.threshold_interval.0,
+                f.threshold_interval.1
             );
             assert_eq!(f.maximum, Maximum::SigmaZero, "{model}: {f:?}");
             assert_eq!((f.sigma, f.threshold, f.sigma_interval.0), (Some(0.0), Some(0.0), 0.0));
@@ -1277,13 +1290,19 @@ mod tests {
                     "{model}, λ = {lapse}: {covered} of {observers} intervals cover σ = {sigma} ({coverage:.3}); \
                      mean λ̂ {mean_lapse:.4}, λ's interval covers it {lapse_covered} times"
                 );
-                assert!((0.92..=0.98).contains(&coverage), "{model}, λ {lapse}: coverage {coverage}");
+                assert!(
+                    (0.92..=0.98).contains(&coverage),
+                    "{model}, λ {lapse}: coverage {coverage}"
+                );
                 // λ̂ on average near the truth, within 0.01: with 36 trials
                 // a condition it is biased low (0.043 for 0.05, 0.019 for
                 // 0.02 under differencing), as Wichmann & Hill (2001a) found
                 // of fitted lapse rates; the bound at 0.06 cuts off the
                 // high estimates, and a larger σ takes up some misses.
-                assert!((mean_lapse - lapse).abs() < 0.01, "{model}, λ {lapse}: mean λ̂ {mean_lapse}");
+                assert!(
+                    (mean_lapse - lapse).abs() < 0.01,
+                    "{model}, λ {lapse}: mean λ̂ {mean_lapse}"
+                );
             }
         }
     }
