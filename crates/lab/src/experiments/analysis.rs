@@ -646,7 +646,7 @@ pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, L
     let curve = fitted.map(|(t, f)| {
         // A threshold at a bound is said as the bound the trials set.
         let threshold = match (f.threshold, f.threshold_interval) {
-            (Some(_), (lo, Some(hi))) if lo == 0.0 => format!(", threshold ΔE00 ≤ {hi:.2}"),
+            (Some(_), (0.0, Some(hi))) => format!(", threshold ΔE00 ≤ {hi:.2}"),
             (Some(v), _) => format!(", threshold ΔE00 {v:.2}"),
             (None, (lo, _)) => format!(", threshold ΔE00 ≥ {lo:.2}"),
         };
