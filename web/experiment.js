@@ -329,37 +329,48 @@ async function loadDetail(id) {
 }
 
 // Each observer's threshold: σ and the ΔE00 at 2/3 correct with their
-// profile-likelihood intervals, and how well one σ explains every
-// approximation (deviance, p), under both oddity models.
+// profile-likelihood intervals, the lapse rate λ fitted with σ (its
+// interval and bound), what the likelihood leaves at a bound (in words,
+// under the table), and how well one σ explains every approximation
+// (deviance, p), under both oddity models.
 function thresholdTable(analysis) {
   const wrap = el("div");
   wrap.append(el("h3", "Thresholds"));
   const table = el("table");
   table.className = "threshold-table";
   const head = el("tr");
-  for (const h of ["observer", "model", "σ (ΔE00) [95 %]", "threshold ΔE00 at 2/3 [95 %]", "deviance (df)", "p"]) {
+  for (const h of ["observer", "model", "σ (ΔE00) [95 %]", "threshold ΔE00 at 2/3 [95 %]", "lapse λ [95 %]", "deviance (df)", "p"]) {
     head.append(el("th", h));
   }
   table.append(el("thead"));
   table.tHead.append(head);
   const body = el("tbody");
   const end = (v) => (v === null || v === undefined ? "∞" : v.toFixed(3));
+  const atBounds = [];
+  let lapseMax = null;
   for (const t of analysis.thresholds) {
     const f = t.fit;
     if (!f) {
-      body.append(row([t.observer, t.model, `no fit: ${t.not_fitted}`, "", "", ""]));
+      body.append(row([t.observer, t.model, `no fit: ${t.not_fitted}`, "", "", "", ""]));
       continue;
     }
     const g = f.goodness_of_fit;
-    body.append(row([t.observer, t.model, `${end(f.sigma)} [${end(f.sigma_interval[0])}, ${end(f.sigma_interval[1])}]`,
-      `${end(f.threshold)} [${end(f.threshold_interval[0])}, ${end(f.threshold_interval[1])}]`,
+    lapseMax = f.lapse_max;
+    const marks = f.at_bounds.length ? " †" : "";
+    for (const b of f.at_bounds) atBounds.push(`† ${t.observer}, ${t.model}: ${b}.`);
+    body.append(row([t.observer, t.model, `${end(f.sigma)} [${end(f.sigma_interval[0])}, ${end(f.sigma_interval[1])}]${marks}`,
+      `${end(f.threshold)} [${end(f.threshold_interval[0])}, ${end(f.threshold_interval[1])}]${marks}`,
+      `${f.lapse.toFixed(3)} [${f.lapse_interval[0].toFixed(3)}, ${f.lapse_interval[1].toFixed(3)}]`,
       `${g.deviance.toFixed(2)} (${g.degrees_of_freedom})`, g.p_value === null ? "no df left" : g.p_value.toFixed(3)]));
   }
   table.append(body);
   wrap.append(table, el("p", `One σ per observer over all approximations, d′ = ΔE00/σ, ΔE00 ${analysis.delta_e00_basis === "verified" ?
     "as the display was measured to show it (the newest passing verification)" :
     "as the display profile predicts it is shown (no passing verification yet)"}; a small p says one σ does not ` +
-    "explain every approximation.", "hint"));
+    "explain every approximation." + (lapseMax === null ? "" : ` λ is the lapse rate fitted with σ, the share of trials ` +
+    `missed far above threshold (the fitted curve's ceiling is 1 − λ), bounded to [0, ${lapseMax}] (Wichmann & Hill 2001); ` +
+    "the threshold is the lapse-free observer's.", "hint"));
+  for (const b of atBounds) wrap.append(el("p", b, "notice"));
   return wrap;
 }
 

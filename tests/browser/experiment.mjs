@@ -207,7 +207,7 @@ try {
   }, null, { timeout: 20000 });
   const results = await page.textContent("#analysis");
   for (const want of ["sim1", "sim2", "d′ differencing", "independent observation", "Thresholds",
-    "threshold ΔE00 at 2/3", "deviance", "thresholds as CSV"]) {
+    "threshold ΔE00 at 2/3", "lapse λ [95 %]", "bounded to [0, 0.06]", "deviance", "thresholds as CSV"]) {
     if (!results.includes(want)) failures.push(`the results page lacks "${want}"`);
   }
   const thresholdRows = await page.$$eval(".threshold-table tbody tr", (trs) => trs.map((tr) => tr.cells[0].textContent));

@@ -12,10 +12,11 @@
 //! observer's trials are excluded.
 //!
 //! Each observer's **threshold** (and the pooled one) is fitted over all
-//! approximations' counted trials with the one-parameter model
-//! d′ = ΔE00/σ under both oddity models
+//! approximations' counted trials with the model d′ = ΔE00/σ and a lapse
+//! rate λ ∈ [0, 0.06] under both oddity models
 //! ([`lightbooth_science::psychophysics::threshold`]): σ, the ΔE00 at 2/3
-//! correct with their profile-likelihood intervals, the deviance against
+//! correct with their profile-likelihood intervals, λ̂ with its interval
+//! and bound, what the likelihood leaves at a bound in words, the deviance against
 //! the saturated model, and the percent correct predicted for every
 //! approximation at the ΔE00 it was meant to have (the ones the display
 //! could not show apart included). The ΔE00 of each condition is the one
@@ -499,8 +500,8 @@ pub fn threshold_line(t: &ObserverThreshold) -> String {
     };
     let end = |v: Option<f64>| v.map(|v| format!("{v:.3}")).unwrap_or_else(|| "∞".into());
     let gof = &f.goodness_of_fit;
-    format!(
-        "{:<10} {:<24} σ = {} [{:.3}, {}], threshold ΔE00 = {} [{:.3}, {}], deviance {:.2} on {} df{}",
+    let mut line = format!(
+        "{:<10} {:<24} σ = {} [{:.3}, {}], threshold ΔE00 = {} [{:.3}, {}], {}, deviance {:.2} on {} df{}",
         t.observer,
         f.model.name(),
         end(f.sigma),
@@ -509,11 +510,24 @@ pub fn threshold_line(t: &ObserverThreshold) -> String {
         end(f.threshold),
         f.threshold_interval.0,
         end(f.threshold_interval.1),
+        lapse_words(f),
         gof.deviance,
         gof.degrees_of_freedom,
         gof.p_value
             .map(|p| format!(", p = {p:.3}"))
             .unwrap_or_else(|| " (none left to test)".into())
+    );
+    for b in &f.at_bounds {
+        line += &format!("\n{:<35} at a bound: {b}", "");
+    }
+    line
+}
+
+/// λ̂ with its interval and bound: `lapse λ = 0.006 [0.000, 0.024] (bound 0.06)`.
+pub fn lapse_words(f: &ThresholdFit) -> String {
+    format!(
+        "lapse λ = {:.3} [{:.3}, {:.3}] (bound {})",
+        f.lapse, f.lapse_interval.0, f.lapse_interval.1, f.lapse_max
     )
 }
 
@@ -523,15 +537,15 @@ pub fn threshold_line(t: &ObserverThreshold) -> String {
 pub fn thresholds_csv(a: &Analysis) -> String {
     let mut out = String::from(
         "experiment,scene,observer,model,kind,dE00_basis,sigma,sigma_low,sigma_high,threshold_dE00,threshold_low,\
-         threshold_high,deviance,df,p_value,maximum,approximation,dE00_intended,distinct_at_8bit,\
-         predicted_pc,predicted_pc_low,predicted_pc_high,not_fitted\n",
+         threshold_high,deviance,df,p_value,maximum,lapse,lapse_low,lapse_high,lapse_max,at_bounds,approximation,\
+         dE00_intended,distinct_at_8bit,predicted_pc,predicted_pc_low,predicted_pc_high,not_fitted\n",
     );
     let num = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
     for t in &a.thresholds {
         let model = &t.model;
         let Some(f) = &t.fit else {
             out += &format!(
-                "{},{},{},{},fit,{},,,,,,,,,,,,,,,,,\"{}\"\n",
+                "{},{},{},{},fit,{},,,,,,,,,,,,,,,,,,,,,,\"{}\"\n",
                 a.experiment_id,
                 a.scene,
                 t.observer,
@@ -543,7 +557,7 @@ pub fn thresholds_csv(a: &Analysis) -> String {
         };
         let g = &f.goodness_of_fit;
         out += &format!(
-            "{},{},{},{},fit,{},{},{},{},{},{},{},{:.6},{},{},{},,,,,,,\n",
+            "{},{},{},{},fit,{},{},{},{},{},{},{},{:.6},{},{},{},{:.6},{:.6},{:.6},{},\"{}\",,,,,,,\n",
             a.experiment_id,
             a.scene,
             t.observer,
@@ -562,10 +576,15 @@ pub fn thresholds_csv(a: &Analysis) -> String {
                 .ok()
                 .and_then(|v| v.as_str().map(String::from))
                 .unwrap_or_default(),
+            f.lapse,
+            f.lapse_interval.0,
+            f.lapse_interval.1,
+            f.lapse_max,
+            f.at_bounds.join("; ").replace('"', "'"),
         );
         for p in &t.predictions {
             out += &format!(
-                "{},{},{},{},prediction,{},,,,,,,,,,,{},{:.4},{},{:.6},{:.6},{:.6},\n",
+                "{},{},{},{},prediction,{},,,,,,,,,,,,,,,,{},{:.4},{},{:.6},{:.6},{:.6},\n",
                 a.experiment_id,
                 a.scene,
                 t.observer,
@@ -625,17 +644,21 @@ pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, L
         )
         .fold(0.5f64, f64::max);
     let curve = fitted.map(|(t, f)| {
-        let points = (0..=200)
-            .filter_map(|i| {
-                let x = x_max * f64::from(i) / 200.0;
-                f.predict(x).ok().map(|p| (x, 100.0 * p.proportion_correct))
-            })
-            .collect();
-        let threshold = f
-            .threshold
-            .map(|v| format!(", threshold ΔE00 {v:.2}"))
-            .unwrap_or_default();
-        (format!("{}: d′ = ΔE00/σ fitted{threshold}", t.observer), points)
+        // A threshold at a bound is said as the bound the trials set.
+        let threshold = match (f.threshold, f.threshold_interval) {
+            (Some(_), (0.0, Some(hi))) => format!(", threshold ΔE00 ≤ {hi:.2}"),
+            (Some(v), _) => format!(", threshold ΔE00 {v:.2}"),
+            (None, (lo, _)) => format!(", threshold ΔE00 ≥ {lo:.2}"),
+        };
+        (
+            format!(
+                "{}: d′ = ΔE00/σ fitted{threshold}, lapse λ {:.3} (ceiling {:.1} %)",
+                t.observer,
+                f.lapse,
+                100.0 * (1.0 - f.lapse)
+            ),
+            fitted_curve(f, x_max),
+        )
     });
     let predicted = fitted
         .map(|(t, _)| {
@@ -666,6 +689,18 @@ pub fn psychometric_figure(a: &Analysis, model: OddityModel) -> Result<String, L
         chance_percent: 100.0 * CHANCE,
     };
     psychometric_chart(&figure).map_err(LabError::Internal)
+}
+
+/// The fitted curve the psychometric figure draws: (ΔE00, percent
+/// correct) at 201 points from 0 to `x_max`, lapses included, so it rises
+/// from chance to a ceiling of 100 (1 − λ̂) %.
+pub fn fitted_curve(f: &ThresholdFit, x_max: f64) -> Vec<(f64, f64)> {
+    (0..=200)
+        .filter_map(|i| {
+            let x = x_max * f64::from(i) / 200.0;
+            f.predict(x).ok().map(|p| (x, 100.0 * p.proportion_correct))
+        })
+        .collect()
 }
 
 /// The analysis as a MAT-file (`load('experiment-1-analysis.mat')`): the
@@ -738,7 +773,7 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
     )?;
     mat.text_rows("threshold_dE00_basis", std::slice::from_ref(&a.delta_e00_basis))?;
     type ThresholdField = (&'static str, fn(&ThresholdFit) -> Option<f64>);
-    let threshold_fields: [ThresholdField; 9] = [
+    let threshold_fields: [ThresholdField; 13] = [
         ("threshold_sigma", |f| f.sigma),
         ("threshold_sigma_low", |f| Some(f.sigma_interval.0)),
         ("threshold_sigma_high", |f| f.sigma_interval.1),
@@ -750,6 +785,10 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
             Some(f64::from(f.goodness_of_fit.degrees_of_freedom))
         }),
         ("threshold_p_value", |f| f.goodness_of_fit.p_value),
+        ("threshold_lapse", |f| Some(f.lapse)),
+        ("threshold_lapse_low", |f| Some(f.lapse_interval.0)),
+        ("threshold_lapse_high", |f| Some(f.lapse_interval.1)),
+        ("threshold_lapse_max", |f| Some(f.lapse_max)),
     ];
     for (name, field) in threshold_fields {
         let values: Vec<f64> = t
@@ -758,6 +797,12 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
             .collect();
         mat.column(name, &values)?;
     }
+    mat.text_rows(
+        "threshold_at_bounds",
+        &t.iter()
+            .map(|t| t.fit.as_ref().map(|f| f.at_bounds.join("; ")).unwrap_or_default())
+            .collect::<Vec<_>>(),
+    )?;
     Ok(mat.into_bytes())
 }
 
@@ -811,4 +856,149 @@ pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabEr
         CONFIDENCE * 100.0
     );
     crate::charts::discrimination_chart(&title, model.name(), &bars).map_err(LabError::Internal)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The observer of issue 46 (one miss at ΔE00 2.151 of BLUE's visible
+    /// approximations, near chance where the codes are the original's),
+    /// as an analysis with its fits under both models.
+    fn one_lapse() -> Analysis {
+        let seen = [
+            ("nstep3", 7.047, 36),
+            ("nstep9", 2.151, 35),
+            ("nstep27", 0.0, 12),
+            ("nstep81", 0.326, 36),
+            ("rgb", 0.689, 36),
+            ("srgb", 0.324, 36),
+        ];
+        let conditions: Vec<Condition> = seen
+            .iter()
+            .map(|&(_, delta_e00, correct)| Condition {
+                delta_e00,
+                correct,
+                trials: 36,
+            })
+            .collect();
+        let thresholds = OddityModel::ALL
+            .into_iter()
+            .map(|model| {
+                let f = threshold::fit(&conditions, model, CONFIDENCE).unwrap();
+                ObserverThreshold {
+                    observer: "sim1".into(),
+                    model: model.name().into(),
+                    predictions: seen
+                        .iter()
+                        .map(|&(name, delta_e00, _)| ThresholdPrediction {
+                            approximation: name.into(),
+                            delta_e00_intended: delta_e00,
+                            distinct_at_8bit: delta_e00 > 0.0,
+                            predicted: f.predict(delta_e00).unwrap(),
+                        })
+                        .collect(),
+                    fit: Some(f),
+                    not_fitted: None,
+                    conditions: conditions.clone(),
+                }
+            })
+            .collect();
+        Analysis {
+            experiment_id: 7,
+            name: "blue".into(),
+            scene: "blue".into(),
+            target: "t".into(),
+            output_method: "8bit".into(),
+            confidence: CONFIDENCE,
+            chance: CHANCE,
+            observers: vec!["sim1".into()],
+            sessions: 1,
+            complete_sessions: 1,
+            rows: Vec::new(),
+            notes: Vec::new(),
+            warnings: Vec::new(),
+            delta_e00_basis: "verified".into(),
+            thresholds,
+        }
+    }
+
+    /// Fields of a CSV line, quotes respected.
+    fn fields(line: &str) -> Vec<String> {
+        let mut out = vec![String::new()];
+        let mut quoted = false;
+        for c in line.chars() {
+            match c {
+                '"' => quoted = !quoted,
+                ',' if !quoted => out.push(String::new()),
+                c => out.last_mut().unwrap().push(c),
+            }
+        }
+        out
+    }
+
+    /// Issue 46: λ̂, its interval and bound, and what sits at a bound, in
+    /// every output of the thresholds: the CLI's line, thresholds.csv
+    /// (every row as wide as its header), the JSON, and the psychometric
+    /// figure's curve, whose ceiling is 100 (1 − λ̂) %.
+    #[test]
+    fn the_lapse_rate_is_in_every_threshold_output() {
+        let a = one_lapse();
+        for t in &a.thresholds {
+            let f = t.fit.as_ref().unwrap();
+            assert!((f.lapse - 1.0 / 180.0).abs() < 1e-9, "{f:?}");
+            let line = threshold_line(t);
+            println!("{line}");
+            assert!(
+                line.contains("lapse λ = 0.006 [0.000, 0.024] (bound 0.06)")
+                    && line.contains("at a bound: σ's interval reaches 0")
+                    && line.contains("σ = 0.000 [0.000, 0.0"),
+                "{line}"
+            );
+            let json = serde_json::to_value(f).unwrap();
+            assert_eq!(json["lapse_max"], 0.06);
+            assert!(json["lapse"].as_f64().unwrap() > 0.005 && json["at_bounds"].as_array().unwrap().len() == 1);
+        }
+        let csv = thresholds_csv(&a);
+        let mut lines = csv.lines();
+        let header = fields(lines.next().unwrap());
+        let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+        for line in lines {
+            let row = fields(line);
+            assert_eq!(row.len(), header.len(), "{line}");
+            if row[column("kind")] == "fit" {
+                assert_eq!(row[column("lapse")], "0.005556", "{line}");
+                assert_eq!(row[column("lapse_max")], "0.06", "{line}");
+                assert_eq!(row[column("maximum")], "sigma-zero", "{line}");
+                assert!(row[column("at_bounds")].contains("reaches 0"), "{line}");
+            } else {
+                assert!(!row[column("predicted_pc")].is_empty(), "{line}");
+            }
+        }
+        for model in OddityModel::ALL {
+            let t = a.thresholds.iter().find(|t| t.model == model.name()).unwrap();
+            let f = t.fit.as_ref().unwrap();
+            let curve = fitted_curve(f, 7.047);
+            let top = curve.iter().map(|p| p.1).fold(0.0, f64::max);
+            assert!((top - 100.0 * (1.0 - f.lapse)).abs() < 1e-9, "{model}: top {top}");
+            assert!((curve[0].1 - 100.0 / 3.0).abs() < 1e-9);
+            let svg = psychometric_figure(&a, model).unwrap();
+            // The legend's words, however its lines wrap them.
+            let words: Vec<&str> = svg
+                .split("<text")
+                .skip(1)
+                .filter_map(|t| t.split_once('>').and_then(|(_, rest)| rest.split_once("</text>")))
+                .flat_map(|(inside, _)| inside.split_whitespace())
+                .collect();
+            let words = words.join(" ");
+            let bound = 100.0 * f.threshold_interval.1.unwrap();
+            assert!(
+                words.contains(&format!(
+                    "sim1: d′ = ΔE00/σ fitted, threshold ΔE00 ≤ {:.2}, lapse λ 0.006 (ceiling 99.4 %)",
+                    bound.round() / 100.0
+                )),
+                "{model}: {words}"
+            );
+        }
+    }
 }
