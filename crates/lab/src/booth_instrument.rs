@@ -200,10 +200,14 @@ impl BoothInstrument {
         .map(Requested::Queued)
     }
 
-    /// The measurements of `scene`/`target` in this booth queued or running, oldest first.
+    /// The measurements of `scene`/`target` in this booth queued or running,
+    /// oldest first. Queued ones are read first: a measurement only moves
+    /// from queued to running, so one the instrument takes between the two
+    /// reads is found by the second (read the other way round it was missed,
+    /// and a duplicate queued).
     async fn on_its_way(&self, scene: &str, target: &str) -> Result<Vec<MeasurementSummary>, LabError> {
         let mut found = Vec::new();
-        for state in [MeasurementState::Running, MeasurementState::Queued] {
+        for state in [MeasurementState::Queued, MeasurementState::Running] {
             let filter = MeasurementFilter {
                 booth: Some(self.booth.clone()),
                 scene: Some(scene.into()),
