@@ -227,24 +227,38 @@ function follow() {
   });
   es.addEventListener("study_progress", (e) => {
     const d = JSON.parse(e.data);
+    studyRunning = d;
     $("study-progress").textContent = `study ${d.study_id}: ${d.message}` + studyTimeLeft(d.study_id);
     if (location.hash.startsWith("#/study")) refreshStudyEstimate(d.study_id);
   });
   es.addEventListener("study_finished", (e) => {
     const d = JSON.parse(e.data);
+    studyRunning = null;
     $("study-progress").textContent = `study ${d.study_id}: ${d.ok ? "complete" : "did not complete: " + d.error}`;
     if (location.hash.startsWith("#/study")) loadStudies(String(d.study_id));
   });
   es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
 }
 
-// A study's time left, as GET /api/jobs last extrapolated it.
+// A study's time left, as GET /api/jobs last extrapolated it, shown again
+// every 2 s between its progress events (a step can take half the run).
 const studyEstimates = new Map();
+let studyRunning = null; // the newest study_progress of a study not finished
+setInterval(() => {
+  if (!studyRunning || !location.hash.startsWith("#/study")) return;
+  const d = studyRunning;
+  refreshStudyEstimate(d.study_id);
+  $("study-progress").textContent = `study ${d.study_id}: ${d.message}` + studyTimeLeft(d.study_id);
+}, 2000);
+// No estimate ("about 0 s" at 14 s of a 31 s run was none): "estimating…"
+// until the daemon has one, and again once the one it gave has run out.
 function studyTimeLeft(id) {
   const e = studyEstimates.get(id);
-  if (!e || e.seconds_left === null) return "";
-  const left = Math.max(0, e.seconds_left - (Date.now() / 1000 - e.at));
-  return ` — ${fmt(e.done, 3)} % of its steps begun; about ${duration(left)} left (steps counted as equal)`;
+  if (!e) return "";
+  const begun = e.done === null || e.done === undefined ? "" : ` — ${fmt(e.done, 3)} % of its steps begun`;
+  const left = e.seconds_left === null ? 0 : e.seconds_left - (Date.now() / 1000 - e.at);
+  if (left < 1) return `${begun || " —"}; time left: estimating… (this step is slower than the ones before it, or none is done yet)`;
+  return `${begun}; about ${duration(left)} left (steps counted as equal)`;
 }
 let studyEstimateBusy = false;
 async function refreshStudyEstimate(id) {
@@ -855,18 +869,28 @@ function showRenderJobs(renders) {
   }
 }
 
-// The open scene's targets with no complete measurement in this booth.
+// The open scene's targets with no complete measurement in this booth and
+// none queued or running: a target on its way is not offered again (the
+// page once offered "the 17 targets not yet measured" beside 17 of them
+// waiting, and one click queued each twice).
 let openSceneMissing = [];
 async function showMissingTargets(id) {
   const s = sceneInfo.find((x) => x.id === id);
   const booths = await api("/api/booths");
-  const done = await api(`/api/measurements?scene=${encodeURIComponent(id)}&state=complete&limit=1000&booth=${encodeURIComponent(booths.this_daemon)}`);
+  const inState = (state) => api(`/api/measurements?scene=${encodeURIComponent(id)}&state=${state}&limit=1000&booth=${encodeURIComponent(booths.this_daemon)}`);
+  const [done, queued, running] = await Promise.all([inState("complete"), inState("queued"), inState("running")]);
   if (openScene !== id || !s) return;
-  openSceneMissing = s.targets.filter((t) => !done.items.some((m) => m.target === t));
+  const onTheirWay = new Set([...queued.items, ...running.items].map((m) => m.target));
+  const unmeasured = s.targets.filter((t) => !done.items.some((m) => m.target === t));
+  openSceneMissing = unmeasured.filter((t) => !onTheirWay.has(t));
+  const coming = unmeasured.length - openSceneMissing.length;
   const b = $("measure-missing");
   b.hidden = !openSceneMissing.length || openSceneMissing.length === s.targets.length;
-  b.textContent = `Measure the ${count(openSceneMissing.length, "target")} not yet measured`;
-  $("measure-scene").textContent = openSceneMissing.length && !b.hidden ? "Measure every target again" : "Measure every target";
+  b.textContent = `Measure the ${count(openSceneMissing.length, "target")} not yet measured` + (coming ? ` and not on their way` : "");
+  $("scene-on-their-way").textContent = coming
+    ? `${coming} not yet measured ${coming === 1 ? "is" : "are"} on their way (queued or being measured).`
+    : "";
+  $("measure-scene").textContent = unmeasured.length < s.targets.length ? "Measure every target again" : "Measure every target";
 }
 
 $("measure-scene").addEventListener("click", () => {
@@ -882,16 +906,22 @@ async function measureTargets(s, targets) {
   notice("");
   const run = { ids: [] };
   sceneRuns.set(s.id, run);
+  let already = 0;
   try {
     for (const target of targets) {
+      // The daemon queues nothing for a target already on its way
+      // (`duplicate`): the run follows that measurement instead.
       const r = await startMeasurement({ scene: s.id, target, samples: 5 });
+      if (r.duplicate) already += 1;
       run.ids.push(r.id);
       current = r.id;
     }
+    if (already) notice(`${count(already, "target")} already on ${already === 1 ? "its" : "their"} way: not queued again.`);
   } catch (e) {
     notice(e.message);
   }
   updateSceneProgress();
+  showMissingTargets(s.id).catch(() => {});
 }
 
 // The scene's measurements waiting or under way (from any page or client,
@@ -1023,6 +1053,8 @@ async function planStudy() {
     $("study-plan").textContent = "Choose at least one scene.";
     return;
   }
+  // Never an empty box while the plan is fetched (the scene overview can take seconds).
+  if (!$("study-plan").textContent) $("study-plan").textContent = "Planning the study…";
   try {
     const [overview, jobs, health, studies] = await Promise.all([api("/api/scene-overview"), api("/api/jobs"),
       api("/api/health"), api("/api/studies")]);
@@ -1052,7 +1084,7 @@ async function planStudy() {
     }
     $("study-plan").textContent = parts.join(" ");
   } catch (e) {
-    $("study-plan").textContent = "";
+    $("study-plan").textContent = `No plan: ${e.message}. The study can still be started; the daemon checks it.`;
   }
 }
 

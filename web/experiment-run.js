@@ -495,13 +495,18 @@ function checkProgress(done, total, began) {
   return `patch ${done + 1} of ${total} · about ${left} s left at the pace of ${measured}`;
 }
 
+// The corner text (#hud) belongs to the check that writes it: every screen
+// starts and ends without it, so no trial shows a verification's "patch 15
+// of 15 … Esc cancels".
 function beginScreen() {
+  $("hud").textContent = "";
   document.body.classList.add("running");
   try { document.documentElement.requestFullscreen().catch(() => {}); } catch (_) { /* windowed */ }
   setUpScreen();
 }
 
 function endScreen() {
+  $("hud").textContent = "";
   document.body.classList.remove("running");
   if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
 }

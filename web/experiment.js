@@ -351,7 +351,8 @@ function thresholdTable(analysis) {
   for (const t of analysis.thresholds) {
     const f = t.fit;
     if (!f) {
-      body.append(row([t.observer, t.model, `no fit: ${t.not_fitted}`, "", "", "", ""]));
+      // A sentence for a person; the fitter's own reason is `not_fitted` in the JSON and CSV.
+      body.append(row([t.observer, t.model, t.no_fit || "no fit", "", "", "", ""]));
       continue;
     }
     const g = f.goodness_of_fit;

@@ -216,10 +216,15 @@ function showNextSteps(overview, profiles) {
     const unmeasured = overview.scenes.filter((s) => s.measured.length < s.targets.length);
     for (const s of unmeasured.slice(0, 6)) {
       const missing = s.targets.length - s.measured.length;
-      const time = pace ? `, about ${duration(missing * homeDefaultSamples * pace)} at ${homeDefaultSamples} samples each` : "";
+      // The scene's measurements queued or running (GET /api/jobs) are on
+      // their way: never offered as still to measure.
+      const waiting = queue ? queue.jobs.filter((j) => j.kind === "measurement" && j.scene === s.scene).length : 0;
+      const coming = Math.min(missing, waiting);
+      const toGo = missing - coming;
+      const time = pace && toGo ? `, about ${duration(toGo * homeDefaultSamples * pace)} at ${homeDefaultSamples} samples each` : "";
       item(`${s.title} (${s.scene}): ${s.measured.length} of ${s.targets.length} target${s.targets.length === 1 ? "" : "s"} measured; ` +
-        `${missing} to go${time}.`,
-        `#/scenes/${s.scene}`, "Measure them →");
+        (coming ? `${coming} on their way; ` : "") + `${toGo} to go${time}.`,
+        `#/scenes/${s.scene}`, toGo ? "Measure them →" : "Follow them →");
     }
     if (unmeasured.length > 6) item(`… and ${unmeasured.length - 6} more scenes with targets to measure.`, "#/scenes", "Every scene →");
     if (!unmeasured.length) item("Every target of every scene is measured.", "#/study", "Run the study →");

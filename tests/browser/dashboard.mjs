@@ -184,7 +184,59 @@ try {
     if (shots) await page.screenshot({ path: `${shots}/scene-${id}.png`, fullPage: true });
   }
 
+  // Regression (issue 46): the scene page offered to "measure the 17
+  // targets not yet measured" beside 17 of them waiting, and one click
+  // queued each twice. With the instrument slowed, three targets queued
+  // from outside are "on their way", the button offers only the rest, and
+  // its click leaves one measurement per target.
+  {
+    const auth = { Authorization: `Bearer ${token}`, "Content-Type": "application/json" };
+    const call = async (method, path, body) => {
+      const r = await fetch(base + path, { method, headers: auth, body: body === undefined ? undefined : JSON.stringify(body) });
+      return r.status === 204 ? null : r.json();
+    };
+    await call("POST", "/api/mock/faults", { faults: "slow@3000ms" });
+    const cylinder = await call("GET", "/api/scenes/cylinder");
+    const complete = await call("GET", "/api/measurements?scene=cylinder&state=complete&limit=1000");
+    const unmeasured = cylinder.targets.filter((t) => !complete.items.some((m) => m.target === t));
+    const newestBefore = (await call("GET", "/api/measurements?limit=1")).items[0]?.id ?? 0;
+    for (const target of unmeasured.slice(0, 3)) await call("POST", "/api/measurements", { scene: "cylinder", target, samples: 5 });
+    await page.goto(`${base}/#/scenes/cylinder`);
+    await page.waitForFunction(() => /on their way/.test(document.getElementById("scene-on-their-way")?.textContent || ""), null, { timeout: 20000 });
+    const way = await page.textContent("#scene-on-their-way");
+    if (!way.startsWith("3 not yet measured are on their way")) failures.push(`scene page, 3 targets queued: "${way}"`);
+    const offer = await page.textContent("#measure-missing");
+    const rest = unmeasured.length - 3;
+    if (!offer.startsWith(`Measure the ${rest} target${rest === 1 ? "" : "s"} not yet measured`))
+      failures.push(`scene page, 3 of ${unmeasured.length} unmeasured targets queued, offers: "${offer}"`);
+    if (shots) await page.screenshot({ path: `${shots}/scene-cylinder-queued.png`, fullPage: true });
+    await page.click("#measure-missing");
+    await page.waitForFunction(() => document.getElementById("measure-missing").hidden &&
+      /on their way/.test(document.getElementById("scene-on-their-way").textContent), null, { timeout: 60000 });
+    const all = await call("GET", "/api/measurements?scene=cylinder&limit=1000");
+    const mine = all.items.filter((m) => m.id > newestBefore);
+    const targets = mine.map((m) => m.target);
+    if (targets.length !== new Set(targets).size || targets.length !== unmeasured.length)
+      failures.push(`after "measure the rest": ${targets.length} measurements for ${unmeasured.length} unmeasured targets (${targets.join(", ")})`);
+    if (shots) await page.screenshot({ path: `${shots}/scene-cylinder-all-on-their-way.png`, fullPage: true });
+    await call("POST", "/api/mock/faults", { faults: "" });
+    for (const m of mine) if (m.state === "queued" || m.state === "running") await call("POST", `/api/measurements/${m.id}/cancel`, {});
+  }
+
   // A study of the WHITE scene against the measurement just taken, with sweeps.
+  // Regression (issue 46): the plan box was an empty bar before and after a
+  // run, and the time left said "about 0 s" mid-run. A sampler records both
+  // (this page keeps its document: the study page is a hash route).
+  await page.evaluate(() => {
+    window.__studySeen = { emptyPlan: 0, aboutZero: [] };
+    setInterval(() => {
+      if (!location.hash.startsWith("#/study")) return;
+      const plan = document.getElementById("study-plan");
+      if (plan && plan.offsetHeight > 0 && !plan.textContent.trim()) window.__studySeen.emptyPlan += 1;
+      const progress = document.getElementById("study-progress").textContent;
+      if (/about 0 s/.test(progress)) window.__studySeen.aboutZero.push(progress);
+    }, 25);
+  });
   await page.goto(`${base}/#/study`);
   await page.waitForSelector("#study-scenes input[value=white]");
   for (const box of await page.$$("#study-scenes input")) {
@@ -195,6 +247,11 @@ try {
   await page.waitForFunction(() => /complete|failed/.test(document.getElementById("study-progress").textContent), null, { timeout: 180000 });
   const progressText = await page.textContent("#study-progress");
   if (!progressText.includes("complete")) failures.push("study: " + progressText);
+  await page.waitForFunction(() => document.getElementById("study-plan").textContent.trim() !== "Planning the study…", null, { timeout: 30000 });
+  await page.waitForTimeout(200);
+  const seen = await page.evaluate(() => window.__studySeen);
+  if (seen.emptyPlan) failures.push(`the study's plan box was an empty bar (${seen.emptyPlan} samples of 25 ms)`);
+  if (seen.aboutZero.length) failures.push(`the study's time left said "about 0 s": ${seen.aboutZero[0]}`);
   await page.waitForSelector("#study-table tbody tr");
   await page.click("#study-table tbody tr td");
   const images = "#study-detail img";

@@ -90,6 +90,11 @@ async function runSession(page, experiment, observer, seed, shotName) {
       await page.screenshot({ path: `${shots}/${shotName}` });
       shot = true;
     }
+    // Regression (issue 46): the verification's (or test patch's) text,
+    // "verifying srgb (pie): patch 15 of 15 … Esc cancels", stayed in the
+    // corner of the stimulus screen during every trial.
+    const hud = await page.textContent("#hud");
+    if (hud.trim()) failures.push(`${observer}: trial ${position} shows "${hud}" on the stimulus screen`);
     // A person's reaction takes 200 ms or more; a key before the pie's
     // first frame reached the screen would be an anticipation.
     await page.waitForTimeout(200);

@@ -423,3 +423,94 @@ async fn ten_simultaneous_retries_of_one_cancelled_render_queued_eight_renders()
     }
     d.stop().await;
 }
+
+/// The bug (issue 46): the scene page offered to "measure the 17 targets
+/// not yet measured" while those 17 were queued, and one click queued 17
+/// duplicates; the server queued whatever it was sent. A request for a
+/// scene target already queued or running (same booth, samples, session,
+/// hold) queues nothing and answers 200 with that measurement, even when
+/// the copies arrive at once; other samples are another measurement; a
+/// study's "measure the missing targets first" skips the ones on their way
+/// and says how many.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_request_for_a_queued_target_queued_a_duplicate() {
+    // Real timing: the instrument is busy for seconds, so the requests stay queued.
+    let d = Daemon::start(1.0).await;
+    let h01 = r#"{"scene":"cylinder","target":"h01","samples":5}"#;
+    let copies: Vec<_> = (0..6)
+        .map(|_| {
+            let addr = d.addr;
+            tokio::spawn(async move { post_json(addr, "/api/measurements", TOKEN, h01).await })
+        })
+        .collect();
+    let mut answers = Vec::new();
+    for c in copies {
+        answers.push(c.await.unwrap());
+    }
+    let queued: Vec<_> = answers.iter().filter(|(s, _)| *s == 202).collect();
+    assert_eq!(
+        queued.len(),
+        1,
+        "one measurement queued of six identical requests: {answers:?}"
+    );
+    let first = queued[0].1["id"].as_i64().unwrap();
+    assert_eq!(queued[0].1["duplicate"], false);
+    for (status, v) in answers.iter().filter(|(s, _)| *s != 202) {
+        assert_eq!(*status, 200, "{v}");
+        assert_eq!(v["id"].as_i64(), Some(first), "{v}");
+        assert_eq!(v["duplicate"], true, "{v}");
+        assert_eq!(v["url"], format!("/api/measurements/{first}"), "{v}");
+        let message = v["message"].as_str().unwrap();
+        assert!(
+            message.contains("cylinder/h01") && message.contains("nothing new was queued"),
+            "{message}"
+        );
+    }
+    // Other samples: another measurement.
+    let (status, other) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"cylinder","target":"h01","samples":3}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{other}");
+    assert_ne!(other["id"].as_i64(), Some(first));
+    for target in ["h02", "h03"] {
+        let body = format!(r#"{{"scene":"cylinder","target":"{target}"}}"#);
+        assert_eq!(post_json(d.addr, "/api/measurements", TOKEN, &body).await.0, 202);
+    }
+    let (_, page) = get_json(d.addr, "/api/measurements?scene=cylinder&limit=1000").await;
+    assert_eq!(page["total"], 4, "{page}");
+
+    // The study's batch: 21 targets, 3 on their way.
+    let (status, s) = post_json(
+        d.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes":"cylinder","seeds":1,"measure_missing":true}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{s}");
+    assert_eq!(s["measured_first"].as_array().map(Vec::len), Some(18), "{s}");
+    let skipped = s["already_on_their_way"].as_array().unwrap();
+    assert_eq!(skipped.len(), 3, "{s}");
+    assert!(skipped.iter().any(|i| i.as_i64() == Some(first)), "{s}");
+    assert!(
+        s["message"]
+            .as_str()
+            .unwrap()
+            .starts_with("3 of the missing targets already had a measurement"),
+        "{s}"
+    );
+    let (_, page) = get_json(d.addr, "/api/measurements?scene=cylinder&limit=1000").await;
+    assert_eq!(page["total"], 4 + 18, "no target queued twice: {page}");
+    let (_, row) = get_json(d.addr, &format!("/api/studies/{}", s["id"])).await;
+    assert_eq!(
+        row["request"]["measured_first"].as_array().map(Vec::len),
+        Some(21),
+        "the study waits for the ones on their way too: {row}"
+    );
+    post_json(d.addr, &format!("/api/studies/{}/cancel", s["id"]), TOKEN, "{}").await;
+    d.stop().await;
+}

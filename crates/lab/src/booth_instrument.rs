@@ -17,7 +17,7 @@ use crate::events::Event;
 use crate::instrument_queue::{CancelMeasurement, HoldInfo, InstrumentHold, InstrumentStatus, MeasurementJob};
 use crate::requests::SceneInfo;
 use lightbooth_instrument::Capabilities;
-use lightbooth_store::{Booth, MeasurementState, MeasurementSummary, NewMeasurement, Store};
+use lightbooth_store::{Booth, MeasurementFilter, MeasurementState, MeasurementSummary, NewMeasurement, Store};
 
 /// How long a cancel waits for a running measurement to stop before
 /// answering that it is still stopping (it stops within one poll slice of
@@ -42,6 +42,28 @@ pub struct MeasurementRequest {
     pub hold: Option<i64>,
 }
 
+/// What a measurement request came to (see [`BoothInstrument::request`]).
+#[derive(Debug)]
+pub enum Requested {
+    /// Recorded and queued: its id.
+    Queued(i64),
+    /// The same measurement — this booth's instrument, the same scene
+    /// target, samples, session and hold — is already queued or running:
+    /// that one, as it is now; nothing new was queued.
+    AlreadyOnItsWay(MeasurementSummary),
+}
+
+/// What a study's "measure the missing targets first" came to (see
+/// [`BoothInstrument::request_targets`]).
+#[derive(Debug, Default, PartialEq)]
+pub struct TargetsRequested {
+    /// The measurements queued now, one per target with none on its way.
+    pub queued: Vec<i64>,
+    /// The measurements already queued or running for the other targets
+    /// (skipped: not queued again; the study waits for these too).
+    pub already_on_their_way: Vec<i64>,
+}
+
 /// How a cancel ended (see [`BoothInstrument::cancel`]).
 #[derive(Debug)]
 pub enum Cancelled {
@@ -63,6 +85,9 @@ pub struct BoothInstrument {
     running: Option<Arc<dyn CancelMeasurement>>,
     capabilities: Capabilities,
     booth: Booth,
+    /// Held from the look for a measurement on its way to its queueing, so
+    /// two identical requests at once queue one measurement, not two.
+    admitting: Arc<tokio::sync::Mutex<()>>,
 }
 
 impl BoothInstrument {
@@ -86,6 +111,7 @@ impl BoothInstrument {
             running,
             capabilities,
             booth,
+            admitting: Arc::default(),
         }
     }
 
@@ -121,8 +147,13 @@ impl BoothInstrument {
 
     /// Checks `request` against the instrument model, the `scenes` the
     /// daemon can render, the instrument's status and the sessions, then
-    /// records and queues it; its id. `Invalid` names the field.
-    pub async fn request(&self, request: MeasurementRequest, scenes: &[SceneInfo]) -> Result<i64, LabError> {
+    /// records and queues it (`Queued`, its id) — unless a measurement of
+    /// the same scene target with the same samples, session and hold is
+    /// already queued or running in this booth: then nothing is queued and
+    /// the answer is that one (`AlreadyOnItsWay`; a page clicked twice, or
+    /// a script's retry, once queued every target twice). `Invalid` names
+    /// the field.
+    pub async fn request(&self, request: MeasurementRequest, scenes: &[SceneInfo]) -> Result<Requested, LabError> {
         let capabilities = &self.capabilities;
         let samples = request.samples.unwrap_or(capabilities.default_samples);
         if !(1..=capabilities.max_samples).contains(&samples) {
@@ -144,6 +175,18 @@ impl BoothInstrument {
                 )));
             }
         }
+        let _admitting = self.admitting.lock().await;
+        if let (Some(scene), Some(target)) = (&request.scene, &request.target) {
+            let same = self.on_its_way(scene, target).await?.into_iter().find(|m| {
+                m.samples_requested == samples as i64
+                    && m.session_id == request.session_id
+                    && m.hold.as_ref().map(|h| h.id) == request.hold
+            });
+            if let Some(existing) = same {
+                tracing::info!(measurement_id = existing.id, %scene, %target, "measurement already on its way; not queued again");
+                return Ok(Requested::AlreadyOnItsWay(existing));
+            }
+        }
         self.enqueue(
             request.hold,
             NewMeasurement {
@@ -157,28 +200,65 @@ impl BoothInstrument {
             },
         )
         .await
+        .map(Requested::Queued)
+    }
+
+    /// The measurements of `scene`/`target` in this booth queued or running,
+    /// oldest first. Queued ones are read first: a measurement only moves
+    /// from queued to running, so one the instrument takes between the two
+    /// reads is found by the second (read the other way round it was missed,
+    /// and a duplicate queued).
+    async fn on_its_way(&self, scene: &str, target: &str) -> Result<Vec<MeasurementSummary>, LabError> {
+        let mut found = Vec::new();
+        for state in [MeasurementState::Queued, MeasurementState::Running] {
+            let filter = MeasurementFilter {
+                booth: Some(self.booth.clone()),
+                scene: Some(scene.into()),
+                target: Some(target.into()),
+                state: Some(state),
+                limit: Some(1000),
+                ..MeasurementFilter::default()
+            };
+            found.extend(self.store.list_measurements(&filter).await?.items);
+        }
+        found.sort_by_key(|m| m.id);
+        Ok(found)
     }
 
     /// Queues a measurement of each scene target in `missing` (a study's
-    /// first measurements), with the default samples and `note`; their ids.
-    /// Refused as a whole when the queue has not room for all of them
+    /// first measurements), with the default samples and `note`, skipping
+    /// each target that already has a measurement queued or running in
+    /// this booth (any samples: the study waits for that one instead).
+    /// Refused as a whole when the queue has not room for all the new ones
     /// before the first is queued; should a concurrent request fill the
     /// queue meanwhile, the ones already queued stay ordinary measurements.
-    pub async fn request_targets(&self, missing: &[(String, String)], note: &str) -> Result<Vec<i64>, LabError> {
+    pub async fn request_targets(
+        &self,
+        missing: &[(String, String)],
+        note: &str,
+    ) -> Result<TargetsRequested, LabError> {
         let what = format!("no complete measurement of {}, and ", describe_targets(missing));
         self.refuse_unavailable(&what)?;
-        if self.jobs.capacity() < missing.len() {
+        let _admitting = self.admitting.lock().await;
+        let mut requested = TargetsRequested::default();
+        let mut to_queue = Vec::with_capacity(missing.len());
+        for (scene, target) in missing {
+            match self.on_its_way(scene, target).await?.first() {
+                Some(existing) => requested.already_on_their_way.push(existing.id),
+                None => to_queue.push((scene, target)),
+            }
+        }
+        if self.jobs.capacity() < to_queue.len() {
             return Err(LabError::Conflict(format!(
                 "measuring the {} missing targets needs {} places in the instrument queue and {} are free; \
                  try again when the queued measurements have finished",
-                missing.len(),
-                missing.len(),
+                to_queue.len(),
+                to_queue.len(),
                 self.jobs.capacity()
             )));
         }
         let samples = self.capabilities.default_samples;
-        let mut ids = Vec::with_capacity(missing.len());
-        for (scene, target) in missing {
+        for (scene, target) in to_queue {
             let new = NewMeasurement {
                 booth: self.booth.clone(),
                 session_id: None,
@@ -188,10 +268,14 @@ impl BoothInstrument {
                 settings_json: serde_json::json!({ "samples": samples }),
                 note: note.into(),
             };
-            ids.push(self.enqueue(None, new).await?);
+            requested.queued.push(self.enqueue(None, new).await?);
         }
-        tracing::info!(count = ids.len(), "missing targets queued for a study");
-        Ok(ids)
+        tracing::info!(
+            queued = requested.queued.len(),
+            already_on_their_way = requested.already_on_their_way.len(),
+            "missing targets queued for a study"
+        );
+        Ok(requested)
     }
 
     /// Why a measurement asked for now would be refused with 503 (the

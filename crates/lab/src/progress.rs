@@ -130,13 +130,19 @@ pub struct JobProgress {
 impl JobProgress {
     /// The extrapolated seconds left at `now` (POSIX seconds); see
     /// [`seconds_left`]. None when the phase's work is all done (the job is
-    /// finishing something not counted) or not counted at all.
+    /// finishing something not counted) or not counted at all, and None
+    /// once the time the newest report extrapolated has run out with the
+    /// job still there: its current step is slower than the ones before it
+    /// and the pace so far says nothing of the rest (a study said "about
+    /// 0 s" at 14 s of a 31 s run, its four one-target scenes done and the
+    /// 21-target CYLINDER under way); "estimating…" is the honest answer.
     pub fn seconds_left_at(&self, now: f64) -> Option<f64> {
         if self.fraction >= 1.0 {
             return None;
         }
         let at_report = seconds_left(self.updated_at - self.phase_started_at, self.fraction)?;
-        Some((at_report - (now - self.updated_at)).max(0.0))
+        let left = at_report - (now - self.updated_at);
+        (left > 0.0).then_some(left)
     }
 }
 
@@ -292,8 +298,8 @@ mod tests {
         assert_eq!(p.seconds_left_at(1010.0), Some(10.0));
         // Four seconds after the report, six are left.
         assert_eq!(p.seconds_left_at(1014.0), Some(6.0));
-        // Never negative, however late the next report is.
-        assert_eq!(p.seconds_left_at(1100.0), Some(0.0));
+        // Never negative, nor "about 0 s", however late the next report is: no estimate.
+        assert_eq!(p.seconds_left_at(1100.0), None);
     }
 
     /// The Viewer said "at most about 0 s left" at 0 of 6 912 pixels: the
@@ -352,6 +358,37 @@ mod tests {
             2.0,
         );
         assert!(board.get(Job::Render, 7).is_none());
+    }
+
+    /// A study of WHITE, RED, GREEN, BLUE and CYLINDER said "about 0 s"
+    /// left at 14 s of a 31 s run: its steps are counted as equal, the
+    /// four one-target scenes went by in 4 s, and CYLINDER's 21 targets
+    /// then took 25 s. Once the time extrapolated at the newest report has
+    /// run out, there is no estimate (the page says "estimating…").
+    #[test]
+    fn a_study_said_about_0_s_left_at_14_s_of_a_31_s_run() {
+        let board = ProgressBoard::default();
+        let study = |message: &str, fraction: f64| Event::StudyProgress {
+            study_id: 5,
+            message: message.into(),
+            fraction: Some(fraction),
+        };
+        for (k, scene) in ["white", "red", "green", "blue"].into_iter().enumerate() {
+            board.record(&study(&format!("{scene}: truth"), 0.2 * k as f64), 100.0 + k as f64);
+            board.record(
+                &study(&format!("{scene}: seed 1 of 1"), 0.2 * k as f64 + 0.1),
+                100.5 + k as f64,
+            );
+        }
+        board.record(&study("cylinder: truth", 0.8), 104.0);
+        let p = board.get(Job::Study, 5).unwrap();
+        let near = |left: Option<f64>, want: f64| left.is_some_and(|s| (s - want).abs() < 1e-9);
+        assert!(
+            near(p.seconds_left_at(104.0), 1.0),
+            "4 s for 80 %: 1 s more at that pace"
+        );
+        assert!(near(p.seconds_left_at(104.5), 0.5));
+        assert_eq!(p.seconds_left_at(114.0), None, "at 14 s: not \"about 0 s\"");
     }
 
     #[test]

@@ -13,7 +13,7 @@ use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
 use crate::http::input::{check_paging, Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::booth_instrument::{Cancelled, MeasurementRequest};
+use crate::lab::booth_instrument::{Cancelled, MeasurementRequest, Requested};
 use crate::store::{
     ComparisonRow, LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState,
     MeasurementSummary,
@@ -45,10 +45,24 @@ pub struct Accepted {
     pub state: MeasurementState,
     /// Poll this URL (or follow `/api/events`) until `state` is final.
     pub url: String,
+    /// True (status 200) when nothing new was queued: the same measurement
+    /// (this booth, scene, target, samples, session and hold) was already
+    /// queued or running, and `id` is that one.
+    pub duplicate: bool,
+    /// Says so in words when `duplicate`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
 }
 
+/// Queues a measurement (202). A request for a scene target whose
+/// measurement with the same samples, session and hold is already queued
+/// or running in this booth queues nothing: it answers 200 with that
+/// measurement and `"duplicate": true` (a double click, or a retry whose
+/// answer was lost, then waits for the one measurement it asked for).
 #[utoipa::path(post, path = "/measurements", tag = "measurements", request_body = Option<StartMeasurement>,
-    responses((status = 202, body = Accepted), (status = 400, body = crate::http::error::ErrorBody),
+    responses((status = 202, body = Accepted, description = "queued"),
+              (status = 200, body = Accepted, description = "the same measurement is already queued or running: that one, nothing queued"),
+              (status = 400, body = crate::http::error::ErrorBody),
               (status = 401, body = crate::http::error::ErrorBody), (status = 409, body = crate::http::error::ErrorBody),
               (status = 503, body = crate::http::error::ErrorBody)),
     security(("bearer" = [])))]
@@ -64,19 +78,40 @@ pub async fn start_measurement(
         note: body.note.unwrap_or_default(),
         hold: body.hold,
     };
-    let id = state
+    match state
         .lab
         .instrument()
         .request(request, &state.lab.scenes_if_any())
-        .await?;
-    Ok((
-        StatusCode::ACCEPTED,
-        Json(Accepted {
-            id,
-            state: MeasurementState::Queued,
-            url: format!("/api/measurements/{id}"),
-        }),
-    ))
+        .await?
+    {
+        Requested::Queued(id) => Ok((
+            StatusCode::ACCEPTED,
+            Json(Accepted {
+                id,
+                state: MeasurementState::Queued,
+                url: format!("/api/measurements/{id}"),
+                duplicate: false,
+                message: None,
+            }),
+        )),
+        Requested::AlreadyOnItsWay(m) => Ok((
+            StatusCode::OK,
+            Json(Accepted {
+                id: m.id,
+                state: m.state,
+                url: format!("/api/measurements/{}", m.id),
+                duplicate: true,
+                message: Some(format!(
+                    "measurement {} of {}/{} with {} samples is already {}; nothing new was queued",
+                    m.id,
+                    m.scene.as_deref().unwrap_or_default(),
+                    m.target.as_deref().unwrap_or_default(),
+                    m.samples_requested,
+                    m.state.as_str()
+                )),
+            }),
+        )),
+    }
 }
 
 #[utoipa::path(get, path = "/measurements", tag = "measurements", params(MeasurementFilter),

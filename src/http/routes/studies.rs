@@ -10,7 +10,7 @@ use utoipa::ToSchema;
 use crate::http::error::ApiError;
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::booth_instrument::describe_targets;
+use crate::lab::booth_instrument::{describe_targets, TargetsRequested};
 use crate::lab::requests::StudyRequest;
 use crate::store::{Booth, Job, StudyRow};
 
@@ -23,6 +23,16 @@ pub async fn list_studies(State(state): State<AppState>) -> Result<Json<Vec<Stud
 pub struct StudyAccepted {
     pub id: i64,
     pub url: String,
+    /// With `measure_missing`: the measurements queued for the study now.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub measured_first: Vec<i64>,
+    /// With `measure_missing`: the measurements of missing targets that
+    /// were already queued or running, not queued again (the study waits
+    /// for them too); `message` says how many.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub already_on_their_way: Vec<i64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub message: Option<String>,
 }
 
 /// Starts a study (every coding of the chosen scenes against the truth, over
@@ -30,7 +40,9 @@ pub struct StudyAccepted {
 /// Against measurements, every target of the chosen scenes needs a complete
 /// measurement: with `"measure_missing": true` the missing ones are queued
 /// for the instrument first (listed in the study's request as
-/// `measured_first`, progress in `study_progress` events); without it a
+/// `measured_first`, progress in `study_progress` events) — except those
+/// with a measurement already queued or running, which the study waits for
+/// instead (`already_on_their_way` in the answer); without it a
 /// study missing measurements is refused with 409 naming them.
 #[utoipa::path(post, path = "/studies", tag = "studies", request_body = Option<StudyRequest>,
     responses((status = 202, body = StudyAccepted), (status = 400, body = crate::http::error::ErrorBody),
@@ -57,6 +69,7 @@ pub async fn start_study(
     };
     body.booth = Some(booth.to_string());
     renders.check_study(&body)?;
+    let mut requested = TargetsRequested::default();
     if body.against.as_deref().unwrap_or("measurements") == "measurements" {
         let chosen: Option<Vec<&str>> = body
             .scenes
@@ -81,19 +94,44 @@ pub async fn start_study(
                     if missing.len() == 1 { "it" } else { "them" }
                 )));
             }
-            body.measured_first = state
+            requested = state
                 .lab
                 .instrument()
                 .request_targets(&missing, "measured first for a study (measure_missing)")
                 .await?;
+            body.measured_first = requested
+                .queued
+                .iter()
+                .chain(&requested.already_on_their_way)
+                .copied()
+                .collect();
+            body.measured_first.sort_unstable();
         }
     }
     let id = renders.start_study(body).await?;
+    let message = (!requested.already_on_their_way.is_empty()).then(|| {
+        let skipped = &requested.already_on_their_way;
+        format!(
+            "{} of the missing targets already had a measurement queued or running ({}), not queued again; \
+             the study waits for {} and for the {} queued now",
+            skipped.len(),
+            skipped
+                .iter()
+                .map(|i| format!("measurement {i}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if skipped.len() == 1 { "it" } else { "them" },
+            requested.queued.len()
+        )
+    });
     Ok((
         StatusCode::ACCEPTED,
         Json(StudyAccepted {
             id,
             url: format!("/api/studies/{id}"),
+            measured_first: requested.queued,
+            already_on_their_way: requested.already_on_their_way,
+            message,
         }),
     ))
 }
@@ -137,6 +175,9 @@ pub async fn retry_study(
         Json(StudyAccepted {
             id: new,
             url: format!("/api/studies/{new}"),
+            measured_first: Vec::new(),
+            already_on_their_way: Vec::new(),
+            message: None,
         }),
     ))
 }

@@ -112,7 +112,11 @@ pub struct ObserverThreshold {
     /// cannot fit one (`not_fitted` says why).
     #[cfg_attr(feature = "openapi", schema(value_type = Option<Object>))]
     pub fit: Option<ThresholdFit>,
+    /// The fitter's own reason there is no fit (as the CSV has it).
     pub not_fitted: Option<String>,
+    /// Why there is no fit, as a sentence for a person (the pages and the
+    /// CLI show this; see [`no_fit_sentence`]).
+    pub no_fit: Option<String>,
     /// The conditions fitted: (ΔE00 on `delta_e00_basis`, correct, trials).
     #[cfg_attr(feature = "openapi", schema(value_type = Vec<Object>))]
     pub conditions: Vec<Condition>,
@@ -255,15 +259,16 @@ impl Experiments {
                         .collect(),
                     Err(_) => Vec::new(),
                 };
-                let (fit, not_fitted) = match fit {
-                    Ok(f) => (Some(f), None),
-                    Err(e) => (None, Some(e.to_string())),
+                let (fit, not_fitted, no_fit) = match fit {
+                    Ok(f) => (Some(f), None, None),
+                    Err(e) => (None, Some(e.to_string()), Some(no_fit_sentence(observer, &e))),
                 };
                 thresholds.push(ObserverThreshold {
                     observer: observer.to_string(),
                     model: model.name().to_string(),
                     fit,
                     not_fitted,
+                    no_fit,
                     conditions: conditions.clone(),
                     predictions,
                 });
@@ -487,15 +492,36 @@ pub fn analysis_text(a: &Analysis) -> String {
     out
 }
 
+/// Why `observer` (an observer id, or `all`) has no threshold, in words
+/// for the person reading the thresholds table: the table once showed the
+/// fitter's own text, "no fit: no conditions: give at least one (ΔE00,
+/// correct, trials)", for an observer with no trials yet.
+pub fn no_fit_sentence(observer: &str, error: &threshold::ThresholdError) -> String {
+    use threshold::ThresholdError as E;
+    let who = if observer == ALL_OBSERVERS {
+        "the observers have".to_string()
+    } else {
+        format!("observer {observer} has")
+    };
+    match error {
+        E::NoConditions | E::NoTrials => format!("no fit yet: {who} no trials recorded"),
+        E::NoColourDifference => format!(
+            "no fit yet: {who} trials only of approximations the display shows identical to the original \
+             (ΔE00 0), which say nothing of σ; a fit needs trials at a visible difference"
+        ),
+        other => format!("no fit: the recorded trials cannot be fitted ({other})"),
+    }
+}
+
 /// One threshold as a line: observer, model, σ and the threshold with
 /// their intervals, the deviance and its p-value (or why there is no fit).
 pub fn threshold_line(t: &ObserverThreshold) -> String {
     let Some(f) = &t.fit else {
         return format!(
-            "{:<10} {:<24} no fit: {}",
+            "{:<10} {:<24} {}",
             t.observer,
             t.model,
-            t.not_fitted.as_deref().unwrap_or("")
+            t.no_fit.as_deref().unwrap_or("no fit")
         );
     };
     let end = |v: Option<f64>| v.map(|v| format!("{v:.3}")).unwrap_or_else(|| "∞".into());
@@ -999,6 +1025,30 @@ mod tests {
                 )),
                 "{model}: {words}"
             );
+        }
+    }
+
+    /// The thresholds table showed "no fit: no conditions: give at least
+    /// one (ΔE00, correct, trials)" for an observer with no trials yet: a
+    /// sentence for a person, the fitter's reason kept in `not_fitted`.
+    #[test]
+    fn the_thresholds_table_showed_the_fitters_raw_text() {
+        use threshold::ThresholdError as E;
+        let none = no_fit_sentence("sim3", &E::NoConditions);
+        assert_eq!(none, "no fit yet: observer sim3 has no trials recorded");
+        assert_eq!(no_fit_sentence("sim3", &E::NoTrials), none);
+        assert_eq!(
+            no_fit_sentence(ALL_OBSERVERS, &E::NoConditions),
+            "no fit yet: the observers have no trials recorded"
+        );
+        let invisible = no_fit_sentence("sim3", &E::NoColourDifference);
+        assert!(
+            invisible.contains("visible difference") && !invisible.contains("d′ = ΔE00/σ is 0"),
+            "{invisible}"
+        );
+        for e in [E::NoConditions, E::NoTrials, E::NoColourDifference] {
+            let sentence = no_fit_sentence("sim3", &e);
+            assert!(!sentence.contains(&e.to_string()), "{sentence}");
         }
     }
 }

@@ -408,29 +408,49 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     Ok(files)
 }
 
-/// `text` as HTML text: a scene's name and white come from its file, and
-/// stored text is never markup (a scene named `<img onerror=…>` is shown as
-/// those characters, not run).
 /// The report's last column: whether the coding is told apart from the
 /// measurements within the instrument's stated accuracy, with rms_rel's
 /// 95th percentile of what measurement error alone gives.
 pub fn distinguishable_cell(c: &super::run::CodingStudy) -> String {
     match (&c.uncertainty, &c.uncertainty_not_propagated) {
         (Some(u), _) => format!(
-            "{} (rms_rel from measurement error alone ≤ {}; ΔE00 beyond at {} targets)",
+            "{}{}",
             u.distinguishable(),
-            u.rms_rel
-                .null_95th_stated_accuracy
-                .map(|v| format!("{v:.4}"))
-                .unwrap_or_else(|| "—".into()),
-            u.dE00_targets_beyond_stated_accuracy
-                .map(|n| n.to_string())
-                .unwrap_or_else(|| "—".into())
+            accuracy_detail(
+                u.rms_rel.null_95th_stated_accuracy,
+                u.dE00_targets_beyond_stated_accuracy,
+                c.profile.len()
+            )
         ),
         (None, Some(why)) => format!("not propagated: {why}"),
         (None, None) => "against the reference: no instrument".into(),
     }
 }
+
+/// The figures behind [`distinguishable_cell`]'s words, in parentheses,
+/// naming only what is on record: rms_rel's 95th percentile from
+/// measurement error alone, and at how many of the scene's `targets` ΔE00
+/// is beyond the stated accuracy. Empty when neither is (the words already
+/// say "no accuracy on record"); the report once ended "ΔE00 beyond at —
+/// targets".
+pub fn accuracy_detail(null_95th: Option<f64>, beyond: Option<usize>, targets: usize) -> String {
+    let mut parts = Vec::new();
+    if let Some(v) = null_95th {
+        parts.push(format!("rms_rel from measurement error alone ≤ {v:.4}"));
+    }
+    if let Some(n) = beyond {
+        parts.push(format!("ΔE00 beyond the stated accuracy at {n} of {targets} targets"));
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", parts.join("; "))
+    }
+}
+
+/// `text` as HTML text: a scene's name and white come from its file, and
+/// stored text is never markup (a scene named `<img onerror=…>` is shown as
+/// those characters, not run).
 
 fn html_text(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
@@ -445,4 +465,28 @@ fn html_text(text: &str) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::accuracy_detail;
+
+    /// The CLI study report ended "ΔE00 beyond at — targets" when the
+    /// instrument stated no colour accuracy: only what is on record is
+    /// named, each as a phrase that reads.
+    #[test]
+    fn the_study_report_ended_de00_beyond_at_dash_targets() {
+        assert_eq!(
+            accuracy_detail(Some(0.01234), Some(3), 21),
+            " (rms_rel from measurement error alone ≤ 0.0123; ΔE00 beyond the stated accuracy at 3 of 21 targets)"
+        );
+        assert_eq!(
+            accuracy_detail(Some(0.01234), None, 21),
+            " (rms_rel from measurement error alone ≤ 0.0123)"
+        );
+        assert_eq!(accuracy_detail(None, None, 21), "");
+        for text in [accuracy_detail(Some(0.1), None, 1), accuracy_detail(None, Some(0), 1)] {
+            assert!(!text.contains('—') && !text.contains("beyond at"), "{text}");
+        }
+    }
 }
