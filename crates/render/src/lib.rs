@@ -71,7 +71,7 @@ use rayon::prelude::*;
 use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
 
-pub use coding::{ChannelLayout, Coding};
+pub use coding::{coding_order, ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
 
 pub use integrator::Transport;
