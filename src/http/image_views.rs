@@ -155,7 +155,10 @@ pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
         Some(w) => (
             w.clone(),
             "wavelength (nm)",
-            format!("spectral radiance ({}), mean ± 1 SE", crate::spectrum::SPECTRAL_RADIANCE_UNIT),
+            format!(
+                "spectral radiance ({}), mean ± 1 SE",
+                crate::spectrum::SPECTRAL_RADIANCE_UNIT
+            ),
         ),
         None => (
             (1..=p.mean.len()).map(|i| i as f64).collect(),

@@ -68,7 +68,9 @@ fn render_image_prints_wrote_file() {
         assert!(out.status.success(), "{name}: {stderr}");
         assert!(file.exists(), "{name} not written");
         assert!(
-            stderr.lines().any(|l| l.contains("wrote") && l.contains(file.to_str().unwrap())),
+            stderr
+                .lines()
+                .any(|l| l.contains("wrote") && l.contains(file.to_str().unwrap())),
             "{name}: no `wrote {}` line: {stderr}",
             file.display()
         );

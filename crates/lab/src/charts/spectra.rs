@@ -29,10 +29,10 @@ pub fn spectrum_chart(
             "wavelength (nm)",
             format!("spectral radiance ({SPECTRAL_RADIANCE_UNIT})")
         )
-            .x_label_formatter(&|v| tick_label(*v, x1 - x0))
-            .y_label_formatter(&|v| tick_label(*v, hi))
-            .draw()
-            .map_err(err)?;
+        .x_label_formatter(&|v| tick_label(*v, x1 - x0))
+        .y_label_formatter(&|v| tick_label(*v, hi))
+        .draw()
+        .map_err(err)?;
         let mut legend = Vec::new();
         let raw = RGBColor(86, 180, 233);
         for s in samples {

@@ -285,15 +285,20 @@ fn marker_boxes(svg: &str) -> Vec<(f64, f64, f64, f64)> {
     let mut boxes = Vec::new();
     for (a, _) in elements(svg, "circle") {
         let (x, y, r) = (num(&a, "cx"), num(&a, "cy"), num(&a, "r"));
-        let w = if attr(&a, "fill").as_deref() == Some("none") { num(&a, "stroke-width") / 2.0 } else { 0.0 };
+        let w = if attr(&a, "fill").as_deref() == Some("none") {
+            num(&a, "stroke-width") / 2.0
+        } else {
+            0.0
+        };
         if r > 2.0 {
             boxes.push((x - r - w, y - r - w, x + r + w, y + r + w));
         }
     }
     let bbox = |pts: &[(f64, f64)]| {
-        pts.iter().fold((f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY), |b, p| {
-            (b.0.min(p.0), b.1.min(p.1), b.2.max(p.0), b.3.max(p.1))
-        })
+        pts.iter().fold(
+            (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+            |b, p| (b.0.min(p.0), b.1.min(p.1), b.2.max(p.0), b.3.max(p.1)),
+        )
     };
     for (a, _) in elements(svg, "polygon") {
         let b = bbox(&points_of(&a));
@@ -449,7 +454,10 @@ fn tick_formats_mixed_across_axes() {
         assert_eq!(decimals.len(), 1, "span {span}: {labels:?}");
         for (i, l) in labels.iter().enumerate() {
             let v: f64 = l.parse().unwrap();
-            assert!((v - i as f64 * span / 10.0).abs() <= span / 10.0, "span {span}: {labels:?}");
+            assert!(
+                (v - i as f64 * span / 10.0).abs() <= span / 10.0,
+                "span {span}: {labels:?}"
+            );
         }
     }
     for v in [1e-4, 1e-3, 2e-5, 5e-4] {
@@ -736,7 +744,14 @@ fn locus_500_nm_label_among_the_y_ticks() {
         let panel = 440.0;
         let numbers: Vec<(String, f64, f64, f64)> = elements(&svg, "text")
             .into_iter()
-            .filter_map(|(a, c)| Some((attr(&a, "text-anchor")?, num(&a, "x"), num(&a, "y"), c.parse::<f64>().ok()?)))
+            .filter_map(|(a, c)| {
+                Some((
+                    attr(&a, "text-anchor")?,
+                    num(&a, "x"),
+                    num(&a, "y"),
+                    c.parse::<f64>().ok()?,
+                ))
+            })
             .filter(|t| t.1 < panel)
             .collect();
         let x_ticks: Vec<(f64, f64)> = numbers.iter().filter(|t| t.0 == "middle").map(|t| (t.3, t.1)).collect();
