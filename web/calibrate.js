@@ -206,9 +206,14 @@ function showProfile(row) {
     validation = (p.validation || []).map((v) =>
       [v.drive.map((d) => f(d, 3)).join(", "), f(v.delta_e00, 3), v.measurement_id ?? "–"]);
   }
-  const charts = el("div");
+  // The charts at the size the scene pages give theirs: a grid of figures,
+  // a colorimeter's primaries (an x,y diagram of two panels) a whole row.
+  const charts = el("div", undefined, { className: "charts", id: "profile-charts" });
   for (const chart of ["primaries", "transfer", "additivity"]) {
-    charts.appendChild(el("img", undefined, { alt: chart, src: `/api/display-profiles/${row.id}/${chart}.svg` }));
+    const fig = el("figure");
+    if (chart === "primaries" && p.black_xyz && !p.luminance_additivity) fig.className = "wide";
+    fig.appendChild(el("img", undefined, { alt: chart, src: `/api/display-profiles/${row.id}/${chart}.svg` }));
+    charts.appendChild(fig);
   }
   const links = el("p");
   links.append(el("a", "calibrate again", { href: "/calibrate" }), " · ", el("a", "dashboard", { href: "/" }));

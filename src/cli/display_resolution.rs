@@ -32,7 +32,9 @@ pub struct DisplayResolutionArgs {
     /// Frame-buffer depths to compare, 1–16 bits each.
     #[arg(long, value_delimiter = ',', default_value = "6,8,10,12,16", value_parser = clap::value_parser!(u32).range(1..=16))]
     bits: Vec<u32>,
-    /// Radiometer paths per target (fixed; no adaptive rounds), 1–16777216.
+    /// Radiometer paths per target (fixed; no adaptive rounds), 1–16777216,
+    /// traced in whole batches of 1024: a count between is rounded up, and
+    /// the output says so.
     #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     samples: u64,
     /// Random seed of the render.
@@ -77,6 +79,9 @@ pub fn run(args: DisplayResolutionArgs) -> anyhow::Result<()> {
     }
     let (profile, profile_name) = load_profile(&args.profile)?;
     let scene = load_scene(&args.scene)?;
+    if let Some(note) = lightbooth::render::samples_rounding_note("--samples", args.samples) {
+        eprintln!("{note}");
+    }
     let settings = RenderSettings {
         codings: args.codings.clone(),
         samples: args.samples,
@@ -118,7 +123,7 @@ pub fn run(args: DisplayResolutionArgs) -> anyhow::Result<()> {
         scene: format!("{} ({})", result.scene, args.scene.display()),
         display_profile: profile_name,
         observer: profile.observer.to_string(),
-        samples_per_target: args.samples,
+        samples_per_target: lightbooth::render::paths_traced(args.samples),
         targets: result.targets.iter().map(|t| t.id.clone()).collect(),
         gamut: args.gamut,
         resolved_definition: format!(

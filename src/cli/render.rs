@@ -17,7 +17,8 @@ use lightbooth::render::scene::{
 };
 use lightbooth::render::sensor::render_camera;
 use lightbooth::render::{
-    load_scene, render, Coding, LightSampling, RenderResult, RenderSettings, SamplerKind, DEFAULT_ROULETTE_FROM,
+    load_scene, render, samples_rounding_note, Coding, LightSampling, RenderResult, RenderSettings, SamplerKind,
+    DEFAULT_ROULETTE_FROM,
 };
 
 #[derive(Args, Debug)]
@@ -37,7 +38,9 @@ pub struct RenderArgs {
     #[arg(long, value_delimiter = ',', value_parser = parse_coding,
           default_value = "rgb,srgb,nstep3,nstep9,nstep27,nstep81,spectral")]
     codings: Vec<Coding>,
-    /// Radiometer paths per target (the first round with --target-se), 1–16777216.
+    /// Radiometer paths per target (the first round with --target-se),
+    /// 1–16777216, traced in whole batches of 1024: a count between is
+    /// rounded up, and the output says so.
     #[arg(long, default_value_t = RenderSettings::default().samples,
           value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     samples: u64,
@@ -100,7 +103,8 @@ pub struct RenderArgs {
     /// fraction of Y in every coding, up to --max-samples; 0: exactly --samples.
     #[arg(long, default_value_t = 0.003, value_parser = super::fraction)]
     target_se: f64,
-    /// Cap on paths per target with --target-se, 1–16777216.
+    /// Cap on paths per target with --target-se, 1–16777216 (rounded up to
+    /// whole batches of 1024, as --samples).
     #[arg(long, default_value_t = RenderSettings::default().max_samples,
           value_parser = clap::value_parser!(u64).range(1..=MAX_SAMPLES_PER_TARGET))]
     max_samples: u64,
@@ -211,6 +215,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             "--russian-roulette-from never needs --bounces N: without roulette or a cap a path in a closed scene never ends"
         );
     }
+    for note in [
+        samples_rounding_note("--samples", args.samples),
+        (args.target_se > 0.0)
+            .then(|| samples_rounding_note("--max-samples", args.max_samples))
+            .flatten(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        eprintln!("{note}");
+    }
     let settings = RenderSettings {
         codings: args.codings.clone(),
         samples: args.samples,
@@ -269,6 +284,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         if preview {
             let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed)?;
             img.write(path)?;
+            eprintln!(
+                "image: {} × {} in srgb, {} paths per pixel; wrote {}",
+                camera.width,
+                camera.height,
+                args.spp,
+                path.display()
+            );
         } else {
             let budget = match args.time_budget {
                 Some(t) if !(t.is_finite() && t > 0.0) => anyhow::bail!("--time-budget {t}: need seconds > 0"),
@@ -297,6 +319,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             cam_bar.finish_and_clear();
             if matches!(ext.as_str(), "pfm" | "png") {
                 img.to_srgb().write(path)?;
+                eprintln!(
+                    "image: {} × {} in srgb, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
+                    img.width,
+                    img.height,
+                    img.passes,
+                    img.paths,
+                    img.elapsed_seconds,
+                    img.stop,
+                    path.display()
+                );
             } else {
                 let img = img
                     .every_nth_band(args.image_step as usize)

@@ -151,16 +151,19 @@ pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -
 /// for the spectral codings, against channel number for `rgb`/`srgb`; the
 /// series in the coding's own colour.
 pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
-    let (xs, x_desc, y_desc): (Vec<f64>, &str, &str) = match &p.wavelengths_nm {
+    let (xs, x_desc, y_desc): (Vec<f64>, &str, String) = match &p.wavelengths_nm {
         Some(w) => (
             w.clone(),
             "wavelength (nm)",
-            "spectral radiance (W/(sr·m²·nm)), mean ± 1 SE",
+            format!(
+                "spectral radiance ({}), mean ± 1 SE",
+                crate::spectrum::SPECTRAL_RADIANCE_UNIT
+            ),
         ),
         None => (
             (1..=p.mean.len()).map(|i| i as f64).collect(),
             "channel (1 = R, 2 = G, 3 = B)",
-            "linear RGB (Y-scaled, cd/m²), mean ± 1 SE",
+            "linear RGB (Y-scaled, cd/m²), mean ± 1 SE".to_string(),
         ),
     };
     let series = LineSeriesData {
@@ -185,7 +188,7 @@ pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
         p.chromaticity_y,
         p.observer
     );
-    charts::line_chart(&title, x_desc, y_desc, &[series], false).map_err(ApiError::Internal)
+    charts::line_chart(&title, x_desc, &y_desc, &[series], false).map_err(ApiError::Internal)
 }
 
 /// The map as a false-colour PNG (viridis, 0 to `scale_max`).

@@ -263,7 +263,11 @@ impl Lab {
     /// A measurement's comparisons with every coding.
     pub async fn comparisons_of_measurement(&self, id: i64) -> Result<Vec<ComparisonRow>, LabError> {
         self.measurement(id).await?;
-        Ok(self.store.comparisons_for_measurement(id).await?)
+        let mut rows = self.store.comparisons_for_measurement(id).await?;
+        // Each render's rows together (the store lists them by id), their
+        // codings in the one order; stable within a coding.
+        rows.sort_by_key(|r| (r.render_id, lightbooth_render::coding_order(&r.coding)));
+        Ok(rows)
     }
 
     /// A luminance meter's measurement compared in luminance alone.

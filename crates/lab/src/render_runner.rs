@@ -443,15 +443,17 @@ impl StoredRenderResult {
     }
 
     /// Every coding's XYZ and standard error of Y (cd/m²) at `target`, in
-    /// coding-name order; `None` when the render has no target `target`.
+    /// the one coding order ([`lightbooth_render::coding_order`]); `None`
+    /// when the render has no target `target`.
     pub(crate) fn codings(&self, target: &str) -> Option<Vec<(String, Xyz, f64)>> {
         let t = self.targets.iter().find(|t| t.id == target)?;
-        Some(
-            t.codings
-                .iter()
-                .map(|(name, c)| (name.clone(), Xyz::from_array(c.xyz), c.y_se))
-                .collect(),
-        )
+        let mut codings: Vec<(String, Xyz, f64)> = t
+            .codings
+            .iter()
+            .map(|(name, c)| (name.clone(), Xyz::from_array(c.xyz), c.y_se))
+            .collect();
+        codings.sort_by_key(|(name, _, _)| lightbooth_render::coding_order(name));
+        Some(codings)
     }
 }
 

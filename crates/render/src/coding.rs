@@ -85,6 +85,32 @@ impl Coding {
     }
 }
 
+/// The one order of codings wherever they are listed (API JSON, CSV and
+/// MAT rows, tables on pages, chart legends): rgb, srgb, nstepN by N,
+/// spectral — never text order, which puts nstep27 before nstep3. A name
+/// that is no coding sorts after every N-step, before spectral.
+pub fn coding_order(name: &str) -> (u32, u32) {
+    match name {
+        "rgb" => (0, 0),
+        "srgb" => (1, 0),
+        "spectral" => (3, 0),
+        other => (
+            2,
+            other
+                .strip_prefix("nstep")
+                .and_then(|n| n.parse().ok())
+                .unwrap_or(u32::MAX),
+        ),
+    }
+}
+
+impl Coding {
+    /// This coding's place in [`coding_order`].
+    pub fn order(&self) -> (u32, u32) {
+        coding_order(&self.to_string())
+    }
+}
+
 impl fmt::Display for Coding {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -71,7 +71,7 @@ use rayon::prelude::*;
 use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
 
-pub use coding::{ChannelLayout, Coding};
+pub use coding::{coding_order, ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
 
 pub use integrator::Transport;
@@ -100,6 +100,25 @@ pub enum RenderError {
     /// Its job's [`CancellationToken`](integrator::CancellationToken) was set.
     #[error("the render was cancelled")]
     Cancelled,
+}
+
+/// The paths per target a request for `samples` traces: whole batches of
+/// [`BATCH_SAMPLES`] (every replicate gets the same number of paths).
+pub fn paths_traced(samples: u64) -> u64 {
+    samples.max(1).div_ceil(BATCH_SAMPLES) * BATCH_SAMPLES
+}
+
+/// What a command prints when `flag samples` is not a whole number of
+/// batches: the count it rounded to and why; `None` when used as given.
+pub fn samples_rounding_note(flag: &str, samples: u64) -> Option<String> {
+    let traced = paths_traced(samples);
+    (traced != samples).then(|| {
+        format!(
+            "note: {flag} {samples} rounded up to {traced} paths per target: the renderer traces \
+             in whole batches of {BATCH_SAMPLES} paths ({REPLICATES} replicates of {}), so give a multiple of {BATCH_SAMPLES}",
+            BATCH_SAMPLES / REPLICATES as u64
+        )
+    })
 }
 
 /// What to render. Serialises to (and reads from) JSON with codings as
@@ -338,8 +357,12 @@ fn render_in_pool(
         return Err(RenderError::Cancelled);
     }
     let start = Instant::now();
-    if settings.codings.is_empty() || settings.samples < 2 {
-        return Err(RenderError::Settings("need at least one coding and two samples".into()));
+    // One path asked for is one whole batch traced (the standard error
+    // comes from the batch's 16 replicates), so any count from 1 is valid.
+    if settings.codings.is_empty() || settings.samples == 0 {
+        return Err(RenderError::Settings(
+            "need at least one coding and at least one path per target".into(),
+        ));
     }
     let target_indices: Vec<usize> = match &settings.targets {
         None => (0..scene.target_list.len()).collect(),

@@ -246,7 +246,7 @@ pub async fn display_profile_chart(
             charts::line_chart(
                 &format!("display profile {id}: primaries at full drive (increment over black)"),
                 "wavelength (nm)",
-                "spectral radiance (W/(sr·m²·nm))",
+                &format!("spectral radiance ({})", crate::spectrum::SPECTRAL_RADIANCE_UNIT),
                 &series,
                 false,
             )
@@ -261,7 +261,7 @@ pub async fn display_profile_chart(
                 p.observer,
                 &[
                     ScatterSeries {
-                        name: "the display's gamut (red, green, blue)".into(),
+                        name: "display gamut (measured red, green, blue)".into(),
                         points: triangle,
                         connect: true,
                     },
@@ -302,7 +302,7 @@ pub async fn display_profile_chart(
                     additivity.white_xyz[1], additivity.delta_e00, p.observer
                 ),
                 "wavelength (nm)",
-                "spectral radiance (W/(sr·m²·nm))",
+                &format!("spectral radiance ({})", crate::spectrum::SPECTRAL_RADIANCE_UNIT),
                 &[
                     spectrum("white, measured", wavelength_nm, &additivity.white),
                     spectrum("black + R + G + B", wavelength_nm, &sum),

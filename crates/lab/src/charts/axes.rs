@@ -3,48 +3,50 @@
 
 use super::*;
 
-/// A tick label for `v` on a linear axis spanning `span`: as many decimals
-/// as the tick spacing needs, no more (never 0.30000000000000004), and
-/// scientific notation for very small or large values.
+/// The one tick formatter of every linear axis: a tick label for `v` on an
+/// axis spanning `span`. Every tick of an axis gets the same number of
+/// decimals, as many as the tick spacing needs and no more (never
+/// 0.30000000000000004), in plain decimals wherever they fit (up to
+/// [`PLAIN_DECIMALS`] decimals, values below 1e7: 0.00035, not 3.5e-4);
+/// only finer or larger axes use the exponent form, their mantissas to the
+/// tick spacing.
 pub fn tick_label(v: f64, span: f64) -> String {
     let span = span.abs();
-    let mag = v.abs().max(span);
-    if mag != 0.0 && !(1e-3..1e5).contains(&mag) {
-        // Zero, or plotters' float residue of it (7e-21 on an axis of 1e-4s),
-        // is "0", not "0e0" or "7e-21".
-        if v.abs() <= span * 1e-9 {
-            return "0".to_string();
-        }
-        // Mantissa decimals down to the tick spacing's decade (~10 ticks).
-        let step = (span / 10.0).max(mag * 1e-6);
-        let digits = if v == 0.0 {
-            0
-        } else {
-            ((v.abs().log10().floor() - step.log10().floor()).max(0.0) as usize).min(4)
-        };
-        return format!("{v:.digits$e}");
-    }
+    // Plotters' float residue of zero (7e-21 on an axis of 1e-4s) is zero.
+    let v = if v.abs() <= span * 1e-9 { 0.0 } else { v };
     // Plotters puts ~10 ticks on an axis; one more decimal than the spacing.
-    let step = (span / 10.0).max(1e-12);
+    let step = (span / 10.0).max(1e-300);
     let decimals = (-step.log10().floor()).max(0.0) as usize;
-    let s = format!("{v:.decimals$}");
-    // No "-0.00".
-    if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
-        s.trim_start_matches('-').to_string()
-    } else {
-        s
+    if decimals <= PLAIN_DECIMALS && v.abs().max(span) < 1e7 {
+        let s = format!("{v:.decimals$}");
+        // No "-0.00".
+        return if s.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+            s.trim_start_matches('-').to_string()
+        } else {
+            s
+        };
     }
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    // Mantissa decimals down to the tick spacing's decade.
+    let digits = ((v.abs().log10().floor() - step.log10().floor()).max(0.0) as usize).min(4);
+    format!("{v:.digits$e}")
 }
 
-/// A tick label on a logarithmic axis: three significant digits at most.
+/// The most decimals a tick label is written with before the exponent form.
+pub const PLAIN_DECIMALS: usize = 6;
+
+/// A tick label on a logarithmic axis: three significant digits at most,
+/// plain decimals from 1e-6 to 1e7 (0.0001, not 1e-4), as [`tick_label`].
 pub fn log_tick_label(v: f64) -> String {
     if v <= 0.0 || !v.is_finite() {
         return format!("{v}");
     }
-    if !(1e-3..1e5).contains(&v) {
+    if !(1e-6..1e7).contains(&v) {
         return format!("{v:.0e}");
     }
-    let decimals = (2 - v.log10().floor() as i32).clamp(0, 6) as usize;
+    let decimals = (2 - v.log10().floor() as i32).clamp(0, 8) as usize;
     let s = format!("{v:.decimals$}");
     if s.contains('.') {
         s.trim_end_matches('0').trim_end_matches('.').to_string()
@@ -104,7 +106,9 @@ pub(super) fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
         let half = (0.1 * lo.abs()).max(1e-3);
         return (lo - half, hi + half);
     }
-    let pad = 0.05 * (hi - lo);
+    // 8 % each side: on a plot of ~360 px the outermost marker (the
+    // measurement's, 8 px and its stroke) stays ≥ 10 px clear of the axes.
+    let pad = 0.08 * (hi - lo);
     (lo - pad, hi + pad)
 }
 

@@ -85,19 +85,7 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
             closed.push(locus[0].1);
             draw_clipped_line(&chart, &closed, BLACK.stroke_width(1), None)?;
             if k == 0 {
-                for &(nm, p) in locus
-                    .iter()
-                    .filter(|(nm, _)| [460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(nm))
-                {
-                    let dx = if nm < 510.0 { -34 } else { 6 };
-                    chart
-                        .draw_series(std::iter::once(
-                            EmptyElement::at(p)
-                                + Circle::new((0, 0), 2, BLACK.filled())
-                                + Text::new(format!("{nm:.0}"), (dx, -6), ("sans-serif", 12).into_font()),
-                        ))
-                        .map_err(err)?;
-                }
+                draw_locus_labels(&chart, &locus)?;
             }
             for (space, _, dashed) in gamuts {
                 let tri = vec![
@@ -144,4 +132,57 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
         root.present().map_err(err)?;
     }
     finished(svg)
+}
+
+/// The spectral locus' wavelength labels (460–620 nm every 20 nm), each a
+/// dot on its locus point and the number beside it, outward from the
+/// equal-energy white; where that would leave the plot area (500 nm sits
+/// a few px from the y axis), on the inner side. Never on the axis gutter
+/// among the tick labels (issue 46).
+fn draw_locus_labels<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    locus: &[(f64, (f64, f64))],
+) -> Result<(), String> {
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let (w_area, h_area) = ((xr.end - xr.start) as f64, (yr.end - yr.start) as f64);
+    let local = |p: (f64, f64)| {
+        let (x, y) = chart.as_coord_spec().translate(&p);
+        ((x - xr.start) as f64, (y - yr.start) as f64)
+    };
+    let area = chart.plotting_area().strip_coord_spec();
+    let white = local((1.0 / 3.0, 1.0 / 3.0));
+    const GAP: f64 = 5.0;
+    for &(nm, p) in locus
+        .iter()
+        .filter(|(nm, _)| [460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(nm))
+    {
+        let c = local(p);
+        let text = format!("{nm:.0}");
+        let (w, h) = super::scatter::label_extent(&text);
+        let (w, h) = (w as f64, h as f64);
+        let (dx, dy) = (c.0 - white.0, c.1 - white.1);
+        let len = dx.hypot(dy).max(1e-9);
+        let (ux, uy) = (dx / len, dy / len);
+        // From the point to the box's centre: the gap plus the box's reach
+        // along the direction.
+        let reach = GAP + 0.5 * (w * ux.abs() + h * uy.abs());
+        let fits = |x0: f64, y0: f64| x0 >= 2.0 && y0 >= 2.0 && x0 + w <= w_area - 2.0 && y0 + h <= h_area - 2.0;
+        let corner = |sign: f64| (c.0 + sign * reach * ux - 0.5 * w, c.1 + sign * reach * uy - 0.5 * h);
+        let (x0, y0) = [corner(1.0), corner(-1.0)]
+            .into_iter()
+            .find(|&(x0, y0)| fits(x0, y0))
+            .unwrap_or_else(|| {
+                let (x0, y0) = corner(1.0);
+                (x0.clamp(2.0, w_area - 2.0 - w), y0.clamp(2.0, h_area - 2.0 - h))
+            });
+        let at = |v: (f64, f64)| (v.0.round() as i32, v.1.round() as i32);
+        area.draw(&Circle::new(at(c), 2, BLACK.filled())).map_err(err)?;
+        area.draw(&Text::new(
+            text,
+            at((x0, y0)),
+            ("sans-serif", super::scatter::LABEL_PX).into_font(),
+        ))
+        .map_err(err)?;
+    }
+    Ok(())
 }

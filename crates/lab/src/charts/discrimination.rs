@@ -4,6 +4,11 @@
 
 use super::*;
 
+/// The top of the percent-correct axis: above 100 %, so that a diamond at
+/// 100 % (7 px) lies wholly inside the plot and the groups' names above it
+/// (the axis is labelled 0–100 only).
+const PERCENT_TOP: f64 = 114.0;
+
 /// One bar: an approximation of one scene.
 pub struct DiscriminationBar {
     /// The group (a scene) the bar belongs to.
@@ -63,7 +68,10 @@ pub fn discrimination_chart(title: &str, model: &str, bars: &[DiscriminationBar]
             .right_y_label_area_size(70)
             .build_cartesian_2d(Slots::new(-0.5..slots - 0.5, x.clone()), 0.0..top)
             .map_err(err)?
-            .set_secondary_coord(Slots::new(-0.5..slots - 0.5, x.clone()), 0.0..100.0);
+            .set_secondary_coord(
+                Slots::new(-0.5..slots - 0.5, x.clone()),
+                Slots::new(0.0..PERCENT_TOP, vec![0.0, 20.0, 40.0, 60.0, 80.0, 100.0]),
+            );
         let labels: Vec<(f64, String)> = x.iter().zip(bars).map(|(&v, b)| (v, b.coding.clone())).collect();
         mesh!(
             chart,
@@ -153,7 +161,7 @@ pub fn discrimination_chart(title: &str, model: &str, bars: &[DiscriminationBar]
             chart
                 .draw_secondary_series(std::iter::once(Text::new(
                     g.to_string(),
-                    (mid, 99.0),
+                    (mid, PERCENT_TOP - 1.0),
                     ("sans-serif", DESC_PX)
                         .into_font()
                         .color(&BLACK)

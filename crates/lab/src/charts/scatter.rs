@@ -503,7 +503,11 @@ pub(super) fn draw_scatter<'a, DB: DrawingBackend + 'a, X: Ranged<ValueType = f6
             style.size = (style.size / 2).max(2);
         }
         if s.connect {
-            let width = if is_measurement(&s.name) { 2 } else { 1 };
+            let width = if is_measurement(&s.name) || is_display_gamut(&s.name) {
+                2
+            } else {
+                1
+            };
             draw_clipped_line(chart, &s.points, style.colour.stroke_width(width), None)?;
         }
         let flags = hollow.and_then(|h| h.get(i));

@@ -2,6 +2,7 @@
 //! reflectance with its uncertainty.
 
 use super::*;
+use lightbooth_science::spectrum::SPECTRAL_RADIANCE_UNIT;
 
 /// A measured spectrum: the mean with a ±1 SD band and each raw sample.
 pub fn spectrum_chart(
@@ -23,11 +24,15 @@ pub fn spectrum_chart(
             wavelength_nm.last().copied().unwrap_or(780.0),
         );
         let mut chart = builder(&plot).build_cartesian_2d(x0..x1, 0.0..hi).map_err(err)?;
-        mesh!(chart, "wavelength (nm)", "spectral radiance (W·sr⁻¹·m⁻²·nm⁻¹)")
-            .x_label_formatter(&|v| tick_label(*v, x1 - x0))
-            .y_label_formatter(&|v| tick_label(*v, hi))
-            .draw()
-            .map_err(err)?;
+        mesh!(
+            chart,
+            "wavelength (nm)",
+            format!("spectral radiance ({SPECTRAL_RADIANCE_UNIT})")
+        )
+        .x_label_formatter(&|v| tick_label(*v, x1 - x0))
+        .y_label_formatter(&|v| tick_label(*v, hi))
+        .draw()
+        .map_err(err)?;
         let mut legend = Vec::new();
         let raw = RGBColor(86, 180, 233);
         for s in samples {

@@ -159,11 +159,29 @@ pub(super) fn is_measurement(name: &str) -> bool {
     n.starts_with("measured") || n.starts_with("measurement") || n.starts_with("truth")
 }
 
+/// A display's own gamut on a chromaticity diagram (a display profile's
+/// measured primaries): a purple line 2 px wide with square corners, apart
+/// from the grey sRGB and RADIANCE gamuts it is drawn among.
+pub const DISPLAY_GAMUT: Style = Style {
+    colour: RGBColor(118, 42, 131),
+    marker: Marker::Square,
+    size: MARKER_PX,
+};
+
+/// Whether a series is a display's own gamut ([`DISPLAY_GAMUT`]): its name
+/// starts with "display gamut".
+pub(super) fn is_display_gamut(name: &str) -> bool {
+    name.to_ascii_lowercase().starts_with("display gamut")
+}
+
 /// The style of a named series: its coding's, the measurement's, or the
 /// `other`-th of the neutral styles.
 pub(super) fn series_style(name: &str, other: &mut usize) -> Style {
     if is_measurement(name) {
         return MEASUREMENT;
+    }
+    if is_display_gamut(name) {
+        return DISPLAY_GAMUT;
     }
     if let Some(style) = display_channel_style(name) {
         return style;

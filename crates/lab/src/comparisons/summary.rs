@@ -96,6 +96,14 @@ fn summarise(
     rows: Vec<ComparisonRow>,
     measurements: &HashMap<i64, MeasurementDetail>,
 ) -> SceneComparisons {
+    // The store lists rows by target and coding name (nstep27 before
+    // nstep3): each target's codings in the one coding order instead.
+    let mut rows = rows;
+    rows.sort_by(|a, b| {
+        a.target
+            .cmp(&b.target)
+            .then_with(|| coding_order(&a.coding).cmp(&coding_order(&b.coding)))
+    });
     let mut codings: Vec<String> = rows.iter().map(|r| r.coding.clone()).collect();
     codings.sort_by_key(|c| coding_order(c));
     codings.dedup();
@@ -267,22 +275,9 @@ fn point_of(r: &ComparisonRow) -> PointDifference {
     }
 }
 
-/// Sorts codings as the study lists them: rgb, srgb, nstepN by N, spectral
-/// (an unknown name after every N-step).
-pub fn coding_order(c: &str) -> (u32, u32) {
-    match c {
-        "rgb" => (0, 0),
-        "srgb" => (1, 0),
-        "spectral" => (3, 0),
-        other => (
-            2,
-            other
-                .strip_prefix("nstep")
-                .and_then(|n| n.parse().ok())
-                .unwrap_or(u32::MAX),
-        ),
-    }
-}
+/// The one order of codings (rgb, srgb, nstepN by N, spectral), defined
+/// where codings are.
+pub use lightbooth_render::coding_order;
 
 #[cfg(test)]
 mod tests {
@@ -367,5 +362,56 @@ mod tests {
         let mut codings = vec!["spectral", "nstep16", "rgb", "nstep3", "srgb", "nstep9"];
         codings.sort_by_key(|c| coding_order(c));
         assert_eq!(codings, ["rgb", "srgb", "nstep3", "nstep9", "nstep16", "spectral"]);
+    }
+
+    /// The comparisons' JSON, CSV and MAT listed each target's codings in
+    /// the store's text order (nstep27 before nstep3, spectral before srgb):
+    /// rows and summaries in the one coding order.
+    #[test]
+    fn codings_listed_in_text_order_nstep27_before_nstep3() {
+        let row = |id: i64, target: &str, coding: &str| ComparisonRow {
+            id,
+            measurement_id: 1,
+            render_id: 1,
+            scene: "cylinder".into(),
+            target: target.into(),
+            coding: coding.into(),
+            observer: Observer::JuddVos,
+            white_source: "scene file".into(),
+            white_X: 95.0,
+            white_Y: 100.0,
+            white_Z: 108.0,
+            measured_X: 30.0,
+            measured_Y: 31.0,
+            measured_Z: 32.0,
+            rendered_X: 30.5,
+            rendered_Y: 31.5,
+            rendered_Z: 32.5,
+            rendered_Y_se: 0.01,
+            measured_Y_se: None,
+            Y_beyond_noise: None,
+            Y_ratio: 31.5 / 31.0,
+            xy_distance: 1e-3,
+            dE76: 1.0,
+            dE00: 0.8,
+            created_at: 0.0,
+        };
+        // As the store gives them: by target, then coding name.
+        let mut text_order = Vec::new();
+        for target in ["h01", "h02"] {
+            for coding in ["nstep27", "nstep3", "nstep81", "nstep9", "rgb", "spectral", "srgb"] {
+                text_order.push(row(text_order.len() as i64 + 1, target, coding));
+            }
+        }
+        let s = summarise("cylinder", Observer::JuddVos, text_order, &HashMap::new());
+        let natural = ["rgb", "srgb", "nstep3", "nstep9", "nstep27", "nstep81", "spectral"];
+        let codings: Vec<&str> = s.codings.iter().map(|c| c.coding.as_str()).collect();
+        assert_eq!(codings, natural);
+        let rows: Vec<(&str, &str)> = s.rows.iter().map(|r| (r.target.as_str(), r.coding.as_str())).collect();
+        let expected: Vec<(&str, &str)> = ["h01", "h02"]
+            .iter()
+            .flat_map(|t| natural.iter().map(move |c| (*t, *c)))
+            .collect();
+        assert_eq!(rows, expected);
     }
 }

@@ -202,10 +202,15 @@ impl SpectralUnit {
     }
 }
 
+/// The unit of spectral radiance as every chart, page and file header of
+/// lightbooth writes it (one spelling; ASCII-only formats write
+/// `W/(sr*m^2*nm)`).
+pub const SPECTRAL_RADIANCE_UNIT: &str = "W/(sr·m²·nm)";
+
 impl fmt::Display for SpectralUnit {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SpectralUnit::SpectralRadiance => write!(f, "spectral radiance W/(sr·m²·nm)"),
+            SpectralUnit::SpectralRadiance => write!(f, "spectral radiance {SPECTRAL_RADIANCE_UNIT}"),
             SpectralUnit::BandRadiance { band_nm } => {
                 write!(f, "band radiance W/(sr·m²) per {band_nm} nm band")
             }
