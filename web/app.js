@@ -493,7 +493,8 @@ async function showMeasurement(id) {
   tbody.replaceChildren();
   for (const s of m.samples) {
     const tr = tbody.insertRow();
-    for (const v of [s.index, new Date(s.time * 1000).toLocaleTimeString(), s.code, s.message, s.usable ? "yes" : "no",
+    // Numbered from 1, as the live progress counts them (the API's `index` is 0-based).
+    for (const v of [s.index + 1, new Date(s.time * 1000).toLocaleTimeString(), s.code, s.message, s.usable ? "yes" : "no",
       fmt(s.Y, 5), fmt(s.instrument_Y, 4)]) tr.insertCell().textContent = v;
   }
 }

@@ -79,6 +79,11 @@ try {
   await page.click("#measurement-table tbody tr");
   await page.waitForFunction(() => document.querySelectorAll("#sample-table tbody tr").length === 5);
   {
+    // Issue 46: samples were numbered from 0 where the progress counts from 1.
+    const numbers = await page.$$eval("#sample-table tbody tr", (rows) => rows.map((r) => r.cells[0].textContent));
+    if (numbers.join(",") !== "1,2,3,4,5") failures.push(`samples numbered ${numbers.join(",")}, not 1–5`);
+  }
+  {
     const summary = await page.$eval("#detail-summary", (e) => e.textContent);
     if (!/own CIE 1931 values: Y = [0-9.]+ cd\/m²/.test(summary)) failures.push(`detail without the instrument's own Y: ${summary}`);
   }
