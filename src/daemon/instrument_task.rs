@@ -554,7 +554,10 @@ impl Worker {
             .spectrum(scene, target, &mock.settings.cache_dir)
             .map_err(|e| format!("cannot render {scene}/{target}: {e}"))?;
         if let Some(Err(e)) = mock.with(|h| h.set_truth(truth)) {
-            return Err(format!("cannot aim the simulated {}: {e}", self.config.settings.capabilities().model));
+            return Err(format!(
+                "cannot aim the simulated {}: {e}",
+                self.config.settings.capabilities().model
+            ));
         }
         tracing::info!(scene, target, "simulated instrument aimed at the scene target");
         Ok(())
@@ -569,11 +572,12 @@ impl Worker {
                     match comparable {
                         // In its own observer: a colour, or a luminance meter's
                         // luminance alone.
-                        Ok(measured) => {
-                            self.config
-                                .comparisons
-                                .compare_measurement_later(id, scene.clone(), target.clone(), measured)
-                        }
+                        Ok(measured) => self.config.comparisons.compare_measurement_later(
+                            id,
+                            scene.clone(),
+                            target.clone(),
+                            measured,
+                        ),
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }
                 }

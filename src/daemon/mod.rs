@@ -265,7 +265,10 @@ pub async fn run(
     // another observer) are compared now, in the background.
     match comparisons.compare_left_over(&options.booth).await {
         Ok(0) => {}
-        Ok(n) => tracing::info!(measurements = n, "queued the comparisons of measurements left uncompared"),
+        Ok(n) => tracing::info!(
+            measurements = n,
+            "queued the comparisons of measurements left uncompared"
+        ),
         Err(e) => tracing::error!(error = %e, "cannot look for measurements left uncompared"),
     }
     let studies = Arc::new(StudyRunner::new(

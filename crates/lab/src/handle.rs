@@ -147,7 +147,10 @@ impl Lab {
     /// in the booth's comparison observer.
     pub async fn scenes_overview(&self) -> Result<ScenesOverview, LabError> {
         let scenes = self.scenes()?;
-        Ok(crate::scene_overview::scenes_overview(&self.store, &scenes, self.booth(), self.comparison_observer()).await?)
+        Ok(
+            crate::scene_overview::scenes_overview(&self.store, &scenes, self.booth(), self.comparison_observer())
+                .await?,
+        )
     }
 
     /// A scene's newest comparisons in the booth's comparison observer

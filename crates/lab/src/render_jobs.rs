@@ -340,7 +340,12 @@ impl RenderJobs {
 
     /// The CIELAB white of a scene in a booth in `observer` now, with its
     /// source (see [`crate::comparisons::white`]).
-    pub async fn cielab_white(&self, scene: &str, booth: &Booth, observer: Observer) -> Result<(Xyz, String), LabError> {
+    pub async fn cielab_white(
+        &self,
+        scene: &str,
+        booth: &Booth,
+        observer: Observer,
+    ) -> Result<(Xyz, String), LabError> {
         self.comparisons.white_xyz(scene, booth, observer).await
     }
 }

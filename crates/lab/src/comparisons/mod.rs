@@ -141,7 +141,11 @@ impl Comparisons {
                 continue;
             };
             if self.runner.catalogue().get(&scene).is_none() {
-                tracing::warn!(measurement_id = id, scene, "left uncompared: this daemon has no such scene");
+                tracing::warn!(
+                    measurement_id = id,
+                    scene,
+                    "left uncompared: this daemon has no such scene"
+                );
                 continue;
             }
             match stored_comparable(&m, self.runner.observer()) {
@@ -410,7 +414,8 @@ impl Comparisons {
                 .ok_or_else(|| LabError::NotFound(format!("no scene `{white_scene}`")))?
                 .hash
                 .clone();
-            let settings = serde_json::to_value(self.runner.comparison_settings_in(observer)).map_err(|e| internal(&e))?;
+            let settings =
+                serde_json::to_value(self.runner.comparison_settings_in(observer)).map_err(|e| internal(&e))?;
             let Some((render_id, result)) = self.store.find_render_result(&hash, &settings).await? else {
                 return Err(LabError::Conflict(format!(
                     "the CIELAB white of `{scene}` is {white_scene}/{target}, which is not measured in booth {booth} \
@@ -438,14 +443,9 @@ impl Comparisons {
                 .and_then(|scene| white::scene_white(&entry.path, &scene, observer))
                 .map_err(|e| internal(&e))?
         };
-        resolve_white(
-            &white,
-            Some((&self.store, booth)),
-            observer,
-            latest_render,
-        )
-        .await
-        .map_err(|e| e.into_error(|m| internal(&m)))
+        resolve_white(&white, Some((&self.store, booth)), observer, latest_render)
+            .await
+            .map_err(|e| e.into_error(|m| internal(&m)))
     }
 
     /// The render of `scene` comparisons in `observer` use
@@ -554,7 +554,10 @@ mod tests {
         let store = store_in(dir.path()).await;
         let (runner, _) = runner(&store);
         let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
-        match comparisons.white_xyz("white", &Booth::default(), Observer::JuddVos).await {
+        match comparisons
+            .white_xyz("white", &Booth::default(), Observer::JuddVos)
+            .await
+        {
             Err(LabError::Conflict(m)) => assert!(
                 m.contains("white/patch") && m.contains("POST /api/scenes/white/renders"),
                 "{m}"
@@ -566,7 +569,10 @@ mod tests {
             "nothing was rendered"
         );
         let render_id = render_white(&runner).await;
-        let (_, source) = comparisons.white_xyz("white", &Booth::default(), Observer::JuddVos).await.unwrap();
+        let (_, source) = comparisons
+            .white_xyz("white", &Booth::default(), Observer::JuddVos)
+            .await
+            .unwrap();
         assert_eq!(
             source,
             format!("render {render_id} spectral (white/patch; not yet measured)")
