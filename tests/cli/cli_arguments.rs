@@ -150,12 +150,12 @@ fn serve_help_lists_every_mock_model_and_names_no_single_model_for_the_simulator
         .unwrap();
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
+    // The flag's own text: its lines up to the next flag's.
     let mock = help
-        .split("--mock [<MODEL>]")
-        .nth(1)
-        .and_then(|s| s.split("\n  -").next())
-        .unwrap_or_default()
-        .split_whitespace()
+        .lines()
+        .skip_while(|l| !l.trim_start().starts_with("--mock [<MODEL>]"))
+        .skip(1)
+        .take_while(|l| !l.trim_start().starts_with('-'))
         .collect::<Vec<_>>()
         .join(" ");
     for model in lightbooth::instrument::MODEL_FLAGS {
