@@ -396,13 +396,29 @@ function observerName(o) {
   }[o] || "observer not recorded";
 }
 
+// The models that measure a spectrum (crates/lab/src/measurement.rs SPECTRORADIOMETERS).
+const SPECTRORADIOMETERS = ["PR-650", "PR-655", "PR-670", "CS-2000", "CS-2000A", "CS-3000", "CR-250", "CR-300"];
+
+// What the listed x, y and Y are in: each observer named, and whose numbers
+// they are — lightbooth's from a spectroradiometer's spectrum (the daemon's
+// --observer), a colorimeter's or a luminance meter's own.
+function observerNote(items) {
+  const observers = [...new Set(items.filter((m) => m.observer).map((m) => m.observer))];
+  if (!observers.length) return "";
+  const spectral = items.some((m) => m.observer && SPECTRORADIOMETERS.includes(m.instrument_model));
+  const own = items.some((m) => m.observer && !SPECTRORADIOMETERS.includes(m.instrument_model));
+  const parts = [`Y, x, y in the ${observers.map(observerName).join(" and the ")} observer` +
+    (observers.length > 1 ? " (each measurement's page names its own)" : "")];
+  if (spectral) parts.push("a spectroradiometer's computed by lightbooth from its spectrum in the daemon's --observer " +
+    "(the instrument's own CIE 1931 x, y are on each measurement's page)");
+  if (own) parts.push("a colorimeter's XYZ or a luminance meter's Y as the instrument gave it, in its own observer, " +
+    "which its comparisons use too");
+  return parts.join("; ") + ".";
+}
+
 async function loadMeasurements(openId) {
   const page = await api(`/api/measurements?${measurementQuery()}`);
-  const named = page.items.find((m) => m.observer);
-  $("observer-note").textContent = named
-    ? `x, y: computed by lightbooth from each spectrum with the ${observerName(named.observer)} observer ` +
-      "(the daemon's --observer); the instrument's own CIE 1931 x, y are on each measurement's page."
-    : "";
+  $("observer-note").textContent = observerNote(page.items);
   const tbody = document.querySelector("#measurement-table tbody");
   tbody.replaceChildren();
   for (const m of page.items) {
@@ -448,6 +464,11 @@ async function fillMeasurementFilter() {
   if (!names.includes(booths.this_daemon)) names.push(booths.this_daemon);
   for (const name of names.sort())
     $("filter-booth").add(new Option(name === booths.this_daemon ? `${name} (this daemon)` : name, name));
+  // Every instrument model the database has seen, this daemon's included.
+  const instruments = await api("/api/instruments");
+  const models = new Set(instruments.known.map((i) => i.model));
+  if (instruments.status && instruments.status.model) models.add(instruments.status.model);
+  for (const model of [...models].sort()) $("filter-model").add(new Option(model, model));
 }
 
 for (const id of ["filter-booth", "filter-model", "filter-scene", "filter-state"]) {
@@ -538,25 +559,14 @@ async function showComparison(box, m) {
   // A luminance meter's measurement has Y and no colour: it is compared in
   // luminance alone (GET /api/measurements/{id}/luminance-comparisons).
   const luminanceOnly = m.XYZ == null && m.x == null && m.Y != null;
-  const [rows, renders, health] = await Promise.all([
+  const [rows, renders] = await Promise.all([
     api(`/api/measurements/${m.id}/${luminanceOnly ? "luminance-comparisons" : "comparisons"}`),
     // A daemon without the renderer (503) lists no renders: its workers render.
-    api(`/api/scenes/${encodeURIComponent(m.scene)}/renders`).catch(() => []),
-    api("/api/health").catch(() => ({}))]);
+    api(`/api/scenes/${encodeURIComponent(m.scene)}/renders`).catch(() => [])]);
   if (comparisonBoxes.get(box) !== m) return; // another measurement was opened meanwhile
   const sceneLink = el("a", `the scene ${m.scene}: its charts and every target`);
   sceneLink.href = `#/scenes/${encodeURIComponent(m.scene)}`;
   const model = m.instrument_model || "instrument";
-  if (!rows.length && m.observer && health.observer && m.wavelength_nm == null &&
-      m.observer !== health.observer) {
-    // A colorimeter's XYZ or a luminance meter's Y cannot be recomputed in the daemon's observer.
-    const p = state(`Not compared: the ${model} measures in the ${observerName(m.observer)} observer and the ` +
-      `daemon compares in the ${observerName(health.observer)}; serve with --observer ${m.observer} to compare ` +
-      "its measurements. ");
-    p.append("See ", sceneLink, ".");
-    box.replaceChildren(heading, p);
-    return;
-  }
   if (!rows.length) {
     const busy = renders.find((r) => r.state === "running") || renders.find((r) => r.state === "queued");
     const newest = renders[0];
@@ -781,6 +791,18 @@ function codingFiguresTable(codings) {
   return t;
 }
 
+// The sentence beside a scene's empty table and charts: a luminance meter
+// gives no colour to compare in x, y and ΔE (its measurements' pages compare
+// their luminance); otherwise nothing is compared yet, in the observer named.
+function noComparisonReason(health, observer) {
+  if (health.instrument_measures === "luminance")
+    return `No colour comparison: the ${health.instrument_model} measures luminance only (${observerName(observer)} ` +
+      "V(λ)), so there is no x, y or ΔE to tabulate or chart here. Each of its measurements' pages compares its " +
+      "luminance with every coding (the Y ratio); a colorimeter or a spectroradiometer gives the colour comparison.";
+  return `No comparison yet: measure a target of this scene; its comparison with every coding, in the ` +
+    `${observerName(observer)} observer, appears here once stored.`;
+}
+
 async function loadSceneDetail(id) {
   openScene = id;
   const s = sceneInfo.find((x) => x.id === id);
@@ -806,6 +828,11 @@ async function loadSceneDetail(id) {
       ...claimCells(r.uncertainty)]) tr.insertCell().textContent = v;
   }
   $("coding-uncertainty-note").textContent = uncertaintyNote(c.codings);
+  // Why the table and charts are empty, when they are.
+  const why = c.rows.length ? "" : noComparisonReason(await api("/api/health").catch(() => ({})), c.observer);
+  if (openScene !== id) return;
+  $("scene-no-comparison").hidden = !why;
+  $("scene-no-comparison").textContent = why;
   const renders = await api(`/api/scenes/${id}/renders`);
   if (openScene !== id) return;
   showRenderJobs(renders);

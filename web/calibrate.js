@@ -268,6 +268,9 @@ async function showStoredProfiles() {
     $("cancel").disabled = false;
   });
   showStoredProfiles();
+  // The words name this booth's instrument, whichever model it is.
+  api("/api/health").then((h) => { if (h.instrument_model) $("instrument-model").textContent = h.instrument_model; })
+    .catch(() => {});
   const m = location.hash.match(/profile=(\d+)/);
   if (m) {
     try {

@@ -107,6 +107,8 @@ function checkView(check) {
 // ---- setting one up -------------------------------------------------------
 
 let comparisonsByMeasurement = new Map();
+// The listed measurements by id (what loadCodings says of one without comparisons).
+let measurementById = new Map();
 
 async function loadSetup() {
   const [list, profiles, measurements] = await Promise.all([
@@ -128,15 +130,21 @@ async function loadSetup() {
   $("profile").replaceChildren(...profiles.map((p) => {
     // A failed profile (fit residual or validation ΔE00 over its limit) is
     // listed, marked, and cannot be chosen.
+    // A luminance meter's profile (γ only, no primaries' colour) cannot
+    // show an experiment's colours: listed, saying so, and not offered.
     const failed = p.state === "failed";
+    const luminanceOnly = p.profile.black_cd_m2 != null;
     const o = el("option", `${p.id}: ${p.name} (${p.profile.observer}, ${when(p.created_at)})` +
-      (failed ? ` — FAILED: ${p.failures.join("; ")}` : ""));
+      (failed ? ` — FAILED: ${p.failures.join("; ")}` : "") +
+      (luminanceOnly ? " — a luminance meter's (γ only, no primaries' colour): cannot show colours; calibrate with a " +
+        "colorimeter or a spectroradiometer" : ""));
     o.value = p.id;
-    o.disabled = failed;
+    o.disabled = failed || luminanceOnly;
     return o;
   }));
   if (!profiles.length) $("profile").append(el("option", "no display profile: calibrate the display first (/calibrate)"));
   const items = (measurements.items || measurements).filter((m) => m.scene && m.target);
+  measurementById = new Map(items.map((m) => [m.id, m]));
   $("measurement").replaceChildren(...items.map((m) => {
     const o = el("option", `${m.id}: ${m.scene}/${m.target}, ${m.booth}, ${when(m.created_at)}`);
     o.value = m.id;
@@ -158,7 +166,13 @@ async function loadCodings() {
   const codings = [...new Set(rows.map((r) => r.coding))];
   box.replaceChildren();
   if (!codings.length) {
-    box.textContent = "this measurement has no comparisons yet";
+    // The real reason: a luminance meter's measurement has no colour to
+    // compare or show; otherwise its comparison is still being computed.
+    const m = measurementById.get(id);
+    box.textContent = m && m.XYZ == null && m.x == null && m.Y != null
+      ? `measurement ${id} is the ${m.instrument_model || "luminance meter"}'s: luminance only, no colour, so it has ` +
+        "no colour comparison to take approximations from; choose a colorimeter's or a spectroradiometer's measurement"
+      : `measurement ${id} has no comparisons yet: they are computed after it completes; reload in a moment`;
     return;
   }
   box.append(el("span", "approximations: "));

@@ -21,8 +21,9 @@ pub struct ServeArgs {
     #[arg(long, default_value = "lightbooth.toml")]
     config: PathBuf,
     /// Run a simulated instrument on a pseudo-terminal instead of opening the real port: the
-    /// model the instrument settings name (a PR-650 without them), or MODEL (pr650, pr655, pr670,
-    /// cs2000, cs2000a, cs3000), e.g. `--mock cs2000`.
+    /// model the instrument settings name (a PR-650 without them), or MODEL: a spectroradiometer
+    /// (pr650, pr655, pr670, cs2000, cs2000a, cs3000, cr250, cr300), a colorimeter (colorcal,
+    /// cs100a) or a luminance meter (ls100), e.g. `--mock cs2000`.
     #[arg(long, value_name = "MODEL", num_args = 0..=1, default_missing_value = "settings",
           value_parser = mock_model)]
     mock: Option<String>,
@@ -52,10 +53,11 @@ pub struct ServeArgs {
     /// pseudo-terminal). Repeatable.
     #[arg(long = "probe-port", value_name = "PATH", requires = "instrument")]
     probe_ports: Vec<String>,
-    /// Time scale of the simulated PR-650: 1 = the real instrument's timing, 0 = instant.
+    /// Time scale of the simulated instrument (--mock): 1 = the real model's timing, 0 = instant.
     #[arg(long, value_parser = super::time_scale)]
     mock_speed: Option<f64>,
-    /// Fault injected into the simulated PR-650, KIND[@DELAY][:RATE] (repeatable): KIND one of
+    /// Fault injected into the simulated instrument's link (--mock), KIND[@DELAY][:RATE]
+    /// (repeatable): KIND one of
     /// no-answer, truncate, garble, stale, error-code, cable-pull, slow, double-crlf, link-dies;
     /// RATE a probability 0–1, `once` or `Nx`; `slow` takes its delay, e.g. slow@2500ms:once
     /// (default 12 s). Also settable while running: POST /api/mock/faults.
@@ -72,7 +74,7 @@ pub struct ServeArgs {
     #[arg(long, value_name = "DIR")]
     scenes: Option<PathBuf>,
     /// With --mock: a folder of scene files with the same ids as the scenes
-    /// that the simulated PR-650 measures instead of the model (the booth as
+    /// that the simulated instrument measures instead of the model (the booth as
     /// it is, e.g. scenes/truth).
     #[arg(long, requires = "mock")]
     mock_world: Option<PathBuf>,

@@ -36,7 +36,7 @@ use crate::lab::events::Event;
 use crate::lab::instrument_queue::InstrumentStatus;
 use crate::lab::instrument_queue::MeasurementJob;
 use crate::lab::instrument_queue::MockControl;
-use crate::lab::measurement::{self as recorder, Comparable, Outcome, Recorder};
+use crate::lab::measurement::{self as recorder, Outcome, Recorder};
 use crate::lab::simulated_truth::SimulatedTruth;
 use crate::store::{Booth, MeasurementState, NewSample, Store};
 
@@ -139,11 +139,11 @@ impl MockControl for MockSlot {
 }
 
 impl MockSlot {
-    /// Aims the simulated PR-650 at the simulated display showing `truth`.
+    /// Aims the simulated instrument at the simulated display showing `truth`.
     fn aim_at_display(&self, truth: crate::spectrum::Spectrum, what: &str) -> Result<(), String> {
         *self.shown.lock().unwrap_or_else(|p| p.into_inner()) = Some(truth.clone());
         match self.with(|h| h.set_truth(truth)) {
-            Some(Err(e)) => Err(format!("cannot aim the simulated PR-650: {e}")),
+            Some(Err(e)) => Err(format!("cannot aim the simulated instrument: {e}")),
             // Not running (cable pulled): it sees the colour once powered on.
             _ => {
                 tracing::info!(shown = what, "simulated display shows a colour");
@@ -558,9 +558,12 @@ impl Worker {
         self.block_on(self.config.store.record_simulated_truth(job.id, truth.relative_se_y))
             .map_err(|e| format!("cannot record the simulated truth's standard error: {e}"))?;
         if let Some(Err(e)) = mock.with(|h| h.set_truth(truth.spectrum)) {
-            return Err(format!("cannot aim the simulated PR-650: {e}"));
+            return Err(format!(
+                "cannot aim the simulated {}: {e}",
+                self.config.settings.capabilities().model
+            ));
         }
-        tracing::info!(scene, target, "simulated PR-650 aimed at the scene target");
+        tracing::info!(scene, target, "simulated instrument aimed at the scene target");
         Ok(())
     }
 
@@ -570,15 +573,15 @@ impl Worker {
         let (state, error, port_lost) = match outcome {
             Outcome::Complete { comparable, .. } => {
                 if let (Some(scene), Some(target)) = (&job.scene, &job.target) {
-                    let comparisons = &self.config.comparisons;
                     match comparable {
-                        Ok(Comparable::Colour { xyz, y_se }) => {
-                            comparisons.compare_later(id, scene.clone(), target.clone(), xyz, y_se)
-                        }
-                        // A luminance meter's: compared in luminance alone.
-                        Ok(Comparable::Luminance { y, y_se }) => {
-                            comparisons.compare_luminance_later(id, scene.clone(), target.clone(), y, y_se)
-                        }
+                        // In its own observer: a colour, or a luminance meter's
+                        // luminance alone.
+                        Ok(measured) => self.config.comparisons.compare_measurement_later(
+                            id,
+                            scene.clone(),
+                            target.clone(),
+                            measured,
+                        ),
                         Err(e) => tracing::warn!(measurement_id = id, error = %e, "measurement not compared"),
                     }
                 }

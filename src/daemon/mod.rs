@@ -260,6 +260,17 @@ pub async fn run(
         lab_events.clone(),
         workers.clone(),
     ));
+    // Complete measurements left without a comparison (taken while the
+    // daemon stopped, or refused by an older daemon: a colorimeter's in
+    // another observer) are compared now, in the background.
+    match comparisons.compare_left_over(&options.booth).await {
+        Ok(0) => {}
+        Ok(n) => tracing::info!(
+            measurements = n,
+            "queued the comparisons of measurements left uncompared"
+        ),
+        Err(e) => tracing::error!(error = %e, "cannot look for measurements left uncompared"),
+    }
     let studies = Arc::new(StudyRunner::new(
         store.clone(),
         Arc::clone(&catalogue),

@@ -247,7 +247,14 @@ impl Worker {
                     .map_err(|e| format!("comparison job {}: its payload: {e}", job.id))?;
                 renderer
                     .comparisons
-                    .compare(job.subject_id, &p.scene, &p.target, p.measured_xyz(), p.measured_y_se)
+                    .compare(
+                        job.subject_id,
+                        &p.scene,
+                        &p.target,
+                        p.measured_xyz(),
+                        p.measured_y_se,
+                        p.observer.unwrap_or(renderer.runner.observer()),
+                    )
                     .await
                     .map_err(|e| e.to_string())
             }

@@ -137,3 +137,29 @@ fn a_config_file_with_preview_paths_0_is_refused_naming_the_key() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(!db.exists(), "the database was opened before the config was checked");
 }
+
+/// `serve --help` names every model `--mock` simulates (not only the
+/// spectroradiometers up to the CS-3000), and the simulated-instrument
+/// flags speak of the simulated instrument, whichever model it is, not of
+/// a PR-650.
+#[test]
+fn serve_help_lists_every_mock_model_and_names_no_single_model_for_the_simulator() {
+    let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+        .args(["serve", "--help"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    // The flag's own text: its lines up to the next flag's.
+    let mock = help
+        .lines()
+        .skip_while(|l| !l.trim_start().starts_with("--mock [<MODEL>]"))
+        .skip(1)
+        .take_while(|l| !l.trim_start().starts_with('-'))
+        .collect::<Vec<_>>()
+        .join(" ");
+    for model in lightbooth::instrument::MODEL_FLAGS {
+        assert!(mock.contains(model), "`--mock` does not list {model}: {mock}");
+    }
+    assert!(!help.contains("simulated PR-650"), "{help}");
+}

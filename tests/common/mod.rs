@@ -221,6 +221,16 @@ impl Daemon {
         Daemon::start_with(mock_speed, "127.0.0.1:0", None, Some(instrument), None).await
     }
 
+    /// Starts it with another instrument model on the database at `db_url`
+    /// (e.g. one a daemon before it left).
+    pub async fn start_instrument_on(
+        mock_speed: f64,
+        instrument: lightbooth::instrument::InstrumentSettings,
+        db_url: &str,
+    ) -> Daemon {
+        Daemon::start_with(mock_speed, "127.0.0.1:0", Some(db_url), Some(instrument), None).await
+    }
+
     /// Starts it with another instrument model, its comparisons in `observer`
     /// (`serve --observer`; a colorimeter's XYZ are compared only in its own).
     pub async fn start_instrument_in(

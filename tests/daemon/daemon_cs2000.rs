@@ -87,6 +87,10 @@ async fn a_cs2000_booth_measures_five_samples_stores_each_and_compares_every_cod
         ["nstep27", "nstep3", "nstep81", "nstep9", "rgb", "spectral", "srgb"],
         "{c}"
     );
+    // Its pages' words name the CS-2000 (Calibrate, the Measurements filter).
+    common::run_browser_script("instrument_words.mjs", d.addr, common::screenshot_dir())
+        .await
+        .unwrap_or_else(|e| panic!("{e}"));
     d.stop().await;
 }
 
@@ -168,10 +172,12 @@ async fn serve_mock_cs2000_and_serve_instrument_auto_drive_the_model_they_name_o
 
 /// A colorimeter booth (`serve --mock colorcal`): a five-sample measurement
 /// from the API keeps each sample's XYZ and no spectrum, its x, y are the
-/// instrument's CIE 1931 ones, named; a spectral view of it (chart, CSV)
-/// and a reflectance from it are refused naming the ColorCAL and what it
-/// measures; and with the daemon in Judd–Vos, no comparison mixes the two
-/// observers.
+/// instrument's CIE 1931 ones, named; a spectral view of it (chart, CSV,
+/// MAT file) and a reflectance from it are refused naming the ColorCAL and
+/// what it measures; and with the daemon in Judd–Vos (the default) it is
+/// compared with every coding in its own observer, CIE 1931 (renders weighted
+/// with it), each row naming it, never mixed with Judd–Vos; a study against
+/// it in Judd–Vos is refused before it is queued, saying why.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum() {
     use lightbooth::instrument::colorcal::ColorCalSettings;
@@ -179,6 +185,22 @@ async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum
     let d = Daemon::start_instrument(0.0, InstrumentSettings::ColorCal(ColorCalSettings::default())).await;
     let (_, health) = get_json(d.addr, "/api/health").await;
     assert_eq!(health["instrument"]["measures"], "XYZ", "{health}");
+    assert_eq!(health["observer"], "judd-vos-1978", "the daemon's default: {health}");
+    // A study that would measure WHITE first with the ColorCAL cannot run in Judd–Vos.
+    let (status, refused) = post_json(
+        d.addr,
+        "/api/studies",
+        TOKEN,
+        r#"{"scenes": "white", "measure_missing": true}"#,
+    )
+    .await;
+    assert_eq!(status, 409, "{refused}");
+    let message = refused["error"]["message"].as_str().unwrap_or_default();
+    assert!(
+        message.contains("ColorCAL") && message.contains("cie-1931") && message.contains("reference"),
+        "{refused}"
+    );
+    let mut ev = events(d.addr).await;
     let (status, m) = post_json(
         d.addr,
         "/api/measurements",
@@ -210,7 +232,7 @@ async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum
         "a colorimeter's XYZ stays in its own observer: {done}"
     );
 
-    for view in ["spectrum.svg", "spectrum.csv"] {
+    for view in ["spectrum.svg", "spectrum.csv", "spectrum.mat"] {
         let (status, body) = get_json(d.addr, &format!("/api/measurements/{id}/{view}")).await;
         assert_eq!(status, 409, "{view}: {body}");
         let text = body.to_string();
@@ -224,12 +246,36 @@ async fn a_colorcal_booth_keeps_xyz_per_sample_and_refuses_what_needs_a_spectrum
     )
     .await;
     assert_eq!(status, 400, "{body}");
-    // Judd–Vos daemon, CIE 1931 instrument: not compared rather than mixed.
-    tokio::time::sleep(Duration::from_secs(2)).await;
-    let (_, c) = get_json(d.addr, &format!("/api/measurements/{id}/comparisons")).await;
+    // Judd–Vos daemon, CIE 1931 instrument: compared in the instrument's
+    // observer, every row and the scene's summary naming it.
+    wait_for(&mut ev, "the comparison", Duration::from_secs(300), |name, v| {
+        name == "comparison_ready" && v["measurement_id"] == id
+    })
+    .await;
+    let (status, c) = get_json(d.addr, &format!("/api/measurements/{id}/comparisons")).await;
+    assert_eq!(status, 200, "{c}");
+    let rows = c.as_array().unwrap();
+    assert_eq!(rows.len(), 7, "every coding: {c}");
+    for r in rows {
+        assert_eq!(r["observer"], "cie-1931", "{r}");
+        assert_eq!(r["measured_X"], done["XYZ"][0], "the ColorCAL's own XYZ: {r}");
+        assert!(r["dE00"].as_f64().is_some_and(f64::is_finite), "{r}");
+    }
+    let (status, scene) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    assert_eq!(status, 200, "{scene}");
+    assert_eq!(scene["observer"], "cie-1931", "{scene}");
+    assert_eq!(scene["codings"].as_array().map(Vec::len), Some(7), "{scene}");
+    // WHITE measured: a study against it in Judd–Vos is refused, not failed after a 202.
+    let (status, refused) = post_json(d.addr, "/api/studies", TOKEN, r#"{"scenes": "white"}"#).await;
+    assert_eq!(status, 409, "{refused}");
+    let message = refused["error"]["message"].as_str().unwrap_or_default();
     assert!(
-        c.as_array().is_none_or(Vec::is_empty) && c["rows"].as_array().is_none_or(Vec::is_empty),
-        "{c}"
+        message.contains(&format!("measurement {id}")) && message.contains("cannot be recomputed in another observer"),
+        "{refused}"
     );
+    // Its pages' words name the ColorCAL; the scene page shows its comparison.
+    common::run_browser_script("instrument_words.mjs", d.addr, common::screenshot_dir())
+        .await
+        .unwrap_or_else(|e| panic!("{e}"));
     d.stop().await;
 }

@@ -172,6 +172,96 @@ async fn an_ls100_booth_keeps_each_samples_luminance_and_compares_it() {
     d.stop().await;
 }
 
+/// `serve --mock ls100` and `--mock cs100a` with the default observer
+/// (Judd–Vos): each meter's measurement is compared in its own observer
+/// (CIE 1931, whose ȳ is V(λ)), the renders weighted with it, never left
+/// uncompared — the CS-100A's colour with every coding, the LS-100's
+/// luminance alone — and every row and summary names that observer.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn meters_in_a_judd_vos_daemon_are_compared_in_their_own_observer() {
+    // The CS-100A: colour, every coding, summarised in CIE 1931.
+    let settings = InstrumentSettings::Ls100(Ls100Settings::for_model(ls100::Model::Cs100a));
+    let d = Daemon::start_instrument(0.0, settings).await;
+    let (_, health) = get_json(d.addr, "/api/health").await;
+    assert_eq!(health["observer"], "judd-vos-1978", "{health}");
+    let (id, _, mut ev) = five_samples(&d).await;
+    compared_with_every_coding(&d, id, &mut ev).await;
+    let (_, c) = get_json(d.addr, "/api/scenes/white/comparisons").await;
+    assert_eq!(c["observer"], "cie-1931", "{c}");
+    for r in c["rows"].as_array().unwrap() {
+        assert_eq!(r["observer"], "cie-1931", "{r}");
+    }
+    let (status, csv) = common::request(d.addr, "GET", "/api/scenes/white/comparisons.csv", None, None).await;
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&csv));
+    let mut reader = csv::Reader::from_reader(csv.as_slice());
+    let observer_column = reader.headers().unwrap().iter().position(|h| h == "observer");
+    let observer_column = observer_column.expect("an observer column");
+    let records: Vec<csv::StringRecord> = reader.records().map(Result::unwrap).collect();
+    assert_eq!(records.len(), 7, "a row per coding");
+    for r in &records {
+        assert_eq!(r.get(observer_column), Some("cie-1931"), "{r:?}");
+    }
+    d.stop().await;
+
+    // The LS-100: luminance alone, every coding, in CIE 1931.
+    let settings = InstrumentSettings::Ls100(Ls100Settings::for_model(ls100::Model::Ls100));
+    let d = Daemon::start_instrument(0.0, settings).await;
+    let (id, _, mut ev) = five_samples(&d).await;
+    wait_for(
+        &mut ev,
+        "the luminance comparison",
+        Duration::from_secs(300),
+        |name, v| name == "comparison_ready" && v["measurement_id"] == id,
+    )
+    .await;
+    let (status, rows) = get_json(d.addr, &format!("/api/measurements/{id}/luminance-comparisons")).await;
+    assert_eq!(status, 200, "{rows}");
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 7, "{rows:?}");
+    for r in rows {
+        assert_eq!(r["observer"], "cie-1931", "{r}");
+        assert!((0.8..1.2).contains(&r["Y_ratio"].as_f64().unwrap()), "{r}");
+    }
+    // The scene page says why its table and charts are empty; Calibrate names the LS-100.
+    common::run_browser_script("instrument_words.mjs", d.addr, common::screenshot_dir())
+        .await
+        .unwrap_or_else(|e| panic!("{e}"));
+    d.stop().await;
+}
+
+/// A ColorCAL measurement left without a comparison (refused by an older
+/// daemon, or taken as it stopped) is compared when the next daemon
+/// starts, in the ColorCAL's observer, with nothing asked.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_measurement_left_uncompared_is_compared_at_start_up() {
+    let dir = tempfile::tempdir().unwrap();
+    let url = format!("sqlite://{}", dir.path().join("lab.sqlite").display());
+    let colorcal = || InstrumentSettings::ColorCal(ColorCalSettings::default());
+    let d = Daemon::start_instrument_on(0.0, colorcal(), &url).await;
+    let (id, _, mut ev) = five_samples(&d).await;
+    compared_with_every_coding(&d, id, &mut ev).await;
+    d.stop().await;
+    // As an older daemon left it: complete, no comparison.
+    let pool = sqlx::SqlitePool::connect(&url).await.unwrap();
+    sqlx::query("DELETE FROM comparisons WHERE measurement_id = $1")
+        .bind(id)
+        .execute(&pool)
+        .await
+        .unwrap();
+    pool.close().await;
+
+    let d = Daemon::start_instrument_on(0.0, colorcal(), &url).await;
+    let path = format!("/api/measurements/{id}/comparisons");
+    let c = common::poll_until(d.addr, &path, Duration::from_secs(120), |v| {
+        v.as_array().is_some_and(|rows| !rows.is_empty())
+    })
+    .await;
+    let rows = c.as_array().unwrap();
+    assert_eq!(rows.len(), 7, "every coding: {c}");
+    assert!(rows.iter().all(|r| r["observer"] == "cie-1931"), "{c}");
+    d.stop().await;
+}
+
 /// The Colorimetry Research spectroradiometers in the default (Judd–Vos)
 /// booth: each sample's spectrum on the instrument's own grid.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -12,6 +12,7 @@
 
 use std::sync::Arc;
 
+use lightbooth_instrument::Reading;
 use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{
     Booth, BoothRow, ComparisonRow, DisplayProfileRow, ExperimentSessionRow, IlluminantRow, InstrumentRow,
@@ -73,7 +74,9 @@ impl Lab {
     pub fn new(store: Store, observer: Observer, instrument: BoothInstrument, renders: Option<Arc<RenderJobs>>) -> Lab {
         Lab {
             experiments: Experiments::new(store.clone()),
-            computed: Arc::new(Computed::new(store.clone(), observer)),
+            // Summaries in the booth's comparison observer (see
+            // `comparison_observer`): the instrument's is fixed for the daemon's life.
+            computed: Arc::new(Computed::new(store.clone(), comparison_observer(&instrument, observer))),
             store,
             observer,
             instrument,
@@ -153,7 +156,16 @@ impl Lab {
         })
     }
 
-    /// Every scene at a glance in this booth (see [`crate::scene_overview`]).
+    /// The observer this booth's comparisons are made and summarised in:
+    /// the instrument's own for a colorimeter or a luminance meter (its XYZ
+    /// or Y cannot be recomputed in another; the renders are weighted with
+    /// its observer instead), this lab's for a spectroradiometer.
+    pub fn comparison_observer(&self) -> Observer {
+        comparison_observer(&self.instrument, self.observer)
+    }
+
+    /// Every scene at a glance in this booth (see [`crate::scene_overview`]),
+    /// in the booth's comparison observer.
     pub async fn scenes_overview(&self) -> Result<ScenesOverview, LabError> {
         let scenes = self.scenes()?;
         let mut comparisons = Vec::with_capacity(scenes.len());
@@ -161,21 +173,23 @@ impl Lab {
             comparisons.push(self.computed.scene_comparisons(&s.id).await?);
         }
         Ok(
-            crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.observer)
+            crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.comparison_observer())
                 .await?,
         )
     }
 
-    /// A scene's newest comparisons in this lab's observer, per coding,
-    /// computed once for them ([`crate::computed`]).
+    /// A scene's newest comparisons in the booth's comparison observer
+    /// ([`Self::comparison_observer`]), per coding, computed once for them
+    /// ([`crate::computed`]).
     pub async fn scene_comparisons(&self, scene: &str) -> Result<Arc<SceneComparisons>, LabError> {
         self.scene(scene)?;
         self.computed.scene_comparisons(scene).await
     }
 
-    /// The CIELAB white of a scene in this booth now, with its source.
+    /// The CIELAB white of a scene in this booth now in this lab's
+    /// observer, with its source.
     pub async fn cielab_white(&self, scene: &str) -> Result<(Xyz, String), LabError> {
-        self.renders()?.cielab_white(scene, self.booth()).await
+        self.renders()?.cielab_white(scene, self.booth(), self.observer).await
     }
 
     /// The (scene, target) pairs of `scenes` (every scene when `None`) with
@@ -193,6 +207,58 @@ impl Lab {
             .flat_map(|s| s.targets.iter().map(move |t| (s.id.clone(), t.clone())))
             .filter(|pair| !measured.contains(pair))
             .collect())
+    }
+
+    /// Whether a study against `booth`'s measurements of `scenes` (every
+    /// scene when `None`) can run in this lab's observer, checked before it
+    /// is queued: each target's newest complete measurement there must give
+    /// an XYZ in it (a colorimeter's only in its own observer, a luminance
+    /// meter's never), and so must the booth's instrument when it is to
+    /// measure the missing targets first (`measures_missing`). A
+    /// [`LabError::Conflict`] saying why and what to do otherwise.
+    pub async fn check_study_measurements(
+        &self,
+        scenes: Option<&[&str]>,
+        booth: &Booth,
+        measures_missing: bool,
+    ) -> Result<(), LabError> {
+        let observer = self.observer;
+        let refused = |why: String| {
+            LabError::Conflict(format!(
+                "a study against booth {booth}'s measurements works in the daemon's observer ({observer}) and \
+                 cannot run: {why}; or start it with \"against\": \"reference\""
+            ))
+        };
+        if measures_missing {
+            let model = self.instrument.capabilities().model;
+            match self.instrument.capabilities().reading {
+                Reading::Luminance { .. } => {
+                    return Err(refused(format!(
+                        "the {model} measures luminance only, and the study compares x, y and ΔE: measure with a \
+                         colorimeter or a spectroradiometer"
+                    )))
+                }
+                Reading::Tristimulus { observer: own } if own != observer => {
+                    return Err(refused(format!(
+                        "the {model} measures XYZ in the {own} observer, which cannot be recomputed in another: \
+                         serve with --observer {own}, or measure with a spectroradiometer"
+                    )))
+                }
+                _ => {}
+            }
+        }
+        for scene in self
+            .scenes_if_any()
+            .iter()
+            .filter(|s| scenes.is_none_or(|c| c.contains(&s.id.as_str())))
+        {
+            for target in &scene.targets {
+                if let Some(m) = self.store.latest_complete_in_booth(&scene.id, target, booth).await? {
+                    crate::comparisons::white::measured_xyz(&m, observer).map_err(refused)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     // ---- renders ----
@@ -440,5 +506,14 @@ impl From<MeasuredError> for LabError {
             MeasuredError::WrongState(m) => LabError::Conflict(m),
             MeasuredError::Store(e) => e.into(),
         }
+    }
+}
+
+/// The observer `instrument`'s comparisons are made in: its own for a
+/// colorimeter or a luminance meter, `lab`'s for a spectroradiometer.
+fn comparison_observer(instrument: &BoothInstrument, lab: Observer) -> Observer {
+    match instrument.capabilities().reading {
+        Reading::Tristimulus { observer } | Reading::Luminance { observer } => observer,
+        Reading::Spectrum => lab,
     }
 }

@@ -382,35 +382,90 @@ pub fn sample_row(s: &Sample, reading: Reading) -> NewSample {
 }
 
 /// What a complete measurement is compared with the renderings as, with the
-/// standard error of its Y: the one place a measurement becomes the
-/// comparisons' input, for the daemon's instrument task and the render
-/// workers alike.
+/// standard error of its Y and the observer it is in: the one place a
+/// measurement becomes the comparisons' input, for the daemon's instrument
+/// task, the render workers and the start-up's catch-up alike.
+///
+/// A render's spectra can be weighted with any observer, a colorimeter's
+/// XYZ or a luminance meter's Y only with the instrument's: so a
+/// spectroradiometer's measurement is compared in the daemon's observer
+/// (`serve --observer`), a colorimeter's and a luminance meter's in their
+/// own, whatever the daemon's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Comparable {
     /// A spectroradiometer's (XYZ of the mean spectrum) or a colorimeter's
     /// (its own mean XYZ) colour, compared in x, y, Y and ΔE.
-    Colour { xyz: Xyz, y_se: f64 },
+    Colour { xyz: Xyz, y_se: f64, observer: Observer },
     /// A luminance meter's mean Y, compared in luminance alone.
-    Luminance { y: f64, y_se: f64 },
+    Luminance { y: f64, y_se: f64, observer: Observer },
 }
 
-/// The measurement as the comparisons take it in `observer` ([`Comparable`]),
-/// or why it cannot be compared (see [`comparable_xyz`] and
-/// [`comparable_luminance`]).
+impl Comparable {
+    /// The observer it is compared in.
+    pub fn observer(&self) -> Observer {
+        match *self {
+            Comparable::Colour { observer, .. } | Comparable::Luminance { observer, .. } => observer,
+        }
+    }
+}
+
+/// The measurement as the comparisons take it ([`Comparable`]): a spectrum
+/// in `observer` (the daemon's), a colorimeter's XYZ or a luminance
+/// meter's Y in the instrument's own observer; or why it cannot be compared.
 pub fn comparable(avg: &AveragedMeasurement, observer: Observer) -> Result<Comparable, String> {
     let usable = avg.good_samples().count();
-    if let Some(luminance) = comparable_luminance(avg, observer) {
-        let y = luminance?;
+    if let Some((y, own)) = comparable_luminance(avg) {
         return Ok(Comparable::Luminance {
             y,
             y_se: mean_y_standard_error(avg.luminance_cv, y, usable),
+            observer: own,
         });
     }
-    let xyz = comparable_xyz(avg, observer)?;
+    let (xyz, observer) = comparable_xyz(avg, observer)?;
     Ok(Comparable::Colour {
         xyz,
         y_se: mean_y_standard_error(avg.luminance_cv, xyz.y, usable),
+        observer,
     })
+}
+
+/// A stored complete measurement as the comparisons take it (as
+/// [`comparable`] does for one just taken): its mean spectrum's XYZ in
+/// `observer`, a colorimeter's stored XYZ or a luminance meter's stored Y
+/// in the observer stored with it. Used to compare measurements left
+/// uncompared ([`crate::comparisons::Comparisons::compare_left_over`]).
+pub fn stored_comparable(m: &lightbooth_store::MeasurementDetail, observer: Observer) -> Result<Comparable, String> {
+    let s = &m.summary;
+    let usable = usize::try_from(s.good_samples).unwrap_or(0);
+    let cv = s.luminance_cv.unwrap_or(0.0);
+    if m.radiance.is_some() {
+        let xyz = crate::comparisons::white::measured_xyz(m, observer)?
+            .ok_or_else(|| format!("measurement {}: no XYZ of its mean spectrum", s.id))?;
+        return Ok(Comparable::Colour {
+            xyz,
+            y_se: mean_y_standard_error(cv, xyz.y, usable),
+            observer,
+        });
+    }
+    match (s.xyz, s.luminance_cd_m2, s.observer) {
+        (Some(xyz), _, Some(own)) => {
+            let xyz = Xyz::from_array(xyz);
+            Ok(Comparable::Colour {
+                xyz,
+                y_se: mean_y_standard_error(cv, xyz.y, usable),
+                observer: own,
+            })
+        }
+        (None, Some(y), Some(own)) => Ok(Comparable::Luminance {
+            y,
+            y_se: mean_y_standard_error(cv, y, usable),
+            observer: own,
+        }),
+        _ => Err(format!(
+            "measurement {}: no spectrum, no XYZ and no luminance with its observer",
+            s.id
+        )),
+    }
 }
 
 /// The standard error of a measurement's mean Y from the coefficient of
@@ -420,27 +475,21 @@ pub fn mean_y_standard_error(luminance_cv: f64, y: f64, usable: usize) -> f64 {
     luminance_cv * y / (usable.max(1) as f64).sqrt()
 }
 
-/// The XYZ of an averaged measurement in `observer`, for comparing it with
-/// renderings: of its mean spectrum; or a colorimeter's own mean XYZ when
-/// it is in `observer` (a colorimeter's XYZ cannot be recomputed in another
-/// observer, and mixing two observers in one ΔE is refused); a luminance
-/// meter's Y alone is no colour and is refused.
-pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<Xyz, String> {
+/// The XYZ of an averaged measurement for comparing it with renderings,
+/// with the observer it is in: of its mean spectrum in `observer`; or a
+/// colorimeter's own mean XYZ in its own observer (a colorimeter's XYZ
+/// cannot be recomputed in another observer; the renders are weighted with
+/// its observer instead). A luminance meter's Y alone is no colour and is
+/// refused.
+pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<(Xyz, Observer), String> {
     match (&avg.mean, avg.reading) {
-        (Some(mean), _) => xyz_from_radiance(mean, observer).map_err(|e| format!("XYZ of the mean spectrum: {e}")),
-        (None, Reading::Tristimulus { observer: own }) if own == observer => avg
+        (Some(mean), _) => xyz_from_radiance(mean, observer)
+            .map(|xyz| (xyz, observer))
+            .map_err(|e| format!("XYZ of the mean spectrum: {e}")),
+        (None, Reading::Tristimulus { observer: own }) => avg
             .instrument_xyz
-            .map(Xyz::from_array)
-            .ok_or_else(|| "the colorimeter gave no XYZ".to_string()),
-        (None, Reading::Tristimulus { observer: own }) => Err(format!(
-            "the {} measures XYZ in the {} observer, and the comparisons are in the {}: a colorimeter's XYZ \
-             cannot be recomputed in another observer. Serve with --observer {} to compare its measurements, \
-             or measure with a spectroradiometer",
-            avg.info.model,
-            own.name(),
-            observer.name(),
-            own.name()
-        )),
+            .map(|xyz| (Xyz::from_array(xyz), own))
+            .ok_or_else(|| format!("the {} gave no XYZ", avg.info.model)),
         (None, Reading::Luminance { .. }) => Err(format!(
             "the {} measures luminance only, no colour: x, y and ΔE need a colorimeter or a spectroradiometer",
             avg.info.model
@@ -450,31 +499,18 @@ pub fn comparable_xyz(avg: &AveragedMeasurement, observer: Observer) -> Result<X
 }
 
 /// The luminance of a luminance meter's averaged measurement, for comparing
-/// it with renderings in luminance alone: its mean Y, when the meter's
-/// spectral weighting (V(λ), CIE 1931's ȳ) is `observer`'s ȳ. Another
-/// observer's ȳ weights the rendered spectra differently, so that
-/// comparison would mix two luminances and is refused, saying what to do.
-/// `None` for a measurement that is not a luminance meter's (see
-/// [`comparable_xyz`]).
-pub fn comparable_luminance(avg: &AveragedMeasurement, observer: Observer) -> Option<Result<f64, String>> {
+/// it with renderings in luminance alone: its mean Y and the observer whose
+/// ȳ is the meter's spectral weighting (V(λ): CIE 1931's), which the
+/// renders it is compared with are weighted by. `None` for a measurement
+/// that is not a luminance meter's (see [`comparable_xyz`]).
+pub fn comparable_luminance(avg: &AveragedMeasurement) -> Option<(f64, Observer)> {
     let Reading::Luminance { observer: own } = avg.reading else {
         return None;
     };
     if avg.mean.is_some() {
         return None;
     }
-    Some(if own == observer {
-        Ok(avg.luminance_cd_m2)
-    } else {
-        Err(format!(
-            "the {} measures luminance weighted by the {} observer's ȳ, and the comparisons are in the {}: \
-             serve with --observer {} to compare its measurements in luminance",
-            avg.info.model,
-            own.name(),
-            observer.name(),
-            own.name()
-        ))
-    })
+    Some((avg.luminance_cd_m2, own))
 }
 
 /// The average of a measurement as the store keeps it. With a spectrum:
@@ -694,7 +730,7 @@ mod tests {
             "(sample, rows stored when it is handed on)"
         );
         let Outcome::Complete {
-            comparable: Ok(Comparable::Colour { xyz, y_se }),
+            comparable: Ok(Comparable::Colour { xyz, y_se, .. }),
             ..
         } = outcome
         else {

@@ -20,7 +20,7 @@ use crate::error::LabError;
 use crate::requests::{RenderRequest, SceneInfo, StudyRequest};
 use crate::study::run::StudyOptions;
 use lightbooth_render::RenderSettings;
-use lightbooth_science::colorimetry::Xyz;
+use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{already_retried_message, Booth, Job, JobEnd, Store};
 
 /// A job's work, as the queue carries it.
@@ -338,10 +338,15 @@ impl RenderJobs {
         self.progress.as_deref()
     }
 
-    /// The CIELAB white of a scene in a booth now, with its source (see
-    /// [`crate::comparisons::white`]).
-    pub async fn cielab_white(&self, scene: &str, booth: &Booth) -> Result<(Xyz, String), LabError> {
-        self.comparisons.white_xyz(scene, booth).await
+    /// The CIELAB white of a scene in a booth in `observer` now, with its
+    /// source (see [`crate::comparisons::white`]).
+    pub async fn cielab_white(
+        &self,
+        scene: &str,
+        booth: &Booth,
+        observer: Observer,
+    ) -> Result<(Xyz, String), LabError> {
+        self.comparisons.white_xyz(scene, booth, observer).await
     }
 }
 

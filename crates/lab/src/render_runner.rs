@@ -183,6 +183,16 @@ impl RenderRunner {
             .expect("an empty request names no field to refuse")
     }
 
+    /// The settings of the renders comparisons in `observer` use: the
+    /// comparison settings with the spectra weighted by `observer` (a
+    /// colorimeter's own, which may not be the runner's).
+    pub fn comparison_settings_in(&self, observer: Observer) -> RenderSettings {
+        RenderSettings {
+            observer,
+            ..self.comparison_settings()
+        }
+    }
+
     /// How a render or study stopped without a result ends ([`job_end`]
     /// with this runner's shutdown).
     pub fn end_of(&self, job: Job, cancelled: bool, error: Option<String>) -> (JobEnd, String) {

@@ -93,10 +93,15 @@ fn default_preview_paths() -> u64 {
 pub struct ComparisonPayload {
     pub scene: String,
     pub target: String,
-    /// The measured XYZ with the daemon's observer.
+    /// The measured XYZ in `observer`.
     pub measured: [f64; 3],
     /// The standard error of the measured Y.
     pub measured_y_se: f64,
+    /// The observer of `measured` and of the comparison (a colorimeter's
+    /// own); absent in a job queued before it was stated: the asking
+    /// daemon's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observer: Option<Observer>,
 }
 
 impl ComparisonPayload {
@@ -253,12 +258,14 @@ impl WorkerQueue {
         target: &str,
         measured: Xyz,
         measured_y_se: f64,
+        observer: Observer,
     ) -> Result<i64, StoreError> {
         let payload = ComparisonPayload {
             scene: scene.to_string(),
             target: target.to_string(),
             measured: measured.to_array(),
             measured_y_se,
+            observer: Some(observer),
         };
         let payload = serde_json::to_value(&payload).expect("a comparison payload serialises");
         let id = self

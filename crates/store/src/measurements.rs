@@ -258,6 +258,27 @@ impl Store {
         })
     }
 
+    /// The complete measurements of a scene target taken in `booth` that
+    /// have no comparison (colour or luminance) and no comparison queued or
+    /// running on a render worker, oldest first: those left uncompared.
+    pub fn uncompared_measurements<'a>(&'a self, booth: &'a Booth) -> BoxFuture<'a, Result<Vec<i64>, StoreError>> {
+        Box::pin(async move {
+            let ids: Vec<(i64,)> = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT m.id FROM measurements m \
+                 WHERE m.state = 'complete' AND m.scene IS NOT NULL AND m.target IS NOT NULL AND m.booth = $1 \
+                 AND NOT EXISTS (SELECT 1 FROM comparisons c WHERE c.measurement_id = m.id) \
+                 AND NOT EXISTS (SELECT 1 FROM luminance_comparisons l WHERE l.measurement_id = m.id) \
+                 AND NOT EXISTS (SELECT 1 FROM worker_jobs w WHERE w.kind = 'comparison' \
+                     AND w.subject_id = m.id AND w.state IN ('queued', 'running')) \
+                 ORDER BY m.id",
+            )
+            .bind(booth.as_str())
+            .fetch_all(pool)
+            .await?);
+            Ok(ids.into_iter().map(|(id,)| id).collect())
+        })
+    }
+
     /// One measurement with all its samples.
     pub fn get_measurement<'a>(&'a self, id: i64) -> BoxFuture<'a, Result<Option<MeasurementDetail>, StoreError>> {
         Box::pin(async move {

@@ -401,7 +401,7 @@ pub async fn scene_chart(
         )));
     }
     let svg = match chart.as_str() {
-        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, state.lab.observer()),
+        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, c.observer),
         "profile.svg" => crate::http::scene_charts::profile(&c, &info),
         "rms.svg" => crate::http::scene_charts::rms(&c),
         "de.svg" => crate::http::scene_charts::delta_e(&c),

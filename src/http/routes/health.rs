@@ -47,6 +47,17 @@ pub struct Health {
     /// Samples per measurement when a request names none (a study's
     /// `measure_missing` queues that many per target).
     pub default_samples: usize,
+    /// The model of this daemon's instrument (`PR-650`, `CS-2000`,
+    /// `ColorCAL MkII`, `LS-100`, …), whatever it is doing now: the words of
+    /// a page that asks the operator to aim it.
+    pub instrument_model: String,
+    /// What its measurement gives: `spectrum`, `XYZ` or `luminance`.
+    pub instrument_measures: String,
+    /// The observer this booth's comparisons are made in: the daemon's
+    /// (`observer`) for a spectroradiometer, the instrument's own for a
+    /// colorimeter or a luminance meter (its XYZ or Y cannot be recomputed
+    /// in another).
+    pub comparison_observer: String,
     pub instrument: InstrumentStatus,
     /// The thread that owns the instrument: `running`, `restarting` or `stopped`.
     pub instrument_task: String,
@@ -107,6 +118,9 @@ pub async fn health(State(state): State<AppState>) -> Result<(StatusCode, Json<H
             version: env!("CARGO_PKG_VERSION").into(),
             observer: state.lab.observer().name().into(),
             default_samples: state.lab.instrument().capabilities().default_samples,
+            instrument_model: state.lab.instrument().capabilities().model.into(),
+            instrument_measures: state.lab.instrument().capabilities().reading.name().into(),
+            comparison_observer: state.lab.comparison_observer().name().into(),
             instrument,
             instrument_task: task.into(),
             queued_measurements: state.lab.instrument().queued(),

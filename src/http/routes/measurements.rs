@@ -223,10 +223,14 @@ pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>)
 /// samples (one column per sample; NaN where a sample had no valid
 /// spectrum), sample_code, sample_usable, Y, x, y (with `observer`), and
 /// the instrument's own CIE 1931 instrument_Y, instrument_x, instrument_y.
+/// A colorimeter's or a luminance meter's measurement has no spectrum: 409,
+/// as the CSV and the chart (never a grid and NaN it did not measure).
 #[utoipa::path(get, path = "/measurements/{id}/spectrum.mat", tag = "measurements",
-    params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data")))]
+    params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data"),
+        (status = 409, body = crate::http::error::ErrorBody, description = "the instrument gives no spectrum (XYZ or luminance only)")))]
 pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let m = load_measurement(&state, id).await?;
+    refuse_without_spectra(&m, "a MAT file of its spectra")?;
     let wl = sample_grid(&m)?;
     let mut mat = MatFile::new();
     let internal = |e: String| ApiError::Internal(e);

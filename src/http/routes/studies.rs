@@ -48,7 +48,7 @@ pub struct StudyAccepted {
     responses((status = 202, body = StudyAccepted), (status = 400, body = crate::http::error::ErrorBody),
               (status = 401, body = crate::http::error::ErrorBody),
               (status = 409, body = crate::http::error::ErrorBody,
-               description = "measurements are missing, the instrument queue cannot take them, or the render queue is full"),
+               description = "measurements are missing, cannot give XYZ in the daemon's observer (a colorimeter's in another, a luminance meter's), the instrument queue cannot take them, or the render queue is full"),
               (status = 503, body = crate::http::error::ErrorBody, description = "measurements are missing and the instrument is unavailable")),
     security(("bearer" = [])))]
 pub async fn start_study(
@@ -76,6 +76,12 @@ pub async fn start_study(
             .as_deref()
             .map(|list| list.split(',').map(str::trim).filter(|s| !s.is_empty()).collect());
         let missing = state.lab.unmeasured_targets(chosen.as_deref(), &booth).await?;
+        // A study that cannot run is refused now, not failed after the 202.
+        let measures_missing = !missing.is_empty() && body.measure_missing == Some(true);
+        state
+            .lab
+            .check_study_measurements(chosen.as_deref(), &booth, measures_missing)
+            .await?;
         if !missing.is_empty() && body.measure_missing == Some(true) && &booth != state.lab.booth() {
             return Err(ApiError::BadRequest(format!(
                 "field `booth`: this daemon measures in booth {}; it cannot measure the missing targets of booth \

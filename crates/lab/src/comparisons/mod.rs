@@ -9,9 +9,21 @@
 //!
 //! # The observer
 //!
-//! Every XYZ, x,y, CIELAB and ΔE uses the one observer of the
-//! [`RenderRunner`] (`serve --observer`): the renders' settings, the
-//! measured XYZ and the white; every comparison row names it.
+//! A comparison is made in the observer of what was measured
+//! ([`Comparable::observer`](crate::measurement::Comparable::observer)): a
+//! spectroradiometer's spectrum in the [`RenderRunner`]'s
+//! (`serve --observer`), a colorimeter's XYZ or a luminance meter's Y in the
+//! instrument's own (a render's spectra can be weighted with any observer,
+//! a colorimeter's XYZ only with its own). The render compared with is one
+//! at the comparison settings in that observer, the white is in it, and
+//! every comparison row names it.
+//!
+//! # Measurements left uncompared
+//!
+//! [`Comparisons::compare_left_over`] (the daemon's start-up) compares
+//! every complete measurement of a scene target in the booth that has no
+//! comparison and none queued — one taken while the daemon was stopping,
+//! or refused by an older daemon — and says so in the log.
 //!
 //! # The CIELAB reference white
 //!
@@ -47,9 +59,10 @@ use tokio::runtime::Handle;
 
 use super::error::LabError;
 use super::events::{Event, EventSink};
+use super::measurement::{stored_comparable, Comparable};
 use super::render_runner::{RenderRunner, StoredRenderResult};
 use super::worker_queue::WorkerQueue;
-use lightbooth_science::colorimetry::{Lab, Xyz};
+use lightbooth_science::colorimetry::{Lab, Observer, Xyz};
 use lightbooth_science::comparison::{compare_point, delta_e_pair};
 use lightbooth_store::{Booth, NewComparison, NewLuminanceComparison, Store};
 use white::{resolve_white, RenderedWhite};
@@ -91,10 +104,93 @@ impl Comparisons {
         }
     }
 
+    /// After a measurement of a scene target completes: compares it as what
+    /// it is ([`Comparable`]), in its observer, in the background: a colour
+    /// ([`Self::compare_later`]) or a luminance alone
+    /// ([`Self::compare_luminance_later`]).
+    pub fn compare_measurement_later(
+        self: &Arc<Self>,
+        measurement_id: i64,
+        scene: String,
+        target: String,
+        measured: Comparable,
+    ) {
+        match measured {
+            Comparable::Colour { xyz, y_se, observer } => {
+                self.compare_later(measurement_id, scene, target, xyz, y_se, observer)
+            }
+            Comparable::Luminance { y, y_se, observer } => {
+                self.compare_luminance_later(measurement_id, scene, target, y, y_se, observer)
+            }
+        }
+    }
+
+    /// Compares, one after the other in the background, every complete
+    /// measurement of a scene target taken in `booth` that has no
+    /// comparison and none queued (see the module doc), logging each and
+    /// how many; returns how many it took up. A measurement that cannot be
+    /// compared (a scene this daemon does not have, no colour) is logged
+    /// with the reason and left.
+    pub async fn compare_left_over(self: &Arc<Self>, booth: &Booth) -> anyhow::Result<usize> {
+        let mut left = Vec::new();
+        for id in self.store.uncompared_measurements(booth).await? {
+            let Some(m) = self.store.get_measurement(id).await? else {
+                continue;
+            };
+            let (Some(scene), Some(target)) = (m.summary.scene.clone(), m.summary.target.clone()) else {
+                continue;
+            };
+            if self.runner.catalogue().get(&scene).is_none() {
+                tracing::warn!(
+                    measurement_id = id,
+                    scene,
+                    "left uncompared: this daemon has no such scene"
+                );
+                continue;
+            }
+            match stored_comparable(&m, self.runner.observer()) {
+                Ok(measured) => left.push((id, scene, target, measured)),
+                Err(e) => tracing::warn!(measurement_id = id, error = %e, "left uncompared"),
+            }
+        }
+        let n = left.len();
+        if n == 0 {
+            return Ok(0);
+        }
+        tracing::info!(
+            measurements = n,
+            %booth,
+            "comparing the complete measurements left uncompared (taken while no comparison could be made)"
+        );
+        let this = Arc::clone(self);
+        self.runtime.spawn(async move {
+            for (id, scene, target, measured) in left {
+                tracing::info!(measurement_id = id, scene, target, observer = %measured.observer(), "comparing a measurement left uncompared");
+                let done = match measured {
+                    Comparable::Colour { xyz, y_se, observer } => match &this.workers {
+                        Some(workers) => workers
+                            .queue_comparison(id, &scene, &target, xyz, y_se, observer)
+                            .await
+                            .map(drop)
+                            .map_err(anyhow::Error::from),
+                        None => this.compare(id, &scene, &target, xyz, y_se, observer).await,
+                    },
+                    Comparable::Luminance { y, y_se, observer } => {
+                        this.compare_luminance(id, &scene, &target, y, y_se, observer).await
+                    }
+                };
+                if let Err(e) = done {
+                    tracing::error!(measurement_id = id, scene, target, error = %e, "comparison failed");
+                }
+            }
+        });
+        Ok(n)
+    }
+
     /// After a measurement of a scene target completes: render (or reuse a
     /// render of) the scene and store the comparison, in the background —
-    /// or queue it for the render workers. `measured` is XYZ with the
-    /// runner's observer, `measured_y_se` the standard error of its Y.
+    /// or queue it for the render workers. `measured` is XYZ in `observer`,
+    /// `measured_y_se` the standard error of its Y.
     pub fn compare_later(
         self: &Arc<Self>,
         measurement_id: i64,
@@ -102,12 +198,13 @@ impl Comparisons {
         target: String,
         measured: Xyz,
         measured_y_se: f64,
+        observer: Observer,
     ) {
         let this = Arc::clone(self);
         self.runtime.spawn(async move {
             if let Some(workers) = &this.workers {
                 match workers
-                    .queue_comparison(measurement_id, &scene, &target, measured, measured_y_se)
+                    .queue_comparison(measurement_id, &scene, &target, measured, measured_y_se, observer)
                     .await
                 {
                     Ok(_) => return,
@@ -116,7 +213,7 @@ impl Comparisons {
                 }
             }
             if let Err(e) = this
-                .compare(measurement_id, &scene, &target, measured, measured_y_se)
+                .compare(measurement_id, &scene, &target, measured, measured_y_se, observer)
                 .await
             {
                 tracing::error!(measurement_id, scene, target, error = %e, "comparison failed");
@@ -125,9 +222,9 @@ impl Comparisons {
     }
 
     /// Compares measurement `measurement_id` of `scene`/`target` (XYZ
-    /// `measured` with the runner's observer, `measured_y_se` the standard
-    /// error of its Y) with every coding, rendering the scene if no render
-    /// of it with the comparison settings is stored, and stores the rows.
+    /// `measured` in `observer`, `measured_y_se` the standard error of its
+    /// Y) with every coding, rendering the scene if no render of it with the
+    /// comparison settings in `observer` is stored, and stores the rows.
     pub async fn compare(
         &self,
         measurement_id: i64,
@@ -135,8 +232,9 @@ impl Comparisons {
         target: &str,
         measured: Xyz,
         measured_y_se: f64,
+        observer: Observer,
     ) -> anyhow::Result<()> {
-        let (render_id, rendered) = self.rendered_target(scene, target).await?;
+        let (render_id, rendered) = self.rendered_target(scene, target, observer).await?;
         let _serial = self.compare_lock.lock().await;
         // The white is the one of the booth this measurement was taken in.
         let booth = self
@@ -144,8 +242,7 @@ impl Comparisons {
             .measurement_booth(measurement_id)
             .await?
             .ok_or_else(|| anyhow::anyhow!("no measurement {measurement_id}"))?;
-        let (white, white_source) = self.white_xyz(scene, &booth).await?;
-        let observer = self.runner.observer();
+        let (white, white_source) = self.white_xyz(scene, &booth, observer).await?;
         let rows: Vec<NewComparison> = rendered
             .into_iter()
             .map(|(coding, rendered, y_se)| {
@@ -171,7 +268,7 @@ impl Comparisons {
             })
             .collect();
         self.store.insert_comparisons(&rows).await?;
-        tracing::info!(measurement_id, scene, target, codings = rows.len(), white = %white_source, "comparison stored");
+        tracing::info!(measurement_id, scene, target, codings = rows.len(), %observer, white = %white_source, "comparison stored");
         // This measurement may be the white of this and other scenes: bring
         // every comparison of those scenes to the current white.
         let dependent: Vec<String> = self
@@ -182,7 +279,7 @@ impl Comparisons {
             .map(str::to_string)
             .collect();
         for other in dependent {
-            self.refresh_white(&other, &booth).await?;
+            self.refresh_white(&other, &booth, observer).await?;
         }
         self.events.send(Event::ComparisonReady {
             measurement_id,
@@ -201,11 +298,12 @@ impl Comparisons {
         target: String,
         measured_y: f64,
         measured_y_se: f64,
+        observer: Observer,
     ) {
         let this = Arc::clone(self);
         self.runtime.spawn(async move {
             if let Err(e) = this
-                .compare_luminance(measurement_id, &scene, &target, measured_y, measured_y_se)
+                .compare_luminance(measurement_id, &scene, &target, measured_y, measured_y_se, observer)
                 .await
             {
                 tracing::error!(measurement_id, scene, target, error = %e, "luminance comparison failed");
@@ -214,9 +312,10 @@ impl Comparisons {
     }
 
     /// Compares a luminance meter's measurement `measurement_id` of
-    /// `scene`/`target` (luminance `measured_y`, cd/m², weighted by the
-    /// runner's observer's ȳ; `measured_y_se` its standard error) with
-    /// every coding of the scene's render, in luminance alone, and stores
+    /// `scene`/`target` (luminance `measured_y`, cd/m², weighted by
+    /// `observer`'s ȳ, the meter's V(λ); `measured_y_se` its standard error)
+    /// with every coding of the scene's render in `observer`, in luminance
+    /// alone, and stores
     /// the rows. No white is involved: the luminance ratio needs none, and
     /// x, y and ΔE need a colour the meter does not give. Render workers do
     /// not take these: the daemon renders, or reuses the stored render.
@@ -227,9 +326,9 @@ impl Comparisons {
         target: &str,
         measured_y: f64,
         measured_y_se: f64,
+        observer: Observer,
     ) -> anyhow::Result<()> {
-        let (render_id, rendered) = self.rendered_target(scene, target).await?;
-        let observer = self.runner.observer();
+        let (render_id, rendered) = self.rendered_target(scene, target, observer).await?;
         let rows: Vec<NewLuminanceComparison> = rendered
             .into_iter()
             .map(|(coding, rendered, y_se)| NewLuminanceComparison {
@@ -252,6 +351,7 @@ impl Comparisons {
             scene,
             target,
             codings = rows.len(),
+            %observer,
             "luminance comparison stored"
         );
         self.events.send(Event::ComparisonReady {
@@ -262,14 +362,12 @@ impl Comparisons {
         Ok(())
     }
 
-    /// Recomputes every comparison of `scene` in `booth` (of the runner's
-    /// observer) whose white is not the booth's current one for the scene:
-    /// ΔE from the stored XYZ with the current white. Other booths'
-    /// comparisons keep their own booth's white. The caller holds
-    /// `compare_lock`.
-    async fn refresh_white(&self, scene: &str, booth: &Booth) -> anyhow::Result<()> {
-        let (white, source) = self.white_xyz(scene, booth).await?;
-        let observer = self.runner.observer();
+    /// Recomputes every comparison of `scene` in `booth` in `observer`
+    /// whose white is not the booth's current one for the scene: ΔE from
+    /// the stored XYZ with the current white. Other booths' comparisons
+    /// keep their own booth's white. The caller holds `compare_lock`.
+    async fn refresh_white(&self, scene: &str, booth: &Booth, observer: Observer) -> anyhow::Result<()> {
+        let (white, source) = self.white_xyz(scene, booth, observer).await?;
         let updates: Vec<(i64, String, [f64; 3], f64, f64)> = self
             .store
             .comparisons_of_scene_in_booth(scene, booth)
@@ -291,14 +389,15 @@ impl Comparisons {
         Ok(())
     }
 
-    /// The CIELAB white of `scene` in `booth` now, and where it came from
-    /// (see the module doc): a white target's newest complete measurement
-    /// taken in that booth, never another booth's; else the white target in
-    /// a complete render at the comparison settings. It never renders: it
+    /// The CIELAB white of `scene` in `booth` in `observer` now, and where
+    /// it came from (see the module doc): a white target's newest complete
+    /// measurement taken in that booth, never another booth's; else the
+    /// white target in a complete render at the comparison settings in
+    /// `observer`. It never renders: it
     /// answers a GET (the viewer's ΔE00 map), and rendering CYLINDER for its
     /// white there once held a request for 45 s. With neither, it is a
     /// conflict that says what to measure or render.
-    pub async fn white_xyz(&self, scene: &str, booth: &Booth) -> Result<(Xyz, String), LabError> {
+    pub async fn white_xyz(&self, scene: &str, booth: &Booth, observer: Observer) -> Result<(Xyz, String), LabError> {
         let internal = |e: &dyn std::fmt::Display| LabError::Internal(format!("the CIELAB white of `{scene}`: {e}"));
         let entry = self
             .runner
@@ -315,7 +414,8 @@ impl Comparisons {
                 .ok_or_else(|| LabError::NotFound(format!("no scene `{white_scene}`")))?
                 .hash
                 .clone();
-            let settings = serde_json::to_value(self.runner.comparison_settings()).map_err(|e| internal(&e))?;
+            let settings =
+                serde_json::to_value(self.runner.comparison_settings_in(observer)).map_err(|e| internal(&e))?;
             let Some((render_id, result)) = self.store.find_render_result(&hash, &settings).await? else {
                 return Err(LabError::Conflict(format!(
                     "the CIELAB white of `{scene}` is {white_scene}/{target}, which is not measured in booth {booth} \
@@ -334,20 +434,30 @@ impl Comparisons {
                 })?;
             Ok::<_, LabError>(RenderedWhite::Render { render_id, xyz })
         };
-        resolve_white(
-            &entry.white,
-            Some((&self.store, booth)),
-            self.runner.observer(),
-            latest_render,
-        )
-        .await
-        .map_err(|e| e.into_error(|m| internal(&m)))
+        // The catalogue's computed whites are in the runner's observer.
+        let white = if observer == self.runner.observer() {
+            entry.white.clone()
+        } else {
+            lightbooth_render::load_scene(&entry.path)
+                .map_err(|e| e.to_string())
+                .and_then(|scene| white::scene_white(&entry.path, &scene, observer))
+                .map_err(|e| internal(&e))?
+        };
+        resolve_white(&white, Some((&self.store, booth)), observer, latest_render)
+            .await
+            .map_err(|e| e.into_error(|m| internal(&m)))
     }
 
-    /// The render of `scene` comparisons use ([`Self::render_for_comparison`])
-    /// and every coding's XYZ and standard error of Y at `target` in it.
-    async fn rendered_target(&self, scene: &str, target: &str) -> anyhow::Result<(i64, Vec<(String, Xyz, f64)>)> {
-        let (render_id, result) = self.render_for_comparison(scene).await?;
+    /// The render of `scene` comparisons in `observer` use
+    /// ([`Self::render_for_comparison`]) and every coding's XYZ and standard
+    /// error of Y at `target` in it.
+    async fn rendered_target(
+        &self,
+        scene: &str,
+        target: &str,
+        observer: Observer,
+    ) -> anyhow::Result<(i64, Vec<(String, Xyz, f64)>)> {
+        let (render_id, result) = self.render_for_comparison(scene, observer).await?;
         let rendered = StoredRenderResult::parse(render_id, &result)
             .map_err(anyhow::Error::msg)?
             .codings(target)
@@ -355,16 +465,17 @@ impl Comparisons {
         Ok((render_id, rendered))
     }
 
-    /// The render comparisons use: reused when the store has one of the same
-    /// scene content and settings, rendered (once, even under concurrent
-    /// requests) otherwise. Returns the render id and its stored JSON result.
-    async fn render_for_comparison(&self, scene: &str) -> anyhow::Result<(i64, serde_json::Value)> {
+    /// The render comparisons in `observer` use: reused when the store has
+    /// one of the same scene content and settings, rendered (once, even
+    /// under concurrent requests) otherwise. Returns the render id and its
+    /// stored JSON result.
+    async fn render_for_comparison(&self, scene: &str, observer: Observer) -> anyhow::Result<(i64, serde_json::Value)> {
         let lock = {
             let mut locks = self.scene_locks.lock().unwrap_or_else(|p| p.into_inner());
             Arc::clone(locks.entry(scene.to_string()).or_default())
         };
         let _guard = lock.lock().await;
-        let settings = self.runner.comparison_settings();
+        let settings = self.runner.comparison_settings_in(observer);
         let hash = self
             .runner
             .catalogue()
@@ -443,7 +554,10 @@ mod tests {
         let store = store_in(dir.path()).await;
         let (runner, _) = runner(&store);
         let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
-        match comparisons.white_xyz("white", &Booth::default()).await {
+        match comparisons
+            .white_xyz("white", &Booth::default(), Observer::JuddVos)
+            .await
+        {
             Err(LabError::Conflict(m)) => assert!(
                 m.contains("white/patch") && m.contains("POST /api/scenes/white/renders"),
                 "{m}"
@@ -455,7 +569,10 @@ mod tests {
             "nothing was rendered"
         );
         let render_id = render_white(&runner).await;
-        let (_, source) = comparisons.white_xyz("white", &Booth::default()).await.unwrap();
+        let (_, source) = comparisons
+            .white_xyz("white", &Booth::default(), Observer::JuddVos)
+            .await
+            .unwrap();
         assert_eq!(
             source,
             format!("render {render_id} spectral (white/patch; not yet measured)")
@@ -486,7 +603,10 @@ mod tests {
         let measured = Xyz::new(1.1 * spectral.x, 1.1 * spectral.y, 1.1 * spectral.z);
         let id = measurement_of(&store, "white", "patch").await;
         let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
-        comparisons.compare(id, "white", "patch", measured, 0.01).await.unwrap();
+        comparisons
+            .compare(id, "white", "patch", measured, 0.01, Observer::JuddVos)
+            .await
+            .unwrap();
 
         assert_eq!(
             store.list_renders(Some("white")).await.unwrap().len(),
@@ -565,24 +685,25 @@ mod tests {
             vec![sample(0, 30.0, None), sample(1, 32.0, None)],
         )
         .unwrap();
-        assert_eq!(comparable_luminance(&avg, Observer::Cie1931), Some(Ok(31.0)));
-        let refused = comparable_luminance(&avg, Observer::JuddVos).unwrap().unwrap_err();
-        assert!(refused.contains("serve with --observer cie-1931"), "{refused}");
-        // What the daemon hands the comparisons: Y = 31 and the standard
-        // error of the mean of 30 and 32, s/√n = √2/√2 = 1 cd/m².
-        match crate::measurement::comparable(&avg, Observer::Cie1931) {
-            Ok(crate::measurement::Comparable::Luminance { y, y_se }) => {
-                assert_eq!(y, 31.0);
-                assert!((y_se - 1.0).abs() < 1e-12, "{y_se}");
+        assert_eq!(comparable_luminance(&avg), Some((31.0, Observer::Cie1931)));
+        // What the daemon hands the comparisons, whatever its own observer:
+        // Y = 31 in the meter's CIE 1931 and the standard error of the mean
+        // of 30 and 32, s/√n = √2/√2 = 1 cd/m².
+        for daemon in [Observer::Cie1931, Observer::JuddVos] {
+            match crate::measurement::comparable(&avg, daemon) {
+                Ok(crate::measurement::Comparable::Luminance { y, y_se, observer }) => {
+                    assert_eq!(y, 31.0);
+                    assert!((y_se - 1.0).abs() < 1e-12, "{y_se}");
+                    assert_eq!(observer, Observer::Cie1931);
+                }
+                other => panic!("{other:?}"),
             }
-            other => panic!("{other:?}"),
         }
-        assert!(crate::measurement::comparable(&avg, Observer::JuddVos).is_err());
         let colorimeter = Reading::Tristimulus {
             observer: Observer::Cie1931,
         };
         let avg = average_samples(info, colorimeter, vec![sample(0, 30.0, Some([28.0, 30.0, 20.0]))]).unwrap();
-        assert_eq!(comparable_luminance(&avg, Observer::Cie1931), None);
+        assert_eq!(comparable_luminance(&avg), None);
 
         let dir = tempfile::tempdir().unwrap();
         let store = store_in(dir.path()).await;
@@ -600,7 +721,7 @@ mod tests {
         let comparisons = Comparisons::new(store.clone(), Arc::clone(&runner), EventSink::nowhere(), None);
         let measured = 1.1 * spectral.y;
         comparisons
-            .compare_luminance(id, "white", "patch", measured, 0.01 * measured)
+            .compare_luminance(id, "white", "patch", measured, 0.01 * measured, Observer::JuddVos)
             .await
             .unwrap();
         let rows = store.luminance_comparisons_for_measurement(id).await.unwrap();
@@ -626,7 +747,14 @@ mod tests {
         let id = measurement_of(&store, "white", "no_such_target").await;
         let comparisons = Comparisons::new(store.clone(), runner, EventSink::nowhere(), None);
         let err = comparisons
-            .compare(id, "white", "no_such_target", Xyz::new(1.0, 1.0, 1.0), 0.01)
+            .compare(
+                id,
+                "white",
+                "no_such_target",
+                Xyz::new(1.0, 1.0, 1.0),
+                0.01,
+                Observer::JuddVos,
+            )
             .await
             .unwrap_err()
             .to_string();
