@@ -419,7 +419,12 @@ fn a_silent_a_garbage_an_echoing_and_a_busy_port_are_each_reported_as_such_withi
     let (result, took) = probe_one(&garbage.path, deadline);
     println!("garbage pty: {took:?}: {result}");
     match &result {
-        ProbeResult::Unrecognised { first_bytes, asked } => {
+        ProbeResult::Unrecognised {
+            first_bytes,
+            asked,
+            pr650_reply,
+        } => {
+            assert!(!pr650_reply, "garbage is no PR-650 report");
             assert!(
                 first_bytes.starts_with("\\0\u{fffd}#?garbage\\u{1b}[0m\\r\\n"),
                 "{first_bytes}"
@@ -428,9 +433,13 @@ fn a_silent_a_garbage_an_echoing_and_a_busy_port_are_each_reported_as_such_withi
         }
         other => panic!("{other:?}"),
     }
-    assert!(result
-        .to_string()
-        .starts_with("answered, but not as any known instrument: `"));
+    assert!(result.to_string().starts_with("answered `"), "{result}");
+    assert!(
+        result
+            .to_string()
+            .contains("but no instrument that identifies itself: a PR-650 or an LS-100"),
+        "{result}"
+    );
 
     let echo = fake_port(Behaviour::Echo);
     let (result, took) = probe_one(&echo.path, deadline);
@@ -644,6 +653,28 @@ fn a_simulated_cs2000a_is_found_by_its_identity_without_a_flash_write() {
 /// through the command line, among every family's questions, within one
 /// deadline: the CS-2000 by `IDDR`, the CR-250 and CR-300 by `RC Model`,
 /// the ColorCAL MkII by `IDR`.
+/// The bug (issue 46): `instruments --probe` told a PR-650 that it
+/// "answered … as a CS-2000: … is not OK00". The PR-650 answers the other
+/// families' questions with its own report line, which says what it
+/// probably is.
+#[test]
+fn a_pr650_was_told_it_answered_as_a_cs2000() {
+    let pr650 = spawn_mock("mock-pr650", &["--speed", "0"]);
+    let sysfs = no_ports();
+    let (rows, _) = probe_json(sysfs.path(), &[pr650.path.as_str()], "2");
+    let probe = &rows[0]["probe"];
+    assert_eq!(probe["status"], "unrecognised", "{probe:#}");
+    let message = probe["message"].as_str().unwrap_or_default();
+    assert!(
+        message.contains("probably a PR-650") && message.contains("--instrument instruments/pr650.toml"),
+        "{probe:#}"
+    );
+    assert!(
+        message.find("probably a PR-650") < message.find("as a Konica Minolta"),
+        "the likeliest reading first: {message}"
+    );
+}
+
 #[test]
 fn every_simulated_family_is_found_by_its_identity_through_the_cli() {
     let cs2000 = spawn_mock("mock-cs2000", &["--speed", "0"]);

@@ -50,7 +50,7 @@ pub enum Requested {
     /// The same measurement — this booth's instrument, the same scene
     /// target, samples, session and hold — is already queued or running:
     /// that one, as it is now; nothing new was queued.
-    AlreadyOnItsWay(MeasurementSummary),
+    AlreadyOnItsWay(Box<MeasurementSummary>),
 }
 
 /// What a study's "measure the missing targets first" came to (see
@@ -184,7 +184,7 @@ impl BoothInstrument {
             });
             if let Some(existing) = same {
                 tracing::info!(measurement_id = existing.id, %scene, %target, "measurement already on its way; not queued again");
-                return Ok(Requested::AlreadyOnItsWay(existing));
+                return Ok(Requested::AlreadyOnItsWay(Box::new(existing)));
             }
         }
         self.enqueue(

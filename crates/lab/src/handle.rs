@@ -172,10 +172,14 @@ impl Lab {
         for s in &scenes {
             comparisons.push(self.computed.scene_comparisons(&s.id).await?);
         }
-        Ok(
-            crate::scene_overview::scenes_overview(&self.store, &scenes, &comparisons, self.booth(), self.comparison_observer())
-                .await?,
+        Ok(crate::scene_overview::scenes_overview(
+            &self.store,
+            &scenes,
+            &comparisons,
+            self.booth(),
+            self.comparison_observer(),
         )
+        .await?)
     }
 
     /// A scene's newest comparisons in the booth's comparison observer

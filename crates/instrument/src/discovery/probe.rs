@@ -81,12 +81,15 @@ pub enum ProbeResult {
     Io { reason: String },
     #[error("no answer within {} s: check power, cable and the instrument's remote mode", seconds(.waited_ms))]
     Silent { waited_ms: u64 },
-    #[error("answered, but not as any known instrument: `{first_bytes}`{}", what_each_said(.asked))]
+    #[error("{}", unrecognised(.first_bytes, .asked, *.pr650_reply))]
     Unrecognised {
         /// The first bytes received, escaped.
         first_bytes: String,
         /// What each family's parser said.
         asked: Vec<(Family, String)>,
+        /// The reply has the form of a PR-650's report (`qq,U,Y,x,y`): the
+        /// PR-650 answers any line so, and has no identity command.
+        pr650_reply: bool,
     },
     #[error("the probe did not finish within {} s (it is abandoned): re-plug the instrument", seconds(.waited_ms))]
     Overran { waited_ms: u64 },
@@ -107,12 +110,27 @@ fn identified(id: &Identity) -> String {
     format!("{} {serial}{firmware}", id.model)
 }
 
-/// `; CRS ColorCAL MkII: …` for each family that heard something else.
-fn what_each_said(asked: &[(Family, String)]) -> String {
-    asked
+/// What an unrecognised answer means, the likeliest reading first and what
+/// each family's parser said last (the bug, issue 46: a PR-650 was told that
+/// it "answered … as a CS-2000: … is not OK00").
+fn unrecognised(first_bytes: &str, asked: &[(Family, String)], pr650_reply: bool) -> String {
+    let advice = if pr650_reply {
+        "its reply has the form of a PR-650's report (`qq,U,Y,x,y`): probably a PR-650, which has no identity \
+         command; name it with --instrument instruments/pr650.toml"
+    } else {
+        "a PR-650 or an LS-100/CS-100A has no identity command and is not recognised this way (name it with \
+         --instrument FILE); otherwise check the baud rate and the cable: another device may be on the port"
+    };
+    let said: Vec<String> = asked
         .iter()
-        .map(|(f, why)| format!("; as a {}: {why}", f.name()))
-        .collect()
+        .map(|(f, why)| format!("as a {}: {why}", f.name()))
+        .collect();
+    let said = if said.is_empty() {
+        String::new()
+    } else {
+        format!(" (each family's reading: {})", said.join("; "))
+    };
+    format!("answered `{first_bytes}`, but no instrument that identifies itself: {advice}{said}")
 }
 
 impl ProbeResult {
@@ -267,6 +285,7 @@ pub fn probe_port(path: &str, families: &[Family], end: Instant) -> ProbeResult 
         ProbeResult::Unrecognised {
             first_bytes: show(&wire.heard),
             asked,
+            pr650_reply: crate::pr650::protocol::parse_yxy_report(&wire.heard).is_ok(),
         }
     }
 }

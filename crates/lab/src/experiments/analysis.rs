@@ -926,6 +926,7 @@ mod tests {
                         .collect(),
                     fit: Some(f),
                     not_fitted: None,
+                    no_fit: None,
                     conditions: conditions.clone(),
                 }
             })

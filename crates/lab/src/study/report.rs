@@ -451,7 +451,6 @@ pub fn accuracy_detail(null_95th: Option<f64>, beyond: Option<usize>, targets: u
 /// `text` as HTML text: a scene's name and white come from its file, and
 /// stored text is never markup (a scene named `<img onerror=…>` is shown as
 /// those characters, not run).
-
 fn html_text(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
