@@ -661,7 +661,7 @@ async function loadScenes(openId) {
   $("scene-detail").hidden = !openId;
   if (openId) return loadSceneDetail(openId);
   openScene = null;
-  const o = await api("/api/scene-overview");
+  const [o, health] = await Promise.all([api("/api/scene-overview"), api("/api/health").catch(() => ({}))]);
   $("scene-overview-note").textContent =
     `Each scene of the booth: its camera view, how many of its targets are measured in booth ${o.booth}, and how far each ` +
     `coding's rendering is from the measurements (mean CIEDE2000 ΔE00 and rms_rel of Y over the measured targets; ` +
@@ -709,7 +709,11 @@ async function loadScenes(openId) {
     else {
       const none = document.createElement("span");
       none.className = "hint";
-      none.textContent = "no comparison yet: measure a target";
+      // Words that fit the attached instrument (issue 46: an LS-100 booth said
+      // "measure a target" beside "1 / 1 measured").
+      none.textContent = health.instrument_measures === "luminance" && s.measured.length
+        ? `luminance only (${health.instrument_model}): the Y ratios are on each measurement's page`
+        : s.measured.length ? "comparison being computed" : "no comparison yet: measure a target";
       figures.appendChild(none);
     }
     tr.addEventListener("click", (ev) => {

@@ -384,7 +384,7 @@ function thresholdTable(analysis) {
     "as the display profile predicts it is shown (no passing verification yet)"}; a small p says one σ does not ` +
     "explain every approximation." + (lapseMax === null ? "" : ` λ is the lapse rate fitted with σ, the share of trials ` +
     `missed far above threshold (the fitted curve's ceiling is 1 − λ), bounded to [0, ${lapseMax}] (Wichmann & Hill 2001); ` +
-    "the threshold is the lapse-free observer's.", "hint"));
+    "the threshold is the lapse-free observer's."), "hint"));
   for (const b of atBounds) wrap.append(el("p", b, "notice"));
   return wrap;
 }

@@ -125,16 +125,21 @@ try {
     { timeout: 30000 });
   const pageInfo = await page.textContent("#page-info");
   if (!/^1–2 of 2$/.test(pageInfo)) failures.push("page info: " + pageInfo);
-  // The booth and instrument filters: this daemon's booth (marked) keeps both
-  // measurements, a PR-670 took none of them.
+  // The booth and instrument filters: this daemon's booth (marked) and its
+  // PR-650 keep both measurements.
   const boothOption = await page.textContent("#filter-booth option[value='default']");
   if (boothOption !== "default (this daemon)") failures.push("booth option: " + boothOption);
   await page.selectOption("#filter-booth", "default");
   await page.waitForFunction(() => document.getElementById("page-info").textContent === "1–2 of 2");
   if (shots) await page.screenshot({ path: `${shots}/measurements.png`, fullPage: true });
-  await page.selectOption("#filter-model", "PR-670");
-  await page.waitForFunction(() => document.getElementById("page-info").textContent === "0–0 of 0"
-    && document.querySelectorAll("#measurement-table tbody tr").length === 0);
+  // The instrument filter offers the models the database has seen (this
+  // daemon's PR-650), not a fixed list of Photo Research models (issue 46).
+  await page.waitForFunction(() => [...document.querySelectorAll("#filter-model option")].some((o) => o.value === "PR-650"));
+  const offered = await page.$$eval("#filter-model option", (os) => os.map((o) => o.value).join(","));
+  if (offered !== ",PR-650") failures.push(`instrument filter offers "${offered}"`);
+  await page.selectOption("#filter-model", "PR-650");
+  await page.waitForFunction(() => document.getElementById("page-info").textContent === "1–2 of 2"
+    && document.querySelectorAll("#measurement-table tbody tr").length === 2);
   await page.selectOption("#filter-model", "");
   await page.selectOption("#filter-booth", "");
 

@@ -70,6 +70,16 @@ try {
     if (!shown && c.rows.length) failures.push("a 'no comparison' sentence beside a scene with comparisons");
   }
   if (shots) await page.screenshot({ path: `${shots}/scene-white-${file}.png`, fullPage: true });
+
+  // The Scenes overview: a luminance meter's measured scene is not told to
+  // "measure a target" (issue 46).
+  if (health.instrument_measures === "luminance") {
+    await page.goto(`${base}/#/scenes`);
+    await page.waitForSelector("#scene-table tbody tr[data-scene='white']", { timeout: 15000 });
+    const cell = await page.$eval("#scene-table tbody tr[data-scene='white'] .coding-figures", (e) => e.textContent);
+    if (!cell.includes("luminance only")) failures.push(`Scenes overview for WHITE on the ${model}: "${cell}"`);
+    if (shots) await page.screenshot({ path: `${shots}/scenes-${file}.png`, fullPage: true });
+  }
   console.log(JSON.stringify({ model, measures: health.instrument_measures, observer: c.observer,
     codings: c.codings.length, sentence, note }));
 } finally {

@@ -511,6 +511,17 @@ async fn a_second_request_for_a_queued_target_queued_a_duplicate() {
         Some(21),
         "the study waits for the ones on their way too: {row}"
     );
+    // A repeat on purpose (repeatability runs from a script) is queued.
+    let (status, again) = post_json(
+        d.addr,
+        "/api/measurements",
+        TOKEN,
+        r#"{"scene":"cylinder","target":"h01","samples":5,"repeat":true}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{again}");
+    assert_eq!(again["duplicate"], false, "{again}");
+    assert_ne!(again["id"].as_i64(), Some(first), "{again}");
     post_json(d.addr, &format!("/api/studies/{}/cancel", s["id"]), TOKEN, "{}").await;
     d.stop().await;
 }

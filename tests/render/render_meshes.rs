@@ -197,7 +197,12 @@ material = "floor"
     let path = dir.path().join("cone.toml");
     std::fs::write(&path, text).unwrap();
     let scene = load_scene(&path).unwrap();
-    let r = render(&scene, &settings(&[Coding::Spectral], 256, 0), None).unwrap();
+    // The cone's candela are in V(λ) (issue 46): so is the Y compared.
+    let photometric = RenderSettings {
+        observer: lightbooth::colorimetry::PHOTOMETRIC_OBSERVER,
+        ..settings(&[Coding::Spectral], 256, 0)
+    };
+    let r = render(&scene, &photometric, None).unwrap();
     for (i, a) in angles.iter().enumerate() {
         let (cos_t, d2) = (a.to_radians().cos(), 1.0 / a.to_radians().cos().powi(2));
         let (cos_out, cos_in) = (cone.to_radians().cos(), (cone - falloff).to_radians().cos());

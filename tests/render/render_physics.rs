@@ -9,6 +9,7 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
+use lightbooth::colorimetry::Cmf;
 use lightbooth::render::ies::write_symmetric_lm63;
 use lightbooth::render::{load_scene, render, Coding, RenderSettings, SamplerKind};
 use lightbooth::spectrum::Grid;
@@ -98,7 +99,12 @@ material = "grey"
         );
         let path = write_scene(dir.path(), "direct.toml", &text);
         let scene = load_scene(&path).unwrap();
-        let r = render(&scene, &settings(&Coding::ALL, 1024), None).unwrap();
+        // The IES file's candela are in V(λ) (issue 46): so is the Y compared.
+        let photometric = RenderSettings {
+            observer: lightbooth::colorimetry::PHOTOMETRIC_OBSERVER,
+            ..settings(&Coding::ALL, 1024)
+        };
+        let r = render(&scene, &photometric, None).unwrap();
         let to_target = glam::DVec3::from(target) - glam::DVec3::from(light);
         let d = to_target.length();
         let theta = to_target.normalize().dot(glam::DVec3::from(aim)).acos().to_degrees();
@@ -216,7 +222,12 @@ fn the_camera_sees_the_uniform_sphere_wall() {
         light_sampler: lightbooth::render::LightSampling::Power,
     };
     let img = render_camera(&scene, scene.camera.as_ref().unwrap(), Coding::Srgb, 2, &transport, 1).unwrap();
-    let truth = 0.5 / PI * 100.0 / 4.0 * (1.0 + 0.5 + 0.25);
+    // The lamp's candela are in V(λ) (issue 46); the camera's sRGB is in the
+    // renderer's observer, whose ȳ weighs the flat spectrum by Σȳ/ΣV.
+    let [_, ybar, _] = Cmf::of(lightbooth::render::coding::OBSERVER).on_grid(&Grid::one_nm());
+    let [_, v, _] = Cmf::of(lightbooth::colorimetry::PHOTOMETRIC_OBSERVER).on_grid(&Grid::one_nm());
+    let in_observer = ybar.iter().sum::<f64>() / v.iter().sum::<f64>();
+    let truth = 0.5 / PI * 100.0 / 4.0 * (1.0 + 0.5 + 0.25) * in_observer;
     for p in &img.rgb {
         let y = 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64;
         assert!((y / truth - 1.0).abs() < 1e-4, "{y} vs {truth}");

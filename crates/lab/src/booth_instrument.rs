@@ -40,6 +40,9 @@ pub struct MeasurementRequest {
     pub note: String,
     /// The instrument hold this measurement belongs to (see [`InstrumentHold`]).
     pub hold: Option<i64>,
+    /// Queue it even when the same measurement is already on its way
+    /// (repeated measurements of one target, on purpose).
+    pub repeat: bool,
 }
 
 /// What a measurement request came to (see [`BoothInstrument::request`]).
@@ -48,7 +51,7 @@ pub enum Requested {
     /// Recorded and queued: its id.
     Queued(i64),
     /// The same measurement — this booth's instrument, the same scene
-    /// target, samples, session and hold — is already queued or running:
+    /// target, samples, note, session and hold — is already queued or running:
     /// that one, as it is now; nothing new was queued.
     AlreadyOnItsWay(Box<MeasurementSummary>),
 }
@@ -148,11 +151,11 @@ impl BoothInstrument {
     /// Checks `request` against the instrument model, the `scenes` the
     /// daemon can render, the instrument's status and the sessions, then
     /// records and queues it (`Queued`, its id) — unless a measurement of
-    /// the same scene target with the same samples, session and hold is
+    /// the same scene target with the same samples, note, session and hold is
     /// already queued or running in this booth: then nothing is queued and
     /// the answer is that one (`AlreadyOnItsWay`; a page clicked twice, or
-    /// a script's retry, once queued every target twice). `Invalid` names
-    /// the field.
+    /// a script's retry, once queued every target twice), unless it asks
+    /// to `repeat`. `Invalid` names the field.
     pub async fn request(&self, request: MeasurementRequest, scenes: &[SceneInfo]) -> Result<Requested, LabError> {
         let capabilities = &self.capabilities;
         let samples = request.samples.unwrap_or(capabilities.default_samples);
@@ -176,9 +179,10 @@ impl BoothInstrument {
             }
         }
         let _admitting = self.admitting.lock().await;
-        if let (Some(scene), Some(target)) = (&request.scene, &request.target) {
+        if let (Some(scene), Some(target), false) = (&request.scene, &request.target, request.repeat) {
             let same = self.on_its_way(scene, target).await?.into_iter().find(|m| {
                 m.samples_requested == samples as i64
+                    && m.note == request.note
                     && m.session_id == request.session_id
                     && m.hold.as_ref().map(|h| h.id) == request.hold
             });

@@ -37,6 +37,12 @@ pub struct StartMeasurement {
     /// /api/instrument/hold`): while the instrument is held, only
     /// measurements naming the hold are taken; others answer 409.
     pub hold: Option<i64>,
+    /// `true`: queue it even if the same measurement (this booth, scene,
+    /// target, samples, note, session and hold) is already queued or running —
+    /// repeated measurements of one target, on purpose. Default `false`:
+    /// such a request is answered with the one on its way (`duplicate`).
+    #[serde(default)]
+    pub repeat: bool,
 }
 
 #[derive(Serialize, ToSchema)]
@@ -46,7 +52,7 @@ pub struct Accepted {
     /// Poll this URL (or follow `/api/events`) until `state` is final.
     pub url: String,
     /// True (status 200) when nothing new was queued: the same measurement
-    /// (this booth, scene, target, samples, session and hold) was already
+    /// (this booth, scene, target, samples, note, session and hold) was already
     /// queued or running, and `id` is that one.
     pub duplicate: bool,
     /// Says so in words when `duplicate`.
@@ -55,7 +61,7 @@ pub struct Accepted {
 }
 
 /// Queues a measurement (202). A request for a scene target whose
-/// measurement with the same samples, session and hold is already queued
+/// measurement with the same samples, note, session and hold is already queued
 /// or running in this booth queues nothing: it answers 200 with that
 /// measurement and `"duplicate": true` (a double click, or a retry whose
 /// answer was lost, then waits for the one measurement it asked for).
@@ -77,6 +83,7 @@ pub async fn start_measurement(
         session_id: body.session_id,
         note: body.note.unwrap_or_default(),
         hold: body.hold,
+        repeat: body.repeat,
     };
     match state
         .lab

@@ -805,13 +805,24 @@ mod tests {
     }
 
     /// Spectral against itself is exactly zero, and the white is the light's
-    /// own XYZ: Y of a 1 cd light on a perfect white is 1 (the 1 cd normalisation).
+    /// own XYZ: a 1 cd light (V(λ), issue 46) on a perfect white has a
+    /// V(λ)-weighted Y of exactly 1, and in the map's observer the ratio of
+    /// its ȳ to V(λ) over the light (1.0057 for D65 in Judd–Vos).
     #[test]
     fn spectral_is_the_reference_and_the_white_is_one_candela() {
         let map = illuminant_patch_map(&[Coding::NStep(3)], &[Illuminant::D65]).unwrap();
         assert_eq!(map.codings, ["nstep3", "spectral"]);
         let m = &map.illuminants[0];
-        assert!((m.white.y - 1.0).abs() < 1e-5, "{:?}", m.white);
+        let (light, _) = light_per_cd(Illuminant::D65).unwrap();
+        assert!((luminous_1nm(light.values()) - 1.0).abs() < 1e-12, "1 cd in V(λ)");
+        let ybar = &lightbooth_science::colorimetry::Cmf::of(OBSERVER).on_grid(&Grid::one_nm())[1];
+        let y_obs = lightbooth_science::colorimetry::KM_LM_PER_W
+            * light.values().iter().zip(ybar).map(|(s, y)| s * y).sum::<f64>();
+        assert!(
+            (m.white.y - y_obs).abs() < 1e-5 && (y_obs - 1.0).abs() < 0.01,
+            "{:?} vs {y_obs}",
+            m.white
+        );
         assert!(!m.resampled_from_5nm);
         for p in &m.patches {
             assert_eq!(p.cell("spectral").unwrap().de76, 0.0);

@@ -364,6 +364,9 @@ material = "grey"
             target_relative_se: None,
             light_sampler: kind,
             seed,
+            // The lamps' candela and the panel's cd/m² are in V(λ) (issue
+            // 46): Y weighted with V(λ) is what the closed forms give.
+            observer: lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER,
             ..RenderSettings::default()
         };
         let r = render(&scene, &s, None).unwrap();
