@@ -231,6 +231,16 @@ try {
     if (shots) await page.screenshot({ path: `${shots}/scene-cylinder-all-on-their-way.png`, fullPage: true });
     await call("POST", "/api/mock/faults", { faults: "" });
     for (const m of mine) if (m.state === "queued" || m.state === "running") await call("POST", `/api/measurements/${m.id}/cancel`, {});
+    // A cancel answers 202 while the running one is still stopping: wait
+    // until the instrument is free, or the calibration below finds it busy
+    // (its hold refused with 409, seen in a clean-clone CI run).
+    for (let waited = 0; ; waited += 200) {
+      const busy = (await call("GET", "/api/measurements?state=running&limit=1")).total +
+        (await call("GET", "/api/measurements?state=queued&limit=1")).total;
+      if (busy === 0) break;
+      if (waited > 60000) { failures.push(`${busy} measurements still queued or running 60 s after their cancel`); break; }
+      await new Promise((r) => setTimeout(r, 200));
+    }
   }
 
   // A study of the WHITE scene against the measurement just taken, with sweeps.
