@@ -22,6 +22,7 @@ pub mod error;
 pub mod hosts;
 pub mod image_views;
 pub mod input;
+mod kept;
 pub mod limits;
 mod openapi;
 mod routes;

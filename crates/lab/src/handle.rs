@@ -24,6 +24,7 @@ use crate::booth_instrument::BoothInstrument;
 use crate::calibration::{self, MeasuredError};
 use crate::comparisons::summary::SceneComparisons;
 use crate::computed::Computed;
+use crate::database_watch::DatabaseWatch;
 use crate::error::LabError;
 use crate::experiments::analysis::Analysis;
 use crate::experiments::Experiments;
@@ -65,6 +66,7 @@ pub struct Lab {
     renders: Option<Arc<RenderJobs>>,
     experiments: Experiments,
     computed: Arc<Computed>,
+    database: DatabaseWatch,
 }
 
 impl Lab {
@@ -77,6 +79,7 @@ impl Lab {
             // Summaries in the booth's comparison observer (see
             // `comparison_observer`): the instrument's is fixed for the daemon's life.
             computed: Arc::new(Computed::new(store.clone(), comparison_observer(&instrument, observer))),
+            database: DatabaseWatch::new(store.clone()),
             store,
             observer,
             instrument,
@@ -130,9 +133,11 @@ impl Lab {
         self.computed.analyses(ids).await
     }
 
-    /// Whether the database answers (`None`) or why not.
+    /// Whether the database answers (`None`) or why not, as of a moment
+    /// ago (see [`crate::database_watch`]: one ping at a time however many
+    /// ask).
     pub async fn database_error(&self) -> Option<String> {
-        self.store.ping().await.err().map(|e| e.to_string())
+        self.database.error().await
     }
 
     // ---- scenes ----
@@ -165,21 +170,10 @@ impl Lab {
     }
 
     /// Every scene at a glance in this booth (see [`crate::scene_overview`]),
-    /// in the booth's comparison observer.
-    pub async fn scenes_overview(&self) -> Result<ScenesOverview, LabError> {
-        let scenes = self.scenes()?;
-        let mut comparisons = Vec::with_capacity(scenes.len());
-        for s in &scenes {
-            comparisons.push(self.computed.scene_comparisons(&s.id).await?);
-        }
-        Ok(crate::scene_overview::scenes_overview(
-            &self.store,
-            &scenes,
-            &comparisons,
-            self.booth(),
-            self.comparison_observer(),
-        )
-        .await?)
+    /// in the booth's comparison observer, kept while its inputs are
+    /// unchanged ([`crate::computed`]).
+    pub async fn scenes_overview(&self) -> Result<Arc<ScenesOverview>, LabError> {
+        self.computed.scenes_overview(self.scenes()?, self.booth()).await
     }
 
     /// A scene's newest comparisons in the booth's comparison observer

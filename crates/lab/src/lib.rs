@@ -25,8 +25,11 @@
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
 //! - [`computed`]: the heavy results the pages poll (an experiment's
-//!   analysis, a scene's comparison summary) computed once per version of
-//!   what they read, off the async runtime, a bounded number at a time;
+//!   analysis, a scene's comparison summary, the scenes' overview) and the
+//!   bodies made from them, computed once per version of what they read,
+//!   off the async runtime, a bounded number at a time;
+//! - [`database_watch`]: does the database answer, one ping at a time
+//!   however many ask (`/api/health`);
 //! - [`scene_overview`]: every scene at a glance (targets measured, its
 //!   thumbnail's render, each coding's mean ΔE00 and rms_rel);
 //! - [`scenes`]: the scene catalogue, every scene loaded once at start;
@@ -65,6 +68,7 @@ pub mod calibration;
 pub mod charts;
 pub mod comparisons;
 pub mod computed;
+pub mod database_watch;
 pub mod error;
 pub mod events;
 pub mod experiments;

@@ -47,6 +47,7 @@ impl Store {
                 }
                 tx.commit().await?;
             });
+            self.wrote();
             Ok(())
         })
     }
@@ -150,6 +151,7 @@ impl Store {
                 }
                 tx.commit().await?;
             });
+            self.wrote();
             Ok(())
         })
     }
@@ -201,6 +203,7 @@ impl Store {
                 }
                 tx.commit().await?;
             });
+            self.wrote();
             Ok(())
         })
     }

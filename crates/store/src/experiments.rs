@@ -331,6 +331,7 @@ impl Store {
                 }
             };
             tx.commit().await?;
+            self.wrote();
             found
         }))
     }
@@ -503,6 +504,7 @@ impl Store {
                 .await?;
                 tx.commit().await?;
             });
+            self.wrote();
             Ok(())
         })
     }
@@ -522,6 +524,7 @@ impl Store {
             .await?
             .rows_affected()
             });
+            self.wrote();
             Ok(())
         })
     }
@@ -602,7 +605,7 @@ impl Store {
         result: &'a serde_json::Value,
     ) -> BoxFuture<'a, Result<i64, StoreError>> {
         Box::pin(async move {
-            Ok(with_pool!(self, |pool| {
+            let id = with_pool!(self, |pool| {
                 sqlx::query_scalar(
                 "INSERT INTO experiment_verifications (experiment_id, created_at, result_json) VALUES ($1, $2, $3) RETURNING id"
             )
@@ -611,7 +614,9 @@ impl Store {
             .bind(result.to_string())
             .fetch_one(pool)
             .await?
-            }))
+            });
+            self.wrote();
+            Ok(id)
         })
     }
 

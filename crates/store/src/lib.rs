@@ -284,6 +284,9 @@ pub struct Store {
     /// average, each sample's `Y`) for measurements that have none stored:
     /// the daemon's `--observer` ([`Store::with_observer`]).
     observer: Observer,
+    /// Writes of what computed results read, by this handle and its clones
+    /// ([`Store::writes`]).
+    writes: std::sync::Arc<std::sync::atomic::AtomicU64>,
 }
 
 impl Store {
@@ -374,8 +377,27 @@ impl Store {
                 engine: Engine::connect(url, synchronous).await?,
                 daemon_id: None,
                 observer: Observer::default(),
+                writes: Default::default(),
             })
         })
+    }
+
+    /// How many writes of what the lab's computed results read (a trial, a
+    /// session begun or ended, a verification, a comparison or its white,
+    /// a measurement ended, a render finished or its preview) this handle and
+    /// its clones have made: a number that only grows, so a cache in this
+    /// process knows at once that a result it keeps may be stale without
+    /// asking the database. Writes by other processes sharing the database
+    /// are not counted: a cache re-reads the stored version for those
+    /// (`lightbooth_lab::computed`).
+    pub fn writes(&self) -> u64 {
+        self.writes.load(std::sync::atomic::Ordering::Acquire)
+    }
+
+    /// Counts one write of what computed results read ([`Store::writes`]);
+    /// called after the write committed.
+    fn wrote(&self) {
+        self.writes.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
     }
 
     /// `"sqlite"` or `"postgres"`.

@@ -179,6 +179,7 @@ impl Store {
             if n != 1 {
                 return Err(StoreError::Conflict(format!("measurement {id} is not running")));
             }
+            self.wrote();
             Ok(())
         })
     }
@@ -227,7 +228,24 @@ impl Store {
         })
     }
 
-    /// Every (scene, target) with at least one complete measurement.
+    /// The version of what the scenes' overview reads besides the
+    /// comparisons (`lightbooth_lab::scene_overview`): the number of
+    /// complete measurements of `booth` and the newest of them, and the
+    /// newest render with a preview image.
+    pub fn overview_inputs<'a>(&'a self, booth: &'a Booth) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {
+        Box::pin(async move {
+            let (complete, newest, preview): (i64, i64, i64) = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT (SELECT COUNT(*) FROM measurements WHERE booth = $1 AND state = 'complete'), \
+                 (SELECT COALESCE(MAX(id), 0) FROM measurements WHERE booth = $1 AND state = 'complete'), \
+                 (SELECT COALESCE(MAX(id), 0) FROM renders WHERE state = 'complete' AND preview_png IS NOT NULL)",
+            )
+            .bind(booth.as_str())
+            .fetch_one(pool)
+            .await?);
+            Ok(crate::InputsVersion([complete, newest, preview, 0]))
+        })
+    }
+
     /// The ids of the queued and running measurements of `booth`, oldest first.
     pub fn unfinished_measurements_in_booth<'a>(
         &'a self,
@@ -243,6 +261,7 @@ impl Store {
         })
     }
 
+    /// Every (scene, target) with at least one complete measurement in `booth`.
     pub fn measured_targets<'a>(
         &'a self,
         booth: &'a Booth,

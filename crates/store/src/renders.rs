@@ -104,6 +104,7 @@ impl Store {
                 .await?
                 .rows_affected()),
             };
+            self.wrote();
             Ok(())
         })
     }
@@ -165,6 +166,7 @@ impl Store {
             .execute(pool)
             .await?
             .rows_affected());
+            self.wrote();
             Ok(())
         })
     }

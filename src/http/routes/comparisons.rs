@@ -6,7 +6,6 @@ use std::sync::Arc;
 use axum::extract::State;
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
-use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
@@ -14,9 +13,11 @@ use super::download;
 use crate::comparison::SceneSummary;
 use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
+use crate::http::kept;
 use crate::http::input::Path;
 use crate::http::AppState;
 use crate::lab::comparisons::summary::SceneComparisons;
+use crate::lab::requests::SceneInfo;
 use crate::store::ComparisonRow;
 use crate::uncertainty::{PointUncertainty, PropagatedDifference};
 
@@ -193,13 +194,16 @@ impl From<SceneComparisons> for SceneComparison {
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons", tag = "comparisons", params(("scene" = String, Path)),
     responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = SceneComparison), (status = 404, body = crate::http::error::ErrorBody)))]
-pub async fn scene_comparisons(
-    State(state): State<AppState>,
-    Path(scene): Path<String>,
-) -> Result<Json<SceneComparison>, ApiError> {
-    Ok(Json(
-        Arc::unwrap_or_clone(scene_comparison(&state, &scene).await?).into(),
-    ))
+pub async fn scene_comparisons(State(state): State<AppState>, Path(scene): Path<String>) -> Result<Response, ApiError> {
+    let c = scene_comparison(&state, &scene).await?;
+    let body = state
+        .lab
+        .computed()
+        .output(&c, "json", |c| {
+            serde_json::to_vec(&SceneComparison::from(c.clone())).map_err(|e| e.to_string())
+        })
+        .await?;
+    Ok(kept::json(body))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}/comparisons.csv", tag = "comparisons", params(("scene" = String, Path)),
@@ -209,34 +213,39 @@ pub async fn scene_comparisons_csv(
     Path(scene): Path<String>,
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
-    let internal = |e: &dyn std::fmt::Display| ApiError::Internal(e.to_string());
-    // Every row names its observer (the `observer` column); the stored
-    // columns first, as serialised, then each row's uncertainty columns.
+    let body = state.lab.computed().output(&c, "csv", comparisons_csv).await?;
+    Ok(download("text/csv", &format!("comparisons_{scene}.csv"), kept::body(body)))
+}
+
+/// The CSV of a scene's comparisons: every row names its observer (the
+/// `observer` column); the stored columns first, as serialised, then each
+/// row's uncertainty columns.
+fn comparisons_csv(c: &SceneComparisons) -> Result<Vec<u8>, String> {
+    let e = |e: &dyn std::fmt::Display| e.to_string();
     let mut w = csv::Writer::from_writer(Vec::new());
     for row in &c.rows {
-        w.serialize(row).map_err(|e| internal(&e))?;
+        w.serialize(row).map_err(|x| e(&x))?;
     }
-    let stored = w.into_inner().map_err(|e| internal(&e))?;
+    let stored = w.into_inner().map_err(|x| e(&x))?;
     let mut r = csv::Reader::from_reader(stored.as_slice());
-    let by_row = uncertainty_by_row(&c);
+    let by_row = uncertainty_by_row(c);
     let mut out = csv::Writer::from_writer(Vec::new());
-    let mut header = r.headers().map_err(|e| internal(&e))?.clone();
+    let mut header = r.headers().map_err(|x| e(&x))?.clone();
     let extra = uncertainty_columns(None);
     for (name, _) in &extra {
         header.push_field(name);
     }
     if !c.rows.is_empty() {
-        out.write_record(&header).map_err(|e| internal(&e))?;
+        out.write_record(&header).map_err(|x| e(&x))?;
     }
     for (record, row) in r.records().zip(&c.rows) {
-        let mut record = record.map_err(|e| internal(&e))?;
+        let mut record = record.map_err(|x| e(&x))?;
         for (_, value) in uncertainty_columns(by_row.get(&row.id).copied()) {
             record.push_field(&value);
         }
-        out.write_record(&record).map_err(|e| internal(&e))?;
+        out.write_record(&record).map_err(|x| e(&x))?;
     }
-    let bytes = out.into_inner().map_err(|e| internal(&e))?;
-    Ok(download("text/csv", &format!("comparisons_{scene}.csv"), bytes))
+    out.into_inner().map_err(|x| e(&x))
 }
 
 /// Each comparison row's propagated figures, by the row's id.
@@ -323,8 +332,18 @@ pub async fn scene_comparisons_mat(
     Path(scene): Path<String>,
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
+    let body = state.lab.computed().output(&c, "mat", comparisons_mat).await?;
+    Ok(download(
+        "application/x-matlab-data",
+        &format!("comparisons_{scene}.mat"),
+        kept::body(body),
+    ))
+}
+
+/// The MAT file of a scene's comparisons (see [`scene_comparisons_mat`]).
+fn comparisons_mat(c: &SceneComparisons) -> Result<Vec<u8>, String> {
     let mut mat = MatFile::new();
-    let internal = |e: String| ApiError::Internal(e);
+    let internal = |e: String| e;
     let col = |f: fn(&ComparisonRow) -> f64| c.rows.iter().map(f).collect::<Vec<f64>>();
     mat.text_rows("target", &c.rows.iter().map(|r| r.target.clone()).collect::<Vec<_>>())
         .map_err(internal)?;
@@ -354,7 +373,7 @@ pub async fn scene_comparisons_mat(
     }
     // Each row's uncertainty columns (NaN where not propagated or not
     // made; claims 1 or 0), named as in the CSV.
-    let by_row = uncertainty_by_row(&c);
+    let by_row = uncertainty_by_row(c);
     let per_row: Vec<Vec<(String, String)>> = c
         .rows
         .iter()
@@ -376,11 +395,7 @@ pub async fn scene_comparisons_mat(
             .collect();
         mat.column(name, &values).map_err(internal)?;
     }
-    Ok(download(
-        "application/x-matlab-data",
-        &format!("comparisons_{scene}.mat"),
-        mat.into_bytes(),
-    ))
+    Ok(mat.into_bytes())
 }
 
 /// The study's figures for a scene: `chromaticity.svg`, `profile.svg`
@@ -400,18 +415,26 @@ pub async fn scene_chart(
             "scene `{scene}` has no comparisons yet: measure its targets first"
         )));
     }
-    let svg = match chart.as_str() {
-        "chromaticity.svg" => crate::http::scene_charts::chromaticity(&c, &info, c.observer),
-        "profile.svg" => crate::http::scene_charts::profile(&c, &info),
-        "rms.svg" => crate::http::scene_charts::rms(&c),
-        "de.svg" => crate::http::scene_charts::delta_e(&c),
-        "speed.svg" => crate::http::scene_charts::speed(&state, &c).await,
+    let draw: fn(&SceneComparisons, &SceneInfo) -> Result<String, String> = match chart.as_str() {
+        "chromaticity.svg" => |c, info| crate::http::scene_charts::chromaticity(c, info, c.observer),
+        "profile.svg" => crate::http::scene_charts::profile,
+        "rms.svg" => |c, _| crate::http::scene_charts::rms(c),
+        "de.svg" => |c, _| crate::http::scene_charts::delta_e(c),
+        "speed.svg" => {
+            // Read from the scene's renders too, so drawn for each request.
+            let svg = crate::http::scene_charts::speed(&state, &c).await.map_err(ApiError::Internal)?;
+            return Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response());
+        }
         other => {
             return Err(ApiError::NotFound(format!(
                 "no chart `{other}`: choose chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg"
             )))
         }
-    }
-    .map_err(ApiError::Internal)?;
-    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
+    };
+    let body = state
+        .lab
+        .computed()
+        .output(&c, &chart, move |c| draw(c, &info).map(String::into_bytes))
+        .await?;
+    Ok(kept::served("image/svg+xml", body))
 }

@@ -9,7 +9,7 @@
 use std::sync::Arc;
 
 use axum::extract::State;
-use axum::http::{header, StatusCode};
+use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde::Deserialize;
@@ -18,6 +18,7 @@ use utoipa::ToSchema;
 use super::measurements::download;
 use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
+use crate::http::kept;
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
 use crate::lab::experiments::analysis::{
@@ -179,11 +180,14 @@ pub async fn list_experiment_verifications(
 /// Percent correct and d′ (both oddity models) per observer and approximation.
 #[utoipa::path(get, path = "/experiments/{id}/analysis", tag = "experiments", params(("id" = i64, Path)),
     responses((status = 200, body = Analysis), (status = 404, body = ErrorBody)))]
-pub async fn experiment_analysis(
-    State(state): State<AppState>,
-    Path(id): Path<i64>,
-) -> Result<Json<Analysis>, ApiError> {
-    Ok(Json(Arc::unwrap_or_clone(state.lab.experiment_analysis(id).await?)))
+pub async fn experiment_analysis(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    let a = state.lab.experiment_analysis(id).await?;
+    let body = state
+        .lab
+        .computed()
+        .output(&a, "json", |a| serde_json::to_vec(a).map_err(|e| e.to_string()))
+        .await?;
+    Ok(kept::json(body))
 }
 
 /// The analysis as CSV, one row per observer and approximation.
@@ -196,19 +200,24 @@ pub async fn experiment_analysis_csv(
     analysis_as_csv(&state, id, "analysis", analysis_csv).await
 }
 
-/// The analysis of experiment `id` written by `write`, as the download
-/// `experiment-{id}-{what}.csv`.
+/// The analysis of experiment `id` written by `write` (made once per
+/// analysis), as the download `experiment-{id}-{what}.csv`.
 async fn analysis_as_csv(
     state: &AppState,
     id: i64,
-    what: &str,
+    what: &'static str,
     write: fn(&Analysis) -> String,
 ) -> Result<Response, ApiError> {
     let a = state.lab.experiment_analysis(id).await?;
+    let body = state
+        .lab
+        .computed()
+        .output(&a, what, move |a| Ok(write(a).into_bytes()))
+        .await?;
     Ok(download(
         "text/csv; charset=utf-8",
         &format!("experiment-{id}-{what}.csv"),
-        write(&a).into_bytes(),
+        kept::body(body),
     ))
 }
 
@@ -221,11 +230,11 @@ pub async fn experiment_analysis_mat(
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
     let a = state.lab.experiment_analysis(id).await?;
-    let bytes = analysis_mat(&a).map_err(ApiError::Internal)?;
+    let body = state.lab.computed().output(&a, "mat", analysis_mat).await?;
     Ok(download(
         "application/x-matlab-data",
         &format!("experiment-{id}-analysis.mat"),
-        bytes,
+        kept::body(body),
     ))
 }
 
@@ -275,10 +284,17 @@ pub async fn experiment_psychometric_figure(
 ) -> Result<impl IntoResponse, ApiError> {
     let model = model_of(q.model.as_deref())?;
     let a = state.lab.experiment_analysis(id).await?;
-    Ok((
-        [(header::CONTENT_TYPE, "image/svg+xml")],
-        psychometric_figure(&a, model)?,
-    ))
+    let what = format!("psychometric.svg {model:?}");
+    let body = state
+        .lab
+        .computed()
+        .output(&a, &what, move |a| {
+            psychometric_figure(a, model)
+                .map(String::into_bytes)
+                .map_err(|e| e.to_string())
+        })
+        .await?;
+    Ok(kept::served("image/svg+xml", body))
 }
 
 #[derive(Deserialize, utoipa::IntoParams)]
@@ -315,12 +331,25 @@ pub async fn experiments_figure(
             })
         })
         .collect::<Result<_, _>>()?;
-    let analyses: Vec<Analysis> = state
-        .lab
-        .experiment_analyses(&ids)
-        .await?
-        .into_iter()
-        .map(Arc::unwrap_or_clone)
-        .collect();
-    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], figure(&analyses, model)?))
+    let analyses = state.lab.experiment_analyses(&ids).await?;
+    let svg = move |drawn: Result<String, crate::lab::error::LabError>| {
+        drawn.map(String::into_bytes).map_err(|e| e.to_string())
+    };
+    // One experiment's figure is kept with its analysis; several are drawn
+    // for the request (their analyses each kept).
+    let computed = state.lab.computed();
+    let body = match analyses.as_slice() {
+        [one] => {
+            let what = format!("figure.svg {model:?}");
+            computed
+                .output(one, &what, move |a| svg(figure(std::slice::from_ref(a), model)))
+                .await?
+        }
+        _ => Arc::new(
+            computed
+                .output_not_kept(move || svg(figure(&analyses, model)))
+                .await?,
+        ),
+    };
+    Ok(kept::served("image/svg+xml", body))
 }

@@ -333,7 +333,7 @@ pub(super) fn sample_grid(m: &MeasurementDetail) -> Result<Vec<f64>, ApiError> {
     }
 }
 
-pub(super) fn download(content_type: &'static str, filename: &str, body: Vec<u8>) -> Response {
+pub(super) fn download(content_type: &'static str, filename: &str, body: impl IntoResponse) -> Response {
     (
         [
             (header::CONTENT_TYPE, content_type.to_string()),

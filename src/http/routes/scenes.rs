@@ -26,8 +26,14 @@ pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<Scene
 /// thumbnail, and each coding's mean ΔE00 and rms_rel (see
 /// `lab::scene_overview`).
 #[utoipa::path(get, path = "/scene-overview", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = ScenesOverview)))]
-pub async fn scene_overview(State(state): State<AppState>) -> Result<Json<ScenesOverview>, ApiError> {
-    Ok(Json(state.lab.scenes_overview().await?))
+pub async fn scene_overview(State(state): State<AppState>) -> Result<Response, ApiError> {
+    let overview = state.lab.scenes_overview().await?;
+    let body = state
+        .lab
+        .computed()
+        .output(&overview, "json", |o| serde_json::to_vec(o).map_err(|e| e.to_string()))
+        .await?;
+    Ok(crate::http::kept::json(body))
 }
 
 #[utoipa::path(get, path = "/scenes/{scene}", tag = "scenes", params(("scene" = String, Path)),

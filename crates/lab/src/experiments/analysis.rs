@@ -836,10 +836,11 @@ pub fn analysis_mat(a: &Analysis) -> Result<Vec<u8>, String> {
 /// approximation the pooled row (or the only observer's), d′ under `model`.
 /// A condition with no trial counted has no bar; the title counts the
 /// observers whose counted trials the bars are made of.
-pub fn figure(analyses: &[Analysis], model: OddityModel) -> Result<String, LabError> {
+pub fn figure(analyses: &[impl std::borrow::Borrow<Analysis>], model: OddityModel) -> Result<String, LabError> {
     let mut bars = Vec::new();
     let mut drawn: Vec<&str> = Vec::new();
     for a in analyses {
+        let a: &Analysis = a.borrow();
         let mut approximations: Vec<&str> = a.rows.iter().map(|r| r.approximation.as_str()).collect();
         approximations.dedup();
         for name in approximations {
