@@ -27,7 +27,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use common::{get_json, poll_until, post_json, Daemon, TOKEN};
+use common::calibrated::calibrated_booth;
+use common::{get_json, post_json, Daemon, TOKEN};
 use lightbooth::psychophysics::design::{Configuration, Stimulus};
 use lightbooth::psychophysics::observer::SimulatedObserver;
 use lightbooth::psychophysics::oddity::OddityModel;
@@ -135,59 +136,6 @@ async fn measurement_seconds(addr: SocketAddr, samples: u32) -> Result<f64, Stri
         }
         tokio::time::sleep(Duration::from_millis(250)).await;
     }
-}
-
-/// A measurement with `body`, once complete; its id.
-async fn measure(d: &Daemon, body: Value) -> i64 {
-    let (s, started) = post_json(d.addr, "/api/measurements", TOKEN, &body.to_string()).await;
-    assert_eq!(s, 202, "{started}");
-    let id = started["id"].as_i64().unwrap();
-    let m = poll_until(
-        d.addr,
-        &format!("/api/measurements/{id}"),
-        Duration::from_secs(300),
-        |v| !matches!(v["state"].as_str(), Some("queued") | Some("running")),
-    )
-    .await;
-    assert_eq!(m["state"], "complete", "{m}");
-    id
-}
-
-/// The simulated display's profile (the 4-level plan) and WHITE's patch
-/// measured and compared with every coding: (profile id, measurement id).
-async fn calibrated_booth(d: &Daemon) -> (i64, i64) {
-    let (s, plan) = get_json(d.addr, "/api/display-profiles/plan?steps=4").await;
-    assert_eq!(s, 200, "{plan}");
-    let mut patches = Vec::new();
-    for p in plan["patches"].as_array().unwrap() {
-        let (s, _) = post_json(
-            d.addr,
-            "/api/mock/display",
-            TOKEN,
-            &json!({ "drive": p["drive"] }).to_string(),
-        )
-        .await;
-        assert_eq!(s, 204);
-        let id = measure(d, json!({ "samples": 2 })).await;
-        patches.push(json!({ "drive": p["drive"], "measurement_id": id }));
-    }
-    let (s, profile) = post_json(
-        d.addr,
-        "/api/display-profiles",
-        TOKEN,
-        &json!({ "name": "simulated CRT", "patches": patches }).to_string(),
-    )
-    .await;
-    assert_eq!(s, 201, "{profile}");
-    let m = measure(d, json!({ "scene": "white", "target": "patch", "samples": 3 })).await;
-    poll_until(
-        d.addr,
-        &format!("/api/measurements/{m}/comparisons"),
-        Duration::from_secs(900),
-        |v| v.as_array().is_some_and(|a| a.len() >= 7),
-    )
-    .await;
-    (profile["id"].as_i64().unwrap(), m)
 }
 
 /// The configuration a trial names (`OON`: the approximation on the right).

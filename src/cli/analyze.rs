@@ -53,7 +53,8 @@ pub struct FailureMapArgs {
     /// Monte Carlo seeds 1…N for the interreflection sweep, 2–64.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(..=64))]
     seeds: u64,
-    /// Radiometer paths per target per render.
+    /// Radiometer paths per target per render (rounded up to whole
+    /// batches of 1024, and the output says so).
     #[arg(long, default_value_t = 4096,
           value_parser = clap::value_parser!(u64).range(1..=lightbooth::render::scene::MAX_SAMPLES_PER_TARGET))]
     samples: u64,
@@ -234,6 +235,9 @@ fn failure_map_cmd(args: FailureMapArgs) -> anyhow::Result<()> {
     let mut settings = FailureMapSettings::cylinder(&scene);
     settings.seeds = (1..=args.seeds).collect();
     settings.samples = args.samples;
+    if let Some(note) = lightbooth::render::samples_rounding_note("--samples", args.samples) {
+        eprintln!("{note}");
+    }
     let start = Instant::now();
     let map = failure_map(&settings)?;
     eprintln!("failure map: {:.2} s", start.elapsed().as_secs_f64());

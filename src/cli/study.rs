@@ -33,7 +33,8 @@ pub struct StudyArgs {
     /// Seeds: each renders every coding once; figures are given as mean ± SD over seeds.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=64))]
     seeds: u32,
-    /// First-round paths per target (rendering continues to a 0.3 % SE of Y).
+    /// First-round paths per target (rendering continues to a 0.3 % SE of
+    /// Y), rounded up to whole batches of 1024, and the output says so.
     #[arg(long, default_value_t = 4096,
           value_parser = clap::value_parser!(u64).range(1..=lightbooth::render::scene::MAX_SAMPLES_PER_TARGET))]
     samples: u64,
@@ -96,6 +97,9 @@ enum AgainstArg {
 }
 
 pub fn run(args: StudyArgs) -> anyhow::Result<()> {
+    if let Some(note) = lightbooth::render::samples_rounding_note("--samples", args.samples) {
+        eprintln!("{note}");
+    }
     let options = StudyOptions {
         codings: args.codings.clone(),
         seeds: args.seeds,

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod booths;
+pub mod calibrated;
 pub mod pr655_wire;
 
 use std::net::SocketAddr;

@@ -76,3 +76,27 @@ fn render_image_prints_wrote_file() {
         );
     }
 }
+
+/// `study --samples` and `analyze failure-map --samples` rounded up to
+/// whole batches as `render` did, without a word (issue 46). Both say so
+/// before they start, here before a scene file that is not there stops
+/// them.
+#[test]
+fn study_and_failure_map_samples_rounded_up_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-such-scene.toml");
+    for args in [
+        vec!["study", "--against", "reference", "--samples", "300", missing.to_str().unwrap()],
+        vec!["analyze", "failure-map", "--samples", "300", "--scene", missing.to_str().unwrap()],
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
+            .args(&args)
+            .output()
+            .expect("run lightbooth");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("--samples 300 rounded up to 1024 paths per target"),
+            "{args:?}: {stderr}"
+        );
+    }
+}

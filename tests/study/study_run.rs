@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use lightbooth::colorimetry::Observer;
 use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::lab::study::report::write_report;
-use lightbooth::lab::study::run::{progress_steps, run_study, Against, StudyOptions};
+use lightbooth::lab::study::run::{progress_fractions, progress_steps, run_study, Against, StudyOptions};
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
 
@@ -25,6 +25,32 @@ fn quick(against: Against) -> StudyOptions {
         against,
         ..StudyOptions::default()
     }
+}
+
+/// Regression (issue 46): a study's steps counted as equal, so a study of
+/// four one-target scenes then CYLINDER (21 targets) was 5/6 done when
+/// CYLINDER began and said "about 0 s" left at 14 s of a 31 s run. Each
+/// scene's steps weigh its targets: CYLINDER begins at 12/80 of the work;
+/// the failure maps weigh the mean step; the fractions only grow, one per
+/// progress call.
+#[test]
+fn a_studys_fraction_done_weighs_each_scene_by_its_targets() {
+    let options = StudyOptions {
+        seeds: 2,
+        failure_map: true,
+        ..quick(Against::Measurements)
+    };
+    let targets = [1, 1, 1, 1, 21];
+    let f = progress_fractions(&targets, &options);
+    assert_eq!(f.len(), progress_steps(targets.len(), &options));
+    let per_scene = 1 + 2;
+    let cylinder_begins = f[4 * per_scene];
+    // Four scenes of three steps weighing 1, of 12 + 3 × 21 + 5 = 80.
+    assert!((cylinder_begins - 12.0 / 80.0).abs() < 1e-12, "{f:?}");
+    assert!(f.windows(2).all(|w| w[0] < w[1]), "{f:?}");
+    assert_eq!(f[0], 0.0);
+    // The failure maps, last, weigh (3 × 4 + 3 × 21) / 15 = 5 of 80.
+    assert!((f.last().unwrap() - 75.0 / 80.0).abs() < 1e-12, "{f:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

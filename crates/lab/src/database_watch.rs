@@ -9,6 +9,7 @@
 //! unanswered for [`NO_ANSWER`], "the database did not answer". So an
 //! outage shows in health within about `FRESH_FOR + NO_ANSWER`.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -40,6 +41,7 @@ struct State {
 pub struct DatabaseWatch {
     store: Store,
     state: Arc<Mutex<State>>,
+    pings: Arc<AtomicU64>,
 }
 
 impl DatabaseWatch {
@@ -47,7 +49,13 @@ impl DatabaseWatch {
         DatabaseWatch {
             store,
             state: Arc::default(),
+            pings: Arc::default(),
         }
+    }
+
+    /// The pings sent so far: what the tests count.
+    pub fn pings(&self) -> u64 {
+        self.pings.load(Ordering::Relaxed)
     }
 
     /// Whether the database answers (`None`) or why not, as of at most
@@ -74,6 +82,7 @@ impl DatabaseWatch {
                     let (tx, rx) = watch::channel(None);
                     s.pinging = Some((Instant::now(), rx.clone()));
                     let (store, state) = (self.store.clone(), self.state.clone());
+                    self.pings.fetch_add(1, Ordering::Relaxed);
                     tokio::spawn(async move {
                         let answer = match tokio::time::timeout(NO_ANSWER * 4, store.ping()).await {
                             Ok(Ok(())) => None,
@@ -94,5 +103,46 @@ impl DatabaseWatch {
         };
         let answered = answer.wait_for(Option::is_some).await.map(|a| a.clone().flatten());
         answered.unwrap_or_else(|_| Some("the database ping stopped before it answered".into()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::store_in;
+
+    /// Regression (issue 46): each `/api/health` pinged the database, so
+    /// 200 pollers queued for its connections and health took 1.7 s. A
+    /// hundred at once are answered by one ping.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_hundred_health_checks_at_once_send_one_ping() {
+        let dir = tempfile::tempdir().unwrap();
+        let watch = DatabaseWatch::new(store_in(dir.path()).await);
+        let asks: Vec<_> = (0..100)
+            .map(|_| {
+                let watch = watch.clone();
+                tokio::spawn(async move { watch.error().await })
+            })
+            .collect();
+        for a in asks {
+            assert_eq!(a.await.unwrap(), None);
+        }
+        assert_eq!(watch.pings(), 1);
+    }
+
+    /// A database gone is said within a moment: the next answer after
+    /// `FRESH_FOR` is a ping's, and it says why.
+    #[tokio::test]
+    async fn a_closed_database_is_said_after_the_last_answer_ages() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = store_in(dir.path()).await;
+        let watch = DatabaseWatch::new(store.clone());
+        assert_eq!(watch.error().await, None);
+        store.close().await;
+        assert_eq!(watch.error().await, None, "the last answer stands for a moment");
+        tokio::time::sleep(FRESH_FOR + Duration::from_millis(50)).await;
+        let error = watch.error().await.expect("a closed pool does not answer");
+        assert!(error.contains("closed"), "{error}");
+        assert_eq!(watch.pings(), 2);
     }
 }

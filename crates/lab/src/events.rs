@@ -73,9 +73,10 @@ pub enum Event {
     StudyProgress {
         study_id: i64,
         message: String,
-        /// 0–1: the study's steps begun (see
-        /// `lab::study::run::progress_steps`); null while it waits for the
-        /// measurements it asked for.
+        /// 0–1: the study's work before the step begun, each scene's
+        /// steps weighed by its targets (see
+        /// `lab::study::run::progress_fractions`); null while it waits for
+        /// the measurements it asked for.
         fraction: Option<f64>,
     },
     /// A camera image after each pass (see `lab::images`).

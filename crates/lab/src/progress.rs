@@ -9,7 +9,8 @@
 //! shown: the time spent so far in the job's current phase, scaled by the
 //! fraction still to do ([`seconds_left`]). It assumes the rest goes at the
 //! pace of what is done; a study's steps (truth, one render per seed,
-//! sweeps) are counted as equal, so its estimate is rougher than a
+//! sweeps) are weighed by their scene's targets
+//! (`study::run::progress_fractions`), so its estimate is rougher than a
 //! render's, whose fraction is paths traced over paths planned.
 //!
 //! A render has steps ([`RENDER_STEPS`]): tracing its paths, then timing
@@ -111,8 +112,9 @@ pub const RENDER_STEPS: [(&str, &str); 3] = [
 #[derive(Clone, Debug, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct JobProgress {
-    /// 0–1: paths traced of those planned (a render), steps begun of the
-    /// study's steps (a study); -1 when the step has no count.
+    /// 0–1: paths traced of those planned (a render), the work before the
+    /// step begun of the study's, steps weighed by their scene's targets (a
+    /// study); -1 when the step has no count.
     pub fraction: f64,
     /// What it is doing, in words (a study's or a render's step).
     pub message: Option<String>,

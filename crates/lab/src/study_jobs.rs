@@ -20,7 +20,7 @@ use super::study_measurements::wait_for_measurements;
 use crate::error::LabError;
 use crate::requests::StudyRequest;
 use crate::study::report::report_files;
-use crate::study::run::{progress_steps, run_study, Against, StudyOptions};
+use crate::study::run::{progress_fractions, run_study, Against, StudyOptions};
 use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
@@ -187,15 +187,20 @@ impl StudyRunner {
                         }
                     }
                     let events = this.events.clone();
-                    // The k-th step begun of the study's steps: its fraction done.
-                    let steps = progress_steps(paths.len(), &options).max(1);
+                    // The k-th step begun: the study's work before it, each
+                    // scene's steps weighed by its targets.
+                    let targets: Vec<usize> = paths
+                        .iter()
+                        .map(|p| lightbooth_render::load_scene(p).map_or(1, |s| s.targets().len()))
+                        .collect();
+                    let fractions = progress_fractions(&targets, &options);
                     let begun = std::sync::atomic::AtomicUsize::new(0);
                     let progress = move |message: &str| {
                         let k = begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         events.send(Event::StudyProgress {
                             study_id: id,
                             message: message.to_string(),
-                            fraction: Some((k as f64 / steps as f64).min(1.0)),
+                            fraction: Some(fractions.get(k).copied().unwrap_or(1.0).min(1.0)),
                         });
                     };
                     this.runtime

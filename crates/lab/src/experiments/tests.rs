@@ -1004,3 +1004,99 @@ async fn a_scene_summary_is_computed_once_and_again_after_a_new_comparison_or_wh
     computed.scene_comparisons("white").await.unwrap();
     assert_eq!(computed.computations(), 4);
 }
+
+/// Regression (issue 46, second round): every poll of a kept result still
+/// read its version from the database, so 200 pollers queued for the
+/// store's connections (health p99 1.7 s). Polled 50 times with nothing
+/// written, the version is read once; a trial written by this process is
+/// seen by the very next poll.
+#[tokio::test]
+async fn polling_a_kept_analysis_reads_its_version_once_until_this_process_writes() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = crate::computed::Computed::new(x.store().clone(), Observer::JuddVos);
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let view = started(x, e.id, "obs1").await;
+    for _ in 0..50 {
+        computed.analysis(e.id).await.unwrap();
+    }
+    assert_eq!(computed.version_reads(), 1, "one read for 50 polls");
+    assert_eq!(computed.computations(), 1);
+
+    let next = view.next.clone().unwrap();
+    x.record_trial(view.session.id, &report(next.position, 0, false))
+        .await
+        .unwrap();
+    let after = computed.analysis(e.id).await.unwrap();
+    assert_eq!(
+        after.rows.iter().map(|r| r.trials).sum::<u32>(),
+        1,
+        "the trial is in the next poll"
+    );
+    assert_eq!(computed.version_reads(), 2);
+    assert_eq!(computed.computations(), 2);
+}
+
+/// What another daemon sharing the database writes (its own store
+/// handle, whose writes this process does not count) is seen once the
+/// version read is older than `OTHERS_SEEN_WITHIN`, and not before.
+#[tokio::test]
+async fn a_trial_written_by_another_daemon_is_seen_within_a_second() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = crate::computed::Computed::new(x.store().clone(), Observer::JuddVos);
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    started(x, e.id, "obs1").await;
+    let first = computed.analysis(e.id).await.unwrap();
+    assert_eq!(first.sessions, 1);
+
+    let other = Experiments::new(store_in(lab._dir.path()).await);
+    started(&other, e.id, "obs2").await;
+    let soon = computed.analysis(e.id).await.unwrap();
+    assert!(
+        std::sync::Arc::ptr_eq(&first, &soon),
+        "within the second the kept version stands"
+    );
+    tokio::time::sleep(crate::computed::OTHERS_SEEN_WITHIN + std::time::Duration::from_millis(100)).await;
+    let later = computed.analysis(e.id).await.unwrap();
+    assert_eq!(later.sessions, 2, "another daemon's session is seen after a second");
+}
+
+/// Regression (issue 46, second round): each poll serialised the kept
+/// analysis again (a 200-observer analysis is megabytes of JSON) and drew
+/// its charts again. A body is made once per kept result, and again for a
+/// new one.
+#[tokio::test]
+async fn a_body_is_made_once_per_kept_result() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let computed = crate::computed::Computed::new(x.store().clone(), Observer::JuddVos);
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let view = started(x, e.id, "obs1").await;
+    let made = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let csv = |a: std::sync::Arc<super::analysis::Analysis>| {
+        let made = made.clone();
+        let computed = &computed;
+        async move {
+            computed
+                .output(&a, "csv", move |a| {
+                    made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    Ok(super::analysis::analysis_csv(a).into_bytes())
+                })
+                .await
+                .unwrap()
+        }
+    };
+    let one = csv(computed.analysis(e.id).await.unwrap()).await;
+    let two = csv(computed.analysis(e.id).await.unwrap()).await;
+    assert!(std::sync::Arc::ptr_eq(&one, &two));
+    assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
+
+    let next = view.next.clone().unwrap();
+    x.record_trial(view.session.id, &report(next.position, 1, false))
+        .await
+        .unwrap();
+    let three = csv(computed.analysis(e.id).await.unwrap()).await;
+    assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 2, "a new analysis, a new body");
+    assert_ne!(one, three, "the new body has the trial");
+}
