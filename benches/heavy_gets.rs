@@ -33,7 +33,7 @@ use lightbooth::psychophysics::design::{Configuration, Stimulus};
 use lightbooth::psychophysics::observer::SimulatedObserver;
 use lightbooth::psychophysics::oddity::OddityModel;
 use lightbooth::random::SplitMix64;
-use serde_json::{json, Value};
+use serde_json::json;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 

@@ -798,6 +798,16 @@ function codingFiguresTable(codings) {
 // The sentence beside a scene's empty table and charts: a luminance meter
 // gives no colour to compare in x, y and ΔE (its measurements' pages compare
 // their luminance); otherwise nothing is compared yet, in the observer named.
+// What every number of a scene's table and charts is in: the observer its
+// comparisons were made in, and, where that is not the daemon's --observer,
+// why (a colorimeter's XYZ or a luminance meter's Y is the instrument's own).
+function comparisonObserverNote(health, observer) {
+  const own = health.observer && observer !== health.observer;
+  return `Every ΔE, x, y and Y below is in the ${observerName(observer)} observer` +
+    (own ? `: the ${health.instrument_model}'s own, in which it gives its ${health.instrument_measures}; the daemon's ` +
+      `--observer (${observerName(health.observer)}) applies to what it computes from spectra.` : ".");
+}
+
 function noComparisonReason(health, observer) {
   if (health.instrument_measures === "luminance")
     return `No colour comparison: the ${health.instrument_model} measures luminance only (${observerName(observer)} ` +
@@ -832,9 +842,11 @@ async function loadSceneDetail(id) {
       ...claimCells(r.uncertainty)]) tr.insertCell().textContent = v;
   }
   $("coding-uncertainty-note").textContent = uncertaintyNote(c.codings);
-  // Why the table and charts are empty, when they are.
-  const why = c.rows.length ? "" : noComparisonReason(await api("/api/health").catch(() => ({})), c.observer);
+  const health = await api("/api/health").catch(() => ({}));
   if (openScene !== id) return;
+  $("coding-observer").textContent = c.rows.length ? comparisonObserverNote(health, c.observer) : "";
+  // Why the table and charts are empty, when they are.
+  const why = c.rows.length ? "" : noComparisonReason(health, c.observer);
   $("scene-no-comparison").hidden = !why;
   $("scene-no-comparison").textContent = why;
   const renders = await api(`/api/scenes/${id}/renders`);

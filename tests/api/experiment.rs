@@ -12,7 +12,7 @@ use crate::common;
 
 use std::time::Duration;
 
-use common::{get_json, poll_until, post_json, Daemon, TOKEN};
+use common::{get_json, post_json, Daemon, TOKEN};
 use lightbooth::psychophysics::design::{Configuration, Stimulus};
 use lightbooth::psychophysics::observer::SimulatedObserver;
 use lightbooth::psychophysics::oddity::OddityModel;

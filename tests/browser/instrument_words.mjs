@@ -5,8 +5,10 @@
 // - the Measurements page's instrument filter offers that model;
 // - the WHITE scene's page: with a luminance meter, a sentence beside the
 //   empty table saying it measures luminance only and where its luminance
-//   comparison is; otherwise its comparison table has a row per coding and
-//   the summary's observer is the one the comparisons are made in.
+//   comparison is; otherwise its comparison table has a row per coding,
+//   the summary's observer is the one the comparisons are made in, and the
+//   sentence above the table names it (the instrument's own, and why, on a
+//   colorimeter's booth).
 // Fails on any console error or page error; saves
 // calibrate-MODEL.png and scene-white-MODEL.png.
 //
@@ -68,6 +70,17 @@ try {
       failures.push(`the scene is summarised in ${c.observer}, its comparisons are in ${health.comparison_observer}`);
     const shown = await page.$eval("#scene-no-comparison", (e) => e.hidden);
     if (!shown && c.rows.length) failures.push("a 'no comparison' sentence beside a scene with comparisons");
+    // The observer named beside the table's numbers, and why where it is
+    // the instrument's own (issue 46).
+    if (c.rows.length) {
+      await page.waitForFunction(() => document.getElementById("coding-observer").textContent !== "", null,
+        { timeout: 15000 }).catch(() => {});
+      const said = await page.$eval("#coding-observer", (e) => e.textContent);
+      const own = c.observer !== health.observer;
+      if (!said.startsWith("Every ΔE, x, y and Y below is in the ") ||
+          (own && !said.includes(`the ${model}'s own`)) || (!own && said.includes("'s own")))
+        failures.push(`the scene table's observer: "${said}" (comparisons in ${c.observer}, daemon ${health.observer})`);
+    }
   }
   if (shots) await page.screenshot({ path: `${shots}/scene-white-${file}.png`, fullPage: true });
 

@@ -86,8 +86,22 @@ fn study_and_failure_map_samples_rounded_up_say_so() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("no-such-scene.toml");
     for args in [
-        vec!["study", "--against", "reference", "--samples", "300", missing.to_str().unwrap()],
-        vec!["analyze", "failure-map", "--samples", "300", "--scene", missing.to_str().unwrap()],
+        vec![
+            "study",
+            "--against",
+            "reference",
+            "--samples",
+            "300",
+            missing.to_str().unwrap(),
+        ],
+        vec![
+            "analyze",
+            "failure-map",
+            "--samples",
+            "300",
+            "--scene",
+            missing.to_str().unwrap(),
+        ],
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_lightbooth"))
             .args(&args)

@@ -217,12 +217,9 @@ impl Computed {
     pub async fn analysis(&self, id: i64) -> Result<Arc<Analysis>, LabError> {
         let version = self.version(Inputs::Experiment(id)).await?;
         let experiments = self.experiments.clone();
-        self.get(
-            &self.analyses,
-            &id,
-            vec![version],
-            async move { experiments.analyze(id).await },
-        )
+        self.get(&self.analyses, &id, vec![version], async move {
+            experiments.analyze(id).await
+        })
         .await
     }
 
@@ -272,7 +269,11 @@ impl Computed {
     /// The overview of `scenes` in `booth` ([`crate::scene_overview`]):
     /// kept until one of the scenes' comparisons, the booth's complete
     /// measurements or the newest preview changes.
-    pub async fn scenes_overview(&self, scenes: Vec<SceneInfo>, booth: &Booth) -> Result<Arc<ScenesOverview>, LabError> {
+    pub async fn scenes_overview(
+        &self,
+        scenes: Vec<SceneInfo>,
+        booth: &Booth,
+    ) -> Result<Arc<ScenesOverview>, LabError> {
         let mut version = Vec::with_capacity(scenes.len() + 1);
         let mut summaries = Vec::with_capacity(scenes.len());
         for s in &scenes {

@@ -70,10 +70,7 @@ impl DatabaseWatch {
             }
             match (&s.pinging, &s.last) {
                 (Some((since, _)), _) if since.elapsed() >= NO_ANSWER => {
-                    return Some(format!(
-                        "the database did not answer within {} s",
-                        NO_ANSWER.as_secs()
-                    ))
+                    return Some(format!("the database did not answer within {} s", NO_ANSWER.as_secs()))
                 }
                 (Some(_), Some((_, last))) => return last.clone(),
                 // The first ping: wait for it with the others.

@@ -13,8 +13,8 @@ use super::download;
 use crate::comparison::SceneSummary;
 use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
-use crate::http::kept;
 use crate::http::input::Path;
+use crate::http::kept;
 use crate::http::AppState;
 use crate::lab::comparisons::summary::SceneComparisons;
 use crate::lab::requests::SceneInfo;
@@ -214,7 +214,11 @@ pub async fn scene_comparisons_csv(
 ) -> Result<Response, ApiError> {
     let c = scene_comparison(&state, &scene).await?;
     let body = state.lab.computed().output(&c, "csv", comparisons_csv).await?;
-    Ok(download("text/csv", &format!("comparisons_{scene}.csv"), kept::body(body)))
+    Ok(download(
+        "text/csv",
+        &format!("comparisons_{scene}.csv"),
+        kept::body(body),
+    ))
 }
 
 /// The CSV of a scene's comparisons: every row names its observer (the
@@ -422,7 +426,9 @@ pub async fn scene_chart(
         "de.svg" => |c, _| crate::http::scene_charts::delta_e(c),
         "speed.svg" => {
             // Read from the scene's renders too, so drawn for each request.
-            let svg = crate::http::scene_charts::speed(&state, &c).await.map_err(ApiError::Internal)?;
+            let svg = crate::http::scene_charts::speed(&state, &c)
+                .await
+                .map_err(ApiError::Internal)?;
             return Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response());
         }
         other => {

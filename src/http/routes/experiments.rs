@@ -18,8 +18,8 @@ use utoipa::ToSchema;
 use super::measurements::download;
 use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
-use crate::http::kept;
 use crate::http::input::{Input, Path, Query};
+use crate::http::kept;
 use crate::http::AppState;
 use crate::lab::experiments::analysis::{
     analysis_csv, analysis_mat, figure, psychometric_figure, thresholds_csv, Analysis,
@@ -345,11 +345,7 @@ pub async fn experiments_figure(
                 .output(one, &what, move |a| svg(figure(std::slice::from_ref(a), model)))
                 .await?
         }
-        _ => Arc::new(
-            computed
-                .output_not_kept(move || svg(figure(&analyses, model)))
-                .await?,
-        ),
+        _ => Arc::new(computed.output_not_kept(move || svg(figure(&analyses, model))).await?),
     };
     Ok(kept::served("image/svg+xml", body))
 }

@@ -1097,6 +1097,10 @@ async fn a_body_is_made_once_per_kept_result() {
         .await
         .unwrap();
     let three = csv(computed.analysis(e.id).await.unwrap()).await;
-    assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 2, "a new analysis, a new body");
+    assert_eq!(
+        made.load(std::sync::atomic::Ordering::SeqCst),
+        2,
+        "a new analysis, a new body"
+    );
     assert_ne!(one, three, "the new body has the trial");
 }

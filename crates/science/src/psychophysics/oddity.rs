@@ -317,13 +317,22 @@ mod tests {
             let mut worst: (f64, f64) = (0.0, 0.0);
             for k in 0..points {
                 // Every piece, and the last one's far end.
-                let d = if k % 10 == 9 { 20.0 + 40.0 * rng.uniform() } else { 21.0 * rng.uniform() };
+                let d = if k % 10 == 9 {
+                    20.0 + 40.0 * rng.uniform()
+                } else {
+                    21.0 * rng.uniform()
+                };
                 let err = (model.proportion_correct(d) - quadrature(d)).abs();
                 if err > worst.0 {
                     worst = (err, d);
                 }
             }
-            assert!(worst.0 < 1e-12, "{model}: |table − quadrature| = {:e} at d′ = {}", worst.0, worst.1);
+            assert!(
+                worst.0 < 1e-12,
+                "{model}: |table − quadrature| = {:e} at d′ = {}",
+                worst.0,
+                worst.1
+            );
         }
     }
 
