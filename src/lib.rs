@@ -53,10 +53,12 @@
 //! - [`store`]: the database (SQLite or PostgreSQL), every raw sample; a
 //!   crate of its own above those two (`crates/store`, with the top-level
 //!   `migrations/` embedded).
-//! - [`charts`]: the charts as SVG; [`export`]: CSV, MAT, EXR and ENVI files.
+//! - [`charts`]: the charts as SVG; [`export`]: MAT, EXR and ENVI files;
+//!   pure functions of the data a workflow chooses, a crate of their own
+//!   beside the store (`crates/report`).
 //!
-//! The workflows, a crate of their own above the store (`crates/lab`,
-//! with the charts and exports):
+//! The workflows, a crate of their own above the store and the report
+//! (`crates/lab`):
 //!
 //! - [`lab`]: measurements, the instrument queue, events, renders,
 //!   comparisons, jobs, camera images, calibrations, leases, the hand-off
@@ -96,8 +98,8 @@
 //!
 //! # The layer rule
 //!
-//! Levels 0 to 3 are crates (science; instrument and render; store; lab
-//! with charts and export): the compiler keeps the science below
+//! Levels 0 to 3 are crates (science; instrument and render; store, and
+//! report with the charts and exports; lab): the compiler keeps the science below
 //! everything else, the instruments and the renderer out of each other,
 //! and all of them below this crate. Above them, inside this crate, a module may use
 //! modules on its own level or below, never above; the
@@ -125,14 +127,14 @@ pub mod http;
 pub mod worker;
 
 // The layers below this crate, each a crate of its own, under the names
-// their modules had here: the lab with its charts and exports
-// (`crates/lab`), the store under it (`crates/store`), the instruments and
+// their modules had here: the lab (`crates/lab`), the store and the charts
+// and exports under it (`crates/store`, `crates/report`), the instruments and
 // the renderer under it (`crates/instrument`, `crates/render`), and the
 // science under them all (`crates/science`).
 pub use lightbooth_instrument as instrument;
 pub use lightbooth_lab as lab;
-pub use lightbooth_lab::{charts, export};
 pub use lightbooth_render as render;
+pub use lightbooth_report::{charts, export};
 pub use lightbooth_science::{
     calibration, colorimetry, comparison, display, nstep, psychophysics, random, reference_data, spectrum, uncertainty,
 };

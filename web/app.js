@@ -26,7 +26,7 @@ function token() {
 // /api, named after the daemon's port, holding a read token the daemon
 // derives for this run. The write token never goes in a cookie (cookies are
 // not bound to a port: any other local service under /api would receive
-// it); see src/service/auth.rs. A cookie of older versions is deleted.
+// it); see src/http/auth.rs. A cookie of older versions is deleted.
 document.cookie = "lightbooth_token=; path=/api; max-age=0; SameSite=Strict";
 const readCredential = token()
   ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } })
@@ -255,10 +255,10 @@ setInterval(() => {
 function studyTimeLeft(id) {
   const e = studyEstimates.get(id);
   if (!e) return "";
-  const begun = e.done === null || e.done === undefined ? "" : ` — ${fmt(e.done, 3)} % of its steps begun`;
+  const begun = e.done === null || e.done === undefined ? "" : ` — ${fmt(e.done, 3)} % of its work begun`;
   const left = e.seconds_left === null ? 0 : e.seconds_left - (Date.now() / 1000 - e.at);
   if (left < 1) return `${begun || " —"}; time left: estimating… (this step is slower than the ones before it, or none is done yet)`;
-  return `${begun}; about ${duration(left)} left (steps counted as equal)`;
+  return `${begun}; about ${duration(left)} left (each scene's steps weighed by its targets)`;
 }
 let studyEstimateBusy = false;
 async function refreshStudyEstimate(id) {
@@ -1175,6 +1175,18 @@ async function loadStudies(openId) {
     tr.className = "clickable";
     tr.title = "open this study's figures";
     tr.addEventListener("click", () => (location.hash = `#/study/${st.id}`));
+  }
+  // A study already running when the page opened: its step and time left
+  // now, not at its next progress event (a step can take half the run).
+  const running = list.find((st) => st.state === "running");
+  if (running && (!studyRunning || studyRunning.study_id !== running.id)) {
+    api("/api/jobs").then((q) => {
+      const j = q.jobs.find((x) => x.kind === "study" && x.id === running.id);
+      if (!j || (studyRunning && studyRunning.study_id === running.id)) return;
+      studyRunning = { study_id: running.id, message: j.step || j.what || "running" };
+      studyEstimates.set(running.id, { seconds_left: j.seconds_left, done: j.done, at: Date.now() / 1000 });
+      $("study-progress").textContent = `study ${running.id}: ${studyRunning.message}` + studyTimeLeft(running.id);
+    }).catch(() => {});
   }
   if (openId) showStudy(openId);
   planStudy();

@@ -264,6 +264,24 @@ try {
   }
   await page.fill("#study-seeds", "2");
   await page.click("#study-button");
+  // A page opened on the running study shows its step and time left at
+  // once, not at the study's next progress event (issue 46: a study page
+  // opened mid-step showed "running" and nothing else).
+  {
+    await page.waitForFunction(() => /^study \d+: /.test(document.getElementById("study-progress").textContent),
+      null, { timeout: 60000 });
+    const late = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
+    await late.goto(`${base}/#/study`);
+    const running = async () => (await (await fetch(`${base}/api/studies`)).json()).some((st) => st.state === "running");
+    if (await running()) {
+      const shown = await late.waitForFunction(
+        () => /^study \d+: .*(left|estimating)/.test(document.getElementById("study-progress").textContent),
+        null, { timeout: 2000 }).then(() => true, () => false);
+      if (shown && shots) await late.screenshot({ path: `${shots}/study-running.png`, fullPage: true });
+      if (!shown && await running()) failures.push("a page opened on a running study showed no progress line within 2 s");
+    }
+    await late.close();
+  }
   await page.waitForFunction(() => /complete|failed/.test(document.getElementById("study-progress").textContent), null, { timeout: 180000 });
   const progressText = await page.textContent("#study-progress");
   if (!progressText.includes("complete")) failures.push("study: " + progressText);

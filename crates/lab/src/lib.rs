@@ -2,14 +2,14 @@
 //! neither: what happens between a request ("measure this target", "render
 //! this scene in these codings", "run the study") and the rows in the store.
 //!
-//! A layer of the workspace above `lightbooth-store`, `lightbooth-instrument`,
-//! `lightbooth-render` and `lightbooth-science`; Cargo refuses a build where
-//! it would name the daemon, the HTTP layer or the command line.
-//! `lightbooth` re-exports it as `lightbooth::lab`, and its [`charts`] and
-//! [`export`] as `lightbooth::charts` and `lightbooth::export`.
+//! A layer of the workspace above `lightbooth-store`, `lightbooth-report`,
+//! `lightbooth-instrument`, `lightbooth-render` and `lightbooth-science`;
+//! Cargo refuses a build where it would name the daemon, the HTTP layer or
+//! the command line. `lightbooth` re-exports it as `lightbooth::lab`.
 //!
-//! - [`charts`]: the charts of the results as SVG; [`export`]: CSV, MAT,
-//!   EXR and ENVI files;
+//! - [`charts`], [`export`]: `lightbooth-report`'s charts (SVG) and files
+//!   (MAT, EXR, ENVI), re-exported here as the lab's workflows use them:
+//!   the lab chooses what a chart shows, the report crate draws it;
 //! - [`handle`]: **the HTTP layer's one way to the lab**, the [`Lab`]
 //!   handle (the instrument, the renders, the experiments and every record);
 //! - [`events`]: every [`Event`](events::Event) on one bus, for `/api/events`
@@ -65,14 +65,14 @@
 
 pub mod booth_instrument;
 pub mod calibration;
-pub mod charts;
+pub use lightbooth_report::charts;
 pub mod comparisons;
 pub mod computed;
 pub mod database_watch;
 pub mod error;
 pub mod events;
 pub mod experiments;
-pub mod export;
+pub use lightbooth_report::export;
 pub mod handle;
 pub mod images;
 pub mod instrument_queue;

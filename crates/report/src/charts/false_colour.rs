@@ -9,7 +9,7 @@
 //! crate, and the figure is one `<image>`, one gradient and some text.
 //!
 //! ```
-//! use lightbooth_lab::charts::{false_colour_map_svg, FalseColourMap};
+//! use lightbooth_report::charts::{false_colour_map_svg, FalseColourMap};
 //! let png = [0u8; 8]; // the map's PNG bytes (here only a stand-in)
 //! let svg = false_colour_map_svg(&FalseColourMap {
 //!     png: &png,

@@ -11,7 +11,7 @@
 //! this small writer follows the MathWorks PDF directly.
 //!
 //! ```
-//! use lightbooth_lab::export::mat::MatFile;
+//! use lightbooth_report::export::mat::MatFile;
 //! let mut mat = MatFile::new();
 //! mat.matrix("radiance", 3, 1, &[0.1, 0.2, 0.3]).unwrap();
 //! mat.text("unit", "W/(sr m^2 nm)").unwrap();
