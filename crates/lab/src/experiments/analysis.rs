@@ -25,6 +25,7 @@
 //! the geometries measured) or, without one, the one the display profile
 //! predicts the output method shows; `delta_e00_basis` says which.
 
+use crate::export::csv_table::csv_table;
 use serde::Serialize;
 
 use super::session::excluded_warning;
@@ -355,29 +356,53 @@ fn plural(n: usize, word: &str) -> String {
     format!("{n} {word}{}", if n == 1 { "" } else { "s" })
 }
 
-/// The analysis as CSV, one row per condition, every number labelled with its model.
+/// The columns of [`analysis_csv`].
+const ANALYSIS_COLUMNS: [&str; 24] = [
+    "experiment",
+    "scene",
+    "target",
+    "output_method",
+    "observer",
+    "approximation",
+    "trials",
+    "correct",
+    "excluded",
+    "proportion_correct",
+    "pc_low",
+    "pc_high",
+    "dprime_differencing",
+    "dprime_differencing_low",
+    "dprime_differencing_high",
+    "dprime_independent_observation",
+    "dprime_io_low",
+    "dprime_io_high",
+    "upper_bounded",
+    "rule",
+    "dE00_intended",
+    "dE00_shown",
+    "distinct",
+    "distinct_at_8bit",
+];
+
+/// The analysis as CSV, one row per condition, every number labelled with
+/// its model (written by the `csv` crate: an observer named with a comma
+/// keeps its columns).
 pub fn analysis_csv(a: &Analysis) -> String {
-    let mut out = String::from(
-        "experiment,scene,target,output_method,observer,approximation,trials,correct,excluded,\
-         proportion_correct,pc_low,pc_high,dprime_differencing,dprime_differencing_low,dprime_differencing_high,\
-         dprime_independent_observation,dprime_io_low,dprime_io_high,upper_bounded,rule,dE00_intended,dE00_shown,distinct,distinct_at_8bit\n",
-    );
     // A row with no trial counted has empty estimate cells.
     let num = |v: Option<f64>, digits: usize| v.map(|v| format!("{v:.digits$}")).unwrap_or_default();
-    for r in &a.rows {
+    let rows = a.rows.iter().map(|r| {
         let d = r.differencing.as_ref();
         let io = r.independent_observation.as_ref();
-        out += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.4},{:.4},{},{}\n",
-            a.experiment_id,
-            a.scene,
-            a.target,
-            a.output_method,
-            r.observer,
-            r.approximation,
-            r.trials,
-            r.correct,
-            r.excluded,
+        vec![
+            a.experiment_id.to_string(),
+            a.scene.clone(),
+            a.target.clone(),
+            a.output_method.clone(),
+            r.observer.clone(),
+            r.approximation.clone(),
+            r.trials.to_string(),
+            r.correct.to_string(),
+            r.excluded.to_string(),
             num(d.map(|d| d.proportion_correct), 6),
             num(d.map(|d| d.proportion_interval.0), 6),
             num(d.map(|d| d.proportion_interval.1), 6),
@@ -388,14 +413,14 @@ pub fn analysis_csv(a: &Analysis) -> String {
             num(io.map(|d| d.d_prime_interval.0), 4),
             num(io.map(|d| d.d_prime_interval.1), 4),
             d.map(|d| d.upper_bounded.to_string()).unwrap_or_default(),
-            d.and_then(|d| d.rule).unwrap_or(""),
-            r.delta_e00_intended,
-            r.delta_e00_shown,
-            r.distinct,
-            r.distinct_at_8bit
-        );
-    }
-    out
+            d.and_then(|d| d.rule).unwrap_or("").to_string(),
+            format!("{:.4}", r.delta_e00_intended),
+            format!("{:.4}", r.delta_e00_shown),
+            r.distinct.to_string(),
+            r.distinct_at_8bit.to_string(),
+        ]
+    });
+    csv_table(&ANALYSIS_COLUMNS, rows).expect("every row has the header's columns")
 }
 
 /// The analysis as the command line prints it (`lightbooth experiment
@@ -557,75 +582,100 @@ pub fn lapse_words(f: &ThresholdFit) -> String {
     )
 }
 
+/// The columns of [`thresholds_csv`].
+const THRESHOLD_COLUMNS: [&str; 28] = [
+    "experiment",
+    "scene",
+    "observer",
+    "model",
+    "kind",
+    "dE00_basis",
+    "sigma",
+    "sigma_low",
+    "sigma_high",
+    "threshold_dE00",
+    "threshold_low",
+    "threshold_high",
+    "deviance",
+    "df",
+    "p_value",
+    "maximum",
+    "lapse",
+    "lapse_low",
+    "lapse_high",
+    "lapse_max",
+    "at_bounds",
+    "approximation",
+    "dE00_intended",
+    "distinct_at_8bit",
+    "predicted_pc",
+    "predicted_pc_low",
+    "predicted_pc_high",
+    "not_fitted",
+];
+
 /// The thresholds as CSV: one row per observer (then `all`) and model,
 /// with the fit and, per approximation, the predicted percent correct in
 /// its own rows (`kind` = `fit` or `prediction`).
 pub fn thresholds_csv(a: &Analysis) -> String {
-    let mut out = String::from(
-        "experiment,scene,observer,model,kind,dE00_basis,sigma,sigma_low,sigma_high,threshold_dE00,threshold_low,\
-         threshold_high,deviance,df,p_value,maximum,lapse,lapse_low,lapse_high,lapse_max,at_bounds,approximation,\
-         dE00_intended,distinct_at_8bit,predicted_pc,predicted_pc_low,predicted_pc_high,not_fitted\n",
-    );
     let num = |v: Option<f64>| v.map(|v| format!("{v:.6}")).unwrap_or_default();
+    let mut rows = Vec::new();
     for t in &a.thresholds {
-        let model = &t.model;
+        // The columns every row of this observer and model starts with.
+        let row = |kind: &str| -> Vec<String> {
+            let mut r = vec![String::new(); THRESHOLD_COLUMNS.len()];
+            r[0] = a.experiment_id.to_string();
+            r[1] = a.scene.clone();
+            r[2] = t.observer.clone();
+            r[3] = t.model.clone();
+            r[4] = kind.to_string();
+            r[5] = a.delta_e00_basis.to_string();
+            r
+        };
         let Some(f) = &t.fit else {
-            out += &format!(
-                "{},{},{},{},fit,{},,,,,,,,,,,,,,,,,,,,,,\"{}\"\n",
-                a.experiment_id,
-                a.scene,
-                t.observer,
-                model,
-                a.delta_e00_basis,
-                t.not_fitted.as_deref().unwrap_or("").replace('"', "'")
-            );
+            let mut r = row("fit");
+            r[27] = t.not_fitted.clone().unwrap_or_default();
+            rows.push(r);
             continue;
         };
         let g = &f.goodness_of_fit;
-        out += &format!(
-            "{},{},{},{},fit,{},{},{},{},{},{},{},{:.6},{},{},{},{:.6},{:.6},{:.6},{},\"{}\",,,,,,,\n",
-            a.experiment_id,
-            a.scene,
-            t.observer,
-            model,
-            a.delta_e00_basis,
+        let mut r = row("fit");
+        let fit = [
             num(f.sigma),
             num(Some(f.sigma_interval.0)),
             num(f.sigma_interval.1),
             num(f.threshold),
             num(Some(f.threshold_interval.0)),
             num(f.threshold_interval.1),
-            g.deviance,
-            g.degrees_of_freedom,
+            format!("{:.6}", g.deviance),
+            g.degrees_of_freedom.to_string(),
             num(g.p_value),
             serde_json::to_value(f.maximum)
                 .ok()
                 .and_then(|v| v.as_str().map(String::from))
                 .unwrap_or_default(),
-            f.lapse,
-            f.lapse_interval.0,
-            f.lapse_interval.1,
-            f.lapse_max,
-            f.at_bounds.join("; ").replace('"', "'"),
-        );
+            format!("{:.6}", f.lapse),
+            format!("{:.6}", f.lapse_interval.0),
+            format!("{:.6}", f.lapse_interval.1),
+            f.lapse_max.to_string(),
+            f.at_bounds.join("; "),
+        ];
+        for (k, v) in fit.into_iter().enumerate() {
+            r[6 + k] = v;
+        }
+        rows.push(r);
         for p in &t.predictions {
-            out += &format!(
-                "{},{},{},{},prediction,{},,,,,,,,,,,,,,,,{},{:.4},{},{:.6},{:.6},{:.6},\n",
-                a.experiment_id,
-                a.scene,
-                t.observer,
-                model,
-                a.delta_e00_basis,
-                p.approximation,
-                p.delta_e00_intended,
-                p.distinct_at_8bit,
-                p.predicted.proportion_correct,
-                p.predicted.interval.0,
-                p.predicted.interval.1
-            );
+            let mut r = row("prediction");
+            r[21] = p.approximation.clone();
+            r[22] = format!("{:.4}", p.delta_e00_intended);
+            r[23] = p.distinct_at_8bit.to_string();
+            r[24] = format!("{:.6}", p.predicted.proportion_correct);
+            r[25] = format!("{:.6}", p.predicted.interval.0);
+            r[26] = format!("{:.6}", p.predicted.interval.1);
+            rows.push(r);
         }
     }
-    out
+    csv_table(&THRESHOLD_COLUMNS, rows).expect("every row has the header's columns")
 }
 
 /// The psychometric figure of an analysis under `model`: percent correct

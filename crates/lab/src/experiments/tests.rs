@@ -1104,3 +1104,46 @@ async fn a_body_is_made_once_per_kept_result() {
     );
     assert_ne!(one, three, "the new body has the trial");
 }
+
+/// The analysis and thresholds CSVs (issue 47: written by hand with
+/// `format!`, now by the `csv` crate) read back with a CSV reader, every
+/// row with the header's columns, the fitter's sentences (commas in them)
+/// whole in their one cell.
+#[tokio::test]
+async fn the_analysis_csvs_read_back_whole_with_a_csv_reader() {
+    let lab = lab().await;
+    let x = &lab.experiments;
+    let e = x.create(small(&lab, &["nstep3", "nstep81"])).await.unwrap();
+    let view = started(x, e.id, "obs.1").await;
+    let next = view.next.clone().unwrap();
+    x.record_trial(view.session.id, &report(next.position, 1, false))
+        .await
+        .unwrap();
+    let a = x.analyze(e.id).await.unwrap();
+    let mut sentences = 0;
+    for (what, text) in [
+        ("analysis", super::analysis::analysis_csv(&a)),
+        ("thresholds", super::analysis::thresholds_csv(&a)),
+    ] {
+        let mut r = csv::Reader::from_reader(text.as_bytes());
+        let header = r.headers().unwrap().clone();
+        let observer = header.iter().position(|h| h == "observer").unwrap();
+        let rows: Vec<csv::StringRecord> = r.records().map(|row| row.unwrap()).collect();
+        assert!(!rows.is_empty(), "{what}: {text}");
+        for row in &rows {
+            assert_eq!(row.len(), header.len(), "{what}: {text}");
+            assert_eq!(&row[observer], "obs.1", "{what}: {text}");
+            for name in ["at_bounds", "not_fitted"] {
+                if let Some(k) = header.iter().position(|h| h == name) {
+                    if row[k].contains(", ") {
+                        sentences += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        sentences > 0,
+        "no sentence with a comma was written: nothing was checked"
+    );
+}

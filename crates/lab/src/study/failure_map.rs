@@ -578,14 +578,6 @@ pub fn failure_map(settings: &FailureMapSettings) -> Result<FailureMap, FailureM
     })
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 impl FailureMap {
     /// Every number in long ("tidy") form, one per line:
     /// `map,illuminant,patch,patch_name,coding,scale,seed,quantity,value`
@@ -593,13 +585,14 @@ impl FailureMap {
     /// summaries over seeds; `NaN` where there is no value: no failing patch,
     /// a threshold never crossed).
     pub fn to_csv(&self) -> String {
-        let mut out = String::from("map,illuminant,patch,patch_name,coding,scale,seed,quantity,value\n");
+        let mut rows: Vec<Vec<String>> = Vec::new();
         let mut row =
             |map: &str, ill: &str, patch: &str, name: &str, coding: &str, scale: &str, seed: &str, q: &str, v: f64| {
-                out.push_str(&format!(
-                    "{map},{ill},{patch},{},{coding},{scale},{seed},{q},{v}\n",
-                    csv_field(name)
-                ));
+                rows.push(
+                    [map, ill, patch, name, coding, scale, seed, q, &v.to_string()]
+                        .map(str::to_string)
+                        .to_vec(),
+                );
             };
         for m in &self.illuminant_patch.illuminants {
             let ill = m.illuminant.as_str();
@@ -679,7 +672,21 @@ impl FailureMap {
                 row("interreflection", "", "", "", &c.coding, "", "", q, v);
             }
         }
-        out
+        crate::export::csv_table::csv_table(
+            &[
+                "map",
+                "illuminant",
+                "patch",
+                "patch_name",
+                "coding",
+                "scale",
+                "seed",
+                "quantity",
+                "value",
+            ],
+            rows,
+        )
+        .expect("every row has the header's nine columns")
     }
 
     /// The charts as (file name, SVG): the illuminant × patch grid and the
