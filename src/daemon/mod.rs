@@ -1,15 +1,13 @@
-//! `lightbooth serve`: the lab daemon. It wires the pieces together:
+//! `lightbooth serve`: the lab daemon. It keeps what is the process's and
+//! leaves the lab to the lab:
 //!
-//! - the [`store`](crate::store) (an SQLite file or a PostgreSQL database, migrated at start-up);
-//! - one [instrument task](instrument_task) that owns the PR-650 (real, or
-//!   simulated on a pty with `--mock`) and takes queued measurements one at
-//!   a time, writing each sample as it is taken;
-//! - the lab's render side: the [scene catalogue](crate::lab::scenes), one
-//!   [render runner](crate::lab::render_runner) on the rayon pool, the
-//!   [comparisons](crate::lab::comparisons) of each measurement with every
-//!   coding, the API's renders, studies and images as bounded, cancellable
-//!   [jobs](crate::lab::render_jobs), and the
-//!   [simulated truth](crate::lab::simulated_truth) with `--mock`;
+//! - the [`store`](crate::store) (an SQLite file or a PostgreSQL database,
+//!   migrated at start-up), opened and recovered;
+//! - the lab, built in one place, [`DaemonLab::start`] (`lab::assemble`):
+//!   the scene catalogue, the render side, the API's jobs, the
+//!   [instrument task](crate::lab::instrument_task) that owns the
+//!   instrument (real, or simulated on a pty with `--mock`), the handle the
+//!   HTTP layer calls; and stopped in order ([`DaemonLab::stop`]);
 //! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
 //! - a [lease](crate::lab::lease) in the database, renewed by a heartbeat
 //!   task, so that daemons sharing a PostgreSQL database recover only the
@@ -21,7 +19,6 @@
 //! start and stop a whole daemon in-process.
 
 pub mod db_lock;
-pub mod instrument_task;
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -31,31 +28,16 @@ use std::time::Duration;
 
 use anyhow::Context;
 use tokio::net::TcpListener;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::broadcast;
 
 use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
-use crate::lab::booth_instrument::BoothInstrument;
-use crate::lab::comparisons::Comparisons;
-use crate::lab::events::EventSink;
-use crate::lab::images::ImageJobs;
-use crate::lab::instrument_queue::InstrumentStatus;
-use crate::lab::render_jobs::RenderJobs;
-use crate::lab::render_runner::RenderRunner;
-use crate::lab::scenes::SceneCatalog;
-use crate::lab::simulated_truth::SimulatedTruth;
-use crate::lab::study_jobs::StudyRunner;
-use crate::lab::worker_queue::{RenderPlace, WorkerQueue};
-use crate::lab::Lab;
+use crate::lab::assemble::{DaemonLab, LabSettings};
+use crate::lab::instrument_task::MockSettings;
 use crate::render::integrator::CancellationToken;
-use crate::render::Coding;
 use crate::store::{Booth, Store};
-
-/// How many measurements may wait for the instrument; more get 409. Enough
-/// for every target of every booth scene (1 + 1 + 1 + 1 + 21) at once.
-pub const QUEUE_CAPACITY: usize = 64;
 
 /// Everything `serve` needs, from the command line and the config file.
 #[derive(Clone, Debug)]
@@ -109,10 +91,6 @@ pub struct DaemonOptions {
     pub renders: crate::lab::worker_queue::RenderPlace,
 }
 
-/// How often a daemon leaving its work to render workers looks for the
-/// jobs that ended, to send their events.
-pub const WORKER_JOB_POLL: Duration = Duration::from_millis(250);
-
 /// The heartbeat interval of a daemon's lease unless configured.
 pub const DEFAULT_HEARTBEAT: Duration = Duration::from_secs(2);
 
@@ -131,12 +109,7 @@ pub async fn run(
 ) -> anyhow::Result<()> {
     // Before the store opens: opening marks unfinished work interrupted.
     let _lock = db_lock::acquire(&options.db_url)?;
-    anyhow::ensure!(
-        !options.heartbeat.is_zero() && options.lease > options.heartbeat,
-        "the lease ({:?}) must be longer than the heartbeat interval ({:?}), which must not be zero",
-        options.lease,
-        options.heartbeat
-    );
+    options.check_lease()?;
     // Before registering: a daemon that cannot start leaves no lease behind.
     let (token, source) = auth::load_token(options.token_file.as_deref(), &options.default_token_file)?;
     let store = Store::open_recovering(&options.db_url)
@@ -159,182 +132,31 @@ pub async fn run(
     let daemon_id = lease.id();
     let store = lease.store().clone();
     tracing::info!(daemon = daemon_id, booth = %options.booth, "registered; heartbeat every {:?}, lease {:?}", options.heartbeat, options.lease);
-    // This booth's previous daemon on this host, killed (kill -9, a crash):
-    // its work is recovered now, not a lease later (`store::leases`).
-    let recovered = store
-        .recover_dead_predecessors(&options.booth)
-        .await
-        .context("recovering the work of this booth's previous daemon")?;
-    if recovered.total() > 0 {
-        tracing::warn!(
-            measurements = recovered.measurements,
-            renders = recovered.renders,
-            studies = recovered.studies,
-            "marked the work of this booth's dead previous daemon as interrupted"
-        );
-    }
-    // Sessions left running with all their trials (issue 32) are complete.
-    let completed = crate::lab::experiments::Experiments::new(store.clone())
-        .complete_finished_sessions(options.booth.as_str())
-        .await
-        .context("completing experiment sessions found with all their trials")?;
-    if !completed.is_empty() {
-        tracing::warn!(sessions = ?completed, "completed experiment sessions found running with all their trials");
-    }
-    // Image downloads' private folders a killed daemon left behind.
-    for left in crate::export::image::remove_stale_export_folders(&std::env::temp_dir()) {
-        tracing::info!(folder = %left.display(), "removed an image export folder left by a process that is gone");
-    }
+    crate::lab::assemble::recover_at_start(&store, &options.booth).await?;
     let addr = listener.local_addr()?;
     let loopback_only = addr.ip().is_loopback();
-    println!("{}", source.describe());
-    println!("lightbooth listening on http://{addr}/");
-    println!("dashboard (with the write token): http://{addr}/#token={token}");
-    if !loopback_only {
-        println!("not bound to loopback: reads need the token too");
-    }
     let allowed_hosts = http::hosts::AllowedHosts::new(addr, &options.allowed_hosts).map_err(anyhow::Error::msg)?;
-    println!("answering requests for {}", allowed_hosts.describe());
-
-    let (jobs_tx, jobs_rx) = mpsc::channel(QUEUE_CAPACITY);
-    let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
-        reason: "starting".into(),
-    });
-    // The lab's render side (see `lab`): the scenes, loaded once; one
-    // render runner; the comparisons, studies and jobs that use it; and
-    // what the simulated instrument measures.
-    let catalogue = Arc::new(SceneCatalog::from_folder(&options.scenes_dir, options.observer)?);
-    let codings = options
-        .codings
-        .iter()
-        .map(|c| c.parse::<Coding>().map_err(|e| anyhow::anyhow!("coding `{c}`: {e}")))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let truth = Arc::new(SimulatedTruth::new(Arc::clone(&catalogue), options.mock_world.clone())?);
-    let workers = match options.renders {
-        RenderPlace::Here => None,
-        RenderPlace::Workers => {
-            anyhow::ensure!(
-                store.engine_name() == "postgres",
-                "--renders workers needs a database shared with the render workers: a PostgreSQL one \
-                 (--db postgres://…); on an SQLite file the daemon renders itself (--renders here)"
-            );
-            anyhow::ensure!(
-                options.mock_world.is_none(),
-                "--renders workers cannot be combined with --mock-world: the mock world's scenes are not published to workers"
-            );
-            let queue = WorkerQueue::publish(
-                store.clone(),
-                events.clone(),
-                &catalogue,
-                &codings,
-                options.render_samples,
-                options.preview_paths,
-                options.observer,
-            )
-            .await?;
-            Some(Arc::new(queue))
-        }
-    };
-    let _worker_watch = workers
-        .as_ref()
-        .map(|queue| AbortOnDrop(tokio::spawn(Arc::clone(queue).watch(WORKER_JOB_POLL))));
-    let lab_events = EventSink::bus(events.clone());
+    announce(addr, &source.describe(), &token, &allowed_hosts);
     // The daemon's one shutdown token: the renders, studies, jobs, the
     // running measurement and the event streams take children of it or wait on it.
     let shutdown_flag = CancellationToken::new();
-    let runner = Arc::new(
-        RenderRunner::new(
-            store.clone(),
-            Arc::clone(&catalogue),
-            lab_events.clone(),
-            codings.clone(),
-            options.render_samples,
-            options.observer,
-            shutdown_flag.clone(),
-        )
-        .with_preview_paths(options.preview_paths),
-    );
-    let comparisons = Arc::new(Comparisons::new(
+    let (lab, running) = DaemonLab::start(
         store.clone(),
-        Arc::clone(&runner),
-        lab_events.clone(),
-        workers.clone(),
-    ));
-    // Complete measurements left without a comparison (taken while the
-    // daemon stopped, or refused by an older daemon: a colorimeter's in
-    // another observer) are compared now, in the background.
-    match comparisons.compare_left_over(&options.booth).await {
-        Ok(0) => {}
-        Ok(n) => tracing::info!(
-            measurements = n,
-            "queued the comparisons of measurements left uncompared"
-        ),
-        Err(e) => tracing::error!(error = %e, "cannot look for measurements left uncompared"),
-    }
-    let studies = Arc::new(StudyRunner::new(
-        store.clone(),
-        Arc::clone(&catalogue),
-        lab_events,
-        codings,
-        options.observer,
-        options.mock_world.clone(),
-        shutdown_flag.clone(),
-    ));
-    let render_jobs = Arc::new(
-        RenderJobs::new(
-            store.clone(),
-            runner,
-            studies,
-            Arc::clone(&comparisons),
-            Arc::new(ImageJobs::new(events.clone(), daemon_id)),
-            workers,
-        )
-        .with_progress(crate::lab::progress::ProgressBoard::follow(&events)),
-    );
-    let job_worker = render_jobs.run();
-    let instrument = instrument_task::spawn(instrument_task::TaskConfig {
-        store: store.clone(),
-        jobs: jobs_rx,
-        status: status_tx,
-        events: events.clone(),
-        comparisons,
-        truth,
-        observer: options.observer,
-        settings: options.instrument.clone(),
-        booth: options.booth.clone(),
-        mock: options.mock.then(|| instrument_task::MockSettings {
-            personality: options.instrument.simulated_personality(),
-            speed: options.mock_speed,
-            faults: options.mock_faults.clone(),
-            cache_dir: options.cache_dir.clone(),
-        }),
-        runtime: tokio::runtime::Handle::current(),
-        shutdown: shutdown_flag.clone(),
-    })?;
-
-    let instrument_handle = BoothInstrument::new(
-        store.clone(),
-        jobs_tx,
-        status_rx,
         events.clone(),
-        Some(Arc::new(instrument.canceller())),
-        options.instrument.capabilities(),
-        options.booth.clone(),
-    );
+        daemon_id,
+        options.lab_settings(),
+        shutdown_flag.clone(),
+    )
+    .await?;
     let state = AppState {
-        lab: Lab::new(
-            store.clone(),
-            options.observer,
-            instrument_handle,
-            Some(Arc::clone(&render_jobs)),
-        ),
+        lab,
         config: Arc::new(ServiceConfig {
             token,
             loopback_only,
             allowed_hosts,
         }),
         events,
-        mock: instrument.mock_control(),
+        mock: running.mock_control(),
         shutting_down: shutdown_flag.clone(),
     };
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -345,50 +167,62 @@ pub async fn run(
     tracing::info!("shutting down: cancelling the running measurement, render and study; closing the HTTP server");
     // Stops the running measurement, render and study, and ends the event streams.
     shutdown_flag.cancel();
-    render_jobs.shutdown();
+    running.stop_jobs();
     let _ = stop_tx.send(());
     server.await.context("the HTTP server task")??;
-    // The server's state (and so the job sender) is gone: the instrument
-    // thread finishes its current job and stops.
-    instrument.join().await;
-    // The job worker marks the cancelled and queued jobs interrupted; a
-    // render stops within one batch of paths per thread.
-    if tokio::time::timeout(Duration::from_secs(30), job_worker).await.is_err() {
-        tracing::warn!("the render job did not stop within 30 s");
-    }
-    // Only this daemon's own work: a neighbour's on a shared database is
-    // its own business.
-    for job in [crate::store::Job::Render, crate::store::Job::Study] {
-        store
-            .interrupt_own_unfinished(
-                job.table(),
-                &format!(
-                    "the daemon shut down during this {}; retry it with POST /api/{}/{{id}}/retry",
-                    job.noun(),
-                    job.table()
-                ),
-            )
-            .await?;
-    }
-    let n = store
-        .interrupt_own_unfinished("measurements", "the daemon shut down before this measurement ran")
-        .await?;
-    if n > 0 {
-        tracing::info!(count = n, "queued measurements marked interrupted at shutdown");
-    }
+    // The server's state (and so the instrument queue's sender) is gone:
+    // the lab's instrument task, job worker and unfinished rows end now.
+    running.stop().await?;
     lease.release().await.context("marking this daemon stopped")?;
     store.close().await;
     Ok(())
 }
 
-/// Aborts a task when dropped: a background task stops with its owner,
-/// also when the owner returns early with an error.
-pub(crate) struct AbortOnDrop(pub(crate) tokio::task::JoinHandle<()>);
-
-impl Drop for AbortOnDrop {
-    fn drop(&mut self) {
-        self.0.abort();
+impl DaemonOptions {
+    /// The lease must outlast the heartbeat, which must tick.
+    fn check_lease(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            !self.heartbeat.is_zero() && self.lease > self.heartbeat,
+            "the lease ({:?}) must be longer than the heartbeat interval ({:?}), which must not be zero",
+            self.lease,
+            self.heartbeat
+        );
+        Ok(())
     }
+
+    /// The options that are the lab's.
+    fn lab_settings(&self) -> LabSettings {
+        LabSettings {
+            booth: self.booth.clone(),
+            observer: self.observer,
+            scenes_dir: self.scenes_dir.clone(),
+            codings: self.codings.clone(),
+            render_samples: self.render_samples,
+            preview_paths: self.preview_paths,
+            mock_world: self.mock_world.clone(),
+            renders: self.renders,
+            instrument: self.instrument.clone(),
+            mock: self.mock.then(|| MockSettings {
+                personality: self.instrument.simulated_personality(),
+                speed: self.mock_speed,
+                faults: self.mock_faults.clone(),
+                cache_dir: self.cache_dir.clone(),
+            }),
+        }
+    }
+}
+
+/// What the operator reads as the daemon starts (stdout): where the token
+/// came from, the address, the dashboard's link with the write token, and
+/// the host names it answers for.
+fn announce(addr: SocketAddr, token_source: &str, token: &str, hosts: &http::hosts::AllowedHosts) {
+    println!("{token_source}");
+    println!("lightbooth listening on http://{addr}/");
+    println!("dashboard (with the write token): http://{addr}/#token={token}");
+    if !addr.ip().is_loopback() {
+        println!("not bound to loopback: reads need the token too");
+    }
+    println!("answering requests for {}", hosts.describe());
 }
 
 /// Resolves on SIGINT (Ctrl-C) or SIGTERM.

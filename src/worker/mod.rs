@@ -35,16 +35,13 @@ use anyhow::Context;
 use sha2::{Digest, Sha256};
 use tokio::sync::broadcast;
 
-use crate::lab::comparisons::Comparisons;
+use crate::lab::assemble::{parse_codings, RenderSide, RenderSideSettings};
 use crate::lab::events::EventSink;
 use crate::lab::lease::Lease;
-use crate::lab::render_runner::RenderRunner;
 use crate::lab::scenes::SceneCatalog;
-use crate::lab::study_jobs::StudyRunner;
 use crate::lab::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::render::bundle::SceneBundle;
 use crate::render::integrator::CancellationToken;
-use crate::render::Coding;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
 
 /// Everything `lightbooth worker` needs.
@@ -157,16 +154,11 @@ struct Worker {
     store: Store,
     options: WorkerOptions,
     /// One set of renderers per published configuration (by its SHA-256).
-    renderers: HashMap<String, Arc<DaemonRenders>>,
+    renderers: HashMap<String, Arc<RenderSide>>,
 }
 
 /// What a worker renders, compares and studies with for one daemon's
 /// published configuration.
-struct DaemonRenders {
-    runner: Arc<RenderRunner>,
-    comparisons: Arc<Comparisons>,
-    studies: Arc<StudyRunner>,
-}
 
 impl Worker {
     /// Runs a claimed job to its end and records it. True when `shutdown`
@@ -304,7 +296,7 @@ impl Worker {
 
     /// The renderer of daemon `daemon`'s published configuration: its
     /// scenes fetched from the database and unpacked, built once.
-    async fn renderer_for(&mut self, daemon: i64) -> Result<Arc<DaemonRenders>, String> {
+    async fn renderer_for(&mut self, daemon: i64) -> Result<Arc<RenderSide>, String> {
         let config_json = self
             .store
             .render_config(daemon)
@@ -358,47 +350,22 @@ impl Worker {
             .map_err(|e| e.to_string())?
             .map_err(|e| format!("daemon {daemon}'s scenes on this worker: {e}"))?;
         let catalogue = Arc::new(catalogue);
-        let codings = config
-            .codings
-            .iter()
-            .map(|c| {
-                c.parse::<Coding>()
-                    .map_err(|e| format!("daemon {daemon}'s coding `{c}`: {e}"))
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let codings = parse_codings(&config.codings).map_err(|e| format!("daemon {daemon}'s {e}"))?;
         // The worker's own shutdown flag: set when it stops, so the render
-        // a comparison runs stops too.
-        let shutdown = CancellationToken::new();
-        let runner = Arc::new(
-            RenderRunner::new(
-                self.store.clone(),
-                Arc::clone(&catalogue),
-                EventSink::nowhere(),
-                codings.clone(),
-                config.samples,
-                observer,
-                shutdown.clone(),
-            )
-            .with_preview_paths(config.preview_paths),
-        );
-        let renderer = DaemonRenders {
-            comparisons: Arc::new(Comparisons::new(
-                self.store.clone(),
-                Arc::clone(&runner),
-                EventSink::nowhere(),
-                None,
-            )),
-            studies: Arc::new(StudyRunner::new(
-                self.store.clone(),
-                catalogue,
-                EventSink::nowhere(),
-                codings,
-                observer,
-                None,
-                shutdown,
-            )),
-            runner,
-        };
+        // a comparison runs stops too. Its workflows send no events: the
+        // daemon that asked reports each job's end when it sees it stored.
+        let renderer = RenderSide::new(RenderSideSettings {
+            store: self.store.clone(),
+            catalogue,
+            events: EventSink::nowhere(),
+            codings,
+            samples: config.samples,
+            preview_paths: config.preview_paths,
+            observer,
+            mock_world: None,
+            workers: None,
+            shutdown: CancellationToken::new(),
+        });
         let renderer = Arc::new(renderer);
         tracing::info!(
             daemon,

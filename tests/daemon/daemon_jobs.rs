@@ -7,7 +7,7 @@ use crate::common;
 use std::time::Duration;
 
 use common::{get_json, poll_until, post_json, request, Daemon, TOKEN};
-use lightbooth::daemon::QUEUE_CAPACITY;
+use lightbooth::lab::assemble::QUEUE_CAPACITY;
 use lightbooth::lab::jobs::{JOB_QUEUE_CAPACITY, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use lightbooth::store::Store;
 

@@ -10,6 +10,9 @@
 //! - [`charts`], [`export`]: `lightbooth-report`'s charts (SVG) and files
 //!   (MAT, EXR, ENVI), re-exported here as the lab's workflows use them:
 //!   the lab chooses what a chart shows, the report crate draws it;
+//! - [`assemble`]: **where the lab's object graph is built**, the daemon's
+//!   ([`DaemonLab::start`](assemble::DaemonLab::start)) and a render
+//!   worker's ([`RenderSide`](assemble::RenderSide)), and stopped in order;
 //! - [`handle`]: **the HTTP layer's one way to the lab**, the [`Lab`]
 //!   handle (the instrument, the renders, the experiments and every record);
 //! - [`events`]: every [`Event`](events::Event) on one bus, for `/api/events`
@@ -22,6 +25,11 @@
 //!   ([`Recorder::take`](measurement::Recorder::take): each raw sample
 //!   stored before the next, the average, the end classified), used by the
 //!   daemon's instrument task and by `lightbooth study --measure-simulated`;
+//! - [`instrument_task`]: **the one task that owns the instrument** (a
+//!   thread of its own): takes the queue's measurements one at a time
+//!   through the recorder, publishes each sample as an event, aims the
+//!   simulator, reopens a lost port, restarts after a panic, and hands each
+//!   complete measurement to the comparisons;
 //! - [`instrument_queue`]: the queue of measurements the instrument task
 //!   takes, its live status, and the handles it lends out;
 //! - [`computed`]: the heavy results the pages poll (an experiment's
@@ -63,6 +71,7 @@
 //! renderer, the instruments and the science below them; nothing here names
 //! axum or the HTTP layer.
 
+pub mod assemble;
 pub mod booth_instrument;
 pub mod calibration;
 pub use lightbooth_report::charts;
@@ -76,6 +85,7 @@ pub use lightbooth_report::export;
 pub mod handle;
 pub mod images;
 pub mod instrument_queue;
+pub mod instrument_task;
 pub mod jobs;
 pub mod lease;
 pub mod measurement;

@@ -2,7 +2,7 @@
 //! driver does blocking serial I/O), takes queued measurements one at a
 //! time so commands never interleave on the wire, and:
 //!
-//! - records each measurement through [`crate::lab::measurement::Recorder`]: each
+//! - records each measurement through [`crate::measurement::Recorder`]: each
 //!   raw sample is in the store *before* the next sample starts (the thread
 //!   blocks on the write), so a crash or a pulled cable keeps every sample
 //!   taken, and the end of a measurement is written again until a database
@@ -28,23 +28,23 @@ use std::time::{Duration, Instant};
 use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
 
-use crate::colorimetry::xyz_from_radiance;
-use crate::instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
-use crate::instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
-use crate::lab::comparisons::Comparisons;
-use crate::lab::events::Event;
-use crate::lab::instrument_queue::InstrumentStatus;
-use crate::lab::instrument_queue::MeasurementJob;
-use crate::lab::instrument_queue::MockControl;
-use crate::lab::measurement::{self as recorder, Outcome, Recorder};
-use crate::lab::simulated_truth::SimulatedTruth;
-use crate::store::{Booth, MeasurementState, NewSample, Store};
+use crate::comparisons::Comparisons;
+use crate::events::Event;
+use crate::instrument_queue::InstrumentStatus;
+use crate::instrument_queue::MeasurementJob;
+use crate::instrument_queue::MockControl;
+use crate::measurement::{self as recorder, Outcome, Recorder};
+use crate::simulated_truth::SimulatedTruth;
+use lightbooth_instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
+use lightbooth_instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
+use lightbooth_science::colorimetry::xyz_from_radiance;
+use lightbooth_store::{Booth, MeasurementState, NewSample, Store};
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]
 pub struct MockSettings {
     /// Which instrument is simulated: the model the settings file names.
-    pub personality: crate::instrument::sim::Personality,
+    pub personality: lightbooth_instrument::sim::Personality,
     pub speed: f64,
     pub faults: Vec<Fault>,
     pub cache_dir: PathBuf,
@@ -60,7 +60,7 @@ pub struct TaskConfig {
     /// What the simulated instrument measures (with `mock`).
     pub truth: Arc<SimulatedTruth>,
     /// The observer of every XYZ computed from a spectrum.
-    pub observer: crate::colorimetry::Observer,
+    pub observer: lightbooth_science::colorimetry::Observer,
     pub settings: InstrumentSettings,
     /// The booth this instrument measures in; recorded with it.
     pub booth: Booth,
@@ -79,7 +79,7 @@ pub struct MockSlot {
     settings: MockSettings,
     /// What the calibration page shows on the simulated display, kept so a
     /// replugged simulator still sees it.
-    shown: Mutex<Option<crate::spectrum::Spectrum>>,
+    shown: Mutex<Option<lightbooth_science::spectrum::Spectrum>>,
 }
 
 impl MockSlot {
@@ -127,12 +127,12 @@ impl MockControl for MockSlot {
                 drive[c]
             ));
         }
-        let display = crate::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
+        let display = lightbooth_science::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
         self.aim_at_display(display.spectrum(drive), &format!("drive {drive:?}"))
     }
 
-    fn show_codes_on_display(&self, codes: &crate::display::CodeCounts) -> Result<(), String> {
-        let display = crate::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
+    fn show_codes_on_display(&self, codes: &lightbooth_science::display::CodeCounts) -> Result<(), String> {
+        let display = lightbooth_science::display::SimulatedDisplay::crt().map_err(|e| e.to_string())?;
         let truth = display.mean_spectrum(codes)?;
         self.aim_at_display(truth, "a patch of counted codes")
     }
@@ -140,7 +140,7 @@ impl MockControl for MockSlot {
 
 impl MockSlot {
     /// Aims the simulated instrument at the simulated display showing `truth`.
-    fn aim_at_display(&self, truth: crate::spectrum::Spectrum, what: &str) -> Result<(), String> {
+    fn aim_at_display(&self, truth: lightbooth_science::spectrum::Spectrum, what: &str) -> Result<(), String> {
         *self.shown.lock().unwrap_or_else(|p| p.into_inner()) = Some(truth.clone());
         match self.with(|h| h.set_truth(truth)) {
             Some(Err(e)) => Err(format!("cannot aim the simulated instrument: {e}")),
@@ -155,10 +155,10 @@ impl MockSlot {
 
 /// What the simulated PR-650 sees before any scene is named: a flat
 /// 0.01 W/(sr·m²·nm), about 73 cd/m² (a bright grey card).
-fn default_truth() -> crate::spectrum::Spectrum {
-    crate::spectrum::Spectrum::constant(
-        crate::spectrum::Grid::one_nm(),
-        crate::spectrum::SpectralUnit::SpectralRadiance,
+fn default_truth() -> lightbooth_science::spectrum::Spectrum {
+    lightbooth_science::spectrum::Spectrum::constant(
+        lightbooth_science::spectrum::Grid::one_nm(),
+        lightbooth_science::spectrum::SpectralUnit::SpectralRadiance,
         0.01,
     )
     .expect("a flat spectrum is valid")
@@ -189,7 +189,7 @@ impl Canceller {
     }
 }
 
-impl crate::lab::instrument_queue::CancelMeasurement for Canceller {
+impl crate::instrument_queue::CancelMeasurement for Canceller {
     fn cancel(&self, id: i64) -> bool {
         match self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             Some((running, t)) if *running == id => {
@@ -273,7 +273,7 @@ fn supervise(mut worker: Worker) {
         let Err(panic) = catch_unwind(AssertUnwindSafe(|| worker.run())) else {
             return;
         };
-        let message = crate::lab::jobs::panic_message(&*panic);
+        let message = crate::jobs::panic_message(&*panic);
         tracing::error!(panic = %message, restart_in_s = backoff.as_secs(), "the instrument task panicked");
         worker.canceller.set_current(None);
         if let Some(id) = worker.current.take() {
@@ -474,7 +474,7 @@ impl Worker {
             samples: job.samples,
         });
         let started = Instant::now();
-        let started_at = crate::store::now();
+        let started_at = lightbooth_store::now();
         let measuring = |sample: usize, seconds_per_sample: Option<f64>| InstrumentStatus::Measuring {
             measurement_id: id,
             sample,
