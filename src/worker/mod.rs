@@ -153,12 +153,11 @@ fn redacted(url: &str) -> String {
 struct Worker {
     store: Store,
     options: WorkerOptions,
-    /// One set of renderers per published configuration (by its SHA-256).
+    /// What it renders, compares and studies with for each daemon's
+    /// published configuration (by its SHA-256), built as the daemon builds
+    /// its own (`lab::assemble::RenderSide`).
     renderers: HashMap<String, Arc<RenderSide>>,
 }
-
-/// What a worker renders, compares and studies with for one daemon's
-/// published configuration.
 
 impl Worker {
     /// Runs a claimed job to its end and records it. True when `shutdown`
