@@ -9,7 +9,7 @@
 // SCREENSHOT_DIR for a reviewer.
 //
 // Usage: node dashboard.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 import { visitEveryPage } from "./every_page.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
@@ -18,12 +18,7 @@ if (!base || !token) {
   process.exit(2);
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 const failures = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
@@ -332,8 +327,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("dashboard ok");
+finish(failures, "dashboard ok");

@@ -12,7 +12,7 @@
 // screenshots.
 //
 // Usage: node experiment.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -44,13 +44,7 @@ function answer(configuration, dPrime, u) {
   return best;
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  // WebGL2 through SwiftShader (no GPU on the test machine).
-  args: ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch({ webgl: true });
 const failures = [];
 const auth = { "Authorization": "Bearer " + token };
 async function apiGet(path) {
@@ -240,8 +234,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("experiment pages: ok");
+finish(failures, "experiment pages: ok");

@@ -13,7 +13,7 @@
 // calibrate-MODEL.png and scene-white-MODEL.png.
 //
 // Usage: node instrument_words.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -21,12 +21,7 @@ if (!base || !token) {
   process.exit(2);
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 const failures = [];
 try {
   const health = await (await fetch(`${base}/api/health`)).json();
@@ -98,7 +93,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
+finish(failures);

@@ -10,7 +10,7 @@
 // error, failed request or HTTP error; saves screenshots.
 //
 // Usage: node measurement_views.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -24,12 +24,7 @@ async function apiGet(path) {
   return r.json();
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 const failures = [];
 // The rows of a comparison table: [coding, …cells].
 const tableRows = (page, selector) => page.$$eval(`${selector} table tbody tr`,
@@ -126,8 +121,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("measurement views: comparison on Live and the measurement's page, the scale reaches the patch");
+finish(failures, "measurement views: comparison on Live and the measurement's page, the scale reaches the patch");

@@ -8,7 +8,7 @@
 // of the notice (calibrate-error.png).
 //
 // Usage: node page_details.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -16,12 +16,7 @@ if (!base || !token) {
   process.exit(2);
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 const failures = [];
 
 // WCAG 2 contrast ratio of two CSS rgb()/rgba() colours (alpha ignored).
@@ -77,8 +72,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("page details: badges, a readable notice");
+finish(failures, "page details: badges, a readable notice");

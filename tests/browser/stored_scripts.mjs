@@ -16,7 +16,7 @@
 // against any daemon with --mock whose scenes folder holds the hostile scene:
 //
 // Usage: node stored_scripts.mjs BASE_URL TOKEN SCREENSHOT_DIR [SCENE_ID]
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots, sceneId = "hostile"] = process.argv.slice(2);
 if (!base || !token) {
@@ -165,12 +165,7 @@ function pages() {
   ];
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 try {
   await makeRecords();
   const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
@@ -222,8 +217,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("stored scripts: none ran on any page; every page carries the policy");
+finish(failures, "stored scripts: none ran on any page; every page carries the policy");

@@ -6,7 +6,7 @@
 // screenshots (viewer-image.png, viewer-probe.png, viewer-delta-e.png).
 //
 // Usage: node viewer.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { chromium } from "playwright-core";
+import { launch, finish } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -14,12 +14,7 @@ if (!base || !token) {
   process.exit(2);
 }
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-  headless: true,
-  args: ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync"],
-});
+const browser = await launch();
 const failures = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
@@ -90,8 +85,4 @@ try {
 } finally {
   await browser.close();
 }
-if (failures.length) {
-  console.error(failures.join("\n"));
-  process.exit(1);
-}
-console.log("image viewer: ok");
+finish(failures, "image viewer: ok");
