@@ -379,3 +379,120 @@ impl Drop for AbortOnDrop {
         self.0.abort();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::booth_instrument::{MeasurementRequest, Requested};
+    use lightbooth_instrument::sim::Personality;
+    use lightbooth_store::MeasurementState;
+
+    /// Measure → compare → event at the lab's boundary, without axum (issue
+    /// 47): the daemon's lab built by `DaemonLab::start` with the simulated
+    /// PR-650 on a pty takes a measurement of WHITE's patch asked for
+    /// through its handle, publishes each sample and its end, compares it
+    /// with every coding and says so; then stops in order, leaving nothing
+    /// running.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_target_asked_for_is_measured_compared_and_announced_without_http() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = crate::testing::store_in(dir.path()).await;
+        let (events, mut heard) = broadcast::channel(4096);
+        let booth = Booth::default();
+        let lease = crate::lease::Lease::take(
+            &store,
+            &booth,
+            Duration::from_secs(10),
+            Duration::from_secs(2),
+            Some(events.clone()),
+        )
+        .await
+        .unwrap();
+        let shutdown = CancellationToken::new();
+        let settings = LabSettings {
+            booth: booth.clone(),
+            observer: Observer::JuddVos,
+            scenes_dir: PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenes"),
+            codings: ["rgb", "nstep3", "spectral"].map(String::from).to_vec(),
+            render_samples: 1024,
+            preview_paths: 20_000,
+            mock_world: None,
+            renders: RenderPlace::Here,
+            instrument: InstrumentSettings::default(),
+            mock: Some(MockSettings {
+                personality: Personality::Pr650,
+                speed: 0.05,
+                faults: Vec::new(),
+                cache_dir: dir.path().join("cache"),
+            }),
+        };
+        let (lab, running) = DaemonLab::start(
+            lease.store().clone(),
+            events.clone(),
+            lease.id(),
+            settings,
+            shutdown.clone(),
+        )
+        .await
+        .unwrap();
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+        while lab.instrument().unavailable().is_some() {
+            assert!(
+                tokio::time::Instant::now() < deadline,
+                "the simulated PR-650 never became ready"
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        let request = MeasurementRequest {
+            scene: Some("white".into()),
+            target: Some("patch".into()),
+            samples: Some(2),
+            ..MeasurementRequest::default()
+        };
+        let id = match lab.instrument().request(request, &lab.scenes_if_any()).await.unwrap() {
+            Requested::Queued(id) => id,
+            other => panic!("not queued: {other:?}"),
+        };
+        let (mut samples, mut finished) = (Vec::new(), None);
+        let compared = tokio::time::timeout(Duration::from_secs(600), async {
+            loop {
+                match heard.recv().await {
+                    Ok(Event::Sample {
+                        measurement_id,
+                        index,
+                        of,
+                        ..
+                    }) if measurement_id == id => samples.push((index, of)),
+                    Ok(Event::MeasurementFinished {
+                        measurement_id, state, ..
+                    }) if measurement_id == id => finished = Some(state),
+                    Ok(Event::ComparisonReady {
+                        measurement_id,
+                        scene,
+                        target,
+                    }) if measurement_id == id => return (scene, target),
+                    Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                    Err(e) => panic!("the event bus closed: {e}"),
+                }
+            }
+        })
+        .await
+        .expect("no comparison_ready within 600 s");
+        assert_eq!(compared, ("white".to_string(), "patch".to_string()));
+        assert_eq!(samples, vec![(0, 2), (1, 2)], "each sample announced, in order");
+        assert_eq!(finished, Some(MeasurementState::Complete));
+        let rows = lab.comparisons_of_measurement(id).await.unwrap();
+        let mut codings: Vec<&str> = rows.iter().map(|r| r.coding.as_str()).collect();
+        codings.sort();
+        assert_eq!(codings, ["nstep3", "rgb", "spectral"]);
+
+        shutdown.cancel();
+        running.stop_jobs();
+        drop(lab);
+        tokio::time::timeout(Duration::from_secs(60), running.stop())
+            .await
+            .expect("the lab stops once its handle is gone")
+            .unwrap();
+        lease.release().await.unwrap();
+    }
+}
