@@ -78,6 +78,7 @@ pub use lightbooth_report::charts;
 pub mod comparisons;
 pub mod computed;
 pub mod database_watch;
+pub mod display_profiles;
 pub mod error;
 pub mod events;
 pub mod experiments;

@@ -14,18 +14,14 @@ use axum::Json;
 use serde::Deserialize;
 use utoipa::{IntoParams, ToSchema};
 
-use super::measurements::load_measurement;
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
-use crate::colorimetry::Observer;
-use crate::display::fit::{CalibrationPlan, MeasuredPatch};
-use crate::display::{fit_profile, Checks, Emission};
+use crate::display::fit::CalibrationPlan;
+use crate::display::{Checks, Emission};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::store::{DisplayProfileRow, MeasurementState};
-
-/// The most patches one profile may be fitted from (the plan at 32 steps has 108).
-const MAX_PATCHES: usize = 256;
+use crate::lab::display_profiles::{self as lab_profiles, ProfileRequest};
+use crate::store::DisplayProfileRow;
 
 #[derive(Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
@@ -79,74 +75,20 @@ pub async fn create_display_profile(
     State(state): State<AppState>,
     Input(body): Input<NewDisplayProfile>,
 ) -> Result<(StatusCode, Json<DisplayProfileRow>), ApiError> {
-    if body.patches.len() > MAX_PATCHES {
-        return Err(ApiError::BadRequest(format!(
-            "field `patches`: {} patches; at most {MAX_PATCHES}",
-            body.patches.len()
-        )));
-    }
-    let asked: Option<Observer> = match &body.observer {
-        Some(o) => Some(
-            o.parse()
-                .map_err(|e| ApiError::BadRequest(format!("field `observer`: {e}")))?,
-        ),
-        None => None,
+    let request = ProfileRequest {
+        name: body.name.unwrap_or_else(|| "display".into()),
+        note: body.note,
+        observer: body.observer,
+        patches: body
+            .patches
+            .iter()
+            .map(|p| lab_profiles::ShownPatch {
+                drive: p.drive,
+                measurement_id: p.measurement_id,
+            })
+            .collect(),
     };
-    let mut patches = Vec::with_capacity(body.patches.len());
-    // The observer of the first colorimeter's or luminance meter's patch, with where it came from.
-    let mut instrument_observer: Option<(Observer, usize, String)> = None;
-    for (i, p) in body.patches.iter().enumerate() {
-        let m = load_measurement(&state, p.measurement_id).await?;
-        if m.summary.state != MeasurementState::Complete {
-            return Err(ApiError::BadRequest(format!(
-                "field `patches[{i}]`: measurement {} is {}, not complete",
-                p.measurement_id,
-                m.summary.state.as_str()
-            )));
-        }
-        let (light, observer) = crate::lab::measurement::display_patch_light(&m)
-            .map_err(|e| ApiError::BadRequest(format!("field `patches[{i}]`: {e}")))?;
-        if let Some(o) = observer {
-            let model = m
-                .summary
-                .instrument_model
-                .clone()
-                .unwrap_or_else(|| "instrument".into());
-            match &instrument_observer {
-                Some((first, j, _)) if *first != o => {
-                    return Err(ApiError::BadRequest(format!(
-                        "field `patches[{i}]`: measurement {} is in the {o} observer but patches[{j}] in {first}: \
-                         calibrate with one instrument",
-                        p.measurement_id
-                    )))
-                }
-                Some(_) => {}
-                None => instrument_observer = Some((o, i, model)),
-            }
-        }
-        patches.push(MeasuredPatch {
-            drive: p.drive,
-            light,
-            measurement_id: Some(p.measurement_id),
-        });
-    }
-    // A colorimeter's XYZ stay in the observer of its filters: the profile
-    // takes it, and refuses another rather than mixing two observers.
-    let observer = match (asked, &instrument_observer) {
-        (Some(a), Some((o, _, model))) if a != *o => {
-            return Err(ApiError::BadRequest(format!(
-                "field `observer`: the patches were measured by the {model} in the {o} observer, so the profile is in \
-                 {o}; ask for `{o}` or leave `observer` out"
-            )))
-        }
-        (_, Some((o, _, _))) => *o,
-        (Some(a), None) => a,
-        (None, None) => Observer::default(),
-    };
-    let profile = fit_profile(&patches, observer).map_err(|e| ApiError::BadRequest(e.to_string()))?;
-    let name = body.name.unwrap_or_else(|| "display".into());
-    let row = state.lab.add_display_profile(&name, &body.note, &profile).await?;
-    Ok((StatusCode::CREATED, Json(row)))
+    Ok((StatusCode::CREATED, Json(state.lab.fit_display_profile(request).await?)))
 }
 
 /// A spectrum as a chart's line.
