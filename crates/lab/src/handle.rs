@@ -67,6 +67,7 @@ pub struct Lab {
     experiments: Experiments,
     computed: Arc<Computed>,
     database: DatabaseWatch,
+    scanning: crate::instrument_scan::ScanGate,
 }
 
 impl Lab {
@@ -80,11 +81,17 @@ impl Lab {
             // `comparison_observer`): the instrument's is fixed for the daemon's life.
             computed: Arc::new(Computed::new(store.clone(), comparison_observer(&instrument, observer))),
             database: DatabaseWatch::new(store.clone()),
+            scanning: Default::default(),
             store,
             observer,
             instrument,
             renders,
         }
+    }
+
+    /// Whether an instrument scan is under way ([`crate::instrument_scan`]).
+    pub(crate) fn scan_gate(&self) -> &crate::instrument_scan::ScanGate {
+        &self.scanning
     }
 
     /// The booth this daemon measures in.

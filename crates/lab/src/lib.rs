@@ -86,6 +86,7 @@ pub use lightbooth_report::export;
 pub mod handle;
 pub mod images;
 pub mod instrument_queue;
+pub mod instrument_scan;
 pub mod instrument_task;
 pub mod jobs;
 pub mod lease;

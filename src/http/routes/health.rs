@@ -11,6 +11,7 @@ use crate::http::error::ApiError;
 use crate::http::openapi::served_document;
 use crate::http::AppState;
 use crate::lab::instrument_queue::InstrumentStatus;
+use crate::lab::instrument_scan::InstrumentScan;
 use crate::store::InstrumentRow;
 
 /// How long `/api/health` waits for the database to answer its ping.
@@ -155,36 +156,6 @@ pub async fn document() -> Json<&'static serde_json::Value> {
     Json(served_document())
 }
 
-/// One serial port as a scan found it.
-#[derive(Serialize, ToSchema)]
-pub struct ScannedPort {
-    /// `/dev/ttyACM0`.
-    pub port: String,
-    /// `vendor:product` (hex) when the port is USB.
-    pub usb_ids: Option<String>,
-    /// Which instruments its USB descriptors suggest, in words.
-    pub suggestion: Option<String>,
-    /// `identified`, `silent`, `busy`, `unrecognised`, `not-probed`,
-    /// `this-daemon` (the port this daemon's instrument is on), …
-    pub status: String,
-    /// What it answered, or what to do about it.
-    pub message: String,
-    pub model: Option<String>,
-    pub serial: Option<String>,
-    /// How long its probe took, ms.
-    pub probe_ms: u64,
-}
-
-#[derive(Serialize, ToSchema)]
-pub struct InstrumentScan {
-    /// Every serial port of this computer, probed in parallel within `deadline_s`.
-    pub ports: Vec<ScannedPort>,
-    pub deadline_s: f64,
-}
-
-/// One scan at a time per daemon process: a scan opens every serial port.
-static SCANNING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
 /// Looks for instruments again, as `lightbooth instruments --probe` does:
 /// lists the serial ports and asks each its harmless identity command in
 /// parallel, each within 2 s (never a measuring command or a settings
@@ -196,80 +167,5 @@ static SCANNING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::
               (status = 409, body = crate::http::error::ErrorBody, description = "a scan is under way")),
     security(("bearer" = [])))]
 pub async fn scan_instruments(State(state): State<AppState>) -> Result<Json<InstrumentScan>, ApiError> {
-    use crate::instrument::discovery::{self, ProbeResult, ProbeTarget};
-    use std::sync::atomic::Ordering;
-
-    if SCANNING.swap(true, Ordering::AcqRel) {
-        return Err(ApiError::Conflict(
-            "a scan is under way: wait for its answer (at most a few seconds)".into(),
-        ));
-    }
-    struct Done;
-    impl Drop for Done {
-        fn drop(&mut self) {
-            SCANNING.store(false, Ordering::Release);
-        }
-    }
-    let own_port = match &state.lab.instrument().status() {
-        InstrumentStatus::Idle { port, .. } => Some(port.clone()),
-        _ => None,
-    };
-    let deadline = std::time::Duration::from_secs(2);
-    let scan = tokio::task::spawn_blocking(move || {
-        let _done = Done;
-        let ports = discovery::list_ports(std::path::Path::new("/sys")).unwrap_or_default();
-        let targets: Vec<ProbeTarget> = ports
-            .iter()
-            .filter(|p| Some(&p.path) != own_port.as_ref())
-            .map(|p| ProbeTarget {
-                path: p.path.clone(),
-                plan: p.probe_plan(),
-            })
-            .collect();
-        let outcomes = discovery::probe_ports(&targets, deadline);
-        ports
-            .iter()
-            .map(|p| {
-                let outcome = outcomes.iter().find(|o| o.path == p.path);
-                let (status, message, model, serial, ms) = match outcome {
-                    None => (
-                        "this-daemon".to_string(),
-                        "this daemon's instrument is on this port".to_string(),
-                        None,
-                        None,
-                        0,
-                    ),
-                    Some(o) => {
-                        let (model, serial) = match &o.result {
-                            ProbeResult::Identified(id) => (Some(id.model.clone()), id.serial.clone()),
-                            _ => (None, None),
-                        };
-                        (
-                            o.result.status().to_string(),
-                            o.result.to_string(),
-                            model,
-                            serial,
-                            o.elapsed.as_millis() as u64,
-                        )
-                    }
-                };
-                ScannedPort {
-                    port: p.path.clone(),
-                    usb_ids: p.usb.as_ref().map(|u| u.ids()),
-                    suggestion: p.suggestion.as_ref().map(|s| s.instruments.to_string()),
-                    status,
-                    message,
-                    model,
-                    serial,
-                    probe_ms: ms,
-                }
-            })
-            .collect::<Vec<_>>()
-    })
-    .await
-    .map_err(|e| ApiError::Internal(format!("the scan stopped: {e}")))?;
-    Ok(Json(InstrumentScan {
-        ports: scan,
-        deadline_s: deadline.as_secs_f64(),
-    }))
+    Ok(Json(state.lab.scan_instruments().await?))
 }
