@@ -26,7 +26,6 @@ mod kept;
 pub mod limits;
 mod openapi;
 mod routes;
-mod scene_charts;
 mod sse;
 mod web;
 

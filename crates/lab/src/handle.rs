@@ -191,6 +191,41 @@ impl Lab {
         self.computed.scene_comparisons(scene).await
     }
 
+    /// A chart of a scene's comparisons as SVG: `chromaticity.svg`,
+    /// `profile.svg` (luminance along the targets), `rms.svg`, `de.svg`
+    /// (each coding's rms_rel and mean ΔE ± 1 SD) or `speed.svg` (render
+    /// time against ΔE). Each but `speed.svg` (which also reads the scene's
+    /// renders) is drawn once per kept summary ([`crate::computed`]).
+    pub async fn scene_chart(&self, scene: &str, chart: &str) -> Result<Arc<Vec<u8>>, LabError> {
+        use crate::comparisons::charts;
+        let c = self.scene_comparisons(scene).await?;
+        let info = self.scene(scene)?;
+        if c.rows.is_empty() {
+            return Err(LabError::NotFound(format!(
+                "scene `{scene}` has no comparisons yet: measure its targets first"
+            )));
+        }
+        let draw: fn(&SceneComparisons, &SceneInfo) -> Result<String, String> = match chart {
+            "chromaticity.svg" => |c, info| charts::chromaticity(c, info, c.observer),
+            "profile.svg" => charts::profile,
+            "rms.svg" => |c, _| charts::rms(c),
+            "de.svg" => |c, _| charts::delta_e(c),
+            "speed.svg" => {
+                return Ok(Arc::new(
+                    charts::speed(self, &c).await.map_err(LabError::Internal)?.into_bytes(),
+                ))
+            }
+            other => {
+                return Err(LabError::NotFound(format!(
+                    "no chart `{other}`: choose chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg"
+                )))
+            }
+        };
+        self.computed
+            .output(&c, chart, move |c| draw(c, &info).map(String::into_bytes))
+            .await
+    }
+
     /// The CIELAB white of a scene in this booth now in this lab's
     /// observer, with its source.
     pub async fn cielab_white(&self, scene: &str) -> Result<(Xyz, String), LabError> {

@@ -4,8 +4,7 @@
 use std::sync::Arc;
 
 use axum::extract::State;
-use axum::http::header;
-use axum::response::{IntoResponse, Response};
+use axum::response::Response;
 use serde::Serialize;
 use utoipa::ToSchema;
 
@@ -17,7 +16,6 @@ use crate::http::input::Path;
 use crate::http::kept;
 use crate::http::AppState;
 use crate::lab::comparisons::summary::SceneComparisons;
-use crate::lab::requests::SceneInfo;
 use crate::store::ComparisonRow;
 use crate::uncertainty::{PointUncertainty, PropagatedDifference};
 
@@ -412,35 +410,8 @@ pub async fn scene_chart(
     State(state): State<AppState>,
     Path((scene, chart)): Path<(String, String)>,
 ) -> Result<Response, ApiError> {
-    let c = scene_comparison(&state, &scene).await?;
-    let info = state.lab.scene(&scene)?;
-    if c.rows.is_empty() {
-        return Err(ApiError::NotFound(format!(
-            "scene `{scene}` has no comparisons yet: measure its targets first"
-        )));
-    }
-    let draw: fn(&SceneComparisons, &SceneInfo) -> Result<String, String> = match chart.as_str() {
-        "chromaticity.svg" => |c, info| crate::http::scene_charts::chromaticity(c, info, c.observer),
-        "profile.svg" => crate::http::scene_charts::profile,
-        "rms.svg" => |c, _| crate::http::scene_charts::rms(c),
-        "de.svg" => |c, _| crate::http::scene_charts::delta_e(c),
-        "speed.svg" => {
-            // Read from the scene's renders too, so drawn for each request.
-            let svg = crate::http::scene_charts::speed(&state, &c)
-                .await
-                .map_err(ApiError::Internal)?;
-            return Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response());
-        }
-        other => {
-            return Err(ApiError::NotFound(format!(
-                "no chart `{other}`: choose chromaticity.svg, profile.svg, rms.svg, de.svg or speed.svg"
-            )))
-        }
-    };
-    let body = state
-        .lab
-        .computed()
-        .output(&c, &chart, move |c| draw(c, &info).map(String::into_bytes))
-        .await?;
-    Ok(kept::served("image/svg+xml", body))
+    Ok(kept::served(
+        "image/svg+xml",
+        state.lab.scene_chart(&scene, &chart).await?,
+    ))
 }

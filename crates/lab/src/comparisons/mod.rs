@@ -47,6 +47,7 @@
 //! No scene file is read here: the scenes, their render keys and whites
 //! are the catalogue's.
 
+pub mod charts;
 pub mod image_map;
 pub mod summary;
 pub mod white;

@@ -2,11 +2,10 @@
 //! selection here, drawing (one palette and marker per coding, the
 //! measurement black and last) in [`crate::charts`].
 
-use super::AppState;
+use super::summary::{coding_order, SceneComparisons as SceneComparison};
 use crate::charts::{self, Bar, LineSeriesData, ScatterSeries};
-use crate::colorimetry::{Observer, Xyz};
-use crate::lab::comparisons::summary::{coding_order, SceneComparisons as SceneComparison};
-use crate::lab::requests::SceneInfo;
+use crate::requests::SceneInfo;
+use lightbooth_science::colorimetry::{Observer, Xyz};
 
 /// The cost on the speed chart's x axis: the wall time of each coding
 /// rendered alone at the same fixed number of paths per target
@@ -16,7 +15,7 @@ use crate::lab::requests::SceneInfo;
 /// paths trace the same rays in every coding, which differ only in the
 /// arithmetic per ray (channels), so rays cannot be this chart's axis. The
 /// wall time is the median of rotated repeats after a warm-up
-/// ([`crate::render::cost`]), drawn with its fastest–slowest whisker.
+/// ([`lightbooth_render::cost`]), drawn with its fastest–slowest whisker.
 const SPEED_COST: (&str, &str, &str) = (
     "coding_cost",
     "wall_seconds",
@@ -154,8 +153,8 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
 /// Cost per coding (see [`SPEED_COST`]: render time of each coding alone at
 /// the same fixed paths per target) against its mean ΔE*ab ± 1 SD over targets, each
 /// point labelled with its coding; read from the newest render that has it.
-pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, String> {
-    let renders = state.lab.renders_of_scene(&c.scene).await.map_err(|e| e.to_string())?;
+pub async fn speed(lab: &crate::Lab, c: &SceneComparison) -> Result<String, String> {
+    let renders = lab.renders_of_scene(&c.scene).await.map_err(|e| e.to_string())?;
     let (key, field, x_desc) = SPEED_COST;
     let mut series = Vec::new();
     let mut labels = Vec::new();
@@ -181,7 +180,7 @@ pub async fn speed(state: &AppState, c: &SceneComparison) -> Result<String, Stri
     }
     charts::scatter_chart_with_spread(
         &format!("{}: speed against accuracy", c.scene),
-        &format!("{x_desc}: {}", crate::render::cost::TIMING_AXIS),
+        &format!("{x_desc}: {}", lightbooth_render::cost::TIMING_AXIS),
         "mean ΔE*ab (CIELAB units, log scale)",
         &series,
         &labels,
