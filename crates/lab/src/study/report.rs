@@ -241,11 +241,8 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
         result.observer,
         result.beyond_noise_k
     );
-    let mut figures_csv = String::from("scene,observer,coding,seed,rms_rel,mean_dE76,sd_dE76,mean_dE00,sd_dE00\n");
-    let mut profile_csv = String::from("scene,observer,target,coding,Y_mean,Y_sd_seeds,Y_se,x_mean,y_mean,truth_Y,truth_x,truth_y,truth_source,Y_differs_significantly\n");
-    let mut sweeps_csv = String::from(
-        "scene,observer,sweep,coding,samples,bounces,wall_seconds,wall_seconds_min,wall_seconds_max,rays,rms_rel,mean_dE00,study_choice,pareto\n",
-    );
+    // The three tables' rows (written by the `csv` crate at the end).
+    let (mut figures_rows, mut profile_rows, mut sweeps_rows) = (Vec::new(), Vec::new(), Vec::new());
     for s in &result.scenes {
         let _ = write!(
             html,
@@ -274,38 +271,40 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
                 html_text(&distinguishable_cell(c))
             );
             for (seed, f) in c.per_seed.iter().enumerate() {
-                let _ = writeln!(
-                    figures_csv,
-                    "{},{},{},{},{},{},{},{},{}",
-                    s.scene,
-                    s.observer,
-                    c.coding,
-                    seed + 1,
-                    f.rms_rel,
-                    f.mean_dE76,
-                    f.sd_dE76,
-                    f.mean_dE00,
-                    f.sd_dE00
+                figures_rows.push(
+                    [
+                        s.scene.to_string(),
+                        s.observer.to_string(),
+                        c.coding.to_string(),
+                        (seed + 1).to_string(),
+                        f.rms_rel.to_string(),
+                        f.mean_dE76.to_string(),
+                        f.sd_dE76.to_string(),
+                        f.mean_dE00.to_string(),
+                        f.sd_dE00.to_string(),
+                    ]
+                    .to_vec(),
                 );
             }
             for (p, t) in c.profile.iter().zip(&s.truth) {
-                let _ = writeln!(
-                    profile_csv,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    s.scene,
-                    s.observer,
-                    p.target,
-                    c.coding,
-                    p.Y.mean,
-                    p.Y.sd,
-                    p.Y_se,
-                    p.x.mean,
-                    p.y.mean,
-                    t.XYZ[1],
-                    t.x,
-                    t.y,
-                    t.source,
-                    p.Y_differs_significantly
+                profile_rows.push(
+                    [
+                        s.scene.to_string(),
+                        s.observer.to_string(),
+                        p.target.to_string(),
+                        c.coding.to_string(),
+                        p.Y.mean.to_string(),
+                        p.Y.sd.to_string(),
+                        p.Y_se.to_string(),
+                        p.x.mean.to_string(),
+                        p.y.mean.to_string(),
+                        t.XYZ[1].to_string(),
+                        t.x.to_string(),
+                        t.y.to_string(),
+                        t.source.to_string(),
+                        p.Y_differs_significantly.to_string(),
+                    ]
+                    .to_vec(),
                 );
             }
         }
@@ -348,23 +347,24 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
             charts.push(("speed", speed_chart(s)));
             let front = pareto_front(&s.sweeps);
             for (i, p) in s.sweeps.iter().enumerate() {
-                let _ = writeln!(
-                    sweeps_csv,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-                    s.scene,
-                    s.observer,
-                    p.sweep,
-                    p.coding,
-                    p.samples,
-                    p.bounces.map(|b| b.to_string()).unwrap_or_else(|| "unbounded".into()),
-                    p.wall_seconds,
-                    p.wall_seconds_min,
-                    p.wall_seconds_max,
-                    p.rays,
-                    p.rms_rel,
-                    p.mean_dE00,
-                    p.study_choice,
-                    front.contains(&i)
+                sweeps_rows.push(
+                    [
+                        s.scene.to_string(),
+                        s.observer.to_string(),
+                        p.sweep.to_string(),
+                        p.coding.to_string(),
+                        p.samples.to_string(),
+                        p.bounces.map_or_else(|| "unbounded".to_string(), |b| b.to_string()),
+                        p.wall_seconds.to_string(),
+                        p.wall_seconds_min.to_string(),
+                        p.wall_seconds_max.to_string(),
+                        p.rays.to_string(),
+                        p.rms_rel.to_string(),
+                        p.mean_dE00.to_string(),
+                        p.study_choice.to_string(),
+                        front.contains(&i).to_string(),
+                    ]
+                    .to_vec(),
                 );
             }
         }
@@ -398,9 +398,72 @@ pub fn report_files(result: &StudyResult) -> std::io::Result<Vec<(String, Vec<u8
     }
     html.push_str("<p>Numbers: <a href=\"figures.csv\">figures.csv</a> (per scene, coding and seed), <a href=\"profiles.csv\">profiles.csv</a> (per target), <a href=\"sweeps.csv\">sweeps.csv</a>, <a href=\"study.json\">study.json</a> (everything).</p></body></html>");
     files.push(("index.html".into(), html.into_bytes()));
-    files.push(("figures.csv".into(), figures_csv.into_bytes()));
-    files.push(("profiles.csv".into(), profile_csv.into_bytes()));
-    files.push(("sweeps.csv".into(), sweeps_csv.into_bytes()));
+    let csv = |header: &[&str], rows: Vec<Vec<String>>| {
+        crate::export::csv_table::csv_table(header, rows)
+            .map(String::into_bytes)
+            .map_err(std::io::Error::other)
+    };
+    files.push((
+        "figures.csv".into(),
+        csv(
+            &[
+                "scene",
+                "observer",
+                "coding",
+                "seed",
+                "rms_rel",
+                "mean_dE76",
+                "sd_dE76",
+                "mean_dE00",
+                "sd_dE00",
+            ],
+            figures_rows,
+        )?,
+    ));
+    files.push((
+        "profiles.csv".into(),
+        csv(
+            &[
+                "scene",
+                "observer",
+                "target",
+                "coding",
+                "Y_mean",
+                "Y_sd_seeds",
+                "Y_se",
+                "x_mean",
+                "y_mean",
+                "truth_Y",
+                "truth_x",
+                "truth_y",
+                "truth_source",
+                "Y_differs_significantly",
+            ],
+            profile_rows,
+        )?,
+    ));
+    files.push((
+        "sweeps.csv".into(),
+        csv(
+            &[
+                "scene",
+                "observer",
+                "sweep",
+                "coding",
+                "samples",
+                "bounces",
+                "wall_seconds",
+                "wall_seconds_min",
+                "wall_seconds_max",
+                "rays",
+                "rms_rel",
+                "mean_dE00",
+                "study_choice",
+                "pareto",
+            ],
+            sweeps_rows,
+        )?,
+    ));
     files.push((
         "study.json".into(),
         serde_json::to_vec_pretty(result).map_err(std::io::Error::other)?,
