@@ -329,8 +329,8 @@ impl Computed {
     }
 
     /// The cell of the body `what` of `from`: the kept one or a new one
-    /// (dropping the bodies of results let go, then the least recently
-    /// used, when full).
+    /// (dropping the bodies of results let go, and the least recently used
+    /// when full).
     fn output_cell<V: Send + Sync + 'static>(&self, from: &Arc<V>, what: &str) -> Arc<OnceCell<Arc<Vec<u8>>>> {
         let used = self.output_tick.fetch_add(1, Ordering::Relaxed);
         let key = (Arc::as_ptr(from) as *const () as usize, what.to_string());
@@ -343,9 +343,11 @@ impl Computed {
                 return o.cell.clone();
             }
         }
-        if outputs.len() >= OUTPUTS {
-            outputs.retain(|_, o| o.from.strong_count() > 0);
-        }
+        // The bodies of results let go (an analysis replaced by a newer
+        // version) are dropped at once, not when the map is full: each can
+        // be megabytes, and an experiment under way replaces its analysis
+        // with every trial.
+        outputs.retain(|_, o| o.from.strong_count() > 0);
         if outputs.len() >= OUTPUTS {
             if let Some(oldest) = outputs.iter().min_by_key(|(_, o)| o.used).map(|(k, _)| k.clone()) {
                 outputs.remove(&oldest);

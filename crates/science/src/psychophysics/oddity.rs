@@ -69,11 +69,8 @@ impl OddityModel {
     /// (≥ 0; negative values are taken as their magnitude, the task being
     /// symmetric).
     pub fn proportion_correct(self, d_prime: f64) -> f64 {
-        let d = d_prime.abs().min(PC_TABLE_END);
-        if d.is_nan() {
-            return f64::NAN;
-        }
-        self.pc_table().at(d)
+        // `min` takes a NaN as PC_TABLE_END, as the quadrature did.
+        self.pc_table().at(d_prime.abs().min(PC_TABLE_END))
     }
 
     /// The model's Pc(d′) interpolated from its quadrature (see
