@@ -2,6 +2,7 @@
 //! drives (real or simulated), printed as a summary, JSON or CSV (CSV only
 //! from a spectroradiometer).
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::UNIX_EPOCH;
 
@@ -9,7 +10,7 @@ use clap::Args;
 use serde::Serialize;
 
 use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentSettings, Reading};
-use lightbooth::spectrum::table::write_csv;
+use lightbooth::lab::measurement_files::{spectrum_csv, SampleSpectrum};
 
 #[derive(Args, Debug)]
 pub struct MeasureArgs {
@@ -181,13 +182,19 @@ pub fn run(args: MeasureArgs) -> anyhow::Result<()> {
                 m.reading.name()
             );
         };
-        let good: Vec<(String, &[f64])> = m
+        // The file the API serves as `/api/measurements/{id}/spectrum.csv`.
+        let samples: Vec<SampleSpectrum> = m
             .good_samples()
-            .filter_map(|s| s.radiance.as_ref().map(|r| (format!("sample_{}", s.index), r.values())))
+            .filter_map(|s| {
+                s.radiance.as_ref().map(|r| SampleSpectrum {
+                    index: s.index,
+                    radiance: r.values(),
+                })
+            })
             .collect();
-        let mut columns: Vec<(&str, &[f64])> = vec![("radiance", mean.values()), ("radiance_sd", &m.sd)];
-        columns.extend(good.iter().map(|(n, v)| (n.as_str(), *v)));
-        write_csv(out.lock(), mean.grid(), &columns)?;
+        let csv = spectrum_csv(mean.grid().wavelengths(), Some((mean.values(), &m.sd)), &samples)
+            .map_err(|e| anyhow::anyhow!("writing the CSV: {e}"))?;
+        out.lock().write_all(&csv)?;
     } else {
         let good = m.good_samples().count();
         println!(

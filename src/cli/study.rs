@@ -11,9 +11,10 @@ use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
 use lightbooth::lab::lease::Lease;
 use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::lab::study::report::write_report;
-use lightbooth::lab::study::run::{run_study, Against, StudyOptions};
+use lightbooth::lab::study::run::{Against, StudyOptions};
+use lightbooth::lab::study_jobs::run_study_now;
 use lightbooth::render::Coding;
-use lightbooth::store::{Job, Store};
+use lightbooth::store::Store;
 
 #[derive(Args, Debug)]
 pub struct StudyArgs {
@@ -175,33 +176,8 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
             eprintln!("stored {} simulated measurements", ids.len());
         }
         let request = serde_json::json!({ "scenes": &args.scenes, "options": options, "command_line": true });
-        // Created and started at once: the study runs here, now (a
-        // study left `queued` could not be completed).
-        let study_id = match &store {
-            Some(store) => {
-                let id = store.create_study(&request).await?;
-                anyhow::ensure!(
-                    store.start_job(Job::Study, id).await?,
-                    "study {id} was ended before it started"
-                );
-                Some(id)
-            }
-            None => None,
-        };
-        let result = match run_study(&args.scenes, options, store.as_ref(), &progress).await {
-            Ok(r) => r,
-            Err(e) => {
-                if let (Some(store), Some(id)) = (&store, study_id) {
-                    store.fail_study(id, &e.to_string()).await?;
-                }
-                return Err(e.into());
-            }
-        };
-        if let (Some(store), Some(id)) = (&store, study_id) {
-            let files = lightbooth::lab::study::report::report_files(&result)?;
-            store
-                .complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files)
-                .await?;
+        let (result, study_id) = run_study_now(&args.scenes, options, store.as_ref(), &request, &progress).await?;
+        if let Some(id) = study_id {
             eprintln!("study stored as {id}");
         }
         if let Some(dir) = &args.report {

@@ -1,6 +1,6 @@
 //! Response bodies the lab made once and keeps (`lab::computed`: an
 //! analysis's JSON, CSV and MAT file, a scene's summary, its charts),
-//! served without copying them.
+//! served without copying them; and the lab's files to save ([`download`]).
 
 use std::sync::Arc;
 
@@ -30,4 +30,20 @@ pub fn served(content_type: &'static str, kept: Arc<Vec<u8>>) -> Response {
 /// A kept JSON body.
 pub fn json(kept: Arc<Vec<u8>>) -> Response {
     served("application/json", kept)
+}
+
+/// A file the lab made ([`crate::lab::Download`]) as an attachment: its
+/// media type and the name to save it under.
+pub fn download(file: crate::lab::Download) -> Response {
+    (
+        [
+            (header::CONTENT_TYPE, file.format.media_type().to_string()),
+            (
+                header::CONTENT_DISPOSITION,
+                format!("attachment; filename=\"{}\"", file.file_name),
+            ),
+        ],
+        body(file.bytes),
+    )
+        .into_response()
 }

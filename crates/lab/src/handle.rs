@@ -25,15 +25,30 @@ use crate::calibration::{self, MeasuredError};
 use crate::comparisons::summary::SceneComparisons;
 use crate::computed::Computed;
 use crate::database_watch::DatabaseWatch;
+use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::experiments::analysis::Analysis;
 use crate::experiments::Experiments;
+use crate::measurement_files;
 use crate::queue::{Queue, QueueSources};
 use crate::render_jobs::RenderJobs;
 use crate::requests::SceneInfo;
 use crate::scene_overview::ScenesOverview;
 use lightbooth_science::calibration::reflectance::OutOfRange;
 use lightbooth_science::calibration::standard::WhiteStandard;
+
+/// The files of an experiment's analysis ([`Lab::experiment_file`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AnalysisFile {
+    /// One row per observer and approximation
+    /// ([`analysis_csv`](crate::experiments::analysis::analysis_csv)).
+    AnalysisCsv,
+    /// The analysis CSV's columns as MATLAB column vectors.
+    AnalysisMat,
+    /// Each observer's (and the pooled) fitted threshold and predictions
+    /// ([`thresholds_csv`](crate::experiments::analysis::thresholds_csv)).
+    ThresholdsCsv,
+}
 
 /// What a daemon without the renderer answers when asked to render.
 const NO_RENDERER: &str = "this daemon runs without the renderer";
@@ -191,6 +206,41 @@ impl Lab {
         self.computed.scene_comparisons(scene).await
     }
 
+    /// A scene's comparisons as a file to save, CSV or MAT
+    /// ([`crate::comparisons::files`]), made once per kept summary.
+    pub async fn scene_comparisons_file(&self, scene: &str, format: FileFormat) -> Result<Download, LabError> {
+        use crate::comparisons::files;
+        let c = self.scene_comparisons(scene).await?;
+        let make = match format {
+            FileFormat::Csv => files::comparisons_csv,
+            FileFormat::Mat => files::comparisons_mat,
+            FileFormat::Exr => {
+                return Err(LabError::NotFound(format!(
+                    "scene `{scene}`'s comparisons have no EXR file: ask for csv or mat"
+                )))
+            }
+        };
+        let bytes = self.computed.output(&c, format.extension(), make).await?;
+        Ok(Download::new(format, &format!("comparisons_{scene}"), bytes))
+    }
+
+    /// An experiment's analysis as a file to save ([`AnalysisFile`]), made
+    /// once per kept analysis.
+    pub async fn experiment_file(&self, id: i64, file: AnalysisFile) -> Result<Download, LabError> {
+        use crate::experiments::analysis::{analysis_csv, analysis_mat, thresholds_csv};
+        let a = self.experiment_analysis(id).await?;
+        let (format, what, make): (_, _, fn(&Analysis) -> Result<Vec<u8>, String>) = match file {
+            AnalysisFile::AnalysisCsv => (FileFormat::Csv, "analysis", |a| Ok(analysis_csv(a).into_bytes())),
+            AnalysisFile::AnalysisMat => (FileFormat::Mat, "analysis", analysis_mat),
+            AnalysisFile::ThresholdsCsv => (FileFormat::Csv, "thresholds", |a| Ok(thresholds_csv(a).into_bytes())),
+        };
+        let bytes = self
+            .computed
+            .output(&a, &format!("{what}.{}", format.extension()), make)
+            .await?;
+        Ok(Download::new(format, &format!("experiment-{id}-{what}"), bytes))
+    }
+
     /// A chart of a scene's comparisons as SVG: `chromaticity.svg`,
     /// `profile.svg` (luminance along the targets), `rms.svg`, `de.svg`
     /// (each coding's rms_rel and mean ΔE ± 1 SD) or `speed.svg` (render
@@ -337,6 +387,28 @@ impl Lab {
             .get_measurement(id)
             .await?
             .ok_or_else(|| LabError::NotFound(format!("no measurement {id}")))
+    }
+
+    /// A measurement's spectra as a file to save, CSV or MAT
+    /// ([`crate::measurement_files`]); a measurement without a spectrum (a
+    /// colorimeter's, a luminance meter's) is refused, naming why.
+    pub async fn measurement_file(&self, id: i64, format: FileFormat) -> Result<Download, LabError> {
+        let m = self.measurement(id).await?;
+        let bytes = match format {
+            FileFormat::Csv => measurement_files::stored_spectrum_csv(&m)?,
+            FileFormat::Mat => measurement_files::stored_spectrum_mat(&m)?,
+            FileFormat::Exr => {
+                return Err(LabError::NotFound(format!(
+                    "measurement {id} has no EXR file: ask for its spectra as csv or mat"
+                )))
+            }
+        };
+        Ok(Download::new(format, &format!("measurement_{id}"), bytes))
+    }
+
+    /// A measurement's spectra drawn as SVG: the mean, ±1 SD and each sample.
+    pub async fn measurement_chart(&self, id: i64) -> Result<Vec<u8>, LabError> {
+        measurement_files::stored_spectrum_chart(&self.measurement(id).await?)
     }
 
     /// A measurement's colorimetry in `observer`: recomputed from its mean

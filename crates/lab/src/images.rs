@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
 
 use super::jobs;
+use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::events::Event;
 use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
@@ -227,6 +228,43 @@ impl ImageJobs {
             .filter(|e| e.info.render_id == render_id)
             .map(|e| e.info.clone())
             .collect()
+    }
+
+    /// Image `id` as a file to save: multi-channel OpenEXR (spectral
+    /// channels `S0.<λ>nm`, Fichet et al. 2021, or R, G, B; then X, Y, Z,
+    /// L, M, S, each with its `SE.` layer, and `paths`) or MATLAB `.mat`,
+    /// named after its render and coding. Written by
+    /// [`write_camera_image`](crate::export::image::write_camera_image) to a
+    /// private temporary folder (removed after) on the blocking pool.
+    pub async fn file(&self, id: i64, format: FileFormat) -> Result<Download, LabError> {
+        use crate::export::image::{create_private_folder, export_folder, write_camera_image};
+        let (info, img) = self.data(id)?;
+        if format == FileFormat::Csv {
+            return Err(LabError::NotFound(format!(
+                "image {id} has no CSV file: ask for its exr or mat file"
+            )));
+        }
+        let bytes = tokio::task::spawn_blocking(move || {
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0);
+            let dir = export_folder(&std::env::temp_dir(), std::process::id(), id, nanos);
+            create_private_folder(&dir).map_err(LabError::Internal)?;
+            let path = dir.join(format!("image.{}", format.extension()));
+            let bytes = write_camera_image(&img, &path)
+                .map_err(LabError::Internal)
+                .and_then(|_| std::fs::read(&path).map_err(|e| LabError::Internal(format!("{}: {e}", path.display()))));
+            let _ = std::fs::remove_dir_all(&dir);
+            bytes
+        })
+        .await
+        .map_err(|e| LabError::Internal(e.to_string()))??;
+        Ok(Download::new(
+            format,
+            &format!("render_{}_{}_image_{id}", info.render_id, info.settings.coding),
+            bytes,
+        ))
     }
 
     /// A complete image's data; 404 for an unknown id, 409 before it is complete.

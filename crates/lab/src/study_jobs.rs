@@ -5,7 +5,8 @@
 //! The study itself (every coding against measurements or a reference,
 //! sweeps, failure maps) is [`crate::study::run`]; this module runs it for
 //! the daemon's queue ([`super::render_jobs`]) and for render workers
-//! ([`StudyRunner::run_row`]).
+//! ([`StudyRunner::run_row`]), and runs one now for the command line
+//! ([`run_study_now`]), recorded the same way.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
@@ -20,7 +21,7 @@ use super::study_measurements::wait_for_measurements;
 use crate::error::LabError;
 use crate::requests::StudyRequest;
 use crate::study::report::report_files;
-use crate::study::run::{progress_fractions, run_study, Against, StudyOptions};
+use crate::study::run::{progress_fractions, run_study, Against, StudyOptions, StudyResult};
 use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
@@ -274,6 +275,47 @@ impl StudyRunner {
         };
         self.run(id, paths, options, measured_first, cancel).await
     }
+}
+
+/// A study run now by its caller (`lightbooth study`), not queued: with a
+/// `store`, recorded as created and started at once (a study left `queued`
+/// could not be completed), then completed with its result and report
+/// files, or failed with its error, as a daemon's study ends. Returns the
+/// result and the id it is stored under.
+pub async fn run_study_now(
+    scenes: &[PathBuf],
+    options: &StudyOptions,
+    store: Option<&Store>,
+    request: &serde_json::Value,
+    progress: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<(StudyResult, Option<i64>)> {
+    let id = match store {
+        Some(store) => {
+            let id = store.create_study(request).await?;
+            anyhow::ensure!(
+                store.start_job(Job::Study, id).await?,
+                "study {id} was ended before it started"
+            );
+            Some(id)
+        }
+        None => None,
+    };
+    let result = match run_study(scenes, options, store, progress).await {
+        Ok(r) => r,
+        Err(e) => {
+            if let (Some(store), Some(id)) = (store, id) {
+                store.fail_study(id, &e.to_string()).await?;
+            }
+            return Err(e.into());
+        }
+    };
+    if let (Some(store), Some(id)) = (store, id) {
+        let files = report_files(&result)?;
+        store
+            .complete_study(id, &serde_json::to_value(&result)?, result.wall_seconds, &files)
+            .await?;
+    }
+    Ok((result, id))
 }
 
 #[cfg(test)]

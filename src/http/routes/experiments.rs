@@ -15,18 +15,16 @@ use axum::Json;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::measurements::download;
 use crate::display::output::ColourCheck;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::kept;
 use crate::http::AppState;
-use crate::lab::experiments::analysis::{
-    analysis_csv, analysis_mat, figure, psychometric_figure, thresholds_csv, Analysis,
-};
+use crate::lab::experiments::analysis::{figure, psychometric_figure, Analysis};
 use crate::lab::experiments::session::{DisplayReport, SessionView, TrialReport};
 use crate::lab::experiments::verification::{Verification, VerificationRequest};
 use crate::lab::experiments::ExperimentRequest;
+use crate::lab::AnalysisFile;
 use crate::psychophysics::oddity::OddityModel;
 use crate::store::{ExperimentRow, ExperimentSessionRow};
 
@@ -197,27 +195,8 @@ pub async fn experiment_analysis_csv(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    analysis_as_csv(&state, id, "analysis", analysis_csv).await
-}
-
-/// The analysis of experiment `id` written by `write` (made once per
-/// analysis), as the download `experiment-{id}-{what}.csv`.
-async fn analysis_as_csv(
-    state: &AppState,
-    id: i64,
-    what: &'static str,
-    write: fn(&Analysis) -> String,
-) -> Result<Response, ApiError> {
-    let a = state.lab.experiment_analysis(id).await?;
-    let body = state
-        .lab
-        .computed()
-        .output(&a, what, move |a| Ok(write(a).into_bytes()))
-        .await?;
-    Ok(download(
-        "text/csv; charset=utf-8",
-        &format!("experiment-{id}-{what}.csv"),
-        kept::body(body),
+    Ok(kept::download(
+        state.lab.experiment_file(id, AnalysisFile::AnalysisCsv).await?,
     ))
 }
 
@@ -229,12 +208,8 @@ pub async fn experiment_analysis_mat(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    let a = state.lab.experiment_analysis(id).await?;
-    let body = state.lab.computed().output(&a, "mat", analysis_mat).await?;
-    Ok(download(
-        "application/x-matlab-data",
-        &format!("experiment-{id}-analysis.mat"),
-        kept::body(body),
+    Ok(kept::download(
+        state.lab.experiment_file(id, AnalysisFile::AnalysisMat).await?,
     ))
 }
 
@@ -247,7 +222,9 @@ pub async fn experiment_thresholds_csv(
     State(state): State<AppState>,
     Path(id): Path<i64>,
 ) -> Result<impl IntoResponse, ApiError> {
-    analysis_as_csv(&state, id, "thresholds", thresholds_csv).await
+    Ok(kept::download(
+        state.lab.experiment_file(id, AnalysisFile::ThresholdsCsv).await?,
+    ))
 }
 
 /// The oddity model a figure is drawn under.

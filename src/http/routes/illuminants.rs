@@ -10,11 +10,12 @@ use axum::Json;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::measurements::download;
 use super::reflectances::requested_standard;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path};
+use crate::http::kept;
 use crate::http::AppState;
+use crate::lab::{Download, FileFormat};
 use crate::store::IlluminantRow;
 
 #[derive(Deserialize, ToSchema)]
@@ -85,5 +86,9 @@ pub async fn get_illuminant(
 pub async fn illuminant_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
     let row = load(&state, id).await?;
     let text = state.lab.illuminant_csv(&row).await?;
-    Ok(download("text/csv", &format!("{}.csv", row.name), text.into_bytes()))
+    Ok(kept::download(Download::new(
+        FileFormat::Csv,
+        &row.name,
+        text.into_bytes(),
+    )))
 }

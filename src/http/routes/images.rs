@@ -4,8 +4,6 @@
 //! probe and its chart, ΔE00 map between two codings) and their files
 //! (OpenEXR, MATLAB) through [`crate::export::image`].
 
-use std::sync::Arc;
-
 use axum::extract::State;
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -13,14 +11,14 @@ use axum::Json;
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
-use super::measurements::download;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::image_views::{self, Probe};
 use crate::http::input::{Input, Path, Query};
+use crate::http::kept;
 use crate::http::AppState;
 use crate::lab::comparisons::image_map::{self, DeltaEMap};
 use crate::lab::images::{ImageInfo, ImageJobs, ImageRequest};
-use crate::render::camera::CameraImage;
+use crate::lab::FileFormat;
 
 fn images(state: &AppState) -> Result<&ImageJobs, ApiError> {
     Ok(state.lab.renders()?.images())
@@ -152,40 +150,13 @@ pub async fn image_pixel_svg(
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
 }
 
-/// Writes the image with [`crate::export::image::write_camera_image`] to a
-/// private temporary file and returns its bytes.
-async fn exported(img: Arc<CameraImage>, id: i64, ext: &'static str) -> Result<Vec<u8>, ApiError> {
-    tokio::task::spawn_blocking(move || {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        let dir = crate::export::image::export_folder(&std::env::temp_dir(), std::process::id(), id, nanos);
-        crate::export::image::create_private_folder(&dir).map_err(ApiError::Internal)?;
-        let path = dir.join(format!("image.{ext}"));
-        let bytes = crate::export::image::write_camera_image(&img, &path)
-            .map_err(ApiError::Internal)
-            .and_then(|_| std::fs::read(&path).map_err(|e| ApiError::Internal(format!("{}: {e}", path.display()))));
-        let _ = std::fs::remove_dir_all(&dir);
-        bytes
-    })
-    .await
-    .map_err(|e| ApiError::Internal(e.to_string()))?
-}
-
 /// The image as multi-channel OpenEXR: spectral channels `S0.<λ>nm`
 /// (Fichet et al. 2021) or R, G, B, then X, Y, Z, L, M, S, each with its
 /// `SE.` layer, and `paths` (see `export::image`).
 #[utoipa::path(get, path = "/images/{id}/image.exr", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let (info, img) = images(&state)?.data(id)?;
-    let bytes = exported(img, id, "exr").await?;
-    Ok(download(
-        "image/x-exr",
-        &format!("render_{}_{}_image_{id}.exr", info.render_id, info.settings.coding),
-        bytes,
-    ))
+    Ok(kept::download(images(&state)?.file(id, FileFormat::Exr).await?))
 }
 
 /// The image as MATLAB `.mat`: `radiance` (H × W × N single),
@@ -193,13 +164,7 @@ pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 #[utoipa::path(get, path = "/images/{id}/image.mat", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let (info, img) = images(&state)?.data(id)?;
-    let bytes = exported(img, id, "mat").await?;
-    Ok(download(
-        "application/x-matlab-data",
-        &format!("render_{}_{}_image_{id}.mat", info.render_id, info.settings.coding),
-        bytes,
-    ))
+    Ok(kept::download(images(&state)?.file(id, FileFormat::Mat).await?))
 }
 
 #[derive(Deserialize, IntoParams)]

@@ -8,12 +8,12 @@ use axum::Json;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use crate::charts;
-use crate::export::mat::MatFile;
 use crate::http::error::ApiError;
 use crate::http::input::{check_paging, Input, Path, Query};
+use crate::http::kept;
 use crate::http::AppState;
 use crate::lab::booth_instrument::{Cancelled, MeasurementRequest, Requested};
+use crate::lab::FileFormat;
 use crate::store::{
     ComparisonRow, LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState,
     MeasurementSummary,
@@ -202,28 +202,15 @@ pub async fn measurement_colorimetry(
     Ok(Json(state.lab.measurement_colorimetry(id, observer).await?))
 }
 
-/// Wavelength, mean, SD and every sample as columns (values as the instrument gave them, per nm).
+/// Wavelength, the mean and its SD, and every sample with a spectrum as
+/// columns (`nm,radiance,radiance_sd,sample_0,…`; values as the instrument
+/// gave them, per nm), the file `lightbooth measure --csv` prints.
+/// A colorimeter's or a luminance meter's measurement has no spectrum: 409.
 #[utoipa::path(get, path = "/measurements/{id}/spectrum.csv", tag = "measurements",
-    params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv")))]
+    params(("id" = i64, Path)), responses((status = 200, content_type = "text/csv"),
+        (status = 409, body = crate::http::error::ErrorBody, description = "the instrument gives no spectrum (XYZ or luminance only)")))]
 pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let m = load_measurement(&state, id).await?;
-    refuse_without_spectra(&m, "a spectrum CSV")?;
-    let wl = sample_grid(&m)?;
-    let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
-    if let (Some(mean), Some(sd)) = (&m.radiance, &m.radiance_sd) {
-        columns.push(("radiance".into(), mean.clone()));
-        columns.push(("radiance_sd".into(), sd.clone()));
-    }
-    for s in &m.samples {
-        if let Some(r) = &s.radiance {
-            columns.push((format!("sample_{}_code_{}", s.index, s.code), r.clone()));
-        }
-    }
-    let grid = crate::spectrum::Grid::from_wavelengths(wl).map_err(|e| ApiError::Internal(e.to_string()))?;
-    let refs: Vec<(&str, &[f64])> = columns.iter().map(|(n, v)| (n.as_str(), v.as_slice())).collect();
-    let mut out = Vec::new();
-    crate::spectrum::table::write_csv(&mut out, &grid, &refs).map_err(|e| ApiError::Internal(e.to_string()))?;
-    Ok(download("text/csv", &format!("measurement_{id}.csv"), out))
+    Ok(kept::download(state.lab.measurement_file(id, FileFormat::Csv).await?))
 }
 
 /// `load('measurement_7.mat')` gives wavelength_nm, radiance, radiance_sd,
@@ -236,115 +223,17 @@ pub async fn measurement_csv(State(state): State<AppState>, Path(id): Path<i64>)
     params(("id" = i64, Path)), responses((status = 200, content_type = "application/x-matlab-data"),
         (status = 409, body = crate::http::error::ErrorBody, description = "the instrument gives no spectrum (XYZ or luminance only)")))]
 pub async fn measurement_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let m = load_measurement(&state, id).await?;
-    refuse_without_spectra(&m, "a MAT file of its spectra")?;
-    let wl = sample_grid(&m)?;
-    let mut mat = MatFile::new();
-    let internal = |e: String| ApiError::Internal(e);
-    mat.column("wavelength_nm", &wl).map_err(internal)?;
-    if let (Some(mean), Some(sd)) = (&m.radiance, &m.radiance_sd) {
-        mat.column("radiance", mean).map_err(internal)?;
-        mat.column("radiance_sd", sd).map_err(internal)?;
-    }
-    let mut samples = Vec::with_capacity(wl.len() * m.samples.len());
-    for s in &m.samples {
-        match &s.radiance {
-            Some(r) => samples.extend_from_slice(r),
-            None => samples.extend(std::iter::repeat_n(f64::NAN, wl.len())),
-        }
-    }
-    mat.matrix("samples", wl.len(), m.samples.len(), &samples)
-        .map_err(internal)?;
-    let codes: Vec<f64> = m.samples.iter().map(|s| s.code as f64).collect();
-    let usable: Vec<f64> = m.samples.iter().map(|s| if s.usable { 1.0 } else { 0.0 }).collect();
-    mat.matrix("sample_code", 1, codes.len(), &codes).map_err(internal)?;
-    mat.matrix("sample_usable", 1, usable.len(), &usable)
-        .map_err(internal)?;
-    // Y, x, y with the measurement's observer (named in `observer`); the
-    // instrument's own CIE 1931 values under their own names.
-    for (name, v) in [
-        ("Y", m.summary.luminance_cd_m2),
-        ("x", m.summary.x),
-        ("y", m.summary.y),
-        ("instrument_Y", m.summary.instrument_luminance_cd_m2),
-        ("instrument_x", m.summary.instrument_x),
-        ("instrument_y", m.summary.instrument_y),
-    ] {
-        mat.scalar(name, v.unwrap_or(f64::NAN)).map_err(internal)?;
-    }
-    if let Some(o) = m.summary.observer {
-        mat.text("observer", o.name()).map_err(internal)?;
-    }
-    mat.text("state", m.summary.state.as_str()).map_err(internal)?;
-    Ok(download(
-        "application/x-matlab-data",
-        &format!("measurement_{id}.mat"),
-        mat.into_bytes(),
-    ))
+    Ok(kept::download(state.lab.measurement_file(id, FileFormat::Mat).await?))
 }
 
 #[utoipa::path(get, path = "/measurements/{id}/spectrum.svg", tag = "measurements",
     params(("id" = i64, Path)), responses((status = 200, content_type = "image/svg+xml")))]
 pub async fn measurement_svg(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let m = load_measurement(&state, id).await?;
-    refuse_without_spectra(&m, "a spectral chart")?;
-    let wl = sample_grid(&m).unwrap_or_default();
-    let samples: Vec<Vec<f64>> = m.samples.iter().filter_map(|s| s.radiance.clone()).collect();
-    let title = match (&m.summary.scene, &m.summary.target) {
-        (Some(s), Some(t)) => format!("measurement {id}: {s} / {t}"),
-        _ => format!("measurement {id}"),
-    };
-    let svg = charts::spectrum_chart(&title, &wl, m.radiance.as_deref(), m.radiance_sd.as_deref(), &samples)
-        .map_err(ApiError::Internal)?;
-    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
-}
-
-/// A measurement by an instrument that gives no spectrum (a colorimeter, a
-/// luminance meter), when `what` is a spectral view of it: 409 naming the
-/// instrument and what it measures. A spectroradiometer's measurement with
-/// no good sample yet is still shown (empty).
-fn refuse_without_spectra(m: &MeasurementDetail, what: &str) -> Result<(), ApiError> {
-    let spectral = m.radiance.is_some() || m.samples.iter().any(|s| s.radiance.is_some());
-    let non_spectral = m.samples.iter().any(|s| s.usable && s.radiance.is_none());
-    if spectral || !non_spectral {
-        return Ok(());
-    }
-    Err(ApiError::Conflict(
-        crate::lab::measurement::stored_spectrum(m, what)
-            .err()
-            .unwrap_or_default(),
-    ))
-}
-
-/// The grid of a measurement: stored with the average, or, for one that
-/// never completed, the native grid its samples' length names (101 or 201 points).
-pub(super) fn sample_grid(m: &MeasurementDetail) -> Result<Vec<f64>, ApiError> {
-    if let Some(wl) = &m.wavelength_nm {
-        return Ok(wl.clone());
-    }
-    let n = m.samples.iter().find_map(|s| s.radiance.as_ref().map(Vec::len));
-    match n.map(|len| (len, crate::instrument::native_grid_of_length(len))) {
-        None => Ok(crate::spectrum::Grid::pr650().wavelengths().to_vec()),
-        Some((_, Some(grid))) => Ok(grid.wavelengths().to_vec()),
-        Some((other, None)) => Err(ApiError::Internal(format!(
-            "measurement {} has {other}-point samples and no grid",
-            m.summary.id
-        ))),
-    }
-}
-
-pub(super) fn download(content_type: &'static str, filename: &str, body: impl IntoResponse) -> Response {
-    (
-        [
-            (header::CONTENT_TYPE, content_type.to_string()),
-            (
-                header::CONTENT_DISPOSITION,
-                format!("attachment; filename=\"{filename}\""),
-            ),
-        ],
-        body,
+    Ok((
+        [(header::CONTENT_TYPE, "image/svg+xml")],
+        state.lab.measurement_chart(id).await?,
     )
-        .into_response()
+        .into_response())
 }
 
 #[utoipa::path(get, path = "/measurements/{id}/comparisons", tag = "comparisons",

@@ -10,12 +10,13 @@ use axum::Json;
 use serde::Deserialize;
 use utoipa::ToSchema;
 
-use super::measurements::download;
 use crate::calibration::reflectance::OutOfRange;
 use crate::calibration::standard::{WhiteStandard, SHIPPED};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
+use crate::http::kept;
 use crate::http::AppState;
+use crate::lab::{Download, FileFormat};
 use crate::store::ReflectanceRow;
 
 #[derive(Deserialize, ToSchema)]
@@ -147,7 +148,11 @@ pub async fn reflectance_csv(
         OutOfRange::Refuse
     };
     let text = state.lab.reflectance_csv(&row, rule).await?;
-    Ok(download("text/csv", &format!("{}.csv", row.name), text.into_bytes()))
+    Ok(kept::download(Download::new(
+        FileFormat::Csv,
+        &row.name,
+        text.into_bytes(),
+    )))
 }
 
 /// ρ(λ) with its ±1 u and ±2 u bands; values outside [0, 1] marked.

@@ -48,6 +48,7 @@
 //! are the catalogue's.
 
 pub mod charts;
+pub mod files;
 pub mod image_map;
 pub mod summary;
 pub mod white;
