@@ -32,7 +32,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use lightbooth::http::{app, AppState, ServiceConfig};
-use lightbooth::lab::instrument_queue::InstrumentStatus;
+use lightbooth::lab::measure::queue::InstrumentStatus;
 use lightbooth::store::{now, Booth, Store};
 use sqlx::Connection;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -375,7 +375,7 @@ fn main() {
         });
         let shutting_down = tokio_util::sync::CancellationToken::new();
         let events = broadcast::channel(16).0;
-        let instrument = lightbooth::lab::booth_instrument::BoothInstrument::new(
+        let instrument = lightbooth::lab::measure::booth_instrument::BoothInstrument::new(
             store.clone(),
             jobs,
             status,
@@ -385,7 +385,7 @@ fn main() {
             "north".parse().unwrap(),
         );
         let state = AppState {
-            lab: lightbooth::lab::Lab::new(
+            lab: lightbooth::lab::LabHandle::new(
                 store.clone(),
                 lightbooth::colorimetry::Observer::JuddVos,
                 instrument,

@@ -63,17 +63,17 @@
 //! - [`lab`]: measurements, the instrument queue, events, renders,
 //!   comparisons, jobs, camera images, calibrations, leases, the hand-off
 //!   to render workers. **A measurement is asked for in
-//!   [`lab::booth_instrument`]** (`BoothInstrument::request`: checked,
+//!   [`lab::measure::booth_instrument`]** (`BoothInstrument::request`: checked,
 //!   recorded, queued; the HTTP handlers' one way to the instrument) **and
-//!   taken in [`lab::measurement`]** (`Recorder::take`: each sample stored
+//!   taken in [`lab::measure::recorder`]** (`Recorder::take`: each sample stored
 //!   before the next, completed or ended with its reason; the daemon's
 //!   instrument task and the simulated study both call it). **A measurement's comparison with every
-//!   coding is computed in [`lab::comparisons`]** (`Comparisons::compare`:
+//!   coding is computed in [`lab::compare`]** (`Comparisons::compare`:
 //!   it takes the render of the scene from the store, or has
-//!   [`lab::render_runner`] render it once, resolves the booth's CIELAB
+//!   [`lab::render::runner`] render it once, resolves the booth's CIELAB
 //!   white, applies [`comparison`]'s figures of merit), and stored by
-//!   [`store`]; [`lab::comparisons::summary`] summarises a scene's per coding;
-//!   [`lab::comparisons::white`] resolves a scene's CIELAB white, for the
+//!   [`store`]; [`lab::compare::summary`] summarises a scene's per coding;
+//!   [`lab::compare::white`] resolves a scene's CIELAB white, for the
 //!   study too.
 //! - [`lab::study`]: the study (every coding against measurements or a
 //!   reference, sweeps, failure maps, the automatic choice of settings).
@@ -86,7 +86,7 @@
 //! Serving them:
 //!
 //! - [`http`]: the REST API, server-sent events and dashboards (axum).
-//!   **Its handlers reach the lab only through [`lab::Lab`]** (the app
+//!   **Its handlers reach the lab only through [`lab::LabHandle`]** (the app
 //!   state's handle on the instrument, the renders, the experiments and
 //!   every record); the architecture test fails on a handler that names
 //!   the store.

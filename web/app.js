@@ -396,7 +396,7 @@ function observerName(o) {
   }[o] || "observer not recorded";
 }
 
-// The models that measure a spectrum (crates/lab/src/measurement.rs SPECTRORADIOMETERS).
+// The models that measure a spectrum (crates/lab/src/measure/recorder.rs SPECTRORADIOMETERS).
 const SPECTRORADIOMETERS = ["PR-650", "PR-655", "PR-670", "CS-2000", "CS-2000A", "CS-3000", "CR-250", "CR-300"];
 
 // What the listed x, y and Y are in: each observer named, and whose numbers

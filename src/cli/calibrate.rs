@@ -10,7 +10,7 @@ use clap::Args;
 
 use lightbooth::calibration::reflectance::OutOfRange;
 use lightbooth::calibration::standard::{WhiteStandard, SHIPPED};
-use lightbooth::lab::calibration::{self as measured, MeasuredError};
+use lightbooth::lab::records::calibration::{self as measured, MeasuredError};
 use lightbooth::store::Store;
 
 #[derive(Args, Debug)]

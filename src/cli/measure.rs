@@ -10,7 +10,7 @@ use clap::Args;
 use serde::Serialize;
 
 use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentSettings, Reading};
-use lightbooth::lab::measurement_files::{spectrum_csv, SampleSpectrum};
+use lightbooth::lab::measure::files::{spectrum_csv, SampleSpectrum};
 
 #[derive(Args, Debug)]
 pub struct MeasureArgs {

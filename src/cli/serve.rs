@@ -12,7 +12,7 @@ use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{self, DaemonOptions};
 use lightbooth::instrument::sim::Fault;
 use lightbooth::instrument::InstrumentSettings;
-use lightbooth::lab::worker_queue::RenderPlace;
+use lightbooth::lab::render::worker_queue::RenderPlace;
 use lightbooth::store::Booth;
 
 #[derive(Args, Debug)]

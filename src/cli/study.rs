@@ -9,10 +9,10 @@ use clap::{Args, ValueEnum};
 use lightbooth::colorimetry::Observer;
 use lightbooth::daemon::{DEFAULT_HEARTBEAT, DEFAULT_LEASE};
 use lightbooth::lab::lease::Lease;
+use lightbooth::lab::study::jobs::run_study_now;
 use lightbooth::lab::study::measure::{measure_with_simulator, SimulatedPr650};
 use lightbooth::lab::study::report::write_report;
 use lightbooth::lab::study::run::{Against, StudyOptions};
-use lightbooth::lab::study_jobs::run_study_now;
 use lightbooth::render::Coding;
 use lightbooth::store::Store;
 

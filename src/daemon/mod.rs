@@ -5,7 +5,7 @@
 //!   migrated at start-up), opened and recovered;
 //! - the lab, built in one place, [`DaemonLab::start`] (`lab::assemble`):
 //!   the scene catalogue, the render side, the API's jobs, the
-//!   [instrument task](crate::lab::instrument_task) that owns the
+//!   [instrument task](crate::lab::measure::task) that owns the
 //!   instrument (real, or simulated on a pty with `--mock`), the handle the
 //!   HTTP layer calls; and stopped in order ([`DaemonLab::stop`]);
 //! - a [lock](db_lock) on an SQLite database file, so one daemon owns it;
@@ -35,7 +35,7 @@ use crate::http::{self, auth, AppState, ServiceConfig};
 use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
 use crate::lab::assemble::{DaemonLab, LabSettings};
-use crate::lab::instrument_task::MockSettings;
+use crate::lab::measure::task::MockSettings;
 use crate::render::integrator::CancellationToken;
 use crate::store::{Booth, Store};
 
@@ -87,8 +87,8 @@ pub struct DaemonOptions {
     /// ([`DEFAULT_LEASE`]; longer than `heartbeat`).
     pub lease: Duration,
     /// Where comparisons, renders and studies run: here, or on render
-    /// workers sharing the database (`--renders`, `lab::worker_queue`).
-    pub renders: crate::lab::worker_queue::RenderPlace,
+    /// workers sharing the database (`--renders`, `lab::render::worker_queue`).
+    pub renders: crate::lab::render::worker_queue::RenderPlace,
 }
 
 /// The heartbeat interval of a daemon's lease unless configured.

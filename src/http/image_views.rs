@@ -9,13 +9,13 @@
 //!   For looking at, never for measuring.
 //! - Probe of a box of pixels: the mean of the pixels' means, and its
 //!   standard error √(Σ SEᵢ²) / n (the pixels' paths are independent).
-//! - ΔE map: computed in the lab (`lab::comparisons::image_map`); here only
+//! - ΔE map: computed in the lab (`lab::compare::image_map`); here only
 //!   encoded as a PNG.
 
 use crate::charts::{self, LineSeriesData};
 use crate::colorimetry::Xyz;
 use crate::http::error::ApiError;
-use crate::lab::comparisons::image_map::{self, DeltaEMap};
+use crate::lab::compare::image_map::{self, DeltaEMap};
 use crate::render::camera::{CameraImage, L, M, S, X, Y, Z};
 
 /// The tone-mapped display image as PNG bytes (see the module doc).

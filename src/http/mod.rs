@@ -11,7 +11,7 @@
 //! is read.
 //!
 //! The service never touches the instrument, the renderer or the store
-//! itself: its handlers call the methods of the [`Lab`] handle (which asks
+//! itself: its handlers call the methods of the [`LabHandle`] (which asks
 //! the task that owns the instrument to queue or cancel a measurement,
 //! queues renders and studies, and reads the records), and turn its
 //! answers and refusals into responses; everything that happens is
@@ -41,8 +41,8 @@ use tokio_util::sync::CancellationToken;
 pub use limits::ServeLimits;
 
 use crate::lab::events::Event;
-use crate::lab::instrument_queue::MockControl;
-use crate::lab::Lab;
+use crate::lab::measure::queue::MockControl;
+use crate::lab::LabHandle;
 
 /// Requests larger than this are refused with 413; no legitimate body
 /// (a measurement request, a render request) comes near it.
@@ -67,7 +67,7 @@ pub struct AppState {
     /// The lab: the booth (`serve --booth`) and its instrument, the renders,
     /// the experiments, every record, and the observer of every colour
     /// (`serve --observer`); the handlers' one way to all of them.
-    pub lab: Lab,
+    pub lab: LabHandle,
     pub config: Arc<ServiceConfig>,
     /// Everything that happens, for `/api/events`. Lagging subscribers miss
     /// events (and are told so) rather than slowing the daemon.

@@ -221,7 +221,7 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         {"properties": {"target": {"type": "null"}}},
         {"required": ["scene"], "properties": {"scene": {"type": "string"}}},
     ]);
-    // `lab::images` (`check_request`): 0 < SE target ≤ 1, 0 < time budget ≤ 600 s.
+    // `lab::render::images` (`check_request`): 0 < SE target ≤ 1, 0 < time budget ≤ 600 s.
     merge(
         &mut schemas["ImageRequest"]["properties"]["target_relative_se"],
         &json!({"exclusiveMinimum": 0.0, "maximum": 1.0}),
@@ -234,7 +234,7 @@ pub fn state_request_rules(doc: &mut serde_json::Value) {
         &mut schemas["ImageRequest"]["properties"]["coding"],
         &json!({"pattern": format!("^{CODING}$")}),
     );
-    // `lab::render_runner` (`settings`): a comma-separated list of known codings.
+    // `lab::render::runner` (`settings`): a comma-separated list of known codings.
     merge(
         &mut schemas["RenderRequest"]["properties"]["codings"],
         &json!({"pattern": format!("^ *{CODING} *( *, *{CODING} *)*$")}),

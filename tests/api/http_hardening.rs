@@ -15,9 +15,9 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
 use lightbooth::http::{app, serve_with_limits, AppState, ServeLimits, ServiceConfig};
-use lightbooth::lab::booth_instrument::BoothInstrument;
-use lightbooth::lab::instrument_queue::InstrumentStatus;
-use lightbooth::lab::Lab;
+use lightbooth::lab::measure::booth_instrument::BoothInstrument;
+use lightbooth::lab::measure::queue::InstrumentStatus;
+use lightbooth::lab::LabHandle;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
@@ -29,7 +29,7 @@ const TOKEN: &str = "0123456789abcdef0123456789abcdef";
 
 struct Harness {
     state: AppState,
-    _jobs: mpsc::Receiver<lightbooth::lab::instrument_queue::MeasurementJob>,
+    _jobs: mpsc::Receiver<lightbooth::lab::measure::queue::MeasurementJob>,
     _status: watch::Sender<InstrumentStatus>,
     shutdown: CancellationToken,
     _dir: tempfile::TempDir,
@@ -59,7 +59,7 @@ async fn harness(loopback_only: bool) -> Harness {
         Default::default(),
     );
     let state = AppState {
-        lab: Lab::new(
+        lab: LabHandle::new(
             store.clone(),
             lightbooth::colorimetry::Observer::JuddVos,
             instrument,

@@ -9,10 +9,10 @@ use axum::body::Body;
 use axum::http::{Request, StatusCode};
 use http_body_util::BodyExt;
 use lightbooth::http::{app, AppState, ServiceConfig};
-use lightbooth::lab::booth_instrument::BoothInstrument;
-use lightbooth::lab::instrument_queue::InstrumentStatus;
-use lightbooth::lab::instrument_queue::MeasurementJob;
-use lightbooth::lab::Lab;
+use lightbooth::lab::measure::booth_instrument::BoothInstrument;
+use lightbooth::lab::measure::queue::InstrumentStatus;
+use lightbooth::lab::measure::queue::MeasurementJob;
+use lightbooth::lab::LabHandle;
 use lightbooth::store::Store;
 use serde_json::Value;
 use tokio::sync::{broadcast, mpsc, watch};
@@ -55,7 +55,7 @@ async fn harness(queue: usize) -> Harness {
         Default::default(),
     );
     let state = AppState {
-        lab: Lab::new(
+        lab: LabHandle::new(
             store.clone(),
             lightbooth::colorimetry::Observer::JuddVos,
             instrument,

@@ -721,7 +721,7 @@ fn a_planted_ungated_utoipa_is_named_with_its_file_and_line() {
 /// The lines of the Rust files under `dir` whose code names the store's
 /// handle or its error (`Store`, `StoreError`), as `file:line` (the file
 /// relative to `dir`). The HTTP layer's rows and ids come through the
-/// lab's [`Lab`](lightbooth::lab::Lab) handle; the rows' types
+/// lab's [`LabHandle`](lightbooth::lab::LabHandle); the rows' types
 /// (`store::MeasurementDetail`…) may be named, the store may not.
 fn store_handles(dir: &Path) -> Vec<String> {
     let mut files = Vec::new();

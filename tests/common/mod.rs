@@ -193,7 +193,7 @@ impl Daemon {
             Some(db_url),
             None,
             Some(booth),
-            lightbooth::lab::worker_queue::RenderPlace::Workers,
+            lightbooth::lab::render::worker_queue::RenderPlace::Workers,
             Extra::default(),
         )
         .await
@@ -280,7 +280,7 @@ impl Daemon {
         db_url: Option<&str>,
         instrument: Option<lightbooth::instrument::InstrumentSettings>,
         booth: Option<&str>,
-        renders: lightbooth::lab::worker_queue::RenderPlace,
+        renders: lightbooth::lab::render::worker_queue::RenderPlace,
         extra: Extra,
     ) -> Daemon {
         let dir = tempfile::tempdir().unwrap();

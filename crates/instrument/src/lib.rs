@@ -44,7 +44,7 @@
 //!
 //! The one loop that owns an instrument for async callers (a dedicated
 //! thread, measurements one at a time, each sample stored as it is taken) is
-//! the daemon's instrument task (`lightbooth_lab::instrument_task`). Every
+//! the daemon's instrument task (`lightbooth_lab::measure::task`). Every
 //! model is an implementation of [`Spectroradiometer`] and a variant of
 //! [`InstrumentSettings`]; [`QualityCode`] carries signed codes and
 //! [`InstrumentInfo`] the native grid, so the daemon, the store and the API
@@ -430,7 +430,7 @@ impl Identity {
 /// do, take one sample. The retry-and-average loop is the same for every
 /// model and lives above the drivers ([`averaging`]). Implementations run
 /// blocking I/O: call them from a dedicated thread (see
-/// `lightbooth_lab::instrument_task`).
+/// `lightbooth_lab::measure::task`).
 pub trait Spectroradiometer: Send {
     /// What the connected unit said it is, what its model can do, and its
     /// advice on bad codes. A driver keeps it in its [`link::Session`].

@@ -13,13 +13,13 @@
 //! 3. the [`RenderSide`]: one render runner, the comparisons of each
 //!    measurement with every coding, the study runner;
 //! 4. the API's render, study and camera-image jobs, and the progress board;
-//! 5. the [instrument task](crate::instrument_task) on its own thread, and
+//! 5. the [instrument task](crate::measure::task) on its own thread, and
 //!    the [`BoothInstrument`] the HTTP layer asks it through;
-//! 6. the [`Lab`] handle over all of it.
+//! 6. the [`LabHandle`] over all of it.
 //!
 //! [`DaemonLab`] keeps what must be stopped in order at shutdown: the jobs
 //! first ([`DaemonLab::stop_jobs`]), then, once the HTTP server (which
-//! holds the [`Lab`] and so the instrument queue's sender) is gone, the
+//! holds the [`LabHandle`] and so the instrument queue's sender) is gone, the
 //! instrument task, the job worker, and this daemon's unfinished rows
 //! ([`DaemonLab::stop`]).
 
@@ -30,19 +30,19 @@ use std::time::Duration;
 use anyhow::Context;
 use tokio::sync::{broadcast, mpsc, watch};
 
-use crate::booth_instrument::BoothInstrument;
-use crate::comparisons::Comparisons;
+use crate::compare::Comparisons;
 use crate::events::{Event, EventSink};
-use crate::images::ImageJobs;
-use crate::instrument_queue::{InstrumentStatus, MockControl};
-use crate::instrument_task::{self, InstrumentTask, MockSettings};
-use crate::render_jobs::RenderJobs;
-use crate::render_runner::RenderRunner;
+use crate::measure::booth_instrument::BoothInstrument;
+use crate::measure::queue::{InstrumentStatus, MockControl};
+use crate::measure::simulated_truth::SimulatedTruth;
+use crate::measure::task::{self, InstrumentTask, MockSettings};
+use crate::render::images::ImageJobs;
+use crate::render::jobs::RenderJobs;
+use crate::render::runner::RenderRunner;
+use crate::render::worker_queue::{RenderPlace, WorkerQueue};
 use crate::scenes::SceneCatalog;
-use crate::simulated_truth::SimulatedTruth;
-use crate::study_jobs::StudyRunner;
-use crate::worker_queue::{RenderPlace, WorkerQueue};
-use crate::Lab;
+use crate::study::jobs::StudyRunner;
+use crate::LabHandle;
 use lightbooth_instrument::{CancellationToken, InstrumentSettings};
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
@@ -170,7 +170,7 @@ pub struct DaemonLab {
 impl DaemonLab {
     /// Builds the daemon's lab on `store` (this daemon's, `daemon_id`),
     /// publishing on `events`; cancelling `shutdown` stops the running
-    /// measurement, render and study. Returns the [`Lab`] handle (for the
+    /// measurement, render and study. Returns the [`LabHandle`] (for the
     /// HTTP layer) and what runs under it.
     pub async fn start(
         store: Store,
@@ -178,7 +178,7 @@ impl DaemonLab {
         daemon_id: i64,
         settings: LabSettings,
         shutdown: CancellationToken,
-    ) -> anyhow::Result<(Lab, DaemonLab)> {
+    ) -> anyhow::Result<(LabHandle, DaemonLab)> {
         let catalogue = Arc::new(SceneCatalog::from_folder(&settings.scenes_dir, settings.observer)?);
         let codings = parse_codings(&settings.codings).map_err(anyhow::Error::msg)?;
         let truth = Arc::new(SimulatedTruth::new(
@@ -252,7 +252,7 @@ impl DaemonLab {
         let (status_tx, status_rx) = watch::channel(InstrumentStatus::Disconnected {
             reason: "starting".into(),
         });
-        let instrument = instrument_task::spawn(instrument_task::TaskConfig {
+        let instrument = task::spawn(task::TaskConfig {
             store: store.clone(),
             jobs: jobs_rx,
             status: status_tx,
@@ -276,7 +276,7 @@ impl DaemonLab {
             settings.instrument.capabilities(),
             settings.booth,
         );
-        let lab = Lab::new(
+        let lab = LabHandle::new(
             store.clone(),
             settings.observer,
             booth_instrument,
@@ -305,7 +305,7 @@ impl DaemonLab {
         self.render_jobs.shutdown();
     }
 
-    /// Ends the lab once every [`Lab`] handle is gone (the HTTP server
+    /// Ends the lab once every [`LabHandle`] is gone (the HTTP server
     /// stopped): the instrument task finishes its current job and stops,
     /// the job worker marks the cancelled and queued jobs interrupted, and
     /// this daemon's own unfinished renders, studies and measurements are
@@ -383,7 +383,7 @@ impl Drop for AbortOnDrop {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::booth_instrument::{MeasurementRequest, Requested};
+    use crate::measure::booth_instrument::{MeasurementRequest, Requested};
     use lightbooth_instrument::sim::Personality;
     use lightbooth_store::MeasurementState;
 

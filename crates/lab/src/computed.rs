@@ -9,7 +9,7 @@
 //!   ([`summary::scene_comparisons`]: every compared measurement read with
 //!   its samples), which the scene's JSON, CSV, MAT, charts and the scenes'
 //!   overview all read, and the scenes' overview itself
-//!   ([`crate::scene_overview`]).
+//!   ([`crate::compare::overview`]).
 //! - **Keyed by**: the experiment id, scene or booth, and the
 //!   [`InputsVersion`] the store gives of what the result reads
 //!   ([`Store::experiment_inputs`]: sessions, complete sessions, trials,
@@ -49,12 +49,12 @@ use std::time::Duration;
 use tokio::sync::{OnceCell, Semaphore};
 use tokio::time::Instant;
 
-use crate::comparisons::summary::{self, SceneComparisons};
+use crate::compare::overview::ScenesOverview;
+use crate::compare::summary::{self, SceneComparisons};
 use crate::error::LabError;
 use crate::experiments::analysis::Analysis;
 use crate::experiments::Experiments;
 use crate::requests::SceneInfo;
-use crate::scene_overview::ScenesOverview;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, BoxFuture, InputsVersion, Store, StoreError};
 
@@ -163,7 +163,7 @@ struct Output {
 }
 
 /// The lab's computed results (see the module doc). Shared by every clone
-/// of the [`Lab`](crate::Lab).
+/// of the [`LabHandle`](crate::LabHandle).
 pub struct Computed {
     store: Store,
     observer: Observer,
@@ -246,7 +246,7 @@ impl Computed {
     }
 
     /// Scene `scene`'s newest comparisons summarised per coding (the
-    /// scene is not checked here: [`crate::Lab::scene_comparisons`] does).
+    /// scene is not checked here: [`crate::LabHandle::scene_comparisons`] does).
     pub async fn scene_comparisons(&self, scene: &str) -> Result<Arc<SceneComparisons>, LabError> {
         Ok(self.scene_comparisons_versioned(scene).await?.1)
     }
@@ -266,7 +266,7 @@ impl Computed {
         Ok((version, summary))
     }
 
-    /// The overview of `scenes` in `booth` ([`crate::scene_overview`]):
+    /// The overview of `scenes` in `booth` ([`crate::compare::overview`]):
     /// kept until one of the scenes' comparisons, the booth's complete
     /// measurements or the newest preview changes.
     pub async fn scenes_overview(
@@ -284,7 +284,7 @@ impl Computed {
         version.push(self.version(Inputs::Overview(booth.clone())).await?);
         let (store, observer, owned) = (self.store.clone(), self.observer, booth.clone());
         self.get(&self.overviews, booth, version, async move {
-            Ok(crate::scene_overview::scenes_overview(&store, &scenes, &summaries, &owned, observer).await?)
+            Ok(crate::compare::overview::scenes_overview(&store, &scenes, &summaries, &owned, observer).await?)
         })
         .await
     }

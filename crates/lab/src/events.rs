@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-use super::instrument_queue::InstrumentStatus;
+use crate::measure::queue::InstrumentStatus;
 use lightbooth_store::MeasurementState;
 
 #[derive(Clone, Debug, Serialize)]
@@ -79,7 +79,7 @@ pub enum Event {
         /// the measurements it asked for.
         fraction: Option<f64>,
     },
-    /// A camera image after each pass (see `lab::images`).
+    /// A camera image after each pass (see `lab::render::images`).
     ImageProgress {
         image_id: i64,
         render_id: i64,

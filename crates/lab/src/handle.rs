@@ -1,4 +1,4 @@
-//! [`Lab`]: the lab as a daemon's front ends see it, one handle whose
+//! [`LabHandle`]: the lab as a daemon's front ends see it, one handle whose
 //! methods the HTTP handlers call, and never the store, the queues or the
 //! renderer directly.
 //!
@@ -20,24 +20,24 @@ use lightbooth_store::{
     SessionRow, Store, StudyRow,
 };
 
-use crate::booth_instrument::BoothInstrument;
-use crate::calibration::{self, MeasuredError};
-use crate::comparisons::summary::SceneComparisons;
+use crate::compare::overview::ScenesOverview;
+use crate::compare::summary::SceneComparisons;
 use crate::computed::Computed;
 use crate::database_watch::DatabaseWatch;
 use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::experiments::analysis::Analysis;
 use crate::experiments::Experiments;
-use crate::measurement_files;
+use crate::measure::booth_instrument::BoothInstrument;
+use crate::measure::files;
 use crate::queue::{Queue, QueueSources};
-use crate::render_jobs::RenderJobs;
+use crate::records::calibration::{self, MeasuredError};
+use crate::render::jobs::RenderJobs;
 use crate::requests::SceneInfo;
-use crate::scene_overview::ScenesOverview;
 use lightbooth_science::calibration::reflectance::OutOfRange;
 use lightbooth_science::calibration::standard::WhiteStandard;
 
-/// The files of an experiment's analysis ([`Lab::experiment_file`]).
+/// The files of an experiment's analysis ([`LabHandle::experiment_file`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AnalysisFile {
     /// One row per observer and approximation
@@ -54,7 +54,7 @@ pub enum AnalysisFile {
 const NO_RENDERER: &str = "this daemon runs without the renderer";
 
 /// A measurement's XYZ and chromaticity in one observer
-/// ([`Lab::measurement_colorimetry`]).
+/// ([`LabHandle::measurement_colorimetry`]).
 #[derive(Clone, Debug, serde::Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeasuredColorimetry {
@@ -74,7 +74,7 @@ pub struct MeasuredColorimetry {
 
 /// The lab of one daemon (see the module doc).
 #[derive(Clone)]
-pub struct Lab {
+pub struct LabHandle {
     store: Store,
     observer: Observer,
     instrument: BoothInstrument,
@@ -82,15 +82,20 @@ pub struct Lab {
     experiments: Experiments,
     computed: Arc<Computed>,
     database: DatabaseWatch,
-    scanning: crate::instrument_scan::ScanGate,
+    scanning: crate::measure::scan::ScanGate,
 }
 
-impl Lab {
+impl LabHandle {
     /// The lab on `store`, measuring with `instrument` (in its booth),
     /// rendering with `renders` when given, and computing every colour
     /// it reports in `observer`.
-    pub fn new(store: Store, observer: Observer, instrument: BoothInstrument, renders: Option<Arc<RenderJobs>>) -> Lab {
-        Lab {
+    pub fn new(
+        store: Store,
+        observer: Observer,
+        instrument: BoothInstrument,
+        renders: Option<Arc<RenderJobs>>,
+    ) -> LabHandle {
+        LabHandle {
             experiments: Experiments::new(store.clone()),
             // Summaries in the booth's comparison observer (see
             // `comparison_observer`): the instrument's is fixed for the daemon's life.
@@ -104,8 +109,8 @@ impl Lab {
         }
     }
 
-    /// Whether an instrument scan is under way ([`crate::instrument_scan`]).
-    pub(crate) fn scan_gate(&self) -> &crate::instrument_scan::ScanGate {
+    /// Whether an instrument scan is under way ([`crate::measure::scan`]).
+    pub(crate) fn scan_gate(&self) -> &crate::measure::scan::ScanGate {
         &self.scanning
     }
 
@@ -191,7 +196,7 @@ impl Lab {
         comparison_observer(&self.instrument, self.observer)
     }
 
-    /// Every scene at a glance in this booth (see [`crate::scene_overview`]),
+    /// Every scene at a glance in this booth (see [`crate::compare::overview`]),
     /// in the booth's comparison observer, kept while its inputs are
     /// unchanged ([`crate::computed`]).
     pub async fn scenes_overview(&self) -> Result<Arc<ScenesOverview>, LabError> {
@@ -207,9 +212,9 @@ impl Lab {
     }
 
     /// A scene's comparisons as a file to save, CSV or MAT
-    /// ([`crate::comparisons::files`]), made once per kept summary.
+    /// ([`crate::compare::files`]), made once per kept summary.
     pub async fn scene_comparisons_file(&self, scene: &str, format: FileFormat) -> Result<Download, LabError> {
-        use crate::comparisons::files;
+        use crate::compare::files;
         let c = self.scene_comparisons(scene).await?;
         let make = match format {
             FileFormat::Csv => files::comparisons_csv,
@@ -247,7 +252,7 @@ impl Lab {
     /// time against ΔE). Each but `speed.svg` (which also reads the scene's
     /// renders) is drawn once per kept summary ([`crate::computed`]).
     pub async fn scene_chart(&self, scene: &str, chart: &str) -> Result<Arc<Vec<u8>>, LabError> {
-        use crate::comparisons::charts;
+        use crate::compare::charts;
         let c = self.scene_comparisons(scene).await?;
         let info = self.scene(scene)?;
         if c.rows.is_empty() {
@@ -344,7 +349,7 @@ impl Lab {
         {
             for target in &scene.targets {
                 if let Some(m) = self.store.latest_complete_in_booth(&scene.id, target, booth).await? {
-                    crate::comparisons::white::measured_xyz(&m, observer).map_err(refused)?;
+                    crate::compare::white::measured_xyz(&m, observer).map_err(refused)?;
                 }
             }
         }
@@ -390,13 +395,13 @@ impl Lab {
     }
 
     /// A measurement's spectra as a file to save, CSV or MAT
-    /// ([`crate::measurement_files`]); a measurement without a spectrum (a
+    /// ([`crate::measure::files`]); a measurement without a spectrum (a
     /// colorimeter's, a luminance meter's) is refused, naming why.
     pub async fn measurement_file(&self, id: i64, format: FileFormat) -> Result<Download, LabError> {
         let m = self.measurement(id).await?;
         let bytes = match format {
-            FileFormat::Csv => measurement_files::stored_spectrum_csv(&m)?,
-            FileFormat::Mat => measurement_files::stored_spectrum_mat(&m)?,
+            FileFormat::Csv => files::stored_spectrum_csv(&m)?,
+            FileFormat::Mat => files::stored_spectrum_mat(&m)?,
             FileFormat::Exr => {
                 return Err(LabError::NotFound(format!(
                     "measurement {id} has no EXR file: ask for its spectra as csv or mat"
@@ -408,7 +413,7 @@ impl Lab {
 
     /// A measurement's spectra drawn as SVG: the mean, ±1 SD and each sample.
     pub async fn measurement_chart(&self, id: i64) -> Result<Vec<u8>, LabError> {
-        measurement_files::stored_spectrum_chart(&self.measurement(id).await?)
+        files::stored_spectrum_chart(&self.measurement(id).await?)
     }
 
     /// A measurement's colorimetry in `observer`: recomputed from its mean
@@ -419,7 +424,7 @@ impl Lab {
     /// cannot be turned into another observer's.
     pub async fn measurement_colorimetry(&self, id: i64, observer: Observer) -> Result<MeasuredColorimetry, LabError> {
         let m = self.measurement(id).await?;
-        let xyz = crate::comparisons::white::measured_xyz(&m, observer)
+        let xyz = crate::compare::white::measured_xyz(&m, observer)
             .map_err(LabError::Conflict)?
             .ok_or_else(|| {
                 LabError::Conflict(format!(

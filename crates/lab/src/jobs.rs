@@ -17,7 +17,7 @@
 //!   record of what happened.
 //!
 //! The simulated PR-650's converged spectra are rendered on a separate pool
-//! (see [`SimulatedTruth`](super::simulated_truth::SimulatedTruth)), so a long job never leaves
+//! (see [`SimulatedTruth`](crate::measure::simulated_truth::SimulatedTruth)), so a long job never leaves
 //! the instrument thread waiting behind its batches.
 
 use std::collections::HashMap;

@@ -29,9 +29,9 @@ use serde::Serialize;
 
 use super::experiments::session::{trials_needed, PAUSED_AFTER_S};
 use super::experiments::ExperimentRequest;
-use super::instrument_queue::InstrumentStatus;
 use super::progress::{image_time_left, ProgressBoard};
-use super::render_jobs::RenderJobs;
+use crate::measure::queue::InstrumentStatus;
+use crate::render::jobs::RenderJobs;
 use lightbooth_store::{Booth, Job, MeasurementFilter, MeasurementState, MeasurementSummary, Store, StoreError};
 
 /// Complete measurements the instrument's recent pace is the median of.

@@ -27,7 +27,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use crate::comparisons::white::{scene_white, SceneWhite};
+use crate::compare::white::{scene_white, SceneWhite};
 use crate::requests::SceneInfo;
 use lightbooth_render::{self as render, Scene};
 use lightbooth_science::colorimetry::Observer;

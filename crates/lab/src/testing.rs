@@ -6,8 +6,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::events::{Event, EventSink};
-use super::render_runner::RenderRunner;
 use super::scenes::SceneCatalog;
+use crate::render::runner::RenderRunner;
 use lightbooth_render::integrator::CancellationToken;
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;

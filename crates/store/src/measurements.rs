@@ -229,7 +229,7 @@ impl Store {
     }
 
     /// The version of what the scenes' overview reads besides the
-    /// comparisons (`lightbooth_lab::scene_overview`): the number of
+    /// comparisons (`lightbooth_lab::compare::overview`): the number of
     /// complete measurements of `booth` and the newest of them, and the
     /// newest render with a preview image.
     pub fn overview_inputs<'a>(&'a self, booth: &'a Booth) -> BoxFuture<'a, Result<crate::InputsVersion, StoreError>> {

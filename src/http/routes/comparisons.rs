@@ -13,7 +13,7 @@ use crate::http::error::ApiError;
 use crate::http::input::Path;
 use crate::http::kept;
 use crate::http::AppState;
-use crate::lab::comparisons::summary::SceneComparisons;
+use crate::lab::compare::summary::SceneComparisons;
 use crate::lab::FileFormat;
 use crate::store::ComparisonRow;
 
@@ -36,7 +36,7 @@ pub struct CodingSummary {
 }
 
 /// A coding's propagated uncertainty (GUM Supplement 1 Monte Carlo,
-/// [`crate::lab::comparisons::summary`]).
+/// [`crate::lab::compare::summary`]).
 #[derive(Serialize, ToSchema)]
 pub struct CodingUncertaintyDto {
     /// The model whose stated accuracy was propagated.
@@ -126,7 +126,7 @@ pub struct SceneComparison {
 }
 
 /// The scene's newest comparisons with the daemon's observer, summarised
-/// per coding ([`crate::lab::comparisons::summary`]).
+/// per coding ([`crate::lab::compare::summary`]).
 async fn scene_comparison(state: &AppState, scene: &str) -> Result<Arc<SceneComparisons>, ApiError> {
     Ok(state.lab.scene_comparisons(scene).await?)
 }

@@ -20,7 +20,7 @@ use crate::display::{Checks, Emission};
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
-use crate::lab::display_profiles::{self as lab_profiles, ProfileRequest};
+use crate::lab::records::display_profiles::{self as lab_profiles, ProfileRequest};
 use crate::store::DisplayProfileRow;
 
 #[derive(Deserialize, IntoParams)]

@@ -10,8 +10,8 @@ use utoipa::ToSchema;
 use crate::http::error::ApiError;
 use crate::http::openapi::served_document;
 use crate::http::AppState;
-use crate::lab::instrument_queue::InstrumentStatus;
-use crate::lab::instrument_scan::InstrumentScan;
+use crate::lab::measure::queue::InstrumentStatus;
+use crate::lab::measure::scan::InstrumentScan;
 use crate::store::InstrumentRow;
 
 /// How long `/api/health` waits for the database to answer its ping.

@@ -1,7 +1,7 @@
 //! `/api/instrument/hold`: a display calibration (or verification) holds
 //! the instrument while it measures the display patch by patch, so no
 //! other measurement is taken between its patches and nobody else changes
-//! the display (see [`crate::lab::instrument_queue::InstrumentHold`]). A
+//! the display (see [`crate::lab::measure::queue::InstrumentHold`]). A
 //! hold expires unless its holder renews it (`…/renew`, or by naming it).
 
 use axum::extract::State;
@@ -13,7 +13,7 @@ use utoipa::ToSchema;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::instrument_queue::HoldInfo;
+use crate::lab::measure::queue::HoldInfo;
 
 #[derive(Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]

@@ -1,5 +1,5 @@
 //! `/api/renders/{id}/images` and `/api/images`: camera images of a render
-//! in any coding (queued, progressive, cancellable; see `lab::images`),
+//! in any coding (queued, progressive, cancellable; see `lab::render::images`),
 //! what the dashboard's image viewer shows of them (display PNG, pixel
 //! probe and its chart, ΔE00 map between two codings) and their files
 //! (OpenEXR, MATLAB) through [`crate::export::image`].
@@ -16,8 +16,8 @@ use crate::http::image_views::{self, Probe};
 use crate::http::input::{Input, Path, Query};
 use crate::http::kept;
 use crate::http::AppState;
-use crate::lab::comparisons::image_map::{self, DeltaEMap};
-use crate::lab::images::{ImageInfo, ImageJobs, ImageRequest};
+use crate::lab::compare::image_map::{self, DeltaEMap};
+use crate::lab::render::images::{ImageInfo, ImageJobs, ImageRequest};
 use crate::lab::FileFormat;
 
 fn images(state: &AppState) -> Result<&ImageJobs, ApiError> {
@@ -34,7 +34,7 @@ pub struct ImageAccepted {
 }
 
 /// Queues a camera image of a render in one coding (202), or answers the
-/// image already made with the same settings. Limits: see `lab::images`
+/// image already made with the same settings. Limits: see `lab::render::images`
 /// (400 naming the field and the limit).
 #[utoipa::path(post, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
     request_body = ImageRequest,

@@ -12,7 +12,7 @@ use crate::http::error::ApiError;
 use crate::http::input::{check_paging, Input, Path, Query};
 use crate::http::kept;
 use crate::http::AppState;
-use crate::lab::booth_instrument::{Cancelled, MeasurementRequest, Requested};
+use crate::lab::measure::booth_instrument::{Cancelled, MeasurementRequest, Requested};
 use crate::lab::FileFormat;
 use crate::store::{
     ComparisonRow, LuminanceComparisonRow, MeasurementDetail, MeasurementFilter, MeasurementPage, MeasurementState,

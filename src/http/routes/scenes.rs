@@ -11,9 +11,9 @@ use utoipa::ToSchema;
 use crate::http::error::ApiError;
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
+use crate::lab::compare::overview::ScenesOverview;
 use crate::lab::requests::RenderRequest;
 use crate::lab::requests::SceneInfo;
-use crate::lab::scene_overview::ScenesOverview;
 use crate::store::{Job, RenderRow};
 
 #[utoipa::path(get, path = "/scenes", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = Vec<SceneInfo>)))]
@@ -24,7 +24,7 @@ pub async fn list_scenes(State(state): State<AppState>) -> Result<Json<Vec<Scene
 /// Every scene at a glance: targets measured in this booth of all, the
 /// newest measurement's end, the render whose camera view is its
 /// thumbnail, and each coding's mean ΔE00 and rms_rel (see
-/// `lab::scene_overview`).
+/// `lab::compare::overview`).
 #[utoipa::path(get, path = "/scene-overview", tag = "scenes", responses((status = 503, description = "this daemon runs without the renderer", body = crate::http::error::ErrorBody), (status = 200, body = ScenesOverview)))]
 pub async fn scene_overview(State(state): State<AppState>) -> Result<Response, ApiError> {
     let overview = state.lab.scenes_overview().await?;

@@ -10,7 +10,7 @@ use utoipa::ToSchema;
 use crate::http::error::ApiError;
 use crate::http::input::{Input, Path};
 use crate::http::AppState;
-use crate::lab::booth_instrument::{describe_targets, TargetsRequested};
+use crate::lab::measure::booth_instrument::{describe_targets, TargetsRequested};
 use crate::lab::requests::StudyRequest;
 use crate::store::{Booth, Job, StudyRow};
 

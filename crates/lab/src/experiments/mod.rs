@@ -10,7 +10,7 @@
 //!   study's), or one coding's rendering of it (e.g. `spectral`, the
 //!   converged reference);
 //! - **the approximations**: any codings, each the rendering of that target
-//!   in the comparison of that measurement ([`crate::comparisons`]:
+//!   in the comparison of that measurement ([`crate::compare`]:
 //!   the same XYZ its ΔE is computed from, in the same observer);
 //! - **the display**: a stored display profile in that observer, and an
 //!   [`OutputMethod`];

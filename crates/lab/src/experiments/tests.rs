@@ -302,7 +302,7 @@ async fn trials_recorded_while_another_writer_commits_are_not_refused_as_locked(
 /// trials, and not once it is another booth's queue that is asked.
 #[tokio::test]
 async fn the_queue_lists_a_running_session_of_this_booths_experiments_only() {
-    use crate::instrument_queue::InstrumentStatus;
+    use crate::measure::queue::InstrumentStatus;
     use crate::queue::{queue, QueueSources};
     use lightbooth_store::Booth;
     let lab = lab().await;
@@ -364,7 +364,7 @@ async fn the_queue_lists_a_running_session_of_this_booths_experiments_only() {
 /// dropped trials has its repeats in its total, as its view says.
 #[tokio::test]
 async fn the_queue_counts_a_sessions_trials_and_repeats_without_reading_them() {
-    use crate::instrument_queue::InstrumentStatus;
+    use crate::measure::queue::InstrumentStatus;
     use crate::queue::{queue, QueueSources};
     use lightbooth_store::Booth;
     let lab = lab().await;

@@ -53,7 +53,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{parts, Experiments, StoredColour};
-use crate::comparisons::white::measured_xyz;
+use crate::compare::white::measured_xyz;
 use crate::error::LabError;
 use lightbooth_science::display::stimulus::{delta_e00, GamutPolicy, GAMUT_TOLERANCE};
 use lightbooth_science::display::Converter;

@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::measurement::{Outcome, Recorder};
+use crate::measure::recorder::{Outcome, Recorder};
 use crate::study::run::truth_path;
 use lightbooth_instrument::sim::{spawn_mock, MockConfig};
 use lightbooth_instrument::{open_pr650, CancellationToken, Pr650Settings};
@@ -97,7 +97,7 @@ pub async fn measure_with_simulator(
                     note: "study: simulated PR-650".into(),
                 })
                 .await?;
-            // The daemon's workflow (`lab::measurement`): each sample is on
+            // The daemon's workflow (`lab::measure::recorder`): each sample is on
             // disk before the next is taken, so a study killed
             // mid-measurement keeps every sample it took. The driver and the
             // recorder block: this runtime thread is handed over to them meanwhile.

@@ -20,7 +20,7 @@
 //!   (rms_rel, mean ± SD of ΔE*ab and ΔE00 over the targets) are computed per
 //!   seed and then summarised as mean ± SD over seeds.
 //! - CIELAB white: the one each scene declares (`[cielab_white]`, see
-//!   [`crate::comparisons::white`]); the same white for truth and renderings.
+//!   [`crate::compare::white`]); the same white for truth and renderings.
 //! - Observer: [`StudyOptions::observer`] for every XYZ, x,y, CIELAB and ΔE
 //!   (renders and measurements alike); the result names it.
 //! - "Beyond noise": a rendered luminance differs from the truth beyond
@@ -47,7 +47,7 @@ use super::auto::{
     candidate_set, choose_settings, reference_render, verify, AutoChoice, CandidateSet, Tolerance, Verification,
 };
 use super::failure_map::{failure_map, FailureMap, FailureMapSettings};
-use crate::comparisons::white::{measured_in_booth, resolve_white, scene_id, scene_white, RenderedWhite};
+use crate::compare::white::{measured_in_booth, resolve_white, scene_id, scene_white, RenderedWhite};
 
 /// Relative standard error of Y of the reference rendering.
 pub const REFERENCE_RELATIVE_SE: f64 = 1e-3;
@@ -95,7 +95,7 @@ pub struct StudyOptions {
     pub truth_scene: Option<PathBuf>,
     /// Against measurements: the booth whose measurements are the truth and
     /// whose measured white is the CIELAB white (never another booth's: the
-    /// rule of [`crate::comparisons`], so a study and the dashboard give
+    /// rule of [`crate::compare`], so a study and the dashboard give
     /// one measurement the same ΔE).
     pub booth: Booth,
 }
@@ -283,7 +283,7 @@ fn study_claims(
         let mean_se = p.Y_se.max(p.Y.sd) / (study.per_seed.len().max(1) as f64).sqrt();
         points.push((m, rendered, mean_se));
     }
-    let (instrument_model, u) = crate::comparisons::summary::propagate_measured(scene_id, observer, white, &points)?;
+    let (instrument_model, u) = crate::compare::summary::propagate_measured(scene_id, observer, white, &points)?;
     let count =
         |f: fn(&lightbooth_science::uncertainty::Claims) -> bool| u.points.iter().filter(|p| f(&p.de00.claims)).count();
     Ok(StudyClaims {
@@ -467,7 +467,7 @@ async fn measured(
         return Ok(None);
     };
     let usable = m.samples.iter().filter(|s| s.usable).count();
-    let y_se = crate::measurement::mean_y_standard_error(m.summary.luminance_cv.unwrap_or(0.0), xyz.y, usable);
+    let y_se = crate::measure::recorder::mean_y_standard_error(m.summary.luminance_cv.unwrap_or(0.0), xyz.y, usable);
     Ok(Some((xyz, y_se, format!("measurement {}", m.summary.id), m)))
 }
 

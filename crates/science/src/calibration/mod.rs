@@ -3,7 +3,7 @@
 //! lamp's spectral power distribution from the white standard alone
 //! ([`illuminant`]), as the study took its materials and illuminants from its
 //! own booth. Pure functions of the stored samples and the standard's
-//! calibration ([`standard`]): no I/O, no database (`lightbooth::lab::calibration`
+//! calibration ([`standard`]): no I/O, no database (`lightbooth::lab::records::calibration`
 //! reads the measurements from the store and stores the results).
 //!
 //! Uncertainties are standard uncertainties (k = 1), propagated to first

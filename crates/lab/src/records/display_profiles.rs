@@ -2,13 +2,13 @@
 //! calibration showed (`/calibrate` posts them): each measurement read and
 //! checked complete, its light taken as its instrument gave it (a
 //! spectrum, a colorimeter's XYZ or a luminance meter's Y,
-//! [`crate::measurement::display_patch_light`]), the observer settled (a
+//! [`crate::measure::recorder::display_patch_light`]), the observer settled (a
 //! colorimeter's own; never two mixed), the profile fitted
 //! ([`lightbooth_science::display::fit_profile`]) and stored with the
 //! patches' measurement ids.
 
 use crate::error::LabError;
-use crate::Lab;
+use crate::LabHandle;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_science::display::fit::MeasuredPatch;
 use lightbooth_science::display::fit_profile;
@@ -37,7 +37,7 @@ pub struct ProfileRequest {
     pub patches: Vec<ShownPatch>,
 }
 
-impl Lab {
+impl LabHandle {
     /// Fits and stores the profile of `request`; every refusal names the
     /// field (`patches[i]`, `observer`) and what to do.
     pub async fn fit_display_profile(&self, request: ProfileRequest) -> Result<DisplayProfileRow, LabError> {
@@ -67,7 +67,7 @@ impl Lab {
                     m.summary.state.as_str()
                 )));
             }
-            let (light, observer) = crate::measurement::display_patch_light(&m)
+            let (light, observer) = crate::measure::recorder::display_patch_light(&m)
                 .map_err(|e| LabError::Invalid(format!("field `patches[{i}]`: {e}")))?;
             if let Some(o) = observer {
                 let model = m

@@ -3,8 +3,8 @@
 //! itself on the rayon pool with progress events and each coding's cost.
 //!
 //! Every render the lab makes goes through [`RenderRunner`]: a render asked
-//! for through the API ([`super::render_jobs`]), the render a comparison
-//! needs ([`super::comparisons`]) and a render row a render worker claims
+//! for through the API ([`crate::render::jobs`]), the render a comparison
+//! needs ([`crate::compare`]) and a render row a render worker claims
 //! (`lightbooth::worker`). It never runs on the async runtime's workers or the
 //! instrument thread, and a panic in the renderer fails only its render (a
 //! panic on a `rayon::spawn` job would abort the whole process).
@@ -36,11 +36,11 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::events::{Event, EventSink};
-use super::jobs::{self, job_end, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
-use super::scenes::SceneCatalog;
 use crate::error::LabError;
+use crate::events::{Event, EventSink};
+use crate::jobs::{self, job_end, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use crate::requests::RenderRequest;
+use crate::scenes::SceneCatalog;
 use crate::study::run::COST_DEFINITION;
 use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::{self as render, Coding, RenderError, RenderSettings, Scene};
@@ -477,7 +477,7 @@ fn render_with_timings(
     events: &EventSink,
 ) -> Result<RenderOutput, RenderError> {
     // Each step reports its own progress (`lab::progress::RENDER_STEPS`).
-    let [tracing, timing, preview_step] = super::progress::RENDER_STEPS.map(|(step, _)| step);
+    let [tracing, timing, preview_step] = crate::progress::RENDER_STEPS.map(|(step, _)| step);
     let last = std::sync::Mutex::new(Instant::now());
     let report = |step: &str, done: u64, total: u64| {
         let mut last = last.lock().unwrap_or_else(|p| p.into_inner());

@@ -28,10 +28,10 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::broadcast;
 
-use super::error::LabError;
-use super::jobs::JOB_QUEUE_CAPACITY;
-use super::scenes::SceneCatalog;
+use crate::error::LabError;
 use crate::events::Event;
+use crate::jobs::JOB_QUEUE_CAPACITY;
+use crate::scenes::SceneCatalog;
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{Job, JobEnd, Store, StoreError, WorkerJobKind};

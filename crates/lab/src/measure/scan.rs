@@ -12,8 +12,8 @@ use std::time::Duration;
 use serde::Serialize;
 
 use crate::error::LabError;
-use crate::instrument_queue::InstrumentStatus;
-use crate::Lab;
+use crate::measure::queue::InstrumentStatus;
+use crate::LabHandle;
 use lightbooth_instrument::discovery::{self, ProbeResult, ProbeTarget};
 
 /// How long each port's probe may take.
@@ -52,7 +52,7 @@ pub struct InstrumentScan {
 #[derive(Clone, Default)]
 pub struct ScanGate(Arc<AtomicBool>);
 
-impl Lab {
+impl LabHandle {
     /// Every serial port of this computer and who answers on it (see the
     /// module doc); a conflict while another scan runs.
     pub async fn scan_instruments(&self) -> Result<InstrumentScan, LabError> {

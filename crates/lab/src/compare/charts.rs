@@ -10,7 +10,7 @@ use lightbooth_science::colorimetry::{Observer, Xyz};
 /// The cost on the speed chart's x axis: the wall time of each coding
 /// rendered alone at the same fixed number of paths per target
 /// (`coding_cost.CODING.wall_seconds` of a stored render, see
-/// `lab::render_runner`), and the axis title. The rays traced are stored beside
+/// `lab::render::runner`), and the axis title. The rays traced are stored beside
 /// it (`coding_cost.CODING.rays`) but do not separate the codings: the same
 /// paths trace the same rays in every coding, which differ only in the
 /// arithmetic per ray (channels), so rays cannot be this chart's axis. The
@@ -153,7 +153,7 @@ pub fn delta_e(c: &SceneComparison) -> Result<String, String> {
 /// Cost per coding (see [`SPEED_COST`]: render time of each coding alone at
 /// the same fixed paths per target) against its mean ΔE*ab ± 1 SD over targets, each
 /// point labelled with its coding; read from the newest render that has it.
-pub async fn speed(lab: &crate::Lab, c: &SceneComparison) -> Result<String, String> {
+pub async fn speed(lab: &crate::LabHandle, c: &SceneComparison) -> Result<String, String> {
     let renders = lab.renders_of_scene(&c.scene).await.map_err(|e| e.to_string())?;
     let (key, field, x_desc) = SPEED_COST;
     let mut series = Vec::new();

@@ -12,8 +12,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use super::jobs;
-use super::scenes::SceneCatalog;
+use crate::jobs;
+use crate::scenes::SceneCatalog;
 use lightbooth_render as render;
 use lightbooth_science::spectrum::Spectrum;
 

@@ -1,7 +1,10 @@
 //! Where a measurement's comparison with every coding is computed: the
 //! render it is compared with (reused from the store, or rendered once),
 //! the CIELAB white of its booth, the rows stored, the whites kept current,
-//! and ([`summary`]) a scene's comparisons summarised per coding.
+//! and ([`summary`]) a scene's comparisons summarised per coding; their
+//! charts ([`charts`]: what each shows, drawn by `lightbooth-report`), their
+//! files ([`files`]: CSV and MAT), a camera image's ΔE map ([`image_map`])
+//! and every scene at a glance ([`overview`]).
 //!
 //! The figures of merit themselves (ΔE, luminance ratio, x,y distance) are
 //! the science's ([`lightbooth_science::comparison`]); this module decides what is
@@ -10,7 +13,7 @@
 //! # The observer
 //!
 //! A comparison is made in the observer of what was measured
-//! ([`Comparable::observer`](crate::measurement::Comparable::observer)): a
+//! ([`Comparable::observer`](crate::measure::recorder::Comparable::observer)): a
 //! spectroradiometer's spectrum in the [`RenderRunner`]'s
 //! (`serve --observer`), a colorimeter's XYZ or a luminance meter's Y in the
 //! instrument's own (a render's spectra can be weighted with any observer,
@@ -50,6 +53,7 @@
 pub mod charts;
 pub mod files;
 pub mod image_map;
+pub mod overview;
 pub mod summary;
 pub mod white;
 
@@ -61,9 +65,9 @@ use tokio::runtime::Handle;
 
 use super::error::LabError;
 use super::events::{Event, EventSink};
-use super::measurement::{stored_comparable, Comparable};
-use super::render_runner::{RenderRunner, StoredRenderResult};
-use super::worker_queue::WorkerQueue;
+use crate::measure::recorder::{stored_comparable, Comparable};
+use crate::render::runner::{RenderRunner, StoredRenderResult};
+use crate::render::worker_queue::WorkerQueue;
 use lightbooth_science::colorimetry::{Lab, Observer, Xyz};
 use lightbooth_science::comparison::{compare_point, delta_e_pair};
 use lightbooth_store::{Booth, NewComparison, NewLuminanceComparison, Store};
@@ -661,7 +665,7 @@ mod tests {
     /// 3 · √(SE_S² + SE_M²) unless the render's own SE is larger.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_luminance_meters_measurement_is_compared_in_luminance_alone() {
-        use crate::measurement::comparable_luminance;
+        use crate::measure::recorder::comparable_luminance;
         use lightbooth_instrument::{average_samples, InstrumentInfo, Reading, Sample};
         use lightbooth_science::spectrum::Grid;
         let info = InstrumentInfo {
@@ -692,8 +696,8 @@ mod tests {
         // Y = 31 in the meter's CIE 1931 and the standard error of the mean
         // of 30 and 32, s/√n = √2/√2 = 1 cd/m².
         for daemon in [Observer::Cie1931, Observer::JuddVos] {
-            match crate::measurement::comparable(&avg, daemon) {
-                Ok(crate::measurement::Comparable::Luminance { y, y_se, observer }) => {
+            match crate::measure::recorder::comparable(&avg, daemon) {
+                Ok(crate::measure::recorder::Comparable::Luminance { y, y_se, observer }) => {
                     assert_eq!(y, 31.0);
                     assert!((y_se - 1.0).abs() < 1e-12, "{y_se}");
                     assert_eq!(observer, Observer::Cie1931);

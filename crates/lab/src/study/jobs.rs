@@ -4,7 +4,7 @@
 //!
 //! The study itself (every coding against measurements or a reference,
 //! sweeps, failure maps) is [`crate::study::run`]; this module runs it for
-//! the daemon's queue ([`super::render_jobs`]) and for render workers
+//! the daemon's queue ([`crate::render::jobs`]) and for render workers
 //! ([`StudyRunner::run_row`]), and runs one now for the command line
 //! ([`run_study_now`]), recorded the same way.
 
@@ -14,12 +14,12 @@ use std::sync::Arc;
 
 use tokio::runtime::Handle;
 
-use super::events::{Event, EventSink};
-use super::jobs::{self, job_end};
-use super::scenes::SceneCatalog;
-use super::study_measurements::wait_for_measurements;
 use crate::error::LabError;
+use crate::events::{Event, EventSink};
+use crate::jobs::{self, job_end};
 use crate::requests::StudyRequest;
+use crate::scenes::SceneCatalog;
+use crate::study::awaited::wait_for_measurements;
 use crate::study::report::report_files;
 use crate::study::run::{progress_fractions, run_study, Against, StudyOptions, StudyResult};
 use lightbooth_render::integrator::{with_cancel, CancellationToken};

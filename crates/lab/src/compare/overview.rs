@@ -3,15 +3,15 @@
 //! booth out of all, when the newest measurement ended, the render whose
 //! camera view is its thumbnail, and each coding's mean ΔE00 and rms_rel
 //! against the measurements (the same summary the scene's own page shows,
-//! [`super::comparisons::summary`], with the daemon's observer, as the
-//! lab keeps it computed: [`super::computed`]).
+//! [`crate::compare::summary`], with the daemon's observer, as the
+//! lab keeps it computed: [`crate::computed`]).
 
 use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::comparisons::summary::SceneComparisons;
-use super::requests::SceneInfo;
+use crate::compare::summary::SceneComparisons;
+use crate::requests::SceneInfo;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, MeasurementFilter, MeasurementState, Store, StoreError};
 

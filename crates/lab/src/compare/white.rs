@@ -326,7 +326,7 @@ mod tests {
     /// observer only, and a luminance meter's measurement is no colour.
     #[tokio::test]
     async fn a_colorimeters_xyz_is_kept_in_its_observer_and_refused_in_another() {
-        use crate::measurement::{average_row, comparable_xyz, sample_row};
+        use crate::measure::recorder::{average_row, comparable_xyz, sample_row};
         use lightbooth_instrument::{average_samples, InstrumentInfo, Reading, Sample};
         use lightbooth_science::spectrum::Grid;
         let dir = tempfile::tempdir().unwrap();

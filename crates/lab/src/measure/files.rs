@@ -13,7 +13,7 @@ use lightbooth_science::spectrum::{table::write_csv, Grid};
 use lightbooth_store::MeasurementDetail;
 
 use crate::error::LabError;
-use crate::measurement::stored_spectrum;
+use crate::measure::recorder::stored_spectrum;
 
 /// One sample's spectrum for the CSV: its index in the series and its
 /// values on the measurement's grid.

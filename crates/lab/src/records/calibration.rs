@@ -56,7 +56,7 @@ async fn measured(store: &Store, field: &str, id: i64) -> Result<(MeasurementDet
             m.summary.state.as_str()
         )));
     }
-    let grid = crate::measurement::stored_spectrum(&m, "a reflectance or a lamp's spectrum")
+    let grid = crate::measure::recorder::stored_spectrum(&m, "a reflectance or a lamp's spectrum")
         .map_err(|e| MeasuredError::Invalid(format!("field `{field}`: {e}")))?
         .0
         .to_vec();

@@ -433,13 +433,13 @@ pub fn comparable(avg: &AveragedMeasurement, observer: Observer) -> Result<Compa
 /// [`comparable`] does for one just taken): its mean spectrum's XYZ in
 /// `observer`, a colorimeter's stored XYZ or a luminance meter's stored Y
 /// in the observer stored with it. Used to compare measurements left
-/// uncompared ([`crate::comparisons::Comparisons::compare_left_over`]).
+/// uncompared ([`crate::compare::Comparisons::compare_left_over`]).
 pub fn stored_comparable(m: &lightbooth_store::MeasurementDetail, observer: Observer) -> Result<Comparable, String> {
     let s = &m.summary;
     let usable = usize::try_from(s.good_samples).unwrap_or(0);
     let cv = s.luminance_cv.unwrap_or(0.0);
     if m.radiance.is_some() {
-        let xyz = crate::comparisons::white::measured_xyz(m, observer)?
+        let xyz = crate::compare::white::measured_xyz(m, observer)?
             .ok_or_else(|| format!("measurement {}: no XYZ of its mean spectrum", s.id))?;
         return Ok(Comparable::Colour {
             xyz,

@@ -2,7 +2,7 @@
 //! driver does blocking serial I/O), takes queued measurements one at a
 //! time so commands never interleave on the wire, and:
 //!
-//! - records each measurement through [`crate::measurement::Recorder`]: each
+//! - records each measurement through [`crate::measure::recorder::Recorder`]: each
 //!   raw sample is in the store *before* the next sample starts (the thread
 //!   blocks on the write), so a crash or a pulled cable keeps every sample
 //!   taken, and the end of a measurement is written again until a database
@@ -28,13 +28,13 @@ use std::time::{Duration, Instant};
 use tokio::runtime::Handle;
 use tokio::sync::{broadcast, mpsc, watch};
 
-use crate::comparisons::Comparisons;
+use crate::compare::Comparisons;
 use crate::events::Event;
-use crate::instrument_queue::InstrumentStatus;
-use crate::instrument_queue::MeasurementJob;
-use crate::instrument_queue::MockControl;
-use crate::measurement::{self as recorder, Outcome, Recorder};
-use crate::simulated_truth::SimulatedTruth;
+use crate::measure::queue::InstrumentStatus;
+use crate::measure::queue::MeasurementJob;
+use crate::measure::queue::MockControl;
+use crate::measure::recorder::{self as recorder, Outcome, Recorder};
+use crate::measure::simulated_truth::SimulatedTruth;
 use lightbooth_instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
 use lightbooth_instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
 use lightbooth_science::colorimetry::xyz_from_radiance;
@@ -189,7 +189,7 @@ impl Canceller {
     }
 }
 
-impl crate::instrument_queue::CancelMeasurement for Canceller {
+impl crate::measure::queue::CancelMeasurement for Canceller {
     fn cancel(&self, id: i64) -> bool {
         match self.current.lock().unwrap_or_else(|p| p.into_inner()).as_ref() {
             Some((running, t)) if *running == id => {

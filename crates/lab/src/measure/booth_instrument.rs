@@ -5,7 +5,7 @@
 //! the live status and the queue. The HTTP handlers call these methods and
 //! never the queue's channels or the store for it; the instrument task
 //! takes the jobs at the other end and records each through
-//! [`crate::measurement::Recorder::take`].
+//! [`crate::measure::recorder::Recorder::take`].
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -14,7 +14,7 @@ use tokio::sync::{broadcast, mpsc, watch};
 
 use crate::error::LabError;
 use crate::events::Event;
-use crate::instrument_queue::{CancelMeasurement, HoldInfo, InstrumentHold, InstrumentStatus, MeasurementJob};
+use crate::measure::queue::{CancelMeasurement, HoldInfo, InstrumentHold, InstrumentStatus, MeasurementJob};
 use crate::requests::SceneInfo;
 use lightbooth_instrument::Capabilities;
 use lightbooth_store::{Booth, MeasurementFilter, MeasurementState, MeasurementSummary, NewMeasurement, Store};

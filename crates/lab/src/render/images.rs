@@ -40,10 +40,10 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::{broadcast, mpsc};
 
-use super::jobs;
 use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::events::Event;
+use crate::jobs;
 use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
 use lightbooth_render::integrator::{with_cancel, CancellationToken, Transport};
 use lightbooth_render::scene::Camera;
@@ -485,7 +485,7 @@ impl ImageJobs {
             budget = Some(e.info.settings.time_budget_s);
         }
         let (seconds_left, estimate) = match budget {
-            Some(b) => super::progress::image_time_left(&p, b),
+            Some(b) => crate::progress::image_time_left(&p, b),
             None => (None, String::new()),
         };
         let _ = self.events.send(Event::ImageProgress {
@@ -584,7 +584,7 @@ pub fn check_request(
     if work > MAX_IMAGE_WORK {
         return Err(LabError::Invalid(format!(
             "fields `width`, `max_spp`, `coding`: width × height × max_spp × quantities = {width} × {height} × \
-             {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (lab::images::MAX_IMAGE_WORK); \
+             {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (lab::render::images::MAX_IMAGE_WORK); \
              ask for fewer pixels, fewer paths per pixel or fewer bands"
         )));
     }

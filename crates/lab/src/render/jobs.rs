@@ -1,7 +1,7 @@
 //! The daemon's renders, studies and camera images as the API asks for
-//! them: one bounded queue ([`super::jobs`]) and one worker that runs its
+//! them: one bounded queue ([`crate::jobs`]) and one worker that runs its
 //! renders ([`RenderRunner`]) and studies ([`StudyRunner`]) in turn, camera
-//! images on their own queue ([`super::images`]), cancel and retry — or,
+//! images on their own queue ([`crate::render::images`]), cancel and retry — or,
 //! with `serve --renders workers`, the same rows handed to render workers
 //! ([`WorkerQueue`]). [`RenderJobs`] is the [`RenderService`] the HTTP layer
 //! calls.
@@ -9,15 +9,15 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::comparisons::Comparisons;
-use super::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
-use super::jobs::{JobQueue, Queued};
-use super::progress::ProgressBoard;
-use super::render_runner::RenderRunner;
-use super::study_jobs::StudyRunner;
-use super::worker_queue::WorkerQueue;
+use crate::compare::Comparisons;
 use crate::error::LabError;
+use crate::jobs::{JobQueue, Queued};
+use crate::progress::ProgressBoard;
+use crate::render::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
+use crate::render::runner::RenderRunner;
+use crate::render::worker_queue::WorkerQueue;
 use crate::requests::{RenderRequest, SceneInfo, StudyRequest};
+use crate::study::jobs::StudyRunner;
 use crate::study::run::StudyOptions;
 use lightbooth_render::RenderSettings;
 use lightbooth_science::colorimetry::{Observer, Xyz};
@@ -188,7 +188,7 @@ impl RenderJobs {
         Ok(id)
     }
 
-    /// A new job with the request of an ended one (see the [jobs](super::jobs)
+    /// A new job with the request of an ended one (see the [jobs](crate::jobs)
     /// doc), once: a job already retried answers 409 naming its retry. The
     /// look-up first answers the usual case; the store's unique `retry_of`
     /// settles simultaneous retries (only one INSERT succeeds).
@@ -237,7 +237,7 @@ impl RenderJobs {
         }
     }
 
-    /// Queues a camera image of a render (see [`super::images`]): the
+    /// Queues a camera image of a render (see [`crate::render::images`]): the
     /// render's scene, which must be the content the render was of, with
     /// the render's transport and seed; the request checked against the
     /// limits first.
@@ -328,7 +328,7 @@ impl RenderJobs {
         self.queue_image(render_id, request).await
     }
 
-    /// The camera images this daemon keeps (see [`crate::images`]).
+    /// The camera images this daemon keeps (see [`crate::render::images`]).
     pub fn images(&self) -> &ImageJobs {
         &self.images
     }
@@ -339,7 +339,7 @@ impl RenderJobs {
     }
 
     /// The CIELAB white of a scene in a booth in `observer` now, with its
-    /// source (see [`crate::comparisons::white`]).
+    /// source (see [`crate::compare::white`]).
     pub async fn cielab_white(
         &self,
         scene: &str,
