@@ -1,40 +1,9 @@
 //! The charts drawn and read back: every chart's SVG checked for its
 //! axes, legend, markers and colours.
 
+use super::drawn::*;
 use super::*;
 use lightbooth_science::spectrum::Grid;
-
-/// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
-fn elements(svg: &str, tag: &str) -> Vec<(String, String)> {
-    let open = format!("<{tag} ");
-    let mut out = Vec::new();
-    let mut rest = svg;
-    while let Some(i) = rest.find(&open) {
-        rest = &rest[i + open.len()..];
-        let end = rest.find('>').unwrap();
-        let attrs = rest[..end].to_string();
-        let content = if attrs.ends_with('/') {
-            String::new()
-        } else {
-            let close = format!("</{tag}>");
-            let c = rest.find(&close).unwrap();
-            rest[end + 1..c].trim().to_string()
-        };
-        out.push((attrs, content));
-    }
-    out
-}
-
-fn attr(attrs: &str, name: &str) -> Option<String> {
-    let key = format!(" {name}=\"");
-    let i = format!(" {attrs}").find(&key)? + key.len() - 1;
-    let v = &attrs[i..];
-    Some(v[..v.find('"')?].to_string())
-}
-
-fn num(attrs: &str, name: &str) -> f64 {
-    attr(attrs, name).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
-}
 
 fn texts(svg: &str) -> Vec<(f64, f64, String)> {
     elements(svg, "text")
@@ -853,10 +822,6 @@ fn label_box(x: f64, y: f64, text: &str) -> (f64, f64, f64, f64) {
     (x, y, x + w as f64, y + h as f64)
 }
 
-fn boxes_overlap(a: (f64, f64, f64, f64), b: (f64, f64, f64, f64)) -> bool {
-    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
-}
-
 /// A sweep's points crowd each other (nstep3 … nstep81 at nearly the same
 /// time and error): no two labels may overlap, no label may cover another
 /// point's marker, and every label that found no room is in the key.
@@ -1083,18 +1048,6 @@ fn false_colour_figure_refuses_an_empty_map() {
         notes: &[],
     };
     assert!(false_colour_map_svg(&m).unwrap_err().contains("no pixels"));
-}
-
-/// The (x, y) pairs of an element's `points` attribute.
-fn points_of(attrs: &str) -> Vec<(f64, f64)> {
-    attr(attrs, "points")
-        .unwrap_or_default()
-        .split_whitespace()
-        .filter_map(|p| {
-            let (x, y) = p.split_once(',')?;
-            Some((x.parse().ok()?, y.parse().ok()?))
-        })
-        .collect()
 }
 
 /// The distance (px) from `p` to the segment `a`–`b`.
@@ -1581,5 +1534,63 @@ fn labels_point_at_their_own_points(svg: &str, series: &[ScatterSeries], labels:
             p.0 - r >= x_lo - 1.0 && p.0 + r <= x_hi + 1.0 && p.1 - r >= y_lo - 1.0 && p.1 + r <= y_hi + 1.0,
             "the marker at {p:?} reaches beyond the axes ({x_lo}–{x_hi}, {y_lo}–{y_hi})"
         );
+    }
+}
+
+/// The whole chromaticity diagram wrote "460" on the corner of the
+/// RADIANCE RGB gamut's dashed line (outward from white the label left the
+/// plot, so it went inward, onto the gamuts' blue corners): no wavelength
+/// label's box meets a gamut's line, the locus or another label.
+#[test]
+fn locus_460_nm_label_on_the_radiance_gamut_corner() {
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    for observer in [Observer::JuddVos, Observer::Cie1931] {
+        let svg = chromaticity_chart("xy", observer, &[scatter("measured", &[(0.31, 0.33)])]).unwrap();
+        keep_for_a_look(&format!("locus-labels-{}", observer.label().replace(' ', "-")), &svg);
+        let panel = 440.0;
+        let labels: Vec<TextBox> = texts_drawn(&svg)
+            .into_iter()
+            .filter(|t| {
+                t.x < panel
+                    && t.content.len() == 3
+                    && t.content.parse::<u32>().is_ok_and(|nm| (460..=620).contains(&nm))
+            })
+            .collect();
+        assert_eq!(labels.len(), 9, "{observer:?}: the nine wavelength labels");
+        let segments: Vec<(String, Px, Px)> = lines_drawn(&svg)
+            .into_iter()
+            .filter(|l| l.points.iter().all(|p| p.0 < panel))
+            .filter(|l| l.stroke == grey || (l.stroke == "#000000" && l.points.len() > 2))
+            .flat_map(|l| {
+                let what = if l.stroke == grey {
+                    "a gamut's line"
+                } else {
+                    "the locus"
+                };
+                l.points
+                    .windows(2)
+                    .map(|w| (what.to_string(), w[0], w[1]))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        assert!(segments.len() > 20, "{observer:?}: the locus and the gamuts are drawn");
+        for (i, t) in labels.iter().enumerate() {
+            for (what, a, b) in &segments {
+                assert!(
+                    !segment_meets_box(*a, *b, t.bbox),
+                    "{observer:?}: the {} nm label at {:?} lies on {what} ({a:?}–{b:?})",
+                    t.content,
+                    t.bbox
+                );
+            }
+            for u in &labels[i + 1..] {
+                assert!(
+                    !boxes_overlap(t.bbox, u.bbox),
+                    "{observer:?}: the {} and {} nm labels overlap",
+                    t.content,
+                    u.content
+                );
+            }
+        }
     }
 }
