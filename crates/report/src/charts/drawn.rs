@@ -390,3 +390,120 @@ pub(super) fn assert_readable(name: &str, svg: &str) {
         let _ = axis.map();
     }
 }
+
+/// Each plot area of a chart (left, top, right, bottom): the long black
+/// axis lines plotters draws along its left and bottom edges.
+pub(super) fn plot_areas(svg: &str) -> Vec<(f64, f64, f64, f64)> {
+    let lines: Vec<Vec<(f64, f64)>> = elements(svg, "polyline")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000"))
+        .map(|(a, _)| points_of(&a))
+        .filter(|p| p.len() == 2)
+        .collect();
+    let verticals: Vec<&Vec<(f64, f64)>> = lines
+        .iter()
+        .filter(|p| p[0].0 == p[1].0 && (p[0].1 - p[1].1).abs() > 100.0)
+        .collect();
+    let horizontals: Vec<&Vec<(f64, f64)>> = lines
+        .iter()
+        .filter(|p| p[0].1 == p[1].1 && (p[0].0 - p[1].0).abs() > 100.0)
+        .collect();
+    horizontals
+        .iter()
+        .filter_map(|h| {
+            let (left, right) = (h[0].0.min(h[1].0), h[0].0.max(h[1].0));
+            let v = verticals
+                .iter()
+                .filter(|v| (v[0].0 - left).abs() <= 2.0)
+                .min_by(|a, b| a[0].1.min(a[1].1).total_cmp(&b[0].1.min(b[1].1)))?;
+            Some((left, v[0].1.min(v[1].1), right, h[0].1))
+        })
+        .collect()
+}
+
+/// A plot of a chart: its area (left, top, right, bottom) and its axes.
+pub(super) struct Plot {
+    pub(super) area: Rect,
+    pub(super) x: Axis,
+    pub(super) y: Axis,
+    /// A second y axis on the right, if any.
+    pub(super) y2: Option<Axis>,
+}
+
+impl Plot {
+    /// Whether a pixel lies inside the plot area (1.5 px for rounding).
+    pub(super) fn holds(&self, p: Px) -> bool {
+        let a = self.area;
+        p.0 >= a.0 - 1.5 && p.0 <= a.2 + 1.5 && p.1 >= a.1 - 1.5 && p.1 <= a.3 + 1.5
+    }
+
+    /// The pixel of a named tick of the x axis (a slot: a target, a bar).
+    pub(super) fn x_slot(&self, name: &str) -> f64 {
+        self.x
+            .ticks
+            .iter()
+            .find(|t| t.0.content == name)
+            .unwrap_or_else(|| panic!("no x tick {name:?}"))
+            .1
+    }
+}
+
+/// Every plot of a chart with the axes along its left, bottom and right edges.
+pub(super) fn plots_drawn(svg: &str) -> Vec<Plot> {
+    let axes = axes_drawn(svg);
+    plot_areas(svg)
+        .into_iter()
+        .filter_map(|area| {
+            let on = |side: Side, at: f64| {
+                axes.iter()
+                    .find(|x| {
+                        x.side == side
+                            && (x.at - at).abs() <= 2.0
+                            && x.ticks
+                                .iter()
+                                .all(|t| t.1 >= area.0 - 2.0 && t.1 <= area.2 + 2.0 || side != Side::Bottom)
+                    })
+                    .cloned()
+            };
+            Some(Plot {
+                area,
+                x: on(Side::Bottom, area.3)?,
+                y: on(Side::Left, area.0)?,
+                y2: on(Side::Right, area.2),
+            })
+        })
+        .collect()
+}
+
+/// The colours of the glyph (line, marker or swatch) a legend draws left
+/// of its entry `name`, at the entry's height.
+pub(super) fn legend_colours(svg: &str, name: &str) -> Vec<String> {
+    let texts = texts_drawn(svg);
+    let t = texts
+        .iter()
+        .filter(|t| t.content == name)
+        .max_by(|a, b| a.x.total_cmp(&b.x))
+        .unwrap_or_else(|| panic!("no legend entry {name:?}"));
+    let mid = (t.bbox.1 + t.bbox.3) / 2.0;
+    let beside = |b: Rect| {
+        b.2 <= t.bbox.0 && b.0 >= t.bbox.0 - 40.0 && (b.1 + b.3) / 2.0 >= mid - 4.0 && (b.1 + b.3) / 2.0 <= mid + 4.0
+    };
+    let mut colours: Vec<String> = lines_drawn(svg)
+        .into_iter()
+        .filter(|l| beside(bounding(&l.points)))
+        .map(|l| l.stroke)
+        .chain(
+            marks_drawn(svg)
+                .into_iter()
+                .filter(|m| beside(m.bbox))
+                .map(|m| m.colour),
+        )
+        .chain(elements(svg, "rect").into_iter().filter_map(|(a, _)| {
+            let (x, y, w, h) = (num(&a, "x"), num(&a, "y"), num(&a, "width"), num(&a, "height"));
+            beside((x, y, x + w, y + h)).then(|| attr(&a, "fill").unwrap_or_default())
+        }))
+        .collect();
+    colours.sort();
+    colours.dedup();
+    colours
+}

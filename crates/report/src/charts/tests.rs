@@ -217,36 +217,6 @@ fn display_gamut_in_the_same_grey_as_srgb() {
     assert!(sides >= 1, "the display's gamut is not drawn in its own colour:\n{svg}");
 }
 
-/// Each plot area of a chart (left, top, right, bottom): the long black
-/// axis lines plotters draws along its left and bottom edges.
-fn plot_areas(svg: &str) -> Vec<(f64, f64, f64, f64)> {
-    let lines: Vec<Vec<(f64, f64)>> = elements(svg, "polyline")
-        .into_iter()
-        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000"))
-        .map(|(a, _)| points_of(&a))
-        .filter(|p| p.len() == 2)
-        .collect();
-    let verticals: Vec<&Vec<(f64, f64)>> = lines
-        .iter()
-        .filter(|p| p[0].0 == p[1].0 && (p[0].1 - p[1].1).abs() > 100.0)
-        .collect();
-    let horizontals: Vec<&Vec<(f64, f64)>> = lines
-        .iter()
-        .filter(|p| p[0].1 == p[1].1 && (p[0].0 - p[1].0).abs() > 100.0)
-        .collect();
-    horizontals
-        .iter()
-        .filter_map(|h| {
-            let (left, right) = (h[0].0.min(h[1].0), h[0].0.max(h[1].0));
-            let v = verticals
-                .iter()
-                .filter(|v| (v[0].0 - left).abs() <= 2.0)
-                .min_by(|a, b| a[0].1.min(a[1].1).total_cmp(&b[0].1.min(b[1].1)))?;
-            Some((left, v[0].1.min(v[1].1), right, h[0].1))
-        })
-        .collect()
-}
-
 /// Every marker's box (left, top, right, bottom) in the plot areas:
 /// circles, filled polygons and squares under 20 px, and the 3 px strokes
 /// of crosses and pluses.
@@ -1591,6 +1561,194 @@ fn locus_460_nm_label_on_the_radiance_gamut_corner() {
                     u.content
                 );
             }
+        }
+    }
+}
+
+/// Asserts that a line of `colour` runs through the pixels `at`, vertex by
+/// vertex (1.5 px for rounding), every vertex inside the plot.
+fn assert_line_through(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) {
+    let lines: Vec<Line> = lines_drawn(svg)
+        .into_iter()
+        .filter(|l| l.stroke == colour && l.points.len() == at.len())
+        .collect();
+    let runs = |l: &Line| {
+        l.points
+            .iter()
+            .zip(at)
+            .all(|(p, q)| (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5)
+    };
+    let line = lines
+        .iter()
+        .find(|l| runs(l))
+        .unwrap_or_else(|| panic!("{name}: no {colour} line through {at:?}; {colour} lines: {lines:?}"));
+    for p in &line.points {
+        assert!(
+            plot.holds(*p),
+            "{name}: the {colour} line's vertex {p:?} is outside the plot {:?}",
+            plot.area
+        );
+    }
+}
+
+/// Asserts that a marker of `colour` is drawn at each pixel of `at`
+/// (1.5 px), inside the plot; returns those markers.
+fn assert_marks_at(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) -> Vec<Mark> {
+    let marks = marks_drawn(svg);
+    at.iter()
+        .map(|p| {
+            let m = marks
+                .iter()
+                .find(|m| m.colour == colour && (m.at.0 - p.0).abs() <= 1.5 && (m.at.1 - p.1).abs() <= 1.5)
+                .unwrap_or_else(|| panic!("{name}: no {colour} marker at {p:?}"));
+            assert!(
+                plot.holds((m.bbox.0, m.bbox.1)) && plot.holds((m.bbox.2, m.bbox.3)),
+                "{name}: the {colour} marker {:?} leaves the plot {:?}",
+                m.bbox,
+                plot.area
+            );
+            m.clone()
+        })
+        .collect()
+}
+
+/// Asserts that the legend entry `entry` shows a glyph in `colour`, and only that colour.
+fn assert_legend(name: &str, svg: &str, entry: &str, colour: &str) {
+    let colours = legend_colours(svg, entry);
+    assert_eq!(
+        colours,
+        [colour],
+        "{name}: the legend's {entry:?} is drawn in {colours:?}, not {colour}"
+    );
+}
+
+/// The single plot of a chart.
+fn the_plot(name: &str, svg: &str) -> Plot {
+    let mut plots = plots_drawn(svg);
+    assert_eq!(plots.len(), 1, "{name}: one plot with its axes");
+    plots.remove(0)
+}
+
+/// Line charts (linear and log x) and profiles (linear and log y) draw each
+/// series as a line through its points and a marker on each, where the
+/// axes' tick labels put them; the highest value is the topmost marker; the
+/// legend shows each series in its colour; ticks rise along their axes.
+#[test]
+fn line_and_profile_charts_draw_each_series_through_its_points() {
+    let rgb = colour_hex(coding_style("rgb").unwrap().colour);
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    let a = [(0.1, 3.0), (0.5, 1.0), (2.0, 0.4)];
+    let b = [(0.1, 2.0), (0.5, 2.5), (2.0, 1.5)];
+    let mut with_errors = series("rgb", &a);
+    with_errors.errors = Some(vec![0.1, 0.2, 0.1]);
+    for log_x in [false, true] {
+        let name = format!("line-log-{log_x}");
+        let svg = line_chart("speed", "time (s)", "ΔE", &[with_errors, series("nstep3", &b)], log_x).unwrap();
+        with_errors = series("rgb", &a);
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let (px, py) = (plot.x.map(), plot.y.map());
+        for (colour, data) in [(&rgb, &a), (&pink, &b)] {
+            let at: Vec<Px> = data.iter().map(|p| (px(p.0), py(p.1))).collect();
+            assert_line_through(&name, &svg, &plot, colour, &at);
+            let marks = assert_marks_at(&name, &svg, &plot, colour, &at);
+            // The highest value is the topmost marker; x = a left of x = b.
+            let top = data
+                .iter()
+                .enumerate()
+                .max_by(|p, q| p.1 .1.total_cmp(&q.1 .1))
+                .unwrap()
+                .0;
+            assert!(
+                marks.iter().all(|m| m.at.1 >= marks[top].at.1),
+                "{name}: the highest {colour} value is not on top"
+            );
+            assert!(marks.windows(2).all(|w| w[0].at.0 < w[1].at.0), "{name}: x order lost");
+        }
+        assert_legend(&name, &svg, "rgb", &rgb);
+        assert_legend(&name, &svg, "nstep3", &pink);
+    }
+    // Profiles: targets in order on the x axis, linear and (Cornell) log y.
+    let targets: Vec<String> = ["wall", "ceiling", "light"].map(String::from).to_vec();
+    for (tag, ys) in [("linear", [30.0, 12.0, 45.0]), ("log", [3.0e3, 5.0e2, 9.0e5])] {
+        let name = format!("profile-{tag}");
+        let data: Vec<(f64, f64)> = ys.iter().enumerate().map(|(i, y)| (i as f64 + 1.0, *y)).collect();
+        let measured: Vec<(f64, f64)> = data.iter().map(|p| (p.0, p.1 * 1.1)).collect();
+        let svg = profile_chart(
+            "profile",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("measured", &measured), series("nstep3", &data)],
+        )
+        .unwrap();
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+        assert_eq!(names, ["wall", "ceiling", "light"], "{name}: targets in order");
+        let py = plot.y.map();
+        for (colour, d) in [(&pink, &data), (&"#000000".to_string(), &measured)] {
+            let at: Vec<Px> = d
+                .iter()
+                .map(|p| (plot.x_slot(&targets[p.0 as usize - 1]), py(p.1)))
+                .collect();
+            assert_line_through(&name, &svg, &plot, colour, &at);
+            assert_marks_at(&name, &svg, &plot, colour, &at);
+        }
+        assert_legend(&name, &svg, "nstep3", &pink);
+        assert_legend(&name, &svg, "measured", "#000000");
+    }
+}
+
+/// A line chart on a log x axis (a Pareto chart of render times) drew a
+/// point at a whole decade (0.1 s) on the plot's left edge, its marker half
+/// outside, and a profile's log y axis did the same with a value on a
+/// decade (a wall at 1000 cd/m²): the scatter chart's margin
+/// (`LOG_MARGIN`) applies to every log axis, so each marker lies inside.
+#[test]
+fn log_axis_point_on_a_decade_sits_half_outside_the_plot() {
+    let charts = [
+        (
+            "line-log-x-decade",
+            line_chart(
+                "p",
+                "time (s)",
+                "ΔE",
+                &[series("rgb", &[(0.1, 3.0), (10.0, 1.0)])],
+                true,
+            )
+            .unwrap(),
+        ),
+        (
+            "profile-log-y-decade",
+            profile_chart(
+                "p",
+                &["wall".into(), "light".into()],
+                "target",
+                "Y (cd/m²)",
+                &[series("rgb", &[(1.0, 1000.0), (2.0, 1.0e6)])],
+            )
+            .unwrap(),
+        ),
+    ];
+    let orange = colour_hex(coding_style("rgb").unwrap().colour);
+    for (name, svg) in &charts {
+        keep_for_a_look(name, svg);
+        let plot = the_plot(name, svg);
+        let marks: Vec<Mark> = marks_drawn(svg)
+            .into_iter()
+            .filter(|m| m.colour == orange && plot.holds(m.at))
+            .collect();
+        assert_eq!(marks.len(), 2, "{name}: both points drawn");
+        for m in marks {
+            assert!(
+                plot.holds((m.bbox.0, m.bbox.1)) && plot.holds((m.bbox.2, m.bbox.3)),
+                "{name}: the marker {:?} reaches out of the plot {:?}",
+                m.bbox,
+                plot.area
+            );
         }
     }
 }
