@@ -262,7 +262,7 @@ impl Axis {
             let worst = ticks
                 .iter()
                 .map(|t| (a.1 + slope * (f(t.0) - f(a.0)) - t.1).abs())
-                .fold(0.0, f64::max);
+                .fold(0.0, |w: f64, d| if d.is_nan() { f64::INFINITY } else { w.max(d) });
             (worst, move |v: f64| a.1 + slope * (f(v) - f(a.0)))
         };
         let linear = fit(|v| v);

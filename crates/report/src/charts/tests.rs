@@ -1614,7 +1614,7 @@ fn assert_marks_at(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) 
 
 /// Asserts that the legend entry `entry` shows a glyph in `colour`, and only that colour.
 fn assert_legend(name: &str, svg: &str, entry: &str, colour: &str) {
-    let colours = legend_colours(svg, entry);
+    let colours = legend_colours(svg, &wrap(entry, 18)[0]);
     assert_eq!(
         colours,
         [colour],
@@ -1750,5 +1750,138 @@ fn log_axis_point_on_a_decade_sits_half_outside_the_plot() {
                 plot.area
             );
         }
+    }
+}
+
+/// A spectrum draws its mean as a black line through every sample, from
+/// the plot's left edge (the first wavelength) to its right edge (the
+/// last), its peak the topmost point, each raw sample as a blue line and
+/// the ±1 SD band around the mean; a reflectance draws ρ, the line ρ = 1
+/// edge to edge, and a red dot on each value outside [0, 1]. Each legend
+/// entry shows its own colour.
+#[test]
+fn spectrum_and_reflectance_charts_draw_their_curves_where_they_are() {
+    let wl: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let mean: Vec<f64> = wl
+        .iter()
+        .map(|w| 1e-3 * (-((w - 550.0) / 60.0).powi(2)).exp() + 2e-4)
+        .collect();
+    let sd = vec![2e-5; wl.len()];
+    let samples = vec![
+        mean.iter().map(|m| m * 0.95).collect::<Vec<f64>>(),
+        mean.iter().map(|m| m * 1.05).collect(),
+    ];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), &samples).unwrap();
+    let name = "spectrum";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let at = |ys: &[f64]| -> Vec<Px> { wl.iter().zip(ys).map(|(w, y)| (px(*w), py(*y))).collect() };
+    assert_line_through(name, &svg, &plot, "#000000", &at(&mean));
+    let line = at(&mean);
+    assert!(
+        (line[0].0 - plot.area.0).abs() <= 1.5,
+        "{name}: 380 nm is not on the left edge: {:?} {:?}",
+        line[0],
+        plot.area
+    );
+    assert!(
+        (line[40].0 - plot.area.2).abs() <= 1.5,
+        "{name}: 780 nm is not on the right edge: {:?} {:?}",
+        line[40],
+        plot.area
+    );
+    let peak = line.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert!(
+        (peak.0 - px(550.0)).abs() <= 1.5,
+        "{name}: the peak is drawn at {peak:?}, not at 550 nm"
+    );
+    let blue = colour_hex(RGBColor(86, 180, 233));
+    for s in &samples {
+        assert_line_through(name, &svg, &plot, &blue, &at(s));
+    }
+    // The band: the mean ± 1 SD at every wavelength.
+    let band = elements(&svg, "polygon")
+        .into_iter()
+        .find(|(a, _)| attr(a, "fill").as_deref() == Some("#CDCDCD"))
+        .map(|(a, _)| points_of(&a))
+        .expect("the ±1 SD band");
+    let edge: Vec<f64> = mean.iter().zip(&sd).map(|(m, s)| m + s).collect();
+    for (p, q) in band.iter().zip(at(&edge)) {
+        assert!(
+            (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5,
+            "{name}: the band's upper edge at {p:?}, not {q:?}"
+        );
+    }
+    assert_legend(name, &svg, "mean", "#000000");
+    assert_legend(name, &svg, "raw samples (2)", &blue);
+    assert_legend(name, &svg, "±1 SD", "#CDCDCD");
+
+    let rho: Vec<f64> = wl.iter().map(|w| 0.2 + 0.85 * (w - 380.0) / 400.0).collect();
+    let u = vec![0.01; wl.len()];
+    let svg = reflectance_chart("tile", &wl, &rho, &u).unwrap();
+    let name = "reflectance";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let at: Vec<Px> = wl.iter().zip(&rho).map(|(w, r)| (px(*w), py(*r))).collect();
+    assert_line_through(name, &svg, &plot, "#000000", &at);
+    let one = [(plot.area.0, py(1.0)), (plot.area.2, py(1.0))];
+    assert_line_through(name, &svg, &plot, &colour_hex(RGBColor(120, 120, 120)), &one);
+    let red = colour_hex(RGBColor(213, 94, 0));
+    let above: Vec<Px> = at
+        .iter()
+        .zip(&rho)
+        .filter(|(_, r)| **r > 1.0)
+        .map(|(p, _)| *p)
+        .collect();
+    assert!(!above.is_empty());
+    assert_eq!(
+        marks_drawn(&svg)
+            .iter()
+            .filter(|m| m.colour == red && plot.holds(m.at))
+            .count(),
+        above.len(),
+        "{name}: one red dot per value above 1"
+    );
+    assert_marks_at(name, &svg, &plot, &red, &above);
+    assert_legend(name, &svg, "ρ(λ) measured", "#000000");
+    assert_legend(
+        name,
+        &svg,
+        &format!("outside [0, 1] ({}), flagged, not clipped", above.len()),
+        &red,
+    );
+}
+
+/// A reflectance above 1 at the last wavelength (780 nm, where a tile's
+/// ρ often rises) was flagged with a red dot cut in half by the plot's
+/// right edge (the x axis ended on the last wavelength): every flagged dot
+/// lies wholly inside the plot.
+#[test]
+fn flagged_reflectance_dot_at_780_nm_half_outside_the_plot() {
+    let wl: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let rho: Vec<f64> = wl
+        .iter()
+        .map(|w| if *w == 380.0 || *w == 780.0 { 1.04 } else { 0.5 })
+        .collect();
+    let svg = reflectance_chart("tile", &wl, &rho, &vec![0.01; wl.len()]).unwrap();
+    keep_for_a_look("reflectance-edges", &svg);
+    let plot = the_plot("reflectance", &svg);
+    let red = colour_hex(RGBColor(213, 94, 0));
+    let dots: Vec<Mark> = marks_drawn(&svg)
+        .into_iter()
+        .filter(|m| m.colour == red && m.at.0 < plot.area.2 + 20.0)
+        .collect();
+    assert_eq!(dots.len(), 2, "{dots:?}");
+    for d in dots {
+        assert!(
+            plot.holds((d.bbox.0, d.bbox.1)) && plot.holds((d.bbox.2, d.bbox.3)),
+            "the flagged dot {:?} reaches out of the plot {:?}",
+            d.bbox,
+            plot.area
+        );
     }
 }
