@@ -9,7 +9,7 @@
 //! 1 px mark 5 px long beside its label.
 
 /// A box in px: (left, top, right, bottom).
-pub(super) type Rect = (f64, f64, f64, f64);
+pub(super) type PxRect = (f64, f64, f64, f64);
 pub(super) type Px = (f64, f64);
 
 /// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
@@ -65,7 +65,7 @@ pub(super) struct TextBox {
     pub(super) fill: String,
     /// Its estimated box: 0.6 em a character, the font size plus 2 px tall
     /// (as `scatter::label_extent`), placed by its anchor, `dy` and rotation.
-    pub(super) bbox: Rect,
+    pub(super) bbox: PxRect,
 }
 
 /// Every text of a chart with its box.
@@ -142,7 +142,7 @@ pub(super) fn lines_drawn(svg: &str) -> Vec<Line> {
 pub(super) struct Mark {
     pub(super) at: Px,
     pub(super) colour: String,
-    pub(super) bbox: Rect,
+    pub(super) bbox: PxRect,
 }
 
 /// Every marker a chart drew: circles, squares and filled polygons under
@@ -150,7 +150,7 @@ pub(super) struct Mark {
 /// and hollow outlines (closed 2 px polylines under 20 px).
 pub(super) fn marks_drawn(svg: &str) -> Vec<Mark> {
     let mut marks: Vec<Mark> = Vec::new();
-    let mut add = |bbox: Rect, colour: String| {
+    let mut add = |bbox: PxRect, colour: String| {
         let at = ((bbox.0 + bbox.2) / 2.0, (bbox.1 + bbox.3) / 2.0);
         if bbox.2 - bbox.0 >= 20.0 || bbox.3 - bbox.1 >= 20.0 {
             return;
@@ -196,26 +196,26 @@ pub(super) fn marks_drawn(svg: &str) -> Vec<Mark> {
     marks
 }
 
-pub(super) fn bounding(points: &[Px]) -> Rect {
+pub(super) fn bounding(points: &[Px]) -> PxRect {
     points.iter().fold(
         (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
         |b, p| (b.0.min(p.0), b.1.min(p.1), b.2.max(p.0), b.3.max(p.1)),
     )
 }
 
-pub(super) fn boxes_overlap(a: Rect, b: Rect) -> bool {
+pub(super) fn boxes_overlap(a: PxRect, b: PxRect) -> bool {
     a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
 }
 
 /// The distance (px) from `p` to the box `b` (0 inside it).
-pub(super) fn distance_to_box(p: Px, b: Rect) -> f64 {
+pub(super) fn distance_to_box(p: Px, b: PxRect) -> f64 {
     let dx = (b.0 - p.0).max(p.0 - b.2).max(0.0);
     let dy = (b.1 - p.1).max(p.1 - b.3).max(0.0);
     dx.hypot(dy)
 }
 
 /// Whether the segment `a`–`b` passes through the box `r`.
-pub(super) fn segment_meets_box(a: Px, b: Px, r: Rect) -> bool {
+pub(super) fn segment_meets_box(a: Px, b: Px, r: PxRect) -> bool {
     super::clip_segment(a, b, r).is_some()
 }
 
@@ -423,7 +423,7 @@ pub(super) fn plot_areas(svg: &str) -> Vec<(f64, f64, f64, f64)> {
 
 /// A plot of a chart: its area (left, top, right, bottom) and its axes.
 pub(super) struct Plot {
-    pub(super) area: Rect,
+    pub(super) area: PxRect,
     pub(super) x: Axis,
     pub(super) y: Axis,
     /// A second y axis on the right, if any.
@@ -485,7 +485,7 @@ pub(super) fn legend_colours(svg: &str, name: &str) -> Vec<String> {
         .max_by(|a, b| a.x.total_cmp(&b.x))
         .unwrap_or_else(|| panic!("no legend entry {name:?}"));
     let mid = (t.bbox.1 + t.bbox.3) / 2.0;
-    let beside = |b: Rect| {
+    let beside = |b: PxRect| {
         b.2 <= t.bbox.0 && b.0 >= t.bbox.0 - 40.0 && (b.1 + b.3) / 2.0 >= mid - 4.0 && (b.1 + b.3) / 2.0 <= mid + 4.0
     };
     let mut colours: Vec<String> = lines_drawn(svg)

@@ -1592,14 +1592,15 @@ fn assert_line_through(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[P
 }
 
 /// Asserts that a marker of `colour` is drawn at each pixel of `at`
-/// (1.5 px), inside the plot; returns those markers.
+/// (2.5 px: a triangle's box is centred 1 px off its point), inside the
+/// plot; returns those markers.
 fn assert_marks_at(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) -> Vec<Mark> {
     let marks = marks_drawn(svg);
     at.iter()
         .map(|p| {
             let m = marks
                 .iter()
-                .find(|m| m.colour == colour && (m.at.0 - p.0).abs() <= 1.5 && (m.at.1 - p.1).abs() <= 1.5)
+                .find(|m| m.colour == colour && (m.at.0 - p.0).abs() <= 2.5 && (m.at.1 - p.1).abs() <= 2.5)
                 .unwrap_or_else(|| panic!("{name}: no {colour} marker at {p:?}"));
             assert!(
                 plot.holds((m.bbox.0, m.bbox.1)) && plot.holds((m.bbox.2, m.bbox.3)),
@@ -1614,7 +1615,13 @@ fn assert_marks_at(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) 
 
 /// Asserts that the legend entry `entry` shows a glyph in `colour`, and only that colour.
 fn assert_legend(name: &str, svg: &str, entry: &str, colour: &str) {
-    let colours = legend_colours(svg, &wrap(entry, 18)[0]);
+    // The chart legends wrap their names at 18 characters; the grid's does not.
+    let first = if texts_drawn(svg).iter().any(|t| t.content == entry) {
+        entry.to_string()
+    } else {
+        wrap(entry, 18)[0].clone()
+    };
+    let colours = legend_colours(svg, &first);
     assert_eq!(
         colours,
         [colour],
@@ -1884,4 +1891,262 @@ fn flagged_reflectance_dot_at_780_nm_half_outside_the_plot() {
             plot.area
         );
     }
+}
+
+/// The chromaticity diagram draws the locus through every tabulated
+/// wavelength's x,y and the gamuts through their primaries, on the whole
+/// diagram's axes (0–0.8, 0–0.9); each series' markers where its x,y are
+/// in both panels, inside each; the zoomed region's box around the data;
+/// and each legend entry in its own colour.
+#[test]
+fn chromaticity_chart_draws_locus_gamuts_and_data_where_they_are() {
+    let measured = [(0.31, 0.33), (0.35, 0.36)];
+    let pink_data = [(0.32, 0.345)];
+    let svg = chromaticity_chart(
+        "xy",
+        Observer::JuddVos,
+        &[scatter("measured", &measured), scatter("nstep3", &pink_data)],
+    )
+    .unwrap();
+    let name = "chromaticity";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plots = plots_drawn(&svg);
+    assert_eq!(plots.len(), 2, "{name}: the whole diagram and the zoomed panel");
+    let (whole, zoom) = (&plots[0], &plots[1]);
+    let map = |p: &Plot| {
+        let (px, py) = (p.x.map(), p.y.map());
+        move |q: (f64, f64)| (px(q.0), py(q.1))
+    };
+    let (w, z) = (map(whole), map(zoom));
+    // The whole diagram's axes end on 0.8 and 0.9: on the plot's edges.
+    assert!((w((0.0, 0.0)).0 - whole.area.0).abs() <= 1.5 && (w((0.8, 0.9)).0 - whole.area.2).abs() <= 1.5);
+    assert!((w((0.0, 0.0)).1 - whole.area.3).abs() <= 1.5 && (w((0.8, 0.9)).1 - whole.area.1).abs() <= 1.5);
+    let mut locus: Vec<Px> = spectral_locus(Observer::JuddVos).iter().map(|l| w(l.1)).collect();
+    locus.push(locus[0]);
+    assert_line_through(name, &svg, whole, "#000000", &locus);
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    for (space, solid) in [(RgbSpace::SRGB, true), (RgbSpace::RADIANCE, false)] {
+        let v = [
+            (space.red.x, space.red.y),
+            (space.green.x, space.green.y),
+            (space.blue.x, space.blue.y),
+        ]
+        .map(&w);
+        if solid {
+            assert_line_through(name, &svg, whole, &grey, &[v[0], v[1], v[2], v[0]]);
+        } else {
+            // Dashes: each on an edge of the triangle, enough to trace it.
+            let dashes: Vec<Line> = lines_drawn(&svg)
+                .into_iter()
+                .filter(|l| l.stroke == grey && l.width == 2.0 && l.points.iter().all(|p| whole.holds(*p)))
+                .collect();
+            assert!(dashes.len() > 30, "{name}: {} dashes", dashes.len());
+            for d in &dashes {
+                let on = (0..3).any(|k| {
+                    d.points
+                        .iter()
+                        .all(|p| distance_to_segment(*p, v[k], v[(k + 1) % 3]) <= 1.5)
+                });
+                assert!(
+                    on,
+                    "{name}: the dash {:?} lies on no edge of the RADIANCE gamut {v:?}",
+                    d.points
+                );
+            }
+        }
+    }
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    for (plot, to_px) in [(whole, &w as &dyn Fn((f64, f64)) -> Px), (zoom, &z)] {
+        assert_marks_at(name, &svg, plot, "#000000", &measured.map(|p| to_px(p)));
+        assert_marks_at(name, &svg, plot, &pink, &pink_data.map(|p| to_px(p)));
+    }
+    // The zoomed region: a red box on the whole diagram around every point.
+    let red = colour_hex(RGBColor(200, 0, 0));
+    let boxed = lines_drawn(&svg)
+        .into_iter()
+        .find(|l| l.stroke == red && l.points.iter().all(|p| whole.holds(*p)))
+        .expect("the zoomed region");
+    let b = bounding(&boxed.points);
+    for p in measured.iter().chain(&pink_data) {
+        assert!(
+            distance_to_box(w(*p), b) == 0.0 && b.2 - b.0 < 60.0,
+            "{name}: {p:?} outside the zoomed region's box {b:?}"
+        );
+    }
+    assert_legend(name, &svg, "sRGB gamut", &grey);
+    assert_legend(name, &svg, "RADIANCE RGB gamut", &grey);
+    assert_legend(name, &svg, "zoomed region", &red);
+    assert_legend(name, &svg, "measured", "#000000");
+    assert_legend(name, &svg, "nstep3", &pink);
+}
+
+/// A bar chart draws each bar in its coding's colour, centred on its own
+/// tick (the ticks in the bars' order), from the x axis (0) up to its value,
+/// the tallest the highest, with its ±1 SD whisker from value − SD to
+/// value + SD.
+#[test]
+fn bar_chart_draws_each_bar_to_its_value_over_its_label() {
+    let bars = [("srgb", 0.8, 0.1), ("nstep3", 2.4, 0.3), ("rgb", 1.5, 0.2)];
+    let svg = bar_chart(
+        "mean ΔE",
+        "ΔE*ab (CIELAB units)",
+        &bars
+            .iter()
+            .map(|&(l, v, sd)| Bar {
+                label: l.into(),
+                value: v,
+                sd: Some(sd),
+            })
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let name = "bars";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+    assert_eq!(names, ["srgb", "nstep3", "rgb"], "{name}: the bars' labels in order");
+    let py = plot.y.map();
+    let rects: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| {
+            let (x, y, w, h) = (num(&a, "x"), num(&a, "y"), num(&a, "width"), num(&a, "height"));
+            (attr(&a, "fill").unwrap(), (x, y, x + w, y + h))
+        })
+        .collect();
+    assert_eq!(rects.len(), 3, "{name}: three bars");
+    for ((label, v, sd), (fill, r)) in bars.iter().zip(&rects) {
+        assert_eq!(
+            *fill,
+            colour_hex(coding_style(label).unwrap().colour),
+            "{name}: {label}'s colour"
+        );
+        let centre = (r.0 + r.2) / 2.0;
+        assert!(
+            (centre - plot.x_slot(label)).abs() <= 1.5,
+            "{name}: {label}'s bar at {centre}, its tick at {}",
+            plot.x_slot(label)
+        );
+        assert!(
+            (r.1 - py(*v)).abs() <= 1.5,
+            "{name}: {label}'s bar tops at {} for {v} (at {})",
+            r.1,
+            py(*v)
+        );
+        assert!(
+            (r.3 - py(0.0)).abs() <= 1.5 && (r.3 - plot.area.3).abs() <= 2.0,
+            "{name}: {label}'s bar stands at {}, not on the x axis",
+            r.3
+        );
+        let whisker = [(centre.round(), py(v - sd)), (centre.round(), py(v + sd))];
+        let found = lines_drawn(&svg).into_iter().any(|l| {
+            l.width == 2.0
+                && l.points.len() == 2
+                && l.points
+                    .iter()
+                    .zip(&whisker)
+                    .all(|(p, q)| (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5)
+        });
+        assert!(found, "{name}: no ±1 SD whisker {whisker:?} on {label}");
+    }
+    let tallest = rects.iter().min_by(|a, b| a.1 .1.total_cmp(&b.1 .1)).unwrap();
+    assert_eq!(
+        tallest.0,
+        colour_hex(coding_style("nstep3").unwrap().colour),
+        "{name}: the highest bar is nstep3's"
+    );
+}
+
+/// A grid chart draws each value as a cell in its row and column, in the
+/// colour of its value against the threshold, its number inside it, an
+/// outline when it fails; each row's label beside its row, each column's
+/// label over its column; each legend swatch in its value's colour beside
+/// its label; no text overlapping another.
+#[test]
+fn grid_chart_draws_each_value_in_its_own_cell() {
+    let rows = ["red".to_string(), "grey".to_string()];
+    let cols = ["A rgb".to_string(), "B nstep3".to_string(), "C spectral".to_string()];
+    let values = [vec![5.0, 0.5, 1.2], vec![0.25, 20.0, 2.5]];
+    let threshold = 2.0;
+    let svg = grid_chart("map", &rows, &cols, &values, threshold).unwrap();
+    let name = "grid";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let texts = texts_drawn(&svg);
+    let text = |s: &str| {
+        texts
+            .iter()
+            .filter(|t| t.content == s)
+            .cloned()
+            .collect::<Vec<TextBox>>()
+    };
+    let cells: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| num(a, "width") == 36.0 && num(a, "height") == 22.0)
+        .map(|(a, _)| {
+            let (x, y) = (num(&a, "x"), num(&a, "y"));
+            (attr(&a, "fill").unwrap(), (x, y, x + 36.0, y + 22.0))
+        })
+        .collect();
+    assert_eq!(cells.len(), 6, "{name}: one cell per value");
+    let (left, top) = (cells[0].1 .0, cells[0].1 .1);
+    let outlines: Vec<PxRect> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() == Some("none") && attr(a, "stroke").as_deref() == Some("#000000"))
+        .map(|(a, _)| {
+            (
+                num(&a, "x"),
+                num(&a, "y"),
+                num(&a, "x") + num(&a, "width"),
+                num(&a, "y") + num(&a, "height"),
+            )
+        })
+        .collect();
+    for (r, row) in values.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            let at = (left + 36.0 * c as f64, top + 22.0 * r as f64);
+            let cell = cells
+                .iter()
+                .find(|(_, b)| b.0 == at.0 && b.1 == at.1)
+                .unwrap_or_else(|| panic!("{name}: no cell at row {r}, column {c}"));
+            assert_eq!(cell.0, colour_hex(grid_colour(v, threshold)), "{name}: the cell of {v}");
+            let number = if v < 10.0 { format!("{v:.1}") } else { format!("{v:.0}") };
+            let inside = text(&number).iter().any(|t| {
+                let b = t.bbox;
+                b.0 >= cell.1 .0 && b.2 <= cell.1 .2 && b.1 >= cell.1 .1 - 1.0 && b.3 <= cell.1 .3 + 1.0
+            });
+            assert!(inside, "{name}: {number} is not written inside its cell {:?}", cell.1);
+            let outlined = outlines
+                .iter()
+                .any(|o| distance_to_box(((o.0 + o.2) / 2.0, (o.1 + o.3) / 2.0), cell.1) == 0.0);
+            assert_eq!(outlined, v > threshold, "{name}: the cell of {v} against {threshold}");
+        }
+        let label = &text(&rows[r])[0];
+        let mid = (label.bbox.1 + label.bbox.3) / 2.0;
+        assert!(
+            label.bbox.2 <= left && mid > top + 22.0 * r as f64 && mid < top + 22.0 * (r + 1) as f64,
+            "{name}: row {:?} at {:?} is not beside its row",
+            rows[r],
+            label.bbox
+        );
+    }
+    for (c, col) in cols.iter().enumerate() {
+        let label = &text(col)[0];
+        let mid = (label.bbox.0 + label.bbox.2) / 2.0;
+        assert!(
+            label.bbox.3 <= top && mid > left + 36.0 * c as f64 && mid < left + 36.0 * (c + 1) as f64,
+            "{name}: column {col:?} at {:?} is not over its column",
+            label.bbox
+        );
+    }
+    for (v, label) in [
+        (0.0, "0"),
+        (threshold, "2 (threshold)"),
+        (3.0 * threshold, "6 (fails, outlined)"),
+    ] {
+        assert_legend(name, &svg, label, &colour_hex(grid_colour(v, threshold)));
+    }
+    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
 }
