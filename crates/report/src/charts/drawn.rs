@@ -60,9 +60,7 @@ pub(super) fn points_of(attrs: &str) -> Vec<Px> {
 #[derive(Clone, Debug)]
 pub(super) struct TextBox {
     pub(super) x: f64,
-    pub(super) y: f64,
     pub(super) content: String,
-    pub(super) fill: String,
     /// Its estimated box: 0.6 em a character, the font size plus 2 px tall
     /// (as `scatter::label_extent`), placed by its anchor, `dy` and rotation.
     pub(super) bbox: PxRect,
@@ -109,8 +107,6 @@ pub(super) fn texts_drawn(svg: &str) -> Vec<TextBox> {
             }
             TextBox {
                 x,
-                y,
-                fill: attr(&a, "fill").unwrap_or_default(),
                 content,
                 bbox,
             }

@@ -28,63 +28,6 @@ fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
     }
 }
 
-#[test]
-fn charts_are_svg_with_their_labels() {
-    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
-    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
-    let sd = vec![1e-5; wl.len()];
-    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
-    let xy = chromaticity_chart(
-        "chromaticity",
-        Observer::JuddVos,
-        &[scatter("measured", &[(0.31, 0.33)])],
-    )
-    .unwrap();
-    assert!(xy.contains("spectral locus") && xy.contains("sRGB gamut") && xy.contains("RADIANCE RGB gamut"));
-    let bars = bar_chart(
-        "rms",
-        "rms_rel",
-        &[Bar {
-            label: "rgb".into(),
-            value: 0.1,
-            sd: Some(0.02),
-        }],
-    )
-    .unwrap();
-    assert!(bars.contains("rgb"));
-    let mut pareto = series("pareto", &[(0.1, 3.0), (1.0, 1.0)]);
-    pareto.errors = Some(vec![0.1, 0.1]);
-    let lines = line_chart("speed", "s", "dE", &[pareto], true).unwrap();
-    assert!(lines.contains("pareto"));
-    let grid = grid_chart(
-        "map",
-        &["red".into(), "grey".into()],
-        &["A rgb".into()],
-        &[vec![5.0], vec![0.5]],
-        2.0,
-    )
-    .unwrap();
-    assert!(grid.starts_with("<svg") && grid.contains("A rgb") && grid.contains("5.0"));
-    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
-}
-
-#[test]
-fn scatter_chart_draws_every_series_name() {
-    let series = [
-        scatter("candidates", &[(0.1, 2.0), (1.0, 0.5)]),
-        ScatterSeries {
-            name: "front".into(),
-            points: vec![(0.1, 2.0), (1.0, 0.5)],
-            connect: true,
-        },
-    ];
-    for log in [(true, true), (true, false), (false, true), (false, false)] {
-        let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
-        assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
-    }
-}
-
 /// The CYLINDER profile plotted target k at x = k − 1 under an axis that
 /// said 1–21: the first point must sit on the first target's tick.
 #[test]
@@ -2149,4 +2092,261 @@ fn grid_chart_draws_each_value_in_its_own_cell() {
         assert_legend(name, &svg, label, &colour_hex(grid_colour(v, threshold)));
     }
     assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
+}
+
+/// A scatter chart, on every combination of linear and log axes, draws
+/// each series' markers where the axes put its points (the highest value
+/// topmost, a smaller x further left, all inside the plot), a connected
+/// series' line through its points, and each legend entry in its series'
+/// colour.
+#[test]
+fn scatter_chart_draws_every_series_at_its_points() {
+    let blue = colour_hex(coding_style("nstep27").unwrap().colour);
+    let grey = colour_hex(OTHER_COLOURS[0]);
+    let candidates = [(0.1, 2.0), (1.0, 0.5), (0.3, 0.05), (3.0, 0.02)];
+    let front = [(0.1, 2.0), (0.3, 0.05), (3.0, 0.02)];
+    let series = [
+        scatter("nstep27", &candidates),
+        ScatterSeries {
+            name: "Pareto front".into(),
+            points: front.to_vec(),
+            connect: true,
+        },
+    ];
+    for log in [(true, true), (true, false), (false, true), (false, false)] {
+        let name = format!("scatter-{}-{}", log.0, log.1);
+        let svg = scatter_chart("t", "time (s)", "ΔE", &series, log).unwrap();
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let (px, py) = (plot.x.map(), plot.y.map());
+        let at = |d: &[(f64, f64)]| -> Vec<Px> { d.iter().map(|p| (px(p.0), py(p.1))).collect() };
+        let marks = assert_marks_at(&name, &svg, &plot, &blue, &at(&candidates));
+        assert!(
+            marks[0].at.1 < marks[1].at.1 && marks[1].at.1 < marks[3].at.1,
+            "{name}: the values' order upwards"
+        );
+        assert!(
+            marks[0].at.0 < marks[2].at.0 && marks[2].at.0 < marks[1].at.0,
+            "{name}: the times' order rightwards"
+        );
+        assert_marks_at(&name, &svg, &plot, &grey, &at(&front));
+        assert_line_through(&name, &svg, &plot, &grey, &at(&front));
+        assert_legend(&name, &svg, "nstep27", &blue);
+        assert_legend(&name, &svg, "Pareto front", &grey);
+    }
+}
+
+/// The psychometric figure draws each observed point at its ΔE00 and
+/// percent correct with its interval as a whisker, the fitted curve as a
+/// line through its points, chance as a dashed line across the plot at its
+/// percent, and each prediction as a hollow diamond at its point.
+#[test]
+fn psychometric_chart_draws_points_curve_and_chance_where_they_are() {
+    let observed = [
+        (0.5, 40.0, 30.0, 50.0),
+        (1.0, 70.0, 58.0, 80.0),
+        (2.0, 95.0, 88.0, 99.0),
+    ];
+    let curve: Vec<(f64, f64)> = (0..=10)
+        .map(|i| (0.2 * f64::from(i), 100.0 / 3.0 + 6.5 * f64::from(i)))
+        .collect();
+    let f = Psychometric {
+        title: "oddity".into(),
+        observed: vec![PsychometricPoints {
+            name: "sim1: observed".into(),
+            points: observed.to_vec(),
+        }],
+        curve: Some(("fit: d′ = ΔE00/σ".into(), curve.clone())),
+        predicted: vec![(0.3, 36.0, "nstep81".into())],
+        chance_percent: 100.0 / 3.0,
+    };
+    let svg = psychometric_chart(&f).unwrap();
+    let name = "psychometric";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let grey = colour_hex(OTHER_COLOURS[0]);
+    let at: Vec<Px> = observed.iter().map(|p| (px(p.0), py(p.1))).collect();
+    assert_marks_at(name, &svg, &plot, &grey, &at);
+    for p in &observed {
+        assert_line_through(name, &svg, &plot, &grey, &[(px(p.0), py(p.2)), (px(p.0), py(p.3))]);
+    }
+    let line: Vec<Px> = curve.iter().map(|p| (px(p.0), py(p.1))).collect();
+    assert_line_through(name, &svg, &plot, "#000000", &line);
+    // Chance: dashes along y = 33.3 %, from edge to edge.
+    let dashes: Vec<Line> = lines_drawn(&svg)
+        .into_iter()
+        .filter(|l| {
+            l.width == 1.0
+                && l.points.len() == 2
+                && l.points
+                    .iter()
+                    .all(|p| plot.holds(*p) && (p.1 - py(100.0 / 3.0)).abs() <= 1.5)
+        })
+        .filter(|l| (l.points[0].0 - l.points[1].0).abs() < 10.0)
+        .collect();
+    let xs = bounding(&dashes.iter().flat_map(|d| d.points.clone()).collect::<Vec<_>>());
+    assert!(
+        dashes.len() > 20 && xs.0 - plot.area.0 <= 10.0 && plot.area.2 - xs.2 <= 10.0,
+        "{name}: chance is not dashed across the plot: {} dashes over {xs:?}",
+        dashes.len()
+    );
+    assert_marks_at(name, &svg, &plot, "#000000", &[(px(0.3), py(36.0))]);
+    assert_legend(name, &svg, "sim1: observed", &grey);
+    assert_legend(name, &svg, "fit: d′ = ΔE00/σ", "#000000");
+    assert_legend(name, &svg, "chance (33 %)", &colour_hex(RGBColor(100, 100, 100)));
+}
+
+/// Fig. 5 draws each d′ bar in its coding's colour over its own tick (the
+/// groups in order), up to its d′ on the left axis; percent correct as a
+/// diamond over its bar at its percent on the right axis; chance dashed at
+/// 33.3 % on the right axis; each group's name over the middle of its bars.
+#[test]
+fn discrimination_chart_draws_bars_and_diamonds_on_their_axes() {
+    let bar = |group: &str, coding: &str, d: f64, pc: f64| DiscriminationBar {
+        group: group.into(),
+        coding: coding.into(),
+        d_prime: d,
+        interval: (d * 0.8, d * 1.2),
+        upper_bounded: true,
+        percent_correct: pc,
+    };
+    let bars = [
+        bar("white", "nstep3", 3.0, 90.0),
+        bar("white", "nstep9", 0.5, 40.0),
+        bar("cylinder", "nstep3", 2.0, 75.0),
+        bar("cylinder", "nstep27", 0.2, 35.0),
+    ];
+    let svg = discrimination_chart("Fig. 5", "differencing", &bars).unwrap();
+    let name = "discrimination";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let y2 = plot.y2.as_ref().expect("the percent-correct axis on the right");
+    let (py, py2) = (plot.y.map(), y2.map());
+    let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+    assert_eq!(
+        names,
+        ["nstep3", "nstep9", "nstep3", "nstep27"],
+        "{name}: the bars in their groups' order"
+    );
+    let rects: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| {
+            let (x, y, w, h) = (num(&a, "x"), num(&a, "y"), num(&a, "width"), num(&a, "height"));
+            (attr(&a, "fill").unwrap(), (x, y, x + w, y + h))
+        })
+        .collect();
+    assert_eq!(rects.len(), 4);
+    let mut centres = Vec::new();
+    for ((b, (fill, r)), tick) in bars.iter().zip(&rects).zip(&plot.x.ticks) {
+        let centre = (r.0 + r.2) / 2.0;
+        centres.push(centre);
+        assert_eq!(
+            *fill,
+            colour_hex(coding_style(&b.coding).unwrap().colour),
+            "{name}: {}'s colour",
+            b.coding
+        );
+        assert!(
+            (centre - tick.1).abs() <= 1.5,
+            "{name}: {}'s bar at {centre}, its tick at {}",
+            b.coding,
+            tick.1
+        );
+        assert!(
+            (r.1 - py(b.d_prime)).abs() <= 1.5 && (r.3 - py(0.0)).abs() <= 1.5,
+            "{name}: {}'s bar spans {r:?}",
+            b.coding
+        );
+        assert_marks_at(name, &svg, &plot, "#000000", &[(centre, py2(b.percent_correct))]);
+    }
+    let chance = lines_drawn(&svg)
+        .into_iter()
+        .filter(|l| l.stroke == "#5A5A5A" && l.points.iter().all(|p| (p.1 - py2(100.0 / 3.0)).abs() <= 1.5))
+        .count();
+    assert!(
+        chance > 20,
+        "{name}: chance is not dashed at 33 % of the right axis ({chance} dashes)"
+    );
+    for (g, k) in [("white", 0), ("cylinder", 2)] {
+        let t = texts_drawn(&svg)
+            .into_iter()
+            .find(|t| t.content == g)
+            .expect("group name");
+        let mid = (centres[k] + centres[k + 1]) / 2.0;
+        assert!(
+            ((t.bbox.0 + t.bbox.2) / 2.0 - mid).abs() <= 2.0 && t.bbox.3 <= py2(100.0) - 7.0,
+            "{name}: {g:?} at {:?}, its bars' middle {mid}",
+            t.bbox
+        );
+    }
+}
+
+/// The false-colour figure draws the map, and its colour bar's ticks from 0
+/// at the bar's bottom to the scale's top at its top, each label beside its
+/// tick, rising upwards; no text overlapping another.
+#[test]
+fn false_colour_bar_ticks_rise_beside_their_marks() {
+    let notes = ["values above 2.5 are drawn as 2.5".to_string()];
+    let svg = false_colour_map_svg(&FalseColourMap {
+        png: &[0u8; 8],
+        width: 40,
+        height: 30,
+        scale_max: 2.5,
+        quantity: "ΔE00",
+        title: "ΔE00, intended vs shown",
+        notes: &notes,
+    })
+    .unwrap();
+    let name = "false-colour";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let bar = elements(&svg, "rect")
+        .into_iter()
+        .find(|(a, _)| attr(a, "fill").as_deref() == Some("url(#scale)"))
+        .map(|(a, _)| {
+            (
+                num(&a, "x"),
+                num(&a, "y"),
+                num(&a, "x") + num(&a, "width"),
+                num(&a, "y") + num(&a, "height"),
+            )
+        })
+        .expect("the colour bar");
+    let image = elements(&svg, "image").into_iter().next().expect("the map").0;
+    assert!(
+        num(&image, "x") + num(&image, "width") < bar.0,
+        "the map is left of its bar"
+    );
+    let ticks: Vec<f64> = elements(&svg, "line").into_iter().map(|(a, _)| num(&a, "y1")).collect();
+    let texts = texts_drawn(&svg);
+    let mut labelled: Vec<(f64, f64)> = ticks
+        .iter()
+        .map(|y| {
+            let t = texts
+                .iter()
+                .find(|t| t.bbox.0 >= bar.2 && ((t.bbox.1 + t.bbox.3) / 2.0 - y).abs() <= 4.0)
+                .unwrap_or_else(|| panic!("no label beside the tick at y {y}"));
+            (t.content.parse::<f64>().unwrap(), *y)
+        })
+        .collect();
+    labelled.sort_by(|a, b| b.1.total_cmp(&a.1));
+    assert_eq!(
+        labelled.first().map(|t| (t.0, t.1)),
+        Some((0.0, bar.3)),
+        "0 at the bar's bottom"
+    );
+    assert_eq!(
+        labelled.last().map(|t| (t.0, t.1)),
+        Some((2.5, bar.1)),
+        "the top at the bar's top"
+    );
+    assert!(
+        labelled.windows(2).all(|w| w[1].0 > w[0].0),
+        "ticks rise upwards: {labelled:?}"
+    );
 }
