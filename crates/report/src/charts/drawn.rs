@@ -105,11 +105,7 @@ pub(super) fn texts_drawn(svg: &str) -> Vec<TextBox> {
                 let corners = [(bbox.0, bbox.1), (bbox.2, bbox.1), (bbox.0, bbox.3), (bbox.2, bbox.3)].map(turn);
                 bbox = bounding(&corners);
             }
-            TextBox {
-                x,
-                content,
-                bbox,
-            }
+            TextBox { x, content, bbox }
         })
         .collect()
 }
