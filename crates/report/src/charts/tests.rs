@@ -1901,8 +1901,8 @@ fn chromaticity_chart_draws_locus_gamuts_and_data_where_they_are() {
     }
     let pink = colour_hex(coding_style("nstep3").unwrap().colour);
     for (plot, to_px) in [(whole, &w as &dyn Fn((f64, f64)) -> Px), (zoom, &z)] {
-        assert_marks_at(name, &svg, plot, "#000000", &measured.map(|p| to_px(p)));
-        assert_marks_at(name, &svg, plot, &pink, &pink_data.map(|p| to_px(p)));
+        assert_marks_at(name, &svg, plot, "#000000", &measured.map(to_px));
+        assert_marks_at(name, &svg, plot, &pink, &pink_data.map(to_px));
     }
     // The zoomed region: a red box on the whole diagram around every point.
     let red = colour_hex(RGBColor(200, 0, 0));
