@@ -138,6 +138,7 @@ fn display_gamut_in_the_same_grey_as_srgb() {
     )
     .unwrap();
     keep_for_a_look("display-gamut", &svg);
+    assert_readable("display-gamut", &svg);
     let legend: Vec<String> = texts(&svg).into_iter().map(|t| t.2).collect();
     let legend = legend.join(" ");
     assert!(
@@ -210,6 +211,7 @@ fn marker_boxes(svg: &str) -> Vec<(f64, f64, f64, f64)> {
 fn markers_touch_the_plot_edge() {
     let clear = |name: &str, svg: &str| {
         keep_for_a_look(name, svg);
+        assert_readable(name, svg);
         let areas = plot_areas(svg);
         assert!(!areas.is_empty(), "{name}: no plot area found");
         let boxes = marker_boxes(svg);
@@ -623,6 +625,7 @@ fn locus_500_nm_label_among_the_y_ticks() {
     for observer in [Observer::JuddVos, Observer::Cie1931] {
         let svg = chromaticity_chart("xy", observer, &[scatter("measured", &[(0.31, 0.33)])]).unwrap();
         keep_for_a_look(&format!("chromaticity-{}", observer.label().replace(' ', "-")), &svg);
+        assert_readable("chromaticity", &svg);
         let panel = 440.0;
         let numbers: Vec<(String, f64, f64, f64)> = elements(&svg, "text")
             .into_iter()
@@ -987,6 +990,7 @@ fn zoomed_chromaticity_panel_draws_no_false_gamut_edges() {
     let data = [(0.46, 0.455), (0.48, 0.47)];
     let svg = chromaticity_chart("WHITE: chromaticity", Observer::JuddVos, &[scatter("measured", &data)]).unwrap();
     keep_for_a_look("chromaticity-zoom", &svg);
+    assert_readable("chromaticity-zoom", &svg);
     // The zoomed panel is the second of two 440 px panels.
     let (left, right) = (440.0, 880.0);
     let in_panel = |x: f64| x > left && x < right;
@@ -1267,6 +1271,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-scene", &svg);
+    assert_readable("speed-scene", &svg);
     let scene_svg = svg;
 
     let (series, labels, spreads) = study_speed_series();
@@ -1281,6 +1286,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-study", &svg);
+    assert_readable("speed-study", &svg);
     labels_point_at_their_own_points(&scene_svg, &scene, &scene_labels);
     labels_point_at_their_own_points(&svg, &series, &labels);
 
@@ -1307,6 +1313,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-edge", &svg);
+    assert_readable("speed-edge", &svg);
     labels_point_at_their_own_points(&svg, &edge, &edge_labels);
 
     // The styles: twelve markers and twelve colours for the N sweep, and
