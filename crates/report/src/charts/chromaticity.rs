@@ -84,16 +84,26 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
             let mut closed: Vec<(f64, f64)> = locus.iter().map(|l| l.1).collect();
             closed.push(locus[0].1);
             draw_clipped_line(&chart, &closed, BLACK.stroke_width(1), None)?;
-            if k == 0 {
-                draw_locus_labels(&chart, &locus)?;
-            }
-            for (space, _, dashed) in gamuts {
-                let tri = vec![
+            let triangle = |space: RgbSpace| {
+                vec![
                     (space.red.x, space.red.y),
                     (space.green.x, space.green.y),
                     (space.blue.x, space.blue.y),
                     (space.red.x, space.red.y),
-                ];
+                ]
+            };
+            // Where the right panel looks.
+            let corners = [(zx.0, zy.0), (zx.1, zy.0), (zx.1, zy.1), (zx.0, zy.1), (zx.0, zy.0)];
+            if k == 0 {
+                let mut lines = vec![closed.clone()];
+                lines.extend(gamuts.iter().map(|g| triangle(g.0)));
+                if has_data {
+                    lines.push(corners.to_vec());
+                }
+                draw_locus_labels(&chart, &locus, &lines)?;
+            }
+            for (space, _, dashed) in gamuts {
+                let tri = triangle(space);
                 if dashed {
                     draw_clipped_line(&chart, &tri, grey.stroke_width(2), Some((6, 5)))?;
                 } else {
@@ -101,8 +111,6 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
                 }
             }
             if k == 0 && has_data {
-                // Where the right panel looks.
-                let corners = [(zx.0, zy.0), (zx.1, zy.0), (zx.1, zy.1), (zx.0, zy.1), (zx.0, zy.0)];
                 draw_clipped_line(&chart, &corners, RGBColor(200, 0, 0).stroke_width(1), None)?;
             }
             draw_scatter(&mut chart, series, None, k == 1)?;
@@ -135,13 +143,18 @@ pub fn chromaticity_chart(title: &str, observer: Observer, series: &[ScatterSeri
 }
 
 /// The spectral locus' wavelength labels (460–620 nm every 20 nm), each a
-/// dot on its locus point and the number beside it, outward from the
-/// equal-energy white; where that would leave the plot area (500 nm sits
-/// a few px from the y axis), on the inner side. Never on the axis gutter
-/// among the tick labels (issue 46).
+/// dot on its locus point and the number beside it: outward along the
+/// locus' normal where that box lies inside the plot area and clear of
+/// every line of `lines` (data coordinates: the locus, the gamuts, the
+/// zoomed region) and of the labels before it; else the nearest direction
+/// turned from the normal, either way, that is (460 nm sits a few px above
+/// the x axis, where outward leaves the plot and inward lay on the gamuts'
+/// blue corners; 500 nm a few px from the y axis). Never on the axis
+/// gutter among the tick labels (issue 46).
 fn draw_locus_labels<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
     chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
     locus: &[(f64, (f64, f64))],
+    lines: &[Vec<(f64, f64)>],
 ) -> Result<(), String> {
     let (xr, yr) = chart.plotting_area().get_pixel_range();
     let (w_area, h_area) = ((xr.end - xr.start) as f64, (yr.end - yr.start) as f64);
@@ -149,32 +162,61 @@ fn draw_locus_labels<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<V
         let (x, y) = chart.as_coord_spec().translate(&p);
         ((x - xr.start) as f64, (y - yr.start) as f64)
     };
+    let segments: Vec<((f64, f64), (f64, f64))> = lines
+        .iter()
+        .flat_map(|l| l.windows(2).map(|w| (local(w[0]), local(w[1]))).collect::<Vec<_>>())
+        .collect();
     let area = chart.plotting_area().strip_coord_spec();
     let white = local((1.0 / 3.0, 1.0 / 3.0));
     const GAP: f64 = 5.0;
-    for &(nm, p) in locus
-        .iter()
-        .filter(|(nm, _)| [460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(nm))
-    {
+    let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for (i, &(nm, p)) in locus.iter().enumerate() {
+        if ![460.0, 480.0, 500.0, 520.0, 540.0, 560.0, 580.0, 600.0, 620.0].contains(&nm) {
+            continue;
+        }
         let c = local(p);
         let text = format!("{nm:.0}");
         let (w, h) = super::scatter::label_extent(&text);
         let (w, h) = (w as f64, h as f64);
-        let (dx, dy) = (c.0 - white.0, c.1 - white.1);
-        let len = dx.hypot(dy).max(1e-9);
-        let (ux, uy) = (dx / len, dy / len);
-        // From the point to the box's centre: the gap plus the box's reach
-        // along the direction.
-        let reach = GAP + 0.5 * (w * ux.abs() + h * uy.abs());
+        // The normal: across the locus' direction through its neighbours,
+        // on the side away from white.
+        let (a, b) = (
+            local(locus[i.saturating_sub(1)].1),
+            local(locus[(i + 1).min(locus.len() - 1)].1),
+        );
+        let (tx, ty) = (b.0 - a.0, b.1 - a.1);
+        let (mut nx, mut ny) = (-ty, tx);
+        if nx * (c.0 - white.0) + ny * (c.1 - white.1) < 0.0 {
+            (nx, ny) = (-nx, -ny);
+        }
+        let normal = ny.atan2(nx);
         let fits = |x0: f64, y0: f64| x0 >= 2.0 && y0 >= 2.0 && x0 + w <= w_area - 2.0 && y0 + h <= h_area - 2.0;
-        let corner = |sign: f64| (c.0 + sign * reach * ux - 0.5 * w, c.1 + sign * reach * uy - 0.5 * h);
-        let (x0, y0) = [corner(1.0), corner(-1.0)]
+        // The box's top-left corner `gap` px from the point towards `angle`.
+        let corner = |angle: f64, gap: f64| {
+            let (ux, uy) = (angle.cos(), angle.sin());
+            let reach = gap + 0.5 * (w * ux.abs() + h * uy.abs());
+            (c.0 + reach * ux - 0.5 * w, c.1 + reach * uy - 0.5 * h)
+        };
+        let clear = |(x0, y0): (f64, f64)| {
+            let b = (x0, y0, x0 + w, y0 + h);
+            fits(x0, y0)
+                && !segments.iter().any(|(s, e)| clip_segment(*s, *e, b).is_some())
+                && !placed.iter().any(|q| b.0 < q.2 && q.0 < b.2 && b.1 < q.3 && q.1 < b.3)
+        };
+        let turns = (0..=12).flat_map(|k| {
+            let t = k as f64 * std::f64::consts::PI / 12.0;
+            [t, -t]
+        });
+        let (x0, y0) = [GAP, GAP + 4.0]
             .into_iter()
-            .find(|&(x0, y0)| fits(x0, y0))
+            .flat_map(|gap| turns.clone().map(move |t| (t, gap)))
+            .map(|(t, gap)| corner(normal + t, gap))
+            .find(|&b| clear(b))
             .unwrap_or_else(|| {
-                let (x0, y0) = corner(1.0);
+                let (x0, y0) = corner(normal, GAP);
                 (x0.clamp(2.0, w_area - 2.0 - w), y0.clamp(2.0, h_area - 2.0 - h))
             });
+        placed.push((x0, y0, x0 + w, y0 + h));
         let at = |v: (f64, f64)| (v.0.round() as i32, v.1.round() as i32);
         area.draw(&Circle::new(at(c), 2, BLACK.filled())).map_err(err)?;
         area.draw(&Text::new(

@@ -38,8 +38,9 @@ pub fn line_chart(title: &str, x_desc: &str, y_desc: &str, series: &[LineSeriesD
                 .fold(f64::INFINITY, f64::min);
             let lo = if lo.is_finite() { lo } else { 1e-3 };
             let hi = xs.1.max(lo);
+            // A point on a whole decade stays off the edge (see `LOG_MARGIN`).
             let mut chart = builder(&plot)
-                .build_cartesian_2d(log_axis(lo, hi), ys.0..ys.1)
+                .build_cartesian_2d(log_axis(lo / LOG_MARGIN, hi * LOG_MARGIN), ys.0..ys.1)
                 .map_err(err)?;
             mesh!(chart, x_desc, y_desc)
                 .x_label_formatter(&|v| log_tick_label(*v))
@@ -103,7 +104,8 @@ pub fn profile_chart(
         let x = Slots::new(0.5..n as f64 + 0.5, keys);
         if log_y {
             let y_desc = format!("{y_desc} (log scale)");
-            let mut chart = builder(&plot).build_cartesian_2d(x, log_axis(lo, hi)).map_err(err)?;
+            let y = log_axis(lo / LOG_MARGIN, hi * LOG_MARGIN);
+            let mut chart = builder(&plot).build_cartesian_2d(x, y).map_err(err)?;
             mesh!(chart, x_desc, y_desc.as_str())
                 .x_label_formatter(&x_label)
                 .y_label_formatter(&|v| log_tick_label(*v))

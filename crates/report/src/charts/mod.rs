@@ -317,6 +317,8 @@ mod axes;
 mod bars;
 mod chromaticity;
 mod discrimination;
+#[cfg(test)]
+mod drawn;
 mod false_colour;
 mod legend;
 mod lines;

@@ -69,7 +69,7 @@ pub fn scatter_chart_with_spread(
 /// How far (a factor) a log axis reaches beyond its extreme values before
 /// it is widened to whole decades: 0.05 of a decade, more than a marker's
 /// radius on a chart's few decades.
-const LOG_MARGIN: f64 = 1.122;
+pub(super) const LOG_MARGIN: f64 = 1.122;
 
 /// The scatter chart on a page `height` px tall; also returns the height
 /// its legend column (legend, key, notes) needs.

@@ -102,7 +102,12 @@ pub fn reflectance_chart(title: &str, wavelength_nm: &[f64], rho: &[f64], u: &[f
             wavelength_nm.first().copied().unwrap_or(380.0),
             wavelength_nm.last().copied().unwrap_or(780.0),
         );
-        let mut chart = builder(&plot).build_cartesian_2d(x0..x1, lo..hi).map_err(err)?;
+        // 2 % of the range each side: a flagged dot on the first or last
+        // wavelength stays inside the plot.
+        let pad = 0.02 * (x1 - x0);
+        let mut chart = builder(&plot)
+            .build_cartesian_2d(x0 - pad..x1 + pad, lo..hi)
+            .map_err(err)?;
         mesh!(chart, "wavelength (nm)", "reflectance factor ρ")
             .x_label_formatter(&|v| tick_label(*v, x1 - x0))
             .y_label_formatter(&|v| tick_label(*v, hi - lo))
@@ -130,7 +135,7 @@ pub fn reflectance_chart(title: &str, wavelength_nm: &[f64], rho: &[f64], u: &[f
         }
         chart
             .draw_series(LineSeries::new(
-                [(x0, 1.0), (x1, 1.0)],
+                [(x0 - pad, 1.0), (x1 + pad, 1.0)],
                 RGBColor(120, 120, 120).stroke_width(1),
             ))
             .map_err(err)?;

@@ -1,40 +1,9 @@
 //! The charts drawn and read back: every chart's SVG checked for its
 //! axes, legend, markers and colours.
 
+use super::drawn::*;
 use super::*;
 use lightbooth_science::spectrum::Grid;
-
-/// Every `<tag …>content</tag>` (or self-closed) of an SVG: (attributes, trimmed content).
-fn elements(svg: &str, tag: &str) -> Vec<(String, String)> {
-    let open = format!("<{tag} ");
-    let mut out = Vec::new();
-    let mut rest = svg;
-    while let Some(i) = rest.find(&open) {
-        rest = &rest[i + open.len()..];
-        let end = rest.find('>').unwrap();
-        let attrs = rest[..end].to_string();
-        let content = if attrs.ends_with('/') {
-            String::new()
-        } else {
-            let close = format!("</{tag}>");
-            let c = rest.find(&close).unwrap();
-            rest[end + 1..c].trim().to_string()
-        };
-        out.push((attrs, content));
-    }
-    out
-}
-
-fn attr(attrs: &str, name: &str) -> Option<String> {
-    let key = format!(" {name}=\"");
-    let i = format!(" {attrs}").find(&key)? + key.len() - 1;
-    let v = &attrs[i..];
-    Some(v[..v.find('"')?].to_string())
-}
-
-fn num(attrs: &str, name: &str) -> f64 {
-    attr(attrs, name).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
-}
 
 fn texts(svg: &str) -> Vec<(f64, f64, String)> {
     elements(svg, "text")
@@ -56,63 +25,6 @@ fn scatter(name: &str, points: &[(f64, f64)]) -> ScatterSeries {
         name: name.into(),
         points: points.to_vec(),
         connect: false,
-    }
-}
-
-#[test]
-fn charts_are_svg_with_their_labels() {
-    let wl: Vec<f64> = Grid::pr650().wavelengths().to_vec();
-    let mean: Vec<f64> = wl.iter().map(|w| 1e-3 * (w / 780.0)).collect();
-    let sd = vec![1e-5; wl.len()];
-    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), std::slice::from_ref(&mean)).unwrap();
-    assert!(svg.starts_with("<svg") && svg.contains("wavelength (nm)") && svg.contains("mean"));
-    let xy = chromaticity_chart(
-        "chromaticity",
-        Observer::JuddVos,
-        &[scatter("measured", &[(0.31, 0.33)])],
-    )
-    .unwrap();
-    assert!(xy.contains("spectral locus") && xy.contains("sRGB gamut") && xy.contains("RADIANCE RGB gamut"));
-    let bars = bar_chart(
-        "rms",
-        "rms_rel",
-        &[Bar {
-            label: "rgb".into(),
-            value: 0.1,
-            sd: Some(0.02),
-        }],
-    )
-    .unwrap();
-    assert!(bars.contains("rgb"));
-    let mut pareto = series("pareto", &[(0.1, 3.0), (1.0, 1.0)]);
-    pareto.errors = Some(vec![0.1, 0.1]);
-    let lines = line_chart("speed", "s", "dE", &[pareto], true).unwrap();
-    assert!(lines.contains("pareto"));
-    let grid = grid_chart(
-        "map",
-        &["red".into(), "grey".into()],
-        &["A rgb".into()],
-        &[vec![5.0], vec![0.5]],
-        2.0,
-    )
-    .unwrap();
-    assert!(grid.starts_with("<svg") && grid.contains("A rgb") && grid.contains("5.0"));
-    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
-}
-
-#[test]
-fn scatter_chart_draws_every_series_name() {
-    let series = [
-        scatter("candidates", &[(0.1, 2.0), (1.0, 0.5)]),
-        ScatterSeries {
-            name: "front".into(),
-            points: vec![(0.1, 2.0), (1.0, 0.5)],
-            connect: true,
-        },
-    ];
-    for log in [(true, true), (true, false), (false, true), (false, false)] {
-        let svg = scatter_chart("t", "s", "e", &series, log).unwrap();
-        assert!(svg.starts_with("<svg") && svg.contains("candidates") && svg.contains("front"));
     }
 }
 
@@ -226,6 +138,7 @@ fn display_gamut_in_the_same_grey_as_srgb() {
     )
     .unwrap();
     keep_for_a_look("display-gamut", &svg);
+    assert_readable("display-gamut", &svg);
     let legend: Vec<String> = texts(&svg).into_iter().map(|t| t.2).collect();
     let legend = legend.join(" ");
     assert!(
@@ -246,36 +159,6 @@ fn display_gamut_in_the_same_grey_as_srgb() {
         .filter(|(a, _)| points_of(a).len() >= 2 && points_of(a).iter().all(|p| p.0 < 440.0))
         .count();
     assert!(sides >= 1, "the display's gamut is not drawn in its own colour:\n{svg}");
-}
-
-/// Each plot area of a chart (left, top, right, bottom): the long black
-/// axis lines plotters draws along its left and bottom edges.
-fn plot_areas(svg: &str) -> Vec<(f64, f64, f64, f64)> {
-    let lines: Vec<Vec<(f64, f64)>> = elements(svg, "polyline")
-        .into_iter()
-        .filter(|(a, _)| attr(a, "stroke").as_deref() == Some("#000000"))
-        .map(|(a, _)| points_of(&a))
-        .filter(|p| p.len() == 2)
-        .collect();
-    let verticals: Vec<&Vec<(f64, f64)>> = lines
-        .iter()
-        .filter(|p| p[0].0 == p[1].0 && (p[0].1 - p[1].1).abs() > 100.0)
-        .collect();
-    let horizontals: Vec<&Vec<(f64, f64)>> = lines
-        .iter()
-        .filter(|p| p[0].1 == p[1].1 && (p[0].0 - p[1].0).abs() > 100.0)
-        .collect();
-    horizontals
-        .iter()
-        .filter_map(|h| {
-            let (left, right) = (h[0].0.min(h[1].0), h[0].0.max(h[1].0));
-            let v = verticals
-                .iter()
-                .filter(|v| (v[0].0 - left).abs() <= 2.0)
-                .min_by(|a, b| a[0].1.min(a[1].1).total_cmp(&b[0].1.min(b[1].1)))?;
-            Some((left, v[0].1.min(v[1].1), right, h[0].1))
-        })
-        .collect()
 }
 
 /// Every marker's box (left, top, right, bottom) in the plot areas:
@@ -328,6 +211,7 @@ fn marker_boxes(svg: &str) -> Vec<(f64, f64, f64, f64)> {
 fn markers_touch_the_plot_edge() {
     let clear = |name: &str, svg: &str| {
         keep_for_a_look(name, svg);
+        assert_readable(name, svg);
         let areas = plot_areas(svg);
         assert!(!areas.is_empty(), "{name}: no plot area found");
         let boxes = marker_boxes(svg);
@@ -741,6 +625,7 @@ fn locus_500_nm_label_among_the_y_ticks() {
     for observer in [Observer::JuddVos, Observer::Cie1931] {
         let svg = chromaticity_chart("xy", observer, &[scatter("measured", &[(0.31, 0.33)])]).unwrap();
         keep_for_a_look(&format!("chromaticity-{}", observer.label().replace(' ', "-")), &svg);
+        assert_readable("chromaticity", &svg);
         let panel = 440.0;
         let numbers: Vec<(String, f64, f64, f64)> = elements(&svg, "text")
             .into_iter()
@@ -851,10 +736,6 @@ fn every_coding_has_its_own_style() {
 fn label_box(x: f64, y: f64, text: &str) -> (f64, f64, f64, f64) {
     let (w, h) = super::scatter::label_extent(text);
     (x, y, x + w as f64, y + h as f64)
-}
-
-fn boxes_overlap(a: (f64, f64, f64, f64), b: (f64, f64, f64, f64)) -> bool {
-    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
 }
 
 /// A sweep's points crowd each other (nstep3 … nstep81 at nearly the same
@@ -1085,18 +966,6 @@ fn false_colour_figure_refuses_an_empty_map() {
     assert!(false_colour_map_svg(&m).unwrap_err().contains("no pixels"));
 }
 
-/// The (x, y) pairs of an element's `points` attribute.
-fn points_of(attrs: &str) -> Vec<(f64, f64)> {
-    attr(attrs, "points")
-        .unwrap_or_default()
-        .split_whitespace()
-        .filter_map(|p| {
-            let (x, y) = p.split_once(',')?;
-            Some((x.parse().ok()?, y.parse().ok()?))
-        })
-        .collect()
-}
-
 /// The distance (px) from `p` to the segment `a`–`b`.
 fn distance_to_segment(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
@@ -1121,6 +990,7 @@ fn zoomed_chromaticity_panel_draws_no_false_gamut_edges() {
     let data = [(0.46, 0.455), (0.48, 0.47)];
     let svg = chromaticity_chart("WHITE: chromaticity", Observer::JuddVos, &[scatter("measured", &data)]).unwrap();
     keep_for_a_look("chromaticity-zoom", &svg);
+    assert_readable("chromaticity-zoom", &svg);
     // The zoomed panel is the second of two 440 px panels.
     let (left, right) = (440.0, 880.0);
     let in_panel = |x: f64| x > left && x < right;
@@ -1401,6 +1271,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-scene", &svg);
+    assert_readable("speed-scene", &svg);
     let scene_svg = svg;
 
     let (series, labels, spreads) = study_speed_series();
@@ -1415,6 +1286,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-study", &svg);
+    assert_readable("speed-study", &svg);
     labels_point_at_their_own_points(&scene_svg, &scene, &scene_labels);
     labels_point_at_their_own_points(&svg, &series, &labels);
 
@@ -1441,6 +1313,7 @@ fn speed_chart_labels_point_at_their_own_markers_and_no_two_codings_share_a_styl
     )
     .unwrap();
     keep_for_a_look("speed-edge", &svg);
+    assert_readable("speed-edge", &svg);
     labels_point_at_their_own_points(&svg, &edge, &edge_labels);
 
     // The styles: twelve markers and twelve colours for the N sweep, and
@@ -1582,4 +1455,905 @@ fn labels_point_at_their_own_points(svg: &str, series: &[ScatterSeries], labels:
             "the marker at {p:?} reaches beyond the axes ({x_lo}–{x_hi}, {y_lo}–{y_hi})"
         );
     }
+}
+
+/// The whole chromaticity diagram wrote "460" on the corner of the
+/// RADIANCE RGB gamut's dashed line (outward from white the label left the
+/// plot, so it went inward, onto the gamuts' blue corners): no wavelength
+/// label's box meets a gamut's line, the locus or another label.
+#[test]
+fn locus_460_nm_label_on_the_radiance_gamut_corner() {
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    for observer in [Observer::JuddVos, Observer::Cie1931] {
+        let svg = chromaticity_chart("xy", observer, &[scatter("measured", &[(0.31, 0.33)])]).unwrap();
+        keep_for_a_look(&format!("locus-labels-{}", observer.label().replace(' ', "-")), &svg);
+        let panel = 440.0;
+        let labels: Vec<TextBox> = texts_drawn(&svg)
+            .into_iter()
+            .filter(|t| {
+                t.x < panel
+                    && t.content.len() == 3
+                    && t.content.parse::<u32>().is_ok_and(|nm| (460..=620).contains(&nm))
+            })
+            .collect();
+        assert_eq!(labels.len(), 9, "{observer:?}: the nine wavelength labels");
+        let segments: Vec<(String, Px, Px)> = lines_drawn(&svg)
+            .into_iter()
+            .filter(|l| l.points.iter().all(|p| p.0 < panel))
+            .filter(|l| l.stroke == grey || (l.stroke == "#000000" && l.points.len() > 2))
+            .flat_map(|l| {
+                let what = if l.stroke == grey {
+                    "a gamut's line"
+                } else {
+                    "the locus"
+                };
+                l.points
+                    .windows(2)
+                    .map(|w| (what.to_string(), w[0], w[1]))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        assert!(segments.len() > 20, "{observer:?}: the locus and the gamuts are drawn");
+        for (i, t) in labels.iter().enumerate() {
+            for (what, a, b) in &segments {
+                assert!(
+                    !segment_meets_box(*a, *b, t.bbox),
+                    "{observer:?}: the {} nm label at {:?} lies on {what} ({a:?}–{b:?})",
+                    t.content,
+                    t.bbox
+                );
+            }
+            for u in &labels[i + 1..] {
+                assert!(
+                    !boxes_overlap(t.bbox, u.bbox),
+                    "{observer:?}: the {} and {} nm labels overlap",
+                    t.content,
+                    u.content
+                );
+            }
+        }
+    }
+}
+
+/// Asserts that a line of `colour` runs through the pixels `at`, vertex by
+/// vertex (1.5 px for rounding), every vertex inside the plot.
+fn assert_line_through(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) {
+    let lines: Vec<Line> = lines_drawn(svg)
+        .into_iter()
+        .filter(|l| l.stroke == colour && l.points.len() == at.len())
+        .collect();
+    let runs = |l: &Line| {
+        l.points
+            .iter()
+            .zip(at)
+            .all(|(p, q)| (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5)
+    };
+    let line = lines
+        .iter()
+        .find(|l| runs(l))
+        .unwrap_or_else(|| panic!("{name}: no {colour} line through {at:?}; {colour} lines: {lines:?}"));
+    for p in &line.points {
+        assert!(
+            plot.holds(*p),
+            "{name}: the {colour} line's vertex {p:?} is outside the plot {:?}",
+            plot.area
+        );
+    }
+}
+
+/// Asserts that a marker of `colour` is drawn at each pixel of `at`
+/// (2.5 px: a triangle's box is centred 1 px off its point), inside the
+/// plot; returns those markers.
+fn assert_marks_at(name: &str, svg: &str, plot: &Plot, colour: &str, at: &[Px]) -> Vec<Mark> {
+    let marks = marks_drawn(svg);
+    at.iter()
+        .map(|p| {
+            let m = marks
+                .iter()
+                .find(|m| m.colour == colour && (m.at.0 - p.0).abs() <= 2.5 && (m.at.1 - p.1).abs() <= 2.5)
+                .unwrap_or_else(|| panic!("{name}: no {colour} marker at {p:?}"));
+            assert!(
+                plot.holds((m.bbox.0, m.bbox.1)) && plot.holds((m.bbox.2, m.bbox.3)),
+                "{name}: the {colour} marker {:?} leaves the plot {:?}",
+                m.bbox,
+                plot.area
+            );
+            m.clone()
+        })
+        .collect()
+}
+
+/// Asserts that the legend entry `entry` shows a glyph in `colour`, and only that colour.
+fn assert_legend(name: &str, svg: &str, entry: &str, colour: &str) {
+    // The chart legends wrap their names at 18 characters; the grid's does not.
+    let first = if texts_drawn(svg).iter().any(|t| t.content == entry) {
+        entry.to_string()
+    } else {
+        wrap(entry, 18)[0].clone()
+    };
+    let colours = legend_colours(svg, &first);
+    assert_eq!(
+        colours,
+        [colour],
+        "{name}: the legend's {entry:?} is drawn in {colours:?}, not {colour}"
+    );
+}
+
+/// The single plot of a chart.
+fn the_plot(name: &str, svg: &str) -> Plot {
+    let mut plots = plots_drawn(svg);
+    assert_eq!(plots.len(), 1, "{name}: one plot with its axes");
+    plots.remove(0)
+}
+
+/// Line charts (linear and log x) and profiles (linear and log y) draw each
+/// series as a line through its points and a marker on each, where the
+/// axes' tick labels put them; the highest value is the topmost marker; the
+/// legend shows each series in its colour; ticks rise along their axes.
+#[test]
+fn line_and_profile_charts_draw_each_series_through_its_points() {
+    let rgb = colour_hex(coding_style("rgb").unwrap().colour);
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    let a = [(0.1, 3.0), (0.5, 1.0), (2.0, 0.4)];
+    let b = [(0.1, 2.0), (0.5, 2.5), (2.0, 1.5)];
+    let mut with_errors = series("rgb", &a);
+    with_errors.errors = Some(vec![0.1, 0.2, 0.1]);
+    for log_x in [false, true] {
+        let name = format!("line-log-{log_x}");
+        let svg = line_chart("speed", "time (s)", "ΔE", &[with_errors, series("nstep3", &b)], log_x).unwrap();
+        with_errors = series("rgb", &a);
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let (px, py) = (plot.x.map(), plot.y.map());
+        for (colour, data) in [(&rgb, &a), (&pink, &b)] {
+            let at: Vec<Px> = data.iter().map(|p| (px(p.0), py(p.1))).collect();
+            assert_line_through(&name, &svg, &plot, colour, &at);
+            let marks = assert_marks_at(&name, &svg, &plot, colour, &at);
+            // The highest value is the topmost marker; x = a left of x = b.
+            let top = data
+                .iter()
+                .enumerate()
+                .max_by(|p, q| p.1 .1.total_cmp(&q.1 .1))
+                .unwrap()
+                .0;
+            assert!(
+                marks.iter().all(|m| m.at.1 >= marks[top].at.1),
+                "{name}: the highest {colour} value is not on top"
+            );
+            assert!(marks.windows(2).all(|w| w[0].at.0 < w[1].at.0), "{name}: x order lost");
+        }
+        assert_legend(&name, &svg, "rgb", &rgb);
+        assert_legend(&name, &svg, "nstep3", &pink);
+    }
+    // Profiles: targets in order on the x axis, linear and (Cornell) log y.
+    let targets: Vec<String> = ["wall", "ceiling", "light"].map(String::from).to_vec();
+    for (tag, ys) in [("linear", [30.0, 12.0, 45.0]), ("log", [3.0e3, 5.0e2, 9.0e5])] {
+        let name = format!("profile-{tag}");
+        let data: Vec<(f64, f64)> = ys.iter().enumerate().map(|(i, y)| (i as f64 + 1.0, *y)).collect();
+        let measured: Vec<(f64, f64)> = data.iter().map(|p| (p.0, p.1 * 1.1)).collect();
+        let svg = profile_chart(
+            "profile",
+            &targets,
+            "target",
+            "Y (cd/m²)",
+            &[series("measured", &measured), series("nstep3", &data)],
+        )
+        .unwrap();
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+        assert_eq!(names, ["wall", "ceiling", "light"], "{name}: targets in order");
+        let py = plot.y.map();
+        for (colour, d) in [(&pink, &data), (&"#000000".to_string(), &measured)] {
+            let at: Vec<Px> = d
+                .iter()
+                .map(|p| (plot.x_slot(&targets[p.0 as usize - 1]), py(p.1)))
+                .collect();
+            assert_line_through(&name, &svg, &plot, colour, &at);
+            assert_marks_at(&name, &svg, &plot, colour, &at);
+        }
+        assert_legend(&name, &svg, "nstep3", &pink);
+        assert_legend(&name, &svg, "measured", "#000000");
+    }
+}
+
+/// A line chart on a log x axis (a Pareto chart of render times) drew a
+/// point at a whole decade (0.1 s) on the plot's left edge, its marker half
+/// outside, and a profile's log y axis did the same with a value on a
+/// decade (a wall at 1000 cd/m²): the scatter chart's margin
+/// (`LOG_MARGIN`) applies to every log axis, so each marker lies inside.
+#[test]
+fn log_axis_point_on_a_decade_sits_half_outside_the_plot() {
+    let charts = [
+        (
+            "line-log-x-decade",
+            line_chart(
+                "p",
+                "time (s)",
+                "ΔE",
+                &[series("rgb", &[(0.1, 3.0), (10.0, 1.0)])],
+                true,
+            )
+            .unwrap(),
+        ),
+        (
+            "profile-log-y-decade",
+            profile_chart(
+                "p",
+                &["wall".into(), "light".into()],
+                "target",
+                "Y (cd/m²)",
+                &[series("rgb", &[(1.0, 1000.0), (2.0, 1.0e6)])],
+            )
+            .unwrap(),
+        ),
+    ];
+    let orange = colour_hex(coding_style("rgb").unwrap().colour);
+    for (name, svg) in &charts {
+        keep_for_a_look(name, svg);
+        let plot = the_plot(name, svg);
+        let marks: Vec<Mark> = marks_drawn(svg)
+            .into_iter()
+            .filter(|m| m.colour == orange && plot.holds(m.at))
+            .collect();
+        assert_eq!(marks.len(), 2, "{name}: both points drawn");
+        for m in marks {
+            assert!(
+                plot.holds((m.bbox.0, m.bbox.1)) && plot.holds((m.bbox.2, m.bbox.3)),
+                "{name}: the marker {:?} reaches out of the plot {:?}",
+                m.bbox,
+                plot.area
+            );
+        }
+    }
+}
+
+/// A spectrum draws its mean as a black line through every sample, from
+/// the plot's left edge (the first wavelength) to its right edge (the
+/// last), its peak the topmost point, each raw sample as a blue line and
+/// the ±1 SD band around the mean; a reflectance draws ρ, the line ρ = 1
+/// edge to edge, and a red dot on each value outside [0, 1]. Each legend
+/// entry shows its own colour.
+#[test]
+fn spectrum_and_reflectance_charts_draw_their_curves_where_they_are() {
+    let wl: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let mean: Vec<f64> = wl
+        .iter()
+        .map(|w| 1e-3 * (-((w - 550.0) / 60.0).powi(2)).exp() + 2e-4)
+        .collect();
+    let sd = vec![2e-5; wl.len()];
+    let samples = vec![
+        mean.iter().map(|m| m * 0.95).collect::<Vec<f64>>(),
+        mean.iter().map(|m| m * 1.05).collect(),
+    ];
+    let svg = spectrum_chart("patch", &wl, Some(&mean), Some(&sd), &samples).unwrap();
+    let name = "spectrum";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let at = |ys: &[f64]| -> Vec<Px> { wl.iter().zip(ys).map(|(w, y)| (px(*w), py(*y))).collect() };
+    assert_line_through(name, &svg, &plot, "#000000", &at(&mean));
+    let line = at(&mean);
+    assert!(
+        (line[0].0 - plot.area.0).abs() <= 1.5,
+        "{name}: 380 nm is not on the left edge: {:?} {:?}",
+        line[0],
+        plot.area
+    );
+    assert!(
+        (line[40].0 - plot.area.2).abs() <= 1.5,
+        "{name}: 780 nm is not on the right edge: {:?} {:?}",
+        line[40],
+        plot.area
+    );
+    let peak = line.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    assert!(
+        (peak.0 - px(550.0)).abs() <= 1.5,
+        "{name}: the peak is drawn at {peak:?}, not at 550 nm"
+    );
+    let blue = colour_hex(RGBColor(86, 180, 233));
+    for s in &samples {
+        assert_line_through(name, &svg, &plot, &blue, &at(s));
+    }
+    // The band: the mean ± 1 SD at every wavelength.
+    let band = elements(&svg, "polygon")
+        .into_iter()
+        .find(|(a, _)| attr(a, "fill").as_deref() == Some("#CDCDCD"))
+        .map(|(a, _)| points_of(&a))
+        .expect("the ±1 SD band");
+    let edge: Vec<f64> = mean.iter().zip(&sd).map(|(m, s)| m + s).collect();
+    for (p, q) in band.iter().zip(at(&edge)) {
+        assert!(
+            (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5,
+            "{name}: the band's upper edge at {p:?}, not {q:?}"
+        );
+    }
+    assert_legend(name, &svg, "mean", "#000000");
+    assert_legend(name, &svg, "raw samples (2)", &blue);
+    assert_legend(name, &svg, "±1 SD", "#CDCDCD");
+
+    let rho: Vec<f64> = wl.iter().map(|w| 0.2 + 0.85 * (w - 380.0) / 400.0).collect();
+    let u = vec![0.01; wl.len()];
+    let svg = reflectance_chart("tile", &wl, &rho, &u).unwrap();
+    let name = "reflectance";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let at: Vec<Px> = wl.iter().zip(&rho).map(|(w, r)| (px(*w), py(*r))).collect();
+    assert_line_through(name, &svg, &plot, "#000000", &at);
+    let one = [(plot.area.0, py(1.0)), (plot.area.2, py(1.0))];
+    assert_line_through(name, &svg, &plot, &colour_hex(RGBColor(120, 120, 120)), &one);
+    let red = colour_hex(RGBColor(213, 94, 0));
+    let above: Vec<Px> = at
+        .iter()
+        .zip(&rho)
+        .filter(|(_, r)| **r > 1.0)
+        .map(|(p, _)| *p)
+        .collect();
+    assert!(!above.is_empty());
+    assert_eq!(
+        marks_drawn(&svg)
+            .iter()
+            .filter(|m| m.colour == red && plot.holds(m.at))
+            .count(),
+        above.len(),
+        "{name}: one red dot per value above 1"
+    );
+    assert_marks_at(name, &svg, &plot, &red, &above);
+    assert_legend(name, &svg, "ρ(λ) measured", "#000000");
+    assert_legend(
+        name,
+        &svg,
+        &format!("outside [0, 1] ({}), flagged, not clipped", above.len()),
+        &red,
+    );
+}
+
+/// A reflectance above 1 at the last wavelength (780 nm, where a tile's
+/// ρ often rises) was flagged with a red dot cut in half by the plot's
+/// right edge (the x axis ended on the last wavelength): every flagged dot
+/// lies wholly inside the plot.
+#[test]
+fn flagged_reflectance_dot_at_780_nm_half_outside_the_plot() {
+    let wl: Vec<f64> = (0..41).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let rho: Vec<f64> = wl
+        .iter()
+        .map(|w| if *w == 380.0 || *w == 780.0 { 1.04 } else { 0.5 })
+        .collect();
+    let svg = reflectance_chart("tile", &wl, &rho, &vec![0.01; wl.len()]).unwrap();
+    keep_for_a_look("reflectance-edges", &svg);
+    let plot = the_plot("reflectance", &svg);
+    let red = colour_hex(RGBColor(213, 94, 0));
+    let dots: Vec<Mark> = marks_drawn(&svg)
+        .into_iter()
+        .filter(|m| m.colour == red && m.at.0 < plot.area.2 + 20.0)
+        .collect();
+    assert_eq!(dots.len(), 2, "{dots:?}");
+    for d in dots {
+        assert!(
+            plot.holds((d.bbox.0, d.bbox.1)) && plot.holds((d.bbox.2, d.bbox.3)),
+            "the flagged dot {:?} reaches out of the plot {:?}",
+            d.bbox,
+            plot.area
+        );
+    }
+}
+
+/// The chromaticity diagram draws the locus through every tabulated
+/// wavelength's x,y and the gamuts through their primaries, on the whole
+/// diagram's axes (0–0.8, 0–0.9); each series' markers where its x,y are
+/// in both panels, inside each; the zoomed region's box around the data;
+/// and each legend entry in its own colour.
+#[test]
+fn chromaticity_chart_draws_locus_gamuts_and_data_where_they_are() {
+    let measured = [(0.31, 0.33), (0.35, 0.36)];
+    let pink_data = [(0.32, 0.345)];
+    let svg = chromaticity_chart(
+        "xy",
+        Observer::JuddVos,
+        &[scatter("measured", &measured), scatter("nstep3", &pink_data)],
+    )
+    .unwrap();
+    let name = "chromaticity";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plots = plots_drawn(&svg);
+    assert_eq!(plots.len(), 2, "{name}: the whole diagram and the zoomed panel");
+    let (whole, zoom) = (&plots[0], &plots[1]);
+    let map = |p: &Plot| {
+        let (px, py) = (p.x.map(), p.y.map());
+        move |q: (f64, f64)| (px(q.0), py(q.1))
+    };
+    let (w, z) = (map(whole), map(zoom));
+    // The whole diagram's axes end on 0.8 and 0.9: on the plot's edges.
+    assert!((w((0.0, 0.0)).0 - whole.area.0).abs() <= 1.5 && (w((0.8, 0.9)).0 - whole.area.2).abs() <= 1.5);
+    assert!((w((0.0, 0.0)).1 - whole.area.3).abs() <= 1.5 && (w((0.8, 0.9)).1 - whole.area.1).abs() <= 1.5);
+    let mut locus: Vec<Px> = spectral_locus(Observer::JuddVos).iter().map(|l| w(l.1)).collect();
+    locus.push(locus[0]);
+    assert_line_through(name, &svg, whole, "#000000", &locus);
+    let grey = colour_hex(RGBColor(100, 100, 100));
+    for (space, solid) in [(RgbSpace::SRGB, true), (RgbSpace::RADIANCE, false)] {
+        let v = [
+            (space.red.x, space.red.y),
+            (space.green.x, space.green.y),
+            (space.blue.x, space.blue.y),
+        ]
+        .map(&w);
+        if solid {
+            assert_line_through(name, &svg, whole, &grey, &[v[0], v[1], v[2], v[0]]);
+        } else {
+            // Dashes: each on an edge of the triangle, enough to trace it.
+            let dashes: Vec<Line> = lines_drawn(&svg)
+                .into_iter()
+                .filter(|l| l.stroke == grey && l.width == 2.0 && l.points.iter().all(|p| whole.holds(*p)))
+                .collect();
+            assert!(dashes.len() > 30, "{name}: {} dashes", dashes.len());
+            for d in &dashes {
+                let on = (0..3).any(|k| {
+                    d.points
+                        .iter()
+                        .all(|p| distance_to_segment(*p, v[k], v[(k + 1) % 3]) <= 1.5)
+                });
+                assert!(
+                    on,
+                    "{name}: the dash {:?} lies on no edge of the RADIANCE gamut {v:?}",
+                    d.points
+                );
+            }
+        }
+    }
+    let pink = colour_hex(coding_style("nstep3").unwrap().colour);
+    for (plot, to_px) in [(whole, &w as &dyn Fn((f64, f64)) -> Px), (zoom, &z)] {
+        assert_marks_at(name, &svg, plot, "#000000", &measured.map(to_px));
+        assert_marks_at(name, &svg, plot, &pink, &pink_data.map(to_px));
+    }
+    // The zoomed region: a red box on the whole diagram around every point.
+    let red = colour_hex(RGBColor(200, 0, 0));
+    let boxed = lines_drawn(&svg)
+        .into_iter()
+        .find(|l| l.stroke == red && l.points.iter().all(|p| whole.holds(*p)))
+        .expect("the zoomed region");
+    let b = bounding(&boxed.points);
+    for p in measured.iter().chain(&pink_data) {
+        assert!(
+            distance_to_box(w(*p), b) == 0.0 && b.2 - b.0 < 60.0,
+            "{name}: {p:?} outside the zoomed region's box {b:?}"
+        );
+    }
+    assert_legend(name, &svg, "sRGB gamut", &grey);
+    assert_legend(name, &svg, "RADIANCE RGB gamut", &grey);
+    assert_legend(name, &svg, "zoomed region", &red);
+    assert_legend(name, &svg, "measured", "#000000");
+    assert_legend(name, &svg, "nstep3", &pink);
+}
+
+/// A bar chart draws each bar in its coding's colour, centred on its own
+/// tick (the ticks in the bars' order), from the x axis (0) up to its value,
+/// the tallest the highest, with its ±1 SD whisker from value − SD to
+/// value + SD.
+#[test]
+fn bar_chart_draws_each_bar_to_its_value_over_its_label() {
+    let bars = [("srgb", 0.8, 0.1), ("nstep3", 2.4, 0.3), ("rgb", 1.5, 0.2)];
+    let svg = bar_chart(
+        "mean ΔE",
+        "ΔE*ab (CIELAB units)",
+        &bars
+            .iter()
+            .map(|&(l, v, sd)| Bar {
+                label: l.into(),
+                value: v,
+                sd: Some(sd),
+            })
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    let name = "bars";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+    assert_eq!(names, ["srgb", "nstep3", "rgb"], "{name}: the bars' labels in order");
+    let py = plot.y.map();
+    let rects: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| {
+            let (x, y, w, h) = (num(&a, "x"), num(&a, "y"), num(&a, "width"), num(&a, "height"));
+            (attr(&a, "fill").unwrap(), (x, y, x + w, y + h))
+        })
+        .collect();
+    assert_eq!(rects.len(), 3, "{name}: three bars");
+    for ((label, v, sd), (fill, r)) in bars.iter().zip(&rects) {
+        assert_eq!(
+            *fill,
+            colour_hex(coding_style(label).unwrap().colour),
+            "{name}: {label}'s colour"
+        );
+        let centre = (r.0 + r.2) / 2.0;
+        assert!(
+            (centre - plot.x_slot(label)).abs() <= 1.5,
+            "{name}: {label}'s bar at {centre}, its tick at {}",
+            plot.x_slot(label)
+        );
+        assert!(
+            (r.1 - py(*v)).abs() <= 1.5,
+            "{name}: {label}'s bar tops at {} for {v} (at {})",
+            r.1,
+            py(*v)
+        );
+        assert!(
+            (r.3 - py(0.0)).abs() <= 1.5 && (r.3 - plot.area.3).abs() <= 2.0,
+            "{name}: {label}'s bar stands at {}, not on the x axis",
+            r.3
+        );
+        let whisker = [(centre.round(), py(v - sd)), (centre.round(), py(v + sd))];
+        let found = lines_drawn(&svg).into_iter().any(|l| {
+            l.width == 2.0
+                && l.points.len() == 2
+                && l.points
+                    .iter()
+                    .zip(&whisker)
+                    .all(|(p, q)| (p.0 - q.0).abs() <= 1.5 && (p.1 - q.1).abs() <= 1.5)
+        });
+        assert!(found, "{name}: no ±1 SD whisker {whisker:?} on {label}");
+    }
+    let tallest = rects.iter().min_by(|a, b| a.1 .1.total_cmp(&b.1 .1)).unwrap();
+    assert_eq!(
+        tallest.0,
+        colour_hex(coding_style("nstep3").unwrap().colour),
+        "{name}: the highest bar is nstep3's"
+    );
+}
+
+/// A grid chart draws each value as a cell in its row and column, in the
+/// colour of its value against the threshold, its number inside it, an
+/// outline when it fails; each row's label beside its row, each column's
+/// label over its column; each legend swatch in its value's colour beside
+/// its label; no text overlapping another.
+#[test]
+fn grid_chart_draws_each_value_in_its_own_cell() {
+    let rows = ["red".to_string(), "grey".to_string()];
+    let cols = ["A rgb".to_string(), "B nstep3".to_string(), "C spectral".to_string()];
+    let values = [vec![5.0, 0.5, 1.2], vec![0.25, 20.0, 2.5]];
+    let threshold = 2.0;
+    let svg = grid_chart("map", &rows, &cols, &values, threshold).unwrap();
+    let name = "grid";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let texts = texts_drawn(&svg);
+    let text = |s: &str| {
+        texts
+            .iter()
+            .filter(|t| t.content == s)
+            .cloned()
+            .collect::<Vec<TextBox>>()
+    };
+    let cells: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| num(a, "width") == 36.0 && num(a, "height") == 22.0)
+        .map(|(a, _)| {
+            let (x, y) = (num(&a, "x"), num(&a, "y"));
+            (attr(&a, "fill").unwrap(), (x, y, x + 36.0, y + 22.0))
+        })
+        .collect();
+    assert_eq!(cells.len(), 6, "{name}: one cell per value");
+    let (left, top) = (cells[0].1 .0, cells[0].1 .1);
+    let outlines: Vec<PxRect> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() == Some("none") && attr(a, "stroke").as_deref() == Some("#000000"))
+        .map(|(a, _)| {
+            (
+                num(&a, "x"),
+                num(&a, "y"),
+                num(&a, "x") + num(&a, "width"),
+                num(&a, "y") + num(&a, "height"),
+            )
+        })
+        .collect();
+    for (r, row) in values.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            let at = (left + 36.0 * c as f64, top + 22.0 * r as f64);
+            let cell = cells
+                .iter()
+                .find(|(_, b)| b.0 == at.0 && b.1 == at.1)
+                .unwrap_or_else(|| panic!("{name}: no cell at row {r}, column {c}"));
+            assert_eq!(cell.0, colour_hex(grid_colour(v, threshold)), "{name}: the cell of {v}");
+            let number = if v < 10.0 { format!("{v:.1}") } else { format!("{v:.0}") };
+            let inside = text(&number).iter().any(|t| {
+                let b = t.bbox;
+                b.0 >= cell.1 .0 && b.2 <= cell.1 .2 && b.1 >= cell.1 .1 - 1.0 && b.3 <= cell.1 .3 + 1.0
+            });
+            assert!(inside, "{name}: {number} is not written inside its cell {:?}", cell.1);
+            let outlined = outlines
+                .iter()
+                .any(|o| distance_to_box(((o.0 + o.2) / 2.0, (o.1 + o.3) / 2.0), cell.1) == 0.0);
+            assert_eq!(outlined, v > threshold, "{name}: the cell of {v} against {threshold}");
+        }
+        let label = &text(&rows[r])[0];
+        let mid = (label.bbox.1 + label.bbox.3) / 2.0;
+        assert!(
+            label.bbox.2 <= left && mid > top + 22.0 * r as f64 && mid < top + 22.0 * (r + 1) as f64,
+            "{name}: row {:?} at {:?} is not beside its row",
+            rows[r],
+            label.bbox
+        );
+    }
+    for (c, col) in cols.iter().enumerate() {
+        let label = &text(col)[0];
+        let mid = (label.bbox.0 + label.bbox.2) / 2.0;
+        assert!(
+            label.bbox.3 <= top && mid > left + 36.0 * c as f64 && mid < left + 36.0 * (c + 1) as f64,
+            "{name}: column {col:?} at {:?} is not over its column",
+            label.bbox
+        );
+    }
+    for (v, label) in [
+        (0.0, "0"),
+        (threshold, "2 (threshold)"),
+        (3.0 * threshold, "6 (fails, outlined)"),
+    ] {
+        assert_legend(name, &svg, label, &colour_hex(grid_colour(v, threshold)));
+    }
+    assert!(grid_chart("bad", &["r".into()], &[], &[vec![1.0]], 2.0).is_err());
+}
+
+/// A scatter chart, on every combination of linear and log axes, draws
+/// each series' markers where the axes put its points (the highest value
+/// topmost, a smaller x further left, all inside the plot), a connected
+/// series' line through its points, and each legend entry in its series'
+/// colour.
+#[test]
+fn scatter_chart_draws_every_series_at_its_points() {
+    let blue = colour_hex(coding_style("nstep27").unwrap().colour);
+    let grey = colour_hex(OTHER_COLOURS[0]);
+    let candidates = [(0.1, 2.0), (1.0, 0.5), (0.3, 0.05), (3.0, 0.02)];
+    let front = [(0.1, 2.0), (0.3, 0.05), (3.0, 0.02)];
+    let series = [
+        scatter("nstep27", &candidates),
+        ScatterSeries {
+            name: "Pareto front".into(),
+            points: front.to_vec(),
+            connect: true,
+        },
+    ];
+    for log in [(true, true), (true, false), (false, true), (false, false)] {
+        let name = format!("scatter-{}-{}", log.0, log.1);
+        let svg = scatter_chart("t", "time (s)", "ΔE", &series, log).unwrap();
+        keep_for_a_look(&name, &svg);
+        assert_readable(&name, &svg);
+        let plot = the_plot(&name, &svg);
+        let (px, py) = (plot.x.map(), plot.y.map());
+        let at = |d: &[(f64, f64)]| -> Vec<Px> { d.iter().map(|p| (px(p.0), py(p.1))).collect() };
+        let marks = assert_marks_at(&name, &svg, &plot, &blue, &at(&candidates));
+        assert!(
+            marks[0].at.1 < marks[1].at.1 && marks[1].at.1 < marks[3].at.1,
+            "{name}: the values' order upwards"
+        );
+        assert!(
+            marks[0].at.0 < marks[2].at.0 && marks[2].at.0 < marks[1].at.0,
+            "{name}: the times' order rightwards"
+        );
+        assert_marks_at(&name, &svg, &plot, &grey, &at(&front));
+        assert_line_through(&name, &svg, &plot, &grey, &at(&front));
+        assert_legend(&name, &svg, "nstep27", &blue);
+        assert_legend(&name, &svg, "Pareto front", &grey);
+    }
+}
+
+/// The psychometric figure draws each observed point at its ΔE00 and
+/// percent correct with its interval as a whisker, the fitted curve as a
+/// line through its points, chance as a dashed line across the plot at its
+/// percent, and each prediction as a hollow diamond at its point.
+#[test]
+fn psychometric_chart_draws_points_curve_and_chance_where_they_are() {
+    let observed = [
+        (0.5, 40.0, 30.0, 50.0),
+        (1.0, 70.0, 58.0, 80.0),
+        (2.0, 95.0, 88.0, 99.0),
+    ];
+    let curve: Vec<(f64, f64)> = (0..=10)
+        .map(|i| (0.2 * f64::from(i), 100.0 / 3.0 + 6.5 * f64::from(i)))
+        .collect();
+    let f = Psychometric {
+        title: "oddity".into(),
+        observed: vec![PsychometricPoints {
+            name: "sim1: observed".into(),
+            points: observed.to_vec(),
+        }],
+        curve: Some(("fit: d′ = ΔE00/σ".into(), curve.clone())),
+        predicted: vec![(0.3, 36.0, "nstep81".into())],
+        chance_percent: 100.0 / 3.0,
+    };
+    let svg = psychometric_chart(&f).unwrap();
+    let name = "psychometric";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let (px, py) = (plot.x.map(), plot.y.map());
+    let grey = colour_hex(OTHER_COLOURS[0]);
+    let at: Vec<Px> = observed.iter().map(|p| (px(p.0), py(p.1))).collect();
+    assert_marks_at(name, &svg, &plot, &grey, &at);
+    for p in &observed {
+        assert_line_through(name, &svg, &plot, &grey, &[(px(p.0), py(p.2)), (px(p.0), py(p.3))]);
+    }
+    let line: Vec<Px> = curve.iter().map(|p| (px(p.0), py(p.1))).collect();
+    assert_line_through(name, &svg, &plot, "#000000", &line);
+    // Chance: dashes along y = 33.3 %, from edge to edge.
+    let dashes: Vec<Line> = lines_drawn(&svg)
+        .into_iter()
+        .filter(|l| {
+            l.width == 1.0
+                && l.points.len() == 2
+                && l.points
+                    .iter()
+                    .all(|p| plot.holds(*p) && (p.1 - py(100.0 / 3.0)).abs() <= 1.5)
+        })
+        .filter(|l| (l.points[0].0 - l.points[1].0).abs() < 10.0)
+        .collect();
+    let xs = bounding(&dashes.iter().flat_map(|d| d.points.clone()).collect::<Vec<_>>());
+    assert!(
+        dashes.len() > 20 && xs.0 - plot.area.0 <= 10.0 && plot.area.2 - xs.2 <= 10.0,
+        "{name}: chance is not dashed across the plot: {} dashes over {xs:?}",
+        dashes.len()
+    );
+    assert_marks_at(name, &svg, &plot, "#000000", &[(px(0.3), py(36.0))]);
+    assert_legend(name, &svg, "sim1: observed", &grey);
+    assert_legend(name, &svg, "fit: d′ = ΔE00/σ", "#000000");
+    assert_legend(name, &svg, "chance (33 %)", &colour_hex(RGBColor(100, 100, 100)));
+}
+
+/// Fig. 5 draws each d′ bar in its coding's colour over its own tick (the
+/// groups in order), up to its d′ on the left axis; percent correct as a
+/// diamond over its bar at its percent on the right axis; chance dashed at
+/// 33.3 % on the right axis; each group's name over the middle of its bars.
+#[test]
+fn discrimination_chart_draws_bars_and_diamonds_on_their_axes() {
+    let bar = |group: &str, coding: &str, d: f64, pc: f64| DiscriminationBar {
+        group: group.into(),
+        coding: coding.into(),
+        d_prime: d,
+        interval: (d * 0.8, d * 1.2),
+        upper_bounded: true,
+        percent_correct: pc,
+    };
+    let bars = [
+        bar("white", "nstep3", 3.0, 90.0),
+        bar("white", "nstep9", 0.5, 40.0),
+        bar("cylinder", "nstep3", 2.0, 75.0),
+        bar("cylinder", "nstep27", 0.2, 35.0),
+    ];
+    let svg = discrimination_chart("Fig. 5", "differencing", &bars).unwrap();
+    let name = "discrimination";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let plot = the_plot(name, &svg);
+    let y2 = plot.y2.as_ref().expect("the percent-correct axis on the right");
+    let (py, py2) = (plot.y.map(), y2.map());
+    let names: Vec<&str> = plot.x.ticks.iter().map(|t| t.0.content.as_str()).collect();
+    assert_eq!(
+        names,
+        ["nstep3", "nstep9", "nstep3", "nstep27"],
+        "{name}: the bars in their groups' order"
+    );
+    let rects: Vec<(String, PxRect)> = elements(&svg, "rect")
+        .into_iter()
+        .filter(|(a, _)| attr(a, "fill").as_deref() != Some("#FFFFFF"))
+        .map(|(a, _)| {
+            let (x, y, w, h) = (num(&a, "x"), num(&a, "y"), num(&a, "width"), num(&a, "height"));
+            (attr(&a, "fill").unwrap(), (x, y, x + w, y + h))
+        })
+        .collect();
+    assert_eq!(rects.len(), 4);
+    let mut centres = Vec::new();
+    for ((b, (fill, r)), tick) in bars.iter().zip(&rects).zip(&plot.x.ticks) {
+        let centre = (r.0 + r.2) / 2.0;
+        centres.push(centre);
+        assert_eq!(
+            *fill,
+            colour_hex(coding_style(&b.coding).unwrap().colour),
+            "{name}: {}'s colour",
+            b.coding
+        );
+        assert!(
+            (centre - tick.1).abs() <= 1.5,
+            "{name}: {}'s bar at {centre}, its tick at {}",
+            b.coding,
+            tick.1
+        );
+        assert!(
+            (r.1 - py(b.d_prime)).abs() <= 1.5 && (r.3 - py(0.0)).abs() <= 1.5,
+            "{name}: {}'s bar spans {r:?}",
+            b.coding
+        );
+        assert_marks_at(name, &svg, &plot, "#000000", &[(centre, py2(b.percent_correct))]);
+    }
+    let chance = lines_drawn(&svg)
+        .into_iter()
+        .filter(|l| l.stroke == "#5A5A5A" && l.points.iter().all(|p| (p.1 - py2(100.0 / 3.0)).abs() <= 1.5))
+        .count();
+    assert!(
+        chance > 20,
+        "{name}: chance is not dashed at 33 % of the right axis ({chance} dashes)"
+    );
+    for (g, k) in [("white", 0), ("cylinder", 2)] {
+        let t = texts_drawn(&svg)
+            .into_iter()
+            .find(|t| t.content == g)
+            .expect("group name");
+        let mid = (centres[k] + centres[k + 1]) / 2.0;
+        assert!(
+            ((t.bbox.0 + t.bbox.2) / 2.0 - mid).abs() <= 2.0 && t.bbox.3 <= py2(100.0) - 7.0,
+            "{name}: {g:?} at {:?}, its bars' middle {mid}",
+            t.bbox
+        );
+    }
+}
+
+/// The false-colour figure draws the map, and its colour bar's ticks from 0
+/// at the bar's bottom to the scale's top at its top, each label beside its
+/// tick, rising upwards; no text overlapping another.
+#[test]
+fn false_colour_bar_ticks_rise_beside_their_marks() {
+    let notes = ["values above 2.5 are drawn as 2.5".to_string()];
+    let svg = false_colour_map_svg(&FalseColourMap {
+        png: &[0u8; 8],
+        width: 40,
+        height: 30,
+        scale_max: 2.5,
+        quantity: "ΔE00",
+        title: "ΔE00, intended vs shown",
+        notes: &notes,
+    })
+    .unwrap();
+    let name = "false-colour";
+    keep_for_a_look(name, &svg);
+    assert_readable(name, &svg);
+    let bar = elements(&svg, "rect")
+        .into_iter()
+        .find(|(a, _)| attr(a, "fill").as_deref() == Some("url(#scale)"))
+        .map(|(a, _)| {
+            (
+                num(&a, "x"),
+                num(&a, "y"),
+                num(&a, "x") + num(&a, "width"),
+                num(&a, "y") + num(&a, "height"),
+            )
+        })
+        .expect("the colour bar");
+    let image = elements(&svg, "image").into_iter().next().expect("the map").0;
+    assert!(
+        num(&image, "x") + num(&image, "width") < bar.0,
+        "the map is left of its bar"
+    );
+    let ticks: Vec<f64> = elements(&svg, "line").into_iter().map(|(a, _)| num(&a, "y1")).collect();
+    let texts = texts_drawn(&svg);
+    let mut labelled: Vec<(f64, f64)> = ticks
+        .iter()
+        .map(|y| {
+            let t = texts
+                .iter()
+                .find(|t| t.bbox.0 >= bar.2 && ((t.bbox.1 + t.bbox.3) / 2.0 - y).abs() <= 4.0)
+                .unwrap_or_else(|| panic!("no label beside the tick at y {y}"));
+            (t.content.parse::<f64>().unwrap(), *y)
+        })
+        .collect();
+    labelled.sort_by(|a, b| b.1.total_cmp(&a.1));
+    assert_eq!(
+        labelled.first().map(|t| (t.0, t.1)),
+        Some((0.0, bar.3)),
+        "0 at the bar's bottom"
+    );
+    assert_eq!(
+        labelled.last().map(|t| (t.0, t.1)),
+        Some((2.5, bar.1)),
+        "the top at the bar's top"
+    );
+    assert!(
+        labelled.windows(2).all(|w| w[1].0 > w[0].0),
+        "ticks rise upwards: {labelled:?}"
+    );
 }
