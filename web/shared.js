@@ -66,8 +66,9 @@ export function instrumentBadgeText(s, now = Date.now() / 1000) {
 /** What the page says when the daemon refuses the read cookie (HTTP
  * `status`): the token the page holds is not this daemon's. */
 export function readCookieRefusal(status) {
-  return `The daemon refused this page's token (HTTP ${status}), so charts, images and live updates ` +
-    "cannot load: open the URL the daemon printed (with #token=…) again.";
+  return `The daemon refused this page's token (HTTP ${status}): it is not this daemon's, so measuring, ` +
+    "calibrating and every other change will be refused (and, off loopback, charts, images and live updates " +
+    "will not load); open the URL the daemon printed (with #token=…) again.";
 }
 
 // --- the page: elements, token, API, notice -------------------------------

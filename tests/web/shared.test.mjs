@@ -86,6 +86,8 @@ test("a refused read cookie says what was refused and what to do", () => {
   const text = readCookieRefusal(401);
   assert.match(text, /refused this page's token \(HTTP 401\)/);
   assert.match(text, /open the URL the daemon printed/);
+  // What it means on loopback too, where reads need no token: changes are refused.
+  assert.match(text, /every other change will be refused/);
 });
 
 test("the luminance scale's ticks are decades inside the bar, placed along log Y", () => {
