@@ -143,7 +143,10 @@ pub fn router() -> Router<AppState> {
         .route("/matlab/", get(matlab_index))
         .route("/matlab/{file}", get(matlab_file));
     for (path, body) in FILES {
-        router = router.route(path, get(move || async move { ([(header::CONTENT_TYPE, content_type(path))], body) }));
+        router = router.route(
+            path,
+            get(move || async move { ([(header::CONTENT_TYPE, content_type(path))], body) }),
+        );
     }
     router
 }

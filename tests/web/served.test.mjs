@@ -47,3 +47,12 @@ test("scripts and style are served with their types: JavaScript for modules", ()
   assert.match(rust, /fn content_type\(path: &str\)[\s\S]*?"text\/css; charset=utf-8"[\s\S]*?"text\/javascript; charset=utf-8"/);
   assert.ok(served.size >= 12, `FILES lists ${served.size}`);
 });
+
+test("no module writes markup from a string (the policy's Trusted Types refuse it; names are stored text)", () => {
+  for (const script of web.filter((f) => f.endsWith(".js"))) {
+    const text = readFileSync(`${root}web/${script}`, "utf8").toLowerCase();
+    for (const sink of ["innerhtml", "outerhtml", "insertadjacenthtml", "document.write"]) {
+      assert.ok(!text.includes(sink), `web/${script} writes markup with ${sink}`);
+    }
+  }
+});
