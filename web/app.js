@@ -1,116 +1,14 @@
 // lightbooth dashboard: plain JavaScript, no build step. Charts are SVG drawn
 // by the daemon (plotters), so this file only fetches JSON, follows the
 // server-sent events and swaps <img> sources.
-"use strict";
-
-const $ = (id) => document.getElementById(id);
-
-// The write token: the daemon prints a URL with `#token=…`; keep it in
-// localStorage so reloading the page keeps working.
-(function takeTokenFromUrl() {
-  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
-  if (m) {
-    localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname + "#/home");
-  }
-})();
-
-function token() {
-  return localStorage.getItem("lightbooth-token") || "";
-}
-
-// Bound off loopback, reads need a token too. fetch() sends the write token
-// in the Authorization header (below); chart <img>s, download links and the
-// event stream (EventSource) cannot set headers, so the page asks the daemon
-// (with the header) for a read-only cookie: HttpOnly, SameSite=Strict, for
-// /api, named after the daemon's port, holding a read token the daemon
-// derives for this run. The write token never goes in a cookie (cookies are
-// not bound to a port: any other local service under /api would receive
-// it); see src/http/auth.rs. A cookie of older versions is deleted.
-document.cookie = "lightbooth_token=; path=/api; max-age=0; SameSite=Strict";
-const readCredential = token()
-  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } })
-    .then((r) => { if (!r.ok) throw new Error(`the daemon refused the token (HTTP ${r.status}): open the URL it printed`); })
-    .catch((e) => notice(e.message))
-  : Promise.resolve();
-
-function notice(text) {
-  const n = $("notice");
-  n.textContent = text;
-  n.hidden = !text;
-}
-
-async function api(path, options = {}) {
-  const headers = Object.assign({ "Accept": "application/json" }, options.headers || {});
-  if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (token()) headers["Authorization"] = "Bearer " + token();
-  const r = await fetch(path, Object.assign({}, options, { headers }));
-  const body = await r.json().catch(() => null);
-  if (!r.ok) {
-    const msg = body && body.error ? body.error.message : r.statusText;
-    throw new Error(msg);
-  }
-  return body;
-}
-
-// "12 s", "3 min 05 s", "2 h 03 min": a duration for people.
-function duration(seconds) {
-  if (seconds === null || seconds === undefined || !isFinite(seconds)) return "–";
-  const s = Math.max(0, Math.round(seconds));
-  if (s < 60) return `${s} s`;
-  if (s < 3600) return `${Math.floor(s / 60)} min ${String(s % 60).padStart(2, "0")} s`;
-  return `${Math.floor(s / 3600)} h ${String(Math.floor((s % 3600) / 60)).padStart(2, "0")} min`;
-}
-
-// "1 target", "2 targets": a count with its noun in the right number.
-const count = (n, noun) => `${n} ${noun}${Number(n) === 1 ? "" : "s"}`;
-
-const fmt = (v, digits = 3) => (v === null || v === undefined ? "–" : Number(v).toPrecision(digits));
-
-// A cd/m² scale for an image shown through the daemon's global Reinhard
-// tone map (src/render/sensor.rs): a grey of Y cd/m² is shown at the linear
-// display value d = Yk/(1 + Yk), k = 0.18 / the image's log-average
-// luminance. The bar runs over log Y, from the luminance shown at d = 0.01
-// (near black) to the one shown at d = 0.9999 (white), each place in the
-// grey the image shows that luminance in; its ticks are decades of cd/m².
-// (It ran over d, and the tone map crowds everything above a few times the
-// log average into its last percent: the ticks stopped near 2 cd/m² beside
-// a 34.5 cd/m² patch.)
-function luminanceScale(logAverage, what) {
-  const k = 0.18 / logAverage;
-  const low = Math.log10(0.01 / 0.99 / k), high = Math.log10(0.9999 / 0.0001 / k);
-  const at = (f) => Math.pow(10, low + f * (high - low)); // the luminance at f (0–1) along the bar
-  const wrap = document.createElement("div");
-  wrap.className = "lum-scale";
-  const bar = document.createElement("div");
-  bar.className = "lum-bar";
-  const encode = (v) => (v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055);
-  const stops = [];
-  for (let i = 0; i <= 40; i++) {
-    const y = at(i / 40);
-    const g = Math.round(255 * encode((y * k) / (1 + y * k)));
-    stops.push(`rgb(${g},${g},${g}) ${i * 2.5}%`);
-  }
-  bar.style.background = `linear-gradient(to right, ${stops.join(", ")})`;
-  const ticks = document.createElement("div");
-  ticks.className = "lum-ticks";
-  for (let e = Math.ceil(low); e <= Math.floor(high); e++) {
-    const f = (e - low) / (high - low);
-    const t = document.createElement("span");
-    t.style.left = `${f * 100}%`;
-    // The end ticks sit inside the bar's ends, not half outside.
-    if (f < 0.03) t.style.transform = "none";
-    if (f > 0.97) t.style.transform = "translateX(-100%)";
-    t.textContent = e >= 0 ? String(Math.pow(10, e)) : Math.pow(10, e).toFixed(-e);
-    ticks.appendChild(t);
-  }
-  const unit = document.createElement("div");
-  unit.className = "lum-unit";
-  unit.textContent = `luminance (cd/m², a tick per factor of 10) shown at that grey — ${what}; tone-mapped ` +
-    `(log average ${fmt(logAverage, 3)} cd/m²), for looking at, not for measuring`;
-  wrap.append(bar, ticks, unit);
-  return wrap;
-}
+import {
+  $, api, count, duration, el, fmt, followLabEvents, instrumentBadgeText, jobButton, laterTime, localTime,
+  luminanceScale, notice, observerName, onLabEvent, startPage, token,
+} from "./shared.js";
+import { showHome } from "./home.js";
+import { showMaterialView } from "./material.js";
+import { showNavigation } from "./nav.js";
+import { showViewerView } from "./viewer.js";
 
 // --- views -----------------------------------------------------------------
 
@@ -122,36 +20,24 @@ function showView() {
   if (view === "home") showHome(); // web/home.js
   if (view === "measurements") loadMeasurements(arg);
   if (view === "scenes") loadScenes(arg);
-  if (view === "viewer") showViewerView(arg); // web/viewer.js
+  if (view === "viewer") showViewerView(arg, sceneInfo); // web/viewer.js
   if (view === "study") loadStudies(arg);
+  if (view === "material") showMaterialView(); // web/material.js
 }
-// Every view is defined by a deferred script of its own (home.js,
-// viewer.js, …) that runs after this one: route only once all of them have
-// run. DOMContentLoaded fires after the last deferred script; a hash change
-// handled before it found `showHome` undefined (a CI run's dashboard test).
-const scriptsLoaded = new Promise((resolve) => document.addEventListener("DOMContentLoaded", resolve));
-scriptsLoaded.then(() => window.addEventListener("hashchange", showView));
+// The views of other modules (home.js, viewer.js, material.js) are
+// imported above: defined before this module runs, whatever the load order.
+window.addEventListener("hashchange", showView);
 
 // --- instrument status and events ------------------------------------------
 
 let current = null; // the measurement this page started and is following
-
-// Other scripts of the page (home.js, viewer.js) follow the same event
-// stream: one connection per page, not one per script.
-const labEventHandlers = new Map();
-function onLabEvent(names, handler) {
-  for (const name of names) {
-    if (!labEventHandlers.has(name)) labEventHandlers.set(name, []);
-    labEventHandlers.get(name).push(handler);
-  }
-}
 
 let badgeStatus = null;
 function setStatus(s) {
   badgeStatus = s;
   const b = $("instrument");
   b.className = "badge " + s.state;
-  b.textContent = instrumentBadgeText(s); // web/nav.js
+  b.textContent = instrumentBadgeText(s);
 }
 // The badge's time left counts down between samples.
 setInterval(() => { if (badgeStatus && badgeStatus.state === "measuring") setStatus(badgeStatus); }, 1000);
@@ -174,28 +60,21 @@ async function showFinished(id) {
   showComparison($("live-comparison"), m).catch((e) => notice(e.message));
 }
 
+// The page's one event stream (shared.js), for this module's views and
+// home.js's and viewer.js's.
 function follow() {
-  const es = new EventSource("/api/events");
-  for (const [name, handlers] of labEventHandlers) {
-    es.addEventListener(name, (e) => {
-      const d = JSON.parse(e.data);
-      for (const h of handlers) h(d);
-    });
-  }
-  es.addEventListener("instrument_status", (e) => setStatus(JSON.parse(e.data).status));
-  es.addEventListener("measurement_queued", () => {
+  onLabEvent(["instrument_status"], (d) => setStatus(d.status));
+  onLabEvent(["measurement_queued"], () => {
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
   });
-  es.addEventListener("measurement_started", (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["measurement_started"], (d) => {
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
     if (d.measurement_id !== current) return;
     $("progress").max = d.samples;
     $("progress").value = 0;
     $("progress-text").textContent = `measurement #${d.measurement_id}: starting`;
   });
-  es.addEventListener("sample", (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["sample"], (d) => {
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
     if (d.measurement_id !== current) return;
     const done = Math.min(d.index + 1, d.of);
@@ -205,39 +84,34 @@ function follow() {
       `measurement #${d.measurement_id}: sample ${done} of ${d.of} (code ${d.code}: ${d.message})`;
     if (d.radiance != null) refreshLiveSpectrum(true); // a bad sample, or a colorimeter's, has none
   });
-  es.addEventListener("measurement_finished", async (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["measurement_finished"], async (d) => {
     if (d.measurement_id === current) await showFinished(d.measurement_id);
     // The measurement table follows every state change (queued, cancelled, finished).
     if (location.hash.startsWith("#/measurements")) loadMeasurements();
     updateSceneProgress();
   });
   for (const name of ["render_started", "render_finished"]) {
-    es.addEventListener(name, (e) => {
-      const d = JSON.parse(e.data);
+    onLabEvent([name], (d) => {
       if (openScene === d.scene) loadSceneDetail(d.scene);
       if (name === "render_finished" && location.hash === "#/scenes") loadScenes();
       refreshComparisons(null, d.scene);
     });
   }
-  es.addEventListener("comparison_ready", (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["comparison_ready"], (d) => {
     if (openScene === d.scene) loadSceneDetail(d.scene);
     refreshComparisons(d.measurement_id);
   });
-  es.addEventListener("study_progress", (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["study_progress"], (d) => {
     studyRunning = d;
     $("study-progress").textContent = `study ${d.study_id}: ${d.message}` + studyTimeLeft(d.study_id);
     if (location.hash.startsWith("#/study")) refreshStudyEstimate(d.study_id);
   });
-  es.addEventListener("study_finished", (e) => {
-    const d = JSON.parse(e.data);
+  onLabEvent(["study_finished"], (d) => {
     studyRunning = null;
     $("study-progress").textContent = `study ${d.study_id}: ${d.ok ? "complete" : "did not complete: " + d.error}`;
     if (location.hash.startsWith("#/study")) loadStudies(String(d.study_id));
   });
-  es.onerror = () => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" });
+  followLabEvents(() => setStatus({ state: "disconnected", reason: "lost the event stream; retrying" }));
 }
 
 // A study's time left, as GET /api/jobs last extrapolated it, shown again
@@ -359,15 +233,6 @@ function stateText(m) {
   return m.partial ? `${m.state}, partial (${m.good_samples} of ${m.samples_requested})` : m.state;
 }
 
-// Local date and time of a POSIX-seconds timestamp (the API keeps seconds, UTC).
-const localTime = (t) => (t === null || t === undefined ? "" : new Date(t * 1000).toLocaleString());
-// A time after `since`: the time of day only when it is the same day.
-function laterTime(since, t) {
-  if (t === null || t === undefined) return "";
-  const a = new Date(since * 1000), b = new Date(t * 1000);
-  return a.toDateString() === b.toDateString() ? b.toLocaleTimeString() : b.toLocaleString();
-}
-
 async function cancelMeasurement(id) {
   notice("");
   try {
@@ -388,15 +253,7 @@ function measurementQuery() {
   return q.toString();
 }
 
-// The observer of lightbooth's x, y as a person reads it.
-function observerName(o) {
-  return {
-    "judd-vos-1978": "Judd–Vos 1978 2°", "cie-1931": "CIE 1931 2°", "cie-1964-10": "CIE 1964 10°",
-    "cie-2015-2": "CIE 2015 2°", "cie-2015-10": "CIE 2015 10°",
-  }[o] || "observer not recorded";
-}
-
-// The models that measure a spectrum (crates/lab/src/measure/recorder.rs SPECTRORADIOMETERS).
+// The models that measure a spectrum (lab::measure::recorder::SPECTRORADIOMETERS).
 const SPECTRORADIOMETERS = ["PR-650", "PR-655", "PR-670", "CS-2000", "CS-2000A", "CS-3000", "CR-250", "CR-300"];
 
 // What the listed x, y and Y are in: each observer named, and whose numbers
@@ -535,12 +392,6 @@ const comparisonBoxes = new Map();
 async function showComparison(box, m) {
   comparisonBoxes.set(box, m);
   box.hidden = false;
-  const el = (tag, text, cls) => {
-    const e = document.createElement(tag);
-    if (text !== undefined) e.textContent = text;
-    if (cls) e.className = cls;
-    return e;
-  };
   const heading = el("h4", "Comparison with every colour coding");
   const state = (text) => {
     const p = el("p", text, "hint");
@@ -586,7 +437,7 @@ async function showComparison(box, m) {
     return;
   }
   if (luminanceOnly) {
-    box.replaceChildren(heading, luminanceTable(rows, el), luminanceNote(rows, model, sceneLink, el));
+    box.replaceChildren(heading, luminanceTable(rows), luminanceNote(rows, model, sceneLink));
     return;
   }
   const t = document.createElement("table");
@@ -611,7 +462,7 @@ async function showComparison(box, m) {
 }
 
 // A luminance meter's comparison rows: luminances and their ratio only.
-function luminanceTable(rows, el) {
+function luminanceTable(rows) {
   const t = document.createElement("table");
   t.className = "comparison-table";
   const head = t.createTHead().insertRow();
@@ -629,7 +480,7 @@ function luminanceTable(rows, el) {
 }
 
 // What a luminance-only comparison is, under its table.
-function luminanceNote(rows, model, sceneLink, el) {
+function luminanceNote(rows, model, sceneLink) {
   const r0 = rows[0];
   const note = el("p", `${rows.length} codings of render ${r0.render_id}, in luminance only: the ${model} ` +
     `measures luminance (${observerName(r0.observer)} ȳ), no colour, so there is no x, y or ΔE; a colorimeter ` +
@@ -863,8 +714,8 @@ async function loadSceneDetail(id) {
   preview.onload = null;
   $("preview-caption").textContent = done ? "" : "No complete render of this scene yet: no camera view.";
   if (done) {
-    // Paths per pixel as the daemon chooses them (src/render/sensor.rs,
-    // preview_spp): a 20 million path budget over the pixels, 16 to 1024.
+    // Paths per pixel as the daemon chooses them (lightbooth_render::sensor::preview_spp):
+    // a 20 million path budget over the pixels, 16 to 1024.
     preview.onload = () => {
       if (openScene !== id) return;
       const key = done.result && done.result.preview && done.result.preview.log_average_cd_m2;
@@ -882,23 +733,6 @@ async function loadSceneDetail(id) {
     img.hidden = c.rows.length === 0;
     if (c.rows.length) img.src = `/api/scenes/${id}/charts/${chart}.svg?t=${t}`;
   }
-}
-
-// A button that POSTs to a job's action (cancel, retry) and then refreshes.
-function jobButton(label, path, then) {
-  const b = document.createElement("button");
-  b.textContent = label;
-  b.addEventListener("click", async (ev) => {
-    ev.stopPropagation();
-    notice("");
-    try {
-      await api(path, { method: "POST", body: "{}" });
-    } catch (e) {
-      notice(e.message);
-    }
-    then();
-  });
-  return b;
 }
 
 // The scene's renders still queued or running, each with a Cancel button.
@@ -1274,8 +1108,12 @@ async function showStudy(id) {
 
 // --- start -----------------------------------------------------------------
 
-// After the read cookie (off loopback, <img>s and the event stream need it).
-Promise.all([readCredential, scriptsLoaded]).then(() => {
+// The token from the printed URL (#token=…) opens the home page; the
+// navigation bar; then, after the read cookie (off loopback, <img>s and the
+// event stream need it), the event stream and the view the hash names.
+const readCredential = startPage({ hashAfter: "#/home" });
+showNavigation();
+readCredential.then(() => {
   follow();
   loadSceneChoices().then(() => {
     fillStudyScenes();

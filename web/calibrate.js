@@ -2,61 +2,16 @@
 // through the ordinary measurement API (with --mock, first tells the
 // simulated display what is shown), then has the daemon fit and store the
 // profile, and shows it with its charts. `#profile=ID` shows a stored one.
-"use strict";
+import { $, api, duration, el, notice, startPage, token } from "./shared.js";
+import { holdShowMeasure } from "./measure.js";
+import { showNavigation } from "./nav.js";
 
-const $ = (id) => document.getElementById(id);
-
-(function takeTokenFromUrl() {
-  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
-  if (m) {
-    localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname);
-  }
-})();
-const token = () => localStorage.getItem("lightbooth-token") || "";
-// Chart <img>s off loopback: a read-only cookie from the daemon (see app.js);
-// the write token never goes in a cookie, and an older version's is deleted.
-document.cookie = "lightbooth_token=; path=/api; max-age=0; SameSite=Strict";
-const readCredential = token()
-  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } }).catch(() => {})
-  : Promise.resolve();
-
-async function api(path, options = {}) {
-  const headers = { "Accept": "application/json" };
-  if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (token()) headers["Authorization"] = "Bearer " + token();
-  const r = await fetch(path, Object.assign({}, options, { headers }));
-  const body = r.status === 204 ? null : await r.json().catch(() => null);
-  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
-  return body;
-}
-
-function notice(text) {
-  $("notice").textContent = text;
-  $("notice").hidden = !text;
-}
-
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const css = (d) => `rgb(${d.map((v) => Math.round(v * 255)).join(",")})`;
 
 // The calibration under way: its hold on the instrument (no one else
 // measures or changes the display until it ends), its measurement, whether
-// Cancel was pressed.
-const run = { hold: null, stopRenewing: () => {}, measurementId: null, cancelled: false };
-
-// "12 s", "3 min 05 s": a duration for people.
-function duration(seconds) {
-  const s = Math.max(0, Math.round(seconds));
-  return s < 60 ? `${s} s` : `${Math.floor(s / 60)} min ${String(s % 60).padStart(2, "0")} s`;
-}
-
-// Measures the patch on the screen (web/measure.js); its id, or null when cancelled.
-async function measure(patch, samples, place) {
-  const m = await measureAndWait(api,
-    { samples, hold: run.hold, note: `display calibration “${$("name").value}”: patch ${place}, ${patch.label}` },
-    { onStarted: (id) => (run.measurementId = id), cancelled: () => run.cancelled });
-  return m && m.id;
-}
+// Cancel was pressed (web/measure.js's holdShowMeasure keeps it).
+const run = { hold: null, measurementId: null, cancelled: false };
 
 async function calibrate() {
   notice("");
@@ -64,47 +19,37 @@ async function calibrate() {
   try {
     const steps = Number($("steps").value), samples = Number($("samples").value);
     const plan = await api(`/api/display-profiles/plan?steps=${steps}`);
-    // Hold the instrument first: refused (with who or what) while anything
-    // is measuring or queued, and while held nothing else is measured.
-    const held = await api("/api/instrument/hold", {
-      method: "POST",
-      body: JSON.stringify({ purpose: `display calibration “${$("name").value}”` }),
-    });
-    run.hold = held.id;
-    // Renewed while the page is open; it expires if the page goes away.
-    run.stopRenewing = keepHold(api, held);
-    // With --mock the simulated PR-650 looks at a simulated display, which is
-    // told each colour; a daemon with a real PR-650 answers 404 here.
-    let simulated = true;
-    document.body.classList.add("calibrating");
-    if (document.documentElement.requestFullscreen) document.documentElement.requestFullscreen().catch(() => {});
-    const shown = [];
-    $("progress").max = plan.patches.length;
-    run.cancelled = false;
-    $("cancel").hidden = false;
-    const began = Date.now();
-    for (const [i, p] of plan.patches.entries()) {
-      if (run.cancelled) break;
-      $("patch").style.background = css(p.drive);
+    const name = $("name").value;
+    // Each patch full-screen, told to the simulated display with --mock (a
+    // daemon with a real instrument answers 404 there), and measured.
+    const { measured, cancelled } = await holdShowMeasure(api, {
+      purpose: `display calibration “${name}”`,
+      patches: plan.patches,
+      samples,
+      run,
+      onHeld: () => {
+        document.body.classList.add("calibrating");
+        if (document.documentElement.requestFullscreen) document.documentElement.requestFullscreen().catch(() => {});
+        $("progress").max = plan.patches.length;
+        $("cancel").hidden = false;
+      },
       // Time left: the patches still to measure at the pace of those measured.
-      const left = i ? ` · about ${duration(((Date.now() - began) / 1000 / i) * (plan.patches.length - i))} left` : "";
-      $("status").textContent = `${i + 1}/${plan.patches.length}: ${p.label} (${p.purpose})${left}`;
-      if (simulated) {
-        try {
-          await api("/api/mock/display", { method: "POST", body: JSON.stringify({ drive: p.drive, hold: run.hold }) });
-        } catch (e) {
-          if (!/no simulated display/.test(e.message)) throw e;
-          simulated = false;
-        }
-      }
-      await sleep(100); // let the monitor settle on the new colour
-      const id = await measure(p, samples, `${i + 1} of ${plan.patches.length}`);
-      if (id === null) break;
-      shown.push({ drive: p.drive, measurement_id: id });
-      $("progress").value = i + 1;
-    }
+      progress: (i, total, began) => {
+        const p = plan.patches[i];
+        const left = i ? ` · about ${duration(((Date.now() - began) / 1000 / i) * (total - i))} left` : "";
+        $("status").textContent = `${i + 1}/${total}: ${p.label} (${p.purpose})${left}`;
+        $("progress").value = i;
+      },
+      show: (p) => {
+        $("patch").style.background = css(p.drive);
+        return { display: { drive: p.drive } };
+      },
+      note: (p, i) => `display calibration “${name}”: patch ${i + 1} of ${plan.patches.length}, ${p.label}`,
+    });
+    $("progress").value = measured.length;
     $("cancel").hidden = true;
-    if (run.cancelled) {
+    const shown = measured.map(({ patch, measurement }) => ({ drive: patch.drive, measurement_id: measurement.id }));
+    if (cancelled) {
       document.body.classList.remove("calibrating");
       if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
       const ids = shown.map((x) => x.measurement_id);
@@ -116,7 +61,7 @@ async function calibrate() {
     $("status").textContent = "fitting the profile…";
     const row = await api("/api/display-profiles", {
       method: "POST",
-      body: JSON.stringify({ name: $("name").value, patches: shown }),
+      body: JSON.stringify({ name, patches: shown }),
     });
     document.body.classList.remove("calibrating");
     if (document.fullscreenElement) document.exitFullscreen().catch(() => {});
@@ -131,25 +76,12 @@ async function calibrate() {
     notice(e.message + (token() ? "" : " (open the URL the daemon printed, with #token=…, to allow measurements)"));
     $("status").textContent = "stopped";
   } finally {
-    run.stopRenewing();
-    if (run.hold !== null) {
-      await api(`/api/instrument/hold/${run.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
-      run.hold = null;
-    }
     $("start").disabled = false;
     $("cancel").hidden = true;
   }
 }
 
 const f = (v, d = 4) => Number(v).toFixed(d);
-
-// An element with text (never markup: names and notes are stored text).
-function el(tag, text, attrs = {}) {
-  const e = document.createElement(tag);
-  if (text !== undefined && text !== null) e.textContent = String(text);
-  Object.assign(e, attrs);
-  return e;
-}
 
 // A table of a header row and rows of cells, every cell text.
 function table(headers, rows) {
@@ -256,7 +188,9 @@ async function showStoredProfiles() {
 }
 
 (async function init() {
-  await readCredential;
+  const credential = startPage();
+  showNavigation();
+  await credential;
   $("start").addEventListener("click", calibrate);
   // Cancel: stops the measurement under way and fits nothing; what was measured stays stored.
   $("cancel").addEventListener("click", async () => {

@@ -14,34 +14,14 @@
 // interval over 1.5 frames is a dropped frame, and keys are timed with the
 // event's own timeStamp. Every trial is posted as it ends; the daemon says
 // which trial comes next, so a reload resumes where the session stopped.
-"use strict";
-
-const $ = (id) => document.getElementById(id);
-
-(function takeTokenFromUrl() {
-  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
-  if (m) {
-    localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname + location.search);
-  }
-})();
-const token = () => localStorage.getItem("lightbooth-token") || "";
-
-async function api(path, options = {}) {
-  const headers = { "Accept": "application/json" };
-  if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (token()) headers["Authorization"] = "Bearer " + token();
-  const r = await fetch(path, Object.assign({}, options, { headers }));
-  const body = r.status === 204 ? null : await r.json().catch(() => null);
-  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
-  return body;
-}
+import { $, api, notice, startPage } from "./shared.js";
+import { holdShowMeasure } from "./measure.js";
+import { checkProgress, ditherResolution, frames as wholeFrames, medianInterval, pieceAt, pieDiameterPx as pieDiameterPxOf,
+  TrialClock } from "./trial.js";
 
 const experimentId = Number(location.pathname.split("/")[2]);
 const KEYS = { ArrowLeft: 0, ArrowUp: 1, ArrowRight: 2 };
 const METHOD = { "8bit": 0, "noisy_bit": 1, "10bit": 2 };
-// An interval longer than this many frames is a dropped frame.
-const DROPPED = 1.5;
 
 let experiment = null;
 let view = null;
@@ -53,11 +33,6 @@ const UNVERIFIED = "This experiment's display is not verified: the colours obser
   "Press “verify the display” below (with the spectroradiometer aimed at the screen) before the first observer; " +
   "press start again to run without it.";
 
-function notice(text) {
-  $("notice").textContent = text;
-  $("notice").hidden = !text;
-}
-
 function fact(name, value) {
   const dt = document.createElement("dt");
   dt.textContent = name;
@@ -66,7 +41,8 @@ function fact(name, value) {
   $("facts").append(dt, dd);
 }
 
-const frames = (ms) => (ms <= 0 ? 0 : Math.max(1, Math.round(ms / frameMs)));
+// A duration in whole frames of the display's measured refresh (web/trial.js).
+const frames = (ms) => wholeFrames(ms, frameMs);
 
 // ---- WebGL2 ------------------------------------------------------------
 
@@ -185,10 +161,7 @@ function setUpScreen() {
   Object.assign(screen, { canvas, gl, program, texture, outputPath: path, cx, cy });
 }
 
-function pieDiameterPx() {
-  const p = view.presentation;
-  return 2 * p.viewing_distance_mm * Math.tan((p.pie_diameter_deg * Math.PI / 180) / 2) / p.pixel_pitch_mm;
-}
+const pieDiameterPx = () => pieDiameterPxOf(view.presentation);
 
 // The pie of one trial as a float texture: three 120° pieces (left, top,
 // right) with a thin gap of background between them.
@@ -204,21 +177,12 @@ function uploadPieColours(pieces) {
   const size = Math.ceil(d) + 2;
   const r = d / 2, c = size / 2, gap = Math.max(2, d * 0.02) / 2;
   const bg = view.background.linear;
-  // Pieces centred at 210° (left), 90° (top), 330° (right); boundaries at 30°, 150°, 270°.
-  const bounds = [30, 150, 270].map((a) => [Math.cos(a * Math.PI / 180), Math.sin(a * Math.PI / 180)]);
   const data = new Float32Array(size * size * 4);
   for (let j = 0; j < size; j++) {
     for (let i = 0; i < size; i++) {
-      const x = i + 0.5 - c, y = j + 0.5 - c; // y up: texture row 0 is the bottom
-      let rgb = bg;
-      if (Math.hypot(x, y) <= r) {
-        const nearBoundary = bounds.some(([bx, by]) => x * bx + y * by > 0 && Math.abs(x * by - y * bx) < gap);
-        if (!nearBoundary) {
-          const angle = (Math.atan2(y, x) * 180 / Math.PI + 360) % 360;
-          const piece = angle >= 30 && angle < 150 ? 1 : angle >= 150 && angle < 270 ? 0 : 2;
-          rgb = pieces[piece];
-        }
-      }
+      // y up: texture row 0 is the bottom. Pieces left, top, right (web/trial.js).
+      const piece = pieceAt(i + 0.5 - c, j + 0.5 - c, r, gap);
+      const rgb = piece < 0 ? bg : pieces[piece];
       data.set([rgb[0], rgb[1], rgb[2], 1], (j * size + i) * 4);
     }
   }
@@ -246,10 +210,7 @@ function measureRefresh() {
     const tick = (t) => {
       times.push(t);
       if (times.length < 121) requestAnimationFrame(tick);
-      else {
-        const d = times.slice(1).map((t2, i) => t2 - times[i]).sort((a, b) => a - b);
-        resolve(d[Math.floor(d.length / 2)]);
-      }
+      else resolve(medianInterval(times));
     };
     requestAnimationFrame(tick);
   });
@@ -270,62 +231,33 @@ function adapt(seconds) {
 }
 
 // One trial: the cross for the fixation frames, the pie for the stimulus
-// frames, then the cross until a key. Resolves with what happened.
+// frames, then the cross until a key (the frames counted by web/trial.js's
+// TrialClock). Resolves with what happened.
 function runTrial(next) {
   uploadPie(next.configuration, next.approximation_index);
-  const fixation = frames(view.presentation.fixation_ms);
-  const stimulus = frames(view.presentation.stimulus_ms);
+  const clock = new TrialClock(frames(view.presentation.fixation_ms), frames(view.presentation.stimulus_ms), frameMs);
   return new Promise((resolve) => {
-    let frame = 0, last = null, previousPie = false;
-    let onsetCallback = false, onset = null, shown = 0, dropped = 0, droppedInStimulus = false, response = null;
-    const intervals = [];
+    let response = null;
     const onKey = (e) => {
       if (!(e.key in KEYS)) return;
       e.preventDefault();
-      // Before the pie's first frame reached the screen: ignored (the daemon
-      // refuses a reaction time of 0 or less as no response to the pie).
-      if (onset === null || e.timeStamp <= onset) return;
+      // Before the pie's first frame reached the screen: ignored.
+      if (!clock.accepts(e.timeStamp)) return;
       if (response === null) response = { key: KEYS[e.key], at: e.timeStamp };
     };
     addEventListener("keydown", onKey);
     const tick = (now) => {
-      if (last !== null) {
-        const dt = now - last;
-        intervals.push(Math.round(dt * 1000) / 1000);
-        if (dt > DROPPED * frameMs) {
-          dropped++;
-          if (previousPie) droppedInStimulus = true;
-        }
-      }
-      last = now;
-      // The callback after the pie's first draw runs when that frame reached the screen.
-      if (onsetCallback && onset === null) {
-        onset = now;
-        // From now on a key answers this trial (an observer script waits for it).
-        document.body.dataset.pieOnScreen = String(next.position);
-      }
-      const pie = frame >= fixation && frame < fixation + stimulus;
-      if (pie && shown === 0) {
-        onsetCallback = true;
-        // Which trial's pie has been drawn: an observer script (the browser
-        // test) answers once it is, however late it looks.
-        document.body.dataset.pieShown = String(next.position);
-      }
-      if (pie !== previousPie || frame === 0) document.body.dataset.phase = pie ? "pie" : "cross";
-      draw(pie, !pie);
-      if (pie) shown++;
-      previousPie = pie;
-      frame++;
-      if (response !== null && frame > fixation + stimulus && onset !== null) {
+      const frame = clock.tick(now);
+      // From now on a key answers this trial (an observer script waits for it).
+      if (frame.onset) document.body.dataset.pieOnScreen = String(next.position);
+      // Which trial's pie has been drawn: an observer script (the browser
+      // test) answers once it is, however late it looks.
+      if (frame.firstPie) document.body.dataset.pieShown = String(next.position);
+      if (frame.changed) document.body.dataset.phase = frame.pie ? "pie" : "cross";
+      draw(frame.pie, !frame.pie);
+      if (response !== null && clock.over) {
         removeEventListener("keydown", onKey);
-        resolve({
-          response: response.key,
-          reaction_ms: response.at - onset,
-          stimulus_frames: shown,
-          dropped_frames: dropped,
-          dropped_in_stimulus: droppedInStimulus,
-          frame_intervals_ms: intervals,
-        });
+        resolve(clock.result(response.key, response.at));
       } else {
         requestAnimationFrame(tick);
       }
@@ -422,56 +354,27 @@ function showPatch(linear, geometry, readback) {
   return { counted, stop: () => { running = false; gl.uniform3fv(screen.u.background, view.background.linear); } };
 }
 
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
 // The display check under way (verification or test patch): its hold on
 // the instrument (while held, no other measurement is taken and nobody else
 // changes the display), the measurement under way, and whether Esc asked
-// it to stop.
+// it to stop (web/measure.js's holdShowMeasure keeps it).
 const check = { hold: null, measurementId: null, cancelled: false };
 
-// Holds the instrument for `purpose`, runs `work`, and releases the hold
-// however `work` ends. Refused (naming who or what) while anything else is
-// measuring or queued.
-async function holdingTheInstrument(purpose, work) {
-  const held = await api("/api/instrument/hold", { method: "POST", body: JSON.stringify({ purpose }) });
-  check.hold = held.id;
-  check.cancelled = false;
-  check.measurementId = null;
-  // Renewed while the page is open; it expires if the page goes away.
-  const stopRenewing = keepHold(api, held);
-  try {
-    return await work();
-  } finally {
-    stopRenewing();
-    await api(`/api/instrument/hold/${check.hold}/release`, { method: "POST", body: "{}" }).catch(() => {});
-    check.hold = null;
-  }
-}
-
-// Shows one patch and measures it; with the simulated display, tells it
-// what was drawn first. Returns the complete measurement, or null when Esc
-// cancelled it (what was measured stays stored).
-async function showAndMeasure(linear, geometry, samples, note, simulated) {
-  const shown = showPatch(linear, geometry, simulated.yes);
-  try {
-    const codes = await shown.counted;
-    if (codes) {
-      try {
-        await api("/api/mock/display", { method: "POST", body: JSON.stringify({ ...codes, hold: check.hold }) });
-      } catch (e) {
-        if (!/no simulated display/.test(e.message)) throw e;
-        simulated.yes = false; // a real instrument looks at the real screen
-      }
-    }
-    await sleep(100); // let the monitor settle on the new colour
-    if (check.cancelled) return null;
-    return await measureAndWait(api, { samples, note, hold: check.hold },
-      { onStarted: (id) => (check.measurementId = id), cancelled: () => check.cancelled });
-  } finally {
-    check.measurementId = null;
-    shown.stop();
-  }
+// Holds the instrument for `purpose` and shows and measures each of
+// `patches` ({ linear, geometry, note }) through the trials' drawing path;
+// with the simulated display, tells it the codes this page drew in the
+// instrument's spot first. `onHeld` begins the screen; `progress(i, total,
+// began)` writes the corner text. Returns web/measure.js's { measured,
+// cancelled, simulated }.
+function measureOnScreen(purpose, patches, samples, { onHeld, progress = () => {} }) {
+  return holdShowMeasure(api, {
+    purpose, patches, samples, run: check, onHeld, progress,
+    show: (p, i, simulated) => {
+      const shown = showPatch(p.linear, p.geometry, simulated);
+      return { display: shown.counted, stop: shown.stop };
+    },
+    note: (p) => p.note,
+  });
 }
 
 // Esc during a display check: the measurement under way is cancelled, no
@@ -483,16 +386,6 @@ async function cancelCheck() {
   if (check.measurementId !== null) {
     await api(`/api/measurements/${check.measurementId}/cancel`, { method: "POST", body: "{}" }).catch(() => {});
   }
-}
-
-// "patch 3 of 9 · about 40 s left at the pace of the 2 measured": the time
-// left only once a patch has been measured, from this check's own pace.
-function checkProgress(done, total, began) {
-  if (done === 0) return `patch 1 of ${total}`;
-  const perPatch = (Date.now() - began) / 1000 / done;
-  const left = Math.round(perPatch * (total - done));
-  const measured = done === 1 ? "the 1 measured" : `the ${done} measured`;
-  return `patch ${done + 1} of ${total} · about ${left} s left at the pace of ${measured}`;
 }
 
 // The corner text (#hud) belongs to the check that writes it: every screen
@@ -515,7 +408,6 @@ async function verify() {
   notice("");
   $("verify").disabled = $("start").disabled = true;
   const samples = Number($("verify-samples").value);
-  const simulated = { yes: true };
   try {
     view = await verificationView();
     const colours = [view.original, ...view.approximations, view.background];
@@ -523,35 +415,36 @@ async function verify() {
     // background itself, so the background is not shown as a pie).
     const plan = [];
     for (const geometry of ["full_field", "pie"]) {
-      for (const c of colours) if (!(geometry === "pie" && c.name === "background")) plan.push({ c, geometry });
+      for (const c of colours) {
+        if (geometry === "pie" && c.name === "background") continue;
+        const where = geometry.replace("_", " ");
+        plan.push({ c, geometry, where, linear: c.linear, note: `experiment ${experimentId} verification: ${c.name}, ${where}` });
+      }
     }
     // The daemon verifies only patches measured under a hold of exactly
     // this purpose (lab::experiments::verification::hold_purpose).
-    const patches = await holdingTheInstrument(`verification of experiment ${experimentId}`, async () => {
-      beginScreen();
-      document.body.dataset.state = "verifying";
-      const measured = [];
-      const began = Date.now();
-      for (const { c, geometry } of plan) {
-        const where = geometry.replace("_", " ");
-        $("hud").textContent = `verifying ${c.name} (${where}): ${checkProgress(measured.length, plan.length, began)} · Esc cancels`;
-        const m = await showAndMeasure(c.linear, geometry, samples,
-          `experiment ${experimentId} verification: ${c.name}, ${where}`, simulated);
-        if (m === null) return null;
-        measured.push({ colour: c.name, geometry, measurement_id: m.id });
-      }
-      return measured;
+    const { measured, cancelled, simulated } = await measureOnScreen(`verification of experiment ${experimentId}`, plan, samples, {
+      onHeld: () => {
+        beginScreen();
+        document.body.dataset.state = "verifying";
+      },
+      progress: (i, total, began) => {
+        const { c, where } = plan[i];
+        $("hud").textContent = `verifying ${c.name} (${where}): ${checkProgress(i, total, began)} · Esc cancels`;
+      },
     });
     endScreen();
-    if (patches === null) {
+    if (cancelled) {
       notice(`verification cancelled: nothing was stored as a verification; the patches measured before Esc stay ` +
         `stored as measurements. Press “verify the display” to start again.`);
       document.body.dataset.verificationCancelled = "yes";
       return;
     }
+    const patches = measured.map(({ patch, measurement }) =>
+      ({ colour: patch.c.name, geometry: patch.geometry, measurement_id: measurement.id }));
     const v = await api(`/api/experiments/${experimentId}/verifications`, {
       method: "POST",
-      body: JSON.stringify({ patches, client: `${navigator.userAgent}; ${screen.outputPath}` + (simulated.yes ? "; simulated display" : "") }),
+      body: JSON.stringify({ patches, client: `${navigator.userAgent}; ${screen.outputPath}` + (simulated ? "; simulated display" : "") }),
     });
     showVerification(v);
   } catch (e) {
@@ -575,23 +468,26 @@ async function testPatch() {
     return;
   }
   $("test-patch").disabled = true;
-  const simulated = { yes: true };
   try {
     view = await verificationView();
-    const m = await holdingTheInstrument(`test patch of experiment ${experimentId}`, async () => {
-      beginScreen();
-      document.body.dataset.state = "verifying";
-      $("hud").textContent = `test patch: code ${code.toFixed(2)} · Esc cancels`;
-      // γ = 1: the drive is the linear value, so the code drawn is exactly `code`.
-      screen.gl.uniform3fv(screen.u.inverseGamma, [1, 1, 1]);
-      return showAndMeasure([code / 255, code / 255, code / 255], "full_field", Number($("verify-samples").value),
-        `test patch: code ${code.toFixed(2)} on every gun, ${view.output}`, simulated);
-    });
+    const patch = { linear: [code / 255, code / 255, code / 255], geometry: "full_field",
+      note: `test patch: code ${code.toFixed(2)} on every gun, ${view.output}` };
+    const { measured, cancelled } = await measureOnScreen(`test patch of experiment ${experimentId}`, [patch],
+      Number($("verify-samples").value), {
+        onHeld: () => {
+          beginScreen();
+          document.body.dataset.state = "verifying";
+          $("hud").textContent = `test patch: code ${code.toFixed(2)} · Esc cancels`;
+          // γ = 1: the drive is the linear value, so the code drawn is exactly `code`.
+          screen.gl.uniform3fv(screen.u.inverseGamma, [1, 1, 1]);
+        },
+      });
     endScreen();
-    if (m === null) {
+    if (cancelled || !measured.length) {
       notice("test patch cancelled");
       return;
     }
+    const m = measured[0].measurement;
     $("test-result").textContent = `code ${code.toFixed(2)} (${view.output}): measurement ${m.id}, ` +
       `${m.luminance_cd_m2 === undefined ? "" : Number(m.luminance_cd_m2).toFixed(4) + " cd/m²"}`;
     document.body.dataset.testMeasurement = String(m.id);
@@ -645,11 +541,9 @@ function describe() {
 function outputWords(hz) {
   if (view.output === "8bit") return "8 bits per gun, each colour rounded to its nearest code";
   if (view.output === "10bit") return "10 bits per gun (float16 drawing buffer)";
-  const r = pieDiameterPx() / 2;
-  const n = Math.PI * r * r / 3 * (hz ? frames(view.presentation.stimulus_ms) : 18);
-  const step = 3 * Math.SQRT2 * 0.5 / Math.sqrt(n);
+  const { step, bits } = ditherResolution(pieDiameterPx(), hz ? frames(view.presentation.stimulus_ms) : 18);
   return `noisy-bit dithering of 8-bit codes (Allard & Faubert 2008): the mean of a piece over the pie's frames ` +
-    `resolves ${step.toFixed(4)} of a code, about ${(8 + Math.log2(1 / step)).toFixed(1)} bits`;
+    `resolves ${step.toFixed(4)} of a code, about ${bits.toFixed(1)} bits`;
 }
 
 async function load() {
@@ -726,4 +620,5 @@ addEventListener("keydown", (e) => {
 $("start").addEventListener("click", start);
 $("verify").addEventListener("click", verify);
 $("test-patch").addEventListener("click", testPatch);
-const loaded = load();
+// The read cookie is asked (and a refused token said) before the experiment is read.
+const loaded = startPage().then(load);

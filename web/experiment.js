@@ -3,44 +3,8 @@
 // at 8 bits and with the output method, out of gamut, not distinct) before
 // anyone is run, follow its sessions, and read the results (percent
 // correct, d′ under both models, the study's Fig. 5 right).
-"use strict";
-
-const $ = (id) => document.getElementById(id);
-
-(function takeTokenFromUrl() {
-  const m = location.hash.match(/token=([0-9A-Za-z_-]+)/);
-  if (m) {
-    localStorage.setItem("lightbooth-token", m[1]);
-    history.replaceState(null, "", location.pathname + location.search);
-  }
-})();
-const token = () => localStorage.getItem("lightbooth-token") || "";
-// Chart <img>s off loopback read with the daemon's read-only cookie (see app.js).
-const readCredential = token()
-  ? fetch("/api/read-cookie", { method: "POST", headers: { "Authorization": "Bearer " + token() } }).catch(() => {})
-  : Promise.resolve();
-
-async function api(path, options = {}) {
-  const headers = { "Accept": "application/json" };
-  if (options.body !== undefined) headers["Content-Type"] = "application/json";
-  if (token()) headers["Authorization"] = "Bearer " + token();
-  const r = await fetch(path, Object.assign({}, options, { headers }));
-  const body = r.status === 204 ? null : await r.json().catch(() => null);
-  if (!r.ok) throw new Error(body && body.error ? body.error.message : r.statusText);
-  return body;
-}
-
-function notice(text) {
-  $("notice").textContent = text;
-  $("notice").hidden = !text;
-}
-
-function el(tag, text, cls) {
-  const e = document.createElement(tag);
-  if (text !== undefined) e.textContent = text;
-  if (cls) e.className = cls;
-  return e;
-}
+import { $, api, el, localTime, notice, startPage } from "./shared.js";
+import { showNavigation } from "./nav.js";
 
 function row(cells) {
   const tr = el("tr");
@@ -58,7 +22,7 @@ function row(cells) {
   return tr;
 }
 
-const when = (t) => new Date(t * 1000).toLocaleString();
+const when = localTime;
 const codes = (c) => `(${c.join(", ")})`;
 const yesNo = (v) => ({ text: v ? "yes" : "no", cls: v ? "yes" : "no" });
 
@@ -389,6 +353,9 @@ function thresholdTable(analysis) {
   return wrap;
 }
 
+// Chart <img>s off loopback read with the daemon's read-only cookie (startPage).
+const readCredential = startPage();
+showNavigation();
 const parts = location.pathname.split("/").filter(Boolean);
 const detailId = parts.length >= 2 ? Number(parts[1]) : null;
 (detailId ? loadDetail(detailId) : loadSetup()).catch((e) => notice(e.message));

@@ -2,9 +2,8 @@
 // way (samples, time left, Cancel), the queue of every job of this booth
 // from any page or client (GET /api/jobs), the booth and the observer, and
 // what to do next (targets not yet measured, the display profile's age).
-// Uses `$`, `api`, `fmt`, `notice`, `observerName`, `localTime`,
-// `onLabEvent` and `jobButton` from app.js.
-"use strict";
+// app.js shows it (showHome) when the hash names it.
+import { $, api, duration, fmt, jobButton, laterTime, localTime, notice, observerName, onLabEvent } from "./shared.js";
 
 // A display profile older than this is called stale on the home page (CRT
 // phosphors and LCD backlights drift; labs recalibrate weekly).
@@ -320,8 +319,8 @@ onLabEvent(["study_progress", "render_progress", "image_progress"], () => {
 });
 let homeProgressThrottle = null;
 
-// Called by app.js's showView.
-function showHome() {
+/** Shows the home view and keeps its times counting; app.js's showView calls it. */
+export function showHome() {
   loadHome().catch((e) => notice(e.message));
   clearInterval(homeTimer);
   homeTimer = setInterval(() => {

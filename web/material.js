@@ -1,7 +1,8 @@
 // The "measure a material" view: measure the white standard, then the sample
 // in the same geometry, then save the reflectance (POST /api/reflectances).
-// Uses app.js's helpers ($, api, notice, fmt); the chart is the daemon's SVG.
-"use strict";
+// The chart is the daemon's SVG. app.js shows it (showMaterialView) when the
+// hash names it.
+import { $, api, fmt, notice } from "./shared.js";
 
 let materialScenes = [];
 
@@ -13,7 +14,8 @@ function fillMaterialTargets(sceneSel, targetSel, preferred) {
   if (s && s.targets.includes(preferred)) sel.value = preferred;
 }
 
-async function loadMaterialView() {
+/** The Material view: its scene and target choices once, and the stored reflectances. */
+export async function showMaterialView() {
   if (!materialScenes.length) {
     try {
       materialScenes = await api("/api/scenes");
@@ -162,9 +164,3 @@ async function loadReflectances() {
     body.appendChild(tr);
   }
 }
-
-function materialViewShown() {
-  if ((location.hash || "").startsWith("#/material")) loadMaterialView();
-}
-window.addEventListener("hashchange", materialViewShown);
-materialViewShown();

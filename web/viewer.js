@@ -1,10 +1,9 @@
 // The image viewer (#/viewer/SCENE): camera images of the scene's newest
-// complete render in any coding (src/daemon/images.rs), a pixel probe with
+// complete render in any coding (lab::images), a pixel probe with
 // the pixel's channels ± SE charted by the daemon, and the per-pixel ΔE00
-// map between two codings with its scale bar. Uses `$`, `api`, `fmt`,
-// `duration`, `notice`, `onLabEvent`, `sceneInfo` and `observerName` from
-// app.js; app.js calls showViewerView.
-"use strict";
+// map between two codings with its scale bar. app.js shows it
+// (showViewerView) when the hash names it.
+import { $, api, duration, fmt, luminanceScale, notice, observerName, onLabEvent } from "./shared.js";
 
 let viewerRender = null; // the render whose images are shown
 let viewerShown = null; // ImageInfo of the image on screen
@@ -26,8 +25,9 @@ onLabEvent(["image_progress"], (p) => {
 });
 onLabEvent(["image_finished"], () => viewerWake.splice(0).forEach((f) => f()));
 
-// The Viewer view: pick a scene; its newest complete render's images.
-async function showViewerView(sceneId) {
+/** The Viewer view: pick a scene of `sceneInfo` (GET /api/scenes); its
+ * newest complete render's images. */
+export async function showViewerView(sceneId, sceneInfo) {
   const select = $("viewer-scene");
   if (!select.options.length) {
     for (const s of sceneInfo) select.add(new Option(`${s.title} (${s.id})`, s.id));

@@ -20,28 +20,46 @@ use axum::Router;
 use super::AppState;
 
 const INDEX: &str = include_str!("../../web/index.html");
-const APP_JS: &str = include_str!("../../web/app.js");
-/// The "measure a material" view (reflectance against a white standard).
-const MATERIAL_JS: &str = include_str!("../../web/material.js");
-const VIEWER_JS: &str = include_str!("../../web/viewer.js");
-/// The home page: the instrument, the queue, the booth, what to do next.
-const HOME_JS: &str = include_str!("../../web/home.js");
-/// Measuring what a page shows and waiting for it (calibration, experiment sessions).
-const MEASURE_JS: &str = include_str!("../../web/measure.js");
-/// The navigation bar every page shares.
-const NAV_JS: &str = include_str!("../../web/nav.js");
-const STYLE: &str = include_str!("../../web/style.css");
 /// The pages' icon, also answered for `/favicon.ico` (browsers ask for it).
 const FAVICON_SVG: &str = include_str!("../../web/favicon.svg");
 /// The display calibration page, opened full-screen on the stimulus monitor.
 const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
-const CALIBRATE_JS: &str = include_str!("../../web/calibrate.js");
 /// Experiments: set one up, its colours on the display, its results.
 const EXPERIMENT_HTML: &str = include_str!("../../web/experiment.html");
-const EXPERIMENT_JS: &str = include_str!("../../web/experiment.js");
 /// An experiment's session, full-screen on the stimulus display.
 const EXPERIMENT_RUN_HTML: &str = include_str!("../../web/experiment-run.html");
-const EXPERIMENT_RUN_JS: &str = include_str!("../../web/experiment-run.js");
+
+/// The pages' scripts and style sheet, each served at its path. The
+/// scripts are ES modules (`<script type="module">`, `import … from
+/// "./shared.js"`), served as `text/javascript`: a browser refuses a module
+/// of another type (and, with `nosniff`, any script). Each page loads one
+/// entry module (the index `app.js`, `calibrate.js`, `experiment.js`,
+/// `experiment-run.js`), which imports the rest; `script-src 'self'` allows
+/// them all.
+const FILES: [(&str, &str); 12] = [
+    // The index page's entry: Live, Measurements, Scenes, Study; routes the views.
+    ("/app.js", include_str!("../../web/app.js")),
+    // The home page: the instrument, the queue, the booth, what to do next.
+    ("/home.js", include_str!("../../web/home.js")),
+    // The "measure a material" view (reflectance against a white standard).
+    ("/material.js", include_str!("../../web/material.js")),
+    // The image viewer view.
+    ("/viewer.js", include_str!("../../web/viewer.js")),
+    // The navigation bar and instrument badge every page shares.
+    ("/nav.js", include_str!("../../web/nav.js")),
+    // What every page shares: `$`, the token, `api`, the notice, the read
+    // cookie, the event stream, and the pure formatting helpers.
+    ("/shared.js", include_str!("../../web/shared.js")),
+    // Measuring what a page shows under an instrument hold (calibration,
+    // experiment sessions).
+    ("/measure.js", include_str!("../../web/measure.js")),
+    // A session's timing and geometry arithmetic (frames, the pie).
+    ("/trial.js", include_str!("../../web/trial.js")),
+    ("/calibrate.js", include_str!("../../web/calibrate.js")),
+    ("/experiment.js", include_str!("../../web/experiment.js")),
+    ("/experiment-run.js", include_str!("../../web/experiment-run.js")),
+    ("/style.css", include_str!("../../web/style.css")),
+];
 
 /// MATLAB examples, served under `/matlab/`, each with its GNU Octave
 /// version (`*_octave.m`, run by `tests/api/octave_examples.rs`).
@@ -104,67 +122,33 @@ pub async fn security_headers(mut response: Response) -> Response {
     response
 }
 
+/// The `Content-Type` of a file of [`FILES`], by its extension.
+fn content_type(path: &str) -> &'static str {
+    if path.ends_with(".css") {
+        "text/css; charset=utf-8"
+    } else {
+        "text/javascript; charset=utf-8"
+    }
+}
+
 pub fn router() -> Router<AppState> {
-    Router::new()
+    let mut router = Router::new()
         .route("/", get(|| async { Html(INDEX) }))
         .route("/favicon.svg", get(favicon))
         .route("/favicon.ico", get(favicon))
-        .route(
-            "/app.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], APP_JS) }),
-        )
-        .route(
-            "/material.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MATERIAL_JS) }),
-        )
-        .route(
-            "/home.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], HOME_JS) }),
-        )
-        .route(
-            "/nav.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], NAV_JS) }),
-        )
-        .route(
-            "/measure.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], MEASURE_JS) }),
-        )
-        .route(
-            "/viewer.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], VIEWER_JS) }),
-        )
-        .route(
-            "/style.css",
-            get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }),
-        )
         .route("/calibrate", get(|| async { Html(CALIBRATE_HTML) }))
-        .route(
-            "/calibrate.js",
-            get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], CALIBRATE_JS) }),
-        )
         .route("/experiment", get(|| async { Html(EXPERIMENT_HTML) }))
         .route("/experiment/{id}", get(|| async { Html(EXPERIMENT_HTML) }))
         .route("/experiment/{id}/run", get(|| async { Html(EXPERIMENT_RUN_HTML) }))
-        .route(
-            "/experiment.js",
-            get(|| async {
-                (
-                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
-                    EXPERIMENT_JS,
-                )
-            }),
-        )
-        .route(
-            "/experiment-run.js",
-            get(|| async {
-                (
-                    [(header::CONTENT_TYPE, "text/javascript; charset=utf-8")],
-                    EXPERIMENT_RUN_JS,
-                )
-            }),
-        )
         .route("/matlab/", get(matlab_index))
-        .route("/matlab/{file}", get(matlab_file))
+        .route("/matlab/{file}", get(matlab_file));
+    for (path, body) in FILES {
+        router = router.route(
+            path,
+            get(move || async move { ([(header::CONTENT_TYPE, content_type(path))], body) }),
+        );
+    }
+    router
 }
 
 async fn favicon() -> impl IntoResponse {

@@ -1,8 +1,10 @@
 // Issue 25's "done means": after the dashboard test has measured, compared
 // and studied, calibrate the display from its page, then open every page
 // from the one navigation bar, as a newcomer would, and save a screenshot of
-// each (page-<name>.png). The caller's page listeners fail the run on any
-// console error, failed request or HTTP error on any of them.
+// each (page-<name>.png). The caller's harness.mjs watch(page, failures)
+// fails the run on any console error, page error, failed request or HTTP
+// error on any of them: a page module that does not load (a missing file,
+// a type other than JavaScript, an import of a name not exported) is one.
 //
 // Used by dashboard.mjs (one daemon, one history): visitEveryPage(page, base, shots, failures).
 

@@ -1,11 +1,16 @@
 // The browser tests' one harness (issue 47: each of the 13 scripts copied
-// the same launch preamble and ending). Every script runs Debian's headless
-// Chromium (or $CHROMIUM) through playwright-core, as a newcomer's browser:
+// the same launch preamble, page listeners and ending). Every script runs
+// Debian's headless Chromium (or $CHROMIUM) through playwright-core, as a
+// newcomer's browser:
 //
-//   import { launch, finish } from "./harness.mjs";
+//   import { finish, launch, watch } from "./harness.mjs";
 //   const browser = await launch();            // or launch({ webgl: true })
 //   const failures = [];
-//   try { … failures.push("what went wrong") … } finally { await browser.close(); }
+//   try {
+//     const page = await browser.newPage();
+//     watch(page, failures);                   // console errors, page errors, failed requests, HTTP errors
+//     … failures.push("what went wrong") …
+//   } finally { await browser.close(); }
 //   finish(failures, "what passed");
 import { chromium } from "playwright-core";
 
@@ -21,6 +26,21 @@ export function launch({ webgl = false } = {}) {
     args: ["--no-sandbox", ...gpu, "--disable-quic", "--no-first-run", "--disable-background-networking",
       "--disable-component-update", "--disable-sync"],
   });
+}
+
+/** Fails the run (pushes to `failures`) on anything a page does wrong: a
+ * console error (a module that does not load, wrong MIME type or missing
+ * file, is one), an uncaught error (an import of a name a module does not
+ * export is one), a failed request other than an aborted one (a chart
+ * <img> whose source is replaced while loading is aborted on purpose), and
+ * any HTTP status of 400 or more. */
+export function watch(page, failures) {
+  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
+  page.on("pageerror", (e) => failures.push("page error: " + e.message));
+  page.on("requestfailed", (r) => {
+    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
+  });
+  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
 }
 
 /** Ends a script: every failure on stderr and exit status 1, or `passed`

@@ -6,7 +6,7 @@
 // failed request or HTTP error; saves measurement-luminance.png.
 //
 // Usage: node luminance_comparison.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { launch, finish } from "./harness.mjs";
+import { finish, launch, watch } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -22,12 +22,7 @@ try {
   const rows = await (await fetch(`${base}/api/measurements/${newest.id}/luminance-comparisons`)).json();
 
   const page = await browser.newPage({ viewport: { width: 1300, height: 900 } });
-  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
-  page.on("pageerror", (e) => failures.push("page error: " + e.message));
-  page.on("requestfailed", (r) => {
-    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
-  });
-  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  watch(page, failures);
 
   await page.goto(`${base}/#/measurements/${newest.id}`);
   await page.waitForSelector("#detail-comparison [data-luminance-only]", { timeout: 15000 });

@@ -10,7 +10,7 @@
 // error, failed request or HTTP error; saves screenshots.
 //
 // Usage: node measurement_views.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { launch, finish } from "./harness.mjs";
+import { finish, launch, watch } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -31,12 +31,7 @@ const tableRows = (page, selector) => page.$$eval(`${selector} table tbody tr`,
   (trs) => trs.map((tr) => [...tr.cells].map((c) => c.textContent)));
 try {
   const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
-  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
-  page.on("pageerror", (e) => failures.push("page error: " + e.message));
-  page.on("requestfailed", (r) => {
-    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
-  });
-  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  watch(page, failures);
 
   await page.goto(`${base}/#token=${token}`);
   await page.goto(`${base}/#/live`);

@@ -8,7 +8,7 @@
 // console error.
 //
 // Usage: node off_loopback.mjs BASE_URL TOKEN [SCREENSHOT_DIR]
-import { launch, finish } from "./harness.mjs";
+import { finish, launch, watch } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -20,12 +20,7 @@ const browser = await launch();
 const failures = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1300, height: 1000 } });
-  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
-  page.on("pageerror", (e) => failures.push("page error: " + e.message));
-  page.on("requestfailed", (r) => {
-    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
-  });
-  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  watch(page, failures);
   // Every Set-Cookie the daemon sends, to check none carries the write token.
   const setCookies = [];
   page.on("response", (r) => setCookies.push(r.allHeaders().then((h) => [r.url(), h["set-cookie"] || ""]).catch(() => ["", ""])));

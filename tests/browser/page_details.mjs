@@ -5,7 +5,11 @@
 // started without the write token) is readable: its text against its
 // background has a WCAG contrast ratio of at least 4.5 (it was white on
 // pink); the pages ask for no icon that is not there. Saves a screenshot
-// of the notice (calibrate-error.png).
+// of the notice (calibrate-error.png). A token the daemon refuses (another
+// daemon's, or this one's previous run's) is said on every page, with what
+// to do: the read cookie's refusal was shown on the index, swallowed on
+// Calibrate and Experiment and never asked on a session page (issue 47);
+// saves stale-token.png.
 //
 // Usage: node page_details.mjs BASE_URL TOKEN SCREENSHOT_DIR
 import { launch, finish } from "./harness.mjs";
@@ -67,6 +71,22 @@ try {
   if (shots) await page.screenshot({ path: `${shots}/calibrate-error.png` });
   // The only refusal is the write without a token, and every icon is there.
   for (const e of httpErrors) if (!/HTTP 401/.test(e)) failures.push(e);
+
+  // A stale token: each page asks the read cookie with it, is refused, and says so.
+  const stale = await browser.newPage({ viewport: { width: 1300, height: 900 } });
+  stale.on("pageerror", (e) => failures.push("page error: " + e.message));
+  for (const path of ["/", "/calibrate", "/experiment", "/experiment/1/run"]) {
+    await stale.goto(`${base}${path}#token=stale-token-of-another-run-0123456789`);
+    const shown = await stale.waitForFunction(() => {
+      const n = document.getElementById("notice");
+      return !n.hidden && /refused this page's token \(HTTP 401\).*open the URL the daemon printed/.test(n.textContent);
+    }, null, { timeout: 15000 }).then(() => true, () => false);
+    if (!shown) {
+      const n = await stale.$eval("#notice", (n) => (n.hidden ? "(hidden)" : n.textContent)).catch((e) => e.message);
+      failures.push(`${path} with a refused token does not say so: notice ${JSON.stringify(n)}`);
+    }
+    if (shots && path === "/calibrate") await stale.screenshot({ path: `${shots}/stale-token.png` });
+  }
 } catch (e) {
   failures.push("error: " + e.message);
 } finally {

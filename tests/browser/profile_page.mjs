@@ -5,7 +5,7 @@
 // error; saves calibrate-profile-<kind>.png.
 //
 // Usage: node profile_page.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { launch, finish } from "./harness.mjs";
+import { finish, launch, watch } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -23,12 +23,7 @@ try {
   const expect = { luminance: "luminance meter: γ per channel only", xyz: "XYZ by a colorimeter", spectra: "spectra" }[kind];
 
   const page = await browser.newPage({ viewport: { width: 1300, height: 900 } });
-  page.on("console", (m) => { if (m.type() === "error") failures.push("console error: " + m.text()); });
-  page.on("pageerror", (e) => failures.push("page error: " + e.message));
-  page.on("requestfailed", (r) => {
-    if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
-  });
-  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  watch(page, failures);
 
   await page.goto(`${base}/calibrate#profile=${newest.id}`);
   await page.waitForSelector("#measured-as", { timeout: 15000 });
