@@ -341,6 +341,8 @@ async fn every_answer_carries_a_policy_that_forbids_inline_script_and_no_page_wr
         "/viewer.js",
         "/nav.js",
         "/measure.js",
+        "/shared.js",
+        "/trial.js",
         "/calibrate.js",
         "/experiment.js",
         "/experiment-run.js",

@@ -135,7 +135,7 @@ pub struct TrialReport {
 const INTERVAL_ROUNDING_MS: f64 = 0.001;
 
 /// Checks a trial against its own frame intervals and the refresh its page
-/// measured (`frame_ms`), with the page's rules (`web/experiment-run.js`):
+/// measured (`frame_ms`), with the page's rules (`web/trial.js`):
 /// the cross for the fixation's frames, the pie for the stimulus's, an
 /// interval over 1.5 frames dropped; the reaction time runs from the pie's
 /// first frame on screen. What contradicts itself is refused, naming the
