@@ -37,7 +37,7 @@ use lightbooth::store::{now, Booth, Store};
 use sqlx::Connection;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 
 /// The booths the measurements are spread over, round robin.
 const BOOTHS: [&str; 3] = ["north", "south", "east"];
@@ -374,7 +374,7 @@ fn main() {
             port: "-".into(),
         });
         let shutting_down = tokio_util::sync::CancellationToken::new();
-        let events = broadcast::channel(16).0;
+        let events = lightbooth::lab::events::EventSink::bus(16);
         let instrument = lightbooth::lab::measure::booth_instrument::BoothInstrument::new(
             store.clone(),
             jobs,

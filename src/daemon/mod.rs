@@ -28,7 +28,6 @@ use std::time::Duration;
 
 use anyhow::Context;
 use tokio::net::TcpListener;
-use tokio::sync::broadcast;
 
 use crate::colorimetry::Observer;
 use crate::http::{self, auth, AppState, ServiceConfig};
@@ -116,7 +115,7 @@ pub async fn run(
         .await
         .with_context(|| format!("opening the database {}", options.db_url))?
         .with_observer(options.observer);
-    let (events, _) = broadcast::channel(1024);
+    let events = crate::lab::events::EventSink::bus(1024);
     // From here on every measurement, render and study this daemon creates
     // or runs names it, and its lease says it is alive; its heartbeat tells
     // the event clients of the gone daemons' work it interrupts.

@@ -35,12 +35,11 @@ use std::sync::Arc;
 use axum::extract::DefaultBodyLimit;
 use axum::Router;
 use tokio::net::TcpListener;
-use tokio::sync::broadcast;
 use tokio_util::sync::CancellationToken;
 
 pub use limits::ServeLimits;
 
-use crate::lab::events::Event;
+use crate::lab::events::EventSink;
 use crate::lab::measure::queue::MockControl;
 use crate::lab::LabHandle;
 
@@ -71,7 +70,7 @@ pub struct AppState {
     pub config: Arc<ServiceConfig>,
     /// Everything that happens, for `/api/events`. Lagging subscribers miss
     /// events (and are told so) rather than slowing the daemon.
-    pub events: broadcast::Sender<Event>,
+    pub events: EventSink,
     /// The simulated PR-650, when the daemon runs one.
     pub mock: Option<Arc<dyn MockControl>>,
     /// Turns true when the daemon shuts down: endless responses (the event

@@ -21,13 +21,16 @@ pub async fn stream(State(state): State<AppState>) -> Sse<impl Stream<Item = Res
     let first = Event::InstrumentStatus {
         status: state.lab.instrument().status(),
     };
+    // A server without a bus (none is built so) streams the status alone.
     let rx = state.events.subscribe();
-    let live = BroadcastStream::new(rx).map(|item| match item {
-        Ok(event) => to_sse(&event),
-        Err(BroadcastStreamRecvError::Lagged(n)) => Ok(sse::Event::default()
-            .event("lagged")
-            .data(format!("{{\"type\":\"lagged\",\"missed\":{n}}}"))),
-    });
+    let live = futures_util::stream::iter(rx)
+        .flat_map(BroadcastStream::new)
+        .map(|item| match item {
+            Ok(event) => to_sse(&event),
+            Err(BroadcastStreamRecvError::Lagged(n)) => Ok(sse::Event::default()
+                .event("lagged")
+                .data(format!("{{\"type\":\"lagged\",\"missed\":{n}}}"))),
+        });
     let shutting_down = state.shutting_down.clone();
     let stream = futures_util::stream::once(async move { to_sse(&first) })
         .chain(live)

@@ -33,7 +33,6 @@ use std::time::Duration;
 
 use anyhow::Context;
 use sha2::{Digest, Sha256};
-use tokio::sync::broadcast;
 
 use crate::lab::assemble::{parse_codings, RenderSide, RenderSideSettings};
 use crate::lab::events::EventSink;
@@ -82,7 +81,7 @@ pub async fn run(options: WorkerOptions, shutdown: impl Future<Output = ()> + Se
     let booth: Booth = WORKER_BOOTH.parse().map_err(anyhow::Error::msg)?;
     // Nobody listens to a worker's events; its heartbeat still recovers the
     // work of gone daemons and workers, as a daemon's does.
-    let events = broadcast::channel(64).0;
+    let events = EventSink::nowhere();
     let lease = Lease::take(&store, &booth, options.lease, options.heartbeat, Some(events))
         .await
         .context("registering this worker's lease")?;

@@ -21,7 +21,7 @@ use lightbooth::lab::LabHandle;
 use lightbooth::store::Store;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
@@ -47,7 +47,7 @@ async fn harness(loopback_only: bool) -> Harness {
         serial: None,
         port: "/dev/pts/9".into(),
     });
-    let (events, _) = broadcast::channel(64);
+    let events = lightbooth::lab::events::EventSink::bus(64);
     let shutdown = CancellationToken::new();
     let instrument = BoothInstrument::new(
         store.clone(),

@@ -15,7 +15,7 @@ use lightbooth::lab::measure::queue::MeasurementJob;
 use lightbooth::lab::LabHandle;
 use lightbooth::store::Store;
 use serde_json::Value;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use tower::ServiceExt;
 
@@ -43,7 +43,7 @@ async fn harness(queue: usize) -> Harness {
         serial: Some("60931502".into()),
         port: "/dev/pts/9".into(),
     });
-    let (events, _) = broadcast::channel(64);
+    let events = lightbooth::lab::events::EventSink::bus(64);
     let shutdown = CancellationToken::new();
     let instrument = BoothInstrument::new(
         store.clone(),
@@ -584,7 +584,7 @@ async fn a_queued_measurement_could_not_be_cancelled() {
     )
     .await;
     let id = body["id"].as_i64().unwrap();
-    let mut events = h.state.events.subscribe();
+    let mut events = h.state.events.subscribe().expect("the test state has a bus");
     let cancel = format!("/api/measurements/{id}/cancel");
     let (status, body) = send(&h.state, post(&cancel, "application/json", "{}", None)).await;
     assert_eq!(status, StatusCode::UNAUTHORIZED, "{body}");

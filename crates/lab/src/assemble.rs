@@ -28,10 +28,10 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 
 use crate::compare::Comparisons;
-use crate::events::{Event, EventSink};
+use crate::events::EventSink;
 use crate::measure::booth_instrument::BoothInstrument;
 use crate::measure::queue::{InstrumentStatus, MockControl};
 use crate::measure::simulated_truth::SimulatedTruth;
@@ -174,7 +174,7 @@ impl DaemonLab {
     /// HTTP layer) and what runs under it.
     pub async fn start(
         store: Store,
-        events: broadcast::Sender<Event>,
+        events: EventSink,
         daemon_id: i64,
         settings: LabSettings,
         shutdown: CancellationToken,
@@ -216,7 +216,7 @@ impl DaemonLab {
         let side = RenderSide::new(RenderSideSettings {
             store: store.clone(),
             catalogue,
-            events: EventSink::bus(events.clone()),
+            events: events.clone(),
             codings,
             samples: settings.render_samples,
             preview_paths: settings.preview_paths,
@@ -383,9 +383,11 @@ impl Drop for AbortOnDrop {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::events::Event;
     use crate::measure::booth_instrument::{MeasurementRequest, Requested};
     use lightbooth_instrument::sim::Personality;
     use lightbooth_store::MeasurementState;
+    use tokio::sync::broadcast;
 
     /// Measure → compare → event at the lab's boundary, without axum (issue
     /// 47): the daemon's lab built by `DaemonLab::start` with the simulated
@@ -397,7 +399,8 @@ mod tests {
     async fn a_target_asked_for_is_measured_compared_and_announced_without_http() {
         let dir = tempfile::tempdir().unwrap();
         let store = crate::testing::store_in(dir.path()).await;
-        let (events, mut heard) = broadcast::channel(4096);
+        let events = EventSink::bus(4096);
+        let mut heard = events.subscribe().unwrap();
         let booth = Booth::default();
         let lease = crate::lease::Lease::take(
             &store,

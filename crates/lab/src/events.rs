@@ -131,16 +131,25 @@ impl Event {
     }
 }
 
-/// Where a workflow sends its events: the daemon's bus, or nowhere (a
-/// render worker's workflows: the daemon that asked reports the job's end
-/// itself when it sees it in the store).
+/// The one way every workflow publishes its events: the daemon's bus, or
+/// nowhere (a render worker's workflows: the daemon that asked reports the
+/// job's end itself when it sees it in the store). Listeners
+/// ([`subscribe`](Self::subscribe): `/api/events`, the progress board)
+/// hear what is sent after they subscribe; one that lags misses events and
+/// is told how many, and never slows a sender.
 #[derive(Clone, Default)]
 pub struct EventSink(Option<tokio::sync::broadcast::Sender<Event>>);
 
 impl EventSink {
-    /// Events sent on `bus`.
-    pub fn bus(bus: tokio::sync::broadcast::Sender<Event>) -> EventSink {
-        EventSink(Some(bus))
+    /// A bus that keeps up to `capacity` events for its slowest listener.
+    pub fn bus(capacity: usize) -> EventSink {
+        EventSink(Some(tokio::sync::broadcast::channel(capacity).0))
+    }
+
+    /// A listener of every event sent from now on; `None` for a sink that
+    /// sends nowhere.
+    pub fn subscribe(&self) -> Option<tokio::sync::broadcast::Receiver<Event>> {
+        self.0.as_ref().map(|bus| bus.subscribe())
     }
 
     /// Events dropped (nobody would listen).

@@ -15,9 +15,7 @@
 
 use std::time::Duration;
 
-use tokio::sync::broadcast;
-
-use crate::events::Event;
+use crate::events::{Event, EventSink};
 use lightbooth_store::{Booth, InterruptedWork, MeasurementState, Recovered, RecoveryScope, Store, StoreError};
 
 /// A registered lease and its heartbeat task; the heartbeat stops when the
@@ -37,7 +35,7 @@ impl Lease {
         booth: &Booth,
         lease: Duration,
         interval: Duration,
-        events: Option<broadcast::Sender<Event>>,
+        events: Option<EventSink>,
     ) -> Result<Lease, StoreError> {
         let id = store.register_daemon(booth, lease).await?;
         let store = store.as_daemon(id);
@@ -103,7 +101,7 @@ pub fn interruption_events(recovered: &Recovered) -> Vec<Event> {
 /// before it (`store::leases`, the outage rule), so an outage neither
 /// expires this daemon's lease nor lets it take a neighbour's work that
 /// was only renewed late.
-async fn heartbeat(store: Store, id: i64, interval: Duration, events: Option<broadcast::Sender<Event>>) {
+async fn heartbeat(store: Store, id: i64, interval: Duration, events: Option<EventSink>) {
     let mut ticks = tokio::time::interval(interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     // Whether the last renewal failed, and since when (database time) the
@@ -147,7 +145,7 @@ async fn heartbeat(store: Store, id: i64, interval: Duration, events: Option<bro
             Ok(recovered) => {
                 for event in interruption_events(&recovered) {
                     // No receiver (no dashboard open) is not an error.
-                    let _ = events.send(event);
+                    events.send(event);
                 }
             }
             Err(e) => tracing::warn!(daemon = id, error = %e, "cannot recover the work of gone daemons"),

@@ -34,7 +34,7 @@ use std::sync::{Arc, Mutex};
 use serde::Serialize;
 use tokio::sync::broadcast;
 
-use super::events::Event;
+use super::events::{Event, EventSink};
 use lightbooth_store::Job;
 
 /// Below this fraction done, no estimate is given: a job's first moments
@@ -155,10 +155,13 @@ pub struct ProgressBoard {
 }
 
 impl ProgressBoard {
-    /// A board that follows `events` until the bus closes.
-    pub fn follow(events: &broadcast::Sender<Event>) -> Arc<ProgressBoard> {
+    /// A board that follows `events` until the bus closes (a sink that
+    /// sends nowhere leaves it empty).
+    pub fn follow(events: &EventSink) -> Arc<ProgressBoard> {
         let board = Arc::new(ProgressBoard::default());
-        let mut rx = events.subscribe();
+        let Some(mut rx) = events.subscribe() else {
+            return board;
+        };
         let weak = Arc::downgrade(&board);
         tokio::spawn(async move {
             loop {

@@ -105,11 +105,12 @@ pub fn shipped_scenes() -> Arc<SceneCatalog> {
 /// [`TEST_SAMPLES`] paths per target, sending its events to the returned
 /// receiver.
 pub fn runner(store: &Store) -> (Arc<RenderRunner>, tokio::sync::broadcast::Receiver<Event>) {
-    let (bus, events) = tokio::sync::broadcast::channel(1024);
+    let bus = EventSink::bus(1024);
+    let events = bus.subscribe().expect("a bus");
     let runner = RenderRunner::new(
         store.clone(),
         shipped_scenes(),
-        EventSink::bus(bus),
+        bus,
         vec![Coding::Rgb, Coding::Spectral],
         TEST_SAMPLES,
         Observer::JuddVos,

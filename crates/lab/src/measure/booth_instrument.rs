@@ -10,10 +10,10 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 
 use crate::error::LabError;
-use crate::events::Event;
+use crate::events::{Event, EventSink};
 use crate::measure::queue::{CancelMeasurement, HoldInfo, InstrumentHold, InstrumentStatus, MeasurementJob};
 use crate::requests::SceneInfo;
 use lightbooth_instrument::Capabilities;
@@ -82,7 +82,7 @@ pub struct BoothInstrument {
     store: Store,
     jobs: mpsc::Sender<MeasurementJob>,
     status: watch::Receiver<InstrumentStatus>,
-    events: broadcast::Sender<Event>,
+    events: EventSink,
     hold: Arc<InstrumentHold>,
     /// Stops the running measurement (the instrument task's; None without one).
     running: Option<Arc<dyn CancelMeasurement>>,
@@ -100,7 +100,7 @@ impl BoothInstrument {
         store: Store,
         jobs: mpsc::Sender<MeasurementJob>,
         status: watch::Receiver<InstrumentStatus>,
-        events: broadcast::Sender<Event>,
+        events: EventSink,
         running: Option<Arc<dyn CancelMeasurement>>,
         capabilities: Capabilities,
         booth: Booth,
@@ -341,7 +341,7 @@ impl BoothInstrument {
             target,
         });
         tracing::info!(measurement_id = id, samples, "measurement queued");
-        let _ = self.events.send(Event::MeasurementQueued { measurement_id: id });
+        self.events.send(Event::MeasurementQueued { measurement_id: id });
         Ok(id)
     }
 
@@ -366,7 +366,7 @@ impl BoothInstrument {
         );
         if self.store.cancel_queued(id, &queued_message).await? {
             tracing::info!(measurement_id = id, "queued measurement cancelled");
-            let _ = self.events.send(Event::MeasurementFinished {
+            self.events.send(Event::MeasurementFinished {
                 measurement_id: id,
                 state: MeasurementState::Cancelled,
                 error: Some(queued_message),

@@ -26,10 +26,10 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use tokio::runtime::Handle;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{mpsc, watch};
 
 use crate::compare::Comparisons;
-use crate::events::Event;
+use crate::events::{Event, EventSink};
 use crate::measure::queue::InstrumentStatus;
 use crate::measure::queue::MeasurementJob;
 use crate::measure::queue::MockControl;
@@ -54,7 +54,7 @@ pub struct TaskConfig {
     pub store: Store,
     pub jobs: mpsc::Receiver<MeasurementJob>,
     pub status: watch::Sender<InstrumentStatus>,
-    pub events: broadcast::Sender<Event>,
+    pub events: EventSink,
     /// Where each complete measurement of a scene target is compared.
     pub comparisons: Arc<Comparisons>,
     /// What the simulated instrument measures (with `mock`).
@@ -311,7 +311,7 @@ impl Worker {
     fn set_status(&self, status: InstrumentStatus) {
         tracing::info!(?status, "instrument state");
         self.config.status.send_replace(status.clone());
-        let _ = self.config.events.send(Event::InstrumentStatus { status });
+        self.config.events.send(Event::InstrumentStatus { status });
     }
 
     fn block_on<F: std::future::Future>(&self, f: F) -> F::Output {
@@ -469,7 +469,7 @@ impl Worker {
         cancel: CancellationToken,
     ) -> Option<String> {
         let id = recorder.id();
-        let _ = self.config.events.send(Event::MeasurementStarted {
+        self.config.events.send(Event::MeasurementStarted {
             measurement_id: id,
             samples: job.samples,
         });
@@ -503,8 +503,8 @@ impl Worker {
             measured_pace = Some(pace);
             let st = measuring(done, Some(pace));
             status.send_replace(st.clone());
-            let _ = events.send(Event::InstrumentStatus { status: st });
-            let _ = events.send(Event::Sample {
+            events.send(Event::InstrumentStatus { status: st });
+            events.send(Event::Sample {
                 measurement_id: id,
                 index: s.index,
                 of,
@@ -593,7 +593,7 @@ impl Worker {
                 port_lost,
             } => (state, Some(message), port_lost),
         };
-        let _ = self.config.events.send(Event::MeasurementFinished {
+        self.config.events.send(Event::MeasurementFinished {
             measurement_id: id,
             state,
             error,
@@ -615,7 +615,7 @@ impl Worker {
         ) {
             tracing::error!(error = %e, measurement_id = id, "cannot record the end of a measurement");
         }
-        let _ = self.config.events.send(Event::MeasurementFinished {
+        self.config.events.send(Event::MeasurementFinished {
             measurement_id: id,
             state,
             error: Some(message.to_string()),

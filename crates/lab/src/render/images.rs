@@ -38,11 +38,11 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
-use tokio::sync::{broadcast, mpsc};
+use tokio::sync::mpsc;
 
 use crate::download::{Download, FileFormat};
 use crate::error::LabError;
-use crate::events::Event;
+use crate::events::{Event, EventSink};
 use crate::jobs;
 use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
 use lightbooth_render::integrator::{with_cancel, CancellationToken, Transport};
@@ -166,7 +166,7 @@ pub struct ImageJobs {
     entries: Mutex<BTreeMap<i64, Entry>>,
     sender: Mutex<Option<mpsc::Sender<ImageWork>>>,
     receiver: Mutex<Option<mpsc::Receiver<ImageWork>>>,
-    events: broadcast::Sender<Event>,
+    events: EventSink,
     next_id: Mutex<(i64, u64)>,
     /// The daemon run these images belong to (see the module doc).
     run: i64,
@@ -175,7 +175,7 @@ pub struct ImageJobs {
 impl ImageJobs {
     /// The images of daemon run `run` (its lease id; 0 without one, as in
     /// tests): ids from `run` × [`IDS_PER_RUN`] + 1.
-    pub fn new(events: broadcast::Sender<Event>, run: i64) -> ImageJobs {
+    pub fn new(events: EventSink, run: i64) -> ImageJobs {
         let (tx, rx) = mpsc::channel(IMAGE_QUEUE_CAPACITY);
         let run = run.clamp(0, i64::MAX / IDS_PER_RUN - 1);
         ImageJobs {
@@ -466,7 +466,7 @@ impl ImageJobs {
             out
         };
         tracing::info!(image_id = id, render_id, state, "image ended");
-        let _ = self.events.send(Event::ImageFinished {
+        self.events.send(Event::ImageFinished {
             image_id: id,
             render_id,
             state,
@@ -488,7 +488,7 @@ impl ImageJobs {
             Some(b) => crate::progress::image_time_left(&p, b),
             None => (None, String::new()),
         };
-        let _ = self.events.send(Event::ImageProgress {
+        self.events.send(Event::ImageProgress {
             seconds_left,
             estimate,
             image_id: id,

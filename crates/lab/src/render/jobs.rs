@@ -379,7 +379,7 @@ mod tests {
             EventSink::nowhere(),
             None,
         ));
-        let bus = tokio::sync::broadcast::channel(64).0;
+        let bus = EventSink::bus(64);
         let jobs = Arc::new(RenderJobs::new(
             store.clone(),
             runner,

@@ -26,10 +26,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
-use tokio::sync::broadcast;
 
 use crate::error::LabError;
-use crate::events::Event;
+use crate::events::{Event, EventSink};
 use crate::jobs::JOB_QUEUE_CAPACITY;
 use crate::scenes::SceneCatalog;
 use lightbooth_render::Coding;
@@ -129,12 +128,12 @@ struct Pending {
 /// The jobs this daemon left to workers and has not yet heard the end of.
 pub struct WorkerQueue {
     store: Store,
-    events: broadcast::Sender<Event>,
+    events: EventSink,
     pending: Mutex<HashMap<i64, Pending>>,
 }
 
 impl WorkerQueue {
-    pub fn new(store: Store, events: broadcast::Sender<Event>) -> WorkerQueue {
+    pub fn new(store: Store, events: EventSink) -> WorkerQueue {
         WorkerQueue {
             store,
             events,
@@ -149,7 +148,7 @@ impl WorkerQueue {
     /// [`WorkerQueue::watch`] the daemon runs.
     pub async fn publish(
         store: Store,
-        events: broadcast::Sender<Event>,
+        events: EventSink,
         catalogue: &SceneCatalog,
         codings: &[Coding],
         samples: u64,
@@ -389,7 +388,7 @@ impl WorkerQueue {
                 }
             }
         };
-        let _ = self.events.send(event);
+        self.events.send(event);
     }
 }
 
