@@ -188,7 +188,7 @@ async fn study(args: &StudyArgs, options: &StudyOptions, store: Option<Store>) -
             }
             None => None,
         };
-        let result = match run_study(&args.scenes, options, store.as_ref(), &progress).await {
+        let result = match run_study(&args.scenes, options, store.as_ref(), &progress, None).await {
             Ok(r) => r,
             Err(e) => {
                 if let (Some(store), Some(id)) = (&store, study_id) {
