@@ -354,3 +354,26 @@ async fn the_study_filed_its_simulated_instrument_under_the_default_booth() {
     assert_eq!(instruments[0].booth, "north", "{instruments:?}");
     assert_eq!(m.summary.booth, "north");
 }
+
+/// The study job's token reaches the study's own renders (it was a
+/// thread-local the study never saw as an argument): cancelled when the
+/// first seed begins, after the truth was rendered, the study ends with the
+/// render's cancelled error instead of rendering every seed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_whose_token_is_cancelled_stops_at_its_next_render() {
+    use lightbooth::lab::study::run::StudyError;
+    use lightbooth::render::RenderError;
+    let token = tokio_util::sync::CancellationToken::new();
+    let seeds_begun = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |message: &str| {
+        if message.contains("seed") {
+            seeds_begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            token.cancel();
+        }
+    };
+    let err = run_study(&[scene("blue")], &quick(Against::Reference), None, &progress, Some(&token))
+        .await
+        .unwrap_err();
+    assert!(matches!(err, StudyError::Render(RenderError::Cancelled)), "{err}");
+    assert_eq!(seeds_begun.load(std::sync::atomic::Ordering::Relaxed), 1, "no seed after the cancel");
+}
