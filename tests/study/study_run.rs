@@ -371,9 +371,19 @@ async fn a_study_whose_token_is_cancelled_stops_at_its_next_render() {
             token.cancel();
         }
     };
-    let err = run_study(&[scene("blue")], &quick(Against::Reference), None, &progress, Some(&token))
-        .await
-        .unwrap_err();
+    let err = run_study(
+        &[scene("blue")],
+        &quick(Against::Reference),
+        None,
+        &progress,
+        Some(&token),
+    )
+    .await
+    .unwrap_err();
     assert!(matches!(err, StudyError::Render(RenderError::Cancelled)), "{err}");
-    assert_eq!(seeds_begun.load(std::sync::atomic::Ordering::Relaxed), 1, "no seed after the cancel");
+    assert_eq!(
+        seeds_begun.load(std::sync::atomic::Ordering::Relaxed),
+        1,
+        "no seed after the cancel"
+    );
 }
