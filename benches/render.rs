@@ -47,7 +47,7 @@ fn cylinder(c: &mut Criterion) {
             ..RenderSettings::default()
         };
         group.bench_with_input(BenchmarkId::new("codings", name), &settings, |b, s| {
-            b.iter(|| render(&scene, s, None).unwrap())
+            b.iter(|| render(&scene, s, None, None).unwrap())
         });
     }
     group.finish();
@@ -73,7 +73,7 @@ fn cornell_box(c: &mut Criterion) {
     };
     group.bench_function("goal", |b| {
         b.iter(|| {
-            let r = render(&scene, &settings, None).unwrap();
+            let r = render(&scene, &settings, None, None).unwrap();
             assert!(r.max_relative_se() <= 0.003);
             r
         })
@@ -96,7 +96,7 @@ fn glossy_booth(c: &mut Criterion) {
         target_relative_se: None,
         ..RenderSettings::default()
     };
-    group.bench_function("all7", |b| b.iter(|| render(&scene, &settings, None).unwrap()));
+    group.bench_function("all7", |b| b.iter(|| render(&scene, &settings, None, None).unwrap()));
     group.finish();
 }
 

@@ -94,14 +94,14 @@ fn auto_cmd(args: AutoArgs) -> anyhow::Result<()> {
     use lightbooth::lab::study::auto::{candidate_set, choose_settings, reference_render, verify, Tolerance};
     let tol: Tolerance = args.tolerance.parse()?;
     let scene = lightbooth::render::load_scene(&args.scene)?;
-    let choice = choose_settings(&scene, &tol, args.seed)?;
+    let choice = choose_settings(&scene, &tol, args.seed, None)?;
     let reference = if args.no_verify && args.svg.is_none() {
         None
     } else {
-        Some(reference_render(&scene, &choice)?)
+        Some(reference_render(&scene, &choice, None)?)
     };
     let verification = match &reference {
-        Some(r) if !args.no_verify => Some(verify(&scene, &choice, r)?),
+        Some(r) if !args.no_verify => Some(verify(&scene, &choice, r, None)?),
         _ => None,
     };
     let candidates = match (&args.svg, &reference) {
@@ -111,7 +111,7 @@ fn auto_cmd(args: AutoArgs) -> anyhow::Result<()> {
                 .collect::<std::collections::BTreeSet<_>>()
                 .into_iter()
                 .collect();
-            let set = candidate_set(&scene, &choice, r, &bounces, 2)?;
+            let set = candidate_set(&scene, &choice, r, &bounces, 2, None)?;
             std::fs::write(path, &set.svg)?;
             Some(set)
         }
@@ -239,7 +239,7 @@ fn failure_map_cmd(args: FailureMapArgs) -> anyhow::Result<()> {
         eprintln!("{note}");
     }
     let start = Instant::now();
-    let map = failure_map(&settings)?;
+    let map = failure_map(&settings, None)?;
     eprintln!("failure map: {:.2} s", start.elapsed().as_secs_f64());
     if let Some(path) = &args.csv {
         std::fs::write(path, map.to_csv()).with_context(|| format!("writing {}", path.display()))?;

@@ -91,7 +91,7 @@ pub fn run(args: DisplayResolutionArgs) -> anyhow::Result<()> {
         observer: profile.observer,
         ..RenderSettings::default()
     };
-    let result = render(&scene, &settings, None)?;
+    let result = render(&scene, &settings, None, None)?;
     let names: Vec<String> = args.codings.iter().map(|c| c.to_string()).collect();
     let xyz_of = |name: &str| -> anyhow::Result<Vec<[f64; 3]>> {
         result

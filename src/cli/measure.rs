@@ -9,8 +9,9 @@ use std::time::UNIX_EPOCH;
 use clap::Args;
 use serde::Serialize;
 
-use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentSettings, Reading};
+use lightbooth::instrument::{AveragedMeasurement, InstrumentSettings, Reading};
 use lightbooth::lab::measure::files::{spectrum_csv, SampleSpectrum};
+use tokio_util::sync::CancellationToken;
 
 #[derive(Args, Debug)]
 pub struct MeasureArgs {

@@ -245,7 +245,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bar.set_length(total);
         bar.set_position(done);
     };
-    let result = render(&scene, &settings, Some(&progress))?;
+    let result = render(&scene, &settings, Some(&progress), None)?;
     bar.finish_and_clear();
 
     // The cost of each coding: every coding rendered alone, and all together,
@@ -266,7 +266,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ..fixed.clone()
             });
         }
-        let timed = lightbooth::render::cost::time_renders(&scene, &runs, lightbooth::render::cost::TIMING_REPEATS)?;
+        let timed =
+            lightbooth::render::cost::time_renders(&scene, &runs, lightbooth::render::cost::TIMING_REPEATS, None)?;
         coding_times = names.into_iter().zip(timed).collect();
     }
     if let Some(path) = &args.image {
@@ -282,7 +283,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .to_ascii_lowercase();
         let preview = matches!(ext.as_str(), "pfm" | "png") && args.image_se == 0.0 && args.time_budget.is_none();
         if preview {
-            let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed)?;
+            let img = render_camera(&scene, camera, Coding::Srgb, args.spp, &transport, settings.seed, None)?;
             img.write(path)?;
             eprintln!(
                 "image: {} × {} in srgb, {} paths per pixel; wrote {}",
@@ -315,7 +316,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     p.pass, p.pixels_done, p.pixels, p.paths
                 ));
             };
-            let img = render_camera_image(&scene, camera, &cam_settings, Some(&report))?;
+            let img = render_camera_image(&scene, camera, &cam_settings, Some(&report), None)?;
             cam_bar.finish_and_clear();
             if matches!(ext.as_str(), "pfm" | "png") {
                 img.to_srgb().write(path)?;

@@ -35,8 +35,8 @@ use crate::instrument::sim::Fault;
 use crate::instrument::InstrumentSettings;
 use crate::lab::assemble::{DaemonLab, LabSettings};
 use crate::lab::measure::task::MockSettings;
-use crate::render::integrator::CancellationToken;
 use crate::store::{Booth, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Everything `serve` needs, from the command line and the config file.
 #[derive(Clone, Debug)]

@@ -40,8 +40,8 @@ use crate::lab::lease::Lease;
 use crate::lab::render::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::lab::scenes::SceneCatalog;
 use crate::render::bundle::SceneBundle;
-use crate::render::integrator::CancellationToken;
 use crate::store::{Booth, ClaimedJob, Store, WorkerJobKind};
+use tokio_util::sync::CancellationToken;
 
 /// Everything `lightbooth worker` needs.
 #[derive(Clone, Debug)]

@@ -521,7 +521,7 @@ async fn a_study_of_one_booth_took_the_newer_measurement_of_another_booth() {
             booth: booth.clone(),
             ..StudyOptions::default()
         };
-        let result = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {})
+        let result = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {}, None)
             .await
             .unwrap();
         let s = &result.scenes[0];
@@ -538,7 +538,7 @@ async fn a_study_of_one_booth_took_the_newer_measurement_of_another_booth() {
         booth: "east".parse().unwrap(),
         ..StudyOptions::default()
     };
-    let err = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {})
+    let err = run_study(std::slice::from_ref(&white), &options, Some(&store), &|_| {}, None)
         .await
         .unwrap_err();
     assert!(

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use glam::DVec3;
 use lightbooth::export::image::{spectral_channel_name, write_camera_image, EMISSIVE_UNITS, SPECTRAL_UNITS};
-use lightbooth::render::camera::{render_camera_image, CameraImage, CameraSettings, View, Y};
+use lightbooth::render::camera::{render_camera_image, CameraImage, CameraSettings, Pinhole, Y};
 use lightbooth::render::integrator::{radiometer_batch, Prepared, Transport};
 use lightbooth::render::scene::Camera;
 use lightbooth::render::{load_scene, ChannelLayout, Coding, LightSampling, SamplerKind, Scene};
@@ -87,12 +87,12 @@ fn camera_pixels_inside_the_field_match_the_radiometer_on_cylinder() {
             target_relative_se: None,
             time_budget: None,
         };
-        let img = render_camera_image(&scene, &camera, &settings, None).unwrap();
-        let view = View::new(&camera);
+        let img = render_camera_image(&scene, &camera, &settings, None, None).unwrap();
+        let pinhole = Pinhole::new(&camera);
         let half_field = scene.radiometer.field_deg / 2.0;
         let inside: Vec<(usize, usize)> = (0..41)
             .flat_map(|y| (0..41).map(move |x| (x, y)))
-            .filter(|&(x, y)| view.off_axis_deg(x, y) <= half_field)
+            .filter(|&(x, y)| pinhole.off_axis_deg(x, y) <= half_field)
             .collect();
         // A 1° disc in 2°/41 px pixels: π·(20.5/2)²/… ≈ 330 pixels.
         assert!((300..360).contains(&inside.len()), "{}", inside.len());
@@ -136,7 +136,7 @@ fn tiny_image(coding: Coding, target_se: Option<f64>) -> CameraImage {
         target_relative_se: target_se,
         time_budget: None,
     };
-    render_camera_image(&scene, &camera, &settings, None).unwrap()
+    render_camera_image(&scene, &camera, &settings, None, None).unwrap()
 }
 
 /// Regression: an RGB (or sRGB) image's units attribute was written with a

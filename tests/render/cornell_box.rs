@@ -80,7 +80,7 @@ fn the_light_target_is_the_published_emission_exactly() {
         targets: Some(vec!["light".into()]),
         ..settings(&[Coding::Spectral, Coding::Rgb, Coding::Srgb], 4096)
     };
-    let r = render(&scene, &s, None).unwrap();
+    let r = render(&scene, &s, None, None).unwrap();
     for (coding, c) in &r.targets[0].codings {
         assert!(
             (c.luminance_cd_m2 / truth - 1.0).abs() < 2e-6,
@@ -110,6 +110,7 @@ fn the_ceiling_is_lit_by_interreflection_only() {
             ..settings(&[Coding::Spectral], 4096)
         },
         None,
+        None,
     )
     .unwrap();
     for t in &direct.targets {
@@ -120,7 +121,7 @@ fn the_ceiling_is_lit_by_interreflection_only() {
             assert!(y > 0.0, "{}: {y}", t.id);
         }
     }
-    let all = render(&scene, &settings(&[Coding::Spectral], 4096), None).unwrap();
+    let all = render(&scene, &settings(&[Coding::Spectral], 4096), None, None).unwrap();
     for id in ["ceiling", "short_front"] {
         assert!(all.target(id).unwrap().codings[0].1.luminance_cd_m2 > 0.0, "{id}");
     }
@@ -154,6 +155,7 @@ fn every_coding_renders_every_target_bit_identically_on_one_and_two_threads() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let two = render(
@@ -162,6 +164,7 @@ fn every_coding_renders_every_target_bit_identically_on_one_and_two_threads() {
             threads: Some(2),
             ..base
         },
+        None,
         None,
     )
     .unwrap();
@@ -203,6 +206,7 @@ fn cornell_box_standard_errors_are_honest() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let mut z = Vec::new();
@@ -213,6 +217,7 @@ fn cornell_box_standard_errors_are_honest() {
                 seed: 1000 + seed,
                 ..base.clone()
             },
+            None,
             None,
         )
         .unwrap();

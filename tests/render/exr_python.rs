@@ -58,7 +58,7 @@ fn tiny_spectral_image() -> CameraImage {
         target_relative_se: None,
         time_budget: None,
     };
-    render_camera_image(&scene, &camera, &settings, None).unwrap()
+    render_camera_image(&scene, &camera, &settings, None, None).unwrap()
 }
 
 fn read_with_openexr(path: &Path) -> serde_json::Value {

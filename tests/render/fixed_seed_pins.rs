@@ -99,7 +99,7 @@ fn current_pins() -> String {
     for file in SHIPPED {
         let scene = load_scene(&root().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
         for (name, s) in settings() {
-            let r = render(&scene, &s, None).unwrap_or_else(|e| panic!("{file} {name}: {e}"));
+            let r = render(&scene, &s, None, None).unwrap_or_else(|e| panic!("{file} {name}: {e}"));
             for t in &r.targets {
                 for (coding, c) in &t.codings {
                     writeln!(
@@ -129,7 +129,7 @@ fn current_pins() -> String {
                 light_sampler: LightSampling::Power,
             };
             for coding in [Coding::Spectral, Coding::Rgb] {
-                let img = render_camera(&scene, &small, coding, 4, &transport, 11)
+                let img = render_camera(&scene, &small, coding, 4, &transport, 11, None)
                     .unwrap_or_else(|e| panic!("{file} camera: {e}"));
                 writeln!(out, "{file} camera {coding} {:016x}", image_hash(&img.rgb)).unwrap();
             }

@@ -34,6 +34,7 @@ fn the_glossy_booth_renders_bit_identically_on_one_and_two_threads() {
             ..settings(2048)
         },
         None,
+        None,
     )
     .unwrap();
     let two = render(
@@ -42,6 +43,7 @@ fn the_glossy_booth_renders_bit_identically_on_one_and_two_threads() {
             threads: Some(2),
             ..settings(2048)
         },
+        None,
         None,
     )
     .unwrap();
@@ -93,6 +95,7 @@ fn glossy_booth_standard_errors_are_honest_in_every_coding() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let mut z = vec![Vec::new(); Coding::ALL.len()];
@@ -103,6 +106,7 @@ fn glossy_booth_standard_errors_are_honest_in_every_coding() {
                 seed: 2000 + seed,
                 ..base.clone()
             },
+            None,
             None,
         )
         .unwrap();

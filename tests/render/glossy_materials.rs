@@ -512,6 +512,7 @@ fn the_white_furnace_returns_what_the_albedo_says() {
                 &scene,
                 &settings(&[Coding::Spectral, Coding::Rgb], samples, bounces),
                 None,
+                None,
             )
             .unwrap();
             for (t, &co) in r.targets.iter().zip(&cos_o) {
@@ -602,6 +603,7 @@ fn a_mirror_shows_the_emitter_times_its_reflectance() {
         &front,
         &settings(&[Coding::Spectral, Coding::Rgb, Coding::NStep(9)], 4096, 1),
         None,
+        None,
     )
     .unwrap();
     let truth = rho * luminance_of_flat(le);
@@ -620,7 +622,7 @@ fn a_mirror_shows_the_emitter_times_its_reflectance() {
         DVec3::new(0.3, -0.5, 0.1),
         &[DVec3::ZERO],
     );
-    let r = render(&back, &settings(&[Coding::Spectral], 4096, 3), None).unwrap();
+    let r = render(&back, &settings(&[Coding::Spectral], 4096, 3), None, None).unwrap();
     assert_eq!(r.targets[0].codings[0].1.luminance_cd_m2, 0.0);
 }
 

@@ -17,6 +17,7 @@ mod glossy_materials;
 mod radiance_import;
 mod reflectance_booth;
 mod render_area_lights;
+mod render_cancel;
 mod render_cli_output;
 mod render_defaults;
 mod render_images;

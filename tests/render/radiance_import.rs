@@ -64,6 +64,7 @@ fn lambertian_floor_under_a_light_sphere_matches_the_analytic_irradiance() {
         &scene,
         &settings(vec![Coding::Rgb, Coding::Spectral], 0.002, 1 << 18),
         None,
+        None,
     )
     .unwrap();
     for (coding, c) in &r.targets[0].codings {
@@ -159,6 +160,7 @@ fn a_spotlight_lights_its_cone_with_radiance_s_focal_falloff_and_nothing_outside
         &scene,
         &settings(vec![Coding::Rgb, Coding::Spectral], 0.002, 1 << 18),
         None,
+        None,
     )
     .unwrap();
     for (target, x) in r.targets.iter().zip([0.0, 0.8, 1.6]) {
@@ -195,7 +197,7 @@ fn adaptive_render_reaching_max_samples_stops_at_the_cap_instead_of_panicking() 
         max_samples: 2048,
         ..settings(vec![Coding::Rgb], 1e-9, 2048)
     };
-    let r = render(&scene, &s, None).unwrap();
+    let r = render(&scene, &s, None, None).unwrap();
     assert_eq!(r.targets[0].paths, 2048);
 }
 
@@ -226,7 +228,7 @@ const RADIANCE_REFERENCE: &[(&str, &str, f64, f64)] = &[
 
 fn compare_with_radiance(scene: &str) {
     let s = load_scene(&scenes().join(format!("{scene}.toml"))).unwrap();
-    let r: RenderResult = render(&s, &settings(vec![Coding::Rgb], 0.003, 1 << 20), None).unwrap();
+    let r: RenderResult = render(&s, &settings(vec![Coding::Rgb], 0.003, 1 << 20), None, None).unwrap();
     let mut failures = Vec::new();
     let mut compared = 0;
     for &(sc, target, y_ref, se_ref) in RADIANCE_REFERENCE {

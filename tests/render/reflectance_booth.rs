@@ -228,7 +228,7 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
         target_relative_se: Some(0.001),
         ..RenderSettings::default()
     };
-    let result = tokio::task::spawn_blocking(move || render::render(&scene, &settings, None).unwrap())
+    let result = tokio::task::spawn_blocking(move || render::render(&scene, &settings, None, None).unwrap())
         .await
         .unwrap();
     let rendered = result.target("sample").unwrap().coding("spectral").unwrap();
@@ -311,7 +311,7 @@ async fn a_colorchecker_tile_measured_against_spectralon_recovers_its_reflectanc
         target_relative_se: Some(0.001),
         ..RenderSettings::default()
     };
-    let result = tokio::task::spawn_blocking(move || render::render(&scene, &settings, None).unwrap())
+    let result = tokio::task::spawn_blocking(move || render::render(&scene, &settings, None, None).unwrap())
         .await
         .unwrap();
     let rendered = result.target("standard").unwrap().coding("spectral").unwrap();

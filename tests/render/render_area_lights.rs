@@ -141,7 +141,7 @@ fn irradiance_from_a_parallel_rectangle_matches_the_configuration_factor() {
     assert!((contour_form_factor(DVec3::ZERO, DVec3::Y, &rect) / f - 1.0).abs() < 1e-12);
     let truth = rho * f * luminance_of_flat(radiance);
     for bounces in [0, 3] {
-        let r = render(&s, &settings(bounces, 1 << 16), None).unwrap();
+        let r = render(&s, &settings(bounces, 1 << 16), None, None).unwrap();
         for (coding, c) in &r.targets[0].codings {
             let tol = 0.005 * truth + 4.0 * c.luminance_se_cd_m2;
             assert!(
@@ -195,7 +195,7 @@ fn irradiance_from_a_perpendicular_rectangle_matches_the_configuration_factor() 
     let s = scene(rect, radiance, rho, DVec3::Z);
     let truth = rho * f * luminance_of_flat(radiance);
     for bounces in [0, 2] {
-        let r = render(&s, &settings(bounces, 1 << 16), None).unwrap();
+        let r = render(&s, &settings(bounces, 1 << 16), None, None).unwrap();
         for (coding, cr) in &r.targets[0].codings {
             let tol = 0.005 * truth + 4.0 * cr.luminance_se_cd_m2;
             assert!(

@@ -26,7 +26,7 @@ fn default_render(name: &str) -> RenderResult {
         codings: vec![Coding::Rgb, Coding::Spectral],
         ..RenderSettings::default()
     };
-    render(&scene, &settings, None).unwrap()
+    render(&scene, &settings, None, None).unwrap()
 }
 
 /// 64 bounces, Russian roulette from 5, another seed, the same SE goal.
@@ -39,7 +39,7 @@ fn deep_render(name: &str) -> RenderResult {
         seed: 0x5eed_0022,
         ..RenderSettings::default()
     };
-    render(&scene, &settings, None).unwrap()
+    render(&scene, &settings, None, None).unwrap()
 }
 
 /// Every target and coding of `a` within 3 combined SE of `b` (plus 1e-6 of
@@ -98,7 +98,7 @@ fn capped_render_json_says_it_is_truncated_at_n_bounces() {
         target_relative_se: None,
         ..RenderSettings::default()
     };
-    let open = serde_json::to_value(render(&scene, &quick, None).unwrap()).unwrap();
+    let open = serde_json::to_value(render(&scene, &quick, None, None).unwrap()).unwrap();
     assert!(open["settings"]["max_bounces"].is_null(), "{}", open["settings"]);
     assert!(open["truncated_at_bounces"].is_null());
     assert!(open.get("truncation_note").is_none());
@@ -109,7 +109,7 @@ fn capped_render_json_says_it_is_truncated_at_n_bounces() {
         max_bounces: Some(5),
         ..quick
     };
-    let v = serde_json::to_value(render(&scene, &capped, None).unwrap()).unwrap();
+    let v = serde_json::to_value(render(&scene, &capped, None, None).unwrap()).unwrap();
     assert_eq!(v["truncated_at_bounces"], 5);
     assert_eq!(v["settings"]["max_bounces"], 5);
     assert!(
@@ -151,7 +151,7 @@ fn unbounded_render_without_russian_roulette_is_refused() {
         samples: 256,
         ..RenderSettings::default()
     };
-    let e = render(&scene, &settings, None).unwrap_err().to_string();
+    let e = render(&scene, &settings, None, None).unwrap_err().to_string();
     assert!(e.contains("Russian roulette") && e.contains("cap"), "{e}");
 }
 
@@ -173,7 +173,7 @@ fn first_timed_coding_does_not_pay_the_warm_up_timings_are_rotated_medians() {
             ..RenderSettings::default()
         })
         .collect();
-    let timed = time_renders(&scene, &alone, TIMING_REPEATS).unwrap();
+    let timed = time_renders(&scene, &alone, TIMING_REPEATS, None).unwrap();
     assert_eq!(timed.len(), 4);
     for t in &timed {
         assert_eq!(t.seconds.len(), TIMING_REPEATS);
@@ -227,7 +227,7 @@ fn old_five_bounce_default_fails_the_same_check_on_the_cornell_box() {
         russian_roulette_from: None,
         ..RenderSettings::default()
     };
-    let old = render(&scene, &old, None).unwrap();
+    let old = render(&scene, &old, None, None).unwrap();
     let deep = deep_render("cornell_box.toml");
     let caught = std::panic::catch_unwind(|| assert_agree(&old, &deep));
     let message = *caught

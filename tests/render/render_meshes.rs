@@ -107,7 +107,7 @@ fn a_tessellated_sphere_reproduces_the_integrating_sphere() {
     let scene = load_scene(&mesh_sphere_scene(dir.path(), "m", 1.0, rho, i_cd)).unwrap();
     assert_eq!(scene.primitives.len(), 20 * 4usize.pow(5));
     for k in [0u32, 2, 5] {
-        let r = render(&scene, &settings(&[Coding::Spectral, Coding::Rgb], 4096, k), None).unwrap();
+        let r = render(&scene, &settings(&[Coding::Spectral, Coding::Rgb], 4096, k), None, None).unwrap();
         let series: f64 = (0..=k).map(|j| rho.powi(j as i32)).sum();
         let truth = rho / PI * i_cd / (r_m * r_m) * series;
         for (coding, c) in &r.targets[0].codings {
@@ -133,7 +133,7 @@ fn the_same_scene_in_metres_and_millimetres_gives_the_same_radiance() {
     let s = settings(&[Coding::Spectral, Coding::NStep(9)], 2048, 2);
     let y = |path: PathBuf| {
         let scene = load_scene(&path).unwrap();
-        let r = render(&scene, &s, None).unwrap();
+        let r = render(&scene, &s, None, None).unwrap();
         r.targets[0]
             .codings
             .iter()
@@ -202,7 +202,7 @@ material = "floor"
         observer: lightbooth::colorimetry::PHOTOMETRIC_OBSERVER,
         ..settings(&[Coding::Spectral], 256, 0)
     };
-    let r = render(&scene, &photometric, None).unwrap();
+    let r = render(&scene, &photometric, None, None).unwrap();
     for (i, a) in angles.iter().enumerate() {
         let (cos_t, d2) = (a.to_radians().cos(), 1.0 / a.to_radians().cos().powi(2));
         let (cos_out, cos_in) = (cone.to_radians().cos(), (cone - falloff).to_radians().cos());
@@ -233,7 +233,7 @@ fn the_manuals_own_booth_example_renders_as_shipped() {
     );
     let scene = load_scene(&root.join("scenes/examples/own_booth.toml")).unwrap();
     assert_eq!(scene.emitters.len(), 1);
-    let r = render(&scene, &settings(&Coding::ALL, 2048, 5), None).unwrap();
+    let r = render(&scene, &settings(&Coding::ALL, 2048, 5), None, None).unwrap();
     for t in &r.targets {
         for (coding, c) in &t.codings {
             assert!(c.luminance_cd_m2 > 0.0, "{} {coding}: {}", t.id, c.luminance_cd_m2);

@@ -104,7 +104,7 @@ material = "grey"
             observer: lightbooth::colorimetry::PHOTOMETRIC_OBSERVER,
             ..settings(&Coding::ALL, 1024)
         };
-        let r = render(&scene, &photometric, None).unwrap();
+        let r = render(&scene, &photometric, None, None).unwrap();
         let to_target = glam::DVec3::from(target) - glam::DVec3::from(light);
         let d = to_target.length();
         let theta = to_target.normalize().dot(glam::DVec3::from(aim)).acos().to_degrees();
@@ -172,7 +172,7 @@ fn interreflection_in_a_closed_sphere_matches_the_geometric_series() {
             russian_roulette_from: None,
             ..settings(&[Coding::Spectral, Coding::Rgb, Coding::NStep(9)], 2048)
         };
-        let r = render(&scene, &s, None).unwrap();
+        let r = render(&scene, &s, None, None).unwrap();
         let series: f64 = (0..=k).map(|j| rho.powi(j as i32)).sum();
         let truth = rho / PI * i_cd / (r_m * r_m) * series;
         for (coding, c) in &r.targets[0].codings {
@@ -193,7 +193,7 @@ fn interreflection_in_a_closed_sphere_matches_the_geometric_series() {
             sampler,
             ..settings(&[Coding::Spectral], 16_384)
         };
-        let r = render(&scene, &s, None).unwrap();
+        let r = render(&scene, &s, None, None).unwrap();
         let truth = rho / PI * i_cd / (r_m * r_m * (1.0 - rho));
         let c = &r.targets[0].codings[0].1;
         assert!(c.luminance_se_cd_m2 > 0.0, "roulette adds variance");
@@ -221,7 +221,16 @@ fn the_camera_sees_the_uniform_sphere_wall() {
         russian_roulette_from: None,
         light_sampler: lightbooth::render::LightSampling::Power,
     };
-    let img = render_camera(&scene, scene.camera.as_ref().unwrap(), Coding::Srgb, 2, &transport, 1).unwrap();
+    let img = render_camera(
+        &scene,
+        scene.camera.as_ref().unwrap(),
+        Coding::Srgb,
+        2,
+        &transport,
+        1,
+        None,
+    )
+    .unwrap();
     // The lamp's candela are in V(λ) (issue 46); the camera's sRGB is in the
     // renderer's observer, whose ȳ weighs the flat spectrum by Σȳ/ΣV.
     let [_, ybar, _] = Cmf::of(lightbooth::render::coding::OBSERVER).on_grid(&Grid::one_nm());
@@ -262,7 +271,7 @@ fn with_flat_spectra_every_coding_gives_the_same_colour() {
         targets: Some(vec!["h02".into(), "h10".into(), "h20".into()]),
         ..settings(&Coding::ALL, 2048)
     };
-    let r = render(&scene, &s, None).unwrap();
+    let r = render(&scene, &s, None, None).unwrap();
     let cmf = Cmf::of(Observer::JuddVos);
     let sum = |g: &Grid, step: f64| cmf.on_grid(g)[1].iter().sum::<f64>() * step;
     let grid_rel = (sum(&Grid::analysis(), 5.0) / sum(&Grid::one_nm(), 1.0) - 1.0).abs();
@@ -305,7 +314,7 @@ fn nstep81_is_spectral_at_the_5nm_samples() {
         targets: Some(vec!["h03".into(), "h15".into()]),
         ..settings(&[Coding::NStep(81), Coding::Spectral], 1024)
     };
-    let r = render(&scene, &s, None).unwrap();
+    let r = render(&scene, &s, None, None).unwrap();
     for t in &r.targets {
         let n81 = &t.coding("nstep81").unwrap().bands;
         let sp = &t.coding("spectral").unwrap().bands;
@@ -338,6 +347,7 @@ fn a_fixed_seed_is_bit_identical_on_one_and_two_threads() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let two = render(
@@ -347,11 +357,12 @@ fn a_fixed_seed_is_bit_identical_on_one_and_two_threads() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let json = |r: &lightbooth::render::RenderResult| serde_json::to_string(&r.targets).unwrap();
     assert_eq!(json(&one), json(&two));
-    let other_seed = render(&scene, &RenderSettings { seed: 43, ..base }, None).unwrap();
+    let other_seed = render(&scene, &RenderSettings { seed: 43, ..base }, None, None).unwrap();
     assert_ne!(json(&one), json(&other_seed), "the seed must matter");
 }
 
@@ -401,7 +412,7 @@ material = "white"
     let path = dir.path().join("lamp.toml");
     std::fs::write(&path, text).unwrap();
     let scene = load_scene(&path).unwrap();
-    let r = render(&scene, &settings(&[Coding::Spectral], 4096), None).unwrap();
+    let r = render(&scene, &settings(&[Coding::Spectral], 4096), None, None).unwrap();
     let (_, c) = &r.targets[0].codings[0];
     let relative_se = c.luminance_se_cd_m2 / c.luminance_cd_m2;
     assert!(

@@ -90,6 +90,7 @@ fn the_white_standard_reads_what_the_sheet_says() {
             ..RenderSettings::default()
         },
         None,
+        None,
     )
     .unwrap();
     let y = r.targets[0].codings[0].1.luminance_cd_m2;
@@ -113,6 +114,7 @@ fn cylinder_profile_rises_dips_and_rises_and_nstep9_tracks_spectral() {
             target_relative_se: None,
             ..RenderSettings::default()
         },
+        None,
         None,
     )
     .unwrap();
@@ -408,6 +410,7 @@ target = "wall"
             target_relative_se: Some(1e-3),
             ..RenderSettings::default()
         },
+        None,
         None,
     )
     .unwrap()

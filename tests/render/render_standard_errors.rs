@@ -33,6 +33,7 @@ fn independent_samples_give_standard_errors_that_match_the_spread_over_seeds() {
             ..base.clone()
         },
         None,
+        None,
     )
     .unwrap();
     let r = &reference.targets[0].codings[0].1;
@@ -45,6 +46,7 @@ fn independent_samples_give_standard_errors_that_match_the_spread_over_seeds() {
                     seed: 2000 + seed,
                     ..base.clone()
                 },
+                None,
                 None,
             )
             .unwrap();

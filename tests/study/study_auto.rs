@@ -73,11 +73,11 @@ const SCENES: [(&str, Tolerance); 6] = [
 fn the_choice_meets_the_tolerance_on_all_five_scenes_and_the_f11_variant() {
     for (rel, tol) in SCENES {
         let s = scene(rel);
-        let choice = choose_settings(&s, &tol, 7).unwrap();
+        let choice = choose_settings(&s, &tol, 7, None).unwrap();
         assert_eq!(choice.reasons.len(), 3, "{rel}: one reason per choice");
-        let reference = reference_render(&s, &choice).unwrap();
+        let reference = reference_render(&s, &choice, None).unwrap();
         assert!(reference.settings.max_bounces.unwrap() > choice.bounces);
-        let v = verify(&s, &choice, &reference).unwrap();
+        let v = verify(&s, &choice, &reference, None).unwrap();
         eprintln!(
             "{rel}: {} ab{} {} samples: rms_rel {:.4} (bound {:.4}, noise {:.4}), ΔE00 max {:.3}",
             choice.coding,
@@ -141,7 +141,7 @@ fn the_spiky_illuminant_needs_more_bands_than_halogen() {
 fn the_bounce_choice_stops_where_the_added_light_is_below_the_threshold() {
     let tol: Tolerance = "de00=1,rms=4%".parse().unwrap();
     let s = scene("cylinder.toml");
-    let c = choose_settings(&s, &tol, 3).unwrap();
+    let c = choose_settings(&s, &tol, 3, None).unwrap();
     let threshold = BOUNCE_SHARE * tol.rms_rel;
     // Renders 0 … b + 2; every one adds light (same paths, longer).
     assert_eq!(c.bounce_steps.len() as u32, c.bounces + 3);
@@ -217,11 +217,11 @@ fn pareto_front_of_random_points() {
 fn the_auto_point_lies_on_the_pareto_front() {
     let tol: Tolerance = "de00=1,rms=10%".parse().unwrap();
     let s = scene("cylinder.toml");
-    let choice = choose_settings(&s, &tol, 5).unwrap();
-    let reference = reference_render(&s, &choice).unwrap();
+    let choice = choose_settings(&s, &tol, 5, None).unwrap();
+    let reference = reference_render(&s, &choice, None).unwrap();
     let mut bounces = vec![0, choice.bounces, choice.bounces + 2];
     bounces.dedup();
-    let set = candidate_set(&s, &choice, &reference, &bounces, 2).unwrap();
+    let set = candidate_set(&s, &choice, &reference, &bounces, 2, None).unwrap();
     let a = &set.candidates[set.auto_index];
     for c in &set.candidates {
         eprintln!(

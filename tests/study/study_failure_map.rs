@@ -127,7 +127,7 @@ fn sweep(seeds: Vec<u64>) -> InterreflectionMap {
     s.scales = vec![0.25, 1.0];
     s.seeds = seeds;
     s.samples = 1024;
-    interreflection_map(&s).expect("interreflection map")
+    interreflection_map(&s, None).expect("interreflection map")
 }
 
 fn sweeps() -> &'static (InterreflectionMap, InterreflectionMap) {
@@ -188,8 +188,8 @@ fn the_sweep_is_deterministic_and_exports_every_number() {
     s.seeds = vec![7, 8];
     s.samples = 256;
     s.codings = vec![Coding::Rgb, Coding::NStep(9)];
-    let one = failure_map(&s).unwrap();
-    let two = failure_map(&s).unwrap();
+    let one = failure_map(&s, None).unwrap();
+    let two = failure_map(&s, None).unwrap();
     assert_eq!(
         serde_json::to_string(&one).unwrap(),
         serde_json::to_string(&two).unwrap()

@@ -59,9 +59,13 @@ async fn against_the_reference_spectral_agrees_and_three_steps_do_not() {
     // k-th report over `progress_steps`, so the two must agree.
     let reports = std::sync::Mutex::new(Vec::new());
     let options = quick(Against::Reference);
-    let result = run_study(&[scene("red")], &options, None, &|m| {
-        reports.lock().unwrap().push(m.to_string())
-    })
+    let result = run_study(
+        &[scene("red")],
+        &options,
+        None,
+        &|m| reports.lock().unwrap().push(m.to_string()),
+        None,
+    )
     .await
     .unwrap();
     let reports = reports.into_inner().unwrap();
@@ -135,9 +139,15 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
     assert_eq!(ids.len(), 1);
     let m = store.get_measurement(ids[0]).await.unwrap().unwrap();
     assert_eq!(m.samples.len(), 5);
-    let result = run_study(&[scene("white")], &quick(Against::Measurements), Some(&store), &|_| {})
-        .await
-        .unwrap();
+    let result = run_study(
+        &[scene("white")],
+        &quick(Against::Measurements),
+        Some(&store),
+        &|_| {},
+        None,
+    )
+    .await
+    .unwrap();
     let s = &result.scenes[0];
     assert_eq!(s.truth[0].source, format!("measurement {}", ids[0]));
     assert_eq!(s.white_source, format!("measurement {} (white/patch)", ids[0]));
@@ -149,9 +159,15 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
     assert!(spectral.rms_rel.mean < 0.03, "{:?}", spectral.rms_rel);
 
     // Without measurements the study says what to do.
-    let err = run_study(&[scene("red")], &quick(Against::Measurements), Some(&store), &|_| {})
-        .await
-        .unwrap_err();
+    let err = run_study(
+        &[scene("red")],
+        &quick(Against::Measurements),
+        Some(&store),
+        &|_| {},
+        None,
+    )
+    .await
+    .unwrap_err();
     assert!(
         err.to_string().contains("no complete measurement of red/patch"),
         "{err}"
@@ -163,14 +179,16 @@ async fn against_simulated_measurements_the_truth_is_the_stored_measurement() {
 /// (renderings and truth alike), and the JSON says `cie-1931`.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn study_json_names_the_observer_it_computed_with() {
-    let jv = run_study(&[scene("blue")], &quick(Against::Reference), None, &|_| {})
+    let jv = run_study(&[scene("blue")], &quick(Against::Reference), None, &|_| {}, None)
         .await
         .unwrap();
     let options = StudyOptions {
         observer: Observer::Cie1931,
         ..quick(Against::Reference)
     };
-    let c31 = run_study(&[scene("blue")], &options, None, &|_| {}).await.unwrap();
+    let c31 = run_study(&[scene("blue")], &options, None, &|_| {}, None)
+        .await
+        .unwrap();
     let json = serde_json::to_value(&c31).unwrap();
     assert_eq!(json["observer"], "cie-1931");
     assert_eq!(json["options"]["observer"], "cie-1931");
@@ -202,14 +220,20 @@ async fn simulated_truth_is_independent_of_the_compared_render() {
         .replace("\"spectra/", &format!("\"{scenes_dir}/spectra/"));
     let truth_dir = tempfile::tempdir().unwrap();
     std::fs::write(truth_dir.path().join("white.toml"), text).unwrap();
-    let perfect = run_study(std::slice::from_ref(&model), &quick(Against::Reference), None, &|_| {})
-        .await
-        .unwrap();
+    let perfect = run_study(
+        std::slice::from_ref(&model),
+        &quick(Against::Reference),
+        None,
+        &|_| {},
+        None,
+    )
+    .await
+    .unwrap();
     let options = StudyOptions {
         truth_scene: Some(truth_dir.path().to_path_buf()),
         ..quick(Against::Reference)
     };
-    let perturbed = run_study(&[model], &options, None, &|_| {}).await.unwrap();
+    let perturbed = run_study(&[model], &options, None, &|_| {}, None).await.unwrap();
     assert_eq!(
         perturbed.scenes[0].truth[0].scene_file,
         truth_dir.path().join("white.toml").display().to_string()
@@ -246,7 +270,7 @@ async fn the_cornell_box_runs_through_the_study() {
         seeds: 2,
         ..quick(Against::Reference)
     };
-    let result = run_study(&[scene("cornell_box")], &options, None, &|_| {})
+    let result = run_study(&[scene("cornell_box")], &options, None, &|_| {}, None)
         .await
         .unwrap();
     let s = &result.scenes[0];
@@ -288,7 +312,7 @@ async fn a_scene_name_with_markup_is_text_in_the_study_report() {
         against: Against::Reference,
         ..StudyOptions::default()
     };
-    let result = run_study(&[file], &options, None, &|_| {}).await.unwrap();
+    let result = run_study(&[file], &options, None, &|_| {}, None).await.unwrap();
     let dir = tempfile::tempdir().unwrap();
     write_report(&result, dir.path()).unwrap();
     let html = std::fs::read_to_string(dir.path().join("index.html")).unwrap();
@@ -329,4 +353,37 @@ async fn the_study_filed_its_simulated_instrument_under_the_default_booth() {
     assert_eq!(instruments.len(), 1, "{instruments:?}");
     assert_eq!(instruments[0].booth, "north", "{instruments:?}");
     assert_eq!(m.summary.booth, "north");
+}
+
+/// The study job's token reaches the study's own renders (it was a
+/// thread-local the study never saw as an argument): cancelled when the
+/// first seed begins, after the truth was rendered, the study ends with the
+/// render's cancelled error instead of rendering every seed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_whose_token_is_cancelled_stops_at_its_next_render() {
+    use lightbooth::lab::study::run::StudyError;
+    use lightbooth::render::RenderError;
+    let token = tokio_util::sync::CancellationToken::new();
+    let seeds_begun = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |message: &str| {
+        if message.contains("seed") {
+            seeds_begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            token.cancel();
+        }
+    };
+    let err = run_study(
+        &[scene("blue")],
+        &quick(Against::Reference),
+        None,
+        &progress,
+        Some(&token),
+    )
+    .await
+    .unwrap_err();
+    assert!(matches!(err, StudyError::Render(RenderError::Cancelled)), "{err}");
+    assert_eq!(
+        seeds_begun.load(std::sync::atomic::Ordering::Relaxed),
+        1,
+        "no seed after the cancel"
+    );
 }

@@ -43,10 +43,11 @@ use crate::render::worker_queue::{RenderPlace, WorkerQueue};
 use crate::scenes::SceneCatalog;
 use crate::study::jobs::StudyRunner;
 use crate::LabHandle;
-use lightbooth_instrument::{CancellationToken, InstrumentSettings};
+use lightbooth_instrument::InstrumentSettings;
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, Job, Store};
+use tokio_util::sync::CancellationToken;
 
 /// How many measurements may wait for the instrument; more get 409. Enough
 /// for every target of every booth scene (1 + 1 + 1 + 1 + 21) at once.

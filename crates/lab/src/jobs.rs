@@ -26,8 +26,8 @@ use std::sync::Mutex;
 use tokio::sync::mpsc;
 
 use crate::error::LabError;
-use lightbooth_render::integrator::CancellationToken;
 use lightbooth_store::{Job, JobEnd, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Renders and studies that may wait for the worker; more get 409.
 pub const JOB_QUEUE_CAPACITY: usize = 8;

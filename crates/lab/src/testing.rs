@@ -8,10 +8,10 @@ use std::sync::Arc;
 use super::events::{Event, EventSink};
 use super::scenes::SceneCatalog;
 use crate::render::runner::RenderRunner;
-use lightbooth_render::integrator::CancellationToken;
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Average, Booth, NewMeasurement, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Paths per target of the tests' renders.
 pub const TEST_SAMPLES: u64 = 64;

@@ -1,4 +1,5 @@
-//! The measuring camera: a pinhole image in any colour coding — a spectral
+//! The one pinhole camera ([`Pinhole`]) and the measuring camera: an image
+//! through it in any colour coding — a spectral
 //! cube (401 1 nm channels for `spectral`, N bands for `nstepN`, 3 for
 //! `rgb`/`srgb`) plus XYZ and LMS cone excitations per pixel, each with its
 //! standard error, rendered in passes until a per-pixel relative standard
@@ -44,10 +45,11 @@ use std::time::{Duration, Instant};
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
+use tokio_util::sync::CancellationToken;
 
 use super::coding::{ChannelLayout, Coding};
 use super::geometry::Ray;
-use super::integrator::{current_cancel, trace_path, PathState, Prepared, Transport};
+use super::integrator::{trace_path, PathState, Prepared, Transport};
 use super::sampling::{PathSampler, SamplerKind};
 use super::scene::{Camera, Scene};
 use super::sensor::Image;
@@ -241,13 +243,16 @@ impl Quantities {
     }
 }
 
-/// Renders the camera view progressively (see the module doc); `progress`
-/// is called after every pass.
+/// Renders the camera view through its [`Pinhole`] progressively (see the
+/// module doc); `progress` is called after every pass. `cancel` (a job's
+/// token) is checked before each row of each pass; a cancelled render ends
+/// with [`RenderError::Cancelled`].
 pub fn render_camera_image(
     scene: &Scene,
     camera: &Camera,
     settings: &CameraSettings,
     progress: Option<&(dyn Fn(CameraProgress) + Sync)>,
+    cancel: Option<&CancellationToken>,
 ) -> Result<CameraImage, RenderError> {
     if settings.min_spp == 0 || settings.max_spp < settings.min_spp {
         return Err(RenderError::Settings(format!(
@@ -271,9 +276,11 @@ pub fn render_camera_image(
     let layout = ChannelLayout::with_observer(&[settings.coding], settings.observer);
     let colorimetry = Colorimetry::new(&layout, settings.coding, settings.observer);
     let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
-    let view = View::new(camera);
-    let cancel = current_cancel();
-    let cancelled = || cancel.as_ref().is_some_and(|c| c.is_cancelled());
+    let pinhole = Pinhole::new(camera);
+    let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
+    if cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     let start = Instant::now();
 
     let mut mean = vec![0.0f32; pixels * stride];
@@ -314,7 +321,7 @@ pub fn render_camera_image(
                     for i in 0..nb {
                         let s = (first + i) as u64;
                         let mut rng = PathSampler::new(SamplerKind::Independent, seed, u64::MAX - pixel, s);
-                        let ray = view.ray(x, y, rng.next_2d());
+                        let ray = pinhole.ray(x, y, rng.next_2d());
                         trace_path(&prep, &settings.transport, ray, &mut rng, &mut state);
                         let radiance = &state.radiance[..n_channels];
                         for (qk, r) in q.iter_mut().zip(radiance) {
@@ -409,8 +416,19 @@ pub fn render_camera_image(
     })
 }
 
-/// The pinhole's geometry: a pixel's ray through a jittered point.
-pub struct View {
+/// The one pinhole camera of the renderer (pbrt-v4's `PerspectiveCamera`
+/// without a lens): the scene's [`Camera`] as a centre of projection and
+/// an image plane at unit distance along the view axis, spanning
+/// tan(fov/2) above and below the axis (`fov_deg` is the vertical field of
+/// view) and `aspect` = width/height times that to either side. Image
+/// points are in pixels, x to the right and y down from the top-left
+/// corner; a pixel's ray goes through its jittered point. An ideal pinhole:
+/// no lens, no depth of field, no vignetting, no sensor response — the
+/// ray's radiance is the pixel's. Both image sensors use it: the
+/// dashboard's preview ([`super::sensor::render_camera`]) and the measuring
+/// camera ([`render_camera_image`]).
+#[derive(Clone, Debug)]
+pub struct Pinhole {
     origin: DVec3,
     forward: DVec3,
     right: DVec3,
@@ -421,11 +439,13 @@ pub struct View {
     height: usize,
 }
 
-impl View {
-    pub fn new(camera: &Camera) -> View {
+impl Pinhole {
+    /// The pinhole of the scene's camera: forward toward `look_at`, right =
+    /// forward × up, the image's up completing the right-handed basis.
+    pub fn new(camera: &Camera) -> Pinhole {
         let forward = (camera.look_at - camera.position).normalize();
         let right = forward.cross(camera.up).normalize();
-        View {
+        Pinhole {
             origin: camera.position,
             forward,
             right,
@@ -437,14 +457,16 @@ impl View {
         }
     }
 
-    /// The direction through image point (x + jx, y + jy), pixels, rows top to bottom.
+    /// The unit direction through image point (x, y), in pixels from the
+    /// top-left corner (a pixel's centre is at + 0.5).
     pub fn direction(&self, x: f64, y: f64) -> DVec3 {
         let px = (2.0 * x / self.width as f64 - 1.0) * self.tan_half * self.aspect;
         let py = (1.0 - 2.0 * y / self.height as f64) * self.tan_half;
         (self.forward + self.right * px + self.up * py).normalize()
     }
 
-    fn ray(&self, x: usize, y: usize, (jx, jy): (f64, f64)) -> Ray {
+    /// The ray of pixel (x, y) through its point (x + jx, y + jy), jitter in [0, 1)².
+    pub fn ray(&self, x: usize, y: usize, (jx, jy): (f64, f64)) -> Ray {
         Ray {
             origin: self.origin,
             dir: self.direction(x as f64 + jx, y as f64 + jy),
@@ -589,6 +611,87 @@ mod tests {
         }
         println!("worst residual L, M, S: {worst:?}");
         assert!(worst[0] < 0.05 && worst[1] < 0.05 && worst[2] < 0.25, "{worst:?}");
+    }
+
+    /// A 4:3 camera 2 m from what it looks at, 40° vertical field of view,
+    /// looking down −z from a point off the origin with y up.
+    fn pinhole_4_3() -> (Camera, Pinhole) {
+        let camera = Camera {
+            position: DVec3::new(0.3, 1.2, 2.0),
+            look_at: DVec3::new(0.3, 1.2, 0.0),
+            up: DVec3::Y,
+            fov_deg: 40.0,
+            width: 320,
+            height: 240,
+        };
+        let pinhole = Pinhole::new(&camera);
+        (camera, pinhole)
+    }
+
+    fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+        a.dot(b).clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
+    /// The image's centre looks at `look_at`, and a ray through a pixel
+    /// starts at the pinhole and passes through its jittered point.
+    #[test]
+    fn the_pinholes_centre_ray_points_at_look_at() {
+        let (camera, pinhole) = pinhole_4_3();
+        let to_target = (camera.look_at - camera.position).normalize();
+        assert!(angle_deg(pinhole.direction(160.0, 120.0), to_target) < 1e-12);
+        // Pixel (159, 119) jittered by (1, 1) is the same image point.
+        let ray = pinhole.ray(159, 119, (1.0, 1.0));
+        assert_eq!(ray.origin, camera.position);
+        assert!(angle_deg(ray.dir, to_target) < 1e-12);
+        assert!((ray.dir.length() - 1.0).abs() < 1e-15);
+        // The centre pixel's own centre is half a pixel off the axis.
+        assert!(pinhole.off_axis_deg(160, 120) > 0.0);
+        assert!(pinhole.off_axis_deg(160, 120) < 0.2);
+    }
+
+    /// `fov_deg` is the vertical field of view: the top and bottom edges
+    /// of the image are fov/2 off the axis, above and below.
+    #[test]
+    fn the_pinholes_top_and_bottom_edges_are_half_the_field_of_view_off_axis() {
+        let (camera, pinhole) = pinhole_4_3();
+        let axis = (camera.look_at - camera.position).normalize();
+        let top = pinhole.direction(160.0, 0.0);
+        let bottom = pinhole.direction(160.0, 240.0);
+        assert!((angle_deg(top, axis) - 20.0).abs() < 1e-12, "{}", angle_deg(top, axis));
+        assert!((angle_deg(bottom, axis) - 20.0).abs() < 1e-12);
+        assert!(top.y > 0.0 && bottom.y < 0.0, "row 0 is the top of the image");
+        assert!(
+            top.x.abs() < 1e-15 && bottom.x.abs() < 1e-15,
+            "the centre column stays in its plane"
+        );
+    }
+
+    /// The left and right edges are atan(aspect · tan(fov/2)) off the axis
+    /// horizontally (aspect = width/height), left on the −x side for a
+    /// camera looking down −z with y up; the image plane is flat, so the
+    /// corners are at atan(tan(fov/2)·√(1 + aspect²)).
+    #[test]
+    fn the_pinholes_side_edges_follow_the_aspect_ratio() {
+        let (camera, pinhole) = pinhole_4_3();
+        let axis = (camera.look_at - camera.position).normalize();
+        let tan_half = 20f64.to_radians().tan();
+        let aspect = 320.0 / 240.0;
+        let half_width = (aspect * tan_half).atan().to_degrees();
+        let left = pinhole.direction(0.0, 120.0);
+        let right = pinhole.direction(320.0, 120.0);
+        assert!(
+            (angle_deg(left, axis) - half_width).abs() < 1e-12,
+            "{}",
+            angle_deg(left, axis)
+        );
+        assert!((angle_deg(right, axis) - half_width).abs() < 1e-12);
+        assert!(left.x < 0.0 && right.x > 0.0, "x grows to the right");
+        assert!(left.y.abs() < 1e-15 && right.y.abs() < 1e-15);
+        // The edges' tangents are in the ratio of the image's sides.
+        let tan_of = |d: DVec3| d.dot(axis).acos().tan();
+        assert!((tan_of(right) / tan_of(pinhole.direction(160.0, 0.0)) - aspect).abs() < 1e-12);
+        let corner = (tan_half * (1.0 + aspect * aspect).sqrt()).atan().to_degrees();
+        assert!((angle_deg(pinhole.direction(320.0, 0.0), axis) - corner).abs() < 1e-12);
     }
 
     /// The weights of V(λ) 2006: 0.68990272 l̄ + 0.34832189 m̄ (2°) and

@@ -12,6 +12,8 @@
 //! rotated order (round r starts at setting r·n/R), and reports the median
 //! with the fastest and slowest: [`TIMING_METHOD`] says so on the charts.
 
+use tokio_util::sync::CancellationToken;
+
 use super::{render, RenderError, RenderResult, RenderSettings, Scene};
 
 /// Timed repeats of every setting.
@@ -88,12 +90,14 @@ pub fn rotated_order(n: usize, round: usize, repeats: usize) -> impl Iterator<It
 /// Renders each of `settings` `repeats` times in rotated order after one
 /// untimed warm-up render of the first, and returns each one's wall times
 /// (see the module). Results are deterministic, so the last one is kept.
+/// `cancel` stops every render as in [`render`](super::render).
 pub fn time_renders(
     scene: &Scene,
     settings: &[RenderSettings],
     repeats: usize,
+    cancel: Option<&CancellationToken>,
 ) -> Result<Vec<TimedRender>, RenderError> {
-    time_renders_reporting(scene, settings, repeats, &|_, _| {})
+    time_renders_reporting(scene, settings, repeats, &|_, _| {}, cancel)
 }
 
 /// [`time_renders`], calling `progress(done, total)` before the first
@@ -104,6 +108,7 @@ pub fn time_renders_reporting(
     settings: &[RenderSettings],
     repeats: usize,
     progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: Option<&CancellationToken>,
 ) -> Result<Vec<TimedRender>, RenderError> {
     let repeats = repeats.max(1);
     let total = if settings.is_empty() {
@@ -114,7 +119,7 @@ pub fn time_renders_reporting(
     let mut done = 0u64;
     progress(done, total);
     if let Some(first) = settings.first() {
-        render(scene, first, None)?;
+        render(scene, first, None, cancel)?;
         done += 1;
         progress(done, total);
     }
@@ -123,7 +128,7 @@ pub fn time_renders_reporting(
     let mut results: Vec<Option<RenderResult>> = vec![None; settings.len()];
     for round in 0..repeats {
         for (place, i) in rotated_order(settings.len(), round, repeats).enumerate() {
-            let r = render(scene, &settings[i], None)?;
+            let r = render(scene, &settings[i], None, cancel)?;
             seconds[i].push(r.wall_seconds);
             places[i].push(place);
             results[i] = Some(r);

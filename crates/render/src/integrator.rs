@@ -57,11 +57,13 @@
 //! The channel arithmetic works on contiguous `f32` slices whose length is a
 //! multiple of 8, which the compiler vectorises; nothing is allocated per ray.
 //!
-//! A render can be stopped between batches of paths: [`with_cancel`] gives
-//! every render started on the calling thread a [`CancellationToken`] (the daemon's
-//! jobs do; the command line's renders have none and always finish).
+//! A render can be stopped between batches of paths: the entry points
+//! ([`render`](super::render), [`render_camera_image`](super::camera::render_camera_image),
+//! [`render_camera`](super::sensor::render_camera), [`time_renders`](super::cost::time_renders))
+//! take the job's `tokio_util::sync::CancellationToken` as a parameter (the
+//! daemon's jobs give one, a child of its shutdown token; the command
+//! line's renders give `None` and always finish).
 
-use std::cell::RefCell;
 use std::sync::Arc;
 
 use glam::DVec3;
@@ -75,37 +77,6 @@ use super::lights::{
 };
 use super::sampling::{cone_direction, PathSampler, SamplerKind, REPLICATES};
 use super::scene::Scene;
-
-/// Asks the renders of one job to stop: checked before each batch of
-/// [`BATCH_SAMPLES`](super::sampling::BATCH_SAMPLES) paths, so a cancelled
-/// render stops within one batch per worker thread. The workspace's one
-/// cancellation primitive (tokio-util's; a job's token is a child of the
-/// daemon's shutdown token, so shutdown stops every render).
-pub use tokio_util::sync::CancellationToken;
-
-thread_local! {
-    static CANCEL: RefCell<Option<CancellationToken>> = const { RefCell::new(None) };
-}
-
-/// Runs `f` with `flag` as the cancellation of every render `f` starts on
-/// this thread (a thread-local, so the study's many renders need no extra
-/// argument each); the previous flag is restored afterwards, even on panic.
-pub fn with_cancel<R>(flag: &CancellationToken, f: impl FnOnce() -> R) -> R {
-    struct Restore(Option<CancellationToken>);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            let previous = self.0.take();
-            CANCEL.with(|c| *c.borrow_mut() = previous);
-        }
-    }
-    let _restore = Restore(CANCEL.with(|c| c.borrow_mut().replace(flag.clone())));
-    f()
-}
-
-/// The cancellation flag of renders started on this thread, if any.
-pub fn current_cancel() -> Option<CancellationToken> {
-    CANCEL.with(|c| c.borrow().clone())
-}
 
 /// Offset of spawned rays from their surface along the normal, m. Only the
 /// rays start there: distances and cosines of next-event estimation are

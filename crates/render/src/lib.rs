@@ -15,15 +15,19 @@
 //!   [`lights`]: point and area lights behind one interface, in one
 //!   collection with a light sampler, for it;
 //!   [`bsdf`]: every material's reflection model, Lambertian included.
-//! - [`sensor`]: the camera image for the dashboard; [`camera`]: the
-//!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors).
+//! - [`camera`]: the one pinhole camera ([`camera::Pinhole`]) and the
+//!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors);
+//!   [`sensor`]: the camera image for the dashboard, through the same pinhole.
+//!
+//! Every render entry point takes the job's cancellation token as its last
+//! argument (`None`: it always finishes); there is no thread-local.
 //!
 //! The public entry points:
 //!
 //! ```no_run
 //! use lightbooth_render::{load_scene, render, RenderSettings};
 //! let scene = load_scene("scenes/cylinder.toml".as_ref()).unwrap();
-//! let result = render(&scene, &RenderSettings::default(), None).unwrap();
+//! let result = render(&scene, &RenderSettings::default(), None, None).unwrap();
 //! println!("{}", serde_json::to_string_pretty(&result).unwrap());
 //! ```
 //!
@@ -70,6 +74,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::ser::{SerializeMap, Serializer};
 use serde::{Deserialize, Serialize};
+use tokio_util::sync::CancellationToken;
 
 pub use coding::{coding_order, ChannelLayout, Coding};
 pub use scene::{load_scene, Scene, SceneError};
@@ -97,7 +102,7 @@ pub enum RenderError {
     Settings(String),
     #[error("{0}")]
     Io(String),
-    /// Its job's [`CancellationToken`](integrator::CancellationToken) was set.
+    /// The [`CancellationToken`] the render was given was cancelled.
     #[error("the render was cancelled")]
     Cancelled,
 }
@@ -329,20 +334,22 @@ impl RenderResult {
 
 /// Renders every (selected) target of the scene with the radiometer, all
 /// codings in one pass. `progress(done, total)` is called with samples done.
+/// `cancel` (a job's token; `None`: the render always finishes) is checked
+/// before each batch of [`BATCH_SAMPLES`] paths, so a cancelled render
+/// stops within one batch per worker thread with [`RenderError::Cancelled`].
 pub fn render(
     scene: &Scene,
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+    cancel: Option<&CancellationToken>,
 ) -> Result<RenderResult, RenderError> {
-    // The flag belongs to the calling thread; the batches run on the pool's.
-    let cancel = integrator::current_cancel();
     match settings.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
             .map_err(|e| RenderError::Settings(e.to_string()))?
-            .install(|| render_in_pool(scene, settings, progress, cancel.as_ref())),
-        None => render_in_pool(scene, settings, progress, cancel.as_ref()),
+            .install(|| render_in_pool(scene, settings, progress, cancel)),
+        None => render_in_pool(scene, settings, progress, cancel),
     }
 }
 
@@ -350,7 +357,7 @@ fn render_in_pool(
     scene: &Scene,
     settings: &RenderSettings,
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
-    cancel: Option<&integrator::CancellationToken>,
+    cancel: Option<&CancellationToken>,
 ) -> Result<RenderResult, RenderError> {
     let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
     if cancelled() {
@@ -831,7 +838,9 @@ pub fn truth_hash(scene: &Scene, settings: &RenderSettings) -> Result<String, Re
 }
 
 fn converge(scene: &Scene, settings: &RenderSettings) -> Result<ConvergedTruth, RenderError> {
-    let r = render(scene, settings, None)?;
+    // The simulator's truth runs to the end (no job's token: it is cached
+    // by content and shared by every later measurement).
+    let r = render(scene, settings, None, None)?;
     let c = &r.targets[0].codings[0].1;
     let spectrum = Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, c.bands.clone())
         .map_err(|e| RenderError::Prepare(e.to_string()))?;

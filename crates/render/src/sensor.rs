@@ -1,5 +1,6 @@
 //! Sensors: the radiometer (see [`super::integrator::radiometer_batch`]) and
-//! the pinhole camera for the dashboard, with its image files.
+//! the dashboard's camera image through the scene's [`Pinhole`], with its
+//! image files.
 //!
 //! The camera renders in one coding (sRGB by default: three channels, the
 //! display's own primaries) with `spp` jittered paths per pixel. Pixels hold
@@ -12,12 +13,12 @@
 use std::io::Write;
 use std::path::Path;
 
-use glam::DVec3;
 use rayon::prelude::*;
+use tokio_util::sync::CancellationToken;
 
+use super::camera::Pinhole;
 use super::coding::{ChannelLayout, Coding};
-use super::geometry::Ray;
-use super::integrator::{current_cancel, trace_path, PathState, Prepared, Transport};
+use super::integrator::{trace_path, PathState, Prepared, Transport};
 use super::sampling::{PathSampler, SamplerKind};
 use super::scene::{Camera, Scene};
 use super::RenderError;
@@ -46,7 +47,9 @@ pub struct Image {
     pub rgb: Vec<[f32; 3]>,
 }
 
-/// Renders the scene's camera view with `spp` paths per pixel in `coding`.
+/// Renders the scene's camera view through its [`Pinhole`] with `spp`
+/// paths per pixel in `coding`. `cancel` (a job's token) is checked before
+/// each row; a cancelled render ends with [`RenderError::Cancelled`].
 pub fn render_camera(
     scene: &Scene,
     camera: &Camera,
@@ -54,20 +57,17 @@ pub fn render_camera(
     spp: u32,
     transport: &Transport,
     seed: u64,
+    cancel: Option<&CancellationToken>,
 ) -> Result<Image, RenderError> {
     let layout = ChannelLayout::new(&[coding]);
     let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
-    let forward = (camera.look_at - camera.position).normalize();
-    let right = forward.cross(camera.up).normalize();
-    let up = right.cross(forward);
-    let tan_half = (camera.fov_deg.to_radians() / 2.0).tan();
-    let aspect = camera.width as f64 / camera.height as f64;
+    let pinhole = Pinhole::new(camera);
     let to_srgb = RgbSpace::SRGB.xyz_to_rgb();
     let (w, h) = (camera.width as usize, camera.height as usize);
-    // The caller's cancellation (a daemon job), checked once per row: the
-    // rows run on rayon workers, which do not see the caller's thread-local.
-    let cancel = current_cancel();
-    let cancelled = || cancel.as_ref().is_some_and(|c| c.is_cancelled());
+    let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
+    if cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     let rows: Vec<Vec<[f32; 3]>> = (0..h)
         .into_par_iter()
         .map(|y| {
@@ -82,20 +82,8 @@ pub fn render_camera(
                 for s in 0..spp {
                     let pixel = (y * w + x) as u64;
                     let mut rng = PathSampler::new(SamplerKind::Sobol, seed, u64::MAX - pixel, s as u64);
-                    let (jx, jy) = rng.next_2d();
-                    let px = (2.0 * (x as f64 + jx) / w as f64 - 1.0) * tan_half * aspect;
-                    let py = (1.0 - 2.0 * (y as f64 + jy) / h as f64) * tan_half;
-                    let dir: DVec3 = (forward + right * px + up * py).normalize();
-                    trace_path(
-                        &prep,
-                        transport,
-                        Ray {
-                            origin: camera.position,
-                            dir,
-                        },
-                        &mut rng,
-                        &mut state,
-                    );
+                    let ray = pinhole.ray(x, y, rng.next_2d());
+                    trace_path(&prep, transport, ray, &mut rng, &mut state);
                     for (m, r) in mean.iter_mut().zip(&state.radiance) {
                         *m += *r as f64 / spp as f64;
                     }

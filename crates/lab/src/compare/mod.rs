@@ -529,8 +529,8 @@ impl Comparisons {
 mod tests {
     use super::*;
     use crate::testing::{drain, queued_measurement, runner, store_in};
-    use lightbooth_render::integrator::CancellationToken;
     use lightbooth_science::colorimetry::Observer;
+    use tokio_util::sync::CancellationToken;
 
     /// WHITE rendered at the comparison settings (the render comparisons
     /// and the ΔE map's white reuse); its id.

@@ -24,10 +24,9 @@
 use std::time::Duration;
 
 use tokio::runtime::Handle;
+use tokio_util::sync::CancellationToken;
 
-use lightbooth_instrument::{
-    AveragedMeasurement, CancellationToken, InstrumentError, Reading, Sample, Spectroradiometer,
-};
+use lightbooth_instrument::{AveragedMeasurement, InstrumentError, Reading, Sample, Spectroradiometer};
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer, Xyz};
 use lightbooth_store::{unix_seconds, Average, MeasurementState, NewSample, Store, StoreError};
 

@@ -36,9 +36,10 @@ use crate::measure::queue::MockControl;
 use crate::measure::recorder::{self as recorder, Outcome, Recorder};
 use crate::measure::simulated_truth::SimulatedTruth;
 use lightbooth_instrument::sim::{spawn_mock, Fault, MockConfig, MockHandle};
-use lightbooth_instrument::{CancellationToken, InstrumentSettings, Sample, Spectroradiometer};
+use lightbooth_instrument::{InstrumentSettings, Sample, Spectroradiometer};
 use lightbooth_science::colorimetry::xyz_from_radiance;
 use lightbooth_store::{Booth, MeasurementState, NewSample, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Settings of the simulated PR-650.
 #[derive(Clone, Debug)]

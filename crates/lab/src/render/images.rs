@@ -45,10 +45,11 @@ use crate::error::LabError;
 use crate::events::{Event, EventSink};
 use crate::jobs;
 use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
-use lightbooth_render::integrator::{with_cancel, CancellationToken, Transport};
+use lightbooth_render::integrator::Transport;
 use lightbooth_render::scene::Camera;
 use lightbooth_render::{Coding, RenderError, Scene};
 use lightbooth_science::colorimetry::Observer;
+use tokio_util::sync::CancellationToken;
 
 /// Image width (pixels) when a request does not say: the scene camera's
 /// aspect kept, 96 px wide (or the camera's width when smaller).
@@ -413,13 +414,11 @@ impl ImageJobs {
         let flag = cancel.clone();
         rayon::spawn(move || {
             let caught = catch_unwind(AssertUnwindSafe(|| {
-                with_cancel(&flag, || {
-                    if jobs::test_panic_requested(&this.scene_of(id)) {
-                        jobs::panic_on_the_pool(&this.scene_of(id));
-                    }
-                    let progress = |p: CameraProgress| this.progress(id, render_id, p);
-                    render_camera_image(&work.scene, &work.camera, &work.settings, Some(&progress))
-                })
+                if jobs::test_panic_requested(&this.scene_of(id)) {
+                    jobs::panic_on_the_pool(&this.scene_of(id));
+                }
+                let progress = |p: CameraProgress| this.progress(id, render_id, p);
+                render_camera_image(&work.scene, &work.camera, &work.settings, Some(&progress), Some(&flag))
             }))
             .map_err(|panic| format!("the renderer panicked: {}", jobs::panic_message(&*panic)));
             let _ = tx.send(caught);

@@ -355,9 +355,9 @@ mod tests {
     use super::*;
     use crate::events::EventSink;
     use crate::testing::{runner, shipped_scenes, store_in};
-    use lightbooth_render::integrator::CancellationToken;
     use lightbooth_render::Coding;
     use lightbooth_science::colorimetry::Observer;
+    use tokio_util::sync::CancellationToken;
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_render_asked_for_runs_and_only_one_that_did_not_complete_may_be_retried() {

@@ -42,10 +42,10 @@ use crate::jobs::{self, job_end, MAX_RENDER_BOUNCES, MAX_RENDER_SAMPLES};
 use crate::requests::RenderRequest;
 use crate::scenes::SceneCatalog;
 use crate::study::run::COST_DEFINITION;
-use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::{self as render, Coding, RenderError, RenderSettings, Scene};
 use lightbooth_science::colorimetry::{Observer, Xyz};
 use lightbooth_store::{Job, JobEnd, NewRender, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Records and runs renders of the catalogue's scenes.
 pub struct RenderRunner {
@@ -310,18 +310,16 @@ impl RenderRunner {
         let panic_scene = jobs::test_panic_requested(scene_id).then(|| scene_id.to_string());
         rayon::spawn(move || {
             let caught = catch_unwind(AssertUnwindSafe(|| {
-                with_cancel(&flag, || {
-                    if let Some(scene) = &panic_scene {
-                        jobs::panic_on_the_pool(scene);
+                if let Some(scene) = &panic_scene {
+                    jobs::panic_on_the_pool(scene);
+                }
+                render_with_timings(id, &scene, &settings, preview_paths, &events, &flag).and_then(|done| {
+                    // Cancelled while the codings were timed: the timings are incomplete.
+                    if flag.is_cancelled() {
+                        Err(RenderError::Cancelled)
+                    } else {
+                        Ok(done)
                     }
-                    render_with_timings(id, &scene, &settings, preview_paths, &events).and_then(|done| {
-                        // Cancelled while the codings were timed: the timings are incomplete.
-                        if flag.is_cancelled() {
-                            Err(RenderError::Cancelled)
-                        } else {
-                            Ok(done)
-                        }
-                    })
                 })
             }))
             .map_err(|panic| format!("the renderer panicked: {}", jobs::panic_message(&*panic)));
@@ -468,13 +466,15 @@ impl StoredRenderResult {
 }
 
 /// A render with progress events, then each coding timed alone (same
-/// settings) and the camera preview. Runs on the rayon pool.
+/// settings) and the camera preview, each stopped by `cancel`. Runs on the
+/// rayon pool.
 fn render_with_timings(
     id: i64,
     scene: &Scene,
     settings: &RenderSettings,
     preview_paths: u64,
     events: &EventSink,
+    cancel: &CancellationToken,
 ) -> Result<RenderOutput, RenderError> {
     // Each step reports its own progress (`lab::progress::RENDER_STEPS`).
     let [tracing, timing, preview_step] = crate::progress::RENDER_STEPS.map(|(step, _)| step);
@@ -492,7 +492,7 @@ fn render_with_timings(
         }
     };
     let progress = |done: u64, total: u64| report(tracing, done, total);
-    let result = render::render(scene, settings, Some(&progress))?;
+    let result = render::render(scene, settings, Some(&progress), Some(cancel))?;
     // Every coding alone at a fixed number of paths per target (no
     // adaptive stop): equal work, comparable costs; timed in rotated
     // rounds after a warm-up (`render::cost`), so the first-timed coding
@@ -509,7 +509,13 @@ fn render_with_timings(
         })
         .collect();
     let timing_progress = |done: u64, total: u64| report(timing, done, total);
-    match render::cost::time_renders_reporting(scene, &alone, render::cost::TIMING_REPEATS, &timing_progress) {
+    match render::cost::time_renders_reporting(
+        scene,
+        &alone,
+        render::cost::TIMING_REPEATS,
+        &timing_progress,
+        Some(cancel),
+    ) {
         Ok(timed) => {
             for (coding, t) in settings.codings.iter().zip(&timed) {
                 coding_seconds.insert(coding.to_string(), t.median_seconds().into());
@@ -532,6 +538,7 @@ fn render_with_timings(
             render::sensor::preview_spp(camera, preview_paths),
             &transport,
             settings.seed,
+            Some(cancel),
         )
         .and_then(|img| Ok((img.png()?, img.log_average_luminance())))
         .map_err(|e| tracing::warn!(render_id = id, error = %e, "no preview image"))

@@ -50,6 +50,7 @@
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use crate::charts::{grid_chart, line_chart, LineSeriesData};
 use lightbooth_render::coding::OBSERVER;
@@ -444,7 +445,10 @@ impl InterreflectionMap {
 
 /// Renders the scene once per (scale, seed) with all codings in one pass and
 /// measures every coding against `spectral` of the same render.
-pub fn interreflection_map(settings: &FailureMapSettings) -> Result<InterreflectionMap, FailureMapError> {
+pub fn interreflection_map(
+    settings: &FailureMapSettings,
+    cancel: Option<&CancellationToken>,
+) -> Result<InterreflectionMap, FailureMapError> {
     if settings.seeds.len() < 2 {
         return Err(FailureMapError::Settings(
             "the interreflection map needs at least two seeds: its spread over seeds is part of the result".into(),
@@ -497,7 +501,7 @@ pub fn interreflection_map(settings: &FailureMapSettings) -> Result<Interreflect
                 target_relative_se: None,
                 ..RenderSettings::default()
             };
-            let result = render(&scene, &render_settings, None)?;
+            let result = render(&scene, &render_settings, None, cancel)?;
             let white_xyz = result
                 .target(&settings.white_target)
                 .and_then(|t| t.coding("spectral"))
@@ -571,10 +575,13 @@ pub struct FailureMap {
 
 /// Both sweeps: the illuminant × patch map for [`ILLUMINANTS`] and the
 /// interreflection map, with the same codings.
-pub fn failure_map(settings: &FailureMapSettings) -> Result<FailureMap, FailureMapError> {
+pub fn failure_map(
+    settings: &FailureMapSettings,
+    cancel: Option<&CancellationToken>,
+) -> Result<FailureMap, FailureMapError> {
     Ok(FailureMap {
         illuminant_patch: illuminant_patch_map(&settings.codings, &ILLUMINANTS)?,
-        interreflection: interreflection_map(settings)?,
+        interreflection: interreflection_map(settings, cancel)?,
     })
 }
 
@@ -841,9 +848,15 @@ mod tests {
     fn interreflection_refuses_one_seed_and_bad_scales() {
         let mut s = FailureMapSettings::cylinder(Path::new("scenes/cylinder.toml"));
         s.seeds = vec![1];
-        assert!(matches!(interreflection_map(&s), Err(FailureMapError::Settings(_))));
+        assert!(matches!(
+            interreflection_map(&s, None),
+            Err(FailureMapError::Settings(_))
+        ));
         s.seeds = vec![1, 2];
         s.scales = vec![1.5];
-        assert!(interreflection_map(&s).unwrap_err().to_string().contains("(0, 1]"));
+        assert!(interreflection_map(&s, None)
+            .unwrap_err()
+            .to_string()
+            .contains("(0, 1]"));
     }
 }

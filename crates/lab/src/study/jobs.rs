@@ -22,10 +22,10 @@ use crate::scenes::SceneCatalog;
 use crate::study::awaited::wait_for_measurements;
 use crate::study::report::report_files;
 use crate::study::run::{progress_fractions, run_study, Against, StudyOptions, StudyResult};
-use lightbooth_render::integrator::{with_cancel, CancellationToken};
 use lightbooth_render::Coding;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Job, JobEnd, Store};
+use tokio_util::sync::CancellationToken;
 
 /// Plans and runs studies of the catalogue's scenes.
 pub struct StudyRunner {
@@ -179,40 +179,38 @@ impl StudyRunner {
         let flag = cancel.clone();
         let outcome = tokio::task::spawn_blocking(move || {
             catch_unwind(AssertUnwindSafe(|| {
-                with_cancel(&flag, || {
-                    for p in &paths {
-                        if let Some(scene) = p.file_stem().and_then(|s| s.to_str()) {
-                            if jobs::test_panic_requested(scene) {
-                                jobs::panic_on_the_pool(scene);
-                            }
+                for p in &paths {
+                    if let Some(scene) = p.file_stem().and_then(|s| s.to_str()) {
+                        if jobs::test_panic_requested(scene) {
+                            jobs::panic_on_the_pool(scene);
                         }
                     }
-                    let events = this.events.clone();
-                    // The k-th step begun: the study's work before it, each
-                    // scene's steps weighed by its targets.
-                    let targets: Vec<usize> = paths
-                        .iter()
-                        .map(|p| lightbooth_render::load_scene(p).map_or(1, |s| s.targets().len()))
-                        .collect();
-                    let fractions = progress_fractions(&targets, &options);
-                    let begun = std::sync::atomic::AtomicUsize::new(0);
-                    let progress = move |message: &str| {
-                        let k = begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        events.send(Event::StudyProgress {
-                            study_id: id,
-                            message: message.to_string(),
-                            fraction: Some(fractions.get(k).copied().unwrap_or(1.0).min(1.0)),
-                        });
-                    };
-                    this.runtime
-                        .block_on(run_study(&paths, &options, Some(&this.store), &progress))
-                        .map_err(|e| e.to_string())
-                        .and_then(|result| {
-                            let files = report_files(&result).map_err(|e| e.to_string())?;
-                            let json = serde_json::to_value(&result).map_err(|e| e.to_string())?;
-                            Ok((json, result.wall_seconds, files))
-                        })
-                })
+                }
+                let events = this.events.clone();
+                // The k-th step begun: the study's work before it, each
+                // scene's steps weighed by its targets.
+                let targets: Vec<usize> = paths
+                    .iter()
+                    .map(|p| lightbooth_render::load_scene(p).map_or(1, |s| s.targets().len()))
+                    .collect();
+                let fractions = progress_fractions(&targets, &options);
+                let begun = std::sync::atomic::AtomicUsize::new(0);
+                let progress = move |message: &str| {
+                    let k = begun.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    events.send(Event::StudyProgress {
+                        study_id: id,
+                        message: message.to_string(),
+                        fraction: Some(fractions.get(k).copied().unwrap_or(1.0).min(1.0)),
+                    });
+                };
+                this.runtime
+                    .block_on(run_study(&paths, &options, Some(&this.store), &progress, Some(&flag)))
+                    .map_err(|e| e.to_string())
+                    .and_then(|result| {
+                        let files = report_files(&result).map_err(|e| e.to_string())?;
+                        let json = serde_json::to_value(&result).map_err(|e| e.to_string())?;
+                        Ok((json, result.wall_seconds, files))
+                    })
             }))
             .map_err(|panic| format!("the study panicked: {}", jobs::panic_message(&*panic)))
         })
@@ -300,7 +298,7 @@ pub async fn run_study_now(
         }
         None => None,
     };
-    let result = match run_study(scenes, options, store, progress).await {
+    let result = match run_study(scenes, options, store, progress, None).await {
         Ok(r) => r,
         Err(e) => {
             if let (Some(store), Some(id)) = (store, id) {

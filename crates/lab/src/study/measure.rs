@@ -15,10 +15,11 @@ use std::path::{Path, PathBuf};
 use crate::measure::recorder::{Outcome, Recorder};
 use crate::study::run::truth_path;
 use lightbooth_instrument::sim::{spawn_mock, MockConfig};
-use lightbooth_instrument::{open_pr650, CancellationToken, Pr650Settings};
+use lightbooth_instrument::{open_pr650, Pr650Settings};
 use lightbooth_render as render;
 use lightbooth_science::colorimetry::Observer;
 use lightbooth_store::{Booth, NewMeasurement, Store};
+use tokio_util::sync::CancellationToken;
 
 /// The simulated PR-650 a study measures with.
 #[derive(Clone, Copy, Debug)]

@@ -35,6 +35,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use lightbooth_render::{self as render, Coding, RenderResult, RenderSettings, Scene};
 use lightbooth_science::colorimetry::{Observer, Xyz};
@@ -417,12 +418,13 @@ pub enum StudyError {
 
 /// The converged reference rendering of a scene (all its targets, `spectral`
 /// only), cached in memory for the run.
-struct References {
+struct References<'c> {
     cache: HashMap<PathBuf, RenderResult>,
     observer: Observer,
+    cancel: Option<&'c CancellationToken>,
 }
 
-impl References {
+impl References<'_> {
     /// The converged truth of the scene file `path` (a model or a truth
     /// scene): the simulated booth's settings ([`render::truth_settings`])
     /// for every target.
@@ -435,7 +437,7 @@ impl References {
                 observer: self.observer,
                 ..render::truth_settings("")
             };
-            let result = render::render(&scene, &settings, None)?;
+            let result = render::render(&scene, &settings, None, self.cancel)?;
             self.cache.insert(path.to_path_buf(), result);
         }
         Ok(&self.cache[path])
@@ -517,16 +519,19 @@ pub fn progress_fractions(targets: &[usize], options: &StudyOptions) -> Vec<f64>
 
 /// Runs the study over `scenes` (paths of scene files; the scene id is the
 /// file stem, as in the daemon). `store` is needed with `Against::Measurements`.
+/// `cancel` (the study job's token) stops every render of the study.
 pub async fn run_study(
     scenes: &[PathBuf],
     options: &StudyOptions,
     store: Option<&Store>,
     progress: &(dyn Fn(&str) + Sync),
+    cancel: Option<&CancellationToken>,
 ) -> Result<StudyResult, StudyError> {
     let start = Instant::now();
     let mut references = References {
         cache: HashMap::new(),
         observer: options.observer,
+        cancel,
     };
     let mut out = Vec::new();
     for path in scenes {
@@ -606,7 +611,7 @@ pub async fn run_study(
                 observer: options.observer,
                 ..RenderSettings::default()
             };
-            per_seed.push(render::render(&scene, &settings, None)?);
+            per_seed.push(render::render(&scene, &settings, None, cancel)?);
         }
         let render_seconds = render_start.elapsed().as_secs_f64();
         let codings = options
@@ -626,14 +631,14 @@ pub async fn run_study(
 
         let sweeps = if options.sweeps {
             progress(&format!("{scene_id}: sweeps"));
-            sweeps(&scene, options, &truth, white)?
+            sweeps(&scene, options, &truth, white, cancel)?
         } else {
             Vec::new()
         };
         let auto = match &options.auto {
             Some(tol) => {
                 progress(&format!("{scene_id}: automatic settings for {tol}"));
-                Some(auto_study(&scene, tol)?)
+                Some(auto_study(&scene, tol, cancel)?)
             }
             None => None,
         };
@@ -663,7 +668,7 @@ pub async fn run_study(
         progress("failure maps");
         let mut settings = FailureMapSettings::cylinder(cylinder);
         settings.codings = options.codings.clone();
-        Some(failure_map(&settings).map_err(|e| StudyError::Truth(format!("failure maps: {e}")))?)
+        Some(failure_map(&settings, cancel).map_err(|e| StudyError::Truth(format!("failure maps: {e}")))?)
     } else {
         None
     };
@@ -679,12 +684,12 @@ pub async fn run_study(
 }
 
 /// Chooses, verifies and charts the automatic settings of one scene.
-fn auto_study(scene: &Scene, tol: &Tolerance) -> Result<AutoStudy, StudyError> {
+fn auto_study(scene: &Scene, tol: &Tolerance, cancel: Option<&CancellationToken>) -> Result<AutoStudy, StudyError> {
     let err = |e: super::auto::AutoError| StudyError::Truth(format!("automatic settings: {e}"));
-    let choice = choose_settings(scene, tol, 1).map_err(err)?;
-    let reference = reference_render(scene, &choice).map_err(err)?;
-    let verification = verify(scene, &choice, &reference).map_err(err)?;
-    let candidates = candidate_set(scene, &choice, &reference, &[choice.bounces], 2).map_err(err)?;
+    let choice = choose_settings(scene, tol, 1, cancel).map_err(err)?;
+    let reference = reference_render(scene, &choice, cancel).map_err(err)?;
+    let verification = verify(scene, &choice, &reference, cancel).map_err(err)?;
+    let candidates = candidate_set(scene, &choice, &reference, &[choice.bounces], 2, cancel).map_err(err)?;
     let svg = candidates.svg.clone();
     Ok(AutoStudy {
         choice,
@@ -793,7 +798,13 @@ pub const COST_DEFINITION: &str = "fixed paths per target (no adaptive stop), ev
 /// fixed number of paths (so wall times compare equal work): every coding
 /// alone at the study's settings; `spectral` at 256…16384 paths per target;
 /// `spectral` with 0…8 bounces; and nstepN for N = 1…81.
-fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) -> Result<Vec<SweepPoint>, StudyError> {
+fn sweeps(
+    scene: &Scene,
+    options: &StudyOptions,
+    truth: &[Truth],
+    white: Xyz,
+    cancel: Option<&CancellationToken>,
+) -> Result<Vec<SweepPoint>, StudyError> {
     let base = RenderSettings {
         samples: options.sweep_samples,
         max_bounces: options.max_bounces,
@@ -846,7 +857,7 @@ fn sweeps(scene: &Scene, options: &StudyOptions, truth: &[Truth], white: Xyz) ->
             ..base.clone()
         })
         .collect();
-    let timed = render::cost::time_renders(scene, &settings, render::cost::TIMING_REPEATS)?;
+    let timed = render::cost::time_renders(scene, &settings, render::cost::TIMING_REPEATS, cancel)?;
     let mut points = Vec::new();
     for ((sweep, coding, samples, bounces, study_choice), t) in plan.into_iter().zip(timed) {
         let r = &t.result;

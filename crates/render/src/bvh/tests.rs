@@ -179,9 +179,9 @@ fn a_scene_traced_through_the_bvh_renders_bit_identically_to_the_linear_scan() {
         ..RenderSettings::default()
     };
     let json = |r: &crate::RenderResult| serde_json::to_string(&r.targets).unwrap();
-    let linear = json(&render(&scene, &settings(2), None).unwrap());
+    let linear = json(&render(&scene, &settings(2), None, None).unwrap());
     for threads in [1, 2] {
-        let bvh = json(&render(&with_mesh, &settings(threads), None).unwrap());
+        let bvh = json(&render(&with_mesh, &settings(threads), None, None).unwrap());
         assert_eq!(bvh, linear, "{threads} threads");
     }
 }

@@ -30,6 +30,11 @@
 //! importance sampling ([`power_heuristic`]). A delta light takes no MIS
 //! weight.
 //!
+//! Beside the estimator, the collection gives the closed form of its point
+//! luminaires' irradiance at a point ([`SceneLights::point_source_irradiance`],
+//! E = Σ I·cos θᵢ / d² per spectrum, unoccluded): the CIELAB white of a scene
+//! that names "its lights on a perfect diffuser" is computed from it.
+//!
 //! A sample keeps the factors of its contribution apart ([`Arrival`]) so
 //! that the integrator forms each product in one fixed order: with one light
 //! (P = 1) the renderer's results are bit-identical to the ones before the
@@ -46,7 +51,8 @@ pub use point::Luminaire;
 pub use sampler::{LightSampler, LightSampling};
 
 use crate::sampling::PathSampler;
-use crate::scene::Scene;
+use crate::scene::{PointLight, Scene};
+use lightbooth_science::spectrum::Grid;
 
 /// The surface point light arrives at: the point itself and its unit
 /// normal on the side the path came from. Distances and cosines are taken
@@ -233,24 +239,60 @@ impl<'a> SceneLights<'a> {
     /// The point luminaires of `scene` (file order), then one area light per
     /// emitter with triangles (emitter order); errors as [`AreaLight::of_scene`].
     pub fn new(scene: &'a Scene) -> Result<SceneLights<'a>, String> {
-        let mut lights: Vec<SceneLight<'a>> = scene
-            .lights
-            .iter()
-            .enumerate()
-            .map(|(index, light)| SceneLight::Point(Luminaire { index, light }))
-            .collect();
+        let mut lights = luminaires(&scene.lights);
         let mut of_emitter = vec![u32::MAX; scene.emitters.len()];
         for area in AreaLight::of_scene(scene)? {
             of_emitter[area.emitter] = lights.len() as u32;
             lights.push(SceneLight::Area(area));
         }
+        Ok(SceneLights::of(lights, of_emitter))
+    }
+
+    /// A collection of point luminaires only (`Scene::lights`, in order),
+    /// for a scene still being loaded or a question about them alone.
+    pub fn of_luminaires(lights: &'a [PointLight]) -> SceneLights<'a> {
+        SceneLights::of(luminaires(lights), Vec::new())
+    }
+
+    fn of(lights: Vec<SceneLight<'a>>, of_emitter: Vec<u32>) -> SceneLights<'a> {
         let phi: Vec<f64> = lights.iter().map(Light::phi).collect();
-        Ok(SceneLights {
+        SceneLights {
             power: LightSampler::power(&phi),
             uniform: LightSampler::uniform(lights.len()),
             lights,
             of_emitter,
-        })
+        }
+    }
+
+    /// The spectral irradiance E(λ) = Σℓ Iℓ·cos θᵢ / d² · Sℓ(λ) that the
+    /// collection's point luminaires deliver at `ctx`, W/(m²·nm) on the
+    /// 1 nm grid: Iℓ the luminaire's candela toward the point, d its
+    /// distance, θᵢ the incidence on `ctx.n`, Sℓ its spectral intensity per
+    /// cd ([`PointLight::spectrum_per_cd`]). Each luminaire's arrival is its
+    /// own [`Light::sample_li`] (the integrator's), every light counted
+    /// fully (no light sampler). Approximations, stated: **unoccluded** (no
+    /// shadow ray is traced, so a surface between a light and the point
+    /// does not shade it) and **direct only** (nothing arrives by
+    /// interreflection). Area lights are not included: their irradiance is
+    /// an integral over their surface, not this closed form (a scene with
+    /// area lights may not ask for it as its white; see
+    /// [`Scene::light_on_perfect_diffuser`]). A luminaire at the point
+    /// itself gives a non-finite value, which the caller must refuse.
+    pub fn point_source_irradiance(&self, ctx: &LightContext) -> Vec<f64> {
+        let mut irradiance = vec![0.0; Grid::one_nm().len()];
+        for light in &self.lights {
+            let SceneLight::Point(luminaire) = light else { continue };
+            // `None`: the luminaire is behind the surface or dark toward it.
+            let Some(arrival) = luminaire.sample_li(ctx, (0.0, 0.0)) else {
+                continue;
+            };
+            // I·cos θᵢ / d² (k = 1, P = 1, a delta light takes no MIS weight).
+            let e = arrival.scale(1.0, 1.0);
+            for (v, s) in irradiance.iter_mut().zip(luminaire.light.spectrum_per_cd.values()) {
+                *v += e * s;
+            }
+        }
+        irradiance
     }
 
     pub fn len(&self) -> usize {
@@ -325,6 +367,15 @@ impl<'a> SceneLights<'a> {
     }
 }
 
+/// The point luminaires of a scene as lights of the collection, in order.
+fn luminaires(lights: &[PointLight]) -> Vec<SceneLight<'_>> {
+    lights
+        .iter()
+        .enumerate()
+        .map(|(index, light)| SceneLight::Point(Luminaire { index, light }))
+        .collect()
+}
+
 /// The power heuristic with β = 2 (Veach & Guibas 1995): the weight of the
 /// strategy with density `a` against one with density `b`.
 #[inline]
@@ -346,6 +397,56 @@ mod tests {
         for (a, b) in [(1.0, 2.0), (0.3, 0.0), (5.0, 5.0)] {
             assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-15);
         }
+    }
+
+    fn lamp(position: DVec3, intensity_cd: f64, spectrum_per_cd: f64) -> PointLight {
+        use crate::scene::LightDistribution;
+        use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
+        PointLight {
+            id: "lamp".into(),
+            position,
+            aim: -DVec3::Z,
+            c0: DVec3::X,
+            distribution: LightDistribution::Cone {
+                intensity_cd,
+                cone_deg: 180.0,
+                falloff_deg: 0.0,
+            },
+            intensity_scale: 1.0,
+            spectrum_per_cd: Spectrum::constant(Grid::one_nm(), SpectralUnit::RelativePower, spectrum_per_cd).unwrap(),
+        }
+    }
+
+    /// A point source of I cd at distance d and incidence θ gives the
+    /// irradiance E = I·cos θ / d² (per unit of its spectrum per cd); two
+    /// add, and one behind the surface gives nothing.
+    #[test]
+    fn point_source_irradiance_is_i_cos_theta_over_d_squared() {
+        let (i, d, theta) = (250.0, 1.7, 35f64.to_radians());
+        // The lamp at distance d from the origin, θ from the normal +z.
+        let at = DVec3::new(d * theta.sin(), 0.0, d * theta.cos());
+        let lights = [
+            lamp(at, i, 2.0e-3),
+            lamp(DVec3::new(0.0, 0.0, 0.5), 10.0, 1.0e-3),
+            lamp(DVec3::new(0.0, 0.3, -0.4), 1.0e6, 1.0),
+        ];
+        let ctx = LightContext {
+            p: DVec3::ZERO,
+            n: DVec3::Z,
+        };
+        let e = SceneLights::of_luminaires(&lights).point_source_irradiance(&ctx);
+        assert_eq!(e.len(), Grid::one_nm().len());
+        let truth = i * theta.cos() / (d * d) * 2.0e-3 + 10.0 / 0.25 * 1.0e-3;
+        for v in &e {
+            assert!((v / truth - 1.0).abs() < 1e-14, "{v} vs {truth}");
+        }
+        let alone = SceneLights::of_luminaires(&lights[..1]).point_source_irradiance(&ctx);
+        assert!((alone[200] / (i * theta.cos() / (d * d) * 2.0e-3) - 1.0).abs() < 1e-14);
+        let behind = SceneLights::of_luminaires(&lights[2..]).point_source_irradiance(&ctx);
+        assert!(
+            behind.iter().all(|v| *v == 0.0),
+            "a lamp below the surface does not light it"
+        );
     }
 
     /// A delta light's scale is the inverse-square law: I·cos θ / d².

@@ -369,7 +369,7 @@ material = "grey"
             observer: lightbooth_science::colorimetry::PHOTOMETRIC_OBSERVER,
             ..RenderSettings::default()
         };
-        let r = render(&scene, &s, None).unwrap();
+        let r = render(&scene, &s, None, None).unwrap();
         let c = &r.targets[0].codings[0].1;
         (c.luminance_cd_m2, c.luminance_se_cd_m2)
     }

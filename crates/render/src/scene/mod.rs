@@ -141,9 +141,10 @@
 //! target = "patch"                  # a target of this scene …
 //! # scene = "white"                 # … or of another scene in the same folder
 //!
-//! # light_on_perfect_diffuser = true   # the scene's lights on a perfect
+//! # light_on_perfect_diffuser = true   # the scene's point lights on a perfect
 //! # point = [0.0, 1.0, -0.6]           # (ρ = 1) Lambertian diffuser at point,
-//! # normal = [0.0, 0.7071, 0.7071]     # facing normal: direct light, no occlusion
+//! # normal = [0.0, 0.7071, 0.7071]     # facing normal: L = ρE/π, E = Σ I cos θ/d²;
+//! #                                    # direct light, no occlusion
 //!
 //! # xyz = [32.5, 34.2, 12.0]           # an explicit absolute XYZ, cd/m²
 //! ```
@@ -247,6 +248,7 @@ use self::file::{CameraFile, CielabWhiteFile, SceneFile, V3};
 use super::bvh::ShapeList;
 use super::geometry::{Shape, Solid};
 use super::ies::IesDistribution;
+use super::lights::{LightContext, SceneLights};
 use lightbooth_science::spectrum::table::SpectraTable;
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -567,10 +569,14 @@ impl Scene {
 
 impl Scene {
     /// The spectral radiance of a perfect (ρ = 1) Lambertian diffuser at
-    /// `point` facing `normal` under the scene's lights, W/(sr·m²·nm) on the
-    /// 1 nm grid: L(λ) = Σ I_cd(toward the point)·S(λ)·cos θ / (π d²). Direct
-    /// light only: no shadows, no interreflections (an approximation the
-    /// scene's author accepts by choosing this white).
+    /// `point` facing `normal` under the scene's point luminaires,
+    /// W/(sr·m²·nm) on the 1 nm grid: L(λ) = ρ·E(λ)/π with E the
+    /// irradiance the light collection gives
+    /// ([`SceneLights::point_source_irradiance`](crate::lights::SceneLights::point_source_irradiance),
+    /// Σ I·cos θ·S(λ)/d²). Direct light only: no shadows, no
+    /// interreflections (an approximation the scene's author accepts by
+    /// choosing this white); area lights are not counted, and loading
+    /// refuses this white in a scene that has them.
     pub fn light_on_perfect_diffuser(&self, point: DVec3, normal: DVec3) -> Spectrum {
         let values = diffuser_radiance(&self.lights, point, normal);
         // Loading refused a white whose radiance is not finite.
@@ -580,21 +586,11 @@ impl Scene {
 
 /// [`Scene::light_on_perfect_diffuser`]'s values, W/(sr·m²·nm) on the 1 nm grid.
 fn diffuser_radiance(lights: &[PointLight], point: DVec3, normal: DVec3) -> Vec<f64> {
-    {
-        let mut values = vec![0.0; Grid::one_nm().len()];
-        for light in lights {
-            let to_point = point - light.position;
-            let d2 = to_point.length_squared();
-            let dir = to_point / d2.sqrt();
-            let cos = (-dir).dot(normal);
-            if cos <= 0.0 || d2 <= 0.0 {
-                continue;
-            }
-            let k = light.candela_toward(dir) * cos / (std::f64::consts::PI * d2);
-            for (v, s) in values.iter_mut().zip(light.spectrum_per_cd.values()) {
-                *v += k * s;
-            }
-        }
-        values
-    }
+    let at = LightContext { p: point, n: normal };
+    // A perfect Lambertian diffuser: L = ρE/π with ρ = 1.
+    SceneLights::of_luminaires(lights)
+        .point_source_irradiance(&at)
+        .into_iter()
+        .map(|e| e / std::f64::consts::PI)
+        .collect()
 }

@@ -803,3 +803,30 @@ fn a_chart_table_takes_the_outside_rule_for_all_its_columns() {
     assert!((p24.value_at(390.0).unwrap() - 0.24).abs() < 1e-12);
     assert!((p24.value_at(750.0).unwrap() - 0.27).abs() < 1e-12);
 }
+
+/// The CIELAB white "light on a perfect diffuser" is the closed form of a
+/// point source on a Lambertian surface: a source of I cd at distance d and
+/// incidence θ gives E = I·cos θ / d², and the diffuser (ρ = 1) reflects
+/// L = ρE/π, per unit of the lamp's spectrum per cd.
+#[test]
+fn the_diffuser_white_is_rho_e_over_pi_of_a_point_source() {
+    // The BULB 0.9 m above the floor's origin; the diffuser 0.3 m to the
+    // side of it on the floor: d² = 0.9² + 0.3², cos θ = 0.9/d.
+    let s = load(&format!("{BULB}intensity_cd = 120.0\n")).unwrap();
+    let (d2, cos) = (0.9f64 * 0.9 + 0.3 * 0.3, 0.9 / (0.9f64 * 0.9 + 0.3 * 0.3).sqrt());
+    let l = s.light_on_perfect_diffuser(DVec3::new(0.3, 0.0, 0.0), DVec3::Y);
+    let per_cd = s.lights[0].spectrum_per_cd.values();
+    for (k, (v, sp)) in l.values().iter().zip(per_cd).enumerate() {
+        let truth = 1.0 * (120.0 * cos / d2) / std::f64::consts::PI * sp;
+        assert!((v / truth - 1.0).abs() < 1e-13, "{} nm: {v} vs {truth}", 380 + k);
+    }
+    // In V(λ): Y = ρ·E_v/π with E_v = I·cos θ / d² in lux (the candela is V-weighted).
+    let y = xyz_from_radiance(&l, PHOTOMETRIC_OBSERVER).unwrap().y;
+    assert!(
+        (y / (120.0 * cos / d2 / std::f64::consts::PI) - 1.0).abs() < 1e-3,
+        "{y}"
+    );
+    // Facing away from the lamp, the diffuser gets nothing.
+    let dark = s.light_on_perfect_diffuser(DVec3::new(0.3, 0.0, 0.0), -DVec3::Y);
+    assert!(dark.values().iter().all(|v| *v == 0.0));
+}

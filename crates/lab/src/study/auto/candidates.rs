@@ -81,6 +81,7 @@ pub fn candidate_set(
     reference: &RenderResult,
     bounces: &[u32],
     repeats: usize,
+    cancel: Option<&CancellationToken>,
 ) -> Result<CandidateSet, AutoError> {
     let codings = [
         Coding::NStep(3),
@@ -114,7 +115,7 @@ pub fn candidate_set(
     let mut results: Vec<Option<RenderResult>> = vec![None; runs.len()];
     for _ in 0..repeats.max(1) {
         for (i, &(coding, b, _)) in runs.iter().enumerate() {
-            let r = render(scene, &settings_of(coding, b), None)?;
+            let r = render(scene, &settings_of(coding, b), None, cancel)?;
             times[i].push(r.wall_seconds);
             results[i] = Some(r);
         }

@@ -68,6 +68,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use serde::{Serialize, Serializer};
+use tokio_util::sync::CancellationToken;
 
 use crate::charts::{scatter_chart, ScatterSeries};
 use lightbooth_render::coding::OBSERVER;
@@ -544,7 +545,12 @@ fn luminances(r: &RenderResult) -> Vec<f64> {
 
 /// Chooses the cheapest coding, bounce count and sample count that meet
 /// `tol` for this scene (see the module documentation for how and why).
-pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<AutoChoice, AutoError> {
+pub fn choose_settings(
+    scene: &Scene,
+    tol: &Tolerance,
+    seed: u64,
+    cancel: Option<&CancellationToken>,
+) -> Result<AutoChoice, AutoError> {
     let mut reasons = Vec::new();
     // ---- N
     let (table, targets) = n_analysis(scene, tol)?;
@@ -620,6 +626,7 @@ pub fn choose_settings(scene: &Scene, tol: &Tolerance, seed: u64) -> Result<Auto
                 ..RenderSettings::default()
             },
             None,
+            cancel,
         )?)
     };
     let ids: Vec<String> = scene.target_list.iter().map(|t| t.id.clone()).collect();

@@ -9,7 +9,11 @@ use super::*;
 /// different seed from the choice (independent noise), and a relative SE goal
 /// of a quarter of the choice's, so the reference's own noise adds ≤ 3 % to
 /// the comparison's in quadrature.
-pub fn reference_render(scene: &Scene, choice: &AutoChoice) -> Result<RenderResult, AutoError> {
+pub fn reference_render(
+    scene: &Scene,
+    choice: &AutoChoice,
+    cancel: Option<&CancellationToken>,
+) -> Result<RenderResult, AutoError> {
     let goal = choice.sample_choice.goal_relative_se / 4.0;
     Ok(render(
         scene,
@@ -24,6 +28,7 @@ pub fn reference_render(scene: &Scene, choice: &AutoChoice) -> Result<RenderResu
             ..RenderSettings::default()
         },
         None,
+        cancel,
     )?)
 }
 
@@ -90,8 +95,13 @@ pub(super) fn compare_with_reference(
 
 /// Renders the choice and compares it with `reference` (from
 /// [`reference_render`], or any converged `spectral` render of the scene).
-pub fn verify(scene: &Scene, choice: &AutoChoice, reference: &RenderResult) -> Result<Verification, AutoError> {
-    let r = render(scene, &choice.settings(), None)?;
+pub fn verify(
+    scene: &Scene,
+    choice: &AutoChoice,
+    reference: &RenderResult,
+    cancel: Option<&CancellationToken>,
+) -> Result<Verification, AutoError> {
+    let r = render(scene, &choice.settings(), None, cancel)?;
     let (white_target, points, noise_rms_rel) = compare_with_reference(&r, reference)?;
     let s = summarize(&points);
     let max_de00 = points.iter().map(|p| p.de00).fold(0.0, f64::max);
