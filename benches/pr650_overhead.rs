@@ -14,9 +14,10 @@
 use std::time::{Duration, Instant};
 
 use lightbooth::instrument::sim::{spawn_mock, MockConfig};
-use lightbooth::instrument::{open_pr650, CancellationToken, Pr650Settings};
+use lightbooth::instrument::{open_pr650, Pr650Settings};
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{SpectralUnit, Spectrum};
+use tokio_util::sync::CancellationToken;
 
 const SAMPLES: usize = 5;
 const RUNS: usize = 30;

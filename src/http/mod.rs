@@ -20,7 +20,6 @@
 pub mod auth;
 pub mod error;
 pub mod hosts;
-pub mod image_views;
 pub mod input;
 mod kept;
 pub mod limits;

@@ -9,7 +9,7 @@ use std::path::Path;
 use lightbooth::http::auth::{bearer_token, load_token, token_matches, TokenSource};
 use lightbooth::http::error::ApiError;
 use lightbooth::http::hosts::{parse_allowed_host, AllowedHosts};
-use lightbooth::http::image_views::check_box;
+use lightbooth::lab::render::image_views::check_box;
 
 #[test]
 fn tokens_compare_exactly() {
@@ -197,7 +197,7 @@ fn pixel_box_width_that_wraps_u32_is_refused_naming_w() {
         (u32::MAX, 0, 1, 1, "`x`"),
         (0, 40, 1, 1, "`y`"),
     ] {
-        let e = check_box(x, y, w, h, 64, 40).unwrap_err();
+        let e = ApiError::from(check_box(x, y, w, h, 64, 40).unwrap_err());
         assert!(matches!(e, ApiError::BadRequest(_)), "{e}");
         assert!(e.to_string().contains(field), "{x},{y},{w},{h}: {e}");
     }

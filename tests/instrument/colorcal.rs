@@ -10,10 +10,9 @@ use std::time::{Duration, Instant};
 use lightbooth::instrument::colorcal::protocol::{self, Command};
 use lightbooth::instrument::colorcal::{codes, open_colorcal, ColorCalSettings};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::{
-    AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
-};
+use lightbooth::instrument::{AveragedMeasurement, InstrumentError, QualityKind, Reading, Spectroradiometer};
 use serialport::SerialPort;
+use tokio_util::sync::CancellationToken;
 
 use crate::colorimeter_support::*;
 

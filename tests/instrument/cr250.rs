@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 
 use lightbooth::instrument::cr250::{open_cr250, Cr250Settings, Model};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Spectroradiometer};
+use lightbooth::instrument::{AveragedMeasurement, InstrumentError, QualityKind, Spectroradiometer};
 use lightbooth::spectrum::SpectralUnit;
+use tokio_util::sync::CancellationToken;
 
 use crate::common::pr655_wire::d65_radiance;
 

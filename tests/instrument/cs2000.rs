@@ -13,8 +13,9 @@ use std::time::{Duration, Instant};
 
 use lightbooth::instrument::cs2000::{open_cs2000, Cs2000Settings, Model};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::{AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Spectroradiometer};
+use lightbooth::instrument::{AveragedMeasurement, InstrumentError, QualityKind, Spectroradiometer};
 use lightbooth::spectrum::{Grid, SpectralUnit};
+use tokio_util::sync::CancellationToken;
 
 use crate::common::pr655_wire::d65_radiance;
 

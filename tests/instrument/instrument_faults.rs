@@ -12,11 +12,11 @@ use lightbooth::instrument::link::Terminator;
 use lightbooth::instrument::pr650::protocol::as_sent;
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
 use lightbooth::instrument::{
-    open_pr650, AveragedMeasurement, CancellationToken, InstrumentError, Pr650Settings, QualityKind, Sample,
-    Spectroradiometer,
+    open_pr650, AveragedMeasurement, InstrumentError, Pr650Settings, QualityKind, Sample, Spectroradiometer,
 };
 use lightbooth::reference_data::{illuminant, Illuminant};
 use lightbooth::spectrum::{Grid, SpectralUnit, Spectrum};
+use tokio_util::sync::CancellationToken;
 
 /// D65 as an absolute radiance of about 100 cd/m² (1.4e-5 W/(sr·m²·nm) per table unit).
 fn d65_radiance() -> Spectrum {

@@ -11,9 +11,8 @@ use serialport::SerialPort;
 
 use lightbooth::instrument::ls100::{open_ls100, Ls100Settings, Model};
 use lightbooth::instrument::sim::{spawn_mock, Fault, FaultKind, MockConfig, MockHandle};
-use lightbooth::instrument::{
-    AveragedMeasurement, CancellationToken, InstrumentError, QualityKind, Reading, Spectroradiometer,
-};
+use lightbooth::instrument::{AveragedMeasurement, InstrumentError, QualityKind, Reading, Spectroradiometer};
+use tokio_util::sync::CancellationToken;
 
 use crate::colorimeter_support::*;
 

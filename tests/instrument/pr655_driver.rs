@@ -14,9 +14,10 @@ use lightbooth::instrument::sim::{
     spawn_mock, AfterFailure, Fault, FaultKind, MockConfig, MockHandle, Pr655Switches, StrayTerminator, SyncFailure,
 };
 use lightbooth::instrument::{
-    open_pr650, AveragedMeasurement, CancellationToken, InstrumentError, Pr650Settings, QualityKind, Spectroradiometer,
+    open_pr650, AveragedMeasurement, InstrumentError, Pr650Settings, QualityKind, Spectroradiometer,
 };
 use lightbooth::spectrum::SpectralUnit;
+use tokio_util::sync::CancellationToken;
 
 use crate::common::pr655_wire;
 use pr655_wire::{ask, d65_radiance};

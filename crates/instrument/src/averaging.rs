@@ -15,9 +15,9 @@
 //! A driver only knows how to take one sample; what "enough good samples"
 //! means is decided here, the same for every model.
 
-use super::{
-    average_samples, AveragedMeasurement, CancellationToken, InstrumentError, QualityCode, Sample, Spectroradiometer,
-};
+use tokio_util::sync::CancellationToken;
+
+use super::{average_samples, AveragedMeasurement, InstrumentError, QualityCode, Sample, Spectroradiometer};
 
 /// Why one sample could not be taken (the last reason is reported if the series fails).
 enum Failure {

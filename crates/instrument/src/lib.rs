@@ -68,6 +68,7 @@ pub mod status_word;
 use std::time::SystemTime;
 
 use serde::Serialize;
+use tokio_util::sync::CancellationToken;
 
 use lightbooth_science::colorimetry::{xyz_from_radiance, Observer};
 use lightbooth_science::spectrum::{Grid, Spectrum};
@@ -347,7 +348,6 @@ impl InstrumentError {
 /// may stop it, polled between instrument commands and while a reply is
 /// read. The workspace's one cancellation primitive (tokio-util's; the
 /// daemon's measurement token is a child of its shutdown token).
-pub use tokio_util::sync::CancellationToken;
 
 /// What an instrument's good sample carries: a spectrum (and maybe its
 /// own XYZ), XYZ only (a colorimeter), or luminance only (a luminance

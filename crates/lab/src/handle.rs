@@ -20,6 +20,7 @@ use lightbooth_store::{
     SessionRow, Store, StudyRow,
 };
 
+use crate::compare::image_map::DeltaEMap;
 use crate::compare::overview::ScenesOverview;
 use crate::compare::summary::SceneComparisons;
 use crate::computed::Computed;
@@ -209,6 +210,34 @@ impl LabHandle {
     pub async fn scene_comparisons(&self, scene: &str) -> Result<Arc<SceneComparisons>, LabError> {
         self.scene(scene)?;
         self.computed.scene_comparisons(scene).await
+    }
+
+    /// CIELAB ΔE00 per pixel between camera images `id` and `against`
+    /// (two codings of one render, the same size), with the scene's white
+    /// ([`crate::compare::image_map::delta_e_map`]), on the blocking pool.
+    pub async fn image_delta_e(&self, id: i64, against: i64) -> Result<DeltaEMap, LabError> {
+        let jobs = self.renders()?.images();
+        let (a_info, a) = jobs.data(id)?;
+        let (b_info, b) = jobs.data(against)?;
+        if a_info.render_id != b_info.render_id {
+            return Err(LabError::Conflict(format!(
+                "image {id} is of render {} and image {against} of render {}: a ΔE map compares two codings of one render",
+                a_info.render_id, b_info.render_id
+            )));
+        }
+        let (white, source) = self.cielab_white(&a_info.scene).await?;
+        tokio::task::spawn_blocking(move || crate::compare::image_map::delta_e_map(&a, id, &b, against, white, source))
+            .await
+            .map_err(|e| LabError::Internal(e.to_string()))?
+    }
+
+    /// That ΔE00 map as a false-colour PNG (viridis from 0 to its
+    /// `scale_max`).
+    pub async fn image_delta_e_png(&self, id: i64, against: i64) -> Result<Vec<u8>, LabError> {
+        let map = self.image_delta_e(id, against).await?;
+        tokio::task::spawn_blocking(move || crate::render::image_views::delta_e_png(&map))
+            .await
+            .map_err(|e| LabError::Internal(e.to_string()))?
     }
 
     /// A scene's comparisons as a file to save, CSV or MAT

@@ -12,11 +12,11 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
 use crate::http::error::{ApiError, ErrorBody};
-use crate::http::image_views::{self, Probe};
 use crate::http::input::{Input, Path, Query};
 use crate::http::kept;
 use crate::http::AppState;
-use crate::lab::compare::image_map::{self, DeltaEMap};
+use crate::lab::compare::image_map::DeltaEMap;
+use crate::lab::render::image_views::Probe;
 use crate::lab::render::images::{ImageInfo, ImageJobs, ImageRequest};
 use crate::lab::FileFormat;
 
@@ -96,10 +96,7 @@ pub async fn cancel_image(
     responses((status = 200, content_type = "image/png"), (status = 404, body = ErrorBody),
               (status = 409, description = "the image is not complete", body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_display_png(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    let (_, img) = images(&state)?.data(id)?;
-    let png = tokio::task::spawn_blocking(move || image_views::display_png(&img))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    let png = images(&state)?.display_png(id).await?;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }
 
@@ -119,11 +116,6 @@ pub struct ProbeQuery {
     pub h: Option<u32>,
 }
 
-fn probe_of(state: &AppState, id: i64, q: &ProbeQuery) -> Result<Probe, ApiError> {
-    let (_, img) = images(state)?.data(id)?;
-    image_views::probe(&img, id, q.x, q.y, q.w.unwrap_or(1), q.h.unwrap_or(1))
-}
-
 /// A pixel's (or a box's) channels ± SE, XYZ, x,y and LMS.
 #[utoipa::path(get, path = "/images/{id}/pixel", tag = "images", params(("id" = i64, Path), ProbeQuery),
     responses((status = 200, body = Probe), (status = 400, description = "the box leaves the image", body = ErrorBody), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
@@ -132,7 +124,13 @@ pub async fn image_pixel(
     Path(id): Path<i64>,
     Query(q): Query<ProbeQuery>,
 ) -> Result<Json<Probe>, ApiError> {
-    Ok(Json(probe_of(&state, id, &q)?))
+    Ok(Json(images(&state)?.probe(
+        id,
+        q.x,
+        q.y,
+        q.w.unwrap_or(1),
+        q.h.unwrap_or(1),
+    )?))
 }
 
 /// The probe as a chart: the spectrum (or the RGB channels) ± 1 SE.
@@ -143,10 +141,9 @@ pub async fn image_pixel_svg(
     Path(id): Path<i64>,
     Query(q): Query<ProbeQuery>,
 ) -> Result<Response, ApiError> {
-    let probe = probe_of(&state, id, &q)?;
-    let svg = tokio::task::spawn_blocking(move || image_views::probe_chart(&probe))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))??;
+    let svg = images(&state)?
+        .probe_chart(id, q.x, q.y, q.w.unwrap_or(1), q.h.unwrap_or(1))
+        .await?;
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
 }
 
@@ -175,23 +172,6 @@ pub struct DeltaEQuery {
     pub against: i64,
 }
 
-async fn delta_e_of(state: &AppState, id: i64, against: i64) -> Result<DeltaEMap, ApiError> {
-    let jobs = images(state)?;
-    let (a_info, a) = jobs.data(id)?;
-    let (b_info, b) = jobs.data(against)?;
-    if a_info.render_id != b_info.render_id {
-        return Err(ApiError::Conflict(format!(
-            "image {id} is of render {} and image {against} of render {}: a ΔE map compares two codings of one render",
-            a_info.render_id, b_info.render_id
-        )));
-    }
-    let (white, source) = state.lab.cielab_white(&a_info.scene).await?;
-    let map = tokio::task::spawn_blocking(move || image_map::delta_e_map(&a, id, &b, against, white, source))
-        .await
-        .map_err(|e| ApiError::Internal(e.to_string()))??;
-    Ok(map)
-}
-
 /// CIELAB ΔE00 per pixel between this image and `against` (two codings of
 /// one render), with the scene's white: summary, colour scale and values.
 #[utoipa::path(get, path = "/images/{id}/delta-e", tag = "images", params(("id" = i64, Path), DeltaEQuery),
@@ -202,7 +182,7 @@ pub async fn image_delta_e(
     Path(id): Path<i64>,
     Query(q): Query<DeltaEQuery>,
 ) -> Result<Json<DeltaEMap>, ApiError> {
-    Ok(Json(delta_e_of(&state, id, q.against).await?))
+    Ok(Json(state.lab.image_delta_e(id, q.against).await?))
 }
 
 /// The ΔE00 map as a false-colour PNG (viridis from 0 to `scale_max` of the JSON).
@@ -213,7 +193,6 @@ pub async fn image_delta_e_png(
     Path(id): Path<i64>,
     Query(q): Query<DeltaEQuery>,
 ) -> Result<Response, ApiError> {
-    let map = delta_e_of(&state, id, q.against).await?;
-    let png = image_views::delta_e_png(&map)?;
+    let png = state.lab.image_delta_e_png(id, q.against).await?;
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }

@@ -20,7 +20,8 @@ use std::time::SystemTime;
 
 use crate::link::{Ping, Request, Session};
 use crate::status_word::StatusWord;
-use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer};
+use crate::{Identity, InstrumentError, Sample, Spectroradiometer};
+use tokio_util::sync::CancellationToken;
 
 use super::codes;
 use super::protocol::{self, Command, Matrix};

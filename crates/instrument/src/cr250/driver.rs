@@ -16,8 +16,9 @@ use std::time::SystemTime;
 
 use crate::link::{lines, Ping, Request, Session};
 use crate::reply::ProtocolError;
-use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer};
+use crate::{Identity, InstrumentError, Sample, Spectroradiometer};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
+use tokio_util::sync::CancellationToken;
 
 use super::codes;
 use super::protocol::{self, Command, Reply};

@@ -28,8 +28,9 @@ use std::time::{Duration, Instant, SystemTime};
 
 use crate::link::{Ping, Request, Session};
 use crate::reply::ProtocolError;
-use crate::{CancellationToken, Identity, InstrumentError, Sample, Spectroradiometer, WaitPhase};
+use crate::{Identity, InstrumentError, Sample, Spectroradiometer, WaitPhase};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
+use tokio_util::sync::CancellationToken;
 
 use super::codes;
 use super::protocol::{self, Command, Reply, Status, BLOCK_LENGTHS};

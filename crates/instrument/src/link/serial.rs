@@ -18,7 +18,8 @@ use std::time::{Duration, Instant};
 use serialport::{ClearBuffer, DataBits, FlowControl, Parity, SerialPort, StopBits};
 
 use super::lines::{complete_lines, split_lines, trim_to_lines, Terminator};
-use crate::{CancellationToken, InstrumentError, WaitPhase};
+use crate::{InstrumentError, WaitPhase};
+use tokio_util::sync::CancellationToken;
 
 /// Longest slice of a blocking read, so cancellation and deadlines are
 /// checked at least this often.

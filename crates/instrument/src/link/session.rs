@@ -25,7 +25,8 @@ use std::fmt::Display;
 use std::time::Duration;
 
 use super::serial::{LinkSettings, SerialLink};
-use crate::{CancellationToken, Identity, InstrumentError, InstrumentInfo, WaitPhase};
+use crate::{Identity, InstrumentError, InstrumentInfo, WaitPhase};
+use tokio_util::sync::CancellationToken;
 
 /// A command as the session sends it; each model's command type says this
 /// of itself.

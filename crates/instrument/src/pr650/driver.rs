@@ -26,8 +26,9 @@
 use std::time::SystemTime;
 
 use crate::link::{Ping, Request, Session};
-use crate::{CancellationToken, Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
+use crate::{Identity, InstrumentError, QualityCode, QualityKind, Sample, Spectroradiometer};
 use lightbooth_science::spectrum::{SpectralUnit, Spectrum};
+use tokio_util::sync::CancellationToken;
 
 use super::codes;
 use super::protocol::{self, Command, ProtocolError, Setup, SyncSetting};

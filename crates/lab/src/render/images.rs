@@ -40,6 +40,7 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::mpsc;
 
+use super::image_views::{self, Probe};
 use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::events::{Event, EventSink};
@@ -229,6 +230,33 @@ impl ImageJobs {
             .filter(|e| e.info.render_id == render_id)
             .map(|e| e.info.clone())
             .collect()
+    }
+
+    /// Image `id` tone-mapped for looking at, as PNG bytes
+    /// ([`image_views::display_png`]), on the blocking pool.
+    pub async fn display_png(&self, id: i64) -> Result<Vec<u8>, LabError> {
+        let (_, img) = self.data(id)?;
+        tokio::task::spawn_blocking(move || image_views::display_png(&img))
+            .await
+            .map_err(|e| LabError::Internal(e.to_string()))?
+    }
+
+    /// A probe of the box of `w` × `h` pixels at (`x`, `y`) of image `id`
+    /// ([`image_views::probe`]); a box that leaves the image is
+    /// [`LabError::Invalid`], naming the query field at fault.
+    pub fn probe(&self, id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Probe, LabError> {
+        let (_, img) = self.data(id)?;
+        image_views::probe(&img, id, x, y, w, h)
+    }
+
+    /// That probe drawn as SVG ([`image_views::probe_chart`]), on the
+    /// blocking pool.
+    pub async fn probe_chart(&self, id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Vec<u8>, LabError> {
+        let probe = self.probe(id, x, y, w, h)?;
+        let svg = tokio::task::spawn_blocking(move || image_views::probe_chart(&probe))
+            .await
+            .map_err(|e| LabError::Internal(e.to_string()))??;
+        Ok(svg.into_bytes())
     }
 
     /// Image `id` as a file to save: multi-channel OpenEXR (spectral

@@ -5,33 +5,36 @@
 //!
 //! - Display: XYZ → linear sRGB → the global Reinhard et al. (2002) operator
 //!   (each pixel scaled by 0.18 / the log-average luminance, compressed by
-//!   v / (1 + v)) → sRGB encoding ([`crate::render::sensor::Image::png`]).
+//!   v / (1 + v)) → sRGB encoding ([`lightbooth_render::sensor::Image::png`]).
 //!   For looking at, never for measuring.
 //! - Probe of a box of pixels: the mean of the pixels' means, and its
 //!   standard error √(Σ SEᵢ²) / n (the pixels' paths are independent).
-//! - ΔE map: computed in the lab (`lab::compare::image_map`); here only
-//!   encoded as a PNG.
+//! - ΔE map: computed by [`crate::compare::image_map`]; here encoded as a
+//!   PNG.
+
+use lightbooth_render::camera::{CameraImage, L, M, S, X, Y, Z};
+use lightbooth_science::colorimetry::Xyz;
 
 use crate::charts::{self, LineSeriesData};
-use crate::colorimetry::Xyz;
-use crate::http::error::ApiError;
-use crate::lab::compare::image_map::{self, DeltaEMap};
-use crate::render::camera::{CameraImage, L, M, S, X, Y, Z};
+use crate::compare::image_map::{self, DeltaEMap};
+use crate::error::LabError;
 
 /// The tone-mapped display image as PNG bytes (see the module doc).
-pub fn display_png(img: &CameraImage) -> Result<Vec<u8>, ApiError> {
-    img.to_srgb().png().map_err(|e| ApiError::Internal(e.to_string()))
+pub fn display_png(img: &CameraImage) -> Result<Vec<u8>, LabError> {
+    img.to_srgb().png().map_err(|e| LabError::Internal(e.to_string()))
 }
 
 /// A mean and its standard error.
-#[derive(Clone, Copy, Debug, serde::Serialize, utoipa::ToSchema)]
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MeanSe {
     pub mean: f64,
     pub se: f64,
 }
 
 /// A probe of a box of pixels.
-#[derive(Clone, Debug, serde::Serialize, utoipa::ToSchema)]
+#[derive(Clone, Debug, serde::Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Probe {
     pub image_id: i64,
     pub coding: String,
@@ -88,17 +91,17 @@ fn box_mean(img: &CameraImage, xs: std::ops::Range<usize>, ys: std::ops::Range<u
 /// Refuses a probe box that is empty or leaves a `width` × `height` image,
 /// naming the query field at fault. In u64, so `x + w` cannot wrap
 /// (`x=1&w=4294967295` once passed as a box of 0 pixels and answered nulls).
-pub fn check_box(x: u32, y: u32, w: u32, h: u32, width: u32, height: u32) -> Result<(), ApiError> {
+pub fn check_box(x: u32, y: u32, w: u32, h: u32, width: u32, height: u32) -> Result<(), LabError> {
     for (name, size_name, v, size, max) in [("x", "w", x, w, width), ("y", "h", y, h, height)] {
         let (v64, size64, max64) = (u64::from(v), u64::from(size), u64::from(max));
         if v64 >= max64 {
-            return Err(ApiError::BadRequest(format!(
+            return Err(LabError::Invalid(format!(
                 "query `{name}`: {v} is outside the image (0…{})",
                 max64.saturating_sub(1)
             )));
         }
         if size == 0 || v64 + size64 > max64 {
-            return Err(ApiError::BadRequest(format!(
+            return Err(LabError::Invalid(format!(
                 "query `{size_name}`: {size} pixels from {name}={v} leave the image (0…{}); give 1–{}",
                 max64 - 1,
                 max64 - v64
@@ -109,7 +112,7 @@ pub fn check_box(x: u32, y: u32, w: u32, h: u32, width: u32, height: u32) -> Res
 }
 
 /// Probes the box (x, y, w, h); 400 naming the field when it leaves the image.
-pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Probe, ApiError> {
+pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -> Result<Probe, LabError> {
     check_box(x, y, w, h, img.width, img.height)?;
     let (xs, ys) = (x as usize..(x + w) as usize, y as usize..(y + h) as usize);
     let n_ch = img.quantities.coding_channels;
@@ -150,14 +153,14 @@ pub fn probe(img: &CameraImage, image_id: i64, x: u32, y: u32, w: u32, h: u32) -
 /// The probe's chart: the coding's channels ± 1 SE against wavelength (nm)
 /// for the spectral codings, against channel number for `rgb`/`srgb`; the
 /// series in the coding's own colour.
-pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
+pub fn probe_chart(p: &Probe) -> Result<String, LabError> {
     let (xs, x_desc, y_desc): (Vec<f64>, &str, String) = match &p.wavelengths_nm {
         Some(w) => (
             w.clone(),
             "wavelength (nm)",
             format!(
                 "spectral radiance ({}), mean ± 1 SE",
-                crate::spectrum::SPECTRAL_RADIANCE_UNIT
+                lightbooth_science::spectrum::SPECTRAL_RADIANCE_UNIT
             ),
         ),
         None => (
@@ -188,13 +191,13 @@ pub fn probe_chart(p: &Probe) -> Result<String, ApiError> {
         p.chromaticity_y,
         p.observer
     );
-    charts::line_chart(&title, x_desc, &y_desc, &[series], false).map_err(ApiError::Internal)
+    charts::line_chart(&title, x_desc, &y_desc, &[series], false).map_err(LabError::Internal)
 }
 
 /// The map as a false-colour PNG (viridis, 0 to `scale_max`).
-pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, ApiError> {
+pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, LabError> {
     let rgb = image_map::false_colour_rgb(map);
-    let png_err = |e: png::EncodingError| ApiError::Internal(format!("PNG encoding: {e}"));
+    let png_err = |e: png::EncodingError| LabError::Internal(format!("PNG encoding: {e}"));
     let mut bytes = Vec::new();
     let mut enc = png::Encoder::new(&mut bytes, map.width, map.height);
     enc.set_color(png::ColorType::Rgb);
