@@ -344,11 +344,6 @@ impl InstrumentError {
     }
 }
 
-/// Stops a measurement: shared between the thread that runs it and whoever
-/// may stop it, polled between instrument commands and while a reply is
-/// read. The workspace's one cancellation primitive (tokio-util's; the
-/// daemon's measurement token is a child of its shutdown token).
-
 /// What an instrument's good sample carries: a spectrum (and maybe its
 /// own XYZ), XYZ only (a colorimeter), or luminance only (a luminance
 /// meter). What needs more than a model reads refuses, naming the reading.

@@ -263,7 +263,9 @@ impl LabHandle {
     pub async fn experiment_file(&self, id: i64, file: AnalysisFile) -> Result<Download, LabError> {
         use crate::experiments::analysis::{analysis_csv, analysis_mat, thresholds_csv};
         let a = self.experiment_analysis(id).await?;
-        let (format, what, make): (_, _, fn(&Analysis) -> Result<Vec<u8>, String>) = match file {
+        /// Writes one file of an analysis.
+        type Write = fn(&Analysis) -> Result<Vec<u8>, String>;
+        let (format, what, make): (_, _, Write) = match file {
             AnalysisFile::AnalysisCsv => (FileFormat::Csv, "analysis", |a| Ok(analysis_csv(a).into_bytes())),
             AnalysisFile::AnalysisMat => (FileFormat::Mat, "analysis", analysis_mat),
             AnalysisFile::ThresholdsCsv => (FileFormat::Csv, "thresholds", |a| Ok(thresholds_csv(a).into_bytes())),
