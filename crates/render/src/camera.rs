@@ -48,12 +48,12 @@ use rayon::prelude::*;
 use tokio_util::sync::CancellationToken;
 
 use super::coding::{ChannelLayout, Coding};
-use super::geometry::Ray;
 use super::integrator::{trace_path, PathState, Prepared, Transport};
 use super::sampling::{PathSampler, SamplerKind};
 use super::scene::{Camera, Scene};
 use super::sensor::Image;
 use super::RenderError;
+pub use crate::pinhole::Pinhole;
 use lightbooth_science::colorimetry::rgb::{apply, RgbSpace};
 use lightbooth_science::colorimetry::{Cmf, Observer, KM_LM_PER_W};
 use lightbooth_science::spectrum::Grid;
@@ -414,73 +414,6 @@ pub fn render_camera_image(
         elapsed_seconds: start.elapsed().as_secs_f64(),
         stop,
     })
-}
-
-/// The one pinhole camera of the renderer (pbrt-v4's `PerspectiveCamera`
-/// without a lens): the scene's [`Camera`] as a centre of projection and
-/// an image plane at unit distance along the view axis, spanning
-/// tan(fov/2) above and below the axis (`fov_deg` is the vertical field of
-/// view) and `aspect` = width/height times that to either side. Image
-/// points are in pixels, x to the right and y down from the top-left
-/// corner; a pixel's ray goes through its jittered point. An ideal pinhole:
-/// no lens, no depth of field, no vignetting, no sensor response — the
-/// ray's radiance is the pixel's. Both image sensors use it: the
-/// dashboard's preview ([`super::sensor::render_camera`]) and the measuring
-/// camera ([`render_camera_image`]).
-#[derive(Clone, Debug)]
-pub struct Pinhole {
-    origin: DVec3,
-    forward: DVec3,
-    right: DVec3,
-    up: DVec3,
-    tan_half: f64,
-    aspect: f64,
-    width: usize,
-    height: usize,
-}
-
-impl Pinhole {
-    /// The pinhole of the scene's camera: forward toward `look_at`, right =
-    /// forward × up, the image's up completing the right-handed basis.
-    pub fn new(camera: &Camera) -> Pinhole {
-        let forward = (camera.look_at - camera.position).normalize();
-        let right = forward.cross(camera.up).normalize();
-        Pinhole {
-            origin: camera.position,
-            forward,
-            right,
-            up: right.cross(forward),
-            tan_half: (camera.fov_deg.to_radians() / 2.0).tan(),
-            aspect: camera.width as f64 / camera.height as f64,
-            width: camera.width as usize,
-            height: camera.height as usize,
-        }
-    }
-
-    /// The unit direction through image point (x, y), in pixels from the
-    /// top-left corner (a pixel's centre is at + 0.5).
-    pub fn direction(&self, x: f64, y: f64) -> DVec3 {
-        let px = (2.0 * x / self.width as f64 - 1.0) * self.tan_half * self.aspect;
-        let py = (1.0 - 2.0 * y / self.height as f64) * self.tan_half;
-        (self.forward + self.right * px + self.up * py).normalize()
-    }
-
-    /// The ray of pixel (x, y) through its point (x + jx, y + jy), jitter in [0, 1)².
-    pub fn ray(&self, x: usize, y: usize, (jx, jy): (f64, f64)) -> Ray {
-        Ray {
-            origin: self.origin,
-            dir: self.direction(x as f64 + jx, y as f64 + jy),
-        }
-    }
-
-    /// The angle between the view axis and the centre of pixel (x, y), degrees.
-    pub fn off_axis_deg(&self, x: usize, y: usize) -> f64 {
-        self.direction(x as f64 + 0.5, y as f64 + 0.5)
-            .dot(self.forward)
-            .clamp(-1.0, 1.0)
-            .acos()
-            .to_degrees()
-    }
 }
 
 impl CameraImage {

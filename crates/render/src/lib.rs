@@ -15,9 +15,10 @@
 //!   [`lights`]: point and area lights behind one interface, in one
 //!   collection with a light sampler, for it;
 //!   [`bsdf`]: every material's reflection model, Lambertian included.
-//! - [`camera`]: the one pinhole camera ([`camera::Pinhole`]) and the
-//!   measuring camera (any coding, XYZ, LMS, per-pixel standard errors);
-//!   [`sensor`]: the camera image for the dashboard, through the same pinhole.
+//! - [`pinhole`]: the one pinhole camera ([`pinhole::Pinhole`]), below
+//!   both image sensors: [`camera`], the measuring camera (any coding, XYZ,
+//!   LMS, per-pixel standard errors), and [`sensor`], the camera image for
+//!   the dashboard.
 //!
 //! Every render entry point takes the job's cancellation token as its last
 //! argument (`None`: it always finishes); there is no thread-local.
@@ -60,6 +61,7 @@ pub mod ies;
 pub mod input_file;
 pub mod integrator;
 pub mod lights;
+pub mod pinhole;
 pub mod radiance;
 pub mod sampling;
 pub mod scene;

@@ -16,9 +16,9 @@ use std::path::Path;
 use rayon::prelude::*;
 use tokio_util::sync::CancellationToken;
 
-use super::camera::Pinhole;
 use super::coding::{ChannelLayout, Coding};
 use super::integrator::{trace_path, PathState, Prepared, Transport};
+use super::pinhole::Pinhole;
 use super::sampling::{PathSampler, SamplerKind};
 use super::scene::{Camera, Scene};
 use super::RenderError;

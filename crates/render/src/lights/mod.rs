@@ -52,7 +52,7 @@ pub use sampler::{LightSampler, LightSampling};
 
 use crate::sampling::PathSampler;
 use crate::scene::{PointLight, Scene};
-use lightbooth_science::spectrum::Grid;
+use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
 
 /// The surface point light arrives at: the point itself and its unit
 /// normal on the side the path came from. Distances and cosines are taken
@@ -385,6 +385,39 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
         0.0
     } else {
         a2 / (a2 + b2)
+    }
+}
+
+/// The scene's white of `light_on_perfect_diffuser = true`, defined here,
+/// beside the light collection that gives it (the scene's loader refuses
+/// it where it is not finite).
+impl Scene {
+    /// The spectral radiance of a perfect (ρ = 1) Lambertian diffuser at
+    /// `point` facing `normal` under the scene's point luminaires,
+    /// W/(sr·m²·nm) on the 1 nm grid: L(λ) = ρ·E(λ)/π with E the
+    /// irradiance the light collection gives
+    /// ([`SceneLights::point_source_irradiance`],
+    /// Σ I·cos θ·S(λ)/d²). Direct light only: no shadows, no
+    /// interreflections (an approximation the scene's author accepts by
+    /// choosing this white); area lights are not counted, and loading
+    /// refuses this white in a scene that has them.
+    pub fn light_on_perfect_diffuser(&self, point: DVec3, normal: DVec3) -> Spectrum {
+        let values = self.perfect_diffuser_radiance(point, normal);
+        // Loading refused a white whose radiance is not finite.
+        Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
+    }
+
+    /// [`Self::light_on_perfect_diffuser`]'s values, W/(sr·m²·nm) on the
+    /// 1 nm grid, unchecked (loading refuses a white where one is not
+    /// finite).
+    pub(crate) fn perfect_diffuser_radiance(&self, point: DVec3, normal: DVec3) -> Vec<f64> {
+        let at = LightContext { p: point, n: normal };
+        // A perfect Lambertian diffuser: L = ρE/π with ρ = 1.
+        SceneLights::of_luminaires(&self.lights)
+            .point_source_irradiance(&at)
+            .into_iter()
+            .map(|e| e / std::f64::consts::PI)
+            .collect()
     }
 }
 

@@ -230,20 +230,13 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         .as_ref()
         .map(|w| cielab_white(w, &l, &target_list, &emitters))
         .transpose()?;
-    if let Some(CielabWhite::LightOnPerfectDiffuser { point, normal }) = &cielab_white {
-        if diffuser_radiance(&lights, *point, *normal)
-            .iter()
-            .any(|v| !v.is_finite())
-        {
-            return Err(l.err(
-                "cielab_white.point",
-                "the lights' radiance on the diffuser here is not a finite number (a light is too close \
-                 to the point, or too intense): move the point away from the lights",
-            ));
-        }
-    }
-
-    Ok(Scene {
+    // Made before the loader's files move into the scene.
+    let white_not_finite = l.err(
+        "cielab_white.point",
+        "the lights' radiance on the diffuser here is not a finite number (a light is too close \
+         to the point, or too intense): move the point away from the lights",
+    );
+    let scene = Scene {
         cielab_white,
         name: raw.name,
         path: path.to_path_buf(),
@@ -257,7 +250,19 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         camera,
         files: l.files,
         bvh: Default::default(),
-    })
+    };
+    // The white the light collection gives (`crate::lights`), refused
+    // where it is not a number.
+    if let Some(CielabWhite::LightOnPerfectDiffuser { point, normal }) = &scene.cielab_white {
+        if scene
+            .perfect_diffuser_radiance(*point, *normal)
+            .iter()
+            .any(|v| !v.is_finite())
+        {
+            return Err(white_not_finite);
+        }
+    }
+    Ok(scene)
 }
 
 /// The [`Surface`] of `[materials] name`: `specularity` in [0, 1] and

@@ -248,7 +248,6 @@ use self::file::{CameraFile, CielabWhiteFile, SceneFile, V3};
 use super::bvh::ShapeList;
 use super::geometry::{Shape, Solid};
 use super::ies::IesDistribution;
-use super::lights::{LightContext, SceneLights};
 use lightbooth_science::spectrum::table::SpectraTable;
 use lightbooth_science::spectrum::{Grid, SpectralUnit, Spectrum};
 
@@ -566,31 +565,3 @@ impl Scene {
 }
 
 // ---- loading ---------------------------------------------------------------
-
-impl Scene {
-    /// The spectral radiance of a perfect (ρ = 1) Lambertian diffuser at
-    /// `point` facing `normal` under the scene's point luminaires,
-    /// W/(sr·m²·nm) on the 1 nm grid: L(λ) = ρ·E(λ)/π with E the
-    /// irradiance the light collection gives
-    /// ([`SceneLights::point_source_irradiance`](crate::lights::SceneLights::point_source_irradiance),
-    /// Σ I·cos θ·S(λ)/d²). Direct light only: no shadows, no
-    /// interreflections (an approximation the scene's author accepts by
-    /// choosing this white); area lights are not counted, and loading
-    /// refuses this white in a scene that has them.
-    pub fn light_on_perfect_diffuser(&self, point: DVec3, normal: DVec3) -> Spectrum {
-        let values = diffuser_radiance(&self.lights, point, normal);
-        // Loading refused a white whose radiance is not finite.
-        Spectrum::new(Grid::one_nm(), SpectralUnit::SpectralRadiance, values).expect("finite radiance")
-    }
-}
-
-/// [`Scene::light_on_perfect_diffuser`]'s values, W/(sr·m²·nm) on the 1 nm grid.
-fn diffuser_radiance(lights: &[PointLight], point: DVec3, normal: DVec3) -> Vec<f64> {
-    let at = LightContext { p: point, n: normal };
-    // A perfect Lambertian diffuser: L = ρE/π with ρ = 1.
-    SceneLights::of_luminaires(lights)
-        .point_source_irradiance(&at)
-        .into_iter()
-        .map(|e| e / std::f64::consts::PI)
-        .collect()
-}
