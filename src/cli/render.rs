@@ -10,8 +10,9 @@ use anyhow::Context;
 use clap::Args;
 
 use lightbooth::colorimetry::Observer;
-use lightbooth::export::image::write_camera_image;
-use lightbooth::render::camera::{render_camera_image, CameraProgress, CameraSettings};
+use lightbooth::colorimetry::Xyz;
+use lightbooth::export::image::write_camera_images;
+use lightbooth::render::camera::{render_camera_images, CameraProgress, CameraSettings, PairedDifference};
 use lightbooth::render::scene::{
     load_radiance_scene, RadianceView, MAX_BOUNCES, MAX_PIXEL_SAMPLES, MAX_SAMPLES_PER_TARGET,
 };
@@ -63,24 +64,37 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = RouletteFrom(Some(DEFAULT_ROULETTE_FROM)), value_parser = parse_roulette)]
     russian_roulette_from: RouletteFrom,
     /// Also render the scene's [camera] view: .pfm (linear HDR), .png
-    /// (tone-mapped sRGB), or, in --image-coding with XYZ, LMS and standard
-    /// errors, .exr (spectral OpenEXR), .mat (MATLAB) or .bsq (ENVI, with .hdr).
+    /// (tone-mapped sRGB), or, in every --image-coding with XYZ, LMS and
+    /// standard errors, .exr (spectral OpenEXR, a layer per coding), .mat
+    /// (MATLAB) or .bsq (ENVI, with .hdr; a file per coding).
     #[arg(long)]
     image: Option<PathBuf>,
     /// Paths per pixel for --image (the cap with --image-se), 1–65536.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     spp: u32,
-    /// The coding of --image's channels: spectral (401 1 nm bands), nstepN, rgb or srgb.
-    #[arg(long, alias = "coding", default_value = "spectral", value_parser = parse_coding)]
-    image_coding: Coding,
+    /// The codings of --image, comma-separated, every one rendered from the
+    /// same paths: spectral (401 1 nm bands), nstepN, rgb or srgb. Each is
+    /// compared with the reference (the last, or --image-reference): ΔE00
+    /// per pixel, with the difference's own noise from the paired paths.
+    #[arg(long, alias = "coding", value_delimiter = ',', default_value = "spectral", value_parser = parse_coding)]
+    image_coding: Vec<Coding>,
+    /// The --image-coding every other is compared with, and whose SE(Y)
+    /// --image-se stops on (default: the last listed).
+    #[arg(long, value_parser = parse_coding)]
+    image_reference: Option<Coding>,
+    /// With --image-se: stop a pixel only when every coding's SE(Y) meets
+    /// it, not only the reference's.
+    #[arg(long)]
+    image_se_every_coding: bool,
     /// The spectral grid of an --image file in the `spectral` coding, nm
     /// (1–100): every Nth 1 nm band (380, 385, … 780 nm with 5, the
     /// instrument's grid), their own values, not averaged; X, Y, Z, L, M, S
     /// still from all 401 bands. Default 1 (all 401 bands).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
     image_step: u32,
-    /// Render --image in passes until every pixel's standard error of Y is
-    /// below this fraction of its Y (or --spp paths, or --time-budget); 0: exactly --spp.
+    /// Render --image in passes until every pixel's standard error of Y (in
+    /// the reference coding, or every coding with --image-se-every-coding)
+    /// is below this fraction of its Y (or --spp paths, or --time-budget); 0: exactly --spp.
     #[arg(long, default_value_t = 0.0, value_parser = super::fraction)]
     image_se: f64,
     /// Stop --image's passes after this many seconds (checked between passes).
@@ -203,12 +217,30 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
         load_scene(&args.scene)?
     };
-    if args.image_step > 1 && args.image_coding != Coding::Spectral {
+    let image_codings = args
+        .image_coding
+        .iter()
+        .map(|c| c.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    if args.image_step > 1 && !args.image_coding.contains(&Coding::Spectral) {
         anyhow::bail!(
-            "--image-step {} picks bands of the 1 nm `spectral` coding; --image-coding is {}",
+            "--image-step {} picks bands of the 1 nm `spectral` coding; --image-coding is {image_codings}",
             args.image_step,
-            args.image_coding
         );
+    }
+    if let Some(r) = args.image_reference {
+        if !args.image_coding.contains(&r) {
+            anyhow::bail!("--image-reference {r} is not one of --image-coding {image_codings}: add it there");
+        }
+    }
+    if let Some(twice) = args
+        .image_coding
+        .iter()
+        .enumerate()
+        .find(|(i, c)| args.image_coding[..*i].contains(c))
+    {
+        anyhow::bail!("--image-coding names {} twice ({image_codings})", twice.1);
     }
     if args.bounces.is_none() && args.russian_roulette_from.0.is_none() {
         anyhow::bail!(
@@ -270,6 +302,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             lightbooth::render::cost::time_renders(&scene, &runs, lightbooth::render::cost::TIMING_REPEATS, None)?;
         coding_times = names.into_iter().zip(timed).collect();
     }
+    let mut image_json: Option<serde_json::Value> = None;
     if let Some(path) = &args.image {
         let camera = scene
             .camera
@@ -298,7 +331,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 t => t.map(std::time::Duration::from_secs_f64),
             };
             let cam_settings = CameraSettings {
-                coding: args.image_coding,
+                codings: args.image_coding.clone(),
+                reference: args.image_reference,
+                se_every_coding: args.image_se_every_coding,
                 observer: settings.observer,
                 transport,
                 seed: settings.seed,
@@ -316,47 +351,97 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     p.pass, p.pixels_done, p.pixels, p.paths
                 ));
             };
-            let img = render_camera_image(&scene, camera, &cam_settings, Some(&report), None)?;
+            let images = render_camera_images(&scene, camera, &cam_settings, Some(&report), None)?;
             cam_bar.finish_and_clear();
-            if matches!(ext.as_str(), "pfm" | "png") {
-                img.to_srgb().write(path)?;
+            let reference = images.reference_image();
+            let white = image_white(&args, &scene, &settings, reference.coding)?;
+            let differences: Vec<PairedDifference> = match &white {
+                Some((xyz, _)) => (0..images.images.len())
+                    .filter(|&c| c != images.reference)
+                    .map(|c| images.difference(c, *xyz))
+                    .collect(),
+                None => Vec::new(),
+            };
+            let done = format!(
+                "{} passes, {} paths, {:.1} s, stopped: {:?}",
+                reference.passes, reference.paths, reference.elapsed_seconds, reference.stop
+            );
+            let written = if matches!(ext.as_str(), "pfm" | "png") {
+                reference.to_srgb().write(path)?;
                 eprintln!(
-                    "image: {} × {} in srgb, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
-                    img.width,
-                    img.height,
-                    img.passes,
-                    img.paths,
-                    img.elapsed_seconds,
-                    img.stop,
+                    "image: {} × {} in srgb from the {} coding, {done}; wrote {}",
+                    reference.width,
+                    reference.height,
+                    reference.coding,
                     path.display()
                 );
+                vec![path.display().to_string()]
             } else {
-                let img = img
+                let images = images
+                    .clone()
                     .every_nth_band(args.image_step as usize)
                     .map_err(|e| anyhow::anyhow!("--image-step: {e}"))?;
-                let written = write_camera_image(&img, path).map_err(anyhow::Error::msg)?;
+                let written = write_camera_images(&images, path).map_err(anyhow::Error::msg)?;
                 let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-                let bands = match lightbooth::export::image::spectral_step_nm(&img) {
-                    Some(step) => format!(" ({} bands, every {step} nm)", img.quantities.coding_channels),
-                    None => String::new(),
-                };
+                let codings: Vec<String> = images
+                    .images
+                    .iter()
+                    .map(|img| match lightbooth::export::image::spectral_step_nm(img) {
+                        Some(step) if img.coding == Coding::Spectral => {
+                            format!(
+                                "{} ({} bands, every {step} nm)",
+                                img.coding, img.quantities.coding_channels
+                            )
+                        }
+                        _ => img.coding.to_string(),
+                    })
+                    .collect();
                 eprintln!(
-                    "image: {} × {} in {}{bands}, {} passes, {} paths, {:.1} s, stopped: {:?}; wrote {}",
-                    img.width,
-                    img.height,
-                    img.coding,
-                    img.passes,
-                    img.paths,
-                    img.elapsed_seconds,
-                    img.stop,
+                    "image: {} × {} in {}, {done}; wrote {}",
+                    reference.width,
+                    reference.height,
+                    codings.join(", "),
                     files.join(", ")
                 );
+                files
+            };
+            match &white {
+                Some((xyz, source)) => {
+                    eprintln!(
+                        "image ΔE00 against {} (CIELAB white: {source}, Y {:.4} cd/m²; paired: from the same paths):",
+                        reference.coding, xyz.y
+                    );
+                    for d in &differences {
+                        eprintln!("  {}", difference_line(d));
+                    }
+                }
+                None => eprintln!(
+                    "image ΔE00: none, {} declares no [cielab_white] to compare the codings in",
+                    args.scene.display()
+                ),
             }
+            image_json = Some(serde_json::json!({
+                "files": written,
+                "width": reference.width,
+                "height": reference.height,
+                "codings": images.images.iter().map(|i| i.coding.to_string()).collect::<Vec<_>>(),
+                "reference": reference.coding.to_string(),
+                "passes": reference.passes,
+                "paths": reference.paths,
+                "elapsed_seconds": reference.elapsed_seconds,
+                "stop": reference.stop,
+                "white": white.as_ref().map(|(xyz, source)| serde_json::json!({"XYZ": xyz.to_array(), "source": source})),
+                "differences": differences,
+                "noise_method": IMAGE_NOISE_METHOD,
+            }));
         }
     }
 
     if args.json {
         let mut v = serde_json::to_value(&result)?;
+        if let Some(image) = image_json {
+            v["image"] = image;
+        }
         if !coding_times.is_empty() {
             let m: serde_json::Map<String, serde_json::Value> = coding_times
                 .iter()
@@ -440,5 +525,64 @@ fn print_table(r: &RenderResult) {
             100.0 * d.mean_rel,
             100.0 * d.rms_rel
         );
+    }
+}
+
+/// How the image differences' noise is found, beside the numbers.
+const IMAGE_NOISE_METHOD: &str = "se_mean: standard error of the mean ΔE00 from the paired paths (an upper bound); \
+noise_paired: RMS over pixels of the ΔE00 the paths' noise alone puts between the two codings' pixel means, \
+rendered from the same paths; noise_independent: the same had each coding been rendered from its own paths \
+(local quadratic form of ΔE00 in XYZ)";
+
+/// One coding against the reference, in a line.
+fn difference_line(d: &PairedDifference) -> String {
+    format!(
+        "{:<9} mean {:.4} ± {:.2e} (SE), p95 {:.4}, max {:.4}; noise {:.2e} paired, {:.2e} from independent paths",
+        d.coding, d.mean, d.se_mean, d.p95, d.max, d.noise_paired, d.noise_independent
+    )
+}
+
+/// The CIELAB white of the image's ΔE00, from the scene's `[cielab_white]`
+/// and where it came from: a target white is rendered here, in the
+/// reference coding with the run's settings (no booth measurement is at
+/// hand on the command line); `None` when the scene declares none.
+fn image_white(
+    args: &RenderArgs,
+    scene: &lightbooth::render::Scene,
+    settings: &RenderSettings,
+    reference: Coding,
+) -> anyhow::Result<Option<(Xyz, String)>> {
+    use lightbooth::lab::compare::white::{scene_white, SceneWhite};
+    if scene.cielab_white.is_none() {
+        return Ok(None);
+    }
+    match scene_white(&args.scene, scene, settings.observer).map_err(anyhow::Error::msg)? {
+        SceneWhite::Fixed { xyz, source } => Ok(Some((xyz, source))),
+        SceneWhite::Target {
+            scene_id,
+            scene_path,
+            target,
+        } => {
+            let white_scene = if scene_path == args.scene {
+                scene.clone()
+            } else {
+                load_scene(&scene_path)?
+            };
+            let one = RenderSettings {
+                codings: vec![reference],
+                targets: Some(vec![target.clone()]),
+                ..settings.clone()
+            };
+            let r = render(&white_scene, &one, None, None)?;
+            let c = r
+                .targets
+                .first()
+                .and_then(|t| t.coding(&reference.to_string()))
+                .with_context(|| format!("{}: the white's target {target} was not rendered", scene_path.display()))?;
+            Ok(Some((
+                Xyz::from_array(c.xyz),
+                format!("{scene_id}'s target {target} as rendered here in {reference}"),
+            )))
+        }
     }
 }

@@ -78,7 +78,9 @@ fn camera_pixels_inside_the_field_match_the_radiometer_on_cylinder() {
         let t = scene.target_list.iter().position(|t| t.id == id).unwrap();
         let camera = camera_at_radiometer(&scene, t, 41);
         let settings = CameraSettings {
-            coding,
+            codings: vec![coding],
+            reference: None,
+            se_every_coding: false,
             observer: layout.observer(),
             transport: TRANSPORT,
             seed: 3,
@@ -127,7 +129,9 @@ fn tiny_image(coding: Coding, target_se: Option<f64>) -> CameraImage {
     camera.width = 6;
     camera.height = 4;
     let settings = CameraSettings {
-        coding,
+        codings: vec![coding],
+        reference: None,
+        se_every_coding: false,
         observer: ChannelLayout::new(&[coding]).observer(),
         transport: TRANSPORT,
         seed: 1,

@@ -49,7 +49,9 @@ fn tiny_spectral_image() -> CameraImage {
     camera.width = 6;
     camera.height = 4;
     let settings = CameraSettings {
-        coding: Coding::Spectral,
+        codings: vec![Coding::Spectral],
+        reference: None,
+        se_every_coding: false,
         observer: lightbooth::colorimetry::Observer::JuddVos,
         transport: RenderSettings::default().transport(),
         seed: 1,

@@ -14,6 +14,7 @@ mod exr_python;
 mod fixed_seed_pins;
 mod glossy_booth;
 mod glossy_materials;
+mod image_codings;
 mod radiance_import;
 mod reflectance_booth;
 mod render_area_lights;

@@ -33,7 +33,9 @@ fn many_batches() -> RenderSettings {
 
 fn camera_settings() -> CameraSettings {
     CameraSettings {
-        coding: Coding::Rgb,
+        codings: vec![Coding::Rgb],
+        reference: None,
+        se_every_coding: false,
         observer: ChannelLayout::new(&[Coding::Rgb]).observer(),
         transport: Transport {
             max_bounces: Some(2),

@@ -55,7 +55,7 @@ use super::sensor::Image;
 use super::RenderError;
 pub use crate::pinhole::Pinhole;
 use lightbooth_science::colorimetry::rgb::{apply, RgbSpace};
-use lightbooth_science::colorimetry::{Cmf, Observer, KM_LM_PER_W};
+use lightbooth_science::colorimetry::{ciede2000, Cmf, Lab, Observer, Xyz, KM_LM_PER_W};
 use lightbooth_science::spectrum::Grid;
 
 /// Largest storage a camera image may take (means and squared deviations).
@@ -64,7 +64,15 @@ pub const MAX_IMAGE_BYTES: u64 = 2 << 30;
 /// How to render a camera image.
 #[derive(Clone, Debug)]
 pub struct CameraSettings {
-    pub coding: Coding,
+    /// The codings rendered, every one from the same paths (a coding named
+    /// twice is rendered once, in its first place).
+    pub codings: Vec<Coding>,
+    /// The coding every other is compared with ([`CameraImages::difference`])
+    /// and whose SE(Y) stops a pixel; `None`: the last of `codings`.
+    pub reference: Option<Coding>,
+    /// Stop a pixel only when every coding's SE(Y) meets
+    /// `target_relative_se`, not only the reference's.
+    pub se_every_coding: bool,
     pub observer: Observer,
     pub transport: Transport,
     pub seed: u64,
@@ -146,7 +154,10 @@ struct Colorimetry {
 }
 
 impl Colorimetry {
-    fn new(layout: &ChannelLayout, coding: Coding, observer: Observer) -> Colorimetry {
+    /// The maps of the layout's coding number `index` (its channels only).
+    fn new(layout: &ChannelLayout, index: usize) -> Colorimetry {
+        let (coding, range) = layout.entries()[index].clone();
+        let observer = layout.observer();
         let n = coding.channels();
         let mut rows = vec![vec![0.0; n]; 6];
         let mut unit = vec![0.0; layout.len()];
@@ -158,8 +169,8 @@ impl Colorimetry {
         let lms_scale = [KM_LM_PER_W * v_l, KM_LM_PER_W * v_m, KM_LM_PER_W];
         for k in 0..n {
             unit.fill(0.0);
-            unit[k] = 1.0;
-            let d = layout.decode(0, &unit);
+            unit[range.start + k] = 1.0;
+            let d = layout.decode(index, &unit);
             for (r, v) in d.xyz.to_array().iter().enumerate() {
                 rows[r][k] = *v;
             }
@@ -244,9 +255,8 @@ impl Quantities {
 }
 
 /// Renders the camera view through its [`Pinhole`] progressively (see the
-/// module doc); `progress` is called after every pass. `cancel` (a job's
-/// token) is checked before each row of each pass; a cancelled render ends
-/// with [`RenderError::Cancelled`].
+/// module doc) in the reference coding of `settings` (its only coding, as
+/// a rule): [`render_camera_images`]'s reference image.
 pub fn render_camera_image(
     scene: &Scene,
     camera: &Camera,
@@ -254,27 +264,109 @@ pub fn render_camera_image(
     progress: Option<&(dyn Fn(CameraProgress) + Sync)>,
     cancel: Option<&CancellationToken>,
 ) -> Result<CameraImage, RenderError> {
+    render_camera_images(scene, camera, settings, progress, cancel).map(CameraImages::into_reference)
+}
+
+/// Per pixel and coding, the moments kept beside the image's own (f32):
+/// the co-moments Σ(X−X̄)(Y−Ȳ), Σ(X−X̄)(Z−Z̄), Σ(Y−Ȳ)(Z−Z̄) of the coding's
+/// own X, Y, Z (the image keeps their squared deviations), then the mean of
+/// the paired difference d = XYZ(coding) − XYZ(reference) over the pixel's
+/// paths and its co-moments dxx, dyy, dzz, dxy, dxz, dyz (all zero for the
+/// reference itself).
+const PAIRED: usize = 12;
+/// Offsets in [`PAIRED`]'s block.
+const OWN_CROSS: usize = 0;
+const D_MEAN: usize = 3;
+const D_COMOMENTS: usize = 6;
+
+/// The co-moment updates of Welford's algorithm for three quantities: with
+/// `before` = v − mean before the update and `after` = v − mean after,
+/// Σ(vᵢ−v̄ᵢ)(vⱼ−v̄ⱼ) grows by beforeᵢ·afterⱼ.
+fn cross_update(co: &mut [f64], before: [f64; 3], after: [f64; 3]) {
+    co[0] += before[0] * after[1];
+    co[1] += before[0] * after[2];
+    co[2] += before[1] * after[2];
+}
+
+/// Chan et al.'s merge of the cross co-moments: Cₐ + C_b + δᵢδⱼ·nₐn_b/n, δ
+/// the difference of the two means.
+fn cross_merge(stored: &mut [f32], pass: &[f64], delta: [f64; 3], weight: f64) {
+    let pairs = [(0, 1), (0, 2), (1, 2)];
+    for (k, (i, j)) in pairs.into_iter().enumerate() {
+        stored[k] = (stored[k] as f64 + pass[k] + delta[i] * delta[j] * weight) as f32;
+    }
+}
+
+/// One row's share of every coding's buffers, for one pass.
+struct RowBuffers<'a> {
+    mean: Vec<&'a mut [f32]>,
+    m2: Vec<&'a mut [f32]>,
+    paired: Vec<&'a mut [f32]>,
+}
+
+/// Renders the camera view in every coding of `settings` from the same
+/// paths (each path traced once, all codings' channels carried along it, as
+/// the radiometer's targets are), progressively (see the module doc):
+/// then two codings' images differ by the codings alone, not by two noise
+/// draws, and [`CameraImages::difference`] gives the paired difference's
+/// own standard error. A pixel stops on the reference coding's SE(Y) (every
+/// coding's with `se_every_coding`). `progress` is called after every
+/// pass; `cancel` (a job's token) is checked before each row of each pass,
+/// and a cancelled render ends with [`RenderError::Cancelled`].
+pub fn render_camera_images(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &CameraSettings,
+    progress: Option<&(dyn Fn(CameraProgress) + Sync)>,
+    cancel: Option<&CancellationToken>,
+) -> Result<CameraImages, RenderError> {
     if settings.min_spp == 0 || settings.max_spp < settings.min_spp {
         return Err(RenderError::Settings(format!(
             "camera paths per pixel: need 1 ≤ min_spp ({}) ≤ max_spp ({})",
             settings.min_spp, settings.max_spp
         )));
     }
-    let quantities = Quantities::of(settings.coding);
-    let stride = quantities.coding_channels + 6;
+    let layout = ChannelLayout::with_observer(&settings.codings, settings.observer);
+    let codings: Vec<Coding> = layout.codings().collect();
+    let names = || codings.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(",");
+    if codings.is_empty() {
+        return Err(RenderError::Settings("a camera image needs at least one coding".into()));
+    }
+    let reference = match settings.reference {
+        None => codings.len() - 1,
+        Some(r) => codings.iter().position(|c| *c == r).ok_or_else(|| {
+            RenderError::Settings(format!(
+                "the reference coding {r} is not one of the codings rendered ({})",
+                names()
+            ))
+        })?,
+    };
+    let nc = codings.len();
+    let quantities: Vec<Quantities> = codings.iter().map(|c| Quantities::of(*c)).collect();
+    let strides: Vec<usize> = quantities.iter().map(|q| q.coding_channels + 6).collect();
+    // Each coding's quantities in one per-path vector: coding c at offsets[c].
+    let offsets: Vec<usize> = strides
+        .iter()
+        .scan(0, |at, s| {
+            let o = *at;
+            *at += s;
+            Some(o)
+        })
+        .collect();
+    let total_stride: usize = strides.iter().sum();
     let (w, h) = (camera.width as usize, camera.height as usize);
     let pixels = w * h;
-    let bytes = pixels as u64 * stride as u64 * 8;
+    let bytes = pixels as u64 * (total_stride as u64 * 8 + nc as u64 * PAIRED as u64 * 4);
     if bytes > MAX_IMAGE_BYTES {
         return Err(RenderError::Settings(format!(
-            "a {w} × {h} camera image in {} needs {} MB (at most {} MB): use a smaller [camera] or fewer bands",
-            settings.coding,
+            "a {w} × {h} camera image in {} needs {} MB (at most {} MB): use a smaller [camera], fewer codings or fewer bands",
+            names(),
             bytes >> 20,
             MAX_IMAGE_BYTES >> 20
         )));
     }
-    let layout = ChannelLayout::with_observer(&[settings.coding], settings.observer);
-    let colorimetry = Colorimetry::new(&layout, settings.coding, settings.observer);
+    let colorimetry: Vec<Colorimetry> = (0..nc).map(|i| Colorimetry::new(&layout, i)).collect();
+    let ranges: Vec<std::ops::Range<usize>> = layout.entries().iter().map(|e| e.1.clone()).collect();
     let prep = Prepared::new(scene, layout).map_err(RenderError::Prepare)?;
     let pinhole = Pinhole::new(camera);
     let cancelled = || cancel.is_some_and(|c| c.is_cancelled());
@@ -283,8 +375,9 @@ pub fn render_camera_image(
     }
     let start = Instant::now();
 
-    let mut mean = vec![0.0f32; pixels * stride];
-    let mut m2 = vec![0.0f32; pixels * stride];
+    let mut mean: Vec<Vec<f32>> = strides.iter().map(|s| vec![0.0f32; pixels * s]).collect();
+    let mut m2: Vec<Vec<f32>> = strides.iter().map(|s| vec![0.0f32; pixels * s]).collect();
+    let mut paired: Vec<Vec<f32>> = (0..nc).map(|_| vec![0.0f32; pixels * PAIRED]).collect();
     let mut samples = vec![0u32; pixels];
     let mut done = vec![false; pixels];
     let mut passes = 0u32;
@@ -293,21 +386,40 @@ pub fn render_camera_image(
     let stop = loop {
         let pass_spp = settings.min_spp;
         let seed = settings.seed;
-        let n_channels = quantities.coding_channels;
-        let traced: u64 = mean
-            .par_chunks_mut(w * stride)
-            .zip(m2.par_chunks_mut(w * stride))
+        let mut rows: Vec<RowBuffers> = (0..h)
+            .map(|_| RowBuffers {
+                mean: Vec::with_capacity(nc),
+                m2: Vec::with_capacity(nc),
+                paired: Vec::with_capacity(nc),
+            })
+            .collect();
+        for (((mean_c, m2_c), paired_c), stride) in
+            mean.iter_mut().zip(m2.iter_mut()).zip(paired.iter_mut()).zip(&strides)
+        {
+            for (row, chunk) in rows.iter_mut().zip(mean_c.chunks_mut(w * stride)) {
+                row.mean.push(chunk);
+            }
+            for (row, chunk) in rows.iter_mut().zip(m2_c.chunks_mut(w * stride)) {
+                row.m2.push(chunk);
+            }
+            for (row, chunk) in rows.iter_mut().zip(paired_c.chunks_mut(w * PAIRED)) {
+                row.paired.push(chunk);
+            }
+        }
+        let traced: u64 = rows
+            .into_par_iter()
             .zip(samples.par_chunks_mut(w))
             .zip(done.par_chunks(w))
             .enumerate()
-            .map(|(y, (((mean_row, m2_row), n_row), done_row))| {
+            .map(|(y, ((mut row, n_row), done_row))| {
                 if cancelled() {
                     return 0;
                 }
                 let mut state = PathState::new(&prep.layout);
-                let mut q = vec![0.0f64; stride];
-                let mut pass_mean = vec![0.0f64; stride];
-                let mut pass_m2 = vec![0.0f64; stride];
+                let mut q = vec![0.0f64; total_stride];
+                let mut pass_mean = vec![0.0f64; total_stride];
+                let mut pass_m2 = vec![0.0f64; total_stride];
+                let mut pass_paired = vec![0.0f64; nc * PAIRED];
                 let mut traced = 0u64;
                 for x in 0..w {
                     if done_row[x] {
@@ -318,40 +430,110 @@ pub fn render_camera_image(
                     let nb = pass_spp.min(settings.max_spp - first);
                     pass_mean.fill(0.0);
                     pass_m2.fill(0.0);
+                    pass_paired.fill(0.0);
                     for i in 0..nb {
                         let s = (first + i) as u64;
                         let mut rng = PathSampler::new(SamplerKind::Independent, seed, u64::MAX - pixel, s);
                         let ray = pinhole.ray(x, y, rng.next_2d());
                         trace_path(&prep, &settings.transport, ray, &mut rng, &mut state);
-                        let radiance = &state.radiance[..n_channels];
-                        for (qk, r) in q.iter_mut().zip(radiance) {
-                            *qk = *r as f64;
+                        for c in 0..nc {
+                            let radiance = &state.radiance[ranges[c].clone()];
+                            let n_channels = radiance.len();
+                            let qc = &mut q[offsets[c]..offsets[c] + strides[c]];
+                            for (qk, r) in qc.iter_mut().zip(radiance) {
+                                *qk = *r as f64;
+                            }
+                            for (j, weights) in colorimetry[c].rows.iter().enumerate() {
+                                qc[n_channels + j] = weights.iter().zip(radiance).map(|(a, &b)| a * b as f64).sum();
+                            }
                         }
-                        for (j, row) in colorimetry.rows.iter().enumerate() {
-                            q[n_channels + j] = row.iter().zip(radiance).map(|(a, &b)| a * b as f64).sum();
-                        }
-                        // Welford within the pass.
                         let count = (i + 1) as f64;
+                        let xyz_at = |c: usize| offsets[c] + quantities[c].coding_channels;
+                        let xyz_of = |v: &[f64], c: usize| [v[xyz_at(c)], v[xyz_at(c) + 1], v[xyz_at(c) + 2]];
+                        let before: Vec<[f64; 3]> = (0..nc)
+                            .map(|c| {
+                                let (v, m) = (xyz_of(&q, c), xyz_of(&pass_mean, c));
+                                [v[0] - m[0], v[1] - m[1], v[2] - m[2]]
+                            })
+                            .collect();
+                        // Welford within the pass.
                         for ((m, s2), v) in pass_mean.iter_mut().zip(pass_m2.iter_mut()).zip(&q) {
                             let delta = v - *m;
                             *m += delta / count;
                             *s2 += delta * (v - *m);
+                        }
+                        let reference_xyz = xyz_of(&q, reference);
+                        for c in 0..nc {
+                            let block = &mut pass_paired[c * PAIRED..(c + 1) * PAIRED];
+                            let (v, m) = (xyz_of(&q, c), xyz_of(&pass_mean, c));
+                            let after = [v[0] - m[0], v[1] - m[1], v[2] - m[2]];
+                            cross_update(&mut block[OWN_CROSS..OWN_CROSS + 3], before[c], after);
+                            if c == reference {
+                                continue;
+                            }
+                            // The paired difference, with its own Welford update.
+                            let d = [
+                                v[0] - reference_xyz[0],
+                                v[1] - reference_xyz[1],
+                                v[2] - reference_xyz[2],
+                            ];
+                            let mut d_before = [0.0; 3];
+                            let mut d_after = [0.0; 3];
+                            for k in 0..3 {
+                                d_before[k] = d[k] - block[D_MEAN + k];
+                                block[D_MEAN + k] += d_before[k] / count;
+                                d_after[k] = d[k] - block[D_MEAN + k];
+                                block[D_COMOMENTS + k] += d_before[k] * d_after[k];
+                            }
+                            cross_update(&mut block[D_COMOMENTS + 3..D_COMOMENTS + 6], d_before, d_after);
                         }
                     }
                     traced += nb as u64;
                     // Chan et al.: merge the pass (nb paths) into the stored (na paths).
                     let (na, nbf) = (first as f64, nb as f64);
                     let n = na + nbf;
-                    let range = x * stride..(x + 1) * stride;
-                    for ((m, s2), (pm, pm2)) in mean_row[range.clone()]
-                        .iter_mut()
-                        .zip(m2_row[range].iter_mut())
-                        .zip(pass_mean.iter().zip(&pass_m2))
-                    {
-                        let ma = *m as f64;
-                        let delta = pm - ma;
-                        *m = (ma + delta * nbf / n) as f32;
-                        *s2 = (*s2 as f64 + pm2 + delta * delta * na * nbf / n) as f32;
+                    let weight = na * nbf / n;
+                    for c in 0..nc {
+                        let range = x * strides[c]..(x + 1) * strides[c];
+                        let pass = offsets[c]..offsets[c] + strides[c];
+                        let xyz = quantities[c].coding_channels;
+                        let stored_xyz: [f64; 3] = std::array::from_fn(|k| row.mean[c][range.start + xyz + k] as f64);
+                        for ((m, s2), (pm, pm2)) in row.mean[c][range.clone()]
+                            .iter_mut()
+                            .zip(row.m2[c][range.clone()].iter_mut())
+                            .zip(pass_mean[pass.clone()].iter().zip(&pass_m2[pass.clone()]))
+                        {
+                            let ma = *m as f64;
+                            let delta = pm - ma;
+                            *m = (ma + delta * nbf / n) as f32;
+                            *s2 = (*s2 as f64 + pm2 + delta * delta * weight) as f32;
+                        }
+                        let block = &pass_paired[c * PAIRED..(c + 1) * PAIRED];
+                        let stored = &mut row.paired[c][x * PAIRED..(x + 1) * PAIRED];
+                        let delta: [f64; 3] = std::array::from_fn(|k| pass_mean[pass.start + xyz + k] - stored_xyz[k]);
+                        cross_merge(
+                            &mut stored[OWN_CROSS..OWN_CROSS + 3],
+                            &block[OWN_CROSS..],
+                            delta,
+                            weight,
+                        );
+                        if c != reference {
+                            let d_delta: [f64; 3] =
+                                std::array::from_fn(|k| block[D_MEAN + k] - stored[D_MEAN + k] as f64);
+                            for k in 0..3 {
+                                let ma = stored[D_MEAN + k] as f64;
+                                stored[D_MEAN + k] = (ma + d_delta[k] * nbf / n) as f32;
+                                let s2 = stored[D_COMOMENTS + k] as f64;
+                                stored[D_COMOMENTS + k] =
+                                    (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
+                            }
+                            cross_merge(
+                                &mut stored[D_COMOMENTS + 3..D_COMOMENTS + 6],
+                                &block[D_COMOMENTS + 3..],
+                                d_delta,
+                                weight,
+                            );
+                        }
                     }
                     n_row[x] = first + nb;
                 }
@@ -363,17 +545,31 @@ pub fn render_camera_image(
         if cancelled() {
             return Err(RenderError::Cancelled);
         }
-        // Which pixels are done.
-        let y_index = quantities.coding_channels + Y;
-        let mean_y = (0..pixels).map(|p| mean[p * stride + y_index] as f64).sum::<f64>() / pixels.max(1) as f64;
-        let floor = 0.01 * mean_y.abs();
+        // Which pixels are done: the reference's SE(Y), or every coding's.
+        let stopping: Vec<usize> = if settings.se_every_coding {
+            (0..nc).collect()
+        } else {
+            vec![reference]
+        };
+        let floors: Vec<f64> = stopping
+            .iter()
+            .map(|&c| {
+                let y_index = quantities[c].coding_channels + Y;
+                let s = strides[c];
+                0.01 * ((0..pixels).map(|p| mean[c][p * s + y_index] as f64).sum::<f64>() / pixels.max(1) as f64).abs()
+            })
+            .collect();
         for p in 0..pixels {
             let n = samples[p];
             let reached_cap = n >= settings.max_spp;
             let quiet = settings.target_relative_se.is_some_and(|t| {
-                let yv = mean[p * stride + y_index] as f64;
-                let se = (m2[p * stride + y_index].max(0.0) as f64 / (n as f64 * (n as f64 - 1.0).max(1.0))).sqrt();
-                n >= settings.min_spp && se <= t * yv.abs().max(floor)
+                n >= settings.min_spp
+                    && stopping.iter().zip(&floors).all(|(&c, floor)| {
+                        let k = p * strides[c] + quantities[c].coding_channels + Y;
+                        let yv = mean[c][k] as f64;
+                        let se = (m2[c][k].max(0.0) as f64 / (n as f64 * (n as f64 - 1.0).max(1.0))).sqrt();
+                        se <= t * yv.abs().max(*floor)
+                    })
             });
             done[p] = reached_cap || quiet;
         }
@@ -400,20 +596,201 @@ pub fn render_camera_image(
             break StopReason::TimeBudget;
         }
     };
-    Ok(CameraImage {
-        width: camera.width,
-        height: camera.height,
-        coding: settings.coding,
-        observer: settings.observer,
-        quantities,
-        mean,
-        m2,
-        samples,
-        passes,
-        paths,
-        elapsed_seconds: start.elapsed().as_secs_f64(),
-        stop,
+    let elapsed_seconds = start.elapsed().as_secs_f64();
+    let images = codings
+        .iter()
+        .zip(quantities)
+        .zip(mean.into_iter().zip(m2))
+        .map(|((coding, quantities), (mean, m2))| CameraImage {
+            width: camera.width,
+            height: camera.height,
+            coding: *coding,
+            observer: settings.observer,
+            quantities,
+            mean,
+            m2,
+            samples: samples.clone(),
+            passes,
+            paths,
+            elapsed_seconds,
+            stop,
+        })
+        .collect();
+    Ok(CameraImages {
+        images,
+        reference,
+        paired,
     })
+}
+
+/// Every coding's image of one render, from the same paths, and the paired
+/// moments that give the difference of two codings its own noise.
+#[derive(Clone, Debug)]
+pub struct CameraImages {
+    /// One image per coding, in the settings' order (duplicates removed).
+    pub images: Vec<CameraImage>,
+    /// Which of `images` the others are compared with.
+    pub reference: usize,
+    /// Per image, per pixel, [`PAIRED`] moments.
+    paired: Vec<Vec<f32>>,
+}
+
+/// How far one coding's image is from the reference's, from the same paths
+/// (ΔE00 per pixel between the two images' means, with one CIELAB white).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PairedDifference {
+    pub coding: String,
+    pub reference: String,
+    /// ΔE00 over the image's pixels: the mean, the 95th percentile, the largest.
+    pub mean: f64,
+    pub p95: f64,
+    pub max: f64,
+    /// The standard error of `mean` from the paired paths: √(Σₚ σₚ²)/N over
+    /// the N pixels (each pixel's paths are its own), σₚ the paired noise
+    /// of pixel p as in `noise_paired`. An upper bound: σₚ is the whole
+    /// RMS noise, of which only the part along the difference moves ΔE00
+    /// where the codings differ by more than the noise.
+    pub se_mean: f64,
+    /// The RMS over pixels of the ΔE00 the paths' noise alone puts between
+    /// the two pixel means, from the paired difference's own covariance Σ_d
+    /// (see [`CameraImages::difference`]).
+    pub noise_paired: f64,
+    /// The same had the two images been rendered from independent paths
+    /// (Σ_a + Σ_r, each image's own covariance of its mean XYZ): the noise
+    /// the paired render removes.
+    pub noise_independent: f64,
+    /// The CIELAB white of every ΔE00 (XYZ, Y in cd/m²).
+    pub white: [f64; 3],
+}
+
+impl CameraImages {
+    /// The reference coding's image alone.
+    pub fn into_reference(mut self) -> CameraImage {
+        self.images.swap_remove(self.reference)
+    }
+
+    pub fn reference_image(&self) -> &CameraImage {
+        &self.images[self.reference]
+    }
+
+    /// [`CameraImage::every_nth_band`] on the `spectral` coding's image,
+    /// the other codings as they are; `step` 1 changes nothing.
+    pub fn every_nth_band(mut self, step: usize) -> Result<CameraImages, String> {
+        if step == 1 {
+            return Ok(self);
+        }
+        let spectral = self.images.iter().position(|i| i.coding == Coding::Spectral).ok_or_else(|| {
+            let codings: Vec<String> = self.images.iter().map(|i| i.coding.to_string()).collect();
+            format!(
+                "a spectral step of {step} nm picks bands of the 1 nm `spectral` coding, which the image does not have ({})",
+                codings.join(",")
+            )
+        })?;
+        self.images[spectral] = self.images[spectral].every_nth_band(step)?;
+        Ok(self)
+    }
+
+    /// The covariance of pixel `p`'s mean XYZ in image `c`: the image's own
+    /// squared deviations and the kept co-moments, over n(n − 1).
+    fn own_covariance(&self, c: usize, p: usize) -> [[f64; 3]; 3] {
+        let img = &self.images[c];
+        let n = img.samples[p] as f64;
+        let scale = 1.0 / (n * (n - 1.0)).max(1.0);
+        let x0 = p * img.stride() + img.xyz_index();
+        let d: [f64; 3] = std::array::from_fn(|k| img.m2[x0 + k].max(0.0) as f64 * scale);
+        let block = &self.paired[c][p * PAIRED..];
+        let o = |k: usize| block[OWN_CROSS + k] as f64 * scale;
+        [[d[0], o(0), o(1)], [o(0), d[1], o(2)], [o(1), o(2), d[2]]]
+    }
+
+    /// The covariance of pixel `p`'s mean paired difference XYZ(c) − XYZ(reference).
+    fn paired_covariance(&self, c: usize, p: usize) -> [[f64; 3]; 3] {
+        let n = self.images[c].samples[p] as f64;
+        let scale = 1.0 / (n * (n - 1.0)).max(1.0);
+        let b = &self.paired[c][p * PAIRED + D_COMOMENTS..];
+        let v = |k: usize| b[k] as f64 * scale;
+        [[v(0), v(3), v(4)], [v(3), v(1), v(5)], [v(4), v(5), v(2)]]
+    }
+
+    /// Image `c` against the reference: ΔE00 per pixel with CIELAB white
+    /// `white`, summarised, with its noise.
+    ///
+    /// The noise of a pixel's ΔE00 is σ² = Σᵢⱼ Qᵢⱼ Σᵢⱼ: Σ the covariance of
+    /// the difference of the two mean XYZ (paired: the difference's own
+    /// over the pixel's paths; independent: the sum of the two images'), Q
+    /// the local quadratic form of ΔE00² in XYZ at the reference's mean
+    /// (ΔE00² ≈ δᵀQδ for a small step δ), found by finite differences of
+    /// ΔE00 with steps of 10⁻⁴ of the white — so σ is the RMS ΔE00 that
+    /// noise of covariance Σ alone puts between two colours (E[δᵀQδ] =
+    /// tr(QΣ)), a linearisation stated here.
+    pub fn difference(&self, c: usize, white: Xyz) -> PairedDifference {
+        let (a, r) = (&self.images[c], self.reference_image());
+        let pixels = a.samples.len();
+        let w = white.to_array();
+        let step: [f64; 3] = std::array::from_fn(|k| 1e-4 * w[k].abs().max(1e-12));
+        let per_pixel: Vec<(f64, f64, f64)> = (0..pixels)
+            .into_par_iter()
+            .map(|p| {
+                let xyz = |img: &CameraImage| -> [f64; 3] {
+                    let x0 = p * img.stride() + img.xyz_index();
+                    std::array::from_fn(|k| img.mean[x0 + k] as f64)
+                };
+                let (xa, xr) = (xyz(a), xyz(r));
+                let lab = |v: [f64; 3]| Lab::from_xyz(Xyz::from_array(v), white);
+                let reference_lab = lab(xr);
+                let delta_e = ciede2000(lab(xa), reference_lab);
+                if c == self.reference {
+                    return (0.0, 0.0, 0.0);
+                }
+                // Q by finite differences around the reference's mean.
+                let f = |d: [f64; 3]| {
+                    let e = ciede2000(lab([xr[0] + d[0], xr[1] + d[1], xr[2] + d[2]]), reference_lab);
+                    e * e
+                };
+                let unit = |i: usize| -> [f64; 3] { std::array::from_fn(|k| if k == i { step[i] } else { 0.0 }) };
+                let diag: [f64; 3] = std::array::from_fn(|i| f(unit(i)));
+                let mut q = [[0.0; 3]; 3];
+                for i in 0..3 {
+                    q[i][i] = diag[i] / (step[i] * step[i]);
+                    for j in 0..i {
+                        let both: [f64; 3] = std::array::from_fn(|k| unit(i)[k] + unit(j)[k]);
+                        let v = (f(both) - diag[i] - diag[j]) / (2.0 * step[i] * step[j]);
+                        q[i][j] = v;
+                        q[j][i] = v;
+                    }
+                }
+                let trace = |s: [[f64; 3]; 3]| -> f64 {
+                    (0..3)
+                        .flat_map(|i| (0..3).map(move |j| (i, j)))
+                        .map(|(i, j)| q[i][j] * s[i][j])
+                        .sum::<f64>()
+                        .max(0.0)
+                };
+                let paired = trace(self.paired_covariance(c, p));
+                let (sa, sr) = (self.own_covariance(c, p), self.own_covariance(self.reference, p));
+                let independent = trace(std::array::from_fn(|i| std::array::from_fn(|j| sa[i][j] + sr[i][j])));
+                (delta_e, paired, independent)
+            })
+            .collect();
+        let n = pixels.max(1) as f64;
+        let mut sorted: Vec<f64> = per_pixel.iter().map(|v| v.0).collect();
+        sorted.sort_by(|p, q| p.total_cmp(q));
+        let paired_sum: f64 = per_pixel.iter().map(|v| v.1).sum();
+        PairedDifference {
+            coding: a.coding.to_string(),
+            reference: r.coding.to_string(),
+            mean: sorted.iter().sum::<f64>() / n,
+            p95: sorted
+                .get(((0.95 * (sorted.len().max(1) - 1) as f64).round() as usize).min(sorted.len().saturating_sub(1)))
+                .copied()
+                .unwrap_or(0.0),
+            max: sorted.last().copied().unwrap_or(0.0),
+            se_mean: paired_sum.sqrt() / n,
+            noise_paired: (paired_sum / n).sqrt(),
+            noise_independent: (per_pixel.iter().map(|v| v.2).sum::<f64>() / n).sqrt(),
+            white: w,
+        }
+    }
 }
 
 impl CameraImage {

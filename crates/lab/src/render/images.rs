@@ -348,7 +348,7 @@ impl ImageJobs {
             next.0 - 1
         };
         let work = work(id);
-        let coding = work.settings.coding;
+        let coding = work.settings.codings[0];
         entries.insert(
             id,
             Entry {
@@ -645,7 +645,9 @@ pub fn camera_settings(
     (
         scaled,
         CameraSettings {
-            coding,
+            codings: vec![coding],
+            reference: None,
+            se_every_coding: false,
             observer,
             transport: Transport {
                 max_bounces: s.max_bounces,

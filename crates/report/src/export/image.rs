@@ -29,6 +29,19 @@
 //! error as a second image `<name>_se.bsq`. MAT: `radiance` (H × W × N
 //! single), `radiance_se`, `XYZ`, `LMS`, `paths` (H × W), `wavelength_nm`,
 //! `units`, `coding`.
+//!
+//! Several codings of one render ([`CameraImages`], `--image-coding
+//! rgb,srgb,nstep9,spectral`) go in one file, a layer per coding:
+//! - EXR: OpenEXR's `layer.channel` naming, the coding's name as the layer
+//!   (`nstep9.X`, `nstep9.SE.X`, `spectral.S0.550,000000nm`, `rgb.R`), one
+//!   `paths` channel (the codings share their paths), and the attributes
+//!   `lightbooth.codings` (in the file's order) and `lightbooth.reference`;
+//! - MAT: each single-coding variable prefixed by its coding
+//!   (`nstep9_radiance`, `nstep9_radiance_se`, `nstep9_XYZ`, `nstep9_LMS`,
+//!   `nstep9_wavelength_nm`, `nstep9_units`), one `paths`, and `codings`
+//!   (one row per coding) and `reference`;
+//! - ENVI: a file pair per coding, `<stem>.<coding>.bsq` (+ `.hdr`) and its
+//!   `<stem>.<coding>_se.bsq`.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -39,7 +52,7 @@ use exr::prelude::{
 };
 
 use crate::export::mat::MatFile;
-use lightbooth_render::camera::CameraImage;
+use lightbooth_render::camera::{CameraImage, CameraImages};
 
 /// The units of the spectral channels, in ASCII: OpenEXR's text attributes
 /// have no declared encoding, and readers (OpenEXR's own Python binding)
@@ -375,4 +388,150 @@ mod tests {
         assert_eq!(spectral_channel_name(550.0), "S0.550,000000nm");
         assert_eq!(spectral_channel_name(382.5), "S0.382,500000nm");
     }
+}
+
+/// Writes every coding of `images` in one file, a layer per coding (see the
+/// module doc), by the extension as [`write_camera_image`]; a render of one
+/// coding is written exactly as [`write_camera_image`] writes it.
+pub fn write_camera_images(images: &CameraImages, path: &Path) -> Result<Vec<PathBuf>, String> {
+    if let [image] = images.images.as_slice() {
+        return write_camera_image(image, path);
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "exr" => write_layered_exr(images, path).map(|()| vec![path.to_path_buf()]),
+        "mat" => write_layered_mat(images, path).map(|()| vec![path.to_path_buf()]),
+        "bsq" => {
+            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("image");
+            let mut written = Vec::new();
+            for image in &images.images {
+                written.extend(write_envi(
+                    image,
+                    &path.with_file_name(format!("{stem}.{}.bsq", image.coding)),
+                )?);
+            }
+            Ok(written)
+        }
+        other => Err(format!(
+            "{}: unknown spectral image type `.{other}`: use .exr, .mat or .bsq (ENVI)",
+            path.display()
+        )),
+    }
+}
+
+/// The codings of `images` as one comma list, in their order.
+fn coding_list(images: &CameraImages) -> String {
+    images
+        .images
+        .iter()
+        .map(|i| i.coding.to_string())
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// One OpenEXR part with a layer per coding.
+fn write_layered_exr(images: &CameraImages, path: &Path) -> Result<(), String> {
+    let first = &images.images[0];
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for image in &images.images {
+        for (k, name) in quantity_names(image).iter().enumerate() {
+            let layer = image.coding;
+            channels.push(linear_channel(&format!("{layer}.{name}"), image.plane(k)));
+            channels.push(linear_channel(&format!("{layer}.SE.{name}"), image.se_plane(k)));
+        }
+    }
+    channels.push(linear_channel(
+        "paths",
+        first.samples.iter().map(|&n| n as f32).collect(),
+    ));
+    let mut attributes = LayerAttributes::default();
+    let mut other = vec![
+        ("lightbooth.codings", coding_list(images)),
+        ("lightbooth.reference", images.reference_image().coding.to_string()),
+        ("lightbooth.observer", first.observer.to_string()),
+        ("lightbooth.units.XYZ", "cd/m^2 (Y is luminance)".to_string()),
+        (
+            "lightbooth.units.LMS",
+            "cd/m^2-scaled cone excitations (L + M = CIE 2006 2 deg luminance)".to_string(),
+        ),
+        (
+            "lightbooth.units.SE",
+            "standard error of the pixel's mean, same units as the channel".to_string(),
+        ),
+        (
+            "lightbooth.paths",
+            "every coding's pixel from the same paths (the paths channel)".to_string(),
+        ),
+    ];
+    if images.images.iter().any(|i| i.quantities.wavelengths_nm.is_some()) {
+        other.push(("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION.to_string()));
+        other.push(("emissiveUnits", EMISSIVE_UNITS.to_string()));
+        other.push(("lightbooth.units.spectral", SPECTRAL_UNITS.to_string()));
+    }
+    let mut other: Vec<(String, String)> = other.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+    for image in &images.images {
+        if let Some(step) = spectral_step_nm(image) {
+            other.push((
+                format!("lightbooth.spectralStep.{}", image.coding),
+                format!("{step} nm"),
+            ));
+        }
+    }
+    for (k, v) in other {
+        attributes.other.insert(Text::from(k.as_str()), text(&v)?);
+    }
+    let layer = Layer::new(
+        (first.width as usize, first.height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .map_err(|e| format!("{}: writing OpenEXR: {e}", path.display()))
+}
+
+/// A MAT-file with every coding's variables, prefixed by the coding.
+fn write_layered_mat(images: &CameraImages, path: &Path) -> Result<(), String> {
+    let first = &images.images[0];
+    let (w, h) = (first.width as usize, first.height as usize);
+    let mut mat = MatFile::new();
+    for image in &images.images {
+        let n = image.quantities.coding_channels;
+        let x0 = image.xyz_index();
+        let p = image.coding.to_string();
+        mat.single_array(&format!("{p}_radiance"), &[h, w, n], &column_major(image, 0, n, false))?;
+        mat.single_array(
+            &format!("{p}_radiance_se"),
+            &[h, w, n],
+            &column_major(image, 0, n, true),
+        )?;
+        mat.single_array(&format!("{p}_XYZ"), &[h, w, 3], &column_major(image, x0, 3, false))?;
+        mat.single_array(&format!("{p}_XYZ_se"), &[h, w, 3], &column_major(image, x0, 3, true))?;
+        mat.single_array(&format!("{p}_LMS"), &[h, w, 3], &column_major(image, x0 + 3, 3, false))?;
+        let wl = image.quantities.wavelengths_nm.clone().unwrap_or_default();
+        mat.column(&format!("{p}_wavelength_nm"), &wl)?;
+        let units = match image.quantities.wavelengths_nm {
+            Some(_) => SPECTRAL_UNITS.to_string(),
+            None => format!("linear {} with Y in cd/m2", image.coding),
+        };
+        mat.text(&format!("{p}_units"), &units)?;
+    }
+    let mut paths = vec![0.0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            paths[x * h + y] = first.samples[y * w + x] as f32;
+        }
+    }
+    mat.single_array("paths", &[h, w], &paths)?;
+    let codings: Vec<String> = images.images.iter().map(|i| i.coding.to_string()).collect();
+    mat.text_rows("codings", &codings)?;
+    mat.text("reference", &images.reference_image().coding.to_string())?;
+    std::fs::write(path, mat.into_bytes()).map_err(|e| format!("{}: {e}", path.display()))
 }
