@@ -69,6 +69,10 @@ pub struct RenderArgs {
     /// (MATLAB) or .bsq (ENVI, with .hdr; a file per coding).
     #[arg(long)]
     image: Option<PathBuf>,
+    /// The --image's size in pixels, WIDTHxHEIGHT (1–16384 each; default
+    /// the scene's [camera]); the camera's vertical field of view is kept.
+    #[arg(long, value_parser = parse_image_size)]
+    image_size: Option<(u32, u32)>,
     /// Paths per pixel for --image (the cap with --image-se), 1–65536.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_PIXEL_SAMPLES)))]
     spp: u32,
@@ -147,6 +151,19 @@ fn parse_target(s: &str) -> Result<(String, [f64; 3]), String> {
         return Err(format!("`{s}`: the target needs a name before `=`"));
     }
     Ok((name.trim().to_string(), parse_point(point)?))
+}
+
+fn parse_image_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT in pixels, e.g. 960x540"))?;
+    let side = |v: &str, what: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "`{s}`: the {what} `{v}` is not a whole number of pixels from 1 to 16384"
+        )),
+    };
+    Ok((side(w, "width")?, side(h, "height")?))
 }
 
 fn field_angle(s: &str) -> Result<f64, String> {
@@ -304,10 +321,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let mut image_json: Option<serde_json::Value> = None;
     if let Some(path) = &args.image {
-        let camera = scene
+        let mut camera = scene
             .camera
-            .as_ref()
+            .clone()
             .with_context(|| format!("{} has no [camera] for --image", args.scene.display()))?;
+        if let Some((width, height)) = args.image_size {
+            camera.width = width;
+            camera.height = height;
+        }
+        let camera = &camera;
         let transport = settings.transport();
         let ext = path
             .extension()

@@ -26,7 +26,11 @@
 //! estimate of the squared standard error of the pixel's mean (with Sobol
 //! points the paths are correlated and s²/n would not be the error of the
 //! mean). Passes are combined with Chan et al.'s pairwise update of the
-//! mean and the sum of squared deviations, so no large sums are kept.
+//! mean and the sum of squared deviations, so no large sums are kept;
+//! within a pass, each quantity's sums are shifted by the pass's first path
+//! (Σ(v − v₀), Σ(v − v₀)²), which costs no division per path and loses no
+//! digits when a quantity's spread is small against its mean (the paired
+//! difference of two codings that agree).
 //!
 //! Storage: means and sums of squared deviations are `f32` (per pixel and
 //! quantity, 8 bytes: 320 × 240 × (401 + 6) is 250 MB for a spectral cube);
@@ -58,8 +62,10 @@ use lightbooth_science::colorimetry::rgb::{apply, RgbSpace};
 use lightbooth_science::colorimetry::{ciede2000, Cmf, Lab, Observer, Xyz, KM_LM_PER_W};
 use lightbooth_science::spectrum::Grid;
 
-/// Largest storage a camera image may take (means and squared deviations).
-pub const MAX_IMAGE_BYTES: u64 = 2 << 30;
+/// Largest storage a camera image may take (means and squared deviations
+/// of every coding, and the paired moments): 4 GiB, so that CYLINDER's view
+/// at 960 × 540 in all seven codings (2.5 GB) fits.
+pub const MAX_IMAGE_BYTES: u64 = 4 << 30;
 
 /// How to render a camera image.
 #[derive(Clone, Debug)]
@@ -143,14 +149,20 @@ pub struct CameraImage {
     pub samples: Vec<u32>,
     pub passes: u32,
     pub paths: u64,
+    /// Rays traced: camera, bounce and shadow rays (of every coding at once
+    /// when the codings were rendered together).
+    pub rays: u64,
     pub elapsed_seconds: f64,
     pub stop: StopReason,
 }
 
 /// Linear maps from a coding's channels to XYZ and to LMS.
 struct Colorimetry {
-    /// 6 rows (X, Y, Z, L, M, S) × channels.
-    rows: Vec<Vec<f64>>,
+    /// The six rows (X, Y, Z, L, M, S) packed by 8 channels: chunk c holds
+    /// the weights of channels 8c … 8c + 7 of every row (zero past the
+    /// last channel), so that [`Colorimetry::apply`] keeps 48 independent
+    /// sums (its loop vectorises, and no sum waits for another).
+    packed: Vec<[[f64; 8]; 6]>,
 }
 
 impl Colorimetry {
@@ -207,7 +219,41 @@ impl Colorimetry {
                 }
             }
         }
-        Colorimetry { rows }
+        let mut packed = vec![[[0.0; 8]; 6]; n.div_ceil(8)];
+        for (j, row) in rows.iter().enumerate() {
+            for (k, w) in row.iter().enumerate() {
+                packed[k / 8][j][k % 8] = *w;
+            }
+        }
+        Colorimetry { packed }
+    }
+
+    /// X, Y, Z, L, M, S of one path's channels of this coding, each
+    /// Σₖ wₖ·rₖ in f64 summed in a fixed order (deterministic).
+    #[inline(always)]
+    fn apply(&self, radiance: &[f32], out: &mut [f64]) {
+        let mut acc = [[0.0f64; 8]; 6];
+        let (whole, tail) = radiance.split_at(radiance.len() / 8 * 8);
+        for (w, r) in self.packed.iter().zip(whole.chunks_exact(8)) {
+            let r: [f64; 8] = std::array::from_fn(|l| r[l] as f64);
+            for j in 0..6 {
+                for l in 0..8 {
+                    acc[j][l] += w[j][l] * r[l];
+                }
+            }
+        }
+        if !tail.is_empty() {
+            let w = &self.packed[whole.len() / 8];
+            let r: [f64; 8] = std::array::from_fn(|l| tail.get(l).map_or(0.0, |v| *v as f64));
+            for j in 0..6 {
+                for l in 0..8 {
+                    acc[j][l] += w[j][l] * r[l];
+                }
+            }
+        }
+        for (o, a) in out.iter_mut().zip(&acc) {
+            *o = ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
+        }
     }
 }
 
@@ -279,13 +325,18 @@ const OWN_CROSS: usize = 0;
 const D_MEAN: usize = 3;
 const D_COMOMENTS: usize = 6;
 
-/// The co-moment updates of Welford's algorithm for three quantities: with
-/// `before` = v − mean before the update and `after` = v − mean after,
-/// Σ(vᵢ−v̄ᵢ)(vⱼ−v̄ⱼ) grows by beforeᵢ·afterⱼ.
-fn cross_update(co: &mut [f64], before: [f64; 3], after: [f64; 3]) {
-    co[0] += before[0] * after[1];
-    co[1] += before[0] * after[2];
-    co[2] += before[1] * after[2];
+/// `n` zeros, written here (in huge pages where the kernel gives them).
+/// `vec![0.0; n]` maps untouched memory to the kernel's shared zero page;
+/// the first pass then reads a pixel before writing it, and every such
+/// page's copy-on-write fault flushed the other cores' TLBs: for a
+/// 2.5 GB seven-coding image at 960 × 540 the kernel's time exceeded the
+/// render's own (17.7 s system against 16.3 s user, `/usr/bin/time`).
+/// The zeros are written by every core (rayon's indexed collect writes each
+/// chunk in place), so the kernel's clearing of the new pages is shared too.
+fn zeroed(n: usize) -> Vec<f32> {
+    let mut v = crate::huge_pages::vec_with_huge_pages(n);
+    v.par_extend(rayon::iter::repeat_n(0.0f32, n));
+    v
 }
 
 /// Chan et al.'s merge of the cross co-moments: Cₐ + C_b + δᵢδⱼ·nₐn_b/n, δ
@@ -375,17 +426,17 @@ pub fn render_camera_images(
     }
     let start = Instant::now();
 
-    let mut mean: Vec<Vec<f32>> = strides.iter().map(|s| vec![0.0f32; pixels * s]).collect();
-    let mut m2: Vec<Vec<f32>> = strides.iter().map(|s| vec![0.0f32; pixels * s]).collect();
-    let mut paired: Vec<Vec<f32>> = (0..nc).map(|_| vec![0.0f32; pixels * PAIRED]).collect();
+    let mut mean: Vec<Vec<f32>> = strides.iter().map(|s| zeroed(pixels * s)).collect();
+    let mut m2: Vec<Vec<f32>> = strides.iter().map(|s| zeroed(pixels * s)).collect();
+    let mut paired: Vec<Vec<f32>> = (0..nc).map(|_| zeroed(pixels * PAIRED)).collect();
     let mut samples = vec![0u32; pixels];
     let mut done = vec![false; pixels];
     let mut passes = 0u32;
     let mut paths = 0u64;
+    let mut rays = 0u64;
     let max_paths = pixels as u64 * settings.max_spp as u64;
     let stop = loop {
         let pass_spp = settings.min_spp;
-        let seed = settings.seed;
         let mut rows: Vec<RowBuffers> = (0..h)
             .map(|_| RowBuffers {
                 mean: Vec::with_capacity(nc),
@@ -406,141 +457,34 @@ pub fn render_camera_images(
                 row.paired.push(chunk);
             }
         }
-        let traced: u64 = rows
+        let (traced, traced_rays): (u64, u64) = rows
             .into_par_iter()
             .zip(samples.par_chunks_mut(w))
             .zip(done.par_chunks(w))
             .enumerate()
             .map(|(y, ((mut row, n_row), done_row))| {
                 if cancelled() {
-                    return 0;
+                    return (0, 0);
                 }
-                let mut state = PathState::new(&prep.layout);
-                let mut q = vec![0.0f64; total_stride];
-                let mut pass_mean = vec![0.0f64; total_stride];
-                let mut pass_m2 = vec![0.0f64; total_stride];
-                let mut pass_paired = vec![0.0f64; nc * PAIRED];
-                let mut traced = 0u64;
-                for x in 0..w {
-                    if done_row[x] {
-                        continue;
-                    }
-                    let pixel = (y * w + x) as u64;
-                    let first = n_row[x];
-                    let nb = pass_spp.min(settings.max_spp - first);
-                    pass_mean.fill(0.0);
-                    pass_m2.fill(0.0);
-                    pass_paired.fill(0.0);
-                    for i in 0..nb {
-                        let s = (first + i) as u64;
-                        let mut rng = PathSampler::new(SamplerKind::Independent, seed, u64::MAX - pixel, s);
-                        let ray = pinhole.ray(x, y, rng.next_2d());
-                        trace_path(&prep, &settings.transport, ray, &mut rng, &mut state);
-                        for c in 0..nc {
-                            let radiance = &state.radiance[ranges[c].clone()];
-                            let n_channels = radiance.len();
-                            let qc = &mut q[offsets[c]..offsets[c] + strides[c]];
-                            for (qk, r) in qc.iter_mut().zip(radiance) {
-                                *qk = *r as f64;
-                            }
-                            for (j, weights) in colorimetry[c].rows.iter().enumerate() {
-                                qc[n_channels + j] = weights.iter().zip(radiance).map(|(a, &b)| a * b as f64).sum();
-                            }
-                        }
-                        let count = (i + 1) as f64;
-                        let xyz_at = |c: usize| offsets[c] + quantities[c].coding_channels;
-                        let xyz_of = |v: &[f64], c: usize| [v[xyz_at(c)], v[xyz_at(c) + 1], v[xyz_at(c) + 2]];
-                        let before: Vec<[f64; 3]> = (0..nc)
-                            .map(|c| {
-                                let (v, m) = (xyz_of(&q, c), xyz_of(&pass_mean, c));
-                                [v[0] - m[0], v[1] - m[1], v[2] - m[2]]
-                            })
-                            .collect();
-                        // Welford within the pass.
-                        for ((m, s2), v) in pass_mean.iter_mut().zip(pass_m2.iter_mut()).zip(&q) {
-                            let delta = v - *m;
-                            *m += delta / count;
-                            *s2 += delta * (v - *m);
-                        }
-                        let reference_xyz = xyz_of(&q, reference);
-                        for c in 0..nc {
-                            let block = &mut pass_paired[c * PAIRED..(c + 1) * PAIRED];
-                            let (v, m) = (xyz_of(&q, c), xyz_of(&pass_mean, c));
-                            let after = [v[0] - m[0], v[1] - m[1], v[2] - m[2]];
-                            cross_update(&mut block[OWN_CROSS..OWN_CROSS + 3], before[c], after);
-                            if c == reference {
-                                continue;
-                            }
-                            // The paired difference, with its own Welford update.
-                            let d = [
-                                v[0] - reference_xyz[0],
-                                v[1] - reference_xyz[1],
-                                v[2] - reference_xyz[2],
-                            ];
-                            let mut d_before = [0.0; 3];
-                            let mut d_after = [0.0; 3];
-                            for k in 0..3 {
-                                d_before[k] = d[k] - block[D_MEAN + k];
-                                block[D_MEAN + k] += d_before[k] / count;
-                                d_after[k] = d[k] - block[D_MEAN + k];
-                                block[D_COMOMENTS + k] += d_before[k] * d_after[k];
-                            }
-                            cross_update(&mut block[D_COMOMENTS + 3..D_COMOMENTS + 6], d_before, d_after);
-                        }
-                    }
-                    traced += nb as u64;
-                    // Chan et al.: merge the pass (nb paths) into the stored (na paths).
-                    let (na, nbf) = (first as f64, nb as f64);
-                    let n = na + nbf;
-                    let weight = na * nbf / n;
-                    for c in 0..nc {
-                        let range = x * strides[c]..(x + 1) * strides[c];
-                        let pass = offsets[c]..offsets[c] + strides[c];
-                        let xyz = quantities[c].coding_channels;
-                        let stored_xyz: [f64; 3] = std::array::from_fn(|k| row.mean[c][range.start + xyz + k] as f64);
-                        for ((m, s2), (pm, pm2)) in row.mean[c][range.clone()]
-                            .iter_mut()
-                            .zip(row.m2[c][range.clone()].iter_mut())
-                            .zip(pass_mean[pass.clone()].iter().zip(&pass_m2[pass.clone()]))
-                        {
-                            let ma = *m as f64;
-                            let delta = pm - ma;
-                            *m = (ma + delta * nbf / n) as f32;
-                            *s2 = (*s2 as f64 + pm2 + delta * delta * weight) as f32;
-                        }
-                        let block = &pass_paired[c * PAIRED..(c + 1) * PAIRED];
-                        let stored = &mut row.paired[c][x * PAIRED..(x + 1) * PAIRED];
-                        let delta: [f64; 3] = std::array::from_fn(|k| pass_mean[pass.start + xyz + k] - stored_xyz[k]);
-                        cross_merge(
-                            &mut stored[OWN_CROSS..OWN_CROSS + 3],
-                            &block[OWN_CROSS..],
-                            delta,
-                            weight,
-                        );
-                        if c != reference {
-                            let d_delta: [f64; 3] =
-                                std::array::from_fn(|k| block[D_MEAN + k] - stored[D_MEAN + k] as f64);
-                            for k in 0..3 {
-                                let ma = stored[D_MEAN + k] as f64;
-                                stored[D_MEAN + k] = (ma + d_delta[k] * nbf / n) as f32;
-                                let s2 = stored[D_COMOMENTS + k] as f64;
-                                stored[D_COMOMENTS + k] =
-                                    (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
-                            }
-                            cross_merge(
-                                &mut stored[D_COMOMENTS + 3..D_COMOMENTS + 6],
-                                &block[D_COMOMENTS + 3..],
-                                d_delta,
-                                weight,
-                            );
-                        }
-                    }
-                    n_row[x] = first + nb;
-                }
-                traced
+                let job = PassJob {
+                    prep: &prep,
+                    settings,
+                    pinhole: &pinhole,
+                    colorimetry: &colorimetry,
+                    ranges: &ranges,
+                    quantities: &quantities,
+                    offsets: &offsets,
+                    strides: &strides,
+                    reference,
+                    total_stride,
+                    width: w,
+                    pass_spp,
+                };
+                pass_row(&job, y, &mut row, n_row, done_row)
             })
-            .sum();
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
         paths += traced;
+        rays += traced_rays;
         passes += 1;
         if cancelled() {
             return Err(RenderError::Cancelled);
@@ -612,6 +556,7 @@ pub fn render_camera_images(
             samples: samples.clone(),
             passes,
             paths,
+            rays,
             elapsed_seconds,
             stop,
         })
@@ -621,6 +566,229 @@ pub fn render_camera_images(
         reference,
         paired,
     })
+}
+
+/// What every row of a pass shares.
+#[derive(Clone, Copy)]
+struct PassJob<'a> {
+    prep: &'a Prepared<'a>,
+    settings: &'a CameraSettings,
+    pinhole: &'a Pinhole,
+    colorimetry: &'a [Colorimetry],
+    ranges: &'a [std::ops::Range<usize>],
+    quantities: &'a [Quantities],
+    offsets: &'a [usize],
+    strides: &'a [usize],
+    reference: usize,
+    total_stride: usize,
+    width: usize,
+    pass_spp: u32,
+}
+
+/// One pass over row `y`: each unfinished pixel's paths, traced once for
+/// every coding, summed and merged into the row's stored moments. Returns
+/// the paths and rays traced.
+///
+/// On x86-64 CPUs with AVX2 and FMA the whole row runs in code compiled
+/// for them (4 f64 or 8 f32 lanes instead of SSE2's 2 and 4), as the
+/// radiometer's batches do (`integrator::radiometer_batch`); the arithmetic
+/// and its order are the same, so are the numbers.
+fn pass_row(job: &PassJob, y: usize, row: &mut RowBuffers, n_row: &mut [u32], done_row: &[bool]) -> (u64, u64) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            return unsafe { pass_row_avx2(job, y, row, n_row, done_row) };
+        }
+    }
+    pass_row_inline(job, y, row, n_row, done_row)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn pass_row_avx2(
+    job: &PassJob,
+    y: usize,
+    row: &mut RowBuffers,
+    n_row: &mut [u32],
+    done_row: &[bool],
+) -> (u64, u64) {
+    pass_row_inline(job, y, row, n_row, done_row)
+}
+
+#[inline(always)]
+fn pass_row_inline(job: &PassJob, y: usize, row: &mut RowBuffers, n_row: &mut [u32], done_row: &[bool]) -> (u64, u64) {
+    let PassJob {
+        prep,
+        settings,
+        pinhole,
+        colorimetry,
+        ranges,
+        quantities,
+        offsets,
+        strides,
+        reference,
+        total_stride,
+        width: w,
+        pass_spp,
+    } = *job;
+    let nc = colorimetry.len();
+    let seed = settings.seed;
+    let mut state = PathState::new(&prep.layout);
+    let mut q = vec![0.0f64; total_stride];
+    // A pass's sums, shifted by its first path's values (so no
+    // division per path, and no cancellation when a quantity's
+    // spread is small against its mean): Σ(v − v₀), Σ(v − v₀)².
+    let mut shift = vec![0.0f64; total_stride];
+    let mut pass_sum = vec![0.0f64; total_stride];
+    let mut pass_sq = vec![0.0f64; total_stride];
+    // Per coding: Σ of the shifted own-XYZ cross products (3),
+    // then of the shifted paired difference d − d₀ (3), its
+    // squares (3) and cross products (3).
+    let mut pass_sums = vec![0.0f64; nc * PAIRED];
+    let mut d_shift = vec![[0.0f64; 3]; nc];
+    // The pass's means, squared deviations and PAIRED moments.
+    let mut pass_mean = vec![0.0f64; total_stride];
+    let mut pass_m2 = vec![0.0f64; total_stride];
+    let mut pass_paired = vec![0.0f64; nc * PAIRED];
+    let xyz_at = |c: usize| offsets[c] + quantities[c].coding_channels;
+    let xyz_of = |v: &[f64], c: usize| [v[xyz_at(c)], v[xyz_at(c) + 1], v[xyz_at(c) + 2]];
+    let mut traced = 0u64;
+    for x in 0..w {
+        if done_row[x] {
+            continue;
+        }
+        let pixel = (y * w + x) as u64;
+        let first = n_row[x];
+        let nb = pass_spp.min(settings.max_spp - first);
+        pass_sum.fill(0.0);
+        pass_sq.fill(0.0);
+        pass_sums.fill(0.0);
+        for i in 0..nb {
+            let s = (first + i) as u64;
+            let mut rng = PathSampler::new(SamplerKind::Independent, seed, u64::MAX - pixel, s);
+            let ray = pinhole.ray(x, y, rng.next_2d());
+            trace_path(prep, &settings.transport, ray, &mut rng, &mut state);
+            for c in 0..nc {
+                let radiance = &state.radiance[ranges[c].clone()];
+                let n_channels = radiance.len();
+                let qc = &mut q[offsets[c]..offsets[c] + strides[c]];
+                for (qk, r) in qc.iter_mut().zip(radiance) {
+                    *qk = *r as f64;
+                }
+                colorimetry[c].apply(radiance, &mut qc[n_channels..n_channels + 6]);
+            }
+            let reference_xyz = xyz_of(&q, reference);
+            if i == 0 {
+                shift.copy_from_slice(&q);
+                for (c, d0) in d_shift.iter_mut().enumerate() {
+                    let v = xyz_of(&q, c);
+                    *d0 = std::array::from_fn(|k| v[k] - reference_xyz[k]);
+                }
+            }
+            for (((sum, sq), v), v0) in pass_sum.iter_mut().zip(pass_sq.iter_mut()).zip(&q).zip(&shift) {
+                let dv = v - v0;
+                *sum += dv;
+                *sq += dv * dv;
+            }
+            for c in 0..nc {
+                let sums = &mut pass_sums[c * PAIRED..(c + 1) * PAIRED];
+                let (v, v0) = (xyz_of(&q, c), xyz_of(&shift, c));
+                let o: [f64; 3] = std::array::from_fn(|k| v[k] - v0[k]);
+                sums[0] += o[0] * o[1];
+                sums[1] += o[0] * o[2];
+                sums[2] += o[1] * o[2];
+                if c == reference {
+                    continue;
+                }
+                // The paired difference d = XYZ(c) − XYZ(reference) of this path.
+                let dv: [f64; 3] = std::array::from_fn(|k| v[k] - reference_xyz[k] - d_shift[c][k]);
+                for k in 0..3 {
+                    sums[3 + k] += dv[k];
+                    sums[6 + k] += dv[k] * dv[k];
+                }
+                sums[9] += dv[0] * dv[1];
+                sums[10] += dv[0] * dv[2];
+                sums[11] += dv[1] * dv[2];
+            }
+        }
+        // The pass's means and (co-)moments from its shifted sums:
+        // Σ(v − v̄)² = Σ(v − v₀)² − (Σ(v − v₀))²/n, and likewise
+        // Σ(a − ā)(b − b̄) = Σ(a − a₀)(b − b₀) − Σ(a − a₀)·Σ(b − b₀)/n.
+        let nbf = nb as f64;
+        for k in 0..total_stride {
+            pass_mean[k] = shift[k] + pass_sum[k] / nbf;
+            pass_m2[k] = (pass_sq[k] - pass_sum[k] * pass_sum[k] / nbf).max(0.0);
+        }
+        for c in 0..nc {
+            let sums = &pass_sums[c * PAIRED..(c + 1) * PAIRED];
+            let moments = &mut pass_paired[c * PAIRED..(c + 1) * PAIRED];
+            let x0 = xyz_at(c);
+            let o = |k: usize| pass_sum[x0 + k];
+            moments[OWN_CROSS] = sums[0] - o(0) * o(1) / nbf;
+            moments[OWN_CROSS + 1] = sums[1] - o(0) * o(2) / nbf;
+            moments[OWN_CROSS + 2] = sums[2] - o(1) * o(2) / nbf;
+            let ds = |k: usize| sums[3 + k];
+            for k in 0..3 {
+                moments[D_MEAN + k] = if c == reference {
+                    0.0
+                } else {
+                    d_shift[c][k] + ds(k) / nbf
+                };
+                moments[D_COMOMENTS + k] = (sums[6 + k] - ds(k) * ds(k) / nbf).max(0.0);
+            }
+            moments[D_COMOMENTS + 3] = sums[9] - ds(0) * ds(1) / nbf;
+            moments[D_COMOMENTS + 4] = sums[10] - ds(0) * ds(2) / nbf;
+            moments[D_COMOMENTS + 5] = sums[11] - ds(1) * ds(2) / nbf;
+        }
+        traced += nb as u64;
+        // Chan et al.: merge the pass (nb paths) into the stored (na paths).
+        let (na, nbf) = (first as f64, nb as f64);
+        let n = na + nbf;
+        let weight = na * nbf / n;
+        for c in 0..nc {
+            let range = x * strides[c]..(x + 1) * strides[c];
+            let pass = offsets[c]..offsets[c] + strides[c];
+            let xyz = quantities[c].coding_channels;
+            let stored_xyz: [f64; 3] = std::array::from_fn(|k| row.mean[c][range.start + xyz + k] as f64);
+            for ((m, s2), (pm, pm2)) in row.mean[c][range.clone()]
+                .iter_mut()
+                .zip(row.m2[c][range.clone()].iter_mut())
+                .zip(pass_mean[pass.clone()].iter().zip(&pass_m2[pass.clone()]))
+            {
+                let ma = *m as f64;
+                let delta = pm - ma;
+                *m = (ma + delta * nbf / n) as f32;
+                *s2 = (*s2 as f64 + pm2 + delta * delta * weight) as f32;
+            }
+            let block = &pass_paired[c * PAIRED..(c + 1) * PAIRED];
+            let stored = &mut row.paired[c][x * PAIRED..(x + 1) * PAIRED];
+            let delta: [f64; 3] = std::array::from_fn(|k| pass_mean[pass.start + xyz + k] - stored_xyz[k]);
+            cross_merge(
+                &mut stored[OWN_CROSS..OWN_CROSS + 3],
+                &block[OWN_CROSS..],
+                delta,
+                weight,
+            );
+            if c != reference {
+                let d_delta: [f64; 3] = std::array::from_fn(|k| block[D_MEAN + k] - stored[D_MEAN + k] as f64);
+                for k in 0..3 {
+                    let ma = stored[D_MEAN + k] as f64;
+                    stored[D_MEAN + k] = (ma + d_delta[k] * nbf / n) as f32;
+                    let s2 = stored[D_COMOMENTS + k] as f64;
+                    stored[D_COMOMENTS + k] = (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
+                }
+                cross_merge(
+                    &mut stored[D_COMOMENTS + 3..D_COMOMENTS + 6],
+                    &block[D_COMOMENTS + 3..],
+                    d_delta,
+                    weight,
+                );
+            }
+        }
+        n_row[x] = first + nb;
+    }
+    (traced, state.rays)
 }
 
 /// Every coding's image of one render, from the same paths, and the paired
@@ -873,6 +1041,7 @@ impl CameraImage {
             samples: self.samples.clone(),
             passes: self.passes,
             paths: self.paths,
+            rays: self.rays,
             elapsed_seconds: self.elapsed_seconds,
             stop: self.stop,
         })

@@ -338,58 +338,6 @@ pub fn remove_stale_export_folders(parent: &Path) -> Vec<PathBuf> {
     removed
 }
 
-#[cfg(test)]
-mod tests {
-    /// Regression: the folder an image is exported into (EXR, MAT) was
-    /// created with the umask's mode (0755) under the shared temporary
-    /// folder, although the code said private.
-    #[cfg(unix)]
-    #[test]
-    fn image_export_folder_created_world_readable() {
-        use std::os::unix::fs::PermissionsExt;
-        let parent = tempfile::tempdir().unwrap();
-        let dir = parent.path().join("export");
-        create_private_folder(&dir).unwrap();
-        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
-        assert_eq!(mode, 0o700, "{mode:04o}");
-    }
-
-    use super::*;
-
-    /// The bug (issue 32): a daemon killed during EXR exports left its
-    /// `lightbooth-image-*` folders in `$TMPDIR` for ever (20 and 29 in two
-    /// runs). At start-up the daemon removes those of gone processes, and
-    /// only those.
-    #[test]
-    fn export_folders_of_a_killed_daemon_stayed_in_the_temporary_folder() {
-        let tmp = tempfile::tempdir().unwrap();
-        let mut child = std::process::Command::new("true").spawn().unwrap();
-        let gone = child.id();
-        child.wait().unwrap();
-        let left = export_folder(tmp.path(), gone, 7, 123);
-        std::fs::create_dir(&left).unwrap();
-        std::fs::write(left.join("image.exr"), b"half written").unwrap();
-        let mine = export_folder(tmp.path(), std::process::id(), 8, 456);
-        std::fs::create_dir(&mine).unwrap();
-        let init = export_folder(tmp.path(), 1, 9, 789);
-        std::fs::create_dir(&init).unwrap();
-        let other = tmp.path().join("lightbooth-notes");
-        std::fs::create_dir(&other).unwrap();
-        assert_eq!(remove_stale_export_folders(tmp.path()), vec![left.clone()]);
-        assert!(!left.exists(), "the gone process's folder is removed");
-        assert!(
-            mine.exists() && init.exists() && other.exists(),
-            "live processes' folders and others stay"
-        );
-    }
-
-    #[test]
-    fn spectral_channel_names_follow_fichet_2021() {
-        assert_eq!(spectral_channel_name(550.0), "S0.550,000000nm");
-        assert_eq!(spectral_channel_name(382.5), "S0.382,500000nm");
-    }
-}
-
 /// Writes every coding of `images` in one file, a layer per coding (see the
 /// module doc), by the extension as [`write_camera_image`]; a render of one
 /// coding is written exactly as [`write_camera_image`] writes it.
@@ -534,4 +482,56 @@ fn write_layered_mat(images: &CameraImages, path: &Path) -> Result<(), String> {
     mat.text_rows("codings", &codings)?;
     mat.text("reference", &images.reference_image().coding.to_string())?;
     std::fs::write(path, mat.into_bytes()).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    /// Regression: the folder an image is exported into (EXR, MAT) was
+    /// created with the umask's mode (0755) under the shared temporary
+    /// folder, although the code said private.
+    #[cfg(unix)]
+    #[test]
+    fn image_export_folder_created_world_readable() {
+        use std::os::unix::fs::PermissionsExt;
+        let parent = tempfile::tempdir().unwrap();
+        let dir = parent.path().join("export");
+        create_private_folder(&dir).unwrap();
+        let mode = std::fs::metadata(&dir).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700, "{mode:04o}");
+    }
+
+    use super::*;
+
+    /// The bug (issue 32): a daemon killed during EXR exports left its
+    /// `lightbooth-image-*` folders in `$TMPDIR` for ever (20 and 29 in two
+    /// runs). At start-up the daemon removes those of gone processes, and
+    /// only those.
+    #[test]
+    fn export_folders_of_a_killed_daemon_stayed_in_the_temporary_folder() {
+        let tmp = tempfile::tempdir().unwrap();
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let gone = child.id();
+        child.wait().unwrap();
+        let left = export_folder(tmp.path(), gone, 7, 123);
+        std::fs::create_dir(&left).unwrap();
+        std::fs::write(left.join("image.exr"), b"half written").unwrap();
+        let mine = export_folder(tmp.path(), std::process::id(), 8, 456);
+        std::fs::create_dir(&mine).unwrap();
+        let init = export_folder(tmp.path(), 1, 9, 789);
+        std::fs::create_dir(&init).unwrap();
+        let other = tmp.path().join("lightbooth-notes");
+        std::fs::create_dir(&other).unwrap();
+        assert_eq!(remove_stale_export_folders(tmp.path()), vec![left.clone()]);
+        assert!(!left.exists(), "the gone process's folder is removed");
+        assert!(
+            mine.exists() && init.exists() && other.exists(),
+            "live processes' folders and others stay"
+        );
+    }
+
+    #[test]
+    fn spectral_channel_names_follow_fichet_2021() {
+        assert_eq!(spectral_channel_name(550.0), "S0.550,000000nm");
+        assert_eq!(spectral_channel_name(382.5), "S0.382,500000nm");
+    }
 }
