@@ -11,11 +11,12 @@ use clap::Args;
 use serde::Serialize;
 
 use lightbooth::charts::{false_colour_map_svg, tick_label, FalseColourMap};
+use lightbooth::display::image_set::{image_set, ImageSet, OUTPUTS};
 use lightbooth::display::profile::TransferModel;
 use lightbooth::display::stimulus::{convert, quantisation_bound_de00, GamutPolicy, GamutReport, Summary};
 use lightbooth::display::stimulus_files::{write_codes_png, write_codes_raw, write_delta_e_map};
 use lightbooth::display::{DisplayProfile, FrameBuffer};
-use lightbooth::export::exr_read::read_xyz_exr;
+use lightbooth::export::exr_read::{read_xyz_exr, read_xyz_exr_layers, XyzLayers};
 
 /// Where the display profile comes from: a JSON file or the daemon's store.
 #[derive(Args, Debug, Clone)]
@@ -49,6 +50,7 @@ pub struct StimulusArgs {
     transfer: TransferModel,
     /// The 16-bit PNG of codes (default: IMAGE's name with `_stimulus_<B>bit.png`).
     /// At 10 and 12 bits also `<name>.raw` (u16 codes) and `<name>.raw.json`.
+    /// For an image with a layer per coding, one PNG per coding, `<name>.<coding>.png`.
     #[arg(long)]
     out: Option<PathBuf>,
     /// The report as JSON.
@@ -176,6 +178,9 @@ fn default_out(image: &Path, bits: u32) -> PathBuf {
 
 pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
     let (profile, profile_name) = load_profile(&args.profile)?;
+    if let Some(layers) = read_xyz_exr_layers(&args.image, profile.observer).map_err(anyhow::Error::msg)? {
+        return run_set(&args, &profile, profile_name, layers);
+    }
     let image = read_xyz_exr(&args.image, profile.observer).map_err(anyhow::Error::msg)?;
     let fb = FrameBuffer::new(args.bits)?;
     let stim = convert(&profile, &image.xyz, fb, args.gamut, args.transfer)?;
@@ -307,4 +312,144 @@ fn print_summary(r: &StimulusReport) {
     files.extend(r.map.iter().cloned());
     files.extend(r.map_figure.iter().cloned());
     println!("wrote {}", files.join(", "));
+}
+
+/// The report of an image with a layer per coding (`--image-coding` of
+/// `lightbooth render`): every coding through the display together, each
+/// against the reference (see `lightbooth::display::image_set`).
+#[derive(Serialize)]
+struct SetReport {
+    image: String,
+    width: u32,
+    height: u32,
+    display_profile: String,
+    observer: String,
+    bits: u32,
+    transfer: &'static str,
+    delta_e00_white_is: &'static str,
+    set: ImageSet,
+    /// Per coding, the PNG of its codes at `bits`.
+    pngs: Vec<(String, String)>,
+    png_code_alignment: String,
+}
+
+/// `stimulus` on a layered image: the set's report and each coding's codes.
+fn run_set(
+    args: &StimulusArgs,
+    profile: &DisplayProfile,
+    profile_name: String,
+    layers: XyzLayers,
+) -> anyhow::Result<()> {
+    let file = args.image.display();
+    anyhow::ensure!(
+        args.map.is_none(),
+        "{file} has a layer per coding ({}): --map draws one image's quantisation; run `stimulus` on a \
+         single-coding render for its map (the set's ΔE00 against the reference is in the report)",
+        layers
+            .layers
+            .iter()
+            .map(|(c, _)| c.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let fb = FrameBuffer::new(args.bits)?;
+    let reference = match &layers.reference {
+        Some(r) => layers
+            .layers
+            .iter()
+            .position(|(c, _)| c == r)
+            .expect("checked by the reader"),
+        None => layers.layers.len() - 1,
+    };
+    let (w, h) = (layers.layers[0].1.width, layers.layers[0].1.height);
+    let codings: Vec<(String, Vec<[f64; 3]>)> = layers.layers.into_iter().map(|(c, img)| (c, img.xyz)).collect();
+    let set = image_set(profile, &codings, reference, args.gamut)?;
+    let out = args.out.clone().unwrap_or_else(|| default_out(&args.image, args.bits));
+    let mut pngs = Vec::new();
+    for ((coding, _), linear) in codings.iter().zip(&set.linear) {
+        let codes: Vec<[u32; 3]> = linear
+            .iter()
+            .map(|l| profile.codes_of_linear(l.map(f64::from), fb, args.transfer))
+            .collect();
+        let stem = out.file_stem().and_then(|s| s.to_str()).unwrap_or("stimulus");
+        let png = out.with_file_name(format!("{stem}.{coding}.png"));
+        write_codes_png(&png, w, h, args.bits, &codes).map_err(anyhow::Error::msg)?;
+        pngs.push((coding.clone(), png.display().to_string()));
+    }
+    let report = SetReport {
+        image: file.to_string(),
+        width: w,
+        height: h,
+        display_profile: profile_name,
+        observer: profile.observer.to_string(),
+        bits: args.bits,
+        transfer: match args.transfer {
+            TransferModel::Gamma => "gamma",
+            TransferModel::Table => "table",
+        },
+        delta_e00_white_is: "the display's white: all channels at full drive, black included",
+        set,
+        pngs,
+        png_code_alignment: format!("16-bit PNG, each code MSB-aligned: code << {}", 16 - args.bits),
+    };
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let s = &report.set;
+    println!(
+        "{} ({} × {}, {} codings, reference {}) on {}; gamut policy {:?}: {} of {} colours out",
+        report.image,
+        w,
+        h,
+        s.codings.len(),
+        s.reference,
+        report.display_profile,
+        s.policy,
+        s.gamut.out_of_gamut,
+        s.gamut.colours
+    );
+    println!(
+        "ΔE00 (white: the display's, Y {:.2} cd/m²) against {}, mean / p95 per pixel:",
+        s.white[1], s.reference
+    );
+    let outputs: Vec<&str> = OUTPUTS.iter().map(|o| o.0).collect();
+    println!(
+        "{:<10} {:>15} {:>15}  {}",
+        "coding",
+        "rendered",
+        "intended",
+        outputs.join(" / ")
+    );
+    for c in &s.codings {
+        let Some(a) = &c.against_reference else { continue };
+        let shown: Vec<String> = a
+            .shown
+            .iter()
+            .map(|o| format!("{:.3}/{:.3}", o.delta_e00.mean, o.delta_e00.p95))
+            .collect();
+        println!(
+            "{:<10} {:>15} {:>15}  {}",
+            c.coding,
+            format!("{:.3}/{:.3}", a.rendered.mean, a.rendered.p95),
+            format!("{:.3}/{:.3}", a.intended.mean, a.intended.p95),
+            shown.join("  ")
+        );
+    }
+    let bounds: Vec<String> = s
+        .quantisation_bound
+        .iter()
+        .map(|(b, v)| format!("{b} bits {v:.3}"))
+        .collect();
+    println!("quantisation bound (worst half code): {}", bounds.join(", "));
+    println!(
+        "wrote {}",
+        report
+            .pngs
+            .iter()
+            .map(|(_, p)| p.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(())
 }

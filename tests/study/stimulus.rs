@@ -685,3 +685,125 @@ fn stimulus_map_must_be_a_png_path_because_its_figure_goes_beside_it() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("is not a .png path") && err.contains(".svg"), "{err}");
 }
+
+/// An image with a layer per coding (`render --image-coding`), through
+/// `stimulus` (issue 48): one report for the set and one PNG of codes per
+/// coding; the report's ΔE00 against the reference as shown at 8 bits
+/// matches the simulated CRT's own spectra for the PNGs' codes (the truth,
+/// not the converter's matrices), and its ΔE00 as rendered matches the
+/// renderer's own images.
+#[test]
+fn a_layered_image_is_converted_as_one_set_and_each_coding_is_shown_as_its_codes_say() {
+    use lightbooth::export::image::write_camera_images;
+    use lightbooth::render::camera::{render_camera_images, CameraSettings, Y};
+    use lightbooth::render::{load_scene, Coding, RenderSettings};
+
+    let dir = tempfile::tempdir().unwrap();
+    let display = SimulatedDisplay::crt().unwrap();
+    let profile = exact_profile(&display);
+    let profile_path = write_profile(dir.path(), &profile);
+    let scene = load_scene(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cylinder.toml"))).unwrap();
+    let mut camera = scene.camera.clone().unwrap();
+    (camera.width, camera.height) = (16, 12);
+    let settings = CameraSettings {
+        codings: vec![Coding::Rgb, Coding::NStep(3), Coding::Spectral],
+        reference: None,
+        se_every_coding: false,
+        observer: Observer::JuddVos,
+        transport: RenderSettings::default().transport(),
+        seed: 4,
+        min_spp: 8,
+        max_spp: 8,
+        target_relative_se: None,
+        time_budget: None,
+    };
+    let images = render_camera_images(&scene, &camera, &settings, None, None).unwrap();
+    let exr = dir.path().join("cyl.exr");
+    write_camera_images(&images, &exr).unwrap();
+    let report = dir.path().join("set.json");
+    let out = dir.path().join("codes.png");
+    let o = lightbooth(&[
+        "stimulus",
+        exr.to_str().unwrap(),
+        "--display",
+        profile_path.to_str().unwrap(),
+        "--bits",
+        "8",
+        "--gamut",
+        "scale",
+        "--out",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("3 codings, reference spectral"), "{stdout}");
+    let r: Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let set = &r["set"];
+    assert_eq!(set["reference"], "spectral");
+    assert_eq!(set["codings"].as_array().unwrap().len(), 3);
+    let white = truth_xyz(&display, [1.0, 1.0, 1.0]);
+    let shown_of = |coding: &str| -> Vec<[f64; 3]> {
+        let (w, h, codes) = read_png16(&dir.path().join(format!("codes.{coding}.png")));
+        assert_eq!((w, h), (16, 12));
+        codes
+            .iter()
+            .map(|c| truth_xyz(&display, c.map(|v| f64::from(v >> 8) / 255.0)))
+            .collect()
+    };
+    let reference = shown_of("spectral");
+    for (i, coding) in ["rgb", "nstep3"].iter().enumerate() {
+        let row = &set["codings"][i];
+        assert_eq!(row["coding"], *coding);
+        let shown = shown_of(coding);
+        let truth = shown
+            .iter()
+            .zip(&reference)
+            .map(|(a, b)| de00(white, *a, *b))
+            .sum::<f64>()
+            / shown.len() as f64;
+        let reported = row["against_reference"]["shown"][0]["delta_e00"]["mean"]
+            .as_f64()
+            .unwrap();
+        assert_eq!(row["against_reference"]["shown"][0]["output"], "8bit");
+        println!("{coding}: shown at 8 bits {reported:.4}, the CRT's spectra {truth:.4}");
+        assert!(
+            (reported - truth).abs() < 0.02 + 0.01 * truth,
+            "{coding}: {reported} against {truth}"
+        );
+        // As rendered: the renderer's own XYZ, the display's white.
+        let xyz = |img: &lightbooth::render::camera::CameraImage, p: usize| -> [f64; 3] {
+            let k = img.xyz_index();
+            [
+                img.plane(k)[p] as f64,
+                img.plane(k + Y)[p] as f64,
+                img.plane(k + 2)[p] as f64,
+            ]
+        };
+        let (a, b) = (&images.images[i], &images.images[2]);
+        let rendered = (0..a.samples.len())
+            .map(|p| de00(white, xyz(a, p), xyz(b, p)))
+            .sum::<f64>()
+            / a.samples.len() as f64;
+        let reported = row["against_reference"]["rendered"]["mean"].as_f64().unwrap();
+        assert!(
+            (reported - rendered).abs() < 1e-6 * rendered.max(1.0),
+            "{coding}: {reported} against {rendered}"
+        );
+    }
+    assert!(set["codings"][2]["against_reference"].is_null());
+    // A map is for one image; the set's is refused, saying why.
+    let o = lightbooth(&[
+        "stimulus",
+        exr.to_str().unwrap(),
+        "--display",
+        profile_path.to_str().unwrap(),
+        "--bits",
+        "8",
+        "--map",
+        dir.path().join("m.png").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("a layer per coding (rgb, nstep3, spectral)"));
+}

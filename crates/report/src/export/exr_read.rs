@@ -36,9 +36,24 @@ pub fn spectral_channel_nm(name: &str) -> Option<f64> {
     v.replace(',', ".").parse().ok()
 }
 
-/// Reads `path` as XYZ in `observer` (see the module doc); errors name the
-/// file and what is missing or in conflict.
-pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String> {
+/// One part of an OpenEXR file as the `exr` crate reads it.
+type ExrLayer = exr::prelude::Layer<exr::prelude::AnyChannels<FlatSamples>>;
+
+/// A text attribute of the layer.
+fn text_attribute(layer: &ExrLayer, key: &str) -> Option<String> {
+    layer
+        .attributes
+        .other
+        .iter()
+        .find(|(k, _)| k.as_slice() == key.as_bytes())
+        .and_then(|(_, v)| match v {
+            AttributeValue::Text(t) => Some(t.to_string()),
+            _ => None,
+        })
+}
+
+/// The file's first part, checked to be for `observer` when it names one.
+fn open(path: &Path, observer: Observer) -> Result<ExrLayer, String> {
     let file = path.display();
     let image = exr::prelude::read()
         .no_deep_data()
@@ -49,18 +64,8 @@ pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String>
         .non_parallel()
         .from_file(path)
         .map_err(|e| format!("{file}: reading OpenEXR: {e}"))?;
-    let layer = &image.layer_data;
-    let (w, h) = (layer.size.0, layer.size.1);
-    let named = layer
-        .attributes
-        .other
-        .iter()
-        .find(|(k, _)| k.as_slice() == b"lightbooth.observer")
-        .and_then(|(_, v)| match v {
-            AttributeValue::Text(t) => Some(t.to_string()),
-            _ => None,
-        });
-    if let Some(name) = &named {
+    let layer = image.layer_data;
+    if let Some(name) = text_attribute(&layer, "lightbooth.observer") {
         let file_observer: Observer = name
             .parse()
             .map_err(|e| format!("{file}: attribute lightbooth.observer: {e}"))?;
@@ -72,6 +77,93 @@ pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String>
             ));
         }
     }
+    Ok(layer)
+}
+
+/// The codings of a layered camera image (`lightbooth render
+/// --image-coding rgb,nstep9,spectral --image FILE.exr`: a layer per
+/// coding, `nstep9.X`, …), each as XYZ, in the file's order
+/// (`lightbooth.codings`), with the reference it names
+/// (`lightbooth.reference`).
+#[derive(Clone, Debug)]
+pub struct XyzLayers {
+    pub layers: Vec<(String, XyzImage)>,
+    pub reference: Option<String>,
+}
+
+/// Reads `path`'s coding layers as XYZ in `observer` from their `X`, `Y`,
+/// `Z` channels; `Ok(None)` when the file has no layer with all three (a
+/// single image: [`read_xyz_exr`]).
+pub fn read_xyz_exr_layers(path: &Path, observer: Observer) -> Result<Option<XyzLayers>, String> {
+    let file = path.display();
+    let layer = open(path, observer)?;
+    let (w, h) = (layer.size.0, layer.size.1);
+    let channels = &layer.channel_data.list;
+    let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+    let has = |n: &str| names.iter().any(|m| m == n);
+    let mut prefixes: Vec<String> = names
+        .iter()
+        .filter_map(|n| n.strip_suffix(".X"))
+        .filter(|p| !p.is_empty() && !p.ends_with("SE") && has(&format!("{p}.Y")) && has(&format!("{p}.Z")))
+        .map(String::from)
+        .collect();
+    if prefixes.is_empty() {
+        return Ok(None);
+    }
+    if let Some(order) = text_attribute(&layer, "lightbooth.codings") {
+        let order: Vec<&str> = order.split(',').collect();
+        prefixes.sort_by_key(|p| order.iter().position(|o| o == p).unwrap_or(usize::MAX));
+    }
+    let plane = |name: &str| -> Result<Vec<f64>, String> {
+        let c = channels
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .expect("listed above");
+        let v: Vec<f64> = c.sample_data.values_as_f32().map(f64::from).collect();
+        if v.len() != w * h {
+            return Err(format!(
+                "{file}: channel {name} is subsampled; expected {w} × {h} values"
+            ));
+        }
+        Ok(v)
+    };
+    let mut layers = Vec::with_capacity(prefixes.len());
+    for p in prefixes {
+        let (x, y, z) = (
+            plane(&format!("{p}.X"))?,
+            plane(&format!("{p}.Y"))?,
+            plane(&format!("{p}.Z"))?,
+        );
+        layers.push((
+            p.clone(),
+            XyzImage {
+                width: w as u32,
+                height: h as u32,
+                xyz: (0..w * h).map(|i| [x[i], y[i], z[i]]).collect(),
+                observer,
+                source: format!("{p}.X,{p}.Y,{p}.Z channels"),
+            },
+        ));
+    }
+    let reference = text_attribute(&layer, "lightbooth.reference");
+    if let Some(r) = &reference {
+        if !layers.iter().any(|(p, _)| p == r) {
+            return Err(format!(
+                "{file}: attribute lightbooth.reference names {r}, which is not one of its layers ({})",
+                layers.iter().map(|(p, _)| p.as_str()).collect::<Vec<_>>().join(", ")
+            ));
+        }
+    }
+    Ok(Some(XyzLayers { layers, reference }))
+}
+
+/// Reads `path` as XYZ in `observer` (see the module doc); errors name the
+/// file and what is missing or in conflict.
+pub fn read_xyz_exr(path: &Path, observer: Observer) -> Result<XyzImage, String> {
+    let file = path.display();
+    let layer = open(path, observer)?;
+    let layer = &layer;
+    let (w, h) = (layer.size.0, layer.size.1);
     let channels = &layer.channel_data.list;
     let values = |s: &FlatSamples| -> Vec<f64> { s.values_as_f32().map(f64::from).collect() };
     let find = |n: &str| channels.iter().find(|c| c.name.to_string() == n);

@@ -31,6 +31,7 @@
 //! whose spectral shape does not change with drive (phosphor constancy).
 
 pub mod fit;
+pub mod image_set;
 pub mod output;
 pub mod profile;
 pub mod resolution;
