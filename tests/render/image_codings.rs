@@ -410,3 +410,40 @@ fn the_cli_renders_a_list_of_image_codings_and_reports_each_against_the_referenc
         "{stderr}"
     );
 }
+
+/// The booth's targets in the camera's view: CYLINDER's camera sees its 21
+/// heights inside the image, top to bottom in order (h01 is the lowest),
+/// and a point projects back to the pixel whose ray passes through it.
+#[test]
+fn cylinders_targets_project_into_its_camera_view_in_height_order() {
+    use lightbooth::render::camera::{targets_in_view, Pinhole};
+    let scene = cylinder();
+    let camera = scene.camera.clone().unwrap();
+    let seen = targets_in_view(&scene, &camera).unwrap();
+    assert_eq!(seen.len(), 21);
+    for t in &seen {
+        assert!(t.inside && t.visible, "{t:?}");
+    }
+    for pair in seen.windows(2) {
+        assert!(
+            pair[1].y < pair[0].y,
+            "{} is above {}: {pair:?}",
+            pair[1].id,
+            pair[0].id
+        );
+    }
+    // The inverse of a pixel's ray: the point 2 m along the ray of image
+    // point (37.25, 101.5) projects back to it.
+    let pinhole = Pinhole::new(&camera);
+    let dir = pinhole.direction(37.25, 101.5);
+    let (x, y) = pinhole.project(camera.position + 2.0 * dir).unwrap();
+    assert!((x - 37.25).abs() < 1e-9 && (y - 101.5).abs() < 1e-9, "({x}, {y})");
+    assert!(pinhole.project(camera.position - dir).is_none(), "behind the camera");
+    // A target hidden behind a wall: WHITE's patch seen from behind the back wall.
+    let white = load_scene(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/white.toml"))).unwrap();
+    let mut behind = white.camera.clone().unwrap();
+    behind.position = glam::DVec3::new(0.0, 1.0, -1.5);
+    behind.look_at = glam::DVec3::new(0.0, 1.0, -0.6);
+    let seen = targets_in_view(&white, &behind).unwrap();
+    assert!(seen[0].inside && !seen[0].visible, "{:?}", seen[0]);
+}

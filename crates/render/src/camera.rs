@@ -791,6 +791,53 @@ fn pass_row_inline(job: &PassJob, y: usize, row: &mut RowBuffers, n_row: &mut [u
     (traced, state.rays)
 }
 
+/// A radiometer target as the camera sees it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TargetInView {
+    pub id: String,
+    /// The target's image point, pixels (x right, y down from the top-left corner).
+    pub x: f64,
+    pub y: f64,
+    /// The point falls inside the image.
+    pub inside: bool,
+    /// The first surface along the camera's ray toward the target is the
+    /// target's own (within 1 mm, or 10⁻⁴ of the distance): nothing hides it.
+    pub visible: bool,
+}
+
+/// The scene's radiometer targets projected into `camera`'s view, each with
+/// whether the camera sees it (issue 48: the points of an image where the
+/// displayed image is measured, as the booth's targets were).
+pub fn targets_in_view(scene: &Scene, camera: &Camera) -> Result<Vec<TargetInView>, RenderError> {
+    let prep = Prepared::new(scene, ChannelLayout::new(&[Coding::Rgb])).map_err(RenderError::Prepare)?;
+    let pinhole = Pinhole::new(camera);
+    Ok(scene
+        .target_list
+        .iter()
+        .map(|t| {
+            let (x, y) = pinhole.project(t.point).unwrap_or((f64::NAN, f64::NAN));
+            let inside = (0.0..camera.width as f64).contains(&x) && (0.0..camera.height as f64).contains(&y);
+            let to = t.point - camera.position;
+            let distance = to.length();
+            let ray = crate::geometry::Ray {
+                origin: camera.position,
+                dir: to / distance,
+            };
+            let visible = !x.is_nan()
+                && prep
+                    .nearest_primitive(&ray)
+                    .is_some_and(|(hit, _)| (hit.t - distance).abs() <= 1e-3f64.max(1e-4 * distance));
+            TargetInView {
+                id: t.id.clone(),
+                x,
+                y,
+                inside,
+                visible,
+            }
+        })
+        .collect())
+}
+
 /// Every coding's image of one render, from the same paths, and the paired
 /// moments that give the difference of two codings its own noise.
 #[derive(Clone, Debug)]

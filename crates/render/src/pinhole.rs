@@ -65,6 +65,23 @@ impl Pinhole {
         }
     }
 
+    /// Where `point` falls in the image, in pixels (x right, y down from
+    /// the top-left corner, as [`Pinhole::direction`] takes them): the
+    /// inverse of `direction`; `None` for a point on or behind the plane of
+    /// the pinhole. The point may fall outside the image.
+    pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
+        let v = point - self.origin;
+        let depth = v.dot(self.forward);
+        if depth <= 0.0 {
+            return None;
+        }
+        let (px, py) = (v.dot(self.right) / depth, v.dot(self.up) / depth);
+        Some((
+            (px / (self.tan_half * self.aspect) + 1.0) * self.width as f64 / 2.0,
+            (1.0 - py / self.tan_half) * self.height as f64 / 2.0,
+        ))
+    }
+
     /// The angle between the view axis and the centre of pixel (x, y), degrees.
     pub fn off_axis_deg(&self, x: usize, y: usize) -> f64 {
         self.direction(x as f64 + 0.5, y as f64 + 0.5)

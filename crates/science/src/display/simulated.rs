@@ -40,6 +40,48 @@ pub struct CodeCounts {
 pub const MAX_COUNTED: u64 = 4096 * 2160 * 240;
 
 impl CodeCounts {
+    /// What an instrument's field sees of an image on the screen: the
+    /// codes of the pixels whose centres lie within `radius_px` of
+    /// `centre` (pixels, x right and y down from the top-left corner, the
+    /// image drawn one screen pixel per image pixel), one frame. `codes`
+    /// holds the image's rows top to bottom, `width` pixels each; an
+    /// error when the disc holds no pixel centre or a code exceeds
+    /// `max_code`.
+    pub fn of_disc(
+        codes: &[[u32; 3]],
+        width: usize,
+        max_code: u32,
+        centre: (f64, f64),
+        radius_px: f64,
+    ) -> Result<CodeCounts, String> {
+        if width == 0 || !codes.len().is_multiple_of(width) {
+            return Err(format!("{} codes are not whole rows of {width}", codes.len()));
+        }
+        let mut counts = [0, 1, 2].map(|_| vec![0u64; max_code as usize + 1]);
+        let mut inside = 0;
+        for (i, code) in codes.iter().enumerate() {
+            let (x, y) = ((i % width) as f64 + 0.5, (i / width) as f64 + 0.5);
+            if (x - centre.0).powi(2) + (y - centre.1).powi(2) > radius_px * radius_px {
+                continue;
+            }
+            for c in 0..3 {
+                let k = code[c] as usize;
+                if k > max_code as usize {
+                    return Err(format!("pixel {i}: code {} above {max_code}", code[c]));
+                }
+                counts[c][k] += 1;
+            }
+            inside += 1;
+        }
+        if inside == 0 {
+            return Err(format!(
+                "no pixel centre within {radius_px:.2} px of ({:.1}, {:.1}): aim the field at the image",
+                centre.0, centre.1
+            ));
+        }
+        Ok(CodeCounts { max_code, counts })
+    }
+
     /// Checks the shape; says what is wrong with which channel.
     pub fn check(&self) -> Result<u64, String> {
         if !matches!(self.max_code, 255 | 1023) {
@@ -280,5 +322,31 @@ mod tests {
             .unwrap_err()
             .contains("255 (8 bits) or 1023"));
         assert!(counts_at(255, [0; 3], 0).check().unwrap_err().contains("0 pixels"));
+    }
+
+    /// An instrument's field on an image: the mean spectrum of a disc over
+    /// two halves of different colour is the mean of the two patches'
+    /// spectra weighted by their pixels in the disc (the display is additive).
+    #[test]
+    fn a_field_over_an_image_sees_the_mean_spectrum_of_its_pixels() {
+        let d = SimulatedDisplay::crt().unwrap();
+        let (w, h) = (20usize, 10usize);
+        let (left, right) = ([200u32, 40, 90], [30u32, 180, 60]);
+        let codes: Vec<[u32; 3]> = (0..w * h).map(|i| if i % w < 10 { left } else { right }).collect();
+        let counts = CodeCounts::of_disc(&codes, w, 255, (10.0, 5.0), 3.2).unwrap();
+        let n = counts.check().unwrap();
+        let n_left = counts.counts[0][200];
+        assert_eq!(n_left * 2, n, "the disc straddles the edge evenly");
+        let seen = d.mean_spectrum(&counts).unwrap();
+        let drive = |c: [u32; 3]| c.map(|v| f64::from(v) / 255.0);
+        let (a, b) = (d.spectrum(drive(left)), d.spectrum(drive(right)));
+        for ((s, x), y) in seen.values().iter().zip(a.values()).zip(b.values()) {
+            assert!(
+                (s - 0.5 * (x + y)).abs() <= 1e-12 * x.abs().max(y.abs()).max(1e-12),
+                "{s} against {x}, {y}"
+            );
+        }
+        let e = CodeCounts::of_disc(&codes, w, 255, (-50.0, 5.0), 3.0).unwrap_err();
+        assert!(e.contains("no pixel centre"), "{e}");
     }
 }

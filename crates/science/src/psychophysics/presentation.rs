@@ -108,6 +108,14 @@ impl Presentation {
         2.0 * self.viewing_distance_mm * (self.pie_diameter_deg.to_radians() / 2.0).tan() / self.pixel_pitch_mm
     }
 
+    /// The radius on the screen, pixels, of an instrument's circular field
+    /// of full angle `field_deg` aimed at the screen from the viewing
+    /// distance (the instrument where the observer's eye is): D·tan(θ/2)/pitch.
+    /// A PR-650's 1° at 570 mm with 0.25 mm pixels: 19.9 px.
+    pub fn field_radius_px(&self, field_deg: f64) -> f64 {
+        self.viewing_distance_mm * (field_deg.to_radians() / 2.0).tan() / self.pixel_pitch_mm
+    }
+
     /// Pixels of one 120° piece (a third of the disc).
     pub fn piece_pixels(&self) -> f64 {
         let r = self.pie_diameter_px() / 2.0;
@@ -186,5 +194,20 @@ mod tests {
         assert_eq!(p.frames(300.0, 144.0), 43); // 43.2
         assert_eq!(p.frames(1.0, 60.0), 1);
         assert_eq!(p.frames(0.0, 60.0), 0);
+    }
+
+    /// A 1° field at 570 mm with 0.25 mm pixels: 570·tan(0.5°)/0.25 =
+    /// 19.897 px of radius (the PR-650's field where the observer sits).
+    #[test]
+    fn an_instruments_field_on_the_screen_follows_distance_and_pitch() {
+        let p = Presentation::default();
+        assert_eq!((p.viewing_distance_mm, p.pixel_pitch_mm), (570.0, 0.25));
+        assert!(
+            (p.field_radius_px(1.0) - 19.897).abs() < 1e-3,
+            "{}",
+            p.field_radius_px(1.0)
+        );
+        // tan(1°)/tan(0.5°) = 2.00015: nearly proportional to the angle.
+        assert!((p.field_radius_px(2.0) / p.field_radius_px(1.0) - 2.00015).abs() < 1e-5);
     }
 }
