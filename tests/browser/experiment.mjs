@@ -12,7 +12,7 @@
 // screenshots.
 //
 // Usage: node experiment.mjs BASE_URL TOKEN SCREENSHOT_DIR
-import { launch, finish } from "./harness.mjs";
+import { launch, finish, httpFailure } from "./harness.mjs";
 
 const [base, token, shots] = process.argv.slice(2);
 if (!base || !token) {
@@ -119,7 +119,7 @@ try {
   // the verification is cancelled before the next patch all the same.
   page.on("response", (r) => {
     if (r.status() === 409 && /\/api\/measurements\/\d+\/cancel$/.test(new URL(r.url()).pathname)) return;
-    if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`);
+    if (r.status() >= 400) httpFailure(r, failures);
   });
 
   const [experiment] = await apiGet("/api/experiments");

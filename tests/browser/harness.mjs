@@ -40,7 +40,14 @@ export function watch(page, failures) {
   page.on("requestfailed", (r) => {
     if (r.failure()?.errorText !== "net::ERR_ABORTED") failures.push(`request failed: ${r.url()} (${r.failure()?.errorText})`);
   });
-  page.on("response", (r) => { if (r.status() >= 400) failures.push(`HTTP ${r.status()} for ${r.url()}`); });
+  page.on("response", (r) => { if (r.status() >= 400) httpFailure(r, failures); });
+}
+
+/** An HTTP error as a failure, with the start of the answer's body (the
+ * daemon says there what was wrong) appended when it arrives. */
+export function httpFailure(r, failures) {
+  const i = failures.push(`HTTP ${r.status()} for ${r.url()}`) - 1;
+  r.text().then((t) => { failures[i] += `: ${t.slice(0, 500)}`; }).catch(() => {});
 }
 
 /** Ends a script: every failure on stderr and exit status 1, or `passed`

@@ -37,6 +37,7 @@
 
 pub mod binomial;
 pub mod design;
+pub mod image_observer;
 pub mod observer;
 pub mod oddity;
 pub mod plan;
