@@ -32,6 +32,7 @@
 
 pub mod fit;
 pub mod image_set;
+pub mod image_verification;
 pub mod output;
 pub mod profile;
 pub mod resolution;
