@@ -99,7 +99,8 @@ fn main() {
         }
         let settings = CameraSettings {
             codings,
-            reference: Some(Coding::Spectral).filter(|_| name != "rgb"),
+            // The last coding: `spectral` for all seven (`Coding::ALL` ends with it).
+            reference: None,
             se_every_coding: false,
             observer: RenderSettings::default().observer,
             transport: RenderSettings::default().transport(),

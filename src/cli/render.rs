@@ -375,8 +375,31 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             };
             let images = render_camera_images(&scene, camera, &cam_settings, Some(&report), None)?;
             cam_bar.finish_and_clear();
+            // What the summary and the JSON say of the render, taken before
+            // the images go to the writer (which takes them by value: no
+            // copy of a seven-coding image).
             let reference = images.reference_image();
-            let white = image_white(&args, &scene, &settings, reference.coding)?;
+            let (width, height, reference_coding) = (reference.width, reference.height, reference.coding);
+            let codings: Vec<String> = images.images.iter().map(|i| i.coding.to_string()).collect();
+            let done = format!(
+                "{} passes, {} paths, {:.1} s, stopped: {:?}",
+                reference.passes, reference.paths, reference.elapsed_seconds, reference.stop
+            );
+            let mut summary = serde_json::json!({
+                "width": width,
+                "height": height,
+                "codings": codings,
+                "reference": reference_coding.to_string(),
+                "passes": reference.passes,
+                "paths": reference.paths,
+                "elapsed_seconds": reference.elapsed_seconds,
+                "stop": reference.stop,
+            });
+            // A white only where there is something to compare with the reference.
+            let white = match images.images.len() {
+                1 => None,
+                _ => image_white(&args, &scene, &settings, reference_coding)?,
+            };
             let differences: Vec<PairedDifference> = match &white {
                 Some((xyz, _)) => (0..images.images.len())
                     .filter(|&c| c != images.reference)
@@ -384,28 +407,20 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     .collect(),
                 None => Vec::new(),
             };
-            let done = format!(
-                "{} passes, {} paths, {:.1} s, stopped: {:?}",
-                reference.passes, reference.paths, reference.elapsed_seconds, reference.stop
-            );
             let written = if matches!(ext.as_str(), "pfm" | "png") {
-                reference.to_srgb().write(path)?;
+                images.reference_image().to_srgb().write(path)?;
                 eprintln!(
-                    "image: {} × {} in srgb from the {} coding, {done}; wrote {}",
-                    reference.width,
-                    reference.height,
-                    reference.coding,
+                    "image: {width} × {height} in srgb from the {reference_coding} coding, {done}; wrote {}",
                     path.display()
                 );
                 vec![path.display().to_string()]
             } else {
                 let images = images
-                    .clone()
                     .every_nth_band(args.image_step as usize)
                     .map_err(|e| anyhow::anyhow!("--image-step: {e}"))?;
                 let written = write_camera_images(&images, path).map_err(anyhow::Error::msg)?;
                 let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
-                let codings: Vec<String> = images
+                let described: Vec<String> = images
                     .images
                     .iter()
                     .map(|img| match lightbooth::export::image::spectral_step_nm(img) {
@@ -419,10 +434,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                     })
                     .collect();
                 eprintln!(
-                    "image: {} × {} in {}, {done}; wrote {}",
-                    reference.width,
-                    reference.height,
-                    codings.join(", "),
+                    "image: {width} × {height} in {}, {done}; wrote {}",
+                    described.join(", "),
                     files.join(", ")
                 );
                 files
@@ -430,32 +443,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             match &white {
                 Some((xyz, source)) => {
                     eprintln!(
-                        "image ΔE00 against {} (CIELAB white: {source}, Y {:.4} cd/m²; paired: from the same paths):",
-                        reference.coding, xyz.y
+                        "image ΔE00 against {reference_coding} (CIELAB white: {source}, Y {:.4} cd/m²; paired: from the same paths):",
+                        xyz.y
                     );
                     for d in &differences {
                         eprintln!("  {}", difference_line(d));
                     }
                 }
-                None => eprintln!(
+                None if codings.len() > 1 => eprintln!(
                     "image ΔE00: none, {} declares no [cielab_white] to compare the codings in",
                     args.scene.display()
                 ),
+                None => {}
             }
-            image_json = Some(serde_json::json!({
-                "files": written,
-                "width": reference.width,
-                "height": reference.height,
-                "codings": images.images.iter().map(|i| i.coding.to_string()).collect::<Vec<_>>(),
-                "reference": reference.coding.to_string(),
-                "passes": reference.passes,
-                "paths": reference.paths,
-                "elapsed_seconds": reference.elapsed_seconds,
-                "stop": reference.stop,
-                "white": white.as_ref().map(|(xyz, source)| serde_json::json!({"XYZ": xyz.to_array(), "source": source})),
-                "differences": differences,
-                "noise_method": IMAGE_NOISE_METHOD,
-            }));
+            summary["files"] = serde_json::json!(written);
+            summary["white"] = serde_json::json!(white
+                .as_ref()
+                .map(|(xyz, source)| serde_json::json!({"XYZ": xyz.to_array(), "source": source})));
+            summary["differences"] = serde_json::json!(differences);
+            summary["noise_method"] = IMAGE_NOISE_METHOD.into();
+            image_json = Some(summary);
         }
     }
 

@@ -76,6 +76,14 @@ pub(super) fn transfer_model(s: &str) -> Result<TransferModel, String> {
     }
 }
 
+/// The transfer's name, as `--transfer` takes it.
+fn transfer_name(model: TransferModel) -> &'static str {
+    match model {
+        TransferModel::Gamma => "gamma",
+        TransferModel::Table => "table",
+    }
+}
+
 /// Parses a display profile file: the stored row (`{"id", …, "profile": {…}}`) or the bare profile.
 pub fn parse_profile(text: &str, what: &str) -> anyhow::Result<DisplayProfile> {
     let value: serde_json::Value = serde_json::from_str(text).with_context(|| format!("{what}: not JSON"))?;
@@ -245,10 +253,7 @@ pub fn run(args: StimulusArgs) -> anyhow::Result<()> {
         display_profile: profile_name,
         observer: profile.observer.to_string(),
         bits: args.bits,
-        transfer: match args.transfer {
-            TransferModel::Gamma => "gamma",
-            TransferModel::Table => "table",
-        },
+        transfer: transfer_name(args.transfer),
         delta_e00_white: white.to_array(),
         delta_e00_white_is: "the display's white: all channels at full drive, black included",
         gamut: stim.gamut.clone(),
@@ -383,10 +388,7 @@ fn run_set(
         display_profile: profile_name,
         observer: profile.observer.to_string(),
         bits: args.bits,
-        transfer: match args.transfer {
-            TransferModel::Gamma => "gamma",
-            TransferModel::Table => "table",
-        },
+        transfer: transfer_name(args.transfer),
         delta_e00_white_is: "the display's white: all channels at full drive, black included",
         set,
         pngs,

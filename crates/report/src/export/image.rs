@@ -121,20 +121,36 @@ pub fn spectral_step_nm(image: &CameraImage) -> Option<f64> {
 /// Multi-channel OpenEXR, one part, scan lines compressed losslessly with
 /// ZIP (16 lines a block: OpenEXR's `ZIP_COMPRESSION`, which every reader has).
 pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
-    let names = quantity_names(image);
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
-    for (k, name) in names.iter().enumerate() {
-        channels.push(linear_channel(name, image.plane(k)));
-        channels.push(linear_channel(&format!("SE.{name}"), image.se_plane(k)));
+    push_image_channels(&mut channels, image, "");
+    let mut other = vec![("lightbooth.coding".to_string(), image.coding.to_string())];
+    other.extend(common_attributes(image));
+    if image.quantities.wavelengths_nm.is_some() {
+        other.extend(spectral_attributes());
+        if let Some(step) = spectral_step_nm(image) {
+            other.push(("lightbooth.spectralStep".into(), format!("{step} nm")));
+        }
+    } else {
+        other.push((
+            "lightbooth.units.RGB".into(),
+            format!("linear {} with Y in cd/m^2", image.coding),
+        ));
     }
-    channels.push(linear_channel(
-        "paths",
-        image.samples.iter().map(|&n| n as f32).collect(),
-    ));
-    let mut attributes = LayerAttributes::default();
-    let spectral = image.quantities.wavelengths_nm.is_some();
-    let mut other = vec![
-        ("lightbooth.coding", image.coding.to_string()),
+    write_exr_part(path, image, channels, other)
+}
+
+/// Every quantity of `image` and its standard error as channels, each name
+/// after `prefix` (`""`, or the coding's layer as `nstep9.`).
+fn push_image_channels(channels: &mut SmallVec<[AnyChannel<FlatSamples>; 4]>, image: &CameraImage, prefix: &str) {
+    for (k, name) in quantity_names(image).iter().enumerate() {
+        channels.push(linear_channel(&format!("{prefix}{name}"), image.plane(k)));
+        channels.push(linear_channel(&format!("{prefix}SE.{name}"), image.se_plane(k)));
+    }
+}
+
+/// The attributes every camera image file has: its observer and units.
+fn common_attributes(image: &CameraImage) -> Vec<(String, String)> {
+    [
         ("lightbooth.observer", image.observer.to_string()),
         ("lightbooth.units.XYZ", "cd/m^2 (Y is luminance)".to_string()),
         (
@@ -145,22 +161,40 @@ pub fn write_exr(image: &CameraImage, path: &Path) -> Result<(), String> {
             "lightbooth.units.SE",
             "standard error of the pixel's mean, same units as the channel".to_string(),
         ),
-    ];
-    if spectral {
-        other.push(("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION.to_string()));
-        other.push(("emissiveUnits", EMISSIVE_UNITS.to_string()));
-        other.push(("lightbooth.units.spectral", SPECTRAL_UNITS.to_string()));
-        if let Some(step) = spectral_step_nm(image) {
-            other.push(("lightbooth.spectralStep", format!("{step} nm")));
-        }
-    } else {
-        other.push((
-            "lightbooth.units.RGB",
-            format!("linear {} with Y in cd/m^2", image.coding),
-        ));
-    }
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect()
+}
+
+/// The attributes of a file with spectral channels (Fichet et al. 2021).
+fn spectral_attributes() -> Vec<(String, String)> {
+    [
+        ("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION),
+        ("emissiveUnits", EMISSIVE_UNITS),
+        ("lightbooth.units.spectral", SPECTRAL_UNITS),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v.to_string()))
+    .collect()
+}
+
+/// One OpenEXR part of `image`'s size: the channels, `paths` (the image's
+/// paths per pixel, which every coding of one render shares) and the text
+/// attributes, ZIP-compressed scan lines.
+fn write_exr_part(
+    path: &Path,
+    image: &CameraImage,
+    mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]>,
+    other: Vec<(String, String)>,
+) -> Result<(), String> {
+    channels.push(linear_channel(
+        "paths",
+        image.samples.iter().map(|&n| n as f32).collect(),
+    ));
+    let mut attributes = LayerAttributes::default();
     for (k, v) in other {
-        attributes.other.insert(Text::from(k), text(&v)?);
+        attributes.other.insert(Text::from(k.as_str()), text(&v)?);
     }
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
@@ -386,41 +420,23 @@ fn write_layered_exr(images: &CameraImages, path: &Path) -> Result<(), String> {
     let first = &images.images[0];
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     for image in &images.images {
-        for (k, name) in quantity_names(image).iter().enumerate() {
-            let layer = image.coding;
-            channels.push(linear_channel(&format!("{layer}.{name}"), image.plane(k)));
-            channels.push(linear_channel(&format!("{layer}.SE.{name}"), image.se_plane(k)));
-        }
+        push_image_channels(&mut channels, image, &format!("{}.", image.coding));
     }
-    channels.push(linear_channel(
-        "paths",
-        first.samples.iter().map(|&n| n as f32).collect(),
-    ));
-    let mut attributes = LayerAttributes::default();
     let mut other = vec![
-        ("lightbooth.codings", coding_list(images)),
-        ("lightbooth.reference", images.reference_image().coding.to_string()),
-        ("lightbooth.observer", first.observer.to_string()),
-        ("lightbooth.units.XYZ", "cd/m^2 (Y is luminance)".to_string()),
+        ("lightbooth.codings".to_string(), coding_list(images)),
         (
-            "lightbooth.units.LMS",
-            "cd/m^2-scaled cone excitations (L + M = CIE 2006 2 deg luminance)".to_string(),
+            "lightbooth.reference".to_string(),
+            images.reference_image().coding.to_string(),
         ),
         (
-            "lightbooth.units.SE",
-            "standard error of the pixel's mean, same units as the channel".to_string(),
-        ),
-        (
-            "lightbooth.paths",
+            "lightbooth.paths".to_string(),
             "every coding's pixel from the same paths (the paths channel)".to_string(),
         ),
     ];
+    other.extend(common_attributes(first));
     if images.images.iter().any(|i| i.quantities.wavelengths_nm.is_some()) {
-        other.push(("spectralLayoutVersion", SPECTRAL_LAYOUT_VERSION.to_string()));
-        other.push(("emissiveUnits", EMISSIVE_UNITS.to_string()));
-        other.push(("lightbooth.units.spectral", SPECTRAL_UNITS.to_string()));
+        other.extend(spectral_attributes());
     }
-    let mut other: Vec<(String, String)> = other.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
     for image in &images.images {
         if let Some(step) = spectral_step_nm(image) {
             other.push((
@@ -429,20 +445,7 @@ fn write_layered_exr(images: &CameraImages, path: &Path) -> Result<(), String> {
             ));
         }
     }
-    for (k, v) in other {
-        attributes.other.insert(Text::from(k.as_str()), text(&v)?);
-    }
-    let layer = Layer::new(
-        (first.width as usize, first.height as usize),
-        attributes,
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(channels),
-    );
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_file(path)
-        .map_err(|e| format!("{}: writing OpenEXR: {e}", path.display()))
+    write_exr_part(path, first, channels, other)
 }
 
 /// A MAT-file with every coding's variables, prefixed by the coding.

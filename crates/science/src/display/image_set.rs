@@ -125,6 +125,11 @@ pub fn image_set(
             codings[0].0
         )));
     }
+    if pixels == 0 {
+        return Err(DisplayError::Profile(
+            "an image set needs at least one coding of at least one pixel".into(),
+        ));
+    }
     if reference >= codings.len() {
         return Err(DisplayError::Profile(format!(
             "the reference is coding {reference} of {}",
@@ -146,7 +151,7 @@ pub fn image_set(
         })
         .collect();
     let gamut = apply_gamut(&converter, &mut linear, policy)?;
-    let linear: Vec<&[[f64; 3]]> = linear.chunks(pixels.max(1)).collect();
+    let linear: Vec<&[[f64; 3]]> = linear.chunks(pixels).collect();
     let intended: Vec<Vec<[f64; 3]>> = linear
         .iter()
         .map(|l| l.iter().map(|&v| converter.xyz(v)).collect())
@@ -344,5 +349,7 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("coding b has 1 pixels") && e.contains("64"), "{e}");
+        let e = image_set(&p, &[("a".into(), Vec::new())], 0, GamutPolicy::Clip).unwrap_err().to_string();
+        assert!(e.contains("at least one pixel"), "{e}");
     }
 }
