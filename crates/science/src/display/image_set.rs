@@ -349,7 +349,9 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("coding b has 1 pixels") && e.contains("64"), "{e}");
-        let e = image_set(&p, &[("a".into(), Vec::new())], 0, GamutPolicy::Clip).unwrap_err().to_string();
+        let e = image_set(&p, &[("a".into(), Vec::new())], 0, GamutPolicy::Clip)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("at least one pixel"), "{e}");
     }
 }
