@@ -106,6 +106,7 @@ fn main() {
             transport: RenderSettings::default().transport(),
             seed: 1,
             min_spp: pass,
+            first_sample: 0,
             max_spp: spp,
             target_relative_se: None,
             time_budget: None,

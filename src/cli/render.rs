@@ -360,6 +360,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 transport,
                 seed: settings.seed,
                 min_spp: args.spp.min(16),
+                first_sample: 0,
                 max_spp: args.spp,
                 target_relative_se: (args.image_se > 0.0).then_some(args.image_se),
                 time_budget: budget,

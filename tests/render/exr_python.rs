@@ -56,6 +56,7 @@ fn tiny_spectral_image() -> CameraImage {
         transport: RenderSettings::default().transport(),
         seed: 1,
         min_spp: 4,
+        first_sample: 0,
         max_spp: 8,
         target_relative_se: None,
         time_budget: None,

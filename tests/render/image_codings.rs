@@ -32,6 +32,7 @@ fn settings(codings: &[Coding], seed: u64, spp: u32) -> CameraSettings {
         transport: CAPPED,
         seed,
         min_spp: spp,
+        first_sample: 0,
         max_spp: spp,
         target_relative_se: None,
         time_budget: None,
@@ -217,6 +218,88 @@ fn the_paired_standard_error_predicts_the_spread_over_seeds() {
         paired < independent,
         "paired {paired} against independent {independent}"
     );
+}
+
+/// Batches of paths (each with its own first path index, as a render
+/// worker traces them) merged with `CameraImages::merge` are one render of
+/// all their paths: every mean and SE, and the paired difference's noise,
+/// agree within the f32 rounding of the stored moments (the merge tree
+/// differs from one render's). A batch of another seed does not (so the
+/// comparison can fail), nor does a batch that repeats the first paths; the
+/// bytes a worker hands over read back bit for bit.
+#[test]
+fn batches_of_paths_merged_are_one_render_of_them_all() {
+    let scene = cylinder();
+    let camera = small_camera(&scene, 16, 10);
+    let codings = [Coding::Rgb, Coding::NStep(9), Coding::Spectral];
+    let batch = |first: u32, spp: u32, seed: u64| {
+        let mut s = settings(&codings, seed, spp);
+        s.first_sample = first;
+        render_camera_images(&scene, &camera, &s, None, None).unwrap()
+    };
+    let whole = batch(0, 24, 7);
+    let merged_of = |batches: &[(u32, u64)]| {
+        let mut merged = batch(batches[0].0, 8, batches[0].1);
+        for &(first, seed) in &batches[1..] {
+            let b = batch(first, 8, seed);
+            let bytes = b.to_bytes();
+            let read = CameraImages::from_bytes(&bytes).unwrap();
+            assert_eq!(read.to_bytes(), bytes, "the bytes read back bit for bit");
+            merged.merge(&read).unwrap();
+        }
+        merged
+    };
+    // Worst relative disagreement of means and SEs, over every coding, pixel and quantity.
+    let worst = |a: &CameraImages| -> (f64, f64) {
+        let (mut mean, mut se) = (0.0f64, 0.0f64);
+        for (x, w) in a.images.iter().zip(&whole.images) {
+            assert_eq!(x.samples, w.samples);
+            for k in 0..w.stride() {
+                for (p, (mx, mw)) in x.plane(k).iter().zip(w.plane(k)).enumerate() {
+                    let scale = (mw.abs() as f64).max(1e-3);
+                    mean = mean.max((mx - mw).abs() as f64 / scale);
+                    let (sx, sw) = (x.se_plane(k)[p] as f64, w.se_plane(k)[p] as f64);
+                    se = se.max((sx - sw).abs() / sw.max(1e-4 * scale));
+                }
+            }
+        }
+        (mean, se)
+    };
+    let merged = merged_of(&[(0, 7), (8, 7), (16, 7)]);
+    assert_eq!(merged.images[0].paths, whole.images[0].paths);
+    let (mean, se) = worst(&merged);
+    println!("merged batches against one render: means within {mean:.1e}, SEs within {se:.1e} (relative)");
+    assert!(mean < 1e-5, "means differ by {mean} (relative)");
+    assert!(se < 1e-3, "standard errors differ by {se} (relative)");
+    let (a, b) = (merged.difference(1, white()), whole.difference(1, white()));
+    assert!((a.mean - b.mean).abs() < 1e-5 * b.mean, "{} against {}", a.mean, b.mean);
+    assert!(
+        (a.noise_paired - b.noise_paired).abs() < 1e-3 * b.noise_paired,
+        "paired noise {} against {}",
+        a.noise_paired,
+        b.noise_paired
+    );
+    for wrong in [[(0, 7), (8, 7), (16, 8)], [(0, 7), (8, 7), (0, 7)]] {
+        let (mean, _) = worst(&merged_of(&wrong));
+        assert!(
+            mean > 1e-3,
+            "batches {wrong:?} are not the paths of one render, yet agree to {mean}"
+        );
+    }
+    let other_size = render_camera_images(
+        &scene,
+        &small_camera(&scene, 8, 5),
+        &settings(&codings, 7, 8),
+        None,
+        None,
+    )
+    .unwrap();
+    let err = merged_of(&[(0, 7)]).merge(&other_size).unwrap_err();
+    assert!(err.contains("8 × 5") && err.contains("16 × 10"), "{err}");
+    let mut cut = whole.to_bytes();
+    cut.truncate(cut.len() - 4);
+    let err = CameraImages::from_bytes(&cut).unwrap_err();
+    assert!(err.contains("not"), "{err}");
 }
 
 /// The stopping rule follows the reference, or every coding with the flag.

@@ -44,6 +44,7 @@ fn camera_settings() -> CameraSettings {
         },
         seed: 1,
         min_spp: 2,
+        first_sample: 0,
         max_spp: 8,
         target_relative_se: None,
         time_budget: None,

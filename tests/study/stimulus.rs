@@ -713,6 +713,7 @@ fn a_layered_image_is_converted_as_one_set_and_each_coding_is_shown_as_its_codes
         transport: RenderSettings::default().transport(),
         seed: 4,
         min_spp: 8,
+        first_sample: 0,
         max_spp: 8,
         target_relative_se: None,
         time_budget: None,

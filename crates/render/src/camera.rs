@@ -67,6 +67,9 @@ use lightbooth_science::spectrum::Grid;
 /// at 960 × 540 in all seven codings (2.5 GB) fits.
 pub const MAX_IMAGE_BYTES: u64 = 4 << 30;
 
+/// The name of [`CameraImages::to_bytes`]'s layout, in its header.
+pub const IMAGE_SET_FORMAT: &str = "lightbooth-camera-images-1";
+
 /// How to render a camera image.
 #[derive(Clone, Debug)]
 pub struct CameraSettings {
@@ -86,6 +89,13 @@ pub struct CameraSettings {
     pub min_spp: u32,
     /// Paths per pixel at most.
     pub max_spp: u32,
+    /// The index of every pixel's first path: paths `first_sample` …
+    /// `first_sample + max_spp − 1` are traced, each from its own stream
+    /// (see the module doc). 0 for a whole render; a render worker's batch
+    /// starts where the batch before it ends, so batches merged with
+    /// [`CameraImages::merge`] hold exactly the paths one render of them
+    /// all would trace.
+    pub first_sample: u32,
     /// Stop a pixel when SE(Y)/Y is below this; `None`: every pixel gets `max_spp`.
     pub target_relative_se: Option<f64>,
     /// Stop starting passes after this long.
@@ -106,7 +116,7 @@ pub struct CameraProgress {
 }
 
 /// Why the render stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
     /// Every pixel reached the SE target (or the path cap).
@@ -665,7 +675,7 @@ fn pass_row_inline(job: &PassJob, y: usize, row: &mut RowBuffers, n_row: &mut [u
         pass_sq.fill(0.0);
         pass_sums.fill(0.0);
         for i in 0..nb {
-            let s = (first + i) as u64;
+            let s = settings.first_sample as u64 + (first + i) as u64;
             let mut rng = PathSampler::new(SamplerKind::Independent, seed, u64::MAX - pixel, s);
             let ray = pinhole.ray(x, y, rng.next_2d());
             trace_path(prep, &settings.transport, ray, &mut rng, &mut state);
@@ -903,6 +913,243 @@ impl CameraImages {
         })?;
         self.images[spectral] = self.images[spectral].every_nth_band(step)?;
         Ok(self)
+    }
+
+    /// Adds the paths of `other` to these: the same codings, size,
+    /// observer and reference, traced from other path indices (its
+    /// [`CameraSettings::first_sample`]), as a render worker's batch is.
+    /// Per pixel, Chan et al.'s pairwise update of every quantity's mean
+    /// and squared deviations and of the paired moments (the XYZ cross
+    /// products, the paired difference's mean and co-moments): exact in real
+    /// arithmetic, so merged batches equal one render of all their paths up
+    /// to the `f32` rounding of the stored moments (the merges happen in
+    /// another order than one render's passes). Counts (passes, paths,
+    /// rays, seconds) add up; the stop reason is left to the caller.
+    pub fn merge(&mut self, other: &CameraImages) -> Result<(), String> {
+        let describe = |c: &CameraImages| {
+            let first = &c.images[0];
+            let codings: Vec<String> = c.images.iter().map(|i| i.coding.to_string()).collect();
+            format!(
+                "{} × {} in {} (reference {}, observer {})",
+                first.width,
+                first.height,
+                codings.join(","),
+                c.images[c.reference].coding,
+                first.observer
+            )
+        };
+        if self.images.is_empty() || other.images.is_empty() {
+            return Err("an image set without images cannot be merged".into());
+        }
+        if describe(self) != describe(other) {
+            return Err(format!(
+                "cannot merge a batch of {} into an image of {}: the batches of one image share its size, codings and observer",
+                describe(other),
+                describe(self)
+            ));
+        }
+        let reference = self.reference;
+        let before: Vec<u32> = self.images[0].samples.clone();
+        let added = &other.images[0].samples;
+        for (c, (a, b)) in self.images.iter_mut().zip(&other.images).enumerate() {
+            let stride = a.stride();
+            let xyz = a.xyz_index();
+            a.mean
+                .par_chunks_mut(stride)
+                .zip(a.m2.par_chunks_mut(stride))
+                .zip(self.paired[c].par_chunks_mut(PAIRED))
+                .zip(b.mean.par_chunks(stride).zip(b.m2.par_chunks(stride)))
+                .zip(other.paired[c].par_chunks(PAIRED))
+                .zip(before.par_iter().zip(added.par_iter()))
+                .for_each(|(((((mean, m2), paired), (mean_b, m2_b)), paired_b), (&na, &nb))| {
+                    if nb == 0 {
+                        return;
+                    }
+                    let (na, nb) = (na as f64, nb as f64);
+                    let n = na + nb;
+                    let weight = na * nb / n;
+                    let delta_xyz: [f64; 3] = std::array::from_fn(|k| mean_b[xyz + k] as f64 - mean[xyz + k] as f64);
+                    for ((m, s2), (mb, m2b)) in mean.iter_mut().zip(m2.iter_mut()).zip(mean_b.iter().zip(m2_b)) {
+                        let ma = *m as f64;
+                        let delta = *mb as f64 - ma;
+                        *m = (ma + delta * nb / n) as f32;
+                        *s2 = (*s2 as f64 + *m2b as f64 + delta * delta * weight) as f32;
+                    }
+                    let block: [f64; PAIRED] = std::array::from_fn(|k| paired_b[k] as f64);
+                    cross_merge(
+                        &mut paired[OWN_CROSS..OWN_CROSS + 3],
+                        &block[OWN_CROSS..],
+                        delta_xyz,
+                        weight,
+                    );
+                    if c != reference {
+                        let d_delta: [f64; 3] = std::array::from_fn(|k| block[D_MEAN + k] - paired[D_MEAN + k] as f64);
+                        for k in 0..3 {
+                            let ma = paired[D_MEAN + k] as f64;
+                            paired[D_MEAN + k] = (ma + d_delta[k] * nb / n) as f32;
+                            let s2 = paired[D_COMOMENTS + k] as f64;
+                            paired[D_COMOMENTS + k] =
+                                (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
+                        }
+                        cross_merge(
+                            &mut paired[D_COMOMENTS + 3..D_COMOMENTS + 6],
+                            &block[D_COMOMENTS + 3..],
+                            d_delta,
+                            weight,
+                        );
+                    }
+                });
+            for (s, n) in a.samples.iter_mut().zip(added) {
+                *s += n;
+            }
+            a.passes += b.passes;
+            a.paths += b.paths;
+            a.rays += b.rays;
+            a.elapsed_seconds += b.elapsed_seconds;
+        }
+        Ok(())
+    }
+
+    /// The set as bytes, for a render worker to hand its batch to the
+    /// daemon: a JSON header line (`IMAGE_SET_FORMAT`, size, codings,
+    /// reference, observer, counts), then per image its means and squared
+    /// deviations, per image its paired moments (`f32`, little-endian), and
+    /// the paths per pixel (`u32`). [`CameraImages::from_bytes`] reads it.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let first = &self.images[0];
+        let header = serde_json::json!({
+            "format": IMAGE_SET_FORMAT,
+            "width": first.width,
+            "height": first.height,
+            "codings": self.images.iter().map(|i| i.coding.to_string()).collect::<Vec<_>>(),
+            "reference": self.reference,
+            "observer": first.observer,
+            "passes": first.passes,
+            "paths": first.paths,
+            "rays": first.rays,
+            "elapsed_seconds": first.elapsed_seconds,
+            "stop": first.stop,
+        });
+        let mut out = header.to_string().into_bytes();
+        out.push(b'\n');
+        let floats: usize = self.images.iter().map(|i| i.mean.len() * 2).sum::<usize>()
+            + self.paired.iter().map(Vec::len).sum::<usize>();
+        out.reserve(floats * 4 + first.samples.len() * 4);
+        for img in &self.images {
+            out.extend(img.mean.iter().chain(&img.m2).flat_map(|v| v.to_le_bytes()));
+        }
+        for p in &self.paired {
+            out.extend(p.iter().flat_map(|v| v.to_le_bytes()));
+        }
+        out.extend(first.samples.iter().flat_map(|v| v.to_le_bytes()));
+        out
+    }
+
+    /// Reads [`CameraImages::to_bytes`]; what does not fit its header is an
+    /// error saying what.
+    pub fn from_bytes(bytes: &[u8]) -> Result<CameraImages, String> {
+        #[derive(serde::Deserialize)]
+        struct Header {
+            format: String,
+            width: u32,
+            height: u32,
+            codings: Vec<String>,
+            reference: usize,
+            observer: Observer,
+            passes: u32,
+            paths: u64,
+            rays: u64,
+            elapsed_seconds: f64,
+            stop: StopReason,
+        }
+        let line = bytes
+            .iter()
+            .position(|b| *b == b'\n')
+            .ok_or("an image batch without its header line")?;
+        let h: Header = serde_json::from_slice(&bytes[..line]).map_err(|e| format!("an image batch's header: {e}"))?;
+        if h.format != IMAGE_SET_FORMAT {
+            return Err(format!(
+                "an image batch in format `{}`; this build reads `{IMAGE_SET_FORMAT}`",
+                h.format
+            ));
+        }
+        let codings: Vec<Coding> = h
+            .codings
+            .iter()
+            .map(|c| {
+                c.parse::<Coding>()
+                    .map_err(|e| format!("an image batch's coding `{c}`: {e}"))
+            })
+            .collect::<Result<_, _>>()?;
+        if h.reference >= codings.len() {
+            return Err(format!(
+                "an image batch's reference {} is not one of its {} codings",
+                h.reference,
+                codings.len()
+            ));
+        }
+        let pixels = h.width as usize * h.height as usize;
+        let quantities: Vec<Quantities> = codings.iter().map(|c| Quantities::of(*c)).collect();
+        let floats: usize = quantities
+            .iter()
+            .map(|q| pixels * (q.coding_channels + 6) * 2)
+            .sum::<usize>()
+            + codings.len() * pixels * PAIRED;
+        let body = &bytes[line + 1..];
+        let expected = floats * 4 + pixels * 4;
+        if body.len() != expected {
+            return Err(format!(
+                "an image batch of {} × {} in {} holds {} bytes after its header, not {expected}",
+                h.width,
+                h.height,
+                h.codings.join(","),
+                body.len()
+            ));
+        }
+        let mut at = 0usize;
+        let mut take_f32 = |n: usize| -> Vec<f32> {
+            let v = body[at..at + 4 * n]
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .collect();
+            at += 4 * n;
+            v
+        };
+        let mut planes = Vec::new();
+        for q in &quantities {
+            let n = pixels * (q.coding_channels + 6);
+            planes.push((take_f32(n), take_f32(n)));
+        }
+        let paired: Vec<Vec<f32>> = (0..codings.len()).map(|_| take_f32(pixels * PAIRED)).collect();
+        let samples: Vec<u32> = body[floats * 4..]
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        let images = codings
+            .into_iter()
+            .zip(quantities)
+            .zip(planes)
+            .map(|((coding, quantities), (mean, m2))| CameraImage {
+                width: h.width,
+                height: h.height,
+                coding,
+                observer: h.observer,
+                quantities,
+                mean,
+                m2,
+                samples: samples.clone(),
+                passes: h.passes,
+                paths: h.paths,
+                rays: h.rays,
+                elapsed_seconds: h.elapsed_seconds,
+                stop: h.stop,
+            })
+            .collect();
+        Ok(CameraImages {
+            images,
+            reference: h.reference,
+            paired,
+        })
     }
 
     /// The covariance of pixel `p`'s mean XYZ in image `c`: the image's own

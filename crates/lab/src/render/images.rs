@@ -657,6 +657,7 @@ pub fn camera_settings(
             },
             seed: s.seed,
             min_spp: s.min_spp,
+            first_sample: 0,
             max_spp: s.max_spp,
             target_relative_se: s.target_relative_se,
             time_budget: Some(Duration::from_secs_f64(s.time_budget_s)),
