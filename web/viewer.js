@@ -62,18 +62,27 @@ function openImageViewer(render) {
 // Waits (bounded by the daemon's time budget) until an image of the
 // render in `coding` is complete; queues it if there is none.
 async function viewerImage(coding) {
-  const r = await api(`/api/renders/${viewerRender.id}/images`, { method: "POST", body: JSON.stringify({ coding }) });
+  return (await viewerSet([coding]))[0];
+}
+
+// The same for images in several codings rendered from the same paths
+// (one request, `codings`; the last is their reference), so that their
+// difference is the codings', not two draws of noise.
+async function viewerSet(codings) {
+  const body = codings.length === 1 ? { coding: codings[0] } : { codings };
+  const r = await api(`/api/renders/${viewerRender.id}/images`, { method: "POST", body: JSON.stringify(body) });
+  const ids = r.images.map((i) => i.image_id);
+  const named = `image${ids.length > 1 ? "s" : ""} ${ids.join(", ")} (${codings.join(", ")})`;
   viewerWaiting = r.image_id;
   $("viewer-cancel").hidden = false;
   $("viewer-cancel").dataset.id = r.image_id;
   try {
     for (;;) {
-      const info = await api(`/api/images/${r.image_id}`);
-      if (info.state === "complete") return info;
-      if (info.state === "failed" || info.state === "cancelled") {
-        throw new Error(`image ${info.id} (${coding}) ${info.state}: ${info.error || ""}`);
-      }
-      $("viewer-state").textContent = `image ${info.id} (${coding}): ${info.state}`;
+      const infos = await Promise.all(ids.map((id) => api(`/api/images/${id}`)));
+      if (infos.every((i) => i.state === "complete")) return infos;
+      const ended = infos.find((i) => i.state === "failed" || i.state === "cancelled");
+      if (ended) throw new Error(`${named} ${ended.state}: ${ended.error || ""}`);
+      $("viewer-state").textContent = `${named}: ${infos[0].state}`;
       await new Promise((wake) => { viewerWake.push(wake); setTimeout(wake, 1000); });
     }
   } finally {
@@ -160,8 +169,9 @@ $("viewer-de").addEventListener("click", async () => {
   notice("");
   const render = viewerRender;
   try {
-    const a = await viewerImage($("viewer-coding").value);
-    const b = await viewerImage($("viewer-against").value);
+    const [coding, against] = [$("viewer-coding").value, $("viewer-against").value];
+    if (coding === against) throw new Error(`pick two different codings for a ΔE00 map (both are ${coding})`);
+    const [a, b] = await viewerSet([coding, against]);
     if (render !== viewerRender) return;
     const m = await api(`/api/images/${a.id}/delta-e?against=${b.id}`);
     const stops = m.stops.map((c, i) => `rgb(${c.join(",")}) ${(100 * i) / (m.stops.length - 1)}%`);
@@ -181,7 +191,7 @@ $("viewer-de").addEventListener("click", async () => {
       codingLabel(b), ` (image ${b.id}), ` +
       `through CIELAB with the scene's white: ${m.white_source}, XYZ = ${m.white.map((v) => fmt(v, 4)).join(", ")} ` +
       `(observer: ${observerName(m.observer)}). Mean ${fmt(m.mean, 3)}, 95th percentile ${fmt(m.p95, 3)}, ` +
-      `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. Each image's own noise adds to ΔE.`);
+      `max ${fmt(m.max, 3)}; viridis from 0 to ${fmt(m.scale_max, 3)}. The two images were ${m.noise}.`);
     $("de-figure").hidden = false;
   } catch (e) {
     notice(e.message);

@@ -69,6 +69,9 @@ try {
   }, null, { timeout: 180000 });
   const de = await page.textContent("#de-caption");
   if (!/CIEDE2000/.test(de) || !/h21/.test(de) || !/max [0-9.]+/.test(de)) failures.push("ΔE caption: " + de);
+  // The two codings are rendered from the same paths: the caption gives the paired noise.
+  if (!/rendered from the same paths: the paths' noise alone puts an RMS ΔE00 of [0-9.]+/.test(de) ||
+      !/standard error is [0-9.]+/.test(de)) failures.push("ΔE caption without the paired noise: " + de);
   const ticks = await page.$$eval("#de-ticks span", (s) => s.map((x) => x.textContent));
   if (ticks.length !== 5 || Number(ticks[0]) !== 0 || !(Number(ticks[4]) > 0)) failures.push("scale ticks: " + ticks);
   if (shots) {

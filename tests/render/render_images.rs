@@ -367,3 +367,154 @@ async fn after_a_restart_image_ids_started_again_at_one() {
     assert_eq!(status, 200);
     d.stop().await;
 }
+
+/// Issue 48, part 1 through the daemon: one request with a list of
+/// `codings` renders them from the same paths, an image each with its own
+/// id, the last the reference. The ΔE00 map of a coding against its
+/// reference carries the paired difference's noise, below the noise two
+/// independent renders would have; two codings of which neither is the
+/// reference, or two images of separate requests, say their noise is each
+/// image's own. The same request reuses the set; cancelling one image
+/// cancels the set; a request naming both `coding` and `codings`, a coding
+/// twice or a reference outside the list is refused naming the field.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn codings_asked_together_are_rendered_from_the_same_paths_with_a_paired_delta_e() {
+    let d = Daemon::start(0.0).await;
+    let (render, _) = default_render(&d, "white").await;
+    let url = format!("/api/renders/{render}/images");
+    for (body, field) in [
+        (r#"{"coding":"rgb","codings":["rgb"]}"#, "fields `coding`, `codings`"),
+        (r#"{"codings":[]}"#, "field `codings`"),
+        (r#"{"codings":["rgb","nstep9","rgb"]}"#, "field `codings`[2]"),
+        (r#"{"codings":["rgb","nstepx"]}"#, "field `codings`[1]"),
+        (
+            r#"{"codings":["rgb","nstep9"],"reference":"spectral"}"#,
+            "field `reference`",
+        ),
+        (r#"{"width":16}"#, "field `coding`"),
+    ] {
+        let (status, v) = post_json(d.addr, &url, TOKEN, body).await;
+        assert_eq!(status, 400, "{body}: {v}");
+        let m = v["error"]["message"].as_str().unwrap();
+        assert!(m.contains(field), "{body}: {m}");
+    }
+    let body = r#"{"codings":["rgb","nstep9","spectral"],"width":24,"min_spp":16,"max_spp":32}"#;
+    let mut rx = events(d.addr).await;
+    let (status, v) = post_json(d.addr, &url, TOKEN, body).await;
+    assert_eq!(status, 202, "{v}");
+    let ids: Vec<i64> = v["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["image_id"].as_i64().unwrap())
+        .collect();
+    let codings: Vec<&str> = v["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["coding"].as_str().unwrap())
+        .collect();
+    assert_eq!(codings, ["rgb", "nstep9", "spectral"]);
+    assert_eq!(
+        v["image_id"].as_i64(),
+        Some(ids[2]),
+        "the answer's image is the reference"
+    );
+    let mut ended = Vec::new();
+    wait_for(&mut rx, "image_finished", Duration::from_secs(300), |name, e| {
+        if name == "image_finished" && ids.contains(&e["image_id"].as_i64().unwrap_or(0)) {
+            assert_eq!(e["state"], "complete", "{e}");
+            ended.push(e["image_id"].as_i64().unwrap());
+        }
+        ended.len() == 3
+    })
+    .await;
+    for (id, coding) in ids.iter().zip(&codings) {
+        let (_, info) = get_json(d.addr, &format!("/api/images/{id}")).await;
+        assert_eq!(info["settings"]["coding"], *coding, "{info}");
+        assert_eq!(info["set"], serde_json::json!(ids), "{info}");
+        assert_eq!(info["reference_id"].as_i64(), Some(ids[2]));
+        assert_eq!(info["settings"]["reference"], "spectral");
+    }
+    let (status, again) = post_json(d.addr, &url, TOKEN, body).await;
+    assert_eq!(status, 202);
+    assert_eq!(again["reused"], true);
+    assert_eq!(again["image_id"].as_i64(), Some(ids[2]));
+
+    // Against the reference: the paired noise, below the independent one.
+    let (status, m) = get_json(d.addr, &format!("/api/images/{}/delta-e?against={}", ids[1], ids[2])).await;
+    assert_eq!(status, 200, "{m}");
+    let paired = &m["paired"];
+    let (np, ni, se) = (
+        paired["noise_paired"].as_f64().unwrap(),
+        paired["noise_independent"].as_f64().unwrap(),
+        paired["se_mean"].as_f64().unwrap(),
+    );
+    println!(
+        "nstep9 against spectral: mean ΔE00 {}, paired noise {np:.4}, independent {ni:.4}, SE of the mean {se:.5}",
+        m["mean"]
+    );
+    assert!(np > 0.0 && np < ni, "paired {np}, independent {ni}");
+    assert!(
+        se > 0.0 && se < np,
+        "SE of the mean {se} against the per-pixel noise {np}"
+    );
+    assert!(
+        m["noise"].as_str().unwrap().starts_with("rendered from the same paths"),
+        "{}",
+        m["noise"]
+    );
+    // The reference on the left gives the same.
+    let (_, flipped) = get_json(d.addr, &format!("/api/images/{}/delta-e?against={}", ids[2], ids[1])).await;
+    assert_eq!(flipped["paired"], m["paired"]);
+    // Neither is the reference: no paired noise is kept for that pair.
+    let (_, m) = get_json(d.addr, &format!("/api/images/{}/delta-e?against={}", ids[0], ids[1])).await;
+    assert!(m["paired"].is_null(), "{}", m["paired"]);
+    assert!(m["noise"]
+        .as_str()
+        .unwrap()
+        .starts_with("rendered from independent paths"));
+    // A spectral image of its own request: independent paths.
+    let (alone, _) = image(
+        &d,
+        render,
+        r#"{"coding":"spectral","width":24,"min_spp":16,"max_spp":32}"#,
+    )
+    .await;
+    assert!(!ids.contains(&alone));
+    let (_, m) = get_json(d.addr, &format!("/api/images/{}/delta-e?against={alone}", ids[1])).await;
+    assert!(m["paired"].is_null(), "{}", m["paired"]);
+
+    // Cancelling one image of a running set cancels the set.
+    let mut rx = events(d.addr).await;
+    let (status, v) = post_json(
+        d.addr,
+        &url,
+        TOKEN,
+        r#"{"codings":["nstep3","rgb"],"width":16,"min_spp":1,"max_spp":4096}"#,
+    )
+    .await;
+    assert_eq!(status, 202, "{v}");
+    let set: Vec<i64> = v["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["image_id"].as_i64().unwrap())
+        .collect();
+    wait_for(&mut rx, "image_progress", Duration::from_secs(300), |name, e| {
+        name == "image_progress" && e["image_id"] == set[0]
+    })
+    .await;
+    let (status, v) = post_json(d.addr, &format!("/api/images/{}/cancel", set[0]), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{v}");
+    let mut cancelled = Vec::new();
+    wait_for(&mut rx, "image_finished", Duration::from_secs(60), |name, e| {
+        if name == "image_finished" && set.contains(&e["image_id"].as_i64().unwrap_or(0)) {
+            assert_eq!(e["state"], "cancelled", "{e}");
+            cancelled.push(e["image_id"].as_i64().unwrap());
+        }
+        cancelled.len() == 2
+    })
+    .await;
+    d.stop().await;
+}

@@ -226,9 +226,22 @@ impl LabHandle {
             )));
         }
         let (white, source) = self.cielab_white(&a_info.scene).await?;
-        tokio::task::spawn_blocking(move || crate::compare::image_map::delta_e_map(&a, id, &b, against, white, source))
-            .await
-            .map_err(|e| LabError::Internal(e.to_string()))?
+        tokio::task::spawn_blocking(move || {
+            let map = crate::compare::image_map::delta_e_map(&a, id, &b, against, white, source)?;
+            // One set's coding against its reference: the paired noise.
+            let reference = a.set().reference;
+            let other = if b.index() == reference { a.index() } else { b.index() };
+            Ok(
+                if a.same_set(&b) && other != reference && (a.index() == reference || b.index() == reference) {
+                    let d = a.set().difference(other, white);
+                    map.with_paired(&d)
+                } else {
+                    map
+                },
+            )
+        })
+        .await
+        .map_err(|e| LabError::Internal(e.to_string()))?
     }
 
     /// That ΔE00 map as a false-colour PNG (viridis from 0 to its

@@ -26,16 +26,28 @@ fn images(state: &AppState) -> Result<&ImageJobs, ApiError> {
 
 #[derive(Serialize, ToSchema)]
 pub struct ImageAccepted {
+    /// The image of `coding`, or of the reference of `codings`.
     pub image_id: i64,
     pub url: String,
-    /// True when an image of this render with the same settings already
-    /// existed (queued, running or complete) and is the one answered.
+    /// One per coding asked for, in the request's order.
+    pub images: Vec<AcceptedImage>,
+    /// True when images of this render with the same settings already
+    /// existed (queued, running or complete) and are the ones answered.
     pub reused: bool,
 }
 
-/// Queues a camera image of a render in one coding (202), or answers the
-/// image already made with the same settings. Limits: see `lab::render::images`
-/// (400 naming the field and the limit).
+#[derive(Serialize, ToSchema)]
+pub struct AcceptedImage {
+    pub coding: String,
+    pub image_id: i64,
+    pub url: String,
+}
+
+/// Queues camera images of a render (202): in one `coding`, or in several
+/// `codings` rendered from the same paths (an image each, compared with
+/// the `reference`); or answers the images already made with the same
+/// settings. Limits: see `lab::render::images` (400 naming the field and
+/// the limit).
 #[utoipa::path(post, path = "/renders/{id}/images", tag = "images", params(("id" = i64, Path)),
     request_body = ImageRequest,
     responses((status = 202, body = ImageAccepted), (status = 400, body = ErrorBody),
@@ -48,13 +60,23 @@ pub async fn start_image(
     Path(id): Path<i64>,
     Input(body): Input<ImageRequest>,
 ) -> Result<(StatusCode, Json<ImageAccepted>), ApiError> {
-    let (image_id, reused) = state.lab.renders()?.start_image(id, body).await?;
+    let admitted = state.lab.renders()?.start_image(id, body).await?;
+    let image_id = admitted.reference_id;
     Ok((
         StatusCode::ACCEPTED,
         Json(ImageAccepted {
             image_id,
             url: format!("/api/images/{image_id}"),
-            reused,
+            images: admitted
+                .images
+                .into_iter()
+                .map(|(coding, image_id)| AcceptedImage {
+                    coding,
+                    image_id,
+                    url: format!("/api/images/{image_id}"),
+                })
+                .collect(),
+            reused: admitted.reused,
         }),
     ))
 }

@@ -6,6 +6,12 @@
 //! ([`lightbooth_science::display::stimulus_files::viridis`], 11 stops) from 0
 //! to the maximum rounded up to 1, 2, 2.5 or 5 × 10ᵏ. The HTTP layer only
 //! encodes it as JSON or as a PNG.
+//!
+//! When the two images were rendered from the same paths and one is their
+//! set's reference, the map also carries the noise of the paired
+//! difference ([`PairedNoise`], `CameraImages::difference`): far below
+//! either image's own noise where the codings agree. Otherwise each
+//! image's own noise adds to ΔE00, and `noise` says so.
 
 use lightbooth_render::camera::{CameraImage, X, Y, Z};
 use lightbooth_science::colorimetry::{ciede2000, Lab, Xyz};
@@ -36,6 +42,41 @@ pub struct DeltaEMap {
     pub stops: Vec<[u8; 3]>,
     /// ΔE00 per pixel, rows top to bottom.
     pub values: Vec<f32>,
+    /// The paired difference's noise, when the two images are one set's
+    /// coding and its reference (rendered from the same paths).
+    pub paired: Option<PairedNoise>,
+    /// What the noise of these numbers is, in words.
+    pub noise: String,
+}
+
+/// The noise of a ΔE00 map between a coding and its set's reference,
+/// rendered from the same paths (`lightbooth_render::camera::PairedDifference`).
+#[derive(Clone, Debug, serde::Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct PairedNoise {
+    /// The standard error of the mean ΔE00 from the paired paths.
+    pub se_mean: f64,
+    /// The RMS over pixels of the ΔE00 the paths' noise alone puts between
+    /// the two images (paired), and what it would be from independent paths.
+    pub noise_paired: f64,
+    pub noise_independent: f64,
+}
+
+impl DeltaEMap {
+    /// Adds the paired difference's noise (`d` of this map's two images).
+    pub fn with_paired(mut self, d: &lightbooth_render::camera::PairedDifference) -> DeltaEMap {
+        self.noise = format!(
+            "rendered from the same paths: the paths' noise alone puts an RMS ΔE00 of {:.3} between them \
+             ({:.3} had they been rendered from independent paths); the mean ΔE00's standard error is {:.3}",
+            d.noise_paired, d.noise_independent, d.se_mean
+        );
+        self.paired = Some(PairedNoise {
+            se_mean: d.se_mean,
+            noise_paired: d.noise_paired,
+            noise_independent: d.noise_independent,
+        });
+        self
+    }
 }
 
 /// ΔE00 per pixel between `a` and `b` (same size) with the white `white`.
@@ -85,6 +126,10 @@ pub fn delta_e_map(
         colour_map: "viridis",
         stops: VIRIDIS.to_vec(),
         values,
+        paired: None,
+        noise: "rendered from independent paths: each image's own noise adds to ΔE00 \
+                (ask for both codings in one request, `codings`, to render them from the same paths)"
+            .into(),
     })
 }
 

@@ -1,7 +1,13 @@
 //! Camera images of a render, as the daemon runs them: the scene's camera
 //! view rendered by the measuring camera ([`lightbooth_render::camera`]) in one
-//! coding, with every channel's mean and standard error plus XYZ and LMS,
-//! for the dashboard's image viewer and for downloads.
+//! coding or several, with every channel's mean and standard error plus XYZ
+//! and LMS, for the dashboard's image viewer and for downloads.
+//!
+//! - A request names one `coding` or a list of `codings`: a list is one job
+//!   that renders every coding **from the same paths** (a *set*), each
+//!   coding an image with its own id, the last (or `reference`) the one the
+//!   others are compared with. Their ΔE00 map then carries the paired
+//!   difference's own noise ([`ImageRef::set`], `compare::image_map`).
 //!
 //! - An image belongs to a render: it uses the render's scene (the file
 //!   must still hash to the render's `scene_hash`, else 409), its bounces,
@@ -45,7 +51,9 @@ use crate::download::{Download, FileFormat};
 use crate::error::LabError;
 use crate::events::{Event, EventSink};
 use crate::jobs;
-use lightbooth_render::camera::{render_camera_image, CameraImage, CameraProgress, CameraSettings, StopReason};
+use lightbooth_render::camera::{
+    render_camera_images, CameraImage, CameraImages, CameraProgress, CameraSettings, StopReason,
+};
 use lightbooth_render::integrator::Transport;
 use lightbooth_render::scene::Camera;
 use lightbooth_render::{Coding, RenderError, Scene};
@@ -78,8 +86,17 @@ pub const IDS_PER_RUN: i64 = 1_000_000_000;
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ImageRequest {
-    /// `rgb`, `srgb`, `nstepN` or `spectral`.
-    pub coding: String,
+    /// `rgb`, `srgb`, `nstepN` or `spectral` (or give `codings`).
+    pub coding: Option<String>,
+    /// Several codings rendered from the same paths, an image each (up to
+    /// [`MAX_SET_CODINGS`], no coding twice); give this or `coding`.
+    pub codings: Option<Vec<String>>,
+    /// The coding of `codings` the others are compared with, and whose
+    /// SE(Y) stops a pixel; default the last.
+    pub reference: Option<String>,
+    /// Stop a pixel only when every coding's SE(Y) meets
+    /// `target_relative_se`, not only the reference's (default false).
+    pub se_every_coding: Option<bool>,
     /// Pixels across, 8 up to the scene camera's width (height keeps the
     /// camera's aspect); default 96 (or the camera's width when smaller).
     pub width: Option<u32>,
@@ -98,7 +115,13 @@ pub struct ImageRequest {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct ImageSettings {
+    /// This image's coding.
     pub coding: String,
+    /// Every coding rendered from the same paths as this one (this one
+    /// included), in the request's order, and their reference.
+    pub codings: Vec<String>,
+    pub reference: String,
+    pub se_every_coding: bool,
     pub width: u32,
     pub height: u32,
     pub min_spp: u32,
@@ -123,6 +146,11 @@ pub struct ImageInfo {
     pub state: String,
     pub error: Option<String>,
     pub settings: ImageSettings,
+    /// The ids of the images rendered from the same paths (this one
+    /// included), in `settings.codings`' order.
+    pub set: Vec<i64>,
+    /// The image of the set the others are compared with.
+    pub reference_id: i64,
     /// The observer of its XYZ (and of every x,y, CIELAB and ΔE drawn from it).
     pub observer: String,
     /// The coding's colour in every chart and page (`charts::CODING_STYLES`), `#rrggbb`.
@@ -149,15 +177,64 @@ pub struct ImageInfo {
 
 struct Entry {
     info: ImageInfo,
-    image: Option<Arc<CameraImage>>,
+    image: Option<ImageRef>,
+    /// Shared by the images of a set: cancelling one cancels the set.
     cancel: CancellationToken,
     /// Finish order of complete images, for forgetting the oldest.
     finished_seq: u64,
 }
 
-/// An admitted image, as the worker receives it.
+/// One complete image: its coding's image in the set it was rendered
+/// with. Dereferences to the [`CameraImage`].
+#[derive(Clone)]
+pub struct ImageRef {
+    set: Arc<CameraImages>,
+    index: usize,
+}
+
+impl ImageRef {
+    /// Every coding rendered from the same paths, and the paired moments.
+    pub fn set(&self) -> &CameraImages {
+        &self.set
+    }
+
+    /// Which of the set's images this is.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// True when `other` was rendered from the same paths as this.
+    pub fn same_set(&self, other: &ImageRef) -> bool {
+        Arc::ptr_eq(&self.set, &other.set)
+    }
+}
+
+impl std::ops::Deref for ImageRef {
+    type Target = CameraImage;
+    fn deref(&self) -> &CameraImage {
+        &self.set.images[self.index]
+    }
+}
+
+/// What `POST /api/renders/{id}/images` admitted.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ImagesAdmitted {
+    /// (coding, image id) per coding, in the request's order.
+    pub images: Vec<(String, i64)>,
+    /// The image the others are compared with.
+    pub reference_id: i64,
+    /// True when images of this render with the same settings already
+    /// existed (queued, running or complete) and are the ones answered.
+    pub reused: bool,
+}
+
+/// Codings one request may render from the same paths.
+pub const MAX_SET_CODINGS: usize = 8;
+
+/// An admitted set of images, as the worker receives it.
 pub struct ImageWork {
-    pub id: i64,
+    /// One id per coding, in `settings.codings`' order.
+    pub ids: Vec<i64>,
     pub scene: Arc<Scene>,
     pub camera: Camera,
     pub settings: CameraSettings,
@@ -297,11 +374,11 @@ impl ImageJobs {
     }
 
     /// A complete image's data; 404 for an unknown id, 409 before it is complete.
-    pub fn data(&self, id: i64) -> Result<(ImageInfo, Arc<CameraImage>), LabError> {
+    pub fn data(&self, id: i64) -> Result<(ImageInfo, ImageRef), LabError> {
         let entries = self.lock();
         let e = entries.get(&id).ok_or_else(|| self.missing(id))?;
         match &e.image {
-            Some(img) => Ok((e.info.clone(), Arc::clone(img))),
+            Some(img) => Ok((e.info.clone(), img.clone())),
             None => Err(LabError::Conflict(format!(
                 "image {id} is {}{}; its pixels exist once it is complete",
                 e.info.state,
@@ -310,24 +387,32 @@ impl ImageJobs {
         }
     }
 
-    /// Admits an image: the same render and settings give the image already
-    /// queued, running or complete (`reused` true); otherwise a slot is
-    /// reserved (409 when full) and the image queued.
+    /// Admits a set of images (one per coding of `settings`, rendered from
+    /// the same paths): the same render and settings give the images
+    /// already queued, running or complete (`reused` true); otherwise a
+    /// slot is reserved (409 when full) and the set queued. The ids, in
+    /// `settings`' order.
     pub fn enqueue(
         &self,
         render_id: i64,
         scene_id: &str,
         observer: Observer,
-        settings: ImageSettings,
-        work: impl FnOnce(i64) -> ImageWork,
-    ) -> Result<(i64, bool), LabError> {
+        settings: Vec<ImageSettings>,
+        work: impl FnOnce(Vec<i64>) -> ImageWork,
+    ) -> Result<(Vec<i64>, bool), LabError> {
         let mut entries = self.lock();
-        if let Some(e) = entries.values().find(|e| {
-            e.info.render_id == render_id
-                && e.info.settings == settings
-                && matches!(e.info.state.as_str(), "queued" | "running" | "complete")
-        }) {
-            return Ok((e.info.id, true));
+        let found: Vec<Option<&Entry>> = settings
+            .iter()
+            .map(|s| {
+                entries.values().find(|e| {
+                    e.info.render_id == render_id
+                        && e.info.settings == *s
+                        && matches!(e.info.state.as_str(), "queued" | "running" | "complete")
+                })
+            })
+            .collect();
+        if found.iter().all(Option::is_some) {
+            return Ok((found.into_iter().flatten().map(|e| e.info.id).collect(), true));
         }
         let sender = self
             .sender
@@ -342,53 +427,70 @@ impl ImageJobs {
             )),
             mpsc::error::TrySendError::Closed(()) => LabError::Unavailable("the daemon is shutting down".into()),
         })?;
-        let id = {
+        let ids: Vec<i64> = {
             let mut next = self.next_id.lock().unwrap_or_else(|p| p.into_inner());
-            next.0 += 1;
-            next.0 - 1
+            let first = next.0;
+            next.0 += settings.len() as i64;
+            (first..next.0).collect()
         };
-        let work = work(id);
-        let coding = work.settings.codings[0];
-        entries.insert(
-            id,
-            Entry {
-                info: ImageInfo {
-                    id,
-                    render_id,
-                    scene: scene_id.to_string(),
-                    state: "queued".into(),
-                    error: None,
-                    settings,
-                    observer: observer.to_string(),
-                    colour: crate::charts::coding_colour_hex(&coding.to_string()).unwrap_or_else(|| "#000000".into()),
-                    progress: None,
-                    quantities: Vec::new(),
-                    wavelengths_nm: None,
-                    passes: None,
-                    paths: None,
-                    elapsed_seconds: None,
-                    stop: None,
-                    display_log_average_cd_m2: None,
+        let reference_id = settings
+            .iter()
+            .zip(&ids)
+            .find(|(s, _)| s.coding == s.reference)
+            .map_or(ids[ids.len() - 1], |(_, id)| *id);
+        let cancel = CancellationToken::new();
+        for (s, &id) in settings.into_iter().zip(&ids) {
+            entries.insert(
+                id,
+                Entry {
+                    info: ImageInfo {
+                        id,
+                        render_id,
+                        scene: scene_id.to_string(),
+                        state: "queued".into(),
+                        error: None,
+                        colour: crate::charts::coding_colour_hex(&s.coding).unwrap_or_else(|| "#000000".into()),
+                        settings: s,
+                        set: ids.clone(),
+                        reference_id,
+                        observer: observer.to_string(),
+                        progress: None,
+                        quantities: Vec::new(),
+                        wavelengths_nm: None,
+                        passes: None,
+                        paths: None,
+                        elapsed_seconds: None,
+                        stop: None,
+                        display_log_average_cd_m2: None,
+                    },
+                    image: None,
+                    cancel: cancel.clone(),
+                    finished_seq: 0,
                 },
-                image: None,
-                cancel: CancellationToken::new(),
-                finished_seq: 0,
-            },
-        );
+            );
+        }
+        let work = work(ids.clone());
+        let codings: Vec<String> = work.settings.codings.iter().map(|c| c.to_string()).collect();
         permit.send(work);
-        tracing::info!(image_id = id, render_id, coding = %coding, "image queued");
-        Ok((id, false))
+        tracing::info!(image_ids = ?ids, render_id, codings = codings.join(","), "images queued");
+        Ok((ids, false))
     }
 
-    /// Cancels a queued or running image (409 once it has ended).
+    /// Cancels a queued or running image, and the images rendered with it
+    /// from the same paths (409 once it has ended).
     pub fn cancel(&self, id: i64) -> Result<ImageInfo, LabError> {
         let mut entries = self.lock();
-        let e = entries.get_mut(&id).ok_or_else(|| self.missing(id))?;
-        match e.info.state.as_str() {
+        let e = entries.get(&id).ok_or_else(|| self.missing(id))?;
+        let (state, set) = (e.info.state.clone(), e.info.set.clone());
+        match state.as_str() {
             "queued" => {
                 e.cancel.cancel();
-                e.info.state = "cancelled".into();
-                e.info.error = Some("cancelled by a client before it started".into());
+                for member in &set {
+                    if let Some(m) = entries.get_mut(member) {
+                        m.info.state = "cancelled".into();
+                        m.info.error = Some("cancelled by a client before it started".into());
+                    }
+                }
             }
             "running" => e.cancel.cancel(),
             other => {
@@ -397,7 +499,7 @@ impl ImageJobs {
                 )))
             }
         }
-        Ok(e.info.clone())
+        Ok(entries[&id].info.clone())
     }
 
     /// Refuses new images and cancels every admitted one.
@@ -421,136 +523,206 @@ impl ImageJobs {
     }
 
     async fn run_one(self: &Arc<Self>, work: ImageWork) {
-        let id = work.id;
+        let ids = work.ids.clone();
         let (cancel, render_id) = {
             let mut entries = self.lock();
-            let Some(e) = entries.get_mut(&id) else { return };
+            let Some(e) = entries.get(&ids[0]) else { return };
             if e.info.state != "queued" {
                 return; // cancelled while queued
             }
-            if e.cancel.is_cancelled() {
-                e.info.state = "cancelled".into();
-                e.info.error = Some("the daemon shut down before this image ran".into());
+            let (cancel, render_id) = (e.cancel.clone(), e.info.render_id);
+            let (state, error) = if cancel.is_cancelled() {
+                (
+                    "cancelled",
+                    Some("the daemon shut down before this image ran".to_string()),
+                )
+            } else {
+                ("running", None)
+            };
+            for id in &ids {
+                if let Some(e) = entries.get_mut(id) {
+                    e.info.state = state.into();
+                    e.info.error = error.clone();
+                }
+            }
+            if cancel.is_cancelled() {
                 return;
             }
-            e.info.state = "running".into();
-            (e.cancel.clone(), e.info.render_id)
+            (cancel, render_id)
         };
-        tracing::info!(image_id = id, render_id, "image started");
+        tracing::info!(image_ids = ?ids, render_id, "images started");
+        let outcome = self.render_here(work, render_id, cancel.clone()).await;
+        let outcome = match outcome {
+            Ok(images) if !cancel.is_cancelled() => Ok(images),
+            Ok(_) | Err(None) => Err(None),
+            Err(Some(e)) => Err(Some(e)),
+        };
+        self.finish(&ids, render_id, outcome);
+    }
+
+    /// Renders a set in this daemon, on the global rayon pool; `Err(None)`
+    /// when cancelled.
+    async fn render_here(
+        self: &Arc<Self>,
+        work: ImageWork,
+        render_id: i64,
+        cancel: CancellationToken,
+    ) -> Result<CameraImages, Option<String>> {
         let (tx, rx) = tokio::sync::oneshot::channel();
         let this = Arc::clone(self);
-        let flag = cancel.clone();
         rayon::spawn(move || {
+            let id = work.ids[0];
             let caught = catch_unwind(AssertUnwindSafe(|| {
                 if jobs::test_panic_requested(&this.scene_of(id)) {
                     jobs::panic_on_the_pool(&this.scene_of(id));
                 }
-                let progress = |p: CameraProgress| this.progress(id, render_id, p);
-                render_camera_image(&work.scene, &work.camera, &work.settings, Some(&progress), Some(&flag))
+                let progress = |p: CameraProgress| this.progress(&work.ids, render_id, p);
+                render_camera_images(
+                    &work.scene,
+                    &work.camera,
+                    &work.settings,
+                    Some(&progress),
+                    Some(&cancel),
+                )
             }))
             .map_err(|panic| format!("the renderer panicked: {}", jobs::panic_message(&*panic)));
             let _ = tx.send(caught);
         });
-        let outcome = match rx.await {
-            Ok(Ok(Ok(img))) if !cancel.is_cancelled() => Ok(img),
-            Ok(Ok(Err(RenderError::Cancelled))) | Ok(Ok(Ok(_))) => Err(None),
+        match rx.await {
+            Ok(Ok(Ok(images))) => Ok(images),
+            Ok(Ok(Err(RenderError::Cancelled))) => Err(None),
             Ok(Ok(Err(e))) => Err(Some(e.to_string())),
             Ok(Err(panic)) => Err(Some(panic)),
             Err(_) => Err(Some("the image's worker ended without an answer".into())),
-        };
-        let (state, error) = {
+        }
+    }
+
+    /// Records how a set ended (its images, or why not) and announces it.
+    fn finish(&self, ids: &[i64], render_id: i64, outcome: Result<CameraImages, Option<String>>) {
+        // The display tone map's scale per image, before taking the lock.
+        let outcome = outcome.map(|set| {
+            let scales: Vec<f64> = set.images.iter().map(|i| i.to_srgb().log_average_luminance()).collect();
+            (Arc::new(set), scales)
+        });
+        let ended = {
             let mut entries = self.lock();
             let seq = {
                 let mut next = self.next_id.lock().unwrap_or_else(|p| p.into_inner());
                 next.1 += 1;
                 next.1
             };
-            let Some(e) = entries.get_mut(&id) else { return };
-            match outcome {
-                Ok(img) => {
-                    e.info.state = "complete".into();
-                    e.info.passes = Some(img.passes);
-                    e.info.paths = Some(img.paths);
-                    e.info.elapsed_seconds = Some(img.elapsed_seconds);
-                    e.info.stop = Some(img.stop);
-                    e.info.display_log_average_cd_m2 = Some(img.to_srgb().log_average_luminance());
-                    e.info.quantities = crate::export::image::quantity_names(&img);
-                    e.info.wavelengths_nm = img.quantities.wavelengths_nm.clone();
-                    e.image = Some(Arc::new(img));
-                    e.finished_seq = seq;
+            let mut ended = Vec::new();
+            for (index, id) in ids.iter().enumerate() {
+                let Some(e) = entries.get_mut(id) else { continue };
+                match &outcome {
+                    Ok((set, scales)) => {
+                        let img = &set.images[index];
+                        e.info.state = "complete".into();
+                        e.info.passes = Some(img.passes);
+                        e.info.paths = Some(img.paths);
+                        e.info.elapsed_seconds = Some(img.elapsed_seconds);
+                        e.info.stop = Some(img.stop);
+                        e.info.display_log_average_cd_m2 = Some(scales[index]);
+                        e.info.quantities = crate::export::image::quantity_names(img);
+                        e.info.wavelengths_nm = img.quantities.wavelengths_nm.clone();
+                        e.image = Some(ImageRef {
+                            set: Arc::clone(set),
+                            index,
+                        });
+                        e.finished_seq = seq;
+                    }
+                    Err(None) => {
+                        e.info.state = "cancelled".into();
+                        e.info.error = Some("cancelled".into());
+                    }
+                    Err(Some(message)) => {
+                        e.info.state = "failed".into();
+                        e.info.error = Some(message.clone());
+                    }
                 }
-                Err(None) => {
-                    e.info.state = "cancelled".into();
-                    e.info.error = Some("cancelled".into());
-                }
-                Err(Some(message)) => {
-                    e.info.state = "failed".into();
-                    e.info.error = Some(message);
-                }
+                ended.push((*id, e.info.state.clone(), e.info.error.clone()));
             }
-            let out = (e.info.state.clone(), e.info.error.clone());
             forget_oldest(&mut entries);
-            out
+            ended
         };
-        tracing::info!(image_id = id, render_id, state, "image ended");
-        self.events.send(Event::ImageFinished {
-            image_id: id,
-            render_id,
-            state,
-            error,
-        });
+        for (image_id, state, error) in ended {
+            tracing::info!(image_id, render_id, state, "image ended");
+            self.events.send(Event::ImageFinished {
+                image_id,
+                render_id,
+                state,
+                error,
+            });
+        }
     }
 
     fn scene_of(&self, id: i64) -> String {
         self.lock().get(&id).map(|e| e.info.scene.clone()).unwrap_or_default()
     }
 
-    fn progress(&self, id: i64, render_id: i64, p: CameraProgress) {
+    fn progress(&self, ids: &[i64], render_id: i64, p: CameraProgress) {
         let mut budget = None;
-        if let Some(e) = self.lock().get_mut(&id) {
-            e.info.progress = Some(p);
-            budget = Some(e.info.settings.time_budget_s);
+        {
+            let mut entries = self.lock();
+            for id in ids {
+                if let Some(e) = entries.get_mut(id) {
+                    e.info.progress = Some(p);
+                    budget = Some(e.info.settings.time_budget_s);
+                }
+            }
         }
         let (seconds_left, estimate) = match budget {
             Some(b) => crate::progress::image_time_left(&p, b),
             None => (None, String::new()),
         };
-        self.events.send(Event::ImageProgress {
-            seconds_left,
-            estimate,
-            image_id: id,
-            render_id,
-            pass: p.pass,
-            pixels_done: p.pixels_done,
-            pixels: p.pixels,
-            paths: p.paths,
-            max_paths: p.max_paths,
-            elapsed_seconds: p.elapsed_seconds,
-        });
+        for &image_id in ids {
+            self.events.send(Event::ImageProgress {
+                seconds_left,
+                estimate: estimate.clone(),
+                image_id,
+                render_id,
+                pass: p.pass,
+                pixels_done: p.pixels_done,
+                pixels: p.pixels,
+                paths: p.paths,
+                max_paths: p.max_paths,
+                elapsed_seconds: p.elapsed_seconds,
+            });
+        }
     }
 }
 
-/// Forgets the oldest complete images until those kept fit [`MAX_KEPT_BYTES`].
+/// Forgets the oldest complete sets until those kept fit [`MAX_KEPT_BYTES`]
+/// (the images of a set share their storage, so they are forgotten together).
 fn forget_oldest(entries: &mut BTreeMap<i64, Entry>) {
-    // Means and squared deviations, f32 each, per pixel and quantity.
+    // Means and squared deviations, f32 each, per pixel and quantity, and
+    // the paired moments (12 f32 per pixel and coding), counted once per set.
     let bytes = |e: &Entry| {
-        e.image
-            .as_ref()
-            .map_or(0, |i| i.width as u64 * i.height as u64 * i.stride() as u64 * 8)
+        e.image.as_ref().map_or(0, |r| {
+            let set = r.set();
+            set.images
+                .iter()
+                .map(|i| i.width as u64 * i.height as u64 * (i.stride() as u64 * 8 + 48))
+                .sum::<u64>()
+        })
     };
-    let mut total: u64 = entries.values().map(bytes).sum();
+    let set_of = |e: &Entry| e.info.set.first().copied().unwrap_or(e.info.id);
+    let mut total: u64 = entries.values().filter(|e| e.info.id == set_of(e)).map(bytes).sum();
     while total > MAX_KEPT_BYTES {
-        let Some((&oldest, _)) = entries
-            .iter()
-            .filter(|(_, e)| e.image.is_some())
-            .min_by_key(|(_, e)| e.finished_seq)
+        let Some(oldest) = entries
+            .values()
+            .filter(|e| e.image.is_some())
+            .min_by_key(|e| e.finished_seq)
+            .map(|e| (e.info.set.clone(), bytes(e)))
         else {
             break;
         };
-        if let Some(e) = entries.remove(&oldest) {
-            total -= bytes(&e);
-            tracing::info!(image_id = oldest, "image forgotten (images kept in memory are bounded)");
+        for id in &oldest.0 {
+            if entries.remove(id).is_some() {
+                tracing::info!(image_id = id, "image forgotten (images kept in memory are bounded)");
+            }
         }
+        total -= oldest.1;
     }
 }
 
@@ -562,17 +734,69 @@ fn not_found(id: i64) -> LabError {
 }
 
 /// The request checked field by field against the limits (see the module
-/// doc) for a scene camera, with the render's transport and seed.
+/// doc) for a scene camera, with the render's transport and seed: the
+/// settings of each image of the set, in the request's coding order, and
+/// their codings.
 pub fn check_request(
     request: &ImageRequest,
     camera: &Camera,
     transport: &Transport,
     seed: u64,
-) -> Result<(ImageSettings, Coding), LabError> {
-    let coding: Coding = request
-        .coding
-        .parse()
-        .map_err(|e| LabError::Invalid(format!("field `coding`: {e}")))?;
+) -> Result<(Vec<ImageSettings>, Vec<Coding>), LabError> {
+    let names: Vec<String> = match (&request.coding, &request.codings) {
+        (Some(c), None) => vec![c.clone()],
+        (None, Some(list)) if !list.is_empty() => list.clone(),
+        (None, Some(_)) => return Err(LabError::Invalid("field `codings`: the list is empty".into())),
+        (Some(_), Some(_)) => {
+            return Err(LabError::Invalid(
+                "fields `coding`, `codings`: give one coding or a list of them, not both".into(),
+            ))
+        }
+        (None, None) => {
+            return Err(LabError::Invalid(
+                "field `coding`: missing (or give `codings`, a list of codings rendered from the same paths)".into(),
+            ))
+        }
+    };
+    let field = if request.codings.is_some() { "codings" } else { "coding" };
+    if names.len() > MAX_SET_CODINGS {
+        return Err(LabError::Invalid(format!(
+            "field `codings`: {} codings; at most {MAX_SET_CODINGS} are rendered from one set of paths",
+            names.len()
+        )));
+    }
+    let mut codings: Vec<Coding> = Vec::with_capacity(names.len());
+    for (i, name) in names.iter().enumerate() {
+        let coding: Coding = name.parse().map_err(|e| {
+            let at = if field == "codings" {
+                format!("[{i}]")
+            } else {
+                String::new()
+            };
+            LabError::Invalid(format!("field `{field}`{at}: {e}"))
+        })?;
+        if codings.contains(&coding) {
+            return Err(LabError::Invalid(format!(
+                "field `codings`[{i}]: {coding} is listed twice"
+            )));
+        }
+        codings.push(coding);
+    }
+    let reference = match &request.reference {
+        None => codings[codings.len() - 1],
+        Some(r) => {
+            let coding: Coding = r
+                .parse()
+                .map_err(|e| LabError::Invalid(format!("field `reference`: {e}")))?;
+            if !codings.contains(&coding) {
+                return Err(LabError::Invalid(format!(
+                    "field `reference`: {coding} is not one of the codings asked for ({})",
+                    names.join(",")
+                )));
+            }
+            coding
+        }
+    };
     let width = request.width.unwrap_or(DEFAULT_WIDTH.min(camera.width));
     if !(8..=camera.width).contains(&width) {
         return Err(LabError::Invalid(format!(
@@ -606,18 +830,23 @@ pub fn check_request(
             "field `time_budget_s`: {time_budget_s} is outside (0, {MAX_TIME_BUDGET_S}] seconds"
         )));
     }
-    let quantities = coding.channels() as u64 + 6;
+    let quantities: u64 = codings.iter().map(|c| c.channels() as u64 + 6).sum();
     let work = width as u64 * height as u64 * max_spp as u64 * quantities;
     if work > MAX_IMAGE_WORK {
         return Err(LabError::Invalid(format!(
-            "fields `width`, `max_spp`, `coding`: width × height × max_spp × quantities = {width} × {height} × \
+            "fields `width`, `max_spp`, `{field}`: width × height × max_spp × quantities = {width} × {height} × \
              {max_spp} × {quantities} = {work} is above the limit {MAX_IMAGE_WORK} (lab::render::images::MAX_IMAGE_WORK); \
-             ask for fewer pixels, fewer paths per pixel or fewer bands"
+             ask for fewer pixels, fewer paths per pixel, fewer codings or fewer bands"
         )));
     }
-    Ok((
-        ImageSettings {
+    let all: Vec<String> = codings.iter().map(|c| c.to_string()).collect();
+    let settings = codings
+        .iter()
+        .map(|coding| ImageSettings {
             coding: coding.to_string(),
+            codings: all.clone(),
+            reference: reference.to_string(),
+            se_every_coding: request.se_every_coding.unwrap_or(false),
             width,
             height,
             min_spp,
@@ -627,27 +856,32 @@ pub fn check_request(
             seed,
             max_bounces: transport.max_bounces,
             russian_roulette_from: transport.russian_roulette_from,
-        },
-        coding,
-    ))
+        })
+        .collect();
+    Ok((settings, codings))
 }
 
-/// The camera settings and the scaled camera of checked settings.
+/// The camera settings and the scaled camera of checked settings (any
+/// image's of the set).
 pub fn camera_settings(
     s: &ImageSettings,
-    coding: Coding,
+    codings: Vec<Coding>,
     camera: &Camera,
     observer: Observer,
-) -> (Camera, CameraSettings) {
+) -> Result<(Camera, CameraSettings), LabError> {
     let mut scaled = camera.clone();
     scaled.width = s.width;
     scaled.height = s.height;
-    (
+    let reference: Coding = s
+        .reference
+        .parse()
+        .map_err(|e| LabError::Internal(format!("a checked reference coding: {e}")))?;
+    Ok((
         scaled,
         CameraSettings {
-            codings: vec![coding],
-            reference: None,
-            se_every_coding: false,
+            codings,
+            reference: Some(reference),
+            se_every_coding: s.se_every_coding,
             observer,
             transport: Transport {
                 max_bounces: s.max_bounces,
@@ -662,5 +896,5 @@ pub fn camera_settings(
             target_relative_se: s.target_relative_se,
             time_budget: Some(Duration::from_secs_f64(s.time_budget_s)),
         },
-    )
+    ))
 }

@@ -13,7 +13,7 @@ use crate::compare::Comparisons;
 use crate::error::LabError;
 use crate::jobs::{JobQueue, Queued};
 use crate::progress::ProgressBoard;
-use crate::render::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork};
+use crate::render::images::{self as camera_images, ImageJobs, ImageRequest, ImageWork, ImagesAdmitted};
 use crate::render::runner::RenderRunner;
 use crate::render::worker_queue::WorkerQueue;
 use crate::requests::{RenderRequest, SceneInfo, StudyRequest};
@@ -241,7 +241,7 @@ impl RenderJobs {
     /// render's scene, which must be the content the render was of, with
     /// the render's transport and seed; the request checked against the
     /// limits first.
-    async fn queue_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), LabError> {
+    async fn queue_image(&self, render_id: i64, request: ImageRequest) -> Result<ImagesAdmitted, LabError> {
         let row = self
             .store
             .get_render(render_id)
@@ -265,17 +265,30 @@ impl RenderJobs {
                 LabError::Conflict(format!("scene `{}` has no [camera]: no image to render", row.scene))
             })?;
         let transport = settings.transport();
-        let (checked, coding) = camera_images::check_request(&request, &camera, &transport, settings.seed)?;
+        let (checked, codings) = camera_images::check_request(&request, &camera, &transport, settings.seed)?;
         let observer = self.runner.observer();
-        let (scaled, camera_settings) = camera_images::camera_settings(&checked, coding, &camera, observer);
+        let (scaled, camera_settings) = camera_images::camera_settings(&checked[0], codings, &camera, observer)?;
         let scene = Arc::clone(&entry.scene);
-        self.images
-            .enqueue(render_id, &row.scene, observer, checked, |id| ImageWork {
-                id,
+        let named: Vec<String> = checked.iter().map(|s| s.coding.clone()).collect();
+        let reference = checked[0].reference.clone();
+        let (ids, reused) = self
+            .images
+            .enqueue(render_id, &row.scene, observer, checked, |ids| ImageWork {
+                ids,
                 scene,
                 camera: scaled,
                 settings: camera_settings,
-            })
+            })?;
+        let reference_id = named
+            .iter()
+            .zip(&ids)
+            .find(|(c, _)| **c == reference)
+            .map_or(ids[ids.len() - 1], |(_, id)| *id);
+        Ok(ImagesAdmitted {
+            images: named.into_iter().zip(ids).collect(),
+            reference_id,
+            reused,
+        })
     }
 }
 
@@ -322,9 +335,10 @@ impl RenderJobs {
         self.retry_job(job, id).await
     }
 
-    /// Queues a camera image of a render (or finds the one already made
-    /// with the same settings): its id and whether it was reused.
-    pub async fn start_image(&self, render_id: i64, request: ImageRequest) -> Result<(i64, bool), LabError> {
+    /// Queues the camera images of a render in one coding or several from
+    /// the same paths (or finds those already made with the same settings):
+    /// their ids and whether they were reused.
+    pub async fn start_image(&self, render_id: i64, request: ImageRequest) -> Result<ImagesAdmitted, LabError> {
         self.queue_image(render_id, request).await
     }
 
@@ -419,14 +433,28 @@ mod tests {
         }
         // Its camera image, once: the same request again is the same image.
         let image = ImageRequest {
-            coding: "srgb".into(),
+            coding: Some("srgb".into()),
             width: Some(8),
             max_spp: Some(8),
             ..ImageRequest::default()
         };
-        let (first, reused) = jobs.start_image(id, image.clone()).await.unwrap();
-        assert!(!reused);
-        assert_eq!(jobs.start_image(id, image).await.unwrap(), (first, true));
+        let first = jobs.start_image(id, image.clone()).await.unwrap();
+        assert!(!first.reused);
+        let again = jobs.start_image(id, image).await.unwrap();
+        assert!(again.reused);
+        assert_eq!(again.images, first.images);
+        // A set of codings is a new job, an image per coding, the last the reference.
+        let set = ImageRequest {
+            codings: Some(vec!["srgb".into(), "nstep9".into()]),
+            width: Some(8),
+            max_spp: Some(8),
+            ..ImageRequest::default()
+        };
+        let admitted = jobs.start_image(id, set).await.unwrap();
+        assert!(!admitted.reused);
+        assert_eq!(admitted.images.len(), 2);
+        assert_ne!(admitted.images[0].1, first.images[0].1);
+        assert_eq!(admitted.reference_id, admitted.images[1].1);
 
         jobs.shutdown();
         worker.await.unwrap();
