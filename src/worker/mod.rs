@@ -17,6 +17,9 @@
 //!   distinct configuration, kept for the next job. It builds no job queue,
 //!   no camera images and no simulated instrument, and sends no events (the
 //!   daemon that asked reports a job's end when it sees it in the store).
+//! - An `image` job is a batch of a camera image's paths
+//!   ([`ImageBatch`]): rendered with the daemon's published scenes, its
+//!   moments left on its `image_batches` row for the daemon to merge.
 //! - One job at a time, on the rayon pool (all cores). A job asked to stop
 //!   (`POST /api/renders/{id}/cancel` on its daemon) is cancelled within a
 //!   poll; at shutdown the running job is cancelled and marked stopped, and
@@ -37,6 +40,7 @@ use sha2::{Digest, Sha256};
 use crate::lab::assemble::{parse_codings, RenderSide, RenderSideSettings};
 use crate::lab::events::EventSink;
 use crate::lab::lease::Lease;
+use crate::lab::render::image_batches::ImageBatch;
 use crate::lab::render::worker_queue::{ComparisonPayload, RenderConfig};
 use crate::lab::scenes::SceneCatalog;
 use crate::render::bundle::SceneBundle;
@@ -255,6 +259,25 @@ impl Worker {
                     .await
                     .map_err(|e| e.to_string())?;
                 self.subject_ended_well("renders", job.subject_id).await
+            }
+            WorkerJobKind::Image => {
+                let batch: ImageBatch = serde_json::from_value(job.payload.clone())
+                    .map_err(|e| format!("image job {}: its payload: {e}", job.id))?;
+                let catalogue = Arc::clone(renderer.runner.catalogue());
+                let flag = cancel.clone();
+                let bytes = tokio::task::spawn_blocking(move || batch.render(&catalogue, &flag))
+                    .await
+                    .map_err(|e| format!("image job {}: {e}", job.id))??;
+                if self
+                    .store
+                    .put_image_batch_moments(job.subject_id, &bytes)
+                    .await
+                    .map_err(|e| e.to_string())?
+                {
+                    Ok(())
+                } else {
+                    Err("the daemon that asked for this image gave it up (its batch row is gone)".into())
+                }
             }
             WorkerJobKind::Study => {
                 renderer

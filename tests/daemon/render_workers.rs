@@ -281,3 +281,196 @@ fn workers_on_an_sqlite_file_are_refused_with_what_to_do() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("`elsewhere` is neither `here`"), "{err}");
 }
+
+/// Issue 48, part 1: a camera image set asked of a booth that leaves its
+/// renders to workers is cut into batches of paths that two workers
+/// render, and merged. The images are the ones one machine renders from
+/// the same paths (rendered here in the test process from the repository's
+/// scene file, with the image's own settings: the same means within f32
+/// rounding, the same standard errors within 0.1 %), both workers took
+/// batches, and no batch row is left in the database.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_image_on_two_workers_is_merged_into_one_machines_render_of_the_same_paths() {
+    use lightbooth::render::camera::{render_camera_images, CameraSettings};
+    use sqlx::Connection;
+
+    let db = common::fresh_postgres_database().await;
+    let booth = Daemon::start_for_workers(0.0, &db, "north").await;
+    let first = booths::spawn_worker(&db, 2.0, 10.0).await;
+    let second = booths::spawn_worker(&db, 2.0, 10.0).await;
+    let (status, r) = post_json(booth.addr, "/api/scenes/white/renders", TOKEN, r#"{"samples":64}"#).await;
+    assert_eq!(status, 202, "{r}");
+    let render = r["render_id"].as_i64().unwrap();
+    let row = poll_until(
+        booth.addr,
+        &format!("/api/renders/{render}"),
+        Duration::from_secs(300),
+        |r| r["state"] != "queued" && r["state"] != "running",
+    )
+    .await;
+    assert_eq!(row["state"], "complete", "{row}");
+
+    let mut events = common::events(booth.addr).await;
+    let body = r#"{"codings":["rgb","nstep9"],"width":96,"min_spp":32,"max_spp":512}"#;
+    let (status, v) = post_json(booth.addr, &format!("/api/renders/{render}/images"), TOKEN, body).await;
+    assert_eq!(status, 202, "{v}");
+    let ids: Vec<i64> = v["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["image_id"].as_i64().unwrap())
+        .collect();
+    let mut ended = Vec::new();
+    common::wait_for(&mut events, "image_finished", Duration::from_secs(300), |name, e| {
+        if name == "image_finished" && ids.contains(&e["image_id"].as_i64().unwrap_or(0)) {
+            assert_eq!(e["state"], "complete", "{e}");
+            ended.push(e.clone());
+        }
+        ended.len() == 2
+    })
+    .await;
+
+    let mut conn = sqlx::PgConnection::connect(&db).await.unwrap();
+    let jobs: Vec<(Option<i64>, String)> =
+        sqlx::query_as("SELECT worker_id, state FROM worker_jobs WHERE kind = 'image' ORDER BY id")
+            .fetch_all(&mut conn)
+            .await
+            .unwrap();
+    assert_eq!(jobs.len(), 16, "512 paths in passes of 32: 16 batches: {jobs:?}");
+    assert!(jobs.iter().all(|(_, s)| s == "done"), "{jobs:?}");
+    let by = |w: i64| jobs.iter().filter(|(id, _)| *id == Some(w)).count();
+    println!(
+        "batches: {} on worker {}, {} on worker {}",
+        by(first.id),
+        first.id,
+        by(second.id),
+        second.id
+    );
+    assert!(
+        by(first.id) > 0 && by(second.id) > 0,
+        "both workers render batches: {jobs:?}"
+    );
+    let left: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM image_batches")
+        .fetch_one(&mut conn)
+        .await
+        .unwrap();
+    assert_eq!(left, 0, "merged batches leave no row");
+
+    // One machine's render of the same paths, here.
+    let (_, info) = get_json(booth.addr, &format!("/api/images/{}", ids[1])).await;
+    let s = &info["settings"];
+    let scene = lightbooth::render::load_scene(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/white.toml"
+    )))
+    .unwrap();
+    let mut camera = scene.camera.clone().unwrap();
+    camera.width = s["width"].as_u64().unwrap() as u32;
+    camera.height = s["height"].as_u64().unwrap() as u32;
+    let settings = CameraSettings {
+        codings: vec!["rgb".parse().unwrap(), "nstep9".parse().unwrap()],
+        reference: Some("nstep9".parse().unwrap()),
+        se_every_coding: false,
+        observer: serde_json::from_value(info["observer"].clone()).unwrap(),
+        transport: lightbooth::render::integrator::Transport {
+            max_bounces: serde_json::from_value(s["max_bounces"].clone()).unwrap(),
+            russian_roulette_from: serde_json::from_value(s["russian_roulette_from"].clone()).unwrap(),
+            light_sampler: Default::default(),
+        },
+        seed: s["seed"].as_u64().unwrap(),
+        min_spp: 32,
+        first_sample: 0,
+        max_spp: 512,
+        target_relative_se: None,
+        time_budget: None,
+    };
+    let here =
+        tokio::task::spawn_blocking(move || render_camera_images(&scene, &camera, &settings, None, None).unwrap())
+            .await
+            .unwrap();
+    let (status, exr_bytes) = common::request(
+        booth.addr,
+        "GET",
+        &format!("/api/images/{}/image.exr", ids[1]),
+        None,
+        None,
+    )
+    .await;
+    assert_eq!(status, 200);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("image.exr");
+    std::fs::write(&path, &exr_bytes).unwrap();
+    let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+    let channel = |name: &str| -> Vec<f32> {
+        let c = read.layer_data[0]
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .unwrap_or_else(|| panic!("no channel {name}"));
+        match &c.sample_data {
+            exr::prelude::FlatSamples::F32(v) => v.clone(),
+            other => panic!("{name}: not f32: {other:?}"),
+        }
+    };
+    let mine = &here.images[1];
+    let k = mine.xyz_index() + lightbooth::render::camera::Y;
+    let (y, se) = (channel("Y"), channel("SE.Y"));
+    let (mut worst_mean, mut worst_se) = (0.0f64, 0.0f64);
+    for (p, (m, e)) in mine.plane(k).iter().zip(mine.se_plane(k)).enumerate() {
+        let scale = (m.abs() as f64).max(1e-3);
+        worst_mean = worst_mean.max((y[p] - m).abs() as f64 / scale);
+        worst_se = worst_se.max((se[p] - e).abs() as f64 / (e as f64).max(1e-4 * scale));
+    }
+    println!(
+        "merged on workers against one machine: Y within {worst_mean:.1e}, SE(Y) within {worst_se:.1e} (relative)"
+    );
+    assert!(worst_mean < 1e-5, "Y differs by {worst_mean} (relative)");
+    assert!(worst_se < 1e-3, "SE(Y) differs by {worst_se} (relative)");
+
+    // Cancelled while its batches wait or run: the image ends cancelled,
+    // its jobs end and no batch row is left.
+    let body = r#"{"coding":"nstep3","width":96,"min_spp":1,"max_spp":4096}"#;
+    let (status, v) = post_json(booth.addr, &format!("/api/renders/{render}/images"), TOKEN, body).await;
+    assert_eq!(status, 202, "{v}");
+    let id = v["image_id"].as_i64().unwrap();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+    while sqlx::query_scalar::<_, i64>("SELECT COUNT(*) FROM worker_jobs WHERE kind = 'image' AND state = 'running'")
+        .fetch_one(&mut conn)
+        .await
+        .unwrap()
+        == 0
+    {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "no batch of the long image started"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let (status, v) = post_json(booth.addr, &format!("/api/images/{id}/cancel"), TOKEN, "{}").await;
+    assert_eq!(status, 202, "{v}");
+    let end = common::wait_for(&mut events, "image_finished", Duration::from_secs(60), |name, e| {
+        name == "image_finished" && e["image_id"] == id
+    })
+    .await;
+    assert_eq!(end["state"], "cancelled", "{end}");
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let (unfinished, rows): (i64, i64) = sqlx::query_as(
+            "SELECT (SELECT COUNT(*) FROM worker_jobs WHERE kind = 'image' AND state IN ('queued', 'running')), \
+             (SELECT COUNT(*) FROM image_batches)",
+        )
+        .fetch_one(&mut conn)
+        .await
+        .unwrap();
+        if unfinished == 0 && rows == 0 {
+            break;
+        }
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{unfinished} batch jobs unfinished, {rows} rows left after the cancel"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    booth.stop().await;
+}

@@ -243,7 +243,10 @@ impl DaemonLab {
                 side.runner,
                 side.studies,
                 Arc::clone(&side.comparisons),
-                Arc::new(ImageJobs::new(events.clone(), daemon_id)),
+                Arc::new(match &workers {
+                    Some(_) => ImageJobs::new(events.clone(), daemon_id).on_workers(store.clone()),
+                    None => ImageJobs::new(events.clone(), daemon_id),
+                }),
                 workers,
             )
             .with_progress(crate::progress::ProgressBoard::follow(&events)),

@@ -358,6 +358,41 @@ fn cross_merge(stored: &mut [f32], pass: &[f64], delta: [f64; 3], weight: f64) {
     }
 }
 
+/// One coding's Y means and squared deviations, for the stopping rule.
+struct YPlane<'a> {
+    mean: &'a [f32],
+    m2: &'a [f32],
+    stride: usize,
+    /// The index of Y among a pixel's quantities.
+    y: usize,
+}
+
+/// The stopping rule of the module doc: pixel p is done at the path cap, or
+/// with at least `min_spp` paths and SE(Y) ≤ target · max(Y, 1 % of the
+/// image's mean Y) in every plane of `ys`.
+fn mark_done(ys: &[YPlane], samples: &[u32], settings: &CameraSettings, done: &mut [bool]) {
+    let pixels = samples.len();
+    let floors: Vec<f64> = ys
+        .iter()
+        .map(|c| {
+            0.01 * ((0..pixels).map(|p| c.mean[p * c.stride + c.y] as f64).sum::<f64>() / pixels.max(1) as f64).abs()
+        })
+        .collect();
+    for (p, (&n, done)) in samples.iter().zip(done.iter_mut()).enumerate() {
+        let reached_cap = n >= settings.max_spp;
+        let quiet = settings.target_relative_se.is_some_and(|t| {
+            n >= settings.min_spp
+                && ys.iter().zip(&floors).all(|(c, floor)| {
+                    let k = p * c.stride + c.y;
+                    let yv = c.mean[k] as f64;
+                    let se = (c.m2[k].max(0.0) as f64 / (n as f64 * (n as f64 - 1.0).max(1.0))).sqrt();
+                    se <= t * yv.abs().max(*floor)
+                })
+        });
+        *done = reached_cap || quiet;
+    }
+}
+
 /// One row's share of every coding's buffers, for one pass.
 struct RowBuffers<'a> {
     mean: Vec<&'a mut [f32]>,
@@ -505,28 +540,16 @@ pub fn render_camera_images(
         } else {
             vec![reference]
         };
-        let floors: Vec<f64> = stopping
+        let ys: Vec<YPlane> = stopping
             .iter()
-            .map(|&c| {
-                let y_index = quantities[c].coding_channels + Y;
-                let s = strides[c];
-                0.01 * ((0..pixels).map(|p| mean[c][p * s + y_index] as f64).sum::<f64>() / pixels.max(1) as f64).abs()
+            .map(|&c| YPlane {
+                mean: &mean[c],
+                m2: &m2[c],
+                stride: strides[c],
+                y: quantities[c].coding_channels + Y,
             })
             .collect();
-        for p in 0..pixels {
-            let n = samples[p];
-            let reached_cap = n >= settings.max_spp;
-            let quiet = settings.target_relative_se.is_some_and(|t| {
-                n >= settings.min_spp
-                    && stopping.iter().zip(&floors).all(|(&c, floor)| {
-                        let k = p * strides[c] + quantities[c].coding_channels + Y;
-                        let yv = mean[c][k] as f64;
-                        let se = (m2[c][k].max(0.0) as f64 / (n as f64 * (n as f64 - 1.0).max(1.0))).sqrt();
-                        se <= t * yv.abs().max(*floor)
-                    })
-            });
-            done[p] = reached_cap || quiet;
-        }
+        mark_done(&ys, &samples, settings, &mut done);
         let pixels_done = done.iter().filter(|d| **d).count() as u64;
         if let Some(report) = progress {
             report(CameraProgress {
@@ -1008,6 +1031,34 @@ impl CameraImages {
             a.elapsed_seconds += b.elapsed_seconds;
         }
         Ok(())
+    }
+
+    /// Pixels done by the stopping rule of `settings` (the module doc: the
+    /// path cap, or the SE target on the reference's Y, or every coding's),
+    /// as [`render_camera_images`] decides after each pass; for a daemon
+    /// merging a worker's batches.
+    pub fn pixels_done(&self, settings: &CameraSettings) -> u64 {
+        let stopping: Vec<usize> = if settings.se_every_coding {
+            (0..self.images.len()).collect()
+        } else {
+            vec![self.reference]
+        };
+        let ys: Vec<YPlane> = stopping
+            .iter()
+            .map(|&c| {
+                let img = &self.images[c];
+                YPlane {
+                    mean: &img.mean,
+                    m2: &img.m2,
+                    stride: img.stride(),
+                    y: img.xyz_index() + Y,
+                }
+            })
+            .collect();
+        let samples = &self.images[0].samples;
+        let mut done = vec![false; samples.len()];
+        mark_done(&ys, samples, settings, &mut done);
+        done.iter().filter(|d| **d).count() as u64
     }
 
     /// The set as bytes, for a render worker to hand its batch to the

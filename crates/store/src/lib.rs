@@ -70,6 +70,7 @@ mod comparisons;
 mod display_profiles;
 pub mod engine;
 mod experiments;
+mod image_batches;
 mod leases;
 mod measurements;
 pub use measurements::SIMULATED_TRUTH_KEY;

@@ -42,6 +42,9 @@ pub enum WorkerJobKind {
     Render,
     /// Run a queued study row (the subject).
     Study,
+    /// Render a batch of a camera image's paths; the subject is its
+    /// `image_batches` row, where the worker leaves the batch's moments.
+    Image,
 }
 
 impl WorkerJobKind {
@@ -50,6 +53,7 @@ impl WorkerJobKind {
             WorkerJobKind::Comparison => "comparison",
             WorkerJobKind::Render => "render",
             WorkerJobKind::Study => "study",
+            WorkerJobKind::Image => "image",
         }
     }
 
@@ -58,6 +62,7 @@ impl WorkerJobKind {
             "comparison" => Ok(WorkerJobKind::Comparison),
             "render" => Ok(WorkerJobKind::Render),
             "study" => Ok(WorkerJobKind::Study),
+            "image" => Ok(WorkerJobKind::Image),
             other => Err(StoreError::Corrupt {
                 what: "worker_jobs.kind".into(),
                 err: format!("unknown kind `{other}`"),
@@ -68,7 +73,7 @@ impl WorkerJobKind {
     /// The table of a render or study job's subject row.
     fn subject_table(self) -> Option<&'static str> {
         match self {
-            WorkerJobKind::Comparison => None,
+            WorkerJobKind::Comparison | WorkerJobKind::Image => None,
             WorkerJobKind::Render => Some("renders"),
             WorkerJobKind::Study => Some("studies"),
         }
@@ -105,7 +110,7 @@ const JOB_COLUMNS: &str = "id, kind, subject_id, requested_by, payload_json, sta
 
 impl Store {
     /// The id the calling process registered with (daemon or worker).
-    fn registered_id(&self, what: &str) -> Result<i64, StoreError> {
+    pub(super) fn registered_id(&self, what: &str) -> Result<i64, StoreError> {
         self.daemon_id.ok_or_else(|| {
             StoreError::Conflict(format!("{what} needs a registered daemon or worker (Store::as_daemon)"))
         })
@@ -279,7 +284,7 @@ impl Store {
         Box::pin(async move {
             let me = self.registered_id("counting worker jobs")?;
             Ok(with_pool!(self, |pool| sqlx::query_scalar(
-                "SELECT COUNT(*) FROM worker_jobs WHERE requested_by = $1 AND kind <> 'comparison' \
+                "SELECT COUNT(*) FROM worker_jobs WHERE requested_by = $1 AND kind IN ('render', 'study') \
                  AND state IN ('queued', 'running')"
             )
             .bind(me)

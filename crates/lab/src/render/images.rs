@@ -236,6 +236,9 @@ pub struct ImageWork {
     /// One id per coding, in `settings.codings`' order.
     pub ids: Vec<i64>,
     pub scene: Arc<Scene>,
+    /// The scene's id and render key, for render workers.
+    pub scene_id: String,
+    pub scene_hash: String,
     pub camera: Camera,
     pub settings: CameraSettings,
 }
@@ -249,6 +252,9 @@ pub struct ImageJobs {
     next_id: Mutex<(i64, u64)>,
     /// The daemon run these images belong to (see the module doc).
     run: i64,
+    /// The database of the render workers, when they render the images
+    /// ([`super::image_batches`]).
+    workers: Option<lightbooth_store::Store>,
 }
 
 impl ImageJobs {
@@ -264,7 +270,15 @@ impl ImageJobs {
             events,
             next_id: Mutex::new((run * IDS_PER_RUN + 1, 1)),
             run,
+            workers: None,
         }
+    }
+
+    /// Leaves the rendering to the render workers of `store` (a daemon
+    /// started with `--renders workers`; see [`super::image_batches`]).
+    pub fn on_workers(mut self, store: lightbooth_store::Store) -> ImageJobs {
+        self.workers = Some(store);
+        self
     }
 
     /// The 404 of an image id not (or no longer) here: one of an earlier
@@ -516,6 +530,13 @@ impl ImageJobs {
         let receiver = self.receiver.lock().unwrap_or_else(|p| p.into_inner()).take();
         tokio::spawn(async move {
             let Some(mut receiver) = receiver else { return };
+            if let Some(store) = &this.workers {
+                match store.abandon_image_batches_of_gone_daemons().await {
+                    Ok(0) => {}
+                    Ok(n) => tracing::info!(batches = n, "gave up the image batches of daemons that are gone"),
+                    Err(e) => tracing::warn!(error = %e, "cannot give up the image batches of daemons that are gone"),
+                }
+            }
             while let Some(work) = receiver.recv().await {
                 this.run_one(work).await;
             }
@@ -551,7 +572,21 @@ impl ImageJobs {
             (cancel, render_id)
         };
         tracing::info!(image_ids = ?ids, render_id, "images started");
-        let outcome = self.render_here(work, render_id, cancel.clone()).await;
+        let outcome = match &self.workers {
+            Some(store) => {
+                let progress = |p: CameraProgress| self.progress(&ids, render_id, p);
+                super::image_batches::render_on_workers(
+                    store,
+                    (&work.scene_id, &work.scene_hash),
+                    &work.camera,
+                    &work.settings,
+                    progress,
+                    &cancel,
+                )
+                .await
+            }
+            None => self.render_here(work, render_id, cancel.clone()).await,
+        };
         let outcome = match outcome {
             Ok(images) if !cancel.is_cancelled() => Ok(images),
             Ok(_) | Err(None) => Err(None),

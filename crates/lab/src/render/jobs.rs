@@ -276,6 +276,8 @@ impl RenderJobs {
             .enqueue(render_id, &row.scene, observer, checked, |ids| ImageWork {
                 ids,
                 scene,
+                scene_id: row.scene.clone(),
+                scene_hash: row.scene_hash.clone(),
                 camera: scaled,
                 settings: camera_settings,
             })?;

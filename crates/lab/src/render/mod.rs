@@ -7,6 +7,8 @@
 //! - [`runner`]: one recorded render run (settings checked, bundle
 //!   stored, rendered on the rayon pool, each coding's cost);
 //! - [`images`]: camera images (rendered, kept, probed, exported);
+//! - [`image_batches`]: camera images on render workers (batches of
+//!   paths, merged);
 //! - [`image_views`]: what the image viewer reads from one (the display
 //!   PNG, a pixel probe and its chart, the ΔE map as a PNG);
 //! - [`worker_queue`]: the hand-off of renders and studies to render
@@ -15,6 +17,7 @@
 //! Invariant: CPU work runs on the rayon pool or a blocking thread, never
 //! on the async workers, and every job is cancellable by its token.
 
+pub mod image_batches;
 pub mod image_views;
 pub mod images;
 pub mod jobs;

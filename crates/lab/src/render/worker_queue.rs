@@ -349,6 +349,9 @@ impl WorkerQueue {
     async fn announce(&self, p: &Pending, state: &str, error: Option<String>) {
         let ok = state == "done";
         let event = match p.kind {
+            // An image's batches are watched by the image's own task
+            // (`image_batches::render_on_workers`), never queued through here.
+            WorkerJobKind::Image => return,
             WorkerJobKind::Comparison => {
                 if !ok {
                     tracing::error!(
