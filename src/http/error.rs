@@ -214,10 +214,15 @@ pub async fn refuse_oversized_head(request: Request, next: Next) -> Response {
         .get(header::CONTENT_LENGTH)
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.trim().parse::<u64>().ok());
-    if let Some(length) = announced.filter(|&l| l > super::MAX_BODY_BYTES as u64) {
+    // The OpenEXR upload of a stimulus set is the one larger body.
+    let limit = if request.uri().path() == "/api/stimulus-sets/exr" {
+        super::routes::MAX_UPLOAD_BYTES
+    } else {
+        super::MAX_BODY_BYTES
+    };
+    if let Some(length) = announced.filter(|&l| l > limit as u64) {
         let mut response = ApiError::PayloadTooLarge(format!(
-            "the body is {length} bytes (Content-Length); the limit is {} bytes",
-            super::MAX_BODY_BYTES
+            "the body is {length} bytes (Content-Length); the limit is {limit} bytes"
         ))
         .into_response();
         // The body is not read, so the connection cannot carry another request.

@@ -25,3 +25,4 @@ mod http_parts;
 mod octave_examples;
 mod render_requests;
 mod service_api;
+mod stimulus_sets;

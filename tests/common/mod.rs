@@ -26,21 +26,36 @@ pub async fn request(
     token: Option<&str>,
     json: Option<&str>,
 ) -> (u16, Vec<u8>) {
+    let body = json.map(|j| ("application/json", j.as_bytes()));
+    let (status, _, body) = request_raw(addr, method, path, token, body).await;
+    (status, body)
+}
+
+/// A request with any body (its content type and bytes); the status, the
+/// response's head (status line and header fields) and its body.
+pub async fn request_raw(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    body: Option<(&str, &[u8])>,
+) -> (u16, String, Vec<u8>) {
     let mut stream = TcpStream::connect(addr).await.expect("connect to the daemon");
     let mut head = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
     if let Some(t) = token {
         head.push_str(&format!("Authorization: Bearer {t}\r\n"));
     }
-    let body = json.unwrap_or("");
-    if json.is_some() {
+    if let Some((content_type, bytes)) = body {
         head.push_str(&format!(
-            "Content-Type: application/json\r\nContent-Length: {}\r\n",
-            body.len()
+            "Content-Type: {content_type}\r\nContent-Length: {}\r\n",
+            bytes.len()
         ));
     }
     head.push_str("\r\n");
     stream.write_all(head.as_bytes()).await.unwrap();
-    stream.write_all(body.as_bytes()).await.unwrap();
+    if let Some((_, bytes)) = body {
+        stream.write_all(bytes).await.unwrap();
+    }
     let mut raw = Vec::new();
     stream.read_to_end(&mut raw).await.unwrap();
     let split = raw
@@ -53,7 +68,7 @@ pub async fn request(
     if head.to_ascii_lowercase().contains("transfer-encoding: chunked") {
         body = dechunk(&body);
     }
-    (status, body)
+    (status, head, body)
 }
 
 fn dechunk(mut data: &[u8]) -> Vec<u8> {

@@ -116,6 +116,11 @@ impl LabHandle {
     }
 
     /// The booth this daemon measures in.
+    /// The database, for the lab's own modules.
+    pub(crate) fn store(&self) -> &Store {
+        &self.store
+    }
+
     pub fn booth(&self) -> &Booth {
         self.instrument.booth()
     }

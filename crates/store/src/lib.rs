@@ -78,6 +78,7 @@ mod partial;
 mod renders;
 mod rows;
 pub mod scene_bundles;
+mod stimulus_sets;
 mod studies;
 pub mod worker_jobs;
 
@@ -107,6 +108,7 @@ pub use experiments::{
 };
 pub use leases::{DaemonRow, InterruptedWork, Recovered, RecoveryScope};
 pub use rows::*;
+pub use stimulus_sets::{NewStimulusSet, StimulusSetBlob, StimulusSetRow};
 pub use worker_jobs::{ClaimedJob, WorkerJobKind, WorkerJobRecord};
 
 /// Errors of the store, with what to do about them.

@@ -175,7 +175,7 @@ pub async fn image_pixel_svg(
 #[utoipa::path(get, path = "/images/{id}/image.exr", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    Ok(kept::download(images(&state)?.file(id, FileFormat::Exr).await?))
+    Ok(kept::download(images(&state)?.file(id, FileFormat::Exr, false).await?))
 }
 
 /// The image as MATLAB `.mat`: `radiance` (H × W × N single),
@@ -183,7 +183,17 @@ pub async fn image_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Re
 #[utoipa::path(get, path = "/images/{id}/image.mat", tag = "images", params(("id" = i64, Path)),
     responses((status = 200, content_type = "application/x-matlab-data"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
 pub async fn image_mat(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
-    Ok(kept::download(images(&state)?.file(id, FileFormat::Mat).await?))
+    Ok(kept::download(images(&state)?.file(id, FileFormat::Mat, false).await?))
+}
+
+/// Every coding rendered from the same paths as image `id`, in one
+/// layered OpenEXR: a layer per coding (`nstep9.X`, `nstep9.SE.X`, …), the
+/// codings and the reference in the header (`lightbooth.codings`,
+/// `lightbooth.reference`). `POST /api/stimulus-sets/exr` reads it back.
+#[utoipa::path(get, path = "/images/{id}/set.exr", tag = "images", params(("id" = i64, Path)),
+    responses((status = 200, content_type = "image/x-exr"), (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 503, body = ErrorBody)))]
+pub async fn image_set_exr(State(state): State<AppState>, Path(id): Path<i64>) -> Result<Response, ApiError> {
+    Ok(kept::download(images(&state)?.file(id, FileFormat::Exr, true).await?))
 }
 
 #[derive(Deserialize, IntoParams)]

@@ -22,6 +22,7 @@ mod mock;
 mod reflectances;
 mod scenes;
 mod sessions;
+mod stimulus_sets;
 mod studies;
 
 use utoipa_axum::router::OpenApiRouter;
@@ -42,6 +43,7 @@ pub use mock::*;
 pub use reflectances::*;
 pub use scenes::*;
 pub use sessions::*;
+pub use stimulus_sets::*;
 pub use studies::*;
 
 use super::{sse, AppState};
@@ -95,6 +97,7 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(image_pixel_svg))
         .routes(routes!(image_exr))
         .routes(routes!(image_mat))
+        .routes(routes!(image_set_exr))
         .routes(routes!(image_delta_e))
         .routes(routes!(image_delta_e_png))
         .routes(routes!(list_reflectances, create_reflectance_route))
@@ -128,4 +131,14 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(experiment_thresholds_csv))
         .routes(routes!(experiment_psychometric_figure))
         .routes(routes!(experiments_figure))
+        .routes(routes!(list_stimulus_sets, create_stimulus_set))
+        .routes(routes!(get_stimulus_set))
+        .routes(routes!(stimulus_set_linear))
+        .routes(routes!(stimulus_set_delta_e))
+        // The one body larger than `MAX_BODY_BYTES`: an OpenEXR file.
+        .merge(
+            OpenApiRouter::default()
+                .routes(routes!(upload_stimulus_set))
+                .layer(axum::extract::DefaultBodyLimit::max(MAX_UPLOAD_BYTES)),
+        )
 }

@@ -5,7 +5,10 @@
 //! - [`calibration`]: a measured reflectance or illuminant from stored
 //!   measurements, with its provenance;
 //! - [`display_profiles`]: a display's profile fitted from the stored
-//!   measurements of its patches.
+//!   measurements of its patches;
+//! - [`stimulus_sets`]: a rendered image's codings converted through a
+//!   display profile, stored as what the display will be asked to show.
 
 pub mod calibration;
 pub mod display_profiles;
+pub mod stimulus_sets;

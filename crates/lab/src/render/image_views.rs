@@ -196,14 +196,18 @@ pub fn probe_chart(p: &Probe) -> Result<String, LabError> {
 
 /// The map as a false-colour PNG (viridis, 0 to `scale_max`).
 pub fn delta_e_png(map: &DeltaEMap) -> Result<Vec<u8>, LabError> {
-    let rgb = image_map::false_colour_rgb(map);
+    rgb_png(map.width, map.height, &image_map::false_colour_rgb(map))
+}
+
+/// 8-bit RGB pixels (rows top to bottom) as a PNG.
+pub fn rgb_png(width: u32, height: u32, rgb: &[u8]) -> Result<Vec<u8>, LabError> {
     let png_err = |e: png::EncodingError| LabError::Internal(format!("PNG encoding: {e}"));
     let mut bytes = Vec::new();
-    let mut enc = png::Encoder::new(&mut bytes, map.width, map.height);
+    let mut enc = png::Encoder::new(&mut bytes, width, height);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     let mut writer = enc.write_header().map_err(png_err)?;
-    writer.write_image_data(&rgb).map_err(png_err)?;
+    writer.write_image_data(rgb).map_err(png_err)?;
     writer.finish().map_err(png_err)?;
     Ok(bytes)
 }

@@ -353,11 +353,14 @@ impl ImageJobs {
     /// Image `id` as a file to save: multi-channel OpenEXR (spectral
     /// channels `S0.<λ>nm`, Fichet et al. 2021, or R, G, B; then X, Y, Z,
     /// L, M, S, each with its `SE.` layer, and `paths`) or MATLAB `.mat`,
-    /// named after its render and coding. Written by
-    /// [`write_camera_image`](crate::export::image::write_camera_image) to a
+    /// named after its render and coding. With `whole_set`, every coding
+    /// rendered from the same paths in one file: a layer per coding
+    /// (`coding.X`, `coding.SE.X`, …; MAT variables prefixed by the coding),
+    /// the reference named in the header. Written by
+    /// [`write_camera_images`](crate::export::image::write_camera_images) to a
     /// private temporary folder (removed after) on the blocking pool.
-    pub async fn file(&self, id: i64, format: FileFormat) -> Result<Download, LabError> {
-        use crate::export::image::{create_private_folder, export_folder, write_camera_image};
+    pub async fn file(&self, id: i64, format: FileFormat, whole_set: bool) -> Result<Download, LabError> {
+        use crate::export::image::{create_private_folder, export_folder, write_camera_image, write_camera_images};
         let (info, img) = self.data(id)?;
         if format == FileFormat::Csv {
             return Err(LabError::NotFound(format!(
@@ -372,7 +375,12 @@ impl ImageJobs {
             let dir = export_folder(&std::env::temp_dir(), std::process::id(), id, nanos);
             create_private_folder(&dir).map_err(LabError::Internal)?;
             let path = dir.join(format!("image.{}", format.extension()));
-            let bytes = write_camera_image(&img, &path)
+            let written = if whole_set {
+                write_camera_images(img.set(), &path)
+            } else {
+                write_camera_image(&img, &path)
+            };
+            let bytes = written
                 .map_err(LabError::Internal)
                 .and_then(|_| std::fs::read(&path).map_err(|e| LabError::Internal(format!("{}: {e}", path.display()))));
             let _ = std::fs::remove_dir_all(&dir);
@@ -380,11 +388,16 @@ impl ImageJobs {
         })
         .await
         .map_err(|e| LabError::Internal(e.to_string()))??;
-        Ok(Download::new(
-            format,
-            &format!("render_{}_{}_image_{id}", info.render_id, info.settings.coding),
-            bytes,
-        ))
+        let name = if whole_set {
+            format!(
+                "render_{}_{}_images_{id}",
+                info.render_id,
+                info.settings.codings.join("-")
+            )
+        } else {
+            format!("render_{}_{}_image_{id}", info.render_id, info.settings.coding)
+        };
+        Ok(Download::new(format, &name, bytes))
     }
 
     /// A complete image's data; 404 for an unknown id, 409 before it is complete.

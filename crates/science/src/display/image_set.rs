@@ -89,6 +89,20 @@ pub struct ImageSet {
     /// Per coding, per pixel, linear RGB after the gamut policy (0–1).
     #[serde(skip)]
     pub linear: Vec<Vec<[f32; 3]>>,
+    /// Per coding, per output of [`OUTPUTS`], per pixel: ΔE00 between what
+    /// the display shows of the coding and of the reference (0 for the
+    /// reference), the map the summaries `shown` are of.
+    #[serde(skip)]
+    pub shown_delta_e: Vec<Vec<Vec<f32>>>,
+}
+
+/// The index in [`OUTPUTS`] of an output's name (`8bit`, `noisy_bit`,
+/// `10bit`, `12bit`).
+pub fn output_index(name: &str) -> Result<usize, String> {
+    OUTPUTS.iter().position(|(n, _)| *n == name).ok_or_else(|| {
+        let names: Vec<&str> = OUTPUTS.iter().map(|o| o.0).collect();
+        format!("unknown output `{name}`: {}", names.join(", "))
+    })
 }
 
 /// What the display emits for displayable linear RGB at one output, XYZ.
@@ -194,6 +208,19 @@ pub fn image_set(
             against_reference,
         });
     }
+    let shown_delta_e = (0..codings.len())
+        .map(|i| {
+            (0..OUTPUTS.len())
+                .map(|o| {
+                    shown_at[i][o]
+                        .iter()
+                        .zip(&shown_at[reference][o])
+                        .map(|(p, q)| delta_e00(white, *p, *q) as f32)
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
     let quantisation_bound = [8, 10, 12]
         .into_iter()
         .map(|bits| {
@@ -215,6 +242,7 @@ pub fn image_set(
             .iter()
             .map(|l| l.iter().map(|v| v.map(|c| c as f32)).collect())
             .collect(),
+        shown_delta_e,
     })
 }
 
