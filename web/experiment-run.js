@@ -5,23 +5,20 @@
 // requestAnimationFrame interval with nothing else drawn) and turns every
 // duration into whole frames. Each frame is drawn with WebGL2: the pie, in
 // linear RGB, is a 32-bit float texture; the fragment shader applies the
-// display profile's inverse (drive = linear^(1/γ) per gun) to every pixel
-// and then the output method: rounding to 8 bits, noisy-bit dithering
-// (Allard & Faubert 2008: each pixel and frame shows the upper of the two
-// 8-bit codes around the fractional code with probability equal to its
-// fraction) or 10 bits into a float16 drawing buffer. Stimuli change only
+// display profile's inverse and the output method (web/display-gl.js:
+// 8 bits, noisy-bit dithering, or 10 bits into a float16 drawing buffer). Stimuli change only
 // inside the animation callback; every frame interval is logged, an
 // interval over 1.5 frames is a dropped frame, and keys are timed with the
 // event's own timeStamp. Every trial is posted as it ends; the daemon says
 // which trial comes next, so a reload resumes where the session stopped.
 import { $, api, notice, startPage } from "./shared.js";
+import { fullScreenProgram, METHOD, nearestTexture, OUTPUT_GLSL } from "./display-gl.js";
 import { holdShowMeasure } from "./measure.js";
 import { checkProgress, ditherResolution, frames as wholeFrames, medianInterval, pieceAt, pieDiameterPx as pieDiameterPxOf,
   TrialClock } from "./trial.js";
 
 const experimentId = Number(location.pathname.split("/")[2]);
 const KEYS = { ArrowLeft: 0, ArrowUp: 1, ArrowRight: 2 };
-const METHOD = { "8bit": 0, "noisy_bit": 1, "10bit": 2 };
 
 let experiment = null;
 let view = null;
@@ -46,10 +43,6 @@ const frames = (ms) => wholeFrames(ms, frameMs);
 
 // ---- WebGL2 ------------------------------------------------------------
 
-const VERTEX = `#version 300 es
-in vec2 position;
-void main() { gl_Position = vec4(position, 0.0, 1.0); }`;
-
 const FRAGMENT = `#version 300 es
 precision highp float;
 precision highp int;
@@ -63,19 +56,8 @@ uniform ivec2 centre;
 uniform int crossArm;
 uniform int crossHalfWidth;
 uniform vec3 background;      // linear RGB
-uniform vec3 inverseGamma;    // 1/γ of red, green, blue
-uniform int method;           // 0 8 bit, 1 noisy-bit, 2 10 bit
-uniform uint frameSeed;
+${OUTPUT_GLSL}
 out vec4 colour;
-
-// A 32-bit integer hash (PCG's output permutation): a fresh uniform number
-// per pixel, channel and frame.
-uint hash(uint v) {
-  uint state = v * 747796405u + 2891336453u;
-  uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-  return (word >> 22u) ^ word;
-}
-float uniform01(uint v) { return (float(hash(v) >> 8u) + 0.5) / 16777216.0; }
 
 void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);
@@ -87,32 +69,10 @@ void main() {
     ivec2 d = abs(p - centre);
     if ((d.x <= crossArm && d.y <= crossHalfWidth) || (d.y <= crossArm && d.x <= crossHalfWidth)) linear = vec3(0.0);
   }
-  vec3 drive = pow(clamp(linear, 0.0, 1.0), inverseGamma);
-  vec3 shown;
-  if (method == 1) {
-    vec3 code = drive * 255.0;
-    vec3 low = min(floor(code), vec3(254.0));
-    vec3 fraction = code - low;
-    uint pixel = hash(uint(p.x) ^ hash(uint(p.y) ^ hash(frameSeed)));
-    vec3 r = vec3(uniform01(pixel), uniform01(pixel ^ 0x9E3779B9u), uniform01(pixel ^ 0x7F4A7C15u));
-    shown = (low + vec3(lessThan(r, fraction))) / 255.0;
-  } else if (method == 2) {
-    shown = floor(drive * 1023.0 + 0.5) / 1023.0;
-  } else {
-    shown = floor(drive * 255.0 + 0.5) / 255.0;
-  }
-  colour = vec4(shown, 1.0);
+  colour = vec4(shown(linear, p), 1.0);
 }`;
 
 const screen = { canvas: null, gl: null, program: null, texture: null, u: {}, outputPath: "" };
-
-function compile(gl, type, source) {
-  const s = gl.createShader(type);
-  gl.shaderSource(s, source);
-  gl.compileShader(s);
-  if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error("shader: " + gl.getShaderInfoLog(s));
-  return s;
-}
 
 function setUpScreen() {
   const canvas = $("screen");
@@ -129,22 +89,8 @@ function setUpScreen() {
     gl.drawingBufferStorage(gl.RGBA16F, canvas.width, canvas.height);
     path = "WebGL2, float16 drawing buffer (10-bit codes; whether the display shows 10 bits is not visible to the page: verify with the spectroradiometer)";
   }
-  const program = gl.createProgram();
-  gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX));
-  gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT));
-  gl.linkProgram(program);
-  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error("shader program: " + gl.getProgramInfoLog(program));
-  gl.useProgram(program);
-  const buffer = gl.createBuffer();
-  gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
-  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
-  const loc = gl.getAttribLocation(program, "position");
-  gl.enableVertexAttribArray(loc);
-  gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
-  const texture = gl.createTexture();
-  gl.bindTexture(gl.TEXTURE_2D, texture);
-  for (const [k, v] of [[gl.TEXTURE_MIN_FILTER, gl.NEAREST], [gl.TEXTURE_MAG_FILTER, gl.NEAREST],
-    [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]]) gl.texParameteri(gl.TEXTURE_2D, k, v);
+  const program = fullScreenProgram(gl, FRAGMENT);
+  const texture = nearestTexture(gl);
   for (const name of ["pie", "pieOrigin", "pieSize", "showPie", "showCross", "centre", "crossArm", "crossHalfWidth",
     "background", "inverseGamma", "method", "frameSeed"]) screen.u[name] = gl.getUniformLocation(program, name);
   gl.viewport(0, 0, canvas.width, canvas.height);

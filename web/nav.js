@@ -22,7 +22,7 @@ function writeNavigation() {
   const links = [
     ["Home", "home"], ["Live", "live"], ["Measurements", "measurements"], ["Scenes", "scenes"],
     ["Viewer", "viewer"], ["Study", "study"], ["Material", "material"],
-    ["Calibrate", null, "/calibrate"], ["Experiment", null, "/experiment"],
+    ["Calibrate", null, "/calibrate"], ["Stimuli", null, "/stimulus-sets"], ["Experiment", null, "/experiment"],
   ];
   nav.replaceChildren();
   for (const [label, view, path] of links) {

@@ -57,7 +57,40 @@ function openImageViewer(render) {
     s.replaceChildren();
     for (const c of render.codings) s.add(new Option(c, c, false, c === preferred));
   }
+  // The stimulus set: the render's codings, the reference last (spectral when it has it).
+  const codings = render.codings.filter((c) => c !== "spectral").concat(render.codings.includes("spectral") ? ["spectral"] : []);
+  $("stimulus-codings").value = codings.join(",");
+  $("stimulus-state").replaceChildren();
+  api("/api/display-profiles").then((profiles) => {
+    const select = $("stimulus-profile");
+    select.replaceChildren();
+    for (const p of profiles.filter((p) => p.state === "passed")) select.add(new Option(`${p.id}: ${p.name}`, p.id));
+    if (!select.options.length) $("stimulus-state").textContent = "No passing display profile yet: calibrate the display first (Calibrate).";
+  }, (e) => notice(e.message));
 }
+
+// Makes a stimulus set of the listed codings (rendered together) and links to its page.
+$("stimulus-form").addEventListener("submit", async (ev) => {
+  ev.preventDefault();
+  notice("");
+  const state = $("stimulus-state");
+  try {
+    const codings = $("stimulus-codings").value.split(",").map((c) => c.trim()).filter(Boolean);
+    const infos = await viewerSet(codings);
+    state.textContent = "converting…";
+    const set = await api("/api/stimulus-sets", { method: "POST", body: JSON.stringify({
+      image_id: infos[0].id, display_profile_id: Number($("stimulus-profile").value),
+      gamut: $("stimulus-gamut").value, output: $("stimulus-output").value }) });
+    const link = document.createElement("a");
+    link.href = `/stimulus-sets/${set.id}`;
+    link.id = "stimulus-link";
+    link.textContent = `stimulus set ${set.id}: ${set.codings.join(", ")} against ${set.reference}`;
+    state.replaceChildren(link);
+  } catch (e) {
+    state.textContent = "";
+    notice(e.message);
+  }
+});
 
 // Waits (bounded by the daemon's time budget) until an image of the
 // render in `coding` is complete; queues it if there is none.

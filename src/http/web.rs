@@ -28,15 +28,17 @@ const CALIBRATE_HTML: &str = include_str!("../../web/calibrate.html");
 const EXPERIMENT_HTML: &str = include_str!("../../web/experiment.html");
 /// An experiment's session, full-screen on the stimulus display.
 const EXPERIMENT_RUN_HTML: &str = include_str!("../../web/experiment-run.html");
+/// Stimulus sets: a rendered image's codings as the display will show them.
+const STIMULUS_SET_HTML: &str = include_str!("../../web/stimulus-set.html");
 
 /// The pages' scripts and style sheet, each served at its path. The
 /// scripts are ES modules (`<script type="module">`, `import … from
 /// "./shared.js"`), served as `text/javascript`: a browser refuses a module
 /// of another type (and, with `nosniff`, any script). Each page loads one
 /// entry module (the index `app.js`, `calibrate.js`, `experiment.js`,
-/// `experiment-run.js`), which imports the rest; `script-src 'self'` allows
+/// `experiment-run.js`, `stimulus-set.js`), which imports the rest; `script-src 'self'` allows
 /// them all.
-const FILES: [(&str, &str); 12] = [
+const FILES: [(&str, &str); 14] = [
     // The index page's entry: Live, Measurements, Scenes, Study; routes the views.
     ("/app.js", include_str!("../../web/app.js")),
     // The home page: the instrument, the queue, the booth, what to do next.
@@ -58,6 +60,10 @@ const FILES: [(&str, &str); 12] = [
     ("/calibrate.js", include_str!("../../web/calibrate.js")),
     ("/experiment.js", include_str!("../../web/experiment.js")),
     ("/experiment-run.js", include_str!("../../web/experiment-run.js")),
+    // Linear RGB drawn as the display gets it (profile γ, output method),
+    // shared by the session page and the stimulus-set page.
+    ("/display-gl.js", include_str!("../../web/display-gl.js")),
+    ("/stimulus-set.js", include_str!("../../web/stimulus-set.js")),
     ("/style.css", include_str!("../../web/style.css")),
 ];
 
@@ -140,6 +146,8 @@ pub fn router() -> Router<AppState> {
         .route("/experiment", get(|| async { Html(EXPERIMENT_HTML) }))
         .route("/experiment/{id}", get(|| async { Html(EXPERIMENT_HTML) }))
         .route("/experiment/{id}/run", get(|| async { Html(EXPERIMENT_RUN_HTML) }))
+        .route("/stimulus-sets", get(|| async { Html(STIMULUS_SET_HTML) }))
+        .route("/stimulus-sets/{id}", get(|| async { Html(STIMULUS_SET_HTML) }))
         .route("/matlab/", get(matlab_index))
         .route("/matlab/{file}", get(matlab_file));
     for (path, body) in FILES {

@@ -22,12 +22,14 @@ const PAGES = [
   // The profile calibrated just before is listed, a link to its page.
   ["Calibrate", "calibrate", () => document.getElementById("status").textContent === "ready"
     && /stimulus monitor/.test(document.getElementById("stored-profiles").textContent)],
+  // The stimulus sets: the list (made from the viewer; empty here is fine).
+  ["Stimuli", "stimulus-sets", () => document.getElementById("list-view") && !document.getElementById("list-view").hidden],
   // The profile just calibrated is offered for a new experiment.
   ["Experiment", "experiment", () => document.getElementById("experiment-table")
     && [...document.querySelectorAll("#profile option")].some((o) => /^\d+: /.test(o.textContent))],
 ];
 
-const NAV = ["Home", "Live", "Measurements", "Scenes", "Viewer", "Study", "Material", "Calibrate", "Experiment"];
+const NAV = ["Home", "Live", "Measurements", "Scenes", "Viewer", "Study", "Material", "Calibrate", "Stimuli", "Experiment"];
 
 async function imagesLoaded(page) {
   await page.waitForFunction(() => [...document.images].filter((i) => !i.hidden && i.src)

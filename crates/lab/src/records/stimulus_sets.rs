@@ -242,14 +242,17 @@ impl LabHandle {
     /// A coding's ΔE00 map against the reference, as the display shows both
     /// at the set's output: a false-colour PNG (viridis from 0 to the set's
     /// largest ΔE00 rounded up to 1, 2, 2.5 or 5 × 10ᵏ, the same scale for
-    /// every coding of the set) and that scale's top.
+    /// every coding of the set: the report's `delta_e_map_scale_max`) and
+    /// that scale's top.
     pub async fn stimulus_set_delta_e_png(&self, id: i64, coding: &str) -> Result<(Vec<u8>, f64), LabError> {
         let (row, index) = self.set_coding(id, coding).await?;
         let blob = self.blob(id, StimulusSetBlob::ShownDeltaE).await?;
+        let top = row.report["delta_e_map_scale_max"]
+            .as_f64()
+            .ok_or_else(|| LabError::Internal(format!("stimulus set {id}'s report has no delta_e_map_scale_max")))?;
         tokio::task::spawn_blocking(move || {
             let all = f32s(&blob);
             let n = row.width as usize * row.height as usize;
-            let top = crate::compare::image_map::nice_ceiling(all.iter().fold(0.0f32, |m, v| m.max(*v)) as f64);
             let rgb: Vec<u8> = all[index * n..(index + 1) * n]
                 .iter()
                 .flat_map(|v| lightbooth_science::display::stimulus_files::viridis(*v as f64 / top))
@@ -339,6 +342,15 @@ impl LabHandle {
         .await
         .map_err(|e| LabError::Internal(e.to_string()))??;
         let (linear, shown_delta_e) = per_pixel(&set, output);
+        let mut report = serde_json::to_value(&set).map_err(|e| LabError::Internal(format!("a set's report: {e}")))?;
+        // The maps' one scale: 0 to the set's largest ΔE00 at its output,
+        // rounded up to 1, 2, 2.5 or 5 × 10ᵏ.
+        let largest = set
+            .shown_delta_e
+            .iter()
+            .flat_map(|per_output| per_output[output].iter())
+            .fold(0.0f32, |m, v| m.max(*v));
+        report["delta_e_map_scale_max"] = crate::compare::image_map::nice_ceiling(largest as f64).into();
         let new = NewStimulusSet {
             booth: self.booth().clone(),
             source: source.source,
@@ -356,7 +368,7 @@ impl LabHandle {
             reference: names[reference].clone(),
             codings: names,
             observer: source.observer.to_string(),
-            report: serde_json::to_value(&set).map_err(|e| LabError::Internal(format!("a set's report: {e}")))?,
+            report,
             linear,
             shown_delta_e,
         };
