@@ -30,3 +30,17 @@ CREATE TABLE stimulus_sets (
     -- coding and of the reference at `output`, f32 little-endian.
     shown_delta_e BLOB NOT NULL
 );
+-- A set's coding shown on the display and measured at the scene's targets
+-- projected into the image (`lab::records::image_verification`): the
+-- request (which measurement at which target, the screen's geometry) and
+-- the result per target, as JSON. Never changed once stored.
+CREATE TABLE stimulus_set_verifications (
+    id INTEGER PRIMARY KEY,
+    set_id INTEGER NOT NULL REFERENCES stimulus_sets (id),
+    created_at REAL NOT NULL,
+    coding TEXT NOT NULL,
+    client TEXT NOT NULL,
+    request_json TEXT NOT NULL,
+    result_json TEXT NOT NULL
+);
+CREATE INDEX stimulus_set_verifications_set ON stimulus_set_verifications (set_id, id);

@@ -108,7 +108,7 @@ pub use experiments::{
 };
 pub use leases::{DaemonRow, InterruptedWork, Recovered, RecoveryScope};
 pub use rows::*;
-pub use stimulus_sets::{NewStimulusSet, StimulusSetBlob, StimulusSetRow};
+pub use stimulus_sets::{NewStimulusSet, StimulusSetBlob, StimulusSetRow, StimulusSetVerificationRow};
 pub use worker_jobs::{ClaimedJob, WorkerJobKind, WorkerJobRecord};
 
 /// Errors of the store, with what to do about them.

@@ -193,3 +193,98 @@ impl Store {
         })
     }
 }
+
+/// A stored verification of a set's coding on the display.
+#[derive(Clone, Debug, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
+pub struct StimulusSetVerificationRow {
+    pub id: i64,
+    pub set_id: i64,
+    /// POSIX seconds, UTC.
+    pub created_at: f64,
+    pub coding: String,
+    /// The browser and drawing path that showed the image, as it said.
+    pub client: String,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub request: serde_json::Value,
+    #[cfg_attr(feature = "openapi", schema(value_type = Object))]
+    pub result: serde_json::Value,
+}
+
+#[derive(sqlx::FromRow)]
+struct VerificationRecord {
+    id: i64,
+    set_id: i64,
+    created_at: f64,
+    coding: String,
+    client: String,
+    request_json: String,
+    result_json: String,
+}
+
+impl TryFrom<VerificationRecord> for StimulusSetVerificationRow {
+    type Error = StoreError;
+    fn try_from(r: VerificationRecord) -> Result<Self, StoreError> {
+        let json = |what: &str, text: &str| -> Result<serde_json::Value, StoreError> {
+            serde_json::from_str(text).map_err(|e| StoreError::Corrupt {
+                what: format!("stimulus_set_verifications.{what} of verification {}", r.id),
+                err: e.to_string(),
+            })
+        };
+        Ok(StimulusSetVerificationRow {
+            request: json("request_json", &r.request_json)?,
+            result: json("result_json", &r.result_json)?,
+            id: r.id,
+            set_id: r.set_id,
+            created_at: r.created_at,
+            coding: r.coding,
+            client: r.client,
+        })
+    }
+}
+
+impl Store {
+    /// Stores a verification of set `set_id`'s `coding`; its id.
+    pub fn insert_stimulus_set_verification<'a>(
+        &'a self,
+        set_id: i64,
+        coding: &'a str,
+        client: &'a str,
+        request: &'a serde_json::Value,
+        result: &'a serde_json::Value,
+    ) -> BoxFuture<'a, Result<i64, StoreError>> {
+        Box::pin(async move {
+            Ok(with_pool!(self, |pool| {
+                sqlx::query_scalar(
+                "INSERT INTO stimulus_set_verifications (set_id, created_at, coding, client, request_json, result_json) \
+                 VALUES ($1, $2, $3, $4, $5, $6) RETURNING id"
+            )
+            .bind(set_id)
+            .bind(now())
+            .bind(coding)
+            .bind(client)
+            .bind(request.to_string())
+            .bind(result.to_string())
+            .fetch_one(pool)
+            .await?
+            }))
+        })
+    }
+
+    /// A set's verifications, oldest first.
+    pub fn stimulus_set_verifications<'a>(
+        &'a self,
+        set_id: i64,
+    ) -> BoxFuture<'a, Result<Vec<StimulusSetVerificationRow>, StoreError>> {
+        Box::pin(async move {
+            let rows: Vec<VerificationRecord> = with_pool!(self, |pool| sqlx::query_as(
+                "SELECT id, set_id, created_at, coding, client, request_json, result_json \
+                 FROM stimulus_set_verifications WHERE set_id = $1 ORDER BY id"
+            )
+            .bind(set_id)
+            .fetch_all(pool)
+            .await?);
+            rows.into_iter().map(StimulusSetVerificationRow::try_from).collect()
+        })
+    }
+}

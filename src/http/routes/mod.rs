@@ -135,6 +135,12 @@ pub fn api_router() -> OpenApiRouter<AppState> {
         .routes(routes!(get_stimulus_set))
         .routes(routes!(stimulus_set_linear))
         .routes(routes!(stimulus_set_delta_e))
+        .routes(routes!(stimulus_set_targets))
+        .routes(routes!(
+            list_stimulus_set_verifications,
+            create_stimulus_set_verification
+        ))
+        .routes(routes!(stimulus_set_verification_chart))
         // The one body larger than `MAX_BODY_BYTES`: an OpenEXR file.
         .merge(
             OpenApiRouter::default()

@@ -3,7 +3,9 @@
 //! profile, made from the camera images the daemon keeps (JSON) or from an
 //! uploaded layered OpenEXR (the file as the body, up to
 //! [`MAX_UPLOAD_BYTES`]); read back as the report, each coding's linear RGB
-//! (f32) for the pages, and each coding's ΔE00 map against the reference.
+//! (f32) for the pages, and each coding's ΔE00 map against the reference;
+//! and a coding verified on the display at the scene's targets
+//! (`lab::records::image_verification`).
 
 use axum::body::Bytes;
 use axum::extract::State;
@@ -16,8 +18,9 @@ use utoipa::IntoParams;
 use crate::http::error::{ApiError, ErrorBody};
 use crate::http::input::{Input, Path, Query};
 use crate::http::AppState;
+use crate::lab::records::image_verification::{ImageTargets, ImageVerificationRequest, ScreenGeometry};
 use crate::lab::records::stimulus_sets::{ExrUpload, StimulusSetRequest};
-use crate::store::StimulusSetRow;
+use crate::store::{StimulusSetRow, StimulusSetVerificationRow};
 
 /// The largest OpenEXR file `POST /api/stimulus-sets/exr` reads (every
 /// other body is limited to `http::MAX_BODY_BYTES`).
@@ -42,11 +45,14 @@ pub async fn create_stimulus_set(
 #[serde(deny_unknown_fields)]
 pub struct UploadQuery {
     /// What the file is (who rendered it, with what): stored with the set.
+    #[param(min_length = 1, max_length = 2000, pattern = "\\S")]
     pub provenance: String,
     pub display_profile_id: i64,
     /// `scale` (default), `clip` or `fail`.
+    #[param(pattern = "^(scale|clip|fail)$")]
     pub gamut: Option<String>,
     /// `noisy_bit` (default), `8bit`, `10bit` or `12bit`.
+    #[param(pattern = "^(8bit|noisy_bit|10bit|12bit)$")]
     pub output: Option<String>,
 }
 
@@ -55,7 +61,7 @@ pub struct UploadQuery {
 /// `lightbooth render --image-coding` and `GET /api/images/{id}/set.exr`
 /// write it), kept with the file's SHA-256 and the stated provenance (201).
 #[utoipa::path(post, path = "/stimulus-sets/exr", tag = "stimulus sets", params(UploadQuery),
-    request_body(content = Vec<u8>, content_type = "image/x-exr"),
+    request_body(content = Vec<u8>, content_type = "application/octet-stream"),
     responses((status = 201, body = StimulusSetRow), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
               (status = 404, body = ErrorBody), (status = 409, body = ErrorBody), (status = 413, body = ErrorBody)),
     security(("bearer" = [])))]
@@ -126,4 +132,76 @@ pub async fn stimulus_set_delta_e(
         png,
     )
         .into_response())
+}
+
+#[derive(Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+#[serde(deny_unknown_fields)]
+pub struct ScreenQuery {
+    /// mm, 100–5000 (default 570).
+    #[param(minimum = 100, maximum = 5000)]
+    pub viewing_distance_mm: Option<f64>,
+    /// mm, 0.05–2 (default 0.25).
+    #[param(minimum = 0.05, maximum = 2)]
+    pub pixel_pitch_mm: Option<f64>,
+    /// The instrument's field, degrees, 0.1–10 (default: the scene's radiometer's).
+    #[param(minimum = 0.1, maximum = 10)]
+    pub field_deg: Option<f64>,
+}
+
+/// Where the scene's targets fall in the set's image and how large the
+/// instrument's field is there: what a verification aims at, with the
+/// instrument hold to measure under.
+#[utoipa::path(get, path = "/stimulus-sets/{id}/targets", tag = "stimulus sets", params(("id" = i64, Path), ScreenQuery),
+    responses((status = 200, body = ImageTargets), (status = 400, body = ErrorBody), (status = 404, body = ErrorBody),
+              (status = 409, description = "an uploaded set names no scene, or the scene changed", body = ErrorBody)))]
+pub async fn stimulus_set_targets(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Query(q): Query<ScreenQuery>,
+) -> Result<Json<ImageTargets>, ApiError> {
+    let screen = ScreenGeometry {
+        viewing_distance_mm: q.viewing_distance_mm,
+        pixel_pitch_mm: q.pixel_pitch_mm,
+        field_deg: q.field_deg,
+    };
+    Ok(Json(state.lab.image_targets(id, screen).await?))
+}
+
+/// Verifies a coding of the set on the display from the measurements taken
+/// at its targets under the set's verification hold; stored (201).
+#[utoipa::path(post, path = "/stimulus-sets/{id}/verifications", tag = "stimulus sets", params(("id" = i64, Path)),
+    request_body = ImageVerificationRequest,
+    responses((status = 201, body = StimulusSetVerificationRow), (status = 400, body = ErrorBody), (status = 401, body = ErrorBody),
+              (status = 404, body = ErrorBody), (status = 409, body = ErrorBody)),
+    security(("bearer" = [])))]
+pub async fn create_stimulus_set_verification(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+    Input(body): Input<ImageVerificationRequest>,
+) -> Result<(StatusCode, Json<StimulusSetVerificationRow>), ApiError> {
+    Ok((StatusCode::CREATED, Json(state.lab.verify_image(id, body).await?)))
+}
+
+/// A set's verifications, oldest first.
+#[utoipa::path(get, path = "/stimulus-sets/{id}/verifications", tag = "stimulus sets", params(("id" = i64, Path)),
+    responses((status = 200, body = Vec<StimulusSetVerificationRow>), (status = 404, body = ErrorBody)))]
+pub async fn list_stimulus_set_verifications(
+    State(state): State<AppState>,
+    Path(id): Path<i64>,
+) -> Result<Json<Vec<StimulusSetVerificationRow>>, ApiError> {
+    Ok(Json(state.lab.image_verifications(id).await?))
+}
+
+/// A verification's luminance profile along the targets: the booth
+/// (through the set's gamut policy), the intended and the emitted Y.
+#[utoipa::path(get, path = "/stimulus-sets/{id}/verifications/{verification}/profile.svg", tag = "stimulus sets",
+    params(("id" = i64, Path), ("verification" = i64, Path)),
+    responses((status = 200, content_type = "image/svg+xml"), (status = 404, body = ErrorBody)))]
+pub async fn stimulus_set_verification_chart(
+    State(state): State<AppState>,
+    Path((id, verification)): Path<(i64, i64)>,
+) -> Result<Response, ApiError> {
+    let svg = state.lab.image_verification_chart(id, verification).await?;
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
 }

@@ -57,8 +57,10 @@ pub struct StimulusSetRequest {
     pub display_profile_id: i64,
     /// `scale` (the default, as an experiment's: every colour darkened by
     /// one factor until all fit), `clip` or `fail`.
+    #[cfg_attr(feature = "openapi", schema(pattern = "^(scale|clip|fail)$"))]
     pub gamut: Option<String>,
     /// `noisy_bit` (the default, as an experiment's), `8bit`, `10bit` or `12bit`.
+    #[cfg_attr(feature = "openapi", schema(pattern = "^(8bit|noisy_bit|10bit|12bit)$"))]
     pub output: Option<String>,
 }
 

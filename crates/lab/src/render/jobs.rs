@@ -297,6 +297,11 @@ impl RenderJobs {
 /// The renders, studies and camera images as the lab's handle asks for
 /// them (see [`crate::handle::Lab`]).
 impl RenderJobs {
+    /// The scene catalogue renders are of.
+    pub fn catalogue(&self) -> &Arc<crate::scenes::SceneCatalog> {
+        self.runner.catalogue()
+    }
+
     /// The scenes available under the daemon's `scenes_dir`, in the study's order.
     pub fn scenes(&self) -> Vec<SceneInfo> {
         self.runner.catalogue().infos()

@@ -17,11 +17,16 @@
 //! booth → emitted is the complex scene's loop closed: the real scene's
 //! light against the light the displayed image emits at the same point.
 //!
-//! The codes are the 8-bit (or 10-bit) codes of the linear RGB through
-//! the profile's γ, one frame, as the session page draws a plain image.
+//! The codes are the codes of the linear RGB through the profile's γ at
+//! the output's depth (8, 10 or 12 bits), as the session page draws a
+//! plain image; with noisy-bit dithering (`bits` `None`) `predicted` is
+//! the profile's mean over frames of the dithered 8-bit codes
+//! ([`mean_dithered_output`]), and `counts` are one undithered frame's
+//! 8-bit codes (a page that dithers reports its own frames' codes).
 
 use serde::Serialize;
 
+use super::output::mean_dithered_output;
 use super::profile::{DisplayProfile, FrameBuffer, TransferModel};
 use super::simulated::CodeCounts;
 use super::stimulus::delta_e00;
@@ -50,7 +55,7 @@ pub struct TargetField {
 }
 
 /// One target of a displayed image, measured.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct TargetVerification {
     pub id: String,
     pub x: f64,
@@ -72,19 +77,20 @@ pub struct TargetVerification {
 
 /// The fields of `targets` on an image of `width` pixels per row whose
 /// pixels the display is asked to show as `linear` (RGB 0–1 after the
-/// gamut policy), drawn as codes of `bits` (8 or 10) through the profile's
-/// γ, with a field of `radius_px` screen pixels (one per image pixel).
-/// An error names a target whose field holds no pixel.
+/// gamut policy), drawn as codes of `bits` (8, 10 or 12; `None`: 8-bit
+/// noisy-bit dithering) through the profile's γ, with a field of
+/// `radius_px` screen pixels (one per image pixel). An error names a
+/// target whose field holds no pixel.
 pub fn target_fields(
     profile: &DisplayProfile,
     linear: &[[f32; 3]],
     width: usize,
-    bits: u32,
+    bits: Option<u32>,
     targets: &[TargetOnScreen],
     radius_px: f64,
 ) -> Result<Vec<TargetField>, DisplayError> {
     let converter = Converter::new(profile)?;
-    let fb = FrameBuffer::new(bits)?;
+    let fb = FrameBuffer::new(bits.unwrap_or(8))?;
     let model = TransferModel::Gamma;
     let codes: Vec<[u32; 3]> = linear
         .iter()
@@ -106,7 +112,13 @@ pub fn target_fields(
                 let xyz = converter.xyz(l.map(f64::from));
                 for k in 0..3 {
                     intended[k] += xyz[k];
-                    predicted_linear[k] += profile.transfer[k].output(fb.drive(c[k]), model);
+                    predicted_linear[k] += match bits {
+                        Some(_) => profile.transfer[k].output(fb.drive(c[k]), model),
+                        None => {
+                            let drive = profile.transfer[k].drive(f64::from(l[k]).clamp(0.0, 1.0), model);
+                            mean_dithered_output(profile, k, drive)
+                        }
+                    };
                 }
                 pixels += 1;
             }
@@ -187,7 +199,7 @@ mod tests {
     fn with_the_displays_own_profile_only_quantisation_remains() {
         let display = SimulatedDisplay::crt().unwrap();
         let profile = display.exact_profile(Observer::JuddVos).unwrap();
-        let fields = target_fields(&profile, &gradient(), 40, 8, &targets(), 4.0).unwrap();
+        let fields = target_fields(&profile, &gradient(), 40, Some(8), &targets(), 4.0).unwrap();
         for f in &fields {
             assert!(
                 (45..=53).contains(&f.pixels),
@@ -214,7 +226,7 @@ mod tests {
         let display = SimulatedDisplay::crt().unwrap();
         let mut wrong = display.exact_profile(Observer::JuddVos).unwrap();
         wrong.transfer[1].gamma += 0.2;
-        let fields = target_fields(&wrong, &gradient(), 40, 8, &targets(), 4.0).unwrap();
+        let fields = target_fields(&wrong, &gradient(), 40, Some(8), &targets(), 4.0).unwrap();
         let v: Vec<TargetVerification> = fields
             .iter()
             .map(|f| assess_target(&wrong, f, emitted(&display, f)).unwrap())
