@@ -65,8 +65,10 @@ export function keepHold(api, hold) {
  *    is shown (null: nothing), `stop()` ends the drawing after the patch;
  *    with --mock it POSTs `display` with the hold to /api/mock/display (a
  *    daemon with a real instrument answers "no simulated display", and is
- *    not asked again); waits `settleMs` for the monitor to settle; and
- *    measures `samples` samples with the note `note(patch, i)`;
+ *    not asked again); waits `settleMs` for the monitor to settle; with a
+ *    real instrument and `aimed`, waits for `aimed(patch, i)` (the
+ *    operator aims at the patch and confirms); and measures `samples`
+ *    samples with the note `note(patch, i)`;
  * 3. releases the hold however this ends (done, cancelled, or an error,
  *    which is thrown on).
  *
@@ -77,7 +79,7 @@ export function keepHold(api, hold) {
  * [{ patch, measurement }], cancelled, simulated }`: the complete
  * measurements in order (what was measured stays stored when cancelled). */
 export async function holdShowMeasure(api, { purpose, patches, samples, note, show, run,
-  onHeld = () => {}, progress = () => {}, settleMs = 100, pollMs = 200 }) {
+  onHeld = () => {}, progress = () => {}, settleMs = 100, pollMs = 200, aimed = null }) {
   const held = await api("/api/instrument/hold", { method: "POST", body: JSON.stringify({ purpose }) });
   Object.assign(run, { hold: held.id, measurementId: null, cancelled: false });
   const stopRenewing = keepHold(api, held);
@@ -101,6 +103,9 @@ export async function holdShowMeasure(api, { purpose, patches, samples, note, sh
           }
         }
         await sleep(settleMs); // let the monitor settle on the new colour
+        // A real instrument the operator aims (an image's targets): wait for
+        // the operator to say it is aimed.
+        if (!simulated && aimed) await aimed(patch, i);
         if (run.cancelled) break;
         const m = await measureAndWait(api, { samples, note: note(patch, i), hold: run.hold },
           { onStarted: (id) => (run.measurementId = id), cancelled: () => run.cancelled, pollMs });

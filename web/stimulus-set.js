@@ -5,9 +5,13 @@
 // the experiment's session page draws its stimuli; beside it, its ΔE00 map
 // against the reference as the display shows both (drawn by the daemon),
 // one scale for the set; then how much of each coding's difference at each
-// depth is the quantisation's.
+// depth is the quantisation's; and the verification of a coding on the
+// display at the scene's targets (full-screen, one image pixel per screen
+// pixel, measured under the set's instrument hold; with --mock the
+// simulated display is told the codes this page drew under the field).
 import { $, api, el, fmt, localTime, notice, observerName, startPage } from "./shared.js";
 import { fullScreenProgram, METHOD, nearestTexture, OUTPUT_GLSL } from "./display-gl.js";
+import { holdShowMeasure } from "./measure.js";
 import { showNavigation } from "./nav.js";
 
 const OUTPUT_NAMES = {
@@ -184,6 +188,230 @@ async function showSet(id) {
     `gamut policy, unquantised (a display of unlimited depth); “shown”: against ${set.reference} as the display shows ` +
     `both at that output; “quantisation”: the coding's own intended → shown (the output's share). noisy_bit is the ` +
     `mean over frames. The worst ΔE00 half a code can cause (sampled): ${bound}.`;
+
+  // The verification: a coding, the screen's geometry; the newest result.
+  for (const c of set.codings) $("verify-coding").add(new Option(c, c));
+  $("verify-coding").value = set.codings.find((c) => c !== set.reference) || set.reference;
+  if (set.source !== "render") {
+    $("verify").disabled = true;
+    $("verify-state").textContent = "an uploaded set names no scene: its targets cannot be projected into it";
+  }
+  const done = await api(`/api/stimulus-sets/${id}/verifications`);
+  if (done.length) showVerification(set, done[done.length - 1]);
+  $("verify-form").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    $("verify").disabled = true;
+    try {
+      await verify(set, gammas, linear);
+    } catch (e) {
+      document.body.classList.remove("running");
+      notice("verification stopped: " + e.message);
+    } finally {
+      $("verify").disabled = false;
+    }
+  });
+  addEventListener("keydown", async (ev) => {
+    if (ev.key !== "Escape" || check.hold === null) return;
+    check.cancelled = true;
+    if (check.measurementId !== null) {
+      await api(`/api/measurements/${check.measurementId}/cancel`, { method: "POST", body: "{}" }).catch(() => {});
+    }
+  });
+}
+
+// ---- verification on the display -------------------------------------------
+
+// The full-screen image: the coding's linear RGB at one screen pixel per
+// image pixel, centred, black around it; a ring marks the target to aim at
+// (outside the field, and gone before the instrument measures).
+const SCREEN_FRAGMENT = `#version 300 es
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+uniform sampler2D image;
+uniform ivec2 origin;         // the image's lower-left screen pixel
+uniform ivec2 size;
+uniform vec2 ring;            // the marker's centre (screen pixels), or (-1e9, -1e9)
+uniform vec2 ringRadii;       // inner and outer radius
+${OUTPUT_GLSL}
+out vec4 colour;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  ivec2 q = p - origin;
+  vec3 linear = vec3(0.0);
+  if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, size))) linear = texelFetch(image, q, 0).rgb;
+  float d = distance(gl_FragCoord.xy, ring);
+  if (d >= ringRadii.x && d <= ringRadii.y) linear = vec3(1.0, 0.0, 1.0);
+  colour = vec4(shown(linear, p), 1.0);
+}`;
+
+// Frames of the field read back per target for the simulated display (every
+// dithered pixel and frame counted).
+const READBACK_FRAMES = 16;
+
+const check = { hold: null, measurementId: null, cancelled: false };
+
+function screenFor(set, gammas, coding, linear) {
+  if (set.output === "12bit") {
+    throw new Error("a 12-bit set cannot be verified from a browser: its drawing buffer keeps 10 bits (make the set at 10 bits)");
+  }
+  const canvas = $("screen");
+  const dpr = window.devicePixelRatio || 1;
+  canvas.width = Math.round(innerWidth * dpr);
+  canvas.height = Math.round(innerHeight * dpr);
+  const gl = canvas.getContext("webgl2", { antialias: false, alpha: false, preserveDrawingBuffer: true });
+  if (!gl) throw new Error("this browser has no WebGL2: the verification needs it to draw the image as the display gets it");
+  if (set.output === "10bit") {
+    if (typeof gl.drawingBufferStorage !== "function") throw new Error("10-bit output: this browser offers no float drawing buffer");
+    gl.drawingBufferStorage(gl.RGBA16F, canvas.width, canvas.height);
+  }
+  if (canvas.width < set.width || canvas.height < set.height) {
+    throw new Error(`the screen (${canvas.width} × ${canvas.height} px) is smaller than the image (${set.width} × ${set.height})`);
+  }
+  const program = fullScreenProgram(gl, SCREEN_FRAGMENT);
+  nearestTexture(gl);
+  const rgba = new Float32Array(set.width * set.height * 4);
+  for (let y = 0; y < set.height; y++) {
+    for (let x = 0; x < set.width; x++) {
+      const from = 3 * ((set.height - 1 - y) * set.width + x);
+      rgba.set(linear.subarray(from, from + 3), 4 * (y * set.width + x));
+      rgba[4 * (y * set.width + x) + 3] = 1;
+    }
+  }
+  gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, set.width, set.height, 0, gl.RGBA, gl.FLOAT, rgba);
+  const u = (n) => gl.getUniformLocation(program, n);
+  const origin = [Math.floor((canvas.width - set.width) / 2), Math.floor((canvas.height - set.height) / 2)];
+  gl.uniform1i(u("image"), 0);
+  gl.uniform2i(u("origin"), origin[0], origin[1]);
+  gl.uniform2i(u("size"), set.width, set.height);
+  gl.uniform3fv(u("inverseGamma"), gammas.map((g) => 1 / g));
+  gl.uniform1i(u("method"), METHOD[set.output]);
+  gl.viewport(0, 0, canvas.width, canvas.height);
+  let frame = 0;
+  const maxCode = set.output === "10bit" ? 1023 : 255;
+  return {
+    // A target's centre on the screen (GL coordinates, y up).
+    centre: (t) => [origin[0] + t.x, origin[1] + set.height - t.y],
+    draw(ring, radii) {
+      gl.uniform2f(u("ring"), ring ? ring[0] : -1e9, ring ? ring[1] : -1e9);
+      gl.uniform2f(u("ringRadii"), radii ? radii[0] : 0, radii ? radii[1] : 0);
+      gl.uniform1ui(u("frameSeed"), (frame++ * 2654435761) >>> 0);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+    },
+    // Adds the codes of the screen pixels whose centres lie within `r` of `c`.
+    count(c, r, counts) {
+      const x0 = Math.max(0, Math.floor(c[0] - r)), y0 = Math.max(0, Math.floor(c[1] - r));
+      const w = Math.min(canvas.width, Math.ceil(c[0] + r) + 1) - x0, h = Math.min(canvas.height, Math.ceil(c[1] + r) + 1) - y0;
+      let values;
+      if (maxCode === 255) {
+        values = new Uint8Array(w * h * 4);
+        gl.readPixels(x0, y0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, values);
+      } else {
+        const f = new Float32Array(w * h * 4);
+        gl.readPixels(x0, y0, w, h, gl.RGBA, gl.FLOAT, f);
+        values = f.map((v) => Math.round(v * maxCode));
+      }
+      for (let j = 0; j < h; j++) {
+        for (let i = 0; i < w; i++) {
+          const dx = x0 + i + 0.5 - c[0], dy = y0 + j + 0.5 - c[1];
+          if (dx * dx + dy * dy > r * r) continue;
+          const k = 4 * (j * w + i);
+          for (let ch = 0; ch < 3; ch++) counts[ch][Math.min(maxCode, Math.max(0, values[k + ch]))]++;
+        }
+      }
+    },
+    maxCode,
+  };
+}
+
+// Waits for Space (aimed) or Esc (cancel).
+function waitForAim() {
+  return new Promise((resolve) => {
+    const key = (ev) => {
+      if (ev.key === " " || ev.key === "Escape") {
+        removeEventListener("keydown", key);
+        if (ev.key === "Escape") check.cancelled = true;
+        resolve();
+      }
+    };
+    addEventListener("keydown", key);
+  });
+}
+
+async function verify(set, gammas, linear) {
+  notice("");
+  const coding = $("verify-coding").value;
+  const screen = { viewing_distance_mm: Number($("verify-distance").value), pixel_pitch_mm: Number($("verify-pitch").value) };
+  const query = `viewing_distance_mm=${screen.viewing_distance_mm}&pixel_pitch_mm=${screen.pixel_pitch_mm}`;
+  const plan = await api(`/api/stimulus-sets/${set.id}/targets?${query}`);
+  const targets = plan.targets.filter((t) => t.verifiable);
+  if (!targets.length) throw new Error("no target of the scene is inside the image and unhidden");
+  const view = screenFor(set, gammas, coding, linear[coding]);
+  const r = plan.field_radius_px;
+  let marker = null;
+  const { measured, cancelled, simulated } = await holdShowMeasure(api, {
+    purpose: plan.hold_purpose, patches: targets, samples: Number($("verify-samples").value), run: check,
+    note: (t) => `stimulus set ${set.id} verification: ${coding} at target ${t.id}`,
+    onHeld: () => document.body.classList.add("running"),
+    progress: (i, total) => { $("hud").textContent = `target ${targets[i].id}: ${i + 1} of ${total} · Esc cancels`; },
+    show: (t, i, isSimulated) => {
+      const c = view.centre(t);
+      let running = true;
+      marker = isSimulated ? null : c;
+      const counts = [0, 1, 2].map(() => new Array(view.maxCode + 1).fill(0));
+      let frames = 0, done;
+      const counted = new Promise((resolve) => { done = resolve; });
+      const tick = () => {
+        if (!running) return;
+        view.draw(marker, [r + 3, r + 6]);
+        if (isSimulated && frames < READBACK_FRAMES) {
+          view.count(c, r, counts);
+          if (++frames === READBACK_FRAMES) done({ code_counts: counts, max_code: view.maxCode });
+        }
+        requestAnimationFrame(tick);
+      };
+      requestAnimationFrame(tick);
+      if (!isSimulated) done(null);
+      return { display: counted, stop: () => { running = false; } };
+    },
+    aimed: async (t) => {
+      $("hud").textContent = `aim the instrument at the ring (target ${t.id}) and press Space · Esc cancels`;
+      await waitForAim();
+      marker = null; // nothing but the image while the instrument measures
+    },
+  });
+  document.body.classList.remove("running");
+  if (cancelled) {
+    notice("verification cancelled: nothing was stored as a verification; what was measured stays stored.");
+    return;
+  }
+  const v = await api(`/api/stimulus-sets/${set.id}/verifications`, { method: "POST", body: JSON.stringify({
+    coding, screen, client: `${navigator.userAgent}; WebGL2` + (simulated ? "; simulated display" : ""),
+    targets: measured.map(({ patch, measurement }) => ({ target: patch.id, measurement_id: measurement.id })) }) });
+  showVerification(set, v);
+}
+
+function showVerification(set, v) {
+  const body = $("verify-table").tBodies[0];
+  body.replaceChildren();
+  for (const t of v.result.targets) {
+    const tr = el("tr");
+    for (const cell of [t.id, String(t.pixels), fmt(t.intended[1], 4), fmt(t.emitted[1], 4),
+      t.booth_xyz ? fmt(t.booth_xyz[1], 4) : "not measured", fmt(t.delta_e00_intended_emitted, 3),
+      fmt(t.delta_e00_quantisation, 3), fmt(t.delta_e00_profile, 3),
+      t.delta_e00_booth_emitted === null ? "—" : fmt(t.delta_e00_booth_emitted, 3)]) tr.append(el("td", cell));
+    body.append(tr);
+  }
+  const r = v.result;
+  $("verify-caption").textContent = `Verification ${v.id} of ${v.coding} (${localTime(v.created_at)}): the instrument's ` +
+    `field covered a disc of ${fmt(r.field_radius_px, 3)} screen pixels around each target. ΔE00 with the display's white; ` +
+    `Y in cd/m². “quantisation”: intended → what the profile predicts of the ${r.output} codes; “display vs profile”: ` +
+    `predicted → emitted. The booth's measurement is shown through the set's gamut policy (${r.policy}, × ` +
+    `${fmt(r.scale_factor, 4)}), as the image was. Largest ΔE00 intended → emitted ${fmt(r.max_delta_e00_intended_emitted, 3)}` +
+    (r.max_delta_e00_booth_emitted === null ? "." : `; booth → emitted ${fmt(r.max_delta_e00_booth_emitted, 3)}.`) +
+    (r.angular_size_note ? ` Note: ${r.angular_size_note}` : "");
+  $("verify-chart").src = `/api/stimulus-sets/${set.id}/verifications/${v.id}/profile.svg`;
+  $("verification").hidden = false;
 }
 
 startPage().then(() => {

@@ -314,11 +314,15 @@ async fn an_image_set_is_converted_stored_and_made_again_from_its_exr() {
 /// The set's page in Chromium (`tests/browser/stimulus_set.mjs`): made
 /// from the viewer, each coding drawn as the display gets it (its codes
 /// checked pixel by pixel), the ΔE00 maps, the scale and the share table;
-/// screenshots `stimulus-set*.png`.
+/// then verified on the simulated display at CYLINDER's targets (three of
+/// them measured in the booth first); screenshots `stimulus-set*.png`.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_stimulus_set_page_draws_each_coding_as_the_display_gets_it() {
     let d = Daemon::start(0.0).await;
     calibrated_booth(&d).await;
+    for t in ["h01", "h11", "h21"] {
+        common::calibrated::measure(&d, json!({ "scene": "cylinder", "target": t, "samples": 2 })).await;
+    }
     cylinder_render(&d).await;
     let shots = common::screenshot_dir();
     let result = common::run_browser_script("stimulus_set.mjs", d.addr, shots).await;

@@ -6,9 +6,12 @@
 // through the profile's γ (computed here from the same GET the page read,
 // not by the page's shader), each ΔE00 map is loaded at the image's size,
 // the scale has its five ticks and the share table a row per coding. Then
-// the 12-bit drawing is asked for and the page says how it draws it. Fails
-// on any console error, failed request or HTTP error; saves screenshots
-// (stimulus-set.png, stimulus-set-12bit.png).
+// the 12-bit drawing is asked for and the page says how it draws it. Then
+// the set is verified on the (simulated) display at the scene's targets:
+// every target within ΔE00 1 of its intention, the booth's measurements
+// where the booth was measured, the luminance profile chart. Fails on any
+// console error, failed request or HTTP error; saves screenshots
+// (stimulus-set.png, stimulus-set-12bit.png, stimulus-set-verification.png).
 //
 // Usage: node stimulus_set.mjs BASE_URL TOKEN SCREENSHOT_DIR
 import { finish, launch, watch } from "./harness.mjs";
@@ -89,6 +92,33 @@ try {
   const hint = await page.textContent("#draw-hint");
   if (!/12 bits per gun/.test(hint) || !/nearest/.test(hint)) failures.push("12-bit drawing, hint: " + hint);
   if (shots) await page.screenshot({ path: `${shots}/stimulus-set-12bit.png`, fullPage: true });
+
+  // The verification at the scene's targets: full-screen, measured under
+  // the set's hold by the simulated PR-650 looking at the simulated
+  // display, which is told the codes this page drew under the field.
+  await page.selectOption("#output", "8bit");
+  await page.click("#verify");
+  await page.waitForFunction(() => !document.getElementById("verification").hidden
+    && document.getElementById("verify-chart").complete && document.getElementById("verify-chart").naturalWidth > 0,
+  null, { timeout: 240000 });
+  const rows = await page.$$eval("#verify-table tbody tr", (trs) => trs.map((tr) => [...tr.cells].map((c) => c.textContent)));
+  if (rows.length < 15) failures.push(`${rows.length} targets verified`);
+  for (const r of rows) {
+    if (!(Number(r[5]) < 1)) failures.push(`target ${r[0]}: ΔE00 intended → emitted ${r[5]}`);
+  }
+  const booth = rows.filter((r) => r[4] !== "not measured").map((r) => r[0]);
+  if (booth.join() !== "h01,h11,h21") failures.push(`booth measurements shown at ${booth}`);
+  // A 72-px image at 0.25 mm seen from 570 mm is 1.8° high, not CYLINDER's 35°: the page says so.
+  const caption = await page.textContent("#verify-caption");
+  if (!/Note: the image is 1\.8° high/.test(caption)) failures.push("no angular-size note: " + caption);
+  const chart = await page.evaluate(async () => (await fetch(document.getElementById("verify-chart").src)).text());
+  for (const want of ["booth", "emitted", "intended", "luminance Y"]) {
+    if (!chart.includes(want)) failures.push(`the verification's chart lacks "${want}"`);
+  }
+  if (shots) {
+    await page.$eval("#verification", (v) => v.scrollIntoView());
+    await page.screenshot({ path: `${shots}/stimulus-set-verification.png`, fullPage: true });
+  }
 
   // The list page links the set.
   await page.goto(`${base}/stimulus-sets`);

@@ -12,7 +12,10 @@
 //!   screen pixels follows from the instrument's field (the scene's
 //!   radiometer's, 1° for CYLINDER), the viewing distance and the pixel
 //!   pitch (`Presentation::field_radius_px`); the image is shown one image
-//!   pixel per screen pixel. Only a set made from the daemon's camera images
+//!   pixel per screen pixel. When the image's angular size on the screen
+//!   is not the camera's field of view (within 10 %), the plan and the
+//!   result say so beside the numbers: the field then averages another part
+//!   of the scene than the booth's instrument did. Only a set made from the daemon's camera images
 //!   has a scene to project (an uploaded file names none).
 //! - **The verification** ([`ImageVerificationRequest`]): per target, the
 //!   measurement the page took while the display showed the coding with
@@ -102,6 +105,13 @@ pub struct ImageTargets {
     pub field_deg: f64,
     /// The field on the screen (one image pixel per screen pixel).
     pub field_radius_px: f64,
+    /// The image's height as seen from the viewing distance, and the
+    /// scene camera's vertical field of view it stands for, degrees.
+    pub image_height_deg: f64,
+    pub camera_fov_deg: f64,
+    /// Said when the two differ by more than 10 %: the instrument's field
+    /// then covers another part of the scene than the booth's instrument did.
+    pub angular_size_note: Option<String>,
     pub targets: Vec<ImageTarget>,
 }
 
@@ -142,6 +152,9 @@ pub struct ImageVerification {
     pub policy: String,
     pub scale_factor: f64,
     pub targets: Vec<TargetVerification>,
+    /// The image's angular size against the camera's, when they differ
+    /// (see [`ImageTargets::angular_size_note`]).
+    pub angular_size_note: Option<String>,
     /// Over the targets: the largest ΔE00 intended → emitted, and booth →
     /// emitted where the booth was measured.
     pub max_delta_e00_intended_emitted: f64,
@@ -217,6 +230,21 @@ impl LabHandle {
                 "scene `{scene_id}` has no [camera]: its targets cannot be projected"
             ))
         })?;
+        let image_height_deg = 2.0 * (set.height as f64 * pitch / 2.0 / distance).atan().to_degrees();
+        let camera_fov_deg = camera.fov_deg;
+        let ratio = image_height_deg / camera_fov_deg;
+        let angular_size_note = (!(0.9..=1.1).contains(&ratio)).then(|| {
+            // The height at which the image subtends the camera's view here.
+            let wanted_px = 2.0 * distance * (camera_fov_deg.to_radians() / 2.0).tan() / pitch;
+            format!(
+                "the image is {image_height_deg:.1}° high on this screen and the camera's view it stands for is \
+                 {camera_fov_deg:.1}°: the instrument's {field_deg}° field covers {:.0} % of the image's height, not the \
+                 {field_deg}° of the scene the booth's instrument measured. Show the image at the camera's angular \
+                 size (about {wanted_px:.0} px high at this distance and pitch) to measure the targets as the booth's \
+                 instrument saw them.",
+                100.0 * field_deg / image_height_deg
+            )
+        });
         camera.width = set.width;
         camera.height = set.height;
         let scene = std::sync::Arc::clone(&entry.scene);
@@ -248,6 +276,9 @@ impl LabHandle {
             pixel_pitch_mm: pitch,
             field_deg,
             field_radius_px: presentation.field_radius_px(field_deg),
+            image_height_deg,
+            camera_fov_deg,
+            angular_size_note,
             targets,
         })
     }
@@ -353,6 +384,7 @@ impl LabHandle {
             field_radius_px: radius,
             policy: set.policy.clone(),
             scale_factor,
+            angular_size_note: plan.angular_size_note.clone(),
             max_delta_e00_intended_emitted: result.iter().map(|t| t.delta_e00_intended_emitted).fold(0.0, f64::max),
             max_delta_e00_booth_emitted: result.iter().filter_map(|t| t.delta_e00_booth_emitted).reduce(f64::max),
             targets: result,
