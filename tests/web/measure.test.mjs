@@ -131,3 +131,21 @@ test("measureAndWait polls until complete, and returns null once cancelled", asy
     { samples: 1 }, { cancelled: () => true, pollMs: 0 });
   assert.equal(cancelled, null);
 });
+
+test("with a real instrument and `aimed`, each patch is measured only after the operator says it is aimed", async () => {
+  const d = daemon({ on: { "POST /api/mock/display": () => { throw new Error("no simulated display: this daemon has a real instrument"); } } });
+  const aimedAt = [];
+  const out = await holdShowMeasure(d.api, options({}, {
+    aimed: async (p) => { aimedAt.push([p.label, d.said().filter((c) => c === "POST /api/measurements").length]); },
+  }));
+  // Each confirmation comes before that patch's measurement is asked for (the first included).
+  assert.deepEqual(aimedAt, [["black", 0], ["white", 1]]);
+  assert.equal(out.measured.length, 2);
+});
+
+test("with the simulated display, `aimed` is not asked: nobody aims a simulated instrument", async () => {
+  const d = daemon();
+  let asked = 0;
+  await holdShowMeasure(d.api, options({}, { aimed: async () => { asked++; } }));
+  assert.equal(asked, 0);
+});
