@@ -230,7 +230,8 @@ precision highp int;
 precision highp sampler2D;
 uniform sampler2D image;
 uniform ivec2 origin;         // the image's lower-left screen pixel
-uniform ivec2 size;
+uniform ivec2 size;           // the image's size, image pixels
+uniform int magnification;    // screen pixels per image pixel, each way
 uniform vec2 ring;            // the marker's centre (screen pixels), or (-1e9, -1e9)
 uniform vec2 ringRadii;       // inner and outer radius
 ${OUTPUT_GLSL}
@@ -239,7 +240,9 @@ void main() {
   ivec2 p = ivec2(gl_FragCoord.xy);
   ivec2 q = p - origin;
   vec3 linear = vec3(0.0);
-  if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, size))) linear = texelFetch(image, q, 0).rgb;
+  if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, size * magnification))) {
+    linear = texelFetch(image, q / magnification, 0).rgb;
+  }
   float d = distance(gl_FragCoord.xy, ring);
   if (d >= ringRadii.x && d <= ringRadii.y) linear = vec3(1.0, 0.0, 1.0);
   colour = vec4(shown(linear, p), 1.0);
@@ -251,7 +254,7 @@ const READBACK_FRAMES = 16;
 
 const check = { hold: null, measurementId: null, cancelled: false };
 
-function screenFor(set, gammas, coding, linear) {
+function screenFor(set, gammas, coding, linear, m) {
   if (set.output === "12bit") {
     throw new Error("a 12-bit set cannot be verified from a browser: its drawing buffer keeps 10 bits (make the set at 10 bits)");
   }
@@ -265,8 +268,9 @@ function screenFor(set, gammas, coding, linear) {
     if (typeof gl.drawingBufferStorage !== "function") throw new Error("10-bit output: this browser offers no float drawing buffer");
     gl.drawingBufferStorage(gl.RGBA16F, canvas.width, canvas.height);
   }
-  if (canvas.width < set.width || canvas.height < set.height) {
-    throw new Error(`the screen (${canvas.width} × ${canvas.height} px) is smaller than the image (${set.width} × ${set.height})`);
+  if (canvas.width < set.width * m || canvas.height < set.height * m) {
+    throw new Error(`the screen (${canvas.width} × ${canvas.height} px) is smaller than the image magnified ×${m} ` +
+      `(${set.width * m} × ${set.height * m}): use a smaller magnification`);
   }
   const program = fullScreenProgram(gl, SCREEN_FRAGMENT);
   nearestTexture(gl);
@@ -280,10 +284,11 @@ function screenFor(set, gammas, coding, linear) {
   }
   gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, set.width, set.height, 0, gl.RGBA, gl.FLOAT, rgba);
   const u = (n) => gl.getUniformLocation(program, n);
-  const origin = [Math.floor((canvas.width - set.width) / 2), Math.floor((canvas.height - set.height) / 2)];
+  const origin = [Math.floor((canvas.width - set.width * m) / 2), Math.floor((canvas.height - set.height * m) / 2)];
   gl.uniform1i(u("image"), 0);
   gl.uniform2i(u("origin"), origin[0], origin[1]);
   gl.uniform2i(u("size"), set.width, set.height);
+  gl.uniform1i(u("magnification"), m);
   gl.uniform3fv(u("inverseGamma"), gammas.map((g) => 1 / g));
   gl.uniform1i(u("method"), METHOD[set.output]);
   gl.viewport(0, 0, canvas.width, canvas.height);
@@ -291,7 +296,7 @@ function screenFor(set, gammas, coding, linear) {
   const maxCode = set.output === "10bit" ? 1023 : 255;
   return {
     // A target's centre on the screen (GL coordinates, y up).
-    centre: (t) => [origin[0] + t.x, origin[1] + set.height - t.y],
+    centre: (t) => [origin[0] + m * t.x, origin[1] + m * (set.height - t.y)],
     draw(ring, radii) {
       gl.uniform2f(u("ring"), ring ? ring[0] : -1e9, ring ? ring[1] : -1e9);
       gl.uniform2f(u("ringRadii"), radii ? radii[0] : 0, radii ? radii[1] : 0);
@@ -341,12 +346,14 @@ function waitForAim() {
 async function verify(set, gammas, linear) {
   notice("");
   const coding = $("verify-coding").value;
-  const screen = { viewing_distance_mm: Number($("verify-distance").value), pixel_pitch_mm: Number($("verify-pitch").value) };
-  const query = `viewing_distance_mm=${screen.viewing_distance_mm}&pixel_pitch_mm=${screen.pixel_pitch_mm}`;
+  const screen = { viewing_distance_mm: Number($("verify-distance").value), pixel_pitch_mm: Number($("verify-pitch").value),
+    magnification: Number($("verify-magnification").value) };
+  const query = `viewing_distance_mm=${screen.viewing_distance_mm}&pixel_pitch_mm=${screen.pixel_pitch_mm}` +
+    `&magnification=${screen.magnification}`;
   const plan = await api(`/api/stimulus-sets/${set.id}/targets?${query}`);
   const targets = plan.targets.filter((t) => t.verifiable);
   if (!targets.length) throw new Error("no target of the scene is inside the image and unhidden");
-  const view = screenFor(set, gammas, coding, linear[coding]);
+  const view = screenFor(set, gammas, coding, linear[coding], plan.magnification);
   const r = plan.field_radius_px;
   let marker = null;
   const { measured, cancelled, simulated } = await holdShowMeasure(api, {
@@ -404,7 +411,8 @@ function showVerification(set, v) {
   }
   const r = v.result;
   $("verify-caption").textContent = `Verification ${v.id} of ${v.coding} (${localTime(v.created_at)}): the instrument's ` +
-    `field covered a disc of ${fmt(r.field_radius_px, 3)} screen pixels around each target. ΔE00 with the display's white; ` +
+    `field covered a disc of ${fmt(r.field_radius_px, 3)} screen pixels around each target, the image shown ` +
+    `×${r.magnification}. ΔE00 with the display's white; ` +
     `Y in cd/m². “quantisation”: intended → what the profile predicts of the ${r.output} codes; “display vs profile”: ` +
     `predicted → emitted. The booth's measurement is shown through the set's gamut policy (${r.policy}, × ` +
     `${fmt(r.scale_factor, 4)}), as the image was. Largest ΔE00 intended → emitted ${fmt(r.max_delta_e00_intended_emitted, 3)}` +

@@ -394,6 +394,7 @@ async fn verify_at_targets(d: &Daemon, set: i64, coding: &str, targets: &[&str],
             255,
             (t["x"].as_f64().unwrap(), t["y"].as_f64().unwrap()),
             radius,
+            1,
         )
         .unwrap();
         let body = json!({ "code_counts": counts.counts, "max_code": 255, "hold": hold });
@@ -463,6 +464,17 @@ async fn an_image_is_verified_on_the_display_at_the_scenes_targets() {
     }
     let (s, v) = get_json(d.addr, &format!("/api/stimulus-sets/{set_id}/targets?pixel_pitch_mm=9")).await;
     assert_eq!(s, 400, "{v}");
+    // Magnified ×3, the 120-px image is 360 mm high: 35.1° from 570 mm,
+    // the camera's view, and nothing is said; the field is still 1° on the screen.
+    let (s, v) = get_json(
+        d.addr,
+        &format!("/api/stimulus-sets/{set_id}/targets?pixel_pitch_mm=1&magnification=3"),
+    )
+    .await;
+    assert_eq!(s, 200, "{v}");
+    assert!((v["image_height_deg"].as_f64().unwrap() - 35.0).abs() < 0.5, "{v}");
+    assert!(v["angular_size_note"].is_null(), "{}", v["angular_size_note"]);
+    assert_eq!(v["field_radius_px"], plan["field_radius_px"]);
 
     // Refusals: a measurement taken freely, an unknown target.
     let free = common::calibrated::measure(&d, json!({ "samples": 2 })).await;

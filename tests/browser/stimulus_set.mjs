@@ -97,6 +97,11 @@ try {
   // the set's hold by the simulated PR-650 looking at the simulated
   // display, which is told the codes this page drew under the field.
   await page.selectOption("#output", "8bit");
+  // Magnified ×2: the page draws each image pixel as 2 × 2 screen pixels and
+  // reads back the screen pixels under the field; the daemon weighs each
+  // image pixel by its screen pixels the field sees. A disagreement between
+  // the two would show as ΔE00 intended → emitted.
+  await page.fill("#verify-magnification", "2");
   await page.click("#verify");
   await page.waitForFunction(() => !document.getElementById("verification").hidden
     && document.getElementById("verify-chart").complete && document.getElementById("verify-chart").naturalWidth > 0,
@@ -108,9 +113,9 @@ try {
   }
   const booth = rows.filter((r) => r[4] !== "not measured").map((r) => r[0]);
   if (booth.join() !== "h01,h11,h21") failures.push(`booth measurements shown at ${booth}`);
-  // A 72-px image at 0.25 mm seen from 570 mm is 1.8° high, not CYLINDER's 35°: the page says so.
+  // A 72-px image ×2 at 0.25 mm seen from 570 mm is 3.6° high, not CYLINDER's 35°: the page says so.
   const caption = await page.textContent("#verify-caption");
-  if (!/Note: the image is 1\.8° high/.test(caption)) failures.push("no angular-size note: " + caption);
+  if (!/Note: the image is 3\.6° high/.test(caption) || !/shown ×2/.test(caption)) failures.push("caption: " + caption);
   const chart = await page.evaluate(async () => (await fetch(document.getElementById("verify-chart").src)).text());
   for (const want of ["booth", "emitted", "intended", "luminance Y"]) {
     if (!chart.includes(want)) failures.push(`the verification's chart lacks "${want}"`);

@@ -147,6 +147,9 @@ pub struct ScreenQuery {
     /// The instrument's field, degrees, 0.1–10 (default: the scene's radiometer's).
     #[param(minimum = 0.1, maximum = 10)]
     pub field_deg: Option<f64>,
+    /// Screen pixels per image pixel, each way, 1–16 (default 1).
+    #[param(minimum = 1, maximum = 16)]
+    pub magnification: Option<u32>,
 }
 
 /// Where the scene's targets fall in the set's image and how large the
@@ -164,6 +167,7 @@ pub async fn stimulus_set_targets(
         viewing_distance_mm: q.viewing_distance_mm,
         pixel_pitch_mm: q.pixel_pitch_mm,
         field_deg: q.field_deg,
+        magnification: q.magnification,
     };
     Ok(Json(state.lab.image_targets(id, screen).await?))
 }

@@ -11,8 +11,10 @@
 //!   newest complete measurement of it in this booth. The field's radius in
 //!   screen pixels follows from the instrument's field (the scene's
 //!   radiometer's, 1° for CYLINDER), the viewing distance and the pixel
-//!   pitch (`Presentation::field_radius_px`); the image is shown one image
-//!   pixel per screen pixel. When the image's angular size on the screen
+//!   pitch (`Presentation::field_radius_px`); the image is shown with each
+//!   image pixel as `magnification` × `magnification` screen pixels (1 by
+//!   default), and each image pixel weighs as many of its screen pixels as
+//!   the field sees. When the image's angular size on the screen
 //!   is not the camera's field of view (within 10 %), the plan and the
 //!   result say so beside the numbers: the field then averages another part
 //!   of the scene than the booth's instrument did. Only a set made from the daemon's camera images
@@ -74,6 +76,10 @@ pub struct ScreenGeometry {
     /// scene's radiometer's).
     #[cfg_attr(feature = "openapi", schema(minimum = 0.1, maximum = 10))]
     pub field_deg: Option<f64>,
+    /// Screen pixels per image pixel, each way, 1–16 (default 1): the
+    /// image shown magnified, so that it subtends the camera's view.
+    #[cfg_attr(feature = "openapi", schema(minimum = 1, maximum = 16))]
+    pub magnification: Option<u32>,
 }
 
 /// One target of the plan.
@@ -103,7 +109,9 @@ pub struct ImageTargets {
     pub viewing_distance_mm: f64,
     pub pixel_pitch_mm: f64,
     pub field_deg: f64,
-    /// The field on the screen (one image pixel per screen pixel).
+    /// Screen pixels per image pixel, each way.
+    pub magnification: u32,
+    /// The field on the screen, in screen pixels.
     pub field_radius_px: f64,
     /// The image's height as seen from the viewing distance, and the
     /// scene camera's vertical field of view it stands for, degrees.
@@ -147,6 +155,7 @@ pub struct ImageVerification {
     pub coding: String,
     pub output: String,
     pub field_radius_px: f64,
+    pub magnification: u32,
     /// The set's gamut policy and its scale factor, applied to the booth's
     /// measurements as to the image.
     pub policy: String,
@@ -220,6 +229,12 @@ impl LabHandle {
             "field_deg",
             "degrees",
         )?;
+        let magnification = screen.magnification.unwrap_or(1);
+        if !(1..=16).contains(&magnification) {
+            return Err(LabError::Invalid(format!(
+                "field `magnification`: {magnification} is outside 1–16 screen pixels per image pixel"
+            )));
+        }
         let presentation = Presentation {
             viewing_distance_mm: distance,
             pixel_pitch_mm: pitch,
@@ -230,7 +245,8 @@ impl LabHandle {
                 "scene `{scene_id}` has no [camera]: its targets cannot be projected"
             ))
         })?;
-        let image_height_deg = 2.0 * (set.height as f64 * pitch / 2.0 / distance).atan().to_degrees();
+        let shown_px = set.height as f64 * magnification as f64;
+        let image_height_deg = 2.0 * (shown_px * pitch / 2.0 / distance).atan().to_degrees();
         let camera_fov_deg = camera.fov_deg;
         let ratio = image_height_deg / camera_fov_deg;
         let angular_size_note = (!(0.9..=1.1).contains(&ratio)).then(|| {
@@ -240,9 +256,11 @@ impl LabHandle {
                 "the image is {image_height_deg:.1}° high on this screen and the camera's view it stands for is \
                  {camera_fov_deg:.1}°: the instrument's {field_deg}° field covers {:.0} % of the image's height, not the \
                  {field_deg}° of the scene the booth's instrument measured. Show the image at the camera's angular \
-                 size (about {wanted_px:.0} px high at this distance and pitch) to measure the targets as the booth's \
-                 instrument saw them.",
-                100.0 * field_deg / image_height_deg
+                 size (about {wanted_px:.0} px high at this distance and pitch: magnification {:.0} for this \
+                 {}-px image) to measure the targets as the booth's instrument saw them.",
+                100.0 * field_deg / image_height_deg,
+                (wanted_px / set.height as f64).round().max(1.0),
+                set.height
             )
         });
         camera.width = set.width;
@@ -275,6 +293,7 @@ impl LabHandle {
             viewing_distance_mm: distance,
             pixel_pitch_mm: pitch,
             field_deg,
+            magnification,
             field_radius_px: presentation.field_radius_px(field_deg),
             image_height_deg,
             camera_fov_deg,
@@ -357,7 +376,7 @@ impl LabHandle {
             .collect();
         let bits = OUTPUTS[output_index(&set.output).map_err(LabError::Internal)?].1;
         let scale_factor = set.report["gamut"]["scale_factor"].as_f64().unwrap_or(1.0);
-        let (width, radius) = (set.width as usize, plan.field_radius_px);
+        let (width, radius, magnification) = (set.width as usize, plan.field_radius_px, plan.magnification);
         let result = tokio::task::spawn_blocking(move || {
             let converter = Converter::new(&profile).map_err(|e| LabError::Internal(e.to_string()))?;
             // The booth through the set's gamut policy (see the module doc).
@@ -367,7 +386,7 @@ impl LabHandle {
                     converter.xyz(l)
                 });
             }
-            let fields = target_fields(&profile, &linear, width, bits, &on_screen, radius)
+            let fields = target_fields(&profile, &linear, width, bits, &on_screen, radius, magnification)
                 .map_err(|e| LabError::Invalid(format!("field `targets`: {e}")))?;
             fields
                 .iter()
@@ -382,6 +401,7 @@ impl LabHandle {
             coding: set.codings[coding_index].clone(),
             output: set.output.clone(),
             field_radius_px: radius,
+            magnification,
             policy: set.policy.clone(),
             scale_factor,
             angular_size_note: plan.angular_size_note.clone(),

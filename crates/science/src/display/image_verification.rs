@@ -28,7 +28,7 @@ use serde::Serialize;
 
 use super::output::mean_dithered_output;
 use super::profile::{DisplayProfile, FrameBuffer, TransferModel};
-use super::simulated::CodeCounts;
+use super::simulated::{field_weight, CodeCounts};
 use super::stimulus::delta_e00;
 use super::{Converter, DisplayError};
 
@@ -60,7 +60,7 @@ pub struct TargetVerification {
     pub id: String,
     pub x: f64,
     pub y: f64,
-    /// Pixels under the field.
+    /// Screen pixels under the field.
     pub pixels: u64,
     pub intended: [f64; 3],
     pub predicted: [f64; 3],
@@ -78,9 +78,11 @@ pub struct TargetVerification {
 /// The fields of `targets` on an image of `width` pixels per row whose
 /// pixels the display is asked to show as `linear` (RGB 0–1 after the
 /// gamut policy), drawn as codes of `bits` (8, 10 or 12; `None`: 8-bit
-/// noisy-bit dithering) through the profile's γ, with a field of
-/// `radius_px` screen pixels (one per image pixel). An error names a
-/// target whose field holds no pixel.
+/// noisy-bit dithering) through the profile's γ, each image pixel shown
+/// as `magnification` × `magnification` screen pixels, with a field of
+/// `radius_px` screen pixels: each image pixel weighs as many of its screen
+/// pixels as the field sees ([`field_weight`]). An error names a target
+/// whose field holds no pixel.
 pub fn target_fields(
     profile: &DisplayProfile,
     linear: &[[f32; 3]],
@@ -88,6 +90,7 @@ pub fn target_fields(
     bits: Option<u32>,
     targets: &[TargetOnScreen],
     radius_px: f64,
+    magnification: u32,
 ) -> Result<Vec<TargetField>, DisplayError> {
     let converter = Converter::new(profile)?;
     let fb = FrameBuffer::new(bits.unwrap_or(8))?;
@@ -99,28 +102,30 @@ pub fn target_fields(
     targets
         .iter()
         .map(|t| {
-            let counts = CodeCounts::of_disc(&codes, width, fb.max_code(), (t.x, t.y), radius_px)
+            let counts = CodeCounts::of_disc(&codes, width, fb.max_code(), (t.x, t.y), radius_px, magnification)
                 .map_err(|e| DisplayError::Profile(format!("target {}: {e}", t.id)))?;
             let mut intended = [0.0; 3];
             let mut predicted_linear = [0.0; 3];
             let mut pixels = 0u64;
             for (i, (l, c)) in linear.iter().zip(&codes).enumerate() {
-                let (x, y) = ((i % width) as f64 + 0.5, (i / width) as f64 + 0.5);
-                if (x - t.x).powi(2) + (y - t.y).powi(2) > radius_px * radius_px {
+                let w = field_weight(i % width, i / width, (t.x, t.y), radius_px, magnification);
+                if w == 0 {
                     continue;
                 }
+                let wf = w as f64;
                 let xyz = converter.xyz(l.map(f64::from));
                 for k in 0..3 {
-                    intended[k] += xyz[k];
-                    predicted_linear[k] += match bits {
-                        Some(_) => profile.transfer[k].output(fb.drive(c[k]), model),
-                        None => {
-                            let drive = profile.transfer[k].drive(f64::from(l[k]).clamp(0.0, 1.0), model);
-                            mean_dithered_output(profile, k, drive)
-                        }
-                    };
+                    intended[k] += wf * xyz[k];
+                    predicted_linear[k] += wf
+                        * match bits {
+                            Some(_) => profile.transfer[k].output(fb.drive(c[k]), model),
+                            None => {
+                                let drive = profile.transfer[k].drive(f64::from(l[k]).clamp(0.0, 1.0), model);
+                                mean_dithered_output(profile, k, drive)
+                            }
+                        };
                 }
-                pixels += 1;
+                pixels += w;
             }
             let n = pixels as f64;
             Ok(TargetField {
@@ -199,7 +204,7 @@ mod tests {
     fn with_the_displays_own_profile_only_quantisation_remains() {
         let display = SimulatedDisplay::crt().unwrap();
         let profile = display.exact_profile(Observer::JuddVos).unwrap();
-        let fields = target_fields(&profile, &gradient(), 40, Some(8), &targets(), 4.0).unwrap();
+        let fields = target_fields(&profile, &gradient(), 40, Some(8), &targets(), 4.0, 1).unwrap();
         for f in &fields {
             assert!(
                 (45..=53).contains(&f.pixels),
@@ -226,7 +231,7 @@ mod tests {
         let display = SimulatedDisplay::crt().unwrap();
         let mut wrong = display.exact_profile(Observer::JuddVos).unwrap();
         wrong.transfer[1].gamma += 0.2;
-        let fields = target_fields(&wrong, &gradient(), 40, Some(8), &targets(), 4.0).unwrap();
+        let fields = target_fields(&wrong, &gradient(), 40, Some(8), &targets(), 4.0, 1).unwrap();
         let v: Vec<TargetVerification> = fields
             .iter()
             .map(|f| assess_target(&wrong, f, emitted(&display, f)).unwrap())
@@ -268,6 +273,46 @@ mod tests {
                 "{}: green {green} against {expected}",
                 t.id
             );
+        }
+    }
+
+    /// Magnified, the field sees more screen pixels of fewer image pixels:
+    /// the screen pixels under the field are about π r² (the disc's area)
+    /// at any magnification, the counts add up to them, and a magnification
+    /// of 2 with twice the radius (the same disc in the image) gives the
+    /// colours of magnification 1 to within the sampling of the disc's edge.
+    #[test]
+    fn a_magnified_image_weighs_each_pixel_by_its_screen_pixels_under_the_field() {
+        let display = SimulatedDisplay::crt().unwrap();
+        let profile = display.exact_profile(Observer::JuddVos).unwrap();
+        let one = target_fields(&profile, &gradient(), 40, Some(8), &targets(), 4.0, 1).unwrap();
+        let two = target_fields(&profile, &gradient(), 40, Some(8), &targets(), 8.0, 2).unwrap();
+        for (a, b) in one.iter().zip(&two) {
+            for k in 0..3 {
+                assert!(
+                    (a.intended[k] / b.intended[k] - 1.0).abs() < 0.01,
+                    "{}: {:?} against {:?}",
+                    a.target.id,
+                    a.intended,
+                    b.intended
+                );
+            }
+        }
+        for (m, r) in [(1u32, 9.0), (3, 12.0), (4, 30.0)] {
+            let fields = target_fields(&profile, &gradient(), 40, Some(8), &targets(), r, m).unwrap();
+            let area = std::f64::consts::PI * r * r;
+            // The middle target's disc lies inside the 40 × 20 image.
+            for f in fields.iter().filter(|f| f.target.id == "middle") {
+                assert!(
+                    (f.pixels as f64 / area - 1.0).abs() < 0.05,
+                    "×{m}, r {r}: {}: {} screen pixels against π r² = {area:.0}",
+                    f.target.id,
+                    f.pixels
+                );
+                for c in 0..3 {
+                    assert_eq!(f.counts.counts[c].iter().sum::<u64>(), f.pixels);
+                }
+            }
         }
     }
 }

@@ -39,20 +39,48 @@ pub struct CodeCounts {
 /// two seconds at 120 Hz).
 pub const MAX_COUNTED: u64 = 4096 * 2160 * 240;
 
+/// How many of image pixel (`x`, `y`)'s screen pixels an instrument's
+/// field sees: the image drawn with each image pixel as `magnification` ×
+/// `magnification` screen pixels, the field a disc of `radius_px` screen
+/// pixels around `centre` (image pixels, from the top-left corner); a
+/// screen pixel is inside when its centre is. With magnification 1, 1 when
+/// the image pixel's centre is inside, else 0.
+pub fn field_weight(x: usize, y: usize, centre: (f64, f64), radius_px: f64, magnification: u32) -> u64 {
+    let m = magnification.max(1) as f64;
+    let r = radius_px / m;
+    let (x, y) = (x as f64, y as f64);
+    // Quick rejection of pixels wholly outside the disc.
+    if x + 1.0 < centre.0 - r || x > centre.0 + r || y + 1.0 < centre.1 - r || y > centre.1 + r {
+        return 0;
+    }
+    let mut n = 0;
+    for b in 0..magnification.max(1) {
+        for a in 0..magnification.max(1) {
+            let (sx, sy) = (x + (a as f64 + 0.5) / m, y + (b as f64 + 0.5) / m);
+            if (sx - centre.0).powi(2) + (sy - centre.1).powi(2) <= r * r {
+                n += 1;
+            }
+        }
+    }
+    n
+}
+
 impl CodeCounts {
     /// What an instrument's field sees of an image on the screen: the
-    /// codes of the pixels whose centres lie within `radius_px` of
-    /// `centre` (pixels, x right and y down from the top-left corner, the
-    /// image drawn one screen pixel per image pixel), one frame. `codes`
-    /// holds the image's rows top to bottom, `width` pixels each; an
-    /// error when the disc holds no pixel centre or a code exceeds
-    /// `max_code`.
+    /// codes of the screen pixels whose centres lie within `radius_px`
+    /// (screen pixels) of `centre` (image pixels, x right and y down from
+    /// the top-left corner), the image drawn with each image pixel as
+    /// `magnification` × `magnification` screen pixels, one frame
+    /// ([`field_weight`] pixel by pixel). `codes` holds the image's rows
+    /// top to bottom, `width` pixels each; an error when the disc holds no
+    /// screen pixel centre or a code exceeds `max_code`.
     pub fn of_disc(
         codes: &[[u32; 3]],
         width: usize,
         max_code: u32,
         centre: (f64, f64),
         radius_px: f64,
+        magnification: u32,
     ) -> Result<CodeCounts, String> {
         if width == 0 || !codes.len().is_multiple_of(width) {
             return Err(format!("{} codes are not whole rows of {width}", codes.len()));
@@ -60,8 +88,8 @@ impl CodeCounts {
         let mut counts = [0, 1, 2].map(|_| vec![0u64; max_code as usize + 1]);
         let mut inside = 0;
         for (i, code) in codes.iter().enumerate() {
-            let (x, y) = ((i % width) as f64 + 0.5, (i / width) as f64 + 0.5);
-            if (x - centre.0).powi(2) + (y - centre.1).powi(2) > radius_px * radius_px {
+            let w = field_weight(i % width, i / width, centre, radius_px, magnification);
+            if w == 0 {
                 continue;
             }
             for c in 0..3 {
@@ -69,9 +97,9 @@ impl CodeCounts {
                 if k > max_code as usize {
                     return Err(format!("pixel {i}: code {} above {max_code}", code[c]));
                 }
-                counts[c][k] += 1;
+                counts[c][k] += w;
             }
-            inside += 1;
+            inside += w;
         }
         if inside == 0 {
             return Err(format!(
@@ -333,7 +361,7 @@ mod tests {
         let (w, h) = (20usize, 10usize);
         let (left, right) = ([200u32, 40, 90], [30u32, 180, 60]);
         let codes: Vec<[u32; 3]> = (0..w * h).map(|i| if i % w < 10 { left } else { right }).collect();
-        let counts = CodeCounts::of_disc(&codes, w, 255, (10.0, 5.0), 3.2).unwrap();
+        let counts = CodeCounts::of_disc(&codes, w, 255, (10.0, 5.0), 3.2, 1).unwrap();
         let n = counts.check().unwrap();
         let n_left = counts.counts[0][200];
         assert_eq!(n_left * 2, n, "the disc straddles the edge evenly");
@@ -346,7 +374,7 @@ mod tests {
                 "{s} against {x}, {y}"
             );
         }
-        let e = CodeCounts::of_disc(&codes, w, 255, (-50.0, 5.0), 3.0).unwrap_err();
+        let e = CodeCounts::of_disc(&codes, w, 255, (-50.0, 5.0), 3.0, 1).unwrap_err();
         assert!(e.contains("no pixel centre"), "{e}");
     }
 }
