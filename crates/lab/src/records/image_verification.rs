@@ -368,16 +368,17 @@ impl LabHandle {
                 booth_xyz,
             });
         }
-        let linear: Vec<[f32; 3]> = self
-            .stimulus_set_linear(id, &request.coding)
-            .await?
-            .chunks_exact(12)
-            .map(|b| std::array::from_fn(|k| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])))
-            .collect();
+        let linear_bytes = self.stimulus_set_linear(id, &request.coding).await?;
         let bits = OUTPUTS[output_index(&set.output).map_err(LabError::Internal)?].1;
         let scale_factor = set.report["gamut"]["scale_factor"].as_f64().unwrap_or(1.0);
         let (width, radius, magnification) = (set.width as usize, plan.field_radius_px, plan.magnification);
         let result = tokio::task::spawn_blocking(move || {
+            let linear: Vec<[f32; 3]> = linear_bytes
+                .chunks_exact(12)
+                .map(|b| {
+                    std::array::from_fn(|k| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]))
+                })
+                .collect();
             let converter = Converter::new(&profile).map_err(|e| LabError::Internal(e.to_string()))?;
             // The booth through the set's gamut policy (see the module doc).
             for t in &mut on_screen {

@@ -112,24 +112,31 @@ impl LabHandle {
             LabError::Conflict(m) => LabError::Conflict(format!("field `image_id`: {m}")),
             other => other,
         })?;
-        let set = image.set();
-        let first = &set.images[0];
-        check_size(first.width, first.height, set.images.len())?;
-        let codings = set
-            .images
-            .iter()
-            .map(|img| {
-                let k = img.xyz_index();
-                let (x, y, z) = (img.plane(k), img.plane(k + 1), img.plane(k + 2));
-                let xyz = x
-                    .iter()
-                    .zip(&y)
-                    .zip(&z)
-                    .map(|((x, y), z)| [*x as f64, *y as f64, *z as f64])
-                    .collect();
-                (img.coding.to_string(), xyz)
-            })
-            .collect();
+        let first = &image.set().images[0];
+        let (width, height, observer, count) = (first.width, first.height, first.observer, image.set().images.len());
+        check_size(width, height, count)?;
+        let reference = image.set().reference;
+        // Each coding's XYZ per pixel, off the async runtime.
+        let codings = tokio::task::spawn_blocking(move || {
+            image
+                .set()
+                .images
+                .iter()
+                .map(|img| {
+                    let k = img.xyz_index();
+                    let (x, y, z) = (img.plane(k), img.plane(k + 1), img.plane(k + 2));
+                    let xyz = x
+                        .iter()
+                        .zip(&y)
+                        .zip(&z)
+                        .map(|((x, y), z)| [*x as f64, *y as f64, *z as f64])
+                        .collect();
+                    (img.coding.to_string(), xyz)
+                })
+                .collect::<Vec<_>>()
+        })
+        .await
+        .map_err(|e| LabError::Internal(e.to_string()))?;
         let source = Source {
             source: "render",
             render_id: Some(info.render_id),
@@ -142,11 +149,11 @@ impl LabHandle {
                 "passes": info.passes,
                 "stop": info.stop,
             }),
-            width: first.width,
-            height: first.height,
-            observer: first.observer,
+            width,
+            height,
+            observer,
             codings,
-            reference: set.reference,
+            reference,
         };
         self.store_set(source, conversion).await
     }
@@ -336,14 +343,14 @@ impl LabHandle {
         let policy = c.policy;
         let codings = source.codings;
         let reference = source.reference;
-        let (set, names) = tokio::task::spawn_blocking(move || {
+        let (set, names, (linear, shown_delta_e)) = tokio::task::spawn_blocking(move || {
             let set = image_set(&profile, &codings, reference, policy)
                 .map_err(|e| LabError::Invalid(format!("field `gamut`: {e}")))?;
-            Ok::<_, LabError>((set, codings.into_iter().map(|(c, _)| c).collect::<Vec<_>>()))
+            let bytes = per_pixel(&set, output);
+            Ok::<_, LabError>((set, codings.into_iter().map(|(c, _)| c).collect::<Vec<_>>(), bytes))
         })
         .await
         .map_err(|e| LabError::Internal(e.to_string()))??;
-        let (linear, shown_delta_e) = per_pixel(&set, output);
         let mut report = serde_json::to_value(&set).map_err(|e| LabError::Internal(format!("a set's report: {e}")))?;
         // The maps' one scale: 0 to the set's largest ΔE00 at its output,
         // rounded up to 1, 2, 2.5 or 5 × 10ᵏ.

@@ -605,6 +605,16 @@ impl ImageJobs {
             Ok(_) | Err(None) => Err(None),
             Err(Some(e)) => Err(Some(e)),
         };
+        // The display tone map's scale per image, off the async runtime.
+        let outcome = match outcome {
+            Ok(set) => tokio::task::spawn_blocking(move || {
+                let scales: Vec<f64> = set.images.iter().map(|i| i.to_srgb().log_average_luminance()).collect();
+                (Arc::new(set), scales)
+            })
+            .await
+            .map_err(|e| Some(format!("the image's tone map: {e}"))),
+            Err(e) => Err(e),
+        };
         self.finish(&ids, render_id, outcome);
     }
 
@@ -646,12 +656,8 @@ impl ImageJobs {
     }
 
     /// Records how a set ended (its images, or why not) and announces it.
-    fn finish(&self, ids: &[i64], render_id: i64, outcome: Result<CameraImages, Option<String>>) {
-        // The display tone map's scale per image, before taking the lock.
-        let outcome = outcome.map(|set| {
-            let scales: Vec<f64> = set.images.iter().map(|i| i.to_srgb().log_average_luminance()).collect();
-            (Arc::new(set), scales)
-        });
+    /// `outcome`: the set with each image's display tone-map scale.
+    fn finish(&self, ids: &[i64], render_id: i64, outcome: Result<(Arc<CameraImages>, Vec<f64>), Option<String>>) {
         let ended = {
             let mut entries = self.lock();
             let seq = {
