@@ -393,6 +393,43 @@ fn mark_done(ys: &[YPlane], samples: &[u32], settings: &CameraSettings, done: &m
     }
 }
 
+/// Chan et al.'s update of one pixel's [`PAIRED`] moments: `stored` (over
+/// nₐ paths) with `block` (over n_b paths), `delta` the difference of the
+/// two XYZ means (b − a), `weight` nₐn_b/n, `(nb, n)` n_b and n. The paired
+/// difference's mean and co-moments are kept for every coding but the
+/// reference (`is_reference`).
+fn merge_paired(
+    stored: &mut [f32],
+    block: &[f64],
+    delta: [f64; 3],
+    weight: f64,
+    (nb, n): (f64, f64),
+    is_reference: bool,
+) {
+    cross_merge(
+        &mut stored[OWN_CROSS..OWN_CROSS + 3],
+        &block[OWN_CROSS..],
+        delta,
+        weight,
+    );
+    if is_reference {
+        return;
+    }
+    let d_delta: [f64; 3] = std::array::from_fn(|k| block[D_MEAN + k] - stored[D_MEAN + k] as f64);
+    for k in 0..3 {
+        let ma = stored[D_MEAN + k] as f64;
+        stored[D_MEAN + k] = (ma + d_delta[k] * nb / n) as f32;
+        let s2 = stored[D_COMOMENTS + k] as f64;
+        stored[D_COMOMENTS + k] = (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
+    }
+    cross_merge(
+        &mut stored[D_COMOMENTS + 3..D_COMOMENTS + 6],
+        &block[D_COMOMENTS + 3..],
+        d_delta,
+        weight,
+    );
+}
+
 /// One row's share of every coding's buffers, for one pass.
 struct RowBuffers<'a> {
     mean: Vec<&'a mut [f32]>,
@@ -797,27 +834,7 @@ fn pass_row_inline(job: &PassJob, y: usize, row: &mut RowBuffers, n_row: &mut [u
             let block = &pass_paired[c * PAIRED..(c + 1) * PAIRED];
             let stored = &mut row.paired[c][x * PAIRED..(x + 1) * PAIRED];
             let delta: [f64; 3] = std::array::from_fn(|k| pass_mean[pass.start + xyz + k] - stored_xyz[k]);
-            cross_merge(
-                &mut stored[OWN_CROSS..OWN_CROSS + 3],
-                &block[OWN_CROSS..],
-                delta,
-                weight,
-            );
-            if c != reference {
-                let d_delta: [f64; 3] = std::array::from_fn(|k| block[D_MEAN + k] - stored[D_MEAN + k] as f64);
-                for k in 0..3 {
-                    let ma = stored[D_MEAN + k] as f64;
-                    stored[D_MEAN + k] = (ma + d_delta[k] * nbf / n) as f32;
-                    let s2 = stored[D_COMOMENTS + k] as f64;
-                    stored[D_COMOMENTS + k] = (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
-                }
-                cross_merge(
-                    &mut stored[D_COMOMENTS + 3..D_COMOMENTS + 6],
-                    &block[D_COMOMENTS + 3..],
-                    d_delta,
-                    weight,
-                );
-            }
+            merge_paired(stored, block, delta, weight, (nbf, n), c == reference);
         }
         n_row[x] = first + nb;
     }
@@ -999,28 +1016,7 @@ impl CameraImages {
                         *s2 = (*s2 as f64 + *m2b as f64 + delta * delta * weight) as f32;
                     }
                     let block: [f64; PAIRED] = std::array::from_fn(|k| paired_b[k] as f64);
-                    cross_merge(
-                        &mut paired[OWN_CROSS..OWN_CROSS + 3],
-                        &block[OWN_CROSS..],
-                        delta_xyz,
-                        weight,
-                    );
-                    if c != reference {
-                        let d_delta: [f64; 3] = std::array::from_fn(|k| block[D_MEAN + k] - paired[D_MEAN + k] as f64);
-                        for k in 0..3 {
-                            let ma = paired[D_MEAN + k] as f64;
-                            paired[D_MEAN + k] = (ma + d_delta[k] * nb / n) as f32;
-                            let s2 = paired[D_COMOMENTS + k] as f64;
-                            paired[D_COMOMENTS + k] =
-                                (s2 + block[D_COMOMENTS + k] + d_delta[k] * d_delta[k] * weight) as f32;
-                        }
-                        cross_merge(
-                            &mut paired[D_COMOMENTS + 3..D_COMOMENTS + 6],
-                            &block[D_COMOMENTS + 3..],
-                            d_delta,
-                            weight,
-                        );
-                    }
+                    merge_paired(paired, &block, delta_xyz, weight, (nb, n), c == reference);
                 });
             for (s, n) in a.samples.iter_mut().zip(added) {
                 *s += n;
